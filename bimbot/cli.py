@@ -1,0 +1,71 @@
+"""The ``bimbot`` console script: one sub-command per service, each a thin adapter living beside its service.
+
+Every sub-command module exposes ``add_arguments(parser)`` and ``run(args) -> int``; only the chosen one is
+imported, so ``bimbot --help`` stays fast. A :class:`shared.errors.UserError` ends in one clear line and
+exit code 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+
+from bimbot import __version__
+from shared.errors import UserError
+
+# sub-command → (module with add_arguments/run, one-line help)
+SUBCOMMANDS: dict[str, tuple[str, str]] = {
+    "sample": (
+        "services.converter.sample_cli",
+        "write a generated sample IFC model (the bundled light steel frame)",
+    ),
+    "convert": ("services.converter.cli", "convert an IFC model into an SDF robot world (OUT/ folder)"),
+    "demo": ("bimbot.demo", "run the demo on the bundled light steel frame (writes out/demo/)"),
+}
+
+_log = logging.getLogger("bimbot")
+
+
+def configure_logging(verbosity: int) -> None:
+    """Configure the root logger once, from ``main`` only (libraries just call ``getLogger``)."""
+    level = logging.WARNING if verbosity < 0 else logging.INFO if verbosity == 0 else logging.DEBUG
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
+
+
+def build_parser(argv: list[str]) -> argparse.ArgumentParser:
+    """The parser, with full arguments for the sub-command named by the first non-option word of ``argv``."""
+    chosen = next((word for word in argv if not word.startswith("-")), None)
+    parser = argparse.ArgumentParser(
+        prog="bimbot", description="bimbot: IFC building model → robot construction simulation"
+    )
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
+    parser.add_argument("-q", "--quiet", action="store_true", help="warnings and errors only")
+    parser.add_argument("--version", action="version", version=f"bimbot {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, (module_name, help_text) in SUBCOMMANDS.items():
+        sub_parser = sub.add_parser(name, help=help_text, description=help_text)
+        sub_parser.set_defaults(_module=module_name)
+        if name == chosen:
+            importlib.import_module(module_name).add_arguments(sub_parser)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    args = build_parser(argv).parse_args(argv)
+    configure_logging(-1 if args.quiet else args.verbose)
+    module = importlib.import_module(args._module)
+    try:
+        return int(module.run(args) or 0)
+    except UserError as error:
+        _log.error("%s", error)
+        return 2
+    except KeyboardInterrupt:
+        _log.error("interrupted")
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

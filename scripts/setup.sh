@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Set up bimbot on a fresh Debian/Ubuntu machine: system packages, a virtual environment, the project.
+# Idempotent: a second run only checks. Usage: bash scripts/setup.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+# System packages: the SDFormat reference parser (`ign sdf -k`, used by tests to validate every SDF).
+SYSTEM_PACKAGES=(ignition-tools libsdformat-dev)
+missing=()
+for package in "${SYSTEM_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" || missing+=("$package")
+done
+if ((${#missing[@]})); then
+    echo "setup: installing system packages: ${missing[*]}" >&2
+    SUDO=""
+    [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+    $SUDO apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# Python environment with the pinned dependencies and the project itself (editable).
+PYTHON="${PYTHON:-python3}"
+if [ ! -x .venv/bin/python ]; then
+    echo "setup: creating .venv with $("$PYTHON" --version)" >&2
+    "$PYTHON" -m venv .venv
+fi
+if ! .venv/bin/python -c "import bimbot, ifcopenshell, zenoh, pybullet, rerun, trimesh" 2>/dev/null \
+    || [ pyproject.toml -nt .venv/.bimbot-installed ]; then
+    echo "setup: installing bimbot and its pinned dependencies into .venv" >&2
+    .venv/bin/python -m pip install -q --disable-pip-version-check --upgrade pip
+    .venv/bin/python -m pip install -q --disable-pip-version-check -e '.[test]'
+    touch .venv/.bimbot-installed
+fi
+echo "setup: ready ($(.venv/bin/bimbot --version 2>/dev/null || echo bimbot))" >&2

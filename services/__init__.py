@@ -1,0 +1,1 @@
+"""bimbot services: converter, component agents, planner, robot, physics, observer."""

@@ -1,0 +1,1 @@
+"""IFC → SDF converter: split IFC, meshes, model folders, world, manifest, sequence."""

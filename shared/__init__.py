@@ -1,0 +1,1 @@
+"""The project's own shared code: message models, key expressions, bus setup, identifiers, manifest."""
