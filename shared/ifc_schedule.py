@@ -1,0 +1,84 @@
+"""Read an IFC model's own 4D schedule as a construction sequence of components.
+
+Uses IfcTask (nested with IfcRelNests), IfcRelAssignsToProduct (a task's output products),
+IfcRelAssignsToProcess (its inputs, accepted as well), IfcRelSequence (predecessor → successor) and
+IfcTaskTime (ScheduleStart, for ordering). A task's components are the products assigned to it or to any
+task nested under it; an IfcRelSequence between two tasks makes every component of the successor wait for
+every component of the predecessor. Tasks are listed by start time, then in precedence order, then by
+Identification. Only components (GUIDs the caller passes) are kept; the caller decides what to do with
+components the schedule does not mention (see :func:`schedule_from_ifc`'s ``unscheduled``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection
+from dataclasses import dataclass
+
+import ifcopenshell
+import ifcopenshell.util.sequence
+
+from .sequence import ConstructionSequence, priority_topological_order, sequence_from_predecessors
+
+
+@dataclass(frozen=True)
+class IfcSchedule:
+    sequence: ConstructionSequence
+    unscheduled: tuple[str, ...]  # component GUIDs that no task mentions
+
+
+def schedule_from_ifc(model: ifcopenshell.file, component_guids: Collection[str]) -> IfcSchedule | None:
+    """The model's task schedule restricted to ``component_guids``; None when no task names a component."""
+    wanted = set(component_guids)
+    tasks = sorted(model.by_type("IfcTask"), key=lambda task: task.id())
+    outputs = {task.id(): _task_components(task, wanted) for task in tasks}
+    if not any(outputs.values()):
+        return None
+    # First (leaf-most) task per component: the task that owns it directly wins over a summary task.
+    owner: dict[str, ifcopenshell.entity_instance] = {}
+    for task in sorted(tasks, key=lambda item: (len(_nested(item)), item.id())):
+        for guid in outputs[task.id()]:
+            owner.setdefault(guid, task)
+    predecessors: dict[str, set[str]] = {guid: set() for guid in owner}
+    for relation in model.by_type("IfcRelSequence"):
+        before, after = relation.RelatingProcess, relation.RelatedProcess
+        if before is None or after is None or not before.is_a("IfcTask") or not after.is_a("IfcTask"):
+            continue
+        for guid in outputs.get(after.id(), set()):
+            if guid in predecessors:
+                predecessors[guid].update(outputs.get(before.id(), set()) - {guid})
+    ordered = _ordered_guids(owner, predecessors)
+    names = {guid: task.Name for guid, task in owner.items() if task.Name}
+    sequence = sequence_from_predecessors(ordered, predecessors, source="ifc_schedule", names=names)
+    unscheduled = tuple(sorted(wanted - set(owner)))
+    return IfcSchedule(sequence, unscheduled)
+
+
+def _nested(task: ifcopenshell.entity_instance) -> list[ifcopenshell.entity_instance]:
+    return list(ifcopenshell.util.sequence.get_all_nested_tasks(task))
+
+
+def _task_components(task: ifcopenshell.entity_instance, wanted: set[str]) -> set[str]:
+    guids: set[str] = set()
+    for item in [task, *_nested(task)]:
+        products = list(ifcopenshell.util.sequence.get_task_outputs(item))
+        products += list(ifcopenshell.util.sequence.get_task_inputs(item))
+        guids.update(product.GlobalId for product in products if product.GlobalId in wanted)
+    return guids
+
+
+def _start_key(task: ifcopenshell.entity_instance) -> str:
+    task_time = getattr(task, "TaskTime", None)
+    start = getattr(task_time, "ScheduleStart", None) if task_time is not None else None
+    return str(start) if start else "~"  # tasks without a start sort after dated ones
+
+
+def _ordered_guids(
+    owner: dict[str, ifcopenshell.entity_instance], predecessors: dict[str, set[str]]
+) -> list[str]:
+    """Precedence order; ties broken by start time, then task Identification/Name, then step id."""
+
+    def key(guid: str) -> tuple[str, str, int]:
+        task = owner[guid]
+        return (_start_key(task), str(task.Identification or task.Name or ""), task.id())
+
+    return priority_topological_order(predecessors, key)

@@ -1,0 +1,180 @@
+"""The converter's manifest: every component and every skipped element of one conversion (``manifest.json``).
+
+Every other service reads this file, so it is a versioned, frozen pydantic model. Frames and units:
+
+* ``*_world`` values are in the simulation world frame: metres, Z up, right-handed, equal to the IFC
+  project's world coordinates minus ``Manifest.local_origin_m`` (the shift that keeps single-precision
+  physics exact for models far from the origin).
+* ``*_local`` values are in the component's own frame (its IFC object placement), metres.
+* Quaternions are ``quat_xyzw``; Euler angles are SDF's fixed-axis roll-pitch-yaw in radians.
+* Paths are POSIX paths relative to the conversion's output folder.
+"""
+
+from __future__ import annotations
+
+import json
+from enum import StrEnum
+from pathlib import Path
+
+from pydantic import BaseModel, ConfigDict, Field
+
+MANIFEST_SCHEMA_VERSION = 1
+MANIFEST_FILE_NAME = "manifest.json"
+
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+
+class Pose(_Frozen):
+    """A rigid pose: position in metres, unit quaternion (x, y, z, w) and SDF roll-pitch-yaw in radians."""
+
+    position_m: Vec3
+    quat_xyzw: Quat
+    rpy_rad: Vec3
+
+
+class BoundingBox(_Frozen):
+    """Axis-aligned box, metres."""
+
+    min_m: Vec3
+    max_m: Vec3
+
+
+class Inertia(_Frozen):
+    """Inertia tensor about the centre of mass, axes of the component frame, kg·m² (SDF sign convention)."""
+
+    ixx: float
+    ixy: float
+    ixz: float
+    iyy: float
+    iyz: float
+    izz: float
+
+
+class MassSource(StrEnum):
+    """Where a component's mass came from, in the order the converter tries them."""
+
+    QUANTITY_WEIGHT = "IfcQuantityWeight"
+    VENDOR_PROPERTY = "vendor_weight_property"
+    MATERIAL_DENSITY_PROPERTY = "mesh_volume_x_Pset_MaterialCommon.MassDensity"
+    MATERIAL_DENSITY_TABLE = "mesh_volume_x_material_table"
+    DEFAULT_DENSITY = "mesh_volume_x_default_density"
+
+
+class InertiaSource(StrEnum):
+    MESH = "mesh"
+    BOUNDING_BOX_FALLBACK = "bounding_box_fallback"
+
+
+class CollisionMethod(StrEnum):
+    """How the collision shape of a moving body was made."""
+
+    CONVEX_HULL = "convex_hull"  # the element is convex: one hull
+    PROFILE_DECOMPOSITION = "profile_decomposition"  # extruded parametric profile split exactly into prisms
+    VHACD = "vhacd"  # general concave mesh: pybullet's V-HACD
+
+
+class Connection(_Frozen):
+    """A relationship from this component to another element."""
+
+    relation: str  # IFC class of the relationship, e.g. IfcRelConnectsElements
+    role: str  # this component's role: relating/related/realizing/aggregate_parent/aggregate_child
+    other_guid: str
+    other_class: str
+
+
+class ComponentFiles(_Frozen):
+    model_dir: str
+    sdf_file: str
+    config_file: str
+    split_ifc: str
+    visual_dae: str
+    visual_obj: str
+    visual_glb: str
+    collision: list[str]
+
+
+class Component(_Frozen):
+    guid: str
+    key: str = Field(description="bus key chunk for this GUID (shared.identifiers.guid_to_key)")
+    folder: str = Field(description="model folder name (shared.identifiers.guid_to_folder)")
+    ifc_class: str
+    predefined_type: str | None = None
+    name: str | None = None
+    storey: str | None = None
+    material: str | None = None
+    target_pose_world: Pose
+    bbox_world: BoundingBox
+    bbox_local: BoundingBox
+    volume_m3: float
+    watertight: bool
+    mass_kg: float = Field(gt=0)
+    mass_source: MassSource
+    com_local_m: Vec3
+    inertia_kg_m2: Inertia
+    inertia_source: InertiaSource
+    collision_method: CollisionMethod
+    collision_parts: int
+    files: ComponentFiles
+    connections: list[Connection] = []
+    warnings: list[str] = []
+
+
+class SkippedElement(_Frozen):
+    guid: str
+    ifc_class: str
+    name: str | None = None
+    reason: str
+
+
+class SourceModel(_Frozen):
+    path: str
+    schema_name: str
+    sha256: str
+    length_unit_m: float = Field(description="metres per IFC length unit")
+
+
+class Manifest(_Frozen):
+    schema_version: int = MANIFEST_SCHEMA_VERSION
+    generator: str
+    site: str = Field(description="site slug: world file name and bus key root bimbot/<site>/")
+    site_name: str | None = None
+    source: SourceModel
+    local_origin_m: Vec3 = Field(description="IFC world coordinates (m) of the simulation world origin")
+    world_file: str
+    sequence_file: str
+    sequence_source: str
+    components: list[Component]
+    skipped: list[SkippedElement] = []
+    warnings: list[str] = []
+
+    def component(self, guid: str) -> Component:
+        """The component with this GlobalId (KeyError when absent)."""
+        for item in self.components:
+            if item.guid == guid:
+                return item
+        raise KeyError(guid)
+
+
+def write_manifest(manifest: Manifest, out_dir: Path) -> Path:
+    path = Path(out_dir) / MANIFEST_FILE_NAME
+    path.write_text(manifest.model_dump_json(indent=2), encoding="utf-8")
+    return path
+
+
+def read_manifest(build_dir: Path) -> Manifest:
+    """Read ``<build_dir>/manifest.json`` (or the file itself when given one)."""
+    path = Path(build_dir)
+    if path.is_dir():
+        path = path / MANIFEST_FILE_NAME
+    data = json.loads(path.read_text(encoding="utf-8"))
+    version = data.get("schema_version")
+    if version != MANIFEST_SCHEMA_VERSION:
+        raise ValueError(
+            f"{path}: manifest schema_version {version!r}, this bimbot reads {MANIFEST_SCHEMA_VERSION}"
+        )
+    return Manifest.model_validate(data)

@@ -1,0 +1,118 @@
+"""The support graph of a building: which components must stand before another can be placed.
+
+Component ``B`` supports component ``A`` (B → A) when B's bottom is lower than A's bottom and either
+
+* they are connected in the IFC model (IfcRelConnectsElements and its subtypes, in either direction), or
+* they touch under gravity: B's top is within ``tolerance_m`` of A's bottom and their footprints overlap.
+
+Edges always run from a strictly lower bottom to a higher one, so the graph has no cycle. Footprints and
+heights come from the manifest's world-frame bounding boxes. The graph gives the derived construction
+sequence (footings and lower, supporting elements first) and is the yardstick a given sequence is checked
+against.
+"""
+
+from __future__ import annotations
+
+from bisect import bisect_left, bisect_right
+from collections.abc import Sequence
+
+import numpy as np
+
+from .manifest import Component
+from .sequence import ConstructionSequence, priority_topological_order, sequence_from_predecessors
+
+CONTACT_TOLERANCE_M = 0.02
+CONNECTION_RELATIONS = (
+    "IfcRelConnectsElements",
+    "IfcRelConnectsWithRealizingElements",
+    "IfcRelConnectsPathElements",
+)
+# Erection preference among components at the same height: foundations, then vertical, then horizontal.
+CLASS_RANK = {
+    "IfcFooting": 0,
+    "IfcPile": 0,
+    "IfcColumn": 1,
+    "IfcWall": 1,
+    "IfcBeam": 2,
+    "IfcMember": 2,
+    "IfcSlab": 3,
+}
+
+
+def support_predecessors(
+    components: Sequence[Component], tolerance_m: float = CONTACT_TOLERANCE_M
+) -> dict[str, set[str]]:
+    """GUID → GUIDs of the components it rests on or is connected to below it."""
+    by_guid = {item.guid: item for item in components}
+    preds: dict[str, set[str]] = {guid: set() for guid in by_guid}
+    bottoms = {guid: item.bbox_world.min_m[2] for guid, item in by_guid.items()}
+
+    def lower(a: str, b: str) -> bool:  # b's bottom is strictly lower than a's
+        return bottoms[b] < bottoms[a] - tolerance_m
+
+    for item in components:
+        for connection in item.connections:
+            other = connection.other_guid
+            if other in by_guid and connection.relation in CONNECTION_RELATIONS:
+                if lower(item.guid, other):
+                    preds[item.guid].add(other)
+                elif lower(other, item.guid):
+                    preds[other].add(item.guid)
+    _add_contacts(components, preds, bottoms, tolerance_m)
+    return preds
+
+
+def _add_contacts(
+    components: Sequence[Component], preds: dict[str, set[str]], bottoms: dict[str, float], tolerance_m: float
+) -> None:
+    tops = sorted((item.bbox_world.max_m[2], index) for index, item in enumerate(components))
+    top_values = [value for value, _ in tops]
+    mins = np.array([item.bbox_world.min_m for item in components])
+    maxs = np.array([item.bbox_world.max_m for item in components])
+    for index, item in enumerate(components):
+        bottom = item.bbox_world.min_m[2]
+        low, high = (
+            bisect_left(top_values, bottom - tolerance_m),
+            bisect_right(top_values, bottom + tolerance_m),
+        )
+        candidates = np.array([tops[k][1] for k in range(low, high)], dtype=int)
+        if len(candidates) == 0:
+            continue
+        overlap_x = np.minimum(maxs[candidates, 0], maxs[index, 0]) - np.maximum(
+            mins[candidates, 0], mins[index, 0]
+        )
+        overlap_y = np.minimum(maxs[candidates, 1], maxs[index, 1]) - np.maximum(
+            mins[candidates, 1], mins[index, 1]
+        )
+        for other in candidates[(overlap_x > 0) & (overlap_y > 0)]:
+            guid = components[int(other)].guid
+            if bottoms[guid] < bottom - tolerance_m:
+                preds[item.guid].add(guid)
+
+
+def erection_key(component: Component) -> tuple[float, int, str]:
+    """Priority among ready components: lower bottom first, then class rank, then GUID (deterministic)."""
+    rank = next((value for prefix, value in CLASS_RANK.items() if component.ifc_class.startswith(prefix)), 5)
+    return (round(component.bbox_world.min_m[2], 3), rank, component.guid)
+
+
+def derive_sequence(
+    components: Sequence[Component], tolerance_m: float = CONTACT_TOLERANCE_M
+) -> ConstructionSequence:
+    """A construction sequence from the support graph (explicit predecessors = supports)."""
+    preds = support_predecessors(components, tolerance_m)
+    by_guid = {item.guid: item for item in components}
+    ordered = priority_topological_order(preds, lambda guid: erection_key(by_guid[guid]))
+    names = {item.guid: f"Erect {item.name or item.ifc_class}" for item in components}
+    return sequence_from_predecessors(ordered, preds, source="derived", names=names)
+
+
+def support_violations(order: Sequence[str], preds: dict[str, set[str]]) -> list[tuple[str, str]]:
+    """(component, support) pairs where the support comes after the component in ``order`` or is missing."""
+    position = {guid: index for index, guid in enumerate(order)}
+    violations: list[tuple[str, str]] = []
+    for guid in order:
+        for support in sorted(preds.get(guid, ())):
+            if position.get(support, len(order)) > position[guid]:
+                violations.append((guid, support))
+    return violations
