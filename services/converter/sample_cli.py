@@ -1,0 +1,74 @@
+"""``bimbot sample light-steel-frame -o FILE.ifc [--bays NxM]``: write a generated sample IFC model.
+
+A thin adapter over :mod:`services.converter.sample_light_steel_frame` (the pure builder): it parses the
+options, builds the model, writes it and logs one summary line. ``--bays NxM`` is an N×M grid of columns
+(3x3, the paper's case, gives 9 footings, 9 columns and 10 beams). Bad options raise
+:class:`shared.errors.UserError`, which the ``bimbot`` dispatcher reports as one line with exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import time
+from collections import Counter
+from pathlib import Path
+
+from shared.errors import UserError
+
+_log = logging.getLogger(__name__)
+
+KINDS = ("light-steel-frame",)
+DEFAULT_BAYS = "3x3"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``bimbot sample``."""
+    parser.add_argument("kind", choices=KINDS, help="which sample model to generate")
+    parser.add_argument("-o", "--output", required=True, type=Path, help="IFC file to write (e.g. frame.ifc)")
+    parser.add_argument(
+        "--bays",
+        default=DEFAULT_BAYS,
+        metavar="NxM",
+        help=f"grid of N×M columns (default {DEFAULT_BAYS}: 9 footings, 9 columns, 10 beams)",
+    )
+
+
+def _check_output(path: Path) -> None:
+    if path.is_dir():
+        raise UserError(f"output {path} is a directory; give a file name such as {path / 'frame.ifc'}")
+    if not path.parent.exists():
+        raise UserError(f"output folder {path.parent} does not exist")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Build the chosen sample model and write it to ``args.output``; 0 on success."""
+    # Imported here so that a bad option fails fast, before ifcopenshell loads.
+    from services.converter import sample_light_steel_frame as sample  # noqa: PLC0415
+
+    try:
+        columns_x, columns_y = sample.parse_bays(args.bays)
+    except ValueError as error:
+        raise UserError(str(error)) from None
+    output: Path = args.output
+    _check_output(output)
+    started_s = time.perf_counter()
+    model = sample.build_light_steel_frame(columns_x, columns_y)
+    try:
+        model.write(str(output))
+    except OSError as error:
+        raise UserError(f"cannot write {output}: {error.strerror or error}") from None
+    counts = Counter(element.is_a() for element in model.by_type("IfcElement"))
+    _log.info(
+        "wrote %s: %s %dx%d, %d footings, %d columns, %d beams, %d tasks (%.1f s)",
+        output,
+        args.kind,
+        columns_x,
+        columns_y,
+        counts["IfcFooting"],
+        counts["IfcColumn"],
+        counts["IfcBeam"],
+        len(model.by_type("IfcTask")),
+        time.perf_counter() - started_s,
+    )
+    return 0
