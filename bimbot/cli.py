@@ -23,6 +23,12 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     ),
     "convert": ("services.converter.cli", "convert an IFC model into an SDF robot world (OUT/ folder)"),
     "demo": ("bimbot.demo", "run the demo on the bundled light steel frame (writes out/demo/)"),
+    "bus": ("services.bus_router", "run the site's Zenoh router (every service connects to it)"),
+    "agents": ("services.component_agents.cli", "run the smart-component agents of a converted build"),
+    "planner": (
+        "services.planner.cli",
+        "release construction tasks in sequence order and assign them to robots",
+    ),
 }
 
 _log = logging.getLogger("bimbot")

@@ -19,8 +19,6 @@ import re
 import string
 import unicodedata
 
-import ifcopenshell.guid
-
 GUID_ALPHABET = frozenset(string.digits + string.ascii_letters + "_$")
 _KEY_PLAIN = frozenset(string.digits + string.ascii_letters + "_")
 _GUID_PATTERN = re.compile(r"^[0-3][0-9A-Za-z_$]{21}$")
@@ -73,6 +71,8 @@ def key_to_guid(key: str) -> str:
 def guid_to_folder(guid: str) -> str:
     """Map a GlobalId to a folder name safe in URIs and on case-insensitive file systems."""
     if is_valid_guid(guid):
+        import ifcopenshell.guid  # noqa: PLC0415 (lazy: ifcopenshell costs ~50 MB in services that only need keys)
+
         return ifcopenshell.guid.expand(guid).lower()
     return "x" + guid.encode("utf-8").hex()
 
@@ -82,6 +82,8 @@ def folder_to_guid(folder: str) -> str:
     if folder.startswith("x"):
         return bytes.fromhex(folder[1:]).decode("utf-8")
     if re.fullmatch(r"[0-9a-f]{32}", folder):
+        import ifcopenshell.guid  # noqa: PLC0415
+
         return ifcopenshell.guid.compress(folder)
     raise ValueError(f"folder name {folder!r} was not made by guid_to_folder")
 

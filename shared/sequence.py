@@ -151,19 +151,28 @@ def sequence_from_predecessors(
 ) -> ConstructionSequence:
     """Build a sequence from GUIDs in order and GUID → predecessor GUIDs (task ids ``T0001``…)."""
     ordered = list(ordered_guids)
+    position = {guid: index for index, guid in enumerate(ordered)}
     task_ids = {guid: f"T{index:04d}" for index, guid in enumerate(ordered, start=1)}
     tasks = tuple(
         SequenceTask(
             task_id=task_ids[guid],
             guid=guid,
             name=(names or {}).get(guid),
-            predecessors=tuple(task_ids[pred] for pred in ordered if pred in predecessors.get(guid, set())),
+            predecessors=tuple(
+                task_ids[pred]
+                for pred in sorted(predecessors.get(guid, ()) & position.keys(), key=position.get)
+            ),
         )
         for guid in ordered
     )
     sequence = ConstructionSequence(source=source, tasks=tasks)
     check_sequence(sequence)
     return sequence
+
+
+def _in_order(items: set[str], position: dict[str, int]) -> list[str]:
+    """The members of ``items`` that have a position, sorted by it."""
+    return sorted((item for item in items if item in position), key=position.__getitem__)
 
 
 def priority_topological_order(predecessors: dict[str, set[str]], key: Callable[[str], object]) -> list[str]:

@@ -97,10 +97,15 @@ def erection_key(component: Component) -> tuple[float, int, str]:
 
 
 def derive_sequence(
-    components: Sequence[Component], tolerance_m: float = CONTACT_TOLERANCE_M
+    components: Sequence[Component],
+    tolerance_m: float = CONTACT_TOLERANCE_M,
+    support: dict[str, set[str]] | None = None,
 ) -> ConstructionSequence:
-    """A construction sequence from the support graph (explicit predecessors = supports)."""
-    preds = support_predecessors(components, tolerance_m)
+    """A construction sequence from the support graph (explicit predecessors = supports).
+
+    ``support`` is the graph when the caller has already computed it.
+    """
+    preds = support if support is not None else support_predecessors(components, tolerance_m)
     by_guid = {item.guid: item for item in components}
     ordered = priority_topological_order(preds, lambda guid: erection_key(by_guid[guid]))
     names = {item.guid: f"Erect {item.name or item.ifc_class}" for item in components}

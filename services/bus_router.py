@@ -1,0 +1,49 @@
+"""``bimbot bus``: the site's Zenoh router, a small Python process in Zenoh ``router`` mode.
+
+Every other service connects to it (``--connect tcp/127.0.0.1:7447`` by default). zenohd is not
+installable everywhere bimbot runs, so the router is the Python binding's own router mode. It runs until
+it is interrupted (SIGINT/SIGTERM), or for ``--seconds`` when given.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import threading
+
+from shared.bus import DEFAULT_ENDPOINT, BusOptions, open_session
+
+_log = logging.getLogger(__name__)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--listen",
+        action="append",
+        default=None,
+        metavar="ENDPOINT",
+        help=f"endpoint (default {DEFAULT_ENDPOINT})",
+    )
+    parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT", help="other routers")
+    parser.add_argument(
+        "--seconds", type=float, default=None, help="stop after this long (default: run until stopped)"
+    )
+
+
+def main(options: BusOptions, stop: threading.Event, seconds: float | None = None) -> None:
+    with open_session(options) as session:
+        _log.info("bus router %s listening on %s", session.zid(), ", ".join(options.listen))
+        stop.wait(seconds)
+    _log.info("bus router stopped")
+
+
+def run(args: argparse.Namespace) -> int:
+    options = BusOptions(
+        mode="router", connect=tuple(args.connect), listen=tuple(args.listen or [DEFAULT_ENDPOINT])
+    )
+    stop = threading.Event()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    main(options, stop, args.seconds)
+    return 0

@@ -1,0 +1,203 @@
+"""The one place every service builds its Zenoh configuration and handles what it receives.
+
+Defaults (embedded, no router needed beyond ``bimbot bus``): mode ``peer``, connect to the site's bus
+endpoint on loopback (``tcp/127.0.0.1:7447``), listen on a free loopback port so peers can reach each
+other directly, multicast scouting off (nothing leaves the machine). In ``docker compose`` every service
+connects to the ``bus`` service, a small Python process in Zenoh ``router`` mode (``bimbot bus``).
+
+Options, with environment variables as fallbacks (so compose files stay short)::
+
+    --mode    peer|client|router     BIMBOT_ZENOH_MODE      (default peer)
+    --connect ENDPOINT (repeatable)  BIMBOT_ZENOH_CONNECT   (comma-separated; default tcp/127.0.0.1:7447)
+    --listen  ENDPOINT (repeatable)  BIMBOT_ZENOH_LISTEN    (comma-separated; default tcp/127.0.0.1:0)
+    --site    SITE                   BIMBOT_SITE            (default: from the manifest)
+
+Received payloads are validated against their pydantic model by :class:`Inbox`; invalid ones are logged
+with their key and counted, and never reach the service's state. Zenoh calls callbacks on its own
+threads, so callbacks only enqueue: the service's own loop drains the inbox and changes state.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import queue
+import threading
+from collections import Counter
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Generic, TypeVar
+
+import zenoh
+from pydantic import BaseModel, ValidationError
+
+_log = logging.getLogger(__name__)
+
+DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
+DEFAULT_LISTEN = "tcp/127.0.0.1:0"
+MODES = ("peer", "client", "router")
+
+M = TypeVar("M", bound=BaseModel)
+
+
+@dataclass(frozen=True)
+class BusOptions:
+    mode: str = "peer"
+    connect: tuple[str, ...] = (DEFAULT_ENDPOINT,)
+    listen: tuple[str, ...] = (DEFAULT_LISTEN,)
+
+
+def _env_list(name: str) -> list[str] | None:
+    value = os.environ.get(name)
+    return [item.strip() for item in value.split(",") if item.strip()] if value else None
+
+
+def add_bus_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``--mode/--connect/--listen`` (with BIMBOT_ZENOH_* environment fallbacks)."""
+    group = parser.add_argument_group("bus (Zenoh)")
+    group.add_argument(
+        "--mode", choices=MODES, default=None, help="Zenoh mode (env BIMBOT_ZENOH_MODE; default peer)"
+    )
+    group.add_argument(
+        "--connect", action="append", default=None, metavar="ENDPOINT", help="endpoint to connect to"
+    )
+    group.add_argument(
+        "--listen", action="append", default=None, metavar="ENDPOINT", help="endpoint to listen on"
+    )
+
+
+def bus_options(args: argparse.Namespace) -> BusOptions:
+    """Options from parsed arguments, then the environment, then the defaults."""
+    mode = args.mode or os.environ.get("BIMBOT_ZENOH_MODE") or "peer"
+    if mode not in MODES:
+        raise ValueError(f"BIMBOT_ZENOH_MODE={mode!r}: expected one of {', '.join(MODES)}")
+    connect = args.connect or _env_list("BIMBOT_ZENOH_CONNECT")
+    listen = args.listen or _env_list("BIMBOT_ZENOH_LISTEN")
+    if connect is None:
+        connect = [] if mode == "router" else [DEFAULT_ENDPOINT]
+    if listen is None:
+        listen = [DEFAULT_ENDPOINT] if mode == "router" else ([] if mode == "client" else [DEFAULT_LISTEN])
+    return BusOptions(mode=mode, connect=tuple(connect), listen=tuple(listen))
+
+
+def zenoh_config(options: BusOptions) -> zenoh.Config:
+    """A Zenoh config for ``options``: explicit endpoints, multicast scouting off."""
+    config = zenoh.Config()
+    config.insert_json5("mode", json.dumps(options.mode))
+    config.insert_json5("connect/endpoints", json.dumps(list(options.connect)))
+    config.insert_json5("listen/endpoints", json.dumps(list(options.listen)))
+    config.insert_json5("scouting/multicast/enabled", "false")
+    if options.mode != "router":
+        # Keep retrying the bus endpoint at start-up instead of failing while the router is starting.
+        config.insert_json5("connect/timeout_ms", "-1" if options.connect else "0")
+        config.insert_json5("connect/exit_on_failure", "false")
+    return config
+
+
+def open_session(options: BusOptions) -> zenoh.Session:
+    """Open a session; use it as a context manager (an unclosed session with callbacks hangs at exit)."""
+    return zenoh.open(zenoh_config(options))
+
+
+def encode(message: BaseModel) -> bytes:
+    return message.model_dump_json().encode("utf-8")
+
+
+@dataclass(frozen=True)
+class Received(Generic[M]):
+    key: str
+    message: M
+
+
+class InvalidPayloads:
+    """Counts invalid payloads per key expression; logs the first few per key and then every 100th."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.by_key: Counter[str] = Counter()
+
+    @property
+    def total(self) -> int:
+        with self._lock:
+            return sum(self.by_key.values())
+
+    def record(self, key: str, error: str) -> None:
+        with self._lock:
+            self.by_key[key] += 1
+            count = self.by_key[key]
+        if count <= 3 or count % 100 == 0:
+            _log.warning("invalid payload #%d on %s: %s", count, key, error)
+
+
+def decode(model: type[M], key: str, payload: bytes, invalid: InvalidPayloads) -> M | None:
+    """The validated message, or None (logged and counted) when the payload does not fit ``model``."""
+    try:
+        return model.model_validate_json(payload)
+    except ValidationError as error:
+        first = error.errors()[0]
+        where = ".".join(str(part) for part in first.get("loc", ())) or "payload"
+        invalid.record(key, f"{where}: {first.get('msg', 'invalid')}")
+    except (ValueError, UnicodeDecodeError) as error:
+        invalid.record(key, f"undecodable payload ({error})")
+    return None
+
+
+class Inbox:
+    """A thread-safe queue of validated messages fed by Zenoh callbacks and drained by the service's loop.
+
+    ``subscribe(session, key_expr, Model, tag)`` declares a subscriber whose callback validates the payload
+    and enqueues ``(tag, Received)``; the callback never touches service state.
+    """
+
+    def __init__(self, invalid: InvalidPayloads | None = None) -> None:
+        self._queue: queue.Queue[tuple[str, object]] = queue.Queue()
+        self.invalid = invalid or InvalidPayloads()
+
+    def subscribe(self, session: zenoh.Session, key_expr: str, model: type[M], tag: str) -> zenoh.Subscriber:
+        def on_sample(sample: zenoh.Sample) -> None:
+            key = str(sample.key_expr)
+            if sample.kind != zenoh.SampleKind.PUT:
+                return
+            message = decode(model, key, sample.payload.to_bytes(), self.invalid)
+            if message is not None:
+                self._queue.put((tag, Received(key, message)))
+
+        return session.declare_subscriber(key_expr, on_sample)
+
+    def subscribe_liveliness(self, session: zenoh.Session, key_expr: str, tag: str) -> zenoh.Subscriber:
+        """Liveliness changes as ``(tag, (key, alive: bool))``; existing tokens are reported first."""
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            self._queue.put((tag, (str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)))
+
+        return session.liveliness().declare_subscriber(key_expr, on_sample, history=True)
+
+    def put(self, tag: str, item: object) -> None:
+        """Enqueue an item from any thread (timers, other adapters)."""
+        self._queue.put((tag, item))
+
+    def get(self, timeout_s: float | None = None) -> tuple[str, object] | None:
+        try:
+            return self._queue.get(timeout=timeout_s)
+        except queue.Empty:
+            return None
+
+    def drain(
+        self, first_timeout_s: float | None = None, limit: int = 10_000
+    ) -> Iterator[tuple[str, object]]:
+        """Yield what is queued: wait up to ``first_timeout_s`` for the first item, then what is there."""
+        item = self.get(first_timeout_s)
+        count = 0
+        while item is not None and count < limit:
+            yield item
+            count += 1
+            item = self.get(0) if not self._queue.empty() else None
+
+
+def reply_json(query: zenoh.Query, key: str, message: BaseModel) -> None:
+    query.reply(key, encode(message))
+
+
+Handler = Callable[[zenoh.Query], None]

@@ -1,0 +1,259 @@
+"""Bus messages: one frozen, versioned pydantic model per message, beside its key expression.
+
+Key space (``<site>`` is the manifest's site slug, ``<key>`` a component's bus key, see
+:mod:`shared.identifiers`)::
+
+    bimbot/<site>/components/<key>/state   ComponentStateMsg   agent → all (every state change)
+    bimbot/<site>/components/<key>/event   ComponentEventMsg   planner/robot → agent (what happened to it)
+    bimbot/<site>/components/<key>/pose    ComponentPoseMsg    physics → all (moving or just placed)
+    bimbot/<site>/components/<key>/twin    (queryable)         agent answers TwinMsg
+    bimbot/<site>/tasks/<task_id>          TaskMsg             planner → robots, observer
+    bimbot/<site>/robots/<id>/state        RobotStateMsg       robot → planner, observer
+    bimbot/<site>/robots/<id>/cmd_vel      CmdVelMsg           robot → physics
+    bimbot/<site>/robots/<id>/odom         OdomMsg             physics → robot
+    bimbot/<site>/robots/<id>/scan         ScanMsg             physics → robot
+    bimbot/<site>/robots/<id>/plan         PlanMsg             robot → observer
+    bimbot/<site>/clock                    ClockMsg            physics → all
+    bimbot/<site>/progress                 ProgressMsg         planner → all
+    bimbot/<site>/alive/<kind>/<id>        liveliness tokens (kind: component, robot, planner, physics, …)
+
+Times: ``sim_time_s`` is simulated time from the physics clock; ``wall_time_s`` is Unix time, only for
+latency measurements. Poses are in the simulation world frame (see :mod:`shared.manifest`).
+"""
+
+from __future__ import annotations
+
+from enum import StrEnum
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from .manifest import Quat, Vec3
+
+MESSAGE_SCHEMA_VERSION = 1
+
+
+class _Message(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid")
+    schema_version: Literal[1] = MESSAGE_SCHEMA_VERSION
+
+
+def site_root(site: str) -> str:
+    return f"bimbot/{site}"
+
+
+# --- components ------------------------------------------------------------------------------------------
+
+COMPONENT_STATE_KEY = "bimbot/{site}/components/{key}/state"
+COMPONENT_EVENT_KEY = "bimbot/{site}/components/{key}/event"
+COMPONENT_POSE_KEY = "bimbot/{site}/components/{key}/pose"
+COMPONENT_TWIN_KEY = "bimbot/{site}/components/{key}/twin"
+
+
+class ComponentState(StrEnum):
+    """A smart component's construction state (paper Fig. 12, with a failure path)."""
+
+    PLANNED = "planned"
+    RELEASED = "released"
+    PICKING = "picking"
+    TRANSPORTING = "transporting"
+    ASSEMBLING = "assembling"
+    VERIFYING = "verifying"
+    CONSTRUCTED = "constructed"
+    MISPLACED = "misplaced"
+    FAILED = "failed"
+
+
+class ComponentEvent(StrEnum):
+    """What the planner or a robot tells a component; the agent's state table decides what it means."""
+
+    RELEASE = "release"  # planner: all predecessors constructed
+    PICK = "pick"  # robot: on its way to pick the component up
+    ATTACH = "attach"  # robot: component attached, transport begins
+    ARRIVE = "arrive"  # robot: at the target, assembly begins
+    PLACE = "place"  # robot: component placed; the agent verifies its own pose
+    RETRY = "retry"  # planner: a misplaced component is released again
+    ABANDON = "abandon"  # robot/planner: the task was given up (robot lost); back to released
+
+
+class PoseMsg(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid")
+    position_m: Vec3
+    quat_xyzw: Quat
+
+
+class ComponentStateMsg(_Message):
+    guid: str
+    state: ComponentState
+    previous: ComponentState | None = None
+    event: str = Field(description="the event or internal decision that caused the change")
+    cause: str = ""
+    attempt: int = 0
+    robot_id: str | None = None
+    sim_time_s: float
+    wall_time_s: float
+    position_error_m: float | None = None
+    angle_error_rad: float | None = None
+
+
+class ComponentEventMsg(_Message):
+    guid: str
+    event: ComponentEvent
+    source: str = Field(description="who sent it: 'planner' or a robot id")
+    event_id: str = Field(description="unique per event, so a repeated delivery is applied once")
+    task_id: str | None = None
+    robot_id: str | None = None
+    sim_time_s: float
+    wall_time_s: float
+
+
+class ComponentPoseMsg(_Message):
+    guid: str
+    pose: PoseMsg
+    sim_time_s: float
+    attached_to: str | None = None  # robot id while carried
+    fixed: bool = False  # fixed to the structure
+
+
+class TransitionRecord(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid")
+    source: ComponentState
+    dest: ComponentState
+    event: str
+    cause: str = ""
+    sim_time_s: float
+    attempt: int = 0
+
+
+class TwinMsg(_Message):
+    """A component's digital-twin record, answered by its agent's queryable."""
+
+    guid: str
+    key: str
+    ifc_class: str
+    name: str | None
+    storey: str | None
+    material: str | None
+    mass_kg: float
+    target_pose: PoseMsg
+    current_pose: PoseMsg | None
+    current_pose_sim_time_s: float | None
+    state: ComponentState
+    attempt: int
+    robot_id: str | None
+    history: list[TransitionRecord]
+
+
+# --- tasks -----------------------------------------------------------------------------------------------
+
+TASK_KEY = "bimbot/{site}/tasks/{task_id}"
+
+
+class TaskStatus(StrEnum):
+    RELEASED = "released"  # ready, waiting for a robot
+    ASSIGNED = "assigned"  # given to robot_id
+    DONE = "done"  # component constructed
+    FAILED = "failed"  # component failed after its retries
+    BLOCKED = "blocked"  # a predecessor failed; never released
+
+
+class TaskMsg(_Message):
+    task_id: str
+    guid: str
+    component_key: str
+    status: TaskStatus
+    robot_id: str | None = None
+    attempt: int = 0
+    target_pose: PoseMsg
+    sim_time_s: float
+    wall_time_s: float
+
+
+# --- robots ----------------------------------------------------------------------------------------------
+
+ROBOT_STATE_KEY = "bimbot/{site}/robots/{robot_id}/state"
+ROBOT_CMD_VEL_KEY = "bimbot/{site}/robots/{robot_id}/cmd_vel"
+ROBOT_ODOM_KEY = "bimbot/{site}/robots/{robot_id}/odom"
+ROBOT_SCAN_KEY = "bimbot/{site}/robots/{robot_id}/scan"
+ROBOT_PLAN_KEY = "bimbot/{site}/robots/{robot_id}/plan"
+
+
+class RobotState(StrEnum):
+    """Robot task states as in the paper (§5.2)."""
+
+    IDLE = "idle"
+    DETECT_COMPONENT_POSITION = "detect_component_position"
+    PICK_UP = "pick_up"
+    IDENTIFY_TARGET_LOCATION = "identify_target_location"
+    ASSEMBLE = "assemble"
+
+
+class RobotStateMsg(_Message):
+    robot_id: str
+    state: RobotState
+    task_id: str | None = None
+    guid: str | None = None
+    pose_xy_yaw: tuple[float, float, float]
+    sim_time_s: float
+    wall_time_s: float
+    distance_m: float = 0.0
+
+
+class CmdVelMsg(_Message):
+    robot_id: str
+    v_mps: float
+    w_radps: float
+    sim_time_s: float
+
+
+class OdomMsg(_Message):
+    robot_id: str
+    pose_xy_yaw: tuple[float, float, float]
+    v_mps: float
+    w_radps: float
+    sim_time_s: float
+
+
+class ScanMsg(_Message):
+    robot_id: str
+    angle_min_rad: float
+    angle_increment_rad: float
+    range_max_m: float
+    ranges_m: list[float]
+    sim_time_s: float
+
+
+class PlanMsg(_Message):
+    robot_id: str
+    path_xy_m: list[tuple[float, float]]
+    goal_xy_m: tuple[float, float]
+    sim_time_s: float
+
+
+# --- site-wide -------------------------------------------------------------------------------------------
+
+CLOCK_KEY = "bimbot/{site}/clock"
+PROGRESS_KEY = "bimbot/{site}/progress"
+ALIVE_KEY = "bimbot/{site}/alive/{kind}/{id}"
+
+
+class ClockMsg(_Message):
+    sim_time_s: float
+    step: int
+    real_time_factor: float
+
+
+class ProgressMsg(_Message):
+    total: int
+    counts: dict[str, int]  # by ComponentState value
+    percent_constructed: float
+    sim_time_s: float
+    estimated_finish_sim_time_s: float | None
+    failed: list[str] = []
+    blocked: list[str] = []
+    done: bool = False
+
+
+def key(template: str, **parts: str) -> str:
+    """Fill a key template (``key(COMPONENT_STATE_KEY, site=s, key=k)``)."""
+    return template.format(**parts)
