@@ -1,0 +1,358 @@
+"""One smart component as a plain model object: its state machine, its own placement check, its twin record.
+
+A :class:`ComponentAgent` knows its manifest :class:`~shared.manifest.Component` (semantics and BIM target
+pose), its construction state, the number of placement attempts, the robot handling it, its latest pose on
+the bus and the history of its transitions. It has no bus, no files and no threads: the host feeds it
+validated messages and publishes what it returns (one :class:`~shared.messages.ComponentStateMsg` per state
+change, with the sim time, the wall time and the cause).
+
+Protocol (docs/architecture.md, "Construction protocol"):
+
+* external events follow :mod:`.state_table`; an illegal event is rejected and logged, never applied;
+* each ``event_id`` is applied once (delivery is at least once), a repeat is ignored;
+* each ``place`` is one attempt. In ``verifying`` the agent waits for a pose of itself stamped at or after
+  the ``place`` event's sim time and compares it with its BIM target (:mod:`.verification`). When none
+  arrives within ``verify_timeout_s`` wall seconds it verifies the latest pose it has, or, with no pose at
+  all, judges the placement a failure ("no pose on the bus"). A failure with attempts left is
+  ``misplaced`` (the planner sends ``retry``); with none left it is ``failed``.
+
+One ``transitions`` machine serves every agent of a process (:class:`.state_table.ComponentMachine`).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+
+from shared.manifest import Component
+from shared.messages import (
+    ComponentEvent,
+    ComponentEventMsg,
+    ComponentPoseMsg,
+    ComponentState,
+    ComponentStateMsg,
+    PoseMsg,
+    TransitionRecord,
+    TwinMsg,
+)
+
+from .state_table import INITIAL, ComponentMachine, Verdict
+from .verification import Tolerances, is_valid_pose, verify
+from .verification import Verdict as Check
+
+_log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class AgentConfig:
+    """Settings shared by every agent of a host."""
+
+    tolerances: Tolerances = field(default_factory=Tolerances)
+    max_attempts: int = 3
+    verify_timeout_s: float = 5.0
+
+    def __post_init__(self) -> None:
+        if self.max_attempts < 1:
+            raise ValueError(f"max_attempts must be ≥ 1, got {self.max_attempts}")
+        if not (math.isfinite(self.verify_timeout_s) and self.verify_timeout_s > 0):
+            raise ValueError(f"verify_timeout_s must be a finite number > 0, got {self.verify_timeout_s}")
+
+
+def clip(text: object, limit: int = 60) -> str:
+    """A received value for a log line: its repr, cut to ``limit`` characters (payloads can be huge)."""
+    shown = repr(text)
+    return shown if len(shown) <= limit else f"{shown[: limit - 12]}…({len(shown)} chars)"
+
+
+class SimClock:
+    """The latest simulated time heard on ``bimbot/<site>/clock``, shared by the agents of a host."""
+
+    __slots__ = ("heard", "sim_time_s")
+
+    def __init__(self) -> None:
+        self.sim_time_s = 0.0
+        self.heard = False
+
+    def observe(self, sim_time_s: float) -> None:
+        if math.isfinite(sim_time_s):
+            self.sim_time_s = sim_time_s
+            self.heard = True
+
+    def now(self, stamp_s: float | None = None) -> float:
+        """The sim time of a change: the clock, or the cause's own stamp when that is later (clock not heard
+        yet, or lagging behind the sender)."""
+        if stamp_s is None or not math.isfinite(stamp_s):
+            return self.sim_time_s
+        return max(self.sim_time_s, stamp_s)
+
+
+class ComponentAgent:
+    """One component's state, placement check and twin record (no bus; see the module docstring)."""
+
+    __slots__ = (
+        "_clock",
+        "_config",
+        "_machine",
+        "attempt",
+        "component",
+        "event_ids",
+        "guid",
+        "history",
+        "key",
+        "place_sim_time_s",
+        "pose",
+        "pose_sim_time_s",
+        "robot_id",
+        "state",
+        "verify_deadline_wall_s",
+    )
+
+    def __init__(
+        self,
+        component: Component,
+        config: AgentConfig | None = None,
+        machine: ComponentMachine | None = None,
+        clock: SimClock | None = None,
+    ) -> None:
+        self.component = component
+        self.guid = component.guid
+        self.key = component.key
+        self._config = config or AgentConfig()
+        self._clock = clock or SimClock()
+        self._machine = machine or ComponentMachine()
+        self.state: ComponentState = INITIAL
+        self.attempt = 0
+        self.robot_id: str | None = None
+        self.pose: PoseMsg | None = None
+        self.pose_sim_time_s: float | None = None
+        self.place_sim_time_s: float | None = None
+        self.verify_deadline_wall_s: float | None = None
+        self.history: list[TransitionRecord] = []
+        self.event_ids: set[str] = set()
+        self._machine.add_model(self)
+
+    # --- inputs --------------------------------------------------------------------------------------------
+
+    def apply_event(self, msg: ComponentEventMsg, now_wall_s: float | None = None) -> list[ComponentStateMsg]:
+        """Apply a planner/robot event once; the state messages to publish (none: rejected or a repeat)."""
+        now = time.time() if now_wall_s is None else now_wall_s
+        if msg.guid != self.guid:
+            _log.warning("%s: rejected %s addressed to %s", self.guid, msg.event.value, clip(msg.guid))
+            return []
+        if msg.event_id in self.event_ids:
+            _log.debug(
+                "%s: %s event_id %s already applied; ignored", self.guid, msg.event.value, clip(msg.event_id)
+            )
+            return []
+        if not math.isfinite(msg.sim_time_s):
+            _log.warning("%s: rejected %s with sim time %r", self.guid, msg.event.value, msg.sim_time_s)
+            return []
+        source = self.state
+        if not self._machine.fire(self, msg.event.value):
+            _log.info(
+                "%s: rejected %s from %s in state %s (event_id %s)",
+                self.guid,
+                msg.event.value,
+                clip(msg.source),
+                source.value,
+                clip(msg.event_id),
+            )
+            return []
+        self.event_ids.add(msg.event_id)
+        if msg.event in (ComponentEvent.RETRY, ComponentEvent.ABANDON):
+            self.robot_id = None
+            self.place_sim_time_s = None
+            self.verify_deadline_wall_s = None
+        elif msg.robot_id:
+            self.robot_id = msg.robot_id
+        if msg.event is ComponentEvent.PLACE:
+            self.attempt += 1
+            self.place_sim_time_s = msg.sim_time_s
+            self.verify_deadline_wall_s = now + self._config.verify_timeout_s
+        cause = f"{msg.event.value} from {msg.source}" + (f" (task {msg.task_id})" if msg.task_id else "")
+        out = [
+            self._record(
+                source,
+                event=msg.event.value,
+                cause=cause,
+                sim_time_s=self._clock.now(msg.sim_time_s),
+                now=now,
+            )
+        ]
+        out.extend(self.try_verify(now))
+        return out
+
+    def observe_pose(self, msg: ComponentPoseMsg, now_wall_s: float | None = None) -> list[ComponentStateMsg]:
+        """Remember the latest pose of this component; in ``verifying`` a fresh one triggers the check."""
+        if msg.guid != self.guid:
+            _log.warning("%s: ignored a pose of %s", self.guid, clip(msg.guid))
+            return []
+        if not (math.isfinite(msg.sim_time_s) and is_valid_pose(msg.pose.position_m, msg.pose.quat_xyzw)):
+            _log.warning("%s: ignored an invalid pose %s at sim %r", self.guid, msg.pose, msg.sim_time_s)
+            return []
+        self.pose = msg.pose
+        self.pose_sim_time_s = msg.sim_time_s
+        return self.try_verify(now_wall_s)
+
+    def try_verify(self, now_wall_s: float | None = None) -> list[ComponentStateMsg]:
+        """In ``verifying``: decide when a fresh pose is known or the wait timed out; else nothing."""
+        if self.state is not ComponentState.VERIFYING:
+            return []
+        now = time.time() if now_wall_s is None else now_wall_s
+        fresh = (
+            self.pose is not None
+            and self.pose_sim_time_s is not None
+            and self.place_sim_time_s is not None
+            and self.pose_sim_time_s >= self.place_sim_time_s
+        )
+        if fresh:
+            cause = f"pose at sim {self.pose_sim_time_s:.3f} s"
+        elif self.verify_deadline_wall_s is not None and now >= self.verify_deadline_wall_s:
+            if self.pose is None:
+                cause = "no pose on the bus"
+            else:
+                cause = (
+                    f"no pose after the place event within {self._config.verify_timeout_s:g} s; "
+                    f"verified the latest (sim {self.pose_sim_time_s:.3f} s)"
+                )
+        else:
+            return []
+        check = None
+        if self.pose is not None:
+            check = verify(self.pose, self.component.target_pose_world, self._config.tolerances)
+        stamp = self.pose_sim_time_s if fresh else None
+        return [self._decide(check, cause, self._clock.now(stamp), now)]
+
+    # --- restart -------------------------------------------------------------------------------------------
+
+    def restore(
+        self,
+        state: ComponentState,
+        *,
+        attempt: int,
+        robot_id: str | None,
+        place_sim_time_s: float | None,
+        history: Iterable[TransitionRecord],
+        event_ids: Iterable[str],
+        now_wall_s: float | None = None,
+    ) -> None:
+        """Resume from a journal: the last state and what led there. A resumed ``verifying`` waits anew."""
+        now = time.time() if now_wall_s is None else now_wall_s
+        self._machine.set_state(state, model=self)
+        self.attempt = attempt
+        self.robot_id = robot_id
+        self.place_sim_time_s = None
+        self.verify_deadline_wall_s = None
+        if state is ComponentState.VERIFYING:
+            self.place_sim_time_s = 0.0 if place_sim_time_s is None else place_sim_time_s
+            self.verify_deadline_wall_s = now + self._config.verify_timeout_s
+        self.history = list(history)
+        self.event_ids = set(event_ids)
+
+    def announce(self, event: str, cause: str, now_wall_s: float | None = None) -> ComponentStateMsg:
+        """The current state as a message without a transition (process start: ``start`` or ``resume``)."""
+        now = time.time() if now_wall_s is None else now_wall_s
+        return self._message(None, event=event, cause=cause, sim_time_s=self._clock.now(), now=now)
+
+    # --- outputs -------------------------------------------------------------------------------------------
+
+    def twin(self) -> TwinMsg:
+        """The digital-twin record answered by the ``components/<key>/twin`` queryable."""
+        target = self.component.target_pose_world
+        return TwinMsg(
+            guid=self.guid,
+            key=self.key,
+            ifc_class=self.component.ifc_class,
+            name=self.component.name,
+            storey=self.component.storey,
+            material=self.component.material,
+            mass_kg=self.component.mass_kg,
+            target_pose=PoseMsg(position_m=target.position_m, quat_xyzw=target.quat_xyzw),
+            current_pose=self.pose,
+            current_pose_sim_time_s=self.pose_sim_time_s,
+            state=self.state,
+            attempt=self.attempt,
+            robot_id=self.robot_id,
+            history=list(self.history),
+        )
+
+    # --- internals -----------------------------------------------------------------------------------------
+
+    def _decide(self, check: Check | None, cause: str, sim_time_s: float, now: float) -> ComponentStateMsg:
+        tol = self._config.tolerances
+        if check is not None and check.ok:
+            verdict = Verdict.VERIFIED
+            why = "within tolerances"
+        else:
+            verdict = Verdict.MISPLACED if self.attempt < self._config.max_attempts else Verdict.FAILED
+            why = f"attempt {self.attempt} of {self._config.max_attempts}"
+            if check is not None:
+                why = (
+                    f"out of tolerance ({tol.position_m * 1000:g} mm, {math.degrees(tol.angle_rad):g}°), "
+                    + why
+                )
+        source = self.state
+        if not self._machine.fire(self, verdict.value):  # pragma: no cover - verifying allows all three
+            raise RuntimeError(f"{self.guid}: {verdict.value} refused in state {source}")
+        self.verify_deadline_wall_s = None
+        errors = (check.position_error_m, check.angle_error_rad) if check else (None, None)
+        if check is not None:
+            why += f": {check.position_error_m * 1000:.1f} mm, {math.degrees(check.angle_error_rad):.2f}°"
+        return self._record(
+            source,
+            event=verdict.value,
+            cause=f"{why}; {cause}",
+            sim_time_s=sim_time_s,
+            now=now,
+            errors=errors,
+        )
+
+    def _record(
+        self,
+        source: ComponentState,
+        *,
+        event: str,
+        cause: str,
+        sim_time_s: float,
+        now: float,
+        errors: tuple[float | None, float | None] = (None, None),
+    ) -> ComponentStateMsg:
+        self.history.append(
+            TransitionRecord(
+                source=source,
+                dest=self.state,
+                event=event,
+                cause=cause,
+                sim_time_s=sim_time_s,
+                attempt=self.attempt,
+            )
+        )
+        _log.debug("%s: %s → %s (%s; %s)", self.guid, source.value, self.state.value, event, cause)
+        return self._message(source, event=event, cause=cause, sim_time_s=sim_time_s, now=now, errors=errors)
+
+    def _message(
+        self,
+        previous: ComponentState | None,
+        *,
+        event: str,
+        cause: str,
+        sim_time_s: float,
+        now: float,
+        errors: tuple[float | None, float | None] = (None, None),
+    ) -> ComponentStateMsg:
+        return ComponentStateMsg(
+            guid=self.guid,
+            state=self.state,
+            previous=previous,
+            event=event,
+            cause=cause,
+            attempt=self.attempt,
+            robot_id=self.robot_id,
+            sim_time_s=sim_time_s,
+            wall_time_s=now,
+            position_error_m=errors[0],
+            angle_error_rad=errors[1],
+        )

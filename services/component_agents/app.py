@@ -1,0 +1,182 @@
+"""The agents' Zenoh adapter: one session for all the agents of one shard.
+
+Declared, in this order, so that a component seen alive can already be driven and queried:
+
+* subscribers (through :class:`shared.bus.Inbox`, which validates and only enqueues) on
+  ``bimbot/<site>/components/*/event``, ``bimbot/<site>/components/*/pose`` and ``bimbot/<site>/clock``;
+  messages for components of other shards are dropped by the host;
+* one queryable on ``bimbot/<site>/components/*/twin`` whose callback only enqueues the query. The loop
+  replies once per owned component whose twin key matches the query (so ``components/*/twin`` gets one
+  reply per component from each shard) and then drops the query, which finalises it. It is declared
+  incomplete, so a querier's default target reaches every shard's queryable;
+* one liveliness token per agent, ``bimbot/<site>/alive/component/<key>``. Zenoh's per-session cost of
+  a token grows with the tokens the session already holds (measured: 10,000 in one session 2.1 s alone,
+  3–7 s connected to a router; the same 10,000 over ten sessions 0.2 s alone). So beyond
+  ``TOKENS_PER_SESSION`` tokens the process opens extra sessions just for tokens, in client mode to
+  the same router: they hold no subscriptions and join no peer mesh. Without endpoints to connect to,
+  every token stays on the main session.
+
+Then every agent announces its state once and the loop drains the inbox, applies, journals, publishes the
+state changes on ``components/<key>/state`` (``session.put``: declaring a publisher per agent measured
+2.1 s and 2.5 KB per agent for 5,000 agents, for no gain at a few messages per component per build) and
+checks the verification timeouts. A failure while handling one item is logged and the loop goes on.
+Setting ``stop`` (SIGTERM/SIGINT in the CLI) ends the loop; the session is closed by ``with``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import threading
+import time
+from collections.abc import Iterable
+from pathlib import Path
+
+import zenoh
+
+from shared.bus import BusOptions, Inbox, encode, open_session
+from shared.manifest import Manifest, read_manifest
+from shared.messages import (
+    ALIVE_KEY,
+    CLOCK_KEY,
+    COMPONENT_EVENT_KEY,
+    COMPONENT_POSE_KEY,
+    COMPONENT_TWIN_KEY,
+    ClockMsg,
+    ComponentEventMsg,
+    ComponentPoseMsg,
+    key,
+)
+
+from .agent import AgentConfig
+from .host import TAG_CLOCK, TAG_EVENT, TAG_POSE, AgentHost, Outgoing
+from .journal import Journal, journal_path
+
+_log = logging.getLogger(__name__)
+
+TAG_TWIN = "twin"
+LOOP_WAIT_S = 0.05  # longest wait for input before the verification timeouts are checked
+TOKENS_PER_SESSION = 1_000
+
+
+def default_state_dir(build_dir: Path) -> Path:
+    return Path(build_dir) / "state"
+
+
+def main(  # noqa: PLR0917 - the issue's signature: main(options, build_dir, shard, n_shards, config, stop)
+    options: BusOptions,
+    build_dir: Path,
+    shard: int,
+    n_shards: int,
+    config: AgentConfig,
+    stop: threading.Event,
+    *,
+    state_dir: Path | None = None,
+    fresh: bool = False,
+    manifest: Manifest | None = None,
+) -> int:
+    """Run shard ``shard``/``n_shards`` of the build's agents until ``stop`` is set; 0 on a clean stop."""
+    manifest = manifest if manifest is not None else read_manifest(build_dir)
+    path = journal_path(state_dir or default_state_dir(build_dir), shard, n_shards)
+    with Journal(path, fresh=fresh) as journal:
+        host = AgentHost(manifest, shard, n_shards, config=config, journal=journal, resume=journal.replayed)
+        _log.info(
+            "shard %d/%d: %d agents of site %s (journal %s, %d resumed)",
+            shard,
+            n_shards,
+            len(host.agents),
+            host.site,
+            path,
+            len(host.resumed),
+        )
+        with open_session(options) as session, contextlib.ExitStack() as extra:
+            token_sessions = [session] + [
+                extra.enter_context(open_session(options_for_tokens))
+                for options_for_tokens in token_session_options(options, len(host.agents))
+            ]
+            serve(session, host, stop, token_sessions)
+        _log.info("agents stopped: %s", dict(host.counts))
+    return 0
+
+
+def token_session_options(options: BusOptions, n_tokens: int) -> list[BusOptions]:
+    """Options of the extra sessions that carry liveliness tokens beyond the main session's share."""
+    extra = max(0, -(-n_tokens // TOKENS_PER_SESSION) - 1)
+    if extra == 0 or options.mode == "router" or not options.connect:
+        return []
+    return [BusOptions(mode="client", connect=options.connect, listen=())] * extra
+
+
+def serve(
+    session: zenoh.Session,
+    host: AgentHost,
+    stop: threading.Event,
+    token_sessions: list[zenoh.Session] | None = None,
+) -> None:
+    """Declare everything on ``session`` (tokens spread over ``token_sessions``) and run the loop until
+    ``stop`` is set."""
+    site = host.site
+    inbox = Inbox()
+    # Kept referenced until the session closes (an undropped declaration stays declared anyway).
+    declarations: list[object] = [
+        inbox.subscribe(session, key(COMPONENT_EVENT_KEY, site=site, key="*"), ComponentEventMsg, TAG_EVENT),
+        inbox.subscribe(session, key(COMPONENT_POSE_KEY, site=site, key="*"), ComponentPoseMsg, TAG_POSE),
+        inbox.subscribe(session, key(CLOCK_KEY, site=site), ClockMsg, TAG_CLOCK),
+        session.declare_queryable(
+            key(COMPONENT_TWIN_KEY, site=site, key="*"),
+            lambda query: inbox.put(TAG_TWIN, query),
+            complete=False,
+        ),
+    ]
+    started = time.perf_counter()
+    livelinesses = [token_session.liveliness() for token_session in token_sessions or [session]]
+    per_session = -(-len(host.agents) // len(livelinesses)) if host.agents else 1
+    declarations.extend(
+        livelinesses[index // per_session].declare_token(key(ALIVE_KEY, site=site, kind="component", id=k))
+        for index, k in enumerate(host.agents)
+    )
+    _log.info(
+        "declared %d liveliness tokens over %d session(s) in %.2f s",
+        len(host.agents),
+        len(livelinesses),
+        time.perf_counter() - started,
+    )
+    _publish(session, host.start())
+
+    while not stop.is_set():
+        for tag, item in inbox.drain(first_timeout_s=LOOP_WAIT_S):
+            try:
+                if tag == TAG_TWIN:
+                    _answer(item, host)  # type: ignore[arg-type]
+                else:
+                    _publish(session, host.handle(tag, item))
+            except Exception:
+                host.counts["handler_errors"] += 1
+                _log.exception("handling a %s item failed; going on", tag)
+            if stop.is_set():
+                break
+        try:
+            _publish(session, host.tick())
+        except Exception:
+            host.counts["handler_errors"] += 1
+            _log.exception("checking verification timeouts failed; going on")
+    invalid = inbox.invalid.total
+    if invalid:
+        _log.info("%d invalid payloads were received and ignored", invalid)
+    del declarations
+
+
+def _publish(session: zenoh.Session, outgoing: Iterable[Outgoing]) -> None:
+    for item in outgoing:
+        session.put(item.key_expr, encode(item.message))
+
+
+def _answer(query: zenoh.Query, host: AgentHost) -> None:
+    """Reply with the twin of every owned component the query's key expression matches, then finalise."""
+    try:
+        query_ke = query.key_expr
+        replies = host.twins(str(query_ke), lambda _query, twin_key: query_ke.intersects(twin_key))
+        for reply_key, twin in replies:
+            query.reply(reply_key, encode(twin))
+    finally:
+        query.drop()

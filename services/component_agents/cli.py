@@ -1,0 +1,137 @@
+"""``bimbot agents --build OUT/ [--shard i/n]``: run the smart-component agents of a converted build.
+
+One process runs every agent of its shard (components split by GUID, see :func:`.host.shard_of`). State
+survives restarts through the shard's journal (``OUT/state/agents-<i>of<n>.jsonl``, see :mod:`.journal`);
+``--fresh`` clears it. Runs until SIGTERM/SIGINT, then closes its Zenoh session and exits 0.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import signal
+import threading
+from pathlib import Path
+
+from pydantic import ValidationError
+
+from shared.bus import add_bus_arguments, bus_options
+from shared.errors import UserError
+from shared.manifest import MANIFEST_FILE_NAME, Manifest, read_manifest
+
+from . import app
+from .agent import AgentConfig
+from .host import parse_shard, shard_manifest
+from .verification import Tolerances
+
+_log = logging.getLogger(__name__)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    defaults = AgentConfig()
+    default_angle_deg = math.degrees(defaults.tolerances.angle_rad)
+    parser.add_argument(
+        "--build", type=Path, required=True, metavar="OUT/", help="converted build (manifest.json)"
+    )
+    parser.add_argument(
+        "--shard", default="1/1", metavar="I/N", help="run shard I of N, split by GUID (default 1/1)"
+    )
+    parser.add_argument("--state-dir", type=Path, default=None, help="journal folder (default OUT/state)")
+    parser.add_argument(
+        "--position-tolerance-m",
+        type=float,
+        default=defaults.tolerances.position_m,
+        help=f"accepted placement position error, m (default {defaults.tolerances.position_m:g})",
+    )
+    parser.add_argument(
+        "--angle-tolerance-deg",
+        type=float,
+        default=default_angle_deg,
+        help=f"accepted placement angle error, degrees (default {default_angle_deg:g})",
+    )
+    parser.add_argument(
+        "--max-attempts",
+        type=int,
+        default=defaults.max_attempts,
+        help=f"placements before a component is failed (default {defaults.max_attempts})",
+    )
+    parser.add_argument(
+        "--verify-timeout-s",
+        type=float,
+        default=defaults.verify_timeout_s,
+        help=f"wall seconds to wait for a pose after a placement (default {defaults.verify_timeout_s:g})",
+    )
+    parser.add_argument(
+        "--fresh", action="store_true", help="clear this shard's journal and start every agent anew"
+    )
+    add_bus_arguments(parser)
+
+
+def load_manifest(build_dir: Path) -> Manifest:
+    """The build's manifest, or a one-line UserError."""
+    path = build_dir / MANIFEST_FILE_NAME if build_dir.is_dir() else build_dir
+    if not path.is_file():
+        raise UserError(f"{path}: no manifest (convert a model first: bimbot convert MODEL.ifc -o OUT/)")
+    try:
+        return read_manifest(path)
+    except json.JSONDecodeError as error:
+        raise UserError(f"{path}: not a JSON manifest ({error.msg} at line {error.lineno})") from error
+    except ValidationError as error:
+        first = error.errors()[0]
+        where = ".".join(str(part) for part in first.get("loc", ())) or "manifest"
+        raise UserError(f"{path}: invalid manifest ({where}: {first.get('msg', 'invalid')})") from error
+    except (ValueError, OSError) as error:
+        raise UserError(f"{path}: unreadable manifest ({str(error).splitlines()[0]})") from error
+
+
+def agent_config(args: argparse.Namespace) -> AgentConfig:
+    try:
+        return AgentConfig(
+            tolerances=Tolerances(
+                position_m=args.position_tolerance_m, angle_rad=math.radians(args.angle_tolerance_deg)
+            ),
+            max_attempts=args.max_attempts,
+            verify_timeout_s=args.verify_timeout_s,
+        )
+    except ValueError as error:
+        raise UserError(str(error)) from error
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        shard, n_shards = parse_shard(args.shard)
+        options = bus_options(args)
+    except ValueError as error:
+        raise UserError(str(error)) from error
+    config = agent_config(args)
+    manifest = load_manifest(args.build)
+    total = len(manifest.components)
+    manifest = shard_manifest(manifest, shard, n_shards)  # the other shards' components are freed here
+    _log.info(
+        "shard %d/%d: %d of the build's %d components", shard, n_shards, len(manifest.components), total
+    )
+    if not manifest.components:
+        _log.warning("shard %d/%d owns none of the %d components", shard, n_shards, total)
+    if not _log.isEnabledFor(logging.DEBUG):
+        # transitions logs every state entry and exit at INFO: thousands of lines per second under load.
+        logging.getLogger("transitions").setLevel(logging.WARNING)
+    build_dir = args.build if args.build.is_dir() else args.build.parent
+    stop = threading.Event()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    try:
+        return app.main(
+            options,
+            build_dir,
+            shard,
+            n_shards,
+            config,
+            stop,
+            state_dir=args.state_dir,
+            fresh=args.fresh,
+            manifest=manifest,
+        )
+    except OSError as error:
+        raise UserError(f"agents: {error}") from error

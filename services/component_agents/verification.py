@@ -1,0 +1,100 @@
+"""A component's self-verification: its pose on the bus against its BIM target pose (paper §4.5).
+
+Pure functions over positions (metres, simulation world frame) and unit quaternions ``quat_xyzw``:
+
+* position error: Euclidean distance between the two positions, metres;
+* angle error: the geodesic angle of the rotation that takes the target orientation to the current one,
+  radians in ``[0, π]``. ``q`` and ``-q`` are the same rotation, so the error is sign-invariant. It is
+  computed as ``2·atan2(|v|, |w|)`` of the relative quaternion, which stays exact for tiny angles (where
+  ``2·acos(|q₁·q₂|)`` loses half its digits).
+
+A placement is accepted when both errors are within explicit :class:`Tolerances` (inclusive).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+from shared.manifest import Quat, Vec3
+
+
+class HasPose(Protocol):
+    """Anything with ``position_m`` and ``quat_xyzw`` (shared.messages.PoseMsg, shared.manifest.Pose)."""
+
+    @property
+    def position_m(self) -> Vec3: ...
+
+    @property
+    def quat_xyzw(self) -> Quat: ...
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """How far a placed component may be from its BIM target and still count as constructed."""
+
+    position_m: float = 0.01
+    angle_rad: float = math.radians(1.0)
+
+    def __post_init__(self) -> None:
+        for name in ("position_m", "angle_rad"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"tolerance {name} must be a finite number ≥ 0, got {value!r}")
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The result of one verification: accepted or not, and both errors."""
+
+    ok: bool
+    position_error_m: float
+    angle_error_rad: float
+
+
+def _unit(quat_xyzw: Quat) -> tuple[float, float, float, float]:
+    norm = math.sqrt(sum(c * c for c in quat_xyzw))
+    if not (math.isfinite(norm) and norm > 1e-9):
+        raise ValueError(f"quaternion {tuple(quat_xyzw)!r} has no orientation (norm {norm})")
+    x, y, z, w = (c / norm for c in quat_xyzw)
+    return x, y, z, w
+
+
+def is_valid_pose(position_m: Vec3, quat_xyzw: Quat) -> bool:
+    """True when the position is finite and the quaternion is finite and not (near) zero."""
+    if not all(math.isfinite(c) for c in position_m):
+        return False
+    try:
+        _unit(quat_xyzw)
+    except ValueError:
+        return False
+    return True
+
+
+def position_error_m(current_m: Vec3, target_m: Vec3) -> float:
+    """Distance between two positions, metres."""
+    return math.dist(current_m, target_m)
+
+
+def angle_error_rad(current_xyzw: Quat, target_xyzw: Quat) -> float:
+    """Geodesic angle between two orientations, radians in [0, π]; the sign of either quaternion is ignored.
+
+    Raises ValueError for a zero or non-finite quaternion.
+    """
+    x1, y1, z1, w1 = _unit(target_xyzw)
+    x2, y2, z2, w2 = _unit(current_xyzw)
+    # relative rotation q_rel = conj(q_target) ⊗ q_current
+    w = w1 * w2 + x1 * x2 + y1 * y2 + z1 * z2
+    x = w1 * x2 - x1 * w2 - y1 * z2 + z1 * y2
+    y = w1 * y2 + x1 * z2 - y1 * w2 - z1 * x2
+    z = w1 * z2 - x1 * y2 + y1 * x2 - z1 * w2
+    return 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
+
+
+def verify(current: HasPose, target: HasPose, tolerances: Tolerances) -> Verdict:
+    """Compare a current pose with the BIM target pose against ``tolerances`` (both bounds inclusive)."""
+    position_error = position_error_m(current.position_m, target.position_m)
+    angle_error = angle_error_rad(current.quat_xyzw, target.quat_xyzw)
+    ok = position_error <= tolerances.position_m and angle_error <= tolerances.angle_rad
+    return Verdict(ok=ok, position_error_m=position_error, angle_error_rad=angle_error)

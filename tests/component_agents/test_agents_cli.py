@@ -1,0 +1,62 @@
+"""`bimbot agents` refuses bad input with one clear line and exit code 2."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from bimbot.cli import main
+
+
+def run_cli(args: list[str], caplog: pytest.LogCaptureFixture) -> tuple[int, str]:
+    caplog.clear()
+    with caplog.at_level("ERROR", logger="bimbot"):
+        code = main(["agents", *args])
+    return code, "\n".join(r.getMessage() for r in caplog.records if r.name == "bimbot")
+
+
+def test_missing_manifest_is_one_line_and_exit_2(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    code, message = run_cli(["--build", str(tmp_path)], caplog)
+    assert code == 2
+    assert "no manifest" in message
+    assert "\n" not in message
+
+
+def test_invalid_manifest_is_one_line_and_exit_2(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    (tmp_path / "manifest.json").write_text('{"schema_version": 1, "components": 3}')
+    code, message = run_cli(["--build", str(tmp_path)], caplog)
+    assert (code, "invalid manifest" in message) == (2, True)
+    (tmp_path / "manifest.json").write_text("{not json")
+    code, message = run_cli(["--build", str(tmp_path)], caplog)
+    assert (code, "not a JSON manifest" in message) == (2, True)
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["--shard", "3/2"], "--shard"),
+        (["--shard", "x"], "--shard"),
+        (["--max-attempts", "0"], "max_attempts"),
+        (["--position-tolerance-m", "-1"], "tolerance"),
+        (["--verify-timeout-s", "0"], "verify_timeout_s"),
+    ],
+)
+def test_bad_options_are_one_line_and_exit_2(
+    agents_build: Path, args: list[str], expected: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    code, message = run_cli(["--build", str(agents_build), *args], caplog)
+    assert code == 2
+    assert expected in message
+
+
+def test_the_agents_process_does_not_load_ifcopenshell() -> None:
+    # ifcopenshell (imported by shared.identifiers) adds ~50 MB to every agent process.
+    code = (
+        "import sys, services.component_agents.cli, services.component_agents.app;"
+        "print(sorted({'ifcopenshell', 'pybullet', 'numpy'} & set(sys.modules)))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"

@@ -1,0 +1,263 @@
+"""One component agent without a bus: protocol, idempotence, self-verification, retries, timeouts."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from agent_builders import GUIDS, clock, component, event, pose_of
+
+from services.component_agents.agent import AgentConfig, ComponentAgent, SimClock
+from services.component_agents.state_table import ComponentMachine
+from services.component_agents.verification import Tolerances
+from shared.messages import ComponentEvent, ComponentState, ComponentStateMsg, PoseMsg
+
+S = ComponentState
+E = ComponentEvent
+NOW = 1_000.0  # wall seconds, injected
+
+
+def new_agent(**config: object) -> ComponentAgent:
+    return ComponentAgent(component(GUIDS[1]), AgentConfig(**config))  # type: ignore[arg-type]
+
+
+def drive_to_assembling(agent: ComponentAgent, sim_time_s: float = 1.0) -> None:
+    for name in (E.RELEASE, E.PICK, E.ATTACH, E.ARRIVE):
+        assert agent.apply_event(event(agent.guid, name, sim_time_s=sim_time_s), NOW), name
+
+
+def states(messages: list[ComponentStateMsg]) -> list[ComponentState]:
+    return [message.state for message in messages]
+
+
+def test_happy_path_ends_constructed_with_one_message_per_change() -> None:
+    agent = new_agent()
+    assert agent.state is S.PLANNED
+    seen: list[ComponentStateMsg] = []
+    for name in (E.RELEASE, E.PICK, E.ATTACH, E.ARRIVE):
+        seen += agent.apply_event(event(agent.guid, name, sim_time_s=2.0), NOW)
+    assert agent.observe_pose(pose_of(agent.component, sim_time_s=3.0), NOW) == []  # not verifying yet
+    seen += agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=3.0), NOW)
+
+    assert states(seen) == [S.RELEASED, S.PICKING, S.TRANSPORTING, S.ASSEMBLING, S.VERIFYING, S.CONSTRUCTED]
+    assert [m.previous for m in seen] == [
+        S.PLANNED,
+        S.RELEASED,
+        S.PICKING,
+        S.TRANSPORTING,
+        S.ASSEMBLING,
+        S.VERIFYING,
+    ]
+    assert [m.event for m in seen] == ["release", "pick", "attach", "arrive", "place", "verified"]
+    done = seen[-1]
+    assert done.attempt == 1
+    assert done.robot_id == "robot-1"
+    assert done.position_error_m == pytest.approx(0.0, abs=1e-12)
+    assert done.angle_error_rad == pytest.approx(0.0, abs=1e-9)
+    assert done.sim_time_s == 3.0
+    assert done.wall_time_s == NOW
+    assert "within tolerances" in done.cause
+    assert [(r.source, r.dest) for r in agent.history] == [(m.previous, m.state) for m in seen]
+
+
+def test_twin_holds_semantics_target_current_pose_state_and_history() -> None:
+    agent = new_agent()
+    drive_to_assembling(agent)
+    placed = pose_of(agent.component, sim_time_s=4.0, offset_m=(0.001, 0.0, 0.0))
+    agent.observe_pose(placed, NOW)
+    twin = agent.twin()
+    assert (twin.guid, twin.key, twin.ifc_class, twin.material) == (
+        GUIDS[1],
+        "2-E215S9vVeQ-YatrTq2Oc",
+        "IfcBeam",
+        "S275",
+    )
+    assert twin.target_pose.position_m == agent.component.target_pose_world.position_m
+    assert twin.current_pose == placed.pose
+    assert twin.current_pose_sim_time_s == 4.0
+    assert twin.state is S.ASSEMBLING
+    assert [r.dest for r in twin.history] == [S.RELEASED, S.PICKING, S.TRANSPORTING, S.ASSEMBLING]
+
+
+@pytest.mark.parametrize("name", [E.PICK, E.ATTACH, E.ARRIVE, E.PLACE, E.RETRY, E.ABANDON])
+def test_illegal_events_are_rejected_and_not_applied(
+    name: ComponentEvent, caplog: pytest.LogCaptureFixture
+) -> None:
+    agent = new_agent()
+    with caplog.at_level("INFO", logger="services.component_agents.agent"):
+        assert agent.apply_event(event(agent.guid, name), NOW) == []
+    assert agent.state is S.PLANNED
+    assert agent.history == []
+    assert agent.attempt == 0
+    assert "rejected" in caplog.text
+
+
+def test_a_rejected_event_id_is_applied_when_repeated_in_a_state_that_allows_it() -> None:
+    agent = new_agent()
+    pick = event(agent.guid, E.PICK)
+    assert agent.apply_event(pick, NOW) == []
+    agent.apply_event(event(agent.guid, E.RELEASE), NOW)
+    assert states(agent.apply_event(pick, NOW)) == [S.PICKING]
+
+
+def test_a_repeated_event_id_is_applied_once() -> None:
+    agent = new_agent()
+    release = event(agent.guid, E.RELEASE)
+    assert states(agent.apply_event(release, NOW)) == [S.RELEASED]
+    assert agent.apply_event(release, NOW) == []
+    pick = event(agent.guid, E.PICK)
+    agent.apply_event(pick, NOW)
+    agent.apply_event(event(agent.guid, E.ABANDON), NOW)
+    assert agent.apply_event(pick, NOW) == []  # the old pick, delivered again, does not pick again
+    assert agent.state is S.RELEASED
+    assert len(agent.history) == 3
+
+
+def test_events_for_another_guid_or_with_a_non_finite_time_are_rejected() -> None:
+    agent = new_agent()
+    assert agent.apply_event(event(GUIDS[0], E.RELEASE), NOW) == []
+    assert agent.apply_event(event(agent.guid, E.RELEASE, sim_time_s=math.nan), NOW) == []
+    assert agent.state is S.PLANNED
+
+
+def test_misplaced_then_retry_then_constructed() -> None:
+    agent = new_agent()
+    drive_to_assembling(agent)
+    agent.observe_pose(pose_of(agent.component, sim_time_s=5.0, offset_m=(0.05, 0.0, 0.0)), NOW)
+    first = agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=5.0), NOW)
+    assert states(first) == [S.VERIFYING, S.MISPLACED]
+    assert first[-1].event == "misplaced_placement"
+    assert first[-1].position_error_m == pytest.approx(0.05)
+    assert first[-1].attempt == 1
+    assert "out of tolerance" in first[-1].cause
+
+    assert states(agent.apply_event(event(agent.guid, E.RETRY, robot_id=None), NOW)) == [S.RELEASED]
+    assert agent.robot_id is None
+    drive_again = [E.PICK, E.ATTACH, E.ARRIVE]
+    for name in drive_again:
+        agent.apply_event(event(agent.guid, name, sim_time_s=6.0), NOW)
+    agent.observe_pose(pose_of(agent.component, sim_time_s=7.0, extra_yaw_rad=math.radians(0.5)), NOW)
+    second = agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=7.0), NOW)
+    assert states(second) == [S.VERIFYING, S.CONSTRUCTED]
+    assert second[-1].attempt == 2
+    assert second[-1].angle_error_rad == pytest.approx(math.radians(0.5))
+
+
+def test_failed_after_max_attempts_and_then_terminal() -> None:
+    agent = new_agent(max_attempts=2)
+    for attempt in (1, 2):
+        drive = [E.PICK, E.ATTACH, E.ARRIVE] if attempt > 1 else [E.RELEASE, E.PICK, E.ATTACH, E.ARRIVE]
+        for name in drive:
+            agent.apply_event(event(agent.guid, name), NOW)
+        agent.observe_pose(pose_of(agent.component, sim_time_s=10.0 * attempt, offset_m=(0, 0, 0.2)), NOW)
+        out = agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=10.0 * attempt), NOW)
+        if attempt == 1:
+            assert states(out) == [S.VERIFYING, S.MISPLACED]
+            agent.apply_event(event(agent.guid, E.RETRY), NOW)
+    assert states(out) == [S.VERIFYING, S.FAILED]
+    assert out[-1].event == "failed_placement"
+    assert out[-1].attempt == 2
+    for name in ComponentEvent:
+        assert agent.apply_event(event(agent.guid, name), NOW) == []
+    assert agent.state is S.FAILED
+
+
+def test_constructed_accepts_nothing_more() -> None:
+    agent = new_agent()
+    drive_to_assembling(agent)
+    agent.observe_pose(pose_of(agent.component, sim_time_s=2.0), NOW)
+    agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=2.0), NOW)
+    assert agent.state is S.CONSTRUCTED
+    for name in ComponentEvent:
+        assert agent.apply_event(event(agent.guid, name, sim_time_s=9.0), NOW) == []
+    assert agent.observe_pose(pose_of(agent.component, sim_time_s=9.0, offset_m=(1, 0, 0)), NOW) == []
+    assert agent.state is S.CONSTRUCTED
+    assert sum(record.dest is S.CONSTRUCTED for record in agent.history) == 1
+
+
+def test_verification_waits_for_a_pose_stamped_at_or_after_the_place_event() -> None:
+    agent = new_agent()
+    drive_to_assembling(agent)
+    agent.observe_pose(pose_of(agent.component, sim_time_s=1.0, offset_m=(0.5, 0, 0)), NOW)  # still carried
+    assert states(agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=5.0), NOW)) == [S.VERIFYING]
+    assert agent.observe_pose(pose_of(agent.component, sim_time_s=4.9), NOW) == []  # older than the place
+    assert agent.state is S.VERIFYING
+    assert agent.try_verify(NOW + 0.1) == []
+    out = agent.observe_pose(pose_of(agent.component, sim_time_s=5.0), NOW + 0.2)
+    assert states(out) == [S.CONSTRUCTED]
+    assert out[0].sim_time_s == 5.0
+    assert "pose at sim 5.000 s" in out[0].cause
+
+
+def test_timeout_verifies_the_latest_pose_when_no_fresh_one_comes() -> None:
+    agent = new_agent(verify_timeout_s=2.0)
+    drive_to_assembling(agent)
+    agent.observe_pose(pose_of(agent.component, sim_time_s=1.0), NOW)  # stale but at the target
+    assert states(agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=5.0), NOW)) == [S.VERIFYING]
+    assert agent.try_verify(NOW + 1.99) == []
+    out = agent.try_verify(NOW + 2.0)
+    assert states(out) == [S.CONSTRUCTED]
+    assert "verified the latest" in out[0].cause
+
+
+def test_timeout_without_any_pose_is_a_failed_placement() -> None:
+    agent = new_agent(verify_timeout_s=2.0, max_attempts=3)
+    drive_to_assembling(agent)
+    agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=5.0), NOW)
+    assert agent.try_verify(NOW + 1.0) == []
+    out = agent.try_verify(NOW + 2.5)
+    assert states(out) == [S.MISPLACED]
+    assert "no pose on the bus" in out[0].cause
+    assert out[0].position_error_m is None
+
+
+def test_invalid_poses_are_ignored() -> None:
+    agent = new_agent()
+    drive_to_assembling(agent)
+    agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=5.0), NOW)
+    bad = pose_of(agent.component, sim_time_s=6.0).model_copy(
+        update={"pose": PoseMsg(position_m=(0.0, 0.0, 0.0), quat_xyzw=(0.0, 0.0, 0.0, 0.0))}
+    )
+    assert agent.observe_pose(bad, NOW) == []
+    nan = pose_of(agent.component, sim_time_s=math.nan)
+    assert agent.observe_pose(nan, NOW) == []
+    assert agent.pose is None
+    assert agent.state is S.VERIFYING
+
+
+def test_tolerances_are_configurable() -> None:
+    agent = new_agent(tolerances=Tolerances(position_m=0.1, angle_rad=math.radians(10)))
+    drive_to_assembling(agent)
+    agent.observe_pose(
+        pose_of(agent.component, sim_time_s=5.0, offset_m=(0.05, 0, 0), extra_yaw_rad=0.1), NOW
+    )
+    assert states(agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=5.0), NOW)) == [
+        S.VERIFYING,
+        S.CONSTRUCTED,
+    ]
+
+
+def test_state_messages_carry_the_latest_sim_clock() -> None:
+    sim = SimClock()
+    agent = ComponentAgent(component(GUIDS[0]), AgentConfig(), ComponentMachine(), sim)
+    sim.observe(clock(42.0).sim_time_s)
+    out = agent.apply_event(event(agent.guid, E.RELEASE, sim_time_s=40.0), NOW)
+    assert out[0].sim_time_s == 42.0
+    out = agent.apply_event(event(agent.guid, E.PICK, sim_time_s=43.0), NOW)  # clock lags the sender
+    assert out[0].sim_time_s == 43.0
+
+
+def test_agents_share_one_machine_without_interfering() -> None:
+    machine = ComponentMachine()
+    first = ComponentAgent(component(GUIDS[0]), machine=machine)
+    second = ComponentAgent(component(GUIDS[1]), machine=machine)
+    first.apply_event(event(first.guid, E.RELEASE), NOW)
+    assert (first.state, second.state) == (S.RELEASED, S.PLANNED)
+    assert len(machine.models) == 2
+
+
+def test_config_is_validated() -> None:
+    with pytest.raises(ValueError, match="max_attempts"):
+        AgentConfig(max_attempts=0)
+    with pytest.raises(ValueError, match="verify_timeout_s"):
+        AgentConfig(verify_timeout_s=0.0)
