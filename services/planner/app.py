@@ -1,0 +1,261 @@
+"""The planner's Zenoh adapter: feeds :class:`~.scheduler.PlannerCore` from the bus and publishes its output.
+
+Start-up, in order:
+
+1. declare the liveliness token ``alive/planner/main`` and subscribe (callbacks only enqueue, see
+   :class:`shared.bus.Inbox`) to ``components/*/state``, ``components/*/pose``, ``robots/*/state``,
+   ``clock`` and the liveliness of ``alive/robot/*`` and ``alive/component/*``;
+2. wait until every component agent of the manifest is alive (``agents_timeout_s``; then the missing ones
+   are logged and the planner goes on);
+3. ask every agent for its digital twin (``get components/*/twin``) so components that are already further
+   on (agents restarted with constructed components) are never released again; tasks of robots that are
+   not alive are given back.
+
+Then the loop: drain the inbox into the core, ``step`` it, publish events (``components/<key>/event``) and
+tasks (``tasks/<task_id>``), and publish progress (``progress``) when it changes and at least every
+``progress_interval_s``. With ``exit_when_done`` the planner returns when every task is done, failed or
+blocked: 0 when everything was constructed, 1 (with a summary naming the failed and blocked components)
+otherwise. It also returns (0) when ``stop`` is set.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import zenoh
+from pydantic import ValidationError
+
+from shared.bus import Inbox, Received, decode, encode
+from shared.errors import UserError
+from shared.identifiers import guid_to_key
+from shared.manifest import MANIFEST_FILE_NAME, Manifest, read_manifest
+from shared.messages import (
+    ALIVE_KEY,
+    CLOCK_KEY,
+    COMPONENT_EVENT_KEY,
+    COMPONENT_POSE_KEY,
+    COMPONENT_STATE_KEY,
+    COMPONENT_TWIN_KEY,
+    PROGRESS_KEY,
+    ROBOT_STATE_KEY,
+    TASK_KEY,
+    ClockMsg,
+    ComponentEventMsg,
+    ComponentPoseMsg,
+    ComponentStateMsg,
+    ProgressMsg,
+    RobotStateMsg,
+    TaskMsg,
+    TwinMsg,
+    key,
+)
+
+from .scheduler import Outgoing, PlannerCore
+from .sources import PlanSource, load_plan
+
+_log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class PlannerOptions:
+    exit_when_done: bool = False
+    agents_timeout_s: float = 30.0  # wall seconds to wait for every component agent's liveliness
+    resend_s: float = 2.0  # wall seconds before an unobserved event or assignment is sent again
+    progress_interval_s: float = 1.0  # progress is published at least this often (wall seconds)
+    twin_timeout_s: float = 5.0  # wall seconds for the start-up twin query
+    poll_s: float = 0.05  # longest wait for bus input per loop turn
+
+
+def load_build(build_dir: Path) -> Manifest:
+    """The build's manifest, or a one-line :class:`UserError`."""
+    build_dir = Path(build_dir)
+    if not (build_dir / MANIFEST_FILE_NAME).is_file():
+        raise UserError(f"{build_dir}: not a converted build (no {MANIFEST_FILE_NAME}; run bimbot convert)")
+    try:
+        return read_manifest(build_dir)
+    except ValidationError as error:
+        first = error.errors()[0]
+        where = ".".join(str(part) for part in first.get("loc", ()))
+        raise UserError(
+            f"{build_dir / MANIFEST_FILE_NAME}: invalid manifest ({where}: {first['msg']})"
+        ) from None
+    except (OSError, ValueError) as error:
+        raise UserError(f"{build_dir / MANIFEST_FILE_NAME}: unreadable manifest ({error})") from None
+
+
+def outgoing_key(site: str, message: Outgoing | ProgressMsg) -> str:
+    """Where a planner message is published."""
+    if isinstance(message, ComponentEventMsg):
+        return key(COMPONENT_EVENT_KEY, site=site, key=guid_to_key(message.guid))
+    if isinstance(message, TaskMsg):
+        return key(TASK_KEY, site=site, task_id=message.task_id)
+    return key(PROGRESS_KEY, site=site)
+
+
+def main(
+    options: PlannerOptions,
+    build_dir: Path,
+    source: PlanSource,
+    config: zenoh.Config,
+    stop: threading.Event,
+) -> int:
+    """Run the planner on the bus until done (``exit_when_done``) or ``stop``; the exit code."""
+    manifest = load_build(build_dir)
+    plan = load_plan(manifest, Path(build_dir), source)
+    core = PlannerCore(manifest, plan, resend_s=options.resend_s)
+    site = manifest.site
+    inbox = Inbox()
+    with zenoh.open(config) as session:
+        subscribers = [
+            inbox.subscribe(
+                session, key(COMPONENT_STATE_KEY, site=site, key="*"), ComponentStateMsg, "state"
+            ),
+            inbox.subscribe(session, key(COMPONENT_POSE_KEY, site=site, key="*"), ComponentPoseMsg, "pose"),
+            inbox.subscribe(session, key(ROBOT_STATE_KEY, site=site, robot_id="*"), RobotStateMsg, "robot"),
+            inbox.subscribe(session, key(CLOCK_KEY, site=site), ClockMsg, "clock"),
+            inbox.subscribe_liveliness(
+                session, key(ALIVE_KEY, site=site, kind="robot", id="*"), "robot_alive"
+            ),
+            inbox.subscribe_liveliness(
+                session, key(ALIVE_KEY, site=site, kind="component", id="*"), "component_alive"
+            ),
+        ]
+        token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="planner", id="main"))
+        feed = _Feeder(core)
+        _log.info("planner for %s: %d task(s) from %s", site, len(plan.order), plan.source)
+        _wait_for_agents(inbox, feed, manifest, options.agents_timeout_s, stop)
+        _sync_twins(session, site, core, inbox, options.twin_timeout_s)
+        core.finish_sync()
+        code = _Loop(session, site, core, inbox, feed).run(options, stop)
+        token.undeclare()
+        for subscriber in subscribers:
+            subscriber.undeclare()
+    return code
+
+
+class _Feeder:
+    """Hands inbox items to the core; keeps the set of alive component keys."""
+
+    def __init__(self, core: PlannerCore) -> None:
+        self.core = core
+        self.alive_components: set[str] = set()
+        self._handlers: dict[str, Callable[[object], None]] = {
+            "state": lambda item: core.observe_component_state(_message(item)),
+            "pose": lambda item: core.observe_component_pose(_message(item)),
+            "robot": lambda item: core.observe_robot_state(_message(item)),
+            "clock": lambda item: core.observe_clock(_message(item).sim_time_s),
+            "robot_alive": self._robot_alive,
+            "component_alive": self._component_alive,
+        }
+
+    def __call__(self, tag: str, item: object) -> None:
+        self._handlers[tag](item)
+
+    def _robot_alive(self, item: object) -> None:
+        key_expr, alive = item  # type: ignore[misc]
+        self.core.robot_liveliness(str(key_expr).rsplit("/", 1)[-1], bool(alive))
+
+    def _component_alive(self, item: object) -> None:
+        key_expr, alive = item  # type: ignore[misc]
+        chunk = str(key_expr).rsplit("/", 1)[-1]
+        (self.alive_components.add if alive else self.alive_components.discard)(chunk)
+
+
+def _message(item: object) -> object:
+    assert isinstance(item, Received)
+    return item.message
+
+
+def _wait_for_agents(
+    inbox: Inbox, feed: _Feeder, manifest: Manifest, timeout_s: float, stop: threading.Event
+) -> None:
+    wanted = {component.key for component in manifest.components}
+    deadline = time.monotonic() + timeout_s
+    while not stop.is_set() and not wanted <= feed.alive_components:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            missing = sorted(
+                component.guid
+                for component in manifest.components
+                if component.key not in feed.alive_components
+            )
+            shown = ", ".join(missing[:10]) + (" …" if len(missing) > 10 else "")
+            _log.warning(
+                "%d of %d component agent(s) not alive after %.0f s (going on): %s",
+                len(missing),
+                len(wanted),
+                timeout_s,
+                shown,
+            )
+            return
+        for tag, item in inbox.drain(first_timeout_s=min(left, 0.1)):
+            feed(tag, item)
+    _log.info("%d of %d component agent(s) alive", len(wanted & feed.alive_components), len(wanted))
+
+
+def _sync_twins(session: zenoh.Session, site: str, core: PlannerCore, inbox: Inbox, timeout_s: float) -> None:
+    """Apply every agent's twin record: what is already released or constructed is not released again."""
+    count = 0
+    selector = key(COMPONENT_TWIN_KEY, site=site, key="*")
+    for reply in session.get(selector, target=zenoh.QueryTarget.ALL, timeout=timeout_s):
+        if reply.ok is None:
+            continue
+        sample = reply.ok
+        twin = decode(TwinMsg, str(sample.key_expr), sample.payload.to_bytes(), inbox.invalid)
+        if twin is not None:
+            core.observe_twin(twin)
+            count += 1
+    _log.info("synced %d digital twin(s)", count)
+
+
+class _Loop:
+    """The planner's main loop: inbox → core → bus."""
+
+    def __init__(
+        self, session: zenoh.Session, site: str, core: PlannerCore, inbox: Inbox, feed: _Feeder
+    ) -> None:
+        self.session, self.site, self.core, self.inbox, self.feed = session, site, core, inbox, feed
+
+    def run(self, options: PlannerOptions, stop: threading.Event) -> int:
+        last_progress: str | None = None
+        last_progress_wall = 0.0
+        while not stop.is_set():
+            for tag, item in self.inbox.drain(first_timeout_s=options.poll_s):
+                self.feed(tag, item)
+            for message in self.core.step(time.time()):
+                self.session.put(outgoing_key(self.site, message), encode(message))
+            progress = self.core.progress()
+            signature = _progress_signature(progress)
+            now = time.monotonic()
+            if signature != last_progress or now - last_progress_wall >= options.progress_interval_s:
+                self.session.put(outgoing_key(self.site, progress), encode(progress))
+                last_progress, last_progress_wall = signature, now
+            if progress.done and options.exit_when_done:
+                return _summary(progress)
+        _log.info("planner stopped (%.0f %% constructed)", self.core.progress().percent_constructed)
+        return 0
+
+
+def _progress_signature(progress: ProgressMsg) -> str:
+    """What makes a progress message new (not the sim time, which moves all the time)."""
+    return json.dumps([progress.counts, progress.failed, progress.blocked, progress.done], sort_keys=True)
+
+
+def _summary(progress: ProgressMsg) -> int:
+    if not progress.failed and not progress.blocked:
+        _log.info("construction done: all %d component(s) constructed", progress.total)
+        return 0
+    _log.error(
+        "construction finished with %d failed and %d blocked component(s): failed %s; blocked %s",
+        len(progress.failed),
+        len(progress.blocked),
+        ", ".join(progress.failed) or "none",
+        ", ".join(progress.blocked) or "none",
+    )
+    return 1

@@ -1,0 +1,452 @@
+"""The planner's pure core: a ready set over the precedence DAG, robot assignment, follow-up, progress.
+
+:class:`PlannerCore` holds no bus, no files and no clock of its own. The adapter feeds it what it observes
+(component states and poses, robot states and liveliness, the sim clock, digital-twin records at start) and
+calls :meth:`PlannerCore.step` with the wall time; ``step`` returns the messages to publish
+(:class:`ComponentEventMsg`, :class:`TaskMsg`) as values. It implements the construction protocol of
+``docs/architecture.md``:
+
+1. **Release** every task whose predecessors are all constructed — the whole ready set at once, in plan
+   priority order: event ``release`` and task ``released``.
+2. **Assign** a released task once its component reports ``released``, to the nearest alive, idle robot
+   (robot ``pose_xy_yaw`` against the component's last pose, else its BIM target): task ``assigned``. A
+   robot is idle when it last reported ``idle`` and holds no task of the planner's.
+3. **Follow up**: ``constructed`` → task ``done`` (successors may become ready); ``misplaced`` → event
+   ``retry``, the task is released and assigned again (maybe to the same robot); ``failed`` → task ``failed``
+   and every transitive dependent ``blocked`` (never released) while independent work goes on. A robot that
+   reports ``verifying`` for its component has done its part and is free again.
+4. **Robot lost** (liveliness gone): its task is given back — event ``abandon`` when the component is being
+   carried (picking/transporting/assembling), then released and reassigned.
+
+Delivery is at least once: each event and each ``assigned`` task is re-sent unchanged (same ``event_id``)
+every ``resend_s`` wall seconds until its effect is observed (the component leaves ``planned`` after a
+release, ``misplaced`` after a retry, the carrying states after an abandon; the robot reports the task or
+the component leaves ``released`` after an assignment).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import uuid
+from collections.abc import Callable, Collection
+from dataclasses import dataclass, field
+from enum import StrEnum
+from functools import partial
+
+from shared.manifest import Manifest
+from shared.messages import (
+    ComponentEvent,
+    ComponentEventMsg,
+    ComponentPoseMsg,
+    ComponentState,
+    ComponentStateMsg,
+    PoseMsg,
+    ProgressMsg,
+    RobotState,
+    RobotStateMsg,
+    TaskMsg,
+    TaskStatus,
+    TwinMsg,
+)
+
+from .sources import Plan
+
+_log = logging.getLogger(__name__)
+
+SOURCE = "planner"
+CARRYING = frozenset({ComponentState.PICKING, ComponentState.TRANSPORTING, ComponentState.ASSEMBLING})
+Outgoing = ComponentEventMsg | TaskMsg
+
+
+class Phase(StrEnum):
+    """A task's phase in the planner (finer than :class:`TaskStatus`)."""
+
+    WAITING = "waiting"  # predecessors not all constructed
+    RELEASED = "released"  # released; assignable once its component reports released
+    ASSIGNED = "assigned"  # a robot works on it (or the component is verifying)
+    DONE = "done"
+    FAILED = "failed"
+    BLOCKED = "blocked"  # a predecessor failed; never released
+
+
+FINAL = frozenset({Phase.DONE, Phase.FAILED, Phase.BLOCKED})
+
+
+@dataclass
+class _Task:
+    guid: str
+    task_id: str
+    priority: int
+    phase: Phase = Phase.WAITING
+    robot_id: str | None = None
+    assigned_sim_s: float | None = None
+    duration_sim_s: float | None = None
+
+
+@dataclass
+class _Robot:
+    robot_id: str
+    alive: bool = False
+    state: RobotState | None = None
+    reported_task_id: str | None = None
+    pose_xy_yaw: tuple[float, float, float] | None = None
+    task_guid: str | None = None  # the task the planner gave it, until its part is over
+
+
+@dataclass
+class _Pending:
+    message: Outgoing
+    settled: Callable[[], bool]
+    next_send_wall_s: float | None = None  # None: send at the next step
+
+
+@dataclass
+class _Component:
+    state: ComponentState = ComponentState.PLANNED
+    attempt: int = 0
+    position_xy: tuple[float, float] | None = None  # last pose, world frame (m)
+    last: tuple[object, ...] | None = field(default=None, repr=False)  # last state message applied
+
+
+class PlannerCore:
+    """The planner's state and decisions (see the module docstring); no bus, no files, no clock."""
+
+    def __init__(
+        self,
+        manifest: Manifest,
+        plan: Plan,
+        *,
+        resend_s: float = 2.0,
+        new_id: Callable[[], str] = lambda: uuid.uuid4().hex,
+    ) -> None:
+        self._manifest = {item.guid: item for item in manifest.components}
+        self._plan = plan
+        self._resend_s = resend_s
+        self._new_id = new_id
+        self._successors = plan.successors()
+        self._tasks = {
+            guid: _Task(guid, plan.task_ids[guid], priority) for priority, guid in enumerate(plan.order)
+        }
+        self._components = {guid: _Component() for guid in plan.order}
+        self._robots: dict[str, _Robot] = {}
+        self._pending: dict[tuple[str, str], _Pending] = {}
+        self._outbox: list[Outgoing] = []
+        self._wall_s = 0.0
+        self._synced = False
+        self.sim_time_s = 0.0
+
+    # --- observations ----------------------------------------------------------------------------------
+
+    def observe_clock(self, sim_time_s: float) -> None:
+        self.sim_time_s = max(self.sim_time_s, sim_time_s)
+
+    def observe_component_state(self, msg: ComponentStateMsg) -> None:
+        component = self._components.get(msg.guid)
+        if component is None:
+            _log.debug("state of %s, which is not in the plan", msg.guid)
+            return
+        signature = (msg.state, msg.previous, msg.event, msg.attempt, msg.robot_id, msg.sim_time_s)
+        if signature == component.last:
+            return  # a repeated delivery
+        component.last = signature
+        self.observe_clock(msg.sim_time_s)
+        self._apply_state(
+            msg.guid,
+            msg.state,
+            event=msg.event,
+            attempt=msg.attempt,
+            robot_id=msg.robot_id,
+            sim_s=msg.sim_time_s,
+        )
+
+    def observe_twin(self, twin: TwinMsg) -> None:
+        """A component's digital-twin record (start-up sync: agents may already be further on)."""
+        if twin.guid not in self._components:
+            return
+        if twin.current_pose is not None:
+            self._components[twin.guid].position_xy = twin.current_pose.position_m[:2]
+        event = twin.history[-1].event if twin.history else "sync"
+        self._apply_state(
+            twin.guid,
+            twin.state,
+            event=event,
+            attempt=twin.attempt,
+            robot_id=twin.robot_id,
+            sim_s=self.sim_time_s,
+        )
+
+    def observe_component_pose(self, msg: ComponentPoseMsg) -> None:
+        component = self._components.get(msg.guid)
+        if component is not None:
+            component.position_xy = (msg.pose.position_m[0], msg.pose.position_m[1])
+            self.observe_clock(msg.sim_time_s)
+
+    def observe_robot_state(self, msg: RobotStateMsg) -> None:
+        robot = self._robots.setdefault(msg.robot_id, _Robot(msg.robot_id))
+        robot.state = msg.state
+        robot.reported_task_id = msg.task_id
+        robot.pose_xy_yaw = msg.pose_xy_yaw
+        self.observe_clock(msg.sim_time_s)
+
+    def robot_liveliness(self, robot_id: str, alive: bool) -> None:
+        """A robot's liveliness token appeared (``alive``) or disappeared (its task is given back)."""
+        robot = self._robots.setdefault(robot_id, _Robot(robot_id))
+        if robot.alive == alive:
+            return
+        robot.alive = alive
+        _log.info("robot %s %s", robot_id, "alive" if alive else "lost")
+        if not alive:
+            robot.state = None  # a robot that comes back must announce itself idle again
+            if robot.task_guid is not None:
+                self._give_back(robot.task_guid, f"robot {robot_id} lost")
+
+    def finish_sync(self) -> None:
+        """Start-up sync is over: tasks held by robots that are not alive are given back."""
+        self._synced = True
+        for task in self._tasks.values():
+            robot = self._robots.get(task.robot_id) if task.robot_id else None
+            if task.phase is Phase.ASSIGNED and robot is not None and not robot.alive:
+                self._give_back(task.guid, f"robot {task.robot_id} is not alive")
+
+    # --- decisions -------------------------------------------------------------------------------------
+
+    def step(self, wall_time_s: float) -> list[Outgoing]:
+        """Release the ready set, assign idle robots, (re)send what is due; the messages to publish."""
+        self._wall_s = wall_time_s
+        self._release_ready()
+        self._assign()
+        out, self._outbox = self._outbox, []
+        for pending_key, pending in list(self._pending.items()):
+            if pending.settled():
+                del self._pending[pending_key]
+            elif pending.next_send_wall_s is None or wall_time_s >= pending.next_send_wall_s:
+                if pending.next_send_wall_s is not None:
+                    _log.debug("re-sending %s for %s", type(pending.message).__name__, pending_key[0])
+                pending.next_send_wall_s = wall_time_s + self._resend_s
+                out.append(pending.message)
+        return out
+
+    @property
+    def done(self) -> bool:
+        return all(task.phase in FINAL for task in self._tasks.values())
+
+    def phase(self, guid: str) -> Phase:
+        return self._tasks[guid].phase
+
+    def robot_of(self, guid: str) -> str | None:
+        return self._tasks[guid].robot_id
+
+    def failed(self) -> list[str]:
+        return [guid for guid in self._plan.order if self._tasks[guid].phase is Phase.FAILED]
+
+    def blocked(self) -> list[str]:
+        return [guid for guid in self._plan.order if self._tasks[guid].phase is Phase.BLOCKED]
+
+    def alive_robots(self) -> list[str]:
+        return sorted(robot.robot_id for robot in self._robots.values() if robot.alive)
+
+    def progress(self) -> ProgressMsg:
+        """Counts by component state, percent constructed, estimated sim time of the finish."""
+        counts = {state.value: 0 for state in ComponentState}
+        for component in self._components.values():
+            counts[component.state.value] += 1
+        total = len(self._tasks)
+        durations = [task.duration_sim_s for task in self._tasks.values() if task.duration_sim_s is not None]
+        remaining = sum(1 for task in self._tasks.values() if task.phase not in FINAL)
+        estimate = None
+        if remaining == 0:
+            estimate = self.sim_time_s
+        elif durations:
+            mean_s = sum(durations) / len(durations)
+            estimate = self.sim_time_s + mean_s * remaining / max(1, len(self.alive_robots()))
+        return ProgressMsg(
+            total=total,
+            counts=counts,
+            percent_constructed=100.0 * counts[ComponentState.CONSTRUCTED.value] / total if total else 100.0,
+            sim_time_s=self.sim_time_s,
+            estimated_finish_sim_time_s=estimate,
+            failed=self.failed(),
+            blocked=self.blocked(),
+            done=self.done,
+        )
+
+    # --- internals -------------------------------------------------------------------------------------
+
+    def _apply_state(
+        self,
+        guid: str,
+        state: ComponentState,
+        *,
+        event: str,
+        attempt: int,
+        robot_id: str | None,
+        sim_s: float,
+    ) -> None:
+        component, task = self._components[guid], self._tasks[guid]
+        component.state, component.attempt = state, attempt
+        if task.phase in FINAL and state is not ComponentState.CONSTRUCTED:
+            return
+        if state is ComponentState.CONSTRUCTED:
+            if task.phase is not Phase.DONE:
+                if task.assigned_sim_s is not None:
+                    task.duration_sim_s = max(0.0, sim_s - task.assigned_sim_s)
+                self._free_robot(task)
+                self._set_phase(task, Phase.DONE, TaskStatus.DONE)
+                _log.info("%s constructed", guid)
+        elif state is ComponentState.FAILED:
+            if task.phase is not Phase.FAILED:
+                self._free_robot(task)
+                self._set_phase(task, Phase.FAILED, TaskStatus.FAILED)
+                _log.warning("%s failed after %d attempt(s); blocking what depends on it", guid, attempt)
+                self._block_dependents(guid)
+        elif state is ComponentState.MISPLACED:
+            self._free_robot(task)
+            if task.phase is not Phase.RELEASED:
+                self._set_phase(task, Phase.RELEASED, TaskStatus.RELEASED)
+            settled = partial(_left, component, {ComponentState.MISPLACED})
+            self._send_event(guid, ComponentEvent.RETRY, settled)
+        elif state is ComponentState.RELEASED:
+            abandoned = task.phase is Phase.ASSIGNED and event == ComponentEvent.ABANDON
+            if task.phase is Phase.WAITING or abandoned:
+                self._free_robot(task)
+                self._set_phase(task, Phase.RELEASED, TaskStatus.RELEASED)
+        elif state in CARRYING or state is ComponentState.VERIFYING:
+            if task.phase is not Phase.ASSIGNED and robot_id is not None:
+                task.robot_id = robot_id  # adopted (start-up sync, or a robot that acted on its own)
+                robot = self._robots.setdefault(robot_id, _Robot(robot_id))
+                robot.task_guid = guid
+                task.phase = Phase.ASSIGNED
+                if self._synced and not robot.alive:
+                    self._give_back(guid, f"robot {robot_id} is not alive")
+            if state is ComponentState.VERIFYING:
+                self._free_robot(task, keep_task_robot=True)
+        elif state is ComponentState.PLANNED and task.phase in (Phase.RELEASED, Phase.ASSIGNED):
+            self._free_robot(task)  # the agent lost its state: release again when ready
+            task.phase = Phase.WAITING
+
+    def _release_ready(self) -> None:
+        for guid in self._plan.order:
+            task = self._tasks[guid]
+            if task.phase is not Phase.WAITING:
+                continue
+            preds = self._plan.predecessors.get(guid, frozenset())
+            if all(self._components[pred].state is ComponentState.CONSTRUCTED for pred in preds):
+                component = self._components[guid]
+                self._set_phase(task, Phase.RELEASED, TaskStatus.RELEASED)
+                if component.state is ComponentState.PLANNED:
+                    settled = partial(_left, component, {ComponentState.PLANNED})
+                    self._send_event(guid, ComponentEvent.RELEASE, settled)
+
+    def _assign(self) -> None:
+        for guid in self._plan.order:
+            task = self._tasks[guid]
+            component = self._components[guid]
+            if task.phase is not Phase.RELEASED or component.state is not ComponentState.RELEASED:
+                continue
+            idle = [robot for robot in self._robots.values() if self._is_idle(robot)]
+            if not idle:
+                return
+            where = component.position_xy or self._manifest[guid].target_pose_world.position_m[:2]
+            robot = min(idle, key=lambda item: (_distance(item.pose_xy_yaw, where), item.robot_id))
+            task.robot_id, robot.task_guid = robot.robot_id, guid
+            task.phase = Phase.ASSIGNED
+            if task.assigned_sim_s is None:
+                task.assigned_sim_s = self.sim_time_s
+            _log.info("%s (%s) assigned to %s", task.task_id, guid, robot.robot_id)
+            settled = partial(self._assignment_settled, task, robot, component, robot.robot_id)
+            self._pending[(guid, "task")] = _Pending(self._task_msg(task, TaskStatus.ASSIGNED), settled)
+
+    @staticmethod
+    def _assignment_settled(task: _Task, robot: _Robot, component: _Component, robot_id: str | None) -> bool:
+        return (
+            task.phase is not Phase.ASSIGNED
+            or task.robot_id != robot_id
+            or robot.reported_task_id == task.task_id
+            or component.state is not ComponentState.RELEASED
+        )
+
+    def _is_idle(self, robot: _Robot) -> bool:
+        return robot.alive and robot.state is RobotState.IDLE and robot.task_guid is None
+
+    def _free_robot(self, task: _Task, *, keep_task_robot: bool = False) -> None:
+        if task.robot_id is not None:
+            robot = self._robots.get(task.robot_id)
+            if robot is not None and robot.task_guid == task.guid:
+                robot.task_guid = None
+        if not keep_task_robot:
+            task.robot_id = None
+
+    def _give_back(self, guid: str, why: str) -> None:
+        task, component = self._tasks[guid], self._components[guid]
+        if task.phase is not Phase.ASSIGNED:
+            return
+        robot_id = task.robot_id
+        self._free_robot(task)
+        if component.state is ComponentState.VERIFYING:
+            return  # placed already: verification decides
+        _log.warning("%s (%s) given back: %s", task.task_id, guid, why)
+        self._set_phase(task, Phase.RELEASED, TaskStatus.RELEASED)
+        if component.state in CARRYING:
+            self._send_event(guid, ComponentEvent.ABANDON, partial(_left, component, CARRYING), robot_id)
+
+    def _block_dependents(self, guid: str) -> None:
+        stack = list(self._successors.get(guid, ()))
+        while stack:
+            item = stack.pop()
+            task = self._tasks[item]
+            if task.phase in (Phase.BLOCKED, Phase.DONE, Phase.FAILED):
+                continue
+            self._free_robot(task)
+            self._set_phase(task, Phase.BLOCKED, TaskStatus.BLOCKED)
+            self._pending.pop((item, "event"), None)
+            self._pending.pop((item, "task"), None)
+            stack.extend(self._successors.get(item, ()))
+
+    def _set_phase(self, task: _Task, phase: Phase, status: TaskStatus) -> None:
+        task.phase = phase
+        self._outbox.append(self._task_msg(task, status))
+
+    def _send_event(
+        self, guid: str, event: ComponentEvent, settled: Callable[[], bool], robot_id: str | None = None
+    ) -> None:
+        current = self._pending.get((guid, "event"))
+        if current is not None and current.message.event is event and not current.settled():
+            return  # already on its way (same event_id on every resend)
+        task = self._tasks[guid]
+        message = ComponentEventMsg(
+            guid=guid,
+            event=event,
+            source=SOURCE,
+            event_id=self._new_id(),
+            task_id=task.task_id,
+            robot_id=robot_id,
+            sim_time_s=self.sim_time_s,
+            wall_time_s=self._wall_s,
+        )
+        self._pending[(guid, "event")] = _Pending(message, settled)
+
+    def _task_msg(self, task: _Task, status: TaskStatus) -> TaskMsg:
+        component = self._manifest[task.guid]
+        pose = component.target_pose_world
+        return TaskMsg(
+            task_id=task.task_id,
+            guid=task.guid,
+            component_key=component.key,
+            status=status,
+            robot_id=task.robot_id if status is TaskStatus.ASSIGNED else None,
+            attempt=self._components[task.guid].attempt,
+            target_pose=PoseMsg(position_m=pose.position_m, quat_xyzw=pose.quat_xyzw),
+            sim_time_s=self.sim_time_s,
+            wall_time_s=self._wall_s,
+        )
+
+
+def _left(component: _Component, states: Collection[ComponentState]) -> bool:
+    return component.state not in states
+
+
+def _distance(pose_xy_yaw: tuple[float, float, float] | None, where: tuple[float, ...]) -> float:
+    if pose_xy_yaw is None:
+        return math.inf
+    return math.hypot(pose_xy_yaw[0] - where[0], pose_xy_yaw[1] - where[1])

@@ -1,0 +1,35 @@
+"""Converted builds for the planner tests: the bundled light steel frame, construction_scheduling_task.ifc.
+
+Each build is converted once per session with ``services.converter.convert.convert_model``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from services.converter.convert import convert_model
+from services.converter.ifc_input import open_model
+
+SCHEDULING_TASK_IFC = "construction_scheduling_task.ifc"
+
+
+def _convert(source: Path, out: Path) -> Path:
+    convert_model(open_model(source), source, out)
+    return out
+
+
+@pytest.fixture(scope="session")
+def frame_build(bundled_build: Path) -> Path:
+    """The bundled 28-component light steel frame, converted (its sequence.xml is its IFC schedule)."""
+    return bundled_build
+
+
+@pytest.fixture(scope="session")
+def scheduling_build(tmp_path_factory: pytest.TempPathFactory, samples_dir: Path) -> tuple[Path, Path]:
+    """(build, source IFC) of construction_scheduling_task.ifc: a slab, 4 walls, IfcRelSequence links."""
+    source = samples_dir / SCHEDULING_TASK_IFC
+    if not source.is_file():
+        pytest.skip(f"{source} not present")
+    return _convert(source, tmp_path_factory.mktemp("scheduling_build")), source

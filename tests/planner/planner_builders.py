@@ -1,0 +1,118 @@
+"""Tiny synthetic builds for planner tests: a portal frame on two footings plus an independent post.
+
+Layout (world frame, metres)::
+
+    foot_a (0, 0) ─ col_a ─┐
+                           beam (2, 0, 3)     post_c on foot_c at (10, 0), independent of the portal
+    foot_b (4, 0) ─ col_b ─┘
+"""
+
+from __future__ import annotations
+
+from shared.manifest import (
+    BoundingBox,
+    CollisionMethod,
+    Component,
+    ComponentFiles,
+    Inertia,
+    InertiaSource,
+    Manifest,
+    MassSource,
+    Pose,
+    SourceModel,
+)
+from shared.messages import ComponentState, ComponentStateMsg, RobotState, RobotStateMsg
+
+PORTAL = ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c", "beam")
+
+
+def component(guid: str, ifc_class: str, low: tuple, high: tuple) -> Component:
+    centre = tuple((a + b) / 2 for a, b in zip(low, high, strict=True))
+    files = ComponentFiles(
+        model_dir="m",
+        sdf_file="m/model.sdf",
+        config_file="m/model.config",
+        split_ifc="m/x.ifc",
+        visual_dae="a",
+        visual_obj="b",
+        visual_glb="c",
+        collision=[],
+    )
+    return Component(
+        guid=guid,
+        key=guid,
+        folder=guid,
+        ifc_class=ifc_class,
+        target_pose_world=Pose(position_m=centre, quat_xyzw=(0, 0, 0, 1), rpy_rad=(0, 0, 0)),
+        bbox_world=BoundingBox(min_m=low, max_m=high),
+        bbox_local=BoundingBox(min_m=low, max_m=high),
+        volume_m3=1.0,
+        watertight=True,
+        mass_kg=1.0,
+        mass_source=MassSource.DEFAULT_DENSITY,
+        com_local_m=(0, 0, 0),
+        inertia_kg_m2=Inertia(ixx=1, ixy=0, ixz=0, iyy=1, iyz=0, izz=1),
+        inertia_source=InertiaSource.MESH,
+        collision_method=CollisionMethod.CONVEX_HULL,
+        collision_parts=1,
+        files=files,
+    )
+
+
+def portal_manifest() -> Manifest:
+    components = [
+        component("foot_a", "IfcFooting", (-0.3, -0.3, -0.3), (0.3, 0.3, 0.0)),
+        component("foot_b", "IfcFooting", (3.7, -0.3, -0.3), (4.3, 0.3, 0.0)),
+        component("foot_c", "IfcFooting", (9.7, -0.3, -0.3), (10.3, 0.3, 0.0)),
+        component("col_a", "IfcColumn", (-0.05, -0.05, 0.0), (0.05, 0.05, 3.0)),
+        component("col_b", "IfcColumn", (3.95, -0.05, 0.0), (4.05, 0.05, 3.0)),
+        component("post_c", "IfcColumn", (9.95, -0.05, 0.0), (10.05, 0.05, 3.0)),
+        component("beam", "IfcBeam", (0.0, -0.05, 3.0), (4.0, 0.05, 3.2)),
+    ]
+    return Manifest(
+        generator="test",
+        site="test-site",
+        source=SourceModel(path="portal.ifc", schema_name="IFC4", sha256="0" * 64, length_unit_m=1.0),
+        local_origin_m=(0, 0, 0),
+        world_file="worlds/test-site.world",
+        sequence_file="sequence.xml",
+        sequence_source="derived",
+        components=components,
+    )
+
+
+def state_msg(
+    guid: str,
+    state: ComponentState,
+    *,
+    event: str = "test",
+    robot_id: str | None = None,
+    attempt: int = 0,
+    sim_time_s: float = 0.0,
+) -> ComponentStateMsg:
+    return ComponentStateMsg(
+        guid=guid,
+        state=state,
+        event=event,
+        attempt=attempt,
+        robot_id=robot_id,
+        sim_time_s=sim_time_s,
+        wall_time_s=0.0,
+    )
+
+
+def robot_msg(
+    robot_id: str,
+    xy: tuple[float, float],
+    state: RobotState = RobotState.IDLE,
+    task_id: str | None = None,
+    sim_time_s: float = 0.0,
+) -> RobotStateMsg:
+    return RobotStateMsg(
+        robot_id=robot_id,
+        state=state,
+        task_id=task_id,
+        pose_xy_yaw=(xy[0], xy[1], 0.0),
+        sim_time_s=sim_time_s,
+        wall_time_s=0.0,
+    )

@@ -1,0 +1,173 @@
+"""The planner over a real (loopback) Zenoh bus, with the test playing the component agents and one robot.
+
+Small smoke test: the full multi-process run with real agents and robots lives in the integration tests.
+"""
+
+from __future__ import annotations
+
+import queue
+import socket
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from planner_builders import portal_manifest, robot_msg, state_msg
+
+from bimbot.cli import build_parser
+from bimbot.cli import main as bimbot_main
+from services.planner.app import PlannerOptions, main
+from services.planner.cli import plan_source
+from services.planner.sources import PlanSource, SourceKind
+from shared.bus import BusOptions, InvalidPayloads, decode, encode, open_session, zenoh_config
+from shared.manifest import write_manifest
+from shared.messages import (
+    ALIVE_KEY,
+    COMPONENT_EVENT_KEY,
+    COMPONENT_STATE_KEY,
+    PROGRESS_KEY,
+    ROBOT_STATE_KEY,
+    TASK_KEY,
+    ComponentEvent,
+    ComponentEventMsg,
+    ComponentState,
+    ProgressMsg,
+    TaskMsg,
+    TaskStatus,
+    key,
+)
+from shared.sequence import write_sequence
+from shared.support_graph import derive_sequence
+
+SITE = "test-site"
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+@pytest.fixture
+def portal_build(tmp_path: Path) -> Path:
+    manifest = portal_manifest()
+    write_manifest(manifest, tmp_path)
+    write_sequence(derive_sequence(manifest.components), tmp_path / "sequence.xml")
+    return tmp_path
+
+
+def test_planner_builds_the_portal_over_the_bus_and_exits_0(portal_build: Path) -> None:
+    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    planner_config = zenoh_config(BusOptions(mode="peer", connect=(), listen=(endpoint,)))
+    options = PlannerOptions(exit_when_done=True, agents_timeout_s=10.0, resend_s=0.5, twin_timeout_s=0.5)
+    stop = threading.Event()
+    result: list[int] = []
+    planner = threading.Thread(
+        target=lambda: result.append(main(options, portal_build, PlanSource(), planner_config, stop)),
+        daemon=True,
+    )
+    received: queue.Queue[tuple[str, bytes]] = queue.Queue()
+    invalid = InvalidPayloads()
+    guids = [item.guid for item in portal_manifest().components]
+    constructed: list[str] = []
+    progress: list[ProgressMsg] = []
+    with open_session(BusOptions(mode="peer", connect=(endpoint,), listen=())) as session:
+        callback = lambda sample: received.put((str(sample.key_expr), sample.payload.to_bytes()))  # noqa: E731
+        session.declare_subscriber(key(COMPONENT_EVENT_KEY, site=SITE, key="*"), callback)
+        session.declare_subscriber(key(TASK_KEY, site=SITE, task_id="*"), callback)
+        session.declare_subscriber(key(PROGRESS_KEY, site=SITE), callback)
+        tokens = [
+            session.liveliness().declare_token(key(ALIVE_KEY, site=SITE, kind="component", id=guid))
+            for guid in guids
+        ]
+        tokens.append(session.liveliness().declare_token(key(ALIVE_KEY, site=SITE, kind="robot", id="r1")))
+        planner.start()
+        try:
+            deadline = time.monotonic() + 20.0
+            while planner.is_alive() and time.monotonic() < deadline:
+                session.put(
+                    key(ROBOT_STATE_KEY, site=SITE, robot_id="r1"), encode(robot_msg("r1", (0.0, 0.0)))
+                )
+                try:
+                    where, payload = received.get(timeout=0.2)
+                except queue.Empty:
+                    continue
+                if "/event" in where:
+                    event = decode(ComponentEventMsg, where, payload, invalid)
+                    if event is not None and event.event is ComponentEvent.RELEASE:
+                        _publish_state(session, event.guid, ComponentState.RELEASED)
+                elif "/tasks/" in where:
+                    task = decode(TaskMsg, where, payload, invalid)
+                    if (
+                        task is not None
+                        and task.status is TaskStatus.ASSIGNED
+                        and task.guid not in constructed
+                    ):
+                        assert task.robot_id == "r1"
+                        constructed.append(task.guid)
+                        _publish_state(session, task.guid, ComponentState.CONSTRUCTED)
+                else:
+                    message = decode(ProgressMsg, where, payload, invalid)
+                    progress.extend([message] if message is not None else [])
+        finally:
+            stop.set()
+            planner.join(timeout=10.0)
+            for token in tokens:
+                token.undeclare()
+        for where, payload in _drain(received, 0.5):
+            if where.endswith("/progress"):
+                message = decode(ProgressMsg, where, payload, invalid)
+                progress.extend([message] if message is not None else [])
+    assert result == [0]
+    assert sorted(constructed) == sorted(guids)
+    assert constructed.index("beam") > max(constructed.index("col_a"), constructed.index("col_b"))
+    assert invalid.total == 0
+    assert progress[-1].done and progress[-1].percent_constructed == 100.0 and progress[-1].total == 7
+
+
+def _drain(received: queue.Queue[tuple[str, bytes]], timeout_s: float) -> list[tuple[str, bytes]]:
+    items = []
+    try:
+        while True:
+            items.append(received.get(timeout=timeout_s))
+    except queue.Empty:
+        return items
+
+
+def _publish_state(session: object, guid: str, state: ComponentState) -> None:
+    message = state_msg(guid, state, event="test", robot_id="r1")
+    session.put(key(COMPONENT_STATE_KEY, site=SITE, key=guid), encode(message))  # type: ignore[attr-defined]
+
+
+def test_planner_cli_reports_an_unreadable_build_in_one_line(tmp_path: Path) -> None:
+    assert bimbot_main(["planner", "--build", str(tmp_path / "absent")]) == 2
+
+
+def test_planner_cli_reports_an_unknown_sequence_guid_in_one_line(
+    portal_build: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    bad = tmp_path / "bad.xml"
+    bad.write_text('<construction_sequence><task guid="nope"/></construction_sequence>', encoding="utf-8")
+    assert bimbot_main(["planner", "--build", str(portal_build), "--sequence", str(bad)]) == 2
+    assert any("nope" in record.getMessage() for record in caplog.records)
+
+
+@pytest.mark.parametrize(
+    ("options", "expected"),
+    [
+        ([], PlanSource(SourceKind.BUILD)),
+        (["--sequence", "s.xml"], PlanSource(SourceKind.SEQUENCE, Path("s.xml"))),
+        (["--from-ifc"], PlanSource(SourceKind.IFC, None)),
+        (["--from-ifc", "m.ifc"], PlanSource(SourceKind.IFC, Path("m.ifc"))),
+        (["--derive"], PlanSource(SourceKind.DERIVE)),
+    ],
+)
+def test_planner_cli_source_options_choose_the_plan_source(options: list[str], expected: PlanSource) -> None:
+    argv = ["planner", "--build", "out", *options]
+    assert plan_source(build_parser(argv).parse_args(argv)) == expected
+
+
+def test_planner_cli_source_options_are_mutually_exclusive() -> None:
+    argv = ["planner", "--build", "out", "--derive", "--from-ifc"]
+    with pytest.raises(SystemExit):
+        build_parser(argv).parse_args(argv)
