@@ -43,7 +43,9 @@ from services.converter.split_ifc import split_element
 
 Entity = ifcopenshell.entity_instance
 
-SAMPLES_DIR = Path(__file__).resolve().parents[3] / "shared" / "samples" / "ifc"  # ../shared beside the checkout
+SAMPLES_DIR = (
+    Path(__file__).resolve().parents[3] / "shared" / "samples" / "ifc"
+)  # ../shared beside the checkout
 #: Files with more building elements than this are tested on a class-diverse selection of this many.
 MAX_ELEMENTS_PER_FILE = 20
 VOLUME_RTOL = 1e-3

@@ -1,0 +1,161 @@
+"""Converter benchmark: overhead against bare tessellation, and time per element as models grow.
+
+Overhead (target ≤ 1.3): the full conversion against ifcopenshell's bare tessellation of the same elements
+with the same settings and threads, in the same run, on the bundled model and on the largest public sample.
+Measured two ways, median of several runs each:
+
+* in process — ``open + convert_model`` against ``open + iterate + read vertices/faces``;
+* as commands — ``bimbot convert`` against a ``python -c`` that opens and tessellates (both pay
+  interpreter start-up and imports, as a user does).
+
+Scaling: generated light steel frames of ~100, ~1,000 and ~10,000 elements, converted in process; time
+per element must stay flat. Run: ``.venv/bin/python bench/convert.py [--quick]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import ifcopenshell
+import ifcopenshell.geom
+import ifcopenshell.util.shape
+
+from bimbot.demo import bundled_model_path
+from services.converter.convert import ConversionStats, convert_model
+from services.converter.ifc_input import open_model
+from services.converter.sample_light_steel_frame import build_light_steel_frame
+from services.converter.selection import select_elements
+from services.converter.tessellation import default_threads, geometry_settings
+
+SAMPLES = Path(__file__).resolve().parents[2] / "shared" / "samples" / "ifc"
+TARGET_RATIO = 1.3
+BARE_SCRIPT = """
+import sys, ifcopenshell, ifcopenshell.geom, ifcopenshell.util.shape
+sys.path.insert(0, {root!r})
+from services.converter.selection import select_elements
+from services.converter.tessellation import default_threads, geometry_settings
+model = ifcopenshell.open({path!r})
+elements = list(select_elements(model).elements)
+iterator = ifcopenshell.geom.iterator(geometry_settings(), model, default_threads(), include=elements)
+if iterator.initialize():
+    while True:
+        shape = iterator.get()
+        ifcopenshell.util.shape.get_vertices(shape.geometry)
+        ifcopenshell.util.shape.get_faces(shape.geometry)
+        if not iterator.next():
+            break
+"""
+
+
+def bare_tessellation(path: Path) -> int:
+    model = ifcopenshell.open(str(path))
+    elements = list(select_elements(model).elements)
+    iterator = ifcopenshell.geom.iterator(geometry_settings(), model, default_threads(), include=elements)
+    count = 0
+    if iterator.initialize():
+        while True:
+            shape = iterator.get()
+            ifcopenshell.util.shape.get_vertices(shape.geometry)
+            ifcopenshell.util.shape.get_faces(shape.geometry)
+            count += 1
+            if not iterator.next():
+                break
+    return count
+
+
+def full_conversion(path: Path, out: Path, stats: ConversionStats | None = None) -> int:
+    return len(convert_model(open_model(path), path, out, stats=stats).components)
+
+
+def median_seconds(action: Callable[[], object], runs: int) -> float:
+    times = []
+    for _ in range(runs):
+        started = time.perf_counter()
+        action()
+        times.append(time.perf_counter() - started)
+    return statistics.median(times)
+
+
+def overhead(path: Path, runs: int) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "out"
+        full_conversion(path, out)  # warm-up (imports, numba/trimesh caches, file system)
+        bare_tessellation(path)
+        stats = ConversionStats()
+        full_conversion(path, out, stats)
+        convert_s = median_seconds(lambda: full_conversion(path, out), runs)
+        bare_s = median_seconds(lambda: bare_tessellation(path), runs)
+        command = [
+            sys.executable,
+            "-m",
+            "bimbot.cli",
+            "-q",
+            "convert",
+            str(path),
+            "-o",
+            str(out),
+            "--no-progress",
+        ]
+        root = str(Path(__file__).resolve().parents[1])
+        bare_command = [sys.executable, "-c", BARE_SCRIPT.format(root=root, path=str(path))]
+        convert_cmd_s = median_seconds(lambda: subprocess.run(command, check=True, capture_output=True), runs)
+        bare_cmd_s = median_seconds(
+            lambda: subprocess.run(bare_command, check=True, capture_output=True), runs
+        )
+    n = bare_tessellation(path)
+    print(f"{path.name}: {n} elements")
+    stages = ", ".join(f"{name} {seconds * 1000:.0f} ms" for name, seconds in stats.seconds_by_stage.items())
+    print(f"  stages of one conversion: {stages}")
+    print(
+        f"  in process : convert {convert_s * 1000:8.1f} ms   bare tessellation {bare_s * 1000:8.1f} ms   "
+        f"ratio {convert_s / bare_s:5.2f} (target ≤ {TARGET_RATIO})"
+    )
+    print(
+        f"  as commands: convert {convert_cmd_s * 1000:8.1f} ms   "
+        f"bare tessellation {bare_cmd_s * 1000:8.1f} ms   "
+        f"ratio {convert_cmd_s / bare_cmd_s:5.2f} (target ≤ {TARGET_RATIO})"
+    )
+
+
+def scaling(sizes: list[tuple[int, int]]) -> None:
+    print("scaling (generated light steel frames, in process):")
+    per_element: list[float] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for columns_x, columns_y in sizes:
+            source = Path(tmp) / f"frame_{columns_x}x{columns_y}.ifc"
+            build_light_steel_frame(columns_x, columns_y).write(str(source))
+            stats = ConversionStats()
+            started = time.perf_counter()
+            count = full_conversion(source, Path(tmp) / f"out_{columns_x}x{columns_y}", stats)
+            seconds = time.perf_counter() - started
+            per_element.append(seconds / count)
+            stages = ", ".join(f"{name} {value:.1f}s" for name, value in stats.seconds_by_stage.items())
+            print(
+                f"  {columns_x}x{columns_y}: {count:6d} elements  {seconds:7.2f} s  "
+                f"{seconds / count * 1000:6.2f} ms/element  ({stages})"
+            )
+    print(f"  time per element, largest / smallest: {per_element[-1] / per_element[0]:.2f} (flat ≈ 1)")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer runs, scaling only to ~1,000 elements")
+    args = parser.parse_args()
+    runs = 3 if args.quick else 5
+    overhead(bundled_model_path(), runs)
+    largest = max(SAMPLES.glob("*.ifc"), key=lambda p: p.stat().st_size) if SAMPLES.is_dir() else None
+    if largest is not None:
+        overhead(largest, runs)
+    sizes = [(6, 6), (18, 18)] if args.quick else [(6, 6), (18, 18), (58, 58)]
+    scaling(sizes)
+
+
+if __name__ == "__main__":
+    main()

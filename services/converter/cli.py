@@ -1,0 +1,100 @@
+"""``bimbot convert MODEL.ifc -o OUT/``: the command-line adapter of the converter.
+
+Exit codes: 0 when at least one component was converted, 1 when the model was read but nothing could be
+converted (the manifest still lists why), 2 for unreadable input (one clear line, no traceback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import time
+from pathlib import Path
+
+from shared.errors import UserError
+
+_log = logging.getLogger(__name__)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("model", type=Path, help="IFC file (IFC2X3, IFC4 or IFC4X3, STEP .ifc)")
+    parser.add_argument("-o", "--output", type=Path, required=True, help="output folder (created if missing)")
+    parser.add_argument(
+        "--include", default="", help="only these IFC classes (comma-separated, with subclasses)"
+    )
+    parser.add_argument("--exclude", default="", help="leave out these IFC classes (comma-separated)")
+    parser.add_argument("--threads", type=int, default=None, help="tessellation threads (default: all cores)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar even on a terminal")
+
+
+def run(args: argparse.Namespace) -> int:
+    from .convert import ConversionStats, ConvertOptions, convert_model
+    from .ifc_input import open_model
+    from .selection import check_classes, parse_class_list
+
+    started = time.perf_counter()
+    model = open_model(args.model)
+    try:
+        include = check_classes(model, parse_class_list(args.include))
+        exclude = check_classes(model, parse_class_list(args.exclude))
+    except ValueError as error:
+        raise UserError(str(error)) from None
+    if args.threads is not None and args.threads < 1:
+        raise UserError("--threads must be at least 1")
+    options = ConvertOptions(include=include, exclude=exclude, threads=args.threads)
+    stats = ConversionStats()
+    with _ProgressBar(enabled=not args.no_progress and sys.stderr.isatty()) as bar:
+        try:
+            manifest = convert_model(
+                model, args.model, args.output, options, progress=bar.update, stats=stats
+            )
+        except PermissionError as error:
+            raise UserError(f"{args.output}: cannot write ({error.strerror})") from None
+    seconds = time.perf_counter() - started
+    _log.debug("stage seconds: %s", {k: round(v, 3) for k, v in stats.seconds_by_stage.items()})
+    for item in manifest.skipped:
+        _log.info("skipped %s %s (%s): %s", item.ifc_class, item.guid, item.name or "unnamed", item.reason)
+    for warning in manifest.warnings:
+        _log.info("warning: %s", warning)
+    sys.stdout.write(
+        f"converted {len(manifest.components)} component(s), skipped {len(manifest.skipped)}, "
+        f"{len(manifest.warnings)} warning(s) in {seconds:.1f} s → {args.output}/ "
+        f"(world {manifest.world_file}, sequence {manifest.sequence_file} from {manifest.sequence_source})\n"
+    )
+    if not manifest.components:
+        _log.error(
+            "%s: no element could be converted (see 'skipped' in %s/manifest.json)", args.model, args.output
+        )
+        return 1
+    return 0
+
+
+class _ProgressBar:
+    """A tqdm bar per stage on a terminal; silent otherwise."""
+
+    def __init__(self, *, enabled: bool) -> None:
+        self._enabled = enabled
+        self._bar = None
+        self._stage: str | None = None
+
+    def __enter__(self) -> _ProgressBar:
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        if self._bar is not None:
+            self._bar.close()
+
+    def update(self, stage: str, done: int, total: int) -> None:
+        if not self._enabled:
+            return
+        from tqdm import tqdm
+
+        if stage != self._stage:
+            if self._bar is not None:
+                self._bar.close()
+            self._bar = tqdm(total=total, desc=stage, unit="el", leave=False, file=sys.stderr)
+            self._stage = stage
+        assert self._bar is not None
+        self._bar.n = done
+        self._bar.refresh()

@@ -1,0 +1,46 @@
+"""An element's relationships to other elements, for the manifest (and the support graph).
+
+Collected: IfcRelConnectsElements and its subtypes (IfcRelConnectsPathElements,
+IfcRelConnectsWithRealizingElements), in both directions; the elements that *realise* a connection
+(fasteners, welds) and the connections they realise; and aggregation (the assembly an element is part of,
+and its parts).
+"""
+
+from __future__ import annotations
+
+import ifcopenshell
+
+from shared.manifest import Connection
+
+
+def element_connections(element: ifcopenshell.entity_instance) -> list[Connection]:
+    found: list[Connection] = []
+    for rel in getattr(element, "ConnectedTo", ()) or ():  # this element is RelatingElement
+        found.append(_connection(rel, "relating", rel.RelatedElement))
+    for rel in getattr(element, "ConnectedFrom", ()) or ():  # this element is RelatedElement
+        found.append(_connection(rel, "related", rel.RelatingElement))
+    for rel in getattr(element, "IsConnectionRealization", ()) or ():
+        found.extend(
+            _connection(rel, "realizing", other) for other in (rel.RelatingElement, rel.RelatedElement)
+        )
+    for rel in [*(getattr(element, "ConnectedTo", ()) or ()), *(getattr(element, "ConnectedFrom", ()) or ())]:
+        if rel.is_a("IfcRelConnectsWithRealizingElements"):
+            found.extend(_connection(rel, "realized_by", other) for other in rel.RealizingElements or ())
+    for rel in getattr(element, "Decomposes", ()) or ():
+        if rel.is_a("IfcRelAggregates"):
+            found.append(_connection(rel, "aggregate_child", rel.RelatingObject))
+    for rel in getattr(element, "IsDecomposedBy", ()) or ():
+        if rel.is_a("IfcRelAggregates"):
+            found.extend(_connection(rel, "aggregate_parent", other) for other in rel.RelatedObjects or ())
+    return [item for item in found if item.other_guid]
+
+
+def _connection(
+    rel: ifcopenshell.entity_instance, role: str, other: ifcopenshell.entity_instance | None
+) -> Connection:
+    return Connection(
+        relation=rel.is_a(),
+        role=role,
+        other_guid=getattr(other, "GlobalId", None) or "",
+        other_class=other.is_a() if other is not None else "",
+    )

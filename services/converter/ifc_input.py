@@ -1,0 +1,70 @@
+"""Open an IFC model for conversion, turning every unreadable-input case into one clear :class:`UserError`.
+
+ifcopenshell opens a truncated STEP file without complaint and reports other problems with several
+exception types; the converter wants one line that says what is wrong with which file: missing, empty, not
+IFC, truncated, an unsupported schema. IFC2X3, IFC4 and IFC4X3 (any addendum) are supported.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+from pathlib import Path
+
+import ifcopenshell
+
+from shared.errors import UserError
+
+_log = logging.getLogger(__name__)
+
+SUPPORTED_SCHEMA_PREFIXES = ("IFC2X3", "IFC4")
+SUPPORTED_SCHEMAS = "IFC2X3, IFC4 and IFC4X3"
+_STEP_MAGIC = b"ISO-10303-21;"
+_STEP_END = b"END-ISO-10303-21;"
+
+
+def open_model(path: Path) -> ifcopenshell.file:
+    """Open ``path`` as an IFC-SPF model or raise :class:`UserError` with one line naming the problem."""
+    path = Path(path)
+    if not path.exists():
+        raise UserError(f"{path}: no such file")
+    if path.is_dir():
+        raise UserError(f"{path}: is a folder, not an IFC file")
+    size = path.stat().st_size
+    if size == 0:
+        raise UserError(f"{path}: empty file, not an IFC model")
+    _check_step_frame(path, size)
+    try:
+        model = ifcopenshell.open(str(path))
+    except ifcopenshell.SchemaError as error:
+        schema = str(error).removeprefix("Unsupported schema:").strip()
+        message = f"{path}: unsupported IFC schema {schema} (bimbot reads {SUPPORTED_SCHEMAS})"
+        raise UserError(message) from None
+    except (ifcopenshell.Error, OSError, RuntimeError) as error:
+        raise UserError(f"{path}: not a readable IFC file ({error})") from None
+    schema = model.schema_identifier if hasattr(model, "schema_identifier") else model.schema
+    if not str(schema).upper().startswith(SUPPORTED_SCHEMA_PREFIXES):
+        raise UserError(f"{path}: unsupported IFC schema {schema} (bimbot reads {SUPPORTED_SCHEMAS})")
+    if not model.by_type("IfcProject"):
+        raise UserError(f"{path}: no IfcProject, not a complete IFC model")
+    return model
+
+
+def _check_step_frame(path: Path, size: int) -> None:
+    """Reject files that are not STEP physical files or that were cut off before ``END-ISO-10303-21;``."""
+    with path.open("rb") as stream:
+        head = stream.read(256)
+        stream.seek(max(0, size - 256))
+        tail = stream.read()
+    if _STEP_MAGIC not in head.lstrip()[: len(_STEP_MAGIC) + 8]:
+        raise UserError(f"{path}: not an IFC file (no ISO-10303-21 header; only IFC-SPF .ifc files are read)")
+    if _STEP_END not in tail:
+        raise UserError(f"{path}: truncated IFC file (it does not end with END-ISO-10303-21;)")
+
+
+def file_sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with Path(path).open("rb") as stream:
+        for block in iter(lambda: stream.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()

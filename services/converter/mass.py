@@ -1,0 +1,220 @@
+"""A component's mass, from the best source the IFC model offers, never zero or negative.
+
+The chain, first hit wins (the manifest records which one gave each mass):
+
+1. an ``IfcQuantityWeight`` in any ``IfcElementQuantity`` of the element or its type
+   (``NetWeight`` before ``GrossWeight`` before any other weight);
+2. a vendor weight property, e.g. Revit's ``Structural`` / ``Exact Weight`` or Tekla's ``Weight``
+   (see :data:`VENDOR_WEIGHT_NAMES`);
+3. the **mesh** volume × the material's density: ``Pset_MaterialCommon.MassDensity`` (IFC2X3:
+   ``IfcGeneralMaterialProperties.MassDensity``), else :data:`DENSITY_TABLE_KG_M3` by material name or
+   category, else 1000 kg/m³ with a warning.
+
+The mesh volume is used rather than IFC volume quantities because Revit exports can mis-scale those.
+A weight that implies an implausible density (outside :data:`PLAUSIBLE_DENSITY_KG_M3`, e.g. a concrete
+footing of 0.126 kg) is reported and passed over in favour of the next source.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+from dataclasses import dataclass
+
+import ifcopenshell
+import ifcopenshell.util.element
+import ifcopenshell.util.unit
+
+from shared.manifest import MassSource
+
+_log = logging.getLogger(__name__)
+
+DEFAULT_DENSITY_KG_M3 = 1000.0
+PLAUSIBLE_DENSITY_KG_M3 = (10.0, 25_000.0)
+# (pattern on material name or category, density kg/m³); first match wins, so specific words come first.
+DENSITY_TABLE_KG_M3: tuple[tuple[re.Pattern[str], float], ...] = (
+    (re.compile(r"alumin", re.I), 2700.0),
+    (re.compile(r"steel|stahl|acier|\bs\d{3}\b|\bmetal", re.I), 7850.0),
+    (re.compile(r"concrete|beton|\bc\d{2}/\d{2}\b", re.I), 2400.0),
+    (re.compile(r"timber|wood|\bholz\b|\bglulam\b|\bclt\b", re.I), 500.0),
+    (re.compile(r"glass|glazing|\bglas\b", re.I), 2500.0),
+    (re.compile(r"brick|masonry|block", re.I), 1900.0),
+    (re.compile(r"gypsum|plaster", re.I), 900.0),
+)
+WEIGHT_QUANTITY_PREFERENCE = ("netweight", "grossweight", "weight")
+# Property names (lower-case, without spaces) that vendors use for an element's weight.
+VENDOR_WEIGHT_NAMES = ("exactweight", "weight", "netweight", "grossweight", "mass")
+
+
+@dataclass(frozen=True)
+class MassResult:
+    mass_kg: float
+    source: MassSource
+    density_kg_m3: float | None
+    warnings: tuple[str, ...] = ()
+
+
+def mass_unit_kg(model: ifcopenshell.file) -> float:
+    """Kilograms per unit of the project's mass unit (kg when the project declares none)."""
+    if ifcopenshell.util.unit.get_project_unit(model, "MASSUNIT") is None:
+        return 1.0
+    return ifcopenshell.util.unit.calculate_unit_scale(model, "MASSUNIT") / 1000.0
+
+
+def element_mass(
+    element: ifcopenshell.entity_instance, volume_m3: float, material_name_hint: str | None = None
+) -> MassResult:
+    """Mass of ``element`` whose mesh encloses ``volume_m3`` (> 0), following the module's chain."""
+    if volume_m3 <= 0:
+        raise ValueError(f"volume must be positive, got {volume_m3}")
+    model = element.file
+    warnings: list[str] = []
+    unit_kg = mass_unit_kg(model)
+    for source, candidate in (
+        (MassSource.QUANTITY_WEIGHT, _quantity_weight(element)),
+        (MassSource.VENDOR_PROPERTY, _vendor_weight(element)),
+    ):
+        if candidate is None:
+            continue
+        label, value = candidate
+        mass_kg = value * unit_kg
+        density = mass_kg / volume_m3
+        if mass_kg > 0 and PLAUSIBLE_DENSITY_KG_M3[0] <= density <= PLAUSIBLE_DENSITY_KG_M3[1]:
+            return MassResult(mass_kg, source, density, tuple(warnings))
+        warnings.append(
+            f"{label} = {value:g} gives {mass_kg:g} kg, an implausible density of {density:.3g} kg/m³ "
+            "for the mesh volume; ignored"
+        )
+    density, source, note = material_density(element, material_name_hint)
+    if note:
+        warnings.append(note)
+    return MassResult(volume_m3 * density, source, density, tuple(warnings))
+
+
+def material_density(
+    element: ifcopenshell.entity_instance, material_name_hint: str | None = None
+) -> tuple[float, MassSource, str | None]:
+    """(density kg/m³, its source, a warning or None) for the element's material."""
+    materials = _materials(element)
+    for material in materials:
+        density = _density_property(material)
+        if density is not None:
+            return density, MassSource.MATERIAL_DENSITY_PROPERTY, None
+    names = [
+        text
+        for material in materials
+        for text in (material.Name, getattr(material, "Category", None))
+        if text
+    ]
+    if material_name_hint:
+        names.append(material_name_hint)
+    for name in names:
+        for pattern, density in DENSITY_TABLE_KG_M3:
+            if pattern.search(name):
+                return density, MassSource.MATERIAL_DENSITY_TABLE, None
+    what = f"material {names[0]!r}" if names else "no material"
+    note = f"{what}: density unknown, using {DEFAULT_DENSITY_KG_M3:g} kg/m³"
+    return DEFAULT_DENSITY_KG_M3, MassSource.DEFAULT_DENSITY, note
+
+
+def material_label(element: ifcopenshell.entity_instance) -> str | None:
+    """A human name for the element's material (set name, or material names joined)."""
+    material = ifcopenshell.util.element.get_material(element, should_skip_usage=True)
+    if material is None:
+        return None
+    own_name = getattr(material, "Name", None) or getattr(material, "LayerSetName", None)
+    if own_name:
+        return str(own_name)
+    names = [item.Name for item in _materials(element) if item.Name]
+    return ", ".join(dict.fromkeys(names)) or None
+
+
+def _materials(element: ifcopenshell.entity_instance) -> list[ifcopenshell.entity_instance]:
+    try:
+        return list(ifcopenshell.util.element.get_materials(element))
+    except (AttributeError, RuntimeError, TypeError):  # malformed material associations
+        return []
+
+
+def _quantity_weight(element: ifcopenshell.entity_instance) -> tuple[str, float] | None:
+    """The preferred IfcQuantityWeight of the element (then of its type)."""
+    found: dict[str, tuple[str, float]] = {}
+    for definition in _property_definitions(element):
+        if not definition.is_a("IfcElementQuantity"):
+            continue
+        for quantity in definition.Quantities or ():
+            if quantity.is_a("IfcQuantityWeight") and quantity.WeightValue is not None:
+                key = quantity.Name.replace(" ", "").lower() if quantity.Name else "weight"
+                value = float(quantity.WeightValue) * _own_unit_factor(quantity)
+                found.setdefault(key, (f"{definition.Name}.{quantity.Name}", value))
+    for key in WEIGHT_QUANTITY_PREFERENCE:
+        if key in found:
+            return found[key]
+    return next(iter(found.values()), None)
+
+
+def _vendor_weight(element: ifcopenshell.entity_instance) -> tuple[str, float] | None:
+    """A weight property from an authoring tool's property set; ``Structural`` sets first."""
+    candidates: list[tuple[int, str, float]] = []
+    for definition in _property_definitions(element):
+        if not definition.is_a("IfcPropertySet"):
+            continue
+        rank = 0 if "structural" in (definition.Name or "").lower() else 1
+        for prop in definition.HasProperties or ():
+            if not prop.is_a("IfcPropertySingleValue") or prop.NominalValue is None:
+                continue
+            key = (prop.Name or "").replace(" ", "").lower()
+            value = prop.NominalValue.wrappedValue
+            if key in VENDOR_WEIGHT_NAMES and isinstance(value, int | float):
+                order = rank * 10 + VENDOR_WEIGHT_NAMES.index(key)
+                candidates.append(
+                    (order, f"{definition.Name}.{prop.Name}", float(value) * _own_unit_factor(prop))
+                )
+    if not candidates:
+        return None
+    _, label, value = min(candidates)
+    return label, value
+
+
+def _property_definitions(element: ifcopenshell.entity_instance) -> list[ifcopenshell.entity_instance]:
+    """Property sets and quantity sets of the element, then of its type."""
+    definitions = [
+        rel.RelatingPropertyDefinition
+        for rel in getattr(element, "IsDefinedBy", ()) or ()
+        if rel.is_a("IfcRelDefinesByProperties")
+    ]
+    element_type = ifcopenshell.util.element.get_type(element)
+    if element_type is not None:
+        definitions.extend(element_type.HasPropertySets or ())
+    return [item for item in definitions if item is not None and hasattr(item, "is_a")]
+
+
+def _own_unit_factor(item: ifcopenshell.entity_instance) -> float:
+    """1 unless a quantity/property names its own mass unit (then its factor to the project unit)."""
+    unit = getattr(item, "Unit", None)
+    if unit is None:
+        return 1.0
+    try:
+        return ifcopenshell.util.unit.get_unit_scale(unit) / (1000.0 * mass_unit_kg(item.file))
+    except (AttributeError, TypeError, ValueError):
+        return 1.0
+
+
+def _density_property(material: ifcopenshell.entity_instance) -> float | None:
+    """MassDensity from Pset_MaterialCommon (IFC4) or IfcGeneralMaterialProperties (IFC2X3), kg/m³."""
+    values: list[float] = []
+    psets = ifcopenshell.util.element.get_psets(material)
+    for name, props in psets.items():
+        if "MassDensity" in props and (name == "Pset_MaterialCommon" or name.endswith("MaterialCommon")):
+            values.append(props["MassDensity"])
+    for inverse in material.file.get_inverse(material):
+        if inverse.is_a("IfcGeneralMaterialProperties") and getattr(inverse, "MassDensity", None):
+            values.append(inverse.MassDensity)
+    for value in values:
+        if (
+            isinstance(value, int | float)
+            and PLAUSIBLE_DENSITY_KG_M3[0] <= value <= PLAUSIBLE_DENSITY_KG_M3[1]
+        ):
+            return float(value)
+        _log.warning("material %r: MassDensity %r is implausible; ignored", material.Name, value)
+    return None

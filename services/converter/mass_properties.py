@@ -1,0 +1,83 @@
+"""Volume, centre of mass and inertia of a component mesh, per kilogram so any mass can be applied later.
+
+Computed once per distinct geometry (elements that share a tessellation share these numbers) with
+trimesh's exact polyhedral integrals. A mesh that is not watertight has no meaningful enclosed volume:
+then the convex hull's volume is used (or the bounding box's when the hull is flat), and the inertia is that
+of a solid box filling the mesh's bounding box, centred on it; the result says so, and the manifest reports
+it.
+
+Inertia tensors follow SDF: about the centre of mass, in the element frame's axes, with off-diagonal
+entries equal to the tensor's entries (``ixy = -∫xy dm``), which is trimesh's convention as well.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+from scipy.spatial import ConvexHull, QhullError
+
+from shared.manifest import InertiaSource
+
+MIN_THICKNESS_M = 0.001
+
+
+@dataclass(frozen=True)
+class MassProperties:
+    volume_m3: float
+    watertight: bool
+    com_local_m: np.ndarray  # (3,)
+    inertia_per_kg_m2: np.ndarray  # (3, 3) about the CoM, element axes; multiply by the mass in kg
+    source: InertiaSource
+    bbox_local_m: np.ndarray  # (2, 3): min, max
+
+    def inertia_kg_m2(self, mass_kg: float) -> np.ndarray:
+        return self.inertia_per_kg_m2 * mass_kg
+
+
+def mesh_from_arrays(vertices_m: np.ndarray, faces: np.ndarray) -> trimesh.Trimesh:
+    """A trimesh with merged vertices and consistent outward winding where the topology allows it."""
+    mesh = trimesh.Trimesh(vertices=vertices_m, faces=faces, process=True, validate=False)
+    if mesh.is_watertight and mesh.volume < 0:
+        mesh.invert()
+    return mesh
+
+
+def mass_properties(mesh: trimesh.Trimesh) -> MassProperties:
+    bbox = np.array(mesh.bounds, dtype=float)
+    if mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0:
+        props = mesh.mass_properties  # density 1: mass == volume
+        return MassProperties(
+            volume_m3=float(props.volume),
+            watertight=True,
+            com_local_m=np.array(props.center_mass, dtype=float),
+            inertia_per_kg_m2=np.array(props.inertia, dtype=float) / float(props.mass),
+            source=InertiaSource.MESH,
+            bbox_local_m=bbox,
+        )
+    return _bounding_box_fallback(mesh, bbox)
+
+
+def _bounding_box_fallback(mesh: trimesh.Trimesh, bbox: np.ndarray) -> MassProperties:
+    extents = np.maximum(bbox[1] - bbox[0], MIN_THICKNESS_M)
+    try:
+        volume = float(ConvexHull(mesh.vertices).volume)
+    except (QhullError, ValueError):  # flat or too few points: no hull volume
+        volume = 0.0
+    if not volume > 1e-12:
+        volume = float(np.prod(extents))
+    return MassProperties(
+        volume_m3=volume,
+        watertight=False,
+        com_local_m=(bbox[0] + bbox[1]) / 2.0,
+        inertia_per_kg_m2=box_inertia_per_kg(extents),
+        source=InertiaSource.BOUNDING_BOX_FALLBACK,
+        bbox_local_m=bbox,
+    )
+
+
+def box_inertia_per_kg(extents_m: np.ndarray) -> np.ndarray:
+    """Inertia of a solid box of unit mass about its centre: diag((b²+c²)/12, …)."""
+    a2, b2, c2 = np.square(np.asarray(extents_m, dtype=float))
+    return np.diag([(b2 + c2) / 12.0, (a2 + c2) / 12.0, (a2 + b2) / 12.0])

@@ -1,0 +1,131 @@
+"""Tessellate the selected elements with ifcopenshell, each in its own frame, identical geometry once.
+
+Settings: ``use-world-coords`` off, so vertices come in the element's object-placement frame, in metres
+(ifcopenshell converts IFC length units), and the shape's transformation is that placement, also in
+metres. ifcopenshell's iterator already shares one tessellation between elements whose representations
+map the same geometry (``shape.geometry.id``); :class:`Tessellation` keeps that sharing so every later
+step (meshes, mass properties, convex decomposition) runs once per distinct geometry.
+
+Elements the iterator does not return (curve-only welds, unsupported representations) and those whose
+tessellation has no triangles are reported with the reason ifcopenshell gives when asked for that element
+alone, so one bad element never stops a conversion.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import ifcopenshell
+import ifcopenshell.geom
+import ifcopenshell.util.shape
+import numpy as np
+
+_log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """One distinct tessellation in its element frame: vertices in metres, triangles as vertex indices."""
+
+    geometry_id: str
+    vertices_local_m: np.ndarray
+    faces: np.ndarray
+
+
+@dataclass(frozen=True)
+class ElementShape:
+    step_id: int
+    placement_world_m: np.ndarray  # 4×4, element frame → IFC world frame, metres
+    geometry: Geometry
+
+
+@dataclass
+class Tessellation:
+    shapes: dict[int, ElementShape] = field(default_factory=dict)
+    failures: dict[int, str] = field(default_factory=dict)
+
+    @property
+    def geometries(self) -> dict[str, Geometry]:
+        return {shape.geometry.geometry_id: shape.geometry for shape in self.shapes.values()}
+
+
+def geometry_settings() -> ifcopenshell.geom.settings:
+    """The settings every bimbot tessellation uses (the benchmark uses them too)."""
+    settings = ifcopenshell.geom.settings()
+    settings.set("use-world-coords", False)
+    settings.set("weld-vertices", True)
+    return settings
+
+
+def default_threads() -> int:
+    return max(1, os.cpu_count() or 1)
+
+
+def tessellate(
+    model: ifcopenshell.file,
+    elements: Sequence[ifcopenshell.entity_instance],
+    *,
+    threads: int | None = None,
+    on_shape: Callable[[ElementShape], None] | None = None,
+) -> Tessellation:
+    """Tessellate ``elements``; ``on_shape`` is called as each one is ready (progress, pipelining)."""
+    result = Tessellation()
+    if not elements:
+        return result
+    settings = geometry_settings()
+    cache: dict[str, Geometry] = {}
+    iterator = ifcopenshell.geom.iterator(
+        settings, model, threads or default_threads(), include=list(elements)
+    )
+    if iterator.initialize():
+        while True:
+            shape = iterator.get()
+            element_shape = _element_shape(shape, cache)
+            if element_shape is not None:
+                result.shapes[element_shape.step_id] = element_shape
+                if on_shape is not None:
+                    on_shape(element_shape)
+            if not iterator.next():
+                break
+    for element in elements:
+        if element.id() not in result.shapes:
+            result.failures[element.id()] = _failure_reason(settings, element)
+    return result
+
+
+def _element_shape(shape: ifcopenshell.geom.ShapeType, cache: dict[str, Geometry]) -> ElementShape | None:
+    geometry_id = str(shape.geometry.id)
+    geometry = cache.get(geometry_id)
+    if geometry is None:
+        faces = ifcopenshell.util.shape.get_faces(shape.geometry)
+        if len(faces) == 0:
+            return None
+        vertices = ifcopenshell.util.shape.get_vertices(shape.geometry)
+        geometry = Geometry(
+            geometry_id, np.ascontiguousarray(vertices, float), np.ascontiguousarray(faces, np.int64)
+        )
+        cache[geometry_id] = geometry
+    matrix = np.asarray(ifcopenshell.util.shape.get_shape_matrix(shape), dtype=float)
+    return ElementShape(int(shape.id), matrix, geometry)
+
+
+def _failure_reason(settings: ifcopenshell.geom.settings, element: ifcopenshell.entity_instance) -> str:
+    """Why ifcopenshell gives no triangles for this element, in one line."""
+    try:
+        shape = ifcopenshell.geom.create_shape(settings, element)
+    except RuntimeError as error:
+        first_line = str(error).splitlines()[0] if str(error) else "unknown error"
+        return f"no triangulated geometry: ifcopenshell could not build it ({_shorten(first_line)})"
+    geometry = getattr(shape, "geometry", shape)
+    if len(ifcopenshell.util.shape.get_faces(geometry)) == 0:
+        edges = len(ifcopenshell.util.shape.get_edges(geometry)) if hasattr(geometry, "edges") else 0
+        kind = "curve-only" if edges else "empty"
+        return f"no triangulated geometry: {kind} representation cannot be meshed"
+    return "no triangulated geometry returned by the ifcopenshell iterator"
+
+
+def _shorten(text: str, limit: int = 160) -> str:
+    return text if len(text) <= limit else text[: limit - 1] + "…"

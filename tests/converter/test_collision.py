@@ -1,0 +1,480 @@
+"""Collision shapes of moving bodies (services/converter/collision.py)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import ifcopenshell
+import ifcopenshell.api.context
+import ifcopenshell.api.feature
+import ifcopenshell.api.geometry
+import ifcopenshell.api.root
+import ifcopenshell.api.type
+import ifcopenshell.api.unit
+import ifcopenshell.geom
+import ifcopenshell.util.data
+import ifcopenshell.util.shape
+import ifcopenshell.util.unit
+import numpy as np
+import pybullet as p
+import pytest
+import trimesh
+
+from services.converter.collision import (
+    CollisionShape,
+    collision_from_mesh,
+    collision_from_representation,
+    collision_shape,
+    vhacd_parts,
+)
+from shared.manifest import CollisionMethod
+
+SAMPLES = Path("/work/shared/samples/ifc")
+MM = 0.001
+Entity = ifcopenshell.entity_instance
+
+
+# --- fixtures: a millimetre IFC4 model, elements made with ifcopenshell.api, their ifcopenshell meshes ----
+
+
+@dataclass(frozen=True)
+class Model:
+    file: ifcopenshell.file
+    body: Entity
+
+    def profile(self, ifc_class: str, **attributes: object) -> Entity:
+        return self.file.create_entity(ifc_class, ProfileType="AREA", **attributes)
+
+    def extrusion(self, profile: Entity, depth_m: float, **kwargs: object) -> Entity:
+        return ifcopenshell.api.geometry.add_profile_representation(
+            self.file, context=self.body, profile=profile, depth=depth_m, **kwargs
+        )
+
+    def element(self, ifc_class: str, representation: Entity, matrix_m: np.ndarray | None = None) -> Entity:
+        element = ifcopenshell.api.root.create_entity(self.file, ifc_class=ifc_class)
+        ifcopenshell.api.geometry.assign_representation(
+            self.file, product=element, representation=representation
+        )
+        place(self.file, element, np.eye(4) if matrix_m is None else matrix_m)
+        return element
+
+
+def place(model: ifcopenshell.file, element: Entity, matrix_m: np.ndarray) -> None:
+    # the api scales the matrix's translation in place: hand it a copy
+    ifcopenshell.api.geometry.edit_object_placement(
+        model, product=element, matrix=matrix_m.copy(), is_si=True
+    )
+
+
+def rotated_placement() -> np.ndarray:
+    """A placement with a non-trivial rotation and offset, metres."""
+    c, s = np.cos(0.7), np.sin(0.7)
+    matrix = np.eye(4)
+    matrix[:3, :3] = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ np.array(
+        [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]
+    )
+    matrix[:3, 3] = (12.0, -3.0, 4.5)
+    return matrix
+
+
+@pytest.fixture
+def model() -> Model:
+    file = ifcopenshell.file(schema="IFC4")
+    ifcopenshell.api.root.create_entity(file, ifc_class="IfcProject", name="collision tests")
+    ifcopenshell.api.unit.assign_unit(file, length={"is_metric": True, "raw": "MILLIMETERS"})
+    parent = ifcopenshell.api.context.add_context(file, context_type="Model")
+    body = ifcopenshell.api.context.add_context(
+        file, context_type="Model", context_identifier="Body", target_view="MODEL_VIEW", parent=parent
+    )
+    return Model(file, body)
+
+
+def local_mesh(element: Entity) -> trimesh.Trimesh:
+    """The element's ifcopenshell tessellation in its own placement frame, metres."""
+    settings = ifcopenshell.geom.settings()
+    settings.set("use-world-coords", False)
+    shape = ifcopenshell.geom.create_shape(settings, element)
+    vertices = ifcopenshell.util.shape.get_vertices(shape.geometry)
+    return trimesh.Trimesh(vertices, ifcopenshell.util.shape.get_faces(shape.geometry))
+
+
+def i_section(model: Model) -> Entity:
+    return model.profile(
+        "IfcIShapeProfileDef", OverallWidth=200.0, OverallDepth=400.0, WebThickness=10.0, FlangeThickness=20.0
+    )
+
+
+def union_bounds(parts: tuple[trimesh.Trimesh, ...]) -> np.ndarray:
+    return np.array(
+        [np.min([q.bounds[0] for q in parts], axis=0), np.max([q.bounds[1] for q in parts], axis=0)]
+    )
+
+
+def assert_convex_parts(shape: CollisionShape) -> None:
+    for part in shape.parts:
+        assert part.is_watertight and part.is_convex and part.volume > 0.0
+
+
+def prism(
+    outline_xy: list[tuple[float, float]], triangles: list[tuple[int, int, int]], height: float
+) -> trimesh.Trimesh:
+    """A closed prism over a counter-clockwise outline with the given triangulation of its cap."""
+    n = len(outline_xy)
+    bottom = np.column_stack([np.array(outline_xy), np.zeros(n)])
+    vertices = np.vstack([bottom, bottom + np.array([0.0, 0.0, height])])
+    faces = [(c, b, a) for a, b, c in triangles] + [(a + n, b + n, c + n) for a, b, c in triangles]
+    for i in range(n):
+        j = (i + 1) % n
+        faces += [(i, j, j + n), (i, j + n, i + n)]
+    mesh = trimesh.Trimesh(vertices, faces)
+    assert mesh.is_volume
+    return mesh
+
+
+def l_prism() -> trimesh.Trimesh:
+    """An L-shaped angle 0.1 × 0.1 m, legs 0.01 m thick, 1 m long (concave)."""
+    outline = [(0.0, 0.0), (0.1, 0.0), (0.1, 0.01), (0.01, 0.01), (0.01, 0.1), (0.0, 0.1)]
+    return prism(outline, [(0, 1, 2), (0, 2, 3), (0, 3, 4), (0, 4, 5)], 1.0)
+
+
+# --- profile path -----------------------------------------------------------------------------------------
+
+
+def test_rotated_i_beam_is_three_convex_prisms_matching_its_mesh(model: Model) -> None:
+    beam = model.element("IfcBeam", model.extrusion(i_section(model), 6.0), rotated_placement())
+    mesh = local_mesh(beam)
+    shape = collision_from_representation(beam, mesh, MM)
+    assert shape is not None
+    assert shape.method is CollisionMethod.PROFILE_DECOMPOSITION and len(shape.parts) == 3
+    assert_convex_parts(shape)
+    np.testing.assert_allclose(union_bounds(shape.parts), mesh.bounds, atol=1e-7)
+    assert sum(q.volume for q in shape.parts) == pytest.approx(mesh.volume, rel=1e-6)
+    assert collision_shape(beam, mesh, MM).method is CollisionMethod.PROFILE_DECOMPOSITION
+
+
+def test_filleted_i_beam_pieces_miss_only_the_fillet_volume(model: Model) -> None:
+    ipe = model.profile(
+        "IfcIShapeProfileDef",
+        OverallWidth=150.0,
+        OverallDepth=300.0,
+        WebThickness=7.1,
+        FlangeThickness=10.7,
+        FilletRadius=15.0,
+    )
+    beam = model.element("IfcBeam", model.extrusion(ipe, 3.0))
+    mesh = local_mesh(beam)
+    shape = collision_from_representation(beam, mesh, MM)
+    assert shape is not None and len(shape.parts) == 3
+    fillets_m3 = 4 * (1 - np.pi / 4) * 0.015**2 * 3.0
+    assert sum(q.volume for q in shape.parts) == pytest.approx(mesh.volume - fillets_m3, rel=0.01)
+
+
+def test_square_hollow_column_is_four_walls(model: Model) -> None:
+    shs = model.profile("IfcRectangleHollowProfileDef", XDim=200.0, YDim=200.0, WallThickness=10.0)
+    column = model.element("IfcColumn", model.extrusion(shs, 3.0), rotated_placement())
+    mesh = local_mesh(column)
+    shape = collision_shape(column, mesh, MM)
+    assert shape.method is CollisionMethod.PROFILE_DECOMPOSITION and len(shape.parts) == 4
+    assert_convex_parts(shape)
+    np.testing.assert_allclose(union_bounds(shape.parts), mesh.bounds, atol=1e-7)
+
+
+def test_box_footing_is_one_profile_prism_and_one_hull_from_its_mesh(model: Model) -> None:
+    """Expected: the representation path takes a rectangle extrusion (one prism); the mesh path one hull."""
+    rectangle = model.profile("IfcRectangleProfileDef", XDim=1200.0, YDim=800.0)
+    footing = model.element("IfcFooting", model.extrusion(rectangle, 0.5), rotated_placement())
+    mesh = local_mesh(footing)
+    shape = collision_shape(footing, mesh, MM)
+    assert shape.method is CollisionMethod.PROFILE_DECOMPOSITION and len(shape.parts) == 1
+    from_mesh = collision_from_mesh(mesh)
+    assert from_mesh.method is CollisionMethod.CONVEX_HULL and len(from_mesh.parts) == 1
+    assert from_mesh.parts[0].volume == pytest.approx(1.2 * 0.8 * 0.5)
+
+
+def test_extrusion_position_is_applied(model: Model) -> None:
+    """A beam extruded along its local x, the way many exporters write it."""
+    representation = model.extrusion(
+        i_section(model), 4.0, placement_zx_axes=((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+    )
+    beam = model.element("IfcBeam", representation, rotated_placement())
+    mesh = local_mesh(beam)
+    assert mesh.extents[0] == pytest.approx(4.0)
+    shape = collision_from_representation(beam, mesh, MM)
+    assert shape is not None
+    np.testing.assert_allclose(union_bounds(shape.parts), mesh.bounds, atol=1e-7)
+
+
+def test_type_representation_map_gives_the_same_parts_as_a_direct_extrusion(model: Model) -> None:
+    beam_type = ifcopenshell.api.root.create_entity(model.file, ifc_class="IfcBeamType")
+    ifcopenshell.api.geometry.assign_representation(
+        model.file, product=beam_type, representation=model.extrusion(i_section(model), 6.0)
+    )
+    typed = ifcopenshell.api.root.create_entity(model.file, ifc_class="IfcBeam")
+    place(model.file, typed, rotated_placement())
+    ifcopenshell.api.type.assign_type(model.file, related_objects=[typed], relating_type=beam_type)
+    assert typed.Representation.Representations[0].Items[0].is_a("IfcMappedItem")
+    direct = model.element("IfcBeam", model.extrusion(i_section(model), 6.0), rotated_placement())
+
+    typed_shape = collision_shape(typed, local_mesh(typed), MM)
+    direct_shape = collision_shape(direct, local_mesh(direct), MM)
+    assert typed_shape.method is CollisionMethod.PROFILE_DECOMPOSITION
+    typed_boxes = sorted(tuple(np.round(q.bounds.ravel(), 9)) for q in typed_shape.parts)
+    direct_boxes = sorted(tuple(np.round(q.bounds.ravel(), 9)) for q in direct_shape.parts)
+    assert typed_boxes == direct_boxes
+
+
+def test_mapped_item_origin_and_target_are_both_applied(model: Model) -> None:
+    f = model.file
+    solid_representation = model.extrusion(i_section(model), 2.0)
+    origin = f.createIfcAxis2Placement3D(
+        f.createIfcCartesianPoint((100.0, 200.0, 300.0)),
+        f.createIfcDirection((0.0, 0.0, 1.0)),
+        f.createIfcDirection((0.0, 1.0, 0.0)),
+    )
+    target = f.createIfcCartesianTransformationOperator3D(
+        f.createIfcDirection((1.0, 0.0, 0.0)),
+        f.createIfcDirection((0.0, 0.0, 1.0)),
+        f.createIfcCartesianPoint((500.0, 50.0, 0.0)),
+        None,
+    )
+    mapped = f.createIfcMappedItem(f.createIfcRepresentationMap(origin, solid_representation), target)
+    representation = f.createIfcShapeRepresentation(model.body, "Body", "MappedRepresentation", [mapped])
+    beam = model.element("IfcBeam", representation, rotated_placement())
+    mesh = local_mesh(beam)
+    shape = collision_from_representation(beam, mesh, MM)
+    assert shape is not None and len(shape.parts) == 3
+    np.testing.assert_allclose(union_bounds(shape.parts), mesh.bounds, atol=1e-7)
+
+
+def test_clipped_body_falls_back_to_the_mesh_with_a_note(model: Model) -> None:
+    clipping = ifcopenshell.util.data.Clipping(location=(0.0, 0.0, 5.0), normal=(0.0, 0.7071, 0.7071))
+    representation = model.extrusion(i_section(model), 6.0, clippings=[clipping])
+    beam = model.element("IfcBeam", representation)
+    mesh = local_mesh(beam)
+    assert collision_from_representation(beam, mesh, MM) is None
+    shape = collision_shape(beam, mesh, MM)
+    assert shape.method in (CollisionMethod.VHACD, CollisionMethod.CONVEX_HULL)
+    assert shape.note is not None and "IfcBooleanClippingResult" in shape.note
+    assert_convex_parts(shape)
+
+
+def test_large_opening_makes_the_profile_pieces_disagree_with_the_mesh(model: Model) -> None:
+    plate_profile = model.profile("IfcRectangleProfileDef", XDim=1000.0, YDim=1000.0)
+    hole_profile = model.profile("IfcRectangleProfileDef", XDim=400.0, YDim=400.0)
+    plate = model.element("IfcPlate", model.extrusion(plate_profile, 0.02))
+    hole = model.element("IfcOpeningElement", model.extrusion(hole_profile, 0.1))
+    place(model.file, hole, np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, -0.05], [0, 0, 0, 1]], float))
+    ifcopenshell.api.feature.add_feature(model.file, feature=hole, element=plate)
+    mesh = local_mesh(plate)
+    assert mesh.volume == pytest.approx(0.84 * 0.02, rel=1e-6)
+    assert collision_from_representation(plate, mesh, MM) is None
+
+
+@pytest.mark.parametrize("ifc_class", ["IfcUShapeProfileDef", "IfcZShapeProfileDef"])
+def test_pieces_that_do_not_lie_inside_the_mesh_are_rejected(model: Model, ifc_class: str) -> None:
+    """A mirrored mesh has the same bounds and volume; the containment check must still catch it."""
+    profile = model.profile(
+        ifc_class, Depth=300.0, FlangeWidth=100.0, WebThickness=10.0, FlangeThickness=15.0
+    )
+    member = model.element("IfcMember", model.extrusion(profile, 2.0))
+    mesh = local_mesh(member)
+    assert collision_from_representation(member, mesh, MM) is not None
+    mirrored = mesh.copy()
+    mirrored.apply_transform(np.diag([-1.0, 1.0, 1.0, 1.0]))
+    assert collision_from_representation(member, mirrored, MM) is None
+
+
+def test_circular_hollow_section_is_annular_sectors(model: Model) -> None:
+    chs = model.profile("IfcCircleHollowProfileDef", Radius=57.15, WallThickness=3.6)
+    column = model.element("IfcColumn", model.extrusion(chs, 3.0), rotated_placement())
+    mesh = local_mesh(column)
+    shape = collision_shape(column, mesh, MM)
+    assert shape.method is CollisionMethod.PROFILE_DECOMPOSITION and len(shape.parts) >= 16
+    assert_convex_parts(shape)
+    assert sum(q.volume for q in shape.parts) == pytest.approx(mesh.volume, rel=0.02)
+
+
+# --- mesh path --------------------------------------------------------------------------------------------
+
+
+def test_convex_box_mesh_is_one_hull() -> None:
+    box = trimesh.creation.box(extents=(0.4, 0.3, 2.0))
+    shape = collision_from_mesh(box)
+    assert shape.method is CollisionMethod.CONVEX_HULL and len(shape.parts) == 1
+    assert shape.parts[0].volume == pytest.approx(box.volume)
+
+
+def test_concave_l_prism_is_decomposed_by_vhacd_into_convex_parts() -> None:
+    angle = l_prism()
+    shape = collision_from_mesh(angle)
+    assert shape.method is CollisionMethod.VHACD and len(shape.parts) >= 2
+    assert_convex_parts(shape)
+    np.testing.assert_allclose(union_bounds(shape.parts), angle.bounds, atol=0.02 * angle.extents.max())
+    # far tighter than the one hull (3.1 × the volume) a convex-only body would get
+    assert sum(q.volume for q in shape.parts) < 1.5 * angle.volume
+
+
+def test_vhacd_parts_stay_inside_the_mesh_bounds() -> None:
+    angle = l_prism()
+    lower, upper = union_bounds(tuple(vhacd_parts(angle)))
+    assert np.all(lower >= angle.bounds[0] - 1e-9) and np.all(upper <= angle.bounds[1] + 1e-9)
+
+
+def test_vhacd_keeps_the_section_of_a_long_i_beam(model: Model) -> None:
+    """V-HACD's 64-voxel floor along the longest axis would merge a 6 m I-beam into one hull."""
+    mesh = local_mesh(model.element("IfcBeam", model.extrusion(i_section(model), 6.0)))
+    shape = collision_from_mesh(mesh)
+    assert shape.method is CollisionMethod.VHACD and len(shape.parts) >= 3
+    assert sum(q.volume for q in shape.parts) < 2.5 * mesh.volume  # its one hull is 6.9 × the volume
+
+
+def test_vhacd_on_a_square_plate_is_fast_despite_the_voxeliser_axis_bug() -> None:
+    """A 400×400×20 mm plate with a notch: plain p.vhacd takes >10 s here (10^8 voxels)."""
+    outline = [
+        (0.0, 0.0),
+        (0.4, 0.0),
+        (0.4, 0.4),
+        (0.25, 0.4),
+        (0.25, 0.2),
+        (0.15, 0.2),
+        (0.15, 0.4),
+        (0.0, 0.4),
+    ]
+    cap = [(0, 1, 4), (1, 2, 4), (2, 3, 4), (0, 4, 5), (0, 5, 7), (5, 6, 7)]
+    plate = prism(outline, cap, 0.02)
+    start = time.perf_counter()
+    parts = vhacd_parts(plate)
+    assert time.perf_counter() - start < 3.0
+    assert parts
+
+
+def test_vhacd_prints_nothing_to_stdout(capfd: pytest.CaptureFixture[str]) -> None:
+    collision_from_mesh(l_prism())
+    assert capfd.readouterr().out == ""
+
+
+def test_importing_and_using_the_module_prints_nothing(tmp_path: Path) -> None:
+    """pybullet prints a build banner on import and V-HACD its progress; neither may reach CLI output."""
+    mesh_file = tmp_path / "angle.obj"
+    l_prism().export(str(mesh_file))
+    code = textwrap.dedent(
+        f"""
+        import trimesh
+        from services.converter.collision import collision_from_mesh
+        shape = collision_from_mesh(trimesh.load({str(mesh_file)!r}))
+        assert shape.method.value == "vhacd", shape
+        """
+    )
+    root = Path(__file__).resolve().parents[2]
+    result = subprocess.run(
+        [sys.executable, "-c", code], cwd=root, capture_output=True, text=True, check=False
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout == "" and result.stderr == ""
+
+
+def test_flat_mesh_collides_as_a_thin_box() -> None:
+    square = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]])
+    shape = collision_from_mesh(square)
+    assert shape.method is CollisionMethod.CONVEX_HULL and len(shape.parts) == 1
+    assert shape.parts[0].volume == pytest.approx(1e-3)
+
+
+# --- sample files -----------------------------------------------------------------------------------------
+
+
+def sample_shapes(name: str) -> list[tuple[trimesh.Trimesh, CollisionShape]]:
+    """(mesh, collision shape) of every meshed element of a sample file."""
+    if not SAMPLES.is_dir():
+        pytest.skip(f"{SAMPLES} is absent")
+    model = ifcopenshell.open(str(SAMPLES / name))
+    unit_scale_m = ifcopenshell.util.unit.calculate_unit_scale(model)
+    settings = ifcopenshell.geom.settings()
+    settings.set("use-world-coords", False)
+    iterator = ifcopenshell.geom.iterator(settings, model)
+    assert iterator.initialize()
+    results = []
+    while True:
+        shape = iterator.get()
+        faces = ifcopenshell.util.shape.get_faces(shape.geometry)
+        if len(faces):
+            mesh = trimesh.Trimesh(ifcopenshell.util.shape.get_vertices(shape.geometry), faces)
+            results.append((mesh, collision_shape(model.by_id(shape.id), mesh, unit_scale_m)))
+        if not iterator.next():
+            break
+    return results
+
+
+def test_ifc2x3_i_shape_sample_is_decomposed_from_its_profiles() -> None:
+    shapes = sample_shapes("IfcIShapeProfileDef.ifc")
+    assert len(shapes) == 3  # I, I with fillet, asymmetric I
+    for mesh, shape in shapes:
+        assert shape.method is CollisionMethod.PROFILE_DECOMPOSITION and len(shape.parts) == 3
+        np.testing.assert_allclose(union_bounds(shape.parts), mesh.bounds, atol=1e-6)
+
+
+def test_ifc4_extruded_beam_sample_is_three_boxes() -> None:
+    ((_, shape),) = sample_shapes("beam-extruded-solid.ifc")
+    assert shape.method is CollisionMethod.PROFILE_DECOMPOSITION and len(shape.parts) == 3
+
+
+def test_standard_case_beams_sample_gives_a_shape_for_every_beam() -> None:
+    """IPE220 (filleted I) and ½IPE300 (T) beams with cardinal-point offsets: all decompose from profiles."""
+    shapes = sample_shapes("standard_case_element_beam.ifc")
+    assert len(shapes) == 18
+    for _, shape in shapes:
+        assert shape.method is CollisionMethod.PROFILE_DECOMPOSITION
+        assert_convex_parts(shape)
+
+
+def test_faceted_brep_sample_falls_back_to_the_mesh() -> None:
+    ((mesh, shape),) = sample_shapes("faceted_brep.ifc")
+    assert shape.method in (CollisionMethod.CONVEX_HULL, CollisionMethod.VHACD)
+    assert shape.note is not None and "IfcFacetedBrep" in shape.note
+    assert_convex_parts(shape)
+    np.testing.assert_allclose(union_bounds(shape.parts), mesh.bounds, atol=0.02 * mesh.extents.max())
+
+
+# --- physics ----------------------------------------------------------------------------------------------
+
+
+def test_profile_parts_rest_on_the_ground_as_a_compound_body(model: Model, tmp_path: Path) -> None:
+    beam = model.element("IfcBeam", model.extrusion(i_section(model), 3.0))
+    shape = collision_shape(beam, local_mesh(beam), MM)
+    centre_local = trimesh.util.concatenate(list(shape.parts)).center_mass
+    files = []
+    for index, part in enumerate(shape.parts):
+        files.append(str(tmp_path / f"part_{index}.obj"))
+        part.export(files[-1])
+    client = p.connect(p.DIRECT)
+    try:
+        p.setGravity(0, 0, -9.81, physicsClientId=client)
+        ground = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=client)
+        p.createMultiBody(0, ground, physicsClientId=client)
+        compound = p.createCollisionShapeArray(
+            shapeTypes=[p.GEOM_MESH] * len(files), fileNames=files, physicsClientId=client
+        )
+        # lie the beam along world y, flanges horizontal: element y (depth) → world z
+        orientation = p.getQuaternionFromEuler((np.pi / 2, 0.0, 0.0))
+        body = p.createMultiBody(
+            baseMass=100.0,
+            baseCollisionShapeIndex=compound,
+            basePosition=(0.0, 0.0, 0.5),
+            baseOrientation=orientation,
+            baseInertialFramePosition=centre_local.tolist(),
+            physicsClientId=client,
+        )
+        for _ in range(3 * 240):
+            p.stepSimulation(physicsClientId=client)
+        (lower, upper) = p.getAABB(body, physicsClientId=client)
+        velocity, spin = p.getBaseVelocity(body, physicsClientId=client)
+    finally:
+        p.disconnect(client)
+    assert lower[2] == pytest.approx(0.0, abs=0.01)  # on the ground: not sunk, not bouncing
+    assert upper[2] - lower[2] == pytest.approx(0.4, abs=0.02)  # lying on its flange, 400 mm deep
+    assert np.linalg.norm(velocity) < 0.01 and np.linalg.norm(spin) < 0.01

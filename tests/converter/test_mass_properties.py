@@ -1,0 +1,65 @@
+"""Centre of mass and inertia from meshes against analytic boxes and cylinders; bounding-box fallback."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+from scipy.spatial.transform import Rotation
+
+from services.converter.mass_properties import box_inertia_per_kg, mass_properties
+from shared.manifest import InertiaSource
+
+
+def test_box_inertia_matches_the_analytic_formula() -> None:
+    extents = (2.0, 0.3, 0.5)
+    mass_kg = 120.0
+    props = mass_properties(trimesh.creation.box(extents))
+    a, b, c = extents
+    expected = mass_kg / 12.0 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
+    assert props.source == InertiaSource.MESH
+    assert props.volume_m3 == pytest.approx(a * b * c)
+    np.testing.assert_allclose(props.inertia_kg_m2(mass_kg), expected, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(props.com_local_m, 0.0, atol=1e-12)
+
+
+def test_cylinder_inertia_matches_the_analytic_formula_within_tessellation_error() -> None:
+    radius, height, mass_kg = 0.15, 3.0, 50.0
+    props = mass_properties(trimesh.creation.cylinder(radius=radius, height=height, sections=256))
+    ixx = mass_kg * (3 * radius**2 + height**2) / 12.0
+    izz = mass_kg * radius**2 / 2.0
+    np.testing.assert_allclose(np.diag(props.inertia_kg_m2(mass_kg)), [ixx, ixx, izz], rtol=2e-3)
+    assert props.volume_m3 == pytest.approx(np.pi * radius**2 * height, rel=1e-3)
+
+
+def test_off_centre_rotated_box_gives_com_and_full_tensor_with_products_of_inertia() -> None:
+    extents = np.array([1.0, 0.2, 0.4])
+    rotation = Rotation.from_euler("xyz", [0.3, -0.2, 0.9])
+    mesh = trimesh.creation.box(extents)
+    transform = np.eye(4)
+    transform[:3, :3] = rotation.as_matrix()
+    transform[:3, 3] = (1.0, 2.0, 3.0)
+    mesh.apply_transform(transform)
+    props = mass_properties(mesh)
+    np.testing.assert_allclose(props.com_local_m, (1.0, 2.0, 3.0), atol=1e-9)
+    matrix = rotation.as_matrix()
+    expected = matrix @ box_inertia_per_kg(extents) @ matrix.T * 10.0
+    np.testing.assert_allclose(props.inertia_kg_m2(10.0), expected, atol=1e-9)
+    assert abs(expected[0, 1]) > 1e-3  # the case really has products of inertia
+
+
+def test_open_mesh_gets_bounding_box_fallback_and_a_positive_volume() -> None:
+    box = trimesh.creation.box((1.0, 2.0, 3.0))
+    open_mesh = trimesh.Trimesh(box.vertices, box.faces[:-2], process=True)  # one face of the box removed
+    props = mass_properties(open_mesh)
+    assert props.source == InertiaSource.BOUNDING_BOX_FALLBACK
+    assert not props.watertight
+    assert props.volume_m3 == pytest.approx(6.0)
+    np.testing.assert_allclose(props.inertia_per_kg_m2, box_inertia_per_kg(np.array([1.0, 2.0, 3.0])))
+
+
+def test_flat_open_mesh_still_gets_a_positive_volume() -> None:
+    square = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]])
+    props = mass_properties(square)
+    assert props.volume_m3 > 0
+    assert np.all(np.linalg.eigvalsh(props.inertia_per_kg_m2) > 0)
