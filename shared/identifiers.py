@@ -71,7 +71,7 @@ def key_to_guid(key: str) -> str:
 def guid_to_folder(guid: str) -> str:
     """Map a GlobalId to a folder name safe in URIs and on case-insensitive file systems."""
     if is_valid_guid(guid):
-        import ifcopenshell.guid  # noqa: PLC0415 (lazy: ifcopenshell costs ~50 MB in services that only need keys)
+        import ifcopenshell.guid  # lazy: ifcopenshell costs ~50 MB in services that only need keys
 
         return ifcopenshell.guid.expand(guid).lower()
     return "x" + guid.encode("utf-8").hex()
@@ -82,7 +82,7 @@ def folder_to_guid(folder: str) -> str:
     if folder.startswith("x"):
         return bytes.fromhex(folder[1:]).decode("utf-8")
     if re.fullmatch(r"[0-9a-f]{32}", folder):
-        import ifcopenshell.guid  # noqa: PLC0415
+        import ifcopenshell.guid
 
         return ifcopenshell.guid.compress(folder)
     raise ValueError(f"folder name {folder!r} was not made by guid_to_folder")

@@ -10,8 +10,10 @@ Protocol (docs/architecture.md, "Construction protocol"):
 
 * external events follow :mod:`.state_table`; an illegal event is rejected and logged, never applied;
 * each ``event_id`` is applied once (delivery is at least once), a repeat is ignored;
-* each ``place`` is one attempt. In ``verifying`` the agent waits for a pose of itself stamped at or after
-  the ``place`` event's sim time and compares it with its BIM target (:mod:`.verification`). When none
+* each ``place`` is one attempt. In ``verifying`` the agent needs a pose of itself from the placement: one
+  stamped at or after the ``place`` event's sim time, or one marked ``fixed`` (fixed to the structure by
+  physics) stamped at or after the ``arrive`` event, since physics fixes the component before the robot
+  reports ``place``. It compares that pose with its BIM target (:mod:`.verification`). When none
   arrives within ``verify_timeout_s`` wall seconds it verifies the latest pose it has, or, with no pose at
   all, judges the placement a failure ("no pose on the bus"). A failure with attempts left is
   ``misplaced`` (the planner sends ``retry``); with none left it is ``failed``.
@@ -96,6 +98,7 @@ class ComponentAgent:
         "_clock",
         "_config",
         "_machine",
+        "arrive_sim_time_s",
         "attempt",
         "component",
         "event_ids",
@@ -104,6 +107,7 @@ class ComponentAgent:
         "key",
         "place_sim_time_s",
         "pose",
+        "pose_fixed",
         "pose_sim_time_s",
         "robot_id",
         "state",
@@ -128,6 +132,8 @@ class ComponentAgent:
         self.robot_id: str | None = None
         self.pose: PoseMsg | None = None
         self.pose_sim_time_s: float | None = None
+        self.pose_fixed = False
+        self.arrive_sim_time_s: float | None = None
         self.place_sim_time_s: float | None = None
         self.verify_deadline_wall_s: float | None = None
         self.history: list[TransitionRecord] = []
@@ -164,10 +170,13 @@ class ComponentAgent:
         self.event_ids.add(msg.event_id)
         if msg.event in (ComponentEvent.RETRY, ComponentEvent.ABANDON):
             self.robot_id = None
+            self.arrive_sim_time_s = None
             self.place_sim_time_s = None
             self.verify_deadline_wall_s = None
         elif msg.robot_id:
             self.robot_id = msg.robot_id
+        if msg.event is ComponentEvent.ARRIVE:
+            self.arrive_sim_time_s = msg.sim_time_s
         if msg.event is ComponentEvent.PLACE:
             self.attempt += 1
             self.place_sim_time_s = msg.sim_time_s
@@ -195,6 +204,7 @@ class ComponentAgent:
             return []
         self.pose = msg.pose
         self.pose_sim_time_s = msg.sim_time_s
+        self.pose_fixed = msg.fixed
         return self.try_verify(now_wall_s)
 
     def try_verify(self, now_wall_s: float | None = None) -> list[ComponentStateMsg]:
@@ -202,12 +212,7 @@ class ComponentAgent:
         if self.state is not ComponentState.VERIFYING:
             return []
         now = time.time() if now_wall_s is None else now_wall_s
-        fresh = (
-            self.pose is not None
-            and self.pose_sim_time_s is not None
-            and self.place_sim_time_s is not None
-            and self.pose_sim_time_s >= self.place_sim_time_s
-        )
+        fresh = self._has_placement_pose()
         if fresh:
             cause = f"pose at sim {self.pose_sim_time_s:.3f} s"
         elif self.verify_deadline_wall_s is not None and now >= self.verify_deadline_wall_s:
@@ -225,6 +230,18 @@ class ComponentAgent:
             check = verify(self.pose, self.component.target_pose_world, self._config.tolerances)
         stamp = self.pose_sim_time_s if fresh else None
         return [self._decide(check, cause, self._clock.now(stamp), now)]
+
+    def _has_placement_pose(self) -> bool:
+        """A pose stamped after ``place``, or a fixed pose stamped after ``arrive``."""
+        if self.pose is None or self.pose_sim_time_s is None:
+            return False
+        if self.place_sim_time_s is not None and self.pose_sim_time_s >= self.place_sim_time_s:
+            return True
+        return (
+            self.pose_fixed
+            and self.arrive_sim_time_s is not None
+            and self.pose_sim_time_s >= self.arrive_sim_time_s
+        )
 
     # --- restart -------------------------------------------------------------------------------------------
 

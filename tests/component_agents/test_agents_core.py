@@ -189,6 +189,24 @@ def test_verification_waits_for_a_pose_stamped_at_or_after_the_place_event() -> 
     assert "pose at sim 5.000 s" in out[0].cause
 
 
+def test_a_fixed_pose_from_the_assembly_verifies_at_once_even_if_stamped_before_the_place_event() -> None:
+    """Physics fixes the component to the structure before the robot reports ``place``."""
+    agent = new_agent()
+    drive_to_assembling(agent, sim_time_s=3.0)
+    fixed = pose_of(agent.component, sim_time_s=4.0).model_copy(update={"fixed": True})
+    assert agent.observe_pose(fixed, NOW) == []  # not verifying yet
+    out = agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=5.0), NOW)
+    assert states(out) == [S.VERIFYING, S.CONSTRUCTED]
+
+
+def test_a_fixed_pose_from_before_the_arrival_is_not_taken_as_the_placement() -> None:
+    agent = new_agent()
+    drive_to_assembling(agent, sim_time_s=3.0)
+    stale = pose_of(agent.component, sim_time_s=2.0).model_copy(update={"fixed": True})
+    agent.observe_pose(stale, NOW)
+    assert states(agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=5.0), NOW)) == [S.VERIFYING]
+
+
 def test_timeout_verifies_the_latest_pose_when_no_fresh_one_comes() -> None:
     agent = new_agent(verify_timeout_s=2.0)
     drive_to_assembling(agent)
