@@ -75,7 +75,8 @@ class CollisionMethod(StrEnum):
 
     CONVEX_HULL = "convex_hull"  # the element is convex: one hull
     PROFILE_DECOMPOSITION = "profile_decomposition"  # extruded parametric profile split exactly into prisms
-    VHACD = "vhacd"  # general concave mesh: pybullet's V-HACD
+    MESH_SPLIT = "mesh_split"  # separate solids of the mesh, cut along their own face planes where concave
+    VHACD = "vhacd"  # what is left (concave and not a closed manifold): pybullet's V-HACD
 
 
 class Connection(_Frozen):

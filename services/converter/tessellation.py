@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import ifcopenshell
@@ -69,9 +69,8 @@ def tessellate(
     elements: Sequence[ifcopenshell.entity_instance],
     *,
     threads: int | None = None,
-    on_shape: Callable[[ElementShape], None] | None = None,
 ) -> Tessellation:
-    """Tessellate ``elements``; ``on_shape`` is called as each one is ready (progress, pipelining)."""
+    """Tessellate ``elements`` with ``threads`` iterator threads (default: all cores)."""
     result = Tessellation()
     if not elements:
         return result
@@ -86,8 +85,6 @@ def tessellate(
             element_shape = _element_shape(shape, cache)
             if element_shape is not None:
                 result.shapes[element_shape.step_id] = element_shape
-                if on_shape is not None:
-                    on_shape(element_shape)
             if not iterator.next():
                 break
     for element in elements:

@@ -20,6 +20,7 @@ import ifcopenshell.geom
 import ifcopenshell.util.data
 import ifcopenshell.util.shape
 import ifcopenshell.util.unit
+import manifold3d
 import numpy as np
 import pybullet as p
 import pytest
@@ -258,7 +259,7 @@ def test_clipped_body_falls_back_to_the_mesh_with_a_note(model: Model) -> None:
     mesh = local_mesh(beam)
     assert collision_from_representation(beam, mesh, MM) is None
     shape = collision_shape(beam, mesh, MM)
-    assert shape.method in (CollisionMethod.VHACD, CollisionMethod.CONVEX_HULL)
+    assert shape.method in (CollisionMethod.MESH_SPLIT, CollisionMethod.VHACD, CollisionMethod.CONVEX_HULL)
     assert shape.note is not None and "IfcBooleanClippingResult" in shape.note
     assert_convex_parts(shape)
 
@@ -309,14 +310,51 @@ def test_convex_box_mesh_is_one_hull() -> None:
     assert shape.parts[0].volume == pytest.approx(box.volume)
 
 
-def test_concave_l_prism_is_decomposed_by_vhacd_into_convex_parts() -> None:
+def test_concave_l_prism_is_cut_exactly_into_two_convex_parts() -> None:
     angle = l_prism()
     shape = collision_from_mesh(angle)
+    assert shape.method is CollisionMethod.MESH_SPLIT and len(shape.parts) == 2
+    assert_convex_parts(shape)
+    np.testing.assert_allclose(union_bounds(shape.parts), angle.bounds, atol=1e-6)
+    assert sum(q.volume for q in shape.parts) == pytest.approx(angle.volume, rel=1e-5)  # one hull: 3.1 ×
+
+
+def test_frame_around_an_opening_is_cut_into_four_bars() -> None:
+    """A ring needs two cuts before any hull shrinks; the splitter must still find the four bars."""
+    bars = [
+        trimesh.creation.box((1.0, 0.1, 0.1), trimesh.transformations.translation_matrix((0, 0, 0.7))),
+        trimesh.creation.box((1.0, 0.1, 0.1), trimesh.transformations.translation_matrix((0, 0, -0.7))),
+        trimesh.creation.box((0.1, 0.1, 1.3), trimesh.transformations.translation_matrix((0.45, 0, 0))),
+        trimesh.creation.box((0.1, 0.1, 1.3), trimesh.transformations.translation_matrix((-0.45, 0, 0))),
+    ]
+    ring_volume = sum(bar.volume for bar in bars)
+    frame = _ring((1.0, 0.1, 1.5), 0.1)
+    shape = collision_from_mesh(frame)
+    assert shape.method is CollisionMethod.MESH_SPLIT and len(shape.parts) == 4
+    assert sum(q.volume for q in shape.parts) == pytest.approx(ring_volume, rel=1e-5)
+
+
+def _ring(extents_m: tuple[float, float, float], bar_m: float) -> trimesh.Trimesh:
+    """A box minus a through hole ``bar_m`` from every side edge (built with manifold3d)."""
+    x, y, z = extents_m
+    box = manifold3d.Manifold.cube((x, y, z), center=True)
+    hole = manifold3d.Manifold.cube((x - 2 * bar_m, 2 * y, z - 2 * bar_m), center=True)
+    mesh = (box - hole).to_mesh()
+    return trimesh.Trimesh(mesh.vert_properties[:, :3], mesh.tri_verts)
+
+
+def _open_ring() -> trimesh.Trimesh:
+    """The ring without its front face: an open shell no repair can close."""
+    ring = _ring((1.0, 0.1, 1.5), 0.1)
+    return trimesh.Trimesh(ring.vertices, ring.faces[ring.face_normals[:, 1] < 0.5])
+
+
+def test_concave_open_mesh_is_decomposed_by_vhacd() -> None:
+    open_ring = _open_ring()
+    assert not open_ring.is_watertight
+    shape = collision_from_mesh(open_ring)
     assert shape.method is CollisionMethod.VHACD and len(shape.parts) >= 2
     assert_convex_parts(shape)
-    np.testing.assert_allclose(union_bounds(shape.parts), angle.bounds, atol=0.02 * angle.extents.max())
-    # far tighter than the one hull (3.1 × the volume) a convex-only body would get
-    assert sum(q.volume for q in shape.parts) < 1.5 * angle.volume
 
 
 def test_vhacd_parts_stay_inside_the_mesh_bounds() -> None:
@@ -328,9 +366,16 @@ def test_vhacd_parts_stay_inside_the_mesh_bounds() -> None:
 def test_vhacd_keeps_the_section_of_a_long_i_beam(model: Model) -> None:
     """V-HACD's 64-voxel floor along the longest axis would merge a 6 m I-beam into one hull."""
     mesh = local_mesh(model.element("IfcBeam", model.extrusion(i_section(model), 6.0)))
+    parts = vhacd_parts(mesh)
+    assert len(parts) >= 3
+    assert sum(q.volume for q in parts) < 2.5 * mesh.volume  # its one hull is 6.9 × the volume
+
+
+def test_i_beam_mesh_is_cut_exactly_into_its_three_plates(model: Model) -> None:
+    mesh = local_mesh(model.element("IfcBeam", model.extrusion(i_section(model), 6.0)))
     shape = collision_from_mesh(mesh)
-    assert shape.method is CollisionMethod.VHACD and len(shape.parts) >= 3
-    assert sum(q.volume for q in shape.parts) < 2.5 * mesh.volume  # its one hull is 6.9 × the volume
+    assert shape.method is CollisionMethod.MESH_SPLIT and len(shape.parts) == 3
+    assert sum(q.volume for q in shape.parts) == pytest.approx(mesh.volume, rel=1e-4)
 
 
 def test_vhacd_on_a_square_plate_is_fast_despite_the_voxeliser_axis_bug() -> None:
@@ -360,8 +405,8 @@ def test_vhacd_prints_nothing_to_stdout(capfd: pytest.CaptureFixture[str]) -> No
 
 def test_importing_and_using_the_module_prints_nothing(tmp_path: Path) -> None:
     """pybullet prints a build banner on import and V-HACD its progress; neither may reach CLI output."""
-    mesh_file = tmp_path / "angle.obj"
-    l_prism().export(str(mesh_file))
+    mesh_file = tmp_path / "open_ring.obj"
+    _open_ring().export(str(mesh_file))  # open: goes to V-HACD
     code = textwrap.dedent(
         f"""
         import trimesh

@@ -1,0 +1,182 @@
+"""Convert one element into its component model folder: the per-element half of the converter.
+
+For each tessellated element: its rigid placement and pose (:mod:`.placement`), work that depends only on
+its geometry and is shared by every element with the same tessellation (mass properties, collision parts,
+mesh files written once and hard-linked after), its mass from the IFC, its split IFC, ``model.sdf``,
+``model.config`` and its manifest entry. Pure apart from writing the model folder.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import ifcopenshell
+import ifcopenshell.util.element
+import numpy as np
+
+from shared.identifiers import guid_to_folder, guid_to_key, is_valid_guid
+from shared.manifest import BoundingBox, Component, ComponentFiles, Inertia, SkippedElement
+
+from . import mass as mass_chain
+from .collision import CollisionShape, collision_shape
+from .connections import element_connections
+from .mass_properties import MassProperties, mass_properties, mesh_from_arrays
+from .mesh_files import GeometryFiles, link_geometry_files, write_geometry_files
+from .placement import pose_from_rigid, split_rigid
+from .sdf_writer import ModelSpec, model_config, model_sdf
+from .split_ifc import split_element
+from .tessellation import ElementShape
+
+
+@dataclass
+class GeometryWork:
+    """Per distinct geometry: computed once, shared by every element that uses it."""
+
+    props: MassProperties
+    collision: CollisionShape
+    files: GeometryFiles | None = None
+    files_dir: Path | None = None
+
+
+@dataclass
+class PlacedElement:
+    element: ifcopenshell.entity_instance
+    shape: ElementShape
+    geometry_key: str
+    rotation: np.ndarray
+    translation_m: np.ndarray
+    vertices_local_m: np.ndarray
+    bbox_ifc_world_m: np.ndarray  # (2, 3) in IFC world coordinates (before the local-origin shift)
+
+
+def skipped_entry(element: ifcopenshell.entity_instance, reason: str) -> SkippedElement:
+    return SkippedElement(
+        guid=str(element.GlobalId or f"#{element.id()}"),
+        ifc_class=element.is_a(),
+        name=element.Name,
+        reason=reason,
+    )
+
+
+def place_element(element: ifcopenshell.entity_instance, shape: ElementShape) -> PlacedElement:
+    rigid = split_rigid(shape.placement_world_m)
+    vertices = shape.geometry.vertices_local_m
+    key = shape.geometry.geometry_id
+    if rigid.residual is not None:  # scaled or mirrored placement: bake the non-rigid part into the mesh
+        vertices = vertices @ rigid.residual.T
+        key = f"{key}:{element.id()}"
+    world = vertices @ rigid.rotation.T + rigid.translation_m
+    bbox = np.array([world.min(axis=0), world.max(axis=0)])
+    return PlacedElement(element, shape, key, rigid.rotation, rigid.translation_m, vertices, bbox)
+
+
+def geometry_work(item: PlacedElement, unit_scale_m: float) -> GeometryWork:
+    mesh = mesh_from_arrays(item.vertices_local_m, item.shape.geometry.faces)
+    return GeometryWork(
+        props=mass_properties(mesh), collision=collision_shape(item.element, mesh, unit_scale_m)
+    )
+
+
+def write_component(
+    model: ifcopenshell.file, item: PlacedElement, work: GeometryWork, origin: np.ndarray, out_dir: Path
+) -> tuple[Component, ModelSpec]:
+    element = item.element
+    guid = str(element.GlobalId)
+    folder = guid_to_folder(guid)
+    model_dir = out_dir / "models" / folder
+    model_dir.mkdir(parents=True, exist_ok=True)
+    if work.files is None or work.files_dir is None:
+        visual = mesh_from_arrays(item.vertices_local_m, item.shape.geometry.faces)
+        work.files = write_geometry_files(model_dir, visual, work.collision.parts)
+        work.files_dir = model_dir
+    else:
+        link_geometry_files(work.files_dir, model_dir, work.files)
+    props = work.props
+    warnings: list[str] = []
+    mass = mass_chain.element_mass(element, props.volume_m3)
+    warnings.extend(mass.warnings)
+    if not props.watertight:
+        warnings.append("mesh is not watertight: inertia from its bounding box, volume from its convex hull")
+    if work.collision.note:
+        warnings.append(work.collision.note)
+    inertia = props.inertia_kg_m2(mass.mass_kg)
+    pose = pose_from_rigid(item.rotation, item.translation_m, origin)
+    split_name = f"{guid if is_valid_guid(guid) else folder}.ifc"
+    split_element(model, element).write(str(model_dir / split_name))
+    spec = ModelSpec(
+        guid=guid,
+        folder=folder,
+        ifc_class=element.is_a(),
+        ifc_name=element.Name,
+        pose_world=pose,
+        mass_kg=mass.mass_kg,
+        com_local_m=tuple(props.com_local_m),
+        inertia_kg_m2=inertia,
+        visual_mesh=work.files.visual_dae,
+        collision_meshes=work.files.collision,
+    )
+    (model_dir / "model.sdf").write_bytes(model_sdf(spec))
+    (model_dir / "model.config").write_bytes(model_config(spec))
+    rel_dir = model_dir.relative_to(out_dir).as_posix()
+    component = Component(
+        guid=guid,
+        key=guid_to_key(guid),
+        folder=folder,
+        ifc_class=element.is_a(),
+        predefined_type=_predefined_type(element),
+        name=element.Name,
+        storey=_storey_name(element),
+        material=mass_chain.material_label(element),
+        target_pose_world=pose,
+        bbox_world=BoundingBox(
+            min_m=tuple(float(v) for v in item.bbox_ifc_world_m[0] - origin),
+            max_m=tuple(float(v) for v in item.bbox_ifc_world_m[1] - origin),
+        ),
+        bbox_local=BoundingBox(
+            min_m=tuple(float(v) for v in props.bbox_local_m[0]),
+            max_m=tuple(float(v) for v in props.bbox_local_m[1]),
+        ),
+        volume_m3=props.volume_m3,
+        watertight=props.watertight,
+        mass_kg=mass.mass_kg,
+        mass_source=mass.source,
+        com_local_m=tuple(float(v) for v in props.com_local_m),
+        inertia_kg_m2=Inertia(
+            ixx=inertia[0, 0],
+            ixy=inertia[0, 1],
+            ixz=inertia[0, 2],
+            iyy=inertia[1, 1],
+            iyz=inertia[1, 2],
+            izz=inertia[2, 2],
+        ),
+        inertia_source=props.source,
+        collision_method=work.collision.method,
+        collision_parts=len(work.collision.parts),
+        files=ComponentFiles(
+            model_dir=rel_dir,
+            sdf_file=f"{rel_dir}/model.sdf",
+            config_file=f"{rel_dir}/model.config",
+            split_ifc=f"{rel_dir}/{split_name}",
+            visual_dae=f"{rel_dir}/{work.files.visual_dae}",
+            visual_obj=f"{rel_dir}/{work.files.visual_obj}",
+            visual_glb=f"{rel_dir}/{work.files.visual_glb}",
+            collision=[f"{rel_dir}/{name}" for name in work.files.collision],
+        ),
+        connections=element_connections(element),
+        warnings=warnings,
+    )
+    return component, spec
+
+
+def _predefined_type(element: ifcopenshell.entity_instance) -> str | None:
+    value = ifcopenshell.util.element.get_predefined_type(element)
+    return str(value) if value else None
+
+
+def _storey_name(element: ifcopenshell.entity_instance) -> str | None:
+    container = ifcopenshell.util.element.get_container(element)
+    if container is None:
+        aggregate = ifcopenshell.util.element.get_aggregate(element)
+        container = ifcopenshell.util.element.get_container(aggregate) if aggregate is not None else None
+    return str(container.Name) if container is not None and container.Name else None
