@@ -302,8 +302,8 @@ def main() -> int:
     parser.add_argument(
         "--mode",
         choices=("client", "peer"),
-        default="client",
-        help="Zenoh mode of the agent processes (default client: agents hang off the router)",
+        default="peer",
+        help="Zenoh mode of the agent processes (default peer, as every service; client: all via the router)",
     )
     parser.add_argument("--pong", metavar="ENDPOINT", help=argparse.SUPPRESS)
     args = parser.parse_args()
