@@ -13,6 +13,10 @@ Key space (``<site>`` is the manifest's site slug, ``<key>`` a component's bus k
     bimbot/<site>/robots/<id>/odom         OdomMsg             physics → robot
     bimbot/<site>/robots/<id>/scan         ScanMsg             physics → robot
     bimbot/<site>/robots/<id>/plan         PlanMsg             robot → observer
+    bimbot/<site>/robots/<id>/pose         RobotPoseMsg        physics → observer, tests (ground truth)
+    bimbot/<site>/physics/info             (queryable)         physics answers SiteInfoMsg
+    bimbot/<site>/physics/attach           (queryable)         AttachRequest → PhysicsReply
+    bimbot/<site>/physics/place            (queryable)         PlaceRequest → PhysicsReply
     bimbot/<site>/clock                    ClockMsg            physics → all
     bimbot/<site>/progress                 ProgressMsg         planner → all
     bimbot/<site>/alive/<kind>/<id>        liveliness tokens (kind: component, robot, planner, physics, …)
@@ -176,6 +180,7 @@ ROBOT_CMD_VEL_KEY = "bimbot/{site}/robots/{robot_id}/cmd_vel"
 ROBOT_ODOM_KEY = "bimbot/{site}/robots/{robot_id}/odom"
 ROBOT_SCAN_KEY = "bimbot/{site}/robots/{robot_id}/scan"
 ROBOT_PLAN_KEY = "bimbot/{site}/robots/{robot_id}/plan"
+ROBOT_POSE_KEY = "bimbot/{site}/robots/{robot_id}/pose"
 
 
 class RobotState(StrEnum):
@@ -204,6 +209,16 @@ class CmdVelMsg(_Message):
     v_mps: float
     w_radps: float
     sim_time_s: float
+    step: int | None = None  # the clock step this command answers (lock-step mode)
+
+
+class RobotPoseMsg(_Message):
+    """Ground truth from physics (robots localise from odometry and laser, not from this)."""
+
+    robot_id: str
+    pose_xy_yaw: tuple[float, float, float]
+    sim_time_s: float
+    carrying: str | None = None  # GUID of the attached component
 
 
 class OdomMsg(_Message):
@@ -230,6 +245,43 @@ class PlanMsg(_Message):
     sim_time_s: float
 
 
+# --- physics requests ----------------------------------------------------------------------------------
+
+PHYSICS_INFO_KEY = "bimbot/{site}/physics/info"
+PHYSICS_ATTACH_KEY = "bimbot/{site}/physics/attach"
+PHYSICS_PLACE_KEY = "bimbot/{site}/physics/place"
+
+
+class SiteInfoMsg(_Message):
+    """What a robot needs from physics to start: who is on site, the clock's pace and lock-step."""
+
+    robot_ids: list[str]
+    robot_starts_xy_yaw: list[tuple[float, float, float]]
+    step_s: float
+    control_period_s: float
+    lock_step: bool
+    reach_m: float
+
+
+class AttachRequest(_Message):
+    robot_id: str
+    guid: str
+
+
+class PlaceRequest(_Message):
+    robot_id: str
+    guid: str
+    pose: PoseMsg  # where the component must end, world frame
+    duration_s: float = 2.0  # sim seconds of the assembly motion
+
+
+class PhysicsReply(_Message):
+    ok: bool
+    reason: str = ""
+    sim_time_s: float
+    pose: PoseMsg | None = None  # the component's pose after the request
+
+
 # --- site-wide -------------------------------------------------------------------------------------------
 
 CLOCK_KEY = "bimbot/{site}/clock"
@@ -239,8 +291,9 @@ ALIVE_KEY = "bimbot/{site}/alive/{kind}/{id}"
 
 class ClockMsg(_Message):
     sim_time_s: float
-    step: int
+    step: int  # control step (one per control period), the unit of lock-step
     real_time_factor: float
+    lock_step: bool = False
 
 
 class ProgressMsg(_Message):
