@@ -16,9 +16,9 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
-from processes import ServiceProcess, free_port, wait_until
 from robot_stand_in import RobotStandIn
 
+from bimbot.supervisor import ServiceProcess, free_port, wait_until
 from shared.bus import BusOptions, open_session
 from shared.manifest import Manifest, read_manifest
 from shared.messages import ComponentState, ComponentStateMsg, TwinMsg
