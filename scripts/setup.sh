@@ -4,8 +4,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# System packages: the SDFormat reference parser (`ign sdf -k`, used by tests to validate every SDF).
-SYSTEM_PACKAGES=(ignition-tools libsdformat-dev)
+# System packages: the SDFormat reference parser (`ign sdf -k`, used by tests to validate every SDF) and
+# Debian's chromium (headless, to test that the observer's rerun web viewer page loads).
+SYSTEM_PACKAGES=(ignition-tools libsdformat-dev chromium)
 missing=()
 for package in "${SYSTEM_PACKAGES[@]}"; do
     dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" || missing+=("$package")

@@ -1,0 +1,132 @@
+"""What the viewer shows where: the layout (blueprint) and the static scene around the twin.
+
+* :func:`observer_blueprint` — the 3D twin on the left; "% constructed", "components by state" and the
+  text log on the right; the ``sim_time`` timeline selected. Sent as the recording's default blueprint
+  (``set_sinks(..., default_blueprint=…)``), so a viewer that connects live, or opens the ``.rrd`` later,
+  starts with this layout; users can rearrange it ("reset blueprint" brings it back).
+* :func:`site_items` / :func:`series_items` — static log items, logged once per run: Z-up view
+  coordinates, the site of :mod:`shared.site_layout` (building footprint, yard, depot outlines and the
+  fence), the BIM bounding box of every component as a faint wireframe ("what is left to build"), and the
+  style of every progress series (one colour per state, from :data:`.twin_log.STATE_COLORS`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import rerun as rr
+import rerun.blueprint as rrb
+
+from shared.manifest import Component
+from shared.messages import ComponentState
+from shared.site_layout import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect, SiteLayout
+
+from .twin_log import SITE_LINE_Z_M, STATE_COLORS, TIMELINE, LogItem
+
+
+def observer_blueprint(site: str) -> rrb.Blueprint:
+    """3D view of ``world``, "% constructed" and "components by state" plots, and the log."""
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Spatial3DView(origin="world", name=f"site {site}"),
+            rrb.Vertical(
+                rrb.TimeSeriesView(
+                    origin="progress/percent_constructed",
+                    name="% constructed",
+                    axis_y=rrb.ScalarAxis(range=(0.0, 100.0)),
+                ),
+                rrb.TimeSeriesView(origin="progress/components", name="components by state"),
+                rrb.TextLogView(origin="log", name="log"),
+                row_shares=[1.0, 1.0, 2.0],
+            ),
+            column_shares=[2.0, 1.0],
+        ),
+        rrb.TimePanel(timeline=TIMELINE, expanded=True),
+        rrb.BlueprintPanel(expanded=False),
+        rrb.SelectionPanel(expanded=False),
+        collapse_panels=False,
+    )
+
+
+def rect_strip(rect: Rect, z_m: float = SITE_LINE_Z_M) -> list[tuple[float, float, float]]:
+    (x0, y0), (x1, y1) = rect.min_xy, rect.max_xy
+    return [(x0, y0, z_m), (x1, y0, z_m), (x1, y1, z_m), (x0, y1, z_m), (x0, y0, z_m)]
+
+
+def site_items(layout: SiteLayout, components: Iterable[Component]) -> list[LogItem]:
+    """The static scene: coordinates, site outlines, fence walls and the BIM target boxes."""
+    areas = {"building": layout.building, "yard": layout.yard, "depot": layout.depot}
+    colors = {"building": (46, 160, 67, 255), "yard": (255, 193, 7, 255), "depot": (33, 150, 243, 255)}
+    items = [LogItem("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)]
+    for name, rect in areas.items():
+        items.append(
+            LogItem(
+                f"world/site/{name}",
+                rr.LineStrips3D([rect_strip(rect)], colors=[colors[name]], radii=0.03, labels=[name]),
+                static=True,
+            )
+        )
+    inner = layout.fence
+    t = FENCE_THICKNESS_M
+    (x0, y0), (x1, y1) = inner.min_xy, inner.max_xy
+    walls = [  # min corner, size: south, north, west, east
+        ((x0 - t, y0 - t, 0.0), (x1 - x0 + 2 * t, t, FENCE_HEIGHT_M)),
+        ((x0 - t, y1, 0.0), (x1 - x0 + 2 * t, t, FENCE_HEIGHT_M)),
+        ((x0 - t, y0, 0.0), (t, y1 - y0, FENCE_HEIGHT_M)),
+        ((x1, y0, 0.0), (t, y1 - y0, FENCE_HEIGHT_M)),
+    ]
+    items.append(
+        LogItem(
+            "world/site/fence",
+            rr.Boxes3D(
+                mins=[w[0] for w in walls],
+                sizes=[w[1] for w in walls],
+                colors=[(140, 110, 80, 160)],
+                fill_mode="solid",
+            ),
+            static=True,
+        )
+    )
+    boxes = list(components)
+    if boxes:
+        items.append(
+            LogItem(
+                "world/targets",
+                rr.Boxes3D(
+                    mins=[c.bbox_world.min_m for c in boxes],
+                    sizes=[
+                        [hi - lo for lo, hi in zip(c.bbox_world.min_m, c.bbox_world.max_m, strict=True)]
+                        for c in boxes
+                    ],
+                    colors=[(200, 200, 200, 60)],
+                    radii=0.005,
+                ),
+                static=True,
+            )
+        )
+    return items
+
+
+def series_items() -> list[LogItem]:
+    """Static styles of the progress plots: one line per state, in the state's colour."""
+    items = [
+        LogItem(
+            "progress/percent_constructed",
+            rr.SeriesLines(
+                colors=[STATE_COLORS[ComponentState.CONSTRUCTED]],
+                names=["% constructed"],
+                widths=2.0,
+                interpolation_mode="StepAfter",
+            ),
+            static=True,
+        )
+    ]
+    items += [
+        LogItem(
+            f"progress/components/{state.value}",
+            rr.SeriesLines(colors=[color], names=[state.value], interpolation_mode="StepAfter"),
+            static=True,
+        )
+        for state, color in STATE_COLORS.items()
+    ]
+    return items

@@ -1,0 +1,135 @@
+"""``bimbot observe --build OUT/``: log the live twin to rerun (web viewer + ``.rrd``) and write the report.
+
+Defaults: the recording goes to ``OUT/observer/<site>.rrd`` and the reports to ``OUT/observer/``; the web
+viewer is served on ``http://127.0.0.1:9090`` and its data on gRPC ``127.0.0.1:9876``. Another address is
+used only when given with ``--bind``. Runs until SIGTERM/SIGINT (reports written, recording closed, exit 0);
+with ``--exit-when-done`` it returns once the planner reports the construction done.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import signal
+import threading
+from pathlib import Path
+
+from shared.bus import add_bus_arguments, bus_options
+from shared.errors import UserError
+from shared.manifest import MANIFEST_FILE_NAME, Manifest, read_manifest
+
+_log = logging.getLogger(__name__)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from .twin_log import TwinLogOptions  # rerun is imported only by the command that needs it
+
+    defaults = TwinLogOptions()
+    parser.add_argument(
+        "--build", type=Path, required=True, metavar="OUT/", help="converted build (manifest.json)"
+    )
+    parser.add_argument("--site", default=None, help="site slug (default: the manifest's; env BIMBOT_SITE)")
+    parser.add_argument(
+        "--rrd", type=Path, default=None, metavar="PATH", help="recording (default OUT/observer/<site>.rrd)"
+    )
+    parser.add_argument(
+        "--report-dir",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="report.json/report.png (default OUT/observer/)",
+    )
+    parser.add_argument(
+        "--sequence",
+        type=Path,
+        default=None,
+        metavar="FILE.xml",
+        help="planned sequence (default OUT/sequence.xml)",
+    )
+    parser.add_argument("--web-port", type=int, default=9090, help="web viewer HTTP port (default 9090)")
+    parser.add_argument(
+        "--grpc-port", type=int, default=9876, help="rerun gRPC port viewers connect to (default 9876)"
+    )
+    parser.add_argument(
+        "--bind",
+        default="127.0.0.1",
+        help="address of the web viewer and gRPC server (default 127.0.0.1: this machine only)",
+    )
+    parser.add_argument(
+        "--no-web", action="store_true", help="no viewer, no gRPC server: only the .rrd and the report"
+    )
+    parser.add_argument(
+        "--exit-when-done", action="store_true", help="exit once the planner reports the build done"
+    )
+    parser.add_argument(
+        "--no-compact", action="store_true", help="keep the .rrd as recorded (default: compacted at the end)"
+    )
+    parser.add_argument(
+        "--scan-every",
+        type=int,
+        default=defaults.scan_every,
+        help=f"draw every N-th laser scan (default {defaults.scan_every})",
+    )
+    parser.add_argument(
+        "--pose-interval-s",
+        type=float,
+        default=defaults.pose_min_interval_s,
+        help=f"sim seconds between logged poses of a moving body (default {defaults.pose_min_interval_s:g})",
+    )
+    add_bus_arguments(parser)
+
+
+def load_manifest(build: Path) -> Manifest:
+    """The build's manifest, or a one-line UserError."""
+    path = build / MANIFEST_FILE_NAME if build.is_dir() else build
+    if not path.is_file():
+        raise UserError(f"{path}: no manifest (convert a model first: bimbot convert MODEL.ifc -o OUT/)")
+    try:
+        return read_manifest(path)
+    except (ValueError, OSError) as error:  # JSON and validation errors are ValueErrors
+        first_line = str(error).splitlines()[0] if str(error) else type(error).__name__
+        raise UserError(f"{path}: unreadable manifest ({first_line})") from error
+
+
+def run(args: argparse.Namespace) -> int:
+    from . import app
+    from .twin_log import TwinLogOptions
+
+    try:
+        options = bus_options(args)
+    except ValueError as error:
+        raise UserError(str(error)) from error
+    for name in ("web_port", "grpc_port"):
+        port = getattr(args, name)
+        if not 0 < port < 65536:
+            raise UserError(f"--{name.replace('_', '-')} {port}: not a TCP port")
+    if args.scan_every < 1 or args.pose_interval_s < 0:
+        raise UserError("--scan-every must be ≥ 1 and --pose-interval-s ≥ 0")
+    manifest = load_manifest(args.build)
+    site = args.site or os.environ.get("BIMBOT_SITE") or manifest.site
+    if site != manifest.site:
+        manifest = manifest.model_copy(update={"site": site})
+    build_dir = args.build if args.build.is_dir() else args.build.parent
+    out_dir = build_dir / "observer"
+    config = app.ObserverConfig(
+        rrd_path=args.rrd or out_dir / f"{site}.rrd",
+        report_dir=args.report_dir or out_dir,
+        web=not args.no_web,
+        web_port=args.web_port,
+        grpc_port=args.grpc_port,
+        bind=args.bind,
+        exit_when_done=args.exit_when_done,
+        compact=not args.no_compact,
+        sequence_path=args.sequence,
+        twin=TwinLogOptions(scan_every=args.scan_every, pose_min_interval_s=args.pose_interval_s),
+    )
+    if args.bind not in ("127.0.0.1", "::1", "localhost") and config.web:
+        _log.warning("serving the viewer on %s: reachable from other machines", args.bind)
+    stop = threading.Event()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    try:
+        return app.main(options, build_dir, manifest, config, stop)
+    except OSError as error:
+        raise UserError(f"observe: {error}") from error

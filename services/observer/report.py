@@ -1,0 +1,290 @@
+"""The construction report: a run's messages collected into per-component and per-robot timelines.
+
+:class:`ReportCollector` is fed every message the observer receives (in arrival order) and builds the
+``report.json`` dictionary with :meth:`ReportCollector.report`. Pure: no bus, no files. All times are sim
+time (``*_s``, seconds on the physics clock), distances in metres.
+
+Per component (state changes of its agent; start-up announcements carry no times):
+``released_s`` (first release), ``picked_s`` (first ``picking``), ``placed_s`` (the last ``place``, i.e.
+entering ``verifying``), ``constructed_s``, ``failed_s``, ``retries`` (misplacements, at ``misplaced_s``),
+``attempts``, the
+robots that handled it, its final state and its position in the planned sequence.
+
+Per robot: ``busy_s`` — the time between leaving ``idle`` and returning to it, summed (an interval still
+open at the end of the run is closed at the last sim time seen); ``tasks`` — those intervals with the
+component handled; ``distance_m`` — driven in the plane, from ground truth (``robots/<id>/pose``), else
+odometry, else the robot's own ``distance_m`` in its state messages, else its state poses.
+
+:func:`twin_messages` turns a component's twin (its agent's answer to ``components/<key>/twin``) back into
+the state changes it went through, for an observer that joined a run late.
+
+Totals: components by final state, retries, makespan (first release → last constructed), busy time,
+distance, robot utilisation (busy / (robots × makespan)).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from pydantic import BaseModel
+
+from shared.manifest import Manifest
+from shared.messages import (
+    ComponentPoseMsg,
+    ComponentState,
+    ComponentStateMsg,
+    OdomMsg,
+    ProgressMsg,
+    RobotPoseMsg,
+    RobotState,
+    RobotStateMsg,
+    TwinMsg,
+)
+
+REPORT_SCHEMA_VERSION = 1
+DISTANCE_SOURCES = ("ground_truth", "odom", "robot_state", "state_poses")  # best first
+
+
+@dataclass
+class ComponentTimeline:
+    released_s: float | None = None
+    picked_s: float | None = None
+    placed_s: float | None = None
+    constructed_s: float | None = None
+    failed_s: float | None = None
+    retries: int = 0
+    misplaced_s: list[float] = field(default_factory=list)
+    attempts: int = 0
+    state: ComponentState = ComponentState.PLANNED
+    robot_ids: list[str] = field(default_factory=list)
+    last_s: float = 0.0  # latest sim time seen for this component
+
+
+@dataclass
+class BusyInterval:
+    start_s: float
+    end_s: float | None = None
+    guid: str | None = None
+    task_id: str | None = None
+
+
+@dataclass
+class RobotTimeline:
+    state: RobotState | None = None
+    intervals: list[BusyInterval] = field(default_factory=list)
+    distances_m: dict[str, float] = field(default_factory=lambda: dict.fromkeys(DISTANCE_SOURCES, 0.0))
+    last_xy: dict[str, tuple[float, float]] = field(default_factory=dict)
+    reported_distance_m: float = 0.0
+
+
+def twin_messages(twin: TwinMsg) -> list[ComponentStateMsg | ComponentPoseMsg]:
+    """A twin's history as the state messages its agent published, and its current pose (if any)."""
+    messages: list[ComponentStateMsg | ComponentPoseMsg] = [
+        ComponentStateMsg(
+            guid=twin.guid,
+            state=record.dest,
+            previous=record.source,
+            event=record.event,
+            cause=record.cause,
+            attempt=record.attempt,
+            robot_id=twin.robot_id if index == len(twin.history) - 1 else None,
+            sim_time_s=record.sim_time_s,
+            wall_time_s=0.0,
+        )
+        for index, record in enumerate(twin.history)
+    ]
+    if twin.current_pose is not None and twin.current_pose_sim_time_s is not None:
+        fixed = twin.state == ComponentState.CONSTRUCTED
+        pose = ComponentPoseMsg(
+            guid=twin.guid, pose=twin.current_pose, sim_time_s=twin.current_pose_sim_time_s, fixed=fixed
+        )
+        messages.append(pose)
+    return messages
+
+
+class ReportCollector:
+    """Collects timelines from messages; :meth:`report` may be called any number of times."""
+
+    def __init__(self, manifest: Manifest, sequence_guids: list[str] | None = None) -> None:
+        self.manifest = manifest
+        self.sequence_guids = list(sequence_guids or [])
+        self.components: dict[str, ComponentTimeline] = {
+            c.guid: ComponentTimeline() for c in manifest.components
+        }
+        self.robots: dict[str, RobotTimeline] = {}
+        self.progress: ProgressMsg | None = None
+        self.last_sim_time_s = 0.0
+        self.messages = 0
+
+    # --- input ---
+
+    def add(self, message: BaseModel) -> None:
+        """Take any bus message; the ones the report does not use are ignored."""
+        self.messages += 1
+        sim_time_s = getattr(message, "sim_time_s", None)
+        if isinstance(sim_time_s, float):
+            self.last_sim_time_s = max(self.last_sim_time_s, sim_time_s)
+        if isinstance(message, ComponentStateMsg):
+            self._component_state(message)
+        elif isinstance(message, RobotStateMsg):
+            self._robot_state(message)
+        elif isinstance(message, RobotPoseMsg):
+            self._travel(message.robot_id, "ground_truth", message.pose_xy_yaw)
+        elif isinstance(message, OdomMsg):
+            self._travel(message.robot_id, "odom", message.pose_xy_yaw)
+        elif isinstance(message, ProgressMsg) and (
+            self.progress is None or message.sim_time_s >= self.progress.sim_time_s
+        ):
+            self.progress = message
+
+    def _component_state(self, msg: ComponentStateMsg) -> None:
+        timeline = self.components.setdefault(msg.guid, ComponentTimeline())
+        timeline.state = msg.state
+        timeline.attempts = max(timeline.attempts, msg.attempt)
+        if msg.robot_id and msg.robot_id not in timeline.robot_ids:
+            timeline.robot_ids.append(msg.robot_id)
+        # Senders stamp sim time from their own view of the clock (a verdict may be stamped a little
+        # before the placement it judges): a component's times never go backwards.
+        t = timeline.last_s = max(msg.sim_time_s, timeline.last_s)
+        if msg.previous is None:  # an announcement (agent start or resume), not a transition
+            return
+        if msg.state == ComponentState.RELEASED and timeline.released_s is None:
+            timeline.released_s = t
+        elif msg.state == ComponentState.PICKING and timeline.picked_s is None:
+            timeline.picked_s = t
+        elif msg.state == ComponentState.VERIFYING:
+            timeline.placed_s = t
+        elif msg.state == ComponentState.CONSTRUCTED:
+            timeline.constructed_s = t
+            if timeline.placed_s is None:  # verified at once, without a separate verifying message
+                timeline.placed_s = t
+        elif msg.state == ComponentState.MISPLACED:
+            timeline.retries += 1
+            timeline.misplaced_s.append(t)
+        elif msg.state == ComponentState.FAILED:
+            timeline.failed_s = t
+
+    def _robot_state(self, msg: RobotStateMsg) -> None:
+        robot = self.robots.setdefault(msg.robot_id, RobotTimeline())
+        robot.reported_distance_m = max(robot.reported_distance_m, msg.distance_m)
+        self._travel(msg.robot_id, "state_poses", msg.pose_xy_yaw)
+        busy = msg.state != RobotState.IDLE
+        open_interval = robot.intervals[-1] if robot.intervals and robot.intervals[-1].end_s is None else None
+        if busy and open_interval is None:
+            robot.intervals.append(BusyInterval(start_s=msg.sim_time_s, guid=msg.guid, task_id=msg.task_id))
+        elif busy and open_interval is not None and open_interval.guid is None:
+            open_interval.guid, open_interval.task_id = msg.guid, msg.task_id
+        elif not busy and open_interval is not None:
+            open_interval.end_s = max(msg.sim_time_s, open_interval.start_s)
+        robot.state = msg.state
+
+    def _travel(self, robot_id: str, source: str, pose_xy_yaw: tuple[float, float, float]) -> None:
+        robot = self.robots.setdefault(robot_id, RobotTimeline())
+        xy = (pose_xy_yaw[0], pose_xy_yaw[1])
+        last = robot.last_xy.get(source)
+        if last is not None:
+            robot.distances_m[source] += math.dist(last, xy)
+        robot.last_xy[source] = xy
+
+    # --- output ---
+
+    def report(self) -> dict[str, Any]:
+        """The report dictionary (``report.json``)."""
+        end_s = self.last_sim_time_s
+        order = {guid: index for index, guid in enumerate(self.sequence_guids)}
+        components = []
+        for component in self.manifest.components:
+            timeline = self.components[component.guid]
+            cycle = _difference(timeline.constructed_s, timeline.released_s)
+            components.append(
+                {
+                    "guid": component.guid,
+                    "name": component.name,
+                    "ifc_class": component.ifc_class,
+                    "sequence_index": order.get(component.guid),
+                    "state": timeline.state.value,
+                    "released_s": timeline.released_s,
+                    "picked_s": timeline.picked_s,
+                    "placed_s": timeline.placed_s,
+                    "constructed_s": timeline.constructed_s,
+                    "failed_s": timeline.failed_s,
+                    "cycle_time_s": cycle,
+                    "retries": timeline.retries,
+                    "misplaced_s": list(timeline.misplaced_s),
+                    "attempts": timeline.attempts,
+                    "robot_ids": list(timeline.robot_ids),
+                }
+            )
+        robots = {
+            robot_id: self._robot_report(robot, end_s) for robot_id, robot in sorted(self.robots.items())
+        }
+        totals = _totals(components, robots)
+        totals["blocked"] = len(self.progress.blocked) if self.progress else 0
+        totals["done"] = bool(self.progress and self.progress.done)
+        return {
+            "schema_version": REPORT_SCHEMA_VERSION,
+            "site": self.manifest.site,
+            "sim_time_s": end_s,
+            "progress": self.progress.model_dump(mode="json") if self.progress else None,
+            "totals": totals,
+            "components": components,
+            "robots": robots,
+        }
+
+    def _robot_report(self, robot: RobotTimeline, end_s: float) -> dict[str, Any]:
+        tasks = [
+            {
+                "guid": interval.guid,
+                "task_id": interval.task_id,
+                "start_s": interval.start_s,
+                "end_s": interval.end_s if interval.end_s is not None else max(end_s, interval.start_s),
+                "open": interval.end_s is None,
+            }
+            for interval in robot.intervals
+        ]
+        distance, source = robot.reported_distance_m, "robot_state"
+        for candidate in ("ground_truth", "odom"):
+            if candidate in robot.last_xy:
+                distance, source = robot.distances_m[candidate], candidate
+                break
+        else:
+            if robot.reported_distance_m <= 0.0:
+                distance, source = robot.distances_m["state_poses"], "state_poses"
+        return {
+            "busy_s": sum(task["end_s"] - task["start_s"] for task in tasks),
+            "distance_m": distance,
+            "distance_source": source,
+            "tasks": tasks,
+            "state": robot.state.value if robot.state else None,
+        }
+
+
+def _difference(later: float | None, earlier: float | None) -> float | None:
+    return later - earlier if later is not None and earlier is not None else None
+
+
+def _totals(components: list[dict[str, Any]], robots: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    by_state: dict[str, int] = {}
+    for component in components:
+        by_state[component["state"]] = by_state.get(component["state"], 0) + 1
+    released = [c["released_s"] for c in components if c["released_s"] is not None]
+    constructed = [c["constructed_s"] for c in components if c["constructed_s"] is not None]
+    makespan = max(constructed) - min(released) if released and constructed else None
+    busy = sum(robot["busy_s"] for robot in robots.values())
+    utilisation = busy / (len(robots) * makespan) if robots and makespan else None
+    return {
+        "components": len(components),
+        "by_state": dict(sorted(by_state.items())),
+        "constructed": by_state.get(ComponentState.CONSTRUCTED.value, 0),
+        "failed": by_state.get(ComponentState.FAILED.value, 0),
+        "retries": sum(c["retries"] for c in components),
+        "first_release_s": min(released) if released else None,
+        "last_constructed_s": max(constructed) if constructed else None,
+        "makespan_s": makespan,
+        "robots": len(robots),
+        "busy_s": busy,
+        "distance_m": sum(robot["distance_m"] for robot in robots.values()),
+        "utilisation": utilisation,
+    }

@@ -1,0 +1,142 @@
+"""``report.png``: a Gantt chart of the simulated construction beside the planned sequence.
+
+Left: one lane per robot, a bar per task (the robot left ``idle`` → came back), coloured by the IFC class
+of the component it handled. Right: the planned sequence, one row per component in ``sequence.xml``
+order (first at the top), a thin bar from its release to its pick-up and a full bar from pick-up to
+constructed, in the same colours; misplacements are marked with a red cross when detected, failures
+with a black one. Both share the sim-time axis, so the chart shows at a glance where the run waited, which
+robot did what, and whether the building went up in the planned order.
+
+Rendered on a bare ``matplotlib.figure.Figure`` (Agg canvas: no pyplot state, no display), at a fixed
+size (``FIGURE_SIZE_IN`` × ``DPI``).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.patches import Patch
+
+REPORT_JSON = "report.json"
+REPORT_PNG = "report.png"
+FIGURE_SIZE_IN = (16.0, 9.0)
+DPI = 100  # 1600 × 900 pixels
+MAX_ROW_LABELS = 60  # beyond this many sequence rows, labels are left out
+CLASS_PALETTE = tuple(matplotlib.colormaps["tab10"].colors) + tuple(matplotlib.colormaps["Dark2"].colors)
+
+
+def class_colors(classes: list[str]) -> dict[str, tuple[float, ...]]:
+    """A stable colour per IFC class (sorted by name, so a class keeps its colour between runs)."""
+    return {
+        name: CLASS_PALETTE[index % len(CLASS_PALETTE)] for index, name in enumerate(sorted(set(classes)))
+    }
+
+
+def _short(component: dict[str, Any]) -> str:
+    return component.get("name") or component["guid"][:8]
+
+
+def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, tuple[float, ...]]) -> None:
+    by_guid = {c["guid"]: c for c in report["components"]}
+    robot_ids = list(report["robots"])
+    for lane, robot_id in enumerate(robot_ids):
+        for task in report["robots"][robot_id]["tasks"]:
+            component = by_guid.get(task["guid"] or "")
+            color = colors.get(component["ifc_class"], "grey") if component else "lightgrey"
+            width = task["end_s"] - task["start_s"]
+            ax.broken_barh(
+                [(task["start_s"], width)], (lane - 0.4, 0.8), facecolors=color, edgecolors="white"
+            )
+            if component and width > 0:
+                ax.text(
+                    task["start_s"] + width / 2,
+                    lane,
+                    _short(component),
+                    ha="center",
+                    va="center",
+                    fontsize=6,
+                    rotation=90,
+                    clip_on=True,
+                )
+    ax.set_yticks(range(len(robot_ids)), [f"robot {r}" for r in robot_ids])
+    ax.set_ylim(-0.6, max(len(robot_ids), 1) - 0.4)
+    ax.invert_yaxis()
+    ax.set_xlabel("sim time (s)")
+    ax.set_title("simulated construction: one lane per robot")
+    ax.grid(axis="x", alpha=0.3)
+    if not robot_ids:
+        ax.text(0.5, 0.5, "no robot reported a state", transform=ax.transAxes, ha="center", va="center")
+
+
+def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, tuple[float, ...]]) -> None:
+    rows = sorted(
+        report["components"],
+        key=lambda c: (c["sequence_index"] is None, c["sequence_index"] or 0, c["guid"]),
+    )
+    for row, component in enumerate(rows):
+        color = colors[component["ifc_class"]]
+        released, picked = component["released_s"], component["picked_s"]
+        done = component["constructed_s"] if component["constructed_s"] is not None else component["failed_s"]
+        if released is not None and picked is not None:
+            ax.plot([released, picked], [row, row], color=color, linewidth=1.0, alpha=0.6)
+        if picked is not None and done is not None:
+            ax.broken_barh([(picked, max(done - picked, 0.0))], (row - 0.35, 0.7), facecolors=color)
+        for misplaced_s in component.get("misplaced_s", []):
+            ax.plot([misplaced_s], [row], marker="x", color="red", markersize=7)
+        if component["failed_s"] is not None:
+            ax.plot([component["failed_s"]], [row], marker="x", color="black", markersize=8)
+    if len(rows) <= MAX_ROW_LABELS:
+        ax.set_yticks(
+            range(len(rows)), [f"{(c['sequence_index'] or 0) + 1}. {_short(c)}" for c in rows], fontsize=6
+        )
+    else:
+        ax.set_ylabel(f"{len(rows)} components in planned order")
+    ax.set_ylim(-0.6, max(len(rows), 1) - 0.4)
+    ax.invert_yaxis()
+    ax.set_xlabel("sim time (s)")
+    ax.set_title("planned sequence (top = first): release ─ pick ▬ constructed")
+    ax.grid(axis="x", alpha=0.3)
+
+
+def render_report_png(report: dict[str, Any], path: Path) -> Path:
+    """Draw ``report`` (from :meth:`.report.ReportCollector.report`) into ``path``."""
+    colors = class_colors([c["ifc_class"] for c in report["components"]])
+    figure = Figure(figsize=FIGURE_SIZE_IN, dpi=DPI)  # no pyplot: no global state, no display needed
+    lanes, sequence = figure.subplots(1, 2, sharex=True, gridspec_kw={"width_ratios": [3, 2]})
+    _robot_lanes(lanes, report, colors)
+    _sequence_rows(sequence, report, colors)
+    totals = report["totals"]
+    makespan = totals.get("makespan_s")
+    figure.suptitle(
+        f"bimbot construction report — site {report['site']}: "
+        f"{totals['constructed']}/{totals['components']} constructed, retries: {totals['retries']}"
+        + (f", makespan {makespan:.1f} s" if makespan is not None else "")
+    )
+    figure.legend(
+        handles=[Patch(color=color, label=name) for name, color in colors.items()],
+        loc="lower center",
+        ncol=min(len(colors), 8) or 1,
+        frameon=False,
+    )
+    figure.tight_layout(rect=(0.0, 0.05, 1.0, 0.96))
+    path = Path(path)
+    figure.savefig(path, dpi=DPI)
+    return path
+
+
+def write_report_files(report: dict[str, Any], report_dir: Path) -> None:
+    """``report.json`` and ``report.png`` in ``report_dir``, each written whole and then renamed (a reader
+    never sees half a file)."""
+    report_dir = Path(report_dir)
+    report_dir.mkdir(parents=True, exist_ok=True)
+    json_tmp = report_dir / f".{REPORT_JSON}.tmp"
+    json_tmp.write_text(json.dumps(report, indent=2), encoding="utf-8")
+    json_tmp.replace(report_dir / REPORT_JSON)
+    png_tmp = report_dir / f".{REPORT_PNG}.tmp.png"
+    render_report_png(report, png_tmp)
+    png_tmp.replace(report_dir / REPORT_PNG)
