@@ -29,6 +29,16 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "services.planner.cli",
         "release construction tasks in sequence order and assign them to robots",
     ),
+    "physics": (
+        "services.physics.cli",
+        "simulate the site in PyBullet: clock, robots, sensors, attach and place",
+    ),
+    "run": ("bimbot.run", "build a converted model with every service as a process on a loopback bus"),
+    "observe": (
+        "services.observer.cli",
+        "log the live twin to rerun: web viewer on 127.0.0.1 and an .rrd recording",
+    ),
+    "watch": ("services.observer.watch", "live table of component states in the terminal"),
 }
 
 _log = logging.getLogger("bimbot")

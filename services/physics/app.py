@@ -1,0 +1,273 @@
+"""The physics Zenoh adapter: one session around a :class:`.simulation.Simulation`, paced by the sim clock.
+
+Declared on the session (callbacks only enqueue into a :class:`shared.bus.Inbox`; the loop changes state):
+
+* subscriber ``bimbot/<site>/robots/*/cmd_vel`` (CmdVelMsg; a command whose key names another robot than
+  its ``robot_id`` is counted invalid; robots physics did not spawn are ignored, logged once);
+* liveliness subscriber ``bimbot/<site>/alive/robot/*``: a robot that disappears stops and drops its load;
+* queryables ``physics/info`` (SiteInfoMsg), ``physics/attach`` (AttachRequest → PhysicsReply) and
+  ``physics/place`` (PlaceRequest → PhysicsReply). The loop answers them; a place reply is held back
+  until the assembly motion ends (a querier's timeout must exceed ``duration_s`` / rtf). An invalid
+  payload is counted and answered ``ok=False`` with the reason;
+* liveliness token ``bimbot/<site>/alive/physics/main``.
+
+Loop: publish step 0 (clock, sensors, every component), then repeatedly — drain the inbox; in lock-step,
+wait until every alive robot that is not busy placing has answered the open clock step (a CmdVelMsg with
+``step >= k``) or ``lock_step_timeout_s`` passed (warn, go on with the last commands); wait for the
+real-time factor's due time (``rtf`` 0: no wait); advance one control period; publish; reply to finished
+placements. For reproducible lock-step runs, a robot sends its attach/place request *before* its command
+for that step (the request is then handled before the step advances). A robot waiting for a place reply
+need not answer clock steps meanwhile: it holds still and is not waited for.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import threading
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+import zenoh
+from pydantic import BaseModel
+
+from shared.bus import BusOptions, Inbox, InvalidPayloads, Received, decode, encode, open_session
+from shared.manifest import Manifest
+from shared.messages import (
+    ALIVE_KEY,
+    PHYSICS_ATTACH_KEY,
+    PHYSICS_INFO_KEY,
+    PHYSICS_PLACE_KEY,
+    ROBOT_CMD_VEL_KEY,
+    AttachRequest,
+    CmdVelMsg,
+    PhysicsReply,
+    PlaceRequest,
+    key,
+)
+
+from .clock import LockStepBarrier, Pacer, RtfMeter
+from .simulation import Outgoing, SimConfig, Simulation
+
+_log = logging.getLogger(__name__)
+
+TAG_CMD = "cmd_vel"
+TAG_ALIVE = "alive"
+TAG_INFO = "info"
+TAG_ATTACH = "attach"
+TAG_PLACE = "place"
+LOOP_WAIT_S = 0.05  # longest blocking wait, so a stop request is seen quickly
+STATUS_EVERY_S = 30.0
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    rtf: float = 1.0  # real-time factor; 0: as fast as possible
+    lock_step_timeout_s: float = 2.0
+    max_steps: int | None = None  # stop after this many control periods (benches, tests)
+    gui: bool = False
+
+
+def main(  # noqa: PLR0917 - like the other services: main(options, …, stop)
+    options: BusOptions,
+    manifest: Manifest,
+    build_dir: Path,
+    sim_config: SimConfig,
+    run: RunConfig,
+    stop: threading.Event,
+) -> int:
+    """Build the scene and serve it on the bus until ``stop`` is set; 0 on a clean stop."""
+    with Simulation(manifest, build_dir, sim_config, gui=run.gui) as sim, open_session(options) as session:
+        _Loop(session, sim, run, stop).serve()
+    return 0
+
+
+class _Loop:
+    def __init__(
+        self, session: zenoh.Session, sim: Simulation, run: RunConfig, stop: threading.Event
+    ) -> None:
+        self.session = session
+        self.sim = sim
+        self.run = run
+        self.stop = stop
+        self.site = sim.site
+        self.inbox = Inbox(InvalidPayloads())
+        self.barrier = LockStepBarrier(run.lock_step_timeout_s)
+        self.pacer = Pacer(run.rtf)
+        self.rtf = RtfMeter(run.rtf)
+        self.pending: dict[int, zenoh.Query] = {}
+        self._tags = itertools.count(1)
+        self._publishers: dict[str, zenoh.Publisher] = {}
+        self._keys = {
+            TAG_INFO: key(PHYSICS_INFO_KEY, site=self.site),
+            TAG_ATTACH: key(PHYSICS_ATTACH_KEY, site=self.site),
+            TAG_PLACE: key(PHYSICS_PLACE_KEY, site=self.site),
+        }
+        self.errors = 0
+        self._warned_step = -1
+
+    def serve(self) -> None:
+        site, inbox, session = self.site, self.inbox, self.session
+        declarations: list[object] = [
+            inbox.subscribe(session, key(ROBOT_CMD_VEL_KEY, site=site, robot_id="*"), CmdVelMsg, TAG_CMD),
+            inbox.subscribe_liveliness(session, key(ALIVE_KEY, site=site, kind="robot", id="*"), TAG_ALIVE),
+        ]
+        for tag, key_expr in self._keys.items():
+            declarations.append(
+                session.declare_queryable(
+                    key_expr, lambda query, tag=tag: inbox.put(tag, query), complete=True
+                )
+            )
+        declarations.append(
+            session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="physics", id="main"))
+        )
+        self._publish(self.sim.start_messages())
+        self.barrier.open(self.sim.step, time.monotonic())
+        _log.info(
+            "physics serving site %s: robots %s, rtf %s, lock-step %s",
+            site,
+            ", ".join(self.sim.robot_ids) or "none",
+            self.run.rtf or "max",
+            self.sim.config.lock_step,
+        )
+        last_status = time.monotonic()
+        try:
+            while not self.stop.is_set():
+                if self.run.max_steps is not None and self.sim.step >= self.run.max_steps:
+                    break
+                wait_s = self._wait_s(time.monotonic())
+                if wait_s > 0.0:
+                    self._drain(min(wait_s, LOOP_WAIT_S))
+                    continue
+                self._advance()
+                self._drain(None)
+                if time.monotonic() - last_status > STATUS_EVERY_S:
+                    last_status = time.monotonic()
+                    self._status()
+        finally:
+            for query in self.pending.values():
+                self._reply(
+                    query,
+                    TAG_PLACE,
+                    PhysicsReply(ok=False, reason="physics stopped", sim_time_s=self.sim.sim_time_s),
+                )
+            self.pending.clear()
+            self._status()
+            del declarations
+
+    # --- pacing --------------------------------------------------------------------------------------
+
+    def _wait_s(self, now: float) -> float:
+        """How long to wait before the next period may run (0: run it now)."""
+        if self.sim.config.lock_step:
+            waited_for = self.sim.alive - self.sim.busy_robots()
+            missing = self.barrier.missing(waited_for)
+            if missing:
+                if not self.barrier.timed_out(now):
+                    return max(self.barrier.remaining_s(now), 1e-3)
+                if self._warned_step != self.barrier.step:
+                    self._warned_step = self.barrier.step
+                    _log.warning(
+                        "lock-step: no command for step %d from %s within %.1f s; going on with their last commands",  # noqa: E501
+                        self.barrier.step,
+                        ", ".join(missing),
+                        self.barrier.timeout_s,
+                    )
+        return self.pacer.delay_s(self.sim.sim_time_s + self.sim.config.control_period_s, now)
+
+    def _advance(self) -> None:
+        result = self.sim.advance(self.rtf.value)
+        now = time.monotonic()
+        self.rtf.record(self.sim.sim_time_s, now)
+        self._publish(result.messages)
+        for tag, reply in result.replies:
+            query = self.pending.pop(tag, None)  # type: ignore[call-overload]
+            if query is not None:
+                self._reply(query, TAG_PLACE, reply)
+        self.barrier.open(self.sim.step, now)
+
+    # --- input ---------------------------------------------------------------------------------------
+
+    def _drain(self, first_timeout_s: float | None) -> None:
+        for tag, item in self.inbox.drain(first_timeout_s=first_timeout_s or 0.0):
+            try:
+                self._handle(tag, item)
+            except Exception:
+                self.errors += 1
+                _log.exception("handling a %s item failed; going on", tag)
+            if self.stop.is_set():
+                break
+
+    def _handle(self, tag: str, item: object) -> None:
+        if tag == TAG_CMD:
+            received: Received[CmdVelMsg] = item  # type: ignore[assignment]
+            robot_in_key = received.key.rsplit("/", 2)[-2]
+            if robot_in_key != received.message.robot_id:
+                self.inbox.invalid.record(
+                    received.key, f"robot_id {received.message.robot_id!r} on another robot's key"
+                )
+                return
+            if self.sim.command(received.message):
+                self.barrier.record(received.message.robot_id, received.message.step)
+        elif tag == TAG_ALIVE:
+            key_expr, alive = item  # type: ignore[misc]
+            robot_id = str(key_expr).rsplit("/", 1)[-1]
+            if self.sim.known(robot_id):
+                _log.info("robot %s %s", robot_id, "alive" if alive else "lost")
+            self._publish(self.sim.set_alive(robot_id, bool(alive)))
+        else:
+            self._answer(tag, item)  # type: ignore[arg-type]
+
+    def _answer(self, tag: str, query: zenoh.Query) -> None:
+        now = self.sim.sim_time_s
+        if tag == TAG_INFO:
+            self._reply(query, tag, self.sim.info())
+            return
+        model: type[AttachRequest] | type[PlaceRequest] = AttachRequest if tag == TAG_ATTACH else PlaceRequest
+        payload = query.payload.to_bytes() if query.payload is not None else b""
+        request = decode(model, self._keys[tag], payload, self.inbox.invalid)
+        if request is None:
+            reason = f"invalid {model.__name__} payload (expected JSON with {', '.join(model.model_fields)})"
+            self._reply(query, tag, PhysicsReply(ok=False, reason=reason, sim_time_s=now))
+        elif isinstance(request, AttachRequest):
+            self._reply(query, tag, self.sim.attach(request))
+        else:
+            ticket = next(self._tags)
+            reply = self.sim.place(request, ticket)
+            if reply is None:
+                self.pending[ticket] = query
+            else:
+                self._reply(query, tag, reply)
+
+    # --- output --------------------------------------------------------------------------------------
+
+    def _reply(self, query: zenoh.Query, tag: str, message: BaseModel) -> None:
+        try:
+            query.reply(self._keys[tag], encode(message))
+        except Exception as error:  # the querier may be gone (timed out): nothing to answer
+            _log.debug("reply on %s not delivered: %s", self._keys[tag], error)
+        finally:
+            query.drop()
+
+    def _publish(self, messages: Iterable[Outgoing]) -> None:
+        for item in messages:
+            payload = encode(item.message)
+            if "/components/" in item.key_expr:  # many keys, each rarely: no publisher per component
+                self.session.put(item.key_expr, payload)
+                continue
+            publisher = self._publishers.get(item.key_expr)
+            if publisher is None:
+                publisher = self._publishers[item.key_expr] = self.session.declare_publisher(item.key_expr)
+            publisher.put(payload)
+
+    def _status(self) -> None:
+        _log.info(
+            "physics: step %d, sim %.1f s, rtf %.1f, %d invalid payloads, %d handler errors",
+            self.sim.step,
+            self.sim.sim_time_s,
+            self.rtf.value,
+            self.inbox.invalid.total,
+            self.errors,
+        )

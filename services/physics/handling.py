@@ -1,0 +1,367 @@
+"""Attach, carry, place and drop: what happens to components between the yard and the structure.
+
+Every component is in one of four phases:
+
+* ``resting`` — in its yard slot (or where a lost robot dropped it): static, attachable.
+* ``carried`` — attached to a robot: kinematic, reset every physics step to ``robot frame ∘ carry offset``
+  (lying flat on top of the robot, centred over its base frame, ``carry_clearance_m`` above its highest
+  collision shape). It rises there from where it lay over ``lift_s`` sim seconds. It takes the robot's
+  collision group bit: the carrier neither collides with it nor sees it in its laser; others do.
+* ``assembling`` — a place request was accepted: the component moves from its pose at the request to the
+  requested pose over ``duration_s`` sim seconds (linear position, slerp orientation); the carrier holds
+  still. The request's reply is held back until the motion ends.
+* ``fixed`` — placed: static exactly at the requested pose, for good (attach refuses it). It collides with
+  its former carrier again only once their bounding boxes no longer overlap, so a robot standing on a
+  target footprint is never thrown off. Static bodies never touch the ground plane or each other, so
+  footings placed below ground stay there.
+
+Reach (attach and place): the horizontal distance from the robot's base frame origin to the nearest point
+of the component's footprint rectangle — its current one for attach, the one at the requested pose for
+place — must not exceed ``reach_m``. Every refusal says why, naming robot, component and numbers.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from enum import StrEnum
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from shared.manifest import Component
+from shared.messages import ComponentPoseMsg, PhysicsReply, PoseMsg
+from shared.site_layout import GROUND_CLEARANCE_M, Rect, lying_rotation
+
+from .client import p
+from .robots import Robot
+from .scene import (
+    STATIC_GROUP,
+    STATIC_MASK,
+    ComponentBody,
+    Frame,
+    compose,
+    distance_to_rect,
+    footprint,
+    interpolate,
+    set_component_pose,
+    set_filter,
+    yaw_of,
+    yaw_quat,
+)
+
+_log = logging.getLogger(__name__)
+
+DROP_GAP_M = 0.3  # between a lost robot and the load it drops
+
+
+class Phase(StrEnum):
+    RESTING = "resting"
+    CARRIED = "carried"
+    ASSEMBLING = "assembling"
+    FIXED = "fixed"
+
+
+@dataclass(frozen=True)
+class HandlingConfig:
+    reach_m: float = 1.5
+    lift_s: float = 1.0
+    carry_clearance_m: float = 0.02
+    max_place_duration_s: float = 60.0
+
+
+@dataclass
+class Item:
+    """One component's handling state; ``pose`` is its component frame in the world."""
+
+    component: Component
+    body: ComponentBody
+    phase: Phase
+    pose: Frame
+    carrier: str | None = None
+    offset: Frame | None = None  # carried: component frame in the carrier's base frame
+    motion_from: Frame | None = None
+    motion_to: Frame | None = None  # assembling: the requested pose
+    motion_start_s: float = 0.0
+    motion_duration_s: float = 0.0
+    tag: object = None  # assembling: handed back with the reply
+    separating_from: Robot | None = None  # fixed, still overlapping its former carrier
+
+
+def pose_msg(frame: Frame) -> PoseMsg:
+    return PoseMsg(position_m=frame[0], quat_xyzw=frame[1])
+
+
+def carry_offset(component: Component, robot: Robot, clearance_m: float) -> Frame:
+    """The component lying flat (longest extent along the robot's x) on top of the robot, centred."""
+    low, high = np.array(component.bbox_local.min_m), np.array(component.bbox_local.max_m)
+    rotation = lying_rotation(high - low)
+    corners = np.array(
+        [[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]
+    )
+    turned = corners @ rotation.T
+    centre = (turned.min(axis=0) + turned.max(axis=0)) / 2.0
+    base_z = robot.top_height_m + clearance_m - turned[:, 2].min()
+    quat = Rotation.from_matrix(rotation).as_quat()
+    return (float(-centre[0]), float(-centre[1]), float(base_z)), tuple(float(q) for q in quat)  # type: ignore[return-value]
+
+
+class Handling:
+    """The phases of every component; the simulation calls :meth:`follow` after every physics step."""
+
+    def __init__(
+        self,
+        client_id: int,
+        items: dict[str, Item],
+        config: HandlingConfig,
+        site_bounds: Rect,
+    ) -> None:
+        self.client_id = client_id
+        self.items = items
+        self.config = config
+        self.site_bounds = site_bounds
+        self.carrying: dict[str, str] = {}  # robot id → GUID (carried or assembling)
+        self.changed: set[str] = set()  # GUIDs whose pose changed since the last take_changed()
+        self._moving: set[str] = set()
+
+    # --- requests ------------------------------------------------------------------------------------
+
+    def attach(self, robot: Robot, guid: str, now_s: float) -> PhysicsReply:
+        item = self.items.get(guid)
+        refusal = self._check_common(robot, guid, item)
+        if refusal is None and item is not None and item.phase is not Phase.RESTING:
+            holder = item.carrier
+            refusal = (
+                f"{guid} is already carried by {holder}"
+                if item.phase is Phase.CARRIED
+                else f"{guid} is being placed by {holder}"
+            )
+        if refusal is None and robot.robot_id in self.carrying:
+            refusal = f"robot {robot.robot_id} already carries {self.carrying[robot.robot_id]}"
+        if refusal is None and item is not None:
+            distance = distance_to_rect(self._robot_xy(robot), footprint(item.component, item.pose))
+            if distance > self.config.reach_m:
+                reach = self.config.reach_m
+                refusal = f"robot {robot.robot_id} is {distance:.2f} m from {guid}, reach is {reach:g} m"
+        if refusal is not None or item is None:
+            return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s)
+        item.phase = Phase.CARRIED
+        item.carrier = robot.robot_id
+        item.offset = carry_offset(item.component, robot, self.config.carry_clearance_m)
+        item.motion_from = item.pose
+        item.motion_start_s = now_s
+        item.separating_from = None
+        self.carrying[robot.robot_id] = guid
+        self._moving.add(guid)
+        self.changed.add(guid)
+        set_filter(self.client_id, item.body.body_id, robot.group, STATIC_MASK ^ robot.group)
+        _log.info("%s attached to %s at t=%.2f s", guid, robot.robot_id, now_s)
+        return PhysicsReply(ok=True, sim_time_s=now_s, pose=pose_msg(item.pose))
+
+    def place(
+        self, robot: Robot, guid: str, target: PoseMsg, *, duration_s: float, now_s: float, tag: object
+    ) -> PhysicsReply | None:
+        """None when accepted (the reply comes from :meth:`follow` with ``tag``), else the refusal."""
+        item = self.items.get(guid)
+        refusal = self._check_common(robot, guid, item)
+        frame: Frame | None = None
+        if refusal is None:
+            frame, refusal = _valid_frame(target)
+        if refusal is None and not (
+            math.isfinite(duration_s) and 0.0 <= duration_s <= self.config.max_place_duration_s
+        ):
+            refusal = f"duration_s must be within 0..{self.config.max_place_duration_s:g} s, got {duration_s}"
+        if refusal is None and item is not None and item.phase is Phase.ASSEMBLING:
+            refusal = f"{guid} is already being placed by {item.carrier}"
+        if refusal is None and item is not None and item.carrier != robot.robot_id:
+            refusal = (
+                f"{guid} is carried by {item.carrier}, not {robot.robot_id}"
+                if item.carrier
+                else f"robot {robot.robot_id} does not carry {guid}"
+            )
+        if refusal is None and frame is not None and not _inside(self.site_bounds, frame[0]):
+            refusal = f"target ({frame[0][0]:.2f}, {frame[0][1]:.2f}) of {guid} is outside the site"
+        if refusal is None and item is not None and frame is not None:
+            distance = distance_to_rect(self._robot_xy(robot), footprint(item.component, frame))
+            if distance > self.config.reach_m:
+                refusal = (
+                    f"robot {robot.robot_id} is {distance:.2f} m from the target of {guid}, "
+                    f"reach is {self.config.reach_m:g} m"
+                )
+        if refusal is not None or item is None or frame is None:
+            return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s)
+        item.phase = Phase.ASSEMBLING
+        item.motion_from = item.pose
+        item.motion_to = frame
+        item.motion_start_s = now_s
+        item.motion_duration_s = duration_s
+        item.tag = tag
+        self._moving.add(guid)
+        _log.info("%s: %s places it over %.2f s", guid, robot.robot_id, duration_s)
+        return None
+
+    def _check_common(self, robot: Robot | None, guid: str, item: Item | None) -> str | None:
+        if robot is None:
+            return "unknown robot"
+        if item is None:
+            return f"unknown component {guid}"
+        if item.phase is Phase.FIXED:
+            return f"{guid} is fixed to the structure"
+        return None
+
+    def _robot_xy(self, robot: Robot) -> tuple[float, float]:
+        (x, y, _), _ = robot.frame(self.client_id)
+        return x, y
+
+    # --- motion --------------------------------------------------------------------------------------
+
+    def follow(self, robots: dict[str, Robot], now_s: float) -> list[tuple[object, PhysicsReply]]:
+        """Move carried and assembling components to where they are at ``now_s``; finished placements."""
+        finished: list[tuple[object, PhysicsReply]] = []
+        for guid in list(self._moving):
+            item = self.items[guid]
+            if item.phase is Phase.CARRIED and item.carrier is not None and item.offset is not None:
+                target = compose(robots[item.carrier].frame(self.client_id), item.offset)
+                lift = (now_s - item.motion_start_s) / self.config.lift_s if self.config.lift_s > 0 else 1.0
+                item.pose = (
+                    interpolate(item.motion_from, target, lift) if lift < 1.0 and item.motion_from else target
+                )
+            elif (
+                item.phase is Phase.ASSEMBLING and item.motion_to is not None and item.motion_from is not None
+            ):
+                duration = item.motion_duration_s
+                fraction = (now_s - item.motion_start_s) / duration if duration > 0 else 1.0
+                item.pose = interpolate(item.motion_from, item.motion_to, fraction)
+                if fraction >= 1.0:
+                    finished.append((item.tag, self._fix(item, robots.get(item.carrier or ""), now_s)))
+            set_component_pose(self.client_id, item.body, item.pose)
+            self.changed.add(guid)
+        return finished
+
+    def _fix(self, item: Item, carrier: Robot | None, now_s: float) -> PhysicsReply:
+        item.pose = item.motion_to  # type: ignore[assignment]
+        item.phase = Phase.FIXED
+        self.carrying.pop(item.carrier or "", None)
+        item.carrier = None
+        item.tag = None
+        self._moving.discard(item.component.guid)
+        item.separating_from = carrier
+        if carrier is None or not self._overlaps(item, carrier):
+            self._settle(item)
+        _log.info("%s fixed to the structure at t=%.2f s", item.component.guid, now_s)
+        return PhysicsReply(ok=True, sim_time_s=now_s, pose=pose_msg(item.pose))
+
+    def _settle(self, item: Item) -> None:
+        item.separating_from = None
+        set_filter(self.client_id, item.body.body_id, STATIC_GROUP, STATIC_MASK)
+
+    def _overlaps(self, item: Item, robot: Robot) -> bool:
+        low, high = p.getAABB(item.body.body_id, -1, physicsClientId=self.client_id)
+        for link in range(-1, p.getNumJoints(robot.body_id, physicsClientId=self.client_id)):
+            r_low, r_high = p.getAABB(robot.body_id, link, physicsClientId=self.client_id)
+            if all(low[i] < r_high[i] and r_low[i] < high[i] for i in range(3)):
+                return True
+        return False
+
+    def settle_separated(self) -> None:
+        """Once per control period: placed components collide with their former carrier once clear of it."""
+        for item in self.items.values():
+            if item.separating_from is not None and not self._overlaps(item, item.separating_from):
+                self._settle(item)
+
+    def busy_robots(self) -> set[str]:
+        """Robots whose placement is running (they hold still and are not waited for in lock-step)."""
+        return {
+            item.carrier for item in self.items.values() if item.phase is Phase.ASSEMBLING and item.carrier
+        }
+
+    def drop(self, robot: Robot, now_s: float) -> str | None:
+        """A lost robot's load (if carried, not being placed) laid flat on the ground beside it."""
+        guid = self.carrying.get(robot.robot_id)
+        item = self.items.get(guid or "")
+        if guid is None or item is None or item.phase is not Phase.CARRIED:
+            return None
+        item.pose = self._drop_pose(item, robot)
+        item.phase = Phase.RESTING
+        item.carrier = None
+        item.offset = None
+        del self.carrying[robot.robot_id]
+        self._moving.discard(guid)
+        set_component_pose(self.client_id, item.body, item.pose)
+        set_filter(self.client_id, item.body.body_id, STATIC_GROUP, STATIC_MASK)
+        self.changed.add(guid)
+        _log.warning("robot %s lost: %s dropped at (%.2f, %.2f)", robot.robot_id, guid, *item.pose[0][:2])
+        return guid
+
+    def _drop_pose(self, item: Item, robot: Robot) -> Frame:
+        """Lying like in the yard, beside the robot: left, right, behind or ahead, the first spot that is
+        free of other components and inside the site (else left)."""
+        (x, y, _), quat = robot.frame(self.client_id)
+        heading = yaw_quat(yaw_of(quat))
+        low, high = np.array(item.component.bbox_local.min_m), np.array(item.component.bbox_local.max_m)
+        rotation = lying_rotation(high - low)
+        corners = np.array(
+            [[a, b, c] for a in (low[0], high[0]) for b in (low[1], high[1]) for c in (low[2], high[2])]
+        )
+        turned = corners @ rotation.T
+        centre = (turned.min(axis=0) + turned.max(axis=0)) / 2.0
+        length, depth = turned.max(axis=0)[:2] - turned.min(axis=0)[:2]
+        lying_quat = tuple(float(q) for q in Rotation.from_matrix(rotation).as_quat())
+        half_x, half_y = robot.half_extents_xy_m
+        offsets = (
+            (0.0, half_y + DROP_GAP_M + depth / 2.0),
+            (0.0, -(half_y + DROP_GAP_M + depth / 2.0)),
+            (-(half_x + DROP_GAP_M + length / 2.0), 0.0),
+            (half_x + DROP_GAP_M + length / 2.0, 0.0),
+        )
+        others = [footprint(o.component, o.pose) for o in self.items.values() if o is not item]
+        candidates = []
+        for dx, dy in offsets:
+            local = ((dx - centre[0], dy - centre[1], GROUND_CLEARANCE_M - turned[:, 2].min()), lying_quat)
+            frame = compose(((x, y, 0.0), heading), local)  # type: ignore[arg-type]
+            candidates.append(frame)
+            spot = footprint(item.component, frame)
+            inside = (
+                self.site_bounds.min_xy[0] <= spot.min_xy[0] and spot.max_xy[0] <= self.site_bounds.max_xy[0]
+            )
+            inside = (
+                inside
+                and self.site_bounds.min_xy[1] <= spot.min_xy[1]
+                and spot.max_xy[1] <= self.site_bounds.max_xy[1]
+            )
+            if inside and not any(spot.overlaps(other) for other in others):
+                return frame
+        return candidates[0]
+
+    # --- messages ------------------------------------------------------------------------------------
+
+    def pose_message(self, guid: str, now_s: float) -> ComponentPoseMsg:
+        item = self.items[guid]
+        return ComponentPoseMsg(
+            guid=guid,
+            pose=pose_msg(item.pose),
+            sim_time_s=now_s,
+            attached_to=item.carrier,
+            fixed=item.phase is Phase.FIXED,
+        )
+
+    def take_changed(self) -> list[str]:
+        changed = sorted(self.changed)
+        self.changed.clear()
+        return changed
+
+
+def _valid_frame(pose: PoseMsg) -> tuple[Frame | None, str | None]:
+    values = [*pose.position_m, *pose.quat_xyzw]
+    if not all(math.isfinite(v) for v in values):
+        return None, "invalid pose: not finite"
+    norm = math.sqrt(sum(q * q for q in pose.quat_xyzw))
+    if not 0.5 < norm < 1.5:
+        return None, f"invalid pose: quat_xyzw norm {norm:.3g} is not a rotation"
+    quat = tuple(q / norm for q in pose.quat_xyzw)
+    return (tuple(pose.position_m), quat), None  # type: ignore[return-value]
+
+
+def _inside(rect: Rect, position: tuple[float, float, float]) -> bool:
+    return rect.min_xy[0] <= position[0] <= rect.max_xy[0] and rect.min_xy[1] <= position[1] <= rect.max_xy[1]

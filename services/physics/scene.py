@@ -1,0 +1,377 @@
+"""The static part of the physics scene: component bodies from the converter's ``model.sdf`` files, the
+ground plane and the site fence, plus the frame arithmetic every other physics module uses.
+
+Why bodies are built by hand and not with ``loadSDF`` (see DESIGN.md, "Facts about the stack"): pybullet's
+SDF importer ignores ``<inertia>`` and ``<static>``, and caches parsed files by name (every component's
+file is called ``model.sdf``). So each ``model.sdf`` is read with lxml (mesh URIs, ``<inertial>``) and
+turned into one multibody:
+
+* a compound collision shape of the convex ``collision_<i>.obj`` parts, in the component frame;
+* ``baseInertialFramePosition`` = the CoM and ``baseInertialFrameOrientation`` = the principal axes of the
+  full inertia tensor, then ``changeDynamics(mass=…, localInertiaDiagonal=eigenvalues)``, so the full
+  tensor (products of inertia included) is honoured;
+* pybullet reports and sets a base's *centre-of-mass* frame; :func:`component_pose` and
+  :func:`set_component_pose` convert from and to the component frame (the BIM frame of ``<pose>``).
+
+Components at rest are *static* (mass 0): they neither fall nor drift and cost nothing in the solver
+(static–static pairs are never tested). Their real mass and inertia stay in :class:`ComponentBody` and
+:func:`make_dynamic` restores them.
+
+Collision filter groups: pybullet lets a pair collide when *either* one's group is in the other's mask
+(measured: its default filter ORs the two tests), so two bodies that must not collide both leave the
+other's group out of their mask; laser rays hit a body when the ray mask holds its group (:mod:`.sensors`).
+:data:`STATIC_GROUP` for resting components and the fence, :data:`GROUND_GROUP` for the ground plane
+(never seen by the laser), one bit per robot (:func:`robot_group`), also given to the load it carries:
+the robot's mask and the load's both leave that bit out, so the robot neither collides with nor sees it.
+
+Frames: world = the simulation world frame of :mod:`shared.manifest` (metres, Z up). A :data:`Frame` is
+``((x, y, z), (qx, qy, qz, qw))``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from lxml import etree
+from scipy.spatial.transform import Rotation
+
+from shared.manifest import Component
+from shared.site_layout import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect
+
+from .client import p
+
+_log = logging.getLogger(__name__)
+
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
+Frame = tuple[Vec3, Quat]
+
+IDENTITY: Frame = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+
+ALL_GROUPS = -1  # every bit (pybullet takes a signed 32-bit int)
+DYNAMIC_GROUP = 1  # Bullet's DefaultFilter: laser rays carry it as their own group
+STATIC_GROUP = 2  # Bullet's StaticFilter: components at rest, placed components, the fence
+GROUND_GROUP = 1 << 3
+FIRST_ROBOT_BIT = 4
+ROBOT_BITS = 27  # bits 4..30: robots beyond 27 share bits (they then neither see nor hit each other's loads)
+STATIC_MASK = ALL_GROUPS ^ STATIC_GROUP ^ GROUND_GROUP
+
+
+def robot_group(index: int) -> int:
+    """The collision group bit of the robot with this 0-based index."""
+    return 1 << (FIRST_ROBOT_BIT + index % ROBOT_BITS)
+
+
+# --- frames ------------------------------------------------------------------------------------------------
+
+
+def quat_multiply(a: Quat, b: Quat) -> Quat:
+    """Hamilton product ``a * b`` of (x, y, z, w) quaternions, in double precision."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return (
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+        aw * bw - ax * bx - ay * by - az * bz,
+    )
+
+
+def rotate(quat_xyzw: Quat, v: Vec3) -> Vec3:
+    """``v`` rotated by a unit quaternion (v + 2w(u×v) + 2u×(u×v))."""
+    x, y, z, w = quat_xyzw
+    tx = 2.0 * (y * v[2] - z * v[1])
+    ty = 2.0 * (z * v[0] - x * v[2])
+    tz = 2.0 * (x * v[1] - y * v[0])
+    return (
+        v[0] + w * tx + (y * tz - z * ty),
+        v[1] + w * ty + (z * tx - x * tz),
+        v[2] + w * tz + (x * ty - y * tx),
+    )
+
+
+def compose(a: Frame, b: Frame) -> Frame:
+    """``a ∘ b``: frame ``b`` given in frame ``a``, expressed in ``a``'s parent (double precision: pybullet's
+    own ``multiplyTransforms`` works in single precision)."""
+    moved = rotate(a[1], b[0])
+    return (a[0][0] + moved[0], a[0][1] + moved[1], a[0][2] + moved[2]), quat_multiply(a[1], b[1])
+
+
+def invert(a: Frame) -> Frame:
+    x, y, z, w = a[1]
+    conjugate = (-x, -y, -z, w)
+    back = rotate(conjugate, a[0])
+    return (-back[0], -back[1], -back[2]), conjugate
+
+
+def yaw_of(quat_xyzw: Quat) -> float:
+    """Heading (rotation about world z of the frame's x axis), radians in (-π, π]."""
+    x, y, z, w = quat_xyzw
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def yaw_quat(yaw_rad: float) -> Quat:
+    return (0.0, 0.0, math.sin(yaw_rad / 2.0), math.cos(yaw_rad / 2.0))
+
+
+def normalised_quat(quat_xyzw: Quat) -> Quat:
+    q = np.asarray(quat_xyzw, dtype=float)
+    q = q / np.linalg.norm(q)
+    return float(q[0]), float(q[1]), float(q[2]), float(q[3])
+
+
+def interpolate(start: Frame, end: Frame, fraction: float) -> Frame:
+    """Linear in position, spherical-linear in orientation; exactly ``end`` at ``fraction >= 1``."""
+    if fraction >= 1.0:
+        return end
+    s = max(0.0, fraction)
+    position = tuple(a + (b - a) * s for a, b in zip(start[0], end[0], strict=True))
+    q0 = np.asarray(start[1], dtype=float)
+    q1 = np.asarray(end[1], dtype=float)
+    dot = float(np.dot(q0, q1))
+    if dot < 0.0:  # the short way round
+        q1, dot = -q1, -dot
+    if dot > 0.9995:
+        q = q0 + (q1 - q0) * s
+    else:
+        theta = math.acos(min(1.0, dot))
+        q = (math.sin((1.0 - s) * theta) * q0 + math.sin(s * theta) * q1) / math.sin(theta)
+    q /= np.linalg.norm(q)
+    return position, (float(q[0]), float(q[1]), float(q[2]), float(q[3]))  # type: ignore[return-value]
+
+
+def footprint(component: Component, frame: Frame) -> Rect:
+    """The xy rectangle covered by the component's local bounding box when its frame is at ``frame``."""
+    low, high = component.bbox_local.min_m, component.bbox_local.max_m
+    corners = np.array(
+        [[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]
+    )
+    turned = Rotation.from_quat(frame[1]).apply(corners) + np.asarray(frame[0])
+    return Rect(
+        (float(turned[:, 0].min()), float(turned[:, 1].min())),
+        (float(turned[:, 0].max()), float(turned[:, 1].max())),
+    )
+
+
+def distance_to_rect(xy: tuple[float, float], rect: Rect) -> float:
+    """Horizontal distance from a point to the nearest point of a rectangle (0 inside it)."""
+    dx = max(rect.min_xy[0] - xy[0], 0.0, xy[0] - rect.max_xy[0])
+    dy = max(rect.min_xy[1] - xy[1], 0.0, xy[1] - rect.max_xy[1])
+    return math.hypot(dx, dy)
+
+
+# --- model.sdf -------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ComponentModel:
+    """What physics needs from one ``model.sdf``; the inertia tensor is about the CoM, component axes."""
+
+    guid: str
+    sdf_path: Path
+    mass_kg: float
+    com_local_m: Vec3
+    inertia_kg_m2: tuple[Vec3, Vec3, Vec3]
+    collision_files: tuple[Path, ...]
+    visual_file: Path | None
+
+
+def _floats(text: str | None, count: int, what: str) -> list[float]:
+    values = [float(v) for v in (text or "").split()]
+    if len(values) != count:
+        raise ValueError(f"{what}: expected {count} numbers, got {text!r}")
+    return values
+
+
+def resolve_uri(uri: str, sdf_path: Path) -> Path:
+    """``model://<folder>/…`` → beside the model folder; ``file://`` → absolute; else relative to the file."""
+    if uri.startswith("model://"):
+        return sdf_path.parent.parent / uri[len("model://") :]
+    if uri.startswith("file://"):
+        return Path(uri[len("file://") :])
+    return sdf_path.parent / uri
+
+
+def parse_model_sdf(sdf_path: Path) -> ComponentModel:
+    """Read a converter ``model.sdf``: the link's inertial (CoM pose, mass, tensor) and its mesh files."""
+    root = etree.parse(str(sdf_path)).getroot()
+    model = root.find("model")
+    link = model.find("link") if model is not None else None
+    if model is None or link is None:
+        raise ValueError(f"{sdf_path}: no <model><link>")
+    inertial = link.find("inertial")
+    if inertial is None:
+        raise ValueError(f"{sdf_path}: link has no <inertial>")
+    pose = _floats(inertial.findtext("pose", "0 0 0 0 0 0"), 6, f"{sdf_path} inertial pose")
+    mass = float(inertial.findtext("mass", "nan"))
+    if not mass > 0.0:
+        raise ValueError(f"{sdf_path}: inertial mass must be positive")
+    element = inertial.find("inertia")
+    terms = {tag: float(element.findtext(tag, "0")) if element is not None else 0.0 for tag in _TENSOR_TAGS}
+    tensor = np.array(
+        [
+            [terms["ixx"], terms["ixy"], terms["ixz"]],
+            [terms["ixy"], terms["iyy"], terms["iyz"]],
+            [terms["ixz"], terms["iyz"], terms["izz"]],
+        ]
+    )
+    turn = Rotation.from_euler("xyz", pose[3:]).as_matrix()  # inertial frame axes → component axes
+    tensor = turn @ tensor @ turn.T
+    collisions = tuple(
+        resolve_uri(uri.strip(), sdf_path)
+        for uri in link.xpath("collision/geometry/mesh/uri/text()")  # type: ignore[union-attr]
+    )
+    visuals = [uri.strip() for uri in link.xpath("visual/geometry/mesh/uri/text()")]  # type: ignore[union-attr]
+    visual = resolve_uri(visuals[0], sdf_path) if visuals else None
+    if visual is not None and visual.suffix.lower() != ".obj" and visual.with_suffix(".obj").is_file():
+        visual = visual.with_suffix(".obj")  # pybullet loads OBJ visuals directly
+    return ComponentModel(
+        guid=model.get("name", ""),
+        sdf_path=sdf_path,
+        mass_kg=mass,
+        com_local_m=(pose[0], pose[1], pose[2]),
+        inertia_kg_m2=tuple(tuple(float(v) for v in row) for row in tensor),  # type: ignore[arg-type]
+        collision_files=collisions,
+        visual_file=visual,
+    )
+
+
+_TENSOR_TAGS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+
+
+def principal_axes(inertia_kg_m2: np.ndarray) -> tuple[Vec3, Quat]:
+    """Eigenvalues (principal moments) and the right-handed rotation whose columns are the principal axes."""
+    values, vectors = np.linalg.eigh(np.asarray(inertia_kg_m2, dtype=float))
+    if np.linalg.det(vectors) < 0.0:
+        vectors[:, 2] *= -1.0
+    values = np.maximum(values, 1e-9)  # a degenerate (flat) part still needs a positive moment
+    quat = Rotation.from_matrix(vectors).as_quat()
+    return (
+        (float(values[0]), float(values[1]), float(values[2])),
+        (float(quat[0]), float(quat[1]), float(quat[2]), float(quat[3])),
+    )
+
+
+# --- bodies ----------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ComponentBody:
+    """A component's pybullet body and the constants needed to move it in its own (BIM) frame."""
+
+    guid: str
+    body_id: int
+    inertial_frame: Frame  # CoM frame (principal axes) in the component frame
+    mass_kg: float
+    inertia_diagonal_kg_m2: Vec3
+
+
+def create_component_body(
+    client_id: int, component: Component, model: ComponentModel, frame: Frame, *, visual: bool = False
+) -> ComponentBody:
+    """One multibody for ``component`` at ``frame`` (component frame in the world), static (at rest)."""
+    files = [str(path) for path in model.collision_files if path.is_file()]
+    if len(files) != len(model.collision_files):
+        missing = [str(path) for path in model.collision_files if not path.is_file()]
+        raise ValueError(f"{component.guid}: collision meshes missing: {', '.join(missing)}")
+    if files:
+        shape = p.createCollisionShapeArray(
+            shapeTypes=[p.GEOM_MESH] * len(files), fileNames=files, physicsClientId=client_id
+        )
+    else:  # a component without collision parts still takes its bounding box's room
+        low, high = np.array(component.bbox_local.min_m), np.array(component.bbox_local.max_m)
+        _log.warning("%s has no collision parts: using its bounding box", component.guid)
+        shape = p.createCollisionShape(
+            p.GEOM_BOX,
+            halfExtents=((high - low) / 2.0).tolist(),
+            collisionFramePosition=((high + low) / 2.0).tolist(),
+            physicsClientId=client_id,
+        )
+    if shape < 0:
+        raise ValueError(f"{component.guid}: pybullet could not load its collision meshes {files}")
+    visual_shape = -1
+    if visual and model.visual_file is not None and model.visual_file.is_file():
+        visual_shape = p.createVisualShape(
+            p.GEOM_MESH, fileName=str(model.visual_file), physicsClientId=client_id
+        )
+    diagonal, principal = principal_axes(np.array(model.inertia_kg_m2))
+    body_id = p.createMultiBody(
+        baseMass=model.mass_kg,
+        baseCollisionShapeIndex=shape,
+        baseVisualShapeIndex=visual_shape,
+        basePosition=frame[0],
+        baseOrientation=frame[1],
+        baseInertialFramePosition=model.com_local_m,
+        baseInertialFrameOrientation=principal,
+        physicsClientId=client_id,
+    )
+    body = ComponentBody(component.guid, body_id, (model.com_local_m, principal), model.mass_kg, diagonal)
+    make_static(client_id, body)
+    return body
+
+
+def make_static(client_id: int, body: ComponentBody) -> None:
+    """Mass 0: held exactly where it is set; the real mass and inertia stay in ``body``."""
+    p.changeDynamics(body.body_id, -1, mass=0.0, physicsClientId=client_id)
+    set_filter(client_id, body.body_id, STATIC_GROUP, STATIC_MASK)
+
+
+def make_dynamic(client_id: int, body: ComponentBody) -> None:
+    """The component's real mass and principal moments of inertia (the order matters: mass first)."""
+    p.changeDynamics(body.body_id, -1, mass=body.mass_kg, physicsClientId=client_id)
+    p.changeDynamics(
+        body.body_id, -1, localInertiaDiagonal=body.inertia_diagonal_kg_m2, physicsClientId=client_id
+    )
+    set_filter(client_id, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)
+
+
+def set_filter(client_id: int, body_id: int, group: int, mask: int, links: range | None = None) -> None:
+    for link in links if links is not None else (-1,):
+        p.setCollisionFilterGroupMask(body_id, link, group, mask, physicsClientId=client_id)
+
+
+def set_component_pose(client_id: int, body: ComponentBody, frame: Frame) -> None:
+    """Put the component frame at ``frame`` (pybullet's base frame is the CoM frame)."""
+    com = compose(frame, body.inertial_frame)
+    p.resetBasePositionAndOrientation(body.body_id, com[0], com[1], physicsClientId=client_id)
+
+
+def component_pose(client_id: int, body: ComponentBody) -> Frame:
+    """The component frame in the world, from pybullet's CoM frame."""
+    position, quat = p.getBasePositionAndOrientation(body.body_id, physicsClientId=client_id)
+    return compose((tuple(position), tuple(quat)), invert(body.inertial_frame))  # type: ignore[arg-type]
+
+
+# --- ground and fence ------------------------------------------------------------------------------------
+
+
+def create_ground(client_id: int, friction: float = 1.0) -> int:
+    """An infinite static plane at z = 0 (its own filter group: the laser never reports it)."""
+    shape = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=client_id)
+    body_id = p.createMultiBody(0.0, shape, physicsClientId=client_id)
+    p.changeDynamics(body_id, -1, lateralFriction=friction, physicsClientId=client_id)
+    set_filter(client_id, body_id, GROUND_GROUP, ALL_GROUPS ^ GROUND_GROUP ^ STATIC_GROUP)
+    return body_id
+
+
+def create_fence(client_id: int, fence: Rect) -> list[int]:
+    """Four static boxes just outside ``fence`` (its inner edge), FENCE_THICKNESS_M thick."""
+    t, h = FENCE_THICKNESS_M, FENCE_HEIGHT_M
+    (x0, y0), (x1, y1) = fence.min_xy, fence.max_xy
+    sides = (  # centre xy, half extents xy
+        (((x0 + x1) / 2.0, y0 - t / 2.0), ((x1 - x0) / 2.0 + t, t / 2.0)),
+        (((x0 + x1) / 2.0, y1 + t / 2.0), ((x1 - x0) / 2.0 + t, t / 2.0)),
+        ((x0 - t / 2.0, (y0 + y1) / 2.0), (t / 2.0, (y1 - y0) / 2.0)),
+        ((x1 + t / 2.0, (y0 + y1) / 2.0), (t / 2.0, (y1 - y0) / 2.0)),
+    )
+    bodies = []
+    for (cx, cy), (hx, hy) in sides:
+        shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=[hx, hy, h / 2.0], physicsClientId=client_id)
+        body_id = p.createMultiBody(0.0, shape, basePosition=[cx, cy, h / 2.0], physicsClientId=client_id)
+        set_filter(client_id, body_id, STATIC_GROUP, STATIC_MASK)
+        bodies.append(body_id)
+    return bodies

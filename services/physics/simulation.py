@@ -1,0 +1,396 @@
+"""The physics core: owns a DIRECT pybullet client, builds the site and advances it one control period at a
+time. No bus: requests come in as message objects, outgoing messages go out as ``(key, message)`` pairs.
+
+Scene (from the converter's build and :func:`shared.site_layout.plan_site`, like the paper's Fig. 10): the
+ground plane, the fence, every component static in its yard slot (its body built from its ``model.sdf``,
+:mod:`.scene`), N robots at the depot starts (ids ``r1``…``rN``, :mod:`.robots`).
+
+Clock: physics steps of ``step_s`` (1/240 s); a control period of ``control_period_s`` (0.1 s) is a whole
+number of them. :meth:`Simulation.advance` applies the latest commands, steps one period (moving carried
+and assembling components after every step, :mod:`.handling`), then measures: ``ClockMsg.step`` counts
+control periods, and the messages of a period are stamped with the sim time at its end.
+
+Per period the outgoing messages are: the clock; per robot its odometry (noisy, :class:`.robots.Odometry`,
+seeded per robot from ``seed``), its laser scan (:mod:`.sensors`) and its ground-truth pose; the pose of
+every component that moved (carried, assembling, just placed or dropped); and a slice of the others, so
+that every component's pose is repeated once per ``pose_refresh_s`` for late subscribers.
+:meth:`Simulation.start_messages` gives all of that for step 0 (every component included).
+Same build, config, seed and command sequence → the same trajectories (pybullet is deterministic for an
+identical call sequence on a fresh client).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import TracebackType
+
+import numpy as np
+from pydantic import BaseModel
+
+from shared.identifiers import guid_to_key
+from shared.manifest import Manifest
+from shared.messages import (
+    CLOCK_KEY,
+    COMPONENT_POSE_KEY,
+    ROBOT_ODOM_KEY,
+    ROBOT_POSE_KEY,
+    ROBOT_SCAN_KEY,
+    AttachRequest,
+    ClockMsg,
+    CmdVelMsg,
+    OdomMsg,
+    PhysicsReply,
+    PlaceRequest,
+    RobotPoseMsg,
+    ScanMsg,
+    SiteInfoMsg,
+    key,
+)
+from shared.site_layout import SiteLayout, plan_site
+
+from .client import BulletClient, p
+from .handling import Handling, HandlingConfig, Item, Phase
+from .robots import Odometry, Robot, RobotConfig, spawn_robot
+from .scene import (
+    compose,
+    create_component_body,
+    create_fence,
+    create_ground,
+    parse_model_sdf,
+    robot_group,
+    yaw_quat,
+)
+from .sensors import Laser, LaserConfig
+
+_log = logging.getLogger(__name__)
+
+GRAVITY_MPS2 = 9.80665
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    robots: int = 1
+    step_s: float = 1.0 / 240.0
+    control_period_s: float = 0.1
+    reach_m: float = 1.5
+    odom_noise: float = 0.02  # relative standard deviation of each period's odometry increment
+    seed: int = 0
+    lock_step: bool = False  # reported in ClockMsg and SiteInfoMsg; the adapter does the waiting
+    real_time_factor: float = 1.0  # reported when nothing is measured yet
+    pose_refresh_s: float = 2.0
+    visuals: bool = False
+    robot: RobotConfig = field(default_factory=RobotConfig)
+    laser: LaserConfig = field(default_factory=LaserConfig)
+    handling: HandlingConfig | None = None  # None: defaults with reach_m
+
+    @property
+    def substeps(self) -> int:
+        return round(self.control_period_s / self.step_s)
+
+    def validate(self) -> None:
+        if self.robots < 0:
+            raise ValueError("robots must be >= 0")
+        if self.step_s <= 0.0 or self.control_period_s < self.step_s:
+            raise ValueError("need 0 < step_s <= control_period_s")
+        if abs(self.substeps * self.step_s - self.control_period_s) > 1e-9:
+            raise ValueError(
+                f"control period {self.control_period_s} s is not a whole number of {self.step_s} s steps"
+            )
+        if self.odom_noise < 0.0 or self.reach_m <= 0.0 or self.pose_refresh_s <= 0.0:
+            raise ValueError("odom noise must be >= 0, reach and pose refresh > 0")
+
+
+@dataclass(frozen=True)
+class Outgoing:
+    key_expr: str
+    message: BaseModel
+
+
+@dataclass
+class PeriodResult:
+    messages: list[Outgoing]
+    replies: list[tuple[object, PhysicsReply]]  # (tag given to place(), reply) of finished placements
+
+
+class Simulation:
+    """``with Simulation(manifest, build_dir, config) as sim:`` — the whole site in one pybullet client."""
+
+    def __init__(
+        self, manifest: Manifest, build_dir: Path, config: SimConfig | None = None, *, gui: bool = False
+    ) -> None:
+        self.manifest = manifest
+        self.build_dir = Path(build_dir)
+        self.config = config or SimConfig()
+        self.config.validate()
+        self.site = manifest.site
+        self.layout: SiteLayout = plan_site(manifest.components, robots=self.config.robots)
+        self._client = BulletClient(p.GUI if gui else None)
+        self.step = 0
+        self.robots: dict[str, Robot] = {}
+        self.alive: set[str] = set()
+        self._odometry: dict[str, Odometry] = {}
+        self._laser = Laser(self.config.laser)
+        self._beam_starts: dict[str, np.ndarray] = {}
+        self._unknown_logged: set[str] = set()
+        self._refresh_cursor = 0
+        self._late_replies: list[tuple[object, PhysicsReply]] = []
+        self.handling: Handling
+
+    # --- lifecycle -----------------------------------------------------------------------------------
+
+    def __enter__(self) -> Simulation:
+        self._client.__enter__()
+        try:
+            self._build()
+        except BaseException:
+            self._client.close()
+            raise
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, traceback: TracebackType | None
+    ) -> None:
+        self._client.close()
+
+    @property
+    def client_id(self) -> int:
+        return self._client.id
+
+    def _build(self) -> None:
+        cid = self.client_id
+        p.setGravity(0.0, 0.0, -GRAVITY_MPS2, physicsClientId=cid)
+        p.setPhysicsEngineParameter(
+            fixedTimeStep=self.config.step_s, deterministicOverlappingPairs=1, physicsClientId=cid
+        )
+        self.ground_id = create_ground(cid)
+        self.fence_ids = create_fence(cid, self.layout.fence)
+        items: dict[str, Item] = {}
+        for component in self.manifest.components:
+            slot = self.layout.slots[component.guid]
+            frame = (slot.position_m, slot.quat_xyzw)
+            model = parse_model_sdf(self.build_dir / component.files.sdf_file)
+            body = create_component_body(cid, component, model, frame, visual=self.config.visuals)
+            p.setCollisionFilterPair(self.ground_id, body.body_id, -1, -1, 0, physicsClientId=cid)
+            items[component.guid] = Item(component, body, Phase.RESTING, frame)
+        handling_config = self.config.handling or HandlingConfig(reach_m=self.config.reach_m)
+        self.handling = Handling(cid, items, handling_config, self.layout.fence)
+        for index, start in enumerate(self.layout.robot_starts):
+            robot_id = f"r{index + 1}"
+            robot = spawn_robot(
+                cid, robot_id, index, group=robot_group(index), start_xy_yaw=start, config=self.config.robot
+            )
+            self.robots[robot_id] = robot
+            rng = np.random.default_rng([self.config.seed, index])
+            self._odometry[robot_id] = Odometry(start, self.config.odom_noise, rng)
+            self._beam_starts[robot_id] = self._laser.beam_starts(robot.half_extents_xy_m)
+        _log.info(
+            "scene: %d components in the yard, %d robot(s) at the depot, fence %s–%s",
+            len(items),
+            len(self.robots),
+            self.layout.fence.min_xy,
+            self.layout.fence.max_xy,
+        )
+
+    # --- state ---------------------------------------------------------------------------------------
+
+    @property
+    def sim_time_s(self) -> float:
+        return self.step * self.config.control_period_s
+
+    @property
+    def robot_ids(self) -> list[str]:
+        return list(self.robots)
+
+    def info(self) -> SiteInfoMsg:
+        return SiteInfoMsg(
+            robot_ids=self.robot_ids,
+            robot_starts_xy_yaw=[r.start_xy_yaw for r in self.robots.values()],
+            step_s=self.config.step_s,
+            control_period_s=self.config.control_period_s,
+            lock_step=self.config.lock_step,
+            reach_m=self.handling.config.reach_m,
+        )
+
+    def robot_pose(self, robot_id: str) -> tuple[float, float, float]:
+        return self.robots[robot_id].pose_xy_yaw(self.client_id)
+
+    def component_frame(self, guid: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        return self.handling.items[guid].pose
+
+    def busy_robots(self) -> set[str]:
+        return self.handling.busy_robots()
+
+    def known(self, robot_id: str) -> bool:
+        if robot_id in self.robots:
+            return True
+        if robot_id not in self._unknown_logged:
+            self._unknown_logged.add(robot_id)
+            _log.warning(
+                "robot %r was not spawned by physics (%s): ignored", robot_id, ", ".join(self.robots)
+            )
+        return False
+
+    # --- inputs --------------------------------------------------------------------------------------
+
+    def command(self, message: CmdVelMsg) -> bool:
+        """Take a velocity command (False: unknown robot, ignored)."""
+        if not self.known(message.robot_id):
+            return False
+        self.robots[message.robot_id].set_command(message.v_mps, message.w_radps)
+        return True
+
+    def set_alive(self, robot_id: str, alive: bool) -> list[Outgoing]:
+        """A robot's liveliness changed; a lost robot stops and drops its load (its pose is returned)."""
+        if not self.known(robot_id):
+            return []
+        if alive:
+            self.alive.add(robot_id)
+            return []
+        self.alive.discard(robot_id)
+        robot = self.robots[robot_id]
+        robot.set_command(0.0, 0.0)
+        guid = self.handling.drop(robot, self.sim_time_s)
+        if guid is None:
+            return []
+        self.handling.changed.discard(guid)
+        return [self._component_pose(guid)]
+
+    def attach(self, request: AttachRequest) -> PhysicsReply:
+        robot = self.robots.get(request.robot_id)
+        if robot is None:
+            return PhysicsReply(
+                ok=False, reason=f"unknown robot {request.robot_id}", sim_time_s=self.sim_time_s
+            )
+        return self.handling.attach(robot, request.guid, self.sim_time_s)
+
+    def place(self, request: PlaceRequest, tag: object = None) -> PhysicsReply | None:
+        """A refusal now, or None: the reply comes with ``tag`` from the :meth:`advance` ending the motion."""
+        robot = self.robots.get(request.robot_id)
+        if robot is None:
+            return PhysicsReply(
+                ok=False, reason=f"unknown robot {request.robot_id}", sim_time_s=self.sim_time_s
+            )
+        return self.handling.place(
+            robot, request.guid, request.pose, duration_s=request.duration_s, now_s=self.sim_time_s, tag=tag
+        )
+
+    # --- stepping ------------------------------------------------------------------------------------
+
+    def advance(self, real_time_factor: float | None = None) -> PeriodResult:
+        """Simulate one control period; the messages of its end and the placements that finished in it."""
+        cid = self.client_id
+        busy = self.handling.busy_robots()
+        for robot_id, robot in self.robots.items():
+            robot.held = robot_id in busy
+            robot.apply_motors(cid)
+        replies, self._late_replies = self._late_replies, []
+        start_s = self.sim_time_s
+        step_s = self.config.step_s
+        for index in range(1, self.config.substeps + 1):
+            p.stepSimulation(physicsClientId=cid)
+            if self.handling.carrying:
+                replies.extend(self.handling.follow(self.robots, start_s + index * step_s))
+        self.step += 1
+        self.handling.settle_separated()
+        messages = self._period_messages(real_time_factor, odometry=True)
+        return PeriodResult(messages, replies)
+
+    def start_messages(self) -> list[Outgoing]:
+        """Step 0: the clock, every robot's sensors and pose, and every component's pose."""
+        messages = self._period_messages(None, odometry=False)
+        listed = {m.message.guid for m in messages if hasattr(m.message, "guid")}
+        messages.extend(self._component_pose(guid) for guid in self.handling.items if guid not in listed)
+        return messages
+
+    def _period_messages(self, real_time_factor: float | None, *, odometry: bool) -> list[Outgoing]:
+        cid, now = self.client_id, self.sim_time_s
+        rtf = self.config.real_time_factor if real_time_factor is None else real_time_factor
+        out = [
+            Outgoing(
+                key(CLOCK_KEY, site=self.site),
+                ClockMsg(
+                    sim_time_s=now, step=self.step, real_time_factor=rtf, lock_step=self.config.lock_step
+                ),
+            )
+        ]
+        for robot_id, robot in self.robots.items():
+            if odometry:
+                previous, current = robot.measure(cid, self.config.control_period_s)
+                reading = self._odometry[robot_id].update(previous, current, self.config.control_period_s)
+                pose, v, w = reading.pose_xy_yaw, reading.v_mps, reading.w_radps
+            else:
+                current, pose, v, w = robot.pose_xy_yaw(cid), self._odometry[robot_id].pose_xy_yaw, 0.0, 0.0
+            out.append(
+                Outgoing(
+                    key(ROBOT_ODOM_KEY, site=self.site, robot_id=robot_id),
+                    OdomMsg(robot_id=robot_id, pose_xy_yaw=pose, v_mps=v, w_radps=w, sim_time_s=now),
+                )
+            )
+            mount = self._laser.mount(robot.frame(cid), robot.base_height_m)
+            out.append(
+                Outgoing(
+                    key(ROBOT_SCAN_KEY, site=self.site, robot_id=robot_id),
+                    ScanMsg(
+                        robot_id=robot_id,
+                        angle_min_rad=self._laser.angle_min_rad,
+                        angle_increment_rad=self._laser.angle_increment_rad,
+                        range_max_m=self.config.laser.range_max_m,
+                        ranges_m=self._laser.scan(cid, mount, robot.group, self._beam_starts[robot_id]),
+                        sim_time_s=now,
+                    ),
+                )
+            )
+            out.append(
+                Outgoing(
+                    key(ROBOT_POSE_KEY, site=self.site, robot_id=robot_id),
+                    RobotPoseMsg(
+                        robot_id=robot_id,
+                        pose_xy_yaw=current,
+                        sim_time_s=now,
+                        carrying=self.handling.carrying.get(robot_id),
+                    ),
+                )
+            )
+        changed = self.handling.take_changed()
+        out.extend(self._component_pose(guid) for guid in changed)
+        out.extend(self._component_pose(guid) for guid in self._refresh_slice(set(changed)))
+        return out
+
+    def _refresh_slice(self, skip: set[str]) -> list[str]:
+        """The next few components in turn, so that each is repeated once per ``pose_refresh_s``."""
+        guids = list(self.handling.items)
+        if not guids:
+            return []
+        per_period = math.ceil(len(guids) * self.config.control_period_s / self.config.pose_refresh_s)
+        chosen = [guids[(self._refresh_cursor + i) % len(guids)] for i in range(min(per_period, len(guids)))]
+        self._refresh_cursor = (self._refresh_cursor + len(chosen)) % len(guids)
+        return [guid for guid in chosen if guid not in skip]
+
+    def _component_pose(self, guid: str) -> Outgoing:
+        component = self.handling.items[guid].component
+        return Outgoing(
+            key(COMPONENT_POSE_KEY, site=self.site, key=component.key or guid_to_key(guid)),
+            self.handling.pose_message(guid, self.sim_time_s),
+        )
+
+    # --- test helpers --------------------------------------------------------------------------------
+
+    def teleport_robot(self, robot_id: str, xy_yaw: tuple[float, float, float]) -> None:
+        """Put a robot somewhere (tests, benches): wheels on the ground, at rest; odometry follows."""
+        robot = self.robots[robot_id]
+        base = ((xy_yaw[0], xy_yaw[1], robot.base_height_m), yaw_quat(xy_yaw[2]))
+        com = compose(base, robot.base_inertial)
+        p.resetBasePositionAndOrientation(robot.body_id, com[0], com[1], physicsClientId=self.client_id)
+        p.resetBaseVelocity(robot.body_id, [0, 0, 0], [0, 0, 0], physicsClientId=self.client_id)
+        for wheels in (robot.drive.left, robot.drive.right):
+            for joint, _ in wheels:
+                angle = p.getJointState(robot.body_id, joint, physicsClientId=self.client_id)[0]
+                p.resetJointState(robot.body_id, joint, angle, 0.0, physicsClientId=self.client_id)
+        robot.reset_control()
+        robot._last_xy_yaw = xy_yaw
+        self._odometry[robot_id].pose_xy_yaw = xy_yaw
+        if robot_id in self.handling.carrying:
+            self._late_replies.extend(self.handling.follow(self.robots, self.sim_time_s))

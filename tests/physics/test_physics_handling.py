@@ -1,0 +1,236 @@
+"""Attach, carry, place and drop: reach checks with reasons, a carried load follows its robot, a placement
+ends exactly at the requested pose and stays, placed footings stay below ground, a lost robot's load is
+put down on the ground."""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+from physics_builders import angle_between, bottom_z, distance_to_footprint, drive, idle, pose, west_of
+
+from services.physics.client import p
+from services.physics.handling import Phase
+from services.physics.scene import component_pose, compose, distance_to_rect, footprint
+from services.physics.simulation import Simulation
+from shared.manifest import Component, Manifest
+from shared.messages import AttachRequest, ComponentPoseMsg, PlaceRequest, RobotPoseMsg
+from shared.site_layout import GROUND_CLEARANCE_M
+
+
+def _first_in_row(sim: Simulation, manifest: Manifest, ifc_class: str) -> Component:
+    """A component of ``ifc_class`` with nothing west of it in its yard row."""
+    start = min(slot.footprint.min_xy[0] for slot in sim.layout.slots.values())
+    return next(
+        c
+        for c in manifest.components
+        if c.ifc_class == ifc_class and sim.layout.slots[c.guid].footprint.min_xy[0] == start
+    )
+
+
+def _picked(sim: Simulation, component: Component, robot_id: str = "r1") -> None:
+    """``robot_id`` stands beside ``component`` in the yard, attaches it and waits for the lift."""
+    spot = sim.layout.slots[component.guid].footprint
+    if spot.min_xy[0] == min(s.footprint.min_xy[0] for s in sim.layout.slots.values()):
+        sim.teleport_robot(robot_id, west_of(spot, 0.8))
+    else:  # e.g. the footing row: reach it from the aisle south of it
+        sim.teleport_robot(
+            robot_id, ((spot.min_xy[0] + spot.max_xy[0]) / 2.0, spot.min_xy[1] - 0.8, math.pi / 2)
+        )
+    reply = sim.attach(AttachRequest(robot_id=robot_id, guid=component.guid))
+    assert reply.ok, reply.reason
+    idle(sim, 1.2)
+
+
+def _beside_target(sim: Simulation, component: Component, robot_id: str = "r1") -> None:
+    target = footprint(
+        component, (component.target_pose_world.position_m, component.target_pose_world.quat_xyzw)
+    )
+    sim.teleport_robot(robot_id, west_of(target, 0.8))
+
+
+def _place(
+    sim: Simulation, component: Component, duration_s: float = 2.0, robot_id: str = "r1"
+) -> PlaceRequest:
+    target = component.target_pose_world
+    return PlaceRequest(
+        robot_id=robot_id,
+        guid=component.guid,
+        pose=pose(target.position_m, target.quat_xyzw),
+        duration_s=duration_s,
+    )
+
+
+def _footing(manifest: Manifest) -> Component:
+    return next(c for c in manifest.components if c.ifc_class == "IfcFooting")
+
+
+def test_attach_out_of_reach_is_refused_with_the_distance(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=1)
+    footing = _footing(frame_manifest)
+    reply = sim.attach(AttachRequest(robot_id="r1", guid=footing.guid))
+    assert not reply.ok
+    match = re.fullmatch(
+        rf"robot r1 is (\d+\.\d\d) m from {re.escape(footing.guid)}, reach is 1.5 m", reply.reason
+    )
+    assert match, reply.reason
+    x, y, _ = sim.robot_pose("r1")
+    expected = distance_to_rect((x, y), sim.layout.slots[footing.guid].footprint)
+    assert float(match.group(1)) == pytest.approx(expected, abs=0.006)
+    assert sim.handling.items[footing.guid].phase is Phase.RESTING
+
+
+def test_attach_within_reach_is_accepted_and_other_requests_are_refused_with_reasons(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=2)
+    column = _first_in_row(sim, frame_manifest, "IfcColumn")
+    beam = _first_in_row(sim, frame_manifest, "IfcBeam")
+    sim.teleport_robot("r1", west_of(sim.layout.slots[column.guid].footprint, 0.8))
+    accepted = sim.attach(AttachRequest(robot_id="r1", guid=column.guid))
+    assert accepted.ok and accepted.pose is not None
+    assert accepted.pose.position_m == pytest.approx(sim.layout.slots[column.guid].position_m)
+    sim.teleport_robot("r2", west_of(sim.layout.slots[beam.guid].footprint, 0.8))
+    refusals = {
+        "unknown robot r9": AttachRequest(robot_id="r9", guid=column.guid),
+        "unknown component nope": AttachRequest(robot_id="r1", guid="nope"),
+        f"robot r1 already carries {column.guid}": AttachRequest(robot_id="r1", guid=beam.guid),
+        f"{column.guid} is already carried by r1": AttachRequest(robot_id="r2", guid=column.guid),
+    }
+    for reason, request in refusals.items():
+        reply = sim.attach(request)
+        assert (reply.ok, reply.reason) == (False, reason)
+    assert sim.attach(AttachRequest(robot_id="r2", guid=beam.guid)).ok
+
+
+def test_the_carried_component_follows_the_robot(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=1)
+    column = _first_in_row(sim, frame_manifest, "IfcColumn")
+    _picked(sim, column)
+    results = drive(sim, "r1", 0.5, 0.3, 2.0)
+    robot = sim.robots["r1"]
+    item = sim.handling.items[column.guid]
+    expected = compose(robot.frame(sim.client_id), item.offset)
+    actual = component_pose(sim.client_id, item.body)
+    assert np.allclose(actual[0], expected[0], atol=1e-6) and angle_between(actual[1], expected[1]) < 1e-6
+    base_z = robot.frame(sim.client_id)[0][2]
+    assert bottom_z(column, actual) > base_z + robot.top_height_m  # on top of the robot
+    for result in results:  # published every period, as carried
+        poses = [m.message for m in result.messages if isinstance(m.message, ComponentPoseMsg)]
+        mine = [m for m in poses if m.guid == column.guid]
+        assert mine and mine[0].attached_to == "r1" and not mine[0].fixed
+        robot_pose = next(m.message for m in result.messages if isinstance(m.message, RobotPoseMsg))
+        assert robot_pose.carrying == column.guid
+
+
+def test_place_ends_exactly_at_the_requested_pose_and_stays_there(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=1)
+    column = _first_in_row(sim, frame_manifest, "IfcColumn")
+    _picked(sim, column)
+    _beside_target(sim, column)
+    assert sim.place(_place(sim, column, duration_s=2.0), tag="ticket") is None
+    still = sim.robot_pose("r1")
+    sim.robots["r1"].set_command(0.8, 0.5)  # ignored while it assembles
+    replies = []
+    for _ in range(19):
+        result = sim.advance()
+        replies += result.replies
+    assert replies == []  # the reply waits for the end of the motion
+    assert sim.robot_pose("r1") == pytest.approx(still, abs=0.01)
+    result = sim.advance()
+    (tag, reply), *_ = result.replies
+    assert tag == "ticket" and reply.ok and reply.sim_time_s == pytest.approx(sim.sim_time_s)
+    message = next(m.message for m in result.messages if getattr(m.message, "guid", None) == column.guid)
+    assert message.fixed and message.attached_to is None
+    target = column.target_pose_world
+    for _ in range(3):
+        body = sim.handling.items[column.guid].body
+        actual = component_pose(sim.client_id, body)
+        assert np.allclose(actual[0], target.position_m, atol=1e-6)
+        assert angle_between(actual[1], target.quat_xyzw) < 1e-6
+        drive(sim, "r1", -0.5, 0.0, 1.0)  # the robot backs away; the column stays
+    assert (
+        sim.attach(AttachRequest(robot_id="r1", guid=column.guid)).reason
+        == f"{column.guid} is fixed to the structure"
+    )
+
+
+def test_place_refusals_name_the_problem(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=2)
+    column = _first_in_row(sim, frame_manifest, "IfcColumn")
+    footing = _footing(frame_manifest)
+    assert sim.place(_place(sim, footing)).reason == f"robot r1 does not carry {footing.guid}"
+    _picked(sim, column)
+    far = sim.place(_place(sim, column))
+    assert not far.ok and re.fullmatch(
+        rf"robot r1 is \d+\.\d\d m from the target of {re.escape(column.guid)}, reach is 1.5 m", far.reason
+    )
+    _beside_target(sim, column)
+    assert sim.place(_place(sim, column, robot_id="r2")).reason == f"{column.guid} is carried by r1, not r2"
+    bad_quat = _place(sim, column).model_copy(update={"pose": pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0))})
+    assert sim.place(bad_quat).reason.startswith("invalid pose")
+    assert sim.place(_place(sim, column, duration_s=-1.0)).reason.startswith("duration_s must be within")
+    outside = _place(sim, column).model_copy(update={"pose": pose((1e4, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))})
+    assert "outside the site" in sim.place(outside).reason
+    assert sim.place(_place(sim, column)) is None
+    assert sim.place(_place(sim, column)).reason == f"{column.guid} is already being placed by r1"
+
+
+def test_placed_footings_below_ground_are_not_pushed_up(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=1)
+    footing = _footing(frame_manifest)
+    assert footing.bbox_world.min_m[2] < 0.0 and footing.bbox_world.max_m[2] == pytest.approx(0.0)
+    _picked(sim, footing)
+    _beside_target(sim, footing)
+    assert sim.place(_place(sim, footing, duration_s=0.5), tag=1) is None
+    idle(sim, 0.6)
+    body = sim.handling.items[footing.guid].body
+    placed = component_pose(sim.client_id, body)
+    x = sim.robot_pose("r1")[0]
+    drive(sim, "r1", 0.6, 0.0, 3.0)  # drive right over it
+    assert sim.robot_pose("r1")[0] > x + 1.0
+    after = component_pose(sim.client_id, body)
+    assert after[0] == pytest.approx(placed[0], abs=1e-9)
+    assert after[0] == pytest.approx(footing.target_pose_world.position_m, abs=1e-6)
+    assert p.getContactPoints(sim.ground_id, body.body_id, physicsClientId=sim.client_id) == ()
+
+
+def test_a_lost_robot_puts_its_load_down_on_the_ground_beside_it(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=2)
+    sim.set_alive("r1", True)
+    beam = _first_in_row(sim, frame_manifest, "IfcBeam")
+    _picked(sim, beam)
+    drive(sim, "r1", 0.0, 0.4, 1.0)
+    messages = sim.set_alive("r1", False)
+    assert [m.message.guid for m in messages] == [beam.guid]
+    dropped = messages[0].message
+    assert dropped.attached_to is None and not dropped.fixed
+    item = sim.handling.items[beam.guid]
+    assert item.phase is Phase.RESTING and "r1" not in sim.handling.carrying
+    assert bottom_z(beam, item.pose) == pytest.approx(GROUND_CLEARANCE_M, abs=1e-9)  # lying on the ground
+    x, y, _ = sim.robot_pose("r1")
+    half_width = sim.robots["r1"].half_extents_xy_m[1]
+    assert distance_to_footprint(beam, item.pose, (x, y)) > half_width + 0.2  # beside the robot, not under it
+    results = idle(sim, 1.0)
+    assert (
+        next(m.message for m in results[-1].messages if isinstance(m.message, RobotPoseMsg)).carrying is None
+    )
+    assert component_pose(sim.client_id, item.body)[0] == pytest.approx(item.pose[0], abs=1e-9)
+    sim.teleport_robot("r2", (x, y, 0.0))
+    sim.teleport_robot("r1", (x - 5.0, y, 0.0))
+    assert sim.attach(AttachRequest(robot_id="r2", guid=beam.guid)).ok  # the task can be redone

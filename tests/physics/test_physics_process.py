@@ -1,0 +1,200 @@
+"""``bimbot physics`` as a process on a real Zenoh bus: info, clock, sensors, lock-step driving, an attach
+refusal with its reason, garbage on every input, and a quick clean exit on SIGTERM."""
+
+from __future__ import annotations
+
+import os
+import queue
+import re
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+import zenoh
+
+from shared.bus import BusOptions, encode, open_session
+from shared.manifest import read_manifest
+from shared.messages import (
+    ALIVE_KEY,
+    CLOCK_KEY,
+    PHYSICS_ATTACH_KEY,
+    PHYSICS_INFO_KEY,
+    PHYSICS_PLACE_KEY,
+    ROBOT_CMD_VEL_KEY,
+    ROBOT_ODOM_KEY,
+    ROBOT_POSE_KEY,
+    ROBOT_SCAN_KEY,
+    AttachRequest,
+    ClockMsg,
+    CmdVelMsg,
+    OdomMsg,
+    PhysicsReply,
+    RobotPoseMsg,
+    ScanMsg,
+    SiteInfoMsg,
+    key,
+)
+
+pytestmark = pytest.mark.integration
+
+GARBAGE = 200
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+@contextmanager
+def _process(args: list[str], log: Path) -> Iterator[subprocess.Popen[bytes]]:
+    with log.open("wb") as out:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "bimbot.cli", *args], stdout=out, stderr=subprocess.STDOUT
+        )
+        try:
+            yield proc
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait(10)
+
+
+class _Listener:
+    """Latest messages of a few keys, through queues (callbacks only enqueue)."""
+
+    def __init__(self, session: zenoh.Session, keys: dict[str, str]) -> None:
+        self.queues: dict[str, queue.Queue[bytes]] = {name: queue.Queue() for name in keys}
+        self._subscribers = [
+            session.declare_subscriber(
+                key_expr, lambda sample, q=self.queues[name]: q.put(sample.payload.to_bytes())
+            )
+            for name, key_expr in keys.items()
+        ]
+
+    def next(self, name: str, timeout_s: float = 5.0) -> bytes:
+        return self.queues[name].get(timeout=timeout_s)
+
+    def drain(self, name: str) -> list[bytes]:
+        items = []
+        while not self.queues[name].empty():
+            items.append(self.queues[name].get_nowait())
+        return items
+
+
+def _get(
+    session: zenoh.Session, key_expr: str, payload: bytes | None = None, timeout_s: float = 5.0
+) -> bytes | None:
+    for reply in session.get(key_expr, payload=payload, timeout=timeout_s):
+        if reply.ok is not None:
+            return reply.ok.payload.to_bytes()
+    return None
+
+
+def _wait_clock(listener: _Listener, step: int, timeout_s: float = 5.0) -> ClockMsg:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        clock = ClockMsg.model_validate_json(listener.next("clock", deadline - time.monotonic()))
+        if clock.step >= step:
+            return clock
+    raise AssertionError(f"no clock step {step}")
+
+
+def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
+    bundled_build: Path, tmp_path: Path
+) -> None:
+    build = tmp_path / "build"
+    shutil.copytree(bundled_build, build)
+    manifest = read_manifest(build)
+    site = manifest.site
+    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    physics_args = ["physics", "--build", str(build), "--robots", "1", "--connect", endpoint]
+    physics_args += ["--listen", "tcp/127.0.0.1:0", "--lock-step", "--rtf", "0", "--odom-noise", "0"]
+    with (
+        _process(["bus", "--listen", endpoint], tmp_path / "bus.log") as bus,
+        _process(physics_args, tmp_path / "physics.log") as physics,
+        open_session(BusOptions(connect=(endpoint,), listen=())) as session,
+    ):
+        deadline = time.monotonic() + 60.0
+        info_bytes = None
+        while info_bytes is None and time.monotonic() < deadline:
+            assert physics.poll() is None, (tmp_path / "physics.log").read_text()
+            info_bytes = _get(session, key(PHYSICS_INFO_KEY, site=site), timeout_s=1.0)
+        assert info_bytes is not None, (tmp_path / "physics.log").read_text()
+        info = SiteInfoMsg.model_validate_json(info_bytes)
+        assert info.robot_ids == ["r1"] and info.lock_step and info.reach_m == 1.5
+
+        listener = _Listener(
+            session,
+            {
+                "clock": key(CLOCK_KEY, site=site),
+                "odom": key(ROBOT_ODOM_KEY, site=site, robot_id="r1"),
+                "scan": key(ROBOT_SCAN_KEY, site=site, robot_id="r1"),
+                "pose": key(ROBOT_POSE_KEY, site=site, robot_id="r1"),
+            },
+        )
+        scan = ScanMsg.model_validate_json(listener.next("scan"))
+        assert scan.robot_id == "r1" and len(scan.ranges_m) == 360
+        assert OdomMsg.model_validate_json(listener.next("odom")).robot_id == "r1"
+
+        # Lock-step: once r1 is alive, physics advances only when r1 answers the clock.
+        token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id="r1"))
+        time.sleep(0.5)
+        step = max(
+            ClockMsg.model_validate_json(m).step for m in [listener.next("clock"), *listener.drain("clock")]
+        )
+        start = RobotPoseMsg.model_validate_json(listener.drain("pose")[-1]).pose_xy_yaw
+        cmd_key = key(ROBOT_CMD_VEL_KEY, site=site, robot_id="r1")
+        for _ in range(20):
+            command = CmdVelMsg(robot_id="r1", v_mps=0.5, w_radps=0.0, sim_time_s=0.0, step=step)
+            session.put(cmd_key, encode(command))
+            step = _wait_clock(listener, step + 1).step
+        time.sleep(0.5)  # no answer: physics waits (up to its 2 s timeout)
+        assert [ClockMsg.model_validate_json(m).step for m in listener.drain("clock")] in ([], [step])
+        moved = RobotPoseMsg.model_validate_json(listener.drain("pose")[-1]).pose_xy_yaw
+        assert moved[0] - start[0] == pytest.approx(0.5 * 2.0, abs=0.25)  # 20 periods of 0.1 s at 0.5 m/s
+
+        footing = next(c for c in manifest.components if c.ifc_class == "IfcFooting")
+        attach = AttachRequest(robot_id="r1", guid=footing.guid)
+        reply = PhysicsReply.model_validate_json(
+            _get(session, key(PHYSICS_ATTACH_KEY, site=site), encode(attach))
+        )
+        assert not reply.ok
+        assert re.fullmatch(
+            rf"robot r1 is \d+\.\d\d m from {re.escape(footing.guid)}, reach is 1.5 m", reply.reason
+        )
+
+        token.undeclare()  # r1 gone: physics runs free again
+        for index in range(GARBAGE // 2):
+            junk = [b"", b"{", os.urandom(16), b'{"robot_id": "r1"}', b"[]", encode(info)][index % 6]
+            session.put(cmd_key, junk)
+            session.put(key(ROBOT_CMD_VEL_KEY, site=site, robot_id="zz"), junk)
+        for index in range(GARBAGE // 4):
+            for request_key in (PHYSICS_ATTACH_KEY, PHYSICS_PLACE_KEY):
+                answer = _get(session, key(request_key, site=site), os.urandom(8 + index % 5))
+                assert answer is not None
+                garbage_reply = PhysicsReply.model_validate_json(answer)
+                assert not garbage_reply.ok and garbage_reply.reason.startswith("invalid ")
+        stranger = CmdVelMsg(robot_id="zz", v_mps=1.0, w_radps=0.0, sim_time_s=0.0)
+        blocking = zenoh.CongestionControl.BLOCK  # not dropped on a busy machine
+        session.put(
+            key(ROBOT_CMD_VEL_KEY, site=site, robot_id="zz"), encode(stranger), congestion_control=blocking
+        )
+        seen = max([step, *(ClockMsg.model_validate_json(m).step for m in listener.drain("clock"))])
+        assert _wait_clock(listener, seen + 10, timeout_s=10.0).step > step  # still running, past all of that
+        assert physics.poll() is None and bus.poll() is None
+
+        started = time.monotonic()
+        physics.send_signal(signal.SIGTERM)
+        assert physics.wait(10) == 0, (tmp_path / "physics.log").read_text()
+        assert time.monotonic() - started < 5.0
+    log = (tmp_path / "physics.log").read_text()
+    assert "invalid payload" in log and "Traceback" not in log
+    assert log.count("robot 'zz' was not spawned by physics") == 1
