@@ -33,6 +33,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "services.physics.cli",
         "simulate the site in PyBullet: clock, robots, sensors, attach and place",
     ),
+    "robot": ("services.robot.cli", "run one construction robot: tasks, navigation, localisation"),
     "run": ("bimbot.run", "build a converted model with every service as a process on a loopback bus"),
     "observe": (
         "services.observer.cli",

@@ -1,0 +1,281 @@
+"""The robot's Zenoh adapter: one session around an :class:`~.executor.Executor`, paced by the sim clock.
+
+Start-up, in order (nothing is ticked before the liveliness token, so lock-step physics never waits on a
+robot that is still loading):
+
+1. subscribe (callbacks only enqueue, :class:`shared.bus.Inbox`): ``tasks/*``, ``components/*/state``,
+   ``components/*/pose``, ``clock``, this robot's ``odom`` and ``scan``, every robot's ``state`` (the other
+   robots' pose estimates, for the traffic rules) and ``pose`` (ground truth, **only** for the minimum
+   separation metric that is logged; never used for control);
+2. ask physics for the site (``get physics/info``, retried until it answers): robot ids, start poses, the
+   control period and the reach;
+3. build the executor (map, localiser at the start pose), warm up the A* kernel;
+4. declare ``alive/robot/<id>``.
+
+Loop: drain the inbox into the executor; for each new ``clock`` step, wait (``tick_wait_s`` at most) for
+this robot's scan of that step, since physics publishes the clock first, then tick: the ``cmd_vel`` of every
+step is answered, whatever the task is doing. Between steps :meth:`~.executor.Executor.poll` re-sends
+events and the ~1 Hz state. Physics requests never block: ``session.get`` with a callback that enqueues the
+reply (and a drop callback that enqueues "no reply"). Requests are published before the step's
+``cmd_vel``, as the physics contract asks for reproducible lock-step runs.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import zenoh
+from pydantic import ValidationError
+
+from shared.bus import Inbox, Received, decode, encode
+from shared.errors import UserError
+from shared.identifiers import guid_to_key
+from shared.manifest import MANIFEST_FILE_NAME, Manifest, read_manifest
+from shared.messages import (
+    ALIVE_KEY,
+    CLOCK_KEY,
+    COMPONENT_EVENT_KEY,
+    COMPONENT_POSE_KEY,
+    COMPONENT_STATE_KEY,
+    PHYSICS_ATTACH_KEY,
+    PHYSICS_INFO_KEY,
+    PHYSICS_PLACE_KEY,
+    ROBOT_CMD_VEL_KEY,
+    ROBOT_ODOM_KEY,
+    ROBOT_PLAN_KEY,
+    ROBOT_POSE_KEY,
+    ROBOT_SCAN_KEY,
+    ROBOT_STATE_KEY,
+    TASK_KEY,
+    ClockMsg,
+    CmdVelMsg,
+    ComponentEventMsg,
+    ComponentPoseMsg,
+    ComponentStateMsg,
+    OdomMsg,
+    PhysicsReply,
+    PlanMsg,
+    RobotPoseMsg,
+    RobotStateMsg,
+    ScanMsg,
+    SiteInfoMsg,
+    TaskMsg,
+    key,
+)
+
+from .astar import plan_path
+from .executor import Executor, ExecutorConfig, Outgoing
+from .occupancy_grid import OccupancyGrid
+from .protocol import PhysicsRequest, PhysicsResult
+
+_log = logging.getLogger(__name__)
+
+SUBSCRIPTIONS: tuple[tuple[str, dict[str, str], type, str], ...] = (
+    (TASK_KEY, {"task_id": "*"}, TaskMsg, "task"),
+    (COMPONENT_STATE_KEY, {"key": "*"}, ComponentStateMsg, "component_state"),
+    (COMPONENT_POSE_KEY, {"key": "*"}, ComponentPoseMsg, "component_pose"),
+    (ROBOT_STATE_KEY, {"robot_id": "*"}, RobotStateMsg, "robot_state"),
+    (ROBOT_POSE_KEY, {"robot_id": "*"}, RobotPoseMsg, "robot_pose"),
+)
+
+
+@dataclass(frozen=True)
+class RobotOptions:
+    info_timeout_s: float = 120.0  # wall seconds to wait for physics to answer physics/info
+    tick_wait_s: float = 0.05  # wall seconds to wait for this robot's scan after a clock step
+    poll_s: float = 0.02  # longest wait for bus input per loop turn
+    metric_log_s: float = 30.0  # wall seconds between progress lines (tasks, distance, separation)
+
+
+def load_build(build_dir: Path) -> Manifest:
+    """The build's manifest, or a one-line :class:`UserError`."""
+    path = Path(build_dir) / MANIFEST_FILE_NAME
+    if not path.is_file():
+        raise UserError(f"{build_dir}: not a converted build (no {MANIFEST_FILE_NAME}; run bimbot convert)")
+    try:
+        return read_manifest(Path(build_dir))
+    except (ValidationError, OSError, ValueError) as error:
+        raise UserError(f"{path}: unreadable manifest ({str(error).splitlines()[0]})") from None
+
+
+def main(
+    options: RobotOptions,
+    build_dir: Path,
+    config: zenoh.Config,
+    executor_config: ExecutorConfig,
+    stop: threading.Event,
+) -> int:
+    """Run one robot on the bus until ``stop``; 0 on a clean stop, 2 when physics never answered."""
+    manifest = load_build(build_dir)
+    site, robot_id = manifest.site, executor_config.robot_id
+    inbox = Inbox()
+    with zenoh.open(config) as session:
+        subscribers = [
+            inbox.subscribe(session, key(template, site=site, **parts), model, tag)
+            for template, parts, model, tag in SUBSCRIPTIONS
+        ]
+        subscribers += [
+            inbox.subscribe(session, key(CLOCK_KEY, site=site), ClockMsg, "clock"),
+            inbox.subscribe(session, key(ROBOT_ODOM_KEY, site=site, robot_id=robot_id), OdomMsg, "odom"),
+            inbox.subscribe(session, key(ROBOT_SCAN_KEY, site=site, robot_id=robot_id), ScanMsg, "scan"),
+        ]
+        info = _site_info(session, site, inbox, options.info_timeout_s, stop)
+        if info is None:
+            return 0 if stop.is_set() else _no_physics(options.info_timeout_s)
+        executor = Executor(manifest, info, executor_config)
+        _warm_up()
+        loop = _Loop(session, site, executor, inbox, options)
+        token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id=robot_id))
+        _log.info(
+            "robot %s on site %s: start %s, reach %.2f m", robot_id, site, executor.home_xy_yaw, info.reach_m
+        )
+        try:
+            loop.run(stop)
+        finally:
+            loop.publish([CmdVelMsg(robot_id=robot_id, v_mps=0.0, w_radps=0.0, sim_time_s=executor.sim_s)])
+            token.undeclare()
+            for subscriber in subscribers:
+                subscriber.undeclare()
+            loop.log_metrics("stopped")
+    return 0
+
+
+def _no_physics(timeout_s: float) -> int:
+    _log.error("physics did not answer physics/info within %.0f s (is `bimbot physics` running?)", timeout_s)
+    return 2
+
+
+def _site_info(
+    session: zenoh.Session, site: str, inbox: Inbox, timeout_s: float, stop: threading.Event
+) -> SiteInfoMsg | None:
+    """Ask physics for the site until it answers (or ``timeout_s`` / ``stop``)."""
+    selector = key(PHYSICS_INFO_KEY, site=site)
+    deadline = time.monotonic() + timeout_s
+    while not stop.is_set() and time.monotonic() < deadline:
+        for reply in session.get(selector, timeout=2.0):
+            if reply.ok is not None:
+                info = decode(SiteInfoMsg, selector, reply.ok.payload.to_bytes(), inbox.invalid)
+                if info is not None:
+                    return info
+        stop.wait(0.5)
+    return None
+
+
+def _warm_up() -> None:
+    """Load the compiled A* kernel now, not on the first plan (0.3–0.6 s from numba's cache)."""
+    plan_path(OccupancyGrid(np.zeros((4, 4), bool), 1.0, (0.0, 0.0)), (0.5, 0.5), (3.5, 3.5))
+
+
+class _Loop:
+    """Inbox → executor → bus, one ``cmd_vel`` per clock step."""
+
+    def __init__(
+        self, session: zenoh.Session, site: str, executor: Executor, inbox: Inbox, options: RobotOptions
+    ):
+        self.session, self.site, self.executor, self.inbox, self.options = (
+            session,
+            site,
+            executor,
+            inbox,
+            options,
+        )
+        robot_id = executor.robot_id
+        self._publishers = {
+            CmdVelMsg: session.declare_publisher(key(ROBOT_CMD_VEL_KEY, site=site, robot_id=robot_id)),
+            RobotStateMsg: session.declare_publisher(key(ROBOT_STATE_KEY, site=site, robot_id=robot_id)),
+            PlanMsg: session.declare_publisher(key(ROBOT_PLAN_KEY, site=site, robot_id=robot_id)),
+        }
+        self._request_keys = {
+            "attach": key(PHYSICS_ATTACH_KEY, site=site),
+            "place": key(PHYSICS_PLACE_KEY, site=site),
+        }
+        self._clock: ClockMsg | None = None
+        self._clock_wall_s = 0.0
+        self._scan_sim_s = -math.inf
+        self._answered_step = -1
+        self._metrics_wall_s = time.monotonic()
+
+    def run(self, stop: threading.Event) -> None:
+        while not stop.is_set():
+            for tag, item in self.inbox.drain(first_timeout_s=self.options.poll_s):
+                self._take(tag, item)
+            now = time.monotonic()
+            clock = self._clock
+            due = clock is not None and clock.step > self._answered_step
+            if due and (
+                self._scan_sim_s >= clock.sim_time_s or now - self._clock_wall_s >= self.options.tick_wait_s
+            ):
+                self._answered_step = clock.step
+                self.publish(self.executor.tick(clock, time.time()))
+            else:
+                self.publish(self.executor.poll(time.time()))
+            if now - self._metrics_wall_s >= self.options.metric_log_s:
+                self._metrics_wall_s = now
+                self.log_metrics("progress")
+
+    def _take(self, tag: str, item: object) -> None:
+        if tag == "physics":
+            self.executor.handle(item)
+            return
+        assert isinstance(item, Received)
+        message = item.message
+        if tag == "clock":
+            if self._clock is None or message.step > self._clock.step:
+                self._clock, self._clock_wall_s = message, time.monotonic()
+            return
+        if tag == "scan":
+            self._scan_sim_s = message.sim_time_s
+        self.executor.handle(message)
+
+    def publish(self, messages: list[Outgoing]) -> None:
+        """Physics requests first, then events, state and plan, and the step's ``cmd_vel`` last."""
+        for message in sorted(messages, key=_send_order):
+            if isinstance(message, PhysicsRequest):
+                self._request(message)
+            elif isinstance(message, ComponentEventMsg):
+                event_key = key(COMPONENT_EVENT_KEY, site=self.site, key=guid_to_key(message.guid))
+                self.session.put(event_key, encode(message))
+            else:
+                self._publishers[type(message)].put(encode(message))
+
+    def _request(self, request: PhysicsRequest) -> None:
+        inbox, selector, request_id = self.inbox, self._request_keys[request.kind], request.request_id
+
+        def on_reply(reply: zenoh.Reply) -> None:
+            if reply.ok is None:
+                error = reply.err.payload.to_string() if reply.err is not None else "error reply"
+                inbox.put("physics", PhysicsResult(request_id, None, error))
+                return
+            message = decode(PhysicsReply, selector, reply.ok.payload.to_bytes(), inbox.invalid)
+            inbox.put("physics", PhysicsResult(request_id, message, "" if message else "invalid reply"))
+
+        def on_done() -> None:
+            inbox.put("physics", PhysicsResult(request_id, None, "no reply (timeout)"))
+
+        handler = zenoh.handlers.Callback(on_reply, on_done)
+        self.session.get(selector, handler, payload=encode(request.message), timeout=request.timeout_s)
+
+    def log_metrics(self, when: str) -> None:
+        executor = self.executor
+        separation = executor.min_separation_m
+        _log.info(
+            "robot %s %s: %d task(s) done, %.1f m driven, sim %.1f s, min separation to other robots %s",
+            executor.robot_id,
+            when,
+            len(executor.done),
+            executor.distance_m,
+            executor.sim_s,
+            "n/a" if math.isinf(separation) else f"{separation:.2f} m (ground truth, metric only)",
+        )
+
+
+def _send_order(message: Outgoing) -> int:
+    if isinstance(message, PhysicsRequest):
+        return 0
+    return 2 if isinstance(message, CmdVelMsg) else 1

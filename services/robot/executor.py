@@ -1,0 +1,509 @@
+"""One robot's construction work: the planner's tasks carried out through the construction protocol (no bus).
+
+Why: the robot's behaviour as a core the tests drive with fake inputs. The adapter feeds it every validated
+message (:meth:`Executor.handle`), calls :meth:`Executor.tick` once per clock step (the answer always holds
+a ``cmd_vel`` stamped with the step, so lock-step physics never waits on this robot) and
+:meth:`Executor.poll` between steps, and publishes what they return. Nothing blocks: physics requests go
+out as :class:`~.protocol.PhysicsRequest` and their replies come back as :class:`~.protocol.PhysicsResult`.
+
+A task (states from :mod:`.task_machine`, events through :class:`~.protocol.EventQueue`):
+
+1. ``detect_component_position`` — where the component is now (physics' last pose, else its yard slot) and
+   an approach pose beside it (:mod:`.approach`); ``pick`` is sent as the robot leaves (``pick_up``);
+2. ``pick_up`` — there, once the component says ``picking``, physics is asked to attach it; accepted →
+   ``attach`` is sent (``identify_target_location``); refused (out of reach) → another approach;
+3. ``identify_target_location`` — drive to an approach pose of the BIM target; there (``assemble``)
+   ``arrive`` is sent;
+4. ``assemble`` — once the component says ``assembling``, physics is asked to place it at its BIM pose (offset
+   on first attempts when errors are injected); done → ``place`` is sent; the component's verdict
+   (constructed, misplaced or failed) ends the task: ``idle``. A misplaced component is retried by the
+   planner and may come back: it is then picked up from where it lies.
+
+A task that cannot go on before the attach (no approach, navigation or physics refusing) is given up with
+``abandon`` so the planner hands it out again; once the robot carries the component it never gives up. An
+idle robot parks at its start pose after ``park_after_s``. Wall time drives resends and the ~1 Hz state;
+sim time drives everything else.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import uuid
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from shared.manifest import Component, Manifest
+from shared.messages import (
+    AttachRequest,
+    ClockMsg,
+    CmdVelMsg,
+    ComponentEvent,
+    ComponentEventMsg,
+    ComponentPoseMsg,
+    ComponentState,
+    ComponentStateMsg,
+    OdomMsg,
+    PlaceRequest,
+    PlanMsg,
+    PoseMsg,
+    RobotPoseMsg,
+    RobotState,
+    RobotStateMsg,
+    ScanMsg,
+    SiteInfoMsg,
+    TaskMsg,
+    TaskStatus,
+)
+from shared.site_layout import plan_site
+
+from .approach import Approach, ApproachConfig, approach_pose
+from .navigator import Navigator, NavigatorConfig, NavStatus
+from .protocol import VERDICTS, EventQueue, PhysicsRequest, PhysicsResult, injected
+from .site_map import Footprint, MapConfig, SiteMap, posed_footprint
+from .task_machine import TaskMachine, Trigger
+
+_log = logging.getLogger(__name__)
+
+_S, _E, _C = RobotState, ComponentEvent, ComponentState
+DEFAULT_MAP = MapConfig()
+
+Outgoing = CmdVelMsg | RobotStateMsg | PlanMsg | ComponentEventMsg | PhysicsRequest
+
+
+@dataclass(frozen=True)
+class ExecutorConfig:
+    robot_id: str
+    resend_s: float = 0.5  # wall seconds between repeats of an unconfirmed event
+    state_period_s: float = 1.0  # wall seconds between periodic state messages
+    request_timeout_s: float = 60.0  # wall seconds for a physics reply (the adapter reports a timeout)
+    place_duration_s: float = 2.0  # sim seconds of the assembly motion
+    max_tries: int = 4  # approaches (navigation or attach refused) before a task is given up
+    retry_delay_s: float = 1.0  # sim seconds before looking for an approach again
+    reapproach_after_s: float = 4.0  # sim seconds without a path (a robot in the way) → another approach
+    park_after_s: float = 8.0  # sim seconds idle → drive back to the start pose (clears the structure)
+    placement_error_m: float = 0.0  # injected on first placement attempts (tests, demos)
+    inject_guids: frozenset[str] = frozenset()
+    inject_fraction: float = 0.0  # without inject_guids: this share of components (0: all)
+    seed: int = 0
+
+
+@dataclass
+class _Task:
+    message: TaskMsg
+    component: Component
+    target: Footprint  # the footprint at the BIM target pose
+    events: EventQueue
+    request: PhysicsRequest | None = None
+    request_sent: bool = False
+    tries: int = 0
+    retry_at_s: float = -math.inf
+    approach: Approach | None = None
+    placed: bool = False
+    verdict: ComponentState | None = None
+    abandoning: bool = False
+
+
+class Executor:
+    """The robot's task execution and navigation, fed messages, answering one command per clock step."""
+
+    def __init__(
+        self,
+        manifest: Manifest,
+        info: SiteInfoMsg,
+        config: ExecutorConfig,
+        *,
+        map_config: MapConfig = DEFAULT_MAP,
+        nav_config: NavigatorConfig | None = None,
+        approach_config: ApproachConfig | None = None,
+    ) -> None:
+        if config.robot_id not in info.robot_ids:
+            raise ValueError(f"robot {config.robot_id!r} is not on site (physics has {info.robot_ids})")
+        self.config, self.robot_id = config, config.robot_id
+        self.components = {component.guid: component for component in manifest.components}
+        layout = plan_site(manifest.components, robots=len(info.robot_ids))
+        self.site_map = SiteMap(layout, manifest.components, map_config)
+        self.home_xy_yaw = info.robot_starts_xy_yaw[info.robot_ids.index(self.robot_id)]
+        nav_config = nav_config or NavigatorConfig()
+        nav_config = replace(nav_config, dwa=replace(nav_config.dwa, control_period_s=info.control_period_s))
+        rng = np.random.default_rng(config.seed)
+        self.navigator = Navigator(self.site_map, self.home_xy_yaw, nav_config, rng, robot_id=self.robot_id)
+        self.approach_config = approach_config or ApproachConfig(
+            reach_m=info.reach_m, body_clearance_m=map_config.inflation_m
+        )
+        self.machine = TaskMachine()
+        self.task: _Task | None = None
+        self.tasks: dict[str, TaskMsg] = {}  # latest message per task id (assigned to this robot once)
+        self.component_states: dict[str, ComponentStateMsg] = {}
+        # assignments taken on: (task id, attempt, assignment stamp); a task given back and assigned again
+        # (same attempt) is a new assignment with a new stamp, while a repeated delivery is not
+        self.performed: set[tuple[str, int, float]] = set()
+        self.done: list[tuple[str, ComponentState]] = []  # (GUID, verdict) of finished tasks
+        self.sim_s, self.step, self.distance_m = 0.0, -1, 0.0
+        self.min_separation_m = math.inf
+        self._robot_xy: dict[str, tuple[float, float, float]] = {}  # robot → (x, y, sim s)
+        self._last_odom: np.ndarray | None = None
+        self._last_state: tuple[RobotState, str | None] | None = None
+        self._last_state_wall_s = -math.inf
+        self._out: list[Outgoing] = []
+        self._next_request = 1
+        self._wall_s = 0.0
+        self._idle_since_s: float | None = None
+
+    # --- inputs and outputs ------------------------------------------------------------------------------
+
+    def handle(self, message: object) -> None:
+        """Take one validated message (or a :class:`~.protocol.PhysicsResult`)."""
+        if isinstance(message, ScanMsg) and message.robot_id == self.robot_id:
+            self.navigator.observe_scan(message)
+        elif isinstance(message, OdomMsg) and message.robot_id == self.robot_id:
+            odom = np.asarray(message.pose_xy_yaw, float)
+            if self._last_odom is not None:
+                self.distance_m += float(np.hypot(*(odom[:2] - self._last_odom[:2])))
+            self._last_odom = odom
+            self.navigator.observe_odom(message)
+        elif isinstance(message, ComponentPoseMsg):
+            self.site_map.observe_pose(message)
+        elif isinstance(message, ComponentStateMsg):
+            self._component_state(message)
+        elif isinstance(message, TaskMsg):
+            if message.robot_id == self.robot_id or message.task_id in self.tasks:
+                self.tasks[message.task_id] = message
+        elif isinstance(message, PhysicsResult):
+            self._physics_result(message)
+        elif isinstance(message, RobotPoseMsg):
+            self._separation(message)
+        elif isinstance(message, RobotStateMsg) and message.robot_id != self.robot_id:
+            self.navigator.observe_robot(message.robot_id, message.pose_xy_yaw[:2], message.sim_time_s)
+
+    def tick(self, clock: ClockMsg, wall_s: float) -> list[Outgoing]:
+        """One control step: task progress, navigation, and the ``cmd_vel`` answering ``clock.step``."""
+        self.sim_s, self.step, self._wall_s = clock.sim_time_s, clock.step, wall_s
+        self._progress()
+        command = self.navigator.step(self.sim_s)
+        goal = self.navigator.goal
+        if command.new_path_xy_m is not None and goal is not None:
+            path = [(float(x), float(y)) for x, y in command.new_path_xy_m]
+            goal_xy = (float(goal.xy[0]), float(goal.xy[1]))
+            self._out.append(
+                PlanMsg(robot_id=self.robot_id, path_xy_m=path, goal_xy_m=goal_xy, sim_time_s=self.sim_s)
+            )
+        cmd = CmdVelMsg(
+            robot_id=self.robot_id,
+            v_mps=command.v_mps,
+            w_radps=command.w_radps,
+            sim_time_s=self.sim_s,
+            step=clock.step,
+        )
+        return [*self.poll(wall_s), cmd]
+
+    def poll(self, wall_s: float) -> list[Outgoing]:
+        """What is due regardless of the clock: a physics request, event (re)sends, the robot's state."""
+        self._wall_s = wall_s
+        task = self.task
+        if task is not None:
+            if task.request is not None and not task.request_sent:
+                task.request_sent = True
+                self._out.insert(0, task.request)  # before the step's command (physics contract)
+            event = task.events.due(wall_s)
+            if event is not None:
+                self._out.append(event)
+        signature = (self.machine.state, task.message.task_id if task else None)
+        if signature != self._last_state or wall_s - self._last_state_wall_s >= self.config.state_period_s:
+            self._out.append(self.state_message(wall_s))
+            self._last_state, self._last_state_wall_s = signature, wall_s
+        out, self._out = self._out, []
+        return out
+
+    def state_message(self, wall_s: float) -> RobotStateMsg:
+        task = self.task
+        return RobotStateMsg(
+            robot_id=self.robot_id,
+            state=self.machine.state,
+            task_id=task.message.task_id if task else None,
+            guid=task.message.guid if task else None,
+            pose_xy_yaw=self.navigator.pose_xy_yaw,
+            sim_time_s=self.sim_s,
+            wall_time_s=wall_s,
+            distance_m=self.distance_m,
+        )
+
+    # --- the task ----------------------------------------------------------------------------------------
+
+    def _progress(self) -> None:
+        if self.task is None:
+            self._maybe_start()
+            if self.task is None:
+                self._park()
+                return
+        task = self.task
+        latest = self.component_states.get(task.message.guid)
+        task.events.confirm(latest.state if latest else None, verdict_seen=task.verdict is not None)
+        if self._withdrawn(task):
+            return
+        if task.abandoning:
+            if not task.events:
+                self._finish(None)
+            return
+        step = {
+            _S.DETECT_COMPONENT_POSITION: self._detect,
+            _S.PICK_UP: self._pick_up,
+            _S.IDENTIFY_TARGET_LOCATION: self._to_target,
+            _S.ASSEMBLE: self._assemble,
+        }.get(self.machine.state)
+        if step is not None:
+            step(task)
+
+    def _maybe_start(self) -> None:
+        for message in self.tasks.values():
+            if message.status is not TaskStatus.ASSIGNED or message.robot_id != self.robot_id:
+                continue
+            assignment = (message.task_id, message.attempt, message.wall_time_s)
+            if assignment in self.performed or message.guid not in self.components:
+                continue
+            known = self.component_states.get(message.guid)
+            if known is not None and known.state is not _C.RELEASED:
+                continue  # the assignment is ahead of the component's release: wait for it
+            self.performed.add(assignment)
+            component = self.components[message.guid]
+            target = component.target_pose_world
+            footprint = posed_footprint(component, target.position_m, target.quat_xyzw)
+            self.task = _Task(message, component, footprint, EventQueue(self.config.resend_s))
+            self._idle_since_s = None
+            self.navigator.cancel()
+            self._fire(Trigger.ASSIGNED)
+            _log.info(
+                "%s: task %s (%s, attempt %d)", self.robot_id, message.task_id, message.guid, message.attempt
+            )
+            return
+
+    def _park(self) -> None:
+        """Idle for a while: drive back to the start pose, out of the way of the structure and the yard."""
+        if self._idle_since_s is None:
+            self._idle_since_s = self.sim_s
+        if self.navigator.goal is not None or self.sim_s - self._idle_since_s < self.config.park_after_s:
+            return
+        x, y, yaw = self.home_xy_yaw
+        pose = self.navigator.pose_xy_yaw
+        if math.hypot(pose[0] - x, pose[1] - y) > 0.5:
+            _log.info("%s: idle, parking at the depot", self.robot_id)
+            self.navigator.set_goal((x, y), yaw, self.sim_s, tolerance_m=0.3)
+
+    def _withdrawn(self, task: _Task) -> bool:
+        """The planner took the task back (given to another robot, released): stop and go idle."""
+        latest = self.tasks.get(task.message.task_id)
+        if latest is None or task.placed or latest.status is TaskStatus.DONE:
+            return False
+        if latest.status is TaskStatus.ASSIGNED and latest.robot_id == self.robot_id:
+            return False
+        _log.warning("%s: task %s withdrawn (%s)", self.robot_id, task.message.task_id, latest.status.value)
+        self._finish(None)
+        return True
+
+    def _detect(self, task: _Task) -> None:
+        guid = task.message.guid
+        carrier = self.site_map.carried.get(guid)
+        if carrier is not None and carrier != self.robot_id:
+            return self._give_up(task, f"carried by {carrier}")
+        if self.sim_s < task.retry_at_s:
+            return None
+        footprint = self.site_map.footprints.get(guid)
+        if carrier is None and footprint is None:
+            return self._give_up(task, "position unknown")
+        if carrier is None and footprint is not None and not self._approach(task, footprint):
+            return None
+        self._queue_event(task, _E.PICK)
+        self._fire(Trigger.LOCATED)
+        return None
+
+    def _pick_up(self, task: _Task) -> None:
+        if self.site_map.carried.get(task.message.guid) == self.robot_id and task.request is None:
+            return self._attached(task)  # physics has it on this robot already (a reply got lost)
+        if not self._drive(task, self.site_map.footprints.get(task.message.guid)):
+            return None
+        if _E.PICK in task.events.unconfirmed or task.request is not None:
+            return None
+        return self._request(task, "attach", AttachRequest(robot_id=self.robot_id, guid=task.message.guid))
+
+    def _attached(self, task: _Task) -> None:
+        self._queue_event(task, _E.ATTACH)
+        self._fire(Trigger.ATTACHED)
+        task.tries, task.approach, task.retry_at_s = 0, None, -math.inf
+        self.navigator.cancel()
+
+    def _to_target(self, task: _Task) -> None:
+        if self._drive(task, task.target):
+            self._fire(Trigger.ARRIVED)
+            self._queue_event(task, _E.ARRIVE)
+
+    def _assemble(self, task: _Task) -> None:
+        if not task.placed:
+            if not self._drive(task, task.target):
+                return  # a refused placement sent the robot to another approach pose
+            if task.request is None and not task.events.unconfirmed & {_E.ATTACH, _E.ARRIVE}:
+                self._request(task, "place", self._place_request(task))
+            return
+        if task.verdict is not None and _E.PLACE not in task.events.unconfirmed:
+            _log.info("%s: %s %s", self.robot_id, task.message.guid, task.verdict.value)
+            self._finish(task.verdict)
+
+    def _drive(self, task: _Task, footprint: Footprint | None) -> bool:
+        """Drive to an approach pose beside ``footprint`` (found again after a failure); True once there."""
+        status = self.navigator.status
+        if task.approach is not None and status is NavStatus.REACHED:
+            return True
+        waited = self.navigator.waiting_s(self.sim_s) > self.config.reapproach_after_s
+        if task.approach is not None and (status is NavStatus.FAILED or waited):
+            task.tries += 1
+            carrying = self.machine.state is not _S.PICK_UP
+            if task.tries >= self.config.max_tries and not carrying:
+                self._give_up(task, f"navigation failed {task.tries} times")
+                return False
+            if carrying and task.tries % self.config.max_tries == 0:
+                _log.error(
+                    "%s: cannot reach the target of %s yet (%d tries)",
+                    self.robot_id,
+                    task.message.guid,
+                    task.tries,
+                )
+            task.approach, task.retry_at_s = (
+                None,
+                self.sim_s + self.config.retry_delay_s * min(task.tries, 10),
+            )
+            self.navigator.cancel()
+        if task.approach is None and self.sim_s >= task.retry_at_s and footprint is not None:
+            self._approach(task, footprint)
+        return False
+
+    def _approach(self, task: _Task, footprint: Footprint) -> bool:
+        grid = self.site_map.planning_grid(self.navigator.marks)
+        xy = self.navigator.pose_xy_yaw[:2]
+        blocks = self.site_map.blocks(footprint)
+        found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=self.approach_config)
+        if found is None:
+            task.tries += 1
+            task.retry_at_s = self.sim_s + self.config.retry_delay_s
+            before_attach = self.machine.state in (_S.DETECT_COMPONENT_POSITION, _S.PICK_UP)
+            if task.tries >= self.config.max_tries * 5 and before_attach:
+                self._give_up(task, "no free approach pose")
+            return False
+        task.approach = found
+        self.navigator.set_goal(found.xy_m, found.yaw_rad, self.sim_s)
+        return True
+
+    def _place_request(self, task: _Task) -> PlaceRequest:
+        target = task.component.target_pose_world
+        x, y, z = target.position_m
+        cfg = self.config
+        spec = {"error_m": cfg.placement_error_m, "guids": cfg.inject_guids, "fraction": cfg.inject_fraction}
+        if injected(task.message.guid, task.message.attempt, seed=cfg.seed, **spec):
+            x += cfg.placement_error_m
+            _log.info(
+                "%s: placing %s %.3f m off (injected)",
+                self.robot_id,
+                task.message.guid,
+                cfg.placement_error_m,
+            )
+        pose = PoseMsg(position_m=(x, y, z), quat_xyzw=target.quat_xyzw)
+        return PlaceRequest(
+            robot_id=self.robot_id, guid=task.message.guid, pose=pose, duration_s=cfg.place_duration_s
+        )
+
+    def _physics_result(self, result: PhysicsResult) -> None:
+        task = self.task
+        if task is None or task.request is None or task.request.request_id != result.request_id:
+            return
+        kind, task.request = task.request.kind, None
+        if result.reply is not None and result.reply.ok:
+            if kind == "attach" and self.machine.state is _S.PICK_UP:
+                self._attached(task)
+            elif kind == "place" and self.machine.state is _S.ASSEMBLE:
+                task.placed = True
+                # Stamped when physics fixed the component, not at the last tick: the agent judges the first
+                # pose stamped at or after ``place``, which must not be one from the assembly motion.
+                self._queue_event(task, _E.PLACE, max(self.sim_s, result.reply.sim_time_s))
+            return
+        why = result.reply.reason if result.reply is not None else result.error
+        _log.warning("%s: %s of %s refused: %s", self.robot_id, kind, task.message.guid, why)
+        task.tries += 1
+        if kind == "attach" and task.tries >= self.config.max_tries:
+            return self._give_up(task, f"attach refused {task.tries} times ({why})")
+        task.retry_at_s = self.sim_s + self.config.retry_delay_s * min(task.tries, 10)
+        task.approach = None  # maybe too far: look for an approach pose again
+        self.navigator.cancel()
+        return None
+
+    # --- helpers -----------------------------------------------------------------------------------------
+
+    def _component_state(self, message: ComponentStateMsg) -> None:
+        self.component_states[message.guid] = message
+        self.site_map.observe_state(message.guid, message.state)
+        task = self.task
+        if (
+            task is not None
+            and task.placed
+            and message.guid == task.message.guid
+            and message.state in VERDICTS
+        ):
+            task.verdict = message.state  # kept: a retry may move the state on before the next tick
+
+    def _fire(self, trigger: Trigger) -> None:
+        """Change state and publish it at once: every state of the cycle shows on the bus, even those that
+        last less than a control step (detecting a position known already)."""
+        if not self.machine.fire(trigger):
+            raise RuntimeError(
+                f"{self.robot_id}: {trigger.value} is not allowed in {self.machine.state.value}"
+            )
+        task = self.task
+        self._out.append(self.state_message(self._wall_s))
+        self._last_state = (self.machine.state, task.message.task_id if task else None)
+        self._last_state_wall_s = self._wall_s
+
+    def _request(self, task: _Task, kind: str, message: AttachRequest | PlaceRequest) -> None:
+        task.request = PhysicsRequest(kind, self._next_request, message, self.config.request_timeout_s)
+        task.request_sent = False
+        self._next_request += 1
+
+    def _queue_event(self, task: _Task, event: ComponentEvent, sim_s: float | None = None) -> None:
+        task.events.push(
+            ComponentEventMsg(
+                guid=task.message.guid,
+                event=event,
+                source=self.robot_id,
+                event_id=uuid.uuid4().hex,
+                task_id=task.message.task_id,
+                robot_id=self.robot_id,
+                sim_time_s=self.sim_s if sim_s is None else sim_s,
+                wall_time_s=self._wall_s,
+            )
+        )
+
+    def _give_up(self, task: _Task, why: str) -> None:
+        _log.error("%s: giving up %s (%s): %s", self.robot_id, task.message.task_id, task.message.guid, why)
+        self.navigator.cancel()
+        task.request = None
+        if _E.PICK not in task.events.queued:
+            self._queue_event(task, _E.PICK)  # abandon is only legal once the component is picking
+        self._queue_event(task, _E.ABANDON)
+        task.abandoning = True
+
+    def _finish(self, verdict: ComponentState | None) -> None:
+        task = self.task
+        if task is not None and verdict is not None:
+            self.done.append((task.message.guid, verdict))
+        self.navigator.cancel()
+        self.task = None
+        self._fire(Trigger.FINISHED if verdict is not None else Trigger.ABORTED)
+
+    def _separation(self, message: RobotPoseMsg) -> None:
+        """Minimum ground-truth distance to another robot at the same sim time: a metric for the logs and the
+        benchmarks, never used for control."""
+        x, y, _ = message.pose_xy_yaw
+        self._robot_xy[message.robot_id] = (x, y, message.sim_time_s)
+        mine = self._robot_xy.get(self.robot_id)
+        if mine is None:
+            return
+        for robot_id, (ox, oy, at_s) in self._robot_xy.items():
+            if robot_id != self.robot_id and at_s == mine[2]:
+                self.min_separation_m = min(self.min_separation_m, math.hypot(ox - mine[0], oy - mine[1]))

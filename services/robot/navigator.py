@@ -1,0 +1,462 @@
+"""Drive to a goal like ROS move_base: localisation, A* global plan, DWA local planner (pure).
+
+Why: the robot's navigation stack (paper §5.2) assembled from the pure cores of this package. Per control
+step (:meth:`Navigator.step`), after :meth:`Navigator.observe_odom` / :meth:`Navigator.observe_scan` fed the
+:class:`.localisation.Localiser`:
+
+1. the scan becomes world points: the **local obstacles** of the DWA (with the static map's obstacle
+   outlines nearby, for what the laser misses) and **laser marks** (hits the static map does not explain:
+   other robots, surprises) that are added to the grid for planning;
+2. **plan** with A* on the inflated grid (+ marks) when the goal is new, the map changed, a mark lies on the
+   path within ``blocked_check_m`` ahead, or the robot strayed more than ``deviation_m`` from it (at most
+   once per ``replan_interval_s``); the path is line-of-sight pruned. No path → the robot waits and
+   retries (another robot may stand on the goal for a while), and fails after ``max_wait_s``;
+3. **follow** the path with the DWA towards a carrot (:func:`.motion.carrot`: far along the path, but only
+   as far as the robot sees along a free line, so it never cuts a corner into an obstacle), under a speed
+   cap that lets it brake onto the goal and slows it near marks; marks count ``dynamic_margin_m`` nearer
+   than they are (another robot may be closing in while each plans as if the other stood still). Facing
+   away from the carrot it first turns on the spot; the last metre, when free, is a straight drive; at the
+   goal it turns gently onto the goal's yaw;
+4. **stuck** (moved less than ``stuck_move_m`` in ``stuck_window_s``): facing another robot (a mark where
+   that robot's published pose estimate is), the robot with the greater id steps aside to a free spot
+   and waits there while the other holds still, then both carry on (traffic rules, no negotiation);
+   otherwise recovery: back up a little when the way behind is clear, then replan. After
+   ``max_recoveries`` (or ``timeout_s``) it gives up (FAILED) and the executor looks for another approach.
+
+Units: metres, radians, simulated seconds; world (map) frame.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import deque
+from dataclasses import dataclass, field, replace
+from enum import StrEnum
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
+
+from shared.messages import OdomMsg, ScanMsg
+
+from .astar import plan_path, simplify_path
+from .dwa import DwaConfig, RobotState, dwa_step
+from .localisation import Localiser, LocaliserConfig
+from .motion import Path, carrot, straight_line_clear, turn_command, yield_point
+from .occupancy_grid import OccupancyGrid, nearest_free_cell, scan_endpoints_xy_m
+from .particle_filter import wrap_angle
+from .site_map import SiteMap
+
+_log = logging.getLogger(__name__)
+
+# Coarser than the DWA defaults, for a ~0.3 ms step: 11 rollout points (≤ 1 cm lost between samples for a
+# 0.5 m disc at 1 m/s) and ~40 candidate commands. Husky half-length 0.495 m; the grid keeps paths 0.75 m off.
+DEFAULT_DWA = DwaConfig(
+    robot_radius_m=0.5, sim_dt_s=0.2, speed_resolution_mps=0.05, yaw_rate_resolution_radps=0.1
+)
+
+
+@dataclass(frozen=True)
+class NavigatorConfig:
+    dwa: DwaConfig = DEFAULT_DWA
+    localiser: LocaliserConfig = field(default_factory=LocaliserConfig)
+    goal_tolerance_m: float = 0.25  # reach is generous (1.5 m to the footprint); localisation error ~0.1 m
+    yaw_tolerance_rad: float = 0.15
+    lookahead_m: float = 2.5  # ≥ max speed × DWA horizon, or the carrot caps the speed
+    sight_inflation_m: float = 0.65  # carrot visibility: between the DWA's clearance and the planning grid's
+    rotate_in_place_rad: float = 1.0  # heading error to the carrot beyond which the robot turns on the spot
+    final_approach_m: float = 1.2  # this near, in a free straight line: drive straight onto the goal
+    local_obstacle_radius_m: float = 4.0
+    mark_beyond_m: float = 0.3  # a laser hit this far from the static map is a mark
+    dynamic_margin_m: float = 0.3  # extra DWA clearance from marks (they may move towards the robot)
+    blocked_check_m: float = 4.0
+    deviation_m: float = 0.8
+    replan_interval_s: float = 1.0
+    stuck_window_s: float = 6.0
+    stuck_move_m: float = 0.2
+    backup_s: float = 1.5
+    backup_speed_mps: float = 0.2
+    max_recoveries: int = 4
+    traffic_range_m: float = 1.6  # stuck with a mark this near that another robot explains: traffic rules
+    max_give_ways: int = 6  # per goal, then the plain recoveries take over
+    aside_s: float = 8.0  # longest drive to a step-aside spot
+    hold_s: float = 4.0  # standing still while the other robot steps aside (and waiting at the spot)
+    max_wait_s: float = 30.0
+    timeout_s: float = 600.0
+
+
+class NavStatus(StrEnum):
+    IDLE = "idle"  # no goal
+    ACTIVE = "active"  # driving (or turning onto the goal's yaw)
+    WAITING = "waiting"  # no path for now: standing still, retrying
+    REACHED = "reached"
+    FAILED = "failed"
+
+
+@dataclass(frozen=True)
+class NavCommand:
+    v_mps: float
+    w_radps: float
+    status: NavStatus
+    new_path_xy_m: NDArray[np.float64] | None = None  # set when the path was (re)planned this step
+
+
+@dataclass
+class _Goal:
+    xy: NDArray[np.float64]
+    yaw: float | None
+    tolerance_m: float
+    started_s: float
+    path: Path | None = None
+    grid: OccupancyGrid | None = None  # the (inflated, marked) grid the path was planned on
+    planned_s: float = -math.inf
+    map_version: int = -1
+    no_path_since_s: float | None = None
+    recoveries: int = 0
+    backup_until_s: float = -math.inf
+    hold_until_s: float = -math.inf  # standing still while another robot steps aside
+    give_ways: int = 0
+    arrived: bool = False  # within tolerance once: only turning onto the yaw now (unless pushed far off)
+    aside_until_s: float = math.inf  # a step-aside goal: when to go back to the real goal at the latest
+    trail: deque = field(default_factory=deque)  # (sim_s, x, y), one sample per 0.5 s
+
+
+class Navigator:
+    """Localisation + global plan + local planner for one robot (see the module doc)."""
+
+    def __init__(
+        self,
+        site_map: SiteMap,
+        start_xy_yaw: ArrayLike,
+        config: NavigatorConfig = NavigatorConfig(),
+        rng: np.random.Generator | None = None,
+        robot_id: str = "",
+    ) -> None:
+        self.site_map, self.config, self.robot_id = site_map, config, robot_id
+        self.localiser = Localiser(site_map, start_xy_yaw, config.localiser, rng)
+        self.goal: _Goal | None = None
+        self._status = NavStatus.IDLE
+        self.v_mps = self.w_radps = 0.0
+        self.local_points = np.empty((0, 2))
+        self.marks = np.empty((0, 2))
+        self.nearest_mark_m = math.inf
+        self.replans = 0
+        self._mark_tree: cKDTree | None = None
+        self._resume: _Goal | None = None  # the real goal while stepping aside for another robot
+        self._others: dict[str, tuple[NDArray[np.float64], float]] = {}  # robot id → (xy, sim s)
+
+    @property
+    def status(self) -> NavStatus:
+        """The status of the caller's goal (stepping aside for another robot counts as driving)."""
+        return NavStatus.ACTIVE if self._resume is not None else self._status
+
+    def observe_robot(self, robot_id: str, xy_m: ArrayLike, sim_s: float) -> None:
+        """Another robot's pose estimate (its published state): who is who when robots block each other."""
+        if robot_id != self.robot_id:
+            self._others[robot_id] = (np.asarray(xy_m, float)[:2], sim_s)
+
+    @property
+    def pose_xy_yaw(self) -> tuple[float, float, float]:
+        x, y, yaw = self.localiser.pose
+        return (float(x), float(y), float(yaw))
+
+    def observe_odom(self, message: OdomMsg) -> None:
+        self.localiser.observe_odom(message.pose_xy_yaw)
+
+    def observe_scan(self, message: ScanMsg) -> None:
+        ranges = np.asarray(message.ranges_m, float)
+        angles = message.angle_min_rad + message.angle_increment_rad * np.arange(len(ranges))
+        self.localiser.observe_scan(ranges, angles, message.range_max_m)
+        hits = scan_endpoints_xy_m(self.localiser.pose, ranges, angles, message.range_max_m)
+        pose = self.localiser.pose
+        r = self.config.local_obstacle_radius_m
+        local = hits[(np.abs(hits[:, 0] - pose[0]) < r) & (np.abs(hits[:, 1] - pose[1]) < r)]
+        self.marks = self.site_map.unexplained(hits, self.config.mark_beyond_m)
+        self._mark_tree = cKDTree(self.marks) if len(self.marks) else None
+        # Marks may move (other robots): the DWA sees them ``dynamic_margin_m`` nearer than they are, so two
+        # robots closing on each other, each planning as if the other stood still, keep their distance.
+        moving = self.site_map.unexplained_mask(local, self.config.mark_beyond_m)
+        towards = pose[:2] - local[moving]
+        distance = np.maximum(np.hypot(*towards.T), 1e-9)
+        shift = np.minimum(self.config.dynamic_margin_m, np.maximum(distance - 0.05, 0.0))
+        local[moving] += towards * (shift / distance)[:, None]
+        self.local_points = local
+        self.nearest_mark_m = float(distance.min()) if len(distance) else math.inf
+
+    def set_goal(
+        self, xy_m: ArrayLike, yaw_rad: float | None, sim_s: float, tolerance_m: float | None = None
+    ) -> None:
+        tolerance = tolerance_m if tolerance_m is not None else self.config.goal_tolerance_m
+        self.goal = _Goal(np.asarray(xy_m, float), yaw_rad, tolerance, sim_s)
+        self._status, self._resume = NavStatus.ACTIVE, None
+
+    def waiting_s(self, sim_s: float) -> float:
+        """How long the robot has been without a path to its goal (0 when it has one)."""
+        since = self.goal.no_path_since_s if self.goal is not None and self._resume is None else None
+        return 0.0 if since is None else sim_s - since
+
+    def cancel(self) -> None:
+        self.goal, self._status, self._resume = None, NavStatus.IDLE, None
+
+    # --- the control step ----------------------------------------------------------------------------
+
+    def step(self, sim_s: float) -> NavCommand:
+        if self._resume is not None and self._stepped_aside(sim_s):
+            return self._command(0.0, 0.0)
+        goal = self.goal
+        if goal is None or self._status in (NavStatus.REACHED, NavStatus.FAILED, NavStatus.IDLE):
+            return self._command(0.0, 0.0)
+        pose = self.localiser.pose
+        if sim_s < goal.hold_until_s:
+            return self._command(*turn_command(0.0, self.v_mps, 0.0, self.config.dwa))
+        if sim_s - goal.started_s > self.config.timeout_s:
+            return self._fail(f"timeout after {self.config.timeout_s:.0f} s")
+        if sim_s < goal.backup_until_s:
+            return self._command(-self.config.backup_speed_mps, 0.0)
+        to_goal = math.hypot(*(goal.xy - pose[:2]))
+        if to_goal <= goal.tolerance_m or (goal.arrived and to_goal <= 2.0 * goal.tolerance_m):
+            return self._turn_to_goal(goal, pose)
+        new_path = None
+        _, ahead = self._ahead(goal, pose)
+        if self._needs_plan(goal, pose, sim_s, ahead):
+            new_path = self._plan(goal, pose, sim_s)
+            if new_path is None:
+                since = goal.no_path_since_s if goal.no_path_since_s is not None else sim_s
+                if sim_s - since > self.config.max_wait_s:
+                    return self._fail("no path to the goal")
+                self._status = NavStatus.WAITING
+                return self._command(0.0, 0.0)
+            _, ahead = self._ahead(goal, pose)
+        if goal.path is None or goal.grid is None:
+            self._status = NavStatus.WAITING
+            return self._command(0.0, 0.0)
+        self._status = NavStatus.ACTIVE
+        if self._stuck(goal, pose, sim_s):
+            return self._traffic(goal, pose, sim_s) or self._recover(goal, pose, sim_s, new_path)
+        sight = self.site_map.inflated_grid(self.config.sight_inflation_m)
+        target, local_path = carrot(ahead, pose[:2], self.config.lookahead_m, sight)
+        dwa_config = self.config.dwa
+        obstacles = self._obstacles(pose)
+        cap = max(0.15, math.sqrt(1.4 * dwa_config.max_accel_mps2 * max(0.0, to_goal - goal.tolerance_m / 2)))
+        heading_error = float(wrap_angle(math.atan2(target[1] - pose[1], target[0] - pose[0]) - pose[2]))
+        if abs(heading_error) > self.config.rotate_in_place_rad:  # facing away: turn first (safe for a disc)
+            return self._rotate(heading_error, new_path)
+        if to_goal < self.config.final_approach_m and self._clear_line(pose, goal):
+            return self._approach_goal(goal, pose, cap, new_path)
+        # Slow down near what may move (other robots): full speed beyond ~2.5 m, 0.3 m/s at 1 m.
+        cap = min(cap, 0.3 + 0.7 * min(1.0, max(0.0, (self.nearest_mark_m - 1.0) / 1.5)))
+        if cap < dwa_config.max_speed_mps:
+            dwa_config = replace(dwa_config, max_speed_mps=cap)
+        if len(obstacles):
+            # Already nearer than the DWA's clearance (localisation jumped, something moved in)? Then no
+            # rollout would be admissible: shrink the clearance to what there is, so moving away is allowed.
+            now_m = float(np.hypot(obstacles[:, 0] - pose[0], obstacles[:, 1] - pose[1]).min())
+            limit = now_m - dwa_config.safety_margin_m - 0.01
+            if limit < dwa_config.robot_radius_m:
+                dwa_config = replace(dwa_config, robot_radius_m=max(0.05, limit))
+        state = RobotState(pose[0], pose[1], pose[2], self.v_mps, self.w_radps)
+        result = dwa_step(state, target, obstacles, dwa_config, path_xy_m=local_path)
+        return self._command(result.v_mps, result.w_radps, new_path)
+
+    def _rotate(self, heading_error: float, new_path: NDArray[np.float64] | None = None) -> NavCommand:
+        return self._command(
+            *turn_command(heading_error, self.v_mps, self.w_radps, self.config.dwa), new_path
+        )
+
+    def _clear_line(self, pose: NDArray[np.float64], goal: _Goal) -> bool:
+        """A straight drive to the goal stays in free cells and clear of every local obstacle point."""
+        clearance = self.config.dwa.robot_radius_m + self.config.dwa.safety_margin_m
+        return goal.grid is not None and straight_line_clear(
+            goal.grid, pose[:2], goal.xy, self.local_points, clearance
+        )
+
+    def _approach_goal(
+        self, goal: _Goal, pose: NDArray[np.float64], cap_mps: float, new_path: NDArray[np.float64] | None
+    ) -> NavCommand:
+        """The last metre in a straight free line: face the goal, then drive onto it and brake."""
+        dwa = self.config.dwa
+        error = float(wrap_angle(math.atan2(goal.xy[1] - pose[1], goal.xy[0] - pose[0]) - pose[2]))
+        if abs(error) > 0.5:
+            return self._rotate(error, new_path)
+        dv, dw = dwa.max_accel_mps2 * dwa.control_period_s, dwa.max_yaw_accel_radps2 * dwa.control_period_s
+        v = float(np.clip(min(cap_mps, dwa.max_speed_mps), self.v_mps - dv, self.v_mps + dv))
+        w = float(np.clip(2.5 * error, -dwa.max_yaw_rate_radps, dwa.max_yaw_rate_radps))
+        return self._command(max(0.0, v), float(np.clip(w, self.w_radps - dw, self.w_radps + dw)), new_path)
+
+    # --- internals -------------------------------------------------------------------------------------
+
+    def _command(self, v: float, w: float, new_path: NDArray[np.float64] | None = None) -> NavCommand:
+        self.v_mps, self.w_radps = v, w
+        return NavCommand(v, w, self.status, new_path)
+
+    def _fail(self, why: str) -> NavCommand:
+        where = np.round(self.goal.xy, 2).tolist() if self.goal is not None else None
+        _log.warning("navigation to %s failed: %s", where, why)
+        self._status = NavStatus.FAILED
+        return self._command(0.0, 0.0)
+
+    def _turn_to_goal(self, goal: _Goal, pose: NDArray[np.float64]) -> NavCommand:
+        """At the goal: turn gently onto its yaw (a skid-steered base lags its commands; a stiff gain makes
+        it oscillate around the heading), then report REACHED."""
+        goal.arrived = True
+        if goal.yaw is not None:
+            error = float(wrap_angle(goal.yaw - pose[2]))
+            if abs(error) > self.config.yaw_tolerance_rad:
+                dwa = self.config.dwa
+                step = dwa.max_yaw_accel_radps2 * dwa.control_period_s
+                w = float(np.clip(1.0 * error, -0.8, 0.8))
+                w = float(np.clip(w, self.w_radps - step, self.w_radps + step))
+                if abs(w) < 0.15:
+                    w = math.copysign(0.15, error)
+                self._status = NavStatus.ACTIVE
+                return self._command(0.0, w)
+        self._status = NavStatus.REACHED
+        return self._command(0.0, 0.0)
+
+    def _ahead(self, goal: _Goal, pose: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
+        """Distance from the path, and path samples every 0.1 m ``blocked_check_m`` ahead of the robot."""
+        if goal.path is None:
+            return math.inf, np.empty((0, 2))
+        arc, gap = goal.path.project(pose[:2])
+        return gap, goal.path.samples(arc, self.config.blocked_check_m, 0.1)
+
+    def _needs_plan(
+        self, goal: _Goal, pose: NDArray[np.float64], sim_s: float, ahead: NDArray[np.float64]
+    ) -> bool:
+        if sim_s - goal.planned_s < self.config.replan_interval_s:
+            return False
+        if goal.path is None or goal.map_version != self.site_map.version:
+            return True
+        if float(np.hypot(*(ahead[0] - pose[:2]))) > self.config.deviation_m:
+            return True
+        if self._mark_tree is not None:
+            reach = self.site_map.config.inflation_m + self.config.dynamic_margin_m
+            distance, _ = self._mark_tree.query(ahead, k=1, distance_upper_bound=reach)
+            return bool(np.isfinite(distance).any())
+        return False
+
+    def _plan(self, goal: _Goal, pose: NDArray[np.float64], sim_s: float) -> NDArray[np.float64] | None:
+        goal.planned_s, goal.map_version = sim_s, self.site_map.version
+        grid = self.site_map.planning_grid(self.marks, self.config.dynamic_margin_m)
+        start = pose[:2]
+        if not grid.is_free(*start):  # inside an inflated zone (parked beside a column): leave it first
+            cell = nearest_free_cell(grid, start, max_distance_m=1.0)
+            start = grid.cell_to_world(cell) if cell is not None else start
+        result = plan_path(grid, start, goal.xy, snap_goal_to_free=True, max_snap_m=0.3)
+        if not result.found:
+            if goal.no_path_since_s is None:
+                _log.info("no path to %s yet (%s): waiting", np.round(goal.xy, 2).tolist(), result.reason)
+                goal.no_path_since_s = sim_s
+            goal.path = None
+            return None
+        goal.no_path_since_s = None
+        if result.goal_snapped:
+            goal.xy = result.path_xy_m[-1].copy()
+        points = simplify_path(grid, result.path_xy_m)
+        if not np.allclose(start, pose[:2]):
+            points = np.vstack([pose[:2], points])
+        goal.path, goal.grid = Path(points), grid
+        self.replans += 1
+        return points
+
+    def _stuck(self, goal: _Goal, pose: NDArray[np.float64], sim_s: float) -> bool:
+        trail = goal.trail
+        if not trail or sim_s - trail[-1][0] >= 0.5:
+            trail.append((sim_s, float(pose[0]), float(pose[1])))
+        while sim_s - trail[0][0] > self.config.stuck_window_s:
+            trail.popleft()
+        first = trail[0]
+        if sim_s - first[0] < self.config.stuck_window_s - 0.5:
+            return False
+        return all(math.hypot(x - first[1], y - first[2]) < self.config.stuck_move_m for _, x, y in trail)
+
+    def _recover(
+        self, goal: _Goal, pose: NDArray[np.float64], sim_s: float, new_path: NDArray[np.float64] | None
+    ) -> NavCommand:
+        goal.recoveries += 1
+        if goal.recoveries > self.config.max_recoveries:
+            return self._fail("stuck")
+        _log.info("stuck at %s: recovery %d", np.round(pose, 2).tolist(), goal.recoveries)
+        goal.trail.clear()
+        goal.planned_s, goal.path = -math.inf, None  # replan after the recovery
+        if self._clear_behind(pose):
+            goal.backup_until_s = sim_s + self.config.backup_s
+            return self._command(-self.config.backup_speed_mps, 0.0, new_path)
+        return self._command(0.0, 0.0, new_path)
+
+    # --- traffic: two robots blocking each other ----------------------------------------------------------
+
+    def _blocking_robot(
+        self, pose: NDArray[np.float64], sim_s: float
+    ) -> tuple[str, NDArray[np.float64]] | None:
+        """The other robot standing at the nearest mark within ``traffic_range_m``, if one is known there."""
+        if self._mark_tree is None or self.nearest_mark_m > self.config.traffic_range_m:
+            return None
+        _, index = self._mark_tree.query(pose[:2])
+        mark = self.marks[index]
+        best: tuple[float, str, NDArray[np.float64]] | None = None
+        for robot_id, (xy, seen_s) in self._others.items():
+            gap = float(np.hypot(*(xy - mark)))
+            if sim_s - seen_s < 5.0 and gap < 1.5 and (best is None or gap < best[0]):
+                best = (gap, robot_id, xy)
+        return None if best is None else (best[1], best[2])
+
+    def _traffic(self, goal: _Goal, pose: NDArray[np.float64], sim_s: float) -> NavCommand | None:
+        """Stuck facing another robot: the one with the greater id steps aside, the other holds still."""
+        blocking = self._blocking_robot(pose, sim_s)
+        if blocking is None or goal.give_ways >= self.config.max_give_ways:
+            return None
+        other_id, other_xy = blocking
+        goal.give_ways += 1
+        goal.trail.clear()
+        goal.planned_s, goal.path = -math.inf, None
+        if other_id < self.robot_id:
+            spot = yield_point(self.site_map.inflated_grid(), pose[:2], other_xy)
+            if spot is not None:
+                _log.info(
+                    "%s: stepping aside for %s to %s", self.robot_id, other_id, np.round(spot, 2).tolist()
+                )
+                self._resume = goal
+                self.goal = _Goal(spot, None, 0.3, sim_s, aside_until_s=sim_s + self.config.aside_s)
+                self._status = NavStatus.ACTIVE
+                return self._command(0.0, 0.0)
+        _log.info("%s: holding for %s to step aside", self.robot_id, other_id)
+        goal.hold_until_s = sim_s + self.config.hold_s
+        return self._command(*turn_command(0.0, self.v_mps, 0.0, self.config.dwa))
+
+    def _stepped_aside(self, sim_s: float) -> bool:
+        """While stepping aside: once there (or out of time) wait for the other robot to pass, then go back to
+        the real goal. True while the robot should stand still."""
+        aside = self.goal
+        assert aside is not None and self._resume is not None
+        done = self._status in (NavStatus.REACHED, NavStatus.FAILED) or sim_s >= aside.aside_until_s
+        if not done:
+            return False
+        clear = self.nearest_mark_m > self.config.traffic_range_m + 0.5
+        if not clear and sim_s < aside.aside_until_s + self.config.hold_s:
+            self._status = NavStatus.REACHED
+            return True
+        goal, self._resume = self._resume, None
+        goal.trail.clear()
+        goal.planned_s, goal.path = -math.inf, None
+        self.goal, self._status = goal, NavStatus.ACTIVE
+        return False
+
+    def _obstacles(self, pose: NDArray[np.float64]) -> NDArray[np.float64]:
+        static = self.site_map.obstacle_points_xy_m()
+        r = self.config.local_obstacle_radius_m
+        near = (np.abs(static[:, 0] - pose[0]) < r) & (np.abs(static[:, 1] - pose[1]) < r)
+        return np.vstack([static[near], self.local_points])
+
+    def _clear_behind(self, pose: NDArray[np.float64]) -> bool:
+        """Whether backing up ``backup_s`` keeps the robot as clear of obstacles as it is now."""
+        points = self._obstacles(pose)
+        if len(points) == 0:
+            return True
+        distance = self.config.backup_speed_mps * self.config.backup_s
+        behind = pose[:2] - distance * np.array([math.cos(pose[2]), math.sin(pose[2])])
+        samples = pose[:2] + np.linspace(0.0, 1.0, 5)[1:, None] * (behind - pose[:2])
+        gap = np.hypot(points[None, :, 0] - samples[:, None, 0], points[None, :, 1] - samples[:, None, 1])
+        now = np.hypot(points[:, 0] - pose[0], points[:, 1] - pose[1]).min()
+        return bool(gap.min() > min(self.config.dwa.robot_radius_m + 0.05, now - 1e-6))

@@ -1,0 +1,110 @@
+"""The robot's side of the construction protocol, as small pure pieces (docs/architecture.md).
+
+* :class:`EventQueue` — events to one component, delivered **at least once and in order**: only the oldest
+  unconfirmed event is (re)sent, every ``resend_s`` wall seconds with the same ``event_id``, until the
+  component's state shows it applied (:data:`CONFIRMS`); then the next goes out at once. An agent that is
+  down for a while loses nothing, and never sees ``attach`` before ``pick``.
+* :class:`PhysicsRequest` / :class:`PhysicsResult` — an attach or place request for the adapter to send
+  without blocking (``session.get`` with a callback), and what came back (or a timeout).
+* :func:`injected` — which first placements are deliberately offset (tests, demos), deterministically.
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from collections import deque
+from dataclasses import dataclass
+
+from shared.messages import (
+    AttachRequest,
+    ComponentEvent,
+    ComponentEventMsg,
+    ComponentState,
+    PhysicsReply,
+    PlaceRequest,
+)
+
+_E, _C = ComponentEvent, ComponentState
+
+CONFIRMS: dict[ComponentEvent, frozenset[ComponentState]] = {
+    _E.PICK: frozenset({_C.PICKING, _C.TRANSPORTING, _C.ASSEMBLING, _C.VERIFYING, _C.CONSTRUCTED}),
+    _E.ATTACH: frozenset({_C.TRANSPORTING, _C.ASSEMBLING, _C.VERIFYING, _C.CONSTRUCTED}),
+    _E.ARRIVE: frozenset({_C.ASSEMBLING, _C.VERIFYING, _C.CONSTRUCTED}),
+    _E.PLACE: frozenset({_C.VERIFYING, _C.CONSTRUCTED, _C.MISPLACED, _C.FAILED}),
+    _E.ABANDON: frozenset({_C.RELEASED, _C.CONSTRUCTED, _C.FAILED, _C.MISPLACED}),
+}
+"""The component states that show an event applied (or overtaken by what followed it)."""
+
+VERDICTS = frozenset({_C.CONSTRUCTED, _C.MISPLACED, _C.FAILED})
+
+
+class EventQueue:
+    """Events for one component, sent at least once and in order (see the module doc)."""
+
+    def __init__(self, resend_s: float) -> None:
+        self.resend_s = resend_s
+        self._pending: deque[ComponentEventMsg] = deque()
+        self._last_send_wall_s = -math.inf
+        self.queued: set[ComponentEvent] = set()  # every event ever queued here
+
+    def push(self, message: ComponentEventMsg) -> None:
+        self._pending.append(message)
+        self.queued.add(message.event)
+
+    @property
+    def unconfirmed(self) -> set[ComponentEvent]:
+        return {message.event for message in self._pending}
+
+    def __bool__(self) -> bool:
+        return bool(self._pending)
+
+    def confirm(self, state: ComponentState | None, *, verdict_seen: bool = False) -> None:
+        """Drop the events the component's latest ``state`` shows applied (``place`` also by a verdict
+        seen earlier: the state may already have moved on, e.g. misplaced → released by a retry)."""
+        while self._pending:
+            head = self._pending[0].event
+            applied = state is not None and state in CONFIRMS[head]
+            if not applied and not (head is _E.PLACE and verdict_seen):
+                return
+            self._pending.popleft()
+            self._last_send_wall_s = -math.inf  # the next one goes out at once
+
+    def due(self, wall_s: float) -> ComponentEventMsg | None:
+        """The event to (re)send now, if any."""
+        if not self._pending or wall_s - self._last_send_wall_s < self.resend_s:
+            return None
+        self._last_send_wall_s = wall_s
+        return self._pending[0]
+
+
+@dataclass(frozen=True)
+class PhysicsRequest:
+    """A request for the adapter to send to ``physics/<kind>`` with a callback (never blocking)."""
+
+    kind: str  # "attach" or "place"
+    request_id: int
+    message: AttachRequest | PlaceRequest
+    timeout_s: float
+
+
+@dataclass(frozen=True)
+class PhysicsResult:
+    """What came back for a request: the reply, or None with ``error`` (timeout, undecodable)."""
+
+    request_id: int
+    reply: PhysicsReply | None
+    error: str = ""
+
+
+def injected(
+    guid: str, attempt: int, *, error_m: float, guids: frozenset[str], fraction: float, seed: int
+) -> bool:
+    """Whether the placement of ``guid`` at ``attempt`` (0: the first) is offset by ``error_m``: the named
+    ``guids``, else a ``fraction`` of all (every one when 0) chosen by a CRC of seed and GUID."""
+    if error_m <= 0 or attempt > 0:
+        return False
+    if guids:
+        return guid in guids
+    share = fraction if fraction > 0 else 1.0
+    return zlib.crc32(f"{seed}:{guid}".encode()) / 2**32 < share

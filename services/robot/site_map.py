@@ -1,0 +1,379 @@
+"""The robot's map of the site: fence, components lying in the yard, the built part of the structure.
+
+Why: the global planner, the local planner's static obstacles and the localiser all need one occupancy grid of
+what stands on the site, kept current as components leave the yard and join the structure (the static layer
+of a move_base costmap). Pure: it is fed component poses and states and answers grids and points.
+
+What occupies the grid:
+
+* the **fence** (site hoarding around everything, :mod:`shared.site_layout`), always;
+* every **component that is not carried**, at its current pose (its yard slot until physics says otherwise),
+  when its posed bounding box meets the robot's height band (``band_min_z_m``–``band_max_z_m`` above the
+  ground): components lying in the yard and built columns block, beams at 3 m and footings whose tops are
+  at z ≈ 0 do not. A component carried by a robot (``attached_to``) leaves the map; when physics fixes it
+  into the structure (``fixed``) it comes back at its placed pose.
+
+Laser hits are not stored here (they are transient); :meth:`SiteMap.planning_grid` adds the current ones.
+The localiser's map is :meth:`SiteMap.laser_grid`: only what reaches up to the laser's height.
+
+Cost: one count per cell, and each component keeps the cells it covers, so a change touches only that
+component's cells; the inflated grid and distance fields are recomputed lazily, once per change
+(one Euclidean distance transform, ~1 ms on a 250×300 grid at 0.1 m).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
+
+from shared.manifest import Component
+from shared.messages import ComponentPoseMsg, ComponentState
+from shared.site_layout import FENCE_HEIGHT_M, FENCE_THICKNESS_M, SiteLayout
+
+from .occupancy_grid import OccupancyGrid, distance_field_m, empty_grid, from_footprints, inflate
+
+_log = logging.getLogger(__name__)
+
+GRID_MARGIN_M = 0.5  # grid beyond the outer edge of the fence
+
+
+@dataclass(frozen=True)
+class MapConfig:
+    """Grid resolution, the robot's footprint and the height bands that decide what blocks."""
+
+    resolution_m: float = 0.1
+    robot_radius_m: float = 0.6  # circumscribed radius of a Husky (0.99 m × 0.67 m)
+    inflation_margin_m: float = 0.15  # beyond the radius: room for localisation error and the local planner
+    band_min_z_m: float = 0.02  # things entirely below this (footings flush with the ground) don't block
+    band_max_z_m: float = 1.0  # things entirely above this (beams) don't block
+    laser_height_m: float = 0.06  # physics' laser: things whose z range contains this height (yard items)
+    laser_resolution_m: float = 0.05  # the localiser's map (see SiteMap.laser_field_grid)
+    # The localiser's map leaves out what is too flat to be seen reliably: a laser 6 cm above the ground
+    # passes over a 10 cm high item a few metres away as soon as the chassis pitches half a degree.
+    localise_min_top_m: float = 0.25
+
+    @property
+    def inflation_m(self) -> float:
+        return self.robot_radius_m + self.inflation_margin_m
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """Where a component stands: the xy outline of its posed bounding box and its z range."""
+
+    polygon_xy_m: NDArray[np.float64]  # (k, 2), convex, counter-clockwise
+    z_min_m: float
+    z_max_m: float
+
+    @property
+    def centre_xy_m(self) -> NDArray[np.float64]:
+        return self.polygon_xy_m.mean(axis=0)
+
+
+def convex_hull_xy(points_xy: ArrayLike) -> NDArray[np.float64]:
+    """Convex hull (Andrew's monotone chain), counter-clockwise, without repeated points."""
+    pts = sorted({(round(float(x), 9), round(float(y), 9)) for x, y in np.asarray(points_xy, float)})
+    if len(pts) <= 2:
+        return np.array(pts, dtype=float)
+
+    def half(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
+        chain: list[tuple[float, float]] = []
+        for p in points:
+            while len(chain) >= 2:
+                (ax, ay), (bx, by) = chain[-2], chain[-1]
+                if (bx - ax) * (p[1] - ay) - (by - ay) * (p[0] - ax) > 1e-12:
+                    break
+                chain.pop()
+            chain.append(p)
+        return chain
+
+    lower, upper = half(pts), half(pts[::-1])
+    return np.array(lower[:-1] + upper[:-1], dtype=float)
+
+
+def posed_footprint(
+    component: Component, position_m: Sequence[float], quat_xyzw: Sequence[float]
+) -> Footprint:
+    """The footprint of ``component``'s local bounding box placed at a pose (component frame, world)."""
+    low, high = np.array(component.bbox_local.min_m), np.array(component.bbox_local.max_m)
+    corners = np.array(
+        [[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]
+    )
+    world = Rotation.from_quat(np.asarray(quat_xyzw, float)).apply(corners) + np.asarray(position_m, float)
+    return Footprint(convex_hull_xy(world[:, :2]), float(world[:, 2].min()), float(world[:, 2].max()))
+
+
+def fence_boxes(layout: SiteLayout) -> list[tuple[float, float, float, float]]:
+    """The four fence walls as ``(x_min, y_min, x_max, y_max)`` boxes outside the fence's inner edge."""
+    (x0, y0), (x1, y1) = layout.fence.min_xy, layout.fence.max_xy
+    t = FENCE_THICKNESS_M
+    return [
+        (x0 - t, y0 - t, x1 + t, y0),
+        (x0 - t, y1, x1 + t, y1 + t),
+        (x0 - t, y0, x0, y1),
+        (x1, y0, x1 + t, y1),
+    ]
+
+
+class SiteMap:
+    """Occupancy of the site from the layout and what is known about every component (see module doc)."""
+
+    def __init__(self, layout: SiteLayout, components: Sequence[Component], config: MapConfig = MapConfig()):
+        self.layout = layout
+        self.config = config
+        self._components = {component.guid: component for component in components}
+        bounds = layout.bounds.grown(GRID_MARGIN_M)
+        self._geometry = empty_grid((*bounds.min_xy, *bounds.max_xy), config.resolution_m)
+        self._fence = from_footprints(
+            self._geometry.bounds_xy_m, config.resolution_m, boxes_xy_m=fence_boxes(layout)
+        )
+        self._counts = np.zeros(self._geometry.shape, np.int32)  # components covering each cell (band)
+        self._laser_counts = np.zeros(self._geometry.shape, np.int32)  # components seen by the laser
+        self._cells: dict[str, NDArray[np.int64]] = {}  # guid → (n, 2) cells it covers now
+        self._sees: dict[str, bool] = {}
+        self.footprints: dict[str, Footprint] = {}  # not carried, wherever they are (any height)
+        self.carried: dict[str, str] = {}  # guid → robot id
+        self._placed: set[str] = set()  # guids that left their yard slot for the structure
+        self.version = 0
+        self._cache: dict[str, object] = {}
+        for guid, slot in layout.slots.items():
+            if guid in self._components:
+                self._set_footprint(
+                    guid, posed_footprint(self._components[guid], slot.position_m, slot.quat_xyzw)
+                )
+
+    # --- updates ------------------------------------------------------------------------------------------
+
+    def observe_pose(self, message: ComponentPoseMsg) -> bool:
+        """Apply a component pose from physics; True when the map changed."""
+        guid = message.guid
+        if guid not in self._components:
+            return False
+        if message.attached_to is not None:
+            self.carried[guid] = message.attached_to
+            return self._clear(guid)
+        self.carried.pop(guid, None)
+        footprint = posed_footprint(self._components[guid], message.pose.position_m, message.pose.quat_xyzw)
+        if message.fixed:
+            self._placed.add(guid)
+        old = self.footprints.get(guid)
+        if old is not None and _same_footprint(old, footprint):
+            return False
+        return self._set_footprint(guid, footprint)
+
+    def observe_state(self, guid: str, state: ComponentState) -> bool:
+        """A constructed component never placed on the bus so far is assumed at its BIM target."""
+        if state is not ComponentState.CONSTRUCTED or guid in self._placed or guid not in self._components:
+            return False
+        component = self._components[guid]
+        self._placed.add(guid)
+        self.carried.pop(guid, None)
+        pose = component.target_pose_world
+        return self._set_footprint(guid, posed_footprint(component, pose.position_m, pose.quat_xyzw))
+
+    def component_xy(self, guid: str) -> NDArray[np.float64] | None:
+        """Centre of the component's footprint, None while carried."""
+        footprint = self.footprints.get(guid)
+        return None if footprint is None else footprint.centre_xy_m
+
+    def in_yard(self, guid: str) -> bool:
+        """Still at its yard slot (not carried, never placed)."""
+        return guid in self.footprints and guid not in self._placed and guid not in self.carried
+
+    # --- grids --------------------------------------------------------------------------------------------
+
+    @property
+    def geometry(self) -> OccupancyGrid:
+        """An empty grid with the map's geometry (origin, resolution, shape)."""
+        return self._geometry
+
+    def static_grid(self) -> OccupancyGrid:
+        """Fence + components in the robot's height band, not inflated."""
+        return self._cached(
+            "static", lambda: self._fence.with_occupied(self._fence.occupied | (self._counts > 0))
+        )
+
+    def inflated_grid(self, radius_m: float | None = None) -> OccupancyGrid:
+        """:meth:`static_grid` inflated by ``radius_m`` (default: the robot radius plus margin, which is
+        where the robot's centre may go), from the cached distance field."""
+        radius = self.config.inflation_m if radius_m is None else radius_m
+        return self._cached(
+            f"inflated:{radius:.4f}",
+            lambda: self._geometry.with_occupied(
+                self.static_distance_m() <= radius + 1e-9 * self.config.resolution_m
+            ),
+        )
+
+    def static_distance_m(self) -> NDArray[np.float64]:
+        """Distance from every cell centre to the nearest cell of :meth:`static_grid` (m)."""
+        return self._cached("distance", lambda: distance_field_m(self.static_grid()))
+
+    def laser_grid(self) -> OccupancyGrid:
+        """What the laser can see: the fence (if it reaches the laser's height) and tall enough components."""
+
+        def build() -> OccupancyGrid:
+            cells = self._laser_counts > 0
+            if self.config.laser_height_m <= FENCE_HEIGHT_M:
+                cells = cells | self._fence.occupied
+            return self._geometry.with_occupied(cells)
+
+        return self._cached("laser", build)
+
+    def laser_field_grid(self) -> OccupancyGrid:
+        """The localiser's map: :meth:`laser_grid` without what is flatter than ``localise_min_top_m``,
+        rasterised again at ``laser_resolution_m`` from the exact outlines (at the planning grid's 0.1 m,
+        outlines lying on cell borders grow objects by a cell on one side: half a cell of bias)."""
+
+        def build() -> OccupancyGrid:
+            visible = [
+                self.footprints[guid].polygon_xy_m
+                for guid, seen in self._sees.items()
+                if seen and self.footprints[guid].z_max_m >= self.config.localise_min_top_m
+            ]
+            boxes = fence_boxes(self.layout) if self.config.laser_height_m <= FENCE_HEIGHT_M else []
+            bounds = self._geometry.bounds_xy_m
+            return from_footprints(
+                bounds, self.config.laser_resolution_m, boxes_xy_m=boxes, polygons_xy_m=visible
+            )
+
+        return self._cached("laser_fine", build)
+
+    def obstacle_points_xy_m(self) -> NDArray[np.float64]:
+        """Centres of the static grid's occupied cells that border free space, ``(n, 2)`` (for the DWA)."""
+
+        def build() -> NDArray[np.float64]:
+            return self._geometry.cell_to_world(np.argwhere(outline(self.static_grid()).occupied))
+
+        return self._cached("points", build)
+
+    def unexplained_mask(self, points_xy_m: ArrayLike, beyond_m: float = 0.3) -> NDArray[np.bool_]:
+        """Which points lie farther than ``beyond_m`` from anything in the static grid (inside the grid)."""
+        pts = np.asarray(points_xy_m, float).reshape(-1, 2)
+        rc = self._geometry.world_to_cell(pts)
+        inside = self._geometry.in_bounds(rc)
+        far = np.zeros(len(pts), bool)
+        if len(pts):
+            far[inside] = self.static_distance_m()[rc[inside, 0], rc[inside, 1]] > beyond_m
+        return far
+
+    def unexplained(self, points_xy_m: ArrayLike, beyond_m: float = 0.3) -> NDArray[np.float64]:
+        """The points farther than ``beyond_m`` from anything in the static grid (other robots, surprises)."""
+        pts = np.asarray(points_xy_m, float).reshape(-1, 2)
+        return pts[self.unexplained_mask(pts, beyond_m)]
+
+    def planning_grid(self, marks_xy_m: ArrayLike = (), marks_extra_m: float = 0.0) -> OccupancyGrid:
+        """The inflated grid plus the laser marks ``(n, 2)``, inflated ``marks_extra_m`` more (for A*)."""
+        marks = np.asarray(marks_xy_m, float).reshape(-1, 2)
+        if len(marks) == 0:
+            return self.inflated_grid()
+        rc = self._geometry.world_to_cell(marks)
+        rc = rc[self._geometry.in_bounds(rc)]
+        cells = np.zeros(self._geometry.shape, bool)
+        cells[rc[:, 0], rc[:, 1]] = True
+        marked = inflate(self._geometry.with_occupied(cells), self.config.inflation_m + marks_extra_m)
+        return marked.with_occupied(marked.occupied | self.inflated_grid().occupied)
+
+    # --- internals ----------------------------------------------------------------------------------------
+
+    def _cached(self, name: str, build):
+        entry = self._cache.get(name)
+        if entry is None or entry[0] != self.version:  # type: ignore[index]
+            entry = (self.version, build())
+            self._cache[name] = entry
+        return entry[1]  # type: ignore[index]
+
+    def blocks(self, footprint: Footprint) -> bool:
+        """Whether a footprint meets the robot's height band (so it occupies the grid)."""
+        return footprint.z_max_m >= self.config.band_min_z_m and footprint.z_min_m <= self.config.band_max_z_m
+
+    def _seen(self, footprint: Footprint) -> bool:
+        return footprint.z_min_m <= self.config.laser_height_m <= footprint.z_max_m
+
+    def _clear(self, guid: str) -> bool:
+        self.footprints.pop(guid, None)
+        cells = self._cells.pop(guid, None)
+        if cells is None:
+            return False
+        self._counts[cells[:, 0], cells[:, 1]] -= 1
+        if self._sees.pop(guid, False):
+            self._laser_counts[cells[:, 0], cells[:, 1]] -= 1
+        self.version += 1
+        return True
+
+    def _set_footprint(self, guid: str, footprint: Footprint) -> bool:
+        changed = self._clear(guid)
+        self.footprints[guid] = footprint
+        if not self.blocks(footprint) or len(footprint.polygon_xy_m) < 3:
+            return changed
+        cells = _polygon_cells(self._geometry, footprint.polygon_xy_m)
+        self._cells[guid] = cells
+        self._counts[cells[:, 0], cells[:, 1]] += 1
+        if self._seen(footprint):
+            self._sees[guid] = True
+            self._laser_counts[cells[:, 0], cells[:, 1]] += 1
+        self.version += 1
+        return True
+
+
+def outline(grid: OccupancyGrid) -> OccupancyGrid:
+    """Only the occupied cells that border a free cell (4-neighbourhood): the surfaces a laser can hit."""
+    occ = grid.occupied
+    padded = np.pad(occ, 1, constant_values=False)
+    interior = padded[:-2, 1:-1] & padded[2:, 1:-1] & padded[1:-1, :-2] & padded[1:-1, 2:] & occ
+    return grid.with_occupied(occ & ~interior)
+
+
+def _same_footprint(a: Footprint, b: Footprint, tolerance_m: float = 0.01) -> bool:
+    if a.polygon_xy_m.shape != b.polygon_xy_m.shape:
+        return False
+    return bool(
+        np.abs(a.polygon_xy_m - b.polygon_xy_m).max() < tolerance_m
+        and abs(a.z_min_m - b.z_min_m) < tolerance_m
+        and abs(a.z_max_m - b.z_max_m) < tolerance_m
+    )
+
+
+def _polygon_cells(geometry: OccupancyGrid, polygon_xy_m: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Cells ``(n, 2)`` of ``geometry`` a polygon covers, rasterised on a small aligned window only."""
+    res = geometry.resolution_m
+    x0, y0 = geometry.origin_xy_m
+    low = np.floor((polygon_xy_m.min(axis=0) - (x0, y0)) / res).astype(int) - 1
+    high = np.ceil((polygon_xy_m.max(axis=0) - (x0, y0)) / res).astype(int) + 1
+    window_origin = (x0 + low[0] * res, y0 + low[1] * res)
+    bounds = (*window_origin, x0 + high[0] * res, y0 + high[1] * res)
+    window = from_footprints(bounds, res, polygons_xy_m=[polygon_xy_m])
+    rc = np.argwhere(window.occupied) + np.array([low[1], low[0]])
+    return rc[geometry.in_bounds(rc)]
+
+
+def footprint_distance_m(footprint: Footprint, xy_m: ArrayLike) -> NDArray[np.float64]:
+    """Distance from points ``(n, 2)`` to a convex footprint polygon (0 inside)."""
+    pts = np.asarray(xy_m, float).reshape(-1, 2)
+    poly = footprint.polygon_xy_m
+    if len(poly) == 1:
+        return np.hypot(*(pts - poly[0]).T)
+    a, b = poly, np.roll(poly, -1, axis=0)
+    ab = b - a
+    len2 = np.maximum((ab**2).sum(axis=1), 1e-12)
+    t = np.clip(((pts[:, None, :] - a[None]) * ab[None]).sum(-1) / len2, 0.0, 1.0)
+    nearest = a[None] + t[..., None] * ab[None]
+    distance = np.sqrt(((pts[:, None, :] - nearest) ** 2).sum(-1)).min(axis=1)
+    if len(poly) >= 3:
+        cross = ab[None, :, 0] * (pts[:, None, 1] - a[None, :, 1]) - ab[None, :, 1] * (
+            pts[:, None, 0] - a[None, :, 0]
+        )
+        inside = (cross >= -1e-12).all(axis=1)
+        distance[inside] = 0.0
+    return distance
+
+
+def heading_to(from_xy_m: ArrayLike, to_xy_m: ArrayLike) -> float:
+    """Yaw (rad) of the direction from one point to another."""
+    d = np.asarray(to_xy_m, float) - np.asarray(from_xy_m, float)
+    return math.atan2(float(d[1]), float(d[0]))

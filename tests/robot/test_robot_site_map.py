@@ -1,0 +1,136 @@
+"""The robot's site map: yard items block until picked, columns once built; beams and footings never do."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from robot_sim import convert_small_frame
+
+from services.robot.occupancy_grid import OccupancyGrid
+from services.robot.site_map import (
+    Footprint,
+    MapConfig,
+    SiteMap,
+    convex_hull_xy,
+    footprint_distance_m,
+    outline,
+)
+from shared.manifest import Component, Manifest, read_manifest
+from shared.messages import ComponentPoseMsg, ComponentState, PoseMsg
+from shared.site_layout import plan_site
+
+
+@pytest.fixture(scope="module")
+def frame(tmp_path_factory: pytest.TempPathFactory) -> Manifest:
+    return read_manifest(convert_small_frame(tmp_path_factory.mktemp("frame")))
+
+
+@pytest.fixture
+def site(frame: Manifest) -> SiteMap:
+    return SiteMap(plan_site(frame.components, robots=1), frame.components)
+
+
+def of_class(frame: Manifest, ifc_class: str) -> Component:
+    return next(c for c in frame.components if c.ifc_class == ifc_class)
+
+
+def pose(guid: str, position, quat=(0.0, 0.0, 0.0, 1.0), **flags: object) -> ComponentPoseMsg:
+    return ComponentPoseMsg(
+        guid=guid, pose=PoseMsg(position_m=position, quat_xyzw=quat), sim_time_s=1.0, **flags
+    )
+
+
+def at_target(component: Component, **flags: object) -> ComponentPoseMsg:
+    target = component.target_pose_world
+    return pose(component.guid, target.position_m, target.quat_xyzw, **flags)
+
+
+def test_every_yard_item_blocks_its_slot_and_the_fence_encloses_the_site(site: SiteMap) -> None:
+    grid = site.static_grid()
+    for slot in site.layout.slots.values():
+        centre = np.add(slot.footprint.min_xy, slot.footprint.max_xy) / 2
+        assert not grid.is_free(*centre)
+    (x0, y0), (x1, y1) = site.layout.fence.min_xy, site.layout.fence.max_xy
+    assert not grid.is_free(x0 - 0.1, (y0 + y1) / 2) and not grid.is_free((x0 + x1) / 2, y1 + 0.1)
+    assert grid.is_free(*site.layout.robot_starts[0][:2])
+
+
+def test_a_picked_item_leaves_the_map_and_comes_back_where_physics_fixes_it(
+    frame: Manifest, site: SiteMap
+) -> None:
+    column = of_class(frame, "IfcColumn")
+    slot = site.layout.slots[column.guid].footprint
+    centre = np.add(slot.min_xy, slot.max_xy) / 2
+    version = site.version
+    assert site.observe_pose(pose(column.guid, (0.0, 0.0, 0.5), attached_to="r1"))
+    assert site.version > version and site.carried[column.guid] == "r1"
+    assert site.static_grid().is_free(*centre)
+    target = column.target_pose_world.position_m
+    assert site.static_grid().is_free(*target[:2])
+    assert site.observe_pose(at_target(column, fixed=True))
+    assert not site.static_grid().is_free(*target[:2]), "a built column stands in the robot's height band"
+    assert not site.observe_pose(at_target(column, fixed=True)), "a repeated pose changes nothing"
+
+
+def test_beams_above_and_footings_below_the_height_band_do_not_block(frame: Manifest, site: SiteMap) -> None:
+    for ifc_class in ("IfcBeam", "IfcFooting"):
+        component = of_class(frame, ifc_class)
+        site.observe_pose(at_target(component, fixed=True))
+        footprint = site.footprints[component.guid]
+        assert not site.blocks(footprint)
+        assert site.static_grid().is_free(*footprint.centre_xy_m), ifc_class
+
+
+def test_a_constructed_state_without_a_pose_puts_the_component_at_its_target(
+    frame: Manifest, site: SiteMap
+) -> None:
+    column = of_class(frame, "IfcColumn")
+    assert site.observe_state(column.guid, ComponentState.CONSTRUCTED)
+    assert not site.static_grid().is_free(*column.target_pose_world.position_m[:2])
+
+
+def test_inflation_keeps_the_robot_centre_off_obstacles_by_radius_plus_margin(site: SiteMap) -> None:
+    inflated = site.inflated_grid()
+    config = site.config
+    slot = next(iter(site.layout.slots.values())).footprint
+    mid_x = (slot.min_xy[0] + slot.max_xy[0]) / 2
+    near = slot.max_xy[1] + config.inflation_m - 0.1
+    far = slot.max_xy[1] + config.inflation_m + 0.15
+    assert not inflated.is_free(mid_x, near) and inflated.is_free(mid_x, far)
+    assert inflated.occupied.sum() > site.static_grid().occupied.sum()
+
+
+def test_laser_marks_far_from_the_map_are_added_and_inflated_for_planning(site: SiteMap) -> None:
+    start = np.array(site.layout.robot_starts[0][:2])
+    mark = start + np.array([2.0, 0.0])
+    assert len(site.unexplained([mark])) == 1
+    fence_hit = (site.layout.fence.min_xy[0] - 0.05, start[1])
+    assert len(site.unexplained([fence_hit])) == 0
+    grid = site.planning_grid([mark])
+    assert not grid.is_free(*(mark + np.array([site.config.inflation_m - 0.1, 0.0])))
+    assert site.inflated_grid().is_free(*mark)
+
+
+def test_the_localiser_map_keeps_tall_things_only(frame: Manifest, site: SiteMap) -> None:
+    laser = site.laser_field_grid()
+    footing = of_class(frame, "IfcFooting")  # 0.3 m high lying in the yard
+    column = of_class(frame, "IfcColumn")  # 0.1 m high lying in the yard: too flat to be seen reliably
+    assert not laser.is_free(*site.footprints[footing.guid].centre_xy_m)
+    assert laser.is_free(*site.footprints[column.guid].centre_xy_m)
+    site.observe_pose(at_target(column, fixed=True))
+    built = site.laser_field_grid()
+    assert not built.is_free(*column.target_pose_world.position_m[:2])
+
+
+def test_geometry_helpers() -> None:
+    hull = convex_hull_xy([(0, 0), (1, 0), (1, 1), (0, 1), (0.5, 0.5), (1, 0)])
+    assert len(hull) == 4
+    footprint = Footprint(hull, 0.0, 1.0)
+    distances = footprint_distance_m(footprint, [(0.5, 0.5), (2.0, 0.5), (2.0, 2.0)])
+    np.testing.assert_allclose(distances, [0.0, 1.0, np.sqrt(2.0)])
+    solid = OccupancyGrid(np.pad(np.ones((3, 3), bool), 1), 1.0, (0.0, 0.0))
+    assert outline(solid).occupied.sum() == 8, "the centre of a 3×3 block is no surface"
+
+
+def test_map_config_default_inflation() -> None:
+    assert MapConfig().inflation_m == pytest.approx(0.75)
