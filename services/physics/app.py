@@ -5,6 +5,8 @@ Declared on the session (callbacks only enqueue into a :class:`shared.bus.Inbox`
 * subscriber ``bimbot/<site>/robots/*/cmd_vel`` (CmdVelMsg; a command whose key names another robot than
   its ``robot_id`` is counted invalid; robots physics did not spawn are ignored, logged once);
 * liveliness subscriber ``bimbot/<site>/alive/robot/*``: a robot that disappears stops and drops its load;
+* subscriber ``bimbot/<site>/components/*/state`` (ComponentStateMsg): a component its agent declared
+  constructed can no longer be attached (a misplaced one can, for its retry);
 * queryables ``physics/info`` (SiteInfoMsg), ``physics/attach`` (AttachRequest → PhysicsReply) and
   ``physics/place`` (PlaceRequest → PhysicsReply). The loop answers them; a place reply is held back
   until the assembly motion ends (a querier's timeout must exceed ``duration_s`` / rtf). An invalid
@@ -37,12 +39,15 @@ from shared.bus import BusOptions, Inbox, InvalidPayloads, Received, decode, enc
 from shared.manifest import Manifest
 from shared.messages import (
     ALIVE_KEY,
+    COMPONENT_STATE_KEY,
     PHYSICS_ATTACH_KEY,
     PHYSICS_INFO_KEY,
     PHYSICS_PLACE_KEY,
     ROBOT_CMD_VEL_KEY,
     AttachRequest,
     CmdVelMsg,
+    ComponentState,
+    ComponentStateMsg,
     PhysicsReply,
     PlaceRequest,
     key,
@@ -55,6 +60,7 @@ _log = logging.getLogger(__name__)
 
 TAG_CMD = "cmd_vel"
 TAG_ALIVE = "alive"
+TAG_STATE = "component_state"
 TAG_INFO = "info"
 TAG_ATTACH = "attach"
 TAG_PLACE = "place"
@@ -113,6 +119,9 @@ class _Loop:
         declarations: list[object] = [
             inbox.subscribe(session, key(ROBOT_CMD_VEL_KEY, site=site, robot_id="*"), CmdVelMsg, TAG_CMD),
             inbox.subscribe_liveliness(session, key(ALIVE_KEY, site=site, kind="robot", id="*"), TAG_ALIVE),
+            inbox.subscribe(
+                session, key(COMPONENT_STATE_KEY, site=site, key="*"), ComponentStateMsg, TAG_STATE
+            ),
         ]
         for tag, key_expr in self._keys.items():
             declarations.append(
@@ -211,6 +220,10 @@ class _Loop:
                 return
             if self.sim.command(received.message):
                 self.barrier.record(received.message.robot_id, received.message.step)
+        elif tag == TAG_STATE:
+            state: Received[ComponentStateMsg] = item  # type: ignore[assignment]
+            message = state.message
+            self.sim.handling.note_constructed(message.guid, message.state == ComponentState.CONSTRUCTED)
         elif tag == TAG_ALIVE:
             key_expr, alive = item  # type: ignore[misc]
             robot_id = str(key_expr).rsplit("/", 1)[-1]

@@ -10,7 +10,9 @@ Every component is in one of four phases:
 * ``assembling`` — a place request was accepted: the component moves from its pose at the request to the
   requested pose over ``duration_s`` sim seconds (linear position, slerp orientation); the carrier holds
   still. The request's reply is held back until the motion ends.
-* ``fixed`` — placed: static exactly at the requested pose, for good (attach refuses it). It collides with
+* ``fixed`` — placed: static exactly at the requested pose. Attach refuses it once its agent has declared it
+  constructed (:meth:`Handling.note_constructed`); before that a robot may pick it up again, which is how a
+  misplaced component is taken off for its retry. It collides with
   its former carrier again only once their bounding boxes no longer overlap, so a robot standing on a
   target footprint is never thrown off. Static bodies never touch the ground plane or each other, so
   footings placed below ground stay there.
@@ -123,14 +125,22 @@ class Handling:
         self.site_bounds = site_bounds
         self.carrying: dict[str, str] = {}  # robot id → GUID (carried or assembling)
         self.changed: set[str] = set()  # GUIDs whose pose changed since the last take_changed()
+        self.constructed: set[str] = set()  # declared constructed by their agents: fixed for good
         self._moving: set[str] = set()
+
+    def note_constructed(self, guid: str, constructed: bool) -> None:
+        """What a component's agent says of it (from ``components/<key>/state``)."""
+        if constructed:
+            self.constructed.add(guid)
+        else:
+            self.constructed.discard(guid)
 
     # --- requests ------------------------------------------------------------------------------------
 
     def attach(self, robot: Robot, guid: str, now_s: float) -> PhysicsReply:
         item = self.items.get(guid)
-        refusal = self._check_common(robot, guid, item)
-        if refusal is None and item is not None and item.phase is not Phase.RESTING:
+        refusal = self._check_common(robot, guid, item, fixed_ok=guid not in self.constructed)
+        if refusal is None and item is not None and item.phase in (Phase.CARRIED, Phase.ASSEMBLING):
             holder = item.carrier
             refusal = (
                 f"{guid} is already carried by {holder}"
@@ -201,12 +211,16 @@ class Handling:
         _log.info("%s: %s places it over %.2f s", guid, robot.robot_id, duration_s)
         return None
 
-    def _check_common(self, robot: Robot | None, guid: str, item: Item | None) -> str | None:
+    def _check_common(
+        self, robot: Robot | None, guid: str, item: Item | None, *, fixed_ok: bool = False
+    ) -> str | None:
         if robot is None:
             return "unknown robot"
         if item is None:
             return f"unknown component {guid}"
-        if item.phase is Phase.FIXED:
+        if item.phase is Phase.FIXED and not fixed_ok:
+            if guid in self.constructed:
+                return f"{guid} is constructed (fixed to the structure)"
             return f"{guid} is fixed to the structure"
         return None
 

@@ -158,10 +158,26 @@ def test_place_ends_exactly_at_the_requested_pose_and_stays_there(
         assert np.allclose(actual[0], target.position_m, atol=1e-6)
         assert angle_between(actual[1], target.quat_xyzw) < 1e-6
         drive(sim, "r1", -0.5, 0.0, 1.0)  # the robot backs away; the column stays
+    sim.handling.note_constructed(column.guid, True)  # its agent verified it
     assert (
         sim.attach(AttachRequest(robot_id="r1", guid=column.guid)).reason
-        == f"{column.guid} is fixed to the structure"
+        == f"{column.guid} is constructed (fixed to the structure)"
     )
+
+
+def test_a_fixed_component_not_yet_constructed_can_be_taken_off_again_for_its_retry(
+    make_sim, frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=1)
+    column = _first_in_row(sim, frame_manifest, "IfcColumn")
+    _picked(sim, column)
+    _beside_target(sim, column)
+    assert sim.place(_place(sim, column, duration_s=0.0), tag="ticket") is None
+    sim.advance()
+    assert sim.handling.items[column.guid].phase.value == "fixed"
+    reply = sim.attach(AttachRequest(robot_id="r1", guid=column.guid))  # misplaced: the robot retries
+    assert reply.ok, reply.reason
+    assert sim.handling.items[column.guid].carrier == "r1"
 
 
 def test_place_refusals_name_the_problem(
