@@ -377,7 +377,9 @@ class Executor:
         return False
 
     def _approach(self, task: _Task, footprint: Footprint) -> bool:
-        grid = self.site_map.planning_grid(self.navigator.marks)
+        # The navigator's own planning grid (laser marks inflated by its dynamic margin): an approach pose
+        # free only in a less inflated grid is a goal A* can never reach, chosen again on every retry.
+        grid = self.site_map.planning_grid(self.navigator.marks, self.navigator.config.dynamic_margin_m)
         xy = self.navigator.pose_xy_yaw[:2]
         blocks = self.site_map.blocks(footprint)
         found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=self.approach_config)
