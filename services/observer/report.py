@@ -8,7 +8,9 @@ Per component (state changes of its agent; start-up announcements carry no times
 ``released_s`` (first release), ``picked_s`` (first ``picking``), ``placed_s`` (the last ``place``, i.e.
 entering ``verifying``), ``constructed_s``, ``failed_s``, ``retries`` (misplacements, at ``misplaced_s``),
 ``attempts``, the
-robots that handled it, its final state and its position in the planned sequence.
+robots that handled it, its final state, its position in the planned sequence and the placement error of
+its last verdict (``position_error_mm``, ``angle_error_deg``, as its agent measured them against the BIM
+pose).
 
 Per robot: ``busy_s`` — the time between leaving ``idle`` and returning to it, summed (an interval still
 open at the end of the run is closed at the last sim time seen); ``tasks`` — those intervals with the
@@ -19,7 +21,8 @@ odometry, else the robot's own ``distance_m`` in its state messages, else its st
 the state changes it went through, for an observer that joined a run late.
 
 Totals: components by final state, retries, makespan (first release → last constructed), busy time,
-distance, robot utilisation (busy / (robots × makespan)).
+distance, robot utilisation (busy / (robots × makespan)), the largest placement errors of the constructed
+components.
 """
 
 from __future__ import annotations
@@ -58,6 +61,8 @@ class ComponentTimeline:
     misplaced_s: list[float] = field(default_factory=list)
     attempts: int = 0
     state: ComponentState = ComponentState.PLANNED
+    position_error_m: float | None = None  # of the last verdict (constructed or misplaced)
+    angle_error_rad: float | None = None
     robot_ids: list[str] = field(default_factory=list)
     last_s: float = 0.0  # latest sim time seen for this component
 
@@ -150,6 +155,8 @@ class ReportCollector:
         t = timeline.last_s = max(msg.sim_time_s, timeline.last_s)
         if msg.previous is None:  # an announcement (agent start or resume), not a transition
             return
+        if msg.position_error_m is not None:
+            timeline.position_error_m, timeline.angle_error_rad = msg.position_error_m, msg.angle_error_rad
         if msg.state == ComponentState.RELEASED and timeline.released_s is None:
             timeline.released_s = t
         elif msg.state == ComponentState.PICKING and timeline.picked_s is None:
@@ -215,6 +222,8 @@ class ReportCollector:
                     "misplaced_s": list(timeline.misplaced_s),
                     "attempts": timeline.attempts,
                     "robot_ids": list(timeline.robot_ids),
+                    "position_error_mm": _scaled(timeline.position_error_m, 1000.0),
+                    "angle_error_deg": _scaled(timeline.angle_error_rad, 180.0 / math.pi),
                 }
             )
         robots = {
@@ -261,6 +270,10 @@ class ReportCollector:
         }
 
 
+def _scaled(value: float | None, factor: float) -> float | None:
+    return value * factor if value is not None else None
+
+
 def _difference(later: float | None, earlier: float | None) -> float | None:
     return later - earlier if later is not None and earlier is not None else None
 
@@ -273,6 +286,9 @@ def _totals(components: list[dict[str, Any]], robots: dict[str, dict[str, Any]])
     constructed = [c["constructed_s"] for c in components if c["constructed_s"] is not None]
     makespan = max(constructed) - min(released) if released and constructed else None
     busy = sum(robot["busy_s"] for robot in robots.values())
+    built = [c for c in components if c["state"] == ComponentState.CONSTRUCTED.value]
+    position_errors = [c["position_error_mm"] for c in built if c["position_error_mm"] is not None]
+    angle_errors = [c["angle_error_deg"] for c in built if c["angle_error_deg"] is not None]
     utilisation = busy / (len(robots) * makespan) if robots and makespan else None
     return {
         "components": len(components),
@@ -287,4 +303,6 @@ def _totals(components: list[dict[str, Any]], robots: dict[str, dict[str, Any]])
         "busy_s": busy,
         "distance_m": sum(robot["distance_m"] for robot in robots.values()),
         "utilisation": utilisation,
+        "max_position_error_mm": max(position_errors) if position_errors else None,
+        "max_angle_error_deg": max(angle_errors) if angle_errors else None,
     }

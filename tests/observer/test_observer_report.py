@@ -151,3 +151,31 @@ def test_a_verdict_stamped_before_its_placement_does_not_go_back_in_time(frame_m
         )
     (entry,) = [c for c in collector.report()["components"] if c["guid"] == guid]
     assert entry["placed_s"] == entry["constructed_s"] == 55.58
+
+
+def test_placement_errors_are_those_of_the_last_verdict_in_mm_and_degrees(frame_manifest: Manifest) -> None:
+    collector = ReportCollector(frame_manifest)
+    first, second = (c.guid for c in frame_manifest.components[:2])
+    for guid, previous, state, error_m, error_rad in (
+        (first, S.VERIFYING, S.MISPLACED, 0.05, 0.0),  # caught, then retried
+        (first, S.VERIFYING, S.CONSTRUCTED, 0.002, 0.001),
+        (second, S.VERIFYING, S.CONSTRUCTED, 0.004, 0.0005),
+    ):
+        collector.add(
+            ComponentStateMsg(
+                guid=guid,
+                state=state,
+                previous=previous,
+                event="verify",
+                sim_time_s=1.0,
+                wall_time_s=0.0,
+                position_error_m=error_m,
+                angle_error_rad=error_rad,
+            )
+        )
+    report = collector.report()
+    entry = next(c for c in report["components"] if c["guid"] == first)
+    assert entry["position_error_mm"] == pytest.approx(2.0)
+    assert entry["angle_error_deg"] == pytest.approx(0.0572958, rel=1e-4)
+    assert report["totals"]["max_position_error_mm"] == pytest.approx(4.0)
+    assert report["totals"]["max_angle_error_deg"] == pytest.approx(0.0572958, rel=1e-4)
