@@ -2,38 +2,34 @@
 
 Starts ``bimbot bus`` on a free loopback port, then physics (lock-step, as fast as the robots can
 follow, unless told otherwise), the component agents, the planner and N robots, and optionally the
-observer; waits until the planner reports every task settled; stops everything; prints a summary and
-writes the construction report. Exit 0 when every component is constructed, 1 with the failed components
-named otherwise, 2 for unusable input. Service logs go to ``OUT/logs/``.
+observer (a rerun recording; with ``--live`` also the web viewer, kept up after the build); waits until
+the planner reports every task settled; stops everything; prints a summary and writes the construction
+report (``BUILD/report/report.json`` and ``report.png``, from what the run heard on the bus). Exit 0
+when every component is constructed, 1 with the failed components named otherwise, 2 for unusable input.
+Service logs go to ``OUT/logs/``.
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
+import re
 import shutil
 import sys
-import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
-import zenoh
-
-from bimbot.supervisor import ServiceProcess, free_port
-from shared.bus import BusOptions, InvalidPayloads, decode, open_session
+from bimbot.run_monitor import RunMonitor
+from bimbot.supervisor import ServiceProcess, free_port, wait_until
+from services.observer.report_png import write_report_files
+from shared.bus import BusOptions, open_session
 from shared.errors import UserError
 from shared.manifest import Manifest, read_manifest
-from shared.messages import (
-    CLOCK_KEY,
-    COMPONENT_STATE_KEY,
-    PROGRESS_KEY,
-    ClockMsg,
-    ComponentState,
-    ComponentStateMsg,
-    ProgressMsg,
-    key,
-)
+from shared.messages import ComponentState
+from shared.sequence import SequenceError, read_sequence
 
 _log = logging.getLogger(__name__)
 
@@ -43,6 +39,19 @@ DEFAULT_TIMEOUT_S = 900.0
 # service's own defaults (240 Hz, 10 Hz), measured with bench/build.py. Both are options.
 FAST_PHYSICS_HZ = 120.0
 FAST_CONTROL_PERIOD_S = 0.2
+OBSERVER_CLOSE_TIMEOUT_S = 120.0  # closing and compacting the recording after the build
+_VIEWER_LINE = re.compile(r"web viewer: (http\S+)")
+
+
+@dataclass(frozen=True)
+class ObserverOptions:
+    """The observer in a run: always an ``.rrd``; the web viewer only when asked (``--live``)."""
+
+    rrd_path: Path | None = None  # default BUILD/observer/<site>.rrd
+    web: bool = False
+    web_port: int = 9090
+    grpc_port: int = 9876
+    keep_serving: bool = False  # after the build, until interrupted (the viewer stays up)
 
 
 @dataclass(frozen=True)
@@ -51,13 +60,13 @@ class RunOptions:
     rtf: float = 0.0
     lock_step: bool = True
     inject_placement_error_m: float = 0.0
-    observe: bool = False
+    observer: ObserverOptions | None = None
     planner_source: tuple[str, ...] = ()  # extra planner arguments: ("--derive",) etc.
     timeout_s: float = DEFAULT_TIMEOUT_S
-    web_port: int = 9090
     physics_hz: float = FAST_PHYSICS_HZ
     control_period_s: float = FAST_CONTROL_PERIOD_S
     physics_extra: tuple[str, ...] = ()  # more physics arguments (benches: --laser-beams …)
+    report_dir: Path | None = None  # default BUILD/report
 
 
 @dataclass
@@ -69,49 +78,10 @@ class RunOutcome:
     misplacements: int = 0
     sim_time_s: float = 0.0
     wall_time_s: float = 0.0
-
-
-class _Monitor:
-    """Listens to component states, progress and the clock while the build runs (callbacks only record)."""
-
-    def __init__(self, manifest: Manifest, session: zenoh.Session) -> None:
-        self._lock = threading.Lock()
-        self.states: dict[str, ComponentState] = {}
-        self.misplacements = 0
-        self.sim_time_s = 0.0
-        self.progress: ProgressMsg | None = None
-        site = manifest.site
-        self._invalid = InvalidPayloads()
-        self._subscribers = [
-            session.declare_subscriber(key(COMPONENT_STATE_KEY, site=site, key="*"), self._on_state),
-            session.declare_subscriber(key(PROGRESS_KEY, site=site), self._on_progress),
-            session.declare_subscriber(key(CLOCK_KEY, site=site), self._on_clock),
-        ]
-
-    def snapshot(self) -> tuple[dict[str, ComponentState], int, float]:
-        """(latest state per GUID, misplacements seen, latest sim time)."""
-        with self._lock:
-            return dict(self.states), self.misplacements, self.sim_time_s
-
-    def _on_state(self, sample: zenoh.Sample) -> None:
-        message = decode(ComponentStateMsg, str(sample.key_expr), sample.payload.to_bytes(), self._invalid)
-        if message is not None:
-            with self._lock:
-                self.states[message.guid] = message.state
-                if message.state == ComponentState.MISPLACED and message.previous is not None:
-                    self.misplacements += 1
-
-    def _on_progress(self, sample: zenoh.Sample) -> None:
-        message = decode(ProgressMsg, str(sample.key_expr), sample.payload.to_bytes(), self._invalid)
-        if message is not None:
-            with self._lock:
-                self.progress = message
-
-    def _on_clock(self, sample: zenoh.Sample) -> None:
-        message = decode(ClockMsg, str(sample.key_expr), sample.payload.to_bytes(), self._invalid)
-        if message is not None:
-            with self._lock:
-                self.sim_time_s = max(self.sim_time_s, message.sim_time_s)
+    report: dict[str, Any] = field(default_factory=dict)
+    report_dir: Path | None = None
+    rrd_path: Path | None = None
+    viewer_url: str | None = None
 
 
 def service_commands(build: Path, endpoint: str, options: RunOptions) -> list[tuple[str, list[str]]]:
@@ -142,47 +112,60 @@ def service_commands(build: Path, endpoint: str, options: RunOptions) -> list[tu
         if options.inject_placement_error_m:
             robot += ["--inject-placement-error-m", repr(options.inject_placement_error_m)]
         commands.append((f"robot-r{number}", robot))
-    if options.observe:
-        observe = ["observe", "--build", str(build), "--web-port", str(options.web_port), "--exit-when-done"]
-        commands.append(("observer", [*observe, *bus]))
+    if options.observer is not None:
+        commands.append(("observer", [*observer_arguments(build, options.observer), *bus]))
     return commands
 
 
-def run_build(build: Path, options: RunOptions) -> RunOutcome:
-    """Run every service on ``build`` until the planner is done (or the timeout); always stops them."""
+def observer_arguments(build: Path, observer: ObserverOptions) -> list[str]:
+    arguments = ["observe", "--build", str(build)]
+    if observer.rrd_path is not None:
+        arguments += ["--rrd", str(observer.rrd_path)]
+    if observer.web:
+        arguments += ["--web-port", str(observer.web_port), "--grpc-port", str(observer.grpc_port)]
+    else:
+        arguments.append("--no-web")
+    if not observer.keep_serving:
+        arguments.append("--exit-when-done")
+    return arguments
+
+
+def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] = _log.info) -> RunOutcome:
+    """Run every service on ``build`` until the planner is done (or the timeout); always stops them.
+
+    Writes the report (``report.json``, ``report.png``) whatever the outcome. ``announce`` gets the lines
+    a user must see while it runs (the viewer's URL)."""
     manifest = read_manifest(build)
     log_dir = build / "logs"
     if log_dir.exists():
         shutil.rmtree(log_dir)
+    report_dir = options.report_dir or build / "report"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     started = time.perf_counter()
     router = ServiceProcess("bus", ["bus", "--listen", endpoint], log_dir)
     services: list[ServiceProcess] = []
     try:
         with open_session(BusOptions(connect=(endpoint,))) as session:
-            monitor = _Monitor(manifest, session)
+            monitor = RunMonitor(manifest, session, _sequence_guids(build))
             for name, args in service_commands(build, endpoint, options):
                 services.append(ServiceProcess(name, args, log_dir))
-            planner = next(service for service in services if service.name == "planner")
-            code = _wait_for_planner(planner, [router, *services], options.timeout_s)
+            by_name = {service.name: service for service in services}
+            observer = by_name.get("observer")
+            viewer_url = _announce_viewer(observer, options.observer, announce)
+            code = _wait_for_planner(by_name["planner"], [router, *services], monitor, options.timeout_s)
+            monitor.drain(wait_s=0.3)  # the last state messages
+            outcome = _outcome(manifest, monitor, code, time.perf_counter() - started)
+            outcome.report_dir, outcome.viewer_url = report_dir, viewer_url
+            outcome.report = monitor.report()
+            write_report_files(outcome.report, report_dir)
+            if observer is not None and options.observer is not None:
+                outcome.rrd_path = options.observer.rrd_path or build / "observer" / f"{manifest.site}.rrd"
+                _let_observer_finish(observer, options.observer, announce, viewer_url)
             if code is None:
                 raise UserError(
-                    f"the build did not finish within {options.timeout_s:.0f} s (logs in {log_dir})"
+                    f"the build did not finish within {options.timeout_s:.0f} s "
+                    f"({outcome.constructed}/{outcome.total} constructed; logs in {log_dir})"
                 )
-            time.sleep(0.2)  # let the last state messages arrive
-            states, misplacements, sim_time_s = monitor.snapshot()
-            outcome = RunOutcome(
-                exit_code=0,
-                constructed=sum(state == ComponentState.CONSTRUCTED for state in states.values()),
-                total=len(manifest.components),
-                misplacements=misplacements,
-                sim_time_s=sim_time_s,
-                wall_time_s=time.perf_counter() - started,
-            )
-            outcome.failed = sorted(
-                c.guid for c in manifest.components if states.get(c.guid) != ComponentState.CONSTRUCTED
-            )
-            outcome.exit_code = 0 if code == 0 and not outcome.failed else 1
             return outcome
     finally:
         for service in reversed(services):
@@ -190,24 +173,88 @@ def run_build(build: Path, options: RunOptions) -> RunOutcome:
         router.stop()
 
 
+def _outcome(manifest: Manifest, monitor: RunMonitor, planner_code: int | None, wall_s: float) -> RunOutcome:
+    states = monitor.states
+    failed = sorted(c.guid for c in manifest.components if states.get(c.guid) != ComponentState.CONSTRUCTED)
+    return RunOutcome(
+        exit_code=0 if planner_code == 0 and not failed else 1,
+        constructed=len(manifest.components) - len(failed),
+        total=len(manifest.components),
+        failed=failed,
+        misplacements=monitor.misplacements,
+        sim_time_s=monitor.sim_time_s,
+        wall_time_s=wall_s,
+    )
+
+
+def _sequence_guids(build: Path) -> list[str]:
+    try:
+        return read_sequence(build / "sequence.xml").guids()
+    except SequenceError as error:
+        _log.warning("no planned sequence for the report (%s)", error)
+        return []
+
+
+def _announce_viewer(
+    observer: ServiceProcess | None, options: ObserverOptions | None, announce: Callable[[str], None]
+) -> str | None:
+    """Wait for the observer's web viewer (when it serves one) and announce its URL."""
+    if observer is None or options is None or not options.web:
+        return None
+    found: list[str] = []
+
+    def served() -> bool:
+        found.extend(match.group(1) for match in _VIEWER_LINE.finditer(observer.log()))
+        return bool(found) or not observer.alive()
+
+    wait_until(served, timeout_s=60.0, interval_s=0.1)
+    if not found:
+        tail = "\n".join(observer.log().splitlines()[-10:])
+        raise UserError(f"the observer's web viewer did not start:\n{tail}")
+    announce(f"web viewer: {found[0]}")
+    return found[0]
+
+
+def _let_observer_finish(
+    observer: ServiceProcess, options: ObserverOptions, announce: Callable[[str], None], url: str | None
+) -> None:
+    """Without ``keep_serving``, give the observer the time to close (and compact) its recording; with it,
+    keep the viewer up until Ctrl-C."""
+    if not options.keep_serving:
+        if not wait_until(lambda: not observer.alive(), timeout_s=OBSERVER_CLOSE_TIMEOUT_S, interval_s=0.1):
+            _log.warning("the observer did not finish its recording within %.0f s", OBSERVER_CLOSE_TIMEOUT_S)
+        return
+    announce(f"the build is done; the viewer stays up at {url} (Ctrl-C to stop)")
+    try:
+        while observer.alive():
+            time.sleep(0.5)
+    except KeyboardInterrupt:
+        announce("stopping the viewer")
+
+
 def _wait_for_planner(
-    planner: ServiceProcess, everyone: list[ServiceProcess], timeout_s: float
+    planner: ServiceProcess, everyone: list[ServiceProcess], monitor: RunMonitor, timeout_s: float
 ) -> int | None:
     """The planner's exit code; None on timeout. A service that dies early ends the run with its log."""
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
+        monitor.drain(wait_s=0.1)
         if not planner.alive():
             return planner.wait(0)
         for service in everyone:
             if service is not planner and not service.alive() and service.name != "observer":
                 tail = "\n".join(service.log().splitlines()[-15:])
                 raise UserError(f"{service.name} stopped unexpectedly (exit {service.wait(0)}):\n{tail}")
-        time.sleep(0.1)
     return None
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("build", type=Path, help="a converted build folder (bimbot convert … -o BUILD)")
+    add_run_arguments(parser)
+
+
+def add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options ``bimbot run`` and ``bimbot demo`` share."""
     parser.add_argument("--robots", type=int, default=1, help="number of robots (default 1)")
     parser.add_argument("--rtf", type=float, default=0.0, help="real-time factor (0: as fast as possible)")
     parser.add_argument("--no-lock-step", action="store_true", help="do not wait for the robots each step")
@@ -230,46 +277,94 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="M",
         help="robots place each component's first attempt this far off (the agents must catch it)",
     )
-    parser.add_argument("--observe", action="store_true", help="also run the observer (rerun web viewer)")
     source = parser.add_mutually_exclusive_group()
     source.add_argument("--derive", action="store_true", help="planner derives the sequence from supports")
     source.add_argument("--sequence", type=Path, default=None, help="planner uses this sequence XML")
     parser.add_argument("--timeout-s", type=float, default=DEFAULT_TIMEOUT_S, help="give up after this long")
+    parser.add_argument(
+        "--observe", action="store_true", help="also run the observer: a rerun recording (.rrd) of the build"
+    )
+    parser.add_argument(
+        "--live",
+        action="store_true",
+        help="serve the rerun web viewer on 127.0.0.1 during the build and keep it up afterwards",
+    )
+    parser.add_argument("--web-port", type=int, default=9090, help="web viewer port with --live (9090)")
+    parser.add_argument("--grpc-port", type=int, default=9876, help="viewer data port with --live (9876)")
 
 
-def run(args: argparse.Namespace) -> int:
+def run_options(
+    args: argparse.Namespace, rrd_path: Path | None = None, report_dir: Path | None = None
+) -> RunOptions:
+    """RunOptions from the shared arguments (a UserError for impossible values)."""
     if args.robots < 1:
         raise UserError("--robots must be at least 1")
+    if args.physics_hz <= 0 or args.control_period_s <= 0:
+        raise UserError("--physics-hz and --control-period-s must be positive")
     planner_source: tuple[str, ...] = ()
     if args.derive:
         planner_source = ("--derive",)
     elif args.sequence is not None:
         planner_source = ("--sequence", str(args.sequence))
-    options = RunOptions(
+    observer = None
+    if args.observe or args.live or rrd_path is not None:
+        observer = ObserverOptions(
+            rrd_path=rrd_path,
+            web=args.live,
+            web_port=args.web_port,
+            grpc_port=args.grpc_port,
+            keep_serving=args.live,
+        )
+    return RunOptions(
         robots=args.robots,
         rtf=args.rtf,
         lock_step=not args.no_lock_step,
         inject_placement_error_m=args.inject_placement_error_m,
-        observe=args.observe,
+        observer=observer,
         planner_source=planner_source,
         timeout_s=args.timeout_s,
         physics_hz=args.physics_hz,
         control_period_s=args.control_period_s,
+        report_dir=report_dir,
     )
+
+
+def run(args: argparse.Namespace) -> int:
+    options = run_options(args)
     try:
-        outcome = run_build(args.build, options)
+        outcome = run_build(args.build, options, announce=_say)
     except (FileNotFoundError, ValueError) as error:
         raise UserError(f"{args.build}: not a converted build ({error})") from None
     sys.stdout.write(summary_text(outcome))
     return outcome.exit_code
 
 
+def _say(line: str) -> None:
+    sys.stdout.write(line + "\n")
+    sys.stdout.flush()
+
+
 def summary_text(outcome: RunOutcome) -> str:
+    totals = outcome.report.get("totals", {})
     lines = [
         f"constructed {outcome.constructed}/{outcome.total} components in "
         f"{outcome.sim_time_s:.1f} s sim time ({outcome.wall_time_s:.1f} s wall), "
         f"{outcome.misplacements} misplacement(s) caught and retried"
     ]
+    if totals.get("max_position_error_mm") is not None:
+        lines.append(
+            f"placement error at most {totals['max_position_error_mm']:.2f} mm and "
+            f"{totals['max_angle_error_deg']:.2f}°"
+        )
+    for robot_id, robot in sorted(outcome.report.get("robots", {}).items()):
+        lines.append(
+            f"robot {robot_id}: {len(robot['tasks'])} task(s), {robot['distance_m']:.0f} m driven, "
+            f"busy {robot['busy_s']:.0f} s"
+        )
     if outcome.failed:
         lines.append(f"not constructed: {', '.join(outcome.failed)}")
+    if outcome.report_dir is not None:
+        lines.append(f"report: {outcome.report_dir / 'report.json'} and {outcome.report_dir / 'report.png'}")
+    if outcome.rrd_path is not None:
+        lines.append(f"recording: {outcome.rrd_path} (open it with: .venv/bin/rerun {outcome.rrd_path})")
     return "\n".join(lines) + "\n"

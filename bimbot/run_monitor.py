@@ -1,0 +1,86 @@
+"""What ``bimbot run`` hears of a build: component states, robots, progress and the clock, as a report.
+
+The subscriber callbacks only enqueue (:class:`shared.bus.Inbox`); :meth:`RunMonitor.drain`, called from the
+run's waiting loop, validates the messages and feeds them to the observer's pure
+:class:`services.observer.report.ReportCollector`, so ``report.json``/``report.png`` are written at the end
+of every run, with or without the observer (laser scans and plans are not subscribed: the report does not
+use them).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import zenoh
+from pydantic import BaseModel
+
+from services.observer.report import ReportCollector
+from shared.bus import Inbox, InvalidPayloads, decode
+from shared.manifest import Manifest
+from shared.messages import (
+    CLOCK_KEY,
+    COMPONENT_STATE_KEY,
+    PROGRESS_KEY,
+    ROBOT_POSE_KEY,
+    ROBOT_STATE_KEY,
+    ClockMsg,
+    ComponentState,
+    ComponentStateMsg,
+    ProgressMsg,
+    RobotPoseMsg,
+    RobotStateMsg,
+    key,
+)
+
+TAG_SAMPLE = "sample"
+
+
+class RunMonitor:
+    """Subscribes on ``session`` at construction; :meth:`drain` applies what arrived since the last call."""
+
+    def __init__(self, manifest: Manifest, session: zenoh.Session, sequence_guids: list[str]) -> None:
+        site = manifest.site
+        self.invalid = InvalidPayloads()
+        self.collector = ReportCollector(manifest, sequence_guids)
+        self.states: dict[str, ComponentState] = {}
+        self.misplacements = 0
+        self.sim_time_s = 0.0
+        self.done = False
+        self._inbox = Inbox(self.invalid)
+        routes: list[tuple[str, type[BaseModel]]] = [
+            (key(COMPONENT_STATE_KEY, site=site, key="*"), ComponentStateMsg),
+            (key(ROBOT_STATE_KEY, site=site, robot_id="*"), RobotStateMsg),
+            (key(ROBOT_POSE_KEY, site=site, robot_id="*"), RobotPoseMsg),
+            (key(PROGRESS_KEY, site=site), ProgressMsg),
+            (key(CLOCK_KEY, site=site), ClockMsg),
+        ]
+        self._subscribers = [
+            session.declare_subscriber(expression, self._enqueue(model)) for expression, model in routes
+        ]
+
+    def _enqueue(self, model: type[BaseModel]) -> Callable[[zenoh.Sample], None]:
+        def on_sample(sample: zenoh.Sample) -> None:
+            self._inbox.put(TAG_SAMPLE, (model, str(sample.key_expr), sample.payload.to_bytes()))
+
+        return on_sample
+
+    def drain(self, wait_s: float = 0.0) -> None:
+        """Apply every queued message (waiting up to ``wait_s`` for the first)."""
+        for _, (model, key_expr, payload) in self._inbox.drain(first_timeout_s=wait_s):  # type: ignore[misc]
+            message = decode(model, key_expr, payload, self.invalid)
+            if message is not None:
+                self.apply(message)
+
+    def apply(self, message: BaseModel) -> None:
+        self.collector.add(message)
+        if isinstance(message, ComponentStateMsg):
+            self.states[message.guid] = message.state
+            if message.state == ComponentState.MISPLACED and message.previous is not None:
+                self.misplacements += 1
+        elif isinstance(message, ClockMsg):
+            self.sim_time_s = max(self.sim_time_s, message.sim_time_s)
+        elif isinstance(message, ProgressMsg):
+            self.done = self.done or message.done
+
+    def report(self) -> dict:
+        return self.collector.report()
