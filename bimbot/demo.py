@@ -57,7 +57,8 @@ def run(args: argparse.Namespace) -> int:
     options = run_options(args, rrd_path=args.output / f"{manifest.site}.rrd", report_dir=args.output)
     _say(f"demo: building it with {args.robots} robot(s); service logs in {world_dir / 'logs'}/")
     outcome = run_build(world_dir, options, announce=_say)
-    sys.stdout.write(summary_text(outcome))
+    if not outcome.summary_announced:
+        sys.stdout.write(summary_text(outcome))
     return outcome.exit_code
 
 

@@ -82,6 +82,7 @@ class RunOutcome:
     report_dir: Path | None = None
     rrd_path: Path | None = None
     viewer_url: str | None = None
+    summary_announced: bool = False  # the summary went out through ``announce`` already (--live)
 
 
 def service_commands(build: Path, endpoint: str, options: RunOptions) -> list[tuple[str, list[str]]]:
@@ -160,6 +161,9 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
             write_report_files(outcome.report, report_dir)
             if observer is not None and options.observer is not None:
                 outcome.rrd_path = options.observer.rrd_path or build / "observer" / f"{manifest.site}.rrd"
+                if options.observer.keep_serving:  # the user sees the result while the viewer stays up
+                    announce(summary_text(outcome).rstrip("\n"))
+                    outcome.summary_announced = True
                 _let_observer_finish(observer, options.observer, announce, viewer_url)
             if code is None:
                 raise UserError(
@@ -335,7 +339,8 @@ def run(args: argparse.Namespace) -> int:
         outcome = run_build(args.build, options, announce=_say)
     except (FileNotFoundError, ValueError) as error:
         raise UserError(f"{args.build}: not a converted build ({error})") from None
-    sys.stdout.write(summary_text(outcome))
+    if not outcome.summary_announced:
+        sys.stdout.write(summary_text(outcome))
     return outcome.exit_code
 
 

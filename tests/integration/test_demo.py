@@ -1,0 +1,101 @@
+"""``bimbot demo`` as a user runs it: convert, build with every service as a process, write ``OUT/``.
+
+On a small generated frame (``--model``) so the suite stays fast; the bundled frame runs the same code.
+The recording must be a valid ``.rrd`` (``rerun rrd verify``), the report must say every component was
+constructed, and ``--live`` must serve the web viewer at the printed URL until interrupted.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+from bimbot.supervisor import free_port
+from services.observer.app import rerun_cli_binary
+
+pytestmark = pytest.mark.integration
+TIMEOUT_S = 300
+
+
+@pytest.fixture(scope="module")
+def small_ifc(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("demo_model") / "frame.ifc"
+    subprocess.run(
+        [sys.executable, "-m", "bimbot.cli", "sample", "light-steel-frame", "-o", str(path), "--bays", "2x1"],
+        check=True,
+        capture_output=True,
+        timeout=120,
+    )
+    return path
+
+
+def test_demo_writes_world_recording_and_report_and_says_how_to_open_it(
+    small_ifc: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "demo"
+    result = subprocess.run(
+        [sys.executable, "-m", "bimbot.cli", "demo", "-o", str(out), "--model", str(small_ifc)],
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT_S,
+        check=False,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr[-3000:]
+    assert "constructed 5/5 components" in result.stdout
+    (rrd,) = out.glob("*.rrd")
+    assert f"rerun {rrd}" in result.stdout
+    assert (out / "world" / "manifest.json").is_file() and (out / "world" / "sequence.xml").is_file()
+    report = json.loads((out / "report.json").read_text())
+    assert report["totals"]["constructed"] == report["totals"]["components"] == 5
+    assert (out / "report.png").stat().st_size > 10_000
+    verify = subprocess.run(
+        [str(rerun_cli_binary()), "rrd", "verify", str(rrd)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+        env={**os.environ, "RUST_LOG": "warn"},
+    )
+    assert verify.returncode == 0, verify.stdout + verify.stderr
+
+
+def test_demo_live_serves_the_viewer_at_the_printed_url_until_interrupted(
+    small_ifc: Path, tmp_path: Path
+) -> None:
+    web_port, grpc_port = free_port(), free_port()
+    command = [sys.executable, "-m", "bimbot.cli", "demo", "-o", str(tmp_path / "demo"), "--live"]
+    command += ["--model", str(small_ifc), "--web-port", str(web_port), "--grpc-port", str(grpc_port)]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines: list[str] = []
+    try:
+        deadline = time.monotonic() + TIMEOUT_S
+        assert process.stdout is not None
+        while time.monotonic() < deadline:
+            line = process.stdout.readline()
+            if not line:
+                break
+            lines.append(line)
+            if "the viewer stays up at" in line:
+                break
+        url = re.search(r"stays up at (http\S+)", "".join(lines))
+        assert url, "".join(lines)
+        assert url.group(1).startswith(f"http://127.0.0.1:{web_port}/")
+        with urllib.request.urlopen(url.group(1), timeout=10) as page:
+            assert page.status == 200 and b"<html" in page.read(4096).lower()
+        assert any("constructed 5/5 components" in line for line in lines), "".join(lines)
+        assert process.poll() is None  # still serving
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=60) == 0
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
