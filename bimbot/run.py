@@ -144,6 +144,7 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     started = time.perf_counter()
     router = ServiceProcess("bus", ["bus", "--listen", endpoint], log_dir)
+    announce(f"bus: {endpoint} (watch it: bimbot watch --build {build} --connect {endpoint})")
     services: list[ServiceProcess] = []
     try:
         with open_session(BusOptions(connect=(endpoint,))) as session:
