@@ -15,12 +15,11 @@ viewer on 127.0.0.1 while it builds and keeps it up afterwards (its URL is print
 from __future__ import annotations
 
 import argparse
-import sys
 from collections import Counter
 from importlib import resources
 from pathlib import Path
 
-from bimbot.run import add_run_arguments, run_build, run_options, summary_text
+from bimbot.run import add_run_arguments, finish, run_build, run_options, say
 from services.converter.convert import convert_model
 from services.converter.ifc_input import open_model
 from shared.manifest import Manifest
@@ -48,23 +47,15 @@ def run(args: argparse.Namespace) -> int:
     model_path = args.model or bundled_model_path()
     world_dir = args.output / "world"
     manifest = convert_model(open_model(model_path), model_path, world_dir)
-    _say(
+    say(
         f"demo: {model_path.name} → {world_dir}/: {len(manifest.components)} components "
         f"({', '.join(_class_counts(manifest))}), {len(manifest.skipped)} skipped"
     )
     if not manifest.components or args.convert_only:
         return 0 if manifest.components else 1
     options = run_options(args, rrd_path=args.output / f"{manifest.site}.rrd", report_dir=args.output)
-    _say(f"demo: building it with {args.robots} robot(s); service logs in {world_dir / 'logs'}/")
-    outcome = run_build(world_dir, options, announce=_say)
-    if not outcome.summary_announced:
-        sys.stdout.write(summary_text(outcome))
-    return outcome.exit_code
-
-
-def _say(line: str) -> None:
-    sys.stdout.write(line + "\n")
-    sys.stdout.flush()
+    say(f"demo: building it with {args.robots} robot(s); service logs in {world_dir / 'logs'}/")
+    return finish(run_build(world_dir, options, announce=say))
 
 
 def _class_counts(manifest: Manifest) -> list[str]:

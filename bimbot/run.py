@@ -337,17 +337,23 @@ def run_options(
 def run(args: argparse.Namespace) -> int:
     options = run_options(args)
     try:
-        outcome = run_build(args.build, options, announce=_say)
+        outcome = run_build(args.build, options, announce=say)
     except (FileNotFoundError, ValueError) as error:
         raise UserError(f"{args.build}: not a converted build ({error})") from None
+    return finish(outcome)
+
+
+def say(line: str) -> None:
+    """One line for the user on stdout, at once (the commands' output; logs go to stderr)."""
+    sys.stdout.write(line + "\n")
+    sys.stdout.flush()
+
+
+def finish(outcome: RunOutcome) -> int:
+    """Print the summary (unless it went out already) and return the exit code."""
     if not outcome.summary_announced:
         sys.stdout.write(summary_text(outcome))
     return outcome.exit_code
-
-
-def _say(line: str) -> None:
-    sys.stdout.write(line + "\n")
-    sys.stdout.flush()
 
 
 def summary_text(outcome: RunOutcome) -> str:
