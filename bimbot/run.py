@@ -15,7 +15,9 @@ import argparse
 import logging
 import re
 import shutil
+import signal
 import sys
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -229,12 +231,18 @@ def _let_observer_finish(
         if not wait_until(lambda: not observer.alive(), timeout_s=OBSERVER_CLOSE_TIMEOUT_S, interval_s=0.1):
             _log.warning("the observer did not finish its recording within %.0f s", OBSERVER_CLOSE_TIMEOUT_S)
         return
+    interrupted = threading.Event()
+    # Ctrl-C (or a TERM) from here on only ends the wait: the services are then stopped in order, and a
+    # second Ctrl-C during that cannot leave them running.
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: interrupted.set())
     announce(f"the build is done; the viewer stays up at {url} (Ctrl-C to stop)")
-    try:
-        while observer.alive():
-            time.sleep(0.5)
-    except KeyboardInterrupt:
+    while observer.alive() and not interrupted.wait(0.5):
+        pass
+    if interrupted.is_set():
         announce("stopping the viewer")
+    else:
+        _log.warning("the observer stopped on its own (exit %s); see %s", observer.wait(0), observer.log_path)
 
 
 def _wait_for_planner(

@@ -99,3 +99,5 @@ def test_demo_live_serves_the_viewer_at_the_printed_url_until_interrupted(
         if process.poll() is None:
             process.kill()
             process.wait()
+        if process.stdout is not None:
+            process.stdout.close()
