@@ -1,0 +1,259 @@
+#!/usr/bin/env bash
+# Smoke test of compose.yaml: the whole stack builds the bundled light steel frame to completion.
+#
+#   1. docker, compose (`docker compose`, else `docker-compose`) and debootstrap must be installed
+#      (`bash scripts/setup.sh --tests` installs them); dockerd is started when no daemon answers;
+#   2. the image built with scripts/build-images.sh (a debootstrap base and a host wheelhouse: no registry);
+#   3. `up -d` as a project of its own (bimbot-smoke-<pid>), the observer's ports on free loopback ports;
+#   4. wait until the planner exits (it does once every task is settled), failing early when a service
+#      crash-loops or the stack does not come up;
+#   5. check: the planner exited 0 and said "all N component(s) constructed", every component of the
+#      build's manifest answers "constructed" to a digital-twin query over the bus, and the observer still
+#      serves its web viewer;
+#   6. a summary with timings, then `down -v` (always, also on failure or interrupt).
+#
+# Usage: bash scripts/compose-smoke.sh
+# Environment: BIMBOT_SMOKE_TIMEOUT_S (wait for the build, default 360), BIMBOT_SMOKE_BUDGET_S (the whole
+#              script, image build included, default 540: the wait is cut short to keep within it),
+#              BIMBOT_SMOKE_PROJECT (compose project, default bimbot-smoke-<pid>), BIMBOT_SMOKE_KEEP=1
+#              (leave the stack up for a look).
+# Exit codes: 0 all constructed, 1 failure, 2 usage, 3 docker cannot be used on this machine.
+# Prints "compose-smoke: all N of N components constructed" on success. Logs: build/compose-smoke/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PROJECT="${BIMBOT_SMOKE_PROJECT:-bimbot-smoke-$$}"
+TIMEOUT_S="${BIMBOT_SMOKE_TIMEOUT_S:-360}"
+BUDGET_S="${BIMBOT_SMOKE_BUDGET_S:-540}"
+KEEP="${BIMBOT_SMOKE_KEEP:-0}"
+LOG_DIR=build/compose-smoke
+MAX_RESTARTS=3 # a service restarted this often is crash-looping: fail now rather than at the timeout
+
+say() { echo "compose-smoke: $*" >&2; }
+fail() {
+    say "FAILED: $*"
+    exit 1
+}
+no_docker() {
+    say "docker cannot be used here: $*"
+    exit 3
+}
+if [ $# -gt 0 ]; then
+    say "unknown argument: $1 (usage: bash scripts/compose-smoke.sh)"
+    exit 2
+fi
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then
+    SUDO="sudo -n" # no password prompt unless someone is there to answer it
+    [ -t 0 ] && SUDO="sudo"
+fi
+started_all=$SECONDS
+
+# ------------------------------------------------------------------------------ 1. packages and the daemon
+missing=()
+command -v docker >/dev/null || missing+=(docker.io)
+command -v debootstrap >/dev/null || missing+=(debootstrap)
+if ! docker compose version >/dev/null 2>&1 && ! command -v docker-compose >/dev/null; then
+    missing+=(docker-compose)
+fi
+((${#missing[@]} == 0)) || no_docker "${missing[*]} not installed (bash scripts/setup.sh --tests installs them)"
+wait_for_docker() { # seconds; true once the daemon answers this user
+    local _
+    for _ in $(seq "$1"); do
+        docker info >/dev/null 2>&1 && return 0
+        sleep 1
+    done
+    return 1
+}
+if ! docker info >/dev/null 2>&1; then
+    if { pidof dockerd || pgrep -x dockerd; } >/dev/null 2>&1; then
+        say "dockerd runs but does not answer yet; waiting for it"
+        wait_for_docker 30 || no_docker "dockerd runs but does not answer this user (not in the docker group?)"
+    else
+        say "starting dockerd (log: /tmp/bimbot-dockerd.log)"
+        # setsid: the daemon outlives this script and whatever started it; it is left running afterwards.
+        $SUDO setsid dockerd >/tmp/bimbot-dockerd.log 2>&1 </dev/null &
+        wait_for_docker 60 || {
+            tail -n 20 /tmp/bimbot-dockerd.log >&2 || true
+            no_docker "dockerd did not start within 60 s (log above: /tmp/bimbot-dockerd.log)"
+        }
+    fi
+fi
+if docker compose version >/dev/null 2>&1; then
+    COMPOSE_TOOL=(docker compose)
+else
+    COMPOSE_TOOL=(docker-compose)
+fi
+say "using ${COMPOSE_TOOL[*]} $("${COMPOSE_TOOL[@]}" version --short 2>/dev/null || echo '(version unknown)')," \
+    "docker server $(docker version -f '{{.Server.Version}}' 2>/dev/null || echo '(version unknown)')"
+COMPOSE=("${COMPOSE_TOOL[@]}" --project-name "$PROJECT" --file compose.yaml)
+
+# ------------------------------------------------------------------------------ 2. image
+started=$SECONDS
+bash scripts/build-images.sh
+build_s=$((SECONDS - started))
+
+# ------------------------------------------------------------------------------ 3. up
+rm -rf "$LOG_DIR"
+mkdir -p "$LOG_DIR"
+free_port() { python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'; }
+export BIMBOT_BUS_PORT BIMBOT_WEB_PORT BIMBOT_GRPC_PORT
+BIMBOT_BUS_PORT="$(free_port)"
+BIMBOT_WEB_PORT="$(free_port)"
+BIMBOT_GRPC_PORT="$(free_port)"
+
+container() { # the container id of a service (running or exited), empty when there is none
+    docker ps -a -q --filter "label=com.docker.compose.project=$PROJECT" \
+        --filter "label=com.docker.compose.service=$1" | head -n 1
+}
+container_state() { # status exit-code restarts health
+    docker inspect -f '{{.State.Status}} {{.State.ExitCode}} {{.RestartCount}} {{if .State.Health}}{{.State.Health.Status}}{{else}}-{{end}}' "$1"
+}
+services() { "${COMPOSE[@]}" config --services; }
+
+summary() {
+    local service id status code restarts health
+    say "services:"
+    for service in $(services); do
+        id="$(container "$service")"
+        if [ -n "$id" ]; then
+            read -r status code restarts health <<<"$(container_state "$id")"
+            printf '  %-10s %-9s exit %-3s restarts %-2s health %s\n' "$service" "$status" "$code" "$restarts" \
+                "$health" >&2
+        else
+            printf '  %-10s not created\n' "$service" >&2
+        fi
+    done
+}
+
+cleanup() {
+    local exit_code=$?
+    trap - EXIT INT TERM
+    "${COMPOSE[@]}" logs --no-color --timestamps >"$LOG_DIR/compose.log" 2>&1 || true
+    if [ "$exit_code" -ne 0 ]; then
+        summary || true
+        say "last lines of every service (all of it: $LOG_DIR/compose.log):"
+        "${COMPOSE[@]}" logs --no-color --tail=25 >&2 2>&1 || true
+    fi
+    if [ "$KEEP" = 1 ]; then
+        say "stack left up (BIMBOT_SMOKE_KEEP=1): ${COMPOSE[*]} down -v"
+    else
+        say "tearing down"
+        "${COMPOSE[@]}" down -v --remove-orphans >/dev/null 2>&1 || say "warning: down -v failed"
+    fi
+    say "total $((SECONDS - started_all)) s"
+    exit "$exit_code"
+}
+trap cleanup EXIT
+trap 'exit 130' INT TERM
+
+"${COMPOSE[@]}" down -v --remove-orphans >/dev/null 2>&1 || true
+# Stacks of earlier runs that were killed before their teardown (their script's process is gone).
+for stale in $(docker ps -a --format '{{.Label "com.docker.compose.project"}}' | grep -E '^bimbot-smoke-[0-9]+$' | sort -u); do
+    if [ "$stale" != "$PROJECT" ] && ! kill -0 "${stale#bimbot-smoke-}" 2>/dev/null; then
+        say "removing $stale, left by an earlier run that did not finish"
+        "${COMPOSE_TOOL[@]}" --project-name "$stale" --file compose.yaml down -v --remove-orphans >/dev/null 2>&1 \
+            || true
+    fi
+done
+started=$SECONDS
+say "up: project $PROJECT, bus on 127.0.0.1:$BIMBOT_BUS_PORT, viewer on 127.0.0.1:$BIMBOT_WEB_PORT" \
+    "(gRPC $BIMBOT_GRPC_PORT)"
+# -d still waits for every depends_on condition (healthy bus, converted build, …) before starting a service.
+"${COMPOSE[@]}" up -d >"$LOG_DIR/up.log" 2>&1 || {
+    cat "$LOG_DIR/up.log" >&2
+    fail "the stack did not come up"
+}
+up_s=$((SECONDS - started))
+left_s=$((BUDGET_S - (SECONDS - started_all) - 20)) # 20 s for the checks and the teardown
+[ "$left_s" -ge "$TIMEOUT_S" ] || TIMEOUT_S=$((left_s > 0 ? left_s : 0))
+say "stack up in $up_s s; waiting up to $TIMEOUT_S s for the planner to finish"
+
+# ------------------------------------------------------------------------------ 4. wait for the planner
+started=$SECONDS
+planner_code=""
+next_report=30
+while [ $((SECONDS - started)) -lt "$TIMEOUT_S" ]; do
+    if [ $((SECONDS - started)) -ge "$next_report" ]; then
+        done_so_far="$("${COMPOSE[@]}" logs --no-color planner 2>/dev/null | grep -c 'scheduler: .* constructed$' || true)"
+        say "… $((SECONDS - started)) s: $done_so_far component(s) constructed so far (planner's log)"
+        next_report=$((next_report + 30))
+    fi
+    planner="$(container planner)"
+    [ -n "$planner" ] || fail "no planner container"
+    read -r status code restarts _ <<<"$(container_state "$planner")"
+    if [ "$restarts" -gt 0 ]; then
+        fail "the planner failed (exit $code) and was restarted $restarts time(s)"
+    fi
+    if [ "$status" = exited ]; then
+        planner_code="$code"
+        break
+    fi
+    for service in $(services); do
+        id="$(container "$service")"
+        [ -n "$id" ] || continue
+        read -r s_status s_code s_restarts _ <<<"$(container_state "$id")"
+        if [ "$s_restarts" -ge "$MAX_RESTARTS" ]; then
+            fail "$service is crash-looping (restarted $s_restarts times; its log is below)"
+        fi
+        if [ "$service" != convert ] && [ "$s_status" = exited ] && [ "$s_code" != 0 ]; then
+            fail "$service stopped with exit $s_code"
+        fi
+    done
+    sleep 2
+done
+build_wait_s=$((SECONDS - started))
+[ -n "$planner_code" ] || fail "the build did not finish within $TIMEOUT_S s"
+say "planner exited $planner_code after $build_wait_s s"
+
+# ------------------------------------------------------------------------------ 5. checks
+"${COMPOSE[@]}" logs --no-color planner >"$LOG_DIR/planner.log" 2>&1 || true
+[ "$planner_code" = 0 ] || fail "the planner reports failed or blocked components (exit $planner_code)"
+grep -Eq "construction done: all [0-9]+ component\(s\) constructed" "$LOG_DIR/planner.log" \
+    || fail "the planner exited 0 without reporting the construction done"
+
+# Every component of the manifest, asked over the bus from inside the stack (its agent's twin record).
+agents="$(container agents)"
+[ -n "$agents" ] || fail "no agents container"
+if ! docker exec -i "$agents" python - >"$LOG_DIR/twins.txt" 2>"$LOG_DIR/twins.err" <<'EOF'
+import sys
+
+import zenoh
+
+from shared.bus import BusOptions, open_session
+from shared.manifest import read_manifest
+from shared.messages import COMPONENT_TWIN_KEY, ComponentState, TwinMsg, key
+
+manifest = read_manifest("/data/build")
+states = {}
+with open_session(BusOptions(mode="client", connect=("tcp/bus:7447",), listen=())) as session:
+    selector = key(COMPONENT_TWIN_KEY, site=manifest.site, key="*")
+    for reply in session.get(selector, target=zenoh.QueryTarget.ALL, timeout=10.0):
+        if reply.ok is not None:
+            twin = TwinMsg.model_validate_json(reply.ok.payload.to_bytes())
+            states[twin.guid] = twin.state
+total = len(manifest.components)
+constructed = [c for c in manifest.components if states.get(c.guid) == ComponentState.CONSTRUCTED]
+for component in manifest.components:
+    print(f"{component.guid} {component.ifc_class} {states.get(component.guid, 'no answer')}")
+print(f"{len(constructed)} {total}")
+sys.exit(0 if total and len(constructed) == total else 1)
+EOF
+then
+    cat "$LOG_DIR/twins.err" "$LOG_DIR/twins.txt" >&2
+    fail "not every component is constructed"
+fi
+read -r constructed total <<<"$(tail -n 1 "$LOG_DIR/twins.txt")"
+
+# The observer keeps serving after the build: its web viewer answers on the published loopback port.
+observer="$(container observer)"
+read -r o_status _ _ o_health <<<"$(container_state "$observer")"
+[ "$o_status" = running ] || fail "the observer is not running after the build ($o_status)"
+python3 -c "import sys, urllib.request; sys.exit(urllib.request.urlopen(sys.argv[1], timeout=10).status != 200)" \
+    "http://127.0.0.1:$BIMBOT_WEB_PORT/" || fail "the web viewer does not answer on 127.0.0.1:$BIMBOT_WEB_PORT"
+
+# ------------------------------------------------------------------------------ 6. summary
+summary
+say "timings: image build ${build_s} s, stack up ${up_s} s, construction ${build_wait_s} s" \
+    "(total so far $((SECONDS - started_all)) s); observer ${o_status} (${o_health}), viewer answers"
+echo "compose-smoke: all $constructed of $total components constructed"
