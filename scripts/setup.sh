@@ -1,8 +1,21 @@
 #!/usr/bin/env bash
 # Set up bimbot on a fresh Debian/Ubuntu machine: system packages, a virtual environment, the project.
-# Idempotent: a second run only checks. Usage: bash scripts/setup.sh
+# Idempotent: a second run only checks. Usage: bash scripts/setup.sh [--tests]
+#   --tests  also what the test suite needs beyond the demo: docker, compose and debootstrap for the
+#            compose smoke test (tests/compose; scripts/compose-smoke.sh starts dockerd itself)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+
+TESTS=0
+for argument in "$@"; do
+    case "$argument" in
+        --tests) TESTS=1 ;;
+        *)
+            echo "setup: unknown argument: $argument (usage: bash scripts/setup.sh [--tests])" >&2
+            exit 2
+            ;;
+    esac
+done
 
 # System packages: the SDFormat reference parser (`ign sdf -k`, used by tests to validate every SDF) and
 # Debian's chromium (headless, to test that the observer's rerun web viewer page loads).
@@ -11,6 +24,15 @@ missing=()
 for package in "${SYSTEM_PACKAGES[@]}"; do
     dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" || missing+=("$package")
 done
+if [ "$TESTS" -eq 1 ]; then
+    # By command rather than by package: a machine with Docker's own packages (docker-ce, the compose
+    # plugin) has what the test needs, and Debian's docker.io would conflict with them.
+    command -v docker >/dev/null || missing+=(docker.io)
+    if ! docker compose version >/dev/null 2>&1 && ! command -v docker-compose >/dev/null; then
+        missing+=(docker-compose)
+    fi
+    command -v debootstrap >/dev/null || missing+=(debootstrap)
+fi
 if ((${#missing[@]})); then
     echo "setup: installing system packages: ${missing[*]}" >&2
     SUDO=""
