@@ -41,6 +41,7 @@ DEFAULT_TIMEOUT_S = 900.0
 # service's own defaults (240 Hz, 10 Hz), measured with bench/build.py. Both are options.
 FAST_PHYSICS_HZ = 120.0
 FAST_CONTROL_PERIOD_S = 0.2
+ROBOT_START_TIMEOUT_S = 120.0  # physics holds its clock at 0 until the robots are up (at most this)
 OBSERVER_CLOSE_TIMEOUT_S = 120.0  # closing and compacting the recording after the build
 _VIEWER_LINE = re.compile(r"web viewer: (http\S+)")
 
@@ -105,6 +106,7 @@ def service_commands(build: Path, endpoint: str, options: RunOptions) -> list[tu
     ]
     if options.lock_step:
         physics.append("--lock-step")
+    physics += ["--wait-for-robots-s", repr(ROBOT_START_TIMEOUT_S)]
     commands = [
         ("physics", [*physics, *options.physics_extra, *bus]),
         ("agents", ["agents", "--build", str(build), "--fresh", *bus]),

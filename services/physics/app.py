@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import math
 import threading
 import time
 from collections.abc import Iterable
@@ -74,6 +75,7 @@ class RunConfig:
     lock_step_timeout_s: float = 2.0
     max_steps: int | None = None  # stop after this many control periods (benches, tests)
     gui: bool = False
+    wait_for_robots_s: float = 0.0  # hold the clock at 0 until every robot is alive (at most this long)
 
 
 def main(  # noqa: PLR0917 - like the other services: main(options, …, stop)
@@ -113,6 +115,7 @@ class _Loop:
         }
         self.errors = 0
         self._warned_step = -1
+        self._robots_deadline: float | None = None  # while holding the clock for the robots to come up
 
     def serve(self) -> None:
         site, inbox, session = self.site, self.inbox, self.session
@@ -168,8 +171,30 @@ class _Loop:
 
     # --- pacing --------------------------------------------------------------------------------------
 
+    def _holding_for_robots(self, now: float) -> bool:
+        """Whether the clock still waits at step 0 for robots that are not alive yet (``wait_for_robots_s``):
+        a run then starts when its robots can act, not after sim time nobody used."""
+        if self.run.wait_for_robots_s <= 0.0 or self.sim.step > 0:
+            return False
+        missing = sorted(set(self.sim.robot_ids) - self.sim.alive)
+        if not missing:
+            return False
+        if self._robots_deadline is None:
+            self._robots_deadline = now + self.run.wait_for_robots_s
+            _log.info("holding the clock until robots %s are alive", ", ".join(missing))
+        if now < self._robots_deadline:
+            return True
+        if self._robots_deadline != -math.inf:
+            _log.warning(
+                "robots %s not alive after %.0f s; starting without them", missing, self.run.wait_for_robots_s
+            )
+            self._robots_deadline = -math.inf
+        return False
+
     def _wait_s(self, now: float) -> float:
         """How long to wait before the next period may run (0: run it now)."""
+        if self._holding_for_robots(now):
+            return LOOP_WAIT_S
         if self.sim.config.lock_step:
             waited_for = self.sim.alive - self.sim.busy_robots()
             missing = self.barrier.missing(waited_for)

@@ -52,6 +52,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--lock-step-timeout-s", type=float, default=2.0, help="wall seconds to wait for a robot (default 2)"
     )
+    parser.add_argument(
+        "--wait-for-robots-s",
+        type=float,
+        default=0.0,
+        metavar="S",
+        help="hold the clock at 0 until every robot is alive, at most S wall seconds (default 0: no)",
+    )
     parser.add_argument("--steps", type=int, default=None, help="stop after this many control periods")
     parser.add_argument(
         "--physics-hz", type=float, default=1.0 / sim.step_s, help="physics steps per sim second (240)"
@@ -175,7 +182,11 @@ def run(args: argparse.Namespace) -> int:
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())
     run_config = app.RunConfig(
-        rtf=args.rtf, lock_step_timeout_s=args.lock_step_timeout_s, max_steps=args.steps, gui=args.gui
+        rtf=args.rtf,
+        lock_step_timeout_s=args.lock_step_timeout_s,
+        max_steps=args.steps,
+        gui=args.gui,
+        wait_for_robots_s=args.wait_for_robots_s,
     )
     try:
         return app.main(options, manifest, build_dir, config, run_config, stop)

@@ -198,3 +198,34 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
     log = (tmp_path / "physics.log").read_text()
     assert "invalid payload" in log and "Traceback" not in log
     assert log.count("robot 'zz' was not spawned by physics") == 1
+
+
+def test_physics_holds_its_clock_at_zero_until_the_robots_are_alive(
+    bundled_build: Path, tmp_path: Path
+) -> None:
+    build = tmp_path / "build"
+    shutil.copytree(bundled_build, build)
+    site = read_manifest(build).site
+    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    physics_args = ["physics", "--build", str(build), "--robots", "1", "--connect", endpoint, "--rtf", "0"]
+    physics_args += ["--listen", "tcp/127.0.0.1:0", "--lock-step", "--wait-for-robots-s", "60"]
+    with (
+        _process(["bus", "--listen", endpoint], tmp_path / "bus.log"),
+        _process(physics_args, tmp_path / "physics.log") as physics,
+        open_session(BusOptions(connect=(endpoint,), listen=())) as session,
+    ):
+        listener = _Listener(session, {"clock": key(CLOCK_KEY, site=site)})
+        deadline = time.monotonic() + 60.0
+        while _get(session, key(PHYSICS_INFO_KEY, site=site), timeout_s=1.0) is None:
+            assert physics.poll() is None and time.monotonic() < deadline, (
+                tmp_path / "physics.log"
+            ).read_text()
+        time.sleep(1.5)  # free-running, physics would be hundreds of steps on by now
+        held = [ClockMsg.model_validate_json(m).step for m in listener.drain("clock")]
+        assert set(held) <= {0}
+        token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id="r1"))
+        cmd_key = key(ROBOT_CMD_VEL_KEY, site=site, robot_id="r1")
+        session.put(cmd_key, encode(CmdVelMsg(robot_id="r1", v_mps=0.0, w_radps=0.0, sim_time_s=0.0, step=0)))
+        assert _wait_clock(listener, 1, timeout_s=10.0).step >= 1  # the robot is up: the clock runs
+        token.undeclare()
+    assert "holding the clock until robots r1 are alive" in (tmp_path / "physics.log").read_text()
