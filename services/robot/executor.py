@@ -80,6 +80,7 @@ class ExecutorConfig:
     request_timeout_s: float = 60.0  # wall seconds for a physics reply (the adapter reports a timeout)
     place_duration_s: float = 2.0  # sim seconds of the assembly motion
     max_tries: int = 4  # approaches (navigation or attach refused) before a task is given up
+    max_reselections: int = 20  # approach poses chosen again at once when their cell becomes occupied
     retry_delay_s: float = 1.0  # sim seconds before looking for an approach again
     reapproach_after_s: float = 4.0  # sim seconds without a path (a robot in the way) → another approach
     park_after_s: float = 8.0  # sim seconds idle → drive back to the start pose (clears the structure)
@@ -98,6 +99,7 @@ class _Task:
     request: PhysicsRequest | None = None
     request_sent: bool = False
     tries: int = 0
+    reselections: int = 0  # approach poses chosen again because their cell became occupied
     retry_at_s: float = -math.inf
     approach: Approach | None = None
     placed: bool = False
@@ -329,7 +331,7 @@ class Executor:
     def _attached(self, task: _Task) -> None:
         self._queue_event(task, _E.ATTACH)
         self._fire(Trigger.ATTACHED)
-        task.tries, task.approach, task.retry_at_s = 0, None, -math.inf
+        task.tries, task.reselections, task.approach, task.retry_at_s = 0, 0, None, -math.inf
         self.navigator.cancel()
 
     def _to_target(self, task: _Task) -> None:
@@ -353,6 +355,19 @@ class Executor:
         status = self.navigator.status
         if task.approach is not None and status is NavStatus.REACHED:
             return True
+        if (
+            task.approach is not None
+            and self.navigator.goal_blocked
+            and footprint is not None
+            and task.reselections < self.config.max_reselections
+        ):
+            # Laser marks (another robot, a load) now cover the chosen cell: pick another at once, which is
+            # no navigation failure (counting it as one gave tasks up that a step aside would have done).
+            task.reselections += 1
+            self.navigator.cancel()
+            task.approach = None
+            self._approach(task, footprint)
+            return False
         waited = self.navigator.waiting_s(self.sim_s) > self.config.reapproach_after_s
         if task.approach is not None and (status is NavStatus.FAILED or waited):
             task.tries += 1

@@ -113,6 +113,7 @@ class _Goal:
     planned_s: float = -math.inf
     map_version: int = -1
     no_path_since_s: float | None = None
+    blocked: bool = False  # the last plan failed because the goal itself is occupied (by fresh laser marks)
     recoveries: int = 0
     backup_until_s: float = -math.inf
     hold_until_s: float = -math.inf  # standing still while another robot steps aside
@@ -195,6 +196,11 @@ class Navigator:
         """How long the robot has been without a path to its goal (0 when it has one)."""
         since = self.goal.no_path_since_s if self.goal is not None and self._resume is None else None
         return 0.0 if since is None else sim_s - since
+
+    @property
+    def goal_blocked(self) -> bool:
+        """Whether the goal cell itself is occupied in the latest planning grid (choose another goal)."""
+        return self.goal is not None and self.goal.blocked
 
     def cancel(self) -> None:
         self.goal, self._status, self._resume = None, NavStatus.IDLE, None
@@ -344,6 +350,7 @@ class Navigator:
             cell = nearest_free_cell(grid, start, max_distance_m=1.0)
             start = grid.cell_to_world(cell) if cell is not None else start
         result = plan_path(grid, start, goal.xy, snap_goal_to_free=True, max_snap_m=0.3)
+        goal.blocked = not result.found and not grid.is_free(*goal.xy)
         if not result.found:
             if goal.no_path_since_s is None:
                 _log.info("no path to %s yet (%s): waiting", np.round(goal.xy, 2).tolist(), result.reason)

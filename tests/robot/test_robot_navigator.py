@@ -159,6 +159,22 @@ def test_unreachable_goal_waits_then_fails(site: SiteMap) -> None:
     assert navigator.step(navigator.config.max_wait_s + 1.0).status is NavStatus.FAILED
 
 
+def test_a_goal_covered_by_the_laser_is_reported_blocked_and_a_free_one_is_not(site: SiteMap) -> None:
+    start = start_of(site)
+    goal = np.array([start[0] + 6.0, start[1]])
+    box = (goal[0] - 0.3, goal[1] - 0.3, goal[0] + 0.3, goal[1] + 0.3)  # something now stands on the goal
+    surprise = from_footprints(site.geometry.bounds_xy_m, site.config.resolution_m, boxes_xy_m=[box])
+    truth = site.laser_grid().with_occupied(site.laser_grid().occupied | surprise.occupied)
+    for world_grid, blocked in ((truth, True), (site.laser_grid(), False)):
+        navigator = Navigator(site, start)
+        navigator.set_goal(goal, None, 0.0)
+        world = World(world_grid, start)
+        world.sense(navigator)
+        navigator.step(0.0)
+        assert navigator.goal_blocked is blocked
+        assert (navigator.status is NavStatus.WAITING) is blocked
+
+
 def test_the_robot_with_the_greater_id_steps_aside_and_the_other_holds(site: SiteMap) -> None:
     start = start_of(site)
     goal = (start[0] + 8.0, start[1])
