@@ -36,11 +36,13 @@ from shared.sequence import SequenceError, read_sequence
 _log = logging.getLogger(__name__)
 
 DEFAULT_TIMEOUT_S = 900.0
-# A run is a rehearsal at full speed: 120 Hz physics and a 5 Hz control loop (DWA, localisation, lock-step
-# handshake) build the bundled frame within tolerance in about half the wall time of the physics
-# service's own defaults (240 Hz, 10 Hz), measured with bench/build.py. Both are options.
+# A run is a rehearsal at full speed: 120 Hz physics, a 5 Hz control loop (DWA, localisation, lock-step
+# handshake) and a 180-beam laser (2°: a 0.2 m column at 5 m still takes a beam) build the bundled frame
+# within tolerance in about half the wall time of the physics service's own defaults (240 Hz, 10 Hz, 360
+# beams), measured with bench/build.py. All three are options.
 FAST_PHYSICS_HZ = 120.0
 FAST_CONTROL_PERIOD_S = 0.2
+FAST_LASER_BEAMS = 180
 ROBOT_START_TIMEOUT_S = 120.0  # physics holds its clock at 0 until the robots are up (at most this)
 OBSERVER_CLOSE_TIMEOUT_S = 120.0  # closing and compacting the recording after the build
 _VIEWER_LINE = re.compile(r"web viewer: (http\S+)")
@@ -68,7 +70,8 @@ class RunOptions:
     timeout_s: float = DEFAULT_TIMEOUT_S
     physics_hz: float = FAST_PHYSICS_HZ
     control_period_s: float = FAST_CONTROL_PERIOD_S
-    physics_extra: tuple[str, ...] = ()  # more physics arguments (benches: --laser-beams …)
+    laser_beams: int = FAST_LASER_BEAMS
+    physics_extra: tuple[str, ...] = ()  # more physics arguments (benches, experiments)
     report_dir: Path | None = None  # default BUILD/report
 
 
@@ -103,6 +106,8 @@ def service_commands(build: Path, endpoint: str, options: RunOptions) -> list[tu
         repr(options.physics_hz),
         "--control-period-s",
         repr(options.control_period_s),
+        "--laser-beams",
+        str(options.laser_beams),
     ]
     if options.lock_step:
         physics.append("--lock-step")
@@ -286,6 +291,9 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"sim seconds per clock step, the robots' control period ({FAST_CONTROL_PERIOD_S:g})",
     )
     parser.add_argument(
+        "--laser-beams", type=int, default=FAST_LASER_BEAMS, help=f"beams per laser scan ({FAST_LASER_BEAMS})"
+    )
+    parser.add_argument(
         "--inject-placement-error-m",
         type=float,
         default=0.0,
@@ -314,8 +322,8 @@ def run_options(
     """RunOptions from the shared arguments (a UserError for impossible values)."""
     if args.robots < 1:
         raise UserError("--robots must be at least 1")
-    if args.physics_hz <= 0 or args.control_period_s <= 0:
-        raise UserError("--physics-hz and --control-period-s must be positive")
+    if args.physics_hz <= 0 or args.control_period_s <= 0 or args.laser_beams < 1:
+        raise UserError("--physics-hz, --control-period-s and --laser-beams must be positive")
     planner_source: tuple[str, ...] = ()
     if args.derive:
         planner_source = ("--derive",)
@@ -340,6 +348,7 @@ def run_options(
         timeout_s=args.timeout_s,
         physics_hz=args.physics_hz,
         control_period_s=args.control_period_s,
+        laser_beams=args.laser_beams,
         report_dir=report_dir,
     )
 
