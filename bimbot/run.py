@@ -29,9 +29,9 @@ from bimbot.supervisor import ServiceProcess, free_port, wait_until
 from services.observer.report_png import write_report_files
 from shared.bus import BusOptions, open_session
 from shared.errors import UserError
-from shared.manifest import Manifest, read_manifest
+from shared.manifest import Manifest, load_manifest
 from shared.messages import ComponentState
-from shared.sequence import SequenceError, read_sequence
+from shared.sequence import planned_guids
 
 _log = logging.getLogger(__name__)
 
@@ -145,7 +145,7 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
 
     Writes the report (``report.json``, ``report.png``) whatever the outcome. ``announce`` gets the lines
     a user must see while it runs (the viewer's URL)."""
-    manifest = read_manifest(build)
+    manifest = load_manifest(build)
     log_dir = build / "logs"
     if log_dir.exists():
         shutil.rmtree(log_dir)
@@ -157,7 +157,7 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
     services: list[ServiceProcess] = []
     try:
         with open_session(BusOptions(connect=(endpoint,))) as session:
-            monitor = RunMonitor(manifest, session, _sequence_guids(build))
+            monitor = RunMonitor(manifest, session, planned_guids(build))
             for name, args in service_commands(build, endpoint, options):
                 services.append(ServiceProcess(name, args, log_dir))
             by_name = {service.name: service for service in services}
@@ -199,14 +199,6 @@ def _outcome(manifest: Manifest, monitor: RunMonitor, planner_code: int | None, 
         sim_time_s=monitor.sim_time_s,
         wall_time_s=wall_s,
     )
-
-
-def _sequence_guids(build: Path) -> list[str]:
-    try:
-        return read_sequence(build / "sequence.xml").guids()
-    except SequenceError as error:
-        _log.warning("no planned sequence for the report (%s)", error)
-        return []
 
 
 def _announce_viewer(
@@ -354,12 +346,7 @@ def run_options(
 
 
 def run(args: argparse.Namespace) -> int:
-    options = run_options(args)
-    try:
-        outcome = run_build(args.build, options, announce=say)
-    except (FileNotFoundError, ValueError) as error:
-        raise UserError(f"{args.build}: not a converted build ({error})") from None
-    return finish(outcome)
+    return finish(run_build(args.build, run_options(args), announce=say))
 
 
 def say(line: str) -> None:

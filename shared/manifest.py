@@ -16,7 +16,9 @@ import json
 from enum import StrEnum
 from pathlib import Path
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from shared.errors import UserError
 
 MANIFEST_SCHEMA_VERSION = 1
 MANIFEST_FILE_NAME = "manifest.json"
@@ -179,3 +181,23 @@ def read_manifest(build_dir: Path) -> Manifest:
             f"{path}: manifest schema_version {version!r}, this bimbot reads {MANIFEST_SCHEMA_VERSION}"
         )
     return Manifest.model_validate(data)
+
+
+def load_manifest(build: Path) -> Manifest:
+    """:func:`read_manifest` for a command: a missing or broken manifest is one clear :class:`UserError`
+    line naming the file (what every service and ``bimbot run`` report), never a traceback."""
+    build = Path(build)
+    path = build / MANIFEST_FILE_NAME if build.is_dir() else build
+    if not path.is_file():
+        raise UserError(f"{path}: no manifest (convert a model first: bimbot convert MODEL.ifc -o OUT/)")
+    try:
+        return read_manifest(path)
+    except json.JSONDecodeError as error:
+        raise UserError(f"{path}: not a JSON manifest ({error.msg} at line {error.lineno})") from None
+    except ValidationError as error:
+        first = error.errors()[0]
+        where = ".".join(str(part) for part in first.get("loc", ())) or "manifest"
+        raise UserError(f"{path}: invalid manifest ({where}: {first.get('msg', 'invalid')})") from None
+    except (ValueError, OSError) as error:
+        first_line = str(error).splitlines()[0] if str(error) else type(error).__name__
+        raise UserError(f"{path}: unreadable manifest ({first_line})") from None

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import graphlib
 import heapq
+import logging
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
@@ -28,6 +29,8 @@ from pydantic import BaseModel, ConfigDict
 
 SEQUENCE_SCHEMA_VERSION = 1
 SEQUENCE_FILE_NAME = "sequence.xml"
+
+_log = logging.getLogger(__name__)
 
 
 class SequenceError(ValueError):
@@ -135,6 +138,16 @@ def read_sequence(path: Path) -> ConstructionSequence:
     if not path.is_file():
         raise SequenceError(f"{path}: no such sequence file")
     return sequence_from_xml(path.read_bytes(), origin=str(path))
+
+
+def planned_guids(build_dir: Path, path: Path | None = None) -> list[str]:
+    """The GUIDs in the planned order (``path``, else the build's ``sequence.xml``), for reports; an empty
+    list with a warning when there is none."""
+    try:
+        return read_sequence(path or Path(build_dir) / SEQUENCE_FILE_NAME).guids()
+    except SequenceError as error:
+        _log.warning("no planned sequence for the report (%s)", error)
+        return []
 
 
 def write_sequence(sequence: ConstructionSequence, path: Path) -> Path:

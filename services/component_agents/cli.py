@@ -8,18 +8,15 @@ survives restarts through the shard's journal (``OUT/state/agents-<i>of<n>.jsonl
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import math
 import signal
 import threading
 from pathlib import Path
 
-from pydantic import ValidationError
-
 from shared.bus import add_bus_arguments, bus_options
 from shared.errors import UserError
-from shared.manifest import MANIFEST_FILE_NAME, Manifest, read_manifest
+from shared.manifest import load_manifest
 
 from . import app
 from .agent import AgentConfig
@@ -67,23 +64,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--fresh", action="store_true", help="clear this shard's journal and start every agent anew"
     )
     add_bus_arguments(parser)
-
-
-def load_manifest(build_dir: Path) -> Manifest:
-    """The build's manifest, or a one-line UserError."""
-    path = build_dir / MANIFEST_FILE_NAME if build_dir.is_dir() else build_dir
-    if not path.is_file():
-        raise UserError(f"{path}: no manifest (convert a model first: bimbot convert MODEL.ifc -o OUT/)")
-    try:
-        return read_manifest(path)
-    except json.JSONDecodeError as error:
-        raise UserError(f"{path}: not a JSON manifest ({error.msg} at line {error.lineno})") from error
-    except ValidationError as error:
-        first = error.errors()[0]
-        where = ".".join(str(part) for part in first.get("loc", ())) or "manifest"
-        raise UserError(f"{path}: invalid manifest ({where}: {first.get('msg', 'invalid')})") from error
-    except (ValueError, OSError) as error:
-        raise UserError(f"{path}: unreadable manifest ({str(error).splitlines()[0]})") from error
 
 
 def agent_config(args: argparse.Namespace) -> AgentConfig:

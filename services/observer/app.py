@@ -67,7 +67,7 @@ from shared.messages import (
     key,
     site_root,
 )
-from shared.sequence import SequenceError, read_sequence
+from shared.sequence import planned_guids
 from shared.site_layout import plan_site
 
 from .blueprint import observer_blueprint, series_items, site_items
@@ -217,7 +217,7 @@ class Observer:
         self.config = config
         self.recording = recording
         self.twin = TwinLog(manifest, plan_site(manifest.components), config.twin)
-        self.collector = ReportCollector(manifest, _sequence_guids(build_dir, config.sequence_path))
+        self.collector = ReportCollector(manifest, planned_guids(build_dir, config.sequence_path))
         self.invalid = InvalidPayloads()
         self.sim_time_s = 0.0
         self.done_at: float | None = None  # monotonic wall time the planner first said done
@@ -297,15 +297,6 @@ class Observer:
             self.recording.set_time(TIMELINE, duration=at_s)
         for item in items:
             self.recording.log(item.entity_path, item.archetype, static=item.static)
-
-
-def _sequence_guids(build_dir: Path, path: Path | None) -> list[str]:
-    path = path or (build_dir / "sequence.xml")
-    try:
-        return read_sequence(path).guids()
-    except SequenceError as error:
-        _log.warning("no planned sequence for the report (%s)", error)
-        return []
 
 
 def open_recording(site: str, config: ObserverConfig) -> tuple[rr.RecordingStream, str | None]:

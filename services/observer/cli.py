@@ -17,7 +17,7 @@ from pathlib import Path
 
 from shared.bus import add_bus_arguments, bus_options
 from shared.errors import UserError
-from shared.manifest import MANIFEST_FILE_NAME, Manifest, read_manifest
+from shared.manifest import load_manifest
 
 _log = logging.getLogger(__name__)
 
@@ -78,18 +78,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"sim seconds between logged poses of a moving body (default {defaults.pose_min_interval_s:g})",
     )
     add_bus_arguments(parser)
-
-
-def load_manifest(build: Path) -> Manifest:
-    """The build's manifest, or a one-line UserError."""
-    path = build / MANIFEST_FILE_NAME if build.is_dir() else build
-    if not path.is_file():
-        raise UserError(f"{path}: no manifest (convert a model first: bimbot convert MODEL.ifc -o OUT/)")
-    try:
-        return read_manifest(path)
-    except (ValueError, OSError) as error:  # JSON and validation errors are ValueErrors
-        first_line = str(error).splitlines()[0] if str(error) else type(error).__name__
-        raise UserError(f"{path}: unreadable manifest ({first_line})") from error
 
 
 def run(args: argparse.Namespace) -> int:

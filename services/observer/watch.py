@@ -182,7 +182,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .cli import load_manifest
+    from shared.manifest import load_manifest
 
     try:
         options = bus_options(args)

@@ -9,18 +9,15 @@ then closes its Zenoh session and exits 0.
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import math
 import signal
 import threading
 from pathlib import Path
 
-from pydantic import ValidationError
-
 from shared.bus import add_bus_arguments, bus_options
 from shared.errors import UserError
-from shared.manifest import MANIFEST_FILE_NAME, Manifest, read_manifest
+from shared.manifest import load_manifest
 
 from .handling import HandlingConfig
 from .robots import RobotConfig
@@ -108,22 +105,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--gui", action="store_true", help="open pybullet's GUI instead of running headless")
     add_bus_arguments(parser)
-
-
-def load_manifest(build_dir: Path) -> Manifest:
-    path = build_dir / MANIFEST_FILE_NAME if build_dir.is_dir() else build_dir
-    if not path.is_file():
-        raise UserError(f"{path}: no manifest (convert a model first: bimbot convert MODEL.ifc -o OUT/)")
-    try:
-        return read_manifest(path)
-    except json.JSONDecodeError as error:
-        raise UserError(f"{path}: not a JSON manifest ({error.msg} at line {error.lineno})") from error
-    except ValidationError as error:
-        first = error.errors()[0]
-        where = ".".join(str(part) for part in first.get("loc", ())) or "manifest"
-        raise UserError(f"{path}: invalid manifest ({where}: {first.get('msg', 'invalid')})") from error
-    except (ValueError, OSError) as error:
-        raise UserError(f"{path}: unreadable manifest ({str(error).splitlines()[0]})") from error
 
 
 def sim_config(args: argparse.Namespace) -> SimConfig:

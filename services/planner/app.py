@@ -29,12 +29,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import zenoh
-from pydantic import ValidationError
 
 from shared.bus import Inbox, Received, decode, encode
-from shared.errors import UserError
 from shared.identifiers import guid_to_key
-from shared.manifest import MANIFEST_FILE_NAME, Manifest, read_manifest
+from shared.manifest import Manifest, load_manifest
 from shared.messages import (
     ALIVE_KEY,
     CLOCK_KEY,
@@ -72,23 +70,6 @@ class PlannerOptions:
     poll_s: float = 0.05  # longest wait for bus input per loop turn
 
 
-def load_build(build_dir: Path) -> Manifest:
-    """The build's manifest, or a one-line :class:`UserError`."""
-    build_dir = Path(build_dir)
-    if not (build_dir / MANIFEST_FILE_NAME).is_file():
-        raise UserError(f"{build_dir}: not a converted build (no {MANIFEST_FILE_NAME}; run bimbot convert)")
-    try:
-        return read_manifest(build_dir)
-    except ValidationError as error:
-        first = error.errors()[0]
-        where = ".".join(str(part) for part in first.get("loc", ()))
-        raise UserError(
-            f"{build_dir / MANIFEST_FILE_NAME}: invalid manifest ({where}: {first['msg']})"
-        ) from None
-    except (OSError, ValueError) as error:
-        raise UserError(f"{build_dir / MANIFEST_FILE_NAME}: unreadable manifest ({error})") from None
-
-
 def outgoing_key(site: str, message: Outgoing | ProgressMsg) -> str:
     """Where a planner message is published."""
     if isinstance(message, ComponentEventMsg):
@@ -106,7 +87,7 @@ def main(
     stop: threading.Event,
 ) -> int:
     """Run the planner on the bus until done (``exit_when_done``) or ``stop``; the exit code."""
-    manifest = load_build(build_dir)
+    manifest = load_manifest(build_dir)
     plan = load_plan(manifest, Path(build_dir), source)
     core = PlannerCore(manifest, plan, resend_s=options.resend_s)
     site = manifest.site

@@ -31,12 +31,10 @@ from pathlib import Path
 
 import numpy as np
 import zenoh
-from pydantic import ValidationError
 
 from shared.bus import Inbox, Received, decode, encode
-from shared.errors import UserError
 from shared.identifiers import guid_to_key
-from shared.manifest import MANIFEST_FILE_NAME, Manifest, read_manifest
+from shared.manifest import load_manifest
 from shared.messages import (
     ALIVE_KEY,
     CLOCK_KEY,
@@ -93,17 +91,6 @@ class RobotOptions:
     metric_log_s: float = 30.0  # wall seconds between progress lines (tasks, distance, separation)
 
 
-def load_build(build_dir: Path) -> Manifest:
-    """The build's manifest, or a one-line :class:`UserError`."""
-    path = Path(build_dir) / MANIFEST_FILE_NAME
-    if not path.is_file():
-        raise UserError(f"{build_dir}: not a converted build (no {MANIFEST_FILE_NAME}; run bimbot convert)")
-    try:
-        return read_manifest(Path(build_dir))
-    except (ValidationError, OSError, ValueError) as error:
-        raise UserError(f"{path}: unreadable manifest ({str(error).splitlines()[0]})") from None
-
-
 def main(
     options: RobotOptions,
     build_dir: Path,
@@ -112,7 +99,7 @@ def main(
     stop: threading.Event,
 ) -> int:
     """Run one robot on the bus until ``stop``; 0 on a clean stop, 2 when physics never answered."""
-    manifest = load_build(build_dir)
+    manifest = load_manifest(build_dir)
     site, robot_id = manifest.site, executor_config.robot_id
     inbox = Inbox()
     with zenoh.open(config) as session:
