@@ -27,7 +27,6 @@ import os
 import queue
 import random
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -40,6 +39,7 @@ from pathlib import Path
 import ifcopenshell.guid
 import zenoh
 
+from bimbot.supervisor import free_port
 from shared.bus import BusOptions, encode, open_session
 from shared.identifiers import guid_to_folder, guid_to_key
 from shared.manifest import (
@@ -70,12 +70,6 @@ P99_TARGET_S = 0.020
 SITE = "bench-site"
 PING_KEY = "bimbot/bench/ping"
 PONG_KEY = "bimbot/bench/pong"
-
-
-def free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return sock.getsockname()[1]
 
 
 def beam(guid: str, x_m: float, y_m: float) -> Component:

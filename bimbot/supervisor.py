@@ -13,7 +13,8 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 _log = logging.getLogger(__name__)
@@ -73,6 +74,17 @@ class ServiceProcess:
         if not self._log.closed:
             self._log.close()
         return self.process.returncode
+
+
+@contextmanager
+def running(name: str, args: Sequence[str], log_dir: Path) -> Iterator[subprocess.Popen[bytes]]:
+    """``bimbot <args>`` for the length of a ``with`` block (tests): its Popen, logging to
+    ``<log_dir>/<name>.log``; stopped at the end (TERM, then KILL) if still running."""
+    service = ServiceProcess(name, args, log_dir)
+    try:
+        yield service.process
+    finally:
+        service.stop()
 
 
 def wait_until(condition: Callable[[], bool], timeout_s: float, interval_s: float = 0.05) -> bool:

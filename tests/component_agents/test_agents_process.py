@@ -7,18 +7,15 @@ import queue
 import random
 import re
 import signal
-import socket
-import subprocess
-import sys
 import time
 import uuid
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
 import zenoh
 
+from bimbot.supervisor import free_port, running
 from shared.bus import BusOptions, encode, open_session
 from shared.manifest import Component, read_manifest
 from shared.messages import (
@@ -45,26 +42,6 @@ S = ComponentState
 E = ComponentEvent
 N_COMPONENTS = 28
 GARBAGE = 1_000
-
-
-def free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return sock.getsockname()[1]
-
-
-@contextmanager
-def process(args: list[str], log: Path) -> Iterator[subprocess.Popen[bytes]]:
-    with log.open("wb") as out:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "bimbot.cli", *args], stdout=out, stderr=subprocess.STDOUT
-        )
-        try:
-            yield proc
-        finally:
-            if proc.poll() is None:
-                proc.kill()
-                proc.wait(10)
 
 
 class Observer:
@@ -192,8 +169,8 @@ def test_agents_process_on_a_real_bus(agents_build: Path, tmp_path: Path) -> Non
     subject, other = manifest.components[5], manifest.components[9]
 
     with (
-        process(["bus", "--listen", endpoint], tmp_path / "bus.log"),
-        process(agents_args, tmp_path / "agents.log") as agents,
+        running("bus", ["bus", "--listen", endpoint], tmp_path),
+        running("agents", agents_args, tmp_path) as agents,
         open_session(BusOptions(connect=(endpoint,))) as session,
     ):
         bus = Observer(session, site)
@@ -246,7 +223,7 @@ def test_agents_process_on_a_real_bus(agents_build: Path, tmp_path: Path) -> Non
 
         # Restart: every agent resumes its last state from the journal; nothing is constructed twice.
         bus.states.clear()
-        with process(agents_args, tmp_path / "agents-restart.log"):
+        with running("agents-restart", agents_args, tmp_path):
             bus.wait_for(lambda: len(bus.alive) == N_COMPONENTS, 30.0, "28 tokens after the restart")
             bus.wait_for(
                 lambda: bus.seen(subject.guid, S.CONSTRUCTED, "resume"), 5.0, "the resume announcement"

@@ -8,17 +8,13 @@ import queue
 import re
 import shutil
 import signal
-import socket
-import subprocess
-import sys
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
 import zenoh
 
+from bimbot.supervisor import free_port, running
 from shared.bus import BusOptions, encode, open_session
 from shared.manifest import read_manifest
 from shared.messages import (
@@ -45,26 +41,6 @@ from shared.messages import (
 pytestmark = pytest.mark.integration
 
 GARBAGE = 200
-
-
-def _free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
-
-
-@contextmanager
-def _process(args: list[str], log: Path) -> Iterator[subprocess.Popen[bytes]]:
-    with log.open("wb") as out:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "bimbot.cli", *args], stdout=out, stderr=subprocess.STDOUT
-        )
-        try:
-            yield proc
-        finally:
-            if proc.poll() is None:
-                proc.kill()
-                proc.wait(10)
 
 
 class _Listener:
@@ -114,12 +90,12 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
     shutil.copytree(bundled_build, build)
     manifest = read_manifest(build)
     site = manifest.site
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
     physics_args = ["physics", "--build", str(build), "--robots", "1", "--connect", endpoint]
     physics_args += ["--listen", "tcp/127.0.0.1:0", "--lock-step", "--rtf", "0", "--odom-noise", "0"]
     with (
-        _process(["bus", "--listen", endpoint], tmp_path / "bus.log") as bus,
-        _process(physics_args, tmp_path / "physics.log") as physics,
+        running("bus", ["bus", "--listen", endpoint], tmp_path) as bus,
+        running("physics", physics_args, tmp_path) as physics,
         open_session(BusOptions(connect=(endpoint,), listen=())) as session,
     ):
         deadline = time.monotonic() + 60.0
@@ -206,12 +182,12 @@ def test_physics_holds_its_clock_at_zero_until_the_robots_are_alive(
     build = tmp_path / "build"
     shutil.copytree(bundled_build, build)
     site = read_manifest(build).site
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
     physics_args = ["physics", "--build", str(build), "--robots", "1", "--connect", endpoint, "--rtf", "0"]
     physics_args += ["--listen", "tcp/127.0.0.1:0", "--lock-step", "--wait-for-robots-s", "60"]
     with (
-        _process(["bus", "--listen", endpoint], tmp_path / "bus.log"),
-        _process(physics_args, tmp_path / "physics.log") as physics,
+        running("bus", ["bus", "--listen", endpoint], tmp_path),
+        running("physics", physics_args, tmp_path) as physics,
         open_session(BusOptions(connect=(endpoint,), listen=())) as session,
     ):
         listener = _Listener(session, {"clock": key(CLOCK_KEY, site=site)})

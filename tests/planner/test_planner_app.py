@@ -6,7 +6,6 @@ Small smoke test: the full multi-process run with real agents and robots lives i
 from __future__ import annotations
 
 import queue
-import socket
 import threading
 import time
 from pathlib import Path
@@ -16,6 +15,7 @@ from planner_builders import portal_manifest, robot_msg, state_msg
 
 from bimbot.cli import build_parser
 from bimbot.cli import main as bimbot_main
+from bimbot.supervisor import free_port
 from services.planner.app import PlannerOptions, main
 from services.planner.cli import plan_source
 from services.planner.sources import PlanSource, SourceKind
@@ -42,12 +42,6 @@ from shared.support_graph import derive_sequence
 SITE = "test-site"
 
 
-def _free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
 @pytest.fixture
 def portal_build(tmp_path: Path) -> Path:
     manifest = portal_manifest()
@@ -57,7 +51,7 @@ def portal_build(tmp_path: Path) -> Path:
 
 
 def test_planner_builds_the_portal_over_the_bus_and_exits_0(portal_build: Path) -> None:
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
     planner_config = zenoh_config(BusOptions(mode="peer", connect=(), listen=(endpoint,)))
     options = PlannerOptions(exit_when_done=True, agents_timeout_s=10.0, resend_s=0.5, twin_timeout_s=0.5)
     stop = threading.Event()
