@@ -257,7 +257,7 @@ class Observer:
             sim_time_s = max(sim_time_s, self._state_time_s.get(message.guid, 0.0))
             self._state_time_s[message.guid] = sim_time_s
         self.collector.add(message)
-        self._log_items(self._items(message), at_s=sim_time_s)
+        self._log_items(self.twin.items(message), at_s=sim_time_s)
         if isinstance(message, ProgressMsg) and message.done and self.done_at is None:
             self.done_at = time.monotonic()
             _log.info(
@@ -276,21 +276,6 @@ class Observer:
         if self.collector.messages != self.reported_at_messages:
             write_reports(self.collector, self.config.report_dir)
             self.reported_at_messages = self.collector.messages
-
-    def _items(self, message: BaseModel) -> list[LogItem]:
-        twin = self.twin
-        handlers = {
-            ComponentStateMsg: twin.component_state,
-            ComponentPoseMsg: twin.component_pose,
-            RobotStateMsg: twin.robot_state,
-            RobotPoseMsg: twin.robot_pose,
-            ScanMsg: twin.scan,
-            PlanMsg: twin.plan,
-            TaskMsg: twin.task,
-            ProgressMsg: twin.progress,
-        }
-        handler = handlers.get(type(message))
-        return handler(message) if handler else []  # type: ignore[operator]
 
     def _log_items(self, items: list[LogItem], at_s: float | None = None) -> None:
         if at_s is not None and any(not item.static for item in items):

@@ -33,8 +33,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import Any
 
 import rerun as rr
+from pydantic import BaseModel
 
 from shared.manifest import Component, Manifest
 from shared.messages import (
@@ -181,6 +183,21 @@ class TwinLog:
         self._ground_truth: set[str] = set()  # robots seen on robots/<id>/pose
         self._last_plan: dict[str, tuple[tuple[float, float], ...]] = {}
         self._last_counts: tuple[int, ...] = ()
+        self._handlers: dict[type[BaseModel], Callable[[Any], list[LogItem]]] = {
+            ComponentStateMsg: self.component_state,
+            ComponentPoseMsg: self.component_pose,
+            RobotStateMsg: self.robot_state,
+            RobotPoseMsg: self.robot_pose,
+            ScanMsg: self.scan,
+            PlanMsg: self.plan,
+            TaskMsg: self.task,
+            ProgressMsg: self.progress,
+        }
+
+    def items(self, message: BaseModel) -> list[LogItem]:
+        """The log items of any bus message (none for the kinds the twin does not draw)."""
+        handler = self._handlers.get(type(message))
+        return handler(message) if handler is not None else []
 
     # --- the start of a run ---
 

@@ -229,22 +229,7 @@ def test_plans_tasks_and_progress_are_drawn_and_repeats_skipped(twin: TwinLog) -
 def test_the_synthetic_run_never_sends_a_mesh_again(
     twin: TwinLog, run_messages: list[tuple[str, BaseModel]]
 ) -> None:
-    handlers = {
-        ComponentStateMsg: twin.component_state,
-        ComponentPoseMsg: twin.component_pose,
-        RobotStateMsg: twin.robot_state,
-        RobotPoseMsg: twin.robot_pose,
-        ScanMsg: twin.scan,
-        PlanMsg: twin.plan,
-        TaskMsg: twin.task,
-        ProgressMsg: twin.progress,
-    }
-    items = [
-        item
-        for _, message in run_messages
-        if type(message) in handlers
-        for item in handlers[type(message)](message)
-    ]
+    items = [item for _, message in run_messages for item in twin.items(message)]
     assert items
     assert not any(
         isinstance(item.archetype, rr.Asset3D) and item.archetype.blob is not None for item in items
