@@ -39,10 +39,9 @@ from pathlib import Path
 import ifcopenshell.guid
 import zenoh
 
-from bimbot.supervisor import free_port
-from shared.bus import BusOptions, encode, open_session
-from shared.identifiers import guid_to_folder, guid_to_key
-from shared.manifest import (
+from bimbot.shared.bus import BusOptions, encode, open_session
+from bimbot.shared.identifiers import guid_to_folder, guid_to_key
+from bimbot.shared.manifest import (
     BoundingBox,
     CollisionMethod,
     Component,
@@ -55,7 +54,7 @@ from shared.manifest import (
     SourceModel,
     write_manifest,
 )
-from shared.messages import (
+from bimbot.shared.messages import (
     ALIVE_KEY,
     COMPONENT_EVENT_KEY,
     COMPONENT_STATE_KEY,
@@ -64,6 +63,7 @@ from shared.messages import (
     ComponentStateMsg,
     key,
 )
+from bimbot.supervisor import free_port
 
 ALIVE_TARGET_S = 30.0
 P99_TARGET_S = 0.020

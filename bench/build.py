@@ -25,8 +25,8 @@ sys.path.insert(0, str(ROOT))
 
 from bimbot.demo import bundled_model_path  # noqa: E402
 from bimbot.run import FAST_PHYSICS_HZ, ObserverOptions, RunOptions, RunOutcome, run_build  # noqa: E402
-from services.converter.convert import convert_model  # noqa: E402
-from services.converter.ifc_input import open_model  # noqa: E402
+from bimbot.services.converter.convert import convert_model  # noqa: E402
+from bimbot.services.converter.ifc_input import open_model  # noqa: E402
 
 WALL_TARGET_S = 60.0
 

@@ -45,7 +45,7 @@ import trimesh
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from services.converter.collision import (
+from bimbot.services.converter.collision import (
     collision_from_mesh,
     collision_from_representation,
     vhacd_parts,

@@ -28,19 +28,19 @@ import ifcopenshell.geom
 import ifcopenshell.util.shape
 
 from bimbot.demo import bundled_model_path
-from services.converter.convert import ConversionStats, convert_model
-from services.converter.ifc_input import open_model
-from services.converter.sample_light_steel_frame import build_light_steel_frame
-from services.converter.selection import select_elements
-from services.converter.tessellation import default_threads, geometry_settings
+from bimbot.services.converter.convert import ConversionStats, convert_model
+from bimbot.services.converter.ifc_input import open_model
+from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame
+from bimbot.services.converter.selection import select_elements
+from bimbot.services.converter.tessellation import default_threads, geometry_settings
 
 SAMPLES = Path(__file__).resolve().parents[2] / "shared" / "samples" / "ifc"
 TARGET_RATIO = 1.3
 BARE_SCRIPT = """
 import sys, ifcopenshell, ifcopenshell.geom, ifcopenshell.util.shape
 sys.path.insert(0, {root!r})
-from services.converter.selection import select_elements
-from services.converter.tessellation import default_threads, geometry_settings
+from bimbot.services.converter.selection import select_elements
+from bimbot.services.converter.tessellation import default_threads, geometry_settings
 model = ifcopenshell.open({path!r})
 elements = list(select_elements(model).elements)
 iterator = ifcopenshell.geom.iterator(geometry_settings(), model, default_threads(), include=elements)

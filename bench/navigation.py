@@ -15,10 +15,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from services.robot.astar import plan_path, simplify_path
-from services.robot.dwa import DwaConfig, RobotState, dwa_step
-from services.robot.occupancy_grid import OccupancyGrid, from_footprints
-from services.robot.particle_filter import (
+from bimbot.services.robot.astar import plan_path, simplify_path
+from bimbot.services.robot.dwa import DwaConfig, RobotState, dwa_step
+from bimbot.services.robot.occupancy_grid import OccupancyGrid, from_footprints
+from bimbot.services.robot.particle_filter import (
     LikelihoodFieldConfig,
     ParticleFilterConfig,
     build_likelihood_field,

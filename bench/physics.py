@@ -24,17 +24,17 @@ import tempfile
 import time
 from pathlib import Path
 
-from services.physics.client import p
-from services.physics.simulation import SimConfig, Simulation
-from shared.bus import BusOptions, encode, open_session
-from shared.manifest import read_manifest
-from shared.messages import AttachRequest, CmdVelMsg
+from bimbot.services.physics.client import p
+from bimbot.services.physics.simulation import SimConfig, Simulation
+from bimbot.shared.bus import BusOptions, encode, open_session
+from bimbot.shared.manifest import read_manifest
+from bimbot.shared.messages import AttachRequest, CmdVelMsg
 
 
 def bundled_build(out: Path) -> Path:
     from bimbot.demo import bundled_model_path
-    from services.converter.convert import convert_model
-    from services.converter.ifc_input import open_model
+    from bimbot.services.converter.convert import convert_model
+    from bimbot.services.converter.ifc_input import open_model
 
     source = bundled_model_path()
     convert_model(open_model(source), source, out)

@@ -1,8 +1,8 @@
 """The ``bimbot`` console script: one sub-command per service, each a thin adapter living beside its service.
 
 Every sub-command module exposes ``add_arguments(parser)`` and ``run(args) -> int``; only the chosen one is
-imported, so ``bimbot --help`` stays fast. A :class:`shared.errors.UserError` ends in one clear line and
-exit code 2, never a traceback.
+imported, so ``bimbot --help`` stays fast. A :class:`bimbot.shared.errors.UserError` ends in one clear
+line and exit code 2, never a traceback.
 """
 
 from __future__ import annotations
@@ -13,33 +13,36 @@ import logging
 import sys
 
 from bimbot import __version__
-from shared.errors import UserError
+from bimbot.shared.errors import UserError
 
 # sub-command → (module with add_arguments/run, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "sample": (
-        "services.converter.sample_cli",
+        "bimbot.services.converter.sample_cli",
         "write a generated sample IFC model (the bundled light steel frame)",
     ),
-    "convert": ("services.converter.cli", "convert an IFC model into an SDF robot world (OUT/ folder)"),
+    "convert": (
+        "bimbot.services.converter.cli",
+        "convert an IFC model into an SDF robot world (OUT/ folder)",
+    ),
     "demo": ("bimbot.demo", "run the demo on the bundled light steel frame (writes out/demo/)"),
-    "bus": ("services.bus_router", "run the site's Zenoh router (every service connects to it)"),
-    "agents": ("services.component_agents.cli", "run the smart-component agents of a converted build"),
+    "bus": ("bimbot.services.bus_router", "run the site's Zenoh router (every service connects to it)"),
+    "agents": ("bimbot.services.component_agents.cli", "run the smart-component agents of a converted build"),
     "planner": (
-        "services.planner.cli",
+        "bimbot.services.planner.cli",
         "release construction tasks in sequence order and assign them to robots",
     ),
     "physics": (
-        "services.physics.cli",
+        "bimbot.services.physics.cli",
         "simulate the site in PyBullet: clock, robots, sensors, attach and place",
     ),
-    "robot": ("services.robot.cli", "run one construction robot: tasks, navigation, localisation"),
+    "robot": ("bimbot.services.robot.cli", "run one construction robot: tasks, navigation, localisation"),
     "run": ("bimbot.run", "build a converted model with every service as a process on a loopback bus"),
     "observe": (
-        "services.observer.cli",
+        "bimbot.services.observer.cli",
         "log the live twin to rerun: web viewer on 127.0.0.1 and an .rrd recording",
     ),
-    "watch": ("services.observer.watch", "live table of component states in the terminal"),
+    "watch": ("bimbot.services.observer.watch", "live table of component states in the terminal"),
 }
 
 _log = logging.getLogger("bimbot")

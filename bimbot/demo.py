@@ -20,9 +20,9 @@ from importlib import resources
 from pathlib import Path
 
 from bimbot.run import add_run_arguments, finish, run_build, run_options, say
-from services.converter.convert import convert_model
-from services.converter.ifc_input import open_model
-from shared.manifest import Manifest
+from bimbot.services.converter.convert import convert_model
+from bimbot.services.converter.ifc_input import open_model
+from bimbot.shared.manifest import Manifest
 
 DEFAULT_OUT = Path("out/demo")
 

@@ -25,13 +25,13 @@ from pathlib import Path
 from typing import Any
 
 from bimbot.run_monitor import RunMonitor
+from bimbot.services.observer.report_png import write_report_files
+from bimbot.shared.bus import BusOptions, open_session
+from bimbot.shared.errors import UserError
+from bimbot.shared.manifest import Manifest, load_manifest
+from bimbot.shared.messages import ComponentState
+from bimbot.shared.sequence import planned_guids
 from bimbot.supervisor import ServiceProcess, free_port, wait_until
-from services.observer.report_png import write_report_files
-from shared.bus import BusOptions, open_session
-from shared.errors import UserError
-from shared.manifest import Manifest, load_manifest
-from shared.messages import ComponentState
-from shared.sequence import planned_guids
 
 _log = logging.getLogger(__name__)
 

@@ -1,10 +1,10 @@
 """What ``bimbot run`` hears of a build: component states, robots, progress and the clock, as a report.
 
-The subscriber callbacks only enqueue (:class:`shared.bus.Inbox`); :meth:`RunMonitor.drain`, called from the
-run's waiting loop, validates the messages and feeds them to the observer's pure
-:class:`services.observer.report.ReportCollector`, so ``report.json``/``report.png`` are written at the end
-of every run, with or without the observer (laser scans and plans are not subscribed: the report does not
-use them).
+The subscriber callbacks only enqueue (:class:`bimbot.shared.bus.Inbox`); :meth:`RunMonitor.drain`,
+called from the run's waiting loop, validates the messages and feeds them to the observer's pure
+:class:`bimbot.services.observer.report.ReportCollector`, so ``report.json``/``report.png`` are written
+at the end of every run, with or without the observer (laser scans and plans are not subscribed: the
+report does not use them).
 """
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ from collections.abc import Callable
 import zenoh
 from pydantic import BaseModel
 
-from services.observer.report import ReportCollector
-from shared.bus import Inbox, InvalidPayloads, decode
-from shared.manifest import Manifest
-from shared.messages import (
+from bimbot.services.observer.report import ReportCollector
+from bimbot.shared.bus import Inbox, InvalidPayloads, decode
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import (
     CLOCK_KEY,
     COMPONENT_STATE_KEY,
     PROGRESS_KEY,

@@ -38,7 +38,7 @@ class ServiceProcess:
         self.log_path = log_dir / f"{name}.log"
         self._log = self.log_path.open("ab")
         self.process = subprocess.Popen(
-            [sys.executable, "-m", "bimbot.cli", *args],
+            [sys.executable, "-P", "-m", "bimbot.cli", *args],
             stdout=self._log,
             stderr=subprocess.STDOUT,
             env={**os.environ, **(env or {})},

@@ -220,9 +220,9 @@ import sys
 
 import zenoh
 
-from shared.bus import BusOptions, open_session
-from shared.manifest import read_manifest
-from shared.messages import COMPONENT_TWIN_KEY, ComponentState, TwinMsg, key
+from bimbot.shared.bus import BusOptions, open_session
+from bimbot.shared.manifest import read_manifest
+from bimbot.shared.messages import COMPONENT_TWIN_KEY, ComponentState, TwinMsg, key
 
 manifest = read_manifest("/data/build")
 states = {}

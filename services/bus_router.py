@@ -12,7 +12,7 @@ import logging
 import signal
 import threading
 
-from shared.bus import DEFAULT_ENDPOINT, BusOptions, open_session
+from bimbot.shared.bus import DEFAULT_ENDPOINT, BusOptions, open_session
 
 _log = logging.getLogger(__name__)
 

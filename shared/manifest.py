@@ -18,7 +18,7 @@ from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from shared.errors import UserError
+from bimbot.shared.errors import UserError
 
 MANIFEST_SCHEMA_VERSION = 1
 MANIFEST_FILE_NAME = "manifest.json"
@@ -103,8 +103,8 @@ class ComponentFiles(_Frozen):
 
 class Component(_Frozen):
     guid: str
-    key: str = Field(description="bus key chunk for this GUID (shared.identifiers.guid_to_key)")
-    folder: str = Field(description="model folder name (shared.identifiers.guid_to_folder)")
+    key: str = Field(description="bus key chunk for this GUID (bimbot.shared.identifiers.guid_to_key)")
+    folder: str = Field(description="model folder name (bimbot.shared.identifiers.guid_to_folder)")
     ifc_class: str
     predefined_type: str | None = None
     name: str | None = None

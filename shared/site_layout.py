@@ -13,7 +13,7 @@ draws it) compute the same site from the same manifest:
 * **fence** — a rectangle around all of it (site hoarding), which also gives the robots' lasers something to
   localise against on an otherwise empty site.
 
-Frames: the simulation world frame of :mod:`shared.manifest` (metres, Z up).
+Frames: the simulation world frame of :mod:`bimbot.shared.manifest` (metres, Z up).
 """
 
 from __future__ import annotations

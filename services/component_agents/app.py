@@ -2,7 +2,7 @@
 
 Declared, in this order, so that a component seen alive can already be driven and queried:
 
-* subscribers (through :class:`shared.bus.Inbox`, which validates and only enqueues) on
+* subscribers (through :class:`bimbot.shared.bus.Inbox`, which validates and only enqueues) on
   ``bimbot/<site>/components/*/event``, ``bimbot/<site>/components/*/pose`` and ``bimbot/<site>/clock``;
   messages for components of other shards are dropped by the host;
 * one queryable on ``bimbot/<site>/components/*/twin`` whose callback only enqueues the query. The loop
@@ -35,9 +35,9 @@ from pathlib import Path
 
 import zenoh
 
-from shared.bus import BusOptions, Inbox, encode, open_session
-from shared.manifest import Manifest, read_manifest
-from shared.messages import (
+from bimbot.shared.bus import BusOptions, Inbox, encode, open_session
+from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.messages import (
     ALIVE_KEY,
     CLOCK_KEY,
     COMPONENT_EVENT_KEY,

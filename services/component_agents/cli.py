@@ -14,9 +14,9 @@ import signal
 import threading
 from pathlib import Path
 
-from shared.bus import add_bus_arguments, bus_options
-from shared.errors import UserError
-from shared.manifest import load_manifest
+from bimbot.shared.bus import add_bus_arguments, bus_options
+from bimbot.shared.errors import UserError
+from bimbot.shared.manifest import load_manifest
 
 from . import app
 from .agent import AgentConfig

@@ -17,11 +17,12 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
-from shared.manifest import Quat, Vec3
+from bimbot.shared.manifest import Quat, Vec3
 
 
 class HasPose(Protocol):
-    """Anything with ``position_m`` and ``quat_xyzw`` (shared.messages.PoseMsg, shared.manifest.Pose)."""
+    """Anything with ``position_m`` and ``quat_xyzw`` (bimbot.shared.messages.PoseMsg,
+    bimbot.shared.manifest.Pose)."""
 
     @property
     def position_m(self) -> Vec3: ...

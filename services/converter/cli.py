@@ -12,7 +12,7 @@ import sys
 import time
 from pathlib import Path
 
-from shared.errors import UserError
+from bimbot.shared.errors import UserError
 
 _log = logging.getLogger(__name__)
 

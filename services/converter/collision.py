@@ -50,9 +50,9 @@ import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 
-from services.converter.plane_split import split_into_convex_parts
-from services.converter.profiles import outline_tolerance_m, profile_polygons
-from shared.manifest import CollisionMethod
+from bimbot.services.converter.plane_split import split_into_convex_parts
+from bimbot.services.converter.profiles import outline_tolerance_m, profile_polygons
+from bimbot.shared.manifest import CollisionMethod
 
 logger = logging.getLogger(__name__)
 

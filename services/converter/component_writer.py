@@ -15,8 +15,8 @@ import ifcopenshell
 import ifcopenshell.util.element
 import numpy as np
 
-from shared.identifiers import guid_to_folder, guid_to_key, is_valid_guid
-from shared.manifest import BoundingBox, Component, ComponentFiles, Inertia, SkippedElement
+from bimbot.shared.identifiers import guid_to_folder, guid_to_key, is_valid_guid
+from bimbot.shared.manifest import BoundingBox, Component, ComponentFiles, Inertia, SkippedElement
 
 from . import mass as mass_chain
 from .collision import CollisionShape, collision_shape

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import ifcopenshell
 
-from shared.manifest import Connection
+from bimbot.shared.manifest import Connection
 
 
 def element_connections(element: ifcopenshell.entity_instance) -> list[Connection]:

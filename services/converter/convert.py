@@ -32,9 +32,9 @@ import ifcopenshell.util.unit
 import numpy as np
 
 from bimbot import __version__
-from shared.identifiers import slugify
-from shared.manifest import Component, Manifest, SourceModel, write_manifest
-from shared.sequence import SEQUENCE_FILE_NAME, write_sequence
+from bimbot.shared.identifiers import slugify
+from bimbot.shared.manifest import Component, Manifest, SourceModel, write_manifest
+from bimbot.shared.sequence import SEQUENCE_FILE_NAME, write_sequence
 
 from .component_writer import skipped_entry
 from .ifc_input import file_sha256

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import ifcopenshell
 
-from shared.errors import UserError
+from bimbot.shared.errors import UserError
 
 _log = logging.getLogger(__name__)
 

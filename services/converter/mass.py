@@ -25,7 +25,7 @@ import ifcopenshell
 import ifcopenshell.util.element
 import ifcopenshell.util.unit
 
-from shared.manifest import MassSource
+from bimbot.shared.manifest import MassSource
 
 _log = logging.getLogger(__name__)
 

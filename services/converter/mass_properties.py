@@ -18,7 +18,7 @@ import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull, QhullError
 
-from shared.manifest import InertiaSource
+from bimbot.shared.manifest import InertiaSource
 
 MIN_THICKNESS_M = 0.001
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from shared.manifest import Pose
+from bimbot.shared.manifest import Pose
 
 FAR_FROM_ORIGIN_M = 1000.0
 ORTHONORMAL_TOLERANCE = 1e-9

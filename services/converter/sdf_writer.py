@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from lxml import etree
 
-from shared.manifest import Pose
+from bimbot.shared.manifest import Pose
 
 from .placement import sdf_pose_text
 

@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import ifcopenshell
 
-from shared.ifc_schedule import schedule_from_ifc
-from shared.manifest import Component
-from shared.sequence import ConstructionSequence, SequenceError, SequenceTask, check_sequence
-from shared.support_graph import derive_sequence
+from bimbot.shared.ifc_schedule import schedule_from_ifc
+from bimbot.shared.manifest import Component
+from bimbot.shared.sequence import ConstructionSequence, SequenceError, SequenceTask, check_sequence
+from bimbot.shared.support_graph import derive_sequence
 
 
 def construction_sequence(

@@ -23,7 +23,7 @@ from pathlib import Path
 import ifcopenshell
 import numpy as np
 
-from shared.manifest import Component, SkippedElement
+from bimbot.shared.manifest import Component, SkippedElement
 
 from .component_writer import GeometryWork, geometry_work, place_element, skipped_entry, write_component
 from .sdf_writer import ModelSpec

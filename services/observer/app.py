@@ -46,10 +46,10 @@ import rerun as rr
 import zenoh
 from pydantic import BaseModel
 
-from shared.bus import BusOptions, Inbox, InvalidPayloads, decode, open_session
-from shared.errors import UserError
-from shared.manifest import Component, Manifest
-from shared.messages import (
+from bimbot.shared.bus import BusOptions, Inbox, InvalidPayloads, decode, open_session
+from bimbot.shared.errors import UserError
+from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.messages import (
     ALIVE_KEY,
     COMPONENT_TWIN_KEY,
     ClockMsg,
@@ -67,8 +67,8 @@ from shared.messages import (
     key,
     site_root,
 )
-from shared.sequence import planned_guids
-from shared.site_layout import plan_site
+from bimbot.shared.sequence import planned_guids
+from bimbot.shared.site_layout import plan_site
 
 from .blueprint import observer_blueprint, series_items, site_items
 from .report import ReportCollector, twin_messages

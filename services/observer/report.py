@@ -33,8 +33,8 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from shared.manifest import Manifest
-from shared.messages import (
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import (
     ComponentPoseMsg,
     ComponentState,
     ComponentStateMsg,

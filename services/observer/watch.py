@@ -27,10 +27,10 @@ from typing import TextIO
 
 import zenoh
 
-from shared.bus import Inbox, InvalidPayloads, add_bus_arguments, bus_options, decode, open_session
-from shared.errors import UserError
-from shared.manifest import Manifest
-from shared.messages import (
+from bimbot.shared.bus import Inbox, InvalidPayloads, add_bus_arguments, bus_options, decode, open_session
+from bimbot.shared.errors import UserError
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import (
     COMPONENT_STATE_KEY,
     COMPONENT_TWIN_KEY,
     ComponentState,
@@ -182,7 +182,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from shared.manifest import load_manifest
+    from bimbot.shared.manifest import load_manifest
 
     try:
         options = bus_options(args)

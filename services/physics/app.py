@@ -1,6 +1,7 @@
 """The physics Zenoh adapter: one session around a :class:`.simulation.Simulation`, paced by the sim clock.
 
-Declared on the session (callbacks only enqueue into a :class:`shared.bus.Inbox`; the loop changes state):
+Declared on the session (callbacks only enqueue into a :class:`bimbot.shared.bus.Inbox`; the loop changes
+state):
 
 * subscriber ``bimbot/<site>/robots/*/cmd_vel`` (CmdVelMsg; a command whose key names another robot than
   its ``robot_id`` is counted invalid; robots physics did not spawn are ignored, logged once);
@@ -36,9 +37,9 @@ from pathlib import Path
 import zenoh
 from pydantic import BaseModel
 
-from shared.bus import BusOptions, Inbox, InvalidPayloads, Received, decode, encode, open_session
-from shared.manifest import Manifest
-from shared.messages import (
+from bimbot.shared.bus import BusOptions, Inbox, InvalidPayloads, Received, decode, encode, open_session
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import (
     ALIVE_KEY,
     COMPONENT_STATE_KEY,
     PHYSICS_ATTACH_KEY,

@@ -32,9 +32,9 @@ from enum import StrEnum
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from shared.manifest import Component
-from shared.messages import ComponentPoseMsg, PhysicsReply, PoseMsg
-from shared.site_layout import GROUND_CLEARANCE_M, Rect, lying_rotation
+from bimbot.shared.manifest import Component
+from bimbot.shared.messages import ComponentPoseMsg, PhysicsReply, PoseMsg
+from bimbot.shared.site_layout import GROUND_CLEARANCE_M, Rect, lying_rotation
 
 from .client import p
 from .robots import Robot

@@ -24,7 +24,7 @@ other's group out of their mask; laser rays hit a body when the ray mask holds i
 (never seen by the laser), one bit per robot (:func:`robot_group`), also given to the load it carries:
 the robot's mask and the load's both leave that bit out, so the robot neither collides with nor sees it.
 
-Frames: world = the simulation world frame of :mod:`shared.manifest` (metres, Z up). A :data:`Frame` is
+Frames: world = the simulation world frame of :mod:`bimbot.shared.manifest` (metres, Z up). A :data:`Frame` is
 ``((x, y, z), (qx, qy, qz, qw))``.
 """
 
@@ -39,8 +39,8 @@ import numpy as np
 from lxml import etree
 from scipy.spatial.transform import Rotation
 
-from shared.manifest import Component
-from shared.site_layout import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect
+from bimbot.shared.manifest import Component
+from bimbot.shared.site_layout import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect
 
 from .client import p
 

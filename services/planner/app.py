@@ -3,7 +3,7 @@
 Start-up, in order:
 
 1. declare the liveliness token ``alive/planner/main`` and subscribe (callbacks only enqueue, see
-   :class:`shared.bus.Inbox`) to ``components/*/state``, ``components/*/pose``, ``robots/*/state``,
+   :class:`bimbot.shared.bus.Inbox`) to ``components/*/state``, ``components/*/pose``, ``robots/*/state``,
    ``clock`` and the liveliness of ``alive/robot/*`` and ``alive/component/*``;
 2. wait until every component agent of the manifest is alive (``agents_timeout_s``; then the missing ones
    are logged and the planner goes on);
@@ -30,10 +30,10 @@ from pathlib import Path
 
 import zenoh
 
-from shared.bus import Inbox, Received, decode, encode
-from shared.identifiers import guid_to_key
-from shared.manifest import Manifest, load_manifest
-from shared.messages import (
+from bimbot.shared.bus import Inbox, Received, decode, encode
+from bimbot.shared.identifiers import guid_to_key
+from bimbot.shared.manifest import Manifest, load_manifest
+from bimbot.shared.messages import (
     ALIVE_KEY,
     CLOCK_KEY,
     COMPONENT_EVENT_KEY,

@@ -1,10 +1,11 @@
 """``bimbot planner --build OUT/ [--sequence FILE.xml | --from-ifc [FILE.ifc] | --derive]``.
 
 Releases the build's construction tasks in sequence order and assigns them to robots over the bus (see
-:mod:`services.planner.app`). The sequence comes from the build's ``sequence.xml`` unless one option names
-another source: a user XML (``docs/sequence-format.md``), the 4D schedule of an IFC file (default: the model
-the build was converted from), or the support graph. Exit codes: 0 (done or stopped), 1 (``--exit-when-done``
-and some components failed or were blocked), 2 (unreadable build or sequence: one line).
+:mod:`bimbot.services.planner.app`). The sequence comes from the build's ``sequence.xml`` unless one
+option names another source: a user XML (``docs/sequence-format.md``), the 4D schedule of an IFC file
+(default: the model the build was converted from), or the support graph. Exit codes: 0 (done or stopped),
+1 (``--exit-when-done`` and some components failed or were blocked), 2 (unreadable build or sequence: one
+line).
 """
 
 from __future__ import annotations
@@ -14,8 +15,8 @@ import signal
 import threading
 from pathlib import Path
 
-from shared.bus import add_bus_arguments, bus_options, zenoh_config
-from shared.errors import UserError
+from bimbot.shared.bus import add_bus_arguments, bus_options, zenoh_config
+from bimbot.shared.errors import UserError
 
 from .app import PlannerOptions, main
 from .sources import PlanSource, SourceKind

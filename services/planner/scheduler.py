@@ -34,8 +34,8 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 from functools import partial
 
-from shared.manifest import Manifest
-from shared.messages import (
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import (
     ComponentEvent,
     ComponentEventMsg,
     ComponentPoseMsg,

@@ -12,7 +12,7 @@ Precedence: a sequence that names predecessors anywhere is taken as given; a pla
 predecessors at all) gets the support graph as its DAG and keeps its order as release priority. Components
 of the build that the sequence does not mention are appended in derived order with their supports as
 predecessors (one warning). A sequence naming GUIDs the build does not have, a cycle, or an unreadable file
-is a :class:`PlanError` (a :class:`~shared.errors.UserError`: one line, exit code 2).
+is a :class:`PlanError` (a :class:`~bimbot.shared.errors.UserError`: one line, exit code 2).
 
 Every plan is checked against the support graph: a component sequenced before something it rests on, or
 that does not wait for it in the DAG, gives one warning naming both GUIDs (logged and kept in
@@ -29,17 +29,17 @@ from dataclasses import dataclass, replace
 from enum import StrEnum
 from pathlib import Path
 
-from services.converter.ifc_input import open_model
-from shared.errors import UserError
-from shared.identifiers import guid_to_key
-from shared.ifc_schedule import schedule_from_ifc
-from shared.manifest import Component, Manifest
-from shared.sequence import (
+from bimbot.services.converter.ifc_input import open_model
+from bimbot.shared.errors import UserError
+from bimbot.shared.identifiers import guid_to_key
+from bimbot.shared.ifc_schedule import schedule_from_ifc
+from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.sequence import (
     ConstructionSequence,
     SequenceError,
     read_sequence,
 )
-from shared.support_graph import derive_sequence, support_predecessors, support_violations
+from bimbot.shared.support_graph import derive_sequence, support_predecessors, support_violations
 
 _log = logging.getLogger(__name__)
 
@@ -134,7 +134,7 @@ def plan_from_sequence(
 ) -> Plan:
     """Check ``sequence`` against ``components`` and build the plan (pure; see the module docstring).
 
-    ``support`` is the components' support graph (:func:`shared.support_graph.support_predecessors`),
+    ``support`` is the components' support graph (:func:`bimbot.shared.support_graph.support_predecessors`),
     computed here when not given.
     """
     by_guid = {item.guid: item for item in components}

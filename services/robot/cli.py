@@ -19,8 +19,8 @@ import signal
 import threading
 from pathlib import Path
 
-from shared.bus import add_bus_arguments, bus_options, zenoh_config
-from shared.errors import UserError
+from bimbot.shared.bus import add_bus_arguments, bus_options, zenoh_config
+from bimbot.shared.errors import UserError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

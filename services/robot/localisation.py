@@ -8,7 +8,7 @@ the scan against :meth:`.site_map.SiteMap.laser_grid`, low-variance resampling) 
 robot moved ``update_min_d_m`` or turned ``update_min_a_rad`` (AMCL's ``update_min_d/a``): a robot
 standing still does not collapse its particles onto one scan, and a moving one pays for an update every
 other control step at full speed. The likelihood field is rebuilt when the map changes (one distance
-transform). Initialised around the start pose physics reports (:class:`shared.messages.SiteInfoMsg`).
+transform). Initialised around the start pose physics reports (:class:`bimbot.shared.messages.SiteInfoMsg`).
 """
 
 from __future__ import annotations

@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from shared.messages import OdomMsg, ScanMsg
+from bimbot.shared.messages import OdomMsg, ScanMsg
 
 from .astar import plan_path, simplify_path
 from .dwa import DwaConfig, RobotState, dwa_step

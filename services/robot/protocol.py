@@ -16,7 +16,7 @@ import zlib
 from collections import deque
 from dataclasses import dataclass
 
-from shared.messages import (
+from bimbot.shared.messages import (
     AttachRequest,
     ComponentEvent,
     ComponentEventMsg,

@@ -6,7 +6,7 @@ of a move_base costmap). Pure: it is fed component poses and states and answers 
 
 What occupies the grid:
 
-* the **fence** (site hoarding around everything, :mod:`shared.site_layout`), always;
+* the **fence** (site hoarding around everything, :mod:`bimbot.shared.site_layout`), always;
 * every **component that is not carried**, at its current pose (its yard slot until physics says otherwise),
   when its posed bounding box meets the robot's height band (``band_min_z_m``–``band_max_z_m`` above the
   ground): components lying in the yard and built columns block, beams at 3 m and footings whose tops are
@@ -32,9 +32,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from shared.manifest import Component
-from shared.messages import ComponentPoseMsg, ComponentState
-from shared.site_layout import FENCE_HEIGHT_M, FENCE_THICKNESS_M, SiteLayout
+from bimbot.shared.manifest import Component
+from bimbot.shared.messages import ComponentPoseMsg, ComponentState
+from bimbot.shared.site_layout import FENCE_HEIGHT_M, FENCE_THICKNESS_M, SiteLayout
 
 from .occupancy_grid import OccupancyGrid, distance_field_m, empty_grid, from_footprints, inflate
 

@@ -1,11 +1,12 @@
 """The robot's task states as data (paper §5.2, Fig. 12): idle → detect component position → pick up →
 identify target location → assemble → idle.
 
-The table is a plain tuple of ``(trigger, source, dest)`` rows over :class:`shared.messages.RobotState`, and
-:class:`TaskMachine` is a minimal interpreter of it. A plain table rather than a ``transitions`` machine (the
-agents use one because thousands of them share it): the robot is one object per process, needs no
-callbacks, and the executor asks "may I fire this?" on every control tick, which is a dict lookup here. The
-table is still data, tested on its own, like the agents' table.
+The table is a plain tuple of ``(trigger, source, dest)`` rows over
+:class:`bimbot.shared.messages.RobotState`, and :class:`TaskMachine` is a minimal interpreter of it. A
+plain table rather than a ``transitions`` machine (the agents use one because thousands of them share
+it): the robot is one object per process, needs no callbacks, and the executor asks "may I fire this?" on
+every control tick, which is a dict lookup here. The table is still data, tested on its own, like the
+agents' table.
 
 Triggers (what the executor observed):
 
@@ -21,7 +22,7 @@ from __future__ import annotations
 
 from enum import StrEnum
 
-from shared.messages import RobotState
+from bimbot.shared.messages import RobotState
 
 
 class Trigger(StrEnum):

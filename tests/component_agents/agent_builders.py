@@ -5,8 +5,8 @@ from __future__ import annotations
 import itertools
 import math
 
-from shared.identifiers import guid_to_folder, guid_to_key
-from shared.manifest import (
+from bimbot.shared.identifiers import guid_to_folder, guid_to_key
+from bimbot.shared.manifest import (
     BoundingBox,
     CollisionMethod,
     Component,
@@ -18,7 +18,7 @@ from shared.manifest import (
     Pose,
     SourceModel,
 )
-from shared.messages import ClockMsg, ComponentEvent, ComponentEventMsg, ComponentPoseMsg, PoseMsg
+from bimbot.shared.messages import ClockMsg, ComponentEvent, ComponentEventMsg, ComponentPoseMsg, PoseMsg
 
 SITE = "test-site"
 # Valid 22-character GlobalIds, some with the `$` and `_` that need the key mapping.

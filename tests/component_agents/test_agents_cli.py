@@ -53,9 +53,9 @@ def test_bad_options_are_one_line_and_exit_2(
 
 
 def test_the_agents_process_does_not_load_ifcopenshell() -> None:
-    # ifcopenshell (imported by shared.identifiers) adds ~50 MB to every agent process.
+    # ifcopenshell (imported by bimbot.shared.identifiers) adds ~50 MB to every agent process.
     code = (
-        "import sys, services.component_agents.cli, services.component_agents.app;"
+        "import sys, bimbot.services.component_agents.cli, bimbot.services.component_agents.app;"
         "print(sorted({'ifcopenshell', 'pybullet', 'numpy'} & set(sys.modules)))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout

@@ -7,10 +7,10 @@ import math
 import pytest
 from agent_builders import GUIDS, clock, component, event, pose_of
 
-from services.component_agents.agent import AgentConfig, ComponentAgent, SimClock
-from services.component_agents.state_table import ComponentMachine
-from services.component_agents.verification import Tolerances
-from shared.messages import ComponentEvent, ComponentState, ComponentStateMsg, PoseMsg
+from bimbot.services.component_agents.agent import AgentConfig, ComponentAgent, SimClock
+from bimbot.services.component_agents.state_table import ComponentMachine
+from bimbot.services.component_agents.verification import Tolerances
+from bimbot.shared.messages import ComponentEvent, ComponentState, ComponentStateMsg, PoseMsg
 
 S = ComponentState
 E = ComponentEvent
@@ -84,7 +84,7 @@ def test_illegal_events_are_rejected_and_not_applied(
     name: ComponentEvent, caplog: pytest.LogCaptureFixture
 ) -> None:
     agent = new_agent()
-    with caplog.at_level("INFO", logger="services.component_agents.agent"):
+    with caplog.at_level("INFO", logger="bimbot.services.component_agents.agent"):
         assert agent.apply_event(event(agent.guid, name), NOW) == []
     assert agent.state is S.PLANNED
     assert agent.history == []

@@ -10,8 +10,8 @@ import zlib
 import pytest
 from agent_builders import GUIDS, clock, event, manifest, pose_of
 
-from services.component_agents.agent import AgentConfig
-from services.component_agents.host import (
+from bimbot.services.component_agents.agent import AgentConfig
+from bimbot.services.component_agents.host import (
     TAG_CLOCK,
     TAG_EVENT,
     AgentHost,
@@ -19,9 +19,15 @@ from services.component_agents.host import (
     shard_manifest,
     shard_of,
 )
-from shared.bus import Received
-from shared.identifiers import guid_to_key
-from shared.messages import COMPONENT_EVENT_KEY, COMPONENT_POSE_KEY, ComponentEvent, ComponentState, key
+from bimbot.shared.bus import Received
+from bimbot.shared.identifiers import guid_to_key
+from bimbot.shared.messages import (
+    COMPONENT_EVENT_KEY,
+    COMPONENT_POSE_KEY,
+    ComponentEvent,
+    ComponentState,
+    key,
+)
 
 S = ComponentState
 E = ComponentEvent

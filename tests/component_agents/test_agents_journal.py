@@ -7,11 +7,23 @@ from pathlib import Path
 import pytest
 from agent_builders import GUIDS, event, manifest, pose_of
 
-from services.component_agents.agent import AgentConfig
-from services.component_agents.host import AgentHost, Outgoing
-from services.component_agents.journal import Journal, JournalBusyError, JournalRecord, journal_path, replay
-from shared.identifiers import guid_to_key
-from shared.messages import COMPONENT_EVENT_KEY, COMPONENT_POSE_KEY, ComponentEvent, ComponentState, key
+from bimbot.services.component_agents.agent import AgentConfig
+from bimbot.services.component_agents.host import AgentHost, Outgoing
+from bimbot.services.component_agents.journal import (
+    Journal,
+    JournalBusyError,
+    JournalRecord,
+    journal_path,
+    replay,
+)
+from bimbot.shared.identifiers import guid_to_key
+from bimbot.shared.messages import (
+    COMPONENT_EVENT_KEY,
+    COMPONENT_POSE_KEY,
+    ComponentEvent,
+    ComponentState,
+    key,
+)
 
 S = ComponentState
 E = ComponentEvent

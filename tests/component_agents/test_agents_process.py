@@ -15,10 +15,9 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from bimbot.supervisor import free_port, running
-from shared.bus import BusOptions, encode, open_session
-from shared.manifest import Component, read_manifest
-from shared.messages import (
+from bimbot.shared.bus import BusOptions, encode, open_session
+from bimbot.shared.manifest import Component, read_manifest
+from bimbot.shared.messages import (
     ALIVE_KEY,
     CLOCK_KEY,
     COMPONENT_EVENT_KEY,
@@ -35,6 +34,7 @@ from shared.messages import (
     TwinMsg,
     key,
 )
+from bimbot.supervisor import free_port, running
 
 pytestmark = pytest.mark.integration
 

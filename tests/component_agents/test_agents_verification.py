@@ -7,14 +7,14 @@ import math
 import pytest
 from agent_builders import quat_z
 
-from services.component_agents.verification import (
+from bimbot.services.component_agents.verification import (
     Tolerances,
     angle_error_rad,
     is_valid_pose,
     position_error_m,
     verify,
 )
-from shared.messages import PoseMsg
+from bimbot.shared.messages import PoseMsg
 
 
 def pose(position: tuple[float, float, float], quat: tuple[float, float, float, float]) -> PoseMsg:

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from shared.manifest import read_manifest
+from bimbot.shared.manifest import read_manifest
 
 ROOT = Path(__file__).resolve().parents[2]
 SMOKE_SCRIPT = ROOT / "scripts" / "compose-smoke.sh"

@@ -26,14 +26,14 @@ import pybullet as p
 import pytest
 import trimesh
 
-from services.converter.collision import (
+from bimbot.services.converter.collision import (
     CollisionShape,
     collision_from_mesh,
     collision_from_representation,
     collision_shape,
     vhacd_parts,
 )
-from shared.manifest import CollisionMethod
+from bimbot.shared.manifest import CollisionMethod
 
 SAMPLES = Path("/work/shared/samples/ifc")
 MM = 0.001
@@ -410,7 +410,7 @@ def test_importing_and_using_the_module_prints_nothing(tmp_path: Path) -> None:
     code = textwrap.dedent(
         f"""
         import trimesh
-        from services.converter.collision import collision_from_mesh
+        from bimbot.services.converter.collision import collision_from_mesh
         shape = collision_from_mesh(trimesh.load({str(mesh_file)!r}))
         assert shape.method.value == "vhacd", shape
         """

@@ -19,12 +19,12 @@ from scipy.spatial.transform import Rotation
 from sdf_checks import ign_sdf_check, sdf_model_pose
 
 from bimbot.demo import bundled_model_path
-from services.converter.convert import convert_model
-from services.converter.ifc_input import open_model
-from shared.identifiers import folder_to_guid, key_to_guid
-from shared.manifest import CollisionMethod, Manifest, MassSource, read_manifest
-from shared.sequence import read_sequence
-from shared.support_graph import support_predecessors, support_violations
+from bimbot.services.converter.convert import convert_model
+from bimbot.services.converter.ifc_input import open_model
+from bimbot.shared.identifiers import folder_to_guid, key_to_guid
+from bimbot.shared.manifest import CollisionMethod, Manifest, MassSource, read_manifest
+from bimbot.shared.sequence import read_sequence
+from bimbot.shared.support_graph import support_predecessors, support_violations
 
 SAMPLES_DIR = Path(__file__).resolve().parents[3] / "shared" / "samples" / "ifc"
 SAMPLE_FILES = sorted(SAMPLES_DIR.glob("*.ifc")) if SAMPLES_DIR.is_dir() else []

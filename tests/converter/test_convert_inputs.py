@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from ifc_builders import SmallModel, add_beam, add_wall, new_model, translation
 
-from services.converter.convert import ConvertOptions, convert_model
-from shared.manifest import Manifest
+from bimbot.services.converter.convert import ConvertOptions, convert_model
+from bimbot.shared.manifest import Manifest
 
 BROKEN = Path(__file__).parent / "broken"
 

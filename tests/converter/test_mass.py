@@ -7,8 +7,8 @@ import ifcopenshell.api.unit
 import pytest
 from ifc_builders import add_beam, add_material, add_pset, add_qto, add_type, new_model
 
-from services.converter.mass import DEFAULT_DENSITY_KG_M3, element_mass, material_label
-from shared.manifest import MassSource
+from bimbot.services.converter.mass import DEFAULT_DENSITY_KG_M3, element_mass, material_label
+from bimbot.shared.manifest import MassSource
 
 VOLUME_M3 = 0.4  # a 5 m × 0.2 m × 0.4 m beam
 

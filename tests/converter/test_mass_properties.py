@@ -7,8 +7,8 @@ import pytest
 import trimesh
 from scipy.spatial.transform import Rotation
 
-from services.converter.mass_properties import box_inertia_per_kg, mass_properties
-from shared.manifest import InertiaSource
+from bimbot.services.converter.mass_properties import box_inertia_per_kg, mass_properties
+from bimbot.shared.manifest import InertiaSource
 
 
 def test_box_inertia_matches_the_analytic_formula() -> None:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from services.converter.placement import choose_local_origin, pose_from_rigid, pose_matrix, split_rigid
+from bimbot.services.converter.placement import choose_local_origin, pose_from_rigid, pose_matrix, split_rigid
 
 
 def _matrix(rpy: tuple[float, float, float], xyz: tuple[float, float, float]) -> np.ndarray:

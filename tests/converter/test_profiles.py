@@ -8,7 +8,7 @@ import ifcopenshell
 import numpy as np
 import pytest
 
-from services.converter.profiles import (
+from bimbot.services.converter.profiles import (
     is_convex_polygon,
     outline_tolerance_m,
     polygon_area,

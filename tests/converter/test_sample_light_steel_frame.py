@@ -18,12 +18,12 @@ import ifcopenshell.util.unit
 import numpy as np
 import pytest
 
-from services.converter.sample_light_steel_frame import (
+from bimbot.services.converter.sample_light_steel_frame import (
     STEEL_DENSITY_KG_PER_M3,
     build_light_steel_frame,
     parse_bays,
 )
-from shared.identifiers import is_valid_guid
+from bimbot.shared.identifiers import is_valid_guid
 
 ELEMENT_CLASSES = ("IfcFooting", "IfcColumn", "IfcBeam")
 

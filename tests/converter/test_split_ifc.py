@@ -1,4 +1,4 @@
-"""Tests of services.converter.split_ifc: one element → one standalone IFC file."""
+"""Tests of bimbot.services.converter.split_ifc: one element → one standalone IFC file."""
 
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ from ifc_builders import (
     translation,
 )
 
-from services.converter.split_ifc import split_element
+from bimbot.services.converter.split_ifc import split_element
 
 Entity = ifcopenshell.entity_instance
 

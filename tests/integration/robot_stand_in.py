@@ -19,10 +19,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import zenoh
 
-from shared.bus import BusOptions, encode, open_session
-from shared.identifiers import guid_to_key
-from shared.manifest import Manifest
-from shared.messages import (
+from bimbot.shared.bus import BusOptions, encode, open_session
+from bimbot.shared.identifiers import guid_to_key
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import (
     ALIVE_KEY,
     CLOCK_KEY,
     COMPONENT_EVENT_KEY,

@@ -18,11 +18,11 @@ from pathlib import Path
 import pytest
 from robot_stand_in import RobotStandIn
 
+from bimbot.shared.bus import BusOptions, open_session
+from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.messages import ComponentState, ComponentStateMsg, TwinMsg
+from bimbot.shared.support_graph import support_predecessors
 from bimbot.supervisor import ServiceProcess, free_port, wait_until
-from shared.bus import BusOptions, open_session
-from shared.manifest import Manifest, read_manifest
-from shared.messages import ComponentState, ComponentStateMsg, TwinMsg
-from shared.support_graph import support_predecessors
 
 pytestmark = pytest.mark.integration
 RUN_TIMEOUT_S = 120.0

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import pytest
 
+from bimbot.services.observer.app import rerun_cli_binary
 from bimbot.supervisor import free_port
-from services.observer.app import rerun_cli_binary
 
 pytestmark = pytest.mark.integration
 TIMEOUT_S = 300

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import pytest
 
-from services.component_agents.verification import Tolerances
-from shared.manifest import read_manifest
+from bimbot.services.component_agents.verification import Tolerances
+from bimbot.shared.manifest import read_manifest
 
 pytestmark = pytest.mark.integration
 RUN_TIMEOUT_S = 300

@@ -13,9 +13,9 @@ from pathlib import Path
 import pytest
 from pydantic import BaseModel
 
-from shared.identifiers import guid_to_key
-from shared.manifest import Manifest, read_manifest
-from shared.messages import (
+from bimbot.shared.identifiers import guid_to_key
+from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.messages import (
     COMPONENT_POSE_KEY,
     COMPONENT_STATE_KEY,
     PROGRESS_KEY,
@@ -40,7 +40,7 @@ from shared.messages import (
     TaskStatus,
     key,
 )
-from shared.sequence import read_sequence
+from bimbot.shared.sequence import read_sequence
 
 S = ComponentState
 # (guid index in the sequence, robot, release, pick, place times, retried?) — place of the last attempt

@@ -1,6 +1,6 @@
 """The ``.rrd`` the observer writes: it verifies with ``rerun rrd verify`` and reads back with the twin in it.
 
-The synthetic run (see conftest) is fed through :class:`services.observer.app.Observer` as encoded
+The synthetic run (see conftest) is fed through :class:`bimbot.services.observer.app.Observer` as encoded
 payloads, exactly as the Zenoh loop would, into a recording with only the file sink (no viewer).
 """
 
@@ -16,19 +16,19 @@ import pytest
 from pydantic import BaseModel
 from rerun.chunk import RrdReader
 
-from services.observer.app import (
+from bimbot.services.observer.app import (
     Observer,
     ObserverConfig,
     _close_recording,
     open_recording,
     rerun_cli_binary,
 )
-from services.observer.report_png import REPORT_JSON, REPORT_PNG
-from services.observer.twin_log import component_path
-from shared.bus import encode
-from shared.manifest import Manifest
-from shared.messages import ComponentState as S
-from shared.messages import ComponentStateMsg, PoseMsg, TransitionRecord, TwinMsg
+from bimbot.services.observer.report_png import REPORT_JSON, REPORT_PNG
+from bimbot.services.observer.twin_log import component_path
+from bimbot.shared.bus import encode
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import ComponentState as S
+from bimbot.shared.messages import ComponentStateMsg, PoseMsg, TransitionRecord, TwinMsg
 
 
 @dataclass

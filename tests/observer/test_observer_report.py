@@ -10,11 +10,11 @@ import matplotlib.image
 import pytest
 from pydantic import BaseModel
 
-from services.observer.report import ReportCollector
-from services.observer.report_png import DPI, FIGURE_SIZE_IN, render_report_png
-from shared.manifest import Manifest
-from shared.messages import ComponentState as S
-from shared.messages import ComponentStateMsg, OdomMsg, RobotPoseMsg, RobotState, RobotStateMsg
+from bimbot.services.observer.report import ReportCollector
+from bimbot.services.observer.report_png import DPI, FIGURE_SIZE_IN, render_report_png
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import ComponentState as S
+from bimbot.shared.messages import ComponentStateMsg, OdomMsg, RobotPoseMsg, RobotState, RobotStateMsg
 
 
 def _report(manifest: Manifest, sequence: list[str], messages: list[tuple[str, BaseModel]]) -> dict:

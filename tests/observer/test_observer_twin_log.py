@@ -9,8 +9,8 @@ import pytest
 import rerun as rr
 from pydantic import BaseModel
 
-from services.observer.app import route_key
-from services.observer.twin_log import (
+from bimbot.services.observer.app import route_key
+from bimbot.services.observer.twin_log import (
     ROBOT_COLORS,
     STATE_COLORS,
     LogItem,
@@ -19,8 +19,8 @@ from services.observer.twin_log import (
     component_path,
     robot_path,
 )
-from shared.manifest import Component, Manifest
-from shared.messages import (
+from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.messages import (
     ComponentPoseMsg,
     ComponentState,
     ComponentStateMsg,
@@ -34,7 +34,7 @@ from shared.messages import (
     ScanMsg,
     TaskMsg,
 )
-from shared.site_layout import plan_site
+from bimbot.shared.site_layout import plan_site
 
 MIN_COLOR_DISTANCE = 60.0  # RGB euclidean distance two states must keep to be told apart at a glance
 

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from services.observer.watch import WatchTable, change_line
-from shared.manifest import Manifest
-from shared.messages import ComponentState, ComponentStateMsg, PoseMsg, TransitionRecord, TwinMsg
+from bimbot.services.observer.watch import WatchTable, change_line
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import ComponentState, ComponentStateMsg, PoseMsg, TransitionRecord, TwinMsg
 
 
 def _state(guid: str, state: ComponentState, previous: ComponentState | None, robot: str | None = None):

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
+from bimbot.services.observer.app import rerun_cli_binary
 from bimbot.supervisor import ServiceProcess, free_port, wait_until
-from services.observer.app import rerun_cli_binary
 
 pytestmark = pytest.mark.integration
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from services.physics.simulation import SimConfig, Simulation
-from shared.manifest import Manifest, read_manifest
+from bimbot.services.physics.simulation import SimConfig, Simulation
+from bimbot.shared.manifest import Manifest, read_manifest
 
 
 @pytest.fixture(scope="session")

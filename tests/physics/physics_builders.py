@@ -7,11 +7,11 @@ import math
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from services.physics.scene import Frame
-from services.physics.simulation import PeriodResult, Simulation
-from shared.manifest import Component
-from shared.messages import CmdVelMsg, PoseMsg
-from shared.site_layout import Rect
+from bimbot.services.physics.scene import Frame
+from bimbot.services.physics.simulation import PeriodResult, Simulation
+from bimbot.shared.manifest import Component
+from bimbot.shared.messages import CmdVelMsg, PoseMsg
+from bimbot.shared.site_layout import Rect
 
 
 def drive(sim: Simulation, robot_id: str, v_mps: float, w_radps: float, seconds: float) -> list[PeriodResult]:

@@ -7,10 +7,10 @@ from collections.abc import Callable
 
 import pytest
 
-from services.physics.clock import LockStepBarrier, Pacer, RtfMeter
-from services.physics.simulation import Simulation
-from shared.bus import encode
-from shared.messages import AttachRequest, ClockMsg, CmdVelMsg, OdomMsg, RobotPoseMsg
+from bimbot.services.physics.clock import LockStepBarrier, Pacer, RtfMeter
+from bimbot.services.physics.simulation import Simulation
+from bimbot.shared.bus import encode
+from bimbot.shared.messages import AttachRequest, ClockMsg, CmdVelMsg, OdomMsg, RobotPoseMsg
 
 
 def test_pacer_waits_for_the_real_time_factor_and_not_at_zero() -> None:

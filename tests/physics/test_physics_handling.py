@@ -12,13 +12,13 @@ import numpy as np
 import pytest
 from physics_builders import angle_between, bottom_z, distance_to_footprint, drive, idle, pose, west_of
 
-from services.physics.client import p
-from services.physics.handling import Phase
-from services.physics.scene import component_pose, compose, distance_to_rect, footprint
-from services.physics.simulation import Simulation
-from shared.manifest import Component, Manifest
-from shared.messages import AttachRequest, ComponentPoseMsg, PlaceRequest, RobotPoseMsg
-from shared.site_layout import GROUND_CLEARANCE_M
+from bimbot.services.physics.client import p
+from bimbot.services.physics.handling import Phase
+from bimbot.services.physics.scene import component_pose, compose, distance_to_rect, footprint
+from bimbot.services.physics.simulation import Simulation
+from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.messages import AttachRequest, ComponentPoseMsg, PlaceRequest, RobotPoseMsg
+from bimbot.shared.site_layout import GROUND_CLEARANCE_M
 
 
 def _first_in_row(sim: Simulation, manifest: Manifest, ifc_class: str) -> Component:

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from physics_builders import drive, wrap
 
-from services.physics.robots import Odometry
-from services.physics.simulation import Simulation
-from shared.messages import OdomMsg, RobotPoseMsg
+from bimbot.services.physics.robots import Odometry
+from bimbot.services.physics.simulation import Simulation
+from bimbot.shared.messages import OdomMsg, RobotPoseMsg
 
 
 def test_husky_wheels_radius_and_track_come_from_the_urdf(make_sim: Callable[..., Simulation]) -> None:

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from services.physics.client import BulletClient, p
-from services.physics.scene import (
+from bimbot.services.physics.client import BulletClient, p
+from bimbot.services.physics.scene import (
     component_pose,
     compose,
     create_component_body,
@@ -20,9 +20,9 @@ from services.physics.scene import (
     parse_model_sdf,
     principal_axes,
 )
-from services.physics.simulation import Simulation
-from shared.manifest import Component, Manifest
-from shared.site_layout import FENCE_HEIGHT_M
+from bimbot.services.physics.simulation import Simulation
+from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.site_layout import FENCE_HEIGHT_M
 
 
 def _inertia_matrix(component: Component) -> np.ndarray:

@@ -9,10 +9,10 @@ from collections.abc import Callable
 import pytest
 from physics_builders import drive, idle, west_of
 
-from services.physics.sensors import LaserConfig
-from services.physics.simulation import Simulation
-from shared.manifest import Manifest
-from shared.messages import AttachRequest, ScanMsg
+from bimbot.services.physics.sensors import LaserConfig
+from bimbot.services.physics.simulation import Simulation
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import AttachRequest, ScanMsg
 
 
 def _scan(sim: Simulation, robot_id: str) -> ScanMsg:

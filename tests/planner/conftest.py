@@ -1,6 +1,6 @@
 """Converted builds for the planner tests: the bundled light steel frame, construction_scheduling_task.ifc.
 
-Each build is converted once per session with ``services.converter.convert.convert_model``.
+Each build is converted once per session with ``bimbot.services.converter.convert.convert_model``.
 """
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from services.converter.convert import convert_model
-from services.converter.ifc_input import open_model
+from bimbot.services.converter.convert import convert_model
+from bimbot.services.converter.ifc_input import open_model
 
 SCHEDULING_TASK_IFC = "construction_scheduling_task.ifc"
 

@@ -9,7 +9,7 @@ Layout (world frame, metres)::
 
 from __future__ import annotations
 
-from shared.manifest import (
+from bimbot.shared.manifest import (
     BoundingBox,
     CollisionMethod,
     Component,
@@ -21,7 +21,7 @@ from shared.manifest import (
     Pose,
     SourceModel,
 )
-from shared.messages import ComponentState, ComponentStateMsg, RobotState, RobotStateMsg
+from bimbot.shared.messages import ComponentState, ComponentStateMsg, RobotState, RobotStateMsg
 
 PORTAL = ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c", "beam")
 

@@ -15,13 +15,12 @@ from planner_builders import portal_manifest, robot_msg, state_msg
 
 from bimbot.cli import build_parser
 from bimbot.cli import main as bimbot_main
-from bimbot.supervisor import free_port
-from services.planner.app import PlannerOptions, main
-from services.planner.cli import plan_source
-from services.planner.sources import PlanSource, SourceKind
-from shared.bus import BusOptions, InvalidPayloads, decode, encode, open_session, zenoh_config
-from shared.manifest import write_manifest
-from shared.messages import (
+from bimbot.services.planner.app import PlannerOptions, main
+from bimbot.services.planner.cli import plan_source
+from bimbot.services.planner.sources import PlanSource, SourceKind
+from bimbot.shared.bus import BusOptions, InvalidPayloads, decode, encode, open_session, zenoh_config
+from bimbot.shared.manifest import write_manifest
+from bimbot.shared.messages import (
     ALIVE_KEY,
     COMPONENT_EVENT_KEY,
     COMPONENT_STATE_KEY,
@@ -36,8 +35,9 @@ from shared.messages import (
     TaskStatus,
     key,
 )
-from shared.sequence import write_sequence
-from shared.support_graph import derive_sequence
+from bimbot.shared.sequence import write_sequence
+from bimbot.shared.support_graph import derive_sequence
+from bimbot.supervisor import free_port
 
 SITE = "test-site"
 

@@ -8,10 +8,10 @@ from pathlib import Path
 import pytest
 from planner_builders import PORTAL, portal_manifest, robot_msg, state_msg
 
-from services.planner.scheduler import Phase, PlannerCore
-from services.planner.sources import PlanSource, SourceKind, load_plan, plan_from_sequence
-from shared.manifest import Pose, read_manifest
-from shared.messages import (
+from bimbot.services.planner.scheduler import Phase, PlannerCore
+from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan, plan_from_sequence
+from bimbot.shared.manifest import Pose, read_manifest
+from bimbot.shared.messages import (
     ComponentEvent,
     ComponentEventMsg,
     ComponentPoseMsg,
@@ -22,7 +22,7 @@ from shared.messages import (
     TaskStatus,
     TwinMsg,
 )
-from shared.support_graph import derive_sequence
+from bimbot.shared.support_graph import derive_sequence
 
 S = ComponentState
 

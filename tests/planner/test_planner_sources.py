@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from services.planner.sources import Plan, PlanError, PlanSource, SourceKind, load_plan
-from shared.errors import UserError
-from shared.manifest import Manifest, read_manifest
-from shared.support_graph import support_predecessors, support_violations
+from bimbot.services.planner.sources import Plan, PlanError, PlanSource, SourceKind, load_plan
+from bimbot.shared.errors import UserError
+from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.support_graph import support_predecessors, support_violations
 
 SLAB = "20WrgxqpbDtferON_k1P2X"
 WALLS = [
@@ -153,7 +153,7 @@ def test_component_sequenced_before_its_support_is_a_warning_naming_both_guids(
     footing = next(iter(support_predecessors(manifest.components)[column]))
     rest = [item.guid for item in manifest.components if item.guid not in (column, footing)]
     path = _write_xml(tmp_path / "v.xml", [column, footing, *rest])
-    with caplog.at_level(logging.WARNING, logger="services.planner.sources"):
+    with caplog.at_level(logging.WARNING, logger="bimbot.services.planner.sources"):
         plan = load_plan(manifest, frame_build, PlanSource(SourceKind.SEQUENCE, path))
     assert plan.violations == ((column, footing),)
     texts = [warning for warning in plan.warnings if column in warning and footing in warning]

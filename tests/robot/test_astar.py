@@ -9,9 +9,15 @@ import math
 import numpy as np
 import pytest
 
-from services.robot import astar
-from services.robot.astar import astar_cells, path_cost_cells, plan_path, segment_is_free, simplify_path
-from services.robot.occupancy_grid import OccupancyGrid, from_footprints, inflate
+from bimbot.services.robot import astar
+from bimbot.services.robot.astar import (
+    astar_cells,
+    path_cost_cells,
+    plan_path,
+    segment_is_free,
+    simplify_path,
+)
+from bimbot.services.robot.occupancy_grid import OccupancyGrid, from_footprints, inflate
 
 SQRT2 = math.sqrt(2.0)
 

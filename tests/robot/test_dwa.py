@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pytest
 
-from services.robot.dwa import DwaConfig, DwaResult, RobotState, dwa_step, dynamic_window, rollout
+from bimbot.services.robot.dwa import DwaConfig, DwaResult, RobotState, dwa_step, dynamic_window, rollout
 
 CONFIG = DwaConfig()
 

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from services.robot.occupancy_grid import OccupancyGrid, from_footprints
-from services.robot.particle_filter import (
+from bimbot.services.robot.occupancy_grid import OccupancyGrid, from_footprints
+from bimbot.services.robot.particle_filter import (
     OdometryNoise,
     ParticleFilterConfig,
     ParticleSet,

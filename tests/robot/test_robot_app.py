@@ -17,15 +17,14 @@ import pytest
 import zenoh
 from robot_sim import SimPhysics, convert_small_frame
 
-from bimbot.supervisor import free_port
-from services.component_agents.agent import ComponentAgent
-from services.robot.app import RobotOptions, main
-from services.robot.executor import ExecutorConfig
-from services.robot.protocol import PhysicsRequest
-from shared.bus import BusOptions, InvalidPayloads, decode, encode, open_session, zenoh_config
-from shared.identifiers import guid_to_key
-from shared.manifest import read_manifest
-from shared.messages import (
+from bimbot.services.component_agents.agent import ComponentAgent
+from bimbot.services.robot.app import RobotOptions, main
+from bimbot.services.robot.executor import ExecutorConfig
+from bimbot.services.robot.protocol import PhysicsRequest
+from bimbot.shared.bus import BusOptions, InvalidPayloads, decode, encode, open_session, zenoh_config
+from bimbot.shared.identifiers import guid_to_key
+from bimbot.shared.manifest import read_manifest
+from bimbot.shared.messages import (
     ALIVE_KEY,
     CLOCK_KEY,
     COMPONENT_EVENT_KEY,
@@ -56,6 +55,7 @@ from shared.messages import (
     TaskStatus,
     key,
 )
+from bimbot.supervisor import free_port
 
 
 @pytest.fixture(scope="module")

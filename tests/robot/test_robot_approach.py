@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from robot_sim import convert_small_frame
 
-from services.robot.approach import ApproachConfig, approach_pose, reachable_region
-from services.robot.occupancy_grid import from_footprints, inflate
-from services.robot.site_map import Footprint, SiteMap, footprint_distance_m, posed_footprint
-from shared.manifest import Manifest, read_manifest
-from shared.site_layout import plan_site
+from bimbot.services.robot.approach import ApproachConfig, approach_pose, reachable_region
+from bimbot.services.robot.occupancy_grid import from_footprints, inflate
+from bimbot.services.robot.site_map import Footprint, SiteMap, footprint_distance_m, posed_footprint
+from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.site_layout import plan_site
 
 CONFIG = ApproachConfig(reach_m=1.5, body_clearance_m=0.75)
 

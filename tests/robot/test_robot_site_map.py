@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from robot_sim import convert_small_frame
 
-from services.robot.occupancy_grid import OccupancyGrid
-from services.robot.site_map import (
+from bimbot.services.robot.occupancy_grid import OccupancyGrid
+from bimbot.services.robot.site_map import (
     Footprint,
     MapConfig,
     SiteMap,
@@ -15,9 +15,9 @@ from services.robot.site_map import (
     footprint_distance_m,
     outline,
 )
-from shared.manifest import Component, Manifest, read_manifest
-from shared.messages import ComponentPoseMsg, ComponentState, PoseMsg
-from shared.site_layout import plan_site
+from bimbot.shared.manifest import Component, Manifest, read_manifest
+from bimbot.shared.messages import ComponentPoseMsg, ComponentState, PoseMsg
+from bimbot.shared.site_layout import plan_site
 
 
 @pytest.fixture(scope="module")

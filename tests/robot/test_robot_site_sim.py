@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from robot_sim import SiteSim, convert_small_frame
 
-from services.component_agents.verification import Tolerances
-from services.planner.sources import SourceKind
-from shared.manifest import Manifest, read_manifest
-from shared.messages import ComponentEvent, ComponentState, RobotState
+from bimbot.services.component_agents.verification import Tolerances
+from bimbot.services.planner.sources import SourceKind
+from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.messages import ComponentEvent, ComponentState, RobotState
 
 
 @pytest.fixture(scope="module")

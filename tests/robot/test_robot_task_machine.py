@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from services.robot.task_machine import (
+from bimbot.services.robot.task_machine import (
     INITIAL,
     PAPER_ORDER,
     TRANSITIONS,
@@ -13,7 +13,7 @@ from services.robot.task_machine import (
     next_state,
     triggers_from,
 )
-from shared.messages import RobotState
+from bimbot.shared.messages import RobotState
 
 CYCLE = (Trigger.ASSIGNED, Trigger.LOCATED, Trigger.ATTACHED, Trigger.ARRIVED, Trigger.FINISHED)
 

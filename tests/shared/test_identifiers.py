@@ -6,7 +6,7 @@ import ifcopenshell.guid
 import pytest
 import zenoh
 
-from shared.identifiers import (
+from bimbot.shared.identifiers import (
     folder_to_guid,
     guid_to_folder,
     guid_to_key,

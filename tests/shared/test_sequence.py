@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from shared.sequence import (
+from bimbot.shared.sequence import (
     ConstructionSequence,
     SequenceError,
     SequenceTask,

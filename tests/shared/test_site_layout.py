@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from shared.manifest import Manifest, read_manifest
-from shared.site_layout import AISLE_M, GROUND_CLEARANCE_M, Rect, lying_rotation, plan_site
+from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.site_layout import AISLE_M, GROUND_CLEARANCE_M, Rect, lying_rotation, plan_site
 
 
 @pytest.fixture(scope="module")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from shared.manifest import (
+from bimbot.shared.manifest import (
     BoundingBox,
     CollisionMethod,
     Component,
@@ -13,7 +13,7 @@ from shared.manifest import (
     MassSource,
     Pose,
 )
-from shared.support_graph import derive_sequence, support_predecessors, support_violations
+from bimbot.shared.support_graph import derive_sequence, support_predecessors, support_violations
 
 
 def _component(guid: str, ifc_class: str, low: tuple, high: tuple, connections: tuple = ()) -> Component:
