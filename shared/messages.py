@@ -1,7 +1,7 @@
 """Bus messages: one frozen, versioned pydantic model per message, beside its key expression.
 
 Key space (``<site>`` is the manifest's site slug, ``<key>`` a component's bus key, see
-:mod:`shared.identifiers`)::
+:mod:`bimbot.shared.identifiers`)::
 
     bimbot/<site>/components/<key>/state   ComponentStateMsg   agent → all (every state change)
     bimbot/<site>/components/<key>/event   ComponentEventMsg   planner/robot → agent (what happened to it)
@@ -22,7 +22,7 @@ Key space (``<site>`` is the manifest's site slug, ``<key>`` a component's bus k
     bimbot/<site>/alive/<kind>/<id>        liveliness tokens (kind: component, robot, planner, physics, …)
 
 Times: ``sim_time_s`` is simulated time from the physics clock; ``wall_time_s`` is Unix time, only for
-latency measurements. Poses are in the simulation world frame (see :mod:`shared.manifest`).
+latency measurements. Poses are in the simulation world frame (see :mod:`bimbot.shared.manifest`).
 """
 
 from __future__ import annotations
@@ -33,6 +33,8 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from .manifest import Quat, Vec3
+from .reasons import Reason
+from .robot_description import RobotDescription
 
 MESSAGE_SCHEMA_VERSION = 1
 
@@ -65,7 +67,8 @@ class ComponentState(StrEnum):
     VERIFYING = "verifying"
     CONSTRUCTED = "constructed"
     MISPLACED = "misplaced"
-    FAILED = "failed"
+    FAILED = "failed"  # not built: ``reason`` says why (terminal)
+    BLOCKED = "blocked"  # never released: a predecessor failed (terminal, reason ``blocked_by``)
 
 
 class ComponentEvent(StrEnum):
@@ -77,7 +80,9 @@ class ComponentEvent(StrEnum):
     ARRIVE = "arrive"  # robot: at the target, assembly begins
     PLACE = "place"  # robot: component placed; the agent verifies its own pose
     RETRY = "retry"  # planner: a misplaced component is released again
-    ABANDON = "abandon"  # robot/planner: the task was given up (robot lost); back to released
+    ABANDON = "abandon"  # robot/planner: the task was given up (robot lost, or ``reason``); back to released
+    FAIL = "fail"  # planner: the component cannot be built (``reason``: too heavy, give-backs exhausted…)
+    BLOCK = "block"  # planner: a predecessor failed (``reason`` blocked_by); never released
 
 
 class PoseMsg(BaseModel):
@@ -98,6 +103,7 @@ class ComponentStateMsg(_Message):
     wall_time_s: float
     position_error_m: float | None = None
     angle_error_rad: float | None = None
+    reason: Reason | None = None  # failed/blocked: why; released after an abandon: why it was given back
 
 
 class ComponentEventMsg(_Message):
@@ -109,6 +115,7 @@ class ComponentEventMsg(_Message):
     robot_id: str | None = None
     sim_time_s: float
     wall_time_s: float
+    reason: Reason | None = None  # abandon, fail, block: why
 
 
 class ComponentPoseMsg(_Message):
@@ -127,6 +134,7 @@ class TransitionRecord(BaseModel):
     cause: str = ""
     sim_time_s: float
     attempt: int = 0
+    reason: Reason | None = None
 
 
 class TwinMsg(_Message):
@@ -146,6 +154,7 @@ class TwinMsg(_Message):
     attempt: int
     robot_id: str | None
     history: list[TransitionRecord]
+    reason: Reason | None = None  # failed/blocked: why; else the last give-back's reason, if any
 
 
 # --- tasks -----------------------------------------------------------------------------------------------
@@ -171,6 +180,7 @@ class TaskMsg(_Message):
     target_pose: PoseMsg
     sim_time_s: float
     wall_time_s: float
+    reason: Reason | None = None  # failed/blocked tasks: why
 
 
 # --- robots ----------------------------------------------------------------------------------------------
@@ -202,6 +212,7 @@ class RobotStateMsg(_Message):
     sim_time_s: float
     wall_time_s: float
     distance_m: float = 0.0
+    activity: str = ""  # what the robot is doing, in words (a stall report and the live progress show it)
 
 
 class CmdVelMsg(_Message):
@@ -253,14 +264,15 @@ PHYSICS_PLACE_KEY = "bimbot/{site}/physics/place"
 
 
 class SiteInfoMsg(_Message):
-    """What a robot needs from physics to start: who is on site, the clock's pace and lock-step."""
+    """What a robot (or the planner) needs from physics: who is on site, of which type, the clock's pace."""
 
     robot_ids: list[str]
     robot_starts_xy_yaw: list[tuple[float, float, float]]
+    robot_type_of: dict[str, str]  # robot id → type name (a key of robot_types)
+    robot_types: dict[str, RobotDescription]  # the one description of each type on site
     step_s: float
     control_period_s: float
     lock_step: bool
-    reach_m: float
 
 
 class AttachRequest(_Message):
@@ -304,6 +316,7 @@ class ProgressMsg(_Message):
     estimated_finish_sim_time_s: float | None
     failed: list[str] = []
     blocked: list[str] = []
+    reasons: dict[str, Reason] = {}  # GUID → why, for every failed and blocked component
     done: bool = False
 
 

@@ -1,10 +1,11 @@
 """One smart component as a plain model object: its state machine, its own placement check, its twin record.
 
-A :class:`ComponentAgent` knows its manifest :class:`~shared.manifest.Component` (semantics and BIM target
-pose), its construction state, the number of placement attempts, the robot handling it, its latest pose on
-the bus and the history of its transitions. It has no bus, no files and no threads: the host feeds it
-validated messages and publishes what it returns (one :class:`~shared.messages.ComponentStateMsg` per state
-change, with the sim time, the wall time and the cause).
+A :class:`ComponentAgent` knows its manifest :class:`~bimbot.shared.manifest.Component` (semantics and
+BIM target pose), its construction state, the number of placement attempts, the robot handling it, its
+latest pose on the bus and the history of its transitions. It has no bus, no files and no threads: the
+host feeds it validated messages and publishes what it returns (one
+:class:`~bimbot.shared.messages.ComponentStateMsg` per state change, with the sim time, the wall time and
+the cause).
 
 Protocol (docs/architecture.md, "Construction protocol"):
 
@@ -29,8 +30,8 @@ import time
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from shared.manifest import Component
-from shared.messages import (
+from bimbot.shared.manifest import Component
+from bimbot.shared.messages import (
     ComponentEvent,
     ComponentEventMsg,
     ComponentPoseMsg,
@@ -40,6 +41,7 @@ from shared.messages import (
     TransitionRecord,
     TwinMsg,
 )
+from bimbot.shared.reasons import Reason, ReasonCode
 
 from .state_table import INITIAL, ComponentMachine, Verdict
 from .verification import Tolerances, is_valid_pose, verify
@@ -109,6 +111,7 @@ class ComponentAgent:
         "pose",
         "pose_fixed",
         "pose_sim_time_s",
+        "reason",
         "robot_id",
         "state",
         "verify_deadline_wall_s",
@@ -138,6 +141,7 @@ class ComponentAgent:
         self.verify_deadline_wall_s: float | None = None
         self.history: list[TransitionRecord] = []
         self.event_ids: set[str] = set()
+        self.reason: Reason | None = None  # why it failed or is blocked; else why it was last given back
         self._machine.add_model(self)
 
     # --- inputs --------------------------------------------------------------------------------------------
@@ -175,6 +179,8 @@ class ComponentAgent:
             self.verify_deadline_wall_s = None
         elif msg.robot_id:
             self.robot_id = msg.robot_id
+        if msg.reason is not None:
+            self.reason = msg.reason
         if msg.event is ComponentEvent.ARRIVE:
             self.arrive_sim_time_s = msg.sim_time_s
         if msg.event is ComponentEvent.PLACE:
@@ -254,6 +260,7 @@ class ComponentAgent:
         place_sim_time_s: float | None,
         history: Iterable[TransitionRecord],
         event_ids: Iterable[str],
+        reason: Reason | None = None,
         now_wall_s: float | None = None,
     ) -> None:
         """Resume from a journal: the last state and what led there. A resumed ``verifying`` waits anew."""
@@ -268,6 +275,7 @@ class ComponentAgent:
             self.verify_deadline_wall_s = now + self._config.verify_timeout_s
         self.history = list(history)
         self.event_ids = set(event_ids)
+        self.reason = reason
 
     def announce(self, event: str, cause: str, now_wall_s: float | None = None) -> ComponentStateMsg:
         """The current state as a message without a transition (process start: ``start`` or ``resume``)."""
@@ -294,6 +302,7 @@ class ComponentAgent:
             attempt=self.attempt,
             robot_id=self.robot_id,
             history=list(self.history),
+            reason=self.reason,
         )
 
     # --- internals -----------------------------------------------------------------------------------------
@@ -318,6 +327,8 @@ class ComponentAgent:
         errors = (check.position_error_m, check.angle_error_rad) if check else (None, None)
         if check is not None:
             why += f": {check.position_error_m * 1000:.1f} mm, {math.degrees(check.angle_error_rad):.2f}°"
+        if verdict is Verdict.FAILED:
+            self.reason = Reason(code=ReasonCode.MISPLACED, message=f"{why}; {cause}", robot_id=self.robot_id)
         return self._record(
             source,
             event=verdict.value,
@@ -345,6 +356,7 @@ class ComponentAgent:
                 cause=cause,
                 sim_time_s=sim_time_s,
                 attempt=self.attempt,
+                reason=self.reason,
             )
         )
         _log.debug("%s: %s → %s (%s; %s)", self.guid, source.value, self.state.value, event, cause)
@@ -372,4 +384,5 @@ class ComponentAgent:
             wall_time_s=now,
             position_error_m=errors[0],
             angle_error_rad=errors[1],
+            reason=self.reason,
         )

@@ -10,8 +10,8 @@ process all the event/pose traffic but only three subscribers, whatever its numb
 
 A host needs only its own shard's components (:func:`shard_manifest`); messages for a component it does
 not own are dropped and counted as ``other_shard`` when the message's GUID belongs to another shard, else
-as ``unknown_component``. (The agents never import ``shared.identifiers``: it loads ifcopenshell, ~50 MB
-per process.)
+as ``unknown_component``. (The agents never import ``bimbot.shared.identifiers``: it loads ifcopenshell,
+~50 MB per process.)
 
 A host resumes from a :class:`~.journal.Replay`: every agent found there continues in its last state with
 its attempts, robot, history and applied event ids; :meth:`AgentHost.start` then announces every agent's
@@ -28,9 +28,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
-from shared.bus import Received
-from shared.manifest import Manifest
-from shared.messages import (
+from bimbot.shared.bus import Received
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import (
     COMPONENT_STATE_KEY,
     COMPONENT_TWIN_KEY,
     ClockMsg,
@@ -141,6 +141,7 @@ class AgentHost:
                 place_sim_time_s=last.place_sim_time_s,
                 history=[record.transition() for record in replay.records.get(guid, [])],
                 event_ids=replay.event_ids.get(guid, ()),
+                reason=last.reason,
                 now_wall_s=now,
             )
             self.resumed.add(agent.key)
@@ -170,7 +171,8 @@ class AgentHost:
     # --- input ---------------------------------------------------------------------------------------------
 
     def handle(self, tag: str, item: object, now_wall_s: float | None = None) -> list[Outgoing]:
-        """Dispatch one inbox item (``event``/``pose``/``clock`` with a :class:`~shared.bus.Received`)."""
+        """Dispatch one inbox item (``event``/``pose``/``clock`` with a
+        :class:`~bimbot.shared.bus.Received`)."""
         if not isinstance(item, Received):
             self.counts["unknown_item"] += 1
             return []

@@ -26,7 +26,8 @@ from types import TracebackType
 
 from pydantic import BaseModel, ConfigDict, ValidationError
 
-from shared.messages import ComponentState, ComponentStateMsg, TransitionRecord
+from bimbot.shared.messages import ComponentState, ComponentStateMsg, TransitionRecord
+from bimbot.shared.reasons import Reason
 
 _log = logging.getLogger(__name__)
 
@@ -51,6 +52,7 @@ class JournalRecord(BaseModel):
     place_sim_time_s: float | None = None  # sim time of the place event, while verifying
     position_error_m: float | None = None
     angle_error_rad: float | None = None
+    reason: Reason | None = None
 
     @classmethod
     def from_message(
@@ -72,6 +74,7 @@ class JournalRecord(BaseModel):
             place_sim_time_s=place_sim_time_s,
             position_error_m=message.position_error_m,
             angle_error_rad=message.angle_error_rad,
+            reason=message.reason,
         )
 
     def transition(self) -> TransitionRecord:
@@ -82,6 +85,7 @@ class JournalRecord(BaseModel):
             cause=self.cause,
             sim_time_s=self.sim_time_s,
             attempt=self.attempt,
+            reason=self.reason,
         )
 
 

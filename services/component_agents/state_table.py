@@ -1,11 +1,11 @@
 """A smart component's state table, as data (paper Fig. 12 with a failure path; docs/architecture.md).
 
 The table is what the ``transitions`` machine is built from and what the tests check on their own, so it is
-a plain tuple of ``{"trigger", "source", "dest"}`` dicts over :class:`shared.messages.ComponentState`.
+a plain tuple of ``{"trigger", "source", "dest"}`` dicts over :class:`bimbot.shared.messages.ComponentState`.
 
 Two kinds of trigger:
 
-* **external** — the :class:`shared.messages.ComponentEvent` values the planner and robots send on
+* **external** — the :class:`bimbot.shared.messages.ComponentEvent` values the planner and robots send on
   ``components/<key>/event``: release, pick, attach, arrive, place, retry, abandon;
 * **internal** — the agent's own verification verdict after a placement (:class:`Verdict`): verified,
   misplaced_placement, failed_placement. They are never accepted from the bus.
@@ -18,7 +18,11 @@ Choices:
   least once delivery) before it repeats ``place``. Being strict keeps a robot's progress observable.
 * ``abandon`` (robot lost) is accepted while a robot holds the component (picking, transporting,
   assembling). Once placed (verifying) the component judges itself whatever happened to the robot.
-* ``constructed`` and ``failed`` are terminal: nothing leaves them, so nothing is constructed twice.
+* ``fail`` (the planner: the component cannot be built, e.g. too heavy for every robot, or given back by
+  robots too often) is accepted while no robot holds it (planned, released, misplaced); ``block`` (a
+  predecessor failed) while it was never picked (planned, released). Both carry a reason.
+* ``constructed``, ``failed`` and ``blocked`` are terminal: nothing leaves them, so nothing is constructed
+  twice.
 
 Performance: :class:`ComponentMachine` is the table as one ``transitions`` machine shared by every agent
 of a process (``add_model``). Measured for 10,000 agents on the 2-core reference machine: one ``Machine``
@@ -35,7 +39,7 @@ from enum import StrEnum
 
 from transitions import Machine, MachineError
 
-from shared.messages import ComponentEvent, ComponentState
+from bimbot.shared.messages import ComponentEvent, ComponentState
 
 STATES = ComponentState
 INITIAL = ComponentState.PLANNED
@@ -64,6 +68,8 @@ TRANSITIONS: tuple[dict, ...] = (
         "source": [_S.PICKING, _S.TRANSPORTING, _S.ASSEMBLING],
         "dest": _S.RELEASED,
     },
+    {"trigger": _E.FAIL.value, "source": [_S.PLANNED, _S.RELEASED, _S.MISPLACED], "dest": _S.FAILED},
+    {"trigger": _E.BLOCK.value, "source": [_S.PLANNED, _S.RELEASED], "dest": _S.BLOCKED},
     {"trigger": Verdict.VERIFIED.value, "source": _S.VERIFYING, "dest": _S.CONSTRUCTED},
     {"trigger": Verdict.MISPLACED.value, "source": _S.VERIFYING, "dest": _S.MISPLACED},
     {"trigger": Verdict.FAILED.value, "source": _S.VERIFYING, "dest": _S.FAILED},
@@ -71,7 +77,9 @@ TRANSITIONS: tuple[dict, ...] = (
 
 EXTERNAL_TRIGGERS: frozenset[str] = frozenset(event.value for event in ComponentEvent)
 INTERNAL_TRIGGERS: frozenset[str] = frozenset(verdict.value for verdict in Verdict)
-TERMINAL: frozenset[ComponentState] = frozenset({ComponentState.CONSTRUCTED, ComponentState.FAILED})
+TERMINAL: frozenset[ComponentState] = frozenset(
+    {ComponentState.CONSTRUCTED, ComponentState.FAILED, ComponentState.BLOCKED}
+)
 
 
 def _sources(row: dict) -> list[ComponentState]:

@@ -38,8 +38,8 @@ from typing import Any
 import rerun as rr
 from pydantic import BaseModel
 
-from shared.manifest import Component, Manifest
-from shared.messages import (
+from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.messages import (
     ComponentPoseMsg,
     ComponentState,
     ComponentStateMsg,
@@ -52,7 +52,7 @@ from shared.messages import (
     TaskMsg,
     TaskStatus,
 )
-from shared.site_layout import SiteLayout
+from bimbot.shared.site_layout import SiteLayout
 
 TIMELINE = "sim_time"
 Rgba = tuple[int, int, int, int]
@@ -68,6 +68,7 @@ STATE_COLORS: dict[ComponentState, Rgba] = {
     ComponentState.CONSTRUCTED: (46, 160, 67, 255),  # green: done
     ComponentState.MISPLACED: (244, 67, 54, 255),  # red: off target, will be retried
     ComponentState.FAILED: (80, 0, 0, 255),  # dark red: given up
+    ComponentState.BLOCKED: (90, 60, 40, 255),  # brown: a predecessor failed, never released
 }
 ROBOT_COLORS: dict[RobotState, Rgba] = {
     RobotState.IDLE: (120, 120, 120, 255),
@@ -79,6 +80,7 @@ ROBOT_COLORS: dict[RobotState, Rgba] = {
 STATE_LOG_LEVELS: dict[ComponentState, str] = {
     ComponentState.MISPLACED: "WARN",
     ComponentState.FAILED: "ERROR",
+    ComponentState.BLOCKED: "WARN",
 }
 ROBOT_HALF_SIZE_M = (0.495, 0.335, 0.19)  # Clearpath Husky body, for drawing
 SITE_LINE_Z_M = 0.01

@@ -1,9 +1,9 @@
 """The physics core: owns a DIRECT pybullet client, builds the site and advances it one control period at a
 time. No bus: requests come in as message objects, outgoing messages go out as ``(key, message)`` pairs.
 
-Scene (from the converter's build and :func:`shared.site_layout.plan_site`, like the paper's Fig. 10): the
-ground plane, the fence, every component static in its yard slot (its body built from its ``model.sdf``,
-:mod:`.scene`), N robots at the depot starts (ids ``r1``…``rN``, :mod:`.robots`).
+Scene (from the converter's build and :func:`bimbot.shared.site_layout.plan_site`, like the paper's Fig.
+10): the ground plane, the fence, every component static in its yard slot (its body built from its
+``model.sdf``, :mod:`.scene`), N robots at the depot starts (ids ``r1``…``rN``, :mod:`.robots`).
 
 Clock: physics steps of ``step_s`` (1/240 s); a control period of ``control_period_s`` (0.1 s) is a whole
 number of them. :meth:`Simulation.advance` applies the latest commands, steps one period (moving carried
@@ -30,9 +30,9 @@ from types import TracebackType
 import numpy as np
 from pydantic import BaseModel
 
-from shared.identifiers import guid_to_key
-from shared.manifest import Manifest
-from shared.messages import (
+from bimbot.shared.identifiers import guid_to_key
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import (
     CLOCK_KEY,
     COMPONENT_POSE_KEY,
     ROBOT_ODOM_KEY,
@@ -49,7 +49,8 @@ from shared.messages import (
     SiteInfoMsg,
     key,
 )
-from shared.site_layout import SiteLayout, plan_site
+from bimbot.shared.robot_description import DEFAULT_ROBOT, RobotDescription
+from bimbot.shared.site_layout import SiteLayout, plan_site
 
 from .client import BulletClient, p
 from .handling import Handling, HandlingConfig, Item, Phase
@@ -211,8 +212,14 @@ class Simulation:
             step_s=self.config.step_s,
             control_period_s=self.config.control_period_s,
             lock_step=self.config.lock_step,
-            reach_m=self.handling.config.reach_m,
+            robot_type_of={robot_id: self.robot_type.name for robot_id in self.robots},
+            robot_types={self.robot_type.name: self.robot_type},
         )
+
+    @property
+    def robot_type(self) -> RobotDescription:
+        """The description of the robots on site (one type until the fleet brings more)."""
+        return DEFAULT_ROBOT.model_copy(update={"reach_m": self.handling.config.reach_m})
 
     def robot_pose(self, robot_id: str) -> tuple[float, float, float]:
         return self.robots[robot_id].pose_xy_yaw(self.client_id)

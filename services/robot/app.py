@@ -3,7 +3,7 @@
 Start-up, in order (nothing is ticked before the liveliness token, so lock-step physics never waits on a
 robot that is still loading):
 
-1. subscribe (callbacks only enqueue, :class:`shared.bus.Inbox`): ``tasks/*``, ``components/*/state``,
+1. subscribe (callbacks only enqueue, :class:`bimbot.shared.bus.Inbox`): ``tasks/*``, ``components/*/state``,
    ``components/*/pose``, ``clock``, this robot's ``odom`` and ``scan``, every robot's ``state`` (the other
    robots' pose estimates, for the traffic rules) and ``pose`` (ground truth, **only** for the minimum
    separation metric that is logged; never used for control);
@@ -32,10 +32,10 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
-from shared.bus import Inbox, Received, decode, encode
-from shared.identifiers import guid_to_key
-from shared.manifest import load_manifest
-from shared.messages import (
+from bimbot.shared.bus import Inbox, Received, decode, encode
+from bimbot.shared.identifiers import guid_to_key
+from bimbot.shared.manifest import load_manifest
+from bimbot.shared.messages import (
     ALIVE_KEY,
     CLOCK_KEY,
     COMPONENT_EVENT_KEY,
@@ -120,7 +120,11 @@ def main(
         loop = _Loop(session, site, executor, inbox, options)
         token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id=robot_id))
         _log.info(
-            "robot %s on site %s: start %s, reach %.2f m", robot_id, site, executor.home_xy_yaw, info.reach_m
+            "robot %s on site %s: start %s, reach %.2f m",
+            robot_id,
+            site,
+            executor.home_xy_yaw,
+            info.robot_types[info.robot_type_of[robot_id]].reach_m,
         )
         try:
             loop.run(stop)

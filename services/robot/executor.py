@@ -34,8 +34,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from shared.manifest import Component, Manifest
-from shared.messages import (
+from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.messages import (
     AttachRequest,
     ClockMsg,
     CmdVelMsg,
@@ -56,7 +56,7 @@ from shared.messages import (
     TaskMsg,
     TaskStatus,
 )
-from shared.site_layout import plan_site
+from bimbot.shared.site_layout import plan_site
 
 from .approach import Approach, ApproachConfig, approach_pose
 from .navigator import Navigator, NavigatorConfig, NavStatus
@@ -132,7 +132,8 @@ class Executor:
         rng = np.random.default_rng(config.seed)
         self.navigator = Navigator(self.site_map, self.home_xy_yaw, nav_config, rng, robot_id=self.robot_id)
         self.approach_config = approach_config or ApproachConfig(
-            reach_m=info.reach_m, body_clearance_m=map_config.inflation_m
+            reach_m=info.robot_types[info.robot_type_of[self.robot_id]].reach_m,
+            body_clearance_m=map_config.inflation_m,
         )
         self.machine = TaskMachine()
         self.task: _Task | None = None

@@ -6,7 +6,7 @@ import itertools
 
 import pytest
 
-from services.component_agents.state_table import (
+from bimbot.services.component_agents.state_table import (
     EXTERNAL_TRIGGERS,
     INITIAL,
     INTERNAL_TRIGGERS,
@@ -19,7 +19,7 @@ from services.component_agents.state_table import (
     reachable_from,
     triggers_from,
 )
-from shared.messages import ComponentEvent, ComponentState
+from bimbot.shared.messages import ComponentEvent, ComponentState
 
 S = ComponentState
 
@@ -37,6 +37,11 @@ EXPECTED_EDGES = {
     ("verified", S.VERIFYING, S.CONSTRUCTED),
     ("misplaced_placement", S.VERIFYING, S.MISPLACED),
     ("failed_placement", S.VERIFYING, S.FAILED),
+    ("fail", S.PLANNED, S.FAILED),
+    ("fail", S.RELEASED, S.FAILED),
+    ("fail", S.MISPLACED, S.FAILED),
+    ("block", S.PLANNED, S.BLOCKED),
+    ("block", S.RELEASED, S.BLOCKED),
 }
 ALL_TRIGGERS = sorted(EXTERNAL_TRIGGERS | INTERNAL_TRIGGERS)
 
@@ -57,8 +62,8 @@ def test_every_state_is_reachable_from_planned() -> None:
     assert reachable_from(S.PLANNED) == set(ComponentState)
 
 
-def test_constructed_and_failed_are_terminal() -> None:
-    assert {S.CONSTRUCTED, S.FAILED} == TERMINAL
+def test_constructed_failed_and_blocked_are_terminal() -> None:
+    assert {S.CONSTRUCTED, S.FAILED, S.BLOCKED} == TERMINAL
     for state in TERMINAL:
         assert triggers_from(state) == set()
         assert reachable_from(state) == {state}
@@ -85,8 +90,8 @@ def test_place_is_strict_not_accepted_while_transporting() -> None:
     assert next_state(S.ASSEMBLING, "place") is S.VERIFYING
 
 
-def test_misplaced_only_goes_back_through_retry() -> None:
-    assert triggers_from(S.MISPLACED) == {"retry"}
+def test_misplaced_only_goes_back_through_retry_or_fails() -> None:
+    assert triggers_from(S.MISPLACED) == {"retry", "fail"}
     assert next_state(S.MISPLACED, "retry") is S.RELEASED
 
 

@@ -14,10 +14,9 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from bimbot.supervisor import free_port, running
-from shared.bus import BusOptions, encode, open_session
-from shared.manifest import read_manifest
-from shared.messages import (
+from bimbot.shared.bus import BusOptions, encode, open_session
+from bimbot.shared.manifest import read_manifest
+from bimbot.shared.messages import (
     ALIVE_KEY,
     CLOCK_KEY,
     PHYSICS_ATTACH_KEY,
@@ -37,6 +36,7 @@ from shared.messages import (
     SiteInfoMsg,
     key,
 )
+from bimbot.supervisor import free_port, running
 
 pytestmark = pytest.mark.integration
 
@@ -105,7 +105,8 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
             info_bytes = _get(session, key(PHYSICS_INFO_KEY, site=site), timeout_s=1.0)
         assert info_bytes is not None, (tmp_path / "physics.log").read_text()
         info = SiteInfoMsg.model_validate_json(info_bytes)
-        assert info.robot_ids == ["r1"] and info.lock_step and info.reach_m == 1.5
+        assert info.robot_ids == ["r1"] and info.lock_step
+        assert info.robot_types[info.robot_type_of["r1"]].reach_m == 1.5
 
         listener = _Listener(
             session,

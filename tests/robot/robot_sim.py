@@ -5,8 +5,9 @@
 2D laser ray-marched on the laser-visible grid with the other robots drawn in as discs, component poses
 (all at start, carried ones every step, fixed ones when placed), and the attach (reach-checked against the
 true pose) and place (reply after the assembly motion) requests. :class:`SiteSim` runs it in lock-step
-with real component agents, the real planner core and one :class:`~services.robot.executor.Executor` per
-robot, passing messages between them one step late, as a bus would.
+with real component agents, the real planner core and one
+:class:`~bimbot.services.robot.executor.Executor` per robot, passing messages between them one step late,
+as a bus would.
 """
 
 from __future__ import annotations
@@ -18,16 +19,16 @@ from pathlib import Path
 
 import numpy as np
 
-from services.component_agents.agent import ComponentAgent
-from services.planner.scheduler import PlannerCore
-from services.planner.sources import PlanSource, SourceKind, load_plan
-from services.robot.executor import Executor, ExecutorConfig
-from services.robot.occupancy_grid import OccupancyGrid
-from services.robot.particle_filter import simulate_scan, wrap_angle
-from services.robot.protocol import PhysicsRequest, PhysicsResult
-from services.robot.site_map import SiteMap
-from shared.manifest import Manifest
-from shared.messages import (
+from bimbot.services.component_agents.agent import ComponentAgent
+from bimbot.services.planner.scheduler import PlannerCore
+from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan
+from bimbot.services.robot.executor import Executor, ExecutorConfig
+from bimbot.services.robot.occupancy_grid import OccupancyGrid
+from bimbot.services.robot.particle_filter import simulate_scan, wrap_angle
+from bimbot.services.robot.protocol import PhysicsRequest, PhysicsResult
+from bimbot.services.robot.site_map import SiteMap
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import (
     AttachRequest,
     ClockMsg,
     CmdVelMsg,
@@ -45,13 +46,14 @@ from shared.messages import (
     SiteInfoMsg,
     TaskMsg,
 )
-from shared.site_layout import plan_site
+from bimbot.shared.robot_description import DEFAULT_ROBOT
+from bimbot.shared.site_layout import plan_site
 
 
 def convert_small_frame(out_dir: Path, bays: tuple[int, int] = (2, 1)) -> Path:
     """Generate the light steel frame sample with ``bays`` columns and convert it into ``out_dir``."""
-    from services.converter import sample_light_steel_frame as sample
-    from services.converter.convert import convert_model
+    from bimbot.services.converter import sample_light_steel_frame as sample
+    from bimbot.services.converter.convert import convert_model
 
     out_dir.mkdir(parents=True, exist_ok=True)
     source = out_dir / "frame.ifc"
@@ -128,7 +130,8 @@ class SimPhysics:
             step_s=self.dt / 10,
             control_period_s=self.dt,
             lock_step=True,
-            reach_m=self.reach_m,
+            robot_type_of={robot_id: DEFAULT_ROBOT.name for robot_id in self.robot_ids},
+            robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT.model_copy(update={"reach_m": self.reach_m})},
         )
 
     def start_messages(self) -> list[object]:

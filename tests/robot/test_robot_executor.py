@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 from robot_sim import convert_small_frame
 
-from services.component_agents.state_table import next_state
-from services.robot.executor import Executor, ExecutorConfig
-from services.robot.particle_filter import simulate_scan, wrap_angle
-from services.robot.protocol import EventQueue, PhysicsRequest, PhysicsResult, injected
-from services.robot.task_machine import PAPER_ORDER
-from shared.manifest import Manifest, read_manifest
-from shared.messages import (
+from bimbot.services.component_agents.state_table import next_state
+from bimbot.services.robot.executor import Executor, ExecutorConfig
+from bimbot.services.robot.particle_filter import simulate_scan, wrap_angle
+from bimbot.services.robot.protocol import EventQueue, PhysicsRequest, PhysicsResult, injected
+from bimbot.services.robot.task_machine import PAPER_ORDER
+from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.messages import (
     AttachRequest,
     ClockMsg,
     CmdVelMsg,
@@ -37,7 +37,8 @@ from shared.messages import (
     TaskMsg,
     TaskStatus,
 )
-from shared.site_layout import plan_site
+from bimbot.shared.robot_description import DEFAULT_ROBOT
+from bimbot.shared.site_layout import plan_site
 
 ANGLES = np.linspace(-math.pi, math.pi, 120, endpoint=False)
 DT = 0.1
@@ -189,7 +190,8 @@ def make_site(frame: Manifest, **config: object) -> tuple[FakeSite, ComponentSta
         step_s=1 / 240,
         control_period_s=DT,
         lock_step=True,
-        reach_m=1.5,
+        robot_type_of={"r1": DEFAULT_ROBOT.name},
+        robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
     )
     executor = Executor(frame, info, ExecutorConfig(robot_id="r1", **config))  # type: ignore[arg-type]
     site = FakeSite(frame, executor, np.array(layout.robot_starts[0], float))
