@@ -17,7 +17,6 @@ import numpy as np
 
 from bimbot.services.robot.astar import plan_path, simplify_path
 from bimbot.services.robot.dwa import DwaConfig, RobotState, dwa_step
-from bimbot.services.robot.occupancy_grid import OccupancyGrid, from_footprints
 from bimbot.services.robot.particle_filter import (
     LikelihoodFieldConfig,
     ParticleFilterConfig,
@@ -26,6 +25,7 @@ from bimbot.services.robot.particle_filter import (
     mcl_step,
     simulate_scan,
 )
+from bimbot.shared.occupancy_grid import OccupancyGrid, from_footprints
 
 ASTAR_TARGET_S = 0.100
 DWA_REFERENCE_S = 0.010

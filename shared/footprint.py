@@ -1,9 +1,67 @@
-"""Plane geometry of footprints (a component's posed bounding box seen from above), in metres."""
+"""Footprints: where a component stands, seen from above (the xy outline of its posed bounding box and
+its z range), and the plane geometry on them. Metres, world frame (Z up). Shared by physics (reach checks),
+the robots (site map, approach poses) and the planner (access checks)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
+
+from .manifest import Component
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """Where a component stands: the xy outline of its posed bounding box and its z range."""
+
+    polygon_xy_m: NDArray[np.float64]  # (k, 2), convex, counter-clockwise
+    z_min_m: float
+    z_max_m: float
+
+    @property
+    def centre_xy_m(self) -> NDArray[np.float64]:
+        return self.polygon_xy_m.mean(axis=0)
+
+    def distance_m(self, points_xy_m: ArrayLike) -> NDArray[np.float64]:
+        """Horizontal distance from points ``(n, 2)`` to this footprint (0 inside)."""
+        return footprint_distance_m(self.polygon_xy_m, points_xy_m)
+
+
+def convex_hull_xy(points_xy: ArrayLike) -> NDArray[np.float64]:
+    """Convex hull (Andrew's monotone chain), counter-clockwise, without repeated points."""
+    pts = sorted({(round(float(x), 9), round(float(y), 9)) for x, y in np.asarray(points_xy, float)})
+    if len(pts) <= 2:
+        return np.array(pts, dtype=float)
+
+    def half(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
+        chain: list[tuple[float, float]] = []
+        for p in points:
+            while len(chain) >= 2:
+                (ax, ay), (bx, by) = chain[-2], chain[-1]
+                if (bx - ax) * (p[1] - ay) - (by - ay) * (p[0] - ax) > 1e-12:
+                    break
+                chain.pop()
+            chain.append(p)
+        return chain
+
+    lower, upper = half(pts), half(pts[::-1])
+    return np.array(lower[:-1] + upper[:-1], dtype=float)
+
+
+def posed_footprint(
+    component: Component, position_m: Sequence[float], quat_xyzw: Sequence[float]
+) -> Footprint:
+    """The footprint of ``component``'s local bounding box placed at a pose (component frame, world)."""
+    low, high = np.array(component.bbox_local.min_m), np.array(component.bbox_local.max_m)
+    corners = np.array(
+        [[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]
+    )
+    world = Rotation.from_quat(np.asarray(quat_xyzw, float)).apply(corners) + np.asarray(position_m, float)
+    return Footprint(convex_hull_xy(world[:, :2]), float(world[:, 2].min()), float(world[:, 2].max()))
 
 
 def footprint_distance_m(polygon_xy_m: ArrayLike, points_xy_m: ArrayLike) -> NDArray[np.float64]:

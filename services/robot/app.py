@@ -66,10 +66,10 @@ from bimbot.shared.messages import (
     TaskMsg,
     key,
 )
+from bimbot.shared.occupancy_grid import OccupancyGrid
 
 from .astar import plan_path
 from .executor import Executor, ExecutorConfig, Outgoing
-from .occupancy_grid import OccupancyGrid
 from .protocol import PhysicsRequest, PhysicsResult
 
 _log = logging.getLogger(__name__)

@@ -29,8 +29,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from .occupancy_grid import OccupancyGrid, nearest_free_cell
-from .site_map import Footprint, footprint_distance_m
+from bimbot.shared.footprint import Footprint
+from bimbot.shared.occupancy_grid import OccupancyGrid, nearest_free_cell
 
 _log = logging.getLogger(__name__)
 
@@ -111,7 +111,7 @@ def approach_pose(
     to_centre = np.hypot(*(xy - centre).T)
     keep = to_centre <= reach
     if blocks_band:
-        keep &= footprint_distance_m(footprint, xy) >= config.body_clearance_m
+        keep &= footprint.distance_m(xy) >= config.body_clearance_m
     if not keep.any():
         _log.info("no free approach within %.2f m of %s", reach, np.round(centre, 2).tolist())
         return None

@@ -27,7 +27,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bimbot.services.robot.occupancy_grid import OccupancyGrid, nearest_free_cell
+from bimbot.shared.occupancy_grid import OccupancyGrid, nearest_free_cell
 
 logger = logging.getLogger(__name__)
 

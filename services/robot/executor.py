@@ -34,6 +34,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import (
     AttachRequest,
@@ -61,7 +62,7 @@ from bimbot.shared.site_layout import plan_site
 from .approach import Approach, ApproachConfig, approach_pose
 from .navigator import Navigator, NavigatorConfig, NavStatus
 from .protocol import VERDICTS, EventQueue, PhysicsRequest, PhysicsResult, injected
-from .site_map import Footprint, MapConfig, SiteMap, posed_footprint
+from .site_map import MapConfig, SiteMap
 from .task_machine import TaskMachine, Trigger
 
 _log = logging.getLogger(__name__)

@@ -20,9 +20,10 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bimbot.shared.occupancy_grid import OccupancyGrid
+
 from .astar import segment_is_free
 from .dwa import DwaConfig
-from .occupancy_grid import OccupancyGrid
 
 SAMPLE_M = 0.1  # spacing of the path samples the carrot is chosen from
 MIN_CARROT_M = 0.8  # a carrot at the robot's feet makes the DWA stop

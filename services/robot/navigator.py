@@ -39,12 +39,12 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from bimbot.shared.messages import OdomMsg, ScanMsg
+from bimbot.shared.occupancy_grid import OccupancyGrid, nearest_free_cell, scan_endpoints_xy_m
 
 from .astar import plan_path, simplify_path
 from .dwa import DwaConfig, RobotState, dwa_step
 from .localisation import Localiser, LocaliserConfig
 from .motion import Path, carrot, straight_line_clear, turn_command, yield_point
-from .occupancy_grid import OccupancyGrid, nearest_free_cell, scan_endpoints_xy_m
 from .particle_filter import wrap_angle
 from .site_map import SiteMap
 

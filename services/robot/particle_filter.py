@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bimbot.services.robot.occupancy_grid import OccupancyGrid, distance_field_m
+from bimbot.shared.occupancy_grid import OccupancyGrid, distance_field_m
 
 logger = logging.getLogger(__name__)
 

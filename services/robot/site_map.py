@@ -30,13 +30,12 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
+from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, ComponentState
+from bimbot.shared.occupancy_grid import OccupancyGrid, distance_field_m, empty_grid, from_footprints, inflate
 from bimbot.shared.site_layout import FENCE_HEIGHT_M, FENCE_THICKNESS_M, SiteLayout
-
-from .occupancy_grid import OccupancyGrid, distance_field_m, empty_grid, from_footprints, inflate
 
 _log = logging.getLogger(__name__)
 
@@ -61,52 +60,6 @@ class MapConfig:
     @property
     def inflation_m(self) -> float:
         return self.robot_radius_m + self.inflation_margin_m
-
-
-@dataclass(frozen=True)
-class Footprint:
-    """Where a component stands: the xy outline of its posed bounding box and its z range."""
-
-    polygon_xy_m: NDArray[np.float64]  # (k, 2), convex, counter-clockwise
-    z_min_m: float
-    z_max_m: float
-
-    @property
-    def centre_xy_m(self) -> NDArray[np.float64]:
-        return self.polygon_xy_m.mean(axis=0)
-
-
-def convex_hull_xy(points_xy: ArrayLike) -> NDArray[np.float64]:
-    """Convex hull (Andrew's monotone chain), counter-clockwise, without repeated points."""
-    pts = sorted({(round(float(x), 9), round(float(y), 9)) for x, y in np.asarray(points_xy, float)})
-    if len(pts) <= 2:
-        return np.array(pts, dtype=float)
-
-    def half(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
-        chain: list[tuple[float, float]] = []
-        for p in points:
-            while len(chain) >= 2:
-                (ax, ay), (bx, by) = chain[-2], chain[-1]
-                if (bx - ax) * (p[1] - ay) - (by - ay) * (p[0] - ax) > 1e-12:
-                    break
-                chain.pop()
-            chain.append(p)
-        return chain
-
-    lower, upper = half(pts), half(pts[::-1])
-    return np.array(lower[:-1] + upper[:-1], dtype=float)
-
-
-def posed_footprint(
-    component: Component, position_m: Sequence[float], quat_xyzw: Sequence[float]
-) -> Footprint:
-    """The footprint of ``component``'s local bounding box placed at a pose (component frame, world)."""
-    low, high = np.array(component.bbox_local.min_m), np.array(component.bbox_local.max_m)
-    corners = np.array(
-        [[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]
-    )
-    world = Rotation.from_quat(np.asarray(quat_xyzw, float)).apply(corners) + np.asarray(position_m, float)
-    return Footprint(convex_hull_xy(world[:, :2]), float(world[:, 2].min()), float(world[:, 2].max()))
 
 
 def fence_boxes(layout: SiteLayout) -> list[tuple[float, float, float, float]]:
@@ -350,27 +303,6 @@ def _polygon_cells(geometry: OccupancyGrid, polygon_xy_m: NDArray[np.float64]) -
     window = from_footprints(bounds, res, polygons_xy_m=[polygon_xy_m])
     rc = np.argwhere(window.occupied) + np.array([low[1], low[0]])
     return rc[geometry.in_bounds(rc)]
-
-
-def footprint_distance_m(footprint: Footprint, xy_m: ArrayLike) -> NDArray[np.float64]:
-    """Distance from points ``(n, 2)`` to a convex footprint polygon (0 inside)."""
-    pts = np.asarray(xy_m, float).reshape(-1, 2)
-    poly = footprint.polygon_xy_m
-    if len(poly) == 1:
-        return np.hypot(*(pts - poly[0]).T)
-    a, b = poly, np.roll(poly, -1, axis=0)
-    ab = b - a
-    len2 = np.maximum((ab**2).sum(axis=1), 1e-12)
-    t = np.clip(((pts[:, None, :] - a[None]) * ab[None]).sum(-1) / len2, 0.0, 1.0)
-    nearest = a[None] + t[..., None] * ab[None]
-    distance = np.sqrt(((pts[:, None, :] - nearest) ** 2).sum(-1)).min(axis=1)
-    if len(poly) >= 3:
-        cross = ab[None, :, 0] * (pts[:, None, 1] - a[None, :, 1]) - ab[None, :, 1] * (
-            pts[:, None, 0] - a[None, :, 0]
-        )
-        inside = (cross >= -1e-12).all(axis=1)
-        distance[inside] = 0.0
-    return distance
 
 
 def heading_to(from_xy_m: ArrayLike, to_xy_m: ArrayLike) -> float:

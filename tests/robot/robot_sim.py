@@ -23,7 +23,6 @@ from bimbot.services.component_agents.agent import ComponentAgent
 from bimbot.services.planner.scheduler import PlannerCore
 from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan
 from bimbot.services.robot.executor import Executor, ExecutorConfig
-from bimbot.services.robot.occupancy_grid import OccupancyGrid
 from bimbot.services.robot.particle_filter import simulate_scan, wrap_angle
 from bimbot.services.robot.protocol import PhysicsRequest, PhysicsResult
 from bimbot.services.robot.site_map import SiteMap
@@ -46,6 +45,7 @@ from bimbot.shared.messages import (
     SiteInfoMsg,
     TaskMsg,
 )
+from bimbot.shared.occupancy_grid import OccupancyGrid
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.site_layout import plan_site
 

@@ -17,7 +17,7 @@ from bimbot.services.robot.astar import (
     segment_is_free,
     simplify_path,
 )
-from bimbot.services.robot.occupancy_grid import OccupancyGrid, from_footprints, inflate
+from bimbot.shared.occupancy_grid import OccupancyGrid, from_footprints, inflate
 
 SQRT2 = math.sqrt(2.0)
 

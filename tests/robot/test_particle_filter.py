@@ -7,7 +7,6 @@ import math
 import numpy as np
 import pytest
 
-from bimbot.services.robot.occupancy_grid import OccupancyGrid, from_footprints
 from bimbot.services.robot.particle_filter import (
     OdometryNoise,
     ParticleFilterConfig,
@@ -24,6 +23,7 @@ from bimbot.services.robot.particle_filter import (
     simulate_scan,
     wrap_angle,
 )
+from bimbot.shared.occupancy_grid import OccupancyGrid, from_footprints
 
 ANGLES = np.linspace(-math.pi, math.pi, 180, endpoint=False)
 MAX_RANGE_M = 10.0

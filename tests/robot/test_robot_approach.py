@@ -9,9 +9,10 @@ import pytest
 from robot_sim import convert_small_frame
 
 from bimbot.services.robot.approach import ApproachConfig, approach_pose, reachable_region
-from bimbot.services.robot.occupancy_grid import from_footprints, inflate
-from bimbot.services.robot.site_map import Footprint, SiteMap, footprint_distance_m, posed_footprint
+from bimbot.services.robot.site_map import SiteMap
+from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.occupancy_grid import from_footprints, inflate
 from bimbot.shared.site_layout import plan_site
 
 CONFIG = ApproachConfig(reach_m=1.5, body_clearance_m=0.75)
@@ -39,7 +40,7 @@ def test_every_yard_item_gets_a_free_reachable_approach_facing_it(site: SiteMap)
         assert grid.is_free(*found.xy_m)
         assert region[tuple(grid.world_to_cell(found.xy_m))]
         assert found.reach_distance_m <= CONFIG.reach_m - CONFIG.reach_margin_m + 1e-9
-        assert footprint_distance_m(footprint, [found.xy_m])[0] >= CONFIG.body_clearance_m
+        assert footprint.distance_m([found.xy_m])[0] >= CONFIG.body_clearance_m
         centre = footprint.centre_xy_m
         assert found.yaw_rad == pytest.approx(math.atan2(centre[1] - found.y_m, centre[0] - found.x_m))
         (x0, y0), (x1, y1) = site.layout.fence.min_xy, site.layout.fence.max_xy
@@ -67,7 +68,7 @@ def test_a_column_target_keeps_the_robot_body_clear_of_it(frame: Manifest, site:
         site.inflated_grid(), footprint, site.layout.robot_starts[0][:2], blocks_band=True, config=CONFIG
     )
     assert found is not None
-    assert CONFIG.body_clearance_m <= footprint_distance_m(footprint, [found.xy_m])[0]
+    assert CONFIG.body_clearance_m <= footprint.distance_m([found.xy_m])[0]
     assert found.reach_distance_m <= CONFIG.reach_m
 
 

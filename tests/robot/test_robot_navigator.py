@@ -13,11 +13,11 @@ from robot_sim import convert_small_frame
 from bimbot.services.robot.dwa import DwaConfig
 from bimbot.services.robot.motion import Path, carrot, turn_command, yield_point
 from bimbot.services.robot.navigator import Navigator, NavStatus
-from bimbot.services.robot.occupancy_grid import OccupancyGrid, distance_field_m, empty_grid, from_footprints
 from bimbot.services.robot.particle_filter import simulate_scan, wrap_angle
 from bimbot.services.robot.site_map import SiteMap
 from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.messages import OdomMsg, ScanMsg
+from bimbot.shared.occupancy_grid import OccupancyGrid, distance_field_m, empty_grid, from_footprints
 from bimbot.shared.site_layout import plan_site
 
 ANGLES = np.linspace(-math.pi, math.pi, 180, endpoint=False)

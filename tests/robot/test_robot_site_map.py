@@ -6,17 +6,11 @@ import numpy as np
 import pytest
 from robot_sim import convert_small_frame
 
-from bimbot.services.robot.occupancy_grid import OccupancyGrid
-from bimbot.services.robot.site_map import (
-    Footprint,
-    MapConfig,
-    SiteMap,
-    convex_hull_xy,
-    footprint_distance_m,
-    outline,
-)
+from bimbot.services.robot.site_map import MapConfig, SiteMap, outline
+from bimbot.shared.footprint import Footprint, convex_hull_xy
 from bimbot.shared.manifest import Component, Manifest, read_manifest
 from bimbot.shared.messages import ComponentPoseMsg, ComponentState, PoseMsg
+from bimbot.shared.occupancy_grid import OccupancyGrid
 from bimbot.shared.site_layout import plan_site
 
 
@@ -126,7 +120,7 @@ def test_geometry_helpers() -> None:
     hull = convex_hull_xy([(0, 0), (1, 0), (1, 1), (0, 1), (0.5, 0.5), (1, 0)])
     assert len(hull) == 4
     footprint = Footprint(hull, 0.0, 1.0)
-    distances = footprint_distance_m(footprint, [(0.5, 0.5), (2.0, 0.5), (2.0, 2.0)])
+    distances = footprint.distance_m([(0.5, 0.5), (2.0, 0.5), (2.0, 2.0)])
     np.testing.assert_allclose(distances, [0.0, 1.0, np.sqrt(2.0)])
     solid = OccupancyGrid(np.pad(np.ones((3, 3), bool), 1), 1.0, (0.0, 0.0))
     assert outline(solid).occupied.sum() == 8, "the centre of a 3×3 block is no surface"

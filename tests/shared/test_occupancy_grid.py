@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from bimbot.services.robot.occupancy_grid import (
+from bimbot.shared.occupancy_grid import (
     OccupancyGrid,
     distance_field_m,
     empty_grid,
