@@ -51,7 +51,9 @@ started_all=$SECONDS
 
 # ------------------------------------------------------------------------------ 1. packages and the daemon
 missing=()
-command -v docker >/dev/null || missing+=(docker.io)
+command -v docker >/dev/null || missing+=("docker (the client)")
+# A client alone is not enough: without a daemon that answers, this script starts dockerd.
+docker info >/dev/null 2>&1 || command -v dockerd >/dev/null || missing+=("dockerd (the engine)")
 command -v debootstrap >/dev/null || missing+=(debootstrap)
 if ! docker compose version >/dev/null 2>&1 && ! command -v docker-compose >/dev/null; then
     missing+=(docker-compose)

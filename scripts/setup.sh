@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Set up bimbot on a fresh Debian/Ubuntu machine: system packages, a virtual environment, the project.
 # Idempotent: a second run only checks. Usage: bash scripts/setup.sh [--tests]
-#   --tests  also what the test suite needs beyond the demo: docker, compose and debootstrap for the
-#            compose smoke test (tests/compose; scripts/compose-smoke.sh starts dockerd itself)
+#   --tests  also what the test suite needs beyond the demo: the Docker engine (dockerd), compose and
+#            debootstrap for the compose smoke test (tests/compose; scripts/compose-smoke.sh starts dockerd)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -25,11 +25,24 @@ for package in "${SYSTEM_PACKAGES[@]}"; do
     dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" || missing+=("$package")
 done
 if [ "$TESTS" -eq 1 ]; then
-    # By command rather than by package: a machine with Docker's own packages (docker-ce, the compose
-    # plugin) has what the test needs, and Debian's docker.io would conflict with them.
-    command -v docker >/dev/null || missing+=(docker.io)
+    # Checked by the binary each step of the compose test runs, not by package name: a Docker client alone
+    # (a static /usr/local/bin/docker, say) runs no daemon, and scripts/compose-smoke.sh starts `dockerd`.
+    # The engine comes from Docker's own packages where they are installed or their repository is
+    # configured (Debian's docker.io conflicts with docker-ce and docker-ce-cli), else from Debian.
+    if ! command -v dockerd >/dev/null; then
+        if dpkg-query -W -f='${Status}' docker-ce-cli 2>/dev/null | grep -q "install ok installed" \
+            || apt-cache policy docker-ce 2>/dev/null | grep -q 'Candidate: [0-9]'; then
+            missing+=(docker-ce containerd.io)
+        else
+            missing+=(docker.io)
+        fi
+    fi
     if ! docker compose version >/dev/null 2>&1 && ! command -v docker-compose >/dev/null; then
-        missing+=(docker-compose)
+        if apt-cache policy docker-compose-plugin 2>/dev/null | grep -q 'Candidate: [0-9]'; then
+            missing+=(docker-compose-plugin)
+        else
+            missing+=(docker-compose)
+        fi
     fi
     command -v debootstrap >/dev/null || missing+=(debootstrap)
 fi

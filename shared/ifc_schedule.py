@@ -79,6 +79,8 @@ def _ordered_guids(
 
     def key(guid: str) -> tuple[str, str, int]:
         task = owner[guid]
-        return (_start_key(task), str(task.Identification or task.Name or ""), task.id())
+        # IFC2X3 tasks have a TaskId instead of an Identification
+        identification = getattr(task, "Identification", None) or getattr(task, "TaskId", None)
+        return (_start_key(task), str(identification or task.Name or ""), task.id())
 
     return priority_topological_order(predecessors, key)

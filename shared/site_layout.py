@@ -1,37 +1,58 @@
 """The construction site around the building, as in the paper's Fig. 10: a yard, a robot depot and a fence.
 
 Pure and deterministic, so physics (which builds it), robots (which navigate it) and the observer (which
-draws it) compute the same site from the same manifest:
+draws it) compute the same site from the same manifest and robot count:
 
 * **building** — the footprint of the target structure (its components' world bounding boxes, grown by a
   margin): where the BIM places it.
-* **yard** — south of the building (−y), beyond a driving lane: every component lies flat on the ground,
-  its longest extent along x and its shortest vertical, in rows one component deep. Rows come in
-  back-to-back pairs with an aisle on each side of a pair, so every component faces an aisle from where a
-  robot can reach it. Nothing overlaps and nothing lies on the building footprint.
-* **depot** — west of the yard (−x): the robots' start poses, side by side, facing +x.
-* **fence** — a rectangle around all of it (site hoarding), which also gives the robots' lasers something to
-  localise against on an otherwise empty site.
+* **yard** — south of the building (−y), beyond a driving lane. Every component lies flat on the ground
+  (shortest extent vertical, longest along y) in **lay-down rows that run north–south**, towards the
+  building. Rows come in back-to-back pairs; between two pairs runs an **aisle** as wide as the robot's
+  inflated footprint plus a corridor (:func:`aisle_width_m`), open at both ends: onto the lane along the
+  building to the north and the lane inside the fence to the south. Every component is flush with the
+  aisle (or the lane) on its side of the pair, so a robot in that aisle reaches it, and the way from the
+  building to any slot is the lane, then straight down one aisle.
+* **long and wide elements** get rows of their own: a row holds components of one width class (widths
+  within a factor of two: a 12 m slab never widens a row of 0.3 m beams), and components longer than the
+  yard's row depth go to long rows (all as deep as the longest of them) instead of deepening every row.
+* **compact**: the row depth is chosen among a few candidates to minimise the mean driving distance
+  from the building's south edge (lane + along the lane + down the aisle); the components needed first
+  (lowest target first — footings, then columns, then beams and slabs: the manifest's components sorted by
+  the bottom of their target, manifest order among equals) lie at the front of the rows, nearest the
+  building, and the rows holding them nearest the building's centre line.
+* **depot** — west of the yard (−x), beyond a lane: the robots' start poses one behind the other, facing
+  +x, the first on the line of the lane between the building and the yard (the site's main street).
+* **fence** — a rectangle around all of it with a driving lane inside (site hoarding), which also gives
+  the robots' lasers something to localise against on an otherwise empty site.
 
-Frames: the simulation world frame of :mod:`bimbot.shared.manifest` (metres, Z up).
+Nothing overlaps and nothing lies on the building footprint. Frames: the simulation world frame of
+:mod:`bimbot.shared.manifest` (metres, Z up).
 """
 
 from __future__ import annotations
 
+import heapq
+import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import lru_cache
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .manifest import Component
+from .robot_description import DEFAULT_ROBOT, RobotDescription
 
 GROUND_CLEARANCE_M = 0.001  # yard components rest this far above the ground plane
-LANE_M = 3.0  # driving lane between the building footprint and the yard, and around the site
-AISLE_M = 2.0  # in front of every yard row
-GAP_M = 0.4  # between components in a row
+LANE_M = 3.0  # driving lane between the building footprint and the yard, beside the depot, inside the fence
+INFLATION_MARGIN_M = 0.15  # the robots' map inflates obstacles by their radius plus this
+AISLE_CORRIDOR_M = 0.6  # free corridor left in an aisle between the two inflated rows
+GAP_M = 0.4  # between components in a row, and between the two rows of a pair
 BUILDING_MARGIN_M = 1.0
-MIN_ROW_LENGTH_M = 12.0
+MIN_ROW_DEPTH_M = 4.0
+MIN_YARD_WIDTH_M = 12.0  # a small model's site keeps lanes long enough for robots to pass and localise
+MAX_DEPTH_CANDIDATES = 12
+WIDTH_CLASS_BASE_M = 0.5  # width classes: ≤ 0.5 m, ≤ 1 m, ≤ 2 m, ≤ 4 m, …
 ROBOT_SPACING_M = 1.6
 FENCE_THICKNESS_M = 0.2
 FENCE_HEIGHT_M = 1.2
@@ -72,6 +93,7 @@ class YardSlot:
     quat_xyzw: tuple[float, float, float, float]
     footprint: Rect
     height_m: float
+    aisle_side: int = 0  # the side its aisle (or lane) is on: -1 west, +1 east (0: not in the yard)
 
 
 @dataclass(frozen=True)
@@ -82,11 +104,17 @@ class SiteLayout:
     fence: Rect  # inner edge of the fence
     slots: dict[str, YardSlot]
     robot_starts: tuple[tuple[float, float, float], ...]  # x, y, yaw
+    aisles: tuple[Rect, ...] = ()  # between the pairs of rows, north–south across the yard
 
     @property
     def bounds(self) -> Rect:
         """Everything, the fence included."""
         return self.fence.grown(FENCE_THICKNESS_M)
+
+
+def aisle_width_m(robot: RobotDescription = DEFAULT_ROBOT) -> float:
+    """An aisle fits the robot inflated on both sides (radius + map margin) and a corridor between."""
+    return 2.0 * (robot.radius_m + INFLATION_MARGIN_M) + AISLE_CORRIDOR_M
 
 
 def lying_rotation(extents_local_m: Sequence[float]) -> np.ndarray:
@@ -100,11 +128,19 @@ def lying_rotation(extents_local_m: Sequence[float]) -> np.ndarray:
     return matrix
 
 
+_QUARTER_TURN_Z = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+
+
+def yard_rotation(extents_local_m: Sequence[float]) -> np.ndarray:
+    """How a component lies in the yard: flat (shortest extent vertical), longest extent along world y."""
+    return _QUARTER_TURN_Z @ lying_rotation(extents_local_m)
+
+
 def laid_slot(component: Component, min_x: float, min_y: float) -> YardSlot:
-    """``component`` lying flat with its footprint's corner at (min_x, min_y), resting on the ground."""
+    """``component`` lying as in the yard with its footprint's corner at (min_x, min_y), on the ground."""
     low = np.array(component.bbox_local.min_m)
     high = np.array(component.bbox_local.max_m)
-    rotation = lying_rotation(high - low)
+    rotation = yard_rotation(high - low)
     corners = np.array(
         [[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]
     )
@@ -112,14 +148,26 @@ def laid_slot(component: Component, min_x: float, min_y: float) -> YardSlot:
     t_min = turned.min(axis=0)
     size = turned.max(axis=0) - t_min
     translation = np.array([min_x, min_y, GROUND_CLEARANCE_M]) - t_min
-    quat = Rotation.from_matrix(rotation).as_quat()
     return YardSlot(
         guid=component.guid,
         position_m=(float(translation[0]), float(translation[1]), float(translation[2])),
-        quat_xyzw=(float(quat[0]), float(quat[1]), float(quat[2]), float(quat[3])),
+        quat_xyzw=_quat_xyzw(tuple(rotation.ravel().tolist())),
         footprint=Rect((min_x, min_y), (min_x + float(size[0]), min_y + float(size[1]))),
         height_m=float(size[2]),
     )
+
+
+@lru_cache(maxsize=64)
+def _quat_xyzw(matrix: tuple[float, ...]) -> tuple[float, float, float, float]:
+    """The quaternion of a yard rotation (one of 24 signed permutations: cached)."""
+    quat = Rotation.from_matrix(np.array(matrix).reshape(3, 3)).as_quat()
+    return (float(quat[0]), float(quat[1]), float(quat[2]), float(quat[3]))
+
+
+def laid_size_m(component: Component) -> tuple[float, float, float]:
+    """(x, y, z) extents of ``component`` lying in the yard: middle, longest and shortest extent."""
+    extents = sorted(np.array(component.bbox_local.max_m) - np.array(component.bbox_local.min_m))
+    return (float(extents[1]), float(extents[2]), float(extents[0]))
 
 
 def building_footprint(components: Sequence[Component]) -> Rect:
@@ -128,57 +176,180 @@ def building_footprint(components: Sequence[Component]) -> Rect:
     return Rect((float(low[0]), float(low[1])), (float(high[0]), float(high[1]))).grown(BUILDING_MARGIN_M)
 
 
-def plan_site(components: Sequence[Component], robots: int = 1) -> SiteLayout:
-    """The site for ``components`` (in manifest order) and ``robots`` robots."""
+def width_class(width_m: float) -> int:
+    """0 for ≤ 0.5 m, 1 for ≤ 1 m, 2 for ≤ 2 m, …: components of one class share rows."""
+    return max(0, math.ceil(math.log2(max(width_m, 1e-9) / WIDTH_CLASS_BASE_M) - 1e-9))
+
+
+@dataclass
+class _Row:
+    """One lay-down row: components stacked from its front (north) end, flush with its aisle side."""
+
+    kind: tuple[bool, int]  # (long row?, width class)
+    limit_m: float
+    items: list[int]  # component indices, front first
+    first_rank: int = 0  # priority rank of its first component
+    filled_m: float = 0.0
+    width_m: float = 0.0
+
+
+def plan_site(
+    components: Sequence[Component], robots: int = 1, *, robot: RobotDescription = DEFAULT_ROBOT
+) -> SiteLayout:
+    """The site for ``components`` (in manifest order) and ``robots`` robots of type ``robot``."""
     if not components:
         raise ValueError("a site needs at least one component")
     building = building_footprint(components)
-    laid = [laid_slot(component, 0.0, 0.0) for component in components]
-    row_length = max(building.size[0], *(slot.footprint.size[0] for slot in laid), MIN_ROW_LENGTH_M)
-    rows = _fill_rows(laid, row_length)
-    yard_min_x = building.min_xy[0]
-    top_y = building.min_xy[1] - LANE_M  # the yard's north edge
-    slots: dict[str, YardSlot] = {}
-    cursor_y = top_y - AISLE_M
-    for number, row in enumerate(rows):
-        depth = max(laid[index].footprint.size[1] for index in row)
-        cursor_x = yard_min_x
-        for index in row:
-            width, item_depth = laid[index].footprint.size
-            # rows come in back-to-back pairs: the first faces the aisle north of it, the second the one south
-            min_y = cursor_y - item_depth if number % 2 == 0 else cursor_y - depth
-            slot = laid_slot(components[index], cursor_x, min_y)
-            slots[slot.guid] = slot
-            cursor_x += width + GAP_M
-        cursor_y -= depth + (GAP_M if number % 2 == 0 else AISLE_M)
-    yard_bottom = cursor_y if len(rows) % 2 == 0 else cursor_y - AISLE_M + GAP_M
-    yard = Rect((yard_min_x, yard_bottom), (yard_min_x + row_length, top_y))
+    sizes = np.array([laid_size_m(component)[:2] for component in components])
+    bottoms = [round(component.bbox_world.min_m[2], 2) for component in components]
+    priority = sorted(range(len(components)), key=lambda index: (bottoms[index], index))
+    aisle_m = aisle_width_m(robot)
+    lane_m = max(LANE_M, aisle_m)
+    centre_x = (building.min_xy[0] + building.max_xy[0]) / 2.0
+    front_y = building.min_xy[1] - lane_m  # the yard's north edge
+    best: tuple[float, float, list[_Row]] | None = None
+    for depth_m in _depth_candidates(sizes, aisle_m):
+        rows = _fill_rows(sizes, priority, depth_m)
+        cost = _mean_drive_m(rows, sizes, aisle_m)
+        if best is None or cost < best[0] - 1e-9:
+            best = (cost, depth_m, rows)
+    assert best is not None
+    rows = best[2]
+    slots, aisles, yard = _place_rows(
+        components, rows, sizes, aisle_m=aisle_m, centre_x=centre_x, front_y=front_y
+    )
     depot_width = 2.0 * ROBOT_SPACING_M
-    depot_height = max(1, robots) * ROBOT_SPACING_M
+    first_y = front_y + lane_m / 2.0  # the first robot on the lane between the building and the yard
     depot = Rect(
-        (yard.min_xy[0] - LANE_M - depot_width, top_y - depot_height), (yard.min_xy[0] - LANE_M, top_y)
+        (
+            yard.min_xy[0] - lane_m - depot_width,
+            first_y + ROBOT_SPACING_M / 2.0 - max(1, robots) * ROBOT_SPACING_M,
+        ),
+        (yard.min_xy[0] - lane_m, first_y + ROBOT_SPACING_M / 2.0),
     )
     starts = tuple(
-        (depot.min_xy[0] + depot_width / 2.0, top_y - (i + 0.5) * ROBOT_SPACING_M, 0.0) for i in range(robots)
+        (depot.min_xy[0] + depot_width / 2.0, first_y - i * ROBOT_SPACING_M, 0.0) for i in range(robots)
     )
     union = Rect(
         (min(building.min_xy[0], depot.min_xy[0]), min(yard.min_xy[1], depot.min_xy[1])),
         (max(building.max_xy[0], yard.max_xy[0]), building.max_xy[1]),
     )
-    return SiteLayout(building, yard, depot, union.grown(LANE_M), slots, starts)
+    return SiteLayout(building, yard, depot, union.grown(lane_m), slots, starts, aisles)
 
 
-def _fill_rows(laid: list[YardSlot], row_length: float) -> list[list[int]]:
-    """Indices of ``laid`` in rows no longer than ``row_length``, longest components first."""
-    order = sorted(range(len(laid)), key=lambda index: (-laid[index].footprint.size[0], index))
-    rows: list[list[int]] = []
-    used = row_length + 1.0
-    for index in order:
-        width = laid[index].footprint.size[0]
-        if rows and used + width <= row_length:
-            rows[-1].append(index)
-            used += width + GAP_M
-        else:
-            rows.append([index])
-            used = width + GAP_M
-    return rows
+def _depth_candidates(sizes: np.ndarray, aisle_m: float) -> list[float]:
+    """Row depths to try, about a quarter apart (at most ``MAX_DEPTH_CANDIDATES``): from the typical
+    component's length up to the longest one, or to twice the side of a square yard when there are many."""
+    lengths = sizes[:, 1]
+    square_side = math.sqrt(float(np.sum((sizes[:, 0] + aisle_m / 2.0) * (lengths + GAP_M))))
+    last = max(float(lengths.max()), 2.0 * square_side, MIN_ROW_DEPTH_M)
+    first = max(MIN_ROW_DEPTH_M, float(np.median(lengths)))
+    if first >= last:
+        return [last]
+    steps = min(MAX_DEPTH_CANDIDATES - 1, math.ceil(math.log(last / first) / math.log(1.25)))
+    return [float(depth) for depth in np.geomspace(first, last, steps + 1)]
+
+
+def _fill_rows(sizes: np.ndarray, priority: Sequence[int], depth_m: float) -> list[_Row]:
+    """Components in rows of one kind each (long or not, width class); in priority order, each goes to
+    the least filled row of its kind that has room, so the first ones needed lie at the row fronts."""
+    longest = float(sizes[:, 1].max())
+    kinds: dict[tuple[bool, int], list[int]] = {}
+    rank = {index: number for number, index in enumerate(priority)}
+    for index in priority:
+        width, length = sizes[index]
+        kinds.setdefault((bool(length > depth_m), width_class(width)), []).append(index)
+    rows: list[_Row] = []
+    for kind in sorted(kinds):
+        members = kinds[kind]
+        limit = longest if kind[0] else depth_m
+        total = sum(float(sizes[i, 1]) + GAP_M for i in members)
+        start = len(rows)
+        count = max(1, math.ceil(total / (limit + GAP_M)))
+        rows += [_Row(kind, limit, []) for _ in range(count)]
+        heap = [(0.0, number) for number in range(start, len(rows))]
+        for index in members:
+            width, length = (float(v) for v in sizes[index])
+            filled, number = heap[0]
+            if filled + length > limit + 1e-9:  # the least filled row is full: so are all the others
+                number = len(rows)
+                rows.append(_Row(kind, limit, []))
+                filled = 0.0
+            else:
+                heapq.heappop(heap)
+            row = rows[number]
+            if not row.items:
+                row.first_rank = rank[index]
+            row.items.append(index)
+            row.filled_m = filled + length + GAP_M
+            row.width_m = max(row.width_m, width)
+            heapq.heappush(heap, (row.filled_m, number))
+    return [row for row in rows if row.items]
+
+
+def _ordered_pairs(rows: list[_Row]) -> list[list[_Row]]:
+    """Rows sorted by the first component they hold, paired back to back, the first pair in the middle,
+    the next ones alternately east and west of it (west to east)."""
+    rows = sorted(rows, key=lambda row: row.first_rank)
+    pairs = [rows[i : i + 2] for i in range(0, len(rows), 2)]
+    west: list[list[_Row]] = []
+    east: list[list[_Row]] = []
+    for number, pair in enumerate(pairs):
+        (east if number % 2 == 0 else west).append(pair)
+    return [*reversed(west), *east]
+
+
+def _pair_width_m(pair: list[_Row]) -> float:
+    return sum(row.width_m for row in pair) + GAP_M * (len(pair) - 1)
+
+
+def _mean_drive_m(rows: list[_Row], sizes: np.ndarray, aisle_m: float) -> float:
+    """Mean distance from the middle of the yard's front to each component: across, then down its row."""
+    pairs = _ordered_pairs(rows)
+    total_width = sum(_pair_width_m(pair) for pair in pairs) + aisle_m * (len(pairs) - 1)
+    x = -total_width / 2.0
+    distance = 0.0
+    for pair in pairs:
+        for side, row in enumerate(pair):
+            aisle_x = x - aisle_m / 2.0 if side == 0 else x + _pair_width_m(pair) + aisle_m / 2.0
+            along = 0.0
+            for index in row.items:
+                distance += abs(aisle_x) + along + float(sizes[index, 1]) / 2.0
+                along += float(sizes[index, 1]) + GAP_M
+        x += _pair_width_m(pair) + aisle_m
+    return distance / len(sizes)
+
+
+def _place_rows(
+    components: Sequence[Component],
+    rows: list[_Row],
+    sizes: np.ndarray,
+    *,
+    aisle_m: float,
+    centre_x: float,
+    front_y: float,
+) -> tuple[dict[str, YardSlot], tuple[Rect, ...], Rect]:
+    """Slots of every component, the aisles between the pairs and the yard, centred on ``centre_x``."""
+    pairs = _ordered_pairs(rows)
+    total_width = sum(_pair_width_m(pair) for pair in pairs) + aisle_m * (len(pairs) - 1)
+    depth = max(row.filled_m - GAP_M for row in rows)
+    half = max(total_width, MIN_YARD_WIDTH_M) / 2.0
+    yard = Rect((centre_x - half, front_y - depth), (centre_x + half, front_y))
+    placed: dict[int, YardSlot] = {}
+    aisles: list[Rect] = []
+    x = centre_x - total_width / 2.0
+    for number, pair in enumerate(pairs):
+        right_edge = x + _pair_width_m(pair)
+        for side, row in enumerate(pair):
+            y = front_y
+            for index in row.items:
+                width, length = (float(v) for v in sizes[index])
+                min_x = x if side == 0 else right_edge - width  # flush with this row's aisle
+                slot = laid_slot(components[index], min_x, y - length)
+                placed[index] = replace(slot, aisle_side=-1 if side == 0 else 1)
+                y -= length + GAP_M
+        if number < len(pairs) - 1:
+            aisles.append(Rect((right_edge, yard.min_xy[1]), (right_edge + aisle_m, front_y)))
+        x = right_edge + aisle_m
+    slots = {placed[index].guid: placed[index] for index in range(len(components))}
+    return slots, tuple(aisles), yard

@@ -1,5 +1,8 @@
 """``bimbot convert MODEL.ifc -o OUT/``: the command-line adapter of the converter.
 
+What is built: building elements and their parts (:mod:`.selection`); ``--include``/``--exclude``/``--only``
+change that by class. The summary line counts the elements left out by reason.
+
 Exit codes: 0 when at least one component was converted, 1 when the model was read but nothing could be
 converted (the manifest still lists why), 2 for unreadable input (one clear line, no traceback).
 """
@@ -10,9 +13,12 @@ import argparse
 import logging
 import sys
 import time
+from collections import Counter
+from collections.abc import Sequence
 from pathlib import Path
 
 from bimbot.shared.errors import UserError
+from bimbot.shared.manifest import SkippedElement
 
 _log = logging.getLogger(__name__)
 
@@ -21,9 +27,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", type=Path, help="IFC file (IFC2X3, IFC4 or IFC4X3, STEP .ifc)")
     parser.add_argument("-o", "--output", type=Path, required=True, help="output folder (created if missing)")
     parser.add_argument(
-        "--include", default="", help="only these IFC classes (comma-separated, with subclasses)"
+        "--include",
+        default="",
+        help="also build these IFC classes, e.g. IfcFurnishingElement (comma-separated, with subclasses); "
+        "by default building elements and their parts are built",
     )
-    parser.add_argument("--exclude", default="", help="leave out these IFC classes (comma-separated)")
+    parser.add_argument(
+        "--exclude", default="", help="leave out these IFC classes (comma-separated, with subclasses)"
+    )
+    parser.add_argument(
+        "--only",
+        default="",
+        help="build only these IFC classes instead of the building elements (comma-separated, subclasses)",
+    )
     parser.add_argument("--threads", type=int, default=None, help="tessellation threads (default: all cores)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar even on a terminal")
 
@@ -38,11 +54,12 @@ def run(args: argparse.Namespace) -> int:
     try:
         include = check_classes(model, parse_class_list(args.include))
         exclude = check_classes(model, parse_class_list(args.exclude))
+        only = check_classes(model, parse_class_list(args.only))
     except ValueError as error:
         raise UserError(str(error)) from None
     if args.threads is not None and args.threads < 1:
         raise UserError("--threads must be at least 1")
-    options = ConvertOptions(include=include, exclude=exclude, threads=args.threads)
+    options = ConvertOptions(include=include, exclude=exclude, only=only, threads=args.threads)
     stats = ConversionStats()
     with _ProgressBar(enabled=not args.no_progress and sys.stderr.isatty()) as bar:
         try:
@@ -58,7 +75,8 @@ def run(args: argparse.Namespace) -> int:
     for warning in manifest.warnings:
         _log.info("warning: %s", warning)
     sys.stdout.write(
-        f"converted {len(manifest.components)} component(s), skipped {len(manifest.skipped)}, "
+        f"converted {len(manifest.components)} component(s), skipped {len(manifest.skipped)}"
+        f"{skipped_summary(manifest.skipped)}, "
         f"{len(manifest.warnings)} warning(s) in {seconds:.1f} s → {args.output}/ "
         f"(world {manifest.world_file}, sequence {manifest.sequence_file} from {manifest.sequence_source})\n"
     )
@@ -68,6 +86,21 @@ def run(args: argparse.Namespace) -> int:
         )
         return 1
     return 0
+
+
+def skipped_summary(skipped: Sequence[SkippedElement], most: int = 4) -> str:
+    """`` (35 not a building element (IfcFurnishingElement), 10 feature element (IfcOpeningElement))``:
+    the elements left out, counted by the head of their reason, most frequent first; empty for none."""
+    from .selection import reason_head
+
+    if not skipped:
+        return ""
+    counts = Counter(reason_head(item.reason) for item in skipped)
+    ranked = sorted(counts.items(), key=lambda pair: (-pair[1], pair[0]))
+    parts = [f"{count} {head}" for head, count in ranked[:most]]
+    if len(ranked) > most:
+        parts.append(f"{sum(count for _, count in ranked[most:])} for other reasons")
+    return f" ({', '.join(parts)})"
 
 
 class _ProgressBar:

@@ -52,8 +52,9 @@ ProgressCallback = Callable[[str, int, int], None]  # (stage, done, total)
 
 @dataclass(frozen=True)
 class ConvertOptions:
-    include: tuple[str, ...] = ()
-    exclude: tuple[str, ...] = ()
+    include: tuple[str, ...] = ()  # classes built on top of the default building elements (with subclasses)
+    exclude: tuple[str, ...] = ()  # classes left out (with subclasses)
+    only: tuple[str, ...] = ()  # when given, these classes replace the default building elements
     threads: int | None = None  # worker processes (default: all cores)
     far_from_origin_m: float = 1000.0
 
@@ -78,7 +79,7 @@ def convert_model(
     options = options or ConvertOptions()
     stats = stats if stats is not None else ConversionStats()
     started = time.perf_counter()
-    selection = select_elements(model, options.include, options.exclude)
+    selection = select_elements(model, options.include, options.exclude, options.only)
     elements = list(selection.elements)
     skipped = [skipped_entry(rejection.element, rejection.reason) for rejection in selection.rejected]
     unit_scale_m = ifcopenshell.util.unit.calculate_unit_scale(model)

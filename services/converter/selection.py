@@ -1,20 +1,37 @@
-"""Choose which IFC elements become components.
+"""Choose which IFC elements become components, and say why every other element is left out.
 
-By default every ``IfcElement`` with a body representation (columns, beams, members, plates, slabs, walls,
-footings, fasteners, …) is a component; feature elements (openings, projections, surface features),
-virtual elements, spaces and annotations never are (spaces and annotations are not ``IfcElement``s).
-``include``/``exclude`` lists of IFC classes narrow that down, with subclasses (``IfcWall`` takes
-``IfcWallStandardCase``). Elements that are left out for a reason a user should see come back as
-:class:`Rejection`\\ s so the manifest can list them under ``skipped``.
+The rule, as in the paper (building components are what robots assemble):
+
+* **Built by default:** building elements — ``IfcBuildingElement`` in IFC2X3/IFC4, ``IfcBuiltElement`` in
+  IFC4X3, with every subclass (walls, slabs, beams, columns, members, plates, footings, windows, doors,
+  proxies, …) — their parts (``IfcElementComponent``: plates, fasteners, accessories, building element
+  parts) and prefabricated assemblies (``IfcElementAssembly``) that have a body of their own.
+* **Left out by default:** furniture (``IfcFurnishingElement``), MEP (``IfcDistributionElement``, and in
+  IFC2X3 ``IfcElectricalElement``/``IfcEquipmentElement``), transport, geographic, civil and geotechnical
+  elements. ``include`` adds classes back, ``exclude`` takes classes away, ``only`` replaces the default
+  rule by a list of classes; all three take subclasses (``IfcWall`` takes ``IfcWallStandardCase``).
+* **Never built:** feature elements (openings, projections, surface features) and virtual elements; spaces
+  and annotations are not ``IfcElement``\\ s at all.
+* An element that aggregates parts which are built (a curtain wall of plates and members, a roof of slabs)
+  is left out: its parts are the components, building it as well would put its geometry there twice.
+
+Every ``IfcElement`` that is not chosen comes back as a :class:`Rejection` with a reason a user can act on
+(``"not a building element (IfcFurnishingElement); --include IfcFurnishingElement to build it"``), so the
+manifest lists it under ``skipped``. A reason starts with a short head (up to the first ``;`` or ``:``)
+that :func:`reason_head` returns, for summaries that count elements by reason.
+
+The class tree comes from ifcopenshell's schema API, so the rule holds for IFC2X3, IFC4 and IFC4X3 alike.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import ifcopenshell
 
+BUILDABLE_ROOTS = ("IfcBuildingElement", "IfcBuiltElement", "IfcElementComponent", "IfcElementAssembly")
 NEVER_COMPONENTS = ("IfcFeatureElement", "IfcVirtualElement")
 BODY_IDENTIFIERS = frozenset({"Body", "Facetation", "Brep", "SweptSolid", "Body-FallBack"})
 
@@ -31,6 +48,16 @@ class Selection:
     rejected: tuple[Rejection, ...]
 
 
+@dataclass(frozen=True)
+class ClassRule:
+    """Which classes are built: the default building elements (or ``only``), plus ``include``, minus
+    ``exclude``. Class names as the schema spells them (:func:`check_classes`)."""
+
+    include: tuple[str, ...] = ()
+    exclude: tuple[str, ...] = ()
+    only: tuple[str, ...] = ()
+
+
 def parse_class_list(text: str | None) -> tuple[str, ...]:
     """``"IfcBeam, IfcColumn"`` → ``("IfcBeam", "IfcColumn")``."""
     if not text:
@@ -38,14 +65,32 @@ def parse_class_list(text: str | None) -> tuple[str, ...]:
     return tuple(part.strip() for part in text.split(",") if part.strip())
 
 
+def _schema(model: ifcopenshell.file) -> ifcopenshell.ifcopenshell_wrapper.schema_definition:
+    return ifcopenshell.ifcopenshell_wrapper.schema_by_name(model.schema_identifier)  # IFC4X3_ADD2, …
+
+
 def check_classes(model: ifcopenshell.file, classes: Iterable[str]) -> tuple[str, ...]:
     """Return the classes with the schema's spelling; ``ValueError`` naming any class the schema lacks."""
-    schema = ifcopenshell.ifcopenshell_wrapper.schema_by_name(model.schema)
-    known = {declaration.name().lower(): declaration.name() for declaration in schema.declarations()}
+    known = {declaration.name().lower(): declaration.name() for declaration in _schema(model).declarations()}
     unknown = [name for name in classes if name.lower() not in known]
     if unknown:
         raise ValueError(f"unknown IFC class(es) for {model.schema}: {', '.join(unknown)}")
     return tuple(known[name.lower()] for name in classes)
+
+
+def buildable_roots(model: ifcopenshell.file) -> tuple[str, ...]:
+    """The classes built by default that exist in ``model``'s schema."""
+    names = {declaration.name() for declaration in _schema(model).declarations()}
+    return tuple(name for name in BUILDABLE_ROOTS if name in names)
+
+
+def element_category(model: ifcopenshell.file, ifc_class: str) -> str:
+    """The class directly below ``IfcElement`` that ``ifc_class`` descends from (``IfcFurniture`` →
+    ``IfcFurnishingElement``); ``ifc_class`` itself when it is not an ``IfcElement``."""
+    declaration = _schema(model).declaration_by_name(ifc_class)
+    while declaration.supertype() is not None and declaration.supertype().name() != "IfcElement":
+        declaration = declaration.supertype()
+    return declaration.name() if declaration.supertype() is not None else ifc_class
 
 
 def has_body_representation(element: ifcopenshell.entity_instance) -> bool:
@@ -65,31 +110,90 @@ def has_body_representation(element: ifcopenshell.entity_instance) -> bool:
     return False
 
 
+def reason_head(reason: str) -> str:
+    """The short head of a skip reason (up to its first ``;`` or ``:``), for counting by reason."""
+    return re.split(r"[;:]", reason, maxsplit=1)[0].strip()
+
+
+def class_rejection(
+    model: ifcopenshell.file, element: ifcopenshell.entity_instance, rule: ClassRule, roots: Sequence[str]
+) -> str | None:
+    """Why ``rule`` leaves ``element`` out, or None when its class is built."""
+    if any(element.is_a(name) for name in NEVER_COMPONENTS):
+        category = element_category(model, element.is_a())
+        kind = "virtual element" if category == "IfcVirtualElement" else "feature element"
+        return f"{kind} ({element.is_a()}): a void or mark on its host, never built as a component"
+    for name in rule.exclude:
+        if element.is_a(name):
+            return f"left out by --exclude {name}"
+    if any(element.is_a(name) for name in rule.include):
+        return None
+    if rule.only:
+        if any(element.is_a(name) for name in rule.only):
+            return None
+        return f"not in --only {','.join(rule.only)}; --include {element.is_a()} to build it"
+    if any(element.is_a(name) for name in roots):
+        return None
+    category = element_category(model, element.is_a())
+    return f"not a building element ({category}); --include {category} to build it"
+
+
 def select_elements(
-    model: ifcopenshell.file, include: Sequence[str] = (), exclude: Sequence[str] = ()
+    model: ifcopenshell.file,
+    include: Sequence[str] = (),
+    exclude: Sequence[str] = (),
+    only: Sequence[str] = (),
 ) -> Selection:
-    """Components to convert, in STEP id order, and the elements left out with a reason worth reporting."""
-    chosen: list[ifcopenshell.entity_instance] = []
+    """Components to convert, in STEP id order, and every other ``IfcElement`` with the reason it is left
+    out (see the module docstring for the rule)."""
+    rule = ClassRule(tuple(include), tuple(exclude), tuple(only))
+    roots = buildable_roots(model)
+    candidates: list[ifcopenshell.entity_instance] = []
     rejected: list[Rejection] = []
     seen_guids: dict[str, ifcopenshell.entity_instance] = {}
     for element in sorted(model.by_type("IfcElement"), key=lambda item: item.id()):
-        if any(element.is_a(name) for name in NEVER_COMPONENTS):
-            continue
-        if include and not any(element.is_a(name) for name in include):
-            continue
-        if exclude and any(element.is_a(name) for name in exclude):
-            continue
-        if not has_body_representation(element):
-            if element.Representation is not None:
-                rejected.append(Rejection(element, "no body representation (only axis, box or footprint)"))
+        reason = class_rejection(model, element, rule, roots)
+        if reason is not None:
+            rejected.append(Rejection(element, reason))
             continue
         guid = element.GlobalId
         if guid in seen_guids:
             first = seen_guids[guid]
             rejected.append(
-                Rejection(element, f"duplicate GlobalId, already used by #{first.id()} {first.is_a()}")
+                Rejection(element, f"duplicate GlobalId; already used by #{first.id()} {first.is_a()}")
             )
             continue
         seen_guids[guid] = element
-        chosen.append(element)
+        candidates.append(element)
+    with_body = {element.id() for element in candidates if has_body_representation(element)}
+    chosen: list[ifcopenshell.entity_instance] = []
+    for element in candidates:
+        built_parts = sum(1 for part in _parts(element) if part.id() in with_body)
+        if element.id() not in with_body:
+            if built_parts:
+                reason = f"no geometry of its own; its {built_parts} part(s) are built as components"
+            elif element.Representation is None:
+                reason = "no representation; nothing to build"
+            else:
+                reason = "no body representation (only axis, box or footprint)"
+            rejected.append(Rejection(element, reason))
+        elif built_parts:
+            rejected.append(
+                Rejection(element, f"an aggregate; its {built_parts} part(s) are built as components instead")
+            )
+        else:
+            chosen.append(element)
     return Selection(tuple(chosen), tuple(rejected))
+
+
+def _parts(element: ifcopenshell.entity_instance) -> list[ifcopenshell.entity_instance]:
+    """Every element ``element`` aggregates, at any depth (IfcRelAggregates / IfcRelDecomposes)."""
+    parts: list[ifcopenshell.entity_instance] = []
+    stack = [element]
+    while stack:
+        for relation in getattr(stack.pop(), "IsDecomposedBy", None) or ():
+            for part in relation.RelatedObjects or ():
+                if part.is_a("IfcElement"):
+                    parts.append(part)
+                    stack.append(part)
+    return parts

@@ -63,3 +63,5 @@ def test_compose_stack_constructs_every_component_of_the_bundled_model(bundled_b
     constructed, total = int(match.group(1)), int(match.group(2))
     assert total == expected, "the stack built the bundled model, every component of it"
     assert constructed == total
+    timings = [line for line in output.splitlines() if "timings:" in line or "total" in line]
+    print(f"compose-smoke.sh passed in {elapsed_s:.0f} s; " + " | ".join(timings))  # shown by pytest -rA

@@ -87,12 +87,12 @@ def test_unicode_slashes_and_quotes_in_names_never_reach_paths(tmp_path: Path) -
     assert manifest.world_file == "worlds/baustelle-sud-x.world"
 
 
-def test_include_and_exclude_filter_by_class_with_subclasses(tmp_path: Path) -> None:
+def test_only_and_exclude_filter_by_class_with_subclasses(tmp_path: Path) -> None:
     small = new_model()
     add_wall(small, "W")
     add_beam(small, "B")
     add_beam(small, "M", schema_class="IfcMember")
-    only_walls = _convert_small(small, tmp_path / "a", ConvertOptions(include=("IfcWall",)))
+    only_walls = _convert_small(small, tmp_path / "a", ConvertOptions(only=("IfcWall",)))
     assert [c.name for c in only_walls.components] == ["W"]
     no_beams = _convert_small(small, tmp_path / "b", ConvertOptions(exclude=("IfcBeam",)))
     assert sorted(c.name for c in no_beams.components) == ["M", "W"]

@@ -22,24 +22,18 @@ from bimbot.shared.site_layout import GROUND_CLEARANCE_M
 
 
 def _first_in_row(sim: Simulation, manifest: Manifest, ifc_class: str) -> Component:
-    """A component of ``ifc_class`` with nothing west of it in its yard row."""
-    start = min(slot.footprint.min_xy[0] for slot in sim.layout.slots.values())
+    """A component of ``ifc_class`` whose yard slot faces its aisle on the west side."""
     return next(
-        c
-        for c in manifest.components
-        if c.ifc_class == ifc_class and sim.layout.slots[c.guid].footprint.min_xy[0] == start
+        c for c in manifest.components if c.ifc_class == ifc_class and sim.layout.slots[c.guid].aisle_side < 0
     )
 
 
 def _picked(sim: Simulation, component: Component, robot_id: str = "r1") -> None:
     """``robot_id`` stands beside ``component`` in the yard, attaches it and waits for the lift."""
-    spot = sim.layout.slots[component.guid].footprint
-    if spot.min_xy[0] == min(s.footprint.min_xy[0] for s in sim.layout.slots.values()):
-        sim.teleport_robot(robot_id, west_of(spot, 0.8))
-    else:  # e.g. the footing row: reach it from the aisle south of it
-        sim.teleport_robot(
-            robot_id, ((spot.min_xy[0] + spot.max_xy[0]) / 2.0, spot.min_xy[1] - 0.8, math.pi / 2)
-        )
+    slot = sim.layout.slots[component.guid]
+    spot = slot.footprint
+    x = spot.min_xy[0] - 0.8 if slot.aisle_side < 0 else spot.max_xy[0] + 0.8
+    sim.teleport_robot(robot_id, (x, (spot.min_xy[1] + spot.max_xy[1]) / 2.0, math.pi / 2))  # in its aisle
     reply = sim.attach(AttachRequest(robot_id=robot_id, guid=component.guid))
     assert reply.ok, reply.reason
     idle(sim, 1.2)

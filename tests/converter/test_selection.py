@@ -1,0 +1,245 @@
+"""What is built: building elements and their parts by default, in IFC2X3, IFC4 and IFC4X3 alike; every
+other element is listed with a reason; --include/--exclude/--only change it by class."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import ifcopenshell
+import ifcopenshell.api.aggregate
+import ifcopenshell.api.geometry
+import ifcopenshell.api.root
+import ifcopenshell.api.spatial
+import pytest
+from ifc_builders import SmallModel, add_assembly, add_beam, add_opening, add_wall, new_model, translation
+
+from bimbot.services.converter.convert import ConvertOptions, convert_model
+from bimbot.services.converter.selection import reason_head, select_elements
+from bimbot.shared.manifest import Manifest
+
+SCHEMAS = ["IFC2X3", "IFC4", "IFC4X3"]
+
+# class → built by default?, per schema (None: the class does not exist in that schema)
+BUILT = {
+    "IfcWall": (True, True, True),
+    "IfcBuildingElementProxy": (True, True, True),
+    "IfcCovering": (True, True, True),
+    "IfcFastener": (True, True, True),
+    "IfcDiscreteAccessory": (True, True, True),
+    "IfcBuildingElementPart": (True, True, True),  # IFC2X3: under IfcBuildingElementComponent
+    "IfcFurnishingElement": (False, None, None),
+    "IfcFurniture": (None, False, False),
+    "IfcFlowTerminal": (False, False, False),  # MEP: IfcDistributionElement
+    "IfcElectricalElement": (False, None, None),
+    "IfcTransportElement": (False, False, False),
+    "IfcGeographicElement": (None, False, False),
+    "IfcCivilElement": (None, False, False),
+    "IfcVirtualElement": (False, False, False),
+}
+
+
+def _element(small: SmallModel, ifc_class: str, name: str, x_m: float = 0.0) -> ifcopenshell.entity_instance:
+    element = ifcopenshell.api.root.create_entity(small.file, ifc_class=ifc_class, name=name)
+    body = ifcopenshell.api.geometry.add_wall_representation(
+        small.file, context=small.body, length=1.0, height=1.0, thickness=1.0
+    )
+    ifcopenshell.api.geometry.assign_representation(small.file, product=element, representation=body)
+    ifcopenshell.api.geometry.edit_object_placement(small.file, product=element, matrix=translation(x_m))
+    ifcopenshell.api.spatial.assign_container(small.file, products=[element], relating_structure=small.storey)
+    return element
+
+
+def _classes_model(schema: str) -> tuple[SmallModel, dict[str, bool]]:
+    small = new_model(schema)
+    expected: dict[str, bool] = {}
+    schema_index = SCHEMAS.index(schema)
+    for number, (ifc_class, built) in enumerate(BUILT.items()):
+        if built[schema_index] is None:
+            continue
+        _element(small, ifc_class, ifc_class, x_m=2.0 * number)
+        expected[ifc_class] = bool(built[schema_index])
+    return small, expected
+
+
+@pytest.mark.parametrize("schema", SCHEMAS)
+def test_building_elements_and_parts_are_built_the_rest_is_listed_with_its_reason(schema: str) -> None:
+    small, expected = _classes_model(schema)
+    wall = small.file.by_type("IfcWall")[0]
+    add_opening(small, wall)
+    selection = select_elements(small.file)
+    built = {element.Name for element in selection.elements}
+    assert built == {name for name, is_built in expected.items() if is_built}
+    reasons = {rejection.element.Name: rejection.reason for rejection in selection.rejected}
+    assert set(reasons) == {name for name, is_built in expected.items() if not is_built} | {"Opening"}
+    furniture = "IfcFurnishingElement" if schema == "IFC2X3" else "IfcFurniture"
+    assert reasons[furniture] == (
+        "not a building element (IfcFurnishingElement); --include IfcFurnishingElement to build it"
+    )
+    assert reasons["IfcFlowTerminal"].startswith("not a building element (IfcDistributionElement)")
+    assert reasons["Opening"].startswith("feature element (IfcOpeningElement)")
+    assert reasons["IfcVirtualElement"].startswith("virtual element (IfcVirtualElement)")
+
+
+@pytest.mark.parametrize("schema", SCHEMAS)
+def test_include_adds_a_class_back_exclude_takes_one_away_only_replaces_the_rule(schema: str) -> None:
+    small, _ = _classes_model(schema)
+    furniture = "IfcFurnishingElement"
+    with_furniture = select_elements(small.file, include=(furniture,))
+    names = {element.Name for element in with_furniture.elements}
+    assert {"IfcWall", "IfcFastener"} <= names and ({"IfcFurnishingElement", "IfcFurniture"} & names)
+    without_walls = select_elements(small.file, exclude=("IfcWall",))
+    reasons = {rejection.element.Name: rejection.reason for rejection in without_walls.rejected}
+    assert reasons["IfcWall"] == "left out by --exclude IfcWall"
+    only = select_elements(small.file, only=("IfcWall", "IfcFlowTerminal"))
+    assert {element.Name for element in only.elements} == {"IfcWall", "IfcFlowTerminal"}
+    reasons = {rejection.element.Name: rejection.reason for rejection in only.rejected}
+    assert reasons["IfcFastener"].startswith("not in --only IfcWall,IfcFlowTerminal")
+    every = {element.id() for element in small.file.by_type("IfcElement")}
+    for selection in (with_furniture, without_walls, only):  # nothing is dropped silently
+        listed = [e.id() for e in selection.elements] + [r.element.id() for r in selection.rejected]
+        assert sorted(listed) == sorted(every)
+
+
+@pytest.mark.parametrize("schema", SCHEMAS)
+def test_an_aggregate_whose_parts_are_built_is_left_out_once_with_the_count(schema: str) -> None:
+    small = new_model(schema)
+    curtain = ifcopenshell.api.root.create_entity(small.file, ifc_class="IfcCurtainWall", name="Curtain")
+    ifcopenshell.api.geometry.edit_object_placement(small.file, product=curtain, matrix=translation())
+    ifcopenshell.api.spatial.assign_container(small.file, products=[curtain], relating_structure=small.storey)
+    plate = add_beam(small, "Plate", schema_class="IfcPlate", contained=False)
+    mullion = add_beam(small, "Mullion", schema_class="IfcMember", contained=False)
+    ifcopenshell.api.aggregate.assign_object(small.file, products=[plate, mullion], relating_object=curtain)
+    roof = _element(small, "IfcRoof", "Roof", x_m=5.0)  # a body of its own and a built part
+    slab = add_beam(small, "Roof slab", schema_class="IfcSlab", contained=False)
+    ifcopenshell.api.aggregate.assign_object(small.file, products=[slab], relating_object=roof)
+    beam = add_beam(small, "Truss chord", contained=False)
+    add_assembly(small, [beam], name="Truss")  # no body of its own
+    lone = _element(small, "IfcElementAssembly", "Precast unit", x_m=9.0)  # a body, no parts
+    selection = select_elements(small.file)
+    assert {e.Name for e in selection.elements} == {"Plate", "Mullion", "Roof slab", "Truss chord", lone.Name}
+    reasons = {rejection.element.Name: rejection.reason for rejection in selection.rejected}
+    assert reasons["Curtain"] == "no geometry of its own; its 2 part(s) are built as components"
+    assert reasons["Roof"].startswith("an aggregate; its 1 part(s) are built")
+    assert reasons["Truss"].startswith("no geometry of its own; its 1 part(s)")
+    only_roof = select_elements(small.file, only=("IfcRoof",))  # its parts are not built: the roof is
+    assert [e.Name for e in only_roof.elements] == ["Roof"]
+
+
+def test_reason_head_is_the_text_before_the_first_semicolon_or_colon() -> None:
+    assert (
+        reason_head("not a building element (IfcFurniture); --include X")
+        == "not a building element (IfcFurniture)"
+    )
+    assert reason_head("no triangulated geometry: curve-only") == "no triangulated geometry"
+    assert reason_head("left out by --exclude IfcWall") == "left out by --exclude IfcWall"
+
+
+# --- through the CLI -------------------------------------------------------------------------------------
+
+
+def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "bimbot.cli", *args], capture_output=True, text=True, timeout=300, check=False
+    )
+
+
+@pytest.mark.parametrize("schema", SCHEMAS)
+def test_cli_summary_counts_what_was_left_out_by_reason_and_include_adds_it(
+    schema: str, tmp_path: Path
+) -> None:
+    small = new_model(schema)
+    add_wall(small, "W")
+    furniture_class = "IfcFurnishingElement" if schema == "IFC2X3" else "IfcFurniture"
+    for number in range(2):
+        _element(small, furniture_class, f"Chair {number}", x_m=2.0 + 2.0 * number)
+    source = tmp_path / "m.ifc"
+    small.file.write(str(source))
+    result = _bimbot("convert", str(source), "-o", str(tmp_path / "out"))
+    assert result.returncode == 0, result.stderr
+    assert (
+        "converted 1 component(s), skipped 2 (2 not a building element (IfcFurnishingElement))"
+        in result.stdout
+    )
+    manifest = Manifest.model_validate_json((tmp_path / "out" / "manifest.json").read_text())
+    assert {s.name for s in manifest.skipped} == {"Chair 0", "Chair 1"}
+    result = _bimbot("convert", str(source), "-o", str(tmp_path / "all"), "--include", "IfcFurnishingElement")
+    assert result.returncode == 0, result.stderr
+    assert "converted 3 component(s), skipped 0," in result.stdout
+    result = _bimbot("convert", str(source), "-o", str(tmp_path / "only"), "--only", "IfcWall")
+    assert "converted 1 component(s), skipped 2 (2 not in --only IfcWall)" in result.stdout, result.stdout
+
+
+# --- the public samples ----------------------------------------------------------------------------------
+
+
+def _selected_classes(model: ifcopenshell.file, **options: tuple[str, ...]) -> dict[str, int]:
+    selection = select_elements(model, **options)
+    counts: dict[str, int] = {}
+    for element in selection.elements:
+        counts[element.is_a()] = counts.get(element.is_a(), 0) + 1
+    return counts
+
+
+def test_sample_house_builds_its_building_elements_and_lists_the_furniture(samples_dir: Path) -> None:
+    model = ifcopenshell.open(str(samples_dir / "revit2021_sample_project.ifc"))
+    assert _selected_classes(model) == {
+        "IfcMember": 31, "IfcPlate": 12, "IfcWindow": 9, "IfcWallStandardCase": 3, "IfcSlab": 2, "IfcDoor": 1
+    }  # fmt: skip
+    rejected = select_elements(model).rejected
+    heads: dict[str, int] = {}
+    for rejection in rejected:
+        heads[reason_head(rejection.reason)] = heads.get(reason_head(rejection.reason), 0) + 1
+    assert heads == {
+        "not a building element (IfcFurnishingElement)": 35,
+        "feature element (IfcOpeningElement)": 10,
+        "no geometry of its own": 1,  # the curtain wall: its 12 plates and 31 members are built
+    }
+    with_furniture = _selected_classes(model, include=("IfcFurnishingElement",))
+    assert with_furniture["IfcFurnishingElement"] == 35 and sum(with_furniture.values()) == 93
+
+
+@pytest.mark.parametrize(
+    ("name", "components", "classes"),
+    [
+        ("revit2021_structural_hub.ifc", 115, {"IfcBuildingElementProxy": 4, "IfcSlab": 9, "IfcBeam": 43}),
+        ("acad2010_objects.ifc", 52, {"IfcBuildingElementProxy": 11, "IfcStair": 2, "IfcRoof": 1}),
+        ("IfcIShapeProfileDef.ifc", 3, {"IfcBuildingElementProxy": 3}),
+        ("standard_case_element_beam.ifc", 18, {"IfcBeamStandardCase": 18}),
+        ("construction_scheduling_task.ifc", 5, {"IfcSlabStandardCase": 1, "IfcWallStandardCase": 4}),
+    ],
+)
+def test_samples_build_every_building_element_and_proxy(
+    samples_dir: Path, name: str, components: int, classes: dict[str, int]
+) -> None:
+    model = ifcopenshell.open(str(samples_dir / name))
+    counts = _selected_classes(model)
+    assert sum(counts.values()) == components
+    assert {cls: counts.get(cls, 0) for cls in classes} == classes
+
+
+def test_ifc4x3_model_converts_through_the_cli(tmp_path: Path) -> None:
+    small = new_model("IFC4X3")
+    add_wall(small, "W")
+    source = tmp_path / "m.ifc"
+    small.file.write(str(source))
+    result = _bimbot("convert", str(source), "-o", str(tmp_path / "out"), "--exclude", "IfcBeam")
+    assert result.returncode == 0, result.stderr
+    assert "converted 1 component(s), skipped 0," in result.stdout
+
+
+def test_convert_model_takes_only_include_and_exclude_options(tmp_path: Path) -> None:
+    small = new_model()
+    add_wall(small, "W")
+    _element(small, "IfcFurniture", "Sofa", x_m=3.0)
+    source = tmp_path / "m.ifc"
+    small.file.write(str(source))
+    model = ifcopenshell.open(str(source))
+    manifest = convert_model(model, source, tmp_path / "a", ConvertOptions(include=("IfcFurniture",)))
+    assert sorted(c.name for c in manifest.components) == ["Sofa", "W"] and manifest.skipped == []
+    manifest = convert_model(model, source, tmp_path / "b", ConvertOptions(only=("IfcFurniture",)))
+    assert [c.name for c in manifest.components] == ["Sofa"]
+    assert [(s.name, s.reason.split(";")[0]) for s in manifest.skipped] == [
+        ("W", "not in --only IfcFurniture")
+    ]
