@@ -35,7 +35,6 @@ from bimbot.services.converter.collision import (
 )
 from bimbot.shared.manifest import CollisionMethod
 
-SAMPLES = Path("/work/shared/samples/ifc")
 MM = 0.001
 Entity = ifcopenshell.entity_instance
 
@@ -433,11 +432,9 @@ def test_flat_mesh_collides_as_a_thin_box() -> None:
 # --- sample files -----------------------------------------------------------------------------------------
 
 
-def sample_shapes(name: str) -> list[tuple[trimesh.Trimesh, CollisionShape]]:
-    """(mesh, collision shape) of every meshed element of a sample file."""
-    if not SAMPLES.is_dir():
-        pytest.skip(f"{SAMPLES} is absent")
-    model = ifcopenshell.open(str(SAMPLES / name))
+def sample_shapes(samples: Path, name: str) -> list[tuple[trimesh.Trimesh, CollisionShape]]:
+    """(mesh, collision shape) of every meshed element of a sample file (``samples``: the fixture)."""
+    model = ifcopenshell.open(str(samples / name))
     unit_scale_m = ifcopenshell.util.unit.calculate_unit_scale(model)
     settings = ifcopenshell.geom.settings()
     settings.set("use-world-coords", False)
@@ -455,30 +452,30 @@ def sample_shapes(name: str) -> list[tuple[trimesh.Trimesh, CollisionShape]]:
     return results
 
 
-def test_ifc2x3_i_shape_sample_is_decomposed_from_its_profiles() -> None:
-    shapes = sample_shapes("IfcIShapeProfileDef.ifc")
+def test_ifc2x3_i_shape_sample_is_decomposed_from_its_profiles(samples_dir: Path) -> None:
+    shapes = sample_shapes(samples_dir, "IfcIShapeProfileDef.ifc")
     assert len(shapes) == 3  # I, I with fillet, asymmetric I
     for mesh, shape in shapes:
         assert shape.method is CollisionMethod.PROFILE_DECOMPOSITION and len(shape.parts) == 3
         np.testing.assert_allclose(union_bounds(shape.parts), mesh.bounds, atol=1e-6)
 
 
-def test_ifc4_extruded_beam_sample_is_three_boxes() -> None:
-    ((_, shape),) = sample_shapes("beam-extruded-solid.ifc")
+def test_ifc4_extruded_beam_sample_is_three_boxes(samples_dir: Path) -> None:
+    ((_, shape),) = sample_shapes(samples_dir, "beam-extruded-solid.ifc")
     assert shape.method is CollisionMethod.PROFILE_DECOMPOSITION and len(shape.parts) == 3
 
 
-def test_standard_case_beams_sample_gives_a_shape_for_every_beam() -> None:
+def test_standard_case_beams_sample_gives_a_shape_for_every_beam(samples_dir: Path) -> None:
     """IPE220 (filleted I) and ½IPE300 (T) beams with cardinal-point offsets: all decompose from profiles."""
-    shapes = sample_shapes("standard_case_element_beam.ifc")
+    shapes = sample_shapes(samples_dir, "standard_case_element_beam.ifc")
     assert len(shapes) == 18
     for _, shape in shapes:
         assert shape.method is CollisionMethod.PROFILE_DECOMPOSITION
         assert_convex_parts(shape)
 
 
-def test_faceted_brep_sample_falls_back_to_the_mesh() -> None:
-    ((mesh, shape),) = sample_shapes("faceted_brep.ifc")
+def test_faceted_brep_sample_falls_back_to_the_mesh(samples_dir: Path) -> None:
+    ((mesh, shape),) = sample_shapes(samples_dir, "faceted_brep.ifc")
     assert shape.method in (CollisionMethod.CONVEX_HULL, CollisionMethod.VHACD)
     assert shape.note is not None and "IfcFacetedBrep" in shape.note
     assert_convex_parts(shape)
