@@ -17,6 +17,7 @@ Key space (``<site>`` is the manifest's site slug, ``<key>`` a component's bus k
     bimbot/<site>/physics/info             (queryable)         physics answers SiteInfoMsg
     bimbot/<site>/physics/attach           (queryable)         AttachRequest → PhysicsReply
     bimbot/<site>/physics/place            (queryable)         PlaceRequest → PhysicsReply
+    bimbot/<site>/physics/drop             (queryable)         DropRequest → PhysicsReply
     bimbot/<site>/clock                    ClockMsg            physics → all
     bimbot/<site>/progress                 ProgressMsg         planner → all
     bimbot/<site>/alive/<kind>/<id>        liveliness tokens (kind: component, robot, planner, physics, …)
@@ -261,6 +262,7 @@ class PlanMsg(_Message):
 PHYSICS_INFO_KEY = "bimbot/{site}/physics/info"
 PHYSICS_ATTACH_KEY = "bimbot/{site}/physics/attach"
 PHYSICS_PLACE_KEY = "bimbot/{site}/physics/place"
+PHYSICS_DROP_KEY = "bimbot/{site}/physics/drop"
 
 
 class SiteInfoMsg(_Message):
@@ -285,6 +287,14 @@ class PlaceRequest(_Message):
     guid: str
     pose: PoseMsg  # where the component must end, world frame
     duration_s: float = 2.0  # sim seconds of the assembly motion
+
+
+class DropRequest(_Message):
+    """A carrying robot puts its load down beside it (it cannot deliver it): the component rests there,
+    flat on the ground, and may be picked up again by any robot."""
+
+    robot_id: str
+    guid: str
 
 
 class PhysicsReply(_Message):

@@ -8,7 +8,8 @@ state):
 * liveliness subscriber ``bimbot/<site>/alive/robot/*``: a robot that disappears stops and drops its load;
 * subscriber ``bimbot/<site>/components/*/state`` (ComponentStateMsg): a component its agent declared
   constructed can no longer be attached (a misplaced one can, for its retry);
-* queryables ``physics/info`` (SiteInfoMsg), ``physics/attach`` (AttachRequest → PhysicsReply) and
+* queryables ``physics/info`` (SiteInfoMsg), ``physics/attach`` (AttachRequest → PhysicsReply),
+  ``physics/drop`` (DropRequest → PhysicsReply: a robot that cannot deliver its load puts it down) and
   ``physics/place`` (PlaceRequest → PhysicsReply). The loop answers them; a place reply is held back
   until the assembly motion ends (a querier's timeout must exceed ``duration_s`` / rtf). An invalid
   payload is counted and answered ``ok=False`` with the reason;
@@ -43,6 +44,7 @@ from bimbot.shared.messages import (
     ALIVE_KEY,
     COMPONENT_STATE_KEY,
     PHYSICS_ATTACH_KEY,
+    PHYSICS_DROP_KEY,
     PHYSICS_INFO_KEY,
     PHYSICS_PLACE_KEY,
     ROBOT_CMD_VEL_KEY,
@@ -50,6 +52,7 @@ from bimbot.shared.messages import (
     CmdVelMsg,
     ComponentState,
     ComponentStateMsg,
+    DropRequest,
     PhysicsReply,
     PlaceRequest,
     key,
@@ -66,6 +69,12 @@ TAG_STATE = "component_state"
 TAG_INFO = "info"
 TAG_ATTACH = "attach"
 TAG_PLACE = "place"
+TAG_DROP = "drop"
+_REQUESTS: dict[str, type[AttachRequest] | type[PlaceRequest] | type[DropRequest]] = {
+    TAG_ATTACH: AttachRequest,
+    TAG_PLACE: PlaceRequest,
+    TAG_DROP: DropRequest,
+}
 LOOP_WAIT_S = 0.05  # longest blocking wait, so a stop request is seen quickly
 STATUS_EVERY_S = 30.0
 
@@ -113,6 +122,7 @@ class _Loop:
             TAG_INFO: key(PHYSICS_INFO_KEY, site=self.site),
             TAG_ATTACH: key(PHYSICS_ATTACH_KEY, site=self.site),
             TAG_PLACE: key(PHYSICS_PLACE_KEY, site=self.site),
+            TAG_DROP: key(PHYSICS_DROP_KEY, site=self.site),
         }
         self.errors = 0
         self._warned_step = -1
@@ -264,7 +274,7 @@ class _Loop:
         if tag == TAG_INFO:
             self._reply(query, tag, self.sim.info())
             return
-        model: type[AttachRequest] | type[PlaceRequest] = AttachRequest if tag == TAG_ATTACH else PlaceRequest
+        model = _REQUESTS[tag]
         payload = query.payload.to_bytes() if query.payload is not None else b""
         request = decode(model, self._keys[tag], payload, self.inbox.invalid)
         if request is None:
@@ -272,6 +282,8 @@ class _Loop:
             self._reply(query, tag, PhysicsReply(ok=False, reason=reason, sim_time_s=now))
         elif isinstance(request, AttachRequest):
             self._reply(query, tag, self.sim.attach(request))
+        elif isinstance(request, DropRequest):
+            self._reply(query, tag, self.sim.drop(request))
         else:
             ticket = next(self._tags)
             reply = self.sim.place(request, ticket)

@@ -2,7 +2,8 @@
 
 Every component is in one of four phases:
 
-* ``resting`` — in its yard slot (or where a lost robot dropped it): static, attachable.
+* ``resting`` — in its yard slot (or where a robot put it down: a lost robot's load, or a load its robot
+  could not deliver and asked to drop): static, attachable by any robot.
 * ``carried`` — attached to a robot: kinematic, reset every physics step to ``robot frame ∘ carry offset``
   (lying flat on top of the robot, centred over its base frame, ``carry_clearance_m`` above its highest
   collision shape). It rises there from where it lay over ``lift_s`` sim seconds. It takes the robot's
@@ -89,6 +90,7 @@ class Item:
     motion_duration_s: float = 0.0
     tag: object = None  # assembling: handed back with the reply
     separating_from: Robot | None = None  # fixed, still overlapping its former carrier
+    dropped_by: str | None = None  # resting where this robot put it down (a repeated drop request is ok)
 
 
 def pose_msg(frame: Frame) -> PoseMsg:
@@ -158,6 +160,7 @@ class Handling:
             return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s)
         item.phase = Phase.CARRIED
         item.carrier = robot.robot_id
+        item.dropped_by = None
         item.offset = carry_offset(item.component, robot, self.config.carry_clearance_m)
         item.motion_from = item.pose
         item.motion_start_s = now_s
@@ -290,8 +293,28 @@ class Handling:
             item.carrier for item in self.items.values() if item.phase is Phase.ASSEMBLING and item.carrier
         }
 
-    def drop(self, robot: Robot, now_s: float) -> str | None:
-        """A lost robot's load (if carried, not being placed) laid flat on the ground beside it."""
+    def drop_request(self, robot: Robot | None, guid: str, now_s: float) -> PhysicsReply:
+        """A carrying robot puts ``guid`` down beside it (it cannot deliver it): ``resting`` there, attachable
+        again by any robot. A repeated request for a load already put down is answered ok (at least once
+        delivery); a component being placed, fixed or carried by another robot is refused, saying why."""
+        item = self.items.get(guid)
+        refusal = self._check_common(robot, guid, item)
+        if refusal is None and item is not None and robot is not None:
+            if item.phase is Phase.RESTING and item.dropped_by == robot.robot_id:
+                return PhysicsReply(ok=True, sim_time_s=now_s, pose=pose_msg(item.pose))
+            if item.phase is Phase.ASSEMBLING:
+                refusal = f"{guid} is being placed by {item.carrier}: it cannot be dropped now"
+            elif item.carrier != robot.robot_id:
+                holder = f"by {item.carrier}" if item.carrier else "by no robot"
+                refusal = f"robot {robot.robot_id} does not carry {guid} (carried {holder})"
+        if refusal is not None or item is None or robot is None:
+            return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s)
+        self.drop(robot, now_s, why="put down on request")
+        return PhysicsReply(ok=True, sim_time_s=now_s, pose=pose_msg(item.pose))
+
+    def drop(self, robot: Robot, now_s: float, why: str = "robot lost") -> str | None:
+        """A robot's load (if carried, not being placed) laid flat on the ground beside it: a lost robot's,
+        or one the robot asked to put down (:meth:`drop_request`)."""
         guid = self.carrying.get(robot.robot_id)
         item = self.items.get(guid or "")
         if guid is None or item is None or item.phase is not Phase.CARRIED:
@@ -300,12 +323,20 @@ class Handling:
         item.phase = Phase.RESTING
         item.carrier = None
         item.offset = None
+        item.dropped_by = robot.robot_id
         del self.carrying[robot.robot_id]
         self._moving.discard(guid)
         set_component_pose(self.client_id, item.body, item.pose)
         set_filter(self.client_id, item.body.body_id, STATIC_GROUP, STATIC_MASK)
         self.changed.add(guid)
-        _log.warning("robot %s lost: %s dropped at (%.2f, %.2f)", robot.robot_id, guid, *item.pose[0][:2])
+        _log.warning(
+            "robot %s (%s): %s dropped at (%.2f, %.2f), t=%.2f s",
+            robot.robot_id,
+            why,
+            guid,
+            *item.pose[0][:2],
+            now_s,
+        )
         return guid
 
     def _drop_pose(self, item: Item, robot: Robot) -> Frame:

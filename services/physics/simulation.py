@@ -41,6 +41,7 @@ from bimbot.shared.messages import (
     AttachRequest,
     ClockMsg,
     CmdVelMsg,
+    DropRequest,
     OdomMsg,
     PhysicsReply,
     PlaceRequest,
@@ -272,6 +273,16 @@ class Simulation:
                 ok=False, reason=f"unknown robot {request.robot_id}", sim_time_s=self.sim_time_s
             )
         return self.handling.attach(robot, request.guid, self.sim_time_s)
+
+    def drop(self, request: DropRequest) -> PhysicsReply:
+        """A carrying robot puts its load down beside it (:meth:`.handling.Handling.drop_request`); the new
+        pose goes out with the next period's messages."""
+        robot = self.robots.get(request.robot_id)
+        if robot is None:
+            return PhysicsReply(
+                ok=False, reason=f"unknown robot {request.robot_id}", sim_time_s=self.sim_time_s
+            )
+        return self.handling.drop_request(robot, request.guid, self.sim_time_s)
 
     def place(self, request: PlaceRequest, tag: object = None) -> PhysicsReply | None:
         """A refusal now, or None: the reply comes with ``tag`` from the :meth:`advance` ending the motion."""

@@ -17,7 +17,13 @@ from bimbot.services.physics.handling import Phase
 from bimbot.services.physics.scene import component_pose, compose, distance_to_rect, footprint
 from bimbot.services.physics.simulation import Simulation
 from bimbot.shared.manifest import Component, Manifest
-from bimbot.shared.messages import AttachRequest, ComponentPoseMsg, PlaceRequest, RobotPoseMsg
+from bimbot.shared.messages import (
+    AttachRequest,
+    ComponentPoseMsg,
+    DropRequest,
+    PlaceRequest,
+    RobotPoseMsg,
+)
 from bimbot.shared.site_layout import GROUND_CLEARANCE_M
 
 
@@ -244,3 +250,49 @@ def test_a_lost_robot_puts_its_load_down_on_the_ground_beside_it(
     sim.teleport_robot("r2", (x, y, 0.0))
     sim.teleport_robot("r1", (x - 5.0, y, 0.0))
     assert sim.attach(AttachRequest(robot_id="r2", guid=beam.guid)).ok  # the task can be redone
+
+
+def test_a_robot_that_cannot_deliver_its_load_drops_it_on_request_and_another_robot_picks_it_up(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=2)
+    beam = _first_in_row(sim, frame_manifest, "IfcBeam")
+    refused = sim.drop(DropRequest(robot_id="r1", guid=beam.guid))
+    assert (refused.ok, refused.reason) == (
+        False,
+        f"robot r1 does not carry {beam.guid} (carried by no robot)",
+    )
+    _picked(sim, beam)
+    drive(sim, "r1", 0.3, 0.0, 1.0)
+    other = sim.drop(DropRequest(robot_id="r2", guid=beam.guid))
+    assert (other.ok, other.reason) == (False, f"robot r2 does not carry {beam.guid} (carried by r1)")
+    assert sim.drop(DropRequest(robot_id="r9", guid=beam.guid)).reason == "unknown robot r9"
+
+    reply = sim.drop(DropRequest(robot_id="r1", guid=beam.guid))
+    assert reply.ok and reply.pose is not None
+    item = sim.handling.items[beam.guid]
+    assert item.phase is Phase.RESTING and item.carrier is None and "r1" not in sim.handling.carrying
+    assert reply.pose.position_m == pytest.approx(item.pose[0])
+    assert bottom_z(beam, item.pose) == pytest.approx(GROUND_CLEARANCE_M, abs=1e-9)
+    x, y, _ = sim.robot_pose("r1")
+    assert distance_to_footprint(beam, item.pose, (x, y)) > sim.robots["r1"].half_extents_xy_m[1] + 0.2
+    again = sim.drop(DropRequest(robot_id="r1", guid=beam.guid))  # a repeated delivery of the request
+    assert again.ok and again.pose == reply.pose
+    poses = [m.message for m in sim.advance().messages if isinstance(m.message, ComponentPoseMsg)]
+    dropped = next(m for m in poses if m.guid == beam.guid)
+    assert dropped.attached_to is None and not dropped.fixed, "the new pose goes out: resting, free to pick"
+    sim.teleport_robot("r2", (x, y, 0.0))
+    sim.teleport_robot("r1", (x - 5.0, y, 0.0))
+    assert sim.attach(AttachRequest(robot_id="r2", guid=beam.guid)).ok
+
+
+def test_a_load_being_placed_is_not_dropped(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=1)
+    footing = _footing(frame_manifest)
+    _picked(sim, footing)
+    _beside_target(sim, footing)
+    assert sim.place(_place(sim, footing, duration_s=2.0), "tag") is None
+    reply = sim.drop(DropRequest(robot_id="r1", guid=footing.guid))
+    assert not reply.ok and reply.reason == f"{footing.guid} is being placed by r1: it cannot be dropped now"
