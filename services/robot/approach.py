@@ -2,21 +2,27 @@
 
 Why: the grasp and the joining stay abstract, as in the paper; what the robot must get right is *where it
 stands*: on a free cell of the inflated grid (its body fits), in the free region it can drive to (never in
-a pocket cut off by stacks or behind the fence), within reach of the component, and facing it.
+a pocket cut off by stacks, walls or behind the fence), within reach of the component, and facing it.
 
 One rule serves both ends of a task. Candidates are the free cell centres in a window around the
-component's footprint; a candidate is kept when
+component's footprint, on **every side** of it; a candidate is kept when
 
-* it is free in the (inflated, laser-marked) planning grid and in the robot's connected free region;
-* the horizontal distance from it to the footprint's centre is within ``reach_m`` (physics checks reach);
-* when the component occupies the robot's height band (a component lying in the yard, a column being
-  placed), the robot's body stays outside it: distance to the footprint ≥ ``body_clearance_m``. A component
-  above the band (a beam at 3 m) may be approached from under its footprint.
+* it is free in the (inflated, laser-marked) planning grid and in the robot's connected free region
+  (a flood fill of the grid from the robot, :func:`reachable_region`);
+* it satisfies **the reach rule** of :mod:`bimbot.shared.robot_description` — the horizontal distance from
+  it to the *nearest point* of the footprint is within ``reach_m`` (less ``reach_margin_m``), measured with
+  the shared :func:`bimbot.shared.footprint.footprint_distance_m`, the code physics' check agrees with. A
+  4 m slab or a 5 m wall is therefore reachable from anywhere along its edges;
+* when the component occupies the robot's height band (a component lying in the yard, a column or wall
+  being placed), the robot's body stays outside it: distance to the footprint ≥ ``body_clearance_m``. A
+  component above the band (a beam at 3 m) may be approached from under its footprint.
 
-The best candidate is the one nearest the footprint's centre (best reach, the middle of a long side), ties
-broken by the distance from the robot. Its yaw faces the footprint's centre (unchanged when it stands on
-the centre). Cost: one connected-component labelling of the free grid and a vectorised filter of the
-window (~1–3 ms on a site grid at 0.1 m).
+The best candidate is the one nearest the footprint (most reach to spare), then nearest the footprint's
+centre (the middle of a long side), then nearest the robot (a short drive): one weighted score. Its yaw
+faces the footprint's centre (None when it stands on the centre). When there is none,
+:func:`no_approach_reason` says why, with the numbers: ``unreachable`` when free stand-points exist but
+the flood fill from the robot does not get there, else ``no_approach_pose``. Cost: one connected-component
+labelling of the free grid and a vectorised filter of the window (~1–3 ms on a site grid at 0.1 m).
 """
 
 from __future__ import annotations
@@ -31,6 +37,8 @@ from scipy import ndimage
 
 from bimbot.shared.footprint import Footprint
 from bimbot.shared.occupancy_grid import OccupancyGrid, nearest_free_cell
+from bimbot.shared.reasons import Reason, ReasonCode
+from bimbot.shared.robot_description import DEFAULT_ROBOT
 
 _log = logging.getLogger(__name__)
 
@@ -39,10 +47,11 @@ _EIGHT = np.ones((3, 3), bool)
 
 @dataclass(frozen=True)
 class ApproachConfig:
-    reach_m: float = 1.5  # horizontal distance from the robot's centre to the component's centre
-    reach_margin_m: float = 0.1  # stay this much inside the reach
+    reach_m: float = DEFAULT_ROBOT.reach_m  # the robot type's reach (the executor passes its own type's)
+    reach_margin_m: float = 0.1  # stay this much inside the reach (localisation error, goal tolerance)
     body_clearance_m: float = 0.7  # robot centre ↔ a band-blocking component's outline
-    robot_weight: float = 0.05  # per metre from the robot, against 1 per metre from the component centre
+    centre_weight: float = 0.1  # per metre from the footprint's centre, against 1 per metre from the outline
+    robot_weight: float = 0.05  # per metre from the robot
 
 
 @dataclass(frozen=True)
@@ -52,7 +61,7 @@ class Approach:
     x_m: float
     y_m: float
     yaw_rad: float | None
-    reach_distance_m: float  # horizontal distance to the footprint's centre
+    reach_distance_m: float  # horizontal distance to the nearest point of the footprint (the reach rule)
 
     @property
     def xy_m(self) -> tuple[float, float]:
@@ -72,6 +81,28 @@ def reachable_region(grid: OccupancyGrid, from_xy_m: ArrayLike) -> NDArray[np.bo
     return labels == labels[rc[0], rc[1]]
 
 
+def stand_points(
+    grid: OccupancyGrid, footprint: Footprint, *, blocks_band: bool, config: ApproachConfig
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """Cells ``(n, 2)`` free in ``grid`` from which the robot reaches ``footprint`` with its body clear,
+    and their distances to the footprint (m), whether or not the robot can drive there."""
+    reach = config.reach_m - config.reach_margin_m
+    poly = footprint.polygon_xy_m
+    rc_low = grid.world_to_cell(poly.min(axis=0) - reach)
+    rc_high = grid.world_to_cell(poly.max(axis=0) + reach)
+    rows, cols = grid.shape
+    r0, r1 = max(0, int(rc_low[0])), min(rows, int(rc_high[0]) + 1)
+    c0, c1 = max(0, int(rc_low[1])), min(cols, int(rc_high[1]) + 1)
+    if r0 >= r1 or c0 >= c1:
+        return np.empty((0, 2), np.int64), np.empty(0)
+    cells = np.argwhere(~grid.occupied[r0:r1, c0:c1]) + np.array([r0, c0])
+    distance = footprint.distance_m(grid.cell_to_world(cells)) if len(cells) else np.empty(0)
+    keep = distance <= reach + 1e-9
+    if blocks_band:
+        keep &= distance >= config.body_clearance_m
+    return cells[keep], distance[keep]
+
+
 def approach_pose(
     grid: OccupancyGrid,
     footprint: Footprint,
@@ -80,44 +111,91 @@ def approach_pose(
     blocks_band: bool,
     config: ApproachConfig = ApproachConfig(),
     region: NDArray[np.bool_] | None = None,
+    avoid_xy_m: ArrayLike = (),
+    avoid_radius_m: float = 1.0,
 ) -> Approach | None:
     """The best approach pose beside ``footprint`` (see the module doc), or None when there is none.
 
     ``grid`` is the inflated planning grid; ``region`` the robot's reachable free cells (computed from
-    ``robot_xy_m`` when not given).
+    ``robot_xy_m`` when not given). Candidates within ``avoid_radius_m`` of a point of ``avoid_xy_m``
+    (stand-points that failed already) are left out, so a re-chosen approach tries another side.
     """
     if region is None:
         region = reachable_region(grid, robot_xy_m)
         if region is None:
             _log.info("robot at %s has no free cell near it", np.asarray(robot_xy_m).tolist())
             return None
+    cells, distance = stand_points(grid, footprint, blocks_band=blocks_band, config=config)
+    inside = region[cells[:, 0], cells[:, 1]] if len(cells) else np.zeros(0, bool)
+    cells, distance = cells[inside], distance[inside]
+    xy = grid.cell_to_world(cells) if len(cells) else np.empty((0, 2))
+    avoid = np.asarray(avoid_xy_m, float).reshape(-1, 2)
+    if len(avoid) and len(xy):
+        far = np.hypot(xy[:, None, 0] - avoid[None, :, 0], xy[:, None, 1] - avoid[None, :, 1]).min(axis=1)
+        xy, distance = xy[far > avoid_radius_m], distance[far > avoid_radius_m]
+    if len(xy) == 0:
+        _log.info("no free approach within %.2f m of %s", config.reach_m, _where(footprint))
+        return None
     centre = footprint.centre_xy_m
-    reach = config.reach_m - config.reach_margin_m
-    poly = footprint.polygon_xy_m
-    low = np.minimum(poly.min(axis=0), centre - reach)
-    high = np.maximum(poly.max(axis=0), centre + reach)
-    rc_low = grid.world_to_cell(low)
-    rc_high = grid.world_to_cell(high)
-    rows, cols = grid.shape
-    r0, r1 = max(0, int(rc_low[0])), min(rows, int(rc_high[0]) + 1)
-    c0, c1 = max(0, int(rc_low[1])), min(cols, int(rc_high[1]) + 1)
-    if r0 >= r1 or c0 >= c1:
-        return None
-    window = region[r0:r1, c0:c1] & ~grid.occupied[r0:r1, c0:c1]
-    cells = np.argwhere(window) + np.array([r0, c0])
-    if len(cells) == 0:
-        return None
-    xy = grid.cell_to_world(cells)
     to_centre = np.hypot(*(xy - centre).T)
-    keep = to_centre <= reach
-    if blocks_band:
-        keep &= footprint.distance_m(xy) >= config.body_clearance_m
-    if not keep.any():
-        _log.info("no free approach within %.2f m of %s", reach, np.round(centre, 2).tolist())
-        return None
-    xy, to_centre = xy[keep], to_centre[keep]
-    score = to_centre + config.robot_weight * np.hypot(*(xy - np.asarray(robot_xy_m, float)).T)
+    score = (
+        distance
+        + config.centre_weight * to_centre
+        + config.robot_weight * np.hypot(*(xy - np.asarray(robot_xy_m, float)).T)
+    )
     best = int(np.argmin(score))
     x, y = float(xy[best, 0]), float(xy[best, 1])
     yaw = math.atan2(centre[1] - y, centre[0] - x) if to_centre[best] > 0.2 else None
-    return Approach(x, y, yaw, float(to_centre[best]))
+    return Approach(x, y, yaw, float(distance[best]))
+
+
+def no_approach_reason(
+    grid: OccupancyGrid,
+    footprint: Footprint,
+    robot_xy_m: ArrayLike,
+    *,
+    blocks_band: bool,
+    config: ApproachConfig,
+    what: str,
+    robot: str = "the robot",
+    radius_m: float | None = None,
+) -> Reason:
+    """Why :func:`approach_pose` found nothing beside ``footprint`` (``what``: "the target of Column R1"):
+    ``unreachable`` when free stand-points exist but the flood fill of ``grid`` from the robot does not
+    reach them, else ``no_approach_pose`` — each a sentence with the numbers."""
+    cells, _ = stand_points(grid, footprint, blocks_band=blocks_band, config=config)
+    here = np.round(np.asarray(robot_xy_m, float), 2).tolist()
+    reach = config.reach_m - config.reach_margin_m
+    if len(cells):
+        region = reachable_region(grid, robot_xy_m)
+        cut_off = region is None or not region[cells[:, 0], cells[:, 1]].any()
+        if cut_off:
+            return Reason(
+                code=ReasonCode.UNREACHABLE,
+                message=(
+                    f"{what} ({_where(footprint)}) is cut off from {robot} at {here}: none of its "
+                    f"{len(cells)} free stand-points within {reach:.2f} m is connected to the robot on the "
+                    f"planning grid (cells of {grid.resolution_m:.2f} m)"
+                ),
+            )
+    body = f"{radius_m:.2f} m" if radius_m is not None else "its"
+    clear = f", {config.body_clearance_m:.2f} m clear of it," if blocks_band else ""
+    return Reason(
+        code=ReasonCode.NO_APPROACH_POSE,
+        message=(
+            f"no free cell within {reach:.2f} m of {what} ({_where(footprint)}){clear} holds {robot} "
+            f"(footprint radius {body}, reach {config.reach_m:.2f} m)"
+        ),
+    )
+
+
+def _where(footprint: Footprint) -> str:
+    """``4.00 m × 3.00 m at (1.20, -3.40)``: a footprint's size and centre for a log line or a reason."""
+    poly = footprint.polygon_xy_m
+    if len(poly) == 4:
+        sides = np.hypot(*(np.roll(poly, -1, axis=0) - poly).T)
+        length, width = max(sides[0], sides[1]), min(sides[0], sides[1])
+    else:
+        length, width = sorted(poly.max(axis=0) - poly.min(axis=0), reverse=True)
+    x, y = footprint.centre_xy_m
+    return f"{length:.2f} m × {width:.2f} m at ({x:.2f}, {y:.2f})"

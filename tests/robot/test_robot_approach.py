@@ -8,11 +8,18 @@ import numpy as np
 import pytest
 from robot_sim import convert_small_frame
 
-from bimbot.services.robot.approach import ApproachConfig, approach_pose, reachable_region
+from bimbot.services.robot.approach import (
+    ApproachConfig,
+    approach_pose,
+    no_approach_reason,
+    reachable_region,
+)
 from bimbot.services.robot.site_map import SiteMap
 from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.occupancy_grid import from_footprints, inflate
+from bimbot.shared.reasons import ReasonCode
+from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.site_layout import plan_site
 
 CONFIG = ApproachConfig(reach_m=1.5, body_clearance_m=0.75)
@@ -86,3 +93,87 @@ def test_no_approach_when_nothing_within_reach_is_free() -> None:
     grid = from_footprints((0.0, 0.0, 10.0, 10.0), 0.1, boxes_xy_m=[(3.0, 3.0, 7.0, 7.0)])
     item = Footprint(np.array([[4.5, 4.5], [5.5, 4.5], [5.5, 5.5], [4.5, 5.5]]), 0.0, 0.2)
     assert approach_pose(grid, item, (1.0, 1.0), blocks_band=True, config=CONFIG) is None
+
+
+def _rect(x0: float, y0: float, x1: float, y1: float, z_max_m: float = 0.5) -> Footprint:
+    return Footprint(np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]), 0.0, z_max_m)
+
+
+def _open_site():
+    """An empty 20 m × 20 m site, inflated like the robot's map (the fence as a 0.2 m wall around it)."""
+    walls = [(0.0, 0.0, 20.0, 0.2), (0.0, 19.8, 20.0, 20.0), (0.0, 0.0, 0.2, 20.0), (19.8, 0.0, 20.0, 20.0)]
+    return inflate(from_footprints((0.0, 0.0, 20.0, 20.0), 0.1, boxes_xy_m=walls), 0.75)
+
+
+@pytest.mark.parametrize(
+    ("name", "footprint"),
+    [
+        ("4 m x 3 m footing slab", _rect(8.0, 8.5, 12.0, 11.5, 0.5)),
+        ("5 m wall in place", _rect(7.5, 9.9, 12.5, 10.1, 3.0)),
+        (
+            "5 m wall turned 30 degrees",
+            Footprint(
+                np.array([[-2.5, -0.1], [2.5, -0.1], [2.5, 0.1], [-2.5, 0.1]])
+                @ np.array([[math.cos(0.52), math.sin(0.52)], [-math.sin(0.52), math.cos(0.52)]])
+                + (10.0, 10.0),
+                0.0,
+                3.0,
+            ),
+        ),
+    ],
+)
+def test_wide_components_have_an_approach_within_reach_of_their_nearest_edge(
+    name: str, footprint: Footprint
+) -> None:
+    # Before the shared reach rule, stand-points were kept within reach of the footprint's *centre* and
+    # outside its outline: nothing wider than 2 × (1.4 − 0.75) m had any.
+    grid = _open_site()
+    config = ApproachConfig(reach_m=DEFAULT_ROBOT.reach_m, body_clearance_m=0.75)
+    for robot_xy in ((2.0, 2.0), (18.0, 18.0)):
+        found = approach_pose(grid, footprint, robot_xy, blocks_band=True, config=config)
+        assert found is not None, name
+        assert DEFAULT_ROBOT.reaches(found.xy_m, footprint.polygon_xy_m), "the one reach rule physics checks"
+        distance = footprint.distance_m([found.xy_m])[0]
+        assert found.reach_distance_m == pytest.approx(distance)
+        assert 0.75 <= distance <= DEFAULT_ROBOT.reach_m - config.reach_margin_m, "body clear, within reach"
+        assert grid.is_free(*found.xy_m)
+
+
+def test_the_approach_is_on_the_robots_side_and_another_side_when_one_is_avoided() -> None:
+    grid = _open_site()
+    wall = _rect(7.5, 9.9, 12.5, 10.1, 3.0)
+    south = approach_pose(grid, wall, (10.0, 3.0), blocks_band=True, config=CONFIG)
+    north = approach_pose(grid, wall, (10.0, 17.0), blocks_band=True, config=CONFIG)
+    assert south is not None and north is not None
+    assert south.y_m < 9.9 and north.y_m > 10.1, "each robot stays on its own side of the wall"
+    assert abs(south.x_m - 10.0) < 0.5, "the middle of the long side"
+    other = approach_pose(grid, wall, (10.0, 3.0), blocks_band=True, config=CONFIG, avoid_xy_m=[south.xy_m])
+    assert other is not None and math.dist(other.xy_m, south.xy_m) > 1.0
+
+
+def test_a_column_inside_a_closed_room_is_unreachable_with_the_numbers() -> None:
+    room = [(8.0, 8.0, 14.0, 8.2), (8.0, 13.8, 14.0, 14.0), (8.0, 8.0, 8.2, 14.0), (13.8, 8.0, 14.0, 14.0)]
+    grid = inflate(from_footprints((0.0, 0.0, 20.0, 20.0), 0.1, boxes_xy_m=room), 0.75)
+    column = _rect(10.9, 10.9, 11.1, 11.1, 3.0)
+    config = ApproachConfig(reach_m=1.5, body_clearance_m=0.75)
+    assert approach_pose(grid, column, (2.0, 2.0), blocks_band=True, config=config) is None
+    reason = no_approach_reason(
+        grid, column, (2.0, 2.0), blocks_band=True, config=config, what="Column R1", robot="r1"
+    )
+    assert reason.code is ReasonCode.UNREACHABLE
+    assert "Column R1 (0.20 m × 0.20 m at (11.00, 11.00)) is cut off from r1 at [2.0, 2.0]" in reason.message
+    inside = approach_pose(grid, column, (9.5, 9.5), blocks_band=True, config=config)
+    assert inside is not None, "from inside the room it is reachable"
+
+
+def test_no_free_stand_point_at_all_is_no_approach_pose() -> None:
+    grid = from_footprints((0.0, 0.0, 10.0, 10.0), 0.1, boxes_xy_m=[(3.0, 3.0, 7.0, 7.0)])
+    item = _rect(4.5, 4.5, 5.5, 5.5, 0.2)
+    reason = no_approach_reason(
+        grid, item, (1.0, 1.0), blocks_band=True, config=CONFIG, what="Footing F1", robot="r1", radius_m=0.6
+    )
+    assert reason.code is ReasonCode.NO_APPROACH_POSE
+    assert reason.message == (
+        "no free cell within 1.40 m of Footing F1 (1.00 m × 1.00 m at (5.00, 5.00)), 0.75 m clear of it, "
+        "holds r1 (footprint radius 0.60 m, reach 1.50 m)"
+    )
