@@ -25,6 +25,7 @@ import logging
 import os
 import queue
 import threading
+import time
 from collections import Counter
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -201,3 +202,35 @@ def reply_json(query: zenoh.Query, key: str, message: BaseModel) -> None:
 
 
 Handler = Callable[[zenoh.Query], None]
+
+
+def query_first(
+    session: zenoh.Session,
+    selector: str,
+    model: type[M],
+    invalid: InvalidPayloads,
+    *,
+    timeout_s: float,
+    stop: threading.Event | None = None,
+    retry_s: float = 0.5,
+) -> M | None:
+    """Ask ``selector`` until a valid ``model`` answers, at most ``timeout_s`` wall seconds (or ``stop``).
+
+    For start-up questions to another service's queryable (physics' site info): a bounded wait, never a
+    hang; None when nobody answered in time.
+    """
+    deadline = time.monotonic() + timeout_s
+    while stop is None or not stop.is_set():
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return None
+        for reply in session.get(selector, timeout=max(0.1, min(2.0, left))):
+            if reply.ok is not None:
+                message = decode(model, selector, reply.ok.payload.to_bytes(), invalid)
+                if message is not None:
+                    return message
+        if stop is not None:
+            stop.wait(min(retry_s, max(0.0, deadline - time.monotonic())))
+        else:
+            time.sleep(min(retry_s, max(0.0, deadline - time.monotonic())))
+    return None

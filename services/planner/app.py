@@ -25,12 +25,12 @@ import logging
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import zenoh
 
-from bimbot.shared.bus import Inbox, Received, decode, encode
+from bimbot.shared.bus import Inbox, Received, decode, encode, query_first
 from bimbot.shared.identifiers import guid_to_key
 from bimbot.shared.manifest import Manifest, load_manifest
 from bimbot.shared.messages import (
@@ -40,6 +40,7 @@ from bimbot.shared.messages import (
     COMPONENT_POSE_KEY,
     COMPONENT_STATE_KEY,
     COMPONENT_TWIN_KEY,
+    PHYSICS_INFO_KEY,
     PROGRESS_KEY,
     ROBOT_STATE_KEY,
     TASK_KEY,
@@ -49,13 +50,17 @@ from bimbot.shared.messages import (
     ComponentStateMsg,
     ProgressMsg,
     RobotStateMsg,
+    SiteInfoMsg,
     TaskMsg,
     TwinMsg,
     key,
 )
+from bimbot.shared.reasons import Reason
 
-from .scheduler import Outgoing, PlannerCore
-from .sources import PlanSource, load_plan
+from .access_plan import access_plan
+from .feasibility import infeasible
+from .scheduler import Outgoing, PlannerCore, PlannerLimits
+from .sources import Plan, PlanSource, load_plan
 
 _log = logging.getLogger(__name__)
 
@@ -68,6 +73,9 @@ class PlannerOptions:
     progress_interval_s: float = 1.0  # progress is published at least this often (wall seconds)
     twin_timeout_s: float = 5.0  # wall seconds for the start-up twin query
     poll_s: float = 0.05  # longest wait for bus input per loop turn
+    site_info_timeout_s: float = 30.0  # wall seconds to wait for physics' site info (robot types, site)
+    strict: bool = False  # a sequence step that cuts off later work is an error, not a warning
+    limits: PlannerLimits = field(default_factory=PlannerLimits)
 
 
 def outgoing_key(site: str, message: Outgoing | ProgressMsg) -> str:
@@ -89,10 +97,19 @@ def main(
     """Run the planner on the bus until done (``exit_when_done``) or ``stop``; the exit code."""
     manifest = load_manifest(build_dir)
     plan = load_plan(manifest, Path(build_dir), source)
-    core = PlannerCore(manifest, plan, resend_s=options.resend_s)
     site = manifest.site
     inbox = Inbox()
     with zenoh.open(config) as session:
+        info = query_first(
+            session,
+            key(PHYSICS_INFO_KEY, site=site),
+            SiteInfoMsg,
+            inbox.invalid,
+            timeout_s=options.site_info_timeout_s,
+            stop=stop,
+        )
+        plan, cannot = _checked_plan(plan, manifest, info, options.strict)
+        core = PlannerCore(manifest, plan, resend_s=options.resend_s, limits=options.limits)
         subscribers = [
             inbox.subscribe(
                 session, key(COMPONENT_STATE_KEY, site=site, key="*"), ComponentStateMsg, "state"
@@ -113,11 +130,31 @@ def main(
         _wait_for_agents(inbox, feed, manifest, options.agents_timeout_s, stop)
         _sync_twins(session, site, core, inbox, options.twin_timeout_s)
         core.finish_sync()
+        core.fail_at_start(cannot)
         code = _Loop(session, site, core, inbox, feed).run(options, stop)
         token.undeclare()
         for subscriber in subscribers:
             subscriber.undeclare()
     return code
+
+
+def _checked_plan(
+    plan: Plan, manifest: Manifest, info: SiteInfoMsg | None, strict: bool
+) -> tuple[Plan, dict[str, Reason]]:
+    """The plan after the access check, and the components that cannot be built (GUID → reason): too
+    heavy or out of reach for every robot type on site, or never accessible at their turn."""
+    if info is None:
+        _log.warning(
+            "physics did not answer with the site info: robot feasibility and site access not checked"
+        )
+        return plan, {}
+    outcome = access_plan(plan, manifest, info, adjust=plan.derived, strict=strict)
+    cannot = {**outcome.unreachable, **infeasible(manifest.components, info.robot_types)}
+    if cannot:
+        _log.warning(
+            "%d component(s) cannot be built with the robots on site; failed before the build", len(cannot)
+        )
+    return outcome.plan, cannot
 
 
 class _Feeder:

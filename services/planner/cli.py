@@ -19,6 +19,7 @@ from bimbot.shared.bus import add_bus_arguments, bus_options, zenoh_config
 from bimbot.shared.errors import UserError
 
 from .app import PlannerOptions, main
+from .scheduler import PlannerLimits
 from .sources import PlanSource, SourceKind
 
 
@@ -46,6 +47,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--resend-s", type=float, default=2.0, help="re-send unobserved events and assignments after (s)"
     )
+    parser.add_argument(
+        "--site-info-timeout-s",
+        type=float,
+        default=PlannerOptions.site_info_timeout_s,
+        help="wait this long for physics' site info (robot types; without it nothing is checked) (s)",
+    )
+    parser.add_argument(
+        "--strict", action="store_true", help="a sequence step that cuts off later work is an error (exit 2)"
+    )
+    parser.add_argument(
+        "--max-give-backs",
+        type=int,
+        default=PlannerLimits.max_give_backs,
+        help="fail a component given back this often by robots (with the last reason)",
+    )
+    parser.add_argument(
+        "--task-timeout-s",
+        type=float,
+        default=PlannerLimits.task_timeout_s,
+        help="take a task back when its component has not changed state for this long (sim s)",
+    )
     add_bus_arguments(parser)
 
 
@@ -64,12 +86,23 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--agents-timeout-s must not be negative")
     if args.resend_s <= 0:
         raise UserError("--resend-s must be positive")
+    if args.site_info_timeout_s < 0:
+        raise UserError("--site-info-timeout-s must not be negative")
+    if args.max_give_backs < 1:
+        raise UserError("--max-give-backs must be at least 1")
+    if args.task_timeout_s <= 0:
+        raise UserError("--task-timeout-s must be positive")
     try:
         config = zenoh_config(bus_options(args))
     except ValueError as error:
         raise UserError(str(error)) from None
     options = PlannerOptions(
-        exit_when_done=args.exit_when_done, agents_timeout_s=args.agents_timeout_s, resend_s=args.resend_s
+        exit_when_done=args.exit_when_done,
+        agents_timeout_s=args.agents_timeout_s,
+        resend_s=args.resend_s,
+        site_info_timeout_s=args.site_info_timeout_s,
+        strict=args.strict,
+        limits=PlannerLimits(max_give_backs=args.max_give_backs, task_timeout_s=args.task_timeout_s),
     )
     stop = threading.Event()
     previous = {

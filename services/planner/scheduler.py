@@ -17,6 +17,13 @@ calls :meth:`PlannerCore.step` with the wall time; ``step`` returns the messages
    reports ``verifying`` for its component has done its part and is free again.
 4. **Robot lost** (liveliness gone): its task is given back — event ``abandon`` when the component is being
    carried (picking/transporting/assembling), then released and reassigned.
+5. **Bounds** (:class:`PlannerLimits`): a component given back ``max_give_backs`` times, by any robots, is
+   failed with the last give-back's reason (the robot's own: ``no_approach_pose``, ``unreachable``,
+   ``robot_trapped``…); a task whose component has not changed state for ``task_timeout_s`` sim seconds is
+   taken back from its robot (``no_progress``, counted as a give-back). Components no robot type on site can
+   build are failed before anything is released (:meth:`PlannerCore.fail_at_start`). Every failed
+   component's dependents are ``blocked`` (event ``block`` with a ``blocked_by`` reason naming it), and every
+   failed or blocked component's reason travels on its task and in the progress (``reasons``).
 
 Delivery is at least once: each event and each ``assigned`` task is re-sent unchanged (same ``event_id``)
 every ``resend_s`` wall seconds until its effect is observed (the component leaves ``planned`` after a
@@ -49,6 +56,7 @@ from bimbot.shared.messages import (
     TaskStatus,
     TwinMsg,
 )
+from bimbot.shared.reasons import Reason, ReasonCode, blocked_by
 
 from .sources import Plan
 
@@ -56,7 +64,16 @@ _log = logging.getLogger(__name__)
 
 SOURCE = "planner"
 CARRYING = frozenset({ComponentState.PICKING, ComponentState.TRANSPORTING, ComponentState.ASSEMBLING})
+TERMINAL = frozenset({ComponentState.CONSTRUCTED, ComponentState.FAILED, ComponentState.BLOCKED})
 Outgoing = ComponentEventMsg | TaskMsg
+
+
+@dataclass(frozen=True)
+class PlannerLimits:
+    """The planner's bounds: every retry counted, every wait bounded in sim time."""
+
+    max_give_backs: int = 3  # a component given back this often (by any robots) is failed
+    task_timeout_s: float = 1800.0  # sim seconds an assigned task may go without a component state change
 
 
 class Phase(StrEnum):
@@ -82,6 +99,10 @@ class _Task:
     robot_id: str | None = None
     assigned_sim_s: float | None = None
     duration_sim_s: float | None = None
+    changed_sim_s: float = 0.0  # last assignment or component state change (the no-progress watchdog)
+    give_backs: int = 0
+    last_give_back: Reason | None = None
+    reason: Reason | None = None  # failed/blocked: why
 
 
 @dataclass
@@ -119,10 +140,12 @@ class PlannerCore:
         *,
         resend_s: float = 2.0,
         new_id: Callable[[], str] = lambda: uuid.uuid4().hex,
+        limits: PlannerLimits = PlannerLimits(),
     ) -> None:
         self._manifest = {item.guid: item for item in manifest.components}
         self._plan = plan
         self._resend_s = resend_s
+        self.limits = limits
         self._new_id = new_id
         self._successors = plan.successors()
         self._tasks = {
@@ -158,6 +181,7 @@ class PlannerCore:
             attempt=msg.attempt,
             robot_id=msg.robot_id,
             sim_s=msg.sim_time_s,
+            reason=msg.reason,
         )
 
     def observe_twin(self, twin: TwinMsg) -> None:
@@ -174,6 +198,7 @@ class PlannerCore:
             attempt=twin.attempt,
             robot_id=twin.robot_id,
             sim_s=self.sim_time_s,
+            reason=twin.reason,
         )
 
     def observe_component_pose(self, msg: ComponentPoseMsg) -> None:
@@ -201,6 +226,14 @@ class PlannerCore:
             if robot.task_guid is not None:
                 self._give_back(robot.task_guid, f"robot {robot_id} lost")
 
+    def fail_at_start(self, reasons: dict[str, Reason]) -> None:
+        """Fail, before anything is released, the components no robot on site can build (and block their
+        dependents); components already terminal (a restarted planner) are left as they are."""
+        for guid in self._plan.order:
+            if guid in reasons and self._tasks[guid].phase not in FINAL:
+                _log.warning("%s cannot be built: %s", guid, reasons[guid].line())
+                self._fail(guid, reasons[guid])
+
     def finish_sync(self) -> None:
         """Start-up sync is over: tasks held by robots that are not alive are given back."""
         self._synced = True
@@ -214,6 +247,7 @@ class PlannerCore:
     def step(self, wall_time_s: float) -> list[Outgoing]:
         """Release the ready set, assign idle robots, (re)send what is due; the messages to publish."""
         self._wall_s = wall_time_s
+        self._watch_tasks()
         self._release_ready()
         self._assign()
         out, self._outbox = self._outbox, []
@@ -268,8 +302,20 @@ class PlannerCore:
             estimated_finish_sim_time_s=estimate,
             failed=self.failed(),
             blocked=self.blocked(),
+            reasons=self.reasons(),
             done=self.done,
         )
+
+    def reasons(self) -> dict[str, Reason]:
+        """GUID → why, for every failed and blocked component."""
+        return {
+            guid: task.reason
+            for guid, task in self._tasks.items()
+            if task.phase in (Phase.FAILED, Phase.BLOCKED) and task.reason is not None
+        }
+
+    def reason_of(self, guid: str) -> Reason | None:
+        return self._tasks[guid].reason
 
     # --- internals -------------------------------------------------------------------------------------
 
@@ -282,8 +328,11 @@ class PlannerCore:
         attempt: int,
         robot_id: str | None,
         sim_s: float,
+        reason: Reason | None = None,
     ) -> None:
         component, task = self._components[guid], self._tasks[guid]
+        if state is not component.state:
+            task.changed_sim_s = max(task.changed_sim_s, sim_s)
         component.state, component.attempt = state, attempt
         if task.phase in FINAL and state is not ComponentState.CONSTRUCTED:
             return
@@ -297,9 +346,16 @@ class PlannerCore:
         elif state is ComponentState.FAILED:
             if task.phase is not Phase.FAILED:
                 self._free_robot(task)
+                task.reason = reason or Reason(
+                    code=ReasonCode.MISPLACED, message=f"failed after {attempt} attempt(s)"
+                )
                 self._set_phase(task, Phase.FAILED, TaskStatus.FAILED)
-                _log.warning("%s failed after %d attempt(s); blocking what depends on it", guid, attempt)
+                _log.warning("%s failed: %s; blocking what depends on it", guid, task.reason.line())
                 self._block_dependents(guid)
+        elif state is ComponentState.BLOCKED:
+            self._free_robot(task)
+            task.reason = reason or task.reason
+            self._set_phase(task, Phase.BLOCKED, TaskStatus.BLOCKED)
         elif state is ComponentState.MISPLACED:
             self._free_robot(task)
             if task.phase is not Phase.RELEASED:
@@ -307,7 +363,13 @@ class PlannerCore:
             settled = partial(_left, component, {ComponentState.MISPLACED})
             self._send_event(guid, ComponentEvent.RETRY, settled)
         elif state is ComponentState.RELEASED:
-            abandoned = task.phase is Phase.ASSIGNED and event == ComponentEvent.ABANDON
+            abandoned = task.phase in (Phase.ASSIGNED, Phase.RELEASED) and event == ComponentEvent.ABANDON
+            if abandoned:
+                self._count_give_back(
+                    task, reason or Reason(code=ReasonCode.NO_PROGRESS, message="given back")
+                )
+                if task.phase in FINAL:
+                    return
             if task.phase is Phase.WAITING or abandoned:
                 self._free_robot(task)
                 self._set_phase(task, Phase.RELEASED, TaskStatus.RELEASED)
@@ -351,6 +413,7 @@ class PlannerCore:
             robot = min(idle, key=lambda item: (_distance(item.pose_xy_yaw, where), item.robot_id))
             task.robot_id, robot.task_guid = robot.robot_id, guid
             task.phase = Phase.ASSIGNED
+            task.changed_sim_s = self.sim_time_s
             if task.assigned_sim_s is None:
                 task.assigned_sim_s = self.sim_time_s
             _log.info("%s (%s) assigned to %s", task.task_id, guid, robot.robot_id)
@@ -377,7 +440,8 @@ class PlannerCore:
         if not keep_task_robot:
             task.robot_id = None
 
-    def _give_back(self, guid: str, why: str) -> None:
+    def _give_back(self, guid: str, why: str, reason: Reason | None = None) -> None:
+        """Take a task back from its robot (lost, or no progress); ``reason`` counts it as a give-back."""
         task, component = self._tasks[guid], self._components[guid]
         if task.phase is not Phase.ASSIGNED:
             return
@@ -387,10 +451,59 @@ class PlannerCore:
             return  # placed already: verification decides
         _log.warning("%s (%s) given back: %s", task.task_id, guid, why)
         self._set_phase(task, Phase.RELEASED, TaskStatus.RELEASED)
+        task.changed_sim_s = self.sim_time_s
         if component.state in CARRYING:
-            self._send_event(guid, ComponentEvent.ABANDON, partial(_left, component, CARRYING), robot_id)
+            # counted when the agent reports the abandon (released, event abandon)
+            self._send_event(
+                guid, ComponentEvent.ABANDON, partial(_left, component, CARRYING), robot_id, reason=reason
+            )
+        elif reason is not None:
+            self._count_give_back(task, reason)
+
+    def _count_give_back(self, task: _Task, reason: Reason) -> None:
+        """One more give-back of ``task``'s component; at the bound it fails with the last reason."""
+        task.give_backs += 1
+        task.last_give_back = reason
+        limit = self.limits.max_give_backs
+        _log.warning("%s given back (%d of %d): %s", task.guid, task.give_backs, limit, reason.line())
+        if task.give_backs >= limit:
+            message = f"given back {task.give_backs} times; last: {reason.message}"
+            self._fail(task.guid, reason.model_copy(update={"message": message[:2000]}))
+
+    def _watch_tasks(self) -> None:
+        """The no-progress watchdog: an assigned task whose component has not changed state for
+        ``task_timeout_s`` sim seconds is taken back from its robot."""
+        bound = self.limits.task_timeout_s
+        for task in self._tasks.values():
+            state = self._components[task.guid].state
+            if task.phase is not Phase.ASSIGNED or state is ComponentState.VERIFYING:
+                continue
+            idle_s = self.sim_time_s - task.changed_sim_s
+            if idle_s > bound:
+                reason = Reason(
+                    code=ReasonCode.NO_PROGRESS,
+                    message=(
+                        f"{task.task_id} made no progress for {idle_s:.0f} s of sim time "
+                        f"(bound {bound:.0f} s; component {state.value}, robot {task.robot_id})"
+                    ),
+                    robot_id=task.robot_id,
+                )
+                self._give_back(task.guid, reason.message, reason)
+
+    def _fail(self, guid: str, reason: Reason) -> None:
+        """The component cannot be built: event ``fail`` with ``reason``; its dependents are blocked."""
+        task, component = self._tasks[guid], self._components[guid]
+        if task.phase in FINAL:
+            return
+        self._free_robot(task)
+        task.reason = reason
+        self._set_phase(task, Phase.FAILED, TaskStatus.FAILED)
+        _log.error("%s failed: %s", guid, reason.line())
+        self._send_event(guid, ComponentEvent.FAIL, partial(_reached, component, TERMINAL), reason=reason)
+        self._block_dependents(guid)
 
     def _block_dependents(self, guid: str) -> None:
+        reason = blocked_by(guid, self._tasks[guid].reason)
         stack = list(self._successors.get(guid, ()))
         while stack:
             item = stack.pop()
@@ -398,9 +511,16 @@ class PlannerCore:
             if task.phase in (Phase.BLOCKED, Phase.DONE, Phase.FAILED):
                 continue
             self._free_robot(task)
+            task.reason = reason
             self._set_phase(task, Phase.BLOCKED, TaskStatus.BLOCKED)
-            self._pending.pop((item, "event"), None)
             self._pending.pop((item, "task"), None)
+            component = self._components[item]
+            if component.state in (ComponentState.PLANNED, ComponentState.RELEASED):
+                self._send_event(
+                    item, ComponentEvent.BLOCK, partial(_reached, component, TERMINAL), reason=reason
+                )
+            else:
+                self._pending.pop((item, "event"), None)
             stack.extend(self._successors.get(item, ()))
 
     def _set_phase(self, task: _Task, phase: Phase, status: TaskStatus) -> None:
@@ -408,7 +528,13 @@ class PlannerCore:
         self._outbox.append(self._task_msg(task, status))
 
     def _send_event(
-        self, guid: str, event: ComponentEvent, settled: Callable[[], bool], robot_id: str | None = None
+        self,
+        guid: str,
+        event: ComponentEvent,
+        settled: Callable[[], bool],
+        robot_id: str | None = None,
+        *,
+        reason: Reason | None = None,
     ) -> None:
         current = self._pending.get((guid, "event"))
         if current is not None and current.message.event is event and not current.settled():
@@ -423,6 +549,7 @@ class PlannerCore:
             robot_id=robot_id,
             sim_time_s=self.sim_time_s,
             wall_time_s=self._wall_s,
+            reason=reason,
         )
         self._pending[(guid, "event")] = _Pending(message, settled)
 
@@ -439,7 +566,12 @@ class PlannerCore:
             target_pose=PoseMsg(position_m=pose.position_m, quat_xyzw=pose.quat_xyzw),
             sim_time_s=self.sim_time_s,
             wall_time_s=self._wall_s,
+            reason=task.reason if status in (TaskStatus.FAILED, TaskStatus.BLOCKED) else None,
         )
+
+
+def _reached(component: _Component, states: Collection[ComponentState]) -> bool:
+    return component.state in states
 
 
 def _left(component: _Component, states: Collection[ComponentState]) -> bool:

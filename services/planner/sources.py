@@ -77,6 +77,7 @@ class Plan:
     explicit: bool  # predecessors as given by the sequence (False: the support graph)
     warnings: tuple[str, ...] = ()
     violations: tuple[tuple[str, str], ...] = ()  # (component, support) pairs the plan gets wrong
+    derived: bool = False  # derived from the support graph (the planner may add precedences for access)
 
     def successors(self) -> dict[str, set[str]]:
         """GUID → GUIDs that wait for it directly."""
@@ -110,6 +111,8 @@ def load_plan(manifest: Manifest, build_dir: Path, source: PlanSource) -> Plan:
         path = source.path or _build_source_ifc(manifest, build_dir, extra_warnings)
         sequence, label = _ifc_sequence(path, components), f"IFC schedule of {path}"
     plan = plan_from_sequence(sequence, components, label, origin=label, support=support)
+    if source.kind is SourceKind.DERIVE or (source.kind is SourceKind.BUILD and sequence.source == "derived"):
+        plan = replace(plan, derived=True)
     if extra_warnings:
         plan = replace(plan, warnings=(*extra_warnings, *plan.warnings))
     for warning in plan.warnings:

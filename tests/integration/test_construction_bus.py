@@ -51,6 +51,7 @@ def _agents(build: Path, endpoint: str, log_dir: Path, name: str = "agents") -> 
 
 def _planner(build: Path, endpoint: str, log_dir: Path) -> ServiceProcess:
     args = ["planner", "--build", str(build), "--connect", endpoint, "--exit-when-done", "--resend-s", "0.5"]
+    args += ["--site-info-timeout-s", "0.5"]  # no physics here: the robot stand-in plays it
     return ServiceProcess("planner", args, log_dir)
 
 

@@ -22,6 +22,7 @@ from bimbot.shared.manifest import (
     SourceModel,
 )
 from bimbot.shared.messages import ComponentState, ComponentStateMsg, RobotState, RobotStateMsg
+from bimbot.shared.reasons import Reason
 
 PORTAL = ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c", "beam")
 
@@ -89,6 +90,7 @@ def state_msg(
     robot_id: str | None = None,
     attempt: int = 0,
     sim_time_s: float = 0.0,
+    reason: Reason | None = None,
 ) -> ComponentStateMsg:
     return ComponentStateMsg(
         guid=guid,
@@ -98,6 +100,7 @@ def state_msg(
         robot_id=robot_id,
         sim_time_s=sim_time_s,
         wall_time_s=0.0,
+        reason=reason,
     )
 
 

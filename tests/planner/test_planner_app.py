@@ -53,7 +53,9 @@ def portal_build(tmp_path: Path) -> Path:
 def test_planner_builds_the_portal_over_the_bus_and_exits_0(portal_build: Path) -> None:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     planner_config = zenoh_config(BusOptions(mode="peer", connect=(), listen=(endpoint,)))
-    options = PlannerOptions(exit_when_done=True, agents_timeout_s=10.0, resend_s=0.5, twin_timeout_s=0.5)
+    options = PlannerOptions(
+        exit_when_done=True, agents_timeout_s=10.0, resend_s=0.5, twin_timeout_s=0.5, site_info_timeout_s=0.2
+    )
     stop = threading.Event()
     result: list[int] = []
     planner = threading.Thread(

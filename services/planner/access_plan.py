@@ -1,0 +1,164 @@
+"""Access-aware plans: a sequence checked (and, when derived, mended) so no placement cuts off later work.
+
+Why: the support graph says what rests on what, not what a robot can still drive to. Four walls built
+before the column inside them leave the column unreachable; the robots would find out only after driving
+there. The check (:func:`bimbot.shared.site_access.check_order`) walks the plan's order on the site grid
+of the robot type on site and finds, for every step, the components it cuts off. Then:
+
+* a plan the planner may reorder (``--derive``, or the build's derived ``sequence.xml``) gets one extra
+  precedence per cut-off — the component cut off must be constructed before the one that cuts it off —
+  unless that would close a cycle; the order is recomputed (release priority kept) and checked again, at
+  most ``MAX_ROUNDS`` times, so the release of the ready set keeps access whatever the robots' pace;
+* a given sequence (an XML or the IFC's 4D schedule) is not changed: every cut-off is a warning naming
+  both GUIDs (``strict``: a :class:`~.sources.PlanError`, exit 2);
+* a component whose target (or yard slot) is cut off by the components that must stand before it (its
+  ancestors in the plan) can never be built: it is returned with reason ``unreachable`` naming them, and
+  the planner fails it before the build starts. Checked on the robots' own 0.1 m grid, so a coarse grid
+  never fails a buildable component.
+"""
+
+from __future__ import annotations
+
+import heapq
+import logging
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.messages import SiteInfoMsg
+from bimbot.shared.reasons import Reason, ReasonCode
+from bimbot.shared.robot_description import RobotDescription
+from bimbot.shared.site_access import AccessConfig, SiteAccess, check_order
+from bimbot.shared.site_layout import plan_site
+
+from .sources import Plan, PlanError
+
+_log = logging.getLogger(__name__)
+
+MAX_ROUNDS = 8
+FINE = AccessConfig(resolution_m=0.1)
+MAX_NAMED = 4
+
+
+@dataclass(frozen=True)
+class AccessOutcome:
+    plan: Plan
+    unreachable: dict[str, Reason]  # never accessible at its turn: fail before the build
+    warnings: tuple[str, ...]
+    added: int = 0  # precedences added to keep access
+
+
+def site_robot(info: SiteInfoMsg) -> RobotDescription:
+    """The robot type the access check plans for: the widest on site (what fits it fits the others)."""
+    return max(info.robot_types.values(), key=lambda robot: (robot.radius_m, robot.name))
+
+
+def access_plan(
+    plan: Plan, manifest: Manifest, info: SiteInfoMsg, *, adjust: bool, strict: bool = False
+) -> AccessOutcome:
+    """Check ``plan`` for access (see the module docstring); mend it when ``adjust``."""
+    components = list(manifest.components)
+    robot = site_robot(info)
+    layout = plan_site(components, robots=len(info.robot_ids), robot=robot)
+    by_guid = {component.guid: component for component in components}
+    added = 0
+    check = check_order(SiteAccess(components, layout, robot), plan.order)
+    for _ in range(MAX_ROUNDS if adjust else 0):
+        preds = {guid: set(plan.predecessors.get(guid, ())) for guid in plan.order}
+        new = 0
+        for placed, cut in check.cut_offs:
+            if cut not in preds[placed] and not _depends_on(preds, cut, placed):
+                preds[placed].add(cut)
+                new += 1
+        if not new:
+            break
+        added += new
+        frozen = {guid: frozenset(values) for guid, values in preds.items()}
+        plan = replace(plan, predecessors=frozen, order=_priority_order(plan.order, frozen))
+        check = check_order(SiteAccess(components, layout, robot), plan.order)
+    warnings = [
+        f"access check: placing {_describe(placed, by_guid)} cuts off {_describe(cut, by_guid)}"
+        for placed, cut in check.cut_offs
+    ]
+    unreachable: dict[str, Reason] = {}
+    for guid in check.inaccessible:
+        ancestors = _ancestors(plan.predecessors, guid)
+        fine = SiteAccess(components, layout, robot, FINE)
+        for other in plan.order:
+            if other in ancestors:
+                fine.place(other)
+        if fine.slot_accessible(guid) and fine.target_accessible(guid):
+            continue
+        where = "target" if not fine.target_accessible(guid) else "yard slot"
+        cutters = [other for other in check.inaccessible[guid] if other in ancestors] or sorted(ancestors)
+        named = ", ".join(_describe(other, by_guid) for other in cutters[:MAX_NAMED])
+        more = f" and {len(cutters) - MAX_NAMED} more" if len(cutters) > MAX_NAMED else ""
+        verb = "stand" if len(cutters) > 1 else "stands"
+        cause = f"once {named}{more} {verb} (built before it by the plan)" if cutters else "on the empty site"
+        unreachable[guid] = Reason(
+            code=ReasonCode.UNREACHABLE,
+            message=(
+                f"no cell within the {robot.name} robot's reach ({robot.reach_m:.2f} m) of its {where} "
+                f"can be driven to from the depot {cause}"
+            ),
+            guid=cutters[0] if cutters else None,
+        )
+    for warning in warnings:
+        _log.warning("%s", warning)
+    if added:
+        _log.info("access check: %d precedence(s) added so that no placement cuts off later work", added)
+    if strict and warnings:
+        raise PlanError(f"{len(warnings)} step(s) of the sequence cut off later work; first: {warnings[0]}")
+    return AccessOutcome(plan, unreachable, tuple(warnings), added)
+
+
+def _depends_on(preds: Mapping[str, set[str]], guid: str, other: str) -> bool:
+    """``guid`` (transitively) waits for ``other``."""
+    stack, seen = [guid], set()
+    while stack:
+        item = stack.pop()
+        if item == other:
+            return True
+        if item not in seen:
+            seen.add(item)
+            stack.extend(preds.get(item, ()))
+    return False
+
+
+def _ancestors(preds: Mapping[str, frozenset[str]], guid: str) -> set[str]:
+    seen: set[str] = set()
+    stack = list(preds.get(guid, ()))
+    while stack:
+        item = stack.pop()
+        if item not in seen:
+            seen.add(item)
+            stack.extend(preds.get(item, ()))
+    return seen
+
+
+def _priority_order(order: tuple[str, ...], preds: Mapping[str, frozenset[str]]) -> tuple[str, ...]:
+    """A topological order of ``preds`` that keeps ``order``'s priority wherever the precedences allow."""
+    rank = {guid: index for index, guid in enumerate(order)}
+    waiting = {guid: len(preds.get(guid, ())) for guid in order}
+    successors: dict[str, list[str]] = {guid: [] for guid in order}
+    for guid in order:
+        for pred in preds.get(guid, ()):
+            successors[pred].append(guid)
+    ready = [(rank[guid], guid) for guid in order if waiting[guid] == 0]
+    heapq.heapify(ready)
+    result: list[str] = []
+    while ready:
+        _, guid = heapq.heappop(ready)
+        result.append(guid)
+        for successor in successors[guid]:
+            waiting[successor] -= 1
+            if waiting[successor] == 0:
+                heapq.heappush(ready, (rank[successor], successor))
+    if len(result) != len(order):
+        raise PlanError("access check: the precedences form a cycle")  # never: edges are checked first
+    return tuple(result)
+
+
+def _describe(guid: str, by_guid: Mapping[str, Component]) -> str:
+    component = by_guid.get(guid)
+    return f"{guid} ({component.name or component.ifc_class})" if component else guid

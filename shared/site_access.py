@@ -1,0 +1,244 @@
+"""Site access along a construction sequence: after each placement, can a robot still get everywhere? (pure)
+
+Why: a structure closes around what is still to be built. Four walls put up before the column inside
+them leave the column's target cut off; a row of columns can wall off a yard aisle. The robots find that
+out late (after driving, after picking). This check finds it before the build, from the plan alone.
+
+The model is the robots' own: the site grid (fence, yard stacks in their slots, the structure built so
+far), where a component occupies the grid when it meets the robot's height band (``band_min_z_m`` ..
+``band_max_z_m``: a beam at 3 m does not, a footing flush with the ground does not), inflated by the robot's
+radius plus the map margin (:data:`bimbot.shared.site_layout.INFLATION_MARGIN_M`), as the robots plan.
+The robot's free region is the 8-connected free cells around its depot start. A component is *accessible*
+when some cell of that region lies within the robot's reach of its footprint (the one reach rule,
+:mod:`bimbot.shared.robot_description`: nearest point of the footprint, ``reach_m`` less a margin), and,
+for a component in the band, at least the inflation radius outside it (the body stays clear): at its BIM
+target for the assembly and at its yard slot for the pick-up.
+
+:func:`check_order` walks a sequence placing one component after the other and reports, for each step,
+the components it cuts off (accessible before, not after) and the components not accessible at their own
+turn. Cost per step: one distance transform and one labelling of the site grid, plus one index lookup per
+remaining component (candidate cells are computed once); at 0.2 m, ~5–20 ms per step on the sample sites.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from .footprint import Footprint, posed_footprint
+from .manifest import Component
+from .occupancy_grid import OccupancyGrid, distance_field_m, empty_grid, from_footprints, nearest_free_cell
+from .robot_description import RobotDescription
+from .site_layout import FENCE_THICKNESS_M, INFLATION_MARGIN_M, SiteLayout
+
+_log = logging.getLogger(__name__)
+
+_EIGHT = np.ones((3, 3), bool)
+GRID_MARGIN_M = 0.5
+
+
+@dataclass(frozen=True)
+class AccessConfig:
+    resolution_m: float = 0.2
+    band_min_z_m: float = 0.02  # as the robots' site map: flush footings don't block
+    band_max_z_m: float = 1.0  # beams above the robot don't block
+    reach_margin_m: float = 0.1  # stand this far inside the reach, as the robots do
+
+
+@dataclass(frozen=True)
+class AccessCheck:
+    """What a sequence does to site access (see :func:`check_order`)."""
+
+    cut_offs: tuple[tuple[str, str], ...] = ()  # (placed, cut off): placing the first cuts the second off
+    inaccessible: dict[str, tuple[str, ...]] = field(
+        default_factory=dict
+    )  # GUID → placed before it, cutting it
+
+
+def _fence_boxes(layout: SiteLayout) -> list[tuple[float, float, float, float]]:
+    (x0, y0), (x1, y1) = layout.fence.min_xy, layout.fence.max_xy
+    t = FENCE_THICKNESS_M
+    return [
+        (x0 - t, y0 - t, x1 + t, y0),
+        (x0 - t, y1, x1 + t, y1 + t),
+        (x0 - t, y0, x0, y1),
+        (x1, y0, x1 + t, y1),
+    ]
+
+
+class SiteAccess:
+    """The site grid with every component either in its yard slot or placed at its target."""
+
+    def __init__(
+        self,
+        components: Sequence[Component],
+        layout: SiteLayout,
+        robot: RobotDescription,
+        config: AccessConfig = AccessConfig(),
+    ) -> None:
+        self.config, self.layout = config, layout
+        self.inflation_m = robot.radius_m + INFLATION_MARGIN_M
+        self._reach_m = robot.reach_m - config.reach_margin_m
+        bounds = layout.bounds.grown(GRID_MARGIN_M)
+        self.grid = empty_grid((*bounds.min_xy, *bounds.max_xy), config.resolution_m)
+        fence = from_footprints(self.grid.bounds_xy_m, config.resolution_m, boxes_xy_m=_fence_boxes(layout))
+        self._fence = fence.occupied
+        self._counts = np.zeros(self.grid.shape, np.int32)
+        self._components = {component.guid: component for component in components}
+        self._cells: dict[str, NDArray[np.int64]] = {}
+        self._target_candidates: dict[str, NDArray[np.int64]] = {}
+        self._slot_candidates: dict[str, NDArray[np.int64]] = {}
+        self.placed: set[str] = set()
+        for guid, component in self._components.items():
+            target = component.target_pose_world
+            self._target_candidates[guid] = self._candidates(
+                posed_footprint(component, target.position_m, target.quat_xyzw)
+            )
+            slot = layout.slots.get(guid)
+            if slot is not None:
+                footprint = posed_footprint(component, slot.position_m, slot.quat_xyzw)
+                self._slot_candidates[guid] = self._candidates(footprint)
+                self._occupy(guid, footprint)
+        self._start = layout.robot_starts[0][:2]
+        self._region: NDArray[np.bool_] | None = None
+
+    # --- changes ----------------------------------------------------------------------------------------
+
+    def place(self, guid: str) -> None:
+        """``guid`` leaves its yard slot and stands at its BIM target."""
+        component = self._components[guid]
+        self._release(guid)
+        target = component.target_pose_world
+        self._occupy(guid, posed_footprint(component, target.position_m, target.quat_xyzw))
+        self.placed.add(guid)
+
+    def remove(self, guid: str) -> None:
+        """Undo :meth:`place` (back to its slot)."""
+        self._release(guid)
+        self.placed.discard(guid)
+        slot = self.layout.slots.get(guid)
+        if slot is not None:
+            component = self._components[guid]
+            self._occupy(guid, posed_footprint(component, slot.position_m, slot.quat_xyzw))
+
+    # --- questions --------------------------------------------------------------------------------------
+
+    def region(self) -> NDArray[np.bool_]:
+        """The robot's free region: inflated free cells 8-connected to its depot start."""
+        if self._region is None:
+            occupied = self._fence | (self._counts > 0)
+            base = OccupancyGrid(occupied, self.grid.resolution_m, self.grid.origin_xy_m)
+            free = ~(distance_field_m(base) <= self.inflation_m + 1e-9) if occupied.any() else ~occupied
+            labels, _ = ndimage.label(free, structure=_EIGHT)
+            start = nearest_free_cell(base.with_occupied(~free), self._start, max_distance_m=5.0)
+            self._region = labels == labels[start] if start is not None else np.zeros_like(free)
+        return self._region
+
+    def accessible(self, guid: str) -> bool:
+        """A robot can stand within reach of ``guid``: at its slot while in the yard, else at its target."""
+        cells = self._target_candidates[guid] if guid in self.placed else self._slot_candidates.get(guid)
+        return self._any_in_region(cells if cells is not None else self._target_candidates[guid])
+
+    def target_accessible(self, guid: str) -> bool:
+        """A robot can stand within reach of ``guid``'s BIM target (to assemble it)."""
+        return self._any_in_region(self._target_candidates[guid])
+
+    def slot_accessible(self, guid: str) -> bool:
+        cells = self._slot_candidates.get(guid)
+        return True if cells is None else self._any_in_region(cells)
+
+    # --- internals ----------------------------------------------------------------------------------------
+
+    def _any_in_region(self, cells: NDArray[np.int64]) -> bool:
+        if len(cells) == 0:
+            return False
+        return bool(self.region()[cells[:, 0], cells[:, 1]].any())
+
+    def _candidates(self, footprint: Footprint) -> NDArray[np.int64]:
+        """Cells where the robot's centre may stand to reach ``footprint`` (see the module docstring)."""
+        poly = footprint.polygon_xy_m
+        low, high = poly.min(axis=0) - self._reach_m, poly.max(axis=0) + self._reach_m
+        r0, c0 = (max(0, int(v)) for v in self.grid.world_to_cell(low))
+        r1, c1 = self.grid.world_to_cell(high)
+        rows, cols = self.grid.shape
+        r1, c1 = min(rows, int(r1) + 1), min(cols, int(c1) + 1)
+        if r0 >= r1 or c0 >= c1:
+            return np.zeros((0, 2), np.int64)
+        rr, cc = np.mgrid[r0:r1, c0:c1]
+        cells = np.stack([rr.ravel(), cc.ravel()], axis=1)
+        distance = footprint.distance_m(self.grid.cell_to_world(cells))
+        keep = distance <= self._reach_m
+        if self._blocks(footprint):
+            keep &= distance > self.inflation_m
+        return cells[keep]
+
+    def _blocks(self, footprint: Footprint) -> bool:
+        return footprint.z_max_m >= self.config.band_min_z_m and footprint.z_min_m <= self.config.band_max_z_m
+
+    def _occupy(self, guid: str, footprint: Footprint) -> None:
+        if not self._blocks(footprint) or len(footprint.polygon_xy_m) < 3:
+            return
+        cells = _polygon_cells(self.grid, footprint.polygon_xy_m)
+        if len(cells) == 0:
+            return
+        self._cells[guid] = cells
+        self._counts[cells[:, 0], cells[:, 1]] += 1
+        self._region = None
+
+    def _release(self, guid: str) -> None:
+        cells = self._cells.pop(guid, None)
+        if cells is not None:
+            self._counts[cells[:, 0], cells[:, 1]] -= 1
+            self._region = None
+
+
+def check_order(access: SiteAccess, order: Iterable[str]) -> AccessCheck:
+    """Place ``order`` one by one on ``access`` (which it changes) and report what each step cuts off.
+
+    Before each placement: is the component accessible at its slot and at its target? If not, it is
+    ``inaccessible`` (naming the placed components whose placement cut it off). After it: every remaining
+    component that was accessible and no longer is, is cut off by this placement.
+    """
+    remaining = list(dict.fromkeys(order))
+    cut_by: dict[str, list[str]] = {}
+    inaccessible: dict[str, tuple[str, ...]] = {}
+    pairs: list[tuple[str, str]] = []
+    before = {guid: _open(access, guid) for guid in remaining}
+    for index, guid in enumerate(remaining):
+        if not before[guid]:
+            inaccessible[guid] = tuple(cut_by.get(guid, ()))
+        access.place(guid)
+        for other in remaining[index + 1 :]:
+            now = _open(access, other)
+            if before[other] and not now:
+                pairs.append((guid, other))
+                cut_by.setdefault(other, []).append(guid)
+            before[other] = now
+    return AccessCheck(cut_offs=tuple(pairs), inaccessible=inaccessible)
+
+
+def _open(access: SiteAccess, guid: str) -> bool:
+    return access.slot_accessible(guid) and access.target_accessible(guid)
+
+
+def _polygon_cells(grid: OccupancyGrid, polygon_xy_m: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Grid cells a polygon covers, rasterised on a window of the grid (not the whole site)."""
+    res = grid.resolution_m
+    low = grid.world_to_cell(polygon_xy_m.min(axis=0)) - 1
+    high = grid.world_to_cell(polygon_xy_m.max(axis=0)) + 2
+    rows, cols = grid.shape
+    r0, c0 = max(0, int(low[0])), max(0, int(low[1]))
+    r1, c1 = min(rows, int(high[0])), min(cols, int(high[1]))
+    if r0 >= r1 or c0 >= c1:
+        return np.zeros((0, 2), np.int64)
+    x0, y0 = grid.origin_xy_m[0] + c0 * res, grid.origin_xy_m[1] + r0 * res
+    window = from_footprints(
+        (x0, y0, x0 + (c1 - c0) * res, y0 + (r1 - r0) * res), res, polygons_xy_m=[polygon_xy_m]
+    )
+    cells = np.argwhere(window.occupied[: r1 - r0, : c1 - c0]) + np.array([r0, c0])
+    return cells

@@ -1,0 +1,188 @@
+"""The planner ends every task: feasibility before the build, bounded give-backs, the no-progress watchdog,
+blocked dependents with a reason, and access-aware plans on the generated site model."""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+from planner_builders import portal_manifest, robot_msg, state_msg
+from site_models import ROOM_WALLS, WALLS_FIRST_ORDER, build_site_model
+
+from bimbot.services.converter.convert import convert_model
+from bimbot.services.converter.ifc_input import open_model
+from bimbot.services.planner.access_plan import access_plan
+from bimbot.services.planner.feasibility import component_feasibility, infeasible
+from bimbot.services.planner.scheduler import Phase, PlannerCore, PlannerLimits
+from bimbot.services.planner.sources import PlanError, PlanSource, SourceKind, load_plan, plan_from_sequence
+from bimbot.shared.manifest import read_manifest
+from bimbot.shared.messages import ComponentEvent, ComponentEventMsg, ComponentState, SiteInfoMsg, TaskMsg
+from bimbot.shared.reasons import Reason, ReasonCode
+from bimbot.shared.robot_description import DEFAULT_ROBOT
+from bimbot.shared.support_graph import derive_sequence, support_predecessors
+
+S = ComponentState
+
+
+def _core(limits: PlannerLimits | None = None) -> PlannerCore:
+    manifest = portal_manifest()
+    plan = plan_from_sequence(derive_sequence(manifest.components), manifest.components, "test")
+    counter = itertools.count(1)
+    return PlannerCore(manifest, plan, new_id=lambda: f"ev{next(counter)}", limits=limits or PlannerLimits())
+
+
+def _events(out: list, event: ComponentEvent) -> list[ComponentEventMsg]:
+    return [m for m in out if isinstance(m, ComponentEventMsg) and m.event is event]
+
+
+def _assigned_to_r1(core: PlannerCore, guid: str) -> None:
+    core.robot_liveliness("r1", True)
+    core.observe_robot_state(robot_msg("r1", (0.0, 0.0)))
+    core.step(0.0)
+    core.observe_component_state(state_msg(guid, S.RELEASED, event="release"))
+    core.step(0.1)
+    assert core.phase(guid) is Phase.ASSIGNED and core.robot_of(guid) == "r1"
+
+
+def test_a_component_no_robot_can_carry_fails_before_release_and_blocks_what_rests_on_it() -> None:
+    core = _core()
+    too_heavy = Reason(code=ReasonCode.TOO_HEAVY, message="5,760 kg exceeds the payload of 1,000 kg")
+    core.fail_at_start({"foot_a": too_heavy})
+    out = core.step(0.0)
+    [fail] = _events(out, ComponentEvent.FAIL)
+    assert fail.guid == "foot_a" and fail.reason == too_heavy
+    blocked = {m.guid: m.reason for m in _events(out, ComponentEvent.BLOCK)}
+    assert set(blocked) == {"col_a", "beam"}  # col_a rests on foot_a, the beam on col_a
+    assert all(r.code is ReasonCode.BLOCKED_BY and r.guid == "foot_a" for r in blocked.values())
+    assert {m.guid for m in _events(out, ComponentEvent.RELEASE)} == {"foot_b", "foot_c"}
+    progress = core.progress()
+    assert progress.reasons["foot_a"].code is ReasonCode.TOO_HEAVY
+    assert progress.reasons["beam"].code is ReasonCode.BLOCKED_BY
+    failed_task = next(m for m in out if isinstance(m, TaskMsg) and m.guid == "foot_a")
+    assert failed_task.reason == too_heavy
+
+
+def test_a_component_given_back_max_times_fails_with_the_last_robots_reason() -> None:
+    core = _core(PlannerLimits(max_give_backs=3))
+    for attempt in range(3):
+        if attempt:
+            core.observe_robot_state(robot_msg("r1", (0.0, 0.0)))
+            core.step(1.0 + attempt)
+            assert core.phase("foot_b") is Phase.ASSIGNED
+        else:
+            _assigned_to_r1(core, "foot_b")
+        core.observe_component_state(
+            state_msg("foot_b", S.PICKING, event="pick", robot_id="r1", sim_time_s=attempt)
+        )
+        why = Reason(code=ReasonCode.UNREACHABLE, message=f"target cut off ({attempt})", robot_id="r1")
+        core.observe_component_state(
+            state_msg(
+                "foot_b", S.RELEASED, event="abandon", robot_id="r1", sim_time_s=attempt + 0.5, reason=why
+            )
+        )
+    out = core.step(10.0)
+    [fail] = _events(out, ComponentEvent.FAIL)
+    assert fail.guid == "foot_b" and fail.reason is not None
+    assert fail.reason.code is ReasonCode.UNREACHABLE
+    assert "given back 3 times" in fail.reason.message and "(2)" in fail.reason.message
+    assert core.phase("foot_b") is Phase.FAILED
+    assert core.phase("col_b") is Phase.BLOCKED
+
+
+def test_a_task_without_progress_is_taken_back_after_its_bound_of_sim_time() -> None:
+    core = _core(PlannerLimits(task_timeout_s=100.0, max_give_backs=2))
+    _assigned_to_r1(core, "foot_b")
+    core.observe_clock(99.0)
+    core.step(1.0)
+    assert core.phase("foot_b") is Phase.ASSIGNED
+    core.observe_clock(101.0)
+    out = core.step(2.0)
+    statuses = [m.status for m in out if isinstance(m, TaskMsg) and m.guid == "foot_b"]
+    assert statuses[0] == "released"  # taken back ...
+    assert core.phase("foot_b") is Phase.ASSIGNED  # ... and handed out again (r1 is the only robot)
+    core.observe_clock(200.0)
+    core.step(3.0)
+    assert core.phase("foot_b") is Phase.ASSIGNED  # the watchdog's clock restarted at the new assignment
+    core.observe_clock(202.0)
+    core.step(4.0)
+    assert core.phase("foot_b") is Phase.FAILED
+    reason = core.reason_of("foot_b")
+    assert (
+        reason is not None
+        and reason.code is ReasonCode.NO_PROGRESS
+        and "given back 2 times" in reason.message
+    )
+
+
+def test_feasibility_names_the_mass_and_the_height_against_the_robot_limits() -> None:
+    manifest = portal_manifest()
+    beam = next(c for c in manifest.components if c.guid == "beam")
+    heavy = beam.model_copy(update={"mass_kg": 5760.0})
+    verdict = component_feasibility(heavy, {"default": DEFAULT_ROBOT})
+    assert verdict.capable_types == () and verdict.reason is not None
+    assert verdict.reason.code is ReasonCode.TOO_HEAVY and "5,760 kg" in verdict.reason.message
+    low_robot = DEFAULT_ROBOT.model_copy(update={"max_place_height_m": 1.0})
+    verdict = component_feasibility(beam, {"default": low_robot})
+    assert verdict.reason is not None and verdict.reason.code is ReasonCode.OUT_OF_REACH
+    assert component_feasibility(beam, {"default": DEFAULT_ROBOT}).capable_types == ("default",)
+    assert infeasible(manifest.components, {"default": DEFAULT_ROBOT}) == {}
+
+
+@pytest.fixture(scope="module")
+def walls_first_build(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("walls_first_plan")
+    site = build_site_model(heavy="footing", room=True, schedule=WALLS_FIRST_ORDER)
+    source = site.write(folder / "site.ifc")
+    convert_model(open_model(source), source, folder / "build")
+    return folder / "build"
+
+
+def _info() -> SiteInfoMsg:
+    return SiteInfoMsg(
+        robot_ids=["r1"],
+        robot_starts_xy_yaw=[(0.0, 0.0, 0.0)],
+        robot_type_of={"r1": DEFAULT_ROBOT.name},
+        robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
+        step_s=1 / 120,
+        control_period_s=0.2,
+        lock_step=True,
+    )
+
+
+def test_a_given_sequence_that_walls_in_a_column_fails_it_before_the_build_naming_the_wall(
+    walls_first_build: Path,
+) -> None:
+    manifest = read_manifest(walls_first_build)
+    names = {c.guid: c.name for c in manifest.components}
+    guid = {name: g for g, name in names.items()}
+    plan = load_plan(manifest, walls_first_build, PlanSource(SourceKind.BUILD))
+    outcome = access_plan(plan, manifest, _info(), adjust=plan.derived)
+    assert outcome.plan.order == plan.order  # a given sequence is checked, never changed
+    assert set(outcome.unreachable) == {guid["Column R1"]}
+    reason = outcome.unreachable[guid["Column R1"]]
+    assert reason.code is ReasonCode.UNREACHABLE and reason.guid in {guid[w] for w in ROOM_WALLS}
+    assert any(guid["Column R1"] in w and "cuts off" in w for w in outcome.warnings)
+    with pytest.raises(PlanError, match="cut off"):
+        access_plan(plan, manifest, _info(), adjust=False, strict=True)
+
+
+def test_a_derived_sequence_builds_the_column_before_the_wall_that_would_close_the_room(
+    walls_first_build: Path,
+) -> None:
+    manifest = read_manifest(walls_first_build)
+    guid = {c.name: c.guid for c in manifest.components}
+    assert load_plan(manifest, walls_first_build, PlanSource(SourceKind.DERIVE)).derived
+    # a derived plan (support-graph precedences only) that happens to put the four walls first
+    given = load_plan(manifest, walls_first_build, PlanSource(SourceKind.BUILD))
+    support = support_predecessors(manifest.components)
+    plan = replace(given, predecessors={g: frozenset(support[g]) for g in given.order}, derived=True)
+    assert plan.order.index(guid["Column R1"]) > max(plan.order.index(guid[w]) for w in ROOM_WALLS)
+    outcome = access_plan(plan, manifest, _info(), adjust=True)
+    assert outcome.unreachable == {} and outcome.warnings == () and outcome.added >= 1
+    order = outcome.plan.order
+    last_wall = max(ROOM_WALLS, key=lambda w: order.index(guid[w]))
+    assert order.index(guid["Column R1"]) < order.index(guid[last_wall])
+    # the release of the ready set keeps it too: the closing wall waits for the column
+    assert guid["Column R1"] in outcome.plan.predecessors[guid[last_wall]]
