@@ -2,10 +2,16 @@
 
 Used by ``bimbot run``/``bimbot demo`` and by the integration tests. Each child is ``python -m bimbot.cli
 <command> …`` with its output in its own log file, so a failure can be shown with what the service said.
+
+Each child leads a process group of its own (``start_new_session``): a service's own children (the
+observer's ``rerun --serve-web``) are in that group, so stopping signals the whole group and nothing is
+left behind; and a Ctrl-C at the terminal reaches only ``bimbot run``, which then stops its services in
+order and still writes its report, instead of every service dying at once.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import signal
@@ -42,7 +48,9 @@ class ServiceProcess:
             stdout=self._log,
             stderr=subprocess.STDOUT,
             env={**os.environ, **(env or {})},
+            start_new_session=True,  # its own process group: stop() reaches its children too
         )
+        self.pgid = self.process.pid  # the group it leads
         _log.debug("started %s (pid %d): bimbot %s", name, self.process.pid, " ".join(args))
 
     def log(self) -> str:
@@ -57,23 +65,46 @@ class ServiceProcess:
         return self.process.wait(timeout=timeout_s)
 
     def kill(self) -> None:
-        """SIGKILL: no chance to clean up, as when a host dies."""
+        """SIGKILL to the service and its group: no chance to clean up, as when a host dies."""
         self.process.kill()
         self.process.wait(timeout=10)
+        self._signal_group(signal.SIGKILL)
+
+    def terminate(self) -> None:
+        """SIGTERM to the service's process group (it and its children), without waiting."""
+        if self.process.poll() is None:
+            self._signal_group(signal.SIGTERM)
 
     def stop(self, timeout_s: float = 10.0) -> int | None:
-        """SIGTERM, then SIGKILL after ``timeout_s``; the exit code."""
+        """SIGTERM to the group, then SIGKILL after ``timeout_s``; the service's exit code. Whatever of
+        its group is still there once the service has exited (an orphaned grandchild) is killed."""
         if self.process.poll() is None:
-            self.process.send_signal(signal.SIGTERM)
+            self._signal_group(signal.SIGTERM)
             try:
                 self.process.wait(timeout=timeout_s)
             except subprocess.TimeoutExpired:
                 _log.warning("%s did not stop within %.0f s; killed", self.name, timeout_s)
                 self.process.kill()
                 self.process.wait(timeout=5)
+        self._signal_group(signal.SIGKILL)  # leftovers of the group, if any
         if not self._log.closed:
             self._log.close()
         return self.process.returncode
+
+    def _signal_group(self, signum: int) -> None:
+        with contextlib.suppress(ProcessLookupError, PermissionError):  # the group is gone already
+            os.killpg(self.pgid, signum)
+
+
+def stop_all(services: Sequence[ServiceProcess], timeout_s: float = 10.0) -> None:
+    """Stop ``services`` together: SIGTERM to every group at once (last started first), then wait for
+    each within one shared ``timeout_s`` (SIGKILL for the late ones). A few seconds for a whole run,
+    where stopping one after another would add up every service's shutdown."""
+    for service in reversed(services):
+        service.terminate()
+    deadline = time.monotonic() + timeout_s
+    for service in reversed(services):
+        service.stop(timeout_s=max(deadline - time.monotonic(), 0.1))
 
 
 @contextmanager
