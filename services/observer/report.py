@@ -23,6 +23,14 @@ the state changes it went through, for an observer that joined a run late.
 Totals: components by final state, retries, makespan (first release → last constructed), busy time,
 distance, robot utilisation (busy / (robots × makespan)), the largest placement errors of the constructed
 components.
+
+Reasons: every component that is not constructed gets a ``reason`` object (``code``, ``message``,
+``guid``, ``robot_id``; :class:`bimbot.shared.reasons.Reason`). A failed or blocked component has its own
+(from its agent's state message, else the planner's ``ProgressMsg.reasons``). Any other (planned, or
+still in progress) was not built because the run ended first: it gets the code and sentence of the run's
+:class:`RunEnding` (``interrupted`` by a signal or the time limit, ``stalled`` by the watchdog), with its
+state and its last give-back reason. The ending itself is ``report["ending"]``; a report written while
+the run goes on (or by an observer that stops before the end) says so with the default ending.
 """
 
 from __future__ import annotations
@@ -45,8 +53,34 @@ from bimbot.shared.messages import (
     RobotStateMsg,
     TwinMsg,
 )
+from bimbot.shared.reasons import Reason, ReasonCode
 
 REPORT_SCHEMA_VERSION = 1
+_OWN_REASON_STATES = (ComponentState.FAILED, ComponentState.BLOCKED)
+MAX_REASON_CHARS = 2000  # Reason.message's bound
+
+
+@dataclass(frozen=True)
+class RunEnding:
+    """How a run ended: ``how`` (``done``, ``stalled``, ``interrupted``, ``timeout``, ``service_stopped``,
+    ``running``), the reason code and sentence given to every component it left unbuilt without a reason
+    of its own, and detail lines (what each robot and open task was doing)."""
+
+    how: str
+    code: ReasonCode
+    message: str
+    details: tuple[str, ...] = ()
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "how": self.how,
+            "code": self.code.value,
+            "message": self.message,
+            "details": list(self.details),
+        }
+
+
+UNFINISHED = RunEnding("running", ReasonCode.INTERRUPTED, "the report was written before the run ended")
 DISTANCE_SOURCES = ("ground_truth", "odom", "robot_state", "state_poses")  # best first
 
 
@@ -65,6 +99,8 @@ class ComponentTimeline:
     angle_error_rad: float | None = None
     robot_ids: list[str] = field(default_factory=list)
     last_s: float = 0.0  # latest sim time seen for this component
+    reason: Reason | None = None  # failed/blocked: why (from its agent)
+    last_give_back: Reason | None = None  # the latest reason a robot gave its task back for
 
 
 @dataclass
@@ -97,6 +133,7 @@ def twin_messages(twin: TwinMsg) -> list[ComponentStateMsg | ComponentPoseMsg]:
             robot_id=twin.robot_id if index == len(twin.history) - 1 else None,
             sim_time_s=record.sim_time_s,
             wall_time_s=0.0,
+            reason=record.reason if index < len(twin.history) - 1 else (record.reason or twin.reason),
         )
         for index, record in enumerate(twin.history)
     ]
@@ -150,6 +187,11 @@ class ReportCollector:
         timeline.attempts = max(timeline.attempts, msg.attempt)
         if msg.robot_id and msg.robot_id not in timeline.robot_ids:
             timeline.robot_ids.append(msg.robot_id)
+        if msg.reason is not None:
+            if msg.state in _OWN_REASON_STATES:
+                timeline.reason = msg.reason
+            else:
+                timeline.last_give_back = msg.reason
         # Senders stamp sim time from their own view of the clock (a verdict may be stamped a little
         # before the placement it judges): a component's times never go backwards.
         t = timeline.last_s = max(msg.sim_time_s, timeline.last_s)
@@ -197,8 +239,8 @@ class ReportCollector:
 
     # --- output ---
 
-    def report(self) -> dict[str, Any]:
-        """The report dictionary (``report.json``)."""
+    def report(self, ending: RunEnding = UNFINISHED) -> dict[str, Any]:
+        """The report dictionary (``report.json``); ``ending`` says how the run ended (see the module)."""
         end_s = self.last_sim_time_s
         order = {guid: index for index, guid in enumerate(self.sequence_guids)}
         components = []
@@ -224,6 +266,7 @@ class ReportCollector:
                     "robot_ids": list(timeline.robot_ids),
                     "position_error_mm": _scaled(timeline.position_error_m, 1000.0),
                     "angle_error_deg": _scaled(timeline.angle_error_rad, 180.0 / math.pi),
+                    "reason": _dump(self._reason(component.guid, timeline, ending)),
                 }
             )
         robots = {
@@ -232,15 +275,42 @@ class ReportCollector:
         totals = _totals(components, robots)
         totals["blocked"] = len(self.progress.blocked) if self.progress else 0
         totals["done"] = bool(self.progress and self.progress.done)
+        totals["not_constructed"] = totals["components"] - totals["constructed"]
+        totals["by_reason"] = _count_reasons(components)
         return {
             "schema_version": REPORT_SCHEMA_VERSION,
             "site": self.manifest.site,
             "sim_time_s": end_s,
+            "ending": ending.as_dict(),
             "progress": self.progress.model_dump(mode="json") if self.progress else None,
             "totals": totals,
             "components": components,
             "robots": robots,
         }
+
+    def _reason(self, guid: str, timeline: ComponentTimeline, ending: RunEnding) -> Reason | None:
+        """Why ``guid`` is not constructed (None when it is): its own reason when it failed or is
+        blocked, else the run's ending, with its state and its last give-back."""
+        if timeline.state == ComponentState.CONSTRUCTED:
+            return None
+        planner_reason = self.progress.reasons.get(guid) if self.progress is not None else None
+        if timeline.state in _OWN_REASON_STATES:
+            own = timeline.reason or planner_reason
+            if own is not None:
+                return own
+            if timeline.state == ComponentState.FAILED and timeline.retries:
+                return Reason(
+                    code=ReasonCode.MISPLACED,
+                    message=f"failed after {timeline.attempts} placement attempt(s) out of tolerance",
+                )
+        robot_id = timeline.robot_ids[-1] if timeline.robot_ids else None
+        state = f"it was {timeline.state.value}"
+        if timeline.state not in (ComponentState.PLANNED, *_OWN_REASON_STATES) and robot_id:
+            state += f" (robot {robot_id})"
+        if timeline.last_give_back is not None:
+            state += f"; last given back: {timeline.last_give_back.line()}"
+        message = f"{ending.message}; {state}"[:MAX_REASON_CHARS]
+        return Reason(code=ending.code, message=message, robot_id=robot_id)
 
     def _robot_report(self, robot: RobotTimeline, end_s: float) -> dict[str, Any]:
         tasks = [
@@ -268,6 +338,19 @@ class ReportCollector:
             "tasks": tasks,
             "state": robot.state.value if robot.state else None,
         }
+
+
+def _dump(reason: Reason | None) -> dict[str, Any] | None:
+    return reason.model_dump(mode="json") if reason is not None else None
+
+
+def _count_reasons(components: list[dict[str, Any]]) -> dict[str, int]:
+    counts: dict[str, int] = {}
+    for component in components:
+        if component["reason"] is not None:
+            code = component["reason"]["code"]
+            counts[code] = counts.get(code, 0) + 1
+    return dict(sorted(counts.items()))
 
 
 def _scaled(value: float | None, factor: float) -> float | None:

@@ -4,8 +4,11 @@ Left: one lane per robot, a bar per task (the robot left ``idle`` → came back)
 of the component it handled. Right: the planned sequence, one row per component in ``sequence.xml``
 order (first at the top), a thin bar from its release to its pick-up and a full bar from pick-up to
 constructed, in the same colours; misplacements are marked with a red cross when detected, failures
-with a black one. Both share the sim-time axis, so the chart shows at a glance where the run waited, which
-robot did what, and whether the building went up in the planned order.
+with a black one. Every component that is not constructed is marked: a red hatched span from where it
+stopped (failed, picked, released, or the start) to the end of the run, its reason code at the right
+edge of its row, its label in red, and a legend entry counting the codes. Both share the sim-time
+axis, so the chart shows at a glance where the run waited, which robot did what, whether the building
+went up in the planned order, and what was not built and why.
 
 Rendered on a bare ``matplotlib.figure.Figure`` (Agg canvas: no pyplot state, no display), at a fixed
 size (``FIGURE_SIZE_IN`` × ``DPI``).
@@ -18,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 import matplotlib
+from matplotlib import transforms
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
@@ -27,6 +31,8 @@ REPORT_PNG = "report.png"
 FIGURE_SIZE_IN = (16.0, 9.0)
 DPI = 100  # 1600 × 900 pixels
 MAX_ROW_LABELS = 60  # beyond this many sequence rows, labels are left out
+NOT_BUILT_COLOR = "red"
+NOT_BUILT_HATCH = "////"
 CLASS_PALETTE = tuple(matplotlib.colormaps["tab10"].colors) + tuple(matplotlib.colormaps["Dark2"].colors)
 
 
@@ -90,10 +96,15 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, tuple[flo
             ax.plot([misplaced_s], [row], marker="x", color="red", markersize=7)
         if component["failed_s"] is not None:
             ax.plot([component["failed_s"]], [row], marker="x", color="black", markersize=8)
+        if component.get("reason"):
+            _mark_not_built(ax, row, component, end_s=float(report.get("sim_time_s") or 0.0))
     if len(rows) <= MAX_ROW_LABELS:
         ax.set_yticks(
             range(len(rows)), [f"{(c['sequence_index'] or 0) + 1}. {_short(c)}" for c in rows], fontsize=6
         )
+        for label, component in zip(ax.get_yticklabels(), rows, strict=True):
+            if component.get("reason"):
+                label.set_color(NOT_BUILT_COLOR)
     else:
         ax.set_ylabel(f"{len(rows)} components in planned order")
     ax.set_ylim(-0.6, max(len(rows), 1) - 0.4)
@@ -101,6 +112,41 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, tuple[flo
     ax.set_xlabel("sim time (s)")
     ax.set_title("planned sequence (top = first): release ─ pick ▬ constructed")
     ax.grid(axis="x", alpha=0.3)
+
+
+def _mark_not_built(ax: Axes, row: int, component: dict[str, Any], end_s: float) -> None:
+    """A red hatched span from where the component stopped to the end of the run, and its reason code."""
+    stops = (component["failed_s"], component["picked_s"], component["released_s"])
+    start = next((t for t in stops if t is not None), 0.0)
+    ax.broken_barh(
+        [(start, max(end_s - start, 0.0))],
+        (row - 0.3, 0.6),
+        facecolors="none",
+        edgecolors=NOT_BUILT_COLOR,
+        hatch=NOT_BUILT_HATCH,
+        linewidth=0.5,
+    )
+    right_edge = transforms.blended_transform_factory(ax.transAxes, ax.transData)
+    ax.text(
+        0.995,
+        row,
+        component["reason"]["code"],
+        transform=right_edge,
+        ha="right",
+        va="center",
+        fontsize=6,
+        color=NOT_BUILT_COLOR,
+        clip_on=True,
+    )
+
+
+def _not_built_legend(report: dict[str, Any]) -> list[Patch]:
+    by_reason = report["totals"].get("by_reason") or {}
+    if not by_reason:
+        return []
+    counts = ", ".join(f"{code} ×{count}" for code, count in by_reason.items())
+    label = f"not constructed: {counts}"
+    return [Patch(facecolor="none", edgecolor=NOT_BUILT_COLOR, hatch=NOT_BUILT_HATCH, label=label)]
 
 
 def render_report_png(report: dict[str, Any], path: Path) -> Path:
@@ -112,17 +158,17 @@ def render_report_png(report: dict[str, Any], path: Path) -> Path:
     _sequence_rows(sequence, report, colors)
     totals = report["totals"]
     makespan = totals.get("makespan_s")
+    ending = report.get("ending") or {}
+    how = ending.get("how")
     figure.suptitle(
         f"bimbot construction report — site {report['site']}: "
         f"{totals['constructed']}/{totals['components']} constructed, retries: {totals['retries']}"
         + (f", makespan {makespan:.1f} s" if makespan is not None else "")
+        + (f" — run {how}" if how and how != "done" else "")
     )
-    figure.legend(
-        handles=[Patch(color=color, label=name) for name, color in colors.items()],
-        loc="lower center",
-        ncol=min(len(colors), 8) or 1,
-        frameon=False,
-    )
+    handles = [Patch(color=color, label=name) for name, color in colors.items()]
+    handles += _not_built_legend(report)
+    figure.legend(handles=handles, loc="lower center", ncol=min(len(handles), 8) or 1, frameon=False)
     figure.tight_layout(rect=(0.0, 0.05, 1.0, 0.96))
     path = Path(path)
     figure.savefig(path, dpi=DPI)
