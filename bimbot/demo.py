@@ -19,7 +19,8 @@ from collections import Counter
 from importlib import resources
 from pathlib import Path
 
-from bimbot.run import add_run_arguments, finish, run_build, run_options, say
+from bimbot.run import finish, run_build, say
+from bimbot.run_args import add_run_arguments, run_options
 from bimbot.services.converter.convert import convert_model
 from bimbot.services.converter.ifc_input import open_model
 from bimbot.shared.manifest import Manifest

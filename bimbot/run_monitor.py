@@ -5,6 +5,10 @@ called from the run's waiting loop, validates the messages and feeds them to the
 :class:`bimbot.services.observer.report.ReportCollector`, so ``report.json``/``report.png`` are written
 at the end of every run, with or without the observer (laser scans and plans are not subscribed: the
 report does not use them).
+
+It also keeps what the run's terminal and watchdog need: each robot's last state message, each task's
+last message, and ``changes``, a count of every change on the site (a component state change, a change
+of the planner's progress counts), which the stall watchdog (:mod:`bimbot.run_watchdog`) watches.
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ from collections.abc import Callable
 import zenoh
 from pydantic import BaseModel
 
-from bimbot.services.observer.report import ReportCollector
+from bimbot.services.observer.report import UNFINISHED, ReportCollector, RunEnding
 from bimbot.shared.bus import Inbox, InvalidPayloads, decode
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
@@ -23,12 +27,14 @@ from bimbot.shared.messages import (
     PROGRESS_KEY,
     ROBOT_POSE_KEY,
     ROBOT_STATE_KEY,
+    TASK_KEY,
     ClockMsg,
     ComponentState,
     ComponentStateMsg,
     ProgressMsg,
     RobotPoseMsg,
     RobotStateMsg,
+    TaskMsg,
     key,
 )
 
@@ -46,12 +52,19 @@ class RunMonitor:
         self.misplacements = 0
         self.sim_time_s = 0.0
         self.done = False
+        self.changes = 0
+        self.robots: dict[str, RobotStateMsg] = {}
+        self.tasks: dict[str, TaskMsg] = {}
+        self.progress: ProgressMsg | None = None
+        self.names = {c.guid: c.name for c in manifest.components}
+        self.total = len(manifest.components)
         self._inbox = Inbox(self.invalid)
         routes: list[tuple[str, type[BaseModel]]] = [
             (key(COMPONENT_STATE_KEY, site=site, key="*"), ComponentStateMsg),
             (key(ROBOT_STATE_KEY, site=site, robot_id="*"), RobotStateMsg),
             (key(ROBOT_POSE_KEY, site=site, robot_id="*"), RobotPoseMsg),
             (key(PROGRESS_KEY, site=site), ProgressMsg),
+            (key(TASK_KEY, site=site, task_id="*"), TaskMsg),
             (key(CLOCK_KEY, site=site), ClockMsg),
         ]
         self._subscribers = [
@@ -74,13 +87,31 @@ class RunMonitor:
     def apply(self, message: BaseModel) -> None:
         self.collector.add(message)
         if isinstance(message, ComponentStateMsg):
+            if self.states.get(message.guid) != message.state:
+                self.changes += 1
             self.states[message.guid] = message.state
             if message.state == ComponentState.MISPLACED and message.previous is not None:
                 self.misplacements += 1
         elif isinstance(message, ClockMsg):
             self.sim_time_s = max(self.sim_time_s, message.sim_time_s)
         elif isinstance(message, ProgressMsg):
+            if self.progress is None or _progress_facts(message) != _progress_facts(self.progress):
+                self.changes += 1
+            self.progress = message
             self.done = self.done or message.done
+        elif isinstance(message, RobotStateMsg):
+            self.robots[message.robot_id] = message
+        elif isinstance(message, TaskMsg):
+            self.tasks[message.task_id] = message
 
-    def report(self) -> dict:
-        return self.collector.report()
+    @property
+    def constructed(self) -> int:
+        return sum(state == ComponentState.CONSTRUCTED for state in self.states.values())
+
+    def report(self, ending: RunEnding = UNFINISHED) -> dict:
+        return self.collector.report(ending)
+
+
+def _progress_facts(progress: ProgressMsg) -> tuple:
+    """What of a progress message is a change on the site (not its time stamp or its estimate)."""
+    return (sorted(progress.counts.items()), progress.failed, progress.blocked, progress.done)

@@ -1,0 +1,185 @@
+"""The options of ``bimbot run`` and ``bimbot demo``: defaults, the shared arguments, and :class:`RunOptions`.
+
+Kept apart from :mod:`bimbot.run` (which runs a build with them) so both commands and the benches share
+one set of defaults: the fast physics settings of a run, the time limit, the stall watchdog's bounds,
+how often the report is written while a run goes on, and ``-q``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+from bimbot.run_watchdog import DEFAULT_CLOCK_STALL_WALL_S, DEFAULT_STALL_AFTER_S
+from bimbot.shared.errors import UserError
+
+DEFAULT_TIMEOUT_S = 900.0
+DEFAULT_REPORT_EVERY_S = 30.0  # wall seconds between two reports written while the run goes on
+# A run is a rehearsal at full speed: 120 Hz physics, a 5 Hz control loop (DWA, localisation, lock-step
+# handshake) and a 180-beam laser (2°: a 0.2 m column at 5 m still takes a beam) build the bundled frame
+# within tolerance in about half the wall time of the physics service's own defaults (240 Hz, 10 Hz, 360
+# beams), measured with bench/build.py. All three are options.
+FAST_PHYSICS_HZ = 120.0
+FAST_CONTROL_PERIOD_S = 0.2
+FAST_LASER_BEAMS = 180
+ROBOT_START_TIMEOUT_S = 120.0  # physics holds its clock at 0 until the robots are up (at most this)
+
+
+@dataclass(frozen=True)
+class ObserverOptions:
+    """The observer in a run: always an ``.rrd``; the web viewer only when asked (``--live``)."""
+
+    rrd_path: Path | None = None  # default BUILD/observer/<site>.rrd
+    web: bool = False
+    web_port: int = 9090
+    grpc_port: int = 9876
+    keep_serving: bool = False  # after the build, until interrupted (the viewer stays up)
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    robots: int = 1
+    rtf: float = 0.0
+    lock_step: bool = True
+    inject_placement_error_m: float = 0.0
+    observer: ObserverOptions | None = None
+    planner_source: tuple[str, ...] = ()  # extra planner arguments: ("--derive",) etc.
+    timeout_s: float = DEFAULT_TIMEOUT_S
+    physics_hz: float = FAST_PHYSICS_HZ
+    control_period_s: float = FAST_CONTROL_PERIOD_S
+    laser_beams: int = FAST_LASER_BEAMS
+    physics_extra: tuple[str, ...] = ()  # more physics arguments (benches, experiments)
+    report_dir: Path | None = None  # default BUILD/report
+    stall_after_s: float = DEFAULT_STALL_AFTER_S  # sim seconds without a change on the site (0: never)
+    clock_stall_wall_s: float = DEFAULT_CLOCK_STALL_WALL_S  # wall seconds without the clock advancing
+    report_every_s: float = DEFAULT_REPORT_EVERY_S  # wall seconds; 0: only at the end
+    show_progress: bool = False  # live progress on stdout (the CLI: unless -q)
+
+
+def add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options ``bimbot run`` and ``bimbot demo`` share."""
+    parser.add_argument("--robots", type=int, default=1, help="number of robots (default 1)")
+    parser.add_argument("--rtf", type=float, default=0.0, help="real-time factor (0: as fast as possible)")
+    parser.add_argument("--no-lock-step", action="store_true", help="do not wait for the robots each step")
+    parser.add_argument(
+        "--physics-hz",
+        type=float,
+        default=FAST_PHYSICS_HZ,
+        help=f"physics steps per sim second ({FAST_PHYSICS_HZ:g})",
+    )
+    parser.add_argument(
+        "--control-period-s",
+        type=float,
+        default=FAST_CONTROL_PERIOD_S,
+        help=f"sim seconds per clock step, the robots' control period ({FAST_CONTROL_PERIOD_S:g})",
+    )
+    parser.add_argument(
+        "--laser-beams", type=int, default=FAST_LASER_BEAMS, help=f"beams per laser scan ({FAST_LASER_BEAMS})"
+    )
+    parser.add_argument(
+        "--inject-placement-error-m",
+        type=float,
+        default=0.0,
+        metavar="M",
+        help="robots place each component's first attempt this far off (the agents must catch it)",
+    )
+    source = parser.add_mutually_exclusive_group()
+    source.add_argument("--derive", action="store_true", help="planner derives the sequence from supports")
+    source.add_argument("--sequence", type=Path, default=None, help="planner uses this sequence XML")
+    parser.add_argument(
+        "--timeout-s",
+        type=float,
+        default=DEFAULT_TIMEOUT_S,
+        help=f"end the run after this many wall seconds, with its report ({DEFAULT_TIMEOUT_S:g})",
+    )
+    parser.add_argument(
+        "--stall-after-s",
+        type=float,
+        default=DEFAULT_STALL_AFTER_S,
+        help="end the run when nothing on the site changed for this many sim seconds "
+        f"({DEFAULT_STALL_AFTER_S:g}; 0: never)",
+    )
+    parser.add_argument(
+        "--stall-wall-s",
+        type=float,
+        default=DEFAULT_CLOCK_STALL_WALL_S,
+        help="end the run when the sim clock stood still this many wall seconds "
+        f"({DEFAULT_CLOCK_STALL_WALL_S:g})",
+    )
+    parser.add_argument(
+        "--report-every-s",
+        type=float,
+        default=DEFAULT_REPORT_EVERY_S,
+        help="also write the report this often (wall seconds) while it runs "
+        f"({DEFAULT_REPORT_EVERY_S:g}; 0: never)",
+    )
+    parser.add_argument(
+        "-q",
+        "--quiet",
+        dest="run_quiet",
+        action="store_true",
+        help="no live progress and no info logs, only the summary",
+    )
+    parser.add_argument(
+        "--observe", action="store_true", help="also run the observer: a rerun recording (.rrd) of the build"
+    )
+    parser.add_argument(
+        "--live",
+        action="store_true",
+        help="serve the rerun web viewer on 127.0.0.1 during the build and keep it up afterwards",
+    )
+    parser.add_argument("--web-port", type=int, default=9090, help="web viewer port with --live (9090)")
+    parser.add_argument("--grpc-port", type=int, default=9876, help="viewer data port with --live (9876)")
+
+
+def run_options(
+    args: argparse.Namespace, rrd_path: Path | None = None, report_dir: Path | None = None
+) -> RunOptions:
+    """RunOptions from the shared arguments (a UserError for impossible values)."""
+    if args.robots < 1:
+        raise UserError("--robots must be at least 1")
+    if args.physics_hz <= 0 or args.control_period_s <= 0 or args.laser_beams < 1:
+        raise UserError("--physics-hz, --control-period-s and --laser-beams must be positive")
+    if args.timeout_s <= 0 or min(args.stall_after_s, args.stall_wall_s, args.report_every_s) < 0:
+        raise UserError("--timeout-s must be positive; --stall-after-s, --stall-wall-s, --report-every-s ≥ 0")
+    planner_source: tuple[str, ...] = ()
+    if args.derive:
+        planner_source = ("--derive",)
+    elif args.sequence is not None:
+        planner_source = ("--sequence", str(args.sequence))
+    observer = None
+    if args.observe or args.live or rrd_path is not None:
+        observer = ObserverOptions(
+            rrd_path=rrd_path,
+            web=args.live,
+            web_port=args.web_port,
+            grpc_port=args.grpc_port,
+            keep_serving=args.live,
+        )
+    return RunOptions(
+        robots=args.robots,
+        rtf=args.rtf,
+        lock_step=not args.no_lock_step,
+        inject_placement_error_m=args.inject_placement_error_m,
+        observer=observer,
+        planner_source=planner_source,
+        timeout_s=args.timeout_s,
+        physics_hz=args.physics_hz,
+        control_period_s=args.control_period_s,
+        laser_beams=args.laser_beams,
+        report_dir=report_dir,
+        stall_after_s=args.stall_after_s,
+        clock_stall_wall_s=args.stall_wall_s,
+        report_every_s=args.report_every_s,
+        show_progress=not quiet(args),
+    )
+
+
+def quiet(args: argparse.Namespace) -> bool:
+    """``bimbot -q run …`` or ``bimbot run … -q``; the latter also lowers the log level to warnings."""
+    if getattr(args, "run_quiet", False):
+        logging.getLogger().setLevel(logging.WARNING)
+        return True
+    return bool(getattr(args, "quiet", False))

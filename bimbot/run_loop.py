@@ -1,0 +1,158 @@
+"""The waiting loop of ``bimbot run``: until the planner is done, or something ends the run first.
+
+A run ends in one of these ways, each a :class:`~bimbot.services.observer.report.RunEnding` that the
+report gives every component left unbuilt without a reason of its own:
+
+============  =====================================================================  ==================
+``done``      the planner exited: every task settled (constructed, failed, blocked)  —
+``stalled``   the stall watchdog: nothing changed for ``--stall-after-s`` sim s       ``stalled``
+``interrupted``  SIGTERM or SIGINT                                                   ``interrupted``
+``timeout``   ``--timeout-s`` wall seconds passed                                     ``interrupted``
+``service_stopped``  a service died (its log tail is in the details)                  ``interrupted``
+============  =====================================================================  ==================
+
+Signals are caught by :class:`StopSignals` (the handlers only set a flag; the loop acts on it), so a
+Ctrl-C or a ``kill`` still stops every service and writes the report. While the run goes on, the report
+is written every ``report_every_s`` wall seconds, so even a SIGKILL of ``bimbot run`` leaves a recent one.
+"""
+
+from __future__ import annotations
+
+import logging
+import signal
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from types import FrameType
+
+from bimbot.run_monitor import RunMonitor
+from bimbot.run_progress import ProgressView
+from bimbot.run_watchdog import StallWatchdog, stall_details
+from bimbot.services.observer.report import RunEnding
+from bimbot.shared.reasons import ReasonCode
+from bimbot.supervisor import ServiceProcess
+
+_log = logging.getLogger(__name__)
+
+LOG_TAIL_LINES = 15
+PLANNER_INPUT_ERROR = 2  # the planner's exit code for an unusable sequence (a UserError)
+
+
+class StopSignals:
+    """SIGTERM/SIGINT set a flag instead of killing the run; :meth:`installed` restores the old handlers."""
+
+    def __init__(self) -> None:
+        self.signum: int | None = None
+        self.event = threading.Event()
+
+    def _handle(self, signum: int, _frame: FrameType | None) -> None:
+        if self.signum is None:
+            self.signum = signum
+        self.event.set()
+
+    @contextmanager
+    def installed(self) -> Iterator[StopSignals]:
+        if threading.current_thread() is not threading.main_thread():  # only the main thread may
+            yield self
+            return
+        previous = {signum: signal.signal(signum, self._handle) for signum in (signal.SIGTERM, signal.SIGINT)}
+        try:
+            yield self
+        finally:
+            for signum, handler in previous.items():
+                signal.signal(signum, handler)
+
+
+@dataclass
+class LoopResult:
+    ending: RunEnding
+    planner_code: int | None = None  # the planner's exit code when it exited
+    signum: int | None = None  # the signal that stopped the run
+    input_error: str | None = None  # the planner rejected its input (exit 2): this is its log tail
+
+
+@dataclass(frozen=True)
+class LoopLimits:
+    timeout_s: float
+    report_every_s: float  # 0: only at the end
+
+
+@dataclass
+class RunWatch:
+    """Everything the loop watches; :meth:`run` drains the monitor until one of the endings."""
+
+    planner: ServiceProcess
+    everyone: list[ServiceProcess]
+    monitor: RunMonitor
+    limits: LoopLimits
+    watchdog: StallWatchdog
+    progress: ProgressView
+    stop: StopSignals
+    write_report: Callable[[RunEnding], None]
+
+    def run(self) -> LoopResult:
+        monitor = self.monitor
+        started = time.monotonic()
+        next_report_s = started + self.limits.report_every_s
+        while True:
+            monitor.drain(wait_s=0.1)
+            now = time.monotonic()
+            self.watchdog.observe(monitor.changes, monitor.sim_time_s, now)
+            self.progress.update(
+                monitor.constructed, monitor.total, monitor.sim_time_s, monitor.robots, now - started
+            )
+            result = self._ended(now - started)
+            if result is not None:
+                return result
+            if self.limits.report_every_s > 0 and now >= next_report_s:
+                next_report_s = now + self.limits.report_every_s
+                self.write_report(
+                    RunEnding("running", ReasonCode.INTERRUPTED, _so_far(monitor, now - started))
+                )
+
+    def _ended(self, wall_s: float) -> LoopResult | None:
+        monitor, planner = self.monitor, self.planner
+        built = f"{monitor.constructed}/{monitor.total} constructed"
+        at = f"after {wall_s:.0f} s wall, at sim {monitor.sim_time_s:.1f} s, with {built}"
+        if self.stop.signum is not None:
+            name = signal.Signals(self.stop.signum).name
+            ending = RunEnding("interrupted", ReasonCode.INTERRUPTED, f"the run was stopped by {name} {at}")
+            return LoopResult(ending, signum=self.stop.signum)
+        if not planner.alive():
+            code = planner.wait(0)
+            if code == PLANNER_INPUT_ERROR:
+                message = f"the planner rejected its input {at}"
+                ending = RunEnding("service_stopped", ReasonCode.INTERRUPTED, message)
+                return LoopResult(ending, planner_code=code, input_error=_tail(planner))
+            ending = RunEnding("done", ReasonCode.INTERRUPTED, f"the planner ended (exit {code}) {at}")
+            return LoopResult(ending, planner_code=code)
+        for service in self.everyone:
+            if service is not planner and service.name != "observer" and not service.alive():
+                message = f"{service.name} stopped unexpectedly (exit {service.wait(0)}) {at}"
+                details = tuple(f"{service.name}.log: {line}" for line in _tail(service).splitlines())
+                return LoopResult(RunEnding("service_stopped", ReasonCode.INTERRUPTED, message, details))
+        verdict = self.watchdog.verdict()
+        if verdict is not None:
+            message = f"the site stalled: {verdict}; the run ended with {built}"
+            return LoopResult(RunEnding("stalled", ReasonCode.STALLED, message, self._details()))
+        if wall_s >= self.limits.timeout_s:
+            message = f"the run reached its --timeout-s limit of {self.limits.timeout_s:g} s wall {at}"
+            return LoopResult(RunEnding("timeout", ReasonCode.INTERRUPTED, message, self._details()))
+        return None
+
+    def _details(self) -> tuple[str, ...]:
+        monitor = self.monitor
+        return tuple(stall_details(monitor.robots, monitor.tasks, monitor.states, monitor.names))
+
+
+def _so_far(monitor: RunMonitor, wall_s: float) -> str:
+    return (
+        f"the run was still going when this report was written ({wall_s:.0f} s wall, "
+        f"sim {monitor.sim_time_s:.1f} s, {monitor.constructed}/{monitor.total} constructed)"
+    )
+
+
+def _tail(service: ServiceProcess) -> str:
+    return "\n".join(service.log().splitlines()[-LOG_TAIL_LINES:])

@@ -1,0 +1,180 @@
+"""Live progress of ``bimbot run`` in the terminal: constructed/total, sim time, real-time factor, robots.
+
+A slow build and a stuck one must look different while they run. On a terminal the progress is a rich
+``Live`` display (redrawn a few times a second, one row per robot: state, task, component, what it is
+doing); when stdout is not a terminal (a log file, CI) it is one plain line every ``PLAIN_EVERY_S`` wall
+seconds, so logs stay readable; ``-q`` turns it off. The text is made by pure functions
+(:func:`progress_line`, :func:`robot_line`, :class:`RateWindow`); the displays only show it.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections import deque
+from collections.abc import Callable, Mapping
+from typing import Protocol, TextIO
+
+from rich.console import Console, Group
+from rich.live import Live
+from rich.text import Text
+
+from bimbot.shared.messages import RobotStateMsg
+
+PLAIN_EVERY_S = 10.0  # wall seconds between two plain progress lines
+RATE_WINDOW_S = 10.0  # wall seconds over which the real-time factor is measured
+LIVE_REFRESH_HZ = 4.0
+MAX_ACTIVITY_CHARS = 60
+
+
+class RateWindow:
+    """The real-time factor (sim seconds per wall second) over the last ``window_s`` wall seconds."""
+
+    def __init__(self, window_s: float = RATE_WINDOW_S) -> None:
+        self.window_s = window_s
+        self._samples: deque[tuple[float, float]] = deque()
+
+    def add(self, wall_s: float, sim_time_s: float) -> None:
+        self._samples.append((wall_s, sim_time_s))
+        while len(self._samples) > 2 and wall_s - self._samples[1][0] >= self.window_s:
+            self._samples.popleft()
+
+    def factor(self) -> float | None:
+        if len(self._samples) < 2:
+            return None
+        (wall0, sim0), (wall1, sim1) = self._samples[0], self._samples[-1]
+        return (sim1 - sim0) / (wall1 - wall0) if wall1 > wall0 else None
+
+
+def robot_line(msg: RobotStateMsg, names: Mapping[str, str | None]) -> str:
+    """``r1 pick_up T0004 Column A1: driving to the yard``."""
+    parts = [msg.robot_id, msg.state.value]
+    if msg.task_id:
+        parts.append(msg.task_id)
+    if msg.guid:
+        parts.append(names.get(msg.guid) or msg.guid[:8])
+    line = " ".join(parts)
+    if msg.activity:
+        activity = msg.activity
+        if len(activity) > MAX_ACTIVITY_CHARS:
+            activity = activity[: MAX_ACTIVITY_CHARS - 1] + "…"
+        line += f": {activity}"
+    return line
+
+
+def progress_line(constructed: int, total: int, sim_time_s: float, rtf: float | None, wall_s: float) -> str:
+    """``constructed 3/9 · sim 412.0 s · 8.1× real time · wall 51 s``."""
+    speed = f"{rtf:.1f}× real time" if rtf is not None else "real time –"
+    return f"constructed {constructed}/{total} · sim {sim_time_s:.1f} s · {speed} · wall {wall_s:.0f} s"
+
+
+class ProgressView(Protocol):
+    """What the run's waiting loop calls: ``update`` often, ``close`` once."""
+
+    def update(
+        self,
+        constructed: int,
+        total: int,
+        sim_time_s: float,
+        robots: Mapping[str, RobotStateMsg],
+        wall_s: float,
+    ) -> None: ...
+
+    def close(self) -> None: ...
+
+
+class _Base:
+    def __init__(self, names: Mapping[str, str | None]) -> None:
+        self.names = names
+        self.rate = RateWindow()
+
+    def _lines(
+        self,
+        constructed: int,
+        total: int,
+        sim_time_s: float,
+        robots: Mapping[str, RobotStateMsg],
+        wall_s: float,
+    ) -> tuple[str, list[str]]:
+        self.rate.add(wall_s, sim_time_s)
+        head = progress_line(constructed, total, sim_time_s, self.rate.factor(), wall_s)
+        return head, [robot_line(msg, self.names) for _, msg in sorted(robots.items())]
+
+
+class NoProgress:
+    """``-q``: nothing."""
+
+    def update(self, *_: object) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+class PlainProgress(_Base):
+    """One line every ``every_s`` wall seconds (stdout is not a terminal)."""
+
+    def __init__(
+        self, names: Mapping[str, str | None], say: Callable[[str], None], every_s: float = PLAIN_EVERY_S
+    ) -> None:
+        super().__init__(names)
+        self.say, self.every_s = say, every_s
+        self._next_s = every_s
+
+    def update(
+        self,
+        constructed: int,
+        total: int,
+        sim_time_s: float,
+        robots: Mapping[str, RobotStateMsg],
+        wall_s: float,
+    ) -> None:
+        head, robot_lines = self._lines(constructed, total, sim_time_s, robots, wall_s)
+        if wall_s >= self._next_s:
+            self._next_s = wall_s + self.every_s
+            self.say(f"progress: {head}" + "".join(f"; {line}" for line in robot_lines))
+
+    def close(self) -> None:
+        pass
+
+
+class LiveProgress(_Base):
+    """A rich ``Live`` display on a terminal; lines written to stdout meanwhile appear above it."""
+
+    def __init__(self, names: Mapping[str, str | None], stream: TextIO) -> None:
+        super().__init__(names)
+        self._live = Live(
+            Text("starting…"),
+            console=Console(file=stream),
+            refresh_per_second=LIVE_REFRESH_HZ,
+            transient=True,
+        )
+        self._live.start()
+
+    def update(
+        self,
+        constructed: int,
+        total: int,
+        sim_time_s: float,
+        robots: Mapping[str, RobotStateMsg],
+        wall_s: float,
+    ) -> None:
+        head, robot_lines = self._lines(constructed, total, sim_time_s, robots, wall_s)
+        rows = [Text(head, style="bold")] + [
+            Text(f"  {line}", overflow="ellipsis", no_wrap=True) for line in robot_lines
+        ]
+        self._live.update(Group(*rows))
+
+    def close(self) -> None:
+        self._live.stop()
+
+
+def make_progress(
+    names: Mapping[str, str | None], quiet: bool, say: Callable[[str], None], stream: TextIO | None = None
+) -> ProgressView:
+    """The display that fits: none with ``quiet``, live on a terminal, plain lines otherwise."""
+    stream = stream or sys.stdout
+    if quiet:
+        return NoProgress()
+    if stream.isatty():
+        return LiveProgress(names, stream)
+    return PlainProgress(names, say)

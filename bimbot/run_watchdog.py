@@ -1,0 +1,113 @@
+"""The stall watchdog of ``bimbot run``: a build where nothing changes any more ends, and says so.
+
+A site has stalled when no component changed state and the planner's progress did not change (counts,
+failed, blocked) for ``stall_after_s`` seconds of *sim* time: robots that wait for a path that never comes,
+a task handed back and forth without a state change, a planner that waits for nobody. The sim clock is
+the measure, so a run at 50× real time stalls after the same simulated minutes as one at 1×. Should the
+clock itself stop (a service hung in lock-step, physics stuck), sim time no longer passes; then the
+fallback bound is in wall time: the clock stood still for ``clock_stall_wall_s`` real seconds.
+
+:class:`StallWatchdog` is the pure core (no bus, no clock of its own: every call passes the times), fed by
+the run's waiting loop. :func:`stall_details` says what each robot and each open component was doing when
+the run ended (from the run monitor's last messages), the lines a user needs to see why.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from bimbot.shared.messages import ComponentState, RobotStateMsg, TaskMsg, TaskStatus
+
+DEFAULT_STALL_AFTER_S = 600.0  # sim seconds without a change on the site
+DEFAULT_CLOCK_STALL_WALL_S = 300.0  # wall seconds without the clock advancing (covers start-up: ≤ 120 s)
+_SETTLED = (ComponentState.PLANNED, ComponentState.CONSTRUCTED, ComponentState.FAILED, ComponentState.BLOCKED)
+
+
+@dataclass
+class StallWatchdog:
+    """Ends a run where nothing changes. Call :meth:`observe` as often as convenient; :meth:`verdict` is
+    ``None`` while the site is alive, else the sentence (with the numbers) of why it is stalled."""
+
+    stall_after_s: float = DEFAULT_STALL_AFTER_S
+    clock_stall_wall_s: float = DEFAULT_CLOCK_STALL_WALL_S
+    _changes: int = -1
+    _last_change_sim_s: float = 0.0
+    _sim_s: float = 0.0
+    _clock_sim_s: float | None = None
+    _clock_moved_wall_s: float | None = None
+    _wall_s: float = 0.0
+
+    def observe(self, changes: int, sim_time_s: float, wall_s: float) -> None:
+        """``changes`` counts every change on the site so far (state changes, progress changes);
+        ``sim_time_s`` is the latest clock, ``wall_s`` a monotonic wall time."""
+        if self._clock_moved_wall_s is None:
+            self._clock_moved_wall_s = wall_s  # the wall bound counts from the first observation
+        if self._clock_sim_s is None or sim_time_s > self._clock_sim_s:
+            self._clock_sim_s, self._clock_moved_wall_s = sim_time_s, wall_s
+        if changes != self._changes:
+            self._changes, self._last_change_sim_s = changes, sim_time_s
+        self._sim_s = max(self._sim_s, sim_time_s)
+        self._wall_s = wall_s
+
+    @property
+    def quiet_sim_s(self) -> float:
+        """Sim seconds since the last change on the site."""
+        return self._sim_s - self._last_change_sim_s
+
+    @property
+    def clock_still_wall_s(self) -> float:
+        """Wall seconds since the clock last advanced."""
+        return 0.0 if self._clock_moved_wall_s is None else self._wall_s - self._clock_moved_wall_s
+
+    def verdict(self) -> str | None:
+        if self.stall_after_s > 0 and self.quiet_sim_s >= self.stall_after_s:
+            return (
+                f"nothing on the site changed for {self.quiet_sim_s:.0f} s of sim time "
+                f"(last change at sim {self._last_change_sim_s:.1f} s, now {self._sim_s:.1f} s; "
+                f"--stall-after-s {self.stall_after_s:g})"
+            )
+        if self.clock_stall_wall_s > 0 and self.clock_still_wall_s >= self.clock_stall_wall_s:
+            return (
+                f"the sim clock stood still at {self._sim_s:.1f} s for {self.clock_still_wall_s:.0f} s "
+                f"of wall time (bound {self.clock_stall_wall_s:g} s)"
+            )
+        return None
+
+
+def stall_details(
+    robots: Mapping[str, RobotStateMsg],
+    tasks: Mapping[str, TaskMsg],
+    states: Mapping[str, ComponentState],
+    names: Mapping[str, str | None],
+) -> list[str]:
+    """One line per robot (its last state message: state, task, component, activity) and per open task
+    or component in progress (assigned to whom, in which state)."""
+    lines = []
+    for robot_id, msg in sorted(robots.items()):
+        task = f" task {msg.task_id}" if msg.task_id else ""
+        guid = f" on {_label(msg.guid, names)}" if msg.guid else ""
+        activity = f": {msg.activity}" if msg.activity else ""
+        lines.append(
+            f"robot {robot_id}: {msg.state.value}{task}{guid}{activity} (at sim {msg.sim_time_s:.1f} s)"
+        )
+    open_guids = set()
+    for task_id, task in sorted(tasks.items()):
+        if task.status not in (TaskStatus.RELEASED, TaskStatus.ASSIGNED):
+            continue
+        open_guids.add(task.guid)
+        state = states.get(task.guid)
+        whom = f" to {task.robot_id}" if task.robot_id else ", waiting for a robot"
+        lines.append(
+            f"task {task_id} ({_label(task.guid, names)}): {task.status.value}{whom}, attempt {task.attempt}"
+            + (f", component {state.value}" if state else "")
+        )
+    for guid, state in sorted(states.items()):
+        if state not in _SETTLED and guid not in open_guids:
+            lines.append(f"component {_label(guid, names)}: {state.value}")
+    return lines
+
+
+def _label(guid: str, names: Mapping[str, str | None]) -> str:
+    name = names.get(guid)
+    return f"{name} ({guid[:8]})" if name else guid[:8]
