@@ -137,6 +137,7 @@ def _mark_not_built(ax: Axes, row: int, component: dict[str, Any], end_s: float)
         fontsize=6,
         color=NOT_BUILT_COLOR,
         clip_on=True,
+        bbox={"facecolor": "white", "edgecolor": "none", "pad": 0.5},
     )
 
 

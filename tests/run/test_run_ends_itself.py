@@ -1,0 +1,147 @@
+"""``bimbot run`` ends by itself and says why, however it ends (real processes on a loopback bus, the small
+2×1 frame of the full-build test, paced at real time so there is a run to stop):
+
+* SIGTERM: within seconds no service and no process of their groups is left, exit 143, and report.json
+  (written every second meanwhile) gives every component not built a reason;
+* the stall watchdog: a site where nothing changes for the bound ends the run, exit 1, ``stalled``;
+* ``--timeout-s``: the report is written, exit 1, ``interrupted``; the terminal table names each.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from bimbot.supervisor import wait_until
+
+pytestmark = pytest.mark.integration
+TIMEOUT_S = 120
+
+
+@pytest.fixture(scope="module")
+def small_frame(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("small_frame")
+    ifc = folder / "frame.ifc"
+    for args in (
+        ("sample", "light-steel-frame", "-o", str(ifc), "--bays", "2x1"),
+        ("convert", str(ifc), "-o", str(folder / "build"), "--no-progress"),
+    ):
+        subprocess.run(
+            [sys.executable, "-m", "bimbot.cli", *args], check=True, capture_output=True, timeout=120
+        )
+    return folder / "build"
+
+
+def _start(build: Path, *options: str) -> subprocess.Popen[str]:
+    command = [sys.executable, "-m", "bimbot.cli", "run", str(build), "--rtf", "1", *options]
+    return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _finish(process: subprocess.Popen[str], timeout_s: float) -> tuple[str, str]:
+    try:
+        return process.communicate(timeout=timeout_s)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
+
+
+def _processes() -> dict[int, tuple[int, int]]:
+    """pid → (parent pid, process group) of every process on this machine."""
+    found = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            found[int(entry.name)] = (int(fields[1]), int(fields[2]))
+    return found
+
+
+def _descendants(pid: int) -> set[int]:
+    table = _processes()
+    found, frontier = set(), {pid}
+    while frontier:
+        frontier = {child for child, (parent, _) in table.items() if parent in frontier} - found
+        found |= frontier
+    return found
+
+
+def _assert_every_component_not_built_has_a_reason(report: dict) -> list[dict]:
+    not_built = [c for c in report["components"] if c["state"] != "constructed"]
+    assert not_built, "the run was meant to end before the frame was built"
+    for component in not_built:
+        assert component["reason"] and component["reason"]["code"] and component["reason"]["message"], (
+            component
+        )
+    return not_built
+
+
+def test_sigterm_stops_every_service_and_their_groups_and_still_writes_the_report(
+    small_frame: Path, tmp_path: Path
+) -> None:
+    report_path = small_frame / "report" / "report.json"
+    report_path.unlink(missing_ok=True)
+    process = _start(small_frame, "--report-every-s", "1")
+    try:
+        assert wait_until(report_path.exists, timeout_s=60.0, interval_s=0.2), "no report while running"
+        assert json.loads(report_path.read_text())["ending"]["how"] == "running"
+        children = _descendants(process.pid)
+        groups = {pgid for pid, (_, pgid) in _processes().items() if pid in children}
+        assert len(children) >= 5 and process.pid not in groups  # bus, physics, agents, planner, robot
+        process.send_signal(signal.SIGTERM)
+        stopped_at = time.monotonic()
+        out, err = _finish(process, timeout_s=30)
+        assert time.monotonic() - stopped_at < 12.0
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 128 + signal.SIGTERM, out + err[-2000:]
+    left = {pid for pid, (_, pgid) in _processes().items() if pid in children or pgid in groups}
+    assert not left, f"left behind: {left}"
+    report = json.loads(report_path.read_text())
+    assert report["ending"]["how"] == "interrupted" and "SIGTERM" in report["ending"]["message"]
+    for component in _assert_every_component_not_built_has_a_reason(report):
+        assert component["reason"]["code"] == "interrupted"
+        assert component["guid"][:8] in out
+    assert "interrupted" in out and "the run was stopped by SIGTERM" in out
+
+
+def test_a_site_where_nothing_changes_ends_stalled_saying_what_each_robot_was_doing(
+    small_frame: Path,
+) -> None:
+    # 2 sim seconds without a change: the first drive to the yard is longer than that
+    process = _start(small_frame, "--stall-after-s", "2", "-q")
+    out, err = _finish(process, TIMEOUT_S)
+    assert process.returncode == 1, out + err[-2000:]
+    assert "the site stalled: nothing on the site changed for 2 s of sim time" in out, out + err[-2000:]
+    assert "robot r1:" in out
+    report = json.loads((small_frame / "report" / "report.json").read_text())
+    assert report["ending"]["how"] == "stalled" and any(
+        d.startswith("robot r1:") for d in report["ending"]["details"]
+    )
+    for component in _assert_every_component_not_built_has_a_reason(report):
+        assert component["reason"]["code"] == "stalled"
+        assert f"{component['guid'][:8]}  {component['state']}" in out
+    assert "progress:" not in out  # -q
+
+
+def test_the_time_limit_ends_the_run_with_its_report_and_exit_1(small_frame: Path) -> None:
+    process = _start(small_frame, "--timeout-s", "6", "--stall-after-s", "0")
+    out, err = _finish(process, TIMEOUT_S)
+    assert process.returncode == 1, out + err[-2000:]
+    assert "--timeout-s limit of 6 s wall" in out
+    report = json.loads((small_frame / "report" / "report.json").read_text())
+    assert report["ending"]["how"] == "timeout"
+    assert {c["reason"]["code"] for c in _assert_every_component_not_built_has_a_reason(report)} == {
+        "interrupted"
+    }
+    assert os.path.getsize(small_frame / "report" / "report.png") > 10_000

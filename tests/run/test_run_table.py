@@ -1,0 +1,88 @@
+"""The table ``bimbot run`` prints at the end: every component not constructed, with name, short GUID,
+state, reason code and message, in planned order; nothing when all is built."""
+
+from __future__ import annotations
+
+from bimbot.run_table import not_built_table
+
+ENDING = "the run was stopped by SIGTERM after 11 s wall, at sim 10.0 s, with 1/4 constructed"
+
+
+def _component(guid: str, name: str, state: str, index: int, reason: dict | None) -> dict:
+    return {
+        "guid": guid,
+        "name": name,
+        "ifc_class": "IfcFooting",
+        "state": state,
+        "sequence_index": index,
+        "reason": reason,
+    }
+
+
+REPORT = {
+    "ending": {"how": "interrupted", "code": "interrupted", "message": ENDING, "details": []},
+    "components": [
+        _component(
+            "3eV89hRdQ1Bx5b6PaC9rjw",
+            "Beam A1-A2",
+            "blocked",
+            3,
+            {
+                "code": "blocked_by",
+                "message": "predecessor 1ctEyZqY… was not built (too_heavy)",
+                "guid": "1ctEyZqYn3Ov0qQ8GwbUTf",
+                "robot_id": None,
+            },
+        ),
+        _component(
+            "1ctEyZqYn3Ov0qQ8GwbUTf",
+            "Footing A1",
+            "failed",
+            0,
+            {
+                "code": "too_heavy",
+                "message": "Footing A1 weighs 5,760 kg; the robot carries 1,000 kg",
+                "guid": None,
+                "robot_id": None,
+            },
+        ),
+        _component("0r1e7X$sCbW9Zz2Ms0mWcF", "Footing A2", "constructed", 1, None),
+        _component(
+            "0T1QiaRO4mQe8b2k0fjN8H",
+            "Column A2",
+            "picking",
+            2,
+            {
+                "code": "interrupted",
+                "message": f"{ENDING}; it was picking (robot r1)",
+                "guid": None,
+                "robot_id": "r1",
+            },
+        ),
+    ],
+}
+
+
+def test_the_table_names_each_component_not_built_with_short_guid_state_code_and_message() -> None:
+    table = not_built_table(REPORT)
+    lines = table.splitlines()
+    assert lines[0] == "not built: 3 component(s)"
+    assert lines[1].split() == ["component", "guid", "state", "reason", "why"]
+    footing, column, beam = lines[2:]  # planned order
+    assert footing.split()[:5] == ["Footing", "A1", "1ctEyZqY", "failed", "too_heavy"]
+    assert footing.endswith("Footing A1 weighs 5,760 kg; the robot carries 1,000 kg")
+    assert "0T1QiaRO" in column and "interrupted" in column
+    assert column.endswith("it was picking (robot r1)")  # the ending itself is printed once, above
+    assert "3eV89hRd" in beam and "blocked_by" in beam
+    assert "0r1e7X$s" not in table  # constructed
+
+
+def test_columns_line_up() -> None:
+    header, footing, column, _ = not_built_table(REPORT).splitlines()[1:]
+    assert header.index("guid") == footing.index("1ctEyZqY") == column.index("0T1QiaRO")
+    assert header.index("why") == footing.index("Footing A1 weighs") == column.index("it was picking")
+
+
+def test_nothing_is_printed_when_every_component_is_constructed() -> None:
+    report = {"components": [_component("0r1e7X$sCbW9Zz2Ms0mWcF", "Footing A2", "constructed", 0, None)]}
+    assert not_built_table(report) == ""

@@ -1,0 +1,105 @@
+"""The stall watchdog core: a site where nothing changes for N sim seconds is stalled, a busy one never is,
+and a clock that stops is caught by the wall-time bound; the stall details name each robot and open task."""
+
+from __future__ import annotations
+
+from bimbot.run_watchdog import StallWatchdog, stall_details
+from bimbot.shared.messages import ComponentState, PoseMsg, RobotState, RobotStateMsg, TaskMsg, TaskStatus
+
+
+def test_nothing_changing_for_the_bound_in_sim_time_is_a_stall_naming_the_numbers() -> None:
+    watchdog = StallWatchdog(stall_after_s=600.0, clock_stall_wall_s=300.0)
+    watchdog.observe(changes=4, sim_time_s=768.0, wall_s=0.0)
+    watchdog.observe(changes=4, sim_time_s=1367.0, wall_s=60.0)
+    assert watchdog.verdict() is None
+    watchdog.observe(changes=4, sim_time_s=1368.0, wall_s=61.0)
+    verdict = watchdog.verdict()
+    assert (
+        verdict is not None and "600 s of sim time" in verdict and "768.0" in verdict and "1368.0" in verdict
+    )
+
+
+def test_a_change_on_the_site_restarts_the_count() -> None:
+    watchdog = StallWatchdog(stall_after_s=100.0)
+    for step in range(100):  # a change every 50 sim s, for 5,000 sim s
+        watchdog.observe(changes=step // 1, sim_time_s=step * 50.0, wall_s=step * 1.0)
+        assert watchdog.verdict() is None
+
+
+def test_a_slow_clock_is_no_stall_in_wall_time() -> None:
+    """At 0.1× real time, 600 sim s take 6,000 wall s: only sim time counts while the clock moves."""
+    watchdog = StallWatchdog(stall_after_s=600.0, clock_stall_wall_s=300.0)
+    for second in range(0, 5000, 10):
+        watchdog.observe(changes=1, sim_time_s=second * 0.1, wall_s=float(second))
+        assert watchdog.verdict() is None
+
+
+def test_a_clock_that_stands_still_ends_the_run_after_the_wall_bound() -> None:
+    watchdog = StallWatchdog(stall_after_s=600.0, clock_stall_wall_s=300.0)
+    watchdog.observe(changes=1, sim_time_s=42.0, wall_s=1000.0)
+    watchdog.observe(changes=2, sim_time_s=42.0, wall_s=1299.0)
+    assert watchdog.verdict() is None
+    watchdog.observe(changes=2, sim_time_s=42.0, wall_s=1300.0)
+    verdict = watchdog.verdict()
+    assert verdict is not None and "clock stood still at 42.0 s" in verdict and "300 s" in verdict
+
+
+def test_zero_turns_each_bound_off() -> None:
+    watchdog = StallWatchdog(stall_after_s=0.0, clock_stall_wall_s=0.0)
+    watchdog.observe(changes=0, sim_time_s=0.0, wall_s=0.0)
+    watchdog.observe(changes=0, sim_time_s=1e6, wall_s=1e6)
+    assert watchdog.verdict() is None
+
+
+def test_stall_details_say_what_each_robot_and_open_task_was_doing() -> None:
+    robots = {
+        "r1": RobotStateMsg(
+            robot_id="r1",
+            state=RobotState.PICK_UP,
+            task_id="T0004",
+            guid="2O2Fr$t4X7Zf8NOew3FLOH",
+            pose_xy_yaw=(1.0, 2.0, 0.0),
+            sim_time_s=768.0,
+            wall_time_s=0.0,
+            activity="no path to [-0.05, -0.83] yet: waiting",
+        ),
+        "r2": RobotStateMsg(
+            robot_id="r2", state=RobotState.IDLE, pose_xy_yaw=(0, 0, 0), sim_time_s=5, wall_time_s=0
+        ),
+    }
+    pose = PoseMsg(position_m=(0.0, 0.0, 0.0), quat_xyzw=(0.0, 0.0, 0.0, 1.0))
+    tasks = {
+        "T0004": TaskMsg(
+            task_id="T0004",
+            guid="2O2Fr$t4X7Zf8NOew3FLOH",
+            component_key="k",
+            status=TaskStatus.ASSIGNED,
+            robot_id="r1",
+            attempt=1,
+            target_pose=pose,
+            sim_time_s=700.0,
+            wall_time_s=0.0,
+        ),
+        "T0001": TaskMsg(
+            task_id="T0001",
+            guid="0aaaaaaaaaaaaaaaaaaaaa",
+            component_key="k0",
+            status=TaskStatus.DONE,
+            target_pose=pose,
+            sim_time_s=100.0,
+            wall_time_s=0.0,
+        ),
+    }
+    states = {
+        "2O2Fr$t4X7Zf8NOew3FLOH": ComponentState.PICKING,
+        "0aaaaaaaaaaaaaaaaaaaaa": ComponentState.CONSTRUCTED,
+    }
+    names = {"2O2Fr$t4X7Zf8NOew3FLOH": "Column A1", "0aaaaaaaaaaaaaaaaaaaaa": "Footing A1"}
+    lines = stall_details(robots, tasks, states, names)
+    assert lines[0] == (
+        "robot r1: pick_up task T0004 on Column A1 (2O2Fr$t4): no path to [-0.05, -0.83] yet: waiting "
+        "(at sim 768.0 s)"
+    )
+    assert lines[1].startswith("robot r2: idle")
+    assert lines[2] == "task T0004 (Column A1 (2O2Fr$t4)): assigned to r1, attempt 1, component picking"
+    assert len(lines) == 3  # the done task and the constructed component are not open
