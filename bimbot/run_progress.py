@@ -34,6 +34,9 @@ class RateWindow:
         self._samples: deque[tuple[float, float]] = deque()
 
     def add(self, wall_s: float, sim_time_s: float) -> None:
+        if sim_time_s <= 0.0:  # the clock has not started (physics waits for the robots): no rate yet
+            self._samples.clear()
+            return
         self._samples.append((wall_s, sim_time_s))
         while len(self._samples) > 2 and wall_s - self._samples[1][0] >= self.window_s:
             self._samples.popleft()
