@@ -42,6 +42,7 @@ from bimbot.shared.messages import (
     COMPONENT_POSE_KEY,
     COMPONENT_STATE_KEY,
     PHYSICS_ATTACH_KEY,
+    PHYSICS_DROP_KEY,
     PHYSICS_INFO_KEY,
     PHYSICS_PLACE_KEY,
     ROBOT_CMD_VEL_KEY,
@@ -185,6 +186,7 @@ class _Loop:
         self._request_keys = {
             "attach": key(PHYSICS_ATTACH_KEY, site=site),
             "place": key(PHYSICS_PLACE_KEY, site=site),
+            "drop": key(PHYSICS_DROP_KEY, site=site),
         }
         self._clock: ClockMsg | None = None
         self._clock_wall_s = 0.0

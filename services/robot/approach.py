@@ -39,6 +39,7 @@ from bimbot.shared.footprint import Footprint
 from bimbot.shared.occupancy_grid import OccupancyGrid, nearest_free_cell
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import DEFAULT_ROBOT
+from bimbot.shared.site_layout import Rect
 
 _log = logging.getLogger(__name__)
 
@@ -164,7 +165,8 @@ def no_approach_reason(
     ``unreachable`` when free stand-points exist but the flood fill of ``grid`` from the robot does not
     reach them, else ``no_approach_pose`` — each a sentence with the numbers."""
     cells, _ = stand_points(grid, footprint, blocks_band=blocks_band, config=config)
-    here = np.round(np.asarray(robot_xy_m, float), 2).tolist()
+    x, y = (float(v) for v in np.asarray(robot_xy_m, float)[:2])
+    here = f"({x:.2f}, {y:.2f})"
     reach = config.reach_m - config.reach_margin_m
     if len(cells):
         region = reachable_region(grid, robot_xy_m)
@@ -199,3 +201,23 @@ def _where(footprint: Footprint) -> str:
         length, width = sorted(poly.max(axis=0) - poly.min(axis=0), reverse=True)
     x, y = footprint.centre_xy_m
     return f"{length:.2f} m × {width:.2f} m at ({x:.2f}, {y:.2f})"
+
+
+def exit_point(grid: OccupancyGrid, area: Rect, robot_xy_m: ArrayLike) -> tuple[float, float] | None:
+    """The nearest free cell outside ``area`` (the structure's footprint, grown) the robot can drive to,
+    or None when it stands outside already (or nothing outside is reachable)."""
+    here = np.asarray(robot_xy_m, float)
+    (x0, y0), (x1, y1) = area.min_xy, area.max_xy
+    if not (x0 < here[0] < x1 and y0 < here[1] < y1):
+        return None
+    region = reachable_region(grid, here)
+    if region is None:
+        return None
+    cells = np.argwhere(region)
+    xy = grid.cell_to_world(cells)
+    outside = (xy[:, 0] <= x0) | (xy[:, 0] >= x1) | (xy[:, 1] <= y0) | (xy[:, 1] >= y1)
+    if not outside.any():
+        return None
+    xy = xy[outside]
+    best = xy[int(np.argmin(np.hypot(*(xy - here).T)))]
+    return float(best[0]), float(best[1])

@@ -19,8 +19,21 @@ A task (states from :mod:`.task_machine`, events through :class:`~.protocol.Even
    (constructed, misplaced or failed) ends the task: ``idle``. A misplaced component is retried by the
    planner and may come back: it is then picked up from where it lies.
 
-A task that cannot go on before the attach (no approach, navigation or physics refusing) is given up with
-``abandon`` so the planner hands it out again; once the robot carries the component it never gives up. An
+Every wait is bounded in sim time and every retry counted (:class:`ExecutorConfig`), and a task the robot
+cannot finish is **given back** with ``abandon`` carrying a :class:`~bimbot.shared.reasons.Reason` (the
+planner counts give-backs per component and fails it after its bound with the last reason):
+
+* ``no_approach_pose`` / ``unreachable`` — no stand-point beside the component or its target, or none the
+  robot can get to (:func:`.approach.no_approach_reason`, a flood fill of the planning grid). The target is
+  checked before the pick-up on the static map, so a component is not carried to a target cut off already;
+* ``robot_trapped`` / ``unreachable`` / ``no_progress`` — navigation failed ``max_tries`` times, each after
+  the navigator's recovery chain and a re-chosen approach pose on any side (:mod:`.recovery`);
+* ``physics_refused`` — physics refused the attach or the placement ``max_tries`` times (its reason quoted);
+* ``no_progress`` — the **task watchdog**: the robot's task state did not change for ``task_timeout_s``.
+
+A robot that carries the component puts it down first (a physics ``drop`` request: it rests beside the
+robot and any robot may pick it up again), then gives the task back. After a task the robot leaves the
+structure's footprint at once (it must not wall itself in or stand where the next component goes); an
 idle robot parks at its start pose after ``park_after_s``. Wall time drives resends and the ~1 Hz state;
 sim time drives everything else.
 """
@@ -30,7 +43,7 @@ from __future__ import annotations
 import logging
 import math
 import uuid
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -45,6 +58,7 @@ from bimbot.shared.messages import (
     ComponentPoseMsg,
     ComponentState,
     ComponentStateMsg,
+    DropRequest,
     OdomMsg,
     PlaceRequest,
     PlanMsg,
@@ -57,9 +71,11 @@ from bimbot.shared.messages import (
     TaskMsg,
     TaskStatus,
 )
+from bimbot.shared.reasons import Reason
 from bimbot.shared.site_layout import plan_site
 
-from .approach import Approach, ApproachConfig, approach_pose
+from . import give_back
+from .approach import Approach, ApproachConfig, approach_pose, exit_point, no_approach_reason
 from .navigator import Navigator, NavigatorConfig, NavStatus
 from .protocol import VERDICTS, EventQueue, PhysicsRequest, PhysicsResult, injected
 from .site_map import MapConfig, SiteMap
@@ -80,11 +96,14 @@ class ExecutorConfig:
     state_period_s: float = 1.0  # wall seconds between periodic state messages
     request_timeout_s: float = 60.0  # wall seconds for a physics reply (the adapter reports a timeout)
     place_duration_s: float = 2.0  # sim seconds of the assembly motion
-    max_tries: int = 4  # approaches (navigation or attach refused) before a task is given up
+    max_tries: int = 4  # approaches (navigation failed, attach/place refused) before a task is given back
     max_reselections: int = 20  # approach poses chosen again at once when their cell becomes occupied
+    max_approach_misses: int = 10  # searches for an approach pose that found none, then given back
     retry_delay_s: float = 1.0  # sim seconds before looking for an approach again
-    reapproach_after_s: float = 4.0  # sim seconds without a path (a robot in the way) → another approach
+    task_timeout_s: float = 900.0  # sim seconds in one task state → given back (no_progress)
+    give_back_timeout_s: float = 60.0  # sim seconds for the agent to confirm an abandon (else go idle)
     park_after_s: float = 8.0  # sim seconds idle → drive back to the start pose (clears the structure)
+    leave_margin_m: float = 1.0  # after a task: out of the building footprint grown by this much
     placement_error_m: float = 0.0  # injected on first placement attempts (tests, demos)
     inject_guids: frozenset[str] = frozenset()
     inject_fraction: float = 0.0  # without inject_guids: this share of components (0: all)
@@ -103,9 +122,15 @@ class _Task:
     reselections: int = 0  # approach poses chosen again because their cell became occupied
     retry_at_s: float = -math.inf
     approach: Approach | None = None
+    failed_xy_m: list[tuple[float, float]] = field(default_factory=list)  # stand-points that failed
+    misses: int = 0  # approach searches that found nothing
     placed: bool = False
     verdict: ComponentState | None = None
     abandoning: bool = False
+    abandon_at_s: float = math.inf
+    dropping: Reason | None = None  # putting the load down before giving the task back with this reason
+    withdrawn: bool = False  # the planner took it back: after the drop just go idle
+    drop_tries: int = 0
 
 
 class Executor:
@@ -154,6 +179,9 @@ class Executor:
         self._next_request = 1
         self._wall_s = 0.0
         self._idle_since_s: float | None = None
+        self._state_since_s = 0.0  # sim time of the last task state change (the task watchdog)
+        self._left_structure = True  # after a task: out of the building footprint (or tried)
+        self.given_back: list[tuple[str, Reason]] = []  # (GUID, reason) of every task given back
 
     # --- inputs and outputs ------------------------------------------------------------------------------
 
@@ -249,7 +277,19 @@ class Executor:
         if task.abandoning:
             if not task.events:
                 self._finish(None)
+            elif self.sim_s - task.abandon_at_s > self.config.give_back_timeout_s:
+                _log.error("%s: %s never confirmed the abandon; going idle", self.robot_id, task.message.guid)
+                self._finish(None)
             return
+        if task.dropping is not None:
+            return self._drop(task, task.dropping)
+        stalled_s = self.sim_s - self._state_since_s
+        if stalled_s > self.config.task_timeout_s and task.request is None:
+            why = give_back.stalled(self.robot_id, self.machine.state, stalled_s, self.config.task_timeout_s)
+            if task.placed:  # nothing to give back: the agent verifies it (its own bound)
+                _log.error("%s: no verdict on %s: %s", self.robot_id, task.message.guid, why.message)
+                return self._finish(None)
+            return self._give_back(task, why)
         step = {
             _S.DETECT_COMPONENT_POSITION: self._detect,
             _S.PICK_UP: self._pick_up,
@@ -283,9 +323,21 @@ class Executor:
             return
 
     def _park(self) -> None:
-        """Idle for a while: drive back to the start pose, out of the way of the structure and the yard."""
+        """Idle: first out of the structure's footprint (at once), then after a while back to the start pose,
+        out of the way of the structure and the yard."""
         if self._idle_since_s is None:
             self._idle_since_s = self.sim_s
+        if not self._left_structure and self.navigator.goal is None:
+            self._left_structure = True
+            building = self.site_map.layout.building.grown(self.config.leave_margin_m)
+            grid = self.site_map.inflated_grid()
+            spot = exit_point(grid, building, self.navigator.pose_xy_yaw[:2])
+            if spot is not None:
+                _log.info("%s: leaving the structure to %s", self.robot_id, np.round(spot, 2).tolist())
+                self.navigator.set_goal(spot, None, self.sim_s, tolerance_m=0.4)
+                return
+        if self.navigator.status is not NavStatus.ACTIVE and self.navigator.goal is not None:
+            self.navigator.cancel()  # out of the structure (or it failed): idle until parking time
         if self.navigator.goal is not None or self.sim_s - self._idle_since_s < self.config.park_after_s:
             return
         x, y, yaw = self.home_xy_yaw
@@ -301,20 +353,32 @@ class Executor:
             return False
         if latest.status is TaskStatus.ASSIGNED and latest.robot_id == self.robot_id:
             return False
+        if task.withdrawn:
+            return False  # putting the load down (below)
         _log.warning("%s: task %s withdrawn (%s)", self.robot_id, task.message.task_id, latest.status.value)
-        self._finish(None)
+        if self.machine.state in (_S.IDENTIFY_TARGET_LOCATION, _S.ASSEMBLE) and task.dropping is None:
+            task.withdrawn = True  # never walk off with a load: put it down first, then go idle
+            self._give_back(task, give_back.withdrawn(self.robot_id, self._name(task)))
+            return True
+        if task.dropping is None:
+            self._finish(None)
+        else:
+            task.withdrawn = True
         return True
 
     def _detect(self, task: _Task) -> None:
         guid = task.message.guid
         carrier = self.site_map.carried.get(guid)
         if carrier is not None and carrier != self.robot_id:
-            return self._give_up(task, f"carried by {carrier}")
+            return self._give_up(task, give_back.carried_by(self.robot_id, self._name(task), carrier))
         if self.sim_s < task.retry_at_s:
             return None
         footprint = self.site_map.footprints.get(guid)
         if carrier is None and footprint is None:
-            return self._give_up(task, "position unknown")
+            return self._give_up(task, give_back.position_unknown(self.robot_id, self._name(task)))
+        unreachable = self._target_cut_off(task)
+        if unreachable is not None:
+            return self._give_up(task, unreachable)
         if carrier is None and footprint is not None and not self._approach(task, footprint):
             return None
         self._queue_event(task, _E.PICK)
@@ -334,6 +398,7 @@ class Executor:
         self._queue_event(task, _E.ATTACH)
         self._fire(Trigger.ATTACHED)
         task.tries, task.reselections, task.approach, task.retry_at_s = 0, 0, None, -math.inf
+        task.failed_xy_m, task.misses = [], 0
         self.navigator.cancel()
 
     def _to_target(self, task: _Task) -> None:
@@ -351,6 +416,29 @@ class Executor:
         if task.verdict is not None and _E.PLACE not in task.events.unconfirmed:
             _log.info("%s: %s %s", self.robot_id, task.message.guid, task.verdict.value)
             self._finish(task.verdict)
+
+    def _target_cut_off(self, task: _Task) -> Reason | None:
+        """Why the target has no approach the robot could drive to on the static map (walls, built parts,
+        stacks; laser marks left out, they pass), or None: checked before the pick-up, so that a component
+        is never carried to a target cut off already."""
+        grid = self.site_map.inflated_grid()
+        xy = self.navigator.pose_xy_yaw[:2]
+        blocks = self.site_map.blocks(task.target)
+        if approach_pose(grid, task.target, xy, blocks_band=blocks, config=self.approach_config) is not None:
+            return None
+        return self._no_approach(task, grid, task.target, f"the target of {self._name(task)}")
+
+    def _no_approach(self, task: _Task, grid, footprint: Footprint, what: str) -> Reason:
+        return no_approach_reason(
+            grid,
+            footprint,
+            self.navigator.pose_xy_yaw[:2],
+            blocks_band=self.site_map.blocks(footprint),
+            config=self.approach_config,
+            what=what,
+            robot=self.robot_id,
+            radius_m=self.site_map.config.inflation_m,
+        ).model_copy(update={"robot_id": self.robot_id})
 
     def _drive(self, task: _Task, footprint: Footprint | None) -> bool:
         """Drive to an approach pose beside ``footprint`` (found again after a failure); True once there."""
@@ -370,20 +458,20 @@ class Executor:
             task.approach = None
             self._approach(task, footprint)
             return False
-        waited = self.navigator.waiting_s(self.sim_s) > self.config.reapproach_after_s
-        if task.approach is not None and (status is NavStatus.FAILED or waited):
+        if task.approach is not None and status is NavStatus.FAILED:
+            # The navigator ran its recovery chain: re-choose the approach pose (any side, not this one).
             task.tries += 1
-            carrying = self.machine.state is not _S.PICK_UP
-            if task.tries >= self.config.max_tries and not carrying:
-                self._give_up(task, f"navigation failed {task.tries} times")
-                return False
-            if carrying and task.tries % self.config.max_tries == 0:
-                _log.error(
-                    "%s: cannot reach the target of %s yet (%d tries)",
-                    self.robot_id,
-                    task.message.guid,
-                    task.tries,
+            task.failed_xy_m.append(task.approach.xy_m)
+            if task.tries >= self.config.max_tries:
+                what = (
+                    self._name(task)
+                    if self.machine.state is _S.PICK_UP
+                    else f"the target of {self._name(task)}"
                 )
+                self._give_back(
+                    task, give_back.navigation_failed(self.robot_id, what, task.tries, self.navigator.failure)
+                )
+                return False
             task.approach, task.retry_at_s = (
                 None,
                 self.sim_s + self.config.retry_delay_s * min(task.tries, 10),
@@ -399,13 +487,19 @@ class Executor:
         grid = self.site_map.planning_grid(self.navigator.marks, self.navigator.config.dynamic_margin_m)
         xy = self.navigator.pose_xy_yaw[:2]
         blocks = self.site_map.blocks(footprint)
-        found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=self.approach_config)
+        config = self.approach_config
+        found = approach_pose(
+            grid, footprint, xy, blocks_band=blocks, config=config, avoid_xy_m=task.failed_xy_m
+        )
+        if found is None and task.failed_xy_m:  # every other side tried: the failed ones again
+            found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=config)
         if found is None:
-            task.tries += 1
+            task.misses += 1
             task.retry_at_s = self.sim_s + self.config.retry_delay_s
-            before_attach = self.machine.state in (_S.DETECT_COMPONENT_POSITION, _S.PICK_UP)
-            if task.tries >= self.config.max_tries * 5 and before_attach:
-                self._give_up(task, "no free approach pose")
+            if task.misses >= self.config.max_approach_misses:
+                carrying = self.machine.state not in (_S.DETECT_COMPONENT_POSITION, _S.PICK_UP)
+                what = f"the target of {self._name(task)}" if carrying else self._name(task)
+                self._give_back(task, self._no_approach(task, grid, footprint, what))
             return False
         task.approach = found
         self.navigator.set_goal(found.xy_m, found.yaw_rad, self.sim_s)
@@ -435,7 +529,13 @@ class Executor:
             return
         kind, task.request = task.request.kind, None
         if result.reply is not None and result.reply.ok:
-            if kind == "attach" and self.machine.state is _S.PICK_UP:
+            if kind == "drop" and task.dropping is not None:
+                _log.info("%s: put %s down", self.robot_id, task.message.guid)
+                if task.withdrawn:
+                    self._finish(None)
+                else:
+                    self._give_up(task, task.dropping)
+            elif kind == "attach" and self.machine.state is _S.PICK_UP:
                 self._attached(task)
             elif kind == "place" and self.machine.state is _S.ASSEMBLE:
                 task.placed = True
@@ -445,9 +545,14 @@ class Executor:
             return
         why = result.reply.reason if result.reply is not None else result.error
         _log.warning("%s: %s of %s refused: %s", self.robot_id, kind, task.message.guid, why)
+        if kind == "drop":
+            task.drop_tries += 1
+            task.retry_at_s = self.sim_s + self.config.retry_delay_s
+            return None
         task.tries += 1
-        if kind == "attach" and task.tries >= self.config.max_tries:
-            return self._give_up(task, f"attach refused {task.tries} times ({why})")
+        if task.tries >= self.config.max_tries:
+            refused = give_back.physics_refused(self.robot_id, kind, self._name(task), task.tries, why)
+            return self._give_back(task, refused)
         task.retry_at_s = self.sim_s + self.config.retry_delay_s * min(task.tries, 10)
         task.approach = None  # maybe too far: look for an approach pose again
         self.navigator.cancel()
@@ -475,16 +580,19 @@ class Executor:
                 f"{self.robot_id}: {trigger.value} is not allowed in {self.machine.state.value}"
             )
         task = self.task
+        self._state_since_s = self.sim_s
         self._out.append(self.state_message(self._wall_s))
         self._last_state = (self.machine.state, task.message.task_id if task else None)
         self._last_state_wall_s = self._wall_s
 
-    def _request(self, task: _Task, kind: str, message: AttachRequest | PlaceRequest) -> None:
+    def _request(self, task: _Task, kind: str, message: AttachRequest | PlaceRequest | DropRequest) -> None:
         task.request = PhysicsRequest(kind, self._next_request, message, self.config.request_timeout_s)
         task.request_sent = False
         self._next_request += 1
 
-    def _queue_event(self, task: _Task, event: ComponentEvent, sim_s: float | None = None) -> None:
+    def _queue_event(
+        self, task: _Task, event: ComponentEvent, sim_s: float | None = None, reason: Reason | None = None
+    ) -> None:
         task.events.push(
             ComponentEventMsg(
                 guid=task.message.guid,
@@ -495,17 +603,51 @@ class Executor:
                 robot_id=self.robot_id,
                 sim_time_s=self.sim_s if sim_s is None else sim_s,
                 wall_time_s=self._wall_s,
+                reason=reason,
             )
         )
 
-    def _give_up(self, task: _Task, why: str) -> None:
-        _log.error("%s: giving up %s (%s): %s", self.robot_id, task.message.task_id, task.message.guid, why)
+    def _give_back(self, task: _Task, reason: Reason) -> None:
+        """Give the task back with ``reason``; a carried load is put down first (:meth:`_drop`)."""
+        carrying = self.machine.state in (_S.IDENTIFY_TARGET_LOCATION, _S.ASSEMBLE) and not task.placed
+        if not carrying:
+            return self._give_up(task, reason)
+        _log.warning("%s: putting %s down: %s", self.robot_id, task.message.guid, reason.line())
         self.navigator.cancel()
-        task.request = None
+        task.dropping, task.request, task.drop_tries, task.retry_at_s = reason, None, 0, -math.inf
+        return self._drop(task, reason)
+
+    def _drop(self, task: _Task, reason: Reason) -> None:
+        """Ask physics to put the load down (again after a refusal, ``max_tries`` times), then give back."""
+        if task.request is not None or self.sim_s < task.retry_at_s:
+            return None
+        if task.drop_tries >= self.config.max_tries:
+            _log.error("%s: physics did not take %s off it; giving it back", self.robot_id, task.message.guid)
+            return self._finish(None) if task.withdrawn else self._give_up(task, reason)
+        return self._request(task, "drop", DropRequest(robot_id=self.robot_id, guid=task.message.guid))
+
+    def _give_up(self, task: _Task, reason: Reason) -> None:
+        """``abandon`` with ``reason`` (after ``pick``: only legal from there on); idle once applied."""
+        _log.error(
+            "%s: giving %s (%s) back: %s",
+            self.robot_id,
+            task.message.task_id,
+            task.message.guid,
+            reason.line(),
+        )
+        self.navigator.cancel()
+        task.request, task.dropping = None, None
+        reason = reason if reason.robot_id else reason.model_copy(update={"robot_id": self.robot_id})
+        self.given_back.append((task.message.guid, reason))
         if _E.PICK not in task.events.queued:
             self._queue_event(task, _E.PICK)  # abandon is only legal once the component is picking
-        self._queue_event(task, _E.ABANDON)
-        task.abandoning = True
+        self._queue_event(task, _E.ABANDON, reason=reason)
+        task.abandoning, task.abandon_at_s = True, self.sim_s
+
+    def _name(self, task: _Task) -> str:
+        """The component as a user knows it: ``Column R1 (2O2Fr$t4X7Zf8NOew3FLOH)``."""
+        name = task.component.name
+        return f"{name} ({task.message.guid})" if name else task.message.guid
 
     def _finish(self, verdict: ComponentState | None) -> None:
         task = self.task
@@ -513,6 +655,7 @@ class Executor:
             self.done.append((task.message.guid, verdict))
         self.navigator.cancel()
         self.task = None
+        self._left_structure = False
         self._fire(Trigger.FINISHED if verdict is not None else Trigger.ABORTED)
 
     def _separation(self, message: RobotPoseMsg) -> None:

@@ -10,7 +10,8 @@ step (:meth:`Navigator.step`), after :meth:`Navigator.observe_odom` / :meth:`Nav
 2. **plan** with A* on the inflated grid (+ marks) when the goal is new, the map changed, a mark lies on the
    path within ``blocked_check_m`` ahead, or the robot strayed more than ``deviation_m`` from it (at most
    once per ``replan_interval_s``); the path is line-of-sight pruned. No path → the robot waits and
-   retries (another robot may stand on the goal for a while), and fails after ``max_wait_s``;
+   retries (another robot may stand on the goal for a while); every ``no_path_recover_s`` of waiting runs
+   the next recovery, and it fails after ``max_wait_s`` at the latest;
 3. **follow** the path with the DWA towards a carrot (:func:`.motion.carrot`: far along the path, but only
    as far as the robot sees along a free line, so it never cuts a corner into an obstacle), under a speed
    cap that lets it brake onto the goal and slows it near marks; marks count ``dynamic_margin_m`` nearer
@@ -20,8 +21,12 @@ step (:meth:`Navigator.step`), after :meth:`Navigator.observe_odom` / :meth:`Nav
 4. **stuck** (moved less than ``stuck_move_m`` in ``stuck_window_s``): facing another robot (a mark where
    that robot's published pose estimate is), the robot with the greater id steps aside to a free spot
    and waits there while the other holds still, then both carry on (traffic rules, no negotiation);
-   otherwise recovery: back up a little when the way behind is clear, then replan. After
-   ``max_recoveries`` (or ``timeout_s``) it gives up (FAILED) and the executor looks for another approach.
+   otherwise, and when the **progress watchdog** expires (neither the distance to the goal nor the path
+   left shrank by ``progress_min_m`` within ``progress_window_s``), the next step of the **recovery
+   chain** (:mod:`.recovery`: clear laser marks, rotate in place, back up, plan out of an inflated start
+   cell). With the chain exhausted (or after ``timeout_s``) it reports FAILED with a
+   :attr:`Navigator.failure` reason (``robot_trapped``, ``unreachable`` or ``no_progress``, with the
+   numbers) and the executor re-chooses the approach pose, and after its own bound gives the task back.
 
 Units: metres, radians, simulated seconds; world (map) frame.
 """
@@ -39,13 +44,15 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from bimbot.shared.messages import OdomMsg, ScanMsg
-from bimbot.shared.occupancy_grid import OccupancyGrid, nearest_free_cell, scan_endpoints_xy_m
+from bimbot.shared.occupancy_grid import OccupancyGrid, scan_endpoints_xy_m
+from bimbot.shared.reasons import Reason
 
 from .astar import plan_path, simplify_path
 from .dwa import DwaConfig, RobotState, dwa_step
 from .localisation import Localiser, LocaliserConfig
 from .motion import Path, carrot, straight_line_clear, turn_command, yield_point
 from .particle_filter import wrap_angle
+from .recovery import ProgressWatchdog, Recovery, diagnose, next_recovery, plan_start
 from .site_map import SiteMap
 
 _log = logging.getLogger(__name__)
@@ -77,13 +84,22 @@ class NavigatorConfig:
     stuck_move_m: float = 0.2
     backup_s: float = 1.5
     backup_speed_mps: float = 0.2
-    max_recoveries: int = 4
+    # The recovery chain (recovery.RECOVERY_CHAIN) and the watchdogs, all in sim seconds:
+    progress_window_s: float = 20.0  # no progress_min_m gained on the goal within this → next recovery
+    progress_min_m: float = 0.3
+    no_path_recover_s: float = 3.0  # this much more waiting for a path → next recovery
+    clear_marks_s: float = 5.0  # plan without laser marks this long
+    rotate_s: float = 4.2  # turn on the spot (about one turn at 1.5 rad/s)
+    start_snap_m: float = 1.0  # plan from the nearest free cell this near when the robot's cell is not free
+    plan_out_max_m: float = 4.0  # … and this near once the plan-out recovery ran
+    body_half_width_m: float = 0.35  # a way out of an inflated start cell keeps this clear (Husky: 0.34 m)
+    trapped_area_m2: float = 2.0  # reachable free space below this: the robot is trapped
     traffic_range_m: float = 1.6  # stuck with a mark this near that another robot explains: traffic rules
     max_give_ways: int = 6  # per goal, then the plain recoveries take over
     aside_s: float = 8.0  # longest drive to a step-aside spot
     hold_s: float = 4.0  # standing still while the other robot steps aside (and waiting at the spot)
-    max_wait_s: float = 30.0
-    timeout_s: float = 600.0
+    max_wait_s: float = 30.0  # waiting for a path, at most
+    timeout_s: float = 600.0  # one goal, at most
 
 
 class NavStatus(StrEnum):
@@ -114,8 +130,13 @@ class _Goal:
     map_version: int = -1
     no_path_since_s: float | None = None
     blocked: bool = False  # the last plan failed because the goal itself is occupied (by fresh laser marks)
-    recoveries: int = 0
+    level: int = 0  # position in the recovery chain
+    tried: tuple[Recovery, ...] = ()
     backup_until_s: float = -math.inf
+    rotate_until_s: float = -math.inf
+    ignore_marks_until_s: float = -math.inf
+    plan_out: bool = False  # the plan-out recovery ran: start from a free cell up to plan_out_max_m away
+    watchdog: ProgressWatchdog | None = None
     hold_until_s: float = -math.inf  # standing still while another robot steps aside
     give_ways: int = 0
     arrived: bool = False  # within tolerance once: only turning onto the yaw now (unless pushed far off)
@@ -143,6 +164,8 @@ class Navigator:
         self.marks = np.empty((0, 2))
         self.nearest_mark_m = math.inf
         self.replans = 0
+        self.failure: Reason | None = None  # why the last goal FAILED
+        self.recoveries: list[tuple[float, Recovery]] = []  # (sim s, recovery) run, for logs and tests
         self._mark_tree: cKDTree | None = None
         self._resume: _Goal | None = None  # the real goal while stepping aside for another robot
         self._others: dict[str, tuple[NDArray[np.float64], float]] = {}  # robot id → (xy, sim s)
@@ -189,8 +212,14 @@ class Navigator:
         self, xy_m: ArrayLike, yaw_rad: float | None, sim_s: float, tolerance_m: float | None = None
     ) -> None:
         tolerance = tolerance_m if tolerance_m is not None else self.config.goal_tolerance_m
-        self.goal = _Goal(np.asarray(xy_m, float), yaw_rad, tolerance, sim_s)
-        self._status, self._resume = NavStatus.ACTIVE, None
+        self.goal = self._new_goal(np.asarray(xy_m, float), yaw_rad, tolerance, sim_s)
+        self._status, self._resume, self.failure = NavStatus.ACTIVE, None, None
+
+    def _new_goal(
+        self, xy: NDArray[np.float64], yaw: float | None, tolerance_m: float, sim_s: float, **more: float
+    ) -> _Goal:
+        watchdog = ProgressWatchdog(self.config.progress_window_s, self.config.progress_min_m, sim_s)
+        return _Goal(xy, yaw, tolerance_m, sim_s, watchdog=watchdog, **more)  # type: ignore[arg-type]
 
     def waiting_s(self, sim_s: float) -> float:
         """How long the robot has been without a path to its goal (0 when it has one)."""
@@ -214,12 +243,19 @@ class Navigator:
         if goal is None or self._status in (NavStatus.REACHED, NavStatus.FAILED, NavStatus.IDLE):
             return self._command(0.0, 0.0)
         pose = self.localiser.pose
+        watchdog = goal.watchdog
+        assert watchdog is not None
         if sim_s < goal.hold_until_s:
+            watchdog.reset(sim_s)
             return self._command(*turn_command(0.0, self.v_mps, 0.0, self.config.dwa))
         if sim_s - goal.started_s > self.config.timeout_s:
-            return self._fail(f"timeout after {self.config.timeout_s:.0f} s")
+            return self._fail(f"did not reach its goal within {self.config.timeout_s:.0f} s")
         if sim_s < goal.backup_until_s:
+            watchdog.reset(sim_s)
             return self._command(-self.config.backup_speed_mps, 0.0)
+        if sim_s < goal.rotate_until_s:
+            watchdog.reset(sim_s)
+            return self._command(*turn_command(math.pi, self.v_mps, self.w_radps, self.config.dwa))
         to_goal = math.hypot(*(goal.xy - pose[:2]))
         if to_goal <= goal.tolerance_m or (goal.arrived and to_goal <= 2.0 * goal.tolerance_m):
             return self._turn_to_goal(goal, pose)
@@ -228,9 +264,12 @@ class Navigator:
         if self._needs_plan(goal, pose, sim_s, ahead):
             new_path = self._plan(goal, pose, sim_s)
             if new_path is None:
-                since = goal.no_path_since_s if goal.no_path_since_s is not None else sim_s
-                if sim_s - since > self.config.max_wait_s:
-                    return self._fail("no path to the goal")
+                watchdog.reset(sim_s)
+                waited_s = sim_s - (goal.no_path_since_s if goal.no_path_since_s is not None else sim_s)
+                if waited_s > self.config.max_wait_s:
+                    return self._fail(f"found no path in {waited_s:.0f} s")
+                if waited_s > (len(goal.tried) + 1) * self.config.no_path_recover_s:
+                    return self._recover(goal, pose, sim_s, f"found no path in {waited_s:.0f} s")
                 self._status = NavStatus.WAITING
                 return self._command(0.0, 0.0)
             _, ahead = self._ahead(goal, pose)
@@ -239,7 +278,19 @@ class Navigator:
             return self._command(0.0, 0.0)
         self._status = NavStatus.ACTIVE
         if self._stuck(goal, pose, sim_s):
-            return self._traffic(goal, pose, sim_s) or self._recover(goal, pose, sim_s, new_path)
+            window = self.config.stuck_window_s
+            return self._traffic(goal, pose, sim_s) or self._recover(
+                goal, pose, sim_s, f"moved less than {self.config.stuck_move_m:.2f} m in {window:.0f} s"
+            )
+        path_left_m = float(goal.path.arc_m[-1] - goal.path.project(pose[:2])[0])
+        if watchdog.expired(to_goal, path_left_m, sim_s):
+            return self._recover(
+                goal,
+                pose,
+                sim_s,
+                f"gained less than {self.config.progress_min_m:.2f} m on its goal in "
+                f"{self.config.progress_window_s:.0f} s",
+            )
         sight = self.site_map.inflated_grid(self.config.sight_inflation_m)
         target, local_path = carrot(ahead, pose[:2], self.config.lookahead_m, sight)
         dwa_config = self.config.dwa
@@ -297,8 +348,20 @@ class Navigator:
         return NavCommand(v, w, self.status, new_path)
 
     def _fail(self, why: str) -> NavCommand:
-        where = np.round(self.goal.xy, 2).tolist() if self.goal is not None else None
-        _log.warning("navigation to %s failed: %s", where, why)
+        """FAILED, with :attr:`failure` naming why (see :func:`.recovery.diagnose`)."""
+        goal = self.goal
+        pose = self.localiser.pose
+        goal_xy = goal.xy if goal is not None else pose[:2]
+        self.failure = diagnose(
+            self.site_map.inflated_grid(),
+            pose[:2],
+            goal_xy,
+            robot_id=self.robot_id,
+            why=why,
+            trapped_area_m2=self.config.trapped_area_m2,
+            tried=goal.tried if goal is not None else (),
+        )
+        _log.warning("navigation to %s failed: %s", np.round(goal_xy, 2).tolist(), self.failure.line())
         self._status = NavStatus.FAILED
         return self._command(0.0, 0.0)
 
@@ -344,11 +407,14 @@ class Navigator:
 
     def _plan(self, goal: _Goal, pose: NDArray[np.float64], sim_s: float) -> NDArray[np.float64] | None:
         goal.planned_s, goal.map_version = sim_s, self.site_map.version
-        grid = self.site_map.planning_grid(self.marks, self.config.dynamic_margin_m)
-        start = pose[:2]
-        if not grid.is_free(*start):  # inside an inflated zone (parked beside a column): leave it first
-            cell = nearest_free_cell(grid, start, max_distance_m=1.0)
-            start = grid.cell_to_world(cell) if cell is not None else start
+        marks = self.marks if sim_s >= goal.ignore_marks_until_s else ()
+        grid = self.site_map.planning_grid(marks, self.config.dynamic_margin_m)
+        # Inside an inflated zone (parked beside a column, pushed into a corner): leave it first, from the
+        # nearest free cell (searched farther once the plan-out recovery ran).
+        snap_m = self.config.plan_out_max_m if goal.plan_out else self.config.start_snap_m
+        body = self.site_map.inflated_grid(self.config.body_half_width_m)
+        free_start = plan_start(grid, pose[:2], snap_m, body)
+        start = np.asarray(free_start if free_start is not None else pose[:2], float)
         result = plan_path(grid, start, goal.xy, snap_goal_to_free=True, max_snap_m=0.3)
         goal.blocked = not result.found and not grid.is_free(*goal.xy)
         if not result.found:
@@ -378,19 +444,29 @@ class Navigator:
             return False
         return all(math.hypot(x - first[1], y - first[2]) < self.config.stuck_move_m for _, x, y in trail)
 
-    def _recover(
-        self, goal: _Goal, pose: NDArray[np.float64], sim_s: float, new_path: NDArray[np.float64] | None
-    ) -> NavCommand:
-        goal.recoveries += 1
-        if goal.recoveries > self.config.max_recoveries:
-            return self._fail("stuck")
-        _log.info("stuck at %s: recovery %d", np.round(pose, 2).tolist(), goal.recoveries)
+    def _recover(self, goal: _Goal, pose: NDArray[np.float64], sim_s: float, why: str) -> NavCommand:
+        """The next step of the recovery chain (:mod:`.recovery`), or FAILED when it is exhausted."""
+        kind, goal.level = next_recovery(goal.level, clear_behind=self._clear_behind(pose))
+        if kind is None:
+            return self._fail(why)
+        goal.tried += (kind,)
+        self.recoveries.append((sim_s, kind))
+        _log.info("%s at %s %s: recovery %s", self.robot_id, np.round(pose, 2).tolist(), why, kind.value)
         goal.trail.clear()
+        assert goal.watchdog is not None
+        goal.watchdog.reset(sim_s)
         goal.planned_s, goal.path = -math.inf, None  # replan after the recovery
-        if self._clear_behind(pose):
+        if kind is Recovery.CLEAR_MARKS:
+            goal.ignore_marks_until_s = sim_s + self.config.clear_marks_s
+        elif kind is Recovery.ROTATE:
+            goal.rotate_until_s = sim_s + self.config.rotate_s
+            return self._command(*turn_command(math.pi, self.v_mps, self.w_radps, self.config.dwa))
+        elif kind is Recovery.BACK_UP:
             goal.backup_until_s = sim_s + self.config.backup_s
-            return self._command(-self.config.backup_speed_mps, 0.0, new_path)
-        return self._command(0.0, 0.0, new_path)
+            return self._command(-self.config.backup_speed_mps, 0.0)
+        else:
+            goal.plan_out = True
+        return self._command(0.0, 0.0)
 
     # --- traffic: two robots blocking each other ----------------------------------------------------------
 
@@ -425,7 +501,7 @@ class Navigator:
                     "%s: stepping aside for %s to %s", self.robot_id, other_id, np.round(spot, 2).tolist()
                 )
                 self._resume = goal
-                self.goal = _Goal(spot, None, 0.3, sim_s, aside_until_s=sim_s + self.config.aside_s)
+                self.goal = self._new_goal(spot, None, 0.3, sim_s, aside_until_s=sim_s + self.config.aside_s)
                 self._status = NavStatus.ACTIVE
                 return self._command(0.0, 0.0)
         _log.info("%s: holding for %s to step aside", self.robot_id, other_id)
@@ -446,6 +522,8 @@ class Navigator:
             return True
         goal, self._resume = self._resume, None
         goal.trail.clear()
+        assert goal.watchdog is not None
+        goal.watchdog.reset(sim_s)
         goal.planned_s, goal.path = -math.inf, None
         self.goal, self._status = goal, NavStatus.ACTIVE
         return False

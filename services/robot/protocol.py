@@ -4,7 +4,7 @@
   unconfirmed event is (re)sent, every ``resend_s`` wall seconds with the same ``event_id``, until the
   component's state shows it applied (:data:`CONFIRMS`); then the next goes out at once. An agent that is
   down for a while loses nothing, and never sees ``attach`` before ``pick``.
-* :class:`PhysicsRequest` / :class:`PhysicsResult` — an attach or place request for the adapter to send
+* :class:`PhysicsRequest` / :class:`PhysicsResult` — an attach, place or drop request for the adapter to send
   without blocking (``session.get`` with a callback), and what came back (or a timeout).
 * :func:`injected` — which first placements are deliberately offset (tests, demos), deterministically.
 """
@@ -21,6 +21,7 @@ from bimbot.shared.messages import (
     ComponentEvent,
     ComponentEventMsg,
     ComponentState,
+    DropRequest,
     PhysicsReply,
     PlaceRequest,
 )
@@ -82,9 +83,9 @@ class EventQueue:
 class PhysicsRequest:
     """A request for the adapter to send to ``physics/<kind>`` with a callback (never blocking)."""
 
-    kind: str  # "attach" or "place"
+    kind: str  # "attach", "place" or "drop"
     request_id: int
-    message: AttachRequest | PlaceRequest
+    message: AttachRequest | PlaceRequest | DropRequest
     timeout_s: float
 
 

@@ -34,6 +34,7 @@ from bimbot.shared.messages import (
     ComponentEventMsg,
     ComponentPoseMsg,
     ComponentStateMsg,
+    DropRequest,
     OdomMsg,
     PhysicsReply,
     PlaceRequest,
@@ -114,6 +115,7 @@ class SimPhysics:
             pose = PoseMsg(position_m=slot.position_m, quat_xyzw=slot.quat_xyzw)
             self.poses[guid] = ComponentPoseMsg(guid=guid, pose=pose, sim_time_s=0.0)
         self.carried: dict[str, str] = {}  # guid → robot
+        self.dropped: list[ComponentPoseMsg] = []  # put down since the last step: published with it
         self.placing: dict[str, tuple[int, PlaceRequest]] = {}  # guid → (due step, request)
         self.pending: list[_Pending] = []
         self.step = 0
@@ -141,6 +143,13 @@ class SimPhysics:
         message = request.message
         if isinstance(message, AttachRequest):
             reply = self._attach(message)
+            self.pending.append(
+                _Pending(
+                    self.step + latency_steps, message.robot_id, PhysicsResult(request.request_id, reply)
+                )
+            )
+        elif isinstance(message, DropRequest):
+            reply = self._drop(message)
             self.pending.append(
                 _Pending(
                     self.step + latency_steps, message.robot_id, PhysicsResult(request.request_id, reply)
@@ -178,6 +187,8 @@ class SimPhysics:
             out.append(
                 RobotPoseMsg(robot_id=rid, pose_xy_yaw=tuple(map(float, robot.pose)), sim_time_s=self.sim_s)
             )
+        out.extend(self.dropped)
+        self.dropped = []
         for guid, rid in self.carried.items():
             if guid in self.placing:
                 continue
@@ -271,6 +282,23 @@ class SimPhysics:
             )
         )
         return PhysicsReply(ok=True, sim_time_s=self.sim_s)
+
+    def _drop(self, request: DropRequest) -> PhysicsReply:
+        """The load put down 1.5 m to the robot's left, lying as in its yard slot."""
+        if self.carried.get(request.guid) != request.robot_id or request.guid in self.placing:
+            return PhysicsReply(
+                ok=False, reason=f"robot {request.robot_id} does not carry it", sim_time_s=self.sim_s
+            )
+        del self.carried[request.guid]
+        x, y, yaw = self.robots[request.robot_id].pose
+        slot = self.layout.slots[request.guid]
+        position = (float(x - 1.5 * math.sin(yaw)), float(y + 1.5 * math.cos(yaw)), slot.position_m[2])
+        pose = PoseMsg(position_m=position, quat_xyzw=slot.quat_xyzw)
+        message = ComponentPoseMsg(guid=request.guid, pose=pose, sim_time_s=self.sim_s)
+        self.poses[request.guid] = message
+        self.truth.observe_pose(message)
+        self.dropped.append(message)
+        return PhysicsReply(ok=True, sim_time_s=self.sim_s, pose=pose)
 
     def _scan(self, rid: str) -> ScanMsg:
         grid = self.truth.laser_grid()

@@ -161,7 +161,9 @@ def test_a_column_inside_a_closed_room_is_unreachable_with_the_numbers() -> None
         grid, column, (2.0, 2.0), blocks_band=True, config=config, what="Column R1", robot="r1"
     )
     assert reason.code is ReasonCode.UNREACHABLE
-    assert "Column R1 (0.20 m × 0.20 m at (11.00, 11.00)) is cut off from r1 at [2.0, 2.0]" in reason.message
+    assert (
+        "Column R1 (0.20 m × 0.20 m at (11.00, 11.00)) is cut off from r1 at (2.00, 2.00)" in reason.message
+    )
     inside = approach_pose(grid, column, (9.5, 9.5), blocks_band=True, config=config)
     assert inside is not None, "from inside the room it is reachable"
 

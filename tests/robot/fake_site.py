@@ -1,0 +1,238 @@
+"""A fake site for the executor's tests: one robot on an ideal base, fake physics (attach, place, drop) and
+fake components that follow the agents' state table."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bimbot.services.component_agents.state_table import next_state
+from bimbot.services.robot.executor import Executor, ExecutorConfig
+from bimbot.services.robot.particle_filter import simulate_scan, wrap_angle
+from bimbot.services.robot.protocol import PhysicsRequest, PhysicsResult
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import (
+    AttachRequest,
+    ClockMsg,
+    CmdVelMsg,
+    ComponentEvent,
+    ComponentEventMsg,
+    ComponentPoseMsg,
+    ComponentState,
+    ComponentStateMsg,
+    DropRequest,
+    OdomMsg,
+    PhysicsReply,
+    PlaceRequest,
+    PoseMsg,
+    RobotState,
+    RobotStateMsg,
+    ScanMsg,
+    SiteInfoMsg,
+    TaskMsg,
+    TaskStatus,
+)
+from bimbot.shared.robot_description import DEFAULT_ROBOT
+from bimbot.shared.site_layout import plan_site
+
+ANGLES = np.linspace(-math.pi, math.pi, 120, endpoint=False)
+DT = 0.1
+
+
+@dataclass
+class FakeSite:
+    """One robot on an ideal base; fake physics (replies ``latency`` steps late) and fake components that
+    follow the agents' state table and judge every placement by its distance to the target."""
+
+    manifest: Manifest
+    executor: Executor
+    pose: np.ndarray
+    latency: int = 3
+    drop_first: set[ComponentEvent] = field(default_factory=set)  # the agent misses the first delivery
+    refuse_attach: int = 0  # physics refuses this many attach requests
+    frozen: bool = False  # the robot does not move whatever it is told (stuck wheels)
+    step: int = 0
+    states: dict[str, ComponentState] = field(default_factory=dict)
+    events: list[ComponentEventMsg] = field(default_factory=list)
+    applied: list[ComponentEvent] = field(default_factory=list)
+    robot_states: list[RobotState] = field(default_factory=list)
+    commands: list[CmdVelMsg] = field(default_factory=list)
+    requests: list[PhysicsRequest] = field(default_factory=list)
+    due: list[tuple[int, object]] = field(default_factory=list)
+    carried: str | None = None
+    tick_s: list[float] = field(default_factory=list)
+
+    def send(self, message: object, delay: int = 1) -> None:
+        self.due.append((self.step + delay, message))
+
+    def set_state(self, guid: str, state: ComponentState, event: str) -> None:
+        self.states[guid] = state
+        self.send(
+            ComponentStateMsg(guid=guid, state=state, event=event, sim_time_s=self.step * DT, wall_time_s=0.0)
+        )
+
+    def run(self, steps: int, until=None) -> None:
+        laser = self.executor.site_map.laser_grid()
+        for _ in range(steps):
+            self.step += 1
+            now = self.step * DT
+            ready = [m for t, m in self.due if t <= self.step]
+            self.due = [(t, m) for t, m in self.due if t > self.step]
+            for message in ready:
+                self.executor.handle(message)
+            pose = tuple(float(v) for v in self.pose)
+            self.executor.handle(
+                OdomMsg(robot_id="r1", pose_xy_yaw=pose, v_mps=0.0, w_radps=0.0, sim_time_s=now)
+            )
+            ranges = simulate_scan(laser, self.pose, ANGLES, 15.0, step_m=0.05)
+            self.executor.handle(
+                ScanMsg(
+                    robot_id="r1",
+                    angle_min_rad=float(ANGLES[0]),
+                    angle_increment_rad=float(ANGLES[1] - ANGLES[0]),
+                    range_max_m=15.0,
+                    ranges_m=ranges.tolist(),
+                    sim_time_s=now,
+                )
+            )
+            started = time.perf_counter()
+            out = self.executor.tick(
+                ClockMsg(sim_time_s=now, step=self.step, real_time_factor=1.0, lock_step=True), now
+            )
+            self.tick_s.append(time.perf_counter() - started)
+            for message in out:
+                self.route(message)
+            if until is not None and until(self):
+                return
+
+    def route(self, message: object) -> None:
+        if isinstance(message, CmdVelMsg):
+            self.commands.append(message)
+            if self.frozen:
+                return
+            yaw_mid = self.pose[2] + 0.5 * message.w_radps * DT
+            self.pose = self.pose + np.array(
+                [
+                    message.v_mps * DT * math.cos(yaw_mid),
+                    message.v_mps * DT * math.sin(yaw_mid),
+                    message.w_radps * DT,
+                ]
+            )
+            self.pose[2] = float(wrap_angle(self.pose[2]))
+        elif isinstance(message, RobotStateMsg):
+            if not self.robot_states or self.robot_states[-1] is not message.state:
+                self.robot_states.append(message.state)
+        elif isinstance(message, ComponentEventMsg):
+            self.events.append(message)
+            self.component_event(message)
+        elif isinstance(message, PhysicsRequest):
+            self.requests.append(message)
+            self.physics(message)
+
+    def component_event(self, message: ComponentEventMsg) -> None:
+        if message.event in self.drop_first:
+            self.drop_first.discard(message.event)
+            return
+        state = self.states.get(message.guid, ComponentState.RELEASED)
+        dest = next_state(state, message.event.value)
+        if dest is None:
+            return
+        self.applied.append(message.event)
+        self.set_state(message.guid, dest, message.event.value)
+
+    def physics(self, request: PhysicsRequest) -> None:
+        message = request.message
+        now = self.step * DT
+        if isinstance(message, AttachRequest):
+            if self.refuse_attach > 0:
+                self.refuse_attach -= 1
+                reply = PhysicsReply(ok=False, reason="out of reach", sim_time_s=now)
+            else:
+                self.carried = message.guid
+                carried = PoseMsg(position_m=(*self.pose[:2], 0.5), quat_xyzw=(0.0, 0.0, 0.0, 1.0))
+                self.send(ComponentPoseMsg(guid=message.guid, pose=carried, sim_time_s=now, attached_to="r1"))
+                reply = PhysicsReply(ok=True, sim_time_s=now)
+            self.send(PhysicsResult(request.request_id, reply), self.latency)
+        elif isinstance(message, DropRequest):
+            assert self.carried == message.guid, "only a carried load is dropped"
+            self.carried = None
+            beside = PoseMsg(
+                position_m=(self.pose[0], self.pose[1] + 1.2, 0.1), quat_xyzw=(0.0, 0.0, 0.0, 1.0)
+            )
+            self.send(ComponentPoseMsg(guid=message.guid, pose=beside, sim_time_s=now))
+            self.send(
+                PhysicsResult(request.request_id, PhysicsReply(ok=True, sim_time_s=now, pose=beside)), 2
+            )
+        elif isinstance(message, PlaceRequest):
+            self.send(ComponentPoseMsg(guid=message.guid, pose=message.pose, sim_time_s=now, fixed=True), 20)
+            self.send(
+                PhysicsResult(request.request_id, PhysicsReply(ok=True, sim_time_s=now, pose=message.pose)),
+                20,
+            )
+            target = self.component(message.guid).target_pose_world.position_m
+            error = math.dist(message.pose.position_m, target)
+            self.pending_verdict = (message.guid, error)
+
+    def component(self, guid: str):
+        return next(c for c in self.manifest.components if c.guid == guid)
+
+    def verify(self) -> None:
+        """The agent's verdict once it is verifying (called by the tests' ``until``)."""
+        guid, error = self.pending_verdict
+        if self.states.get(guid) is ComponentState.VERIFYING:
+            self.set_state(
+                guid, ComponentState.CONSTRUCTED if error < 0.01 else ComponentState.MISPLACED, "verified"
+            )
+
+
+def make_site(
+    manifest: Manifest, name: str | None = None, **config: object
+) -> tuple[FakeSite, ComponentStateMsg, TaskMsg]:
+    """A site with one task for r1: the component called ``name`` (default: the first footing)."""
+    layout = plan_site(manifest.components, robots=1)
+    info = SiteInfoMsg(
+        robot_ids=["r1"],
+        robot_starts_xy_yaw=list(layout.robot_starts),
+        step_s=1 / 240,
+        control_period_s=DT,
+        lock_step=True,
+        robot_type_of={"r1": DEFAULT_ROBOT.name},
+        robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
+    )
+    executor = Executor(manifest, info, ExecutorConfig(robot_id="r1", **config))  # type: ignore[arg-type]
+    site = FakeSite(manifest, executor, np.array(layout.robot_starts[0], float))
+    component = next(
+        c for c in manifest.components if (c.name == name if name else c.ifc_class == "IfcFooting")
+    )
+    target = component.target_pose_world
+    task = TaskMsg(
+        task_id="T0001",
+        guid=component.guid,
+        component_key=component.key,
+        status=TaskStatus.ASSIGNED,
+        robot_id="r1",
+        target_pose=PoseMsg(position_m=target.position_m, quat_xyzw=target.quat_xyzw),
+        sim_time_s=0.0,
+        wall_time_s=0.0,
+    )
+    released = ComponentStateMsg(
+        guid=component.guid, state=ComponentState.RELEASED, event="release", sim_time_s=0, wall_time_s=0
+    )
+    site.states[component.guid] = ComponentState.RELEASED
+    return site, released, task
+
+
+def run_task(site: FakeSite, released: ComponentStateMsg, task: TaskMsg, max_steps: int = 3000) -> None:
+    site.run(1)  # the robot announces itself idle
+    site.executor.handle(released)
+    site.executor.handle(task)
+
+    def finished(s: FakeSite) -> bool:
+        if getattr(s, "pending_verdict", None) is not None:
+            s.verify()
+        return bool(s.executor.done) and s.executor.machine.state is RobotState.IDLE
+
+    site.run(max_steps, until=finished)

@@ -1,0 +1,143 @@
+"""A robot never waits for ever: a target cut off, a load it cannot deliver, a task that stalls — each ends in
+bounded sim time with ``abandon`` carrying a reason with the numbers (the carried load put down first)."""
+
+from __future__ import annotations
+
+import pytest
+from fake_site import DT, FakeSite, make_site, run_task
+from robot_sim import convert_small_frame
+from site_models import ROOM_WALLS, build_site_model
+
+from bimbot.services.converter.convert import convert_model
+from bimbot.services.robot import give_back
+from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.messages import (
+    ComponentEvent,
+    ComponentEventMsg,
+    ComponentState,
+    ComponentStateMsg,
+    DropRequest,
+    RobotState,
+)
+from bimbot.shared.reasons import ReasonCode
+
+
+@pytest.fixture(scope="module")
+def room(tmp_path_factory: pytest.TempPathFactory) -> Manifest:
+    """The site model's frame and a room of four walls around ``Column R1`` (no heavy footing)."""
+    folder = tmp_path_factory.mktemp("room")
+    model = build_site_model(heavy=None, room=True, furniture=False)
+    source = model.write(folder / "site.ifc")
+    convert_model(model.file, source, folder / "build")
+    return read_manifest(folder / "build")
+
+
+@pytest.fixture(scope="module")
+def frame(tmp_path_factory: pytest.TempPathFactory) -> Manifest:
+    return read_manifest(convert_small_frame(tmp_path_factory.mktemp("frame")))
+
+
+def _build_walls(site: FakeSite, manifest: Manifest) -> None:
+    """The room's walls are constructed: the robot's map has them at their targets from now on."""
+    for component in manifest.components:
+        if component.name in ROOM_WALLS:
+            site.executor.handle(
+                ComponentStateMsg(
+                    guid=component.guid,
+                    state=ComponentState.CONSTRUCTED,
+                    event="verified",
+                    sim_time_s=site.step * DT,
+                    wall_time_s=0.0,
+                )
+            )
+
+
+def _abandon(site: FakeSite) -> ComponentEventMsg:
+    abandons = [e for e in site.events if e.event is ComponentEvent.ABANDON]
+    assert abandons, f"no abandon after {site.step * DT:.0f} s in {site.executor.machine.state}"
+    assert abandons[0].reason is not None, "every abandon says why"
+    return abandons[0]
+
+
+def _given_back(site: FakeSite) -> bool:
+    return ComponentEvent.ABANDON in site.applied and site.executor.task is None
+
+
+def test_a_column_walled_in_by_its_room_is_given_back_unreachable_before_it_is_picked(room: Manifest) -> None:
+    site, released, task = make_site(room, "Column R1")
+    _build_walls(site, room)
+    site.executor.handle(released)
+    site.executor.handle(task)
+    site.run(200, until=_given_back)
+    reason = _abandon(site).reason
+    assert reason.code is ReasonCode.UNREACHABLE, reason
+    assert f"the target of Column R1 ({task.guid})" in reason.message and "cut off from r1" in reason.message
+    assert reason.robot_id == "r1"
+    assert site.requests == [], "nothing carried to a target cut off already"
+    assert (
+        site.states[task.guid] is ComponentState.RELEASED and site.executor.machine.state is RobotState.IDLE
+    )
+
+
+def test_a_carrying_robot_that_cannot_reach_its_target_puts_the_load_down_and_gives_it_back(
+    room: Manifest,
+) -> None:
+    site, released, task = make_site(room, "Column R1")
+    site.executor.handle(released)
+    site.executor.handle(task)
+    site.run(3000, until=lambda s: s.executor.machine.state is RobotState.IDENTIFY_TARGET_LOCATION)
+    assert site.carried == task.guid
+    closed_s = site.step * DT
+    _build_walls(site, room)  # the room closes while the column rides on the robot
+    site.run(3000, until=_given_back)
+    assert [r.kind for r in site.requests] == ["attach", "drop"]
+    drop = site.requests[-1].message
+    assert isinstance(drop, DropRequest) and drop.guid == task.guid and drop.robot_id == "r1"
+    assert site.carried is None, "the load is on the ground, free for any robot"
+    abandon = _abandon(site)
+    assert abandon.reason.code is ReasonCode.UNREACHABLE, abandon.reason
+    assert "Column R1" in abandon.reason.message
+    assert abandon.sim_time_s - closed_s < 120.0, "a bounded wait, in sim time"
+    assert site.states[task.guid] is ComponentState.RELEASED
+    assert site.executor.given_back == [(task.guid, abandon.reason)]
+
+
+@pytest.mark.parametrize("carrying", [False, True])
+def test_the_task_watchdog_gives_back_a_task_whose_state_stalls(frame: Manifest, carrying: bool) -> None:
+    site, released, task = make_site(frame, task_timeout_s=15.0)
+    site.executor.handle(released)
+    site.executor.handle(task)
+    if carrying:
+        site.run(3000, until=lambda s: s.executor.machine.state is RobotState.IDENTIFY_TARGET_LOCATION)
+    stuck_s = site.step * DT
+    site.frozen = True  # the wheels stop turning: the task state no longer changes
+    site.run(400, until=_given_back)
+    abandon = _abandon(site)
+    assert abandon.reason.code is ReasonCode.NO_PROGRESS, abandon.reason
+    assert "task watchdog allows 15 s" in abandon.reason.message
+    assert abandon.sim_time_s - stuck_s < 20.0
+    assert [r.kind for r in site.requests] == (["attach", "drop"] if carrying else [])
+
+
+def test_after_a_task_the_robot_leaves_the_structure(frame: Manifest) -> None:
+    site, released, task = make_site(frame)
+    run_task(site, released, task)
+    building = site.executor.site_map.layout.building.grown(site.executor.config.leave_margin_m)
+    inside = building.min_xy[0] < site.pose[0] < building.max_xy[0]
+    inside = inside and building.min_xy[1] < site.pose[1] < building.max_xy[1]
+    site.run(300)
+    (x0, y0), (x1, y1) = building.min_xy, building.max_xy
+    assert not (x0 + 0.3 < site.pose[0] < x1 - 0.3 and y0 + 0.3 < site.pose[1] < y1 - 0.3), (
+        f"still inside the structure (started inside: {inside})"
+    )
+
+
+def test_reasons_name_the_numbers() -> None:
+    stalled = give_back.stalled("r1", RobotState.PICK_UP, 912.4, 900.0)
+    assert stalled.code is ReasonCode.NO_PROGRESS
+    assert stalled.message == "r1 stayed in pick up for 912 s of sim time (the task watchdog allows 900 s)"
+    refused = give_back.physics_refused(
+        "r2", "attach", "Beam B1 (g)", 4, "robot r2 is 1.62 m from g, reach is 1.5 m"
+    )
+    assert refused.code is ReasonCode.PHYSICS_REFUSED and refused.message.endswith("reach is 1.5 m")
+    assert "4 times" in refused.message
