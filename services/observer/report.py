@@ -81,6 +81,7 @@ class RunEnding:
 
 
 UNFINISHED = RunEnding("running", ReasonCode.INTERRUPTED, "the report was written before the run ended")
+PLANNER_DONE = RunEnding("done", ReasonCode.INTERRUPTED, "the planner reported every task settled")
 DISTANCE_SOURCES = ("ground_truth", "odom", "robot_state", "state_poses")  # best first
 
 
@@ -240,7 +241,10 @@ class ReportCollector:
     # --- output ---
 
     def report(self, ending: RunEnding = UNFINISHED) -> dict[str, Any]:
-        """The report dictionary (``report.json``); ``ending`` says how the run ended (see the module)."""
+        """The report dictionary (``report.json``); ``ending`` says how the run ended (see the module;
+        without one, the planner's last progress says whether it was done)."""
+        if ending is UNFINISHED and self.progress is not None and self.progress.done:
+            ending = PLANNER_DONE
         end_s = self.last_sim_time_s
         order = {guid: index for index, guid in enumerate(self.sequence_guids)}
         components = []
