@@ -43,12 +43,12 @@ from __future__ import annotations
 import logging
 import math
 import uuid
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 
-from bimbot.shared.footprint import Footprint, posed_footprint
-from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.footprint import posed_footprint
+from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     AttachRequest,
     ClockMsg,
@@ -58,11 +58,8 @@ from bimbot.shared.messages import (
     ComponentPoseMsg,
     ComponentState,
     ComponentStateMsg,
-    DropRequest,
     OdomMsg,
-    PlaceRequest,
     PlanMsg,
-    PoseMsg,
     RobotPoseMsg,
     RobotState,
     RobotStateMsg,
@@ -75,11 +72,14 @@ from bimbot.shared.reasons import Reason
 from bimbot.shared.site_layout import plan_site
 
 from . import give_back
-from .approach import Approach, ApproachConfig, approach_pose, exit_point, no_approach_reason
+from .approach import ApproachConfig, exit_point
+from .driving import Driving
+from .handover import Handover
 from .navigator import Navigator, NavigatorConfig, NavStatus
-from .protocol import VERDICTS, EventQueue, PhysicsRequest, PhysicsResult, injected
+from .protocol import VERDICTS, EventQueue, PhysicsRequest, PhysicsResult
 from .site_map import MapConfig, SiteMap
 from .task_machine import TaskMachine, Trigger
+from .task_state import ExecutorConfig, Task
 
 _log = logging.getLogger(__name__)
 
@@ -89,51 +89,7 @@ DEFAULT_MAP = MapConfig()
 Outgoing = CmdVelMsg | RobotStateMsg | PlanMsg | ComponentEventMsg | PhysicsRequest
 
 
-@dataclass(frozen=True)
-class ExecutorConfig:
-    robot_id: str
-    resend_s: float = 0.5  # wall seconds between repeats of an unconfirmed event
-    state_period_s: float = 1.0  # wall seconds between periodic state messages
-    request_timeout_s: float = 60.0  # wall seconds for a physics reply (the adapter reports a timeout)
-    place_duration_s: float = 2.0  # sim seconds of the assembly motion
-    max_tries: int = 4  # approaches (navigation failed, attach/place refused) before a task is given back
-    max_reselections: int = 20  # approach poses chosen again at once when their cell becomes occupied
-    max_approach_misses: int = 10  # searches for an approach pose that found none, then given back
-    retry_delay_s: float = 1.0  # sim seconds before looking for an approach again
-    task_timeout_s: float = 900.0  # sim seconds in one task state → given back (no_progress)
-    give_back_timeout_s: float = 60.0  # sim seconds for the agent to confirm an abandon (else go idle)
-    park_after_s: float = 8.0  # sim seconds idle → drive back to the start pose (clears the structure)
-    leave_margin_m: float = 1.0  # after a task: out of the building footprint grown by this much
-    placement_error_m: float = 0.0  # injected on first placement attempts (tests, demos)
-    inject_guids: frozenset[str] = frozenset()
-    inject_fraction: float = 0.0  # without inject_guids: this share of components (0: all)
-    seed: int = 0
-
-
-@dataclass
-class _Task:
-    message: TaskMsg
-    component: Component
-    target: Footprint  # the footprint at the BIM target pose
-    events: EventQueue
-    request: PhysicsRequest | None = None
-    request_sent: bool = False
-    tries: int = 0
-    reselections: int = 0  # approach poses chosen again because their cell became occupied
-    retry_at_s: float = -math.inf
-    approach: Approach | None = None
-    failed_xy_m: list[tuple[float, float]] = field(default_factory=list)  # stand-points that failed
-    misses: int = 0  # approach searches that found nothing
-    placed: bool = False
-    verdict: ComponentState | None = None
-    abandoning: bool = False
-    abandon_at_s: float = math.inf
-    dropping: Reason | None = None  # putting the load down before giving the task back with this reason
-    withdrawn: bool = False  # the planner took it back: after the drop just go idle
-    drop_tries: int = 0
-
-
-class Executor:
+class Executor(Driving, Handover):
     """The robot's task execution and navigation, fed messages, answering one command per clock step."""
 
     def __init__(
@@ -162,7 +118,7 @@ class Executor:
             body_clearance_m=map_config.inflation_m,
         )
         self.machine = TaskMachine()
-        self.task: _Task | None = None
+        self.task: Task | None = None
         self.tasks: dict[str, TaskMsg] = {}  # latest message per task id (assigned to this robot once)
         self.component_states: dict[str, ComponentStateMsg] = {}
         # assignments taken on: (task id, attempt, assignment stamp); a task given back and assigned again
@@ -313,7 +269,7 @@ class Executor:
             component = self.components[message.guid]
             target = component.target_pose_world
             footprint = posed_footprint(component, target.position_m, target.quat_xyzw)
-            self.task = _Task(message, component, footprint, EventQueue(self.config.resend_s))
+            self.task = Task(message, component, footprint, EventQueue(self.config.resend_s))
             self._idle_since_s = None
             self.navigator.cancel()
             self._fire(Trigger.ASSIGNED)
@@ -346,7 +302,7 @@ class Executor:
             _log.info("%s: idle, parking at the depot", self.robot_id)
             self.navigator.set_goal((x, y), yaw, self.sim_s, tolerance_m=0.3)
 
-    def _withdrawn(self, task: _Task) -> bool:
+    def _withdrawn(self, task: Task) -> bool:
         """The planner took the task back (given to another robot, released): stop and go idle."""
         latest = self.tasks.get(task.message.task_id)
         if latest is None or task.placed or latest.status is TaskStatus.DONE:
@@ -366,7 +322,7 @@ class Executor:
             task.withdrawn = True
         return True
 
-    def _detect(self, task: _Task) -> None:
+    def _detect(self, task: Task) -> None:
         guid = task.message.guid
         carrier = self.site_map.carried.get(guid)
         if carrier is not None and carrier != self.robot_id:
@@ -385,7 +341,7 @@ class Executor:
         self._fire(Trigger.LOCATED)
         return None
 
-    def _pick_up(self, task: _Task) -> None:
+    def _pick_up(self, task: Task) -> None:
         if self.site_map.carried.get(task.message.guid) == self.robot_id and task.request is None:
             return self._attached(task)  # physics has it on this robot already (a reply got lost)
         if not self._drive(task, self.site_map.footprints.get(task.message.guid)):
@@ -394,19 +350,19 @@ class Executor:
             return None
         return self._request(task, "attach", AttachRequest(robot_id=self.robot_id, guid=task.message.guid))
 
-    def _attached(self, task: _Task) -> None:
+    def _attached(self, task: Task) -> None:
         self._queue_event(task, _E.ATTACH)
         self._fire(Trigger.ATTACHED)
         task.tries, task.reselections, task.approach, task.retry_at_s = 0, 0, None, -math.inf
         task.failed_xy_m, task.misses = [], 0
         self.navigator.cancel()
 
-    def _to_target(self, task: _Task) -> None:
+    def _to_target(self, task: Task) -> None:
         if self._drive(task, task.target):
             self._fire(Trigger.ARRIVED)
             self._queue_event(task, _E.ARRIVE)
 
-    def _assemble(self, task: _Task) -> None:
+    def _assemble(self, task: Task) -> None:
         if not task.placed:
             if not self._drive(task, task.target):
                 return  # a refused placement sent the robot to another approach pose
@@ -416,147 +372,6 @@ class Executor:
         if task.verdict is not None and _E.PLACE not in task.events.unconfirmed:
             _log.info("%s: %s %s", self.robot_id, task.message.guid, task.verdict.value)
             self._finish(task.verdict)
-
-    def _target_cut_off(self, task: _Task) -> Reason | None:
-        """Why the target has no approach the robot could drive to on the static map (walls, built parts,
-        stacks; laser marks left out, they pass), or None: checked before the pick-up, so that a component
-        is never carried to a target cut off already."""
-        grid = self.site_map.inflated_grid()
-        xy = self.navigator.pose_xy_yaw[:2]
-        blocks = self.site_map.blocks(task.target)
-        if approach_pose(grid, task.target, xy, blocks_band=blocks, config=self.approach_config) is not None:
-            return None
-        return self._no_approach(task, grid, task.target, f"the target of {self._name(task)}")
-
-    def _no_approach(self, task: _Task, grid, footprint: Footprint, what: str) -> Reason:
-        return no_approach_reason(
-            grid,
-            footprint,
-            self.navigator.pose_xy_yaw[:2],
-            blocks_band=self.site_map.blocks(footprint),
-            config=self.approach_config,
-            what=what,
-            robot=self.robot_id,
-            radius_m=self.site_map.config.inflation_m,
-        ).model_copy(update={"robot_id": self.robot_id})
-
-    def _drive(self, task: _Task, footprint: Footprint | None) -> bool:
-        """Drive to an approach pose beside ``footprint`` (found again after a failure); True once there."""
-        status = self.navigator.status
-        if task.approach is not None and status is NavStatus.REACHED:
-            return True
-        if (
-            task.approach is not None
-            and self.navigator.goal_blocked
-            and footprint is not None
-            and task.reselections < self.config.max_reselections
-        ):
-            # Laser marks (another robot, a load) now cover the chosen cell: pick another at once, which is
-            # no navigation failure (counting it as one gave tasks up that a step aside would have done).
-            task.reselections += 1
-            self.navigator.cancel()
-            task.approach = None
-            self._approach(task, footprint)
-            return False
-        if task.approach is not None and status is NavStatus.FAILED:
-            # The navigator ran its recovery chain: re-choose the approach pose (any side, not this one).
-            task.tries += 1
-            task.failed_xy_m.append(task.approach.xy_m)
-            if task.tries >= self.config.max_tries:
-                what = (
-                    self._name(task)
-                    if self.machine.state is _S.PICK_UP
-                    else f"the target of {self._name(task)}"
-                )
-                self._give_back(
-                    task, give_back.navigation_failed(self.robot_id, what, task.tries, self.navigator.failure)
-                )
-                return False
-            task.approach, task.retry_at_s = (
-                None,
-                self.sim_s + self.config.retry_delay_s * min(task.tries, 10),
-            )
-            self.navigator.cancel()
-        if task.approach is None and self.sim_s >= task.retry_at_s and footprint is not None:
-            self._approach(task, footprint)
-        return False
-
-    def _approach(self, task: _Task, footprint: Footprint) -> bool:
-        # The navigator's own planning grid (laser marks inflated by its dynamic margin): an approach pose
-        # free only in a less inflated grid is a goal A* can never reach, chosen again on every retry.
-        grid = self.site_map.planning_grid(self.navigator.marks, self.navigator.config.dynamic_margin_m)
-        xy = self.navigator.pose_xy_yaw[:2]
-        blocks = self.site_map.blocks(footprint)
-        config = self.approach_config
-        found = approach_pose(
-            grid, footprint, xy, blocks_band=blocks, config=config, avoid_xy_m=task.failed_xy_m
-        )
-        if found is None and task.failed_xy_m:  # every other side tried: the failed ones again
-            found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=config)
-        if found is None:
-            task.misses += 1
-            task.retry_at_s = self.sim_s + self.config.retry_delay_s
-            if task.misses >= self.config.max_approach_misses:
-                carrying = self.machine.state not in (_S.DETECT_COMPONENT_POSITION, _S.PICK_UP)
-                what = f"the target of {self._name(task)}" if carrying else self._name(task)
-                self._give_back(task, self._no_approach(task, grid, footprint, what))
-            return False
-        task.approach = found
-        self.navigator.set_goal(found.xy_m, found.yaw_rad, self.sim_s)
-        return True
-
-    def _place_request(self, task: _Task) -> PlaceRequest:
-        target = task.component.target_pose_world
-        x, y, z = target.position_m
-        cfg = self.config
-        spec = {"error_m": cfg.placement_error_m, "guids": cfg.inject_guids, "fraction": cfg.inject_fraction}
-        if injected(task.message.guid, task.message.attempt, seed=cfg.seed, **spec):
-            x += cfg.placement_error_m
-            _log.info(
-                "%s: placing %s %.3f m off (injected)",
-                self.robot_id,
-                task.message.guid,
-                cfg.placement_error_m,
-            )
-        pose = PoseMsg(position_m=(x, y, z), quat_xyzw=target.quat_xyzw)
-        return PlaceRequest(
-            robot_id=self.robot_id, guid=task.message.guid, pose=pose, duration_s=cfg.place_duration_s
-        )
-
-    def _physics_result(self, result: PhysicsResult) -> None:
-        task = self.task
-        if task is None or task.request is None or task.request.request_id != result.request_id:
-            return
-        kind, task.request = task.request.kind, None
-        if result.reply is not None and result.reply.ok:
-            if kind == "drop" and task.dropping is not None:
-                _log.info("%s: put %s down", self.robot_id, task.message.guid)
-                if task.withdrawn:
-                    self._finish(None)
-                else:
-                    self._give_up(task, task.dropping)
-            elif kind == "attach" and self.machine.state is _S.PICK_UP:
-                self._attached(task)
-            elif kind == "place" and self.machine.state is _S.ASSEMBLE:
-                task.placed = True
-                # Stamped when physics fixed the component, not at the last tick: the agent judges the first
-                # pose stamped at or after ``place``, which must not be one from the assembly motion.
-                self._queue_event(task, _E.PLACE, max(self.sim_s, result.reply.sim_time_s))
-            return
-        why = result.reply.reason if result.reply is not None else result.error
-        _log.warning("%s: %s of %s refused: %s", self.robot_id, kind, task.message.guid, why)
-        if kind == "drop":
-            task.drop_tries += 1
-            task.retry_at_s = self.sim_s + self.config.retry_delay_s
-            return None
-        task.tries += 1
-        if task.tries >= self.config.max_tries:
-            refused = give_back.physics_refused(self.robot_id, kind, self._name(task), task.tries, why)
-            return self._give_back(task, refused)
-        task.retry_at_s = self.sim_s + self.config.retry_delay_s * min(task.tries, 10)
-        task.approach = None  # maybe too far: look for an approach pose again
-        self.navigator.cancel()
-        return None
 
     # --- helpers -----------------------------------------------------------------------------------------
 
@@ -585,13 +400,8 @@ class Executor:
         self._last_state = (self.machine.state, task.message.task_id if task else None)
         self._last_state_wall_s = self._wall_s
 
-    def _request(self, task: _Task, kind: str, message: AttachRequest | PlaceRequest | DropRequest) -> None:
-        task.request = PhysicsRequest(kind, self._next_request, message, self.config.request_timeout_s)
-        task.request_sent = False
-        self._next_request += 1
-
     def _queue_event(
-        self, task: _Task, event: ComponentEvent, sim_s: float | None = None, reason: Reason | None = None
+        self, task: Task, event: ComponentEvent, sim_s: float | None = None, reason: Reason | None = None
     ) -> None:
         task.events.push(
             ComponentEventMsg(
@@ -606,48 +416,6 @@ class Executor:
                 reason=reason,
             )
         )
-
-    def _give_back(self, task: _Task, reason: Reason) -> None:
-        """Give the task back with ``reason``; a carried load is put down first (:meth:`_drop`)."""
-        carrying = self.machine.state in (_S.IDENTIFY_TARGET_LOCATION, _S.ASSEMBLE) and not task.placed
-        if not carrying:
-            return self._give_up(task, reason)
-        _log.warning("%s: putting %s down: %s", self.robot_id, task.message.guid, reason.line())
-        self.navigator.cancel()
-        task.dropping, task.request, task.drop_tries, task.retry_at_s = reason, None, 0, -math.inf
-        return self._drop(task, reason)
-
-    def _drop(self, task: _Task, reason: Reason) -> None:
-        """Ask physics to put the load down (again after a refusal, ``max_tries`` times), then give back."""
-        if task.request is not None or self.sim_s < task.retry_at_s:
-            return None
-        if task.drop_tries >= self.config.max_tries:
-            _log.error("%s: physics did not take %s off it; giving it back", self.robot_id, task.message.guid)
-            return self._finish(None) if task.withdrawn else self._give_up(task, reason)
-        return self._request(task, "drop", DropRequest(robot_id=self.robot_id, guid=task.message.guid))
-
-    def _give_up(self, task: _Task, reason: Reason) -> None:
-        """``abandon`` with ``reason`` (after ``pick``: only legal from there on); idle once applied."""
-        _log.error(
-            "%s: giving %s (%s) back: %s",
-            self.robot_id,
-            task.message.task_id,
-            task.message.guid,
-            reason.line(),
-        )
-        self.navigator.cancel()
-        task.request, task.dropping = None, None
-        reason = reason if reason.robot_id else reason.model_copy(update={"robot_id": self.robot_id})
-        self.given_back.append((task.message.guid, reason))
-        if _E.PICK not in task.events.queued:
-            self._queue_event(task, _E.PICK)  # abandon is only legal once the component is picking
-        self._queue_event(task, _E.ABANDON, reason=reason)
-        task.abandoning, task.abandon_at_s = True, self.sim_s
-
-    def _name(self, task: _Task) -> str:
-        """The component as a user knows it: ``Column R1 (2O2Fr$t4X7Zf8NOew3FLOH)``."""
-        name = task.component.name
-        return f"{name} ({task.message.guid})" if name else task.message.guid
 
     def _finish(self, verdict: ComponentState | None) -> None:
         task = self.task

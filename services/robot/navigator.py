@@ -35,129 +35,43 @@ from __future__ import annotations
 
 import logging
 import math
-from collections import deque
-from dataclasses import dataclass, field, replace
-from enum import StrEnum
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from bimbot.shared.messages import OdomMsg, ScanMsg
-from bimbot.shared.occupancy_grid import OccupancyGrid, scan_endpoints_xy_m
+from bimbot.shared.occupancy_grid import scan_endpoints_xy_m
 from bimbot.shared.reasons import Reason
 
 from .astar import plan_path, simplify_path
-from .dwa import DwaConfig, RobotState, dwa_step
-from .localisation import Localiser, LocaliserConfig
-from .motion import Path, carrot, straight_line_clear, turn_command, yield_point
+from .dwa import RobotState, dwa_step
+from .localisation import Localiser
+from .motion import Path, carrot, straight_line_clear, turn_command
+from .nav_types import DEFAULT_NAVIGATOR, Goal, NavCommand, NavigatorConfig, NavStatus
 from .particle_filter import wrap_angle
 from .recovery import ProgressWatchdog, Recovery, diagnose, next_recovery, plan_start
 from .site_map import SiteMap
+from .traffic import Traffic
 
 _log = logging.getLogger(__name__)
 
-# Coarser than the DWA defaults, for a ~0.3 ms step: 11 rollout points (≤ 1 cm lost between samples for a
-# 0.5 m disc at 1 m/s) and ~40 candidate commands. Husky half-length 0.495 m; the grid keeps paths 0.75 m off.
-DEFAULT_DWA = DwaConfig(
-    robot_radius_m=0.5, sim_dt_s=0.2, speed_resolution_mps=0.05, yaw_rate_resolution_radps=0.1
-)
 
-
-@dataclass(frozen=True)
-class NavigatorConfig:
-    dwa: DwaConfig = DEFAULT_DWA
-    localiser: LocaliserConfig = field(default_factory=LocaliserConfig)
-    goal_tolerance_m: float = 0.25  # reach is generous (1.5 m to the footprint); localisation error ~0.1 m
-    yaw_tolerance_rad: float = 0.15
-    lookahead_m: float = 2.5  # ≥ max speed × DWA horizon, or the carrot caps the speed
-    sight_inflation_m: float = 0.65  # carrot visibility: between the DWA's clearance and the planning grid's
-    rotate_in_place_rad: float = 1.0  # heading error to the carrot beyond which the robot turns on the spot
-    final_approach_m: float = 1.2  # this near, in a free straight line: drive straight onto the goal
-    local_obstacle_radius_m: float = 4.0
-    mark_beyond_m: float = 0.3  # a laser hit this far from the static map is a mark
-    dynamic_margin_m: float = 0.3  # extra DWA clearance from marks (they may move towards the robot)
-    blocked_check_m: float = 4.0
-    deviation_m: float = 0.8
-    replan_interval_s: float = 1.0
-    stuck_window_s: float = 6.0
-    stuck_move_m: float = 0.2
-    backup_s: float = 1.5
-    backup_speed_mps: float = 0.2
-    # The recovery chain (recovery.RECOVERY_CHAIN) and the watchdogs, all in sim seconds:
-    progress_window_s: float = 20.0  # no progress_min_m gained on the goal within this → next recovery
-    progress_min_m: float = 0.3
-    no_path_recover_s: float = 3.0  # this much more waiting for a path → next recovery
-    clear_marks_s: float = 5.0  # plan without laser marks this long
-    rotate_s: float = 4.2  # turn on the spot (about one turn at 1.5 rad/s)
-    start_snap_m: float = 1.0  # plan from the nearest free cell this near when the robot's cell is not free
-    plan_out_max_m: float = 4.0  # … and this near once the plan-out recovery ran
-    body_half_width_m: float = 0.35  # a way out of an inflated start cell keeps this clear (Husky: 0.34 m)
-    trapped_area_m2: float = 2.0  # reachable free space below this: the robot is trapped
-    traffic_range_m: float = 1.6  # stuck with a mark this near that another robot explains: traffic rules
-    max_give_ways: int = 6  # per goal, then the plain recoveries take over
-    aside_s: float = 8.0  # longest drive to a step-aside spot
-    hold_s: float = 4.0  # standing still while the other robot steps aside (and waiting at the spot)
-    max_wait_s: float = 30.0  # waiting for a path, at most
-    timeout_s: float = 600.0  # one goal, at most
-
-
-class NavStatus(StrEnum):
-    IDLE = "idle"  # no goal
-    ACTIVE = "active"  # driving (or turning onto the goal's yaw)
-    WAITING = "waiting"  # no path for now: standing still, retrying
-    REACHED = "reached"
-    FAILED = "failed"
-
-
-@dataclass(frozen=True)
-class NavCommand:
-    v_mps: float
-    w_radps: float
-    status: NavStatus
-    new_path_xy_m: NDArray[np.float64] | None = None  # set when the path was (re)planned this step
-
-
-@dataclass
-class _Goal:
-    xy: NDArray[np.float64]
-    yaw: float | None
-    tolerance_m: float
-    started_s: float
-    path: Path | None = None
-    grid: OccupancyGrid | None = None  # the (inflated, marked) grid the path was planned on
-    planned_s: float = -math.inf
-    map_version: int = -1
-    no_path_since_s: float | None = None
-    blocked: bool = False  # the last plan failed because the goal itself is occupied (by fresh laser marks)
-    level: int = 0  # position in the recovery chain
-    tried: tuple[Recovery, ...] = ()
-    backup_until_s: float = -math.inf
-    rotate_until_s: float = -math.inf
-    ignore_marks_until_s: float = -math.inf
-    plan_out: bool = False  # the plan-out recovery ran: start from a free cell up to plan_out_max_m away
-    watchdog: ProgressWatchdog | None = None
-    hold_until_s: float = -math.inf  # standing still while another robot steps aside
-    give_ways: int = 0
-    arrived: bool = False  # within tolerance once: only turning onto the yaw now (unless pushed far off)
-    aside_until_s: float = math.inf  # a step-aside goal: when to go back to the real goal at the latest
-    trail: deque = field(default_factory=deque)  # (sim_s, x, y), one sample per 0.5 s
-
-
-class Navigator:
+class Navigator(Traffic):
     """Localisation + global plan + local planner for one robot (see the module doc)."""
 
     def __init__(
         self,
         site_map: SiteMap,
         start_xy_yaw: ArrayLike,
-        config: NavigatorConfig = NavigatorConfig(),
+        config: NavigatorConfig = DEFAULT_NAVIGATOR,
         rng: np.random.Generator | None = None,
         robot_id: str = "",
     ) -> None:
         self.site_map, self.config, self.robot_id = site_map, config, robot_id
         self.localiser = Localiser(site_map, start_xy_yaw, config.localiser, rng)
-        self.goal: _Goal | None = None
+        self.goal: Goal | None = None
         self._status = NavStatus.IDLE
         self.v_mps = self.w_radps = 0.0
         self.local_points = np.empty((0, 2))
@@ -167,7 +81,7 @@ class Navigator:
         self.failure: Reason | None = None  # why the last goal FAILED
         self.recoveries: list[tuple[float, Recovery]] = []  # (sim s, recovery) run, for logs and tests
         self._mark_tree: cKDTree | None = None
-        self._resume: _Goal | None = None  # the real goal while stepping aside for another robot
+        self._resume: Goal | None = None  # the real goal while stepping aside for another robot
         self._others: dict[str, tuple[NDArray[np.float64], float]] = {}  # robot id → (xy, sim s)
 
     @property
@@ -217,9 +131,9 @@ class Navigator:
 
     def _new_goal(
         self, xy: NDArray[np.float64], yaw: float | None, tolerance_m: float, sim_s: float, **more: float
-    ) -> _Goal:
+    ) -> Goal:
         watchdog = ProgressWatchdog(self.config.progress_window_s, self.config.progress_min_m, sim_s)
-        return _Goal(xy, yaw, tolerance_m, sim_s, watchdog=watchdog, **more)  # type: ignore[arg-type]
+        return Goal(xy, yaw, tolerance_m, sim_s, watchdog=watchdog, **more)  # type: ignore[arg-type]
 
     def waiting_s(self, sim_s: float) -> float:
         """How long the robot has been without a path to its goal (0 when it has one)."""
@@ -321,7 +235,7 @@ class Navigator:
             *turn_command(heading_error, self.v_mps, self.w_radps, self.config.dwa), new_path
         )
 
-    def _clear_line(self, pose: NDArray[np.float64], goal: _Goal) -> bool:
+    def _clear_line(self, pose: NDArray[np.float64], goal: Goal) -> bool:
         """A straight drive to the goal stays in free cells and clear of every local obstacle point."""
         clearance = self.config.dwa.robot_radius_m + self.config.dwa.safety_margin_m
         return goal.grid is not None and straight_line_clear(
@@ -329,7 +243,7 @@ class Navigator:
         )
 
     def _approach_goal(
-        self, goal: _Goal, pose: NDArray[np.float64], cap_mps: float, new_path: NDArray[np.float64] | None
+        self, goal: Goal, pose: NDArray[np.float64], cap_mps: float, new_path: NDArray[np.float64] | None
     ) -> NavCommand:
         """The last metre in a straight free line: face the goal, then drive onto it and brake."""
         dwa = self.config.dwa
@@ -365,7 +279,7 @@ class Navigator:
         self._status = NavStatus.FAILED
         return self._command(0.0, 0.0)
 
-    def _turn_to_goal(self, goal: _Goal, pose: NDArray[np.float64]) -> NavCommand:
+    def _turn_to_goal(self, goal: Goal, pose: NDArray[np.float64]) -> NavCommand:
         """At the goal: turn gently onto its yaw (a skid-steered base lags its commands; a stiff gain makes
         it oscillate around the heading), then report REACHED."""
         goal.arrived = True
@@ -383,7 +297,7 @@ class Navigator:
         self._status = NavStatus.REACHED
         return self._command(0.0, 0.0)
 
-    def _ahead(self, goal: _Goal, pose: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
+    def _ahead(self, goal: Goal, pose: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
         """Distance from the path, and path samples every 0.1 m ``blocked_check_m`` ahead of the robot."""
         if goal.path is None:
             return math.inf, np.empty((0, 2))
@@ -391,7 +305,7 @@ class Navigator:
         return gap, goal.path.samples(arc, self.config.blocked_check_m, 0.1)
 
     def _needs_plan(
-        self, goal: _Goal, pose: NDArray[np.float64], sim_s: float, ahead: NDArray[np.float64]
+        self, goal: Goal, pose: NDArray[np.float64], sim_s: float, ahead: NDArray[np.float64]
     ) -> bool:
         if sim_s - goal.planned_s < self.config.replan_interval_s:
             return False
@@ -405,7 +319,7 @@ class Navigator:
             return bool(np.isfinite(distance).any())
         return False
 
-    def _plan(self, goal: _Goal, pose: NDArray[np.float64], sim_s: float) -> NDArray[np.float64] | None:
+    def _plan(self, goal: Goal, pose: NDArray[np.float64], sim_s: float) -> NDArray[np.float64] | None:
         goal.planned_s, goal.map_version = sim_s, self.site_map.version
         marks = self.marks if sim_s >= goal.ignore_marks_until_s else ()
         grid = self.site_map.planning_grid(marks, self.config.dynamic_margin_m)
@@ -433,7 +347,7 @@ class Navigator:
         self.replans += 1
         return points
 
-    def _stuck(self, goal: _Goal, pose: NDArray[np.float64], sim_s: float) -> bool:
+    def _stuck(self, goal: Goal, pose: NDArray[np.float64], sim_s: float) -> bool:
         trail = goal.trail
         if not trail or sim_s - trail[-1][0] >= 0.5:
             trail.append((sim_s, float(pose[0]), float(pose[1])))
@@ -444,7 +358,7 @@ class Navigator:
             return False
         return all(math.hypot(x - first[1], y - first[2]) < self.config.stuck_move_m for _, x, y in trail)
 
-    def _recover(self, goal: _Goal, pose: NDArray[np.float64], sim_s: float, why: str) -> NavCommand:
+    def _recover(self, goal: Goal, pose: NDArray[np.float64], sim_s: float, why: str) -> NavCommand:
         """The next step of the recovery chain (:mod:`.recovery`), or FAILED when it is exhausted."""
         kind, goal.level = next_recovery(goal.level, clear_behind=self._clear_behind(pose))
         if kind is None:
@@ -467,66 +381,6 @@ class Navigator:
         else:
             goal.plan_out = True
         return self._command(0.0, 0.0)
-
-    # --- traffic: two robots blocking each other ----------------------------------------------------------
-
-    def _blocking_robot(
-        self, pose: NDArray[np.float64], sim_s: float
-    ) -> tuple[str, NDArray[np.float64]] | None:
-        """The other robot standing at the nearest mark within ``traffic_range_m``, if one is known there."""
-        if self._mark_tree is None or self.nearest_mark_m > self.config.traffic_range_m:
-            return None
-        _, index = self._mark_tree.query(pose[:2])
-        mark = self.marks[index]
-        best: tuple[float, str, NDArray[np.float64]] | None = None
-        for robot_id, (xy, seen_s) in self._others.items():
-            gap = float(np.hypot(*(xy - mark)))
-            if sim_s - seen_s < 5.0 and gap < 1.5 and (best is None or gap < best[0]):
-                best = (gap, robot_id, xy)
-        return None if best is None else (best[1], best[2])
-
-    def _traffic(self, goal: _Goal, pose: NDArray[np.float64], sim_s: float) -> NavCommand | None:
-        """Stuck facing another robot: the one with the greater id steps aside, the other holds still."""
-        blocking = self._blocking_robot(pose, sim_s)
-        if blocking is None or goal.give_ways >= self.config.max_give_ways:
-            return None
-        other_id, other_xy = blocking
-        goal.give_ways += 1
-        goal.trail.clear()
-        goal.planned_s, goal.path = -math.inf, None
-        if other_id < self.robot_id:
-            spot = yield_point(self.site_map.inflated_grid(), pose[:2], other_xy)
-            if spot is not None:
-                _log.info(
-                    "%s: stepping aside for %s to %s", self.robot_id, other_id, np.round(spot, 2).tolist()
-                )
-                self._resume = goal
-                self.goal = self._new_goal(spot, None, 0.3, sim_s, aside_until_s=sim_s + self.config.aside_s)
-                self._status = NavStatus.ACTIVE
-                return self._command(0.0, 0.0)
-        _log.info("%s: holding for %s to step aside", self.robot_id, other_id)
-        goal.hold_until_s = sim_s + self.config.hold_s
-        return self._command(*turn_command(0.0, self.v_mps, 0.0, self.config.dwa))
-
-    def _stepped_aside(self, sim_s: float) -> bool:
-        """While stepping aside: once there (or out of time) wait for the other robot to pass, then go back to
-        the real goal. True while the robot should stand still."""
-        aside = self.goal
-        assert aside is not None and self._resume is not None
-        done = self._status in (NavStatus.REACHED, NavStatus.FAILED) or sim_s >= aside.aside_until_s
-        if not done:
-            return False
-        clear = self.nearest_mark_m > self.config.traffic_range_m + 0.5
-        if not clear and sim_s < aside.aside_until_s + self.config.hold_s:
-            self._status = NavStatus.REACHED
-            return True
-        goal, self._resume = self._resume, None
-        goal.trail.clear()
-        assert goal.watchdog is not None
-        goal.watchdog.reset(sim_s)
-        goal.planned_s, goal.path = -math.inf, None
-        self.goal, self._status = goal, NavStatus.ACTIVE
-        return False
 
     def _obstacles(self, pose: NDArray[np.float64]) -> NDArray[np.float64]:
         static = self.site_map.obstacle_points_xy_m()

@@ -1,0 +1,152 @@
+"""Physics requests and giving a task back: attach, place, drop, abandon with a reason (a mixin).
+
+Why apart from :mod:`.executor`: the part of a task that talks to physics and ends it early. Requests go
+out without blocking (:class:`~.protocol.PhysicsRequest`; replies come back to :meth:`_physics_result`).
+A refusal sends the robot to another approach pose; ``max_tries`` refusals give the task back
+(``physics_refused``, physics' reason quoted). Giving back (:meth:`_give_back`): a robot that carries the
+component first asks physics to put it down (``drop``: it rests beside the robot, free for any robot),
+then sends ``abandon`` with the reason (:meth:`_give_up`), which the agent applies (back to released).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from typing import TYPE_CHECKING
+
+from bimbot.shared.messages import (
+    AttachRequest,
+    ComponentEvent,
+    DropRequest,
+    PlaceRequest,
+    PoseMsg,
+    RobotState,
+)
+from bimbot.shared.reasons import Reason
+
+from .task_state import ExecutorConfig, Task
+
+if TYPE_CHECKING:
+    from .navigator import Navigator
+    from .site_map import SiteMap
+    from .task_machine import TaskMachine
+
+from . import give_back
+from .protocol import PhysicsRequest, PhysicsResult, injected
+
+_log = logging.getLogger(__name__)
+_S, _E = RobotState, ComponentEvent
+
+
+class Handover:
+    """Physics requests, drops and give-backs, for :class:`.executor.Executor`."""
+
+    config: ExecutorConfig
+    robot_id: str
+    sim_s: float
+    site_map: SiteMap
+    navigator: Navigator
+    machine: TaskMachine
+    task: Task | None
+    given_back: list[tuple[str, Reason]]
+    _next_request: int
+
+    def _place_request(self, task: Task) -> PlaceRequest:
+        target = task.component.target_pose_world
+        x, y, z = target.position_m
+        cfg = self.config
+        spec = {"error_m": cfg.placement_error_m, "guids": cfg.inject_guids, "fraction": cfg.inject_fraction}
+        if injected(task.message.guid, task.message.attempt, seed=cfg.seed, **spec):
+            x += cfg.placement_error_m
+            _log.info(
+                "%s: placing %s %.3f m off (injected)",
+                self.robot_id,
+                task.message.guid,
+                cfg.placement_error_m,
+            )
+        pose = PoseMsg(position_m=(x, y, z), quat_xyzw=target.quat_xyzw)
+        return PlaceRequest(
+            robot_id=self.robot_id, guid=task.message.guid, pose=pose, duration_s=cfg.place_duration_s
+        )
+
+    def _physics_result(self, result: PhysicsResult) -> None:
+        task = self.task
+        if task is None or task.request is None or task.request.request_id != result.request_id:
+            return
+        kind, task.request = task.request.kind, None
+        if result.reply is not None and result.reply.ok:
+            if kind == "drop" and task.dropping is not None:
+                _log.info("%s: put %s down", self.robot_id, task.message.guid)
+                if task.withdrawn:
+                    self._finish(None)
+                else:
+                    self._give_up(task, task.dropping)
+            elif kind == "attach" and self.machine.state is _S.PICK_UP:
+                self._attached(task)
+            elif kind == "place" and self.machine.state is _S.ASSEMBLE:
+                task.placed = True
+                # Stamped when physics fixed the component, not at the last tick: the agent judges the first
+                # pose stamped at or after ``place``, which must not be one from the assembly motion.
+                self._queue_event(task, _E.PLACE, max(self.sim_s, result.reply.sim_time_s))
+            return
+        why = result.reply.reason if result.reply is not None else result.error
+        _log.warning("%s: %s of %s refused: %s", self.robot_id, kind, task.message.guid, why)
+        if kind == "drop":
+            task.drop_tries += 1
+            task.retry_at_s = self.sim_s + self.config.retry_delay_s
+            return None
+        task.tries += 1
+        if task.tries >= self.config.max_tries:
+            refused = give_back.physics_refused(self.robot_id, kind, self._name(task), task.tries, why)
+            return self._give_back(task, refused)
+        task.retry_at_s = self.sim_s + self.config.retry_delay_s * min(task.tries, 10)
+        task.approach = None  # maybe too far: look for an approach pose again
+        self.navigator.cancel()
+        return None
+
+    def _request(self, task: Task, kind: str, message: AttachRequest | PlaceRequest | DropRequest) -> None:
+        task.request = PhysicsRequest(kind, self._next_request, message, self.config.request_timeout_s)
+        task.request_sent = False
+        self._next_request += 1
+
+    def _give_back(self, task: Task, reason: Reason) -> None:
+        """Give the task back with ``reason``; a carried load is put down first (:meth:`_drop`)."""
+        carrying = self.machine.state in (_S.IDENTIFY_TARGET_LOCATION, _S.ASSEMBLE) and not task.placed
+        if not carrying:
+            return self._give_up(task, reason)
+        _log.warning("%s: putting %s down: %s", self.robot_id, task.message.guid, reason.line())
+        self.navigator.cancel()
+        task.dropping, task.request, task.drop_tries, task.retry_at_s = reason, None, 0, -math.inf
+        return self._drop(task, reason)
+
+    def _drop(self, task: Task, reason: Reason) -> None:
+        """Ask physics to put the load down (again after a refusal, ``max_tries`` times), then give back."""
+        if task.request is not None or self.sim_s < task.retry_at_s:
+            return None
+        if task.drop_tries >= self.config.max_tries:
+            _log.error("%s: physics did not take %s off it; giving it back", self.robot_id, task.message.guid)
+            return self._finish(None) if task.withdrawn else self._give_up(task, reason)
+        return self._request(task, "drop", DropRequest(robot_id=self.robot_id, guid=task.message.guid))
+
+    def _give_up(self, task: Task, reason: Reason) -> None:
+        """``abandon`` with ``reason`` (after ``pick``: only legal from there on); idle once applied."""
+        _log.error(
+            "%s: giving %s (%s) back: %s",
+            self.robot_id,
+            task.message.task_id,
+            task.message.guid,
+            reason.line(),
+        )
+        self.navigator.cancel()
+        task.request, task.dropping = None, None
+        reason = reason if reason.robot_id else reason.model_copy(update={"robot_id": self.robot_id})
+        self.given_back.append((task.message.guid, reason))
+        if _E.PICK not in task.events.queued:
+            self._queue_event(task, _E.PICK)  # abandon is only legal once the component is picking
+        self._queue_event(task, _E.ABANDON, reason=reason)
+        task.abandoning, task.abandon_at_s = True, self.sim_s
+
+    def _name(self, task: Task) -> str:
+        """The component as a user knows it: ``Column R1 (2O2Fr$t4X7Zf8NOew3FLOH)``."""
+        name = task.component.name
+        return f"{name} ({task.message.guid})" if name else task.message.guid

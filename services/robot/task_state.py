@@ -1,0 +1,62 @@
+"""What one task of the robot carries along, and the executor's bounds (data only).
+
+Why apart from :mod:`.executor`: the executor, :mod:`.driving` and :mod:`.handover` share them. Every wait
+of a task is bounded in sim time and every retry counted here (see the executor's module doc).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from bimbot.shared.footprint import Footprint
+from bimbot.shared.manifest import Component
+from bimbot.shared.messages import ComponentState, TaskMsg
+from bimbot.shared.reasons import Reason
+
+from .approach import Approach
+from .protocol import EventQueue, PhysicsRequest
+
+
+@dataclass(frozen=True)
+class ExecutorConfig:
+    robot_id: str
+    resend_s: float = 0.5  # wall seconds between repeats of an unconfirmed event
+    state_period_s: float = 1.0  # wall seconds between periodic state messages
+    request_timeout_s: float = 60.0  # wall seconds for a physics reply (the adapter reports a timeout)
+    place_duration_s: float = 2.0  # sim seconds of the assembly motion
+    max_tries: int = 4  # approaches (navigation failed, attach/place refused) before a task is given back
+    max_reselections: int = 20  # approach poses chosen again at once when their cell becomes occupied
+    max_approach_misses: int = 10  # searches for an approach pose that found none, then given back
+    retry_delay_s: float = 1.0  # sim seconds before looking for an approach again
+    task_timeout_s: float = 900.0  # sim seconds in one task state → given back (no_progress)
+    give_back_timeout_s: float = 60.0  # sim seconds for the agent to confirm an abandon (else go idle)
+    park_after_s: float = 8.0  # sim seconds idle → drive back to the start pose (clears the structure)
+    leave_margin_m: float = 1.0  # after a task: out of the building footprint grown by this much
+    placement_error_m: float = 0.0  # injected on first placement attempts (tests, demos)
+    inject_guids: frozenset[str] = frozenset()
+    inject_fraction: float = 0.0  # without inject_guids: this share of components (0: all)
+    seed: int = 0
+
+
+@dataclass
+class Task:
+    message: TaskMsg
+    component: Component
+    target: Footprint  # the footprint at the BIM target pose
+    events: EventQueue
+    request: PhysicsRequest | None = None
+    request_sent: bool = False
+    tries: int = 0
+    reselections: int = 0  # approach poses chosen again because their cell became occupied
+    retry_at_s: float = -math.inf
+    approach: Approach | None = None
+    failed_xy_m: list[tuple[float, float]] = field(default_factory=list)  # stand-points that failed
+    misses: int = 0  # approach searches that found nothing
+    placed: bool = False
+    verdict: ComponentState | None = None
+    abandoning: bool = False
+    abandon_at_s: float = math.inf
+    dropping: Reason | None = None  # putting the load down before giving the task back with this reason
+    withdrawn: bool = False  # the planner took it back: after the drop just go idle
+    drop_tries: int = 0
