@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 from bimbot.shared.footprint import Footprint
 from bimbot.shared.messages import RobotState
+from bimbot.shared.occupancy_grid import OccupancyGrid
 from bimbot.shared.reasons import Reason
 
 from .task_state import ExecutorConfig, Task
@@ -54,7 +55,7 @@ class Driving:
             return None
         return self._no_approach(task, grid, task.target, f"the target of {self._name(task)}")
 
-    def _no_approach(self, task: Task, grid, footprint: Footprint, what: str) -> Reason:
+    def _no_approach(self, task: Task, grid: OccupancyGrid, footprint: Footprint, what: str) -> Reason:
         return no_approach_reason(
             grid,
             footprint,

@@ -312,7 +312,8 @@ class Executor(Driving, Handover):
         if task.withdrawn:
             return False  # putting the load down (below)
         _log.warning("%s: task %s withdrawn (%s)", self.robot_id, task.message.task_id, latest.status.value)
-        if self.machine.state in (_S.IDENTIFY_TARGET_LOCATION, _S.ASSEMBLE) and task.dropping is None:
+        carrying = self.machine.state in (_S.IDENTIFY_TARGET_LOCATION, _S.ASSEMBLE) and not task.abandoning
+        if carrying and task.dropping is None:
             task.withdrawn = True  # never walk off with a load: put it down first, then go idle
             self._give_back(task, give_back.withdrawn(self.robot_id, self._name(task)))
             return True

@@ -141,3 +141,15 @@ def test_reasons_name_the_numbers() -> None:
     )
     assert refused.code is ReasonCode.PHYSICS_REFUSED and refused.message.endswith("reach is 1.5 m")
     assert "4 times" in refused.message
+
+
+def test_a_task_withdrawn_while_the_robot_carries_it_puts_the_load_down_first(frame: Manifest) -> None:
+    site, released, task = make_site(frame)
+    site.executor.handle(released)
+    site.executor.handle(task)
+    site.run(3000, until=lambda s: s.executor.machine.state is RobotState.IDENTIFY_TARGET_LOCATION)
+    site.executor.handle(task.model_copy(update={"robot_id": "r2"}))  # the planner gave it to another robot
+    site.run(100, until=lambda s: s.executor.task is None)
+    assert [r.kind for r in site.requests] == ["attach", "drop"]
+    assert site.carried is None and site.executor.machine.state is RobotState.IDLE
+    assert ComponentEvent.ABANDON not in [e.event for e in site.events], "not ours to give back any more"
