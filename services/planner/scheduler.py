@@ -21,9 +21,12 @@ calls :meth:`PlannerCore.step` with the wall time; ``step`` returns the messages
    failed with the last give-back's reason (the robot's own: ``no_approach_pose``, ``unreachable``,
    ``robot_trapped``…); a task whose component has not changed state for ``task_timeout_s`` sim seconds is
    taken back from its robot (``no_progress``, counted as a give-back). Components no robot type on site can
-   build are failed before anything is released (:meth:`PlannerCore.fail_at_start`). Every failed
-   component's dependents are ``blocked`` (event ``block`` with a ``blocked_by`` reason naming it), and every
-   failed or blocked component's reason travels on its task and in the progress (``reasons``).
+   build are failed before anything is released (:meth:`PlannerCore.fail_at_start`). What rests on a failed
+   component (transitively, in the support graph) is ``blocked`` (event ``block`` with a ``blocked_by``
+   reason naming it); a component that only follows it in the schedule goes on: for the release, a failed
+   or blocked predecessor it does not rest on counts as done (a too-heavy footing on one side of the site
+   does not stop the walls on the other). Every failed or blocked component's reason travels on its task
+   and in the progress (``reasons``).
 
 Delivery is at least once: each event and each ``assigned`` task is re-sent unchanged (same ``event_id``)
 every ``resend_s`` wall seconds until its effect is observed (the component leaves ``planned`` after a
@@ -147,7 +150,7 @@ class PlannerCore:
         self._resend_s = resend_s
         self.limits = limits
         self._new_id = new_id
-        self._successors = plan.successors()
+        self._dependents = plan.dependents()
         self._tasks = {
             guid: _Task(guid, plan.task_ids[guid], priority) for priority, guid in enumerate(plan.order)
         }
@@ -393,12 +396,19 @@ class PlannerCore:
             if task.phase is not Phase.WAITING:
                 continue
             preds = self._plan.predecessors.get(guid, frozenset())
-            if all(self._components[pred].state is ComponentState.CONSTRUCTED for pred in preds):
+            if all(self._settled_for_release(pred) for pred in preds):
                 component = self._components[guid]
                 self._set_phase(task, Phase.RELEASED, TaskStatus.RELEASED)
                 if component.state is ComponentState.PLANNED:
                     settled = partial(_left, component, {ComponentState.PLANNED})
                     self._send_event(guid, ComponentEvent.RELEASE, settled)
+
+    def _settled_for_release(self, pred: str) -> bool:
+        """A predecessor is out of the way: constructed, or not built at all (what rests on it is blocked)."""
+        return self._components[pred].state is ComponentState.CONSTRUCTED or self._tasks[pred].phase in (
+            Phase.FAILED,
+            Phase.BLOCKED,
+        )
 
     def _assign(self) -> None:
         for guid in self._plan.order:
@@ -504,7 +514,7 @@ class PlannerCore:
 
     def _block_dependents(self, guid: str) -> None:
         reason = blocked_by(guid, self._tasks[guid].reason)
-        stack = list(self._successors.get(guid, ()))
+        stack = list(self._dependents.get(guid, ()))
         while stack:
             item = stack.pop()
             task = self._tasks[item]
@@ -521,7 +531,7 @@ class PlannerCore:
                 )
             else:
                 self._pending.pop((item, "event"), None)
-            stack.extend(self._successors.get(item, ()))
+            stack.extend(self._dependents.get(item, ()))
 
     def _set_phase(self, task: _Task, phase: Phase, status: TaskStatus) -> None:
         task.phase = phase

@@ -78,14 +78,26 @@ class Plan:
     warnings: tuple[str, ...] = ()
     violations: tuple[tuple[str, str], ...] = ()  # (component, support) pairs the plan gets wrong
     derived: bool = False  # derived from the support graph (the planner may add precedences for access)
+    # GUID → what it physically rests on (the support graph); None: unknown, every precedence is physical
+    supports: Mapping[str, frozenset[str]] | None = None
 
     def successors(self) -> dict[str, set[str]]:
         """GUID → GUIDs that wait for it directly."""
-        out: dict[str, set[str]] = {guid: set() for guid in self.order}
-        for guid, preds in self.predecessors.items():
-            for pred in preds:
+        return _invert(self.order, self.predecessors)
+
+    def dependents(self) -> dict[str, set[str]]:
+        """GUID → GUIDs that rest on it directly (the support graph; the precedences when unknown): what
+        cannot be built when it is not."""
+        return _invert(self.order, self.supports if self.supports is not None else self.predecessors)
+
+
+def _invert(order: Sequence[str], preds: Mapping[str, frozenset[str]]) -> dict[str, set[str]]:
+    out: dict[str, set[str]] = {guid: set() for guid in order}
+    for guid, values in preds.items():
+        for pred in values:
+            if pred in out:
                 out[pred].add(guid)
-        return out
+    return out
 
 
 def load_plan(manifest: Manifest, build_dir: Path, source: PlanSource) -> Plan:
@@ -182,6 +194,7 @@ def plan_from_sequence(
         explicit=explicit,
         warnings=tuple(warnings),
         violations=tuple((guid, other) for guid, other, _ in violations),
+        supports={guid: frozenset(support.get(guid, ())) for guid in order},
     )
 
 

@@ -21,6 +21,7 @@ from bimbot.shared.manifest import read_manifest
 from bimbot.shared.messages import ComponentEvent, ComponentEventMsg, ComponentState, SiteInfoMsg, TaskMsg
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import DEFAULT_ROBOT
+from bimbot.shared.sequence import sequence_from_predecessors
 from bimbot.shared.support_graph import derive_sequence, support_predecessors
 
 S = ComponentState
@@ -62,6 +63,24 @@ def test_a_component_no_robot_can_carry_fails_before_release_and_blocks_what_res
     assert progress.reasons["beam"].code is ReasonCode.BLOCKED_BY
     failed_task = next(m for m in out if isinstance(m, TaskMsg) and m.guid == "foot_a")
     assert failed_task.reason == too_heavy
+
+
+def test_in_a_chained_schedule_a_failure_blocks_only_what_rests_on_it_and_the_rest_goes_on() -> None:
+    manifest = portal_manifest()
+    chain = ("foot_a", "col_a", "foot_b", "col_b", "foot_c", "post_c", "beam")
+    preds = {guid: {chain[i - 1]} for i, guid in enumerate(chain) if i}
+    sequence = sequence_from_predecessors(chain, preds, source="ifc_schedule")
+    plan = plan_from_sequence(sequence, manifest.components, "chain")
+    assert plan.predecessors["foot_b"] == frozenset({"col_a"})  # the schedule's order, not a support
+    core = PlannerCore(manifest, plan)
+    core.fail_at_start({"foot_a": Reason(code=ReasonCode.TOO_HEAVY, message="too heavy")})
+    out = core.step(0.0)
+    assert {m.guid for m in _events(out, ComponentEvent.BLOCK)} == {"col_a", "beam"}  # they rest on it
+    assert [m.guid for m in _events(out, ComponentEvent.RELEASE)] == ["foot_b"]  # the schedule goes on
+    for guid, then in (("foot_b", "col_b"), ("col_b", "foot_c")):
+        core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified"))
+        assert [m.guid for m in _events(core.step(1.0), ComponentEvent.RELEASE)] == [then]
+    assert core.phase("beam") is Phase.BLOCKED
 
 
 def test_a_component_given_back_max_times_fails_with_the_last_robots_reason() -> None:
