@@ -104,6 +104,18 @@ def stand_points(
     return cells[keep], distance[keep]
 
 
+def within_reach(
+    footprint: Footprint, robot_xy_m: ArrayLike, *, blocks_band: bool, config: ApproachConfig
+) -> bool:
+    """Whether a robot standing at ``robot_xy_m`` may act on ``footprint`` from there: the reach rule
+    (less the margin) and, for a component in the robot's height band, its body clear of it. A robot that
+    could not get onto its chosen stand-point but stands within reach has arrived all the same."""
+    distance = float(footprint.distance_m(np.asarray(robot_xy_m, float)[:2])[0])
+    if distance > config.reach_m - config.reach_margin_m + 1e-9:
+        return False
+    return not blocks_band or distance >= config.body_clearance_m
+
+
 def approach_pose(
     grid: OccupancyGrid,
     footprint: Footprint,

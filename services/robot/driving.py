@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from .task_machine import TaskMachine
 
 from . import give_back
-from .approach import ApproachConfig, approach_pose, no_approach_reason
+from .approach import ApproachConfig, approach_pose, no_approach_reason, within_reach
 from .navigator import NavStatus
 
 _log = logging.getLogger(__name__)
@@ -85,6 +85,11 @@ class Driving:
             task.approach = None
             self._approach(task, footprint)
             return False
+        if task.approach is not None and status is NavStatus.FAILED and footprint is not None:
+            here = self.navigator.pose_xy_yaw[:2]
+            blocks = self.site_map.blocks(footprint)
+            if within_reach(footprint, here, blocks_band=blocks, config=self.approach_config):
+                return True  # not on the stand-point, but the reach rule holds here: close enough
         if task.approach is not None and status is NavStatus.FAILED:
             # The navigator ran its recovery chain: re-choose the approach pose (any side, not this one).
             task.tries += 1

@@ -13,6 +13,7 @@ from bimbot.services.robot.approach import (
     approach_pose,
     no_approach_reason,
     reachable_region,
+    within_reach,
 )
 from bimbot.services.robot.site_map import SiteMap
 from bimbot.shared.footprint import Footprint, posed_footprint
@@ -179,3 +180,12 @@ def test_no_free_stand_point_at_all_is_no_approach_pose() -> None:
         "no free cell within 1.40 m of Footing F1 (1.00 m × 1.00 m at (5.00, 5.00)), 0.75 m clear of it, "
         "holds r1 (footprint radius 0.60 m, reach 1.50 m)"
     )
+
+
+def test_within_reach_is_the_reach_rule_with_the_body_clear() -> None:
+    wall = _rect(7.5, 9.9, 12.5, 10.1, 3.0)
+    config = ApproachConfig(reach_m=1.5, reach_margin_m=0.1, body_clearance_m=0.75)
+    assert within_reach(wall, (12.0, 9.0), blocks_band=True, config=config), "0.9 m from the long edge"
+    assert not within_reach(wall, (10.0, 8.4), blocks_band=True, config=config), "1.5 m: beyond the margin"
+    assert not within_reach(wall, (10.0, 9.5), blocks_band=True, config=config), "0.4 m: the body hits it"
+    assert within_reach(wall, (10.0, 10.0), blocks_band=False, config=config), "under a beam is fine"
