@@ -67,6 +67,6 @@ def blocked_by(failed_guid: str, failed_reason: Reason | None = None) -> Reason:
     why = f" ({failed_reason.code.value})" if failed_reason is not None else ""
     return Reason(
         code=ReasonCode.BLOCKED_BY,
-        message=f"predecessor {failed_guid} was not built{why}",
+        message=f"it rests on {failed_guid}, which was not built{why}",
         guid=failed_guid,
     )

@@ -1,0 +1,74 @@
+"""A build that cannot finish ends by itself and says why, per component (issue: every build ends).
+
+The generated site model (``tests/site_models.py``) has what the bundled frame lacks: a 5,760 kg footing
+under ``Column A1`` (far above the default robot's 1,000 kg payload) and a room whose four walls, built
+first by the model's own IFC 4D schedule, cut its inner column off. ``bimbot run`` starts every service as
+a process on a loopback bus and must end, exit 1, and report for every component not constructed a reason
+a user can act on: the footing ``too_heavy`` with its mass, the column and beam on it ``blocked_by`` the
+footing, the room's column ``unreachable``/``no_approach_pose``; everything else is constructed.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from site_models import HEAVY_MASS_KG, ROOM_WALLS, WALLS_FIRST_ORDER, SiteModel, build_site_model
+
+from bimbot.shared.reasons import ReasonCode
+
+pytestmark = pytest.mark.integration
+RUN_TIMEOUT_S = 420
+
+
+def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "bimbot.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=RUN_TIMEOUT_S,
+        check=False,
+    )
+
+
+@pytest.fixture(scope="module")
+def walls_first(tmp_path_factory: pytest.TempPathFactory) -> tuple[SiteModel, Path]:
+    folder = tmp_path_factory.mktemp("walls_first")
+    site = build_site_model(heavy="footing", room=True, schedule=WALLS_FIRST_ORDER)
+    converted = _bimbot("convert", str(site.write(folder / "site.ifc")), "-o", str(folder / "build"))
+    assert converted.returncode == 0, converted.stderr[-2000:]
+    return site, folder / "build"
+
+
+def test_a_build_that_cannot_finish_ends_with_a_reason_for_every_component_not_built(
+    walls_first: tuple[SiteModel, Path],
+) -> None:
+    site, build = walls_first
+    result = _bimbot("run", str(build), "-q", "--timeout-s", str(RUN_TIMEOUT_S - 60))
+    logs = "\n".join(
+        f"--- {log.name}\n" + "\n".join(log.read_text().splitlines()[-12:])
+        for log in sorted((build / "logs").glob("*.log"))
+    )
+    assert result.returncode == 1, f"{result.stdout}\n{result.stderr[-2000:]}\n{logs}"
+    report = json.loads((build / "report" / "report.json").read_text())
+    by_name = {c["name"]: c for c in report["components"]}
+    constructed = {name for name, c in by_name.items() if c["state"] == "constructed"}
+    assert constructed == {"Column A2", *ROOM_WALLS}, logs
+
+    footing = by_name["Footing A1"]
+    assert footing["state"] == "failed" and footing["reason"]["code"] == ReasonCode.TOO_HEAVY
+    assert f"{HEAVY_MASS_KG['footing']:,.0f}" in footing["reason"]["message"]
+    for name in ("Column A1", "Beam A1-A2"):
+        component = by_name[name]
+        assert component["state"] == "blocked" and component["reason"]["code"] == ReasonCode.BLOCKED_BY
+        assert component["reason"]["guid"] in (site.guid("Footing A1"), site.guid("Column A1"))
+    column = by_name["Column R1"]
+    assert column["state"] == "failed", column
+    assert column["reason"]["code"] in (ReasonCode.UNREACHABLE, ReasonCode.NO_APPROACH_POSE), column
+    # the terminal table names what was not built and why
+    for name in ("Footing A1", "Column R1"):
+        assert site.guid(name)[:8] in result.stdout + result.stderr
+    assert "too_heavy" in result.stdout + result.stderr
