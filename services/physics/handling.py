@@ -18,9 +18,11 @@ Every component is in one of four phases:
   target footprint is never thrown off. Static bodies never touch the ground plane or each other, so
   footings placed below ground stay there.
 
-Reach (attach and place): the horizontal distance from the robot's base frame origin to the nearest point
-of the component's footprint rectangle — its current one for attach, the one at the requested pose for
-place — must not exceed ``reach_m``. Every refusal says why, naming robot, component and numbers.
+Reach (attach and place): the reach rule of the robot description — the horizontal distance from the
+robot's base frame origin to the nearest point of the component's footprint (the shared
+:func:`bimbot.shared.footprint.posed_footprint`) — its current one for attach, the one at the requested pose
+for place — must not exceed ``reach_m`` (the robot type's). Every refusal says why, naming robot,
+component and numbers.
 """
 
 from __future__ import annotations
@@ -33,8 +35,10 @@ from enum import StrEnum
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bimbot.shared.footprint import footprint_distance_m, posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, PhysicsReply, PoseMsg
+from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.site_layout import GROUND_CLEARANCE_M, Rect, lying_rotation
 
 from .client import p
@@ -45,7 +49,6 @@ from .scene import (
     ComponentBody,
     Frame,
     compose,
-    distance_to_rect,
     footprint,
     interpolate,
     set_component_pose,
@@ -68,7 +71,7 @@ class Phase(StrEnum):
 
 @dataclass(frozen=True)
 class HandlingConfig:
-    reach_m: float = 1.5
+    reach_m: float = DEFAULT_ROBOT.reach_m  # the robot description's, unless physics is told otherwise
     lift_s: float = 1.0
     carry_clearance_m: float = 0.02
     max_place_duration_s: float = 60.0
@@ -152,10 +155,7 @@ class Handling:
         if refusal is None and robot.robot_id in self.carrying:
             refusal = f"robot {robot.robot_id} already carries {self.carrying[robot.robot_id]}"
         if refusal is None and item is not None:
-            distance = distance_to_rect(self._robot_xy(robot), footprint(item.component, item.pose))
-            if distance > self.config.reach_m:
-                reach = self.config.reach_m
-                refusal = f"robot {robot.robot_id} is {distance:.2f} m from {guid}, reach is {reach:g} m"
+            refusal = self._beyond_reach(robot, item.component, item.pose, guid)
         if refusal is not None or item is None:
             return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s)
         item.phase = Phase.CARRIED
@@ -196,12 +196,7 @@ class Handling:
         if refusal is None and frame is not None and not _inside(self.site_bounds, frame[0]):
             refusal = f"target ({frame[0][0]:.2f}, {frame[0][1]:.2f}) of {guid} is outside the site"
         if refusal is None and item is not None and frame is not None:
-            distance = distance_to_rect(self._robot_xy(robot), footprint(item.component, frame))
-            if distance > self.config.reach_m:
-                refusal = (
-                    f"robot {robot.robot_id} is {distance:.2f} m from the target of {guid}, "
-                    f"reach is {self.config.reach_m:g} m"
-                )
+            refusal = self._beyond_reach(robot, item.component, frame, f"the target of {guid}")
         if refusal is not None or item is None or frame is None:
             return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s)
         item.phase = Phase.ASSEMBLING
@@ -226,6 +221,15 @@ class Handling:
                 return f"{guid} is constructed (fixed to the structure)"
             return f"{guid} is fixed to the structure"
         return None
+
+    def _beyond_reach(self, robot: Robot, component: Component, frame: Frame, what: str) -> str | None:
+        """The reach rule of the robot description (:mod:`bimbot.shared.robot_description`: the robot's
+        centre to the nearest point of the component's footprint at ``frame``), or None within reach."""
+        polygon = posed_footprint(component, frame[0], frame[1]).polygon_xy_m
+        distance = float(footprint_distance_m(polygon, self._robot_xy(robot))[0])
+        if distance <= self.config.reach_m + 1e-9:
+            return None
+        return f"robot {robot.robot_id} is {distance:.2f} m from {what}, reach is {self.config.reach_m:g} m"
 
     def _robot_xy(self, robot: Robot) -> tuple[float, float]:
         (x, y, _), _ = robot.frame(self.client_id)

@@ -77,7 +77,7 @@ class SimConfig:
     robots: int = 1
     step_s: float = 1.0 / 240.0
     control_period_s: float = 0.1
-    reach_m: float = 1.5
+    reach_m: float = DEFAULT_ROBOT.reach_m
     odom_noise: float = 0.02  # relative standard deviation of each period's odometry increment
     seed: int = 0
     lock_step: bool = False  # reported in ClockMsg and SiteInfoMsg; the adapter does the waiting
