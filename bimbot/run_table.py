@@ -1,23 +1,23 @@
 """The table ``bimbot run`` prints at the end: every component not built, and why.
 
 Read from the report (``report.json``'s components and their ``reason``), so the terminal and the file
-say the same. Plain aligned text, no colours and no wrapping: the GUID (first 8 characters, enough to
-find it in the report or the model), the state and the reason code stay on one line that a user can
-grep, and the message is never cut. The run's ending (how it stopped) is printed once above the table,
-so a row whose reason is that ending shows only what is particular to it (its state, its last robot).
+say the same. Plain aligned text, no colours and no wrapping: the whole GUID (Revit exports share long
+prefixes: the first characters tell nothing apart), the state and the reason code stay on one line that
+a user can grep, and the message is never cut. The run's ending (how it stopped) is printed once above
+the table, so a row whose reason is that ending shows only what is particular to it (its state, its last
+robot).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-GUID_CHARS = 8
 MAX_NAME_CHARS = 32
 HEADER = ("component", "guid", "state", "reason", "why")
 
 
 def not_built_rows(report: dict[str, Any]) -> list[tuple[str, str, str, str, str]]:
-    """(name, short GUID, state, reason code, message) per component not constructed, in planned order."""
+    """(name, GUID, state, reason code, message) per component not constructed, in planned order."""
     rows = []
     ending_prefix = f"{(report.get('ending') or {}).get('message', '')}; "
     components = sorted(
@@ -34,9 +34,7 @@ def not_built_rows(report: dict[str, Any]) -> list[tuple[str, str, str, str, str
         message = reason.get("message", "no reason was given")
         if len(ending_prefix) > 2 and message.startswith(ending_prefix):
             message = message[len(ending_prefix) :]
-        rows.append(
-            (name, component["guid"][:GUID_CHARS], component["state"], reason.get("code", "?"), message)
-        )
+        rows.append((name, component["guid"], component["state"], reason.get("code", "?"), message))
     return rows
 
 

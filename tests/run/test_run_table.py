@@ -63,13 +63,13 @@ REPORT = {
 }
 
 
-def test_the_table_names_each_component_not_built_with_short_guid_state_code_and_message() -> None:
+def test_the_table_names_each_component_not_built_with_its_guid_state_code_and_message() -> None:
     table = not_built_table(REPORT)
     lines = table.splitlines()
     assert lines[0] == "not built: 3 component(s)"
     assert lines[1].split() == ["component", "guid", "state", "reason", "why"]
     footing, column, beam = lines[2:]  # planned order
-    assert footing.split()[:5] == ["Footing", "A1", "1ctEyZqY", "failed", "too_heavy"]
+    assert footing.split()[:5] == ["Footing", "A1", "1ctEyZqYn3Ov0qQ8GwbUTf", "failed", "too_heavy"]
     assert footing.endswith("Footing A1 weighs 5,760 kg; the robot carries 1,000 kg")
     assert "0T1QiaRO" in column and "interrupted" in column
     assert column.endswith("it was picking (robot r1)")  # the ending itself is printed once, above
