@@ -7,8 +7,11 @@ wall second (120 Hz physics with the robots and every component), the largest pl
 retries. With more than one robot the planner derives the sequence from the support graph: the bundled
 IFC work schedule is one chain (the paper's single-robot erection order) that lets only one task run at a
 time. ``--observer-cost`` also builds with 1 robot and the observer recording, and prints the difference
-and the recording's size per component. Then the navigation figures (A* 2000×2000, DWA step) from
-``bench/navigation.py``.
+and the recording's size per component. ``--samples`` also converts and builds the two Revit buildings in
+``../shared/samples/ifc`` (the structural hub and the sample house) with the same robot counts and prints,
+for each, constructed/total, sim and wall time, how the run ended and the reasons of what was not built,
+counted by code (every run must end by itself: each component constructed or given a reason). Then the
+navigation figures (A* 2000×2000, DWA step) from ``bench/navigation.py``.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ import runpy
 import shutil
 import sys
 import tempfile
+from collections import Counter
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -29,6 +33,9 @@ from bimbot.services.converter.convert import convert_model  # noqa: E402
 from bimbot.services.converter.ifc_input import open_model  # noqa: E402
 
 WALL_TARGET_S = 60.0
+SAMPLES = ROOT.parent / "shared" / "samples" / "ifc"
+REVIT_SAMPLES = ("revit2021_structural_hub.ifc", "revit2021_sample_project.ifc")
+SAMPLE_TIMEOUT_S = 3600.0
 
 
 def convert_bundled(folder: Path) -> Path:
@@ -70,14 +77,45 @@ def describe(label: str, outcome: RunOutcome) -> None:
     )
 
 
+def build_sample(name: str, folder: Path, robots: int) -> None:
+    """Convert one Revit sample and build it; print how it ended and why what was not built was not."""
+    source = SAMPLES / name
+    build = folder / f"{source.stem}-{robots}"
+    convert_model(open_model(source), source, build)
+    options = RunOptions(robots=robots, timeout_s=SAMPLE_TIMEOUT_S)
+    outcome = run_build(build, options, announce=lambda _line: None)
+    reasons = Counter(
+        (component.get("reason") or {}).get("code", "?")
+        for component in outcome.report.get("components", [])
+        if component["state"] != "constructed"
+    )
+    ending = outcome.ending.how if outcome.ending is not None else "?"
+    print(
+        f"{source.stem}, {robots} robot(s): {outcome.constructed}/{outcome.total} constructed, "
+        f"ended {ending}, exit {outcome.exit_code}; sim {outcome.sim_time_s:.0f} s, "
+        f"wall {outcome.wall_time_s:.1f} s "
+        f"(×{outcome.sim_time_s / max(outcome.wall_time_s, 1e-9):.1f} real time)"
+    )
+    if reasons:
+        print("  not built: " + ", ".join(f"{code} {count}" for code, count in reasons.most_common()))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robots", type=int, nargs="+", default=[1, 3])
     parser.add_argument("--observer-cost", action="store_true", help="also build with the observer")
     parser.add_argument("--no-navigation", action="store_true", help="skip the A*/DWA figures")
+    parser.add_argument("--samples", action="store_true", help="also build the two Revit sample buildings")
+    parser.add_argument("--only-samples", action="store_true", help="build only the Revit sample buildings")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="bimbot-bench-build-") as tmp:
         folder = Path(tmp)
+        if args.samples or args.only_samples:
+            for name in REVIT_SAMPLES:
+                for robots in args.robots:
+                    build_sample(name, folder, robots)
+        if args.only_samples:
+            return
         template = convert_bundled(folder)
         plain: dict[int, RunOutcome] = {}
         for robots in args.robots:
