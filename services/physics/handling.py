@@ -193,8 +193,12 @@ class Handling:
                 if item.carrier
                 else f"robot {robot.robot_id} does not carry {guid}"
             )
-        if refusal is None and frame is not None and not _inside(self.site_bounds, frame[0]):
-            refusal = f"target ({frame[0][0]:.2f}, {frame[0][1]:.2f}) of {guid} is outside the site"
+        if refusal is None and frame is not None and item is not None:
+            # the footprint, not the frame's origin: a Revit element may keep an identity placement with its
+            # geometry in world coordinates, so its frame lies at (0, 0) while it stands on the site
+            centre = posed_footprint(item.component, frame[0], frame[1]).centre_xy_m
+            if not _inside(self.site_bounds, (float(centre[0]), float(centre[1]), 0.0)):
+                refusal = f"target ({centre[0]:.2f}, {centre[1]:.2f}) of {guid} is outside the site"
         if refusal is None and item is not None and frame is not None:
             refusal = self._beyond_reach(robot, item.component, frame, f"the target of {guid}")
         if refusal is not None or item is None or frame is None:

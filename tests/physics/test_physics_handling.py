@@ -296,3 +296,29 @@ def test_a_load_being_placed_is_not_dropped(
     assert sim.place(_place(sim, footing, duration_s=2.0), "tag") is None
     reply = sim.drop(DropRequest(robot_id="r1", guid=footing.guid))
     assert not reply.ok and reply.reason == f"{footing.guid} is being placed by r1: it cannot be dropped now"
+
+
+def test_a_target_whose_frame_lies_off_site_but_whose_footprint_stands_on_it_is_placed(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """Revit elements may keep an identity placement with world-coordinate geometry: the frame is far from
+    the element. The site check follows the footprint, as the reach rule does."""
+    sim = make_sim(robots=1)
+    column = _first_in_row(sim, frame_manifest, "IfcColumn")
+    _picked(sim, column)
+    _beside_target(sim, column)
+    offset = np.array([500.0, 0.0, 0.0])  # geometry 500 m east of the frame, frame 500 m west of the site
+    box = column.bbox_local
+    shifted = column.model_copy(
+        update={
+            "bbox_local": box.model_copy(
+                update={"min_m": tuple(np.add(box.min_m, offset)), "max_m": tuple(np.add(box.max_m, offset))}
+            )
+        }
+    )
+    sim.handling.items[column.guid].component = shifted
+    target = column.target_pose_world
+    request = _place(sim, column).model_copy(
+        update={"pose": pose(tuple(np.subtract(target.position_m, offset)), target.quat_xyzw)}
+    )
+    assert sim.place(request) is None  # accepted: the footprint is where the column stands
