@@ -37,11 +37,8 @@ the component leaves ``released`` after an assignment).
 from __future__ import annotations
 
 import logging
-import math
 import uuid
-from collections.abc import Callable, Collection
-from dataclasses import dataclass, field
-from enum import StrEnum
+from collections.abc import Callable
 from functools import partial
 
 from bimbot.shared.manifest import Manifest
@@ -61,76 +58,27 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.reasons import Reason, ReasonCode, blocked_by
 
+from .records import (
+    CARRYING,
+    FINAL,
+    SOURCE,
+    TERMINAL,
+    ComponentRecord,
+    Outgoing,
+    Pending,
+    Phase,
+    PlannerLimits,
+    RobotRecord,
+    TaskRecord,
+    distance,
+    left,
+    reached,
+)
 from .sources import Plan
 
+__all__ = ["Outgoing", "Phase", "PlannerCore", "PlannerLimits"]
+
 _log = logging.getLogger(__name__)
-
-SOURCE = "planner"
-CARRYING = frozenset({ComponentState.PICKING, ComponentState.TRANSPORTING, ComponentState.ASSEMBLING})
-TERMINAL = frozenset({ComponentState.CONSTRUCTED, ComponentState.FAILED, ComponentState.BLOCKED})
-Outgoing = ComponentEventMsg | TaskMsg
-
-
-@dataclass(frozen=True)
-class PlannerLimits:
-    """The planner's bounds: every retry counted, every wait bounded in sim time."""
-
-    max_give_backs: int = 3  # a component given back this often (by any robots) is failed
-    task_timeout_s: float = 1800.0  # sim seconds an assigned task may go without a component state change
-
-
-class Phase(StrEnum):
-    """A task's phase in the planner (finer than :class:`TaskStatus`)."""
-
-    WAITING = "waiting"  # predecessors not all constructed
-    RELEASED = "released"  # released; assignable once its component reports released
-    ASSIGNED = "assigned"  # a robot works on it (or the component is verifying)
-    DONE = "done"
-    FAILED = "failed"
-    BLOCKED = "blocked"  # a predecessor failed; never released
-
-
-FINAL = frozenset({Phase.DONE, Phase.FAILED, Phase.BLOCKED})
-
-
-@dataclass
-class _Task:
-    guid: str
-    task_id: str
-    priority: int
-    phase: Phase = Phase.WAITING
-    robot_id: str | None = None
-    assigned_sim_s: float | None = None
-    duration_sim_s: float | None = None
-    changed_sim_s: float = 0.0  # last assignment or component state change (the no-progress watchdog)
-    give_backs: int = 0
-    last_give_back: Reason | None = None
-    reason: Reason | None = None  # failed/blocked: why
-
-
-@dataclass
-class _Robot:
-    robot_id: str
-    alive: bool = False
-    state: RobotState | None = None
-    reported_task_id: str | None = None
-    pose_xy_yaw: tuple[float, float, float] | None = None
-    task_guid: str | None = None  # the task the planner gave it, until its part is over
-
-
-@dataclass
-class _Pending:
-    message: Outgoing
-    settled: Callable[[], bool]
-    next_send_wall_s: float | None = None  # None: send at the next step
-
-
-@dataclass
-class _Component:
-    state: ComponentState = ComponentState.PLANNED
-    attempt: int = 0
-    position_xy: tuple[float, float] | None = None  # last pose, world frame (m)
-    last: tuple[object, ...] | None = field(default=None, repr=False)  # last state message applied
 
 
 class PlannerCore:
@@ -143,20 +91,20 @@ class PlannerCore:
         *,
         resend_s: float = 2.0,
         new_id: Callable[[], str] = lambda: uuid.uuid4().hex,
-        limits: PlannerLimits = PlannerLimits(),
+        limits: PlannerLimits | None = None,
     ) -> None:
         self._manifest = {item.guid: item for item in manifest.components}
         self._plan = plan
         self._resend_s = resend_s
-        self.limits = limits
+        self.limits = limits or PlannerLimits()
         self._new_id = new_id
         self._dependents = plan.dependents()
         self._tasks = {
-            guid: _Task(guid, plan.task_ids[guid], priority) for priority, guid in enumerate(plan.order)
+            guid: TaskRecord(guid, plan.task_ids[guid], priority) for priority, guid in enumerate(plan.order)
         }
-        self._components = {guid: _Component() for guid in plan.order}
-        self._robots: dict[str, _Robot] = {}
-        self._pending: dict[tuple[str, str], _Pending] = {}
+        self._components = {guid: ComponentRecord() for guid in plan.order}
+        self._robots: dict[str, RobotRecord] = {}
+        self._pending: dict[tuple[str, str], Pending] = {}
         self._outbox: list[Outgoing] = []
         self._wall_s = 0.0
         self._synced = False
@@ -211,7 +159,7 @@ class PlannerCore:
             self.observe_clock(msg.sim_time_s)
 
     def observe_robot_state(self, msg: RobotStateMsg) -> None:
-        robot = self._robots.setdefault(msg.robot_id, _Robot(msg.robot_id))
+        robot = self._robots.setdefault(msg.robot_id, RobotRecord(msg.robot_id))
         robot.state = msg.state
         robot.reported_task_id = msg.task_id
         robot.pose_xy_yaw = msg.pose_xy_yaw
@@ -219,7 +167,7 @@ class PlannerCore:
 
     def robot_liveliness(self, robot_id: str, alive: bool) -> None:
         """A robot's liveliness token appeared (``alive``) or disappeared (its task is given back)."""
-        robot = self._robots.setdefault(robot_id, _Robot(robot_id))
+        robot = self._robots.setdefault(robot_id, RobotRecord(robot_id))
         if robot.alive == alive:
             return
         robot.alive = alive
@@ -363,7 +311,7 @@ class PlannerCore:
             self._free_robot(task)
             if task.phase is not Phase.RELEASED:
                 self._set_phase(task, Phase.RELEASED, TaskStatus.RELEASED)
-            settled = partial(_left, component, {ComponentState.MISPLACED})
+            settled = partial(left, component, {ComponentState.MISPLACED})
             self._send_event(guid, ComponentEvent.RETRY, settled)
         elif state is ComponentState.RELEASED:
             abandoned = task.phase in (Phase.ASSIGNED, Phase.RELEASED) and event == ComponentEvent.ABANDON
@@ -379,7 +327,7 @@ class PlannerCore:
         elif state in CARRYING or state is ComponentState.VERIFYING:
             if task.phase is not Phase.ASSIGNED and robot_id is not None:
                 task.robot_id = robot_id  # adopted (start-up sync, or a robot that acted on its own)
-                robot = self._robots.setdefault(robot_id, _Robot(robot_id))
+                robot = self._robots.setdefault(robot_id, RobotRecord(robot_id))
                 robot.task_guid = guid
                 task.phase = Phase.ASSIGNED
                 if self._synced and not robot.alive:
@@ -400,7 +348,7 @@ class PlannerCore:
                 component = self._components[guid]
                 self._set_phase(task, Phase.RELEASED, TaskStatus.RELEASED)
                 if component.state is ComponentState.PLANNED:
-                    settled = partial(_left, component, {ComponentState.PLANNED})
+                    settled = partial(left, component, {ComponentState.PLANNED})
                     self._send_event(guid, ComponentEvent.RELEASE, settled)
 
     def _settled_for_release(self, pred: str) -> bool:
@@ -420,7 +368,7 @@ class PlannerCore:
             if not idle:
                 return
             where = component.position_xy or self._manifest[guid].target_pose_world.position_m[:2]
-            robot = min(idle, key=lambda item: (_distance(item.pose_xy_yaw, where), item.robot_id))
+            robot = min(idle, key=lambda item: (distance(item.pose_xy_yaw, where), item.robot_id))
             task.robot_id, robot.task_guid = robot.robot_id, guid
             task.phase = Phase.ASSIGNED
             task.changed_sim_s = self.sim_time_s
@@ -428,10 +376,12 @@ class PlannerCore:
                 task.assigned_sim_s = self.sim_time_s
             _log.info("%s (%s) assigned to %s", task.task_id, guid, robot.robot_id)
             settled = partial(self._assignment_settled, task, robot, component, robot.robot_id)
-            self._pending[(guid, "task")] = _Pending(self._task_msg(task, TaskStatus.ASSIGNED), settled)
+            self._pending[(guid, "task")] = Pending(self._task_msg(task, TaskStatus.ASSIGNED), settled)
 
     @staticmethod
-    def _assignment_settled(task: _Task, robot: _Robot, component: _Component, robot_id: str | None) -> bool:
+    def _assignment_settled(
+        task: TaskRecord, robot: RobotRecord, component: ComponentRecord, robot_id: str | None
+    ) -> bool:
         return (
             task.phase is not Phase.ASSIGNED
             or task.robot_id != robot_id
@@ -439,10 +389,10 @@ class PlannerCore:
             or component.state is not ComponentState.RELEASED
         )
 
-    def _is_idle(self, robot: _Robot) -> bool:
+    def _is_idle(self, robot: RobotRecord) -> bool:
         return robot.alive and robot.state is RobotState.IDLE and robot.task_guid is None
 
-    def _free_robot(self, task: _Task, *, keep_task_robot: bool = False) -> None:
+    def _free_robot(self, task: TaskRecord, *, keep_task_robot: bool = False) -> None:
         if task.robot_id is not None:
             robot = self._robots.get(task.robot_id)
             if robot is not None and robot.task_guid == task.guid:
@@ -465,12 +415,12 @@ class PlannerCore:
         if component.state in CARRYING:
             # counted when the agent reports the abandon (released, event abandon)
             self._send_event(
-                guid, ComponentEvent.ABANDON, partial(_left, component, CARRYING), robot_id, reason=reason
+                guid, ComponentEvent.ABANDON, partial(left, component, CARRYING), robot_id, reason=reason
             )
         elif reason is not None:
             self._count_give_back(task, reason)
 
-    def _count_give_back(self, task: _Task, reason: Reason) -> None:
+    def _count_give_back(self, task: TaskRecord, reason: Reason) -> None:
         """One more give-back of ``task``'s component; at the bound it fails with the last reason."""
         task.give_backs += 1
         task.last_give_back = reason
@@ -509,7 +459,7 @@ class PlannerCore:
         task.reason = reason
         self._set_phase(task, Phase.FAILED, TaskStatus.FAILED)
         _log.error("%s failed: %s", guid, reason.line())
-        self._send_event(guid, ComponentEvent.FAIL, partial(_reached, component, TERMINAL), reason=reason)
+        self._send_event(guid, ComponentEvent.FAIL, partial(reached, component, TERMINAL), reason=reason)
         self._block_dependents(guid)
 
     def _block_dependents(self, guid: str) -> None:
@@ -527,13 +477,13 @@ class PlannerCore:
             component = self._components[item]
             if component.state in (ComponentState.PLANNED, ComponentState.RELEASED):
                 self._send_event(
-                    item, ComponentEvent.BLOCK, partial(_reached, component, TERMINAL), reason=reason
+                    item, ComponentEvent.BLOCK, partial(reached, component, TERMINAL), reason=reason
                 )
             else:
                 self._pending.pop((item, "event"), None)
             stack.extend(self._dependents.get(item, ()))
 
-    def _set_phase(self, task: _Task, phase: Phase, status: TaskStatus) -> None:
+    def _set_phase(self, task: TaskRecord, phase: Phase, status: TaskStatus) -> None:
         task.phase = phase
         self._outbox.append(self._task_msg(task, status))
 
@@ -561,9 +511,9 @@ class PlannerCore:
             wall_time_s=self._wall_s,
             reason=reason,
         )
-        self._pending[(guid, "event")] = _Pending(message, settled)
+        self._pending[(guid, "event")] = Pending(message, settled)
 
-    def _task_msg(self, task: _Task, status: TaskStatus) -> TaskMsg:
+    def _task_msg(self, task: TaskRecord, status: TaskStatus) -> TaskMsg:
         component = self._manifest[task.guid]
         pose = component.target_pose_world
         return TaskMsg(
@@ -578,17 +528,3 @@ class PlannerCore:
             wall_time_s=self._wall_s,
             reason=task.reason if status in (TaskStatus.FAILED, TaskStatus.BLOCKED) else None,
         )
-
-
-def _reached(component: _Component, states: Collection[ComponentState]) -> bool:
-    return component.state in states
-
-
-def _left(component: _Component, states: Collection[ComponentState]) -> bool:
-    return component.state not in states
-
-
-def _distance(pose_xy_yaw: tuple[float, float, float] | None, where: tuple[float, ...]) -> float:
-    if pose_xy_yaw is None:
-        return math.inf
-    return math.hypot(pose_xy_yaw[0] - where[0], pose_xy_yaw[1] - where[1])

@@ -1,0 +1,95 @@
+"""The planner's records: a task's phase and bounds, what it knows of robots and components (plain data).
+
+Kept apart from :mod:`.scheduler` (the decisions) so the core reads as the protocol it implements.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Collection
+from dataclasses import dataclass, field
+from enum import StrEnum
+
+from bimbot.shared.messages import ComponentEventMsg, ComponentState, RobotState, TaskMsg
+from bimbot.shared.reasons import Reason
+
+SOURCE = "planner"
+CARRYING = frozenset({ComponentState.PICKING, ComponentState.TRANSPORTING, ComponentState.ASSEMBLING})
+TERMINAL = frozenset({ComponentState.CONSTRUCTED, ComponentState.FAILED, ComponentState.BLOCKED})
+Outgoing = ComponentEventMsg | TaskMsg
+
+
+@dataclass(frozen=True)
+class PlannerLimits:
+    """The planner's bounds: every retry counted, every wait bounded in sim time."""
+
+    max_give_backs: int = 3  # a component given back this often (by any robots) is failed
+    task_timeout_s: float = 1800.0  # sim seconds an assigned task may go without a component state change
+
+
+class Phase(StrEnum):
+    """A task's phase in the planner (finer than :class:`TaskStatus`)."""
+
+    WAITING = "waiting"  # predecessors not all constructed
+    RELEASED = "released"  # released; assignable once its component reports released
+    ASSIGNED = "assigned"  # a robot works on it (or the component is verifying)
+    DONE = "done"
+    FAILED = "failed"
+    BLOCKED = "blocked"  # a predecessor failed; never released
+
+
+FINAL = frozenset({Phase.DONE, Phase.FAILED, Phase.BLOCKED})
+
+
+@dataclass
+class TaskRecord:
+    guid: str
+    task_id: str
+    priority: int
+    phase: Phase = Phase.WAITING
+    robot_id: str | None = None
+    assigned_sim_s: float | None = None
+    duration_sim_s: float | None = None
+    changed_sim_s: float = 0.0  # last assignment or component state change (the no-progress watchdog)
+    give_backs: int = 0
+    last_give_back: Reason | None = None
+    reason: Reason | None = None  # failed/blocked: why
+
+
+@dataclass
+class RobotRecord:
+    robot_id: str
+    alive: bool = False
+    state: RobotState | None = None
+    reported_task_id: str | None = None
+    pose_xy_yaw: tuple[float, float, float] | None = None
+    task_guid: str | None = None  # the task the planner gave it, until its part is over
+
+
+@dataclass
+class Pending:
+    message: Outgoing
+    settled: Callable[[], bool]
+    next_send_wall_s: float | None = None  # None: send at the next step
+
+
+@dataclass
+class ComponentRecord:
+    state: ComponentState = ComponentState.PLANNED
+    attempt: int = 0
+    position_xy: tuple[float, float] | None = None  # last pose, world frame (m)
+    last: tuple[object, ...] | None = field(default=None, repr=False)  # last state message applied
+
+
+def reached(component: ComponentRecord, states: Collection[ComponentState]) -> bool:
+    return component.state in states
+
+
+def left(component: ComponentRecord, states: Collection[ComponentState]) -> bool:
+    return component.state not in states
+
+
+def distance(pose_xy_yaw: tuple[float, float, float] | None, where: tuple[float, ...]) -> float:
+    if pose_xy_yaw is None:
+        return math.inf
+    return math.hypot(pose_xy_yaw[0] - where[0], pose_xy_yaw[1] - where[1])
