@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 from bimbot.shared.messages import ComponentState, RobotStateMsg, TaskMsg, TaskStatus
 
-DEFAULT_STALL_AFTER_S = 600.0  # sim seconds without a change on the site
+DEFAULT_STALL_AFTER_S = 1500.0  # sim seconds without a change on the site (above every lower watchdog)
 DEFAULT_CLOCK_STALL_WALL_S = 300.0  # wall seconds without the clock advancing (covers start-up: ≤ 120 s)
 _SETTLED = (ComponentState.PLANNED, ComponentState.CONSTRUCTED, ComponentState.FAILED, ComponentState.BLOCKED)
 

@@ -24,7 +24,7 @@ class PlannerLimits:
     """The planner's bounds: every retry counted, every wait bounded in sim time."""
 
     max_give_backs: int = 3  # a component given back this often (by any robots) is failed
-    task_timeout_s: float = 1800.0  # sim seconds an assigned task may go without a component state change
+    task_timeout_s: float = 1200.0  # sim seconds an assigned task may go without a component state change
 
 
 class Phase(StrEnum):

@@ -258,13 +258,16 @@ class _Loop:
         executor = self.executor
         separation = executor.min_separation_m
         _log.info(
-            "robot %s %s: %d task(s) done, %.1f m driven, sim %.1f s, min separation to other robots %s",
+            "robot %s %s: %d task(s) done, %.1f m driven, sim %.1f s, min separation to other robots %s, "
+            "localisation error %.2f m now, %.2f m at most (metrics only)",
             executor.robot_id,
             when,
             len(executor.done),
             executor.distance_m,
             executor.sim_s,
             "n/a" if math.isinf(separation) else f"{separation:.2f} m (ground truth, metric only)",
+            executor.localisation_error_m,
+            executor.max_localisation_error_m,
         )
 
 

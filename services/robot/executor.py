@@ -127,6 +127,9 @@ class Executor(Driving, Handover):
         self.done: list[tuple[str, ComponentState]] = []  # (GUID, verdict) of finished tasks
         self.sim_s, self.step, self.distance_m = 0.0, -1, 0.0
         self.min_separation_m = math.inf
+        # localisation error against ground truth: a metric for the logs, never used for control
+        self.localisation_error_m = 0.0
+        self.max_localisation_error_m = 0.0
         self._robot_xy: dict[str, tuple[float, float, float]] = {}  # robot → (x, y, sim s)
         self._last_odom: np.ndarray | None = None
         self._last_state: tuple[RobotState, str | None] | None = None
@@ -432,6 +435,10 @@ class Executor(Driving, Handover):
         benchmarks, never used for control."""
         x, y, _ = message.pose_xy_yaw
         self._robot_xy[message.robot_id] = (x, y, message.sim_time_s)
+        if message.robot_id == self.robot_id:
+            believed = self.navigator.pose_xy_yaw
+            self.localisation_error_m = math.hypot(believed[0] - x, believed[1] - y)
+            self.max_localisation_error_m = max(self.max_localisation_error_m, self.localisation_error_m)
         mine = self._robot_xy.get(self.robot_id)
         if mine is None:
             return
