@@ -105,15 +105,19 @@ def test_laser_marks_far_from_the_map_are_added_and_inflated_for_planning(site: 
     assert site.inflated_grid().is_free(*mark)
 
 
-def test_the_localiser_map_keeps_tall_things_only(frame: Manifest, site: SiteMap) -> None:
+def test_the_localiser_map_keeps_everything_the_laser_can_see_flat_yard_stacks_too(
+    frame: Manifest, site: SiteMap
+) -> None:
     laser = site.laser_field_grid()
     footing = of_class(frame, "IfcFooting")  # 0.3 m high lying in the yard
-    column = of_class(frame, "IfcColumn")  # 0.1 m high lying in the yard: too flat to be seen reliably
+    column = of_class(frame, "IfcColumn")  # 0.1 m high lying in the yard: the laser at 6 cm sees it
+    slot = site.footprints[column.guid].centre_xy_m
     assert not laser.is_free(*site.footprints[footing.guid].centre_xy_m)
-    assert laser.is_free(*site.footprints[column.guid].centre_xy_m)
+    assert not laser.is_free(*slot)
     site.observe_pose(at_target(column, fixed=True))
     built = site.laser_field_grid()
     assert not built.is_free(*column.target_pose_world.position_m[:2])
+    assert built.is_free(*slot)  # it left the yard
 
 
 def test_geometry_helpers() -> None:
