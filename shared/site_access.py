@@ -34,12 +34,11 @@ from .footprint import Footprint, posed_footprint
 from .manifest import Component
 from .occupancy_grid import OccupancyGrid, distance_field_m, empty_grid, from_footprints, nearest_free_cell
 from .robot_description import RobotDescription
-from .site_layout import FENCE_THICKNESS_M, INFLATION_MARGIN_M, SiteLayout
+from .site_layout import GRID_MARGIN_M, INFLATION_MARGIN_M, SiteLayout, fence_boxes
 
 _log = logging.getLogger(__name__)
 
 _EIGHT = np.ones((3, 3), bool)
-GRID_MARGIN_M = 0.5
 
 
 @dataclass(frozen=True)
@@ -60,17 +59,6 @@ class AccessCheck:
     )  # GUID → placed before it, cutting it
 
 
-def _fence_boxes(layout: SiteLayout) -> list[tuple[float, float, float, float]]:
-    (x0, y0), (x1, y1) = layout.fence.min_xy, layout.fence.max_xy
-    t = FENCE_THICKNESS_M
-    return [
-        (x0 - t, y0 - t, x1 + t, y0),
-        (x0 - t, y1, x1 + t, y1 + t),
-        (x0 - t, y0, x0, y1),
-        (x1, y0, x1 + t, y1),
-    ]
-
-
 class SiteAccess:
     """The site grid with every component either in its yard slot or placed at its target."""
 
@@ -86,7 +74,7 @@ class SiteAccess:
         self._reach_m = robot.reach_m - config.reach_margin_m
         bounds = layout.bounds.grown(GRID_MARGIN_M)
         self.grid = empty_grid((*bounds.min_xy, *bounds.max_xy), config.resolution_m)
-        fence = from_footprints(self.grid.bounds_xy_m, config.resolution_m, boxes_xy_m=_fence_boxes(layout))
+        fence = from_footprints(self.grid.bounds_xy_m, config.resolution_m, boxes_xy_m=fence_boxes(layout))
         self._fence = fence.occupied
         self._counts = np.zeros(self.grid.shape, np.int32)
         self._components = {component.guid: component for component in components}

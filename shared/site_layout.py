@@ -112,6 +112,21 @@ class SiteLayout:
         return self.fence.grown(FENCE_THICKNESS_M)
 
 
+GRID_MARGIN_M = 0.5  # site grids (robots' map, access check) reach this far beyond the fence's outer edge
+
+
+def fence_boxes(layout: SiteLayout) -> list[tuple[float, float, float, float]]:
+    """The four fence walls as ``(x_min, y_min, x_max, y_max)`` boxes outside the fence's inner edge."""
+    (x0, y0), (x1, y1) = layout.fence.min_xy, layout.fence.max_xy
+    t = FENCE_THICKNESS_M
+    return [
+        (x0 - t, y0 - t, x1 + t, y0),
+        (x0 - t, y1, x1 + t, y1 + t),
+        (x0 - t, y0, x0, y1),
+        (x1, y0, x1 + t, y1),
+    ]
+
+
 def aisle_width_m(robot: RobotDescription = DEFAULT_ROBOT) -> float:
     """An aisle fits the robot inflated on both sides (radius + map margin) and a corridor between."""
     return 2.0 * (robot.radius_m + INFLATION_MARGIN_M) + AISLE_CORRIDOR_M

@@ -35,11 +35,9 @@ from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, ComponentState
 from bimbot.shared.occupancy_grid import OccupancyGrid, distance_field_m, empty_grid, from_footprints, inflate
-from bimbot.shared.site_layout import FENCE_HEIGHT_M, FENCE_THICKNESS_M, SiteLayout
+from bimbot.shared.site_layout import FENCE_HEIGHT_M, GRID_MARGIN_M, SiteLayout, fence_boxes
 
 _log = logging.getLogger(__name__)
-
-GRID_MARGIN_M = 0.5  # grid beyond the outer edge of the fence
 
 
 @dataclass(frozen=True)
@@ -65,18 +63,6 @@ class MapConfig:
     @property
     def inflation_m(self) -> float:
         return self.robot_radius_m + self.inflation_margin_m
-
-
-def fence_boxes(layout: SiteLayout) -> list[tuple[float, float, float, float]]:
-    """The four fence walls as ``(x_min, y_min, x_max, y_max)`` boxes outside the fence's inner edge."""
-    (x0, y0), (x1, y1) = layout.fence.min_xy, layout.fence.max_xy
-    t = FENCE_THICKNESS_M
-    return [
-        (x0 - t, y0 - t, x1 + t, y0),
-        (x0 - t, y1, x1 + t, y1 + t),
-        (x0 - t, y0, x0, y1),
-        (x1, y0, x1 + t, y1),
-    ]
 
 
 class SiteMap:
