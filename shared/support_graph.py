@@ -3,9 +3,13 @@
 Component ``B`` supports component ``A`` (B → A) when B's bottom is lower than A's bottom and either
 
 * they are connected in the IFC model (IfcRelConnectsElements and its subtypes, in either direction), or
-* they touch under gravity: B's top is within ``tolerance_m`` of A's bottom and their footprints overlap.
+* they touch under gravity: B's top is within ``tolerance_m`` of A's bottom and their footprints overlap;
 
-Edges always run from a strictly lower bottom to a higher one, so the graph has no cycle. Footprints and
+and, whatever the heights, a wall supports the window or door that fills one of its openings
+(IfcRelFillsElement: the filling is placed into the standing wall, never before it).
+
+Edges run from a strictly lower bottom to a higher one, or from a host to its filling (a host never
+depends on what fills it), so the graph has no cycle. Footprints and
 heights come from the manifest's world-frame bounding boxes. The graph gives the derived construction
 sequence (footings and lower, supporting elements first) and is the yardstick a given sequence is checked
 against.
@@ -22,6 +26,7 @@ from .manifest import Component
 from .sequence import ConstructionSequence, priority_topological_order, sequence_from_predecessors
 
 CONTACT_TOLERANCE_M = 0.02
+HOSTING_RELATION = "IfcRelFillsElement"  # role "filling": the other element is the host
 CONNECTION_RELATIONS = (
     "IfcRelConnectsElements",
     "IfcRelConnectsWithRealizingElements",
@@ -53,7 +58,10 @@ def support_predecessors(
     for item in components:
         for connection in item.connections:
             other = connection.other_guid
-            if other in by_guid and connection.relation in CONNECTION_RELATIONS:
+            if other in by_guid and connection.relation == HOSTING_RELATION:
+                if connection.role == "filling":
+                    preds[item.guid].add(other)
+            elif other in by_guid and connection.relation in CONNECTION_RELATIONS:
                 if lower(item.guid, other):
                     preds[item.guid].add(other)
                 elif lower(other, item.guid):

@@ -2,8 +2,10 @@
 
 Collected: IfcRelConnectsElements and its subtypes (IfcRelConnectsPathElements,
 IfcRelConnectsWithRealizingElements), in both directions; the elements that *realise* a connection
-(fasteners, welds) and the connections they realise; and aggregation (the assembly an element is part of,
-and its parts).
+(fasteners, welds) and the connections they realise; aggregation (the assembly an element is part of,
+and its parts); and hosting: a window or door that fills an opening of a wall (IfcRelFillsElement →
+IfcOpeningElement → IfcRelVoidsElement) names the wall (role ``filling``) and the wall names it (``host``),
+so the support graph puts the window after its wall.
 """
 
 from __future__ import annotations
@@ -32,7 +34,21 @@ def element_connections(element: ifcopenshell.entity_instance) -> list[Connectio
     for rel in getattr(element, "IsDecomposedBy", ()) or ():
         if rel.is_a("IfcRelAggregates"):
             found.extend(_connection(rel, "aggregate_parent", other) for other in rel.RelatedObjects or ())
+    found.extend(_hosting(element))
     return [item for item in found if item.other_guid]
+
+
+def _hosting(element: ifcopenshell.entity_instance) -> list[Connection]:
+    """Filling ↔ host through the opening between them (the opening itself is never a component)."""
+    found: list[Connection] = []
+    for fills in getattr(element, "FillsVoids", ()) or ():  # this element fills an opening
+        opening = fills.RelatingOpeningElement
+        for voids in getattr(opening, "VoidsElements", ()) or ():
+            found.append(_connection(fills, "filling", voids.RelatingBuildingElement))
+    for voids in getattr(element, "HasOpenings", ()) or ():  # this element hosts openings
+        for fills in getattr(voids.RelatedOpeningElement, "HasFillings", ()) or ():
+            found.append(_connection(fills, "host", fills.RelatedBuildingElement))
+    return found
 
 
 def _connection(
