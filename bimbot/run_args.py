@@ -89,6 +89,11 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     source.add_argument("--derive", action="store_true", help="planner derives the sequence from supports")
     source.add_argument("--sequence", type=Path, default=None, help="planner uses this sequence XML")
     parser.add_argument(
+        "--strict",
+        action="store_true",
+        help="a sequence step that cuts off later work is an error (exit 2), not a warning",
+    )
+    parser.add_argument(
         "--timeout-s",
         type=float,
         default=DEFAULT_TIMEOUT_S,
@@ -149,6 +154,8 @@ def run_options(
         planner_source = ("--derive",)
     elif args.sequence is not None:
         planner_source = ("--sequence", str(args.sequence))
+    if args.strict:
+        planner_source = (*planner_source, "--strict")
     observer = None
     if args.observe or args.live or rrd_path is not None:
         observer = ObserverOptions(

@@ -72,3 +72,13 @@ def test_a_build_that_cannot_finish_ends_with_a_reason_for_every_component_not_b
     for name in ("Footing A1", "Column R1"):
         assert site.guid(name) in result.stdout + result.stderr
     assert "too_heavy" in result.stdout + result.stderr
+
+
+def test_with_strict_a_sequence_that_walls_a_column_in_is_refused_before_the_build(
+    walls_first: tuple[SiteModel, Path],
+) -> None:
+    site, build = walls_first
+    result = _bimbot("run", str(build), "-q", "--strict", "--timeout-s", "120")
+    planner_log = (build / "logs" / "planner.log").read_text()
+    assert result.returncode == 2, f"{result.stdout}\n{result.stderr[-2000:]}\n{planner_log[-2000:]}"
+    assert "cut off" in planner_log and site.guid("Column R1") in planner_log
