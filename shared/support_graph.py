@@ -8,6 +8,12 @@ Component ``B`` supports component ``A`` (B → A) when B's bottom is lower than
 and, whatever the heights, a wall supports the window or door that fills one of its openings
 (IfcRelFillsElement: the filling is placed into the standing wall, never before it).
 
+A component that would float (none of the above, and its bottom above the lowest bottom of the model) is
+held by what it touches at its side: every component whose bounding box meets its own (within
+``tolerance_m``) and whose bottom is lower. Real models frame beams into the faces of columns and other
+beams (the structural hub's 40 purlins and channels at 3–5 m rest on nothing from above); without this they
+would be erected first, standing in the air.
+
 Edges run from a strictly lower bottom to a higher one, or from a host to its filling (a host never
 depends on what fills it), so the graph has no cycle. Footprints and
 heights come from the manifest's world-frame bounding boxes. The graph gives the derived construction
@@ -67,7 +73,27 @@ def support_predecessors(
                 elif lower(other, item.guid):
                     preds[other].add(item.guid)
     _add_contacts(components, preds, bottoms, tolerance_m)
+    _add_side_contacts(components, preds, bottoms, tolerance_m)
     return preds
+
+
+def _add_side_contacts(
+    components: Sequence[Component], preds: dict[str, set[str]], bottoms: dict[str, float], tolerance_m: float
+) -> None:
+    """Floating components are held by what they touch with a lower bottom (see the module docstring)."""
+    if not components:
+        return
+    ground = min(bottoms.values())
+    mins = np.array([item.bbox_world.min_m for item in components]) - tolerance_m
+    maxs = np.array([item.bbox_world.max_m for item in components]) + tolerance_m
+    lows = np.array([bottoms[item.guid] for item in components])
+    for index, item in enumerate(components):
+        if preds[item.guid] or lows[index] <= ground + tolerance_m:
+            continue
+        touching = np.all((mins <= maxs[index]) & (maxs >= mins[index]), axis=1)
+        lower = lows < lows[index] - tolerance_m
+        for other in np.flatnonzero(touching & lower):
+            preds[item.guid].add(components[int(other)].guid)
 
 
 def _add_contacts(

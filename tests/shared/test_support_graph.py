@@ -106,3 +106,22 @@ def test_violations_name_the_component_and_its_late_support() -> None:
     violations = support_violations(bad_order, preds)
     assert ("beam", "col_a") in violations
     assert ("col_a", "foot_a") not in violations
+
+
+def test_a_beam_framed_into_the_faces_of_two_columns_waits_for_them() -> None:
+    """Revit frames beams into column faces: the beam's bottom is below the columns' tops, nothing touches
+    it from below, and without the side contact it would be erected first, in the air."""
+    components = [
+        _component("col_a", "IfcColumn", (-0.15, -0.15, 0.0), (0.15, 0.15, 4.0)),
+        _component("col_b", "IfcColumn", (5.85, -0.15, 0.0), (6.15, 0.15, 4.0)),
+        _component(
+            "beam", "IfcBeam", (0.15, -0.05, 3.5), (5.85, 0.05, 3.8)
+        ),  # end to face, 0.2 m below the tops
+        _component(
+            "far", "IfcBeam", (10.0, -0.05, 3.5), (12.0, 0.05, 3.8)
+        ),  # touches nothing: stays as it is
+    ]
+    preds = support_predecessors(components)
+    assert preds["beam"] == {"col_a", "col_b"}
+    assert preds["far"] == set()
+    assert derive_sequence(components).guids().index("beam") > 1
