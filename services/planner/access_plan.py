@@ -19,7 +19,6 @@ of the robot type on site and finds, for every step, the components it cuts off.
 
 from __future__ import annotations
 
-import heapq
 import logging
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
@@ -28,6 +27,7 @@ from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import SiteInfoMsg
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import RobotDescription
+from bimbot.shared.sequence import priority_topological_order
 from bimbot.shared.site_access import AccessConfig, SiteAccess, check_order
 from bimbot.shared.site_layout import plan_site
 
@@ -139,24 +139,9 @@ def _ancestors(preds: Mapping[str, frozenset[str]], guid: str) -> set[str]:
 def _priority_order(order: tuple[str, ...], preds: Mapping[str, frozenset[str]]) -> tuple[str, ...]:
     """A topological order of ``preds`` that keeps ``order``'s priority wherever the precedences allow."""
     rank = {guid: index for index, guid in enumerate(order)}
-    waiting = {guid: len(preds.get(guid, ())) for guid in order}
-    successors: dict[str, list[str]] = {guid: [] for guid in order}
-    for guid in order:
-        for pred in preds.get(guid, ()):
-            successors[pred].append(guid)
-    ready = [(rank[guid], guid) for guid in order if waiting[guid] == 0]
-    heapq.heapify(ready)
-    result: list[str] = []
-    while ready:
-        _, guid = heapq.heappop(ready)
-        result.append(guid)
-        for successor in successors[guid]:
-            waiting[successor] -= 1
-            if waiting[successor] == 0:
-                heapq.heappush(ready, (rank[successor], successor))
-    if len(result) != len(order):
-        raise PlanError("access check: the precedences form a cycle")  # never: edges are checked first
-    return tuple(result)
+    return tuple(
+        priority_topological_order({guid: set(preds.get(guid, ())) for guid in order}, rank.__getitem__)
+    )
 
 
 def _describe(guid: str, by_guid: Mapping[str, Component]) -> str:
