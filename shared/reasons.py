@@ -62,11 +62,12 @@ class Reason(BaseModel):
         return f"{self.code.value}: {self.message}"
 
 
-def blocked_by(failed_guid: str, failed_reason: Reason | None = None) -> Reason:
-    """The reason of a dependent of a failed component."""
+def blocked_by(failed_guid: str, failed_reason: Reason | None = None, *, via: str | None = None) -> Reason:
+    """The reason of a component resting on a failed one: directly, or ``via`` the one it stands on."""
     why = f" ({failed_reason.code.value})" if failed_reason is not None else ""
-    return Reason(
-        code=ReasonCode.BLOCKED_BY,
-        message=f"it rests on {failed_guid}, which was not built{why}",
-        guid=failed_guid,
+    message = (
+        f"it rests on {failed_guid}, which was not built{why}"
+        if via is None
+        else f"it rests on {via}, which stands on {failed_guid}, not built{why}"
     )
+    return Reason(code=ReasonCode.BLOCKED_BY, message=message, guid=failed_guid)

@@ -52,6 +52,7 @@ class TaskRecord:
     duration_sim_s: float | None = None
     changed_sim_s: float = 0.0  # last assignment or component state change (the no-progress watchdog)
     give_backs: int = 0
+    given_back_by: set[str] = field(default_factory=set)  # robots that gave it back: others first
     last_give_back: Reason | None = None
     reason: Reason | None = None  # failed/blocked: why
 

@@ -180,10 +180,14 @@ class PlannerCore:
     def fail_at_start(self, reasons: dict[str, Reason]) -> None:
         """Fail, before anything is released, the components no robot on site can build (and block their
         dependents); components already terminal (a restarted planner) are left as they are."""
-        for guid in self._plan.order:
-            if guid in reasons and self._tasks[guid].phase not in FINAL:
-                _log.warning("%s cannot be built: %s", guid, reasons[guid].line())
-                self._fail(guid, reasons[guid])
+        failing = [
+            guid for guid in self._plan.order if guid in reasons and self._tasks[guid].phase not in FINAL
+        ]
+        for guid in failing:  # every one with its own reason first: a heavy wall on a heavy slab is too heavy
+            _log.warning("%s cannot be built: %s", guid, reasons[guid].line())
+            self._fail(guid, reasons[guid], block=False)
+        for guid in failing:
+            self._block_dependents(guid)
 
     def finish_sync(self) -> None:
         """Start-up sync is over: tasks held by robots that are not alive are given back."""
@@ -316,6 +320,8 @@ class PlannerCore:
         elif state is ComponentState.RELEASED:
             abandoned = task.phase in (Phase.ASSIGNED, Phase.RELEASED) and event == ComponentEvent.ABANDON
             if abandoned:
+                if robot_id is not None:
+                    task.given_back_by.add(robot_id)
                 self._count_give_back(
                     task, reason or Reason(code=ReasonCode.NO_PROGRESS, message="given back")
                 )
@@ -367,6 +373,14 @@ class PlannerCore:
             idle = [robot for robot in self._robots.values() if self._is_idle(robot)]
             if not idle:
                 return
+            # a robot that gave this task back gets it again only when no other alive robot could take it
+            others_alive = any(
+                r.alive and r.robot_id not in task.given_back_by for r in self._robots.values()
+            )
+            fresh = [robot for robot in idle if robot.robot_id not in task.given_back_by]
+            if not fresh and others_alive:
+                continue
+            idle = fresh or idle
             where = component.position_xy or self._manifest[guid].target_pose_world.position_m[:2]
             robot = min(idle, key=lambda item: (distance(item.pose_xy_yaw, where), item.robot_id))
             task.robot_id, robot.task_guid = robot.robot_id, guid
@@ -450,7 +464,7 @@ class PlannerCore:
                 )
                 self._give_back(task.guid, reason.message, reason)
 
-    def _fail(self, guid: str, reason: Reason) -> None:
+    def _fail(self, guid: str, reason: Reason, *, block: bool = True) -> None:
         """The component cannot be built: event ``fail`` with ``reason``; its dependents are blocked."""
         task, component = self._tasks[guid], self._components[guid]
         if task.phase in FINAL:
@@ -460,17 +474,22 @@ class PlannerCore:
         self._set_phase(task, Phase.FAILED, TaskStatus.FAILED)
         _log.error("%s failed: %s", guid, reason.line())
         self._send_event(guid, ComponentEvent.FAIL, partial(reached, component, TERMINAL), reason=reason)
-        self._block_dependents(guid)
+        if block:
+            self._block_dependents(guid)
 
     def _block_dependents(self, guid: str) -> None:
-        reason = blocked_by(guid, self._tasks[guid].reason)
-        stack = list(self._dependents.get(guid, ()))
+        """Block what rests on ``guid`` (transitively); each reason names the failed component and, when
+        it rests on it only through others, the one it stands on directly."""
+        root_reason = self._tasks[guid].reason
+        stack = [(item, guid) for item in self._dependents.get(guid, ())]
         while stack:
-            item = stack.pop()
+            item, parent = stack.pop()
             task = self._tasks[item]
             if task.phase in (Phase.BLOCKED, Phase.DONE, Phase.FAILED):
                 continue
             self._free_robot(task)
+            via = None if parent == guid else self._describe(parent)
+            reason = blocked_by(self._describe(guid), root_reason, via=via).model_copy(update={"guid": guid})
             task.reason = reason
             self._set_phase(task, Phase.BLOCKED, TaskStatus.BLOCKED)
             self._pending.pop((item, "task"), None)
@@ -481,7 +500,12 @@ class PlannerCore:
                 )
             else:
                 self._pending.pop((item, "event"), None)
-            stack.extend(self._dependents.get(item, ()))
+            stack.extend((successor, item) for successor in self._dependents.get(item, ()))
+
+    def _describe(self, guid: str) -> str:
+        component = self._manifest.get(guid)
+        name = (component.name or component.ifc_class) if component is not None else None
+        return f"{guid} ({name})" if name else guid
 
     def _set_phase(self, task: TaskRecord, phase: Phase, status: TaskStatus) -> None:
         task.phase = phase

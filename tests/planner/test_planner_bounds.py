@@ -18,7 +18,14 @@ from bimbot.services.planner.feasibility import component_feasibility, infeasibl
 from bimbot.services.planner.scheduler import Phase, PlannerCore, PlannerLimits
 from bimbot.services.planner.sources import PlanError, PlanSource, SourceKind, load_plan, plan_from_sequence
 from bimbot.shared.manifest import read_manifest
-from bimbot.shared.messages import ComponentEvent, ComponentEventMsg, ComponentState, SiteInfoMsg, TaskMsg
+from bimbot.shared.messages import (
+    ComponentEvent,
+    ComponentEventMsg,
+    ComponentState,
+    RobotState,
+    SiteInfoMsg,
+    TaskMsg,
+)
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.sequence import sequence_from_predecessors
@@ -205,3 +212,53 @@ def test_a_derived_sequence_builds_the_column_before_the_wall_that_would_close_t
     assert order.index(guid["Column R1"]) < order.index(guid[last_wall])
     # the release of the ready set keeps it too: the closing wall waits for the column
     assert guid["Column R1"] in outcome.plan.predecessors[guid[last_wall]]
+
+
+def test_every_component_no_robot_can_carry_is_named_too_heavy_even_when_it_rests_on_another() -> None:
+    core = _core()
+    heavy = Reason(code=ReasonCode.TOO_HEAVY, message="too heavy")
+    core.fail_at_start({"foot_a": heavy, "col_a": heavy})  # col_a rests on foot_a: both too heavy
+    out = core.step(0.0)
+    assert {m.guid for m in _events(out, ComponentEvent.FAIL)} == {"foot_a", "col_a"}
+    assert core.reason_of("col_a") == heavy
+    beam = core.reason_of("beam")  # rests on col_a (failed itself) and col_b
+    assert beam is not None and beam.code is ReasonCode.BLOCKED_BY and beam.guid in {"foot_a", "col_a"}
+
+
+def test_a_blocked_component_resting_on_the_failed_one_through_another_names_both() -> None:
+    core = _core()
+    core.fail_at_start({"foot_a": Reason(code=ReasonCode.TOO_HEAVY, message="too heavy")})
+    core.step(0.0)
+    column, beam = core.reason_of("col_a"), core.reason_of("beam")
+    assert column is not None
+    assert column.message == "it rests on foot_a (IfcFooting), which was not built (too_heavy)"
+    assert beam is not None and beam.guid == "foot_a"
+    assert (
+        beam.message
+        == "it rests on col_a (IfcColumn), which stands on foot_a (IfcFooting), not built (too_heavy)"
+    )
+
+
+def test_a_task_given_back_goes_to_another_robot_first_and_back_only_when_none_other_is_alive() -> None:
+    core = _core()
+    _assigned_to_r1(core, "foot_b")
+    core.robot_liveliness("r2", True)
+    core.observe_robot_state(robot_msg("r2", (0.0, 0.0), state=RobotState.PICK_UP, task_id="other"))
+    why = Reason(code=ReasonCode.UNREACHABLE, message="cut off from r1", robot_id="r1")
+    core.observe_component_state(state_msg("foot_b", S.PICKING, event="pick", robot_id="r1", sim_time_s=1.0))
+    core.observe_component_state(
+        state_msg("foot_b", S.RELEASED, event="abandon", robot_id="r1", sim_time_s=2.0, reason=why)
+    )
+    core.observe_robot_state(robot_msg("r1", (4.0, 0.0)))  # r1 idle beside it, r2 busy elsewhere
+    core.step(1.0)
+    assert core.phase("foot_b") is Phase.RELEASED  # r2 may take it once free: r1 does not get it again
+    core.observe_robot_state(robot_msg("r2", (30.0, 0.0)))
+    core.step(2.0)
+    assert core.robot_of("foot_b") == "r2"
+    core.observe_component_state(state_msg("foot_b", S.PICKING, event="pick", robot_id="r2", sim_time_s=3.0))
+    core.observe_component_state(
+        state_msg("foot_b", S.RELEASED, event="abandon", robot_id="r2", sim_time_s=4.0, reason=why)
+    )
+    core.robot_liveliness("r2", False)
+    core.step(3.0)
+    assert core.robot_of("foot_b") == "r1"  # every alive robot has given it back: r1 again, bounded
