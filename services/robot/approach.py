@@ -172,10 +172,13 @@ def no_approach_reason(
     what: str,
     robot: str = "the robot",
     radius_m: float | None = None,
+    home_xy_m: ArrayLike | None = None,
 ) -> Reason:
     """Why :func:`approach_pose` found nothing beside ``footprint`` (``what``: "the target of Column R1"):
     ``unreachable`` when free stand-points exist but the flood fill of ``grid`` from the robot does not
-    reach them, else ``no_approach_pose`` — each a sentence with the numbers."""
+    reach them — ``robot_trapped`` instead when the robot is cut off from its depot start ``home_xy_m``
+    itself (walled in: the robot's problem, not the component's) — else ``no_approach_pose``; each a
+    sentence with the numbers."""
     cells, _ = stand_points(grid, footprint, blocks_band=blocks_band, config=config)
     x, y = (float(v) for v in np.asarray(robot_xy_m, float)[:2])
     here = f"({x:.2f}, {y:.2f})"
@@ -183,6 +186,17 @@ def no_approach_reason(
     if len(cells):
         region = reachable_region(grid, robot_xy_m)
         cut_off = region is None or not region[cells[:, 0], cells[:, 1]].any()
+        home = reachable_region(grid, home_xy_m) if home_xy_m is not None and region is not None else None
+        if cut_off and home is not None and region is not None and not (home & region).any():
+            hx, hy = (float(v) for v in np.asarray(home_xy_m, float)[:2])
+            return Reason(
+                code=ReasonCode.ROBOT_TRAPPED,
+                message=(
+                    f"{robot} at {here} is walled in: no way on the planning grid (cells of "
+                    f"{grid.resolution_m:.2f} m) leads from it to its depot start ({hx:.2f}, {hy:.2f}), "
+                    f"nor to a stand-point of {what} ({_where(footprint)})"
+                ),
+            )
         if cut_off:
             return Reason(
                 code=ReasonCode.UNREACHABLE,

@@ -43,6 +43,7 @@ class Driving:
     navigator: Navigator
     machine: TaskMachine
     approach_config: ApproachConfig
+    home_xy_yaw: tuple[float, float, float]
 
     def _target_cut_off(self, task: Task) -> Reason | None:
         """Why the target has no approach the robot could drive to on the static map (walls, built parts,
@@ -65,6 +66,7 @@ class Driving:
             what=what,
             robot=self.robot_id,
             radius_m=self.site_map.config.inflation_m,
+            home_xy_m=self.home_xy_yaw[:2],
         ).model_copy(update={"robot_id": self.robot_id})
 
     def _drive(self, task: Task, footprint: Footprint | None) -> bool:

@@ -169,6 +169,25 @@ def test_a_column_inside_a_closed_room_is_unreachable_with_the_numbers() -> None
     assert inside is not None, "from inside the room it is reachable"
 
 
+def test_a_robot_walled_in_itself_is_trapped_not_the_component_unreachable() -> None:
+    """A robot inside a closed room asked for a component outside: the robot's problem, not the component's
+    (the planner then hands the task to another robot)."""
+    room = [(8.0, 8.0, 14.0, 8.2), (8.0, 13.8, 14.0, 14.0), (8.0, 8.0, 8.2, 14.0), (13.8, 8.0, 14.0, 14.0)]
+    grid = inflate(from_footprints((0.0, 0.0, 20.0, 20.0), 0.1, boxes_xy_m=room), 0.75)
+    beam = _rect(3.0, 2.9, 6.0, 3.1, 0.2)
+    config = ApproachConfig(reach_m=1.5, body_clearance_m=0.75)
+    kwargs = {"blocks_band": True, "config": config, "what": "Beam B1", "robot": "r2"}
+    trapped = no_approach_reason(grid, beam, (11.0, 11.0), home_xy_m=(1.0, 1.0), **kwargs)
+    assert trapped.code is ReasonCode.ROBOT_TRAPPED
+    assert (
+        trapped.message.startswith("r2 at (11.00, 11.00) is walled in") and "(1.00, 1.00)" in trapped.message
+    )
+    # a robot outside, for a component inside the room: the component is the one cut off
+    inside = _rect(10.9, 10.9, 11.1, 11.1, 3.0)
+    cut_off = no_approach_reason(grid, inside, (2.0, 2.0), home_xy_m=(1.0, 1.0), **kwargs)
+    assert cut_off.code is ReasonCode.UNREACHABLE
+
+
 def test_no_free_stand_point_at_all_is_no_approach_pose() -> None:
     grid = from_footprints((0.0, 0.0, 10.0, 10.0), 0.1, boxes_xy_m=[(3.0, 3.0, 7.0, 7.0)])
     item = _rect(4.5, 4.5, 5.5, 5.5, 0.2)
