@@ -126,7 +126,7 @@ class RunWatch:
                 message = f"the planner rejected its input {at}"
                 ending = RunEnding("service_stopped", ReasonCode.INTERRUPTED, message)
                 return LoopResult(ending, planner_code=code, input_error=_tail(planner))
-            ending = RunEnding("done", ReasonCode.INTERRUPTED, f"the planner ended (exit {code}) {at}")
+            ending = RunEnding("done", None, f"the planner ended (exit {code}) {at}")
             return LoopResult(ending, planner_code=code)
         for service in self.everyone:
             if service is not planner and service.name != "observer" and not service.alive():

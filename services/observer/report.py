@@ -7,6 +7,7 @@ time (``*_s``, seconds on the physics clock), distances in metres.
 Per component (state changes of its agent; start-up announcements carry no times):
 ``released_s`` (first release), ``picked_s`` (first ``picking``), ``placed_s`` (the last ``place``, i.e.
 entering ``verifying``), ``constructed_s``, ``failed_s``, ``retries`` (misplacements, at ``misplaced_s``),
+``give_backs`` (why a robot gave the task back, each time),
 ``attempts``, the
 robots that handled it, its final state, its position in the planned sequence and the placement error of
 its last verdict (``position_error_mm``, ``angle_error_deg``, as its agent measured them against the BIM
@@ -67,21 +68,21 @@ class RunEnding:
     of its own, and detail lines (what each robot and open task was doing)."""
 
     how: str
-    code: ReasonCode
+    code: ReasonCode | None  # None: the run ended as it should (done), nothing left unbuilt because of it
     message: str
     details: tuple[str, ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
         return {
             "how": self.how,
-            "code": self.code.value,
+            "code": self.code.value if self.code is not None else None,
             "message": self.message,
             "details": list(self.details),
         }
 
 
 UNFINISHED = RunEnding("running", ReasonCode.INTERRUPTED, "the report was written before the run ended")
-PLANNER_DONE = RunEnding("done", ReasonCode.INTERRUPTED, "the planner reported every task settled")
+PLANNER_DONE = RunEnding("done", None, "the planner reported every task settled")
 DISTANCE_SOURCES = ("ground_truth", "odom", "robot_state", "state_poses")  # best first
 
 
@@ -94,6 +95,7 @@ class ComponentTimeline:
     failed_s: float | None = None
     retries: int = 0
     misplaced_s: list[float] = field(default_factory=list)
+    give_backs: list[str] = field(default_factory=list)  # why a robot gave it back, each time
     attempts: int = 0
     state: ComponentState = ComponentState.PLANNED
     position_error_m: float | None = None  # of the last verdict (constructed or misplaced)
@@ -200,6 +202,8 @@ class ReportCollector:
             return
         if msg.position_error_m is not None:
             timeline.position_error_m, timeline.angle_error_rad = msg.position_error_m, msg.angle_error_rad
+        if msg.state == ComponentState.RELEASED and msg.event == "abandon":
+            timeline.give_backs.append(msg.reason.line() if msg.reason is not None else "given back")
         if msg.state == ComponentState.RELEASED and timeline.released_s is None:
             timeline.released_s = t
         elif msg.state == ComponentState.PICKING and timeline.picked_s is None:
@@ -265,6 +269,7 @@ class ReportCollector:
                     "failed_s": timeline.failed_s,
                     "cycle_time_s": cycle,
                     "retries": timeline.retries,
+                    "give_backs": list(timeline.give_backs),
                     "misplaced_s": list(timeline.misplaced_s),
                     "attempts": timeline.attempts,
                     "robot_ids": list(timeline.robot_ids),
@@ -314,7 +319,7 @@ class ReportCollector:
         if timeline.last_give_back is not None:
             state += f"; last given back: {timeline.last_give_back.line()}"
         message = f"{ending.message}; {state}"[:MAX_REASON_CHARS]
-        return Reason(code=ending.code, message=message, robot_id=robot_id)
+        return Reason(code=ending.code or ReasonCode.INTERRUPTED, message=message, robot_id=robot_id)
 
     def _robot_report(self, robot: RobotTimeline, end_s: float) -> dict[str, Any]:
         tasks = [
@@ -383,6 +388,7 @@ def _totals(components: list[dict[str, Any]], robots: dict[str, dict[str, Any]])
         "constructed": by_state.get(ComponentState.CONSTRUCTED.value, 0),
         "failed": by_state.get(ComponentState.FAILED.value, 0),
         "retries": sum(c["retries"] for c in components),
+        "give_backs": sum(len(c["give_backs"]) for c in components),
         "first_release_s": min(released) if released else None,
         "last_constructed_s": max(constructed) if constructed else None,
         "makespan_s": makespan,

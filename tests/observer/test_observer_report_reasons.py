@@ -25,9 +25,8 @@ STALLED = RunEnding(
 
 
 def _state(guid: str, state: S, previous: S | None, t: float, **extra: object) -> ComponentStateMsg:
-    return ComponentStateMsg(
-        guid=guid, state=state, previous=previous, event="test", sim_time_s=t, wall_time_s=t, **extra
-    )
+    fields: dict[str, object] = {"event": "test", **extra}
+    return ComponentStateMsg(guid=guid, state=state, previous=previous, sim_time_s=t, wall_time_s=t, **fields)
 
 
 @pytest.fixture
@@ -44,7 +43,7 @@ def collector(frame_manifest: Manifest, frame_sequence: list[str]) -> ReportColl
         _state(blocked, S.BLOCKED, S.PLANNED, 2.0),
         _state(picking, S.RELEASED, S.PLANNED, 10.0),
         _state(picking, S.PICKING, S.RELEASED, 11.0, robot_id="r1"),
-        _state(picking, S.RELEASED, S.PICKING, 20.0, reason=GIVEN_BACK),
+        _state(picking, S.RELEASED, S.PICKING, 20.0, reason=GIVEN_BACK, event="abandon"),
         _state(picking, S.PICKING, S.RELEASED, 21.0, robot_id="r1"),
         ProgressMsg(
             total=len(frame_manifest.components),
@@ -123,3 +122,13 @@ def test_the_chart_marks_the_components_not_built(collector: ReportCollector, tm
 def _red_pixels(image: np.ndarray) -> int:
     rgb = image[..., :3]
     return int(((rgb[..., 0] > 0.8) & (rgb[..., 1] < 0.3) & (rgb[..., 2] < 0.3)).sum())
+
+
+def test_every_give_back_is_in_the_report_with_its_reason(
+    collector: ReportCollector, frame_sequence: list[str]
+) -> None:
+    report = collector.report(STALLED)
+    by_guid = {component["guid"]: component for component in report["components"]}
+    assert by_guid[frame_sequence[3]]["give_backs"] == [GIVEN_BACK.line()]
+    assert by_guid[frame_sequence[0]]["give_backs"] == []
+    assert report["totals"]["give_backs"] == 1
