@@ -5,7 +5,8 @@ say the same. Plain aligned text, no colours and no wrapping: the whole GUID (Re
 prefixes: the first characters tell nothing apart), the state and the reason code stay on one line that
 a user can grep, and the message is never cut. The run's ending (how it stopped) is printed once above
 the table, so a row whose reason is that ending shows only what is particular to it (its state, its last
-robot).
+robot). Four or more components blocked by one failed component take one row (how many, the first
+names); every one of them is in ``report.json``.
 """
 
 from __future__ import annotations
@@ -14,6 +15,8 @@ from typing import Any
 
 MAX_NAME_CHARS = 32
 HEADER = ("component", "guid", "state", "reason", "why")
+GROUP_FROM = 4  # this many components blocked by one failed component take one row (all are in report.json)
+NAMES_SHOWN = 3
 
 
 def not_built_rows(report: dict[str, Any]) -> list[tuple[str, str, str, str, str]]:
@@ -24,10 +27,21 @@ def not_built_rows(report: dict[str, Any]) -> list[tuple[str, str, str, str, str
         report.get("components", []),
         key=lambda c: (c.get("sequence_index") is None, c.get("sequence_index") or 0, c["guid"]),
     )
+    groups: dict[str, list[dict[str, Any]]] = {}
+    for component in components:
+        reason = component.get("reason") or {}
+        if component["state"] == "blocked" and reason.get("code") == "blocked_by" and reason.get("guid"):
+            groups.setdefault(reason["guid"], []).append(component)
+    grouped = {guid for guid, members in groups.items() if len(members) >= GROUP_FROM}
     for component in components:
         if component["state"] == "constructed":
             continue
         reason = component.get("reason") or {}
+        root = reason.get("guid")
+        if component["state"] == "blocked" and reason.get("code") == "blocked_by" and root in grouped:
+            if groups[root][0] is component:
+                rows.append(_group_row(root, groups[root]))
+            continue
         name = component.get("name") or component.get("ifc_class") or ""
         if len(name) > MAX_NAME_CHARS:
             name = name[: MAX_NAME_CHARS - 1] + "…"
@@ -38,13 +52,29 @@ def not_built_rows(report: dict[str, Any]) -> list[tuple[str, str, str, str, str
     return rows
 
 
+def _group_row(root: str, members: list[dict[str, Any]]) -> tuple[str, str, str, str, str]:
+    """One row for every component blocked by ``root``: how many, and the first few names."""
+    names = [member.get("name") or member.get("ifc_class") or member["guid"] for member in members]
+    shown = ", ".join(names[:NAMES_SHOWN]) + (
+        f" and {len(names) - NAMES_SHOWN} more" if len(names) > NAMES_SHOWN else ""
+    )
+    return (
+        f"{len(members)} components",
+        "(report.json)",
+        "blocked",
+        "blocked_by",
+        f"they rest, directly or through others, on {root}, which was not built: {shown}",
+    )
+
+
 def not_built_table(report: dict[str, Any]) -> str:
     """The table as text (empty when every component is constructed)."""
     rows = not_built_rows(report)
     if not rows:
         return ""
     widths = [max(len(row[i]) for row in [HEADER, *rows]) for i in range(4)]
-    lines = [f"not built: {len(rows)} component(s)"]
+    count = sum(1 for component in report.get("components", []) if component["state"] != "constructed")
+    lines = [f"not built: {count} component(s)"]
     for row in [HEADER, *rows]:
         lines.append(
             "  "

@@ -86,3 +86,25 @@ def test_columns_line_up() -> None:
 def test_nothing_is_printed_when_every_component_is_constructed() -> None:
     report = {"components": [_component("0r1e7X$sCbW9Zz2Ms0mWcF", "Footing A2", "constructed", 0, None)]}
     assert not_built_table(report) == ""
+
+
+def test_many_components_blocked_by_one_failed_component_take_one_row() -> None:
+    root = "1ctEyZqYn3Ov0qQ8GwbUTf"
+    blocked = [
+        {
+            "guid": f"0Blocked{i:014d}",
+            "name": f"Beam {i}",
+            "state": "blocked",
+            "sequence_index": 10 + i,
+            "reason": {"code": "blocked_by", "message": f"it rests on {root}", "guid": root},
+        }
+        for i in range(5)
+    ]
+    report = {**REPORT, "components": [*REPORT["components"], *blocked]}
+    table = not_built_table(report)
+    lines = table.splitlines()
+    assert lines[0] == "not built: 8 component(s)"
+    [group] = [line for line in lines if "6 components" in line]  # the report's own beam rests on it too
+    assert "blocked_by" in group and root in group and "Beam A1-A2, Beam 0, Beam 1 and 3 more" in group
+    assert "0Blocked" not in table and "3eV89hRd" not in table
+    assert len(lines) == 5  # count, header, the failed footing, the interrupted column, the group
