@@ -190,6 +190,11 @@ def load_manifest(build: Path) -> Manifest:
     path = build / MANIFEST_FILE_NAME if build.is_dir() else build
     if not path.is_file():
         raise UserError(f"{path}: no manifest (convert a model first: bimbot convert MODEL.ifc -o OUT/)")
+    if path.suffix.lower() in (".ifc", ".ifczip", ".ifcxml"):
+        raise UserError(
+            f"{path}: an IFC model, not a converted build (convert it first: bimbot convert {path} -o OUT/, "
+            "then use OUT/)"
+        )
     try:
         return read_manifest(path)
     except json.JSONDecodeError as error:

@@ -25,6 +25,16 @@ def test_missing_manifest_is_one_line_and_exit_2(tmp_path: Path, caplog: pytest.
     assert "\n" not in message
 
 
+def test_an_ifc_model_given_as_the_build_says_to_convert_it_first(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    model = tmp_path / "house.ifc"
+    model.write_text("ISO-10303-21;\n")
+    code, message = run_cli(["--build", str(model)], caplog)
+    assert code == 2
+    assert "an IFC model, not a converted build" in message and f"bimbot convert {model}" in message
+
+
 def test_invalid_manifest_is_one_line_and_exit_2(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
     (tmp_path / "manifest.json").write_text('{"schema_version": 1, "components": 3}')
     code, message = run_cli(["--build", str(tmp_path)], caplog)
