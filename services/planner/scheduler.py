@@ -320,8 +320,9 @@ class PlannerCore:
         elif state is ComponentState.RELEASED:
             abandoned = task.phase in (Phase.ASSIGNED, Phase.RELEASED) and event == ComponentEvent.ABANDON
             if abandoned:
-                if robot_id is not None:
-                    task.given_back_by.add(robot_id)
+                giver = robot_id or (reason.robot_id if reason is not None else None)
+                if giver is not None:  # the agent's released state names no robot; the robot's reason does
+                    task.given_back_by.add(giver)
                 self._count_give_back(
                     task, reason or Reason(code=ReasonCode.NO_PROGRESS, message="given back")
                 )

@@ -246,8 +246,8 @@ def test_a_task_given_back_goes_to_another_robot_first_and_back_only_when_none_o
     core.observe_robot_state(robot_msg("r2", (0.0, 0.0), state=RobotState.PICK_UP, task_id="other"))
     why = Reason(code=ReasonCode.UNREACHABLE, message="cut off from r1", robot_id="r1")
     core.observe_component_state(state_msg("foot_b", S.PICKING, event="pick", robot_id="r1", sim_time_s=1.0))
-    core.observe_component_state(
-        state_msg("foot_b", S.RELEASED, event="abandon", robot_id="r1", sim_time_s=2.0, reason=why)
+    core.observe_component_state(  # as agents send it: the released state names no robot, the reason does
+        state_msg("foot_b", S.RELEASED, event="abandon", robot_id=None, sim_time_s=2.0, reason=why)
     )
     core.observe_robot_state(robot_msg("r1", (4.0, 0.0)))  # r1 idle beside it, r2 busy elsewhere
     core.step(1.0)
