@@ -302,6 +302,7 @@ class PhysicsReply(_Message):
     reason: str = ""
     sim_time_s: float
     pose: PoseMsg | None = None  # the component's pose after the request
+    distance_m: float | None = None  # a reach refusal: the robot's true distance to the footprint (m)
 
 
 # --- site-wide -------------------------------------------------------------------------------------------

@@ -154,10 +154,11 @@ class Handling:
             )
         if refusal is None and robot.robot_id in self.carrying:
             refusal = f"robot {robot.robot_id} already carries {self.carrying[robot.robot_id]}"
+        beyond: float | None = None
         if refusal is None and item is not None:
-            refusal = self._beyond_reach(robot, item.component, item.pose, guid)
+            refusal, beyond = self._beyond_reach(robot, item.component, item.pose, guid)
         if refusal is not None or item is None:
-            return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s)
+            return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s, distance_m=beyond)
         item.phase = Phase.CARRIED
         item.carrier = robot.robot_id
         item.dropped_by = None
@@ -199,10 +200,11 @@ class Handling:
             centre = posed_footprint(item.component, frame[0], frame[1]).centre_xy_m
             if not _inside(self.site_bounds, (float(centre[0]), float(centre[1]), 0.0)):
                 refusal = f"target ({centre[0]:.2f}, {centre[1]:.2f}) of {guid} is outside the site"
+        beyond: float | None = None
         if refusal is None and item is not None and frame is not None:
-            refusal = self._beyond_reach(robot, item.component, frame, f"the target of {guid}")
+            refusal, beyond = self._beyond_reach(robot, item.component, frame, f"the target of {guid}")
         if refusal is not None or item is None or frame is None:
-            return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s)
+            return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s, distance_m=beyond)
         item.phase = Phase.ASSEMBLING
         item.motion_from = item.pose
         item.motion_to = frame
@@ -226,14 +228,20 @@ class Handling:
             return f"{guid} is fixed to the structure"
         return None
 
-    def _beyond_reach(self, robot: Robot, component: Component, frame: Frame, what: str) -> str | None:
+    def _beyond_reach(
+        self, robot: Robot, component: Component, frame: Frame, what: str
+    ) -> tuple[str | None, float | None]:
         """The reach rule of the robot description (:mod:`bimbot.shared.robot_description`: the robot's
-        centre to the nearest point of the component's footprint at ``frame``), or None within reach."""
+        centre to the nearest point of the component's footprint at ``frame``): ``(refusal, distance_m)``,
+        ``(None, None)`` within reach."""
         polygon = posed_footprint(component, frame[0], frame[1]).polygon_xy_m
         distance = float(footprint_distance_m(polygon, self._robot_xy(robot))[0])
         if distance <= self.config.reach_m + 1e-9:
-            return None
-        return f"robot {robot.robot_id} is {distance:.2f} m from {what}, reach is {self.config.reach_m:g} m"
+            return None, None
+        return (
+            f"robot {robot.robot_id} is {distance:.2f} m from {what}, reach is {self.config.reach_m:g} m",
+            distance,
+        )
 
     def _robot_xy(self, robot: Robot) -> tuple[float, float]:
         (x, y, _), _ = robot.frame(self.client_id)

@@ -14,6 +14,8 @@ import logging
 import math
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from bimbot.shared.messages import (
     AttachRequest,
     ComponentEvent,
@@ -36,6 +38,9 @@ from .protocol import PhysicsRequest, PhysicsResult, injected
 
 _log = logging.getLogger(__name__)
 _S, _E = RobotState, ComponentEvent
+LOCALISATION_DOUBT_M = 0.5  # physics measured the robot this much farther than it believed: re-localise
+MAX_SPREAD_M = 3.0  # the widest particle cloud a re-localisation draws (m, one standard deviation)
+SPREAD_YAW_RAD = 0.2
 
 
 class Handover:
@@ -91,6 +96,8 @@ class Handover:
             return
         why = result.reply.reason if result.reply is not None else result.error
         _log.warning("%s: %s of %s refused: %s", self.robot_id, kind, task.message.guid, why)
+        if result.reply is not None and result.reply.distance_m is not None:
+            self._check_localisation(task, kind, result.reply.distance_m)
         if kind == "drop":
             task.drop_tries += 1
             task.retry_at_s = self.sim_s + self.config.retry_delay_s
@@ -103,6 +110,27 @@ class Handover:
         task.approach = None  # maybe too far: look for an approach pose again
         self.navigator.cancel()
         return None
+
+    def _check_localisation(self, task: Task, kind: str, measured_m: float) -> None:
+        """Physics measured the robot ``measured_m`` from the footprint where the robot believed it was within
+        reach: its localisation is off by at least the difference, so it re-localises (a wider particle cloud
+        the laser narrows again) instead of asking again from the same wrong place."""
+        footprint = task.target if kind == "place" else self.site_map.footprints.get(task.message.guid)
+        if footprint is None:
+            return
+        believed_m = float(footprint.distance_m(np.asarray(self.navigator.pose_xy_yaw[:2]))[0])
+        off_m = measured_m - believed_m
+        if off_m > LOCALISATION_DOUBT_M:
+            _log.warning(
+                "%s: physics measured %.2f m to %s where %s believed %.2f m: localisation off by %.2f m+",
+                self.robot_id,
+                measured_m,
+                task.message.guid,
+                self.robot_id,
+                believed_m,
+                off_m,
+            )
+            self.navigator.localiser.spread(min(MAX_SPREAD_M, off_m), SPREAD_YAW_RAD)
 
     def _request(self, task: Task, kind: str, message: AttachRequest | PlaceRequest | DropRequest) -> None:
         task.request = PhysicsRequest(kind, self._next_request, message, self.config.request_timeout_s)

@@ -99,6 +99,18 @@ class Localiser:
         self._field_version = -1
         self._sensor: LikelihoodFieldConfig | None = None
 
+    def spread(self, std_xy_m: float, std_yaw_rad: float) -> None:
+        """Re-localise: draw the particles again around the estimate, this wide (AMCL's answer to a robot
+        that learns it is not where it believes, here a reach refusal by physics). The next updates, as the
+        robot moves, pull them back onto the pose the laser supports."""
+        self.particles = init_gaussian(self.pose, std_xy_m, std_yaw_rad, self.config.particles, self.rng)
+        _log.warning(
+            "re-localising around %s with %.2f m / %.2f rad",
+            np.round(self.pose, 2).tolist(),
+            std_xy_m,
+            std_yaw_rad,
+        )
+
     def observe_odom(self, odom_xy_yaw: ArrayLike) -> None:
         self.odom = np.asarray(odom_xy_yaw, float)
         if self._anchor_odom is None:

@@ -82,6 +82,7 @@ def test_attach_out_of_reach_is_refused_with_the_distance(
     x, y, _ = sim.robot_pose("r1")
     expected = distance_to_rect((x, y), sim.layout.slots[footing.guid].footprint)
     assert float(match.group(1)) == pytest.approx(expected, abs=0.006)
+    assert reply.distance_m == pytest.approx(expected, abs=1e-6)  # for the robot: is it where it believes?
     assert sim.handling.items[footing.guid].phase is Phase.RESTING
 
 

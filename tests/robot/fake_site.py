@@ -53,6 +53,7 @@ class FakeSite:
     latency: int = 3
     drop_first: set[ComponentEvent] = field(default_factory=set)  # the agent misses the first delivery
     refuse_attach: int = 0  # physics refuses this many attach requests
+    refuse_distance_m: float | None = None  # the distance physics measured, on those refusals
     frozen: bool = False  # the robot does not move whatever it is told (stuck wheels)
     step: int = 0
     states: dict[str, ComponentState] = field(default_factory=dict)
@@ -149,7 +150,9 @@ class FakeSite:
         if isinstance(message, AttachRequest):
             if self.refuse_attach > 0:
                 self.refuse_attach -= 1
-                reply = PhysicsReply(ok=False, reason="out of reach", sim_time_s=now)
+                reply = PhysicsReply(
+                    ok=False, reason="out of reach", sim_time_s=now, distance_m=self.refuse_distance_m
+                )
             else:
                 self.carried = message.guid
                 carried = PoseMsg(position_m=(*self.pose[:2], 0.5), quat_xyzw=(0.0, 0.0, 0.0, 1.0))

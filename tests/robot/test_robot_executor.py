@@ -74,6 +74,25 @@ def test_a_refused_attach_sends_the_robot_to_another_approach_and_tries_again(fr
     assert site.executor.done == [(task.guid, ComponentState.CONSTRUCTED)]
 
 
+def test_physics_measuring_the_robot_farther_than_it_believes_makes_it_relocalise(
+    frame: Manifest, caplog: pytest.LogCaptureFixture
+) -> None:
+    site, released, task = make_site(frame)
+    site.refuse_attach, site.refuse_distance_m = 1, 4.0  # the robot stands within reach, it believes
+    with caplog.at_level("WARNING"):
+        run_task(site, released, task)
+    assert "localisation off by" in caplog.text and "re-localising" in caplog.text
+    cloud = site.executor.navigator.localiser.particles.poses_xy_yaw[:, :2].std(axis=0).max()
+    assert cloud < 0.1  # the wide cloud narrowed again on the laser while the robot drove on
+    assert site.executor.done == [(task.guid, ComponentState.CONSTRUCTED)]
+    site2, released2, task2 = make_site(frame)
+    site2.refuse_attach = 1  # a refusal without a measured distance: no doubt about the localisation
+    with caplog.at_level("WARNING"):
+        caplog.clear()
+        run_task(site2, released2, task2)
+    assert "re-localising" not in caplog.text
+
+
 def test_too_many_refusals_give_the_task_up_with_abandon(frame: Manifest) -> None:
     site, released, task = make_site(frame, max_tries=2)
     site.refuse_attach = 10
