@@ -90,17 +90,20 @@ class _Base:
         self.names = names
         self.rate = RateWindow()
 
-    def _lines(
+    def update(
         self,
         constructed: int,
         total: int,
         sim_time_s: float,
         robots: Mapping[str, RobotStateMsg],
         wall_s: float,
-    ) -> tuple[str, list[str]]:
+    ) -> None:
         self.rate.add(wall_s, sim_time_s)
         head = progress_line(constructed, total, sim_time_s, self.rate.factor(), wall_s)
-        return head, [robot_line(msg, self.names) for _, msg in sorted(robots.items())]
+        self._show(head, [robot_line(msg, self.names) for _, msg in sorted(robots.items())], wall_s)
+
+    def _show(self, head: str, robot_lines: list[str], wall_s: float) -> None:
+        raise NotImplementedError
 
 
 class NoProgress:
@@ -123,15 +126,7 @@ class PlainProgress(_Base):
         self.say, self.every_s = say, every_s
         self._next_s = every_s
 
-    def update(
-        self,
-        constructed: int,
-        total: int,
-        sim_time_s: float,
-        robots: Mapping[str, RobotStateMsg],
-        wall_s: float,
-    ) -> None:
-        head, robot_lines = self._lines(constructed, total, sim_time_s, robots, wall_s)
+    def _show(self, head: str, robot_lines: list[str], wall_s: float) -> None:
         if wall_s >= self._next_s:
             self._next_s = wall_s + self.every_s
             self.say(f"progress: {head}" + "".join(f"; {line}" for line in robot_lines))
@@ -153,15 +148,7 @@ class LiveProgress(_Base):
         )
         self._live.start()
 
-    def update(
-        self,
-        constructed: int,
-        total: int,
-        sim_time_s: float,
-        robots: Mapping[str, RobotStateMsg],
-        wall_s: float,
-    ) -> None:
-        head, robot_lines = self._lines(constructed, total, sim_time_s, robots, wall_s)
+    def _show(self, head: str, robot_lines: list[str], wall_s: float) -> None:
         rows = [Text(head, style="bold")] + [
             Text(f"  {line}", overflow="ellipsis", no_wrap=True) for line in robot_lines
         ]
