@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
-from bimbot.shared.bus import Inbox, Received, decode, encode
+from bimbot.shared.bus import Inbox, Received, decode, encode, query_first
 from bimbot.shared.identifiers import guid_to_key
 from bimbot.shared.manifest import load_manifest
 from bimbot.shared.messages import (
@@ -113,7 +113,10 @@ def main(
             inbox.subscribe(session, key(ROBOT_ODOM_KEY, site=site, robot_id=robot_id), OdomMsg, "odom"),
             inbox.subscribe(session, key(ROBOT_SCAN_KEY, site=site, robot_id=robot_id), ScanMsg, "scan"),
         ]
-        info = _site_info(session, site, inbox, options.info_timeout_s, stop)
+        selector = key(PHYSICS_INFO_KEY, site=site)
+        info = query_first(
+            session, selector, SiteInfoMsg, inbox.invalid, timeout_s=options.info_timeout_s, stop=stop
+        )
         if info is None:
             return 0 if stop.is_set() else _no_physics(options.info_timeout_s)
         executor = Executor(manifest, info, executor_config)
@@ -141,22 +144,6 @@ def main(
 def _no_physics(timeout_s: float) -> int:
     _log.error("physics did not answer physics/info within %.0f s (is `bimbot physics` running?)", timeout_s)
     return 2
-
-
-def _site_info(
-    session: zenoh.Session, site: str, inbox: Inbox, timeout_s: float, stop: threading.Event
-) -> SiteInfoMsg | None:
-    """Ask physics for the site until it answers (or ``timeout_s`` / ``stop``)."""
-    selector = key(PHYSICS_INFO_KEY, site=site)
-    deadline = time.monotonic() + timeout_s
-    while not stop.is_set() and time.monotonic() < deadline:
-        for reply in session.get(selector, timeout=2.0):
-            if reply.ok is not None:
-                info = decode(SiteInfoMsg, selector, reply.ok.payload.to_bytes(), inbox.invalid)
-                if info is not None:
-                    return info
-        stop.wait(0.5)
-    return None
 
 
 def _warm_up() -> None:
