@@ -1,10 +1,11 @@
-"""The static part of the physics scene: component bodies from the converter's ``model.sdf`` files, the
-ground plane and the site fence, plus the frame arithmetic every other physics module uses.
+"""The static part of the physics scene: component bodies from the manifest (mass, CoM, full inertia and the
+converter's convex collision parts), the ground plane and the site fence, plus the frame arithmetic every
+other physics module uses.
 
-Why bodies are built by hand and not with ``loadSDF`` (see DESIGN.md, "Facts about the stack"): pybullet's
-SDF importer ignores ``<inertia>`` and ``<static>``, and caches parsed files by name (every component's
-file is called ``model.sdf``). So each ``model.sdf`` is read with lxml (mesh URIs, ``<inertial>``) and
-turned into one multibody:
+Why bodies are built by hand and not with ``loadSDF`` (see docs/architecture.md): pybullet's SDF importer
+ignores ``<inertia>`` and ``<static>``, and caches parsed files by name (every component's file is called
+``model.sdf``). The manifest owns what the ``model.sdf`` files also say, so each component becomes one
+multibody from its manifest entry (:func:`component_model`):
 
 * a compound collision shape of the convex ``collision_<i>.obj`` parts, in the component frame;
 * ``baseInertialFramePosition`` = the CoM and ``baseInertialFrameOrientation`` = the principal axes of the
@@ -36,7 +37,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from lxml import etree
 from scipy.spatial.transform import Rotation
 
 from bimbot.shared.manifest import Component
@@ -164,15 +164,17 @@ def distance_to_rect(xy: tuple[float, float], rect: Rect) -> float:
     return math.hypot(dx, dy)
 
 
-# --- model.sdf -------------------------------------------------------------------------------------------
+# --- the component's body, from the manifest ------------------------------------------------------------
 
 
 @dataclass(frozen=True)
 class ComponentModel:
-    """What physics needs from one ``model.sdf``; the inertia tensor is about the CoM, component axes."""
+    """What physics needs to make one component's body; the inertia tensor is about the CoM, component axes.
+
+    Taken from the manifest, which owns these facts (the converter writes the same numbers into
+    ``model.sdf`` for Gazebo and other SDF readers; physics does not read them back)."""
 
     guid: str
-    sdf_path: Path
     mass_kg: float
     com_local_m: Vec3
     inertia_kg_m2: tuple[Vec3, Vec3, Vec3]
@@ -180,67 +182,18 @@ class ComponentModel:
     visual_file: Path | None
 
 
-def _floats(text: str | None, count: int, what: str) -> list[float]:
-    values = [float(v) for v in (text or "").split()]
-    if len(values) != count:
-        raise ValueError(f"{what}: expected {count} numbers, got {text!r}")
-    return values
-
-
-def resolve_uri(uri: str, sdf_path: Path) -> Path:
-    """``model://<folder>/…`` → beside the model folder; ``file://`` → absolute; else relative to the file."""
-    if uri.startswith("model://"):
-        return sdf_path.parent.parent / uri[len("model://") :]
-    if uri.startswith("file://"):
-        return Path(uri[len("file://") :])
-    return sdf_path.parent / uri
-
-
-def parse_model_sdf(sdf_path: Path) -> ComponentModel:
-    """Read a converter ``model.sdf``: the link's inertial (CoM pose, mass, tensor) and its mesh files."""
-    root = etree.parse(str(sdf_path)).getroot()
-    model = root.find("model")
-    link = model.find("link") if model is not None else None
-    if model is None or link is None:
-        raise ValueError(f"{sdf_path}: no <model><link>")
-    inertial = link.find("inertial")
-    if inertial is None:
-        raise ValueError(f"{sdf_path}: link has no <inertial>")
-    pose = _floats(inertial.findtext("pose", "0 0 0 0 0 0"), 6, f"{sdf_path} inertial pose")
-    mass = float(inertial.findtext("mass", "nan"))
-    if not mass > 0.0:
-        raise ValueError(f"{sdf_path}: inertial mass must be positive")
-    element = inertial.find("inertia")
-    terms = {tag: float(element.findtext(tag, "0")) if element is not None else 0.0 for tag in _TENSOR_TAGS}
-    tensor = np.array(
-        [
-            [terms["ixx"], terms["ixy"], terms["ixz"]],
-            [terms["ixy"], terms["iyy"], terms["iyz"]],
-            [terms["ixz"], terms["iyz"], terms["izz"]],
-        ]
-    )
-    turn = Rotation.from_euler("xyz", pose[3:]).as_matrix()  # inertial frame axes → component axes
-    tensor = turn @ tensor @ turn.T
-    collisions = tuple(
-        resolve_uri(uri.strip(), sdf_path)
-        for uri in link.xpath("collision/geometry/mesh/uri/text()")  # type: ignore[union-attr]
-    )
-    visuals = [uri.strip() for uri in link.xpath("visual/geometry/mesh/uri/text()")]  # type: ignore[union-attr]
-    visual = resolve_uri(visuals[0], sdf_path) if visuals else None
-    if visual is not None and visual.suffix.lower() != ".obj" and visual.with_suffix(".obj").is_file():
-        visual = visual.with_suffix(".obj")  # pybullet loads OBJ visuals directly
+def component_model(component: Component, build_dir: Path) -> ComponentModel:
+    """The body facts of ``component``: mass, CoM, full inertia tensor and mesh files under ``build_dir``."""
+    i = component.inertia_kg_m2
+    visual = build_dir / component.files.visual_obj if component.files.visual_obj else None
     return ComponentModel(
-        guid=model.get("name", ""),
-        sdf_path=sdf_path,
-        mass_kg=mass,
-        com_local_m=(pose[0], pose[1], pose[2]),
-        inertia_kg_m2=tuple(tuple(float(v) for v in row) for row in tensor),  # type: ignore[arg-type]
-        collision_files=collisions,
+        guid=component.guid,
+        mass_kg=component.mass_kg,
+        com_local_m=component.com_local_m,
+        inertia_kg_m2=((i.ixx, i.ixy, i.ixz), (i.ixy, i.iyy, i.iyz), (i.ixz, i.iyz, i.izz)),
+        collision_files=tuple(build_dir / path for path in component.files.collision),
         visual_file=visual,
     )
-
-
-_TENSOR_TAGS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
 
 
 def principal_axes(inertia_kg_m2: np.ndarray) -> tuple[Vec3, Quat]:

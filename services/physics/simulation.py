@@ -57,11 +57,11 @@ from .client import BulletClient, p
 from .handling import Handling, HandlingConfig, Item, Phase
 from .robots import Odometry, Robot, RobotConfig, spawn_robot
 from .scene import (
+    component_model,
     compose,
     create_component_body,
     create_fence,
     create_ground,
-    parse_model_sdf,
     robot_group,
     yaw_quat,
 )
@@ -173,7 +173,7 @@ class Simulation:
         for component in self.manifest.components:
             slot = self.layout.slots[component.guid]
             frame = (slot.position_m, slot.quat_xyzw)
-            model = parse_model_sdf(self.build_dir / component.files.sdf_file)
+            model = component_model(component, self.build_dir)
             body = create_component_body(cid, component, model, frame, visual=self.config.visuals)
             p.setCollisionFilterPair(self.ground_id, body.body_id, -1, -1, 0, physicsClientId=cid)
             items[component.guid] = Item(component, body, Phase.RESTING, frame)

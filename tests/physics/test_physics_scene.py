@@ -1,4 +1,4 @@
-"""The scene: component bodies from model.sdf at their yard slots, with the SDF's mass and full inertia;
+"""The scene: component bodies from the manifest at their yard slots, with its mass and full inertia;
 nothing in the yard overlaps or moves; the ground and the fence are where the layout puts them."""
 
 from __future__ import annotations
@@ -12,12 +12,12 @@ from scipy.spatial.transform import Rotation
 
 from bimbot.services.physics.client import BulletClient, p
 from bimbot.services.physics.scene import (
+    component_model,
     component_pose,
     compose,
     create_component_body,
     invert,
     make_dynamic,
-    parse_model_sdf,
     principal_axes,
 )
 from bimbot.services.physics.simulation import Simulation
@@ -30,18 +30,20 @@ def _inertia_matrix(component: Component) -> np.ndarray:
     return np.array([[i.ixx, i.ixy, i.ixz], [i.ixy, i.iyy, i.iyz], [i.ixz, i.iyz, i.izz]])
 
 
-def test_model_sdf_gives_the_manifest_mass_com_inertia_and_meshes(
+def test_component_model_takes_mass_com_inertia_and_meshes_from_the_manifest(
     bundled_build: Path, frame_manifest: Manifest
 ) -> None:
     for component in frame_manifest.components:
-        model = parse_model_sdf(bundled_build / component.files.sdf_file)
+        model = component_model(component, bundled_build)
         assert model.guid == component.guid
-        assert model.mass_kg == pytest.approx(component.mass_kg, rel=1e-12)
+        assert model.mass_kg == component.mass_kg
         assert model.com_local_m == pytest.approx(component.com_local_m, abs=1e-12)
         assert np.allclose(model.inertia_kg_m2, _inertia_matrix(component), rtol=1e-12, atol=1e-12)
+        assert np.allclose(model.inertia_kg_m2, np.transpose(model.inertia_kg_m2))  # symmetric, products kept
         expected = [bundled_build / name for name in component.files.collision]
-        assert [path.resolve() for path in model.collision_files] == [path.resolve() for path in expected]
+        assert list(model.collision_files) == expected
         assert all(path.is_file() for path in model.collision_files)
+        assert model.visual_file is not None and model.visual_file.is_file()
 
 
 def test_principal_axes_rebuild_the_full_tensor_products_included() -> None:
@@ -74,7 +76,7 @@ def test_a_body_has_the_sdf_mass_and_principal_inertia_when_dynamic(
     bundled_build: Path, frame_manifest: Manifest
 ) -> None:
     beam = next(c for c in frame_manifest.components if c.ifc_class == "IfcBeam")
-    model = parse_model_sdf(bundled_build / beam.files.sdf_file)
+    model = component_model(beam, bundled_build)
     with BulletClient() as client:
         body = create_component_body(client.id, beam, model, ((0.0, 0.0, 2.0), (0.0, 0.0, 0.0, 1.0)))
         at_rest = p.getDynamicsInfo(body.body_id, -1, physicsClientId=client.id)
