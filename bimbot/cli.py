@@ -2,7 +2,9 @@
 
 Every sub-command module exposes ``add_arguments(parser)`` and ``run(args) -> int``; only the chosen one is
 imported, so ``bimbot --help`` stays fast. A :class:`bimbot.shared.errors.UserError` ends in one clear
-line and exit code 2, never a traceback.
+line and exit code 2, never a traceback. Any other exception is a bug: its traceback is logged to stderr
+(a service's log file under ``bimbot run``, which shows its tail) and the exit code is 1. Commands check
+the user's input before they start their work, so a bug is never reported as bad input.
 """
 
 from __future__ import annotations
@@ -48,6 +50,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
 _log = logging.getLogger("bimbot")
 
 
+EXIT_USER_ERROR = 2  # bad input: one line
+EXIT_BUG = 1  # an unexpected exception: its traceback is in the log
+BUG_MARK = "failed with an unexpected error"  # in the log line above the traceback (bimbot run looks for it)
+
 def configure_logging(verbosity: int) -> None:
     """Configure the root logger once, from ``main`` only (libraries just call ``getLogger``)."""
     level = logging.WARNING if verbosity < 0 else logging.INFO if verbosity == 0 else logging.DEBUG
@@ -74,6 +80,7 @@ def build_parser(argv: list[str]) -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
+    """Parse ``argv``, run the chosen sub-command and map how it ended to the exit code."""
     args = build_parser(argv).parse_args(argv)
     configure_logging(-1 if args.quiet else args.verbose)
     module = importlib.import_module(args._module)
@@ -81,11 +88,14 @@ def main(argv: list[str] | None = None) -> int:
         return int(module.run(args) or 0)
     except UserError as error:
         _log.error("%s", error)
-        return 2
+        return EXIT_USER_ERROR
     except KeyboardInterrupt:
         _log.error("interrupted")
         return 130
 
+    except Exception:  # a bug: keep the traceback for the log, not the "bad input" exit code
+        _log.exception("bimbot %s %s (a bug; traceback follows)", args.command, BUG_MARK)
+        return EXIT_BUG
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -38,6 +38,7 @@ from bimbot.run_args import (
 )
 from bimbot.run_loop import LoopLimits, LoopResult, RunWatch, StopSignals
 from bimbot.run_monitor import RunMonitor
+from bimbot.run_preflight import check_run_input
 from bimbot.run_progress import NoProgress, ProgressView, make_progress
 from bimbot.run_table import not_built_table
 from bimbot.run_watchdog import StallWatchdog
@@ -133,6 +134,7 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
     """Run every service on ``build`` until the planner is done or the run is ended (stall, time limit,
     signal, a dead service); always stops them all and writes the report (``report.json``,
     ``report.png``). ``announce`` gets the lines a user must see while it runs (the viewer's URL)."""
+    check_run_input(build, options)  # bad input: one line and exit 2, before any service starts
     manifest = load_manifest(build)
     log_dir = build / "logs"
     if log_dir.exists():

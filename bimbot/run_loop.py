@@ -8,7 +8,7 @@ report gives every component left unbuilt without a reason of its own:
 ``stalled``   the stall watchdog: nothing changed for ``--stall-after-s`` sim s       ``stalled``
 ``interrupted``  SIGTERM or SIGINT                                                   ``interrupted``
 ``timeout``   ``--timeout-s`` wall seconds passed                                     ``interrupted``
-``service_stopped``  a service died (its log tail is in the details)                  ``interrupted``
+``service_stopped``  a service died, or the planner crashed (its log tail: details)  ``interrupted``
 ============  =====================================================================  ==================
 
 Signals are caught by :class:`StopSignals` (the handlers only set a flag; the loop acts on it), so a
@@ -27,6 +27,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from types import FrameType
 
+from bimbot.cli import BUG_MARK
 from bimbot.run_monitor import RunMonitor
 from bimbot.run_progress import ProgressView
 from bimbot.run_watchdog import StallWatchdog, stall_details
@@ -38,6 +39,8 @@ _log = logging.getLogger(__name__)
 
 LOG_TAIL_LINES = 15
 PLANNER_INPUT_ERROR = 2  # the planner's exit code for an unusable sequence (a UserError)
+PLANNER_VERDICTS = (0, 1)  # --exit-when-done: everything constructed / something failed or blocked
+PYTHON_TRACEBACK = "Traceback (most recent call last):"  # an exception nobody caught (bimbot.cli logs one)
 
 
 class StopSignals:
@@ -126,13 +129,20 @@ class RunWatch:
                 message = f"the planner rejected its input {at}"
                 ending = RunEnding("service_stopped", ReasonCode.INTERRUPTED, message)
                 return LoopResult(ending, planner_code=code, input_error=_tail(planner))
+            if code not in PLANNER_VERDICTS or _crashed(planner):  # a bug, not a verdict: show its log
+                message = f"the planner stopped unexpectedly (exit {code}) {at}"
+                return LoopResult(
+                    RunEnding("service_stopped", ReasonCode.INTERRUPTED, message, _tail_details(planner)),
+                    planner_code=code,
+                )
             ending = RunEnding("done", None, f"the planner ended (exit {code}) {at}")
             return LoopResult(ending, planner_code=code)
         for service in self.everyone:
             if service is not planner and service.name != "observer" and not service.alive():
                 message = f"{service.name} stopped unexpectedly (exit {service.wait(0)}) {at}"
-                details = tuple(f"{service.name}.log: {line}" for line in _tail(service).splitlines())
-                return LoopResult(RunEnding("service_stopped", ReasonCode.INTERRUPTED, message, details))
+                return LoopResult(
+                    RunEnding("service_stopped", ReasonCode.INTERRUPTED, message, _tail_details(service))
+                )
         verdict = self.watchdog.verdict()
         if verdict is not None:
             message = f"the site stalled: {verdict}; the run ended with {built}"
@@ -155,4 +165,16 @@ def _so_far(monitor: RunMonitor, wall_s: float) -> str:
 
 
 def _tail(service: ServiceProcess) -> str:
+    """The last :data:`LOG_TAIL_LINES` lines of the service's log (a traceback ends there)."""
     return "\n".join(service.log().splitlines()[-LOG_TAIL_LINES:])
+
+
+def _tail_details(service: ServiceProcess) -> tuple[str, ...]:
+    """The log tail as the ending's details, each line naming the log it comes from."""
+    return tuple(f"{service.name}.log: {line}" for line in _tail(service).splitlines())
+
+
+def _crashed(service: ServiceProcess) -> bool:
+    """Whether the service's log holds a traceback (an exit code of 1 is also the planner's verdict)."""
+    log = service.log()
+    return BUG_MARK in log or PYTHON_TRACEBACK in log

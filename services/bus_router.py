@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import argparse
 import logging
-import signal
 import threading
 
 from bimbot.shared.bus import DEFAULT_ENDPOINT, BusOptions, open_session
+from bimbot.shared.service_runner import run_service
 
 _log = logging.getLogger(__name__)
 
@@ -32,6 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(options: BusOptions, stop: threading.Event, seconds: float | None = None) -> None:
+    """Route until ``stop`` is set (or ``seconds`` have passed), then close the session."""
     with open_session(options) as session:
         _log.info("bus router %s listening on %s", session.zid(), ", ".join(options.listen))
         stop.wait(seconds)
@@ -39,11 +40,8 @@ def main(options: BusOptions, stop: threading.Event, seconds: float | None = Non
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run the router until SIGINT/SIGTERM (or ``--seconds``); exit 0."""
     options = BusOptions(
         mode="router", connect=tuple(args.connect), listen=tuple(args.listen or [DEFAULT_ENDPOINT])
     )
-    stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
-    main(options, stop, args.seconds)
-    return 0
+    return run_service(main, options, seconds=args.seconds)

@@ -10,13 +10,11 @@ from __future__ import annotations
 import argparse
 import logging
 import math
-import signal
-import threading
 from pathlib import Path
 
-from bimbot.shared.bus import add_bus_arguments, bus_options
+from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
-from bimbot.shared.manifest import load_manifest
+from bimbot.shared.service_runner import resolve_build, run_service, service_bus, writable_dir
 
 from . import app
 from .agent import AgentConfig
@@ -30,7 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     defaults = AgentConfig()
     default_angle_deg = math.degrees(defaults.tolerances.angle_rad)
     parser.add_argument(
-        "--build", type=Path, required=True, metavar="OUT/", help="converted build (manifest.json)"
+        "--build", type=Path, required=True, metavar="OUT/", help="converted build (folder or manifest.json)"
     )
     parser.add_argument(
         "--shard", default="1/1", metavar="I/N", help="run shard I of N, split by GUID (default 1/1)"
@@ -67,6 +65,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def agent_config(args: argparse.Namespace) -> AgentConfig:
+    """The agents' config from the options; a UserError names an impossible value."""
     try:
         return AgentConfig(
             tolerances=Tolerances(
@@ -80,15 +79,17 @@ def agent_config(args: argparse.Namespace) -> AgentConfig:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Check the options, the build and the journal folder, then run this shard's agents until stopped."""
     try:
         shard, n_shards = parse_shard(args.shard)
-        options = bus_options(args)
     except ValueError as error:
         raise UserError(str(error)) from error
+    options = service_bus(args)
     config = agent_config(args)
-    manifest = load_manifest(args.build)
-    total = len(manifest.components)
-    manifest = shard_manifest(manifest, shard, n_shards)  # the other shards' components are freed here
+    build = resolve_build(args.build)
+    writable_dir(args.state_dir or app.default_state_dir(build.dir), "--state-dir")
+    total = len(build.manifest.components)
+    manifest = shard_manifest(build.manifest, shard, n_shards)  # the other shards' components are freed here
     _log.info(
         "shard %d/%d: %d of the build's %d components", shard, n_shards, len(manifest.components), total
     )
@@ -97,21 +98,14 @@ def run(args: argparse.Namespace) -> int:
     if not _log.isEnabledFor(logging.DEBUG):
         # transitions logs every state entry and exit at INFO: thousands of lines per second under load.
         logging.getLogger("transitions").setLevel(logging.WARNING)
-    build_dir = args.build if args.build.is_dir() else args.build.parent
-    stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
-    try:
-        return app.main(
-            options,
-            build_dir,
-            shard,
-            n_shards,
-            config,
-            stop,
-            state_dir=args.state_dir,
-            fresh=args.fresh,
-            manifest=manifest,
-        )
-    except OSError as error:
-        raise UserError(f"agents: {error}") from error
+    return run_service(
+        app.main,
+        options,
+        build.dir,
+        shard,
+        n_shards,
+        config,
+        state_dir=args.state_dir,
+        fresh=args.fresh,
+        manifest=manifest,
+    )

@@ -11,23 +11,23 @@ from __future__ import annotations
 import argparse
 import logging
 import os
-import signal
-import threading
 from pathlib import Path
 
-from bimbot.shared.bus import add_bus_arguments, bus_options
+from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
-from bimbot.shared.manifest import load_manifest
+from bimbot.shared.service_runner import resolve_build, run_service, service_bus, writable_dir
 
 _log = logging.getLogger(__name__)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from .twin_log import TwinLogOptions  # rerun is imported only by the command that needs it
+    """The observer options; every default (and the default named in a help text) is its config's field."""
+    from .app import ObserverConfig  # rerun is imported only by the command that needs it
+    from .twin_log import TwinLogOptions
 
-    defaults = TwinLogOptions()
+    defaults, config = TwinLogOptions(), ObserverConfig  # the class: rrd_path and report_dir have no default
     parser.add_argument(
-        "--build", type=Path, required=True, metavar="OUT/", help="converted build (manifest.json)"
+        "--build", type=Path, required=True, metavar="OUT/", help="converted build (folder or manifest.json)"
     )
     parser.add_argument("--site", default=None, help="site slug (default: the manifest's; env BIMBOT_SITE)")
     parser.add_argument(
@@ -47,14 +47,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="FILE.xml",
         help="planned sequence (default OUT/sequence.xml)",
     )
-    parser.add_argument("--web-port", type=int, default=9090, help="web viewer HTTP port (default 9090)")
     parser.add_argument(
-        "--grpc-port", type=int, default=9876, help="rerun gRPC port viewers connect to (default 9876)"
+        "--web-port",
+        type=int,
+        default=config.web_port,
+        help=f"web viewer HTTP port (default {config.web_port})",
+    )
+    parser.add_argument(
+        "--grpc-port",
+        type=int,
+        default=config.grpc_port,
+        help=f"rerun gRPC port viewers connect to (default {config.grpc_port})",
     )
     parser.add_argument(
         "--bind",
-        default="127.0.0.1",
-        help="address of the web viewer and gRPC server (default 127.0.0.1: this machine only)",
+        default=config.bind,
+        help=f"address of the web viewer and gRPC server (default {config.bind}: this machine only)",
     )
     parser.add_argument(
         "--no-web", action="store_true", help="no viewer, no gRPC server: only the .rrd and the report"
@@ -80,26 +88,31 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_bus_arguments(parser)
 
 
-def run(args: argparse.Namespace) -> int:
-    from . import app
-    from .twin_log import TwinLogOptions
-
-    try:
-        options = bus_options(args)
-    except ValueError as error:
-        raise UserError(str(error)) from error
+def check_options(args: argparse.Namespace) -> None:
+    """A UserError for an option value the observer cannot use (ports, intervals, a missing sequence)."""
     for name in ("web_port", "grpc_port"):
         port = getattr(args, name)
         if not 0 < port < 65536:
             raise UserError(f"--{name.replace('_', '-')} {port}: not a TCP port")
     if args.scan_every < 1 or args.pose_interval_s < 0:
         raise UserError("--scan-every must be ≥ 1 and --pose-interval-s ≥ 0")
-    manifest = load_manifest(args.build)
+    if args.sequence is not None and not args.sequence.is_file():
+        raise UserError(f"--sequence {args.sequence}: no such file")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Check the options, the build and the output folders, then observe until stopped (or done)."""
+    from . import app
+    from .twin_log import TwinLogOptions
+
+    options = service_bus(args)
+    check_options(args)
+    build = resolve_build(args.build)
+    manifest = build.manifest
     site = args.site or os.environ.get("BIMBOT_SITE") or manifest.site
     if site != manifest.site:
         manifest = manifest.model_copy(update={"site": site})
-    build_dir = args.build if args.build.is_dir() else args.build.parent
-    out_dir = build_dir / "observer"
+    out_dir = build.dir / "observer"
     config = app.ObserverConfig(
         rrd_path=args.rrd or out_dir / f"{site}.rrd",
         report_dir=args.report_dir or out_dir,
@@ -112,12 +125,8 @@ def run(args: argparse.Namespace) -> int:
         sequence_path=args.sequence,
         twin=TwinLogOptions(scan_every=args.scan_every, pose_min_interval_s=args.pose_interval_s),
     )
+    writable_dir(config.rrd_path.parent, "--rrd")
+    writable_dir(config.report_dir, "--report-dir")
     if args.bind not in ("127.0.0.1", "::1", "localhost") and config.web:
         _log.warning("serving the viewer on %s: reachable from other machines", args.bind)
-    stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
-    try:
-        return app.main(options, build_dir, manifest, config, stop)
-    except OSError as error:
-        raise UserError(f"observe: {error}") from error
+    return run_service(app.main, options, build.dir, manifest, config)

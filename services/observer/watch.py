@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
-import signal
 import sys
 import threading
 import time
@@ -27,7 +26,7 @@ from typing import TextIO
 
 import zenoh
 
-from bimbot.shared.bus import Inbox, InvalidPayloads, add_bus_arguments, bus_options, decode, open_session
+from bimbot.shared.bus import BusOptions, Inbox, InvalidPayloads, add_bus_arguments, decode, open_session
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
@@ -38,6 +37,7 @@ from bimbot.shared.messages import (
     TwinMsg,
     key,
 )
+from bimbot.shared.service_runner import resolve_build, run_service, service_bus
 
 REFRESH_S = 0.25
 TAG_STATE = "state"
@@ -182,21 +182,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from bimbot.shared.manifest import load_manifest
-
-    try:
-        options = bus_options(args)
-    except ValueError as error:
-        raise UserError(str(error)) from error
-    manifest = load_manifest(args.build) if args.build else None
+    """Check the options (and the build, when given), then show the table until SIGINT/SIGTERM."""
+    options = service_bus(args)
+    build = resolve_build(args.build) if args.build else None
+    manifest = build.manifest if build else None
     site = args.site or os.environ.get("BIMBOT_SITE") or (manifest.site if manifest else None)
     if not site:
         raise UserError("watch: give --build OUT/ or --site SITE")
-    stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
+    return run_service(main, options, site, WatchTable(manifest), sys.stdout)
+
+
+def main(options: BusOptions, site: str, table: WatchTable, out: TextIO, stop: threading.Event) -> int:
+    """Open the session and :func:`watch` until ``stop``; 0."""
     with open_session(options) as session:
-        watch(session, site, WatchTable(manifest), stop, sys.stdout)
+        watch(session, site, table, stop, out)
     return 0
 
 

@@ -3,7 +3,9 @@
 Builds the scene from a converted build (components in the yard, robots at the depot, fence; see
 :mod:`.simulation`) and serves it on the bus: sim clock, odometry, laser scans, ground-truth poses,
 velocity commands, attach and place requests (:mod:`.app`). Runs until SIGTERM/SIGINT (or ``--steps``),
-then closes its Zenoh session and exits 0.
+then closes its Zenoh session and exits 0. Options are checked before anything starts (exit 2 with one
+line); the defaults are the fields of :class:`.simulation.SimConfig`, :class:`.robots.RobotConfig`,
+:class:`.sensors.LaserConfig` and :class:`.app.RunConfig`.
 """
 
 from __future__ import annotations
@@ -11,15 +13,12 @@ from __future__ import annotations
 import argparse
 import logging
 import math
-import signal
-import threading
 from pathlib import Path
 
-from bimbot.shared.bus import add_bus_arguments, bus_options
+from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
-from bimbot.shared.manifest import load_manifest
+from bimbot.shared.service_runner import resolve_build, run_service, service_bus
 
-from .handling import HandlingConfig
 from .robots import RobotConfig
 from .sensors import LaserConfig
 from .simulation import SimConfig
@@ -28,9 +27,12 @@ _log = logging.getLogger(__name__)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    sim, robot, laser, handling = SimConfig(), RobotConfig(), LaserConfig(), HandlingConfig()
+    """The physics options; every default (and the default named in a help text) is its config's field."""
+    from .app import RunConfig  # zenoh only for the physics command
+
+    sim, robot, laser, run = SimConfig(), RobotConfig(), LaserConfig(), RunConfig()
     parser.add_argument(
-        "--build", type=Path, required=True, metavar="OUT/", help="converted build (manifest.json)"
+        "--build", type=Path, required=True, metavar="OUT/", help="converted build (folder or manifest.json)"
     )
     parser.add_argument(
         "--robots", type=int, default=sim.robots, help=f"robots at the depot (default {sim.robots})"
@@ -38,8 +40,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--rtf",
         type=float,
-        default=1.0,
-        help="real-time factor: 1 real time, 0 as fast as possible (default 1)",
+        default=run.rtf,
+        help=f"real-time factor: 1 real time, 0 as fast as possible (default {run.rtf:g})",
     )
     parser.add_argument(
         "--lock-step",
@@ -47,26 +49,37 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="advance a period only when every alive robot has answered the clock step (reproducible)",
     )
     parser.add_argument(
-        "--lock-step-timeout-s", type=float, default=2.0, help="wall seconds to wait for a robot (default 2)"
+        "--lock-step-timeout-s",
+        type=float,
+        default=run.lock_step_timeout_s,
+        help=f"wall seconds to wait for a robot (default {run.lock_step_timeout_s:g})",
     )
     parser.add_argument(
         "--wait-for-robots-s",
         type=float,
-        default=0.0,
+        default=run.wait_for_robots_s,
         metavar="S",
-        help="hold the clock at 0 until every robot is alive, at most S wall seconds (default 0: no)",
+        help="hold the clock at 0 until every robot is alive, at most S wall seconds "
+        f"(default {run.wait_for_robots_s:g}; 0: no)",
     )
-    parser.add_argument("--steps", type=int, default=None, help="stop after this many control periods")
     parser.add_argument(
-        "--physics-hz", type=float, default=1.0 / sim.step_s, help="physics steps per sim second (240)"
+        "--steps", type=int, default=run.max_steps, help="stop after this many control periods"
+    )
+    parser.add_argument(
+        "--physics-hz",
+        type=float,
+        default=1.0 / sim.step_s,
+        help=f"physics steps per sim second (default {1.0 / sim.step_s:g})",
     )
     parser.add_argument(
         "--control-period-s",
         type=float,
         default=sim.control_period_s,
-        help="sim seconds per clock step (0.1)",
+        help=f"sim seconds per clock step (default {sim.control_period_s:g})",
     )
-    parser.add_argument("--seed", type=int, default=sim.seed, help="odometry noise seed (default 0)")
+    parser.add_argument(
+        "--seed", type=int, default=sim.seed, help=f"odometry noise seed (default {sim.seed})"
+    )
     parser.add_argument(
         "--odom-noise",
         type=float,
@@ -76,39 +89,64 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--reach-m",
         type=float,
-        default=handling.reach_m,
-        help=f"attach/place reach (default {handling.reach_m:g} m)",
+        default=sim.reach_m,
+        help=f"attach/place reach (default {sim.reach_m:g} m, the robot description's)",
     )
     parser.add_argument(
-        "--pose-refresh-s", type=float, default=sim.pose_refresh_s, help="repeat every pose (2 s)"
+        "--pose-refresh-s",
+        type=float,
+        default=sim.pose_refresh_s,
+        help=f"repeat every pose this often, sim s (default {sim.pose_refresh_s:g})",
     )
     group = parser.add_argument_group("robot")
-    group.add_argument("--urdf", type=Path, default=None, help="robot URDF (default pybullet_data husky)")
+    group.add_argument(
+        "--urdf", type=Path, default=robot.urdf_path, help="robot URDF (default pybullet_data husky)"
+    )
     group.add_argument(
         "--wheel-joints",
         default=None,
         metavar="J1,J2,…",
         help="wheel joint names or indices (default: detected)",
     )
-    group.add_argument("--max-speed-mps", type=float, default=robot.max_speed_mps, help="speed limit (1.0)")
     group.add_argument(
-        "--max-turn-radps", type=float, default=robot.max_turn_radps, help="turn rate limit (1.5)"
+        "--max-speed-mps",
+        type=float,
+        default=robot.max_speed_mps,
+        help=f"speed limit, m/s (default {robot.max_speed_mps:g})",
+    )
+    group.add_argument(
+        "--max-turn-radps",
+        type=float,
+        default=robot.max_turn_radps,
+        help=f"turn rate limit, rad/s (default {robot.max_turn_radps:g})",
     )
     group = parser.add_argument_group("laser")
-    group.add_argument("--laser-beams", type=int, default=laser.beams, help="beams per scan (360)")
     group.add_argument(
-        "--laser-fov-deg", type=float, default=math.degrees(laser.fov_rad), help="field of view (360)"
+        "--laser-beams", type=int, default=laser.beams, help=f"beams per scan (default {laser.beams})"
     )
-    group.add_argument("--laser-range-m", type=float, default=laser.range_max_m, help="maximum range (15)")
+    fov_deg = math.degrees(laser.fov_rad)
     group.add_argument(
-        "--laser-height-m", type=float, default=laser.height_m, help="height above ground (0.06)"
+        "--laser-fov-deg", type=float, default=fov_deg, help=f"field of view, degrees (default {fov_deg:g})"
+    )
+    group.add_argument(
+        "--laser-range-m",
+        type=float,
+        default=laser.range_max_m,
+        help=f"maximum range (default {laser.range_max_m:g} m)",
+    )
+    group.add_argument(
+        "--laser-height-m",
+        type=float,
+        default=laser.height_m,
+        help=f"height above ground (default {laser.height_m:g} m)",
     )
     parser.add_argument("--gui", action="store_true", help="open pybullet's GUI instead of running headless")
     add_bus_arguments(parser)
 
 
 def sim_config(args: argparse.Namespace) -> SimConfig:
-    """The simulation config from the options (a UserError names what is wrong)."""
+    """The simulation config from the options; a UserError names what is wrong (also the options that
+    only the adapter uses: rtf, lock-step timeout, URDF), so ``bimbot run`` can check them all up front."""
     try:
         wheels = (
             tuple(item.strip() for item in args.wheel_joints.split(",") if item.strip())
@@ -144,24 +182,22 @@ def sim_config(args: argparse.Namespace) -> SimConfig:
         raise UserError(f"physics: {error}") from error
     if args.rtf < 0 or args.robots > 1000:
         raise UserError("physics: --rtf must be >= 0 and --robots at most 1000")
+    if args.lock_step_timeout_s <= 0 or args.wait_for_robots_s < 0:
+        raise UserError("physics: --lock-step-timeout-s must be positive and --wait-for-robots-s ≥ 0")
+    if args.urdf is not None and not args.urdf.is_file():
+        raise UserError(f"--urdf {args.urdf}: no such file")
     return config
 
 
 def run(args: argparse.Namespace) -> int:
+    """Check every option and the build (UserErrors), then serve the scene until stopped."""
     from . import app  # pybullet and zenoh only when the command runs
 
-    try:
-        options = bus_options(args)
-    except ValueError as error:
-        raise UserError(str(error)) from error
+    options = service_bus(args)
     config = sim_config(args)
-    manifest = load_manifest(args.build)
-    if not manifest.components:
+    build = resolve_build(args.build)
+    if not build.manifest.components:
         raise UserError(f"{args.build}: the build has no components to simulate")
-    build_dir = args.build if args.build.is_dir() else args.build.parent
-    stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
     run_config = app.RunConfig(
         rtf=args.rtf,
         lock_step_timeout_s=args.lock_step_timeout_s,
@@ -169,7 +205,4 @@ def run(args: argparse.Namespace) -> int:
         gui=args.gui,
         wait_for_robots_s=args.wait_for_robots_s,
     )
-    try:
-        return app.main(options, manifest, build_dir, config, run_config, stop)
-    except (ValueError, OSError) as error:
-        raise UserError(f"physics: {error}") from error
+    return run_service(app.main, options, build.manifest, build.dir, config, run_config)

@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from bimbot.shared.errors import InputError
+
 from .client import p, quiet_stdout
 from .scene import ALL_GROUPS, Frame, Quat, Vec3, compose, invert, set_filter, yaw_of, yaw_quat
 
@@ -78,11 +80,11 @@ def _joint_index(body_id: int, client_id: int, name_or_index: str) -> int:
         index = int(name_or_index)
         if 0 <= index < count:
             return index
-        raise ValueError(f"wheel joint {index} out of range 0..{count - 1}")
+        raise InputError(f"wheel joint {index} out of range 0..{count - 1}")
     for index in range(count):
         if p.getJointInfo(body_id, index, physicsClientId=client_id)[1].decode() == name_or_index.strip():
             return index
-    raise ValueError(f"no joint named {name_or_index!r} in the robot URDF")
+    raise InputError(f"no joint named {name_or_index!r} in the robot URDF")
 
 
 def _link_frame(client_id: int, body_id: int, link: int) -> Frame:
@@ -108,7 +110,7 @@ def detect_drive(
             if abs(axis_base[1]) > 0.9:
                 joints.append(index)
     if len(joints) < 2:
-        raise ValueError(
+        raise InputError(
             "no wheel joints found (revolute joints about the base's y axis); give --wheel-joints"
         )
     left: list[tuple[int, float]] = []
@@ -124,7 +126,7 @@ def detect_drive(
         lateral[index] = wheel_in_base[0][1]
         radii.append(_wheel_radius(client_id, body_id, index))
     if not left or not right:
-        raise ValueError(f"wheel joints {joints} are not on both sides of the robot")
+        raise InputError(f"wheel joints {joints} are not on both sides of the robot")
     track = float(np.mean([lateral[i] for i, _ in left]) - np.mean([lateral[i] for i, _ in right]))
     return DriveGeometry(tuple(left), tuple(right), float(np.mean(radii)), track)
 
@@ -259,14 +261,14 @@ def spawn_robot(
     """Load the URDF with its wheels on the ground at ``start_xy_yaw``; set drive, friction and filters."""
     urdf = config.urdf()
     if not urdf.is_file():
-        raise ValueError(f"robot URDF {urdf} not found")
+        raise InputError(f"robot URDF {urdf} not found")
     x, y, yaw = start_xy_yaw
     with quiet_stdout():  # loaded facing +x at the origin to measure it, then moved to its start
         body_id = p.loadURDF(
             str(urdf), [0.0, 0.0, 0.0], flags=p.URDF_USE_IMPLICIT_CYLINDER, physicsClientId=client_id
         )
     if body_id < 0:
-        raise ValueError(f"pybullet could not load the robot URDF {urdf}")
+        raise InputError(f"pybullet could not load the robot URDF {urdf}")
     info = p.getDynamicsInfo(body_id, -1, physicsClientId=client_id)
     base_inertial: Frame = (tuple(info[3]), tuple(info[4]))  # type: ignore[assignment]
     links = range(-1, p.getNumJoints(body_id, physicsClientId=client_id))

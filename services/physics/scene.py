@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bimbot.shared.errors import InputError
 from bimbot.shared.manifest import Component
 from bimbot.shared.site_layout import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect
 
@@ -230,7 +231,7 @@ def create_component_body(
     files = [str(path) for path in model.collision_files if path.is_file()]
     if len(files) != len(model.collision_files):
         missing = [str(path) for path in model.collision_files if not path.is_file()]
-        raise ValueError(f"{component.guid}: collision meshes missing: {', '.join(missing)}")
+        raise InputError(f"{component.guid}: collision meshes missing: {', '.join(missing)}")
     if files:
         shape = p.createCollisionShapeArray(
             shapeTypes=[p.GEOM_MESH] * len(files), fileNames=files, physicsClientId=client_id
@@ -245,7 +246,7 @@ def create_component_body(
             physicsClientId=client_id,
         )
     if shape < 0:
-        raise ValueError(f"{component.guid}: pybullet could not load its collision meshes {files}")
+        raise InputError(f"{component.guid}: pybullet could not load its collision meshes {files}")
     visual_shape = -1
     if visual and model.visual_file is not None and model.visual_file.is_file():
         visual_shape = p.createVisualShape(

@@ -4,19 +4,19 @@ Releases the build's construction tasks in sequence order and assigns them to ro
 :mod:`bimbot.services.planner.app`). The sequence comes from the build's ``sequence.xml`` unless one
 option names another source: a user XML (``docs/sequence-format.md``), the 4D schedule of an IFC file
 (default: the model the build was converted from), or the support graph. Exit codes: 0 (done or stopped),
-1 (``--exit-when-done`` and some components failed or were blocked), 2 (unreadable build or sequence: one
-line).
+1 (``--exit-when-done`` and some components failed or were blocked; or a bug, with its traceback), 2
+(unreadable build or sequence, impossible option: one line). ``--build`` may name the folder or its
+``manifest.json``.
 """
 
 from __future__ import annotations
 
 import argparse
-import signal
-import threading
 from pathlib import Path
 
-from bimbot.shared.bus import add_bus_arguments, bus_options, zenoh_config
+from bimbot.shared.bus import add_bus_arguments, zenoh_config
 from bimbot.shared.errors import UserError
+from bimbot.shared.service_runner import resolve_build, run_service, service_bus
 
 from .app import PlannerOptions, main
 from .scheduler import PlannerLimits
@@ -24,7 +24,11 @@ from .sources import PlanSource, SourceKind
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--build", type=Path, required=True, metavar="OUT", help="converted build folder")
+    """The planner options; every default (and the default named in a help text) is its config's field."""
+    options, limits = PlannerOptions(), PlannerLimits()
+    parser.add_argument(
+        "--build", type=Path, required=True, metavar="OUT", help="converted build (folder or manifest.json)"
+    )
     source = parser.add_mutually_exclusive_group()
     source.add_argument("--sequence", type=Path, metavar="FILE.xml", help="a construction sequence XML file")
     source.add_argument(
@@ -42,16 +46,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="exit when every task is done, failed or blocked (0: all constructed, 1: otherwise)",
     )
     parser.add_argument(
-        "--agents-timeout-s", type=float, default=30.0, help="wait this long for every component agent (s)"
+        "--agents-timeout-s",
+        type=float,
+        default=options.agents_timeout_s,
+        help=f"wait this long for every component agent (default {options.agents_timeout_s:g} s)",
     )
     parser.add_argument(
-        "--resend-s", type=float, default=2.0, help="re-send unobserved events and assignments after (s)"
+        "--resend-s",
+        type=float,
+        default=options.resend_s,
+        help=f"re-send unobserved events and assignments after (default {options.resend_s:g} s)",
     )
     parser.add_argument(
         "--site-info-timeout-s",
         type=float,
-        default=PlannerOptions.site_info_timeout_s,
-        help="wait this long for physics' site info (robot types; without it nothing is checked) (s)",
+        default=options.site_info_timeout_s,
+        help="wait this long for physics' site info (robot types; without it nothing is checked) "
+        f"(default {options.site_info_timeout_s:g} s)",
     )
     parser.add_argument(
         "--strict", action="store_true", help="a sequence step that cuts off later work is an error (exit 2)"
@@ -59,19 +70,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--max-give-backs",
         type=int,
-        default=PlannerLimits.max_give_backs,
-        help="fail a component given back this often by robots (with the last reason)",
+        default=limits.max_give_backs,
+        help=f"fail a component given back this often by robots, with the last reason "
+        f"(default {limits.max_give_backs})",
     )
     parser.add_argument(
         "--task-timeout-s",
         type=float,
-        default=PlannerLimits.task_timeout_s,
-        help="take a task back when its component has not changed state for this long (sim s)",
+        default=limits.task_timeout_s,
+        help="take a task back when its component has not changed state for this long "
+        f"(default {limits.task_timeout_s:g} sim s)",
     )
     add_bus_arguments(parser)
 
 
 def plan_source(args: argparse.Namespace) -> PlanSource:
+    """Which sequence the options name (the build's own ``sequence.xml`` when none does)."""
     if args.sequence is not None:
         return PlanSource(SourceKind.SEQUENCE, args.sequence)
     if args.from_ifc is not None:
@@ -81,7 +95,17 @@ def plan_source(args: argparse.Namespace) -> PlanSource:
     return PlanSource(SourceKind.BUILD)
 
 
-def run(args: argparse.Namespace) -> int:
+def checked_source(args: argparse.Namespace) -> PlanSource:
+    """:func:`plan_source`, with a UserError when the file it names does not exist."""
+    source = plan_source(args)
+    if source.path is not None and not source.path.is_file():
+        flag = "--sequence" if source.kind is SourceKind.SEQUENCE else "--from-ifc"
+        raise UserError(f"{flag} {source.path}: no such file")
+    return source
+
+
+def planner_options(args: argparse.Namespace) -> PlannerOptions:
+    """The options as :class:`PlannerOptions`; a UserError names the first impossible value."""
     if args.agents_timeout_s < 0:
         raise UserError("--agents-timeout-s must not be negative")
     if args.resend_s <= 0:
@@ -92,11 +116,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--max-give-backs must be at least 1")
     if args.task_timeout_s <= 0:
         raise UserError("--task-timeout-s must be positive")
-    try:
-        config = zenoh_config(bus_options(args))
-    except ValueError as error:
-        raise UserError(str(error)) from None
-    options = PlannerOptions(
+    return PlannerOptions(
         exit_when_done=args.exit_when_done,
         agents_timeout_s=args.agents_timeout_s,
         resend_s=args.resend_s,
@@ -104,12 +124,12 @@ def run(args: argparse.Namespace) -> int:
         strict=args.strict,
         limits=PlannerLimits(max_give_backs=args.max_give_backs, task_timeout_s=args.task_timeout_s),
     )
-    stop = threading.Event()
-    previous = {
-        signum: signal.signal(signum, lambda *_: stop.set()) for signum in (signal.SIGINT, signal.SIGTERM)
-    }
-    try:
-        return main(options, args.build, plan_source(args), config, stop)
-    finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Check the options, the build (folder or manifest file) and the sequence, then plan until done."""
+    options = planner_options(args)
+    config = zenoh_config(service_bus(args))
+    source = checked_source(args)
+    build = resolve_build(args.build)
+    return run_service(main, options, build.dir, source, config)

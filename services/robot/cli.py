@@ -15,23 +15,33 @@ retries it (tests, demos).
 from __future__ import annotations
 
 import argparse
-import signal
-import threading
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from bimbot.shared.bus import add_bus_arguments, bus_options, zenoh_config
+from bimbot.shared.bus import add_bus_arguments, zenoh_config
 from bimbot.shared.errors import UserError
+from bimbot.shared.service_runner import resolve_build, run_service, service_bus
+
+if TYPE_CHECKING:
+    from .task_state import ExecutorConfig
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--build", type=Path, required=True, metavar="OUT/", help="converted build folder")
+    """The robot options; every default (and the default named in a help text) is its config's field."""
+    from .app import RobotOptions  # zenoh only for the robot command
+    from .task_state import ExecutorConfig
+
+    executor, options = ExecutorConfig(robot_id=""), RobotOptions()
+    parser.add_argument(
+        "--build", type=Path, required=True, metavar="OUT/", help="converted build (folder or manifest.json)"
+    )
     parser.add_argument("--id", required=True, metavar="R", help="robot id as spawned by physics (r1, r2, …)")
     parser.add_argument(
         "--inject-placement-error-m",
         type=float,
-        default=0.0,
+        default=executor.placement_error_m,
         metavar="X",
-        help="offset the first placement attempt by X metres (default 0: none)",
+        help=f"offset the first placement attempt by X metres (default {executor.placement_error_m:g}: none)",
     )
     parser.add_argument(
         "--inject-guids", default="", metavar="G1,G2", help="components whose first placement is offset"
@@ -39,33 +49,41 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--inject-fraction",
         type=float,
-        default=0.0,
+        default=executor.inject_fraction,
         metavar="F",
-        help="fraction of components whose first placement is offset (without --inject-guids; default all)",
-    )
-    parser.add_argument("--seed", type=int, default=0, help="particle filter and injection seed (default 0)")
-    parser.add_argument(
-        "--info-timeout-s", type=float, default=120.0, help="wait this long for physics to answer (s)"
+        help="fraction of components whose first placement is offset (without --inject-guids; "
+        f"default {executor.inject_fraction:g}: all)",
     )
     parser.add_argument(
-        "--place-duration-s", type=float, default=2.0, help="sim seconds of each assembly motion (default 2)"
+        "--seed",
+        type=int,
+        default=executor.seed,
+        help=f"particle filter and injection seed (default {executor.seed})",
+    )
+    parser.add_argument(
+        "--info-timeout-s",
+        type=float,
+        default=options.info_timeout_s,
+        help=f"wait this long for physics to answer (default {options.info_timeout_s:g} s)",
+    )
+    parser.add_argument(
+        "--place-duration-s",
+        type=float,
+        default=executor.place_duration_s,
+        help=f"sim seconds of each assembly motion (default {executor.place_duration_s:g})",
     )
     add_bus_arguments(parser)
 
 
-def run(args: argparse.Namespace) -> int:
-    from .app import RobotOptions, main
-    from .executor import ExecutorConfig
+def executor_config(args: argparse.Namespace) -> ExecutorConfig:
+    """The robot's task execution config from the options; a UserError names an impossible value."""
+    from .task_state import ExecutorConfig
 
     if args.inject_placement_error_m < 0 or not 0.0 <= args.inject_fraction <= 1.0:
         raise UserError("--inject-placement-error-m must be ≥ 0 and --inject-fraction within 0..1")
     if args.place_duration_s < 0 or args.info_timeout_s <= 0:
         raise UserError("--place-duration-s must be ≥ 0 and --info-timeout-s positive")
-    try:
-        config = zenoh_config(bus_options(args))
-    except ValueError as error:
-        raise UserError(str(error)) from None
-    executor_config = ExecutorConfig(
+    return ExecutorConfig(
         robot_id=args.id,
         place_duration_s=args.place_duration_s,
         placement_error_m=args.inject_placement_error_m,
@@ -73,15 +91,15 @@ def run(args: argparse.Namespace) -> int:
         inject_fraction=args.inject_fraction,
         seed=args.seed,
     )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Check the options and the build (folder or manifest file), then run the robot until stopped."""
+    from .app import RobotOptions, main
+
+    config = executor_config(args)
+    bus = zenoh_config(service_bus(args))
+    build = resolve_build(args.build)
     options = RobotOptions(info_timeout_s=args.info_timeout_s)
-    stop = threading.Event()
-    previous = {
-        signum: signal.signal(signum, lambda *_: stop.set()) for signum in (signal.SIGINT, signal.SIGTERM)
-    }
-    try:
-        return main(options, args.build, config, executor_config, stop)
-    except ValueError as error:  # e.g. a robot id physics did not spawn
-        raise UserError(str(error)) from None
-    finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
+    # a robot id physics did not spawn shows only once physics answers: an InputError (exit 2) from there
+    return run_service(main, options, build.dir, bus, config)

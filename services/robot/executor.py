@@ -47,6 +47,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from bimbot.shared.errors import InputError
 from bimbot.shared.footprint import posed_footprint
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
@@ -103,7 +104,7 @@ class Executor(Driving, Handover):
         approach_config: ApproachConfig | None = None,
     ) -> None:
         if config.robot_id not in info.robot_ids:
-            raise ValueError(f"robot {config.robot_id!r} is not on site (physics has {info.robot_ids})")
+            raise InputError(f"robot {config.robot_id!r} is not on site (physics has {info.robot_ids})")
         self.config, self.robot_id = config, config.robot_id
         self.components = {component.guid: component for component in manifest.components}
         layout = plan_site(manifest.components, robots=len(info.robot_ids))

@@ -1,0 +1,97 @@
+"""One runner for every service's command: the stop event, bus options, the build path and the call of main.
+
+Every ``bimbot <service>`` command (``bus``, ``physics``, ``agents``, ``planner``, ``robot``, ``observe``,
+``watch``) does the same four things, once, here:
+
+* :func:`stop_on_signals`: SIGINT and SIGTERM set a :class:`threading.Event` that the service's loop
+  watches (it then closes its Zenoh session and returns), and the previous handlers come back afterwards;
+* :func:`service_bus`: the ``--mode/--connect/--listen`` options (and their environment fallbacks), a bad
+  value being a :class:`~bimbot.shared.errors.UserError` (one line, exit 2);
+* :func:`resolve_build`: ``--build`` may name the build folder or its ``manifest.json``; both give the folder
+  and the parsed manifest (a missing or broken manifest is a UserError);
+* :func:`run_service`: calls the service's ``app.main(…, stop=…)`` with the stop event installed and returns
+  its exit code. Every ``app.main`` takes the event as its parameter ``stop``.
+
+User input is checked in the command before :func:`run_service`; what goes wrong inside is a bug and keeps
+its traceback (see :func:`bimbot.cli.main`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import threading
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+from bimbot.shared.bus import BusOptions, bus_options
+from bimbot.shared.errors import UserError
+from bimbot.shared.manifest import Manifest, load_manifest
+
+STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
+
+
+@contextmanager
+def stop_on_signals(signums: Sequence[int] = STOP_SIGNALS) -> Iterator[threading.Event]:
+    """An event that ``signums`` set (instead of killing the process) for the length of the ``with`` block.
+
+    The handlers only set the event, so the service ends its loop itself and closes its session (an
+    unclosed Zenoh session hangs at exit). The previous handlers are restored on the way out. Outside the
+    main thread (where Python allows no handlers) the event is only set by whoever holds it.
+    """
+    stop = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+    previous: dict[int, object] = {}
+    try:
+        for signum in signums:
+            previous[signum] = signal.signal(signum, lambda *_: stop.set())
+        yield stop
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)  # type: ignore[arg-type]
+
+
+def service_bus(args: argparse.Namespace) -> BusOptions:
+    """The bus options of a command (arguments, then environment, then defaults); a UserError when bad."""
+    try:
+        return bus_options(args)
+    except ValueError as error:
+        raise UserError(str(error)) from None
+
+
+@dataclass(frozen=True)
+class BuildInput:
+    """A converted build as a command was given it: its folder and its manifest."""
+
+    dir: Path
+    manifest: Manifest
+
+
+def resolve_build(path: Path) -> BuildInput:
+    """``--build``: the build folder or its manifest file → (folder, manifest); a UserError when unusable."""
+    path = Path(path)
+    manifest = load_manifest(path)
+    return BuildInput(path if path.is_dir() else path.parent, manifest)
+
+
+def run_service(main: Callable[..., int | None], /, *args: object, **kwargs: object) -> int:
+    """``main(*args, stop=<event>, **kwargs)`` with SIGINT/SIGTERM setting the event; its exit code."""
+    with stop_on_signals() as stop:
+        return int(main(*args, stop=stop, **kwargs) or 0)
+
+
+def writable_dir(path: Path, what: str) -> Path:
+    """``path`` created when missing and writable (journals, recordings, reports), checked before a service
+    starts; a UserError naming ``what`` (the option) otherwise."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise UserError(f"{what} {path}: cannot create the folder ({error.strerror or error})") from None
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise UserError(f"{what} {path}: the folder is not writable")
+    return path

@@ -1,0 +1,120 @@
+"""The one service runner: SIGTERM sets the stop event and the old handlers come back; bus options and the
+build path become one-line user errors; a bug in a command is a traceback and exit 1, not "bad input"."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+from pydantic import BaseModel
+
+import bimbot.cli
+from bimbot.shared.errors import UserError
+from bimbot.shared.service_runner import resolve_build, service_bus, writable_dir
+
+
+def test_sigterm_to_its_own_process_sets_the_stop_event_and_the_old_handlers_come_back() -> None:
+    script = textwrap.dedent(
+        """
+        import os, signal
+        from bimbot.shared.service_runner import run_service
+
+        def mine(signum, frame):
+            pass
+
+        signal.signal(signal.SIGTERM, mine)
+        before_int = signal.getsignal(signal.SIGINT)
+
+        def main(value, stop):
+            assert signal.getsignal(signal.SIGTERM) is not mine
+            os.kill(os.getpid(), signal.SIGTERM)
+            assert stop.wait(5.0), "SIGTERM did not set the stop event"
+            return value
+
+        code = run_service(main, 7)
+        assert code == 7, code
+        assert signal.getsignal(signal.SIGTERM) is mine
+        assert signal.getsignal(signal.SIGINT) is before_int
+        print("ok")
+        """
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], check=False, capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "ok"
+
+
+def test_a_bad_bus_mode_from_the_environment_is_a_user_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("BIMBOT_ZENOH_MODE", "broadcast")
+    with pytest.raises(UserError, match="BIMBOT_ZENOH_MODE"):
+        service_bus(argparse.Namespace(mode=None, connect=None, listen=None))
+
+
+def test_build_may_be_the_folder_or_its_manifest_file(bundled_build: Path) -> None:
+    by_folder = resolve_build(bundled_build)
+    by_file = resolve_build(bundled_build / "manifest.json")
+    assert by_folder.dir == by_file.dir == bundled_build
+    assert by_folder.manifest == by_file.manifest
+
+
+def test_a_missing_build_is_one_line(tmp_path: Path) -> None:
+    with pytest.raises(UserError, match="no manifest"):
+        resolve_build(tmp_path / "nowhere")
+
+
+def test_an_unwritable_output_folder_is_a_user_error(tmp_path: Path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    with pytest.raises(UserError, match="--rrd"):
+        writable_dir(blocker / "observer", "--rrd")
+
+
+class _Strict(BaseModel):
+    count: int
+
+
+def _raise_validation_error(_args: argparse.Namespace) -> int:
+    _Strict.model_validate(json.loads('{"count": "many"}'))  # a bug: pydantic's ValidationError
+    return 0
+
+
+def _add_nothing(_parser: argparse.ArgumentParser) -> None:
+    pass
+
+
+def test_a_validation_error_inside_a_command_is_a_traceback_and_exit_1_not_exit_2(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    module = type(sys)("fake_buggy_service")
+    module.add_arguments = _add_nothing  # type: ignore[attr-defined]
+    module.run = _raise_validation_error  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "fake_buggy_service", module)
+    monkeypatch.setitem(bimbot.cli.SUBCOMMANDS, "buggy", ("fake_buggy_service", "raises a bug"))
+    with caplog.at_level(logging.ERROR):
+        assert bimbot.cli.main(["buggy"]) == bimbot.cli.EXIT_BUG == 1
+    [record] = [r for r in caplog.records if r.exc_info]
+    assert bimbot.cli.BUG_MARK in record.getMessage()
+    assert record.exc_info[0].__name__ == "ValidationError"
+
+
+def test_a_user_error_inside_a_command_stays_one_line_and_exit_2(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    def bad_input(_args: argparse.Namespace) -> int:
+        raise UserError("--sequence nope.xml: no such file")
+
+    module = type(sys)("fake_picky_service")
+    module.add_arguments = _add_nothing  # type: ignore[attr-defined]
+    module.run = bad_input  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "fake_picky_service", module)
+    monkeypatch.setitem(bimbot.cli.SUBCOMMANDS, "picky", ("fake_picky_service", "rejects its input"))
+    with caplog.at_level(logging.ERROR):
+        assert bimbot.cli.main(["picky"]) == 2
+    assert not any(r.exc_info for r in caplog.records)

@@ -1,0 +1,128 @@
+"""Every service command's defaults are the fields of its config dataclass (one truth per fact).
+
+Each sub-command parser is built as ``bimbot`` builds it, parsed with only its required arguments, and each
+default compared with the dataclass field it stands for; every "(default X)" in a help text must then name
+the parser's own default. A default typed again in a CLI (or a help text left behind) fails here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+
+import pytest
+
+from bimbot.cli import build_parser
+from bimbot.services.physics.app import RunConfig
+from bimbot.services.physics.robots import RobotConfig
+from bimbot.services.physics.sensors import LaserConfig
+from bimbot.services.physics.simulation import SimConfig
+from bimbot.services.planner.app import PlannerOptions
+from bimbot.services.planner.records import PlannerLimits
+from bimbot.services.robot.app import RobotOptions
+from bimbot.services.robot.task_state import ExecutorConfig
+
+REQUIRED = {
+    "physics": ["--build", "OUT"],
+    "agents": ["--build", "OUT"],
+    "planner": ["--build", "OUT"],
+    "robot": ["--build", "OUT", "--id", "r1"],
+    "observe": ["--build", "OUT"],
+}
+_HELP_DEFAULT = re.compile(r"\(default (-?\d+(?:\.\d+)?(?:e-?\d+)?)(?![\w./])")  # not "1/1" (a shard)
+
+
+def _parsed(name: str) -> argparse.Namespace:
+    argv = [name, *REQUIRED[name]]
+    return build_parser(argv).parse_args(argv)
+
+
+def _sub_parser(name: str) -> argparse.ArgumentParser:
+    parser = build_parser([name])
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return sub.choices[name]
+
+
+def _expected(name: str) -> dict[str, object]:
+    if name == "physics":
+        sim, robot, laser, run = SimConfig(), RobotConfig(), LaserConfig(), RunConfig()
+        return {
+            "robots": sim.robots,
+            "rtf": run.rtf,
+            "lock_step_timeout_s": run.lock_step_timeout_s,
+            "wait_for_robots_s": run.wait_for_robots_s,
+            "steps": run.max_steps,
+            "physics_hz": 1.0 / sim.step_s,
+            "control_period_s": sim.control_period_s,
+            "seed": sim.seed,
+            "odom_noise": sim.odom_noise,
+            "reach_m": sim.reach_m,
+            "pose_refresh_s": sim.pose_refresh_s,
+            "urdf": robot.urdf_path,
+            "max_speed_mps": robot.max_speed_mps,
+            "max_turn_radps": robot.max_turn_radps,
+            "laser_beams": laser.beams,
+            "laser_fov_deg": math.degrees(laser.fov_rad),
+            "laser_range_m": laser.range_max_m,
+            "laser_height_m": laser.height_m,
+        }
+    if name == "agents":
+        from bimbot.services.component_agents.agent import AgentConfig
+
+        agent = AgentConfig()
+        return {
+            "position_tolerance_m": agent.tolerances.position_m,
+            "angle_tolerance_deg": math.degrees(agent.tolerances.angle_rad),
+            "max_attempts": agent.max_attempts,
+            "verify_timeout_s": agent.verify_timeout_s,
+        }
+    if name == "planner":
+        options, limits = PlannerOptions(), PlannerLimits()
+        return {
+            "agents_timeout_s": options.agents_timeout_s,
+            "resend_s": options.resend_s,
+            "site_info_timeout_s": options.site_info_timeout_s,
+            "max_give_backs": limits.max_give_backs,
+            "task_timeout_s": limits.task_timeout_s,
+        }
+    if name == "robot":
+        executor = ExecutorConfig(robot_id="r1")
+        return {
+            "inject_placement_error_m": executor.placement_error_m,
+            "inject_fraction": executor.inject_fraction,
+            "seed": executor.seed,
+            "place_duration_s": executor.place_duration_s,
+            "info_timeout_s": RobotOptions().info_timeout_s,
+        }
+    from bimbot.services.observer.app import ObserverConfig
+    from bimbot.services.observer.twin_log import TwinLogOptions
+
+    twin = TwinLogOptions()
+    return {
+        "web_port": ObserverConfig.web_port,
+        "grpc_port": ObserverConfig.grpc_port,
+        "bind": ObserverConfig.bind,
+        "scan_every": twin.scan_every,
+        "pose_interval_s": twin.pose_min_interval_s,
+    }
+
+
+@pytest.mark.parametrize("name", sorted(REQUIRED))
+def test_every_service_default_is_its_config_dataclass_field(name: str) -> None:
+    parsed = vars(_parsed(name))
+    for option, expected in _expected(name).items():
+        if isinstance(expected, float):
+            assert parsed[option] == pytest.approx(expected), option
+        else:
+            assert parsed[option] == expected, option
+
+
+@pytest.mark.parametrize("name", sorted(REQUIRED))
+def test_every_default_named_in_a_help_text_is_the_parsers_own(name: str) -> None:
+    for action in _sub_parser(name)._actions:
+        match = _HELP_DEFAULT.search(action.help or "")
+        if match is None:
+            continue
+        assert isinstance(action.default, int | float), f"{action.dest}: help names a default it has not"
+        assert float(match.group(1)) == pytest.approx(action.default, rel=1e-6), action.dest
