@@ -1,0 +1,111 @@
+"""One run's output folder, apart from the build it ran on: journal, logs, report and recording.
+
+The converted build (``BUILD/manifest.json``, models, world, ``sequence.xml``) is an input that many runs
+share; everything a run writes goes to its own folder, so two runs on one build never overwrite each
+other and a finished run stays as it was::
+
+    BUILD/runs/20261125-101530/     one run (named by its start time, local clock)
+        state/                      the component agents' journal (what a restarted agent resumes from)
+        logs/                       one log per service (``bimbot run``)
+        report/                     report.json and report.png
+        observer/<site>.rrd         the rerun recording
+    BUILD/runs/latest -> 20261125-101530
+
+``bimbot run`` makes a new run folder per run and hands it to every service (``--run-dir``). A service
+started by hand without ``--run-dir`` (or in ``docker compose``) uses ``BUILD/runs/latest``, making the
+first run folder when there is none; :func:`open_run_folder` does that under a lock, so services starting
+together agree on one folder.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import os
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+RUNS_DIR_NAME = "runs"
+LATEST_NAME = "latest"
+_LOCK_NAME = ".lock"
+
+
+@dataclass(frozen=True)
+class RunFolder:
+    """The paths of one run's output (the folders are made when first written)."""
+
+    root: Path
+
+    @property
+    def state_dir(self) -> Path:
+        return self.root / "state"
+
+    @property
+    def logs_dir(self) -> Path:
+        return self.root / "logs"
+
+    @property
+    def report_dir(self) -> Path:
+        return self.root / "report"
+
+    @property
+    def observer_dir(self) -> Path:
+        return self.root / "observer"
+
+    def recording_path(self, site: str) -> Path:
+        return self.observer_dir / f"{site}.rrd"
+
+
+def runs_dir(build_dir: Path) -> Path:
+    return Path(build_dir) / RUNS_DIR_NAME
+
+
+@contextlib.contextmanager
+def _runs_locked(build_dir: Path) -> Iterator[Path]:
+    folder = runs_dir(build_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    with open(folder / _LOCK_NAME, "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield folder
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+def new_run_folder(build_dir: Path, now_s: float | None = None) -> RunFolder:
+    """A new, empty run folder under ``BUILD/runs/`` named by the time, and ``latest`` pointing to it."""
+    with _runs_locked(build_dir) as folder:
+        return _make_new(folder, time.time() if now_s is None else now_s)
+
+
+def open_run_folder(build_dir: Path, run_dir: Path | None = None) -> RunFolder:
+    """``run_dir`` when given; else the build's latest run folder (a new one when the build has none)."""
+    if run_dir is not None:
+        return RunFolder(Path(run_dir))
+    with _runs_locked(build_dir) as folder:
+        latest = folder / LATEST_NAME
+        if latest.is_dir():
+            return RunFolder(latest.resolve())
+        return _make_new(folder, time.time())
+
+
+def latest_run_folder(build_dir: Path) -> RunFolder | None:
+    """The build's latest run folder, or None when it has none."""
+    latest = runs_dir(build_dir) / LATEST_NAME
+    return RunFolder(latest.resolve()) if latest.is_dir() else None
+
+
+def _make_new(folder: Path, now_s: float) -> RunFolder:
+    stamp = time.strftime("%Y%m%d-%H%M%S", time.localtime(now_s))
+    root, number = folder / stamp, 1
+    while root.exists():  # two runs within one second
+        number += 1
+        root = folder / f"{stamp}-{number}"
+    root.mkdir()
+    link = folder / f".{LATEST_NAME}.{os.getpid()}"
+    link.unlink(missing_ok=True)
+    link.symlink_to(root.name)  # relative: the build folder can move
+    link.replace(folder / LATEST_NAME)  # atomic: a reader sees the old or the new run, never none
+    return RunFolder(root)

@@ -1,0 +1,70 @@
+"""Run folders: one per run under BUILD/runs/, ``latest`` follows the newest, services agree on one."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+from pathlib import Path
+
+import pytest
+
+from bimbot.cli import main
+from bimbot.shared.run_folder import LATEST_NAME, latest_run_folder, new_run_folder, open_run_folder, runs_dir
+
+NOON_S = 1_795_000_000.0
+
+
+def test_each_new_run_gets_its_own_folder_and_latest_follows(tmp_path: Path) -> None:
+    first = new_run_folder(tmp_path, now_s=NOON_S)
+    second = new_run_folder(tmp_path, now_s=NOON_S)  # the same second: a suffix, never the same folder
+    third = new_run_folder(tmp_path, now_s=NOON_S + 60)
+    assert len({first.root, second.root, third.root}) == 3
+    assert second.root.name == f"{first.root.name}-2"
+    assert all(run.root.parent == runs_dir(tmp_path) and run.root.is_dir() for run in (first, second, third))
+    latest = runs_dir(tmp_path) / LATEST_NAME
+    assert latest.is_symlink() and not Path(latest.readlink()).is_absolute()  # the build can move
+    assert latest_run_folder(tmp_path) == type(third)(third.root.resolve())
+    assert {p.name for p in runs_dir(tmp_path).iterdir() if p.name.startswith(".latest")} == set()
+
+
+def test_a_service_without_run_dir_uses_latest_or_makes_the_first(tmp_path: Path) -> None:
+    assert latest_run_folder(tmp_path) is None
+    made = open_run_folder(tmp_path)
+    assert made.root.is_dir() and latest_run_folder(tmp_path) == made
+    assert open_run_folder(tmp_path) == made  # a second service joins the same run
+    given = tmp_path / "elsewhere"
+    assert open_run_folder(tmp_path, given).root == given
+    assert made.state_dir == made.root / "state" and made.recording_path("s") == made.root / "observer/s.rrd"
+
+
+def _open_latest(build: str) -> str:
+    return str(open_run_folder(Path(build)).root)
+
+
+def test_services_starting_together_agree_on_one_run_folder(tmp_path: Path) -> None:
+    with multiprocessing.get_context("spawn").Pool(4) as pool:
+        roots = pool.map(_open_latest, [str(tmp_path)] * 8)
+    assert len(set(roots)) == 1
+    assert [p for p in runs_dir(tmp_path).iterdir() if p.is_dir() and not p.is_symlink()] == [Path(roots[0])]
+
+
+def test_bimbot_runs_lists_runs_with_their_reports_and_makes_new_ones(
+    bundled_build: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    build = tmp_path / "build"
+    build.mkdir()
+    (build / "manifest.json").write_bytes((bundled_build / "manifest.json").read_bytes())
+    assert main(["runs", str(build), "--new"]) == 0
+    made = Path(capsys.readouterr().out.strip())
+    assert made.parent == runs_dir(build) and made.is_dir()
+    report = {
+        "totals": {"constructed": 27, "components": 28},
+        "ending": {"how": "stalled"},
+        "sim_time_s": 812.4,
+    }
+    (made / "report").mkdir()
+    (made / "report" / "report.json").write_text(json.dumps(report))
+    assert main(["runs", str(build)]) == 0
+    listed = capsys.readouterr().out
+    assert f"{made.name} (latest)  constructed 27/28, stalled, 812 s sim" in listed
+    assert main(["runs", str(tmp_path / "nothing")]) == 2
