@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# The full check the README promises and CI runs: ruff (lint and format), the type checker, then the test
+# suite. Usage: bash scripts/check.sh [pytest arguments]. Run after `bash scripts/setup.sh --tests`.
+# Exits with the first failing step's code; pytest's own code passes through (5 when no test ran).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+echo "check: ruff check" >&2
+.venv/bin/ruff check .
+echo "check: ruff format --check" >&2
+.venv/bin/ruff format --check .
+echo "check: mypy" >&2
+bash scripts/typecheck.sh
+echo "check: pytest" >&2
+exec .venv/bin/python -m pytest "$@"
