@@ -19,7 +19,8 @@ Protocol (docs/architecture.md, "Construction protocol"):
   all, judges the placement a failure ("no pose on the bus"). A failure with attempts left is
   ``misplaced`` (the planner sends ``retry``); with none left it is ``failed``.
 
-One ``transitions`` machine serves every agent of a process (:class:`.state_table.ComponentMachine`).
+One ``transitions`` machine serves every agent of a process (:class:`.state_table.ComponentMachine`,
+built by :class:`bimbot.shared.table_machine.TableMachine`).
 """
 
 from __future__ import annotations
@@ -44,8 +45,7 @@ from bimbot.shared.messages import (
 from bimbot.shared.reasons import Reason, ReasonCode
 
 from .state_table import INITIAL, ComponentMachine, Verdict
-from .verification import Tolerances, is_valid_pose, verify
-from .verification import Verdict as Check
+from .verification import PlacementCheck, Tolerances, is_valid_pose, verify
 
 _log = logging.getLogger(__name__)
 
@@ -142,7 +142,7 @@ class ComponentAgent:
         self.history: list[TransitionRecord] = []
         self.event_ids: set[str] = set()
         self.reason: Reason | None = None  # why it failed or is blocked; else why it was last given back
-        self._machine.add_model(self)
+        self._machine.start(self)
 
     # --- inputs --------------------------------------------------------------------------------------------
 
@@ -265,7 +265,7 @@ class ComponentAgent:
     ) -> None:
         """Resume from a journal: the last state and what led there. A resumed ``verifying`` waits anew."""
         now = time.time() if now_wall_s is None else now_wall_s
-        self._machine.set_state(state, model=self)
+        self._machine.start(self, state)
         self.attempt = attempt
         self.robot_id = robot_id
         self.place_sim_time_s = None
@@ -307,7 +307,9 @@ class ComponentAgent:
 
     # --- internals -----------------------------------------------------------------------------------------
 
-    def _decide(self, check: Check | None, cause: str, sim_time_s: float, now: float) -> ComponentStateMsg:
+    def _decide(
+        self, check: PlacementCheck | None, cause: str, sim_time_s: float, now: float
+    ) -> ComponentStateMsg:
         tol = self._config.tolerances
         if check is not None and check.ok:
             verdict = Verdict.VERIFIED

@@ -24,22 +24,18 @@ Choices:
 * ``constructed``, ``failed`` and ``blocked`` are terminal: nothing leaves them, so nothing is constructed
   twice.
 
-Performance: :class:`ComponentMachine` is the table as one ``transitions`` machine shared by every agent
-of a process (``add_model``). Measured for 10,000 agents on the 2-core reference machine: one ``Machine``
-per agent costs 7.8 s and 22 KB per agent; one shared machine with stock ``add_model`` 3.3 s and 9 KB (31
-bound convenience methods per model, and a list membership test that makes registration quadratic); the
-shared :class:`ComponentMachine` below 0.3 s and ~0.2 KB. Agents call
-``machine.events[trigger].trigger(agent)``, which is what the bound methods would do (~9 µs per trigger).
+The table is interpreted by :class:`bimbot.shared.table_machine.TableMachine`, the same mechanism as the
+robot's task table: one ``transitions`` machine per process shared by every agent, public API only (its
+module doc gives the cost at 10,000 agents).
 """
 
 from __future__ import annotations
 
-from collections import deque
 from enum import StrEnum
 
-from transitions import Machine, MachineError
-
+from bimbot.shared import table_machine
 from bimbot.shared.messages import ComponentEvent, ComponentState
+from bimbot.shared.table_machine import TableMachine
 
 STATES = ComponentState
 INITIAL = ComponentState.PLANNED
@@ -82,87 +78,29 @@ TERMINAL: frozenset[ComponentState] = frozenset(
 )
 
 
-def _sources(row: dict) -> list[ComponentState]:
-    source = row["source"]
-    return list(source) if isinstance(source, list | tuple) else [source]
-
-
 def edges() -> list[tuple[str, ComponentState, ComponentState]]:
     """The table flattened to ``(trigger, source, dest)`` triples."""
-    return [(row["trigger"], source, row["dest"]) for row in TRANSITIONS for source in _sources(row)]
+    return table_machine.edges(TRANSITIONS)
 
 
 def next_state(state: ComponentState, trigger: str) -> ComponentState | None:
     """Where ``trigger`` leads from ``state``, or None when the table does not allow it."""
-    for name, source, dest in edges():
-        if name == trigger and source == state:
-            return dest
-    return None
+    return table_machine.next_state(TRANSITIONS, state, trigger)
 
 
 def triggers_from(state: ComponentState) -> set[str]:
     """The triggers the table accepts in ``state``."""
-    return {name for name, source, _ in edges() if source == state}
+    return table_machine.triggers_from(TRANSITIONS, state)
 
 
 def reachable_from(start: ComponentState = INITIAL) -> set[ComponentState]:
     """Every state some sequence of triggers reaches from ``start`` (``start`` included)."""
-    seen = {start}
-    todo = deque([start])
-    while todo:
-        state = todo.popleft()
-        for _, source, dest in edges():
-            if source == state and dest not in seen:
-                seen.add(dest)
-                todo.append(dest)
-    return seen
+    return table_machine.reachable_from(TRANSITIONS, start)
 
 
-class _ModelRegistry(list):
-    """``Machine.models`` with an O(1) identity membership test (the stock list makes add_model O(n))."""
+class ComponentMachine(TableMachine):
+    """The component state table as one machine, shared by many agents (enum states, no auto transitions;
+    an illegal trigger is refused: :meth:`fire` returns False and the agent logs a rejection)."""
 
     def __init__(self) -> None:
-        super().__init__()
-        self._ids: set[int] = set()
-
-    def __contains__(self, model: object) -> bool:
-        return id(model) in self._ids
-
-    def append(self, model: object) -> None:
-        self._ids.add(id(model))
-        super().append(model)
-
-    def remove(self, model: object) -> None:
-        self._ids.discard(id(model))
-        super().remove(model)
-
-
-class ComponentMachine(Machine):
-    """The component state table as one ``transitions`` machine, shared by many agents (``add_model``).
-
-    Enum states, ``auto_transitions=False``, ``ignore_invalid_triggers=False`` (an illegal trigger raises
-    ``MachineError``, which the agent turns into a logged rejection). It binds no convenience methods onto
-    its models: agents trigger through ``machine.events[name].trigger(agent)``.
-    """
-
-    def __init__(self) -> None:
-        super().__init__(
-            model=[],
-            states=STATES,
-            transitions=list(TRANSITIONS),
-            initial=INITIAL,
-            auto_transitions=False,
-            ignore_invalid_triggers=False,
-        )
-        self.models = _ModelRegistry()
-
-    def _checked_assignment(self, model: object, name: str, func: object) -> None:
-        """Bind nothing onto models (31 partials per agent otherwise)."""
-        return None
-
-    def fire(self, model: object, trigger: str) -> bool:
-        """Apply ``trigger`` to ``model``; False (and the model unchanged) when the table forbids it."""
-        try:
-            return bool(self.events[trigger].trigger(model))
-        except MachineError:
-            return False
+        super().__init__(STATES, TRANSITIONS, INITIAL)

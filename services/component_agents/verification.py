@@ -8,6 +8,11 @@ Pure functions over positions (metres, simulation world frame) and unit quaterni
   computed as ``2·atan2(|v|, |w|)`` of the relative quaternion, which stays exact for tiny angles (where
   ``2·acos(|q₁·q₂|)`` loses half its digits).
 
+The quaternion product is written out here rather than taken from scipy's ``Rotation`` (which gives the
+same angle, ``(target.inv() * current).magnitude()``; the tests compare the two): the agents' process
+must not load numpy/scipy, which would add tens of MB to each of the processes that hold 10,000 agents
+(tests/component_agents/test_agents_cli.py checks the imports).
+
 A placement is accepted when both errors are within explicit :class:`Tolerances` (inclusive).
 """
 
@@ -46,8 +51,9 @@ class Tolerances:
 
 
 @dataclass(frozen=True)
-class Verdict:
-    """The result of one verification: accepted or not, and both errors."""
+class PlacementCheck:
+    """The result of one verification: accepted or not, and both errors (the agent's verdict trigger, in
+    :mod:`.state_table`, follows from it and the attempts left)."""
 
     ok: bool
     position_error_m: float
@@ -93,9 +99,9 @@ def angle_error_rad(current_xyzw: Quat, target_xyzw: Quat) -> float:
     return 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
 
 
-def verify(current: HasPose, target: HasPose, tolerances: Tolerances) -> Verdict:
+def verify(current: HasPose, target: HasPose, tolerances: Tolerances) -> PlacementCheck:
     """Compare a current pose with the BIM target pose against ``tolerances`` (both bounds inclusive)."""
     position_error = position_error_m(current.position_m, target.position_m)
     angle_error = angle_error_rad(current.quat_xyzw, target.quat_xyzw)
     ok = position_error <= tolerances.position_m and angle_error <= tolerances.angle_rad
-    return Verdict(ok=ok, position_error_m=position_error, angle_error_rad=angle_error)
+    return PlacementCheck(ok=ok, position_error_m=position_error, angle_error_rad=angle_error)

@@ -2,11 +2,10 @@
 identify target location → assemble → idle.
 
 The table is a plain tuple of ``(trigger, source, dest)`` rows over
-:class:`bimbot.shared.messages.RobotState`, and :class:`TaskMachine` is a minimal interpreter of it. A
-plain table rather than a ``transitions`` machine (the agents use one because thousands of them share
-it): the robot is one object per process, needs no callbacks, and the executor asks "may I fire this?" on
-every control tick, which is a dict lookup here. The table is still data, tested on its own, like the
-agents' table.
+:class:`bimbot.shared.messages.RobotState`, tested on its own, and run by the same mechanism as the
+component agents' table: :class:`bimbot.shared.table_machine.TableMachine`, one ``transitions`` machine
+(built once per process) with :class:`TaskMachine` as its model. The executor fires a trigger only when
+it observed something, a few times per task, so the ~6 µs of a ``transitions`` trigger do not matter.
 
 Triggers (what the executor observed):
 
@@ -22,10 +21,14 @@ from __future__ import annotations
 
 from enum import StrEnum
 
+from bimbot.shared import table_machine
 from bimbot.shared.messages import RobotState
+from bimbot.shared.table_machine import TableMachine
 
 
 class Trigger(StrEnum):
+    """What the executor observed (the module doc says when each is fired)."""
+
     ASSIGNED = "assigned"
     LOCATED = "located"
     ATTACHED = "attached"
@@ -59,32 +62,32 @@ PAPER_ORDER: tuple[RobotState, ...] = (
     _S.IDLE,
 )
 
-_TABLE: dict[tuple[Trigger, RobotState], RobotState] = {(t, s): d for t, s, d in TRANSITIONS}
+_MACHINE = TableMachine(RobotState, TRANSITIONS, INITIAL)
 
 
 def next_state(state: RobotState, trigger: Trigger) -> RobotState | None:
     """Where ``trigger`` leads from ``state``, or None when the table does not allow it."""
-    return _TABLE.get((trigger, state))
+    return table_machine.next_state(TRANSITIONS, state, trigger)
 
 
 def triggers_from(state: RobotState) -> set[Trigger]:
     """The triggers the table accepts in ``state``."""
-    return {t for t, s, _ in TRANSITIONS if s == state}
+    return {Trigger(name) for name in table_machine.triggers_from(TRANSITIONS, state)}
 
 
 class TaskMachine:
     """The robot's current task state; :meth:`fire` applies a trigger the table allows."""
 
+    __slots__ = ("state",)
+
     def __init__(self, state: RobotState = INITIAL) -> None:
-        self.state = state
+        self.state: RobotState
+        _MACHINE.start(self, state)
 
     def can(self, trigger: Trigger) -> bool:
-        return next_state(self.state, trigger) is not None
+        """True when the table allows ``trigger`` in the current state."""
+        return _MACHINE.may_fire(self, trigger)
 
     def fire(self, trigger: Trigger) -> bool:
         """Apply ``trigger``; False (state unchanged) when the table does not allow it here."""
-        dest = next_state(self.state, trigger)
-        if dest is None:
-            return False
-        self.state = dest
-        return True
+        return _MACHINE.fire(self, trigger)

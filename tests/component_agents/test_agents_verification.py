@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from agent_builders import quat_z
+from scipy.spatial.transform import Rotation
 
 from bimbot.services.component_agents.verification import (
     Tolerances,
@@ -98,3 +100,12 @@ def test_verify_rejects_position_or_angle_beyond_tolerance(
 def test_tolerances_must_be_finite_and_not_negative(position_m: float, angle_rad: float) -> None:
     with pytest.raises(ValueError, match="tolerance"):
         Tolerances(position_m=position_m, angle_rad=angle_rad)
+
+
+def test_angle_error_matches_scipy_rotation_magnitude() -> None:
+    """The hand-written quaternion product (kept so the agents' process does not load scipy) is scipy's."""
+    rng = np.random.default_rng(7)
+    for current, target in zip(Rotation.random(200, rng=rng), Rotation.random(200, rng=rng), strict=True):
+        expected = (target.inv() * current).magnitude()
+        got = angle_error_rad(tuple(current.as_quat()), tuple(-target.as_quat()))
+        assert got == pytest.approx(expected, rel=1e-9, abs=1e-12)
