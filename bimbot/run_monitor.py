@@ -1,7 +1,7 @@
 """What ``bimbot run`` hears of a build: component states, robots, progress and the clock, as a report.
 
-The subscriber callbacks only enqueue (:class:`bimbot.shared.bus.Inbox`); :meth:`RunMonitor.drain`,
-called from the run's waiting loop, validates the messages and feeds them to the observer's pure
+The subscriber callbacks only validate and enqueue (:class:`bimbot.shared.bus.Inbox`);
+:meth:`RunMonitor.drain`, called from the run's waiting loop, feeds the messages to the observer's pure
 :class:`bimbot.services.observer.report.ReportCollector`, so ``report.json``/``report.png`` are written
 at the end of every run, with or without the observer (laser scans and plans are not subscribed: the
 report does not use them).
@@ -13,32 +13,26 @@ of the planner's progress counts), which the stall watchdog (:mod:`bimbot.run_wa
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import zenoh
 from pydantic import BaseModel
 
 from bimbot.services.observer.report import UNFINISHED, ReportCollector, RunEnding
-from bimbot.shared.bus import Inbox, InvalidPayloads, decode
+from bimbot.shared.bus import Inbox, InvalidPayloads, Received
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
-    CLOCK_KEY,
-    COMPONENT_STATE_KEY,
-    PROGRESS_KEY,
-    ROBOT_POSE_KEY,
-    ROBOT_STATE_KEY,
-    TASK_KEY,
+    CLOCK,
+    COMPONENT_STATE,
+    PROGRESS,
+    ROBOT_POSE,
+    ROBOT_STATE,
+    TASK,
     ClockMsg,
     ComponentState,
     ComponentStateMsg,
     ProgressMsg,
-    RobotPoseMsg,
     RobotStateMsg,
     TaskMsg,
-    key,
 )
-
-TAG_SAMPLE = "sample"
 
 
 class RunMonitor:
@@ -59,30 +53,21 @@ class RunMonitor:
         self.names = {c.guid: c.name for c in manifest.components}
         self.total = len(manifest.components)
         self._inbox = Inbox(self.invalid)
-        routes: list[tuple[str, type[BaseModel]]] = [
-            (key(COMPONENT_STATE_KEY, site=site, key="*"), ComponentStateMsg),
-            (key(ROBOT_STATE_KEY, site=site, robot_id="*"), RobotStateMsg),
-            (key(ROBOT_POSE_KEY, site=site, robot_id="*"), RobotPoseMsg),
-            (key(PROGRESS_KEY, site=site), ProgressMsg),
-            (key(TASK_KEY, site=site, task_id="*"), TaskMsg),
-            (key(CLOCK_KEY, site=site), ClockMsg),
-        ]
+        inbox = self._inbox
         self._subscribers = [
-            session.declare_subscriber(expression, self._enqueue(model)) for expression, model in routes
+            inbox.subscribe(session, COMPONENT_STATE, site=site, key="*"),
+            inbox.subscribe(session, ROBOT_STATE, site=site, robot_id="*"),
+            inbox.subscribe(session, ROBOT_POSE, site=site, robot_id="*"),
+            inbox.subscribe(session, PROGRESS, site=site),
+            inbox.subscribe(session, TASK, site=site, task_id="*"),
+            inbox.subscribe(session, CLOCK, site=site),
         ]
-
-    def _enqueue(self, model: type[BaseModel]) -> Callable[[zenoh.Sample], None]:
-        def on_sample(sample: zenoh.Sample) -> None:
-            self._inbox.put(TAG_SAMPLE, (model, str(sample.key_expr), sample.payload.to_bytes()))
-
-        return on_sample
 
     def drain(self, wait_s: float = 0.0) -> None:
         """Apply every queued message (waiting up to ``wait_s`` for the first)."""
-        for _, (model, key_expr, payload) in self._inbox.drain(first_timeout_s=wait_s):  # type: ignore[misc]
-            message = decode(model, key_expr, payload, self.invalid)
-            if message is not None:
-                self.apply(message)
+        for item in self._inbox.drain(first_timeout_s=wait_s):
+            if isinstance(item, Received):
+                self.apply(item.message)
 
     def apply(self, message: BaseModel) -> None:
         self.collector.add(message)

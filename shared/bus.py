@@ -34,6 +34,8 @@ from typing import Generic, TypeVar
 import zenoh
 from pydantic import BaseModel, ValidationError
 
+from .keyspace import Queryable, Topic
+
 _log = logging.getLogger(__name__)
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
@@ -41,6 +43,7 @@ DEFAULT_LISTEN = "tcp/127.0.0.1:0"
 MODES = ("peer", "client", "router")
 
 M = TypeVar("M", bound=BaseModel)
+R = TypeVar("R", bound=BaseModel)
 
 
 @dataclass(frozen=True)
@@ -108,8 +111,50 @@ def encode(message: BaseModel) -> bytes:
 
 @dataclass(frozen=True)
 class Received(Generic[M]):
+    """A validated message that arrived on ``key`` of ``topic``."""
+
+    topic: Topic[M]
     key: str
     message: M
+
+
+@dataclass(frozen=True)
+class LivelinessChange:
+    """A liveliness token on ``key`` appeared (``alive``) or went away."""
+
+    key: str
+    alive: bool
+
+    @property
+    def id(self) -> str:
+        """The token's last key chunk (a robot id, a component key, …)."""
+        return self.key.rsplit("/", 1)[-1]
+
+
+@dataclass(frozen=True)
+class IncomingQuery(Generic[M, R]):
+    """A query to one of our ``queryable``s; the loop answers it (``reply``) and drops it."""
+
+    queryable: Queryable[M, R]
+    query: zenoh.Query
+
+
+@dataclass(frozen=True)
+class Answer(Generic[R]):
+    """A validated reply from ``key`` to a query this service sent on ``queryable``."""
+
+    queryable: Queryable
+    key: str
+    message: R
+
+
+@dataclass(frozen=True)
+class RawSample:
+    """A payload put on ``key``, not validated yet (an observer of ``bimbot/**`` decodes only what it
+    reads, see :func:`bimbot.shared.messages.topic_of`)."""
+
+    key: str
+    payload: bytes
 
 
 class InvalidPayloads:
@@ -146,48 +191,87 @@ def decode(model: type[M], key: str, payload: bytes, invalid: InvalidPayloads) -
 
 
 class Inbox:
-    """A thread-safe queue of validated messages fed by Zenoh callbacks and drained by the service's loop.
+    """A thread-safe queue of typed items fed by Zenoh callbacks and drained by the service's loop.
 
-    ``subscribe(session, key_expr, Model, tag)`` declares a subscriber whose callback validates the payload
-    and enqueues ``(tag, Received)``; the callback never touches service state.
+    ``subscribe(session, COMPONENT_STATE, site=s, key="*")`` declares a subscriber whose callback
+    validates the payload against the topic's registered model and enqueues a :class:`Received`;
+    liveliness changes arrive as :class:`LivelinessChange`, queries to our queryables as
+    :class:`IncomingQuery`, replies to ``ask`` as :class:`Answer`. A service puts its own items (timers,
+    other adapters) with :meth:`put` as small dataclasses, so the loop dispatches on types (``match``).
+    Callbacks never touch service state.
     """
 
     def __init__(self, invalid: InvalidPayloads | None = None) -> None:
-        self._queue: queue.Queue[tuple[str, object]] = queue.Queue()
+        self._queue: queue.Queue[object] = queue.Queue()
         self.invalid = invalid or InvalidPayloads()
 
-    def subscribe(self, session: zenoh.Session, key_expr: str, model: type[M], tag: str) -> zenoh.Subscriber:
+    def subscribe(self, session: zenoh.Session, topic: Topic[M], **parts: str) -> zenoh.Subscriber:
+        """Subscribe to ``topic`` with its key ``parts`` filled (``*`` for any)."""
+
         def on_sample(sample: zenoh.Sample) -> None:
             key = str(sample.key_expr)
             if sample.kind != zenoh.SampleKind.PUT:
                 return
-            message = decode(model, key, sample.payload.to_bytes(), self.invalid)
+            message = decode(topic.model, key, sample.payload.to_bytes(), self.invalid)
             if message is not None:
-                self._queue.put((tag, Received(key, message)))
+                self._queue.put(Received(topic, key, message))
+
+        return session.declare_subscriber(topic.key(**parts), on_sample)
+
+    def subscribe_raw(self, session: zenoh.Session, key_expr: str) -> zenoh.Subscriber:
+        """Every payload put under ``key_expr``, as :class:`RawSample` (decoded later, by the loop)."""
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            if sample.kind == zenoh.SampleKind.PUT:
+                self._queue.put(RawSample(str(sample.key_expr), sample.payload.to_bytes()))
 
         return session.declare_subscriber(key_expr, on_sample)
 
-    def subscribe_liveliness(self, session: zenoh.Session, key_expr: str, tag: str) -> zenoh.Subscriber:
-        """Liveliness changes as ``(tag, (key, alive: bool))``; existing tokens are reported first."""
+    def subscribe_liveliness(self, session: zenoh.Session, key_expr: str) -> zenoh.Subscriber:
+        """Liveliness changes as :class:`LivelinessChange`; existing tokens are reported first."""
 
         def on_sample(sample: zenoh.Sample) -> None:
-            self._queue.put((tag, (str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)))
+            self._queue.put(LivelinessChange(str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT))
 
         return session.liveliness().declare_subscriber(key_expr, on_sample, history=True)
 
-    def put(self, tag: str, item: object) -> None:
-        """Enqueue an item from any thread (timers, other adapters)."""
-        self._queue.put((tag, item))
+    def serve(
+        self, session: zenoh.Session, queryable: Queryable[M, R], *, complete: bool, **parts: str
+    ) -> zenoh.Queryable:
+        """Declare ``queryable`` (parts filled); each query is enqueued as an :class:`IncomingQuery`."""
+        return session.declare_queryable(
+            queryable.key(**parts),
+            lambda query: self._queue.put(IncomingQuery(queryable, query)),
+            complete=complete,
+        )
 
-    def get(self, timeout_s: float | None = None) -> tuple[str, object] | None:
+    def ask(
+        self, session: zenoh.Session, queryable: Queryable[M, R], *, timeout_s: float, **parts: str
+    ) -> None:
+        """Query ``queryable`` (parts filled) once; every valid reply is enqueued as an :class:`Answer`."""
+        reply_model = queryable.reply
+
+        def on_reply(reply: zenoh.Reply) -> None:
+            if reply.ok is None:
+                return
+            key = str(reply.ok.key_expr)
+            message = decode(reply_model, key, reply.ok.payload.to_bytes(), self.invalid)
+            if message is not None:
+                self._queue.put(Answer(queryable, key, message))
+
+        session.get(queryable.key(**parts), on_reply, timeout=timeout_s)
+
+    def put(self, item: object) -> None:
+        """Enqueue a service's own item from any thread (timers, other adapters)."""
+        self._queue.put(item)
+
+    def get(self, timeout_s: float | None = None) -> object | None:
         try:
             return self._queue.get(timeout=timeout_s)
         except queue.Empty:
             return None
 
-    def drain(
-        self, first_timeout_s: float | None = None, limit: int = 10_000
-    ) -> Iterator[tuple[str, object]]:
+    def drain(self, first_timeout_s: float | None = None, limit: int = 10_000) -> Iterator[object]:
         """Yield what is queued: wait up to ``first_timeout_s`` for the first item, then what is there."""
         item = self.get(first_timeout_s)
         count = 0
@@ -206,19 +290,21 @@ Handler = Callable[[zenoh.Query], None]
 
 def query_first(
     session: zenoh.Session,
-    selector: str,
-    model: type[M],
+    queryable: Queryable[M, R],
     invalid: InvalidPayloads,
     *,
     timeout_s: float,
     stop: threading.Event | None = None,
     retry_s: float = 0.5,
-) -> M | None:
-    """Ask ``selector`` until a valid ``model`` answers, at most ``timeout_s`` wall seconds (or ``stop``).
+    **parts: str,
+) -> R | None:
+    """Ask ``queryable`` (parts filled) until a valid reply answers, at most ``timeout_s`` wall seconds (or
+    ``stop``).
 
     For start-up questions to another service's queryable (physics' site info): a bounded wait, never a
     hang; None when nobody answered in time.
     """
+    selector, model = queryable.key(**parts), queryable.reply
     deadline = time.monotonic() + timeout_s
     while stop is None or not stop.is_set():
         left = deadline - time.monotonic()

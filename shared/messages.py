@@ -1,26 +1,32 @@
 """Bus messages: one frozen, versioned pydantic model per message, beside its key expression.
 
 Key space (``<site>`` is the manifest's site slug, ``<key>`` a component's bus key, see
-:mod:`bimbot.shared.identifiers`)::
+:mod:`bimbot.shared.identifiers`); this table is :data:`KEY_SPACE` rendered by
+:func:`bimbot.shared.keyspace.key_table` (a test keeps the two equal)::
 
-    bimbot/<site>/components/<key>/state   ComponentStateMsg   agent → all (every state change)
-    bimbot/<site>/components/<key>/event   ComponentEventMsg   planner/robot → agent (what happened to it)
-    bimbot/<site>/components/<key>/pose    ComponentPoseMsg    physics → all (moving or just placed)
-    bimbot/<site>/components/<key>/twin    (queryable)         agent answers TwinMsg
-    bimbot/<site>/tasks/<task_id>          TaskMsg             planner → robots, observer
-    bimbot/<site>/robots/<id>/state        RobotStateMsg       robot → planner, observer
-    bimbot/<site>/robots/<id>/cmd_vel      CmdVelMsg           robot → physics
-    bimbot/<site>/robots/<id>/odom         OdomMsg             physics → robot
-    bimbot/<site>/robots/<id>/scan         ScanMsg             physics → robot
-    bimbot/<site>/robots/<id>/plan         PlanMsg             robot → observer
-    bimbot/<site>/robots/<id>/pose         RobotPoseMsg        physics → observer, tests (ground truth)
-    bimbot/<site>/physics/info             (queryable)         physics answers SiteInfoMsg
-    bimbot/<site>/physics/attach           (queryable)         AttachRequest → PhysicsReply
-    bimbot/<site>/physics/place            (queryable)         PlaceRequest → PhysicsReply
-    bimbot/<site>/physics/drop             (queryable)         DropRequest → PhysicsReply
-    bimbot/<site>/clock                    ClockMsg            physics → all
-    bimbot/<site>/progress                 ProgressMsg         planner → all
-    bimbot/<site>/alive/<kind>/<id>        liveliness tokens (kind: component, robot, planner, physics, …)
+    bimbot/<site>/components/<key>/state      ComponentStateMsg   agent → all (every state change)
+    bimbot/<site>/components/<key>/event      ComponentEventMsg   planner/robot → agent (what happened to it)
+    bimbot/<site>/components/<key>/pose       ComponentPoseMsg    physics → all (moving or just placed)
+    bimbot/<site>/components/<key>/twin       (queryable)         agent answers TwinMsg
+    bimbot/<site>/tasks/<task_id>             TaskMsg             planner → robots, observer
+    bimbot/<site>/robots/<robot_id>/state     RobotStateMsg       robot → planner, observer
+    bimbot/<site>/robots/<robot_id>/cmd_vel   CmdVelMsg           robot → physics
+    bimbot/<site>/robots/<robot_id>/odom      OdomMsg             physics → robot
+    bimbot/<site>/robots/<robot_id>/scan      ScanMsg             physics → robot
+    bimbot/<site>/robots/<robot_id>/plan      PlanMsg             robot → observer
+    bimbot/<site>/robots/<robot_id>/pose      RobotPoseMsg        physics → observer, tests (ground truth)
+    bimbot/<site>/physics/info                (queryable)         physics answers SiteInfoMsg
+    bimbot/<site>/physics/attach              (queryable)         physics answers AttachRequest → PhysicsReply
+    bimbot/<site>/physics/place               (queryable)         physics answers PlaceRequest → PhysicsReply
+    bimbot/<site>/physics/drop                (queryable)         physics answers DropRequest → PhysicsReply
+    bimbot/<site>/planner/plan                (queryable)         planner answers PlannedSequenceMsg
+    bimbot/<site>/clock                       ClockMsg            physics → all
+    bimbot/<site>/progress                    ProgressMsg         planner → all
+    bimbot/<site>/alive/<kind>/<id>           (liveliness)        token of every running service
+
+A state change has one record, :class:`ComponentStateMsg`: the agent publishes it, keeps it in its twin's
+``history`` (so an observer that joins late sees each change with its robot, placement error and reason)
+and journals it (:mod:`bimbot.services.component_agents.journal`).
 
 Times: ``sim_time_s`` is simulated time from the physics clock; ``wall_time_s`` is Unix time, only for
 latency measurements. Poses are in the simulation world frame (see :mod:`bimbot.shared.manifest`).
@@ -33,16 +39,17 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from .keyspace import Entry, Liveliness, Queryable, Topic
 from .manifest import Quat, Vec3
 from .reasons import Reason
 from .robot_description import RobotDescription
 
-MESSAGE_SCHEMA_VERSION = 1
+MESSAGE_SCHEMA_VERSION = 2  # 2: TwinMsg.history holds ComponentStateMsg records (was TransitionRecord)
 
 
 class _Message(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
-    schema_version: Literal[1] = MESSAGE_SCHEMA_VERSION
+    schema_version: Literal[2] = MESSAGE_SCHEMA_VERSION
 
 
 def site_root(site: str) -> str:
@@ -93,6 +100,9 @@ class PoseMsg(BaseModel):
 
 
 class ComponentStateMsg(_Message):
+    """One state change of a component (or, with ``previous`` None, an agent announcing its state): the one
+    record of it, on the bus, in the twin's history and in the agents' journal."""
+
     guid: str
     state: ComponentState
     previous: ComponentState | None = None
@@ -127,17 +137,6 @@ class ComponentPoseMsg(_Message):
     fixed: bool = False  # fixed to the structure
 
 
-class TransitionRecord(BaseModel):
-    model_config = ConfigDict(frozen=True, extra="forbid")
-    source: ComponentState
-    dest: ComponentState
-    event: str
-    cause: str = ""
-    sim_time_s: float
-    attempt: int = 0
-    reason: Reason | None = None
-
-
 class TwinMsg(_Message):
     """A component's digital-twin record, answered by its agent's queryable."""
 
@@ -154,7 +153,7 @@ class TwinMsg(_Message):
     state: ComponentState
     attempt: int
     robot_id: str | None
-    history: list[TransitionRecord]
+    history: list[ComponentStateMsg]  # every transition (``previous`` set), oldest first
     reason: Reason | None = None  # failed/blocked: why; else the last give-back's reason, if any
 
 
@@ -277,6 +276,19 @@ class SiteInfoMsg(_Message):
     lock_step: bool
 
 
+PLANNER_PLAN_KEY = "bimbot/{site}/planner/plan"
+
+
+class PlannedSequenceMsg(_Message):
+    """The plan the planner builds by (after its access check): reports and the run ask it, so a run with
+    ``--derive`` or ``--sequence`` reports the order it really followed, not the build's sequence.xml."""
+
+    source: str  # e.g. "sequence.xml (ifc_schedule)", "derived from the support graph"
+    order: list[str]  # GUIDs in release priority
+    predecessors: dict[str, list[str]]  # GUID → GUIDs that must be constructed first
+    warnings: list[str] = []  # what the planner found wrong with its input (sequence, access)
+
+
 class AttachRequest(_Message):
     robot_id: str
     guid: str
@@ -334,3 +346,60 @@ class ProgressMsg(_Message):
 def key(template: str, **parts: str) -> str:
     """Fill a key template (``key(COMPONENT_STATE_KEY, site=s, key=k)``)."""
     return template.format(**parts)
+
+
+# --- the registry: every key, what travels on it and who speaks ---------------------------------------
+
+COMPONENT_STATE = Topic(COMPONENT_STATE_KEY, ComponentStateMsg, "agent", "all", "every state change")
+COMPONENT_EVENT = Topic(
+    COMPONENT_EVENT_KEY, ComponentEventMsg, "planner/robot", "agent", "what happened to it"
+)
+COMPONENT_POSE = Topic(COMPONENT_POSE_KEY, ComponentPoseMsg, "physics", "all", "moving or just placed")
+COMPONENT_TWIN = Queryable(COMPONENT_TWIN_KEY, None, TwinMsg, "agent")
+TASK = Topic(TASK_KEY, TaskMsg, "planner", "robots, observer")
+ROBOT_STATE = Topic(ROBOT_STATE_KEY, RobotStateMsg, "robot", "planner, observer")
+ROBOT_CMD_VEL = Topic(ROBOT_CMD_VEL_KEY, CmdVelMsg, "robot", "physics")
+ROBOT_ODOM = Topic(ROBOT_ODOM_KEY, OdomMsg, "physics", "robot")
+ROBOT_SCAN = Topic(ROBOT_SCAN_KEY, ScanMsg, "physics", "robot")
+ROBOT_PLAN = Topic(ROBOT_PLAN_KEY, PlanMsg, "robot", "observer")
+ROBOT_POSE = Topic(ROBOT_POSE_KEY, RobotPoseMsg, "physics", "observer, tests", "ground truth")
+PHYSICS_INFO = Queryable(PHYSICS_INFO_KEY, None, SiteInfoMsg, "physics")
+PHYSICS_ATTACH = Queryable(PHYSICS_ATTACH_KEY, AttachRequest, PhysicsReply, "physics")
+PHYSICS_PLACE = Queryable(PHYSICS_PLACE_KEY, PlaceRequest, PhysicsReply, "physics")
+PHYSICS_DROP = Queryable(PHYSICS_DROP_KEY, DropRequest, PhysicsReply, "physics")
+PLANNER_PLAN = Queryable(PLANNER_PLAN_KEY, None, PlannedSequenceMsg, "planner")
+CLOCK = Topic(CLOCK_KEY, ClockMsg, "physics", "all")
+PROGRESS = Topic(PROGRESS_KEY, ProgressMsg, "planner", "all")
+# kind: component, robot, planner, physics, observer
+ALIVE = Liveliness(ALIVE_KEY, "every running service")
+
+KEY_SPACE: tuple[Entry, ...] = (
+    COMPONENT_STATE,
+    COMPONENT_EVENT,
+    COMPONENT_POSE,
+    COMPONENT_TWIN,
+    TASK,
+    ROBOT_STATE,
+    ROBOT_CMD_VEL,
+    ROBOT_ODOM,
+    ROBOT_SCAN,
+    ROBOT_PLAN,
+    ROBOT_POSE,
+    PHYSICS_INFO,
+    PHYSICS_ATTACH,
+    PHYSICS_PLACE,
+    PHYSICS_DROP,
+    PLANNER_PLAN,
+    CLOCK,
+    PROGRESS,
+    ALIVE,
+)
+TOPICS: dict[str, Topic] = {entry.template: entry for entry in KEY_SPACE if isinstance(entry, Topic)}
+QUERYABLES: dict[str, Queryable] = {
+    entry.template: entry for entry in KEY_SPACE if isinstance(entry, Queryable)
+}
+
+
+def topic_of(site: str, key_expr: str) -> Topic | None:
+    """The topic a concrete key belongs to on ``site`` (None: not a published key of bimbot)."""
+    return next((topic for topic in TOPICS.values() if topic.matches(site, key_expr)), None)

@@ -39,7 +39,6 @@ from bimbot.shared.messages import (
     ComponentState,
     ComponentStateMsg,
     PoseMsg,
-    TransitionRecord,
     TwinMsg,
 )
 from bimbot.shared.reasons import Reason, ReasonCode
@@ -139,7 +138,7 @@ class ComponentAgent:
         self.arrive_sim_time_s: float | None = None
         self.place_sim_time_s: float | None = None
         self.verify_deadline_wall_s: float | None = None
-        self.history: list[TransitionRecord] = []
+        self.history: list[ComponentStateMsg] = []  # every transition, as published
         self.event_ids: set[str] = set()
         self.reason: Reason | None = None  # why it failed or is blocked; else why it was last given back
         self._machine.start(self)
@@ -258,7 +257,7 @@ class ComponentAgent:
         attempt: int,
         robot_id: str | None,
         place_sim_time_s: float | None,
-        history: Iterable[TransitionRecord],
+        history: Iterable[ComponentStateMsg],
         event_ids: Iterable[str],
         reason: Reason | None = None,
         now_wall_s: float | None = None,
@@ -350,19 +349,12 @@ class ComponentAgent:
         now: float,
         errors: tuple[float | None, float | None] = (None, None),
     ) -> ComponentStateMsg:
-        self.history.append(
-            TransitionRecord(
-                source=source,
-                dest=self.state,
-                event=event,
-                cause=cause,
-                sim_time_s=sim_time_s,
-                attempt=self.attempt,
-                reason=self.reason,
-            )
+        message = self._message(
+            source, event=event, cause=cause, sim_time_s=sim_time_s, now=now, errors=errors
         )
+        self.history.append(message)
         _log.debug("%s: %s → %s (%s; %s)", self.guid, source.value, self.state.value, event, cause)
-        return self._message(source, event=event, cause=cause, sim_time_s=sim_time_s, now=now, errors=errors)
+        return message
 
     def _message(
         self,

@@ -35,28 +35,24 @@ from pathlib import Path
 
 import zenoh
 
-from bimbot.shared.bus import BusOptions, Inbox, encode, open_session
+from bimbot.shared.bus import BusOptions, Inbox, IncomingQuery, encode, open_session
 from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.messages import (
     ALIVE_KEY,
-    CLOCK_KEY,
-    COMPONENT_EVENT_KEY,
-    COMPONENT_POSE_KEY,
+    CLOCK,
+    COMPONENT_EVENT,
+    COMPONENT_POSE,
     COMPONENT_STATE_KEY,
-    COMPONENT_TWIN_KEY,
-    ClockMsg,
-    ComponentEventMsg,
-    ComponentPoseMsg,
+    COMPONENT_TWIN,
     key,
 )
 
 from .agent import AgentConfig
-from .host import TAG_CLOCK, TAG_EVENT, TAG_POSE, AgentHost, Outgoing
+from .host import AgentHost, Outgoing
 from .journal import Journal, journal_path
 
 _log = logging.getLogger(__name__)
 
-TAG_TWIN = "twin"
 LOOP_WAIT_S = 0.05  # longest wait for input before the verification timeouts are checked
 LISTENERS_WAIT_S = 2.0  # longest wait at start for the bus to route state messages to their subscribers
 TOKENS_PER_SESSION = 1_000
@@ -122,14 +118,10 @@ def serve(
     inbox = Inbox()
     # Kept referenced until the session closes (an undropped declaration stays declared anyway).
     declarations: list[object] = [
-        inbox.subscribe(session, key(COMPONENT_EVENT_KEY, site=site, key="*"), ComponentEventMsg, TAG_EVENT),
-        inbox.subscribe(session, key(COMPONENT_POSE_KEY, site=site, key="*"), ComponentPoseMsg, TAG_POSE),
-        inbox.subscribe(session, key(CLOCK_KEY, site=site), ClockMsg, TAG_CLOCK),
-        session.declare_queryable(
-            key(COMPONENT_TWIN_KEY, site=site, key="*"),
-            lambda query: inbox.put(TAG_TWIN, query),
-            complete=False,
-        ),
+        inbox.subscribe(session, COMPONENT_EVENT, site=site, key="*"),
+        inbox.subscribe(session, COMPONENT_POSE, site=site, key="*"),
+        inbox.subscribe(session, CLOCK, site=site),
+        inbox.serve(session, COMPONENT_TWIN, complete=False, site=site, key="*"),
     ]
     started = time.perf_counter()
     livelinesses = [token_session.liveliness() for token_session in token_sessions or [session]]
@@ -149,15 +141,15 @@ def serve(
     _publish(session, host.start())
 
     while not stop.is_set():
-        for tag, item in inbox.drain(first_timeout_s=LOOP_WAIT_S):
+        for item in inbox.drain(first_timeout_s=LOOP_WAIT_S):
             try:
-                if tag == TAG_TWIN:
-                    _answer(item, host)  # type: ignore[arg-type]
+                if isinstance(item, IncomingQuery):
+                    _answer(item.query, host)
                 else:
-                    _publish(session, host.handle(tag, item))
+                    _publish(session, host.handle(item))
             except Exception:
                 host.counts["handler_errors"] += 1
-                _log.exception("handling a %s item failed; going on", tag)
+                _log.exception("handling %s failed; going on", type(item).__name__)
             if stop.is_set():
                 break
         try:

@@ -48,10 +48,6 @@ from .state_table import ComponentMachine
 
 _log = logging.getLogger(__name__)
 
-TAG_EVENT = "event"
-TAG_POSE = "pose"
-TAG_CLOCK = "clock"
-
 
 def shard_of(guid: str, n_shards: int) -> int:
     """The shard (1..n) that owns ``guid``: CRC-32 of its UTF-8 bytes, stable across processes and hosts."""
@@ -134,19 +130,20 @@ class AgentHost:
             if agent is None:
                 self.counts["journal_not_owned"] += 1
                 continue
+            change = last.change
             agent.restore(
-                last.dest,
-                attempt=last.attempt,
-                robot_id=last.robot_id,
+                change.state,
+                attempt=change.attempt,
+                robot_id=change.robot_id,
                 place_sim_time_s=last.place_sim_time_s,
-                history=[record.transition() for record in replay.records.get(guid, [])],
+                history=[record.change for record in replay.records.get(guid, [])],
                 event_ids=replay.event_ids.get(guid, ()),
-                reason=last.reason,
+                reason=change.reason,
                 now_wall_s=now,
             )
             self.resumed.add(agent.key)
-            latest_sim = max(latest_sim, last.sim_time_s)
-            if last.dest is ComponentState.VERIFYING:
+            latest_sim = max(latest_sim, change.sim_time_s)
+            if change.state is ComponentState.VERIFYING:
                 self._verifying.add(agent.key)
         if self.counts["journal_not_owned"]:
             _log.warning(
@@ -170,20 +167,17 @@ class AgentHost:
 
     # --- input ---------------------------------------------------------------------------------------------
 
-    def handle(self, tag: str, item: object, now_wall_s: float | None = None) -> list[Outgoing]:
-        """Dispatch one inbox item (``event``/``pose``/``clock`` with a
-        :class:`~bimbot.shared.bus.Received`)."""
-        if not isinstance(item, Received):
-            self.counts["unknown_item"] += 1
-            return []
-        message = item.message
-        if tag == TAG_EVENT and isinstance(message, ComponentEventMsg):
-            return self.on_event(item.key, message, now_wall_s)
-        if tag == TAG_POSE and isinstance(message, ComponentPoseMsg):
-            return self.on_pose(item.key, message, now_wall_s)
-        if tag == TAG_CLOCK and isinstance(message, ClockMsg):
-            self.on_clock(message)
-            return []
+    def handle(self, item: object, now_wall_s: float | None = None) -> list[Outgoing]:
+        """Dispatch one inbox item: a :class:`~bimbot.shared.bus.Received` event, pose or clock message;
+        anything else is counted as ``unknown_item``."""
+        match item:
+            case Received(message=ComponentEventMsg() as message, key=key_expr):
+                return self.on_event(key_expr, message, now_wall_s)
+            case Received(message=ComponentPoseMsg() as message, key=key_expr):
+                return self.on_pose(key_expr, message, now_wall_s)
+            case Received(message=ClockMsg() as message):
+                self.on_clock(message)
+                return []
         self.counts["unknown_item"] += 1
         return []
 

@@ -1,9 +1,11 @@
 """An agent process's journal: one JSON line per applied transition, so a restarted process resumes.
 
 Each shard writes its own append-only file, ``<state dir>/agents-<i>of<n>.jsonl`` (default state dir
-``OUT/state``), one :class:`JournalRecord` per line, flushed per line (a killed process loses at most the
-line being written; nothing is fsynced unless asked, so a power cut may lose the last lines). A record is
-written *before* the state change is published, so anything the bus has seen is in the journal.
+``OUT/state``), one :class:`JournalRecord` per line: the published :class:`ComponentStateMsg` itself,
+nested (lines of journal version 1, which copied its fields flat, are still read). Lines are flushed one
+by one (a killed process loses at most the line being written; nothing is fsynced unless asked, so a power
+cut may lose the last lines). A record is written *before* the state change is published, so anything the
+bus has seen is in the journal.
 
 :func:`replay` reads it back: per GUID the last record (its state, attempt, robot), the full list of
 records (the twin's history) and the applied ``event_id``s (repeats stay ignored after a restart). A torn
@@ -24,35 +26,48 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
 
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
-from bimbot.shared.messages import ComponentState, ComponentStateMsg, TransitionRecord
-from bimbot.shared.reasons import Reason
+from bimbot.shared.messages import ComponentStateMsg
 
 _log = logging.getLogger(__name__)
 
-JOURNAL_VERSION = 1
+JOURNAL_VERSION = 2  # 2: the state change nested as published (``change``); 1: its fields copied flat
+_V1_RENAMED = {"source": "previous", "dest": "state"}
+_JOURNAL_ONLY = ("v", "event_id", "place_sim_time_s")
 
 
 class JournalRecord(BaseModel):
-    """One applied transition of one component."""
+    """One applied transition of one component: the state change exactly as published, plus what only a
+    restart needs (the bus event it applied, the place time while verifying)."""
 
     model_config = ConfigDict(frozen=True, extra="forbid")
     v: int = JOURNAL_VERSION
-    guid: str
-    source: ComponentState
-    dest: ComponentState
-    event: str
+    change: ComponentStateMsg
     event_id: str | None = None  # the bus event that caused it; None for the agent's own verdicts
-    cause: str = ""
-    attempt: int = 0
-    robot_id: str | None = None
-    sim_time_s: float
-    wall_time_s: float
     place_sim_time_s: float | None = None  # sim time of the place event, while verifying
-    position_error_m: float | None = None
-    angle_error_rad: float | None = None
-    reason: Reason | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _read_older_lines(cls, data: object) -> object:
+        """A version 1 line (flat, ``source``/``dest``) becomes a nested change; the nested change is read
+        under the current message schema (the journal has its own version ``v``)."""
+        if not isinstance(data, dict):
+            return data
+        if "change" not in data:
+            change = {
+                _V1_RENAMED.get(name, name): value
+                for name, value in data.items()
+                if name not in _JOURNAL_ONLY
+            }
+            data = {**{name: data[name] for name in _JOURNAL_ONLY if name in data}, "change": change}
+        change = data["change"]
+        if isinstance(change, dict) and "schema_version" in change:
+            data = {
+                **data,
+                "change": {name: value for name, value in change.items() if name != "schema_version"},
+            }
+        return data
 
     @classmethod
     def from_message(
@@ -60,33 +75,11 @@ class JournalRecord(BaseModel):
     ) -> JournalRecord:
         if message.previous is None:
             raise ValueError("only transitions are journaled (the message has no previous state)")
-        return cls(
-            guid=message.guid,
-            source=message.previous,
-            dest=message.state,
-            event=message.event,
-            event_id=event_id,
-            cause=message.cause,
-            attempt=message.attempt,
-            robot_id=message.robot_id,
-            sim_time_s=message.sim_time_s,
-            wall_time_s=message.wall_time_s,
-            place_sim_time_s=place_sim_time_s,
-            position_error_m=message.position_error_m,
-            angle_error_rad=message.angle_error_rad,
-            reason=message.reason,
-        )
+        return cls(change=message, event_id=event_id, place_sim_time_s=place_sim_time_s)
 
-    def transition(self) -> TransitionRecord:
-        return TransitionRecord(
-            source=self.source,
-            dest=self.dest,
-            event=self.event,
-            cause=self.cause,
-            sim_time_s=self.sim_time_s,
-            attempt=self.attempt,
-            reason=self.reason,
-        )
+    @property
+    def guid(self) -> str:
+        return self.change.guid
 
 
 @dataclass

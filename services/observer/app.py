@@ -14,9 +14,10 @@ Wiring, in order:
    leaves go to the text log) and its own token ``alive/observer/main``; then one query of every
    component's twin (``components/*/twin``), so an observer started mid-run knows what happened before
    (a transition seen both live and in a twin's history is applied once). Callbacks only enqueue
-   ``(key, payload)``; the loop routes a key to its message model (:func:`route_key`),
-   validates it (invalid payloads are logged and counted), logs it on the ``sim_time`` timeline through
-   :class:`.twin_log.TwinLog` and feeds :class:`.report.ReportCollector`.
+   (:class:`bimbot.shared.bus.RawSample`, validated twin answers, liveliness changes); the loop routes a
+   key to its message model through the registry (:func:`route_key`), validates it (invalid payloads
+   are logged and counted), logs it on the ``sim_time`` timeline through :class:`.twin_log.TwinLog` and
+   feeds :class:`.report.ReportCollector`.
 
 When the planner's progress says ``done``, the loop keeps collecting for ``done_grace_s`` (the robots'
 return to idle comes after the last verdict), then writes ``report.json`` and ``report.png``; with
@@ -46,26 +47,31 @@ import rerun as rr
 import zenoh
 from pydantic import BaseModel
 
-from bimbot.shared.bus import BusOptions, Inbox, InvalidPayloads, decode, open_session
+from bimbot.shared.bus import (
+    Answer,
+    BusOptions,
+    Inbox,
+    InvalidPayloads,
+    LivelinessChange,
+    RawSample,
+    decode,
+    open_session,
+)
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import (
     ALIVE_KEY,
-    COMPONENT_TWIN_KEY,
-    ClockMsg,
-    ComponentPoseMsg,
+    COMPONENT_EVENT,
+    COMPONENT_TWIN,
+    ROBOT_CMD_VEL,
     ComponentState,
     ComponentStateMsg,
-    OdomMsg,
-    PlanMsg,
     ProgressMsg,
-    RobotPoseMsg,
-    RobotStateMsg,
     ScanMsg,
-    TaskMsg,
     TwinMsg,
     key,
     site_root,
+    topic_of,
 )
 from bimbot.shared.sequence import planned_guids
 from bimbot.shared.site_layout import plan_site
@@ -82,23 +88,9 @@ LOOP_WAIT_S = 0.05
 # give a smaller .rrd and a later viewer. Measured on the bundled build: 8 ms (rerun's default) 663 KiB,
 # 0.5 s 600 KiB, 2 s 463 KiB; compacting at the end (``rerun rrd optimize``) 792 → 461 KiB in 54 ms.
 FLUSH_TICK_S = 0.25
-TAG_SAMPLE = "sample"
-TAG_ALIVE = "alive"
-TAG_TWIN = "twin"
 TWIN_QUERY_TIMEOUT_S = 5.0
-# key below bimbot/<site>/ (``*`` = one chunk) → the message published there
-ROUTES: dict[tuple[str, ...], type[BaseModel]] = {
-    ("components", "*", "state"): ComponentStateMsg,
-    ("components", "*", "pose"): ComponentPoseMsg,
-    ("tasks", "*"): TaskMsg,
-    ("robots", "*", "state"): RobotStateMsg,
-    ("robots", "*", "pose"): RobotPoseMsg,
-    ("robots", "*", "odom"): OdomMsg,
-    ("robots", "*", "scan"): ScanMsg,
-    ("robots", "*", "plan"): PlanMsg,
-    ("clock",): ClockMsg,
-    ("progress",): ProgressMsg,
-}
+# robots' commands and the events sent to agents: nothing the twin or the report shows
+NOT_READ = frozenset({ROBOT_CMD_VEL.template, COMPONENT_EVENT.template})
 
 
 @dataclass(frozen=True)
@@ -117,15 +109,10 @@ class ObserverConfig:
 
 
 def route_key(site: str, key_expr: str) -> type[BaseModel] | None:
-    """The message model published on ``key_expr``, or None for keys the observer does not read."""
-    parts = key_expr.split("/")
-    if len(parts) < 3 or parts[0] != "bimbot" or parts[1] != site:
-        return None
-    rest = tuple(parts[2:])
-    for pattern, model in ROUTES.items():
-        if len(pattern) == len(rest) and all(p in ("*", r) for p, r in zip(pattern, rest, strict=True)):
-            return model
-    return None
+    """The message model the registry names for ``key_expr``, or None for keys the observer does not
+    read."""
+    topic = topic_of(site, key_expr)
+    return topic.model if topic is not None and topic.template not in NOT_READ else None
 
 
 def load_mesh(build_dir: Path, component: Component) -> tuple[bytes, str] | None:
@@ -237,9 +224,14 @@ class Observer:
             self.apply(message)
 
     def twin_reply(self, key_expr: str, payload: bytes) -> None:
-        """A component's twin (asked once at start): its history for an observer that joined late."""
+        """A component's twin as it came over the bus (see :meth:`apply_twin`)."""
         twin = decode(TwinMsg, key_expr, payload, self.invalid)
-        for message in twin_messages(twin) if twin is not None else []:
+        if twin is not None:
+            self.apply_twin(twin)
+
+    def apply_twin(self, twin: TwinMsg) -> None:
+        """A component's twin (asked once at start): its history for an observer that joined late."""
+        for message in twin_messages(twin):
             self.apply(message)
 
     def apply(self, message: BaseModel) -> None:
@@ -331,36 +323,27 @@ def serve(session: zenoh.Session, observer: Observer, stop: threading.Event) -> 
     """Subscribe and run the loop until ``stop`` is set, or done with ``exit_when_done``."""
     root = site_root(observer.site)
     inbox = Inbox(observer.invalid)
-
-    def on_sample(sample: zenoh.Sample) -> None:
-        if sample.kind == zenoh.SampleKind.PUT:
-            inbox.put(TAG_SAMPLE, (str(sample.key_expr), sample.payload.to_bytes()))
-
     declarations = [
-        session.declare_subscriber(f"{root}/**", on_sample),
-        inbox.subscribe_liveliness(session, f"{root}/alive/**", TAG_ALIVE),
+        inbox.subscribe_raw(session, f"{root}/**"),
+        inbox.subscribe_liveliness(session, f"{root}/alive/**"),
         session.liveliness().declare_token(key(ALIVE_KEY, site=observer.site, kind="observer", id="main")),
     ]
-
-    def on_reply(reply: zenoh.Reply) -> None:
-        if reply.ok is not None:
-            inbox.put(TAG_TWIN, (str(reply.ok.key_expr), reply.ok.payload.to_bytes()))
-
-    session.get(key(COMPONENT_TWIN_KEY, site=observer.site, key="*"), on_reply, timeout=TWIN_QUERY_TIMEOUT_S)
+    inbox.ask(session, COMPONENT_TWIN, timeout_s=TWIN_QUERY_TIMEOUT_S, site=observer.site, key="*")
     _log.info("observing %s/** on the bus", root)
     config = observer.config
     reported = False
     while not stop.is_set():
-        for tag, item in inbox.drain(first_timeout_s=LOOP_WAIT_S):
+        for item in inbox.drain(first_timeout_s=LOOP_WAIT_S):
             try:
-                if tag == TAG_SAMPLE:
-                    observer.handle(*item)  # type: ignore[misc]
-                elif tag == TAG_TWIN:
-                    observer.twin_reply(*item)  # type: ignore[misc]
-                else:
-                    observer.alive(*item)  # type: ignore[misc]
+                match item:
+                    case RawSample():
+                        observer.handle(item.key, item.payload)
+                    case Answer(message=TwinMsg() as twin):
+                        observer.apply_twin(twin)
+                    case LivelinessChange():
+                        observer.alive(item.key, item.alive)
             except Exception:
-                _log.exception("handling a %s item failed; going on", tag)
+                _log.exception("handling %s failed; going on", type(item).__name__)
         if (
             observer.done_at is not None
             and not reported

@@ -124,22 +124,9 @@ class RobotTimeline:
 
 
 def twin_messages(twin: TwinMsg) -> list[ComponentStateMsg | ComponentPoseMsg]:
-    """A twin's history as the state messages its agent published, and its current pose (if any)."""
-    messages: list[ComponentStateMsg | ComponentPoseMsg] = [
-        ComponentStateMsg(
-            guid=twin.guid,
-            state=record.dest,
-            previous=record.source,
-            event=record.event,
-            cause=record.cause,
-            attempt=record.attempt,
-            robot_id=twin.robot_id if index == len(twin.history) - 1 else None,
-            sim_time_s=record.sim_time_s,
-            wall_time_s=0.0,
-            reason=record.reason if index < len(twin.history) - 1 else (record.reason or twin.reason),
-        )
-        for index, record in enumerate(twin.history)
-    ]
+    """A twin's history (the state messages its agent published, each with its robot, placement error
+    and reason) and its current pose (if any)."""
+    messages: list[ComponentStateMsg | ComponentPoseMsg] = list(twin.history)
     if twin.current_pose is not None and twin.current_pose_sim_time_s is not None:
         fixed = twin.state == ComponentState.CONSTRUCTED
         pose = ComponentPoseMsg(

@@ -26,22 +26,19 @@ from typing import TextIO
 
 import zenoh
 
-from bimbot.shared.bus import BusOptions, Inbox, InvalidPayloads, add_bus_arguments, decode, open_session
+from bimbot.shared.bus import Answer, BusOptions, Inbox, Received, add_bus_arguments, open_session
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
-    COMPONENT_STATE_KEY,
-    COMPONENT_TWIN_KEY,
+    COMPONENT_STATE,
+    COMPONENT_TWIN,
     ComponentState,
     ComponentStateMsg,
     TwinMsg,
-    key,
 )
 from bimbot.shared.service_runner import resolve_build, run_service, service_bus
 
 REFRESH_S = 0.25
-TAG_STATE = "state"
-TAG_TWIN = "twin"
 # display order: what needs attention first, then work in progress, waiting, not started, done
 STATE_ORDER = [
     ComponentState.FAILED,
@@ -202,28 +199,18 @@ def main(options: BusOptions, site: str, table: WatchTable, out: TextIO, stop: t
 def watch(session: zenoh.Session, site: str, table: WatchTable, stop: threading.Event, out: TextIO) -> None:
     """Subscribe, ask for the twins once, and show changes on ``out`` until ``stop`` is set."""
     inbox = Inbox()
-    invalid = InvalidPayloads()
-    subscriber = inbox.subscribe(
-        session, key(COMPONENT_STATE_KEY, site=site, key="*"), ComponentStateMsg, TAG_STATE
-    )
-
-    def on_reply(reply: zenoh.Reply) -> None:
-        if reply.ok is not None:
-            inbox.put(TAG_TWIN, (str(reply.ok.key_expr), reply.ok.payload.to_bytes()))
-
-    session.get(key(COMPONENT_TWIN_KEY, site=site, key="*"), on_reply, timeout=5.0)
+    subscriber = inbox.subscribe(session, COMPONENT_STATE, site=site, key="*")
+    inbox.ask(session, COMPONENT_TWIN, timeout_s=5.0, site=site, key="*")
     terminal = out.isatty()
     dirty, last_draw = terminal, 0.0
     while not stop.is_set():
-        for tag, item in inbox.drain(first_timeout_s=0.1):
-            if tag == TAG_STATE:
-                message = item.message  # type: ignore[attr-defined]
-                if table.apply_state(message) and not terminal:
-                    _write(out, [change_line(message, table.rows.get(message.guid))])
-                dirty = True
-            else:
-                twin = decode(TwinMsg, *item, invalid)  # type: ignore[arg-type]
-                if twin is not None and table.apply_twin(twin):
+        for item in inbox.drain(first_timeout_s=0.1):
+            match item:
+                case Received(message=ComponentStateMsg() as message):
+                    if table.apply_state(message) and not terminal:
+                        _write(out, [change_line(message, table.rows.get(message.guid))])
+                    dirty = True
+                case Answer(message=TwinMsg() as twin) if table.apply_twin(twin):
                     dirty = True
                     if not terminal:
                         _write(out, [twin_line(twin)])

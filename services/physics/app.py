@@ -38,16 +38,26 @@ from pathlib import Path
 import zenoh
 from pydantic import BaseModel
 
-from bimbot.shared.bus import BusOptions, Inbox, InvalidPayloads, Received, decode, encode, open_session
+from bimbot.shared.bus import (
+    BusOptions,
+    Inbox,
+    IncomingQuery,
+    InvalidPayloads,
+    LivelinessChange,
+    Received,
+    decode,
+    encode,
+    open_session,
+)
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     ALIVE_KEY,
-    COMPONENT_STATE_KEY,
-    PHYSICS_ATTACH_KEY,
-    PHYSICS_DROP_KEY,
-    PHYSICS_INFO_KEY,
-    PHYSICS_PLACE_KEY,
-    ROBOT_CMD_VEL_KEY,
+    COMPONENT_STATE,
+    PHYSICS_ATTACH,
+    PHYSICS_DROP,
+    PHYSICS_INFO,
+    PHYSICS_PLACE,
+    ROBOT_CMD_VEL,
     AttachRequest,
     CmdVelMsg,
     ComponentState,
@@ -63,18 +73,7 @@ from .simulation import Outgoing, SimConfig, Simulation
 
 _log = logging.getLogger(__name__)
 
-TAG_CMD = "cmd_vel"
-TAG_ALIVE = "alive"
-TAG_STATE = "component_state"
-TAG_INFO = "info"
-TAG_ATTACH = "attach"
-TAG_PLACE = "place"
-TAG_DROP = "drop"
-_REQUESTS: dict[str, type[AttachRequest] | type[PlaceRequest] | type[DropRequest]] = {
-    TAG_ATTACH: AttachRequest,
-    TAG_PLACE: PlaceRequest,
-    TAG_DROP: DropRequest,
-}
+_SERVED = (PHYSICS_INFO, PHYSICS_ATTACH, PHYSICS_PLACE, PHYSICS_DROP)
 LOOP_WAIT_S = 0.05  # longest blocking wait, so a stop request is seen quickly
 STATUS_EVERY_S = 30.0
 
@@ -115,15 +114,10 @@ class _Loop:
         self.barrier = LockStepBarrier(run.lock_step_timeout_s)
         self.pacer = Pacer(run.rtf)
         self.rtf = RtfMeter(run.rtf)
-        self.pending: dict[int, zenoh.Query] = {}
-        self._tags = itertools.count(1)
+        self.pending: dict[object, zenoh.Query] = {}  # place ticket → its query, answered when placed
+        self._tickets = itertools.count(1)
         self._publishers: dict[str, zenoh.Publisher] = {}
-        self._keys = {
-            TAG_INFO: key(PHYSICS_INFO_KEY, site=self.site),
-            TAG_ATTACH: key(PHYSICS_ATTACH_KEY, site=self.site),
-            TAG_PLACE: key(PHYSICS_PLACE_KEY, site=self.site),
-            TAG_DROP: key(PHYSICS_DROP_KEY, site=self.site),
-        }
+        self._place_key = PHYSICS_PLACE.key(site=self.site)
         self.errors = 0
         self._warned_step = -1
         self._robots_deadline: float | None = None  # while holding the clock for the robots to come up
@@ -131,18 +125,11 @@ class _Loop:
     def serve(self) -> None:
         site, inbox, session = self.site, self.inbox, self.session
         declarations: list[object] = [
-            inbox.subscribe(session, key(ROBOT_CMD_VEL_KEY, site=site, robot_id="*"), CmdVelMsg, TAG_CMD),
-            inbox.subscribe_liveliness(session, key(ALIVE_KEY, site=site, kind="robot", id="*"), TAG_ALIVE),
-            inbox.subscribe(
-                session, key(COMPONENT_STATE_KEY, site=site, key="*"), ComponentStateMsg, TAG_STATE
-            ),
+            inbox.subscribe(session, ROBOT_CMD_VEL, site=site, robot_id="*"),
+            inbox.subscribe_liveliness(session, key(ALIVE_KEY, site=site, kind="robot", id="*")),
+            inbox.subscribe(session, COMPONENT_STATE, site=site, key="*"),
         ]
-        for tag, key_expr in self._keys.items():
-            declarations.append(
-                session.declare_queryable(
-                    key_expr, lambda query, tag=tag: inbox.put(tag, query), complete=True
-                )
-            )
+        declarations += [inbox.serve(session, served, complete=True, site=site) for served in _SERVED]
         declarations.append(
             session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="physics", id="main"))
         )
@@ -173,7 +160,7 @@ class _Loop:
             for query in self.pending.values():
                 self._reply(
                     query,
-                    TAG_PLACE,
+                    self._place_key,
                     PhysicsReply(ok=False, reason="physics stopped", sim_time_s=self.sim.sim_time_s),
                 )
             self.pending.clear()
@@ -227,78 +214,74 @@ class _Loop:
         now = time.monotonic()
         self.rtf.record(self.sim.sim_time_s, now)
         self._publish(result.messages)
-        for tag, reply in result.replies:
-            query = self.pending.pop(tag, None)  # type: ignore[call-overload]
+        for ticket, reply in result.replies:
+            query = self.pending.pop(ticket, None)
             if query is not None:
-                self._reply(query, TAG_PLACE, reply)
+                self._reply(query, self._place_key, reply)
         self.barrier.open(self.sim.step, now)
 
     # --- input ---------------------------------------------------------------------------------------
 
     def _drain(self, first_timeout_s: float | None) -> None:
-        for tag, item in self.inbox.drain(first_timeout_s=first_timeout_s or 0.0):
+        for item in self.inbox.drain(first_timeout_s=first_timeout_s or 0.0):
             try:
-                self._handle(tag, item)
+                self._handle(item)
             except Exception:
                 self.errors += 1
-                _log.exception("handling a %s item failed; going on", tag)
+                _log.exception("handling %s failed; going on", type(item).__name__)
             if self.stop.is_set():
                 break
 
-    def _handle(self, tag: str, item: object) -> None:
-        if tag == TAG_CMD:
-            received: Received[CmdVelMsg] = item  # type: ignore[assignment]
-            robot_in_key = received.key.rsplit("/", 2)[-2]
-            if robot_in_key != received.message.robot_id:
-                self.inbox.invalid.record(
-                    received.key, f"robot_id {received.message.robot_id!r} on another robot's key"
-                )
-                return
-            if self.sim.command(received.message):
-                self.barrier.record(received.message.robot_id, received.message.step)
-        elif tag == TAG_STATE:
-            state: Received[ComponentStateMsg] = item  # type: ignore[assignment]
-            message = state.message
-            self.sim.handling.note_constructed(message.guid, message.state == ComponentState.CONSTRUCTED)
-        elif tag == TAG_ALIVE:
-            key_expr, alive = item  # type: ignore[misc]
-            robot_id = str(key_expr).rsplit("/", 1)[-1]
-            if self.sim.known(robot_id):
-                _log.info("robot %s %s", robot_id, "alive" if alive else "lost")
-            self._publish(self.sim.set_alive(robot_id, bool(alive)))
-        else:
-            self._answer(tag, item)  # type: ignore[arg-type]
+    def _handle(self, item: object) -> None:
+        match item:
+            case Received(message=CmdVelMsg() as command, key=key_expr):
+                if key_expr.rsplit("/", 2)[-2] != command.robot_id:
+                    self.inbox.invalid.record(
+                        key_expr, f"robot_id {command.robot_id!r} on another robot's key"
+                    )
+                    return
+                if self.sim.command(command):
+                    self.barrier.record(command.robot_id, command.step)
+            case Received(message=ComponentStateMsg() as state):
+                self.sim.handling.note_constructed(state.guid, state.state == ComponentState.CONSTRUCTED)
+            case LivelinessChange():
+                if self.sim.known(item.id):
+                    _log.info("robot %s %s", item.id, "alive" if item.alive else "lost")
+                self._publish(self.sim.set_alive(item.id, item.alive))
+            case IncomingQuery():
+                self._answer(item)
 
-    def _answer(self, tag: str, query: zenoh.Query) -> None:
-        now = self.sim.sim_time_s
-        if tag == TAG_INFO:
-            self._reply(query, tag, self.sim.info())
+    def _answer(self, item: IncomingQuery) -> None:
+        now, served, query = self.sim.sim_time_s, item.queryable, item.query
+        reply_key = served.key(site=self.site)
+        if served.request is None:
+            self._reply(query, reply_key, self.sim.info())
             return
-        model = _REQUESTS[tag]
         payload = query.payload.to_bytes() if query.payload is not None else b""
-        request = decode(model, self._keys[tag], payload, self.inbox.invalid)
+        request = decode(served.request, reply_key, payload, self.inbox.invalid)
         if request is None:
+            model = served.request
             reason = f"invalid {model.__name__} payload (expected JSON with {', '.join(model.model_fields)})"
-            self._reply(query, tag, PhysicsReply(ok=False, reason=reason, sim_time_s=now))
+            self._reply(query, reply_key, PhysicsReply(ok=False, reason=reason, sim_time_s=now))
         elif isinstance(request, AttachRequest):
-            self._reply(query, tag, self.sim.attach(request))
+            self._reply(query, reply_key, self.sim.attach(request))
         elif isinstance(request, DropRequest):
-            self._reply(query, tag, self.sim.drop(request))
-        else:
-            ticket = next(self._tags)
+            self._reply(query, reply_key, self.sim.drop(request))
+        elif isinstance(request, PlaceRequest):
+            ticket = next(self._tickets)
             reply = self.sim.place(request, ticket)
             if reply is None:
                 self.pending[ticket] = query
             else:
-                self._reply(query, tag, reply)
+                self._reply(query, reply_key, reply)
 
     # --- output --------------------------------------------------------------------------------------
 
-    def _reply(self, query: zenoh.Query, tag: str, message: BaseModel) -> None:
+    def _reply(self, query: zenoh.Query, reply_key: str, message: BaseModel) -> None:
         try:
-            query.reply(self._keys[tag], encode(message))
+            query.reply(reply_key, encode(message))
         except Exception as error:  # the querier may be gone (timed out): nothing to answer
-            _log.debug("reply on %s not delivered: %s", self._keys[tag], error)
+            _log.debug("reply on %s not delivered: %s", reply_key, error)
         finally:
             query.drop()
 

@@ -24,25 +24,24 @@ import json
 import logging
 import threading
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import zenoh
 
-from bimbot.shared.bus import Inbox, Received, decode, encode, query_first
+from bimbot.shared.bus import Inbox, LivelinessChange, Received, decode, encode, query_first
 from bimbot.shared.identifiers import guid_to_key
 from bimbot.shared.manifest import Manifest, load_manifest
 from bimbot.shared.messages import (
     ALIVE_KEY,
-    CLOCK_KEY,
+    CLOCK,
     COMPONENT_EVENT_KEY,
-    COMPONENT_POSE_KEY,
-    COMPONENT_STATE_KEY,
+    COMPONENT_POSE,
+    COMPONENT_STATE,
     COMPONENT_TWIN_KEY,
-    PHYSICS_INFO_KEY,
+    PHYSICS_INFO,
     PROGRESS_KEY,
-    ROBOT_STATE_KEY,
+    ROBOT_STATE,
     TASK_KEY,
     ClockMsg,
     ComponentEventMsg,
@@ -101,28 +100,17 @@ def main(
     inbox = Inbox()
     with zenoh.open(config) as session:
         info = query_first(
-            session,
-            key(PHYSICS_INFO_KEY, site=site),
-            SiteInfoMsg,
-            inbox.invalid,
-            timeout_s=options.site_info_timeout_s,
-            stop=stop,
+            session, PHYSICS_INFO, inbox.invalid, timeout_s=options.site_info_timeout_s, stop=stop, site=site
         )
         plan, cannot = _checked_plan(plan, manifest, info, options.strict)
         core = PlannerCore(manifest, plan, resend_s=options.resend_s, limits=options.limits)
         subscribers = [
-            inbox.subscribe(
-                session, key(COMPONENT_STATE_KEY, site=site, key="*"), ComponentStateMsg, "state"
-            ),
-            inbox.subscribe(session, key(COMPONENT_POSE_KEY, site=site, key="*"), ComponentPoseMsg, "pose"),
-            inbox.subscribe(session, key(ROBOT_STATE_KEY, site=site, robot_id="*"), RobotStateMsg, "robot"),
-            inbox.subscribe(session, key(CLOCK_KEY, site=site), ClockMsg, "clock"),
-            inbox.subscribe_liveliness(
-                session, key(ALIVE_KEY, site=site, kind="robot", id="*"), "robot_alive"
-            ),
-            inbox.subscribe_liveliness(
-                session, key(ALIVE_KEY, site=site, kind="component", id="*"), "component_alive"
-            ),
+            inbox.subscribe(session, COMPONENT_STATE, site=site, key="*"),
+            inbox.subscribe(session, COMPONENT_POSE, site=site, key="*"),
+            inbox.subscribe(session, ROBOT_STATE, site=site, robot_id="*"),
+            inbox.subscribe(session, CLOCK, site=site),
+            inbox.subscribe_liveliness(session, key(ALIVE_KEY, site=site, kind="robot", id="*")),
+            inbox.subscribe_liveliness(session, key(ALIVE_KEY, site=site, kind="component", id="*")),
         ]
         token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="planner", id="main"))
         feed = _Feeder(core)
@@ -163,31 +151,22 @@ class _Feeder:
     def __init__(self, core: PlannerCore) -> None:
         self.core = core
         self.alive_components: set[str] = set()
-        self._handlers: dict[str, Callable[[object], None]] = {
-            "state": lambda item: core.observe_component_state(_message(item)),
-            "pose": lambda item: core.observe_component_pose(_message(item)),
-            "robot": lambda item: core.observe_robot_state(_message(item)),
-            "clock": lambda item: core.observe_clock(_message(item).sim_time_s),
-            "robot_alive": self._robot_alive,
-            "component_alive": self._component_alive,
-        }
 
-    def __call__(self, tag: str, item: object) -> None:
-        self._handlers[tag](item)
-
-    def _robot_alive(self, item: object) -> None:
-        key_expr, alive = item  # type: ignore[misc]
-        self.core.robot_liveliness(str(key_expr).rsplit("/", 1)[-1], bool(alive))
-
-    def _component_alive(self, item: object) -> None:
-        key_expr, alive = item  # type: ignore[misc]
-        chunk = str(key_expr).rsplit("/", 1)[-1]
-        (self.alive_components.add if alive else self.alive_components.discard)(chunk)
-
-
-def _message(item: object) -> object:
-    assert isinstance(item, Received)
-    return item.message
+    def __call__(self, item: object) -> None:
+        core = self.core
+        match item:
+            case Received(message=ComponentStateMsg() as message):
+                core.observe_component_state(message)
+            case Received(message=ComponentPoseMsg() as message):
+                core.observe_component_pose(message)
+            case Received(message=RobotStateMsg() as message):
+                core.observe_robot_state(message)
+            case Received(message=ClockMsg() as message):
+                core.observe_clock(message.sim_time_s)
+            case LivelinessChange() if "/alive/robot/" in item.key:
+                core.robot_liveliness(item.id, item.alive)
+            case LivelinessChange():
+                (self.alive_components.add if item.alive else self.alive_components.discard)(item.id)
 
 
 def _wait_for_agents(
@@ -212,8 +191,8 @@ def _wait_for_agents(
                 shown,
             )
             return
-        for tag, item in inbox.drain(first_timeout_s=min(left, 0.1)):
-            feed(tag, item)
+        for item in inbox.drain(first_timeout_s=min(left, 0.1)):
+            feed(item)
     _log.info("%d of %d component agent(s) alive", len(wanted & feed.alive_components), len(wanted))
 
 
@@ -244,8 +223,8 @@ class _Loop:
         last_progress: str | None = None
         last_progress_wall = 0.0
         while not stop.is_set():
-            for tag, item in self.inbox.drain(first_timeout_s=options.poll_s):
-                self.feed(tag, item)
+            for item in self.inbox.drain(first_timeout_s=options.poll_s):
+                self.feed(item)
             for message in self.core.step(time.time()):
                 self.session.put(outgoing_key(self.site, message), encode(message))
             progress = self.core.progress()

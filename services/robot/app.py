@@ -34,37 +34,32 @@ import zenoh
 
 from bimbot.shared.bus import Inbox, Received, decode, encode, query_first
 from bimbot.shared.identifiers import guid_to_key
+from bimbot.shared.keyspace import Topic
 from bimbot.shared.manifest import load_manifest
 from bimbot.shared.messages import (
     ALIVE_KEY,
-    CLOCK_KEY,
+    CLOCK,
     COMPONENT_EVENT_KEY,
-    COMPONENT_POSE_KEY,
-    COMPONENT_STATE_KEY,
-    PHYSICS_ATTACH_KEY,
-    PHYSICS_DROP_KEY,
-    PHYSICS_INFO_KEY,
-    PHYSICS_PLACE_KEY,
+    COMPONENT_POSE,
+    COMPONENT_STATE,
+    PHYSICS_ATTACH,
+    PHYSICS_DROP,
+    PHYSICS_INFO,
+    PHYSICS_PLACE,
     ROBOT_CMD_VEL_KEY,
-    ROBOT_ODOM_KEY,
+    ROBOT_ODOM,
     ROBOT_PLAN_KEY,
-    ROBOT_POSE_KEY,
-    ROBOT_SCAN_KEY,
+    ROBOT_POSE,
+    ROBOT_SCAN,
+    ROBOT_STATE,
     ROBOT_STATE_KEY,
-    TASK_KEY,
+    TASK,
     ClockMsg,
     CmdVelMsg,
     ComponentEventMsg,
-    ComponentPoseMsg,
-    ComponentStateMsg,
-    OdomMsg,
-    PhysicsReply,
     PlanMsg,
-    RobotPoseMsg,
     RobotStateMsg,
     ScanMsg,
-    SiteInfoMsg,
-    TaskMsg,
     key,
 )
 from bimbot.shared.occupancy_grid import OccupancyGrid
@@ -75,13 +70,14 @@ from .protocol import PhysicsRequest, PhysicsResult
 
 _log = logging.getLogger(__name__)
 
-SUBSCRIPTIONS: tuple[tuple[str, dict[str, str], type, str], ...] = (
-    (TASK_KEY, {"task_id": "*"}, TaskMsg, "task"),
-    (COMPONENT_STATE_KEY, {"key": "*"}, ComponentStateMsg, "component_state"),
-    (COMPONENT_POSE_KEY, {"key": "*"}, ComponentPoseMsg, "component_pose"),
-    (ROBOT_STATE_KEY, {"robot_id": "*"}, RobotStateMsg, "robot_state"),
-    (ROBOT_POSE_KEY, {"robot_id": "*"}, RobotPoseMsg, "robot_pose"),
+SUBSCRIPTIONS: tuple[tuple[Topic, dict[str, str]], ...] = (
+    (TASK, {"task_id": "*"}),
+    (COMPONENT_STATE, {"key": "*"}),
+    (COMPONENT_POSE, {"key": "*"}),
+    (ROBOT_STATE, {"robot_id": "*"}),
+    (ROBOT_POSE, {"robot_id": "*"}),
 )
+_PHYSICS_REQUESTS = {"attach": PHYSICS_ATTACH, "place": PHYSICS_PLACE, "drop": PHYSICS_DROP}
 
 
 @dataclass(frozen=True)
@@ -104,18 +100,14 @@ def main(
     site, robot_id = manifest.site, executor_config.robot_id
     inbox = Inbox()
     with zenoh.open(config) as session:
-        subscribers = [
-            inbox.subscribe(session, key(template, site=site, **parts), model, tag)
-            for template, parts, model, tag in SUBSCRIPTIONS
-        ]
+        subscribers = [inbox.subscribe(session, topic, site=site, **parts) for topic, parts in SUBSCRIPTIONS]
         subscribers += [
-            inbox.subscribe(session, key(CLOCK_KEY, site=site), ClockMsg, "clock"),
-            inbox.subscribe(session, key(ROBOT_ODOM_KEY, site=site, robot_id=robot_id), OdomMsg, "odom"),
-            inbox.subscribe(session, key(ROBOT_SCAN_KEY, site=site, robot_id=robot_id), ScanMsg, "scan"),
+            inbox.subscribe(session, CLOCK, site=site),
+            inbox.subscribe(session, ROBOT_ODOM, site=site, robot_id=robot_id),
+            inbox.subscribe(session, ROBOT_SCAN, site=site, robot_id=robot_id),
         ]
-        selector = key(PHYSICS_INFO_KEY, site=site)
         info = query_first(
-            session, selector, SiteInfoMsg, inbox.invalid, timeout_s=options.info_timeout_s, stop=stop
+            session, PHYSICS_INFO, inbox.invalid, timeout_s=options.info_timeout_s, stop=stop, site=site
         )
         if info is None:
             return 0 if stop.is_set() else _no_physics(options.info_timeout_s)
@@ -170,11 +162,6 @@ class _Loop:
             RobotStateMsg: session.declare_publisher(key(ROBOT_STATE_KEY, site=site, robot_id=robot_id)),
             PlanMsg: session.declare_publisher(key(ROBOT_PLAN_KEY, site=site, robot_id=robot_id)),
         }
-        self._request_keys = {
-            "attach": key(PHYSICS_ATTACH_KEY, site=site),
-            "place": key(PHYSICS_PLACE_KEY, site=site),
-            "drop": key(PHYSICS_DROP_KEY, site=site),
-        }
         self._clock: ClockMsg | None = None
         self._clock_wall_s = 0.0
         self._scan_sim_s = -math.inf
@@ -183,8 +170,8 @@ class _Loop:
 
     def run(self, stop: threading.Event) -> None:
         while not stop.is_set():
-            for tag, item in self.inbox.drain(first_timeout_s=self.options.poll_s):
-                self._take(tag, item)
+            for item in self.inbox.drain(first_timeout_s=self.options.poll_s):
+                self._take(item)
             now = time.monotonic()
             clock = self._clock
             due = clock is not None and clock.step > self._answered_step
@@ -199,19 +186,18 @@ class _Loop:
                 self._metrics_wall_s = now
                 self.log_metrics("progress")
 
-    def _take(self, tag: str, item: object) -> None:
-        if tag == "physics":
-            self.executor.handle(item)
-            return
-        assert isinstance(item, Received)
-        message = item.message
-        if tag == "clock":
-            if self._clock is None or message.step > self._clock.step:
-                self._clock, self._clock_wall_s = message, time.monotonic()
-            return
-        if tag == "scan":
-            self._scan_sim_s = message.sim_time_s
-        self.executor.handle(message)
+    def _take(self, item: object) -> None:
+        match item:
+            case PhysicsResult():
+                self.executor.handle(item)
+            case Received(message=ClockMsg() as clock):
+                if self._clock is None or clock.step > self._clock.step:
+                    self._clock, self._clock_wall_s = clock, time.monotonic()
+            case Received(message=ScanMsg() as scan):
+                self._scan_sim_s = scan.sim_time_s
+                self.executor.handle(scan)
+            case Received(message=message):
+                self.executor.handle(message)
 
     def publish(self, messages: list[Outgoing]) -> None:
         """Physics requests first, then events, state and plan, and the step's ``cmd_vel`` last."""
@@ -225,18 +211,20 @@ class _Loop:
                 self._publishers[type(message)].put(encode(message))
 
     def _request(self, request: PhysicsRequest) -> None:
-        inbox, selector, request_id = self.inbox, self._request_keys[request.kind], request.request_id
+        inbox, request_id = self.inbox, request.request_id
+        served = _PHYSICS_REQUESTS[request.kind]
+        selector = served.key(site=self.site)
 
         def on_reply(reply: zenoh.Reply) -> None:
             if reply.ok is None:
                 error = reply.err.payload.to_string() if reply.err is not None else "error reply"
-                inbox.put("physics", PhysicsResult(request_id, None, error))
+                inbox.put(PhysicsResult(request_id, None, error))
                 return
-            message = decode(PhysicsReply, selector, reply.ok.payload.to_bytes(), inbox.invalid)
-            inbox.put("physics", PhysicsResult(request_id, message, "" if message else "invalid reply"))
+            message = decode(served.reply, selector, reply.ok.payload.to_bytes(), inbox.invalid)
+            inbox.put(PhysicsResult(request_id, message, "" if message else "invalid reply"))
 
         def on_done() -> None:
-            inbox.put("physics", PhysicsResult(request_id, None, "no reply (timeout)"))
+            inbox.put(PhysicsResult(request_id, None, "no reply (timeout)"))
 
         handler = zenoh.handlers.Callback(on_reply, on_done)
         self.session.get(selector, handler, payload=encode(request.message), timeout=request.timeout_s)

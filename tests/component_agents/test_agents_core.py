@@ -57,7 +57,7 @@ def test_happy_path_ends_constructed_with_one_message_per_change() -> None:
     assert done.sim_time_s == 3.0
     assert done.wall_time_s == NOW
     assert "within tolerances" in done.cause
-    assert [(r.source, r.dest) for r in agent.history] == [(m.previous, m.state) for m in seen]
+    assert [(r.previous, r.state) for r in agent.history] == [(m.previous, m.state) for m in seen]
 
 
 def test_twin_holds_semantics_target_current_pose_state_and_history() -> None:
@@ -76,7 +76,7 @@ def test_twin_holds_semantics_target_current_pose_state_and_history() -> None:
     assert twin.current_pose == placed.pose
     assert twin.current_pose_sim_time_s == 4.0
     assert twin.state is S.ASSEMBLING
-    assert [r.dest for r in twin.history] == [S.RELEASED, S.PICKING, S.TRANSPORTING, S.ASSEMBLING]
+    assert [r.state for r in twin.history] == [S.RELEASED, S.PICKING, S.TRANSPORTING, S.ASSEMBLING]
 
 
 @pytest.mark.parametrize("name", [E.PICK, E.ATTACH, E.ARRIVE, E.PLACE, E.RETRY, E.ABANDON])
@@ -172,7 +172,7 @@ def test_constructed_accepts_nothing_more() -> None:
         assert agent.apply_event(event(agent.guid, name, sim_time_s=9.0), NOW) == []
     assert agent.observe_pose(pose_of(agent.component, sim_time_s=9.0, offset_m=(1, 0, 0)), NOW) == []
     assert agent.state is S.CONSTRUCTED
-    assert sum(record.dest is S.CONSTRUCTED for record in agent.history) == 1
+    assert sum(record.state is S.CONSTRUCTED for record in agent.history) == 1
 
 
 def test_verification_waits_for_a_pose_stamped_at_or_after_the_place_event() -> None:

@@ -12,16 +12,16 @@ from agent_builders import GUIDS, clock, event, manifest, pose_of
 
 from bimbot.services.component_agents.agent import AgentConfig
 from bimbot.services.component_agents.host import (
-    TAG_CLOCK,
-    TAG_EVENT,
     AgentHost,
     parse_shard,
     shard_manifest,
     shard_of,
 )
-from bimbot.shared.bus import Received
+from bimbot.shared.bus import LivelinessChange, Received
 from bimbot.shared.identifiers import guid_to_key
 from bimbot.shared.messages import (
+    CLOCK,
+    COMPONENT_EVENT,
     COMPONENT_EVENT_KEY,
     COMPONENT_POSE_KEY,
     ComponentEvent,
@@ -120,13 +120,14 @@ def test_events_for_another_shard_are_ignored() -> None:
 
 def test_handle_dispatches_inbox_items_and_the_clock_sets_sim_time() -> None:
     host = AgentHost(manifest())
-    host.handle(TAG_CLOCK, Received(f"bimbot/{SITE}/clock", clock(12.5)), NOW)
+    host.handle(Received(CLOCK, f"bimbot/{SITE}/clock", clock(12.5)), NOW)
     out = host.handle(
-        TAG_EVENT, Received(event_key(GUIDS[0]), event(GUIDS[0], E.RELEASE, sim_time_s=3.0)), NOW
+        Received(COMPONENT_EVENT, event_key(GUIDS[0]), event(GUIDS[0], E.RELEASE, sim_time_s=3.0)), NOW
     )
     assert out[0].message.sim_time_s == 12.5
-    assert host.handle(TAG_EVENT, "not a Received item", NOW) == []
-    assert host.handle("unknown", Received("x", clock(1.0)), NOW) == []
+    assert host.handle("not a Received item", NOW) == []
+    assert host.handle(LivelinessChange("x", True), NOW) == []
+    assert host.counts["unknown_item"] == 2
 
 
 def test_twins_answer_an_exact_key_and_a_wildcard_with_owned_components_only() -> None:

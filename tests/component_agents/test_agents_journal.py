@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -22,6 +23,7 @@ from bimbot.shared.messages import (
     COMPONENT_POSE_KEY,
     ComponentEvent,
     ComponentState,
+    ComponentStateMsg,
     key,
 )
 
@@ -32,16 +34,16 @@ SITE = manifest().site
 
 
 def record(guid: str, source: S, dest: S, event_id: str | None, attempt: int = 0) -> JournalRecord:
-    return JournalRecord(
+    change = ComponentStateMsg(
         guid=guid,
-        source=source,
-        dest=dest,
+        previous=source,
+        state=dest,
         event=dest.value,
-        event_id=event_id,
         sim_time_s=1.0,
         wall_time_s=NOW,
         attempt=attempt,
     )
+    return JournalRecord(change=change, event_id=event_id)
 
 
 def send(host: AgentHost, guid: str, name: E, **kwargs: object) -> list[Outgoing]:
@@ -68,10 +70,10 @@ def test_replay_gives_the_last_record_per_guid_and_every_applied_event_id(tmp_pa
         journal.append(record(GUIDS[0], S.VERIFYING, S.MISPLACED, None, attempt=1))
     result = replay(path)
     assert result.lines == 4
-    assert result.last[GUIDS[0]].dest is S.MISPLACED
-    assert result.last[GUIDS[1]].dest is S.RELEASED
+    assert result.last[GUIDS[0]].change.state is S.MISPLACED
+    assert result.last[GUIDS[1]].change.state is S.RELEASED
     assert result.event_ids == {GUIDS[0]: {"a", "c"}, GUIDS[1]: {"b"}}
-    assert [r.dest for r in result.records[GUIDS[0]]] == [S.RELEASED, S.PICKING, S.MISPLACED]
+    assert [r.change.state for r in result.records[GUIDS[0]]] == [S.RELEASED, S.PICKING, S.MISPLACED]
 
 
 def test_a_torn_last_line_is_skipped_and_cut_off_on_reopen(tmp_path: Path) -> None:
@@ -85,16 +87,16 @@ def test_a_torn_last_line_is_skipped_and_cut_off_on_reopen(tmp_path: Path) -> No
 
     result = replay(path)
     assert result.torn_tail
-    assert result.last[GUIDS[0]].dest is S.PICKING
+    assert result.last[GUIDS[0]].change.state is S.PICKING
     assert result.event_ids[GUIDS[0]] == {"a", "b"}
 
     with Journal(path) as journal:
-        assert journal.replayed.last[GUIDS[0]].dest is S.PICKING
+        assert journal.replayed.last[GUIDS[0]].change.state is S.PICKING
         journal.append(record(GUIDS[0], S.PICKING, S.TRANSPORTING, "c"))
     again = replay(path)
     assert not again.torn_tail
     assert again.bad_lines == 0
-    assert again.last[GUIDS[0]].dest is S.TRANSPORTING
+    assert again.last[GUIDS[0]].change.state is S.TRANSPORTING
 
 
 def test_an_unreadable_line_in_the_middle_is_skipped(tmp_path: Path) -> None:
@@ -107,7 +109,7 @@ def test_an_unreadable_line_in_the_middle_is_skipped(tmp_path: Path) -> None:
     path.write_text("\n".join(lines) + "\n")
     result = replay(path)
     assert (result.lines, result.bad_lines) == (2, 1)
-    assert result.last[GUIDS[0]].dest is S.PICKING
+    assert result.last[GUIDS[0]].change.state is S.PICKING
 
 
 def test_fresh_clears_the_journal(tmp_path: Path) -> None:
@@ -196,5 +198,39 @@ def test_nothing_is_constructed_twice_after_a_restart(tmp_path: Path) -> None:
             host.on_pose(key(COMPONENT_POSE_KEY, site=SITE, key=c0.key), pose_of(c0, sim_time_s=21.0), NOW)
             == []
         )
-    constructed = [r for r in replay(path).records[GUIDS[0]] if r.dest is S.CONSTRUCTED]
+    constructed = [r for r in replay(path).records[GUIDS[0]] if r.change.state is S.CONSTRUCTED]
     assert len(constructed) == 1
+
+
+def test_a_version_1_journal_line_is_read_as_the_state_change_it_copied(tmp_path: Path) -> None:
+    path = tmp_path / "j.jsonl"
+    v1 = {
+        "v": 1,
+        "guid": GUIDS[0],
+        "source": "verifying",
+        "dest": "constructed",
+        "event": "verified",
+        "event_id": None,
+        "cause": "ok",
+        "attempt": 1,
+        "robot_id": "r2",
+        "sim_time_s": 9.0,
+        "wall_time_s": 1.0,
+        "place_sim_time_s": None,
+        "position_error_m": 0.004,
+        "angle_error_rad": 0.01,
+        "reason": None,
+    }
+    path.write_text(json.dumps(v1) + "\n")
+    (record,) = replay(path).records[GUIDS[0]]
+    change = record.change
+    assert (change.previous, change.state, change.robot_id) == (S.VERIFYING, S.CONSTRUCTED, "r2")
+    assert (change.position_error_m, change.angle_error_rad, change.attempt) == (0.004, 0.01, 1)
+
+
+def test_the_journal_line_is_the_published_state_change(tmp_path: Path) -> None:
+    path = tmp_path / "j.jsonl"
+    written = record(GUIDS[0], S.PLANNED, S.RELEASED, "a")
+    with Journal(path) as journal:
+        journal.append(written)
+    assert replay(path).last[GUIDS[0]] == written

@@ -167,7 +167,7 @@ def test_killing_the_agent_process_mid_run_and_restarting_it_loses_nothing(
     assert all(twin.state == ComponentState.CONSTRUCTED for twin in twins)
     for twin in twins:  # the restarted process knows what happened before the kill (its journal)
         if twin.guid in before_kill:
-            assert [record.dest for record in twin.history][-1] == ComponentState.CONSTRUCTED
+            assert [record.state for record in twin.history][-1] == ComponentState.CONSTRUCTED
             assert len(twin.history) >= 6
 
 

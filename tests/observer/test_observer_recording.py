@@ -28,7 +28,7 @@ from bimbot.services.observer.twin_log import component_path
 from bimbot.shared.bus import encode
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState as S
-from bimbot.shared.messages import ComponentStateMsg, PoseMsg, TransitionRecord, TwinMsg
+from bimbot.shared.messages import ComponentStateMsg, PoseMsg, TwinMsg
 
 
 @dataclass
@@ -164,7 +164,20 @@ def test_a_late_observer_learns_the_past_from_twins_and_counts_each_transition_o
         state=S.RELEASED,
         attempt=1,
         robot_id=None,
-        history=[TransitionRecord(source=a, dest=b, event="e", sim_time_s=t, attempt=1) for a, b, t in steps],
+        history=[
+            ComponentStateMsg(
+                guid=component.guid,
+                previous=a,
+                state=b,
+                event="e",
+                sim_time_s=t,
+                wall_time_s=t,
+                attempt=1,
+                robot_id="r2" if b is not S.RELEASED else None,
+                position_error_m=0.03 if b is S.MISPLACED else None,
+            )
+            for a, b, t in steps
+        ],
     )
     site = frame_manifest.site
     observer.twin_reply(f"bimbot/{site}/components/{component.key}/twin", encode(twin))
@@ -181,3 +194,4 @@ def test_a_late_observer_learns_the_past_from_twins_and_counts_each_transition_o
     (entry,) = [c for c in observer.collector.report()["components"] if c["guid"] == component.guid]
     assert (entry["released_s"], entry["picked_s"], entry["placed_s"]) == (1.0, 2.0, 5.0)
     assert entry["retries"] == 1 and entry["state"] == "released"
+    assert entry["robot_ids"] == ["r2"] and entry["position_error_mm"] == 30.0  # from the twin alone

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from bimbot.services.observer.watch import WatchTable, change_line
 from bimbot.shared.manifest import Manifest
-from bimbot.shared.messages import ComponentState, ComponentStateMsg, PoseMsg, TransitionRecord, TwinMsg
+from bimbot.shared.messages import ComponentState, ComponentStateMsg, PoseMsg, TwinMsg
 
 
 def _state(guid: str, state: ComponentState, previous: ComponentState | None, robot: str | None = None):
@@ -54,8 +54,13 @@ def test_a_twin_names_an_unknown_component_unless_a_state_message_was_newer() ->
     table = WatchTable()  # --site only: no manifest
     pose = PoseMsg(position_m=(0.0, 0.0, 0.0), quat_xyzw=(0.0, 0.0, 0.0, 1.0))
     history = [
-        TransitionRecord(
-            source=ComponentState.PLANNED, dest=ComponentState.RELEASED, event="release", sim_time_s=3.0
+        ComponentStateMsg(
+            guid="2O2Fr$t4X7Zf8NOew3FLOH",
+            previous=ComponentState.PLANNED,
+            state=ComponentState.RELEASED,
+            event="release",
+            sim_time_s=3.0,
+            wall_time_s=0.0,
         )
     ]
     twin = TwinMsg(
