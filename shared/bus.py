@@ -132,10 +132,10 @@ class LivelinessChange:
 
 
 @dataclass(frozen=True)
-class IncomingQuery(Generic[M, R]):
+class IncomingQuery(Generic[R]):
     """A query to one of our ``queryable``s; the loop answers it (``reply``) and drops it."""
 
-    queryable: Queryable[M, R]
+    queryable: Queryable[R]
     query: zenoh.Query
 
 
@@ -236,7 +236,7 @@ class Inbox:
         return session.liveliness().declare_subscriber(key_expr, on_sample, history=True)
 
     def serve(
-        self, session: zenoh.Session, queryable: Queryable[M, R], *, complete: bool, **parts: str
+        self, session: zenoh.Session, queryable: Queryable[R], *, complete: bool, **parts: str
     ) -> zenoh.Queryable:
         """Declare ``queryable`` (parts filled); each query is enqueued as an :class:`IncomingQuery`."""
         return session.declare_queryable(
@@ -245,9 +245,7 @@ class Inbox:
             complete=complete,
         )
 
-    def ask(
-        self, session: zenoh.Session, queryable: Queryable[M, R], *, timeout_s: float, **parts: str
-    ) -> None:
+    def ask(self, session: zenoh.Session, queryable: Queryable[R], *, timeout_s: float, **parts: str) -> None:
         """Query ``queryable`` (parts filled) once; every valid reply is enqueued as an :class:`Answer`."""
         reply_model = queryable.reply
 
@@ -290,7 +288,7 @@ Handler = Callable[[zenoh.Query], None]
 
 def query_first(
     session: zenoh.Session,
-    queryable: Queryable[M, R],
+    queryable: Queryable[R],
     invalid: InvalidPayloads,
     *,
     timeout_s: float,

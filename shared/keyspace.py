@@ -73,11 +73,11 @@ class Topic(Generic[M]):
 
 
 @dataclass(frozen=True)
-class Queryable(Generic[M, R]):
+class Queryable(Generic[R]):
     """A key ``answerer`` serves: a ``request`` payload (None: an empty query) answered with ``reply``."""
 
     template: str
-    request: type[M] | None
+    request: type[BaseModel] | None
     reply: type[R]
     answerer: str
     note: str = ""

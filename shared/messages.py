@@ -35,7 +35,7 @@ latency measurements. Poses are in the simulation world frame (see :mod:`bimbot.
 from __future__ import annotations
 
 from enum import StrEnum
-from typing import Literal
+from typing import Final, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -44,7 +44,7 @@ from .manifest import Quat, Vec3
 from .reasons import Reason
 from .robot_description import RobotDescription
 
-MESSAGE_SCHEMA_VERSION = 2  # 2: TwinMsg.history holds ComponentStateMsg records (was TransitionRecord)
+MESSAGE_SCHEMA_VERSION: Final = 2  # 2: TwinMsg.history holds ComponentStateMsg records (was TransitionRecord)
 
 
 class _Message(BaseModel):

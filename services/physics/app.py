@@ -73,7 +73,6 @@ from .simulation import Outgoing, SimConfig, Simulation
 
 _log = logging.getLogger(__name__)
 
-_SERVED = (PHYSICS_INFO, PHYSICS_ATTACH, PHYSICS_PLACE, PHYSICS_DROP)
 LOOP_WAIT_S = 0.05  # longest blocking wait, so a stop request is seen quickly
 STATUS_EVERY_S = 30.0
 
@@ -129,7 +128,12 @@ class _Loop:
             inbox.subscribe_liveliness(session, key(ALIVE_KEY, site=site, kind="robot", id="*")),
             inbox.subscribe(session, COMPONENT_STATE, site=site, key="*"),
         ]
-        declarations += [inbox.serve(session, served, complete=True, site=site) for served in _SERVED]
+        declarations += [
+            inbox.serve(session, PHYSICS_INFO, complete=True, site=site),
+            inbox.serve(session, PHYSICS_ATTACH, complete=True, site=site),
+            inbox.serve(session, PHYSICS_PLACE, complete=True, site=site),
+            inbox.serve(session, PHYSICS_DROP, complete=True, site=site),
+        ]
         declarations.append(
             session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="physics", id="main"))
         )
