@@ -23,9 +23,13 @@ import heapq
 import logging
 from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from lxml import etree
 from pydantic import BaseModel, ConfigDict
+
+if TYPE_CHECKING:
+    from _typeshed import SupportsRichComparison
 
 SEQUENCE_SCHEMA_VERSION = 1
 SEQUENCE_FILE_NAME = "sequence.xml"
@@ -173,7 +177,7 @@ def sequence_from_predecessors(
             name=(names or {}).get(guid),
             predecessors=tuple(
                 task_ids[pred]
-                for pred in sorted(predecessors.get(guid, ()) & position.keys(), key=position.get)
+                for pred in sorted(predecessors.get(guid, ()) & position.keys(), key=position.__getitem__)
             ),
         )
         for guid in ordered
@@ -188,7 +192,9 @@ def _in_order(items: set[str], position: dict[str, int]) -> list[str]:
     return sorted((item for item in items if item in position), key=position.__getitem__)
 
 
-def priority_topological_order(predecessors: dict[str, set[str]], key: Callable[[str], object]) -> list[str]:
+def priority_topological_order(
+    predecessors: dict[str, set[str]], key: Callable[[str], SupportsRichComparison]
+) -> list[str]:
     """Kahn's algorithm: among the items whose predecessors are all placed, the smallest ``key`` goes first.
 
     Items caught in a cycle are appended in ``key`` order (callers report the cycle when they check).

@@ -16,9 +16,13 @@ import time
 from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Never
 
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import SkippedElement
+
+if TYPE_CHECKING:
+    from tqdm import tqdm  # imported at run time only once a bar is shown (in update)
 
 _log = logging.getLogger(__name__)
 
@@ -108,7 +112,7 @@ class _ProgressBar:
 
     def __init__(self, *, enabled: bool) -> None:
         self._enabled = enabled
-        self._bar = None
+        self._bar: tqdm[Never] | None = None  # a bar without an iterable, updated by hand
         self._stage: str | None = None
 
     def __enter__(self) -> _ProgressBar:

@@ -23,7 +23,7 @@ from .collision import CollisionShape, collision_shape
 from .connections import element_connections
 from .mass_properties import MassProperties, mass_properties, mesh_from_arrays
 from .mesh_files import GeometryFiles, link_geometry_files, write_geometry_files
-from .placement import pose_from_rigid, split_rigid
+from .placement import pose_from_rigid, split_rigid, vec3
 from .sdf_writer import ModelSpec, model_config, model_sdf
 from .split_ifc import split_element
 from .tessellation import ElementShape
@@ -130,18 +130,18 @@ def write_component(
         material=mass_chain.material_label(element),
         target_pose_world=pose,
         bbox_world=BoundingBox(
-            min_m=tuple(float(v) for v in item.bbox_ifc_world_m[0] - origin),
-            max_m=tuple(float(v) for v in item.bbox_ifc_world_m[1] - origin),
+            min_m=vec3(item.bbox_ifc_world_m[0] - origin),
+            max_m=vec3(item.bbox_ifc_world_m[1] - origin),
         ),
         bbox_local=BoundingBox(
-            min_m=tuple(float(v) for v in props.bbox_local_m[0]),
-            max_m=tuple(float(v) for v in props.bbox_local_m[1]),
+            min_m=vec3(props.bbox_local_m[0]),
+            max_m=vec3(props.bbox_local_m[1]),
         ),
         volume_m3=props.volume_m3,
         watertight=props.watertight,
         mass_kg=mass.mass_kg,
         mass_source=mass.source,
-        com_local_m=tuple(float(v) for v in props.com_local_m),
+        com_local_m=vec3(props.com_local_m),
         inertia_kg_m2=Inertia(
             ixx=inertia[0, 0],
             ixy=inertia[0, 1],

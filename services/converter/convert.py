@@ -38,7 +38,7 @@ from bimbot.shared.sequence import SEQUENCE_FILE_NAME, write_sequence
 
 from .component_writer import skipped_entry
 from .ifc_input import file_sha256
-from .placement import choose_local_origin
+from .placement import choose_local_origin, vec3
 from .sdf_writer import world_sdf
 from .selection import select_elements
 from .sequencing import construction_sequence
@@ -128,7 +128,7 @@ def convert_model(
             sha256=file_sha256(source_path),
             length_unit_m=unit_scale_m,
         ),
-        local_origin_m=tuple(float(v) for v in origin),
+        local_origin_m=vec3(origin),
         world_file=world_path.relative_to(out_dir).as_posix(),
         sequence_file=SEQUENCE_FILE_NAME,
         sequence_source=sequence.source,

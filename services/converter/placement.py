@@ -12,12 +12,13 @@ SDF's ``<pose>`` is ``x y z roll pitch yaw`` with fixed-axis (extrinsic) x-y-z a
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bimbot.shared.manifest import Pose
+from bimbot.shared.manifest import Pose, Quat, Vec3
 
 FAR_FROM_ORIGIN_M = 1000.0
 ORTHONORMAL_TOLERANCE = 1e-9
@@ -52,11 +53,19 @@ def pose_from_rigid(rotation: np.ndarray, translation_m: np.ndarray, local_origi
     quat = rot.as_quat()  # x, y, z, w
     if quat[3] < 0:
         quat = -quat
-    return Pose(
-        position_m=tuple(float(v) for v in position),
-        quat_xyzw=tuple(float(v) for v in quat),
-        rpy_rad=tuple(float(v) for v in _sdf_rpy(rot)),
-    )
+    return Pose(position_m=vec3(position), quat_xyzw=quat_xyzw(quat), rpy_rad=vec3(_sdf_rpy(rot)))
+
+
+def vec3(values: Iterable[float]) -> Vec3:
+    """The three values (an array of length 3) as a tuple of plain floats, for the manifest."""
+    x, y, z = (float(v) for v in values)
+    return x, y, z
+
+
+def quat_xyzw(values: Iterable[float]) -> Quat:
+    """The four values of a quaternion (x, y, z, w) as a tuple of plain floats, for the manifest."""
+    x, y, z, w = (float(v) for v in values)
+    return x, y, z, w
 
 
 def _sdf_rpy(rotation: Rotation) -> np.ndarray:

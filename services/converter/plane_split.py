@@ -82,8 +82,8 @@ def split_into_convex_parts(
             continue
         open_pieces.extend((_excess(half), half) for half in cut)
     final.extend(item[1] for item in open_pieces)
-    parts = [_hull_mesh(piece) for piece in final if piece.volume() > negligible_m3]
-    parts = [part for part in parts if part is not None]
+    hulls = [_hull_mesh(piece) for piece in final if piece.volume() > negligible_m3]
+    parts = [hull for hull in hulls if hull is not None]
     if not parts:
         return None
     return SplitResult(parts, float(sum(part.volume for part in parts) / mesh.volume))

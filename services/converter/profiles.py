@@ -119,9 +119,10 @@ def is_convex_polygon(polygon: Polygon) -> bool:
 
 def _positive(*values: float | None) -> tuple[float, ...]:
     """The values as floats; raises ValueError when one is missing or not positive."""
-    if any(v is None or v <= 0.0 for v in values):
+    present = [v for v in values if v is not None]
+    if len(present) < len(values) or any(v <= 0.0 for v in present):
         raise ValueError(f"missing or non-positive dimension in {values}")
-    return tuple(float(v) for v in values)  # type: ignore[arg-type]
+    return tuple(float(v) for v in present)
 
 
 def _rect(x0: float, y0: float, x1: float, y1: float) -> Polygon | None:

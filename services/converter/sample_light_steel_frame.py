@@ -66,7 +66,7 @@ import uuid
 from collections import Counter
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal, TypedDict
 
 import ifcopenshell
 import ifcopenshell.api.aggregate
@@ -84,6 +84,9 @@ import ifcopenshell.api.unit
 import ifcopenshell.guid
 import numpy as np
 
+if TYPE_CHECKING:
+    from ifcopenshell.api.pset.edit_qto import PROP_VALUE_TYPE
+
 _log = logging.getLogger(__name__)
 
 
@@ -96,8 +99,30 @@ MAX_COLUMNS_PER_SIDE = 200  # 200x200 is ~120,000 elements: a guard against typo
 
 FOOTING_SIZE_MM = 600.0
 FOOTING_DEPTH_MM = 300.0
-COLUMN_SECTION = {"name": "SHS100x100x5", "size_mm": 100.0, "wall_mm": 5.0}
-BEAM_SECTION = {"name": "IPE160", "depth_mm": 160.0, "width_mm": 82.0, "web_mm": 5.0, "flange_mm": 7.4}
+
+
+class ColumnSection(TypedDict):
+    name: str
+    size_mm: float
+    wall_mm: float
+
+
+class BeamSection(TypedDict):
+    name: str
+    depth_mm: float
+    width_mm: float
+    web_mm: float
+    flange_mm: float
+
+
+COLUMN_SECTION: ColumnSection = {"name": "SHS100x100x5", "size_mm": 100.0, "wall_mm": 5.0}
+BEAM_SECTION: BeamSection = {
+    "name": "IPE160",
+    "depth_mm": 160.0,
+    "width_mm": 82.0,
+    "web_mm": 5.0,
+    "flange_mm": 7.4,
+}
 
 STEEL_NAME = "S235 Steel"
 STEEL_DENSITY_KG_PER_M3 = 7850.0
@@ -269,7 +294,13 @@ def _assign_units(model: ifcopenshell.file) -> None:
     add = ifcopenshell.api.unit.add_si_unit
     kilogram = add(model, unit_type="MASSUNIT", prefix="KILO")
     metre = add(model, unit_type="LENGTHUNIT")
-    density = ifcopenshell.api.unit.add_derived_unit(model, "MASSDENSITYUNIT", None, {kilogram: 1, metre: -3})
+    # None: no user-defined type, as the function documents; its annotation says str only
+    density = ifcopenshell.api.unit.add_derived_unit(
+        model,
+        "MASSDENSITYUNIT",
+        None,  # type: ignore[arg-type]
+        {kilogram: 1, metre: -3},
+    )
     units = [
         add(model, unit_type="LENGTHUNIT", prefix="MILLI"),
         add(model, unit_type="AREAUNIT"),
@@ -505,6 +536,7 @@ def _add_quantities(
 ) -> None:
     """Beams: length and net weight; columns: length only; footings: nothing (mass fallbacks)."""
     for member in members:
+        properties: dict[str, PROP_VALUE_TYPE]
         if member.kind == "beam":
             name = "Qto_BeamBaseQuantities"
             properties = {"Length": member.length_mm, "NetWeight": round(beam_weight_kg(member.length_mm), 3)}

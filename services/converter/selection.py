@@ -88,9 +88,12 @@ def element_category(model: ifcopenshell.file, ifc_class: str) -> str:
     """The class directly below ``IfcElement`` that ``ifc_class`` descends from (``IfcFurniture`` →
     ``IfcFurnishingElement``); ``ifc_class`` itself when it is not an ``IfcElement``."""
     declaration = _schema(model).declaration_by_name(ifc_class)
-    while declaration.supertype() is not None and declaration.supertype().name() != "IfcElement":
-        declaration = declaration.supertype()
-    return declaration.name() if declaration.supertype() is not None else ifc_class
+    # the class of an element is an entity declaration (not a defined, select or enumeration type)
+    assert isinstance(declaration, ifcopenshell.ifcopenshell_wrapper.entity), ifc_class
+    supertype = declaration.supertype()
+    while supertype is not None and supertype.name() != "IfcElement":
+        declaration, supertype = supertype, supertype.supertype()
+    return declaration.name() if supertype is not None else ifc_class
 
 
 def has_body_representation(element: ifcopenshell.entity_instance) -> bool:

@@ -36,7 +36,7 @@ ProgressCallback = Callable[[str, int, int], None]
 
 # Set in the parent just before forking; workers inherit them (an ifcopenshell file cannot be pickled).
 _MODEL: ifcopenshell.file | None = None
-_DONE: Synchronized | None = None  # type: ignore[type-arg]
+_DONE: Synchronized[int] | None = None
 
 
 @dataclass

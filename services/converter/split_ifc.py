@@ -46,12 +46,13 @@ import logging
 import re
 import uuid
 from collections.abc import Iterable, Iterator, Mapping
-from typing import Any
+from typing import Any, cast
 
 import ifcopenshell
 import ifcopenshell.guid
 import ifcopenshell.ifcopenshell_wrapper
 import ifcopenshell.util.element
+import ifcopenshell.util.schema
 
 logger = logging.getLogger(__name__)
 
@@ -80,7 +81,9 @@ def split_element(model: ifcopenshell.file, element: Entity) -> ifcopenshell.fil
 
     Pure: nothing is read or written on disk; write the result with ``new.write(path)``.
     """
-    new = ifcopenshell.file(schema=model.schema_identifier)
+    # The annotation allows only the general names (IFC4X3), but file() keeps any full identifier as given
+    # (IFC4X3_ADD2, IFC2X3_TC1), which the split file must repeat.
+    new = ifcopenshell.file(schema=cast(ifcopenshell.util.schema.IFC_SCHEMA, model.schema_identifier))
     copy_header(model, new, element)
     chain = spatial_chain(model, element)
     chain_ids = {spatial.id() for spatial in chain}
@@ -232,7 +235,10 @@ def object_attributes(schema: str, rel_class: str) -> dict[int, bool]:
     """Attributes of ``rel_class`` that name objects, per the schema: index → whether it holds a list."""
     declarations = ifcopenshell.ifcopenshell_wrapper.schema_by_name(schema)
     target = declarations.declaration_by_name("IfcObjectDefinition")
-    attributes = declarations.declaration_by_name(rel_class).all_attributes()
+    relationship = declarations.declaration_by_name(rel_class)
+    # a relationship class is an entity declaration (not a defined, select or enumeration type)
+    assert isinstance(relationship, ifcopenshell.ifcopenshell_wrapper.entity), rel_class
+    attributes = relationship.all_attributes()
     return {
         index: attribute.type_of_attribute().as_aggregation_type() is not None
         for index, attribute in enumerate(attributes)

@@ -17,11 +17,13 @@ import logging
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 import ifcopenshell
 import ifcopenshell.geom
 import ifcopenshell.util.shape
 import numpy as np
+from ifcopenshell import ifcopenshell_wrapper
 
 _log = logging.getLogger(__name__)
 
@@ -93,7 +95,10 @@ def tessellate(
     return result
 
 
-def _element_shape(shape: ifcopenshell.geom.ShapeType, cache: dict[str, Geometry]) -> ElementShape | None:
+def _element_shape(
+    shape: ifcopenshell_wrapper.triangulation_element, cache: dict[str, Geometry]
+) -> ElementShape | None:
+    """``shape``: what the iterator yields with :func:`geometry_settings` (triangles, no OpenCascade)."""
     geometry_id = str(shape.geometry.id)
     geometry = cache.get(geometry_id)
     if geometry is None:
@@ -105,7 +110,7 @@ def _element_shape(shape: ifcopenshell.geom.ShapeType, cache: dict[str, Geometry
             geometry_id, np.ascontiguousarray(vertices, float), np.ascontiguousarray(faces, np.int64)
         )
         cache[geometry_id] = geometry
-    matrix = np.asarray(ifcopenshell.util.shape.get_shape_matrix(shape), dtype=float)
+    matrix = np.asarray(ifcopenshell.util.shape.get_shape_matrix(shape), dtype=np.float64)
     return ElementShape(int(shape.id), matrix, geometry)
 
 
@@ -116,7 +121,9 @@ def _failure_reason(settings: ifcopenshell.geom.settings, element: ifcopenshell.
     except RuntimeError as error:
         first_line = str(error).splitlines()[0] if str(error) else "unknown error"
         return f"no triangulated geometry: ifcopenshell could not build it ({_shorten(first_line)})"
-    geometry = getattr(shape, "geometry", shape)
+    # create_shape is annotated with what every kind of input gives; a product with these settings gives a
+    # triangulation_element, whose geometry is a triangulation
+    geometry = cast(ifcopenshell_wrapper.triangulation, getattr(shape, "geometry", shape))
     if len(ifcopenshell.util.shape.get_faces(geometry)) == 0:
         edges = len(ifcopenshell.util.shape.get_edges(geometry)) if hasattr(geometry, "edges") else 0
         kind = "curve-only" if edges else "empty"

@@ -45,6 +45,12 @@ class Driving:
     approach_config: ApproachConfig
     home_xy_yaw: tuple[float, float, float]
 
+    if TYPE_CHECKING:  # defined by :class:`.handover.Handover`, the executor's other mixin
+
+        def _give_back(self, task: Task, reason: Reason) -> None: ...
+
+        def _name(self, task: Task) -> str: ...
+
     def _target_cut_off(self, task: Task) -> Reason | None:
         """Why the target has no approach the robot could drive to on the static map (walls, built parts,
         stacks; laser marks left out, they pass), or None: checked before the pick-up, so that a component

@@ -19,6 +19,7 @@ import numpy as np
 from bimbot.shared.messages import (
     AttachRequest,
     ComponentEvent,
+    ComponentState,
     DropRequest,
     PlaceRequest,
     PoseMsg,
@@ -56,12 +57,28 @@ class Handover:
     given_back: list[tuple[str, Reason]]
     _next_request: int
 
+    if TYPE_CHECKING:  # defined by :class:`.executor.Executor`, which this is a mixin of
+
+        def _attached(self, task: Task) -> None: ...
+
+        def _queue_event(
+            self, task: Task, event: ComponentEvent, sim_s: float | None = None, reason: Reason | None = None
+        ) -> None: ...
+
+        def _finish(self, verdict: ComponentState | None) -> None: ...
+
     def _place_request(self, task: Task) -> PlaceRequest:
         target = task.component.target_pose_world
         x, y, z = target.position_m
         cfg = self.config
-        spec = {"error_m": cfg.placement_error_m, "guids": cfg.inject_guids, "fraction": cfg.inject_fraction}
-        if injected(task.message.guid, task.message.attempt, seed=cfg.seed, **spec):
+        if injected(
+            task.message.guid,
+            task.message.attempt,
+            error_m=cfg.placement_error_m,
+            guids=cfg.inject_guids,
+            fraction=cfg.inject_fraction,
+            seed=cfg.seed,
+        ):
             x += cfg.placement_error_m
             _log.info(
                 "%s: placing %s %.3f m off (injected)",

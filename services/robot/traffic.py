@@ -42,6 +42,14 @@ class Traffic:
     _mark_tree: cKDTree | None
     _others: dict[str, tuple[NDArray[np.float64], float]]
 
+    if TYPE_CHECKING:  # defined by the navigator this is a mixin of (no runtime definition to shadow it)
+
+        def _new_goal(
+            self, xy: NDArray[np.float64], yaw: float | None, tolerance_m: float, sim_s: float, **more: float
+        ) -> Goal: ...
+
+        def _command(self, v: float, w: float, new_path: NDArray[np.float64] | None = None) -> NavCommand: ...
+
     def _blocking_robot(
         self, pose: NDArray[np.float64], sim_s: float
     ) -> tuple[str, NDArray[np.float64]] | None:
