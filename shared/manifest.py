@@ -19,12 +19,10 @@ from pathlib import Path
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from bimbot.shared.errors import UserError
+from bimbot.shared.geometry import Quat, Vec3
 
 MANIFEST_SCHEMA_VERSION = 1
 MANIFEST_FILE_NAME = "manifest.json"
-
-Vec3 = tuple[float, float, float]
-Quat = tuple[float, float, float, float]
 
 
 class _Frozen(BaseModel):

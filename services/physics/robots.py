@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from bimbot.shared.errors import InputError
+from bimbot.shared.geometry import wrap_angle
 
 from .client import p, quiet_stdout
 from .scene import ALL_GROUPS, Frame, Quat, Vec3, compose, invert, set_filter, yaw_of, yaw_quat
@@ -242,11 +243,6 @@ class Robot:
                 -limit_w, min(limit_w, self._correction[1] + gain * (self.command[1] - rate))
             )
         return previous, current
-
-
-def wrap_angle(angle_rad: float) -> float:
-    """Into [-π, π)."""
-    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def spawn_robot(

@@ -23,6 +23,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
+from bimbot.shared.geometry import wrap_angle
+
 logger = logging.getLogger(__name__)
 
 
@@ -79,11 +81,6 @@ class DwaResult:
     n_candidates: int
     n_admissible: int
     min_clearance_m: float
-
-
-def wrap_angle(angle_rad: ArrayLike) -> NDArray[np.float64]:
-    """Wrap angles to [-π, π)."""
-    return (np.asarray(angle_rad, dtype=float) + math.pi) % (2 * math.pi) - math.pi
 
 
 def dynamic_window(state: RobotState, config: DwaConfig) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

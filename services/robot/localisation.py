@@ -20,6 +20,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bimbot.shared.geometry import wrap_angle
+
 from .particle_filter import (
     LikelihoodField,
     LikelihoodFieldConfig,
@@ -28,7 +30,6 @@ from .particle_filter import (
     build_likelihood_field,
     init_gaussian,
     mcl_step,
-    wrap_angle,
 )
 from .site_map import SiteMap, outline
 

@@ -41,6 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
+from bimbot.shared.geometry import wrap_angle
 from bimbot.shared.messages import OdomMsg, ScanMsg
 from bimbot.shared.occupancy_grid import scan_endpoints_xy_m
 from bimbot.shared.reasons import Reason
@@ -50,7 +51,6 @@ from .dwa import RobotState, dwa_step
 from .localisation import Localiser
 from .motion import Path, carrot, straight_line_clear, turn_command
 from .nav_types import DEFAULT_NAVIGATOR, Goal, NavCommand, NavigatorConfig, NavStatus
-from .particle_filter import wrap_angle
 from .recovery import ProgressWatchdog, Recovery, diagnose, next_recovery, plan_start
 from .site_map import SiteMap
 from .traffic import Traffic

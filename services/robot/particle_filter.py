@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bimbot.shared.geometry import wrap_angle
 from bimbot.shared.occupancy_grid import OccupancyGrid, distance_field_m
 
 logger = logging.getLogger(__name__)
@@ -80,11 +81,6 @@ class PoseEstimate:
     def std_yaw_rad(self) -> float:
         """Standard deviation of yaw."""
         return math.sqrt(max(0.0, self.covariance[2, 2]))
-
-
-def wrap_angle(angle_rad: ArrayLike) -> NDArray[np.float64]:
-    """Wrap angles to [-π, π)."""
-    return (np.asarray(angle_rad, dtype=float) + math.pi) % (2 * math.pi) - math.pi
 
 
 def build_likelihood_field(grid: OccupancyGrid, max_distance_m: float = 2.0) -> LikelihoodField:
