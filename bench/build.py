@@ -7,10 +7,11 @@ wall second (120 Hz physics with the robots and every component), the largest pl
 retries. With more than one robot the planner derives the sequence from the support graph: the bundled
 IFC work schedule is one chain (the paper's single-robot erection order) that lets only one task run at a
 time. ``--observer-cost`` also builds with 1 robot and the observer recording, and prints the difference
-and the recording's size per component. ``--samples`` also converts and builds the two Revit buildings in
-``../shared/samples/ifc`` (the structural hub and the sample house) with the same robot counts and prints,
-for each, constructed/total, sim and wall time, how the run ended and the reasons of what was not built,
-counted by code (every run must end by itself: each component constructed or given a reason). Most of
+and the recording's size per component. ``--samples`` also converts and builds the two Revit buildings of
+the public samples folder beside the checkout (see tests/conftest.py): the structural hub and the sample
+house, with the same robot counts, and prints for each constructed/total, sim and wall time, how the run
+ended and the reasons of what was not built, counted by code (every run must end by itself: each
+component constructed or given a reason). Most of
 both rests on footings and slabs of several tonnes, beyond the default robot, so the hub's steel frame
 alone (``--only IfcBeam,IfcColumn``: 85 members on a 94 m yard) is built too, which the robots can. Then the
 navigation figures (A* 2000×2000, DWA step) from ``bench/navigation.py``.

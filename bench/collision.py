@@ -1,6 +1,6 @@
 """Benchmark: collision shapes by profile decomposition vs V-HACD, on three members built with ifcopenshell.
 
-Run: ``/work/main/.venv/bin/python bench/collision.py [--sweep] [--repeat N]``
+Run: ``.venv/bin/python bench/collision.py [--sweep] [--repeat N]``
 
 Members (millimetre IFC4 model, tessellated by ifcopenshell in the element frame):
 

@@ -1,4 +1,4 @@
-"""Shared pytest setup: the public IFC sample folder that sits beside the checkout (``../shared``)."""
+"""Shared pytest setup: the public IFC sample folder that sits beside the checkout (:data:`SAMPLES_IFC`)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ SAMPLES_IFC = ROOT.parent / "shared" / "samples" / "ifc"
 
 @pytest.fixture(scope="session")
 def samples_dir() -> Path:
-    """``../shared/samples/ifc``; tests that need it skip when it is absent (never in CI)."""
+    """The public IFC samples beside the checkout; tests that need them skip when absent (never in CI)."""
     if not SAMPLES_IFC.is_dir():
         pytest.skip(f"sample folder {SAMPLES_IFC} not present")
     return SAMPLES_IFC

@@ -45,7 +45,7 @@ Entity = ifcopenshell.entity_instance
 
 SAMPLES_DIR = (
     Path(__file__).resolve().parents[3] / "shared" / "samples" / "ifc"
-)  # ../shared beside the checkout
+)  # the public samples beside the checkout (tests/conftest.py), needed here at collection time
 #: Files with more building elements than this are tested on a class-diverse selection of this many.
 MAX_ELEMENTS_PER_FILE = 20
 VOLUME_RTOL = 1e-3
