@@ -43,6 +43,7 @@ from .keyspace import Entry, Liveliness, Queryable, Topic
 from .manifest import Quat, Vec3
 from .reasons import Reason
 from .robot_description import RobotDescription
+from .site_plan import SiteLayout
 
 MESSAGE_SCHEMA_VERSION: Final = 2  # 2: TwinMsg.history holds ComponentStateMsg records (was TransitionRecord)
 
@@ -274,6 +275,7 @@ class SiteInfoMsg(_Message):
     step_s: float
     control_period_s: float
     lock_step: bool
+    layout: SiteLayout  # the one site plan (yard slots, depot, fence): physics owns it, the rest ask
 
 
 PLANNER_PLAN_KEY = "bimbot/{site}/planner/plan"

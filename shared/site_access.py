@@ -34,7 +34,8 @@ from .footprint import Footprint, posed_footprint
 from .manifest import Component
 from .occupancy_grid import OccupancyGrid, distance_field_m, empty_grid, from_footprints, nearest_free_cell
 from .robot_description import RobotDescription
-from .site_layout import GRID_MARGIN_M, INFLATION_MARGIN_M, SiteLayout, fence_boxes
+from .site_layout import INFLATION_MARGIN_M
+from .site_plan import GRID_MARGIN_M, SiteLayout, fence_boxes
 
 _log = logging.getLogger(__name__)
 

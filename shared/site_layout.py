@@ -1,7 +1,9 @@
 """The construction site around the building, as in the paper's Fig. 10: a yard, a robot depot and a fence.
 
-Pure and deterministic, so physics (which builds it), robots (which navigate it) and the observer (which
-draws it) compute the same site from the same manifest and robot count:
+Pure and deterministic. Physics plans the site once (:func:`plan_site`) and serves the plan with its site
+info (``SiteInfoMsg.layout``); robots (which navigate it), the planner (which checks access in it) and the
+observer (which draws it) ask for it instead of planning a copy. The plan's data types live in
+:mod:`.site_plan`, free of numpy, so every process can decode the message:
 
 * **building** — the footprint of the target structure (its components' world bounding boxes, grown by a
   margin): where the BIM places it.
@@ -42,6 +44,11 @@ from scipy.spatial.transform import Rotation
 
 from .manifest import Component
 from .robot_description import DEFAULT_ROBOT, RobotDescription
+from .site_plan import (  # the plan's data types; physics serves a plan with its site info
+    Rect,
+    SiteLayout,
+    YardSlot,
+)
 
 GROUND_CLEARANCE_M = 0.001  # yard components rest this far above the ground plane
 LANE_M = 3.0  # driving lane between the building footprint and the yard, beside the depot, inside the fence
@@ -54,77 +61,6 @@ MIN_YARD_WIDTH_M = 12.0  # a small model's site keeps lanes long enough for robo
 MAX_DEPTH_CANDIDATES = 12
 WIDTH_CLASS_BASE_M = 0.5  # width classes: ≤ 0.5 m, ≤ 1 m, ≤ 2 m, ≤ 4 m, …
 ROBOT_SPACING_M = 1.6
-FENCE_THICKNESS_M = 0.2
-FENCE_HEIGHT_M = 1.2
-
-
-@dataclass(frozen=True)
-class Rect:
-    """Axis-aligned rectangle in the xy plane, metres."""
-
-    min_xy: tuple[float, float]
-    max_xy: tuple[float, float]
-
-    @property
-    def size(self) -> tuple[float, float]:
-        return (self.max_xy[0] - self.min_xy[0], self.max_xy[1] - self.min_xy[1])
-
-    def overlaps(self, other: Rect) -> bool:
-        return (
-            self.min_xy[0] < other.max_xy[0]
-            and other.min_xy[0] < self.max_xy[0]
-            and self.min_xy[1] < other.max_xy[1]
-            and other.min_xy[1] < self.max_xy[1]
-        )
-
-    def grown(self, margin_m: float) -> Rect:
-        return Rect(
-            (self.min_xy[0] - margin_m, self.min_xy[1] - margin_m),
-            (self.max_xy[0] + margin_m, self.max_xy[1] + margin_m),
-        )
-
-
-@dataclass(frozen=True)
-class YardSlot:
-    """Where a component starts: its frame's pose in the world, and the footprint it covers."""
-
-    guid: str
-    position_m: tuple[float, float, float]
-    quat_xyzw: tuple[float, float, float, float]
-    footprint: Rect
-    height_m: float
-    aisle_side: int = 0  # the side its aisle (or lane) is on: -1 west, +1 east (0: not in the yard)
-
-
-@dataclass(frozen=True)
-class SiteLayout:
-    building: Rect
-    yard: Rect
-    depot: Rect
-    fence: Rect  # inner edge of the fence
-    slots: dict[str, YardSlot]
-    robot_starts: tuple[tuple[float, float, float], ...]  # x, y, yaw
-    aisles: tuple[Rect, ...] = ()  # between the pairs of rows, north–south across the yard
-
-    @property
-    def bounds(self) -> Rect:
-        """Everything, the fence included."""
-        return self.fence.grown(FENCE_THICKNESS_M)
-
-
-GRID_MARGIN_M = 0.5  # site grids (robots' map, access check) reach this far beyond the fence's outer edge
-
-
-def fence_boxes(layout: SiteLayout) -> list[tuple[float, float, float, float]]:
-    """The four fence walls as ``(x_min, y_min, x_max, y_max)`` boxes outside the fence's inner edge."""
-    (x0, y0), (x1, y1) = layout.fence.min_xy, layout.fence.max_xy
-    t = FENCE_THICKNESS_M
-    return [
-        (x0 - t, y0 - t, x1 + t, y0),
-        (x0 - t, y1, x1 + t, y1 + t),
-        (x0 - t, y0, x0, y1),
-        (x1, y0, x1 + t, y1),
-    ]
 
 
 def aisle_width_m(robot: RobotDescription = DEFAULT_ROBOT) -> float:

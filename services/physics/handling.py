@@ -39,7 +39,8 @@ from bimbot.shared.footprint import footprint_distance_m, posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, PhysicsReply, PoseMsg
 from bimbot.shared.robot_description import DEFAULT_ROBOT
-from bimbot.shared.site_layout import GROUND_CLEARANCE_M, Rect, lying_rotation
+from bimbot.shared.site_layout import GROUND_CLEARANCE_M, lying_rotation
+from bimbot.shared.site_plan import Rect
 
 from .client import p
 from .robots import Robot

@@ -34,6 +34,7 @@ import numpy as np
 
 from bimbot.shared.errors import InputError
 from bimbot.shared.geometry import wrap_angle
+from bimbot.shared.robot_description import DEFAULT_ROBOT
 
 from .client import p, quiet_stdout
 from .scene import ALL_GROUPS, Frame, Quat, Vec3, compose, invert, set_filter, yaw_of, yaw_quat
@@ -53,8 +54,8 @@ def default_urdf() -> Path:
 class RobotConfig:
     urdf_path: Path | None = None  # None: pybullet_data's Husky
     wheel_joints: tuple[str, ...] = ()  # joint names or indices; empty: detected
-    max_speed_mps: float = 1.0
-    max_turn_radps: float = 1.5
+    max_speed_mps: float = DEFAULT_ROBOT.max_speed_mps  # the description's; served with the site info
+    max_turn_radps: float = DEFAULT_ROBOT.max_turn_radps
     wheel_torque_nm: float = 60.0
     track_multiplier: float = 1.5
     wheel_lateral_friction_ratio: float = 0.2

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .client import p
+from .profiles import FINE
 from .scene import ALL_GROUPS, GROUND_GROUP, Frame, compose
 
 FULL_CIRCLE_RAD = 2.0 * math.pi
@@ -33,7 +34,7 @@ FULL_CIRCLE_RAD = 2.0 * math.pi
 
 @dataclass(frozen=True)
 class LaserConfig:
-    beams: int = 360
+    beams: int = FINE.laser_beams
     fov_rad: float = FULL_CIRCLE_RAD
     range_max_m: float = 15.0
     height_m: float = 0.06  # above the ground, robot at rest

@@ -51,10 +51,12 @@ from bimbot.shared.messages import (
     key,
 )
 from bimbot.shared.robot_description import DEFAULT_ROBOT, RobotDescription
-from bimbot.shared.site_layout import SiteLayout, plan_site
+from bimbot.shared.site_layout import plan_site
+from bimbot.shared.site_plan import SiteLayout
 
 from .client import BulletClient, p
 from .handling import Handling, HandlingConfig, Item, Phase
+from .profiles import FINE
 from .robots import Odometry, Robot, RobotConfig, spawn_robot
 from .scene import (
     component_model,
@@ -75,8 +77,8 @@ GRAVITY_MPS2 = 9.80665
 @dataclass(frozen=True)
 class SimConfig:
     robots: int = 1
-    step_s: float = 1.0 / 240.0
-    control_period_s: float = 0.1
+    step_s: float = 1.0 / FINE.physics_hz
+    control_period_s: float = FINE.control_period_s
     reach_m: float = DEFAULT_ROBOT.reach_m
     odom_noise: float = 0.02  # relative standard deviation of each period's odometry increment
     seed: int = 0
@@ -215,12 +217,20 @@ class Simulation:
             lock_step=self.config.lock_step,
             robot_type_of={robot_id: self.robot_type.name for robot_id in self.robots},
             robot_types={self.robot_type.name: self.robot_type},
+            layout=self.layout,
         )
 
     @property
     def robot_type(self) -> RobotDescription:
         """The description of the robots on site (one type until the fleet brings more)."""
-        return DEFAULT_ROBOT.model_copy(update={"reach_m": self.handling.config.reach_m})
+        robot = self.config.robot
+        return DEFAULT_ROBOT.model_copy(
+            update={
+                "reach_m": self.handling.config.reach_m,
+                "max_speed_mps": robot.max_speed_mps,
+                "max_turn_radps": robot.max_turn_radps,
+            }
+        )
 
     def robot_pose(self, robot_id: str) -> tuple[float, float, float]:
         return self.robots[robot_id].pose_xy_yaw(self.client_id)

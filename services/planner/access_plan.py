@@ -29,7 +29,6 @@ from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import RobotDescription
 from bimbot.shared.sequence import priority_topological_order
 from bimbot.shared.site_access import AccessConfig, SiteAccess, check_order
-from bimbot.shared.site_layout import plan_site
 
 from .sources import Plan, PlanError
 
@@ -59,7 +58,7 @@ def access_plan(
     """Check ``plan`` for access (see the module docstring); mend it when ``adjust``."""
     components = list(manifest.components)
     robot = site_robot(info)
-    layout = plan_site(components, robots=len(info.robot_ids), robot=robot)
+    layout = info.layout  # physics' site plan: the one the robots drive in
     by_guid = {component.guid: component for component in components}
     added = 0
     check = check_order(SiteAccess(components, layout, robot), plan.order)

@@ -39,7 +39,7 @@ from bimbot.shared.footprint import Footprint
 from bimbot.shared.occupancy_grid import OccupancyGrid, nearest_free_cell
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import DEFAULT_ROBOT
-from bimbot.shared.site_layout import Rect
+from bimbot.shared.site_plan import Rect
 
 _log = logging.getLogger(__name__)
 

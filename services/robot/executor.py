@@ -70,12 +70,12 @@ from bimbot.shared.messages import (
     TaskStatus,
 )
 from bimbot.shared.reasons import Reason
-from bimbot.shared.site_layout import plan_site
 
 from . import give_back
 from .approach import ApproachConfig, exit_point
 from .driving import Driving
 from .handover import Handover
+from .nav_types import controller_limits
 from .navigator import Navigator, NavigatorConfig, NavStatus
 from .protocol import VERDICTS, EventQueue, PhysicsRequest, PhysicsResult
 from .site_map import MapConfig, SiteMap
@@ -107,15 +107,16 @@ class Executor(Driving, Handover):
             raise InputError(f"robot {config.robot_id!r} is not on site (physics has {info.robot_ids})")
         self.config, self.robot_id = config, config.robot_id
         self.components = {component.guid: component for component in manifest.components}
-        layout = plan_site(manifest.components, robots=len(info.robot_ids))
-        self.site_map = SiteMap(layout, manifest.components, map_config)
+        self.description = info.robot_types[info.robot_type_of[self.robot_id]]
+        map_config = replace(map_config, robot_radius_m=self.description.radius_m)
+        self.site_map = SiteMap(info.layout, manifest.components, map_config)
         self.home_xy_yaw = info.robot_starts_xy_yaw[info.robot_ids.index(self.robot_id)]
         nav_config = nav_config or NavigatorConfig()
-        nav_config = replace(nav_config, dwa=replace(nav_config.dwa, control_period_s=info.control_period_s))
+        nav_config = replace(nav_config, dwa=controller_limits(nav_config.dwa, self.description, info))
         rng = np.random.default_rng(config.seed)
         self.navigator = Navigator(self.site_map, self.home_xy_yaw, nav_config, rng, robot_id=self.robot_id)
         self.approach_config = approach_config or ApproachConfig(
-            reach_m=info.robot_types[info.robot_type_of[self.robot_id]].reach_m,
+            reach_m=self.description.reach_m,
             body_clearance_m=map_config.inflation_m,
         )
         self.machine = TaskMachine()

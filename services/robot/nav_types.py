@@ -8,13 +8,15 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 
 import numpy as np
 from numpy.typing import NDArray
 
+from bimbot.shared.messages import SiteInfoMsg
 from bimbot.shared.occupancy_grid import OccupancyGrid
+from bimbot.shared.robot_description import RobotDescription
 
 from .dwa import DwaConfig
 from .localisation import LocaliserConfig
@@ -67,6 +69,18 @@ class NavigatorConfig:
 
 
 DEFAULT_NAVIGATOR = NavigatorConfig()
+
+
+def controller_limits(dwa: DwaConfig, robot: RobotDescription, info: SiteInfoMsg) -> DwaConfig:
+    """The local planner's limits from what physics simulates (its site info), never a second default:
+    the robot type's speed, turn rate and footprint, and the clock's control period."""
+    return replace(
+        dwa,
+        control_period_s=info.control_period_s,
+        max_speed_mps=robot.max_speed_mps,
+        max_yaw_rate_radps=robot.max_turn_radps,
+        robot_radius_m=0.5 * max(robot.length_m, robot.width_m),  # a disc over the body's length
+    )
 
 
 class NavStatus(StrEnum):

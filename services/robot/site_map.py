@@ -35,7 +35,7 @@ from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, ComponentState
 from bimbot.shared.occupancy_grid import OccupancyGrid, distance_field_m, empty_grid, from_footprints, inflate
-from bimbot.shared.site_layout import FENCE_HEIGHT_M, GRID_MARGIN_M, SiteLayout, fence_boxes
+from bimbot.shared.site_plan import FENCE_HEIGHT_M, GRID_MARGIN_M, SiteLayout, fence_boxes
 
 _log = logging.getLogger(__name__)
 

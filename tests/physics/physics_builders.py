@@ -11,7 +11,7 @@ from bimbot.services.physics.scene import Frame
 from bimbot.services.physics.simulation import PeriodResult, Simulation
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import CmdVelMsg, PoseMsg
-from bimbot.shared.site_layout import Rect
+from bimbot.shared.site_plan import Rect
 
 
 def drive(sim: Simulation, robot_id: str, v_mps: float, w_radps: float, seconds: float) -> list[PeriodResult]:

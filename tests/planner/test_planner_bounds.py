@@ -17,7 +17,7 @@ from bimbot.services.planner.access_plan import access_plan
 from bimbot.services.planner.feasibility import component_feasibility, infeasible
 from bimbot.services.planner.scheduler import Phase, PlannerCore, PlannerLimits
 from bimbot.services.planner.sources import PlanError, PlanSource, SourceKind, load_plan, plan_from_sequence
-from bimbot.shared.manifest import read_manifest
+from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.messages import (
     ComponentEvent,
     ComponentEventMsg,
@@ -29,6 +29,7 @@ from bimbot.shared.messages import (
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.sequence import sequence_from_predecessors
+from bimbot.shared.site_layout import plan_site
 from bimbot.shared.support_graph import derive_sequence, support_predecessors
 
 S = ComponentState
@@ -165,10 +166,12 @@ def walls_first_build(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return folder / "build"
 
 
-def _info() -> SiteInfoMsg:
+def _info(manifest: Manifest) -> SiteInfoMsg:
+    layout = plan_site(manifest.components, robots=1)
     return SiteInfoMsg(
         robot_ids=["r1"],
-        robot_starts_xy_yaw=[(0.0, 0.0, 0.0)],
+        robot_starts_xy_yaw=list(layout.robot_starts),
+        layout=layout,
         robot_type_of={"r1": DEFAULT_ROBOT.name},
         robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
         step_s=1 / 120,
@@ -184,14 +187,14 @@ def test_a_given_sequence_that_walls_in_a_column_fails_it_before_the_build_namin
     names = {c.guid: c.name for c in manifest.components}
     guid = {name: g for g, name in names.items()}
     plan = load_plan(manifest, walls_first_build, PlanSource(SourceKind.BUILD))
-    outcome = access_plan(plan, manifest, _info(), adjust=plan.derived)
+    outcome = access_plan(plan, manifest, _info(manifest), adjust=plan.derived)
     assert outcome.plan.order == plan.order  # a given sequence is checked, never changed
     assert set(outcome.unreachable) == {guid["Column R1"]}
     reason = outcome.unreachable[guid["Column R1"]]
     assert reason.code is ReasonCode.UNREACHABLE and reason.guid in {guid[w] for w in ROOM_WALLS}
     assert any(guid["Column R1"] in w and "cuts off" in w for w in outcome.warnings)
     with pytest.raises(PlanError, match="cut off"):
-        access_plan(plan, manifest, _info(), adjust=False, strict=True)
+        access_plan(plan, manifest, _info(manifest), adjust=False, strict=True)
 
 
 def test_a_derived_sequence_builds_the_column_before_the_wall_that_would_close_the_room(
@@ -205,7 +208,7 @@ def test_a_derived_sequence_builds_the_column_before_the_wall_that_would_close_t
     support = support_predecessors(manifest.components)
     plan = replace(given, predecessors={g: frozenset(support[g]) for g in given.order}, derived=True)
     assert plan.order.index(guid["Column R1"]) > max(plan.order.index(guid[w]) for w in ROOM_WALLS)
-    outcome = access_plan(plan, manifest, _info(), adjust=True)
+    outcome = access_plan(plan, manifest, _info(manifest), adjust=True)
     assert outcome.unreachable == {} and outcome.warnings == () and outcome.added >= 1
     order = outcome.plan.order
     last_wall = max(ROOM_WALLS, key=lambda w: order.index(guid[w]))

@@ -204,6 +204,7 @@ def make_site(
         lock_step=True,
         robot_type_of={"r1": DEFAULT_ROBOT.name},
         robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
+        layout=layout,
     )
     executor = Executor(manifest, info, ExecutorConfig(robot_id="r1", **config))  # type: ignore[arg-type]
     site = FakeSite(manifest, executor, np.array(layout.robot_starts[0], float))

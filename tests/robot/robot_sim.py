@@ -134,6 +134,7 @@ class SimPhysics:
             lock_step=True,
             robot_type_of={robot_id: DEFAULT_ROBOT.name for robot_id in self.robot_ids},
             robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT.model_copy(update={"reach_m": self.reach_m})},
+            layout=self.layout,
         )
 
     def start_messages(self) -> list[object]:

@@ -22,14 +22,13 @@ from bimbot.shared.manifest import Component, Manifest, read_manifest
 from bimbot.shared.occupancy_grid import from_footprints, inflate
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.site_layout import (
-    FENCE_THICKNESS_M,
     GROUND_CLEARANCE_M,
     INFLATION_MARGIN_M,
-    SiteLayout,
     aisle_width_m,
     lying_rotation,
     plan_site,
 )
+from bimbot.shared.site_plan import FENCE_THICKNESS_M, SiteLayout
 
 GRID_M = 0.2
 REACH_MARGIN_M = 0.1  # the robot's approach stays this much inside its reach

@@ -1,0 +1,82 @@
+"""The site plan as data: rectangles, yard slots and the layout physics serves (``SiteInfoMsg.layout``).
+
+Apart from :mod:`.site_layout` (which plans a site with numpy and scipy) so that the bus messages, which
+every process imports, carry a plan without loading numpy (the agents' processes stay small). Frames: the
+simulation world frame of :mod:`bimbot.shared.manifest` (metres, Z up).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+FENCE_THICKNESS_M = 0.2
+FENCE_HEIGHT_M = 1.2
+
+
+@dataclass(frozen=True)
+class Rect:
+    """Axis-aligned rectangle in the xy plane, metres."""
+
+    min_xy: tuple[float, float]
+    max_xy: tuple[float, float]
+
+    @property
+    def size(self) -> tuple[float, float]:
+        return (self.max_xy[0] - self.min_xy[0], self.max_xy[1] - self.min_xy[1])
+
+    def overlaps(self, other: Rect) -> bool:
+        return (
+            self.min_xy[0] < other.max_xy[0]
+            and other.min_xy[0] < self.max_xy[0]
+            and self.min_xy[1] < other.max_xy[1]
+            and other.min_xy[1] < self.max_xy[1]
+        )
+
+    def grown(self, margin_m: float) -> Rect:
+        return Rect(
+            (self.min_xy[0] - margin_m, self.min_xy[1] - margin_m),
+            (self.max_xy[0] + margin_m, self.max_xy[1] + margin_m),
+        )
+
+
+@dataclass(frozen=True)
+class YardSlot:
+    """Where a component starts: its frame's pose in the world, and the footprint it covers."""
+
+    guid: str
+    position_m: tuple[float, float, float]
+    quat_xyzw: tuple[float, float, float, float]
+    footprint: Rect
+    height_m: float
+    aisle_side: int = 0  # the side its aisle (or lane) is on: -1 west, +1 east (0: not in the yard)
+
+
+@dataclass(frozen=True)
+class SiteLayout:
+    building: Rect
+    yard: Rect
+    depot: Rect
+    fence: Rect  # inner edge of the fence
+    slots: dict[str, YardSlot]
+    robot_starts: tuple[tuple[float, float, float], ...]  # x, y, yaw
+    aisles: tuple[Rect, ...] = ()  # between the pairs of rows, north–south across the yard
+
+    @property
+    def bounds(self) -> Rect:
+        """Everything, the fence included."""
+        return self.fence.grown(FENCE_THICKNESS_M)
+
+
+GRID_MARGIN_M = 0.5  # site grids (robots' map, access check) reach this far beyond the fence's outer edge
+
+
+def fence_boxes(layout: SiteLayout) -> list[tuple[float, float, float, float]]:
+    """The four fence walls as ``(x_min, y_min, x_max, y_max)`` boxes outside the fence's inner edge."""
+    (x0, y0), (x1, y1) = layout.fence.min_xy, layout.fence.max_xy
+    t = FENCE_THICKNESS_M
+    return [
+        (x0 - t, y0 - t, x1 + t, y0),
+        (x0 - t, y1, x1 + t, y1 + t),
+        (x0 - t, y0, x0, y1),
+        (x1, y0, x1 + t, y1),
+    ]
