@@ -40,6 +40,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     ),
     "robot": ("bimbot.services.robot.cli", "run one construction robot: tasks, navigation, localisation"),
     "run": ("bimbot.run", "build a converted model with every service as a process on a loopback bus"),
+    "runs": ("bimbot.runs_cli", "list the runs of a build (BUILD/runs/), or make a new run folder"),
     "observe": (
         "bimbot.services.observer.cli",
         "log the live twin to rerun: web viewer on 127.0.0.1 and an .rrd recording",
@@ -49,10 +50,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
 
 _log = logging.getLogger("bimbot")
 
-
 EXIT_USER_ERROR = 2  # bad input: one line
 EXIT_BUG = 1  # an unexpected exception: its traceback is in the log
 BUG_MARK = "failed with an unexpected error"  # in the log line above the traceback (bimbot run looks for it)
+
 
 def configure_logging(verbosity: int) -> None:
     """Configure the root logger once, from ``main`` only (libraries just call ``getLogger``)."""
@@ -79,8 +80,8 @@ def build_parser(argv: list[str]) -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
     """Parse ``argv``, run the chosen sub-command and map how it ended to the exit code."""
+    argv = sys.argv[1:] if argv is None else argv
     args = build_parser(argv).parse_args(argv)
     configure_logging(-1 if args.quiet else args.verbose)
     module = importlib.import_module(args._module)
@@ -92,10 +93,10 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         _log.error("interrupted")
         return 130
-
     except Exception:  # a bug: keep the traceback for the log, not the "bad input" exit code
         _log.exception("bimbot %s %s (a bug; traceback follows)", args.command, BUG_MARK)
         return EXIT_BUG
+
 
 if __name__ == "__main__":
     sys.exit(main())

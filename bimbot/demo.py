@@ -4,9 +4,9 @@ Converts ``bimbot/data/light_steel_frame.ifc`` (the paper's 3×3 case study, gen
 ``bimbot sample light-steel-frame``) into ``out/demo/world/``, then builds it with every service as a
 process on a loopback bus (:mod:`bimbot.run`, observer included) and writes ``out/demo/``:
 
-* ``world/``      the converted world (manifest, SDF world and models, meshes, split IFCs, sequence, logs)
-* ``<site>.rrd``  the rerun recording of the build
-* ``report.json`` and ``report.png``, the construction report
+* ``world/``              the converted world (manifest, SDF world and models, meshes, split IFCs, sequence)
+* ``world/runs/latest/``  this run's folder (:mod:`bimbot.shared.run_folder`): ``report/report.json``
+  and ``report.png``, ``observer/<site>.rrd`` (the rerun recording), ``logs/`` and ``state/``
 
 and prints a short summary with the command that opens the recording. ``--live`` serves the rerun web
 viewer on 127.0.0.1 while it builds and keeps it up afterwards (its URL is printed).
@@ -54,8 +54,8 @@ def run(args: argparse.Namespace) -> int:
     )
     if not manifest.components or args.convert_only:
         return 0 if manifest.components else 1
-    options = run_options(args, rrd_path=args.output / f"{manifest.site}.rrd", report_dir=args.output)
-    say(f"demo: building it with {args.robots} robot(s); service logs in {world_dir / 'logs'}/")
+    options = run_options(args, observe=True)
+    say(f"demo: building it with {args.robots} robot(s)")
     return finish(run_build(world_dir, options, announce=say))
 
 

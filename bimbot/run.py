@@ -6,13 +6,18 @@ observer (a rerun recording; with ``--live`` also the web viewer, kept up after 
 the planner reports every task settled, the site stalls (:mod:`bimbot.run_watchdog`), the time limit
 passes, a service dies or a SIGTERM/SIGINT comes (:mod:`bimbot.run_loop`); stops every service (and their
 children); prints a summary with a table of every component not built and why (:mod:`bimbot.run_table`)
-and writes the construction report (``BUILD/report/report.json`` and ``report.png``, from what the run
-heard on the bus; also every ``--report-every-s`` while it runs). Live progress on the terminal
+and writes the construction report (``report.json`` and ``report.png``, from what the run heard on the
+bus; also every ``--report-every-s`` while it runs). Live progress on the terminal
 (:mod:`bimbot.run_progress`) unless ``-q``.
+
+Everything a run writes goes to its own run folder (:mod:`bimbot.shared.run_folder`), by default a new
+``BUILD/runs/<time>/`` linked as ``BUILD/runs/latest``: ``state/`` (the agents' journal), ``logs/`` (one
+log per service), ``report/`` and ``observer/<site>.rrd``. The build itself is only read. The report is
+written here only: the observer of a run records, the run reports.
 
 Exit codes: 0 when every component is constructed; 1 otherwise (failed, blocked, stalled, timed out, a
 service died); 130 after SIGINT and 143 after SIGTERM (128 + the signal, as shells do); 2 for unusable
-input. Service logs go to ``OUT/logs/``.
+input.
 """
 
 from __future__ import annotations
@@ -29,8 +34,6 @@ from pathlib import Path
 from typing import Any
 
 from bimbot.run_args import (
-    FAST_PHYSICS_HZ,
-    ROBOT_START_TIMEOUT_S,
     ObserverOptions,
     RunOptions,
     add_run_arguments,
@@ -48,15 +51,15 @@ from bimbot.shared.bus import BusOptions, open_session
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import Manifest, load_manifest
 from bimbot.shared.messages import ComponentState
-from bimbot.shared.sequence import planned_guids
+from bimbot.shared.run_folder import RunFolder, new_run_folder
 from bimbot.supervisor import ServiceProcess, free_port, stop_all, wait_until
 
 _log = logging.getLogger(__name__)
 
-OBSERVER_CLOSE_TIMEOUT_S = 120.0  # closing and compacting the recording after the build
+OBSERVER_CLOSE_TIMEOUT_S = 120.0
+MAX_PLAN_WARNINGS_SHOWN = 5  # closing and compacting the recording after the build
 _VIEWER_LINE = re.compile(r"web viewer: (http\S+)")
 __all__ = [  # the options live in bimbot.run_args; benches and tests import them from here too
-    "FAST_PHYSICS_HZ",
     "ObserverOptions",
     "RunOptions",
     "RunOutcome",
@@ -75,36 +78,47 @@ class RunOutcome:
     wall_time_s: float = 0.0
     report: dict[str, Any] = field(default_factory=dict)
     report_dir: Path | None = None
+    run_dir: Path | None = None
+    plan_warnings: list[str] = field(default_factory=list)  # what the planner found wrong with its input
     rrd_path: Path | None = None
     viewer_url: str | None = None
     summary_announced: bool = False  # the summary went out through ``announce`` already (--live)
     ending: RunEnding | None = None
 
 
-def service_commands(build: Path, endpoint: str, options: RunOptions) -> list[tuple[str, list[str]]]:
-    """(name, bimbot arguments) of every service, in start order."""
-    bus = ["--connect", endpoint]
-    physics = [
+def physics_arguments(build: Path, options: RunOptions) -> list[str]:
+    """``bimbot physics`` for a run: its profile by name, and only the values the user overrode."""
+    arguments = [
         "physics",
         "--build",
         str(build),
         "--robots",
         str(options.robots),
-        "--rtf",
-        repr(options.rtf),
-        "--physics-hz",
-        repr(options.physics_hz),
-        "--control-period-s",
-        repr(options.control_period_s),
-        "--laser-beams",
-        str(options.laser_beams),
+        "--profile",
+        options.profile,
     ]
-    if options.lock_step:
-        physics.append("--lock-step")
-    physics += ["--wait-for-robots-s", repr(ROBOT_START_TIMEOUT_S)]
+    overrides = {
+        "--rtf": options.rtf,
+        "--physics-hz": options.physics_hz,
+        "--control-period-s": options.control_period_s,
+        "--laser-beams": options.laser_beams,
+    }
+    for flag, value in overrides.items():
+        if value is not None:
+            arguments += [flag, repr(value)]
+    if options.lock_step is not None:
+        arguments.append("--lock-step" if options.lock_step else "--no-lock-step")
+    return [*arguments, *options.physics_extra]
+
+
+def service_commands(
+    build: Path, endpoint: str, options: RunOptions, run: RunFolder
+) -> list[tuple[str, list[str]]]:
+    """(name, bimbot arguments) of every service, in start order."""
+    bus = ["--connect", endpoint]
     commands = [
-        ("physics", [*physics, *options.physics_extra, *bus]),
-        ("agents", ["agents", "--build", str(build), "--fresh", *bus]),
+        ("physics", [*physics_arguments(build, options), *bus]),
+        ("agents", ["agents", "--build", str(build), "--run-dir", str(run.root), "--fresh", *bus]),
         ("planner", ["planner", "--build", str(build), "--exit-when-done", *options.planner_source, *bus]),
     ]
     for number in range(1, options.robots + 1):
@@ -113,12 +127,12 @@ def service_commands(build: Path, endpoint: str, options: RunOptions) -> list[tu
             robot += ["--inject-placement-error-m", repr(options.inject_placement_error_m)]
         commands.append((f"robot-r{number}", robot))
     if options.observer is not None:
-        commands.append(("observer", [*observer_arguments(build, options.observer), *bus]))
+        commands.append(("observer", [*observer_arguments(build, options.observer, run), *bus]))
     return commands
 
 
-def observer_arguments(build: Path, observer: ObserverOptions) -> list[str]:
-    arguments = ["observe", "--build", str(build)]
+def observer_arguments(build: Path, observer: ObserverOptions, run: RunFolder) -> list[str]:
+    arguments = ["observe", "--build", str(build), "--run-dir", str(run.root), "--no-report"]
     if observer.rrd_path is not None:
         arguments += ["--rrd", str(observer.rrd_path)]
     if observer.web:
@@ -136,10 +150,12 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
     ``report.png``). ``announce`` gets the lines a user must see while it runs (the viewer's URL)."""
     check_run_input(build, options)  # bad input: one line and exit 2, before any service starts
     manifest = load_manifest(build)
-    log_dir = build / "logs"
+    run = RunFolder(options.run_dir) if options.run_dir is not None else new_run_folder(build)
+    log_dir = run.logs_dir
     if log_dir.exists():
-        shutil.rmtree(log_dir)
-    report_dir = options.report_dir or build / "report"
+        shutil.rmtree(log_dir)  # a --run-dir given again: this run's logs only
+    report_dir = options.report_dir or run.report_dir
+    announce(f"run folder: {run.root}")
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     started = time.perf_counter()
     services: list[ServiceProcess] = []
@@ -149,8 +165,8 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
         progress: ProgressView = NoProgress()
         try:
             with open_session(BusOptions(connect=(endpoint,))) as session:
-                monitor = RunMonitor(manifest, session, planned_guids(build))
-                for name, args in service_commands(build, endpoint, options):
+                monitor = RunMonitor(manifest, session)
+                for name, args in service_commands(build, endpoint, options, run):
                     services.append(ServiceProcess(name, args, log_dir))
                 by_name = {service.name: service for service in services}
                 observer = by_name.get("observer")
@@ -170,15 +186,15 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
                 progress.close()
                 monitor.drain(wait_s=0.3)  # the last state messages
                 outcome = _outcome(manifest, monitor, result, time.perf_counter() - started)
-                outcome.report_dir, outcome.viewer_url = report_dir, viewer_url
+                outcome.report_dir, outcome.viewer_url, outcome.run_dir = report_dir, viewer_url, run.root
+                plan = monitor.plan.answer
+                outcome.plan_warnings = list(plan.warnings) if plan is not None else []
                 outcome.report = monitor.report(result.ending)
                 write_report_files(outcome.report, report_dir)
                 if result.input_error is not None:
                     raise UserError(f"the planner rejected its input:\n{result.input_error}")
                 if observer is not None and options.observer is not None:
-                    outcome.rrd_path = (
-                        options.observer.rrd_path or build / "observer" / f"{manifest.site}.rrd"
-                    )
+                    outcome.rrd_path = options.observer.rrd_path or run.recording_path(manifest.site)
                     if result.ending.how == "done":
                         if (
                             options.observer.keep_serving
@@ -304,6 +320,13 @@ def summary_text(outcome: RunOutcome) -> str:
             f"robot {robot_id}: {len(robot['tasks'])} task(s), {robot['distance_m']:.0f} m driven, "
             f"busy {robot['busy_s']:.0f} s"
         )
+    if outcome.plan_warnings:
+        lines.append(f"the planner warned about its plan ({len(outcome.plan_warnings)}):")
+        lines += [f"  {warning}" for warning in outcome.plan_warnings[:MAX_PLAN_WARNINGS_SHOWN]]
+        if len(outcome.plan_warnings) > MAX_PLAN_WARNINGS_SHOWN:
+            lines.append(
+                f"  … and {len(outcome.plan_warnings) - MAX_PLAN_WARNINGS_SHOWN} more (logs/planner.log)"
+            )
     ending = outcome.ending
     if ending is not None and ending.how != "done":
         lines.append(f"the run ended early: {ending.message}")

@@ -1,8 +1,9 @@
 """The options of ``bimbot run`` and ``bimbot demo``: defaults, the shared arguments, and :class:`RunOptions`.
 
 Kept apart from :mod:`bimbot.run` (which runs a build with them) so both commands and the benches share
-one set of defaults: the fast physics settings of a run, the time limit, the stall watchdog's bounds,
-how often the report is written while a run goes on, and ``-q``.
+one set of defaults: the named physics profile of a run (:mod:`bimbot.services.physics.profiles`; single
+values override it), the run folder, the time limit, the stall watchdog's bounds, how often the report is
+written while a run goes on, and ``-q``.
 """
 
 from __future__ import annotations
@@ -13,45 +14,41 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bimbot.run_watchdog import DEFAULT_CLOCK_STALL_WALL_S, DEFAULT_STALL_AFTER_S
+from bimbot.services.observer import VIEWER_GRPC_PORT, VIEWER_WEB_PORT
+from bimbot.services.physics.profiles import PROFILES, RUN_PROFILE
 from bimbot.shared.errors import UserError
 
 DEFAULT_TIMEOUT_S = 900.0
 DEFAULT_REPORT_EVERY_S = 30.0  # wall seconds between two reports written while the run goes on
-# A run is a rehearsal at full speed: 120 Hz physics, a 5 Hz control loop (DWA, localisation, lock-step
-# handshake) and a 180-beam laser (2°: a 0.2 m column at 5 m still takes a beam) build the bundled frame
-# within tolerance in about half the wall time of the physics service's own defaults (240 Hz, 10 Hz, 360
-# beams), measured with bench/build.py. All three are options.
-FAST_PHYSICS_HZ = 120.0
-FAST_CONTROL_PERIOD_S = 0.2
-FAST_LASER_BEAMS = 180
-ROBOT_START_TIMEOUT_S = 120.0  # physics holds its clock at 0 until the robots are up (at most this)
 
 
 @dataclass(frozen=True)
 class ObserverOptions:
     """The observer in a run: always an ``.rrd``; the web viewer only when asked (``--live``)."""
 
-    rrd_path: Path | None = None  # default BUILD/observer/<site>.rrd
+    rrd_path: Path | None = None  # default: the run folder's observer/<site>.rrd
     web: bool = False
-    web_port: int = 9090
-    grpc_port: int = 9876
+    web_port: int = VIEWER_WEB_PORT
+    grpc_port: int = VIEWER_GRPC_PORT
     keep_serving: bool = False  # after the build, until interrupted (the viewer stays up)
 
 
 @dataclass(frozen=True)
 class RunOptions:
     robots: int = 1
-    rtf: float = 0.0
-    lock_step: bool = True
+    profile: str = RUN_PROFILE  # a named physics profile (services/physics/profiles.py)
+    rtf: float | None = None  # None: the profile's; likewise the next three
+    lock_step: bool | None = None
+    physics_hz: float | None = None
+    control_period_s: float | None = None
+    laser_beams: int | None = None
     inject_placement_error_m: float = 0.0
     observer: ObserverOptions | None = None
     planner_source: tuple[str, ...] = ()  # extra planner arguments: ("--derive",) etc.
     timeout_s: float = DEFAULT_TIMEOUT_S
-    physics_hz: float = FAST_PHYSICS_HZ
-    control_period_s: float = FAST_CONTROL_PERIOD_S
-    laser_beams: int = FAST_LASER_BEAMS
     physics_extra: tuple[str, ...] = ()  # more physics arguments (benches, experiments)
-    report_dir: Path | None = None  # default BUILD/report
+    run_dir: Path | None = None  # default: a new folder under BUILD/runs/ (bimbot.shared.run_folder)
+    report_dir: Path | None = None  # default: the run folder's report/
     stall_after_s: float = DEFAULT_STALL_AFTER_S  # sim seconds without a change on the site (0: never)
     clock_stall_wall_s: float = DEFAULT_CLOCK_STALL_WALL_S  # wall seconds without the clock advancing
     report_every_s: float = DEFAULT_REPORT_EVERY_S  # wall seconds; 0: only at the end
@@ -60,24 +57,31 @@ class RunOptions:
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     """The options ``bimbot run`` and ``bimbot demo`` share."""
-    parser.add_argument("--robots", type=int, default=1, help="number of robots (default 1)")
-    parser.add_argument("--rtf", type=float, default=0.0, help="real-time factor (0: as fast as possible)")
+    profile = PROFILES[RUN_PROFILE]
+    parser.add_argument("--robots", type=int, default=RunOptions.robots, help="number of robots (default 1)")
+    parser.add_argument(
+        "--run-dir",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="this run's output folder: journal, logs, report, recording (default BUILD/runs/<time>/, "
+        "linked as BUILD/runs/latest)",
+    )
+    parser.add_argument(
+        "--profile",
+        choices=sorted(PROFILES),
+        default=RUN_PROFILE,
+        help=f"named simulation settings (default {RUN_PROFILE}: {profile.physics_hz:g} Hz physics, "
+        f"{profile.control_period_s:g} s control period, {profile.laser_beams} laser beams, lock-step, "
+        "as fast as the robots follow); the next options override one value",
+    )
+    parser.add_argument("--rtf", type=float, default=None, help="real-time factor (0: as fast as possible)")
     parser.add_argument("--no-lock-step", action="store_true", help="do not wait for the robots each step")
+    parser.add_argument("--physics-hz", type=float, default=None, help="physics steps per sim second")
     parser.add_argument(
-        "--physics-hz",
-        type=float,
-        default=FAST_PHYSICS_HZ,
-        help=f"physics steps per sim second ({FAST_PHYSICS_HZ:g})",
+        "--control-period-s", type=float, default=None, help="sim seconds per clock step (control period)"
     )
-    parser.add_argument(
-        "--control-period-s",
-        type=float,
-        default=FAST_CONTROL_PERIOD_S,
-        help=f"sim seconds per clock step, the robots' control period ({FAST_CONTROL_PERIOD_S:g})",
-    )
-    parser.add_argument(
-        "--laser-beams", type=int, default=FAST_LASER_BEAMS, help=f"beams per laser scan ({FAST_LASER_BEAMS})"
-    )
+    parser.add_argument("--laser-beams", type=int, default=None, help="beams per laser scan")
     parser.add_argument(
         "--inject-placement-error-m",
         type=float,
@@ -135,18 +139,30 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="serve the rerun web viewer on 127.0.0.1 during the build and keep it up afterwards",
     )
-    parser.add_argument("--web-port", type=int, default=9090, help="web viewer port with --live (9090)")
-    parser.add_argument("--grpc-port", type=int, default=9876, help="viewer data port with --live (9876)")
+    parser.add_argument(
+        "--web-port",
+        type=int,
+        default=ObserverOptions.web_port,
+        help=f"web viewer port with --live ({ObserverOptions.web_port})",
+    )
+    parser.add_argument(
+        "--grpc-port",
+        type=int,
+        default=ObserverOptions.grpc_port,
+        help=f"viewer data port with --live ({ObserverOptions.grpc_port})",
+    )
 
 
-def run_options(
-    args: argparse.Namespace, rrd_path: Path | None = None, report_dir: Path | None = None
-) -> RunOptions:
+def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOptions:
     """RunOptions from the shared arguments (a UserError for impossible values)."""
     if args.robots < 1:
         raise UserError("--robots must be at least 1")
-    if args.physics_hz <= 0 or args.control_period_s <= 0 or args.laser_beams < 1:
+    if any(value is not None and value <= 0 for value in (args.physics_hz, args.control_period_s)) or (
+        args.laser_beams is not None and args.laser_beams < 1
+    ):
         raise UserError("--physics-hz, --control-period-s and --laser-beams must be positive")
+    if args.rtf is not None and args.rtf < 0:
+        raise UserError("--rtf must be >= 0")
     if args.timeout_s <= 0 or min(args.stall_after_s, args.stall_wall_s, args.report_every_s) < 0:
         raise UserError("--timeout-s must be positive; --stall-after-s, --stall-wall-s, --report-every-s ≥ 0")
     planner_source: tuple[str, ...] = ()
@@ -157,9 +173,8 @@ def run_options(
     if args.strict:
         planner_source = (*planner_source, "--strict")
     observer = None
-    if args.observe or args.live or rrd_path is not None:
+    if observe or args.observe or args.live:
         observer = ObserverOptions(
-            rrd_path=rrd_path,
             web=args.live,
             web_port=args.web_port,
             grpc_port=args.grpc_port,
@@ -167,8 +182,9 @@ def run_options(
         )
     return RunOptions(
         robots=args.robots,
+        profile=args.profile,
         rtf=args.rtf,
-        lock_step=not args.no_lock_step,
+        lock_step=False if args.no_lock_step else None,
         inject_placement_error_m=args.inject_placement_error_m,
         observer=observer,
         planner_source=planner_source,
@@ -176,7 +192,7 @@ def run_options(
         physics_hz=args.physics_hz,
         control_period_s=args.control_period_s,
         laser_beams=args.laser_beams,
-        report_dir=report_dir,
+        run_dir=args.run_dir,
         stall_after_s=args.stall_after_s,
         clock_stall_wall_s=args.stall_wall_s,
         report_every_s=args.report_every_s,

@@ -17,11 +17,13 @@ import zenoh
 from pydantic import BaseModel
 
 from bimbot.services.observer.report import UNFINISHED, ReportCollector, RunEnding
+from bimbot.shared.asked import Asked
 from bimbot.shared.bus import Inbox, InvalidPayloads, Received
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     CLOCK,
     COMPONENT_STATE,
+    PLANNER_PLAN,
     PROGRESS,
     ROBOT_POSE,
     ROBOT_STATE,
@@ -38,10 +40,12 @@ from bimbot.shared.messages import (
 class RunMonitor:
     """Subscribes on ``session`` at construction; :meth:`drain` applies what arrived since the last call."""
 
-    def __init__(self, manifest: Manifest, session: zenoh.Session, sequence_guids: list[str]) -> None:
+    def __init__(self, manifest: Manifest, session: zenoh.Session) -> None:
         site = manifest.site
         self.invalid = InvalidPayloads()
-        self.collector = ReportCollector(manifest, sequence_guids)
+        self.collector = ReportCollector(manifest)
+        # the plan the planner builds by (its order is the report's sequence column), asked, never read
+        self.plan = Asked(session, PLANNER_PLAN, self.invalid, site=site)
         self.states: dict[str, ComponentState] = {}
         self.misplacements = 0
         self.sim_time_s = 0.0
@@ -65,6 +69,9 @@ class RunMonitor:
 
     def drain(self, wait_s: float = 0.0) -> None:
         """Apply every queued message (waiting up to ``wait_s`` for the first)."""
+        plan = self.plan.poll()
+        if plan is not None and not self.collector.sequence_guids:
+            self.collector.sequence_guids = list(plan.order)
         for item in self._inbox.drain(first_timeout_s=wait_s):
             if isinstance(item, Received):
                 self.apply(item.message)

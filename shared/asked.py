@@ -18,24 +18,26 @@ import zenoh
 from pydantic import BaseModel
 
 from .bus import InvalidPayloads, decode
+from .keyspace import Queryable
 
 M = TypeVar("M", bound=BaseModel)
 
 
 class Asked(Generic[M]):
-    """The answer of ``selector`` as ``model`` once one came: :meth:`poll` asks (again) when due."""
+    """The answer of ``queryable`` (its parts filled) once one came: :meth:`poll` asks (again) when due."""
 
     def __init__(
         self,
         session: zenoh.Session,
-        selector: str,
-        model: type[M],
+        queryable: Queryable[M],
         invalid: InvalidPayloads,
         *,
         retry_s: float = 1.0,
         reply_timeout_s: float = 2.0,
+        **parts: str,
     ) -> None:
-        self._session, self._selector, self._model, self._invalid = session, selector, model, invalid
+        self._session, self._selector, self._invalid = session, queryable.key(**parts), invalid
+        self._model: type[M] = queryable.reply
         self._retry_s, self._reply_timeout_s = retry_s, reply_timeout_s
         self._lock = threading.Lock()
         self._answer: M | None = None

@@ -10,11 +10,16 @@ from __future__ import annotations
 import argparse
 import math
 import re
+from pathlib import Path
 
 import pytest
 
 from bimbot.cli import build_parser
+from bimbot.run import physics_arguments
+from bimbot.run_args import RunOptions
 from bimbot.services.physics.app import RunConfig
+from bimbot.services.physics.cli import apply_profile
+from bimbot.services.physics.profiles import PROFILES, REHEARSAL, RUN_PROFILE
 from bimbot.services.physics.robots import RobotConfig
 from bimbot.services.physics.sensors import LaserConfig
 from bimbot.services.physics.simulation import SimConfig
@@ -33,9 +38,10 @@ REQUIRED = {
 _HELP_DEFAULT = re.compile(r"\(default (-?\d+(?:\.\d+)?(?:e-?\d+)?)(?![\w./])")  # not "1/1" (a shard)
 
 
-def _parsed(name: str) -> argparse.Namespace:
-    argv = [name, *REQUIRED[name]]
-    return build_parser(argv).parse_args(argv)
+def _parsed(name: str, *more: str) -> argparse.Namespace:
+    argv = [name, *REQUIRED[name], *more]
+    parsed = build_parser(argv).parse_args(argv)
+    return apply_profile(parsed) if name == "physics" else parsed  # unset values come from the profile
 
 
 def _sub_parser(name: str) -> argparse.ArgumentParser:
@@ -126,3 +132,25 @@ def test_every_default_named_in_a_help_text_is_the_parsers_own(name: str) -> Non
             continue
         assert isinstance(action.default, int | float), f"{action.dest}: help names a default it has not"
         assert float(match.group(1)) == pytest.approx(action.default, rel=1e-6), action.dest
+
+
+def test_physics_takes_a_named_profile_and_single_options_override_one_value() -> None:
+    rehearsal = vars(_parsed("physics", "--profile", RUN_PROFILE))
+    assert PROFILES[RUN_PROFILE] is REHEARSAL
+    assert (rehearsal["physics_hz"], rehearsal["control_period_s"], rehearsal["laser_beams"]) == (
+        REHEARSAL.physics_hz,
+        REHEARSAL.control_period_s,
+        REHEARSAL.laser_beams,
+    )
+    assert (rehearsal["rtf"], rehearsal["lock_step"]) == (REHEARSAL.rtf, REHEARSAL.lock_step)
+    assert rehearsal["wait_for_robots_s"] == REHEARSAL.wait_for_robots_s
+    mixed = vars(_parsed("physics", "--profile", RUN_PROFILE, "--physics-hz", "240", "--no-lock-step"))
+    assert mixed["physics_hz"] == 240.0 and mixed["lock_step"] is False
+    assert mixed["control_period_s"] == REHEARSAL.control_period_s
+
+
+def test_bimbot_run_names_its_profile_and_passes_only_what_the_user_changed() -> None:
+    plain = physics_arguments(Path("OUT"), RunOptions(robots=2))
+    assert plain == ["physics", "--build", "OUT", "--robots", "2", "--profile", RUN_PROFILE]
+    changed = physics_arguments(Path("OUT"), RunOptions(physics_hz=240.0, lock_step=False))
+    assert changed[-3:] == ["--physics-hz", "240.0", "--no-lock-step"]

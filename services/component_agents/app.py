@@ -58,10 +58,6 @@ LISTENERS_WAIT_S = 2.0  # longest wait at start for the bus to route state messa
 TOKENS_PER_SESSION = 1_000
 
 
-def default_state_dir(build_dir: Path) -> Path:
-    return Path(build_dir) / "state"
-
-
 def main(  # noqa: PLR0917 - the issue's signature: main(options, build_dir, shard, n_shards, config, stop)
     options: BusOptions,
     build_dir: Path,
@@ -70,13 +66,13 @@ def main(  # noqa: PLR0917 - the issue's signature: main(options, build_dir, sha
     config: AgentConfig,
     stop: threading.Event,
     *,
-    state_dir: Path | None = None,
+    state_dir: Path,
     fresh: bool = False,
     manifest: Manifest | None = None,
 ) -> int:
     """Run shard ``shard``/``n_shards`` of the build's agents until ``stop`` is set; 0 on a clean stop."""
     manifest = manifest if manifest is not None else read_manifest(build_dir)
-    path = journal_path(state_dir or default_state_dir(build_dir), shard, n_shards)
+    path = journal_path(state_dir, shard, n_shards)  # in the run folder (bimbot.shared.run_folder)
     with Journal(path, fresh=fresh) as journal:
         host = AgentHost(manifest, shard, n_shards, config=config, journal=journal, resume=journal.replayed)
         _log.info(

@@ -1,7 +1,8 @@
 """``bimbot agents --build OUT/ [--shard i/n]``: run the smart-component agents of a converted build.
 
 One process runs every agent of its shard (components split by GUID, see :func:`.host.shard_of`). State
-survives restarts through the shard's journal (``OUT/state/agents-<i>of<n>.jsonl``, see :mod:`.journal`);
+survives restarts through the shard's journal in the run folder (``RUN/state/agents-<i>of<n>.jsonl``, see
+:mod:`.journal` and :mod:`bimbot.shared.run_folder`; ``--run-dir``, default ``OUT/runs/latest``);
 ``--fresh`` clears it. Runs until SIGTERM/SIGINT, then closes its Zenoh session and exits 0.
 """
 
@@ -14,6 +15,7 @@ from pathlib import Path
 
 from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
+from bimbot.shared.run_folder import open_run_folder
 from bimbot.shared.service_runner import resolve_build, run_service, service_bus, writable_dir
 
 from . import app
@@ -33,7 +35,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--shard", default="1/1", metavar="I/N", help="run shard I of N, split by GUID (default 1/1)"
     )
-    parser.add_argument("--state-dir", type=Path, default=None, help="journal folder (default OUT/state)")
+    parser.add_argument(
+        "--run-dir",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="the run's folder; the journal goes to DIR/state/ (default OUT/runs/latest, made when missing)",
+    )
     parser.add_argument(
         "--position-tolerance-m",
         type=float,
@@ -87,7 +95,8 @@ def run(args: argparse.Namespace) -> int:
     options = service_bus(args)
     config = agent_config(args)
     build = resolve_build(args.build)
-    writable_dir(args.state_dir or app.default_state_dir(build.dir), "--state-dir")
+    state_dir = open_run_folder(build.dir, args.run_dir).state_dir
+    writable_dir(state_dir, "--run-dir")
     total = len(build.manifest.components)
     manifest = shard_manifest(build.manifest, shard, n_shards)  # the other shards' components are freed here
     _log.info(
@@ -105,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
         shard,
         n_shards,
         config,
-        state_dir=args.state_dir,
+        state_dir=state_dir,
         fresh=args.fresh,
         manifest=manifest,
     )

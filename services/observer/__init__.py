@@ -6,3 +6,8 @@
 * :mod:`.app` / :mod:`.cli` — ``bimbot observe``: the Zenoh adapter, rerun sinks and the web viewer;
 * :mod:`.watch` — ``bimbot watch``: a live table of component states in the terminal.
 """
+
+# The ports the observer serves the web viewer and its data on, unless told otherwise: the one default that
+# ObserverConfig, ``bimbot run --live`` and ``bimbot observe`` take (this package stays free of imports).
+VIEWER_WEB_PORT = 9090
+VIEWER_GRPC_PORT = 9876

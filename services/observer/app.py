@@ -47,6 +47,7 @@ import rerun as rr
 import zenoh
 from pydantic import BaseModel
 
+from bimbot.shared.asked import Asked
 from bimbot.shared.bus import (
     Answer,
     BusOptions,
@@ -63,19 +64,23 @@ from bimbot.shared.messages import (
     ALIVE_KEY,
     COMPONENT_EVENT,
     COMPONENT_TWIN,
+    PHYSICS_INFO,
+    PLANNER_PLAN,
     ROBOT_CMD_VEL,
     ComponentState,
     ComponentStateMsg,
+    PlannedSequenceMsg,
     ProgressMsg,
     ScanMsg,
+    SiteInfoMsg,
     TwinMsg,
     key,
     site_root,
     topic_of,
 )
-from bimbot.shared.sequence import planned_guids
-from bimbot.shared.site_layout import plan_site
+from bimbot.shared.site_plan import SiteLayout
 
+from . import VIEWER_GRPC_PORT, VIEWER_WEB_PORT
 from .blueprint import observer_blueprint, series_items, site_items
 from .report import ReportCollector, twin_messages
 from .report_png import write_report_files
@@ -96,15 +101,14 @@ NOT_READ = frozenset({ROBOT_CMD_VEL.template, COMPONENT_EVENT.template})
 @dataclass(frozen=True)
 class ObserverConfig:
     rrd_path: Path
-    report_dir: Path
+    report_dir: Path | None  # None: no report (bimbot run writes its own)
     web: bool = True
-    web_port: int = 9090
-    grpc_port: int = 9876
+    web_port: int = VIEWER_WEB_PORT
+    grpc_port: int = VIEWER_GRPC_PORT
     bind: str = "127.0.0.1"
     exit_when_done: bool = False
     compact: bool = True  # rewrite the .rrd with rerun's chunk compaction when the run ends
     done_grace_s: float = 1.0  # wall seconds of collecting after the planner says done
-    sequence_path: Path | None = None  # default: the build's sequence.xml
     twin: TwinLogOptions = field(default_factory=TwinLogOptions)
 
 
@@ -203,8 +207,9 @@ class Observer:
         self.site = manifest.site
         self.config = config
         self.recording = recording
-        self.twin = TwinLog(manifest, plan_site(manifest.components), config.twin)
-        self.collector = ReportCollector(manifest, planned_guids(build_dir, config.sequence_path))
+        self.twin = TwinLog(manifest, config.twin)
+        self.collector = ReportCollector(manifest)  # its planned order: the planner's, once it answered
+        self.layout: SiteLayout | None = None  # the site physics planned, once it answered
         self.invalid = InvalidPayloads()
         self.sim_time_s = 0.0
         self.done_at: float | None = None  # monotonic wall time the planner first said done
@@ -212,8 +217,20 @@ class Observer:
         self._transitions: set[tuple[str, ComponentState | None, ComponentState, float]] = set()
         self._state_time_s: dict[str, float] = {}  # latest sim time a component's state was logged at
         meshes, initial = self.twin.scene(lambda component: load_mesh(build_dir, component))
-        self._log_items(site_items(self.twin.layout, manifest.components) + series_items() + meshes)
+        self._log_items(series_items() + meshes)
         self._log_items(initial, at_s=0.0)
+
+    def site_known(self, info: SiteInfoMsg) -> None:
+        """Physics answered with its site info: draw its site and every component at its yard slot."""
+        if self.layout is None:
+            self.layout = info.layout
+            self._log_items(site_items(info.layout, self.manifest.components))
+            self._log_items(self.twin.yard_poses(info.layout), at_s=0.0)
+
+    def plan_known(self, plan: PlannedSequenceMsg) -> None:
+        """The planner answered with its plan: the report's planned order is the one it builds by."""
+        if not self.collector.sequence_guids:
+            self.collector.sequence_guids = list(plan.order)
 
     def handle(self, key_expr: str, payload: bytes) -> None:
         model = route_key(self.site, key_expr)
@@ -265,7 +282,7 @@ class Observer:
             self._log_items([item], at_s=at_s)
 
     def write_reports_if_new(self) -> None:
-        if self.collector.messages != self.reported_at_messages:
+        if self.config.report_dir is not None and self.collector.messages != self.reported_at_messages:
             write_reports(self.collector, self.config.report_dir)
             self.reported_at_messages = self.collector.messages
 
@@ -329,10 +346,17 @@ def serve(session: zenoh.Session, observer: Observer, stop: threading.Event) -> 
         session.liveliness().declare_token(key(ALIVE_KEY, site=observer.site, kind="observer", id="main")),
     ]
     inbox.ask(session, COMPONENT_TWIN, timeout_s=TWIN_QUERY_TIMEOUT_S, site=observer.site, key="*")
+    # facts other services own, asked until they answer (they may start after the observer)
+    site_info = Asked(session, PHYSICS_INFO, observer.invalid, site=observer.site)
+    plan = Asked(session, PLANNER_PLAN, observer.invalid, site=observer.site)
     _log.info("observing %s/** on the bus", root)
     config = observer.config
     reported = False
     while not stop.is_set():
+        if observer.layout is None and (info := site_info.poll()) is not None:
+            observer.site_known(info)
+        if not observer.collector.sequence_guids and (planned := plan.poll()) is not None:
+            observer.plan_known(planned)
         for item in inbox.drain(first_timeout_s=LOOP_WAIT_S):
             try:
                 match item:

@@ -5,9 +5,10 @@
   (``set_sinks(..., default_blueprint=…)``), so a viewer that connects live, or opens the ``.rrd`` later,
   starts with this layout; users can rearrange it ("reset blueprint" brings it back).
 * :func:`site_items` / :func:`series_items` — static log items, logged once per run: Z-up view
-  coordinates, the site of :mod:`bimbot.shared.site_layout` (building footprint, yard, depot outlines and the
-  fence), the BIM bounding box of every component as a faint wireframe ("what is left to build"), and the
-  style of every progress series (one colour per state, from :data:`.twin_log.STATE_COLORS`).
+  coordinates, the site physics planned and serves with its site info (building footprint, yard, depot
+  outlines and the fence; logged once physics answered), the BIM bounding box of every component as a
+  faint wireframe ("what is left to build"), and the style of every progress series (one colour per
+  state, from :data:`.twin_log.STATE_COLORS`).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import rerun.blueprint as rrb
 
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentState
-from bimbot.shared.site_layout import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect, SiteLayout
+from bimbot.shared.site_plan import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect, SiteLayout
 
 from .twin_log import SITE_LINE_Z_M, STATE_COLORS, TIMELINE, LogItem
 

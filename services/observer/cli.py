@@ -1,7 +1,9 @@
 """``bimbot observe --build OUT/``: log the live twin to rerun (web viewer + ``.rrd``) and write the report.
 
-Defaults: the recording goes to ``OUT/observer/<site>.rrd`` and the reports to ``OUT/observer/``; the web
-viewer is served on ``http://127.0.0.1:9090`` and its data on gRPC ``127.0.0.1:9876``. Another address is
+Defaults: the recording goes to the run folder's ``observer/<site>.rrd`` and the report to its ``report/``
+(``--run-dir``, default ``OUT/runs/latest``; see :mod:`bimbot.shared.run_folder`); the web viewer is served
+on ``http://127.0.0.1:9090`` and its data on gRPC ``127.0.0.1:9876``. The report's planned order is the
+planner's (asked on ``planner/plan``), not a file. Another address is
 used only when given with ``--bind``. Runs until SIGTERM/SIGINT (reports written, recording closed, exit 0);
 with ``--exit-when-done`` it returns once the planner reports the construction done.
 """
@@ -15,6 +17,7 @@ from pathlib import Path
 
 from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
+from bimbot.shared.run_folder import open_run_folder
 from bimbot.shared.service_runner import resolve_build, run_service, service_bus, writable_dir
 
 _log = logging.getLogger(__name__)
@@ -31,21 +34,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--site", default=None, help="site slug (default: the manifest's; env BIMBOT_SITE)")
     parser.add_argument(
-        "--rrd", type=Path, default=None, metavar="PATH", help="recording (default OUT/observer/<site>.rrd)"
-    )
-    parser.add_argument(
-        "--report-dir",
+        "--run-dir",
         type=Path,
         default=None,
         metavar="DIR",
-        help="report.json/report.png (default OUT/observer/)",
+        help="the run's folder (default OUT/runs/latest, made when missing): the recording goes to "
+        "DIR/observer/<site>.rrd, the report to DIR/report/",
     )
+    parser.add_argument("--rrd", type=Path, default=None, metavar="PATH", help="the recording elsewhere")
+    parser.add_argument("--report-dir", type=Path, default=None, metavar="DIR", help="the report elsewhere")
     parser.add_argument(
-        "--sequence",
-        type=Path,
-        default=None,
-        metavar="FILE.xml",
-        help="planned sequence (default OUT/sequence.xml)",
+        "--no-report",
+        action="store_true",
+        help="record only; the report is written by someone else (bimbot run writes its own)",
     )
     parser.add_argument(
         "--web-port",
@@ -89,15 +90,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def check_options(args: argparse.Namespace) -> None:
-    """A UserError for an option value the observer cannot use (ports, intervals, a missing sequence)."""
+    """A UserError for an option value the observer cannot use (ports, intervals)."""
     for name in ("web_port", "grpc_port"):
         port = getattr(args, name)
         if not 0 < port < 65536:
             raise UserError(f"--{name.replace('_', '-')} {port}: not a TCP port")
     if args.scan_every < 1 or args.pose_interval_s < 0:
         raise UserError("--scan-every must be ≥ 1 and --pose-interval-s ≥ 0")
-    if args.sequence is not None and not args.sequence.is_file():
-        raise UserError(f"--sequence {args.sequence}: no such file")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -112,21 +111,21 @@ def run(args: argparse.Namespace) -> int:
     site = args.site or os.environ.get("BIMBOT_SITE") or manifest.site
     if site != manifest.site:
         manifest = manifest.model_copy(update={"site": site})
-    out_dir = build.dir / "observer"
+    run = open_run_folder(build.dir, args.run_dir)
     config = app.ObserverConfig(
-        rrd_path=args.rrd or out_dir / f"{site}.rrd",
-        report_dir=args.report_dir or out_dir,
+        rrd_path=args.rrd or run.recording_path(site),
+        report_dir=None if args.no_report else args.report_dir or run.report_dir,
         web=not args.no_web,
         web_port=args.web_port,
         grpc_port=args.grpc_port,
         bind=args.bind,
         exit_when_done=args.exit_when_done,
         compact=not args.no_compact,
-        sequence_path=args.sequence,
         twin=TwinLogOptions(scan_every=args.scan_every, pose_min_interval_s=args.pose_interval_s),
     )
     writable_dir(config.rrd_path.parent, "--rrd")
-    writable_dir(config.report_dir, "--report-dir")
+    if config.report_dir is not None:
+        writable_dir(config.report_dir, "--report-dir")
     if args.bind not in ("127.0.0.1", "::1", "localhost") and config.web:
         _log.warning("serving the viewer on %s: reachable from other machines", args.bind)
     return run_service(app.main, options, build.dir, manifest, config)

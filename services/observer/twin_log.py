@@ -52,7 +52,7 @@ from bimbot.shared.messages import (
     TaskMsg,
     TaskStatus,
 )
-from bimbot.shared.site_layout import SiteLayout
+from bimbot.shared.site_plan import SiteLayout
 
 TIMELINE = "sim_time"
 Rgba = tuple[int, int, int, int]
@@ -173,9 +173,8 @@ MeshLoader = Callable[[Component], tuple[bytes, str] | None]
 class TwinLog:
     """Turns bus messages into log items; remembers only what throttling and de-duplication need."""
 
-    def __init__(self, manifest: Manifest, layout: SiteLayout, options: TwinLogOptions | None = None) -> None:
+    def __init__(self, manifest: Manifest, options: TwinLogOptions | None = None) -> None:
         self.manifest = manifest
-        self.layout = layout
         self.options = options or TwinLogOptions()
         self._components = {c.guid: c for c in manifest.components}
         self._motion: dict[str, _Motion] = {}
@@ -204,7 +203,7 @@ class TwinLog:
     # --- the start of a run ---
 
     def scene(self, load_mesh: MeshLoader) -> tuple[list[LogItem], list[LogItem]]:
-        """``(static meshes, items at sim time 0)``: every mesh once; then the yard poses and colours."""
+        """``(static meshes, items at sim time 0)``: every mesh once; then each component's colour."""
         static: list[LogItem] = []
         initial: list[LogItem] = []
         for component in self.manifest.components:
@@ -212,19 +211,20 @@ class TwinLog:
             mesh = load_mesh(component)
             if mesh is not None:
                 static.append(LogItem(path, mesh_archetype(*mesh), static=True))
-            slot = self.layout.slots.get(component.guid)
-            pose = (
-                (slot.position_m, slot.quat_xyzw)
-                if slot
-                else (
-                    component.target_pose_world.position_m,
-                    component.target_pose_world.quat_xyzw,
-                )
-            )
-            # temporal, not static: a static transform would hide every later pose
-            initial.append(LogItem(path, transform(*pose)))
             initial.append(LogItem(path, component_color(ComponentState.PLANNED)))
         return static, initial
+
+    def yard_poses(self, layout: SiteLayout) -> list[LogItem]:
+        """Every component at its yard slot, for sim time 0: the site physics planned (its site info)."""
+        items = []
+        for component in self.manifest.components:
+            slot = layout.slots.get(component.guid)
+            if slot is not None:
+                # temporal, not static: a static transform would hide every later pose
+                items.append(
+                    LogItem(component_path(component.guid), transform(slot.position_m, slot.quat_xyzw))
+                )
+        return items
 
     # --- messages ---
 

@@ -69,6 +69,7 @@ from bimbot.shared.messages import (
 )
 
 from .clock import LockStepBarrier, Pacer, RtfMeter
+from .profiles import FINE
 from .simulation import Outgoing, SimConfig, Simulation
 
 _log = logging.getLogger(__name__)
@@ -79,11 +80,12 @@ STATUS_EVERY_S = 30.0
 
 @dataclass(frozen=True)
 class RunConfig:
-    rtf: float = 1.0  # real-time factor; 0: as fast as possible
+    rtf: float = FINE.rtf  # real-time factor; 0: as fast as possible
     lock_step_timeout_s: float = 2.0
     max_steps: int | None = None  # stop after this many control periods (benches, tests)
     gui: bool = False
-    wait_for_robots_s: float = 0.0  # hold the clock at 0 until every robot is alive (at most this long)
+    # hold the clock at 0 until every robot is alive (at most this long)
+    wait_for_robots_s: float = FINE.wait_for_robots_s
 
 
 def main(  # noqa: PLR0917 - like the other services: main(options, …, stop)

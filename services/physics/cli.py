@@ -19,6 +19,7 @@ from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
 from bimbot.shared.service_runner import resolve_build, run_service, service_bus
 
+from .profiles import FINE, PROFILES, RUN_PROFILE
 from .robots import RobotConfig
 from .sensors import LaserConfig
 from .simulation import SimConfig
@@ -37,15 +38,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--robots", type=int, default=sim.robots, help=f"robots at the depot (default {sim.robots})"
     )
+    fine = PROFILES[FINE.name]
     parser.add_argument(
-        "--rtf",
-        type=float,
-        default=run.rtf,
-        help=f"real-time factor: 1 real time, 0 as fast as possible (default {run.rtf:g})",
+        "--profile",
+        choices=sorted(PROFILES),
+        default=FINE.name,
+        help=f"named simulation settings (default {FINE.name}: {fine.physics_hz:g} Hz, "
+        f"{fine.control_period_s:g} s control period, {fine.laser_beams} beams, real time; bimbot run uses "
+        f"{RUN_PROFILE}); --rtf, --lock-step, --wait-for-robots-s, --physics-hz, --control-period-s and "
+        "--laser-beams override one value of it",
+    )
+    parser.add_argument(
+        "--rtf", type=float, default=None, help="real-time factor: 1 real time, 0 as fast as possible"
     )
     parser.add_argument(
         "--lock-step",
-        action="store_true",
+        action=argparse.BooleanOptionalAction,
+        default=None,
         help="advance a period only when every alive robot has answered the clock step (reproducible)",
     )
     parser.add_argument(
@@ -57,25 +66,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--wait-for-robots-s",
         type=float,
-        default=run.wait_for_robots_s,
+        default=None,
         metavar="S",
-        help="hold the clock at 0 until every robot is alive, at most S wall seconds "
-        f"(default {run.wait_for_robots_s:g}; 0: no)",
+        help="hold the clock at 0 until every robot is alive, at most S wall seconds (0: no)",
     )
     parser.add_argument(
         "--steps", type=int, default=run.max_steps, help="stop after this many control periods"
     )
+    parser.add_argument("--physics-hz", type=float, default=None, help="physics steps per sim second")
     parser.add_argument(
-        "--physics-hz",
-        type=float,
-        default=1.0 / sim.step_s,
-        help=f"physics steps per sim second (default {1.0 / sim.step_s:g})",
-    )
-    parser.add_argument(
-        "--control-period-s",
-        type=float,
-        default=sim.control_period_s,
-        help=f"sim seconds per clock step (default {sim.control_period_s:g})",
+        "--control-period-s", type=float, default=None, help="sim seconds per clock step (control period)"
     )
     parser.add_argument(
         "--seed", type=int, default=sim.seed, help=f"odometry noise seed (default {sim.seed})"
@@ -121,9 +121,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"turn rate limit, rad/s (default {robot.max_turn_radps:g})",
     )
     group = parser.add_argument_group("laser")
-    group.add_argument(
-        "--laser-beams", type=int, default=laser.beams, help=f"beams per scan (default {laser.beams})"
-    )
+    group.add_argument("--laser-beams", type=int, default=None, help="beams per scan")
     fov_deg = math.degrees(laser.fov_rad)
     group.add_argument(
         "--laser-fov-deg", type=float, default=fov_deg, help=f"field of view, degrees (default {fov_deg:g})"
@@ -144,9 +142,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_bus_arguments(parser)
 
 
+def apply_profile(args: argparse.Namespace) -> argparse.Namespace:
+    """Fill every option left unset from the named profile (idempotent; the user's values stay)."""
+    profile = PROFILES[args.profile]
+    for name, value in (
+        ("rtf", profile.rtf),
+        ("lock_step", profile.lock_step),
+        ("wait_for_robots_s", profile.wait_for_robots_s),
+        ("physics_hz", profile.physics_hz),
+        ("control_period_s", profile.control_period_s),
+        ("laser_beams", profile.laser_beams),
+    ):
+        if getattr(args, name) is None:
+            setattr(args, name, value)
+    return args
+
+
 def sim_config(args: argparse.Namespace) -> SimConfig:
-    """The simulation config from the options; a UserError names what is wrong (also the options that
-    only the adapter uses: rtf, lock-step timeout, URDF), so ``bimbot run`` can check them all up front."""
+    """The simulation config from the options and their profile (filled into ``args``); a UserError names
+    what is wrong (also the options that only the adapter uses: rtf, lock-step timeout, URDF), so
+    ``bimbot run`` can check them all up front."""
+    apply_profile(args)
     try:
         wheels = (
             tuple(item.strip() for item in args.wheel_joints.split(",") if item.strip())

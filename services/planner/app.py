@@ -24,7 +24,7 @@ import json
 import logging
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import zenoh
@@ -40,6 +40,7 @@ from bimbot.shared.messages import (
     COMPONENT_STATE,
     COMPONENT_TWIN_KEY,
     PHYSICS_INFO,
+    PLANNER_PLAN,
     PROGRESS_KEY,
     ROBOT_STATE,
     TASK_KEY,
@@ -47,6 +48,7 @@ from bimbot.shared.messages import (
     ComponentEventMsg,
     ComponentPoseMsg,
     ComponentStateMsg,
+    PlannedSequenceMsg,
     ProgressMsg,
     RobotStateMsg,
     SiteInfoMsg,
@@ -104,6 +106,7 @@ def main(
         )
         plan, cannot = _checked_plan(plan, manifest, info, options.strict)
         core = PlannerCore(manifest, plan, resend_s=options.resend_s, limits=options.limits)
+        plan_queryable = _serve_plan(session, site, plan)
         subscribers = [
             inbox.subscribe(session, COMPONENT_STATE, site=site, key="*"),
             inbox.subscribe(session, COMPONENT_POSE, site=site, key="*"),
@@ -121,6 +124,7 @@ def main(
         core.fail_at_start(cannot)
         code = _Loop(session, site, core, inbox, feed).run(options, stop)
         token.undeclare()
+        plan_queryable.undeclare()
         for subscriber in subscribers:
             subscriber.undeclare()
     return code
@@ -142,7 +146,25 @@ def _checked_plan(
         _log.warning(
             "%d component(s) cannot be built with the robots on site; failed before the build", len(cannot)
         )
-    return outcome.plan, cannot
+    checked = replace(outcome.plan, warnings=(*outcome.plan.warnings, *outcome.warnings))
+    return checked, cannot
+
+
+def planned_sequence(plan: Plan) -> PlannedSequenceMsg:
+    """What the planner answers on ``planner/plan``: the plan it builds by, with its warnings."""
+    return PlannedSequenceMsg(
+        source=plan.source,
+        order=list(plan.order),
+        predecessors={guid: sorted(plan.predecessors.get(guid, ())) for guid in plan.order},
+        warnings=list(plan.warnings),
+    )
+
+
+def _serve_plan(session: zenoh.Session, site: str, plan: Plan) -> zenoh.Queryable:
+    """Answer ``planner/plan`` from Zenoh's thread: the answer never changes, so no state is touched."""
+    selector = PLANNER_PLAN.key(site=site)
+    answer = encode(planned_sequence(plan))
+    return session.declare_queryable(selector, lambda query: query.reply(selector, answer))
 
 
 class _Feeder:

@@ -156,13 +156,14 @@ def test_agents_process_on_a_real_bus(agents_build: Path, tmp_path: Path) -> Non
     site = manifest.site
     assert len(manifest.components) == N_COMPONENTS
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    state_dir = tmp_path / "state"
+    run_dir = tmp_path / "run"
+    state_dir = run_dir / "state"  # the journal's place in a run folder
     agents_args = [
         "agents",
         "--build",
         str(agents_build),
-        "--state-dir",
-        str(state_dir),
+        "--run-dir",
+        str(run_dir),
         "--connect",
         endpoint,
     ]
@@ -222,6 +223,7 @@ def test_agents_process_on_a_real_bus(agents_build: Path, tmp_path: Path) -> Non
         bus.wait_for(lambda: not bus.alive, 5.0, "liveliness tokens to go")
 
         # Restart: every agent resumes its last state from the journal; nothing is constructed twice.
+        assert list(state_dir.glob("agents-*.jsonl")), "the journal lives in the run folder's state/"
         bus.states.clear()
         with running("agents-restart", agents_args, tmp_path):
             bus.wait_for(lambda: len(bus.alive) == N_COMPONENTS, 30.0, "28 tokens after the restart")

@@ -19,6 +19,7 @@ import pytest
 from site_models import HEAVY_MASS_KG, ROOM_WALLS, WALLS_FIRST_ORDER, SiteModel, build_site_model
 
 from bimbot.shared.reasons import ReasonCode
+from bimbot.shared.run_folder import RunFolder, latest_run_folder
 
 pytestmark = pytest.mark.integration
 RUN_TIMEOUT_S = 420
@@ -48,12 +49,13 @@ def test_a_build_that_cannot_finish_ends_with_a_reason_for_every_component_not_b
 ) -> None:
     site, build = walls_first
     result = _bimbot("run", str(build), "-q", "--timeout-s", str(RUN_TIMEOUT_S - 60))
+    run = _latest(build)
     logs = "\n".join(
         f"--- {log.name}\n" + "\n".join(log.read_text().splitlines()[-12:])
-        for log in sorted((build / "logs").glob("*.log"))
+        for log in sorted(run.logs_dir.glob("*.log"))
     )
     assert result.returncode == 1, f"{result.stdout}\n{result.stderr[-2000:]}\n{logs}"
-    report = json.loads((build / "report" / "report.json").read_text())
+    report = json.loads((run.report_dir / "report.json").read_text())
     by_name = {c["name"]: c for c in report["components"]}
     constructed = {name for name, c in by_name.items() if c["state"] == "constructed"}
     assert constructed == {"Column A2", *ROOM_WALLS}, logs
@@ -72,13 +74,30 @@ def test_a_build_that_cannot_finish_ends_with_a_reason_for_every_component_not_b
     for name in ("Footing A1", "Column R1"):
         assert site.guid(name) in result.stdout + result.stderr
     assert "too_heavy" in result.stdout + result.stderr
+    # the planner's warnings reach the user's summary, not only its log
+    assert "the planner warned about its plan" in result.stdout and "cut off" in result.stdout
 
 
 def test_with_strict_a_sequence_that_walls_a_column_in_is_refused_before_the_build(
     walls_first: tuple[SiteModel, Path],
 ) -> None:
     site, build = walls_first
+    earlier = _runs(build)
     result = _bimbot("run", str(build), "-q", "--strict", "--timeout-s", "120")
-    planner_log = (build / "logs" / "planner.log").read_text()
+    planner_log = (_latest(build).logs_dir / "planner.log").read_text()
+    # a run of its own: the earlier runs on this build keep their folders and reports
+    assert len(_runs(build)) == len(earlier) + 1 and set(earlier) < set(_runs(build))
+    assert all((run / "report" / "report.json").is_file() for run in earlier)
     assert result.returncode == 2, f"{result.stdout}\n{result.stderr[-2000:]}\n{planner_log[-2000:]}"
     assert "cut off" in planner_log and site.guid("Column R1") in planner_log
+
+
+def _latest(build: Path) -> RunFolder:
+    run = latest_run_folder(build)
+    assert run is not None, f"no run folder under {build}/runs"
+    return run
+
+
+def _runs(build: Path) -> list[Path]:
+    folder = build / "runs"
+    return sorted(p for p in folder.iterdir() if p.is_dir() and not p.is_symlink()) if folder.is_dir() else []

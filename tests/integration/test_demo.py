@@ -20,6 +20,7 @@ from pathlib import Path
 import pytest
 
 from bimbot.services.observer.app import rerun_cli_binary
+from bimbot.shared.run_folder import latest_run_folder
 from bimbot.supervisor import free_port
 
 pytestmark = pytest.mark.integration
@@ -51,12 +52,16 @@ def test_demo_writes_world_recording_and_report_and_says_how_to_open_it(
     )
     assert result.returncode == 0, result.stdout + result.stderr[-3000:]
     assert "constructed 5/5 components" in result.stdout
-    (rrd,) = out.glob("*.rrd")
-    assert f"rerun {rrd}" in result.stdout
     assert (out / "world" / "manifest.json").is_file() and (out / "world" / "sequence.xml").is_file()
-    report = json.loads((out / "report.json").read_text())
+    run = latest_run_folder(out / "world")  # everything of the run in its own folder, once
+    assert run is not None and f"run folder: {run.root}" in result.stdout
+    (rrd,) = run.observer_dir.glob("*.rrd")
+    assert f"rerun {rrd}" in result.stdout
+    report = json.loads((run.report_dir / "report.json").read_text())
     assert report["totals"]["constructed"] == report["totals"]["components"] == 5
-    assert (out / "report.png").stat().st_size > 10_000
+    assert (run.report_dir / "report.png").stat().st_size > 10_000
+    assert sorted(p.name for p in run.root.rglob("report.json")) == ["report.json"]  # one report, not two
+    assert (run.logs_dir / "planner.log").is_file() and list(run.state_dir.glob("agents-*.jsonl"))
     verify = subprocess.run(
         [str(rerun_cli_binary()), "rrd", "verify", str(rrd)],
         capture_output=True,

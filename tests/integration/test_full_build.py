@@ -18,7 +18,10 @@ from pathlib import Path
 import pytest
 
 from bimbot.services.component_agents.verification import Tolerances
+from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan
 from bimbot.shared.manifest import read_manifest
+from bimbot.shared.run_folder import RunFolder, latest_run_folder
+from bimbot.shared.sequence import read_sequence
 
 pytestmark = pytest.mark.integration
 RUN_TIMEOUT_S = 300
@@ -57,14 +60,21 @@ def _bimbot(*args: str, check: bool = True) -> subprocess.CompletedProcess[str]:
 
 def _run(build: Path, *options: str) -> tuple[subprocess.CompletedProcess[str], dict]:
     result = _bimbot("run", str(build), "--timeout-s", str(RUN_TIMEOUT_S - 30), *options, check=False)
-    logs = build / "logs"
+    run = _latest(build)
+    logs = run.logs_dir
     detail = "\n".join(
         f"--- {log.name}\n" + "\n".join(log.read_text().splitlines()[-15:])
         for log in sorted(logs.glob("*.log"))
     )
     assert result.returncode == 0, f"run failed:\n{result.stdout}\n{result.stderr[-2000:]}\n{detail}"
-    report = json.loads((build / "report" / "report.json").read_text())
+    report = json.loads((run.report_dir / "report.json").read_text())
     return result, report
+
+
+def _latest(build: Path) -> RunFolder:
+    run = latest_run_folder(build)
+    assert run is not None, f"no run folder under {build}/runs"
+    return run
 
 
 def _assert_all_constructed_within_tolerance(build: Path, report: dict) -> None:
@@ -84,7 +94,10 @@ def test_one_robot_builds_the_whole_frame_within_tolerance(build: Path) -> None:
     _assert_all_constructed_within_tolerance(build, report)
     (robot,) = report["robots"].values()
     assert len(robot["tasks"]) == 5 and robot["distance_m"] > 10.0
-    assert report["totals"]["retries"] == 0 and (build / "report" / "report.png").stat().st_size > 10_000
+    assert (
+        report["totals"]["retries"] == 0
+        and (_latest(build).report_dir / "report.png").stat().st_size > 10_000
+    )
     # the schedule's order (a chain in the IFC work schedule) was kept
     order = sorted(report["components"], key=lambda c: c["sequence_index"])
     assert [c["constructed_s"] for c in order] == sorted(c["constructed_s"] for c in order)
@@ -92,6 +105,12 @@ def test_one_robot_builds_the_whole_frame_within_tolerance(build: Path) -> None:
 
 def test_two_robots_share_the_work_and_keep_apart(build: Path) -> None:
     _, report = _run(build, "--robots", "2", "--derive")
+    # the report's sequence is the plan the planner built by (derived here), not the build's sequence.xml
+    manifest = read_manifest(build)
+    derived = load_plan(manifest, build, PlanSource(kind=SourceKind.DERIVE))
+    by_index = sorted(report["components"], key=lambda c: c["sequence_index"])
+    assert [c["guid"] for c in by_index] == list(derived.order)
+    assert list(derived.order) != read_sequence(build / "sequence.xml").guids()
     _assert_all_constructed_within_tolerance(build, report)
     assert sorted(report["robots"]) == ["r1", "r2"]
     assert all(robot["tasks"] for robot in report["robots"].values()), "both robots must work"
@@ -99,7 +118,7 @@ def test_two_robots_share_the_work_and_keep_apart(build: Path) -> None:
         float(match)
         for log in ("robot-r1.log", "robot-r2.log")
         for match in re.findall(
-            r"min separation to other robots ([0-9.]+) m", (build / "logs" / log).read_text()
+            r"min separation to other robots ([0-9.]+) m", (_latest(build).logs_dir / log).read_text()
         )
     ]
     assert separations and min(separations) > 0.6  # base-frame distance; a Husky is ~0.67 m wide

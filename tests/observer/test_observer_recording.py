@@ -28,7 +28,9 @@ from bimbot.services.observer.twin_log import component_path
 from bimbot.shared.bus import encode
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState as S
-from bimbot.shared.messages import ComponentStateMsg, PoseMsg, TwinMsg
+from bimbot.shared.messages import ComponentStateMsg, PlannedSequenceMsg, PoseMsg, SiteInfoMsg, TwinMsg
+from bimbot.shared.robot_description import DEFAULT_ROBOT
+from bimbot.shared.site_layout import plan_site
 
 
 @dataclass
@@ -51,6 +53,9 @@ def recorded(
     recording, url = open_recording(frame_manifest.site, config)
     assert url is None
     observer = Observer(frame_manifest, bundled_build, config, recording)
+    observer.site_known(site_info(frame_manifest))  # what physics answers on physics/info
+    planned = list(reversed([c.guid for c in frame_manifest.components]))  # not the build's sequence.xml
+    observer.plan_known(PlannedSequenceMsg(source="test", order=planned, predecessors={}))
     for key_expr, message in run_messages:
         observer.handle(key_expr, encode(message))
     observer.handle(f"bimbot/{frame_manifest.site}/progress", b'{"schema_version": 1, "total": "many"}')
@@ -127,9 +132,12 @@ def test_invalid_payloads_are_counted_and_unread_keys_ignored(recorded: Recorded
     assert recorded.invalid == 1
 
 
-def test_the_reports_are_written_beside(recorded: Recorded) -> None:
+def test_the_reports_are_written_beside(recorded: Recorded, frame_manifest: Manifest) -> None:
     report = json.loads((recorded.report_dir / REPORT_JSON).read_text())
     assert report["totals"]["constructed"] == 3
+    # the report's planned order is the planner's (asked on planner/plan), not a file's
+    by_index = sorted(report["components"], key=lambda c: c["sequence_index"])
+    assert [c["guid"] for c in by_index] == list(reversed([c.guid for c in frame_manifest.components]))
     assert (recorded.report_dir / REPORT_PNG).stat().st_size > 0
 
 
@@ -195,3 +203,17 @@ def test_a_late_observer_learns_the_past_from_twins_and_counts_each_transition_o
     assert (entry["released_s"], entry["picked_s"], entry["placed_s"]) == (1.0, 2.0, 5.0)
     assert entry["retries"] == 1 and entry["state"] == "released"
     assert entry["robot_ids"] == ["r2"] and entry["position_error_mm"] == 30.0  # from the twin alone
+
+
+def site_info(manifest: Manifest) -> SiteInfoMsg:
+    layout = plan_site(manifest.components, robots=1)
+    return SiteInfoMsg(
+        robot_ids=["r1"],
+        robot_starts_xy_yaw=list(layout.robot_starts),
+        robot_type_of={"r1": DEFAULT_ROBOT.name},
+        robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
+        step_s=1 / 240,
+        control_period_s=0.1,
+        lock_step=True,
+        layout=layout,
+    )

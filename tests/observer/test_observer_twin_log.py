@@ -49,7 +49,7 @@ def rgba(packed: int) -> tuple[int, int, int, int]:
 
 @pytest.fixture
 def twin(frame_manifest: Manifest) -> TwinLog:
-    return TwinLog(frame_manifest, plan_site(frame_manifest.components))
+    return TwinLog(frame_manifest)
 
 
 def _by_path(items: list[LogItem], path: str) -> list[LogItem]:
@@ -92,12 +92,17 @@ def test_the_scene_logs_every_mesh_once_static_and_puts_components_in_the_yard_a
     assert [item.entity_path for item in meshes] == [component_path(g) for g in guids]
     assert all(item.static and isinstance(item.archetype, rr.Asset3D) for item in meshes)
     assert all(bytes(values(item.archetype.blob)[0]) == b"glb-bytes" for item in meshes)
-    assert not any(item.static for item in initial)  # a static pose would hide every later one
-    layout = twin.layout
+    assert not any(item.static for item in initial)
     for guid in guids:
-        transform, color = _by_path(initial, component_path(guid))
-        assert values(transform.archetype.translation) == [pytest.approx(list(layout.slots[guid].position_m))]
+        (color,) = _by_path(initial, component_path(guid))
         assert rgba(values(color.archetype.albedo_factor)[0]) == STATE_COLORS[ComponentState.PLANNED]
+    # the yard poses come from the site physics planned (its site info), for sim time 0
+    layout = plan_site(frame_manifest.components, robots=3)
+    poses = twin.yard_poses(layout)
+    assert not any(item.static for item in poses)  # a static pose would hide every later one
+    for guid in guids:
+        (transform,) = _by_path(poses, component_path(guid))
+        assert values(transform.archetype.translation) == [pytest.approx(list(layout.slots[guid].position_m))]
 
 
 def test_a_pose_becomes_the_components_transform(twin: TwinLog, frame_manifest: Manifest) -> None:
@@ -173,7 +178,7 @@ def test_robot_states_are_logged_on_change_and_place_the_robot_without_ground_tr
 
 
 def test_every_nth_scan_is_drawn_in_the_robot_frame(frame_manifest: Manifest) -> None:
-    twin = TwinLog(frame_manifest, plan_site(frame_manifest.components), TwinLogOptions(scan_every=3))
+    twin = TwinLog(frame_manifest, TwinLogOptions(scan_every=3))
     scan = ScanMsg(
         robot_id="r1",
         angle_min_rad=0.0,
@@ -194,7 +199,7 @@ def test_every_nth_scan_is_drawn_in_the_robot_frame(frame_manifest: Manifest) ->
 
 def test_trails_grow_in_segments_that_join(frame_manifest: Manifest) -> None:
     options = TwinLogOptions(trail_step_m=1.0, trail_segment_points=3, pose_min_interval_s=0.0)
-    twin = TwinLog(frame_manifest, plan_site(frame_manifest.components), options)
+    twin = TwinLog(frame_manifest, options)
     items = []
     for step in range(6):
         items += twin.robot_pose(

@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from bimbot.services.observer.app import rerun_cli_binary
+from bimbot.shared.run_folder import latest_run_folder
 from bimbot.supervisor import ServiceProcess, free_port, wait_until
 
 pytestmark = pytest.mark.integration
@@ -93,11 +94,12 @@ def test_sigterm_ends_the_observer_with_a_report_and_a_valid_recording(served: d
     observer = served["observer"]
     observer.process.send_signal(signal.SIGTERM)
     assert observer.wait(30.0) == 0, observer.log()[-3000:]
-    out = served["build"] / "observer"
-    report = json.loads((out / "report.json").read_text())
+    run = latest_run_folder(served["build"])  # no --run-dir: the build's latest run folder, made for it
+    assert run is not None
+    report = json.loads((run.report_dir / "report.json").read_text())
     assert report["totals"]["components"] == 28 and report["totals"]["constructed"] == 0
-    assert (out / "report.png").is_file()
-    rrd = out / "greenhouse-site.rrd"
+    assert (run.report_dir / "report.png").is_file()
+    rrd = run.recording_path("greenhouse-site")
     verify = subprocess.run(
         [str(rerun_cli_binary()), "rrd", "verify", str(rrd)],
         check=False,

@@ -22,7 +22,7 @@ from bimbot.services.physics.scene import (
 )
 from bimbot.services.physics.simulation import Simulation
 from bimbot.shared.manifest import Component, Manifest
-from bimbot.shared.site_layout import FENCE_HEIGHT_M
+from bimbot.shared.site_plan import FENCE_HEIGHT_M
 
 
 def _inertia_matrix(component: Component) -> np.ndarray:

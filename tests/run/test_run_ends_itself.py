@@ -19,6 +19,7 @@ from pathlib import Path
 
 import pytest
 
+from bimbot.shared.run_folder import RunFolder, latest_run_folder
 from bimbot.supervisor import wait_until
 
 pytestmark = pytest.mark.integration
@@ -88,9 +89,9 @@ def _assert_every_component_not_built_has_a_reason(report: dict) -> list[dict]:
 def test_sigterm_stops_every_service_and_their_groups_and_still_writes_the_report(
     small_frame: Path, tmp_path: Path
 ) -> None:
-    report_path = small_frame / "report" / "report.json"
-    report_path.unlink(missing_ok=True)
-    process = _start(small_frame, "--report-every-s", "1")
+    run = RunFolder(tmp_path / "run")  # --run-dir: this run's output, where the user said
+    report_path = run.report_dir / "report.json"
+    process = _start(small_frame, "--report-every-s", "1", "--run-dir", str(run.root))
     try:
         assert wait_until(report_path.exists, timeout_s=60.0, interval_s=0.2), "no report while running"
         assert json.loads(report_path.read_text())["ending"]["how"] == "running"
@@ -124,7 +125,7 @@ def test_a_site_where_nothing_changes_ends_stalled_saying_what_each_robot_was_do
     assert process.returncode == 1, out + err[-2000:]
     assert "the site stalled: nothing on the site changed for 2 s of sim time" in out, out + err[-2000:]
     assert "robot r1:" in out
-    report = json.loads((small_frame / "report" / "report.json").read_text())
+    report = json.loads((_latest(small_frame).report_dir / "report.json").read_text())
     assert report["ending"]["how"] == "stalled" and any(
         d.startswith("robot r1:") for d in report["ending"]["details"]
     )
@@ -139,9 +140,15 @@ def test_the_time_limit_ends_the_run_with_its_report_and_exit_1(small_frame: Pat
     out, err = _finish(process, TIMEOUT_S)
     assert process.returncode == 1, out + err[-2000:]
     assert "--timeout-s limit of 6 s wall" in out
-    report = json.loads((small_frame / "report" / "report.json").read_text())
+    report = json.loads((_latest(small_frame).report_dir / "report.json").read_text())
     assert report["ending"]["how"] == "timeout"
     assert {c["reason"]["code"] for c in _assert_every_component_not_built_has_a_reason(report)} == {
         "interrupted"
     }
-    assert os.path.getsize(small_frame / "report" / "report.png") > 10_000
+    assert os.path.getsize(_latest(small_frame).report_dir / "report.png") > 10_000
+
+
+def _latest(build: Path) -> RunFolder:
+    run = latest_run_folder(build)
+    assert run is not None, f"no run folder under {build}/runs"
+    return run

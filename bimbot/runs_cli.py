@@ -1,0 +1,60 @@
+"""``bimbot runs BUILD [--new]``: the runs of a build, newest last, or a new run folder.
+
+Lists ``BUILD/runs/*`` (see :mod:`bimbot.shared.run_folder`) with what each run's report says: components
+constructed, how the run ended, sim time. ``--new`` makes a new run folder, points ``BUILD/runs/latest``
+at it and prints its path: services started without ``--run-dir`` (by hand, or ``docker compose``) then
+write there, so a new ``up`` never resumes the journal of the last one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from bimbot.shared.errors import UserError
+from bimbot.shared.manifest import load_manifest
+from bimbot.shared.run_folder import RunFolder, latest_run_folder, new_run_folder, runs_dir
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("build", type=Path, help="a converted build folder")
+    parser.add_argument(
+        "--new", action="store_true", help="make a new run folder, link it as latest and print its path"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    build = args.build if args.build.is_dir() else args.build.parent
+    load_manifest(build)  # one clear line when it is not a build
+    if args.new:
+        sys.stdout.write(f"{new_run_folder(build).root}\n")
+        return 0
+    folders = sorted(path for path in runs_dir(build).glob("*") if path.is_dir() and not path.is_symlink())
+    if not folders:
+        raise UserError(f"{build}: no runs yet (bimbot run {build})")
+    latest = latest_run_folder(build)
+    for folder in folders:
+        mark = " (latest)" if latest is not None and latest.root == folder.resolve() else ""
+        sys.stdout.write(f"{folder.name}{mark}  {run_summary(RunFolder(folder))}\n")
+    return 0
+
+
+def run_summary(run: RunFolder) -> str:
+    """One line from the run's report: constructed/total, how it ended, sim time; or why there is none."""
+    path = run.report_dir / "report.json"
+    try:
+        report = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return "no report"
+    except (OSError, ValueError) as error:
+        return f"unreadable report ({error})"
+    totals = report.get("totals", {})
+    ending = report.get("ending") or {}
+    sim_s = report.get("sim_time_s", totals.get("makespan_s"))
+    sim = f", {sim_s:.0f} s sim" if isinstance(sim_s, int | float) else ""
+    return (
+        f"constructed {totals.get('constructed', '?')}/{totals.get('components', '?')}, "
+        f"{ending.get('how', 'unfinished')}{sim}"
+    )
