@@ -36,7 +36,6 @@ from pathlib import Path
 import zenoh
 
 from bimbot.shared.bus import BusOptions, Inbox, IncomingQuery, encode, open_session
-from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.messages import (
     ALIVE_KEY,
     CLOCK,
@@ -46,6 +45,7 @@ from bimbot.shared.messages import (
     COMPONENT_TWIN,
     key,
 )
+from bimbot.shared.service_runner import BuildInput
 
 from .agent import AgentConfig
 from .host import AgentHost, Outgoing
@@ -58,26 +58,25 @@ LISTENERS_WAIT_S = 2.0  # longest wait at start for the bus to route state messa
 TOKENS_PER_SESSION = 1_000
 
 
-def main(  # noqa: PLR0917 - the issue's signature: main(options, build_dir, shard, n_shards, config, stop)
+def main(
     options: BusOptions,
-    build_dir: Path,
-    shard: int,
-    n_shards: int,
+    build: BuildInput,
     config: AgentConfig,
     stop: threading.Event,
     *,
+    shard: tuple[int, int],
     state_dir: Path,
     fresh: bool = False,
-    manifest: Manifest | None = None,
 ) -> int:
-    """Run shard ``shard``/``n_shards`` of the build's agents until ``stop`` is set; 0 on a clean stop."""
-    manifest = manifest if manifest is not None else read_manifest(build_dir)
-    path = journal_path(state_dir, shard, n_shards)  # in the run folder (bimbot.shared.run_folder)
+    """Run shard ``shard`` (i, n) of the build's agents until ``stop`` is set; 0 on a clean stop.
+    ``build.manifest`` holds that shard's components (:func:`.host.shard_manifest`)."""
+    manifest, (index, n_shards) = build.manifest, shard
+    path = journal_path(state_dir, index, n_shards)  # in the run folder (bimbot.shared.run_folder)
     with Journal(path, fresh=fresh) as journal:
-        host = AgentHost(manifest, shard, n_shards, config=config, journal=journal, resume=journal.replayed)
+        host = AgentHost(manifest, index, n_shards, config=config, journal=journal, resume=journal.replayed)
         _log.info(
             "shard %d/%d: %d agents of site %s (journal %s, %d resumed)",
-            shard,
+            index,
             n_shards,
             len(host.agents),
             host.site,

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+from dataclasses import replace
 from pathlib import Path
 
 from bimbot.shared.bus import add_bus_arguments
@@ -110,11 +111,9 @@ def run(args: argparse.Namespace) -> int:
     return run_service(
         app.main,
         options,
-        build.dir,
-        shard,
-        n_shards,
+        replace(build, manifest=manifest),  # this shard's components only
         config,
+        shard=(shard, n_shards),
         state_dir=state_dir,
         fresh=args.fresh,
-        manifest=manifest,
     )

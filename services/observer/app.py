@@ -78,6 +78,7 @@ from bimbot.shared.messages import (
     site_root,
     topic_of,
 )
+from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.site_plan import SiteLayout
 
 from . import VIEWER_GRPC_PORT, VIEWER_WEB_PORT
@@ -312,20 +313,18 @@ def open_recording(site: str, config: ObserverConfig) -> tuple[rr.RecordingStrea
     return recording, url
 
 
-def main(
-    options: BusOptions, build_dir: Path, manifest: Manifest, config: ObserverConfig, stop: threading.Event
-) -> int:
+def main(options: BusOptions, build: BuildInput, config: ObserverConfig, stop: threading.Event) -> int:
     """Observe the site until ``stop`` (or done, with ``exit_when_done``); 0 on a clean stop."""
     if config.web:
         check_port_free(config.bind, config.web_port, "--web-port")
         check_port_free(config.bind, config.grpc_port, "--grpc-port")
-    recording, grpc_url = open_recording(manifest.site, config)
+    recording, grpc_url = open_recording(build.manifest.site, config)
     with contextlib.ExitStack() as stack:
         stack.callback(_close_recording, recording, config.rrd_path, config.compact)
         if grpc_url is not None:
             page = stack.enter_context(web_viewer(config.bind, config.web_port, grpc_url))
             _log.info("web viewer: %s (gRPC %s)", page, grpc_url)
-        observer = Observer(manifest, build_dir, config, recording)
+        observer = Observer(build.manifest, build.dir, config, recording)
         _log.info("recording to %s; reports to %s", config.rrd_path, config.report_dir)
         with open_session(options) as session:
             try:

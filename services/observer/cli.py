@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+from dataclasses import replace
 from pathlib import Path
 
 from bimbot.shared.bus import add_bus_arguments
@@ -128,4 +129,4 @@ def run(args: argparse.Namespace) -> int:
         writable_dir(config.report_dir, "--report-dir")
     if args.bind not in ("127.0.0.1", "::1", "localhost") and config.web:
         _log.warning("serving the viewer on %s: reachable from other machines", args.bind)
-    return run_service(app.main, options, build.dir, manifest, config)
+    return run_service(app.main, options, replace(build, manifest=manifest), config)

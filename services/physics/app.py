@@ -33,7 +33,6 @@ import threading
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass
-from pathlib import Path
 
 import zenoh
 from pydantic import BaseModel
@@ -49,7 +48,6 @@ from bimbot.shared.bus import (
     encode,
     open_session,
 )
-from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     ALIVE_KEY,
     COMPONENT_STATE,
@@ -67,6 +65,7 @@ from bimbot.shared.messages import (
     PlaceRequest,
     key,
 )
+from bimbot.shared.service_runner import BuildInput
 
 from .clock import LockStepBarrier, Pacer, RtfMeter
 from .profiles import FINE
@@ -88,16 +87,14 @@ class RunConfig:
     wait_for_robots_s: float = FINE.wait_for_robots_s
 
 
-def main(  # noqa: PLR0917 - like the other services: main(options, …, stop)
-    options: BusOptions,
-    manifest: Manifest,
-    build_dir: Path,
-    sim_config: SimConfig,
-    run: RunConfig,
-    stop: threading.Event,
+def main(
+    options: BusOptions, build: BuildInput, sim_config: SimConfig, run: RunConfig, stop: threading.Event
 ) -> int:
     """Build the scene and serve it on the bus until ``stop`` is set; 0 on a clean stop."""
-    with Simulation(manifest, build_dir, sim_config, gui=run.gui) as sim, open_session(options) as session:
+    with (
+        Simulation(build.manifest, build.dir, sim_config, gui=run.gui) as sim,
+        open_session(options) as session,
+    ):
         _Loop(session, sim, run, stop).serve()
     return 0
 

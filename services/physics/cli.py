@@ -221,4 +221,4 @@ def run(args: argparse.Namespace) -> int:
         gui=args.gui,
         wait_for_robots_s=args.wait_for_robots_s,
     )
-    return run_service(app.main, options, build.manifest, build.dir, config, run_config)
+    return run_service(app.main, options, build, config, run_config)

@@ -25,13 +25,21 @@ import logging
 import threading
 import time
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import zenoh
 
-from bimbot.shared.bus import Inbox, LivelinessChange, Received, decode, encode, query_first
+from bimbot.shared.bus import (
+    BusOptions,
+    Inbox,
+    LivelinessChange,
+    Received,
+    decode,
+    encode,
+    open_session,
+    query_first,
+)
 from bimbot.shared.identifiers import guid_to_key
-from bimbot.shared.manifest import Manifest, load_manifest
+from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     ALIVE_KEY,
     CLOCK,
@@ -57,6 +65,7 @@ from bimbot.shared.messages import (
     key,
 )
 from bimbot.shared.reasons import Reason
+from bimbot.shared.service_runner import BuildInput
 
 from .access_plan import access_plan
 from .feasibility import infeasible
@@ -89,18 +98,14 @@ def outgoing_key(site: str, message: Outgoing | ProgressMsg) -> str:
 
 
 def main(
-    options: PlannerOptions,
-    build_dir: Path,
-    source: PlanSource,
-    config: zenoh.Config,
-    stop: threading.Event,
+    bus: BusOptions, build: BuildInput, options: PlannerOptions, source: PlanSource, stop: threading.Event
 ) -> int:
     """Run the planner on the bus until done (``exit_when_done``) or ``stop``; the exit code."""
-    manifest = load_manifest(build_dir)
-    plan = load_plan(manifest, Path(build_dir), source)
+    manifest = build.manifest
+    plan = load_plan(manifest, build.dir, source)
     site = manifest.site
     inbox = Inbox()
-    with zenoh.open(config) as session:
+    with open_session(bus) as session:
         info = query_first(
             session, PHYSICS_INFO, inbox.invalid, timeout_s=options.site_info_timeout_s, stop=stop, site=site
         )

@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from bimbot.shared.bus import add_bus_arguments, zenoh_config
+from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
 from bimbot.shared.service_runner import resolve_build, run_service, service_bus
 
@@ -129,7 +129,7 @@ def planner_options(args: argparse.Namespace) -> PlannerOptions:
 def run(args: argparse.Namespace) -> int:
     """Check the options, the build (folder or manifest file) and the sequence, then plan until done."""
     options = planner_options(args)
-    config = zenoh_config(service_bus(args))
+    bus = service_bus(args)
     source = checked_source(args)
     build = resolve_build(args.build)
-    return run_service(main, options, build.dir, source, config)
+    return run_service(main, bus, build, options, source)

@@ -27,15 +27,13 @@ import math
 import threading
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import zenoh
 
-from bimbot.shared.bus import Inbox, Received, decode, encode, query_first
+from bimbot.shared.bus import BusOptions, Inbox, Received, decode, encode, open_session, query_first
 from bimbot.shared.identifiers import guid_to_key
 from bimbot.shared.keyspace import Topic
-from bimbot.shared.manifest import load_manifest
 from bimbot.shared.messages import (
     ALIVE_KEY,
     CLOCK,
@@ -63,6 +61,7 @@ from bimbot.shared.messages import (
     key,
 )
 from bimbot.shared.occupancy_grid import OccupancyGrid
+from bimbot.shared.service_runner import BuildInput
 
 from .astar import plan_path
 from .executor import Executor, ExecutorConfig, Outgoing
@@ -89,17 +88,17 @@ class RobotOptions:
 
 
 def main(
+    bus: BusOptions,
+    build: BuildInput,
     options: RobotOptions,
-    build_dir: Path,
-    config: zenoh.Config,
     executor_config: ExecutorConfig,
     stop: threading.Event,
 ) -> int:
     """Run one robot on the bus until ``stop``; 0 on a clean stop, 2 when physics never answered."""
-    manifest = load_manifest(build_dir)
+    manifest = build.manifest
     site, robot_id = manifest.site, executor_config.robot_id
     inbox = Inbox()
-    with zenoh.open(config) as session:
+    with open_session(bus) as session:
         subscribers = [inbox.subscribe(session, topic, site=site, **parts) for topic, parts in SUBSCRIPTIONS]
         subscribers += [
             inbox.subscribe(session, CLOCK, site=site),

@@ -18,7 +18,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bimbot.shared.bus import add_bus_arguments, zenoh_config
+from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
 from bimbot.shared.service_runner import resolve_build, run_service, service_bus
 
@@ -98,8 +98,8 @@ def run(args: argparse.Namespace) -> int:
     from .app import RobotOptions, main
 
     config = executor_config(args)
-    bus = zenoh_config(service_bus(args))
+    bus = service_bus(args)
     build = resolve_build(args.build)
     options = RobotOptions(info_timeout_s=args.info_timeout_s)
     # a robot id physics did not spawn shows only once physics answers: an InputError (exit 2) from there
-    return run_service(main, options, build.dir, bus, config)
+    return run_service(main, bus, build, options, config)

@@ -18,7 +18,7 @@ from bimbot.cli import main as bimbot_main
 from bimbot.services.planner.app import PlannerOptions, main
 from bimbot.services.planner.cli import plan_source
 from bimbot.services.planner.sources import PlanSource, SourceKind
-from bimbot.shared.bus import BusOptions, InvalidPayloads, decode, encode, open_session, zenoh_config
+from bimbot.shared.bus import BusOptions, InvalidPayloads, decode, encode, open_session
 from bimbot.shared.manifest import write_manifest
 from bimbot.shared.messages import (
     ALIVE_KEY,
@@ -36,6 +36,7 @@ from bimbot.shared.messages import (
     key,
 )
 from bimbot.shared.sequence import write_sequence
+from bimbot.shared.service_runner import resolve_build
 from bimbot.shared.support_graph import derive_sequence
 from bimbot.supervisor import free_port
 
@@ -52,14 +53,16 @@ def portal_build(tmp_path: Path) -> Path:
 
 def test_planner_builds_the_portal_over_the_bus_and_exits_0(portal_build: Path) -> None:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    planner_config = zenoh_config(BusOptions(mode="peer", connect=(), listen=(endpoint,)))
+    planner_bus = BusOptions(mode="peer", connect=(), listen=(endpoint,))
     options = PlannerOptions(
         exit_when_done=True, agents_timeout_s=10.0, resend_s=0.5, twin_timeout_s=0.5, site_info_timeout_s=0.2
     )
     stop = threading.Event()
     result: list[int] = []
     planner = threading.Thread(
-        target=lambda: result.append(main(options, portal_build, PlanSource(), planner_config, stop)),
+        target=lambda: result.append(
+            main(planner_bus, resolve_build(portal_build), options, PlanSource(), stop)
+        ),
         daemon=True,
     )
     received: queue.Queue[tuple[str, bytes]] = queue.Queue()

@@ -21,7 +21,7 @@ from bimbot.services.component_agents.agent import ComponentAgent
 from bimbot.services.robot.app import RobotOptions, main
 from bimbot.services.robot.executor import ExecutorConfig
 from bimbot.services.robot.protocol import PhysicsRequest
-from bimbot.shared.bus import BusOptions, InvalidPayloads, decode, encode, open_session, zenoh_config
+from bimbot.shared.bus import BusOptions, InvalidPayloads, decode, encode, open_session
 from bimbot.shared.identifiers import guid_to_key
 from bimbot.shared.manifest import read_manifest
 from bimbot.shared.messages import (
@@ -55,6 +55,7 @@ from bimbot.shared.messages import (
     TaskStatus,
     key,
 )
+from bimbot.shared.service_runner import resolve_build
 from bimbot.supervisor import free_port
 
 
@@ -83,11 +84,17 @@ def test_the_robot_process_builds_a_footing_over_the_bus_in_lock_step(build: Pat
     physics = SimPhysics(manifest, ("r1",))
     agent = ComponentAgent(footing)
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    robot_config = zenoh_config(BusOptions(mode="peer", connect=(), listen=(endpoint,)))
+    robot_bus = BusOptions(mode="peer", connect=(), listen=(endpoint,))
     stop, result = threading.Event(), []
     robot = threading.Thread(
         target=lambda: result.append(
-            main(RobotOptions(info_timeout_s=30.0), build, robot_config, ExecutorConfig(robot_id="r1"), stop)
+            main(
+                robot_bus,
+                resolve_build(build),
+                RobotOptions(info_timeout_s=30.0),
+                ExecutorConfig(robot_id="r1"),
+                stop,
+            )
         ),
         daemon=True,
     )
