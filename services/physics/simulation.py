@@ -83,7 +83,7 @@ class SimConfig:
     odom_noise: float = 0.02  # relative standard deviation of each period's odometry increment
     seed: int = 0
     lock_step: bool = False  # reported in ClockMsg and SiteInfoMsg; the adapter does the waiting
-    real_time_factor: float = 1.0  # reported when nothing is measured yet
+    real_time_factor: float = FINE.rtf  # the pace asked for: reported until one is measured
     pose_refresh_s: float = 2.0
     visuals: bool = False
     robot: RobotConfig = field(default_factory=RobotConfig)
