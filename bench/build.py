@@ -31,9 +31,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from bimbot.demo import bundled_model_path  # noqa: E402
-from bimbot.run import FAST_PHYSICS_HZ, ObserverOptions, RunOptions, RunOutcome, run_build  # noqa: E402
+from bimbot.run import ObserverOptions, RunOptions, RunOutcome, run_build  # noqa: E402
 from bimbot.services.converter.convert import ConvertOptions, convert_model  # noqa: E402
 from bimbot.services.converter.ifc_input import open_model  # noqa: E402
+from bimbot.services.physics.profiles import PROFILES, RUN_PROFILE  # noqa: E402
 
 WALL_TARGET_S = 60.0
 SAMPLES = ROOT.parent / "shared" / "samples" / "ifc"
@@ -61,7 +62,8 @@ def build_once(template: Path, folder: Path, options: RunOptions) -> RunOutcome:
 
 def describe(label: str, outcome: RunOutcome) -> None:
     totals = outcome.report.get("totals", {})
-    steps = outcome.sim_time_s * FAST_PHYSICS_HZ
+    physics_hz = PROFILES[RUN_PROFILE].physics_hz
+    steps = outcome.sim_time_s * physics_hz
     position = totals.get("max_position_error_mm")
     angle = totals.get("max_angle_error_deg")
     distance = ", ".join(
@@ -75,7 +77,7 @@ def describe(label: str, outcome: RunOutcome) -> None:
         f"(×{outcome.sim_time_s / outcome.wall_time_s:.1f} real time)"
     )
     print(
-        f"  physics {steps:.0f} steps at {FAST_PHYSICS_HZ:g} Hz = {steps / outcome.wall_time_s:.0f} steps/s "
+        f"  physics {steps:.0f} steps at {physics_hz:g} Hz = {steps / outcome.wall_time_s:.0f} steps/s "
         f"(wall, whole run incl. start-up, robots and {outcome.total} components)"
     )
     print(
