@@ -50,7 +50,7 @@ class OccupancyGrid:
     @property
     def shape(self) -> tuple[int, int]:
         """``(rows, cols)`` = ``(height_cells, width_cells)``."""
-        return self.occupied.shape  # type: ignore[return-value]
+        return self.occupied.shape
 
     @property
     def bounds_xy_m(self) -> BoundsXY:

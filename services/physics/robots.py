@@ -91,7 +91,7 @@ def _joint_index(body_id: int, client_id: int, name_or_index: str) -> int:
 
 def _link_frame(client_id: int, body_id: int, link: int) -> Frame:
     state = p.getLinkState(body_id, link, computeForwardKinematics=True, physicsClientId=client_id)
-    return tuple(state[4]), tuple(state[5])  # type: ignore[return-value]
+    return tuple(state[4]), tuple(state[5])
 
 
 def detect_drive(
@@ -154,7 +154,7 @@ def _axle_friction(client_id: int, body_id: int, joint: int, ratio: float) -> li
     """Anisotropic friction factors in the wheel collider's (CoM) frame: ``ratio`` along the axle."""
     axis = p.getJointInfo(body_id, joint, physicsClientId=client_id)[13]
     inertial_quat = p.getDynamicsInfo(body_id, joint, physicsClientId=client_id)[4]
-    axle = _rotate_axis(invert(((0.0, 0.0, 0.0), tuple(inertial_quat)))[1], axis)  # type: ignore[arg-type]
+    axle = _rotate_axis(invert(((0.0, 0.0, 0.0), tuple(inertial_quat)))[1], axis)
     return [1.0 - (1.0 - ratio) * abs(component) for component in axle]
 
 
@@ -183,7 +183,7 @@ class Robot:
     def frame(self, client_id: int) -> Frame:
         """Base link frame in the world."""
         position, quat = p.getBasePositionAndOrientation(self.body_id, physicsClientId=client_id)
-        return compose((tuple(position), tuple(quat)), invert(self.base_inertial))  # type: ignore[arg-type]
+        return compose((tuple(position), tuple(quat)), invert(self.base_inertial))
 
     def pose_xy_yaw(self, client_id: int) -> tuple[float, float, float]:
         (x, y, _), quat = self.frame(client_id)
@@ -267,7 +267,7 @@ def spawn_robot(
     if body_id < 0:
         raise InputError(f"pybullet could not load the robot URDF {urdf}")
     info = p.getDynamicsInfo(body_id, -1, physicsClientId=client_id)
-    base_inertial: Frame = (tuple(info[3]), tuple(info[4]))  # type: ignore[assignment]
+    base_inertial: Frame = (tuple(info[3]), tuple(info[4]))
     links = range(-1, p.getNumJoints(body_id, physicsClientId=client_id))
     with_shapes = [
         link for link in links if p.getCollisionShapeData(body_id, link, physicsClientId=client_id)

@@ -300,7 +300,7 @@ def set_component_pose(client_id: int, body: ComponentBody, frame: Frame) -> Non
 def component_pose(client_id: int, body: ComponentBody) -> Frame:
     """The component frame in the world, from pybullet's CoM frame."""
     position, quat = p.getBasePositionAndOrientation(body.body_id, physicsClientId=client_id)
-    return compose((tuple(position), tuple(quat)), invert(body.inertial_frame))  # type: ignore[arg-type]
+    return compose((tuple(position), tuple(quat)), invert(body.inertial_frame))
 
 
 # --- ground and fence ------------------------------------------------------------------------------------
