@@ -21,7 +21,7 @@ from __future__ import annotations
 import graphlib
 import heapq
 import logging
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -161,7 +161,7 @@ def write_sequence(sequence: ConstructionSequence, path: Path) -> Path:
 
 def sequence_from_predecessors(
     ordered_guids: Iterable[str],
-    predecessors: dict[str, set[str]],
+    predecessors: Mapping[str, set[str]],
     *,
     source: str,
     names: dict[str, str] | None = None,
@@ -193,7 +193,7 @@ def _in_order(items: set[str], position: dict[str, int]) -> list[str]:
 
 
 def priority_topological_order(
-    predecessors: dict[str, set[str]], key: Callable[[str], SupportsRichComparison]
+    predecessors: Mapping[str, set[str]], key: Callable[[str], SupportsRichComparison]
 ) -> list[str]:
     """Kahn's algorithm: among the items whose predecessors are all placed, the smallest ``key`` goes first.
 

@@ -24,7 +24,7 @@ against.
 from __future__ import annotations
 
 from bisect import bisect_left, bisect_right
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -133,7 +133,7 @@ def erection_key(component: Component) -> tuple[float, int, str]:
 def derive_sequence(
     components: Sequence[Component],
     tolerance_m: float = CONTACT_TOLERANCE_M,
-    support: dict[str, set[str]] | None = None,
+    support: Mapping[str, set[str]] | None = None,
 ) -> ConstructionSequence:
     """A construction sequence from the support graph (explicit predecessors = supports).
 
@@ -146,7 +146,7 @@ def derive_sequence(
     return sequence_from_predecessors(ordered, preds, source="derived", names=names)
 
 
-def support_violations(order: Sequence[str], preds: dict[str, set[str]]) -> list[tuple[str, str]]:
+def support_violations(order: Sequence[str], preds: Mapping[str, set[str]]) -> list[tuple[str, str]]:
     """(component, support) pairs where the support comes after the component in ``order`` or is missing."""
     position = {guid: index for index, guid in enumerate(order)}
     violations: list[tuple[str, str]] = []

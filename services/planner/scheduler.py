@@ -522,7 +522,12 @@ class PlannerCore:
         reason: Reason | None = None,
     ) -> None:
         current = self._pending.get((guid, "event"))
-        if current is not None and current.message.event is event and not current.settled():
+        if (
+            current is not None
+            and isinstance(current.message, ComponentEventMsg)  # what an "event" key always holds
+            and current.message.event is event
+            and not current.settled()
+        ):
             return  # already on its way (same event_id on every resend)
         task = self._tasks[guid]
         message = ComponentEventMsg(
