@@ -173,10 +173,9 @@ class _Loop:
                 self._take(item)
             now = time.monotonic()
             clock = self._clock
-            due = clock is not None and clock.step > self._answered_step
-            if due and (
-                self._scan_sim_s >= clock.sim_time_s or now - self._clock_wall_s >= self.options.tick_wait_s
-            ):
+            scanned = clock is not None and self._scan_sim_s >= clock.sim_time_s
+            waited = now - self._clock_wall_s >= self.options.tick_wait_s
+            if clock is not None and clock.step > self._answered_step and (scanned or waited):
                 self._answered_step = clock.step
                 self.publish(self.executor.tick(clock, time.time()))
             else:

@@ -180,6 +180,7 @@ def dwa_step(
     if len(obstacles):
         tree = cKDTree(obstacles)
         dist, _ = tree.query(trajectories[..., :2].reshape(-1, 2), k=1)
+        assert isinstance(dist, np.ndarray)  # many points in, an array out (the stubs give float | array)
         clearance = dist.reshape(k, n_points).min(axis=1) - config.robot_radius_m
     else:
         clearance = np.full(k, math.inf)

@@ -104,7 +104,8 @@ class Navigator(Traffic):
 
     def observe_scan(self, message: ScanMsg) -> None:
         ranges = np.asarray(message.ranges_m, float)
-        angles = message.angle_min_rad + message.angle_increment_rad * np.arange(len(ranges))
+        beams = np.arange(len(ranges), dtype=np.float64)
+        angles = message.angle_min_rad + message.angle_increment_rad * beams
         self.localiser.observe_scan(ranges, angles, message.range_max_m)
         hits = scan_endpoints_xy_m(self.localiser.pose, ranges, angles, message.range_max_m)
         pose = self.localiser.pose
