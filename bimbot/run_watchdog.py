@@ -85,11 +85,11 @@ def stall_details(
     or component in progress (assigned to whom, in which state)."""
     lines = []
     for robot_id, msg in sorted(robots.items()):
-        task = f" task {msg.task_id}" if msg.task_id else ""
+        on_task = f" task {msg.task_id}" if msg.task_id else ""
         guid = f" on {_label(msg.guid, names)}" if msg.guid else ""
         activity = f": {msg.activity}" if msg.activity else ""
         lines.append(
-            f"robot {robot_id}: {msg.state.value}{task}{guid}{activity} (at sim {msg.sim_time_s:.1f} s)"
+            f"robot {robot_id}: {msg.state.value}{on_task}{guid}{activity} (at sim {msg.sim_time_s:.1f} s)"
         )
     open_guids = set()
     for task_id, task in sorted(tasks.items()):

@@ -32,6 +32,7 @@ import threading
 import time
 from collections.abc import Iterable
 from pathlib import Path
+from typing import cast
 
 import zenoh
 
@@ -167,11 +168,18 @@ def _wait_for_listeners(session: zenoh.Session, key_expr: str, timeout_s: float 
     publisher = session.declare_publisher(key_expr)
     try:
         deadline = time.monotonic() + timeout_s
-        while not publisher.matching_status.matching and time.monotonic() < deadline:
+        while not _matching(publisher) and time.monotonic() < deadline:
             time.sleep(0.01)
-        return bool(publisher.matching_status.matching)
+        return _matching(publisher)
     finally:
         publisher.undeclare()
+
+
+def _matching(publisher: zenoh.Publisher) -> bool:
+    """Whether a subscriber matches ``publisher``'s key expression now."""
+    # zenoh's stubs (1.10) type ``Publisher.matching_status`` as bool; it returns a MatchingStatus.
+    status = cast(zenoh.MatchingStatus, publisher.matching_status)
+    return status.matching
 
 
 def _publish(session: zenoh.Session, outgoing: Iterable[Outgoing]) -> None:

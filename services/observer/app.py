@@ -264,7 +264,7 @@ class Observer:
         if isinstance(message, ComponentStateMsg):
             # Agents stamp a verdict from their own view of the clock, which may lag the robot's stamp of
             # the state before it; a component's colour must still end on its latest state.
-            sim_time_s = max(sim_time_s, self._state_time_s.get(message.guid, 0.0))
+            sim_time_s = max(message.sim_time_s, self._state_time_s.get(message.guid, 0.0))
             self._state_time_s[message.guid] = sim_time_s
         self.collector.add(message)
         self._log_items(self.twin.items(message), at_s=sim_time_s)

@@ -309,7 +309,7 @@ class ReportCollector:
         return Reason(code=ending.code or ReasonCode.INTERRUPTED, message=message, robot_id=robot_id)
 
     def _robot_report(self, robot: RobotTimeline, end_s: float) -> dict[str, Any]:
-        tasks = [
+        tasks: list[dict[str, Any]] = [
             {
                 "guid": interval.guid,
                 "task_id": interval.task_id,

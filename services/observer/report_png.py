@@ -23,6 +23,7 @@ from typing import Any
 import matplotlib
 from matplotlib import transforms
 from matplotlib.axes import Axes
+from matplotlib.colors import to_rgb
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
@@ -33,10 +34,19 @@ DPI = 100  # 1600 × 900 pixels
 MAX_ROW_LABELS = 60  # beyond this many sequence rows, labels are left out
 NOT_BUILT_COLOR = "red"
 NOT_BUILT_HATCH = "////"
-CLASS_PALETTE = tuple(matplotlib.colormaps["tab10"].colors) + tuple(matplotlib.colormaps["Dark2"].colors)
+RGB = tuple[float, float, float]
 
 
-def class_colors(classes: list[str]) -> dict[str, tuple[float, ...]]:
+def _palette(name: str) -> tuple[RGB, ...]:
+    """Every colour of a listed (qualitative) colormap, in order, as RGB."""
+    colormap = matplotlib.colormaps[name]
+    return tuple(to_rgb(colormap(index)) for index in range(colormap.N))
+
+
+CLASS_PALETTE = _palette("tab10") + _palette("Dark2")
+
+
+def class_colors(classes: list[str]) -> dict[str, RGB]:
     """A stable colour per IFC class (sorted by name, so a class keeps its colour between runs)."""
     return {
         name: CLASS_PALETTE[index % len(CLASS_PALETTE)] for index, name in enumerate(sorted(set(classes)))
@@ -47,7 +57,7 @@ def _short(component: dict[str, Any]) -> str:
     return component.get("name") or component["guid"][:8]
 
 
-def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, tuple[float, ...]]) -> None:
+def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> None:
     by_guid = {c["guid"]: c for c in report["components"]}
     robot_ids = list(report["robots"])
     for lane, robot_id in enumerate(robot_ids):
@@ -79,7 +89,7 @@ def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, tuple[float
         ax.text(0.5, 0.5, "no robot reported a state", transform=ax.transAxes, ha="center", va="center")
 
 
-def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, tuple[float, ...]]) -> None:
+def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> None:
     rows = sorted(
         report["components"],
         key=lambda c: (c["sequence_index"] is None, c["sequence_index"] or 0, c["guid"]),
