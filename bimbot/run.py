@@ -39,6 +39,7 @@ from bimbot.run_args import (
     add_run_arguments,
     run_options,
 )
+from bimbot.run_commands import service_commands
 from bimbot.run_loop import LoopLimits, LoopResult, RunWatch, StopSignals
 from bimbot.run_monitor import RunMonitor
 from bimbot.run_preflight import check_run_input
@@ -56,8 +57,8 @@ from bimbot.supervisor import ServiceProcess, free_port, stop_all, wait_until
 
 _log = logging.getLogger(__name__)
 
-OBSERVER_CLOSE_TIMEOUT_S = 120.0
-MAX_PLAN_WARNINGS_SHOWN = 5  # closing and compacting the recording after the build
+OBSERVER_CLOSE_TIMEOUT_S = 120.0  # closing and compacting the recording after the build
+MAX_PLAN_WARNINGS_SHOWN = 5
 _VIEWER_LINE = re.compile(r"web viewer: (http\S+)")
 __all__ = [  # the options live in bimbot.run_args; benches and tests import them from here too
     "ObserverOptions",
@@ -84,64 +85,6 @@ class RunOutcome:
     viewer_url: str | None = None
     summary_announced: bool = False  # the summary went out through ``announce`` already (--live)
     ending: RunEnding | None = None
-
-
-def physics_arguments(build: Path, options: RunOptions) -> list[str]:
-    """``bimbot physics`` for a run: its profile by name, and only the values the user overrode."""
-    arguments = [
-        "physics",
-        "--build",
-        str(build),
-        "--robots",
-        str(options.robots),
-        "--profile",
-        options.profile,
-    ]
-    overrides = {
-        "--rtf": options.rtf,
-        "--physics-hz": options.physics_hz,
-        "--control-period-s": options.control_period_s,
-        "--laser-beams": options.laser_beams,
-    }
-    for flag, value in overrides.items():
-        if value is not None:
-            arguments += [flag, repr(value)]
-    if options.lock_step is not None:
-        arguments.append("--lock-step" if options.lock_step else "--no-lock-step")
-    return [*arguments, *options.physics_extra]
-
-
-def service_commands(
-    build: Path, endpoint: str, options: RunOptions, run: RunFolder
-) -> list[tuple[str, list[str]]]:
-    """(name, bimbot arguments) of every service, in start order."""
-    bus = ["--connect", endpoint]
-    commands = [
-        ("physics", [*physics_arguments(build, options), *bus]),
-        ("agents", ["agents", "--build", str(build), "--run-dir", str(run.root), "--fresh", *bus]),
-        ("planner", ["planner", "--build", str(build), "--exit-when-done", *options.planner_source, *bus]),
-    ]
-    for number in range(1, options.robots + 1):
-        robot = ["robot", "--build", str(build), "--id", f"r{number}", *bus]
-        if options.inject_placement_error_m:
-            robot += ["--inject-placement-error-m", repr(options.inject_placement_error_m)]
-        commands.append((f"robot-r{number}", robot))
-    if options.observer is not None:
-        commands.append(("observer", [*observer_arguments(build, options.observer, run), *bus]))
-    return commands
-
-
-def observer_arguments(build: Path, observer: ObserverOptions, run: RunFolder) -> list[str]:
-    arguments = ["observe", "--build", str(build), "--run-dir", str(run.root), "--no-report"]
-    if observer.rrd_path is not None:
-        arguments += ["--rrd", str(observer.rrd_path)]
-    if observer.web:
-        arguments += ["--web-port", str(observer.web_port), "--grpc-port", str(observer.grpc_port)]
-    else:
-        arguments.append("--no-web")
-    if not observer.keep_serving:
-        arguments.append("--exit-when-done")
-    return arguments
 
 
 def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] = _log.info) -> RunOutcome:

@@ -6,8 +6,8 @@ like a failed build ("0/28 constructed", exit 1) after the other services had st
 check, with the services' own code:
 
 * the build: a readable manifest (folder or ``manifest.json``) with components;
-* each service's command line exactly as :func:`bimbot.run.service_commands` builds it, parsed by that
-  service's parser and checked by its option checks (physics' config, the robots' execution config, the
+* each service's command line exactly as :func:`bimbot.run_commands.service_commands` builds it, parsed by
+  that service's parser and checked by its option checks (physics' config, the robots' execution config, the
   planner's options, the observer's ports, the agents' tolerances);
 * the planner's sequence: the ``--sequence`` file exists and is a sequence of this build's components
   (unknown GUIDs, cycles and unreadable XML are the planner's :class:`~bimbot.services.planner.sources.
@@ -25,6 +25,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from bimbot.run_commands import service_commands
 from bimbot.shared.errors import UserError
 from bimbot.shared.run_folder import RunFolder
 from bimbot.shared.service_runner import BuildInput, resolve_build
@@ -39,8 +40,6 @@ PLACEHOLDER_RUN = RunFolder(Path("runs") / "preflight")  # the run folder is mad
 
 def check_run_input(build: Path, options: RunOptions) -> BuildInput:
     """Raise a :class:`UserError` (one line) for any input a service of the run would reject; the build."""
-    from bimbot.run import service_commands  # bimbot.run calls this module: imported when used
-
     checked = resolve_build(build)
     if not checked.manifest.components:
         raise UserError(f"{build}: the build has no components to construct")

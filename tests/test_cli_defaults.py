@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 
 from bimbot.cli import build_parser
-from bimbot.run import physics_arguments
 from bimbot.run_args import RunOptions
+from bimbot.run_commands import physics_arguments
 from bimbot.services.physics.app import RunConfig
 from bimbot.services.physics.cli import apply_profile
 from bimbot.services.physics.profiles import PROFILES, REHEARSAL, RUN_PROFILE
