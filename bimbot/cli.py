@@ -10,12 +10,16 @@ the user's input before they start their work, so a bug is never reported as bad
 from __future__ import annotations
 
 import argparse
+import ctypes
 import importlib
 import logging
+import os
+import signal
 import sys
 
 from bimbot import __version__
 from bimbot.shared.errors import UserError
+from bimbot.supervisor import STOP_WITH_PARENT_ENV
 
 # sub-command → (module with add_arguments/run, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
@@ -49,6 +53,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
 }
 
 _log = logging.getLogger("bimbot")
+PR_SET_PDEATHSIG = 1  # prctl(2): the signal the kernel sends when the parent dies
 
 EXIT_USER_ERROR = 2  # bad input: one line
 EXIT_BUG = 1  # an unexpected exception: its traceback is in the log
@@ -79,9 +84,26 @@ def build_parser(argv: list[str]) -> argparse.ArgumentParser:
     return parser
 
 
+def stop_with_parent() -> None:
+    """A service started by :mod:`bimbot.supervisor` gets SIGTERM when the process that started it dies,
+    even by SIGKILL (a killed ``bimbot run`` or test), so no service runs on alone forever. Linux's
+    ``prctl(PR_SET_PDEATHSIG)``, set here rather than between fork and exec because the starting process
+    has Zenoh's threads; a parent that died before this line is caught by the pid check."""
+    parent = os.environ.pop(STOP_WITH_PARENT_ENV, None)
+    if parent is None or not sys.platform.startswith("linux"):
+        return
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+    except (OSError, AttributeError):
+        return
+    if os.getppid() != int(parent):
+        raise SystemExit(f"the process that started this service ({parent}) is gone")
+
+
 def main(argv: list[str] | None = None) -> int:
     """Parse ``argv``, run the chosen sub-command and map how it ended to the exit code."""
     argv = sys.argv[1:] if argv is None else argv
+    stop_with_parent()
     args = build_parser(argv).parse_args(argv)
     configure_logging(-1 if args.quiet else args.verbose)
     module = importlib.import_module(args._module)

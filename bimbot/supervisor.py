@@ -33,6 +33,9 @@ def free_port() -> int:
         return int(sock.getsockname()[1])
 
 
+STOP_WITH_PARENT_ENV = "BIMBOT_STOP_WITH_PARENT"  # the pid of the process that started the service
+
+
 class ServiceProcess:
     """One ``bimbot <command>`` child process logging to ``<log_dir>/<name>.log``."""
 
@@ -47,7 +50,8 @@ class ServiceProcess:
             [sys.executable, "-P", "-m", "bimbot.cli", *args],
             stdout=self._log,
             stderr=subprocess.STDOUT,
-            env={**os.environ, **(env or {})},
+            # the child stops when this process dies, even by SIGKILL (bimbot.cli.stop_with_parent)
+            env={**os.environ, **(env or {}), STOP_WITH_PARENT_ENV: str(os.getpid())},
             start_new_session=True,  # its own process group: stop() reaches its children too
         )
         self.pgid = self.process.pid  # the group it leads
