@@ -106,6 +106,7 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
         router = ServiceProcess("bus", ["bus", "--listen", endpoint], log_dir)
         announce(f"bus: {endpoint} (watch it: bimbot watch --build {build} --connect {endpoint})")
         progress: ProgressView = NoProgress()
+        ended_how = "stopped: the run did not get to its end"
         try:
             with open_session(BusOptions(connect=(endpoint,))) as session:
                 monitor = RunMonitor(manifest, session)
@@ -126,6 +127,7 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
                     stop=stop,
                     write_report=lambda ending: write_report_files(monitor.report(ending), report_dir),
                 ).run()
+                ended_how = f"{result.ending.how}: {result.ending.message}"
                 progress.close()
                 monitor.drain(wait_s=0.3)  # the last state messages
                 outcome = _outcome(manifest, monitor, result, time.perf_counter() - started)
@@ -149,6 +151,7 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
         finally:
             progress.close()
             stop_all([router, *services])
+            run.mark_ended(ended_how)  # services started by hand later make a new run folder
 
 
 def _outcome(manifest: Manifest, monitor: RunMonitor, result: LoopResult, wall_s: float) -> RunOutcome:
@@ -279,6 +282,8 @@ def summary_text(outcome: RunOutcome) -> str:
         lines.append(table.rstrip("\n"))
     if outcome.report_dir is not None:
         lines.append(f"report: {outcome.report_dir / 'report.json'} and {outcome.report_dir / 'report.png'}")
+    if outcome.run_dir is not None:
+        lines.append(f"logs: {RunFolder(outcome.run_dir).logs_dir}/ (one per service)")
     if outcome.rrd_path is not None:
         lines.append(f"recording: {outcome.rrd_path} (open it with: .venv/bin/rerun {outcome.rrd_path})")
     return "\n".join(lines) + "\n"

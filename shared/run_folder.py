@@ -11,24 +11,30 @@ other and a finished run stays as it was::
         observer/<site>.rrd         the rerun recording
     BUILD/runs/latest -> 20261125-101530
 
-``bimbot run`` makes a new run folder per run and hands it to every service (``--run-dir``). A service
-started by hand without ``--run-dir`` (or in ``docker compose``) uses ``BUILD/runs/latest``, making the
-first run folder when there is none; :func:`open_run_folder` does that under a lock, so services starting
-together agree on one folder.
+``bimbot run`` makes a new run folder per run and hands it to every service (``--run-dir``), and marks it
+ended when it ends (``ENDED``, with how it ended); so does ``bimbot observe`` once the build is done. A
+service started by hand without ``--run-dir`` (or in ``docker compose``) joins ``BUILD/runs/latest`` while
+that run has not ended, and otherwise makes a new run folder: a finished run is never resumed or
+overwritten by accident. :func:`open_run_folder` decides under a lock, so services starting together agree
+on one folder.
 """
 
 from __future__ import annotations
 
 import contextlib
 import fcntl
+import logging
 import os
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+_log = logging.getLogger(__name__)
+
 RUNS_DIR_NAME = "runs"
 LATEST_NAME = "latest"
+ENDED_NAME = "ENDED"  # in a run folder: the run is over (its first line says how)
 _LOCK_NAME = ".lock"
 
 
@@ -57,6 +63,15 @@ class RunFolder:
     def recording_path(self, site: str) -> Path:
         return self.observer_dir / f"{site}.rrd"
 
+    @property
+    def ended(self) -> bool:
+        return (self.root / ENDED_NAME).is_file()
+
+    def mark_ended(self, how: str) -> None:
+        """The run is over: services started later without ``--run-dir`` make a new run folder."""
+        self.root.mkdir(parents=True, exist_ok=True)
+        (self.root / ENDED_NAME).write_text(how.rstrip("\n") + "\n", encoding="utf-8")
+
 
 def runs_dir(build_dir: Path) -> Path:
     return Path(build_dir) / RUNS_DIR_NAME
@@ -81,14 +96,19 @@ def new_run_folder(build_dir: Path, now_s: float | None = None) -> RunFolder:
 
 
 def open_run_folder(build_dir: Path, run_dir: Path | None = None) -> RunFolder:
-    """``run_dir`` when given; else the build's latest run folder (a new one when the build has none)."""
+    """``run_dir`` when given; else the build's latest run folder while that run has not ended, or a new
+    one (logged either way, so a user sees which run a service joined)."""
     if run_dir is not None:
         return RunFolder(Path(run_dir))
     with _runs_locked(build_dir) as folder:
         latest = folder / LATEST_NAME
-        if latest.is_dir():
-            return RunFolder(latest.resolve())
-        return _make_new(folder, time.time())
+        if latest.is_dir() and not RunFolder(latest.resolve()).ended:
+            joined = RunFolder(latest.resolve())
+            _log.info("joining the open run folder %s (runs/latest)", joined.root)
+            return joined
+        made = _make_new(folder, time.time())
+        _log.info("new run folder %s (runs/latest)", made.root)
+        return made
 
 
 def latest_run_folder(build_dir: Path) -> RunFolder | None:

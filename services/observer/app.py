@@ -78,6 +78,7 @@ from bimbot.shared.messages import (
     site_root,
     topic_of,
 )
+from bimbot.shared.run_folder import RunFolder
 from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.site_plan import SiteLayout
 
@@ -111,6 +112,7 @@ class ObserverConfig:
     compact: bool = True  # rewrite the .rrd with rerun's chunk compaction when the run ends
     done_grace_s: float = 1.0  # wall seconds of collecting after the planner says done
     twin: TwinLogOptions = field(default_factory=TwinLogOptions)
+    run: RunFolder | None = None  # the run folder it writes to: marked ended when it reports the end
 
 
 def route_key(site: str, key_expr: str) -> type[BaseModel] | None:
@@ -277,6 +279,11 @@ class Observer:
     def alive(self, key_expr: str, alive: bool) -> None:
         what = key_expr.removeprefix(f"{site_root(self.site)}/alive/")
         self._log_items(self.twin.site_event(f"{what} {'joined' if alive else 'left'}"), at_s=self.sim_time_s)
+        if what == "planner/main" and not alive and self.done_at is None:
+            # the planner ends when the build is settled; its last progress may have gone out before
+            # this observer listened (a build that was done at once): its leaving ends the wait too
+            self.done_at = time.monotonic()
+            _log.info("the planner left the bus: the build is over")
 
     def finish(self) -> None:
         for at_s, item in self.twin.flush():
@@ -374,6 +381,8 @@ def serve(session: zenoh.Session, observer: Observer, stop: threading.Event) -> 
         ):
             observer.write_reports_if_new()
             reported = True
+            if config.report_dir is not None and config.run is not None:
+                config.run.mark_ended("done: the planner ended (seen by bimbot observe)")
             if config.exit_when_done:
                 break
     if observer.invalid.total:

@@ -122,6 +122,7 @@ def run(args: argparse.Namespace) -> int:
         bind=args.bind,
         exit_when_done=args.exit_when_done,
         compact=not args.no_compact,
+        run=run,
         twin=TwinLogOptions(scan_every=args.scan_every, pose_min_interval_s=args.pose_interval_s),
     )
     writable_dir(config.rrd_path.parent, "--rrd")

@@ -217,3 +217,19 @@ def site_info(manifest: Manifest) -> SiteInfoMsg:
         lock_step=True,
         layout=layout,
     )
+
+
+def test_the_planner_leaving_ends_the_wait_even_when_its_done_progress_was_missed(
+    bundled_build: Path, frame_manifest: Manifest, tmp_path: Path
+) -> None:
+    config = ObserverConfig(rrd_path=tmp_path / "late.rrd", report_dir=tmp_path, web=False)
+    recording, _ = open_recording(frame_manifest.site, config)
+    observer = Observer(frame_manifest, bundled_build, config, recording)
+    alive = f"bimbot/{frame_manifest.site}/alive"
+    observer.alive(f"{alive}/robot/r1", False)
+    assert observer.done_at is None  # a robot leaving is not the end
+    observer.alive(f"{alive}/planner/main", True)
+    assert observer.done_at is None
+    observer.alive(f"{alive}/planner/main", False)
+    assert observer.done_at is not None  # with --exit-when-done the observer now ends
+    _close_recording(recording, config.rrd_path, compact=False)

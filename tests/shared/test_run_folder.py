@@ -37,6 +37,16 @@ def test_a_service_without_run_dir_uses_latest_or_makes_the_first(tmp_path: Path
     assert made.state_dir == made.root / "state" and made.recording_path("s") == made.root / "observer/s.rrd"
 
 
+def test_a_finished_run_is_never_joined_by_services_started_later(tmp_path: Path) -> None:
+    finished = new_run_folder(tmp_path, now_s=NOON_S)
+    assert open_run_folder(tmp_path) == type(finished)(finished.root.resolve())  # still open: joined
+    finished.mark_ended("done: the planner ended")
+    later = open_run_folder(tmp_path)
+    assert later.root != finished.root.resolve() and not later.ended
+    assert latest_run_folder(tmp_path) == later
+    assert (finished.root / "ENDED").read_text().startswith("done")
+
+
 def _open_latest(build: str) -> str:
     return str(open_run_folder(Path(build)).root)
 
