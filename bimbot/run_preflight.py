@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
+import logging
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -85,7 +86,13 @@ def _check_planner(args: argparse.Namespace, build: BuildInput) -> None:
     from bimbot.services.planner.sources import load_plan
 
     planner_options(args)
-    load_plan(build.manifest, build.dir, checked_source(args))  # a PlanError names what is wrong
+    sources_log = logging.getLogger(load_plan.__module__)
+    level = sources_log.level
+    sources_log.setLevel(logging.WARNING)  # the planner says what it plans in its own log, once
+    try:
+        load_plan(build.manifest, build.dir, checked_source(args))  # a PlanError names what is wrong
+    finally:
+        sources_log.setLevel(level)
 
 
 def _check_robot(args: argparse.Namespace, _build: BuildInput) -> None:
