@@ -15,7 +15,7 @@ from pathlib import Path
 
 from bimbot.run_watchdog import DEFAULT_CLOCK_STALL_WALL_S, DEFAULT_STALL_AFTER_S
 from bimbot.services.observer import VIEWER_GRPC_PORT, VIEWER_WEB_PORT
-from bimbot.services.physics.profiles import PROFILES, RUN_PROFILE
+from bimbot.services.physics.profiles import RUN_PROFILE, add_profile_arguments
 from bimbot.shared.errors import UserError
 
 DEFAULT_TIMEOUT_S = 900.0
@@ -57,7 +57,6 @@ class RunOptions:
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     """The options ``bimbot run`` and ``bimbot demo`` share."""
-    profile = PROFILES[RUN_PROFILE]
     parser.add_argument("--robots", type=int, default=RunOptions.robots, help="number of robots (default 1)")
     parser.add_argument(
         "--run-dir",
@@ -67,21 +66,7 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
         help="this run's output folder: journal, logs, report, recording (default BUILD/runs/<time>/, "
         "linked as BUILD/runs/latest)",
     )
-    parser.add_argument(
-        "--profile",
-        choices=sorted(PROFILES),
-        default=RUN_PROFILE,
-        help=f"named simulation settings (default {RUN_PROFILE}: {profile.physics_hz:g} Hz physics, "
-        f"{profile.control_period_s:g} s control period, {profile.laser_beams} laser beams, lock-step, "
-        "as fast as the robots follow); the next options override one value",
-    )
-    parser.add_argument("--rtf", type=float, default=None, help="real-time factor (0: as fast as possible)")
-    parser.add_argument("--no-lock-step", action="store_true", help="do not wait for the robots each step")
-    parser.add_argument("--physics-hz", type=float, default=None, help="physics steps per sim second")
-    parser.add_argument(
-        "--control-period-s", type=float, default=None, help="sim seconds per clock step (control period)"
-    )
-    parser.add_argument("--laser-beams", type=int, default=None, help="beams per laser scan")
+    add_profile_arguments(parser, RUN_PROFILE)
     parser.add_argument(
         "--inject-placement-error-m",
         type=float,
@@ -184,7 +169,7 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         robots=args.robots,
         profile=args.profile,
         rtf=args.rtf,
-        lock_step=False if args.no_lock_step else None,
+        lock_step=args.lock_step,
         inject_placement_error_m=args.inject_placement_error_m,
         observer=observer,
         planner_source=planner_source,

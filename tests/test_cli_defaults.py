@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from bimbot.cli import build_parser
-from bimbot.run_args import RunOptions
+from bimbot.run_args import RunOptions, run_options
 from bimbot.run_commands import physics_arguments
 from bimbot.services.physics.app import RunConfig
 from bimbot.services.physics.cli import apply_profile
@@ -154,3 +154,17 @@ def test_bimbot_run_names_its_profile_and_passes_only_what_the_user_changed() ->
     assert plain == ["physics", "--build", "OUT", "--robots", "2", "--profile", RUN_PROFILE]
     changed = physics_arguments(Path("OUT"), RunOptions(physics_hz=240.0, lock_step=False))
     assert changed[-3:] == ["--physics-hz", "240.0", "--no-lock-step"]
+
+
+def test_bimbot_run_and_physics_share_one_definition_of_the_profile_options() -> None:
+    run = build_parser(["run", "OUT"]).parse_args(["run", "OUT", "--no-lock-step", "--laser-beams", "90"])
+    assert run_options(run).lock_step is False and run_options(run).laser_beams == 90
+    run_actions = {a.dest: a for a in _sub_parser("run")._actions}
+    for action in _sub_parser("physics")._actions:
+        if action.dest in ("profile", "rtf", "lock_step", "physics_hz", "control_period_s", "laser_beams"):
+            twin = run_actions[action.dest]
+            assert (twin.option_strings, twin.help is not None, twin.type) == (
+                action.option_strings,
+                action.help is not None,
+                action.type,
+            ), action.dest

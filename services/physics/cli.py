@@ -19,7 +19,7 @@ from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
 from bimbot.shared.service_runner import resolve_build, run_service, service_bus
 
-from .profiles import FINE, PROFILES, RUN_PROFILE
+from .profiles import FINE, PROFILES, add_profile_arguments
 from .robots import RobotConfig
 from .sensors import LaserConfig
 from .simulation import SimConfig
@@ -38,25 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--robots", type=int, default=sim.robots, help=f"robots at the depot (default {sim.robots})"
     )
-    fine = PROFILES[FINE.name]
-    parser.add_argument(
-        "--profile",
-        choices=sorted(PROFILES),
-        default=FINE.name,
-        help=f"named simulation settings (default {FINE.name}: {fine.physics_hz:g} Hz, "
-        f"{fine.control_period_s:g} s control period, {fine.laser_beams} beams, real time; bimbot run uses "
-        f"{RUN_PROFILE}); --rtf, --lock-step, --wait-for-robots-s, --physics-hz, --control-period-s and "
-        "--laser-beams override one value of it",
-    )
-    parser.add_argument(
-        "--rtf", type=float, default=None, help="real-time factor: 1 real time, 0 as fast as possible"
-    )
-    parser.add_argument(
-        "--lock-step",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="advance a period only when every alive robot has answered the clock step (reproducible)",
-    )
+    add_profile_arguments(parser, FINE.name)  # bimbot run uses the rehearsal profile
     parser.add_argument(
         "--lock-step-timeout-s",
         type=float,
@@ -72,10 +54,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--steps", type=int, default=run.max_steps, help="stop after this many control periods"
-    )
-    parser.add_argument("--physics-hz", type=float, default=None, help="physics steps per sim second")
-    parser.add_argument(
-        "--control-period-s", type=float, default=None, help="sim seconds per clock step (control period)"
     )
     parser.add_argument(
         "--seed", type=int, default=sim.seed, help=f"odometry noise seed (default {sim.seed})"
@@ -121,7 +99,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"turn rate limit, rad/s (default {robot.max_turn_radps:g})",
     )
     group = parser.add_argument_group("laser")
-    group.add_argument("--laser-beams", type=int, default=None, help="beams per scan")
     fov_deg = math.degrees(laser.fov_rad)
     group.add_argument(
         "--laser-fov-deg", type=float, default=fov_deg, help=f"field of view, degrees (default {fov_deg:g})"

@@ -19,6 +19,7 @@ bound costs nothing when the robots come up fast (compose's containers need long
 
 from __future__ import annotations
 
+import argparse
 from dataclasses import dataclass
 
 
@@ -53,3 +54,34 @@ FINE = SimProfile(
 )
 PROFILES: dict[str, SimProfile] = {profile.name: profile for profile in (REHEARSAL, FINE)}
 RUN_PROFILE = REHEARSAL.name  # bimbot run, bimbot demo, compose
+
+
+def add_profile_arguments(parser: argparse.ArgumentParser, default: str) -> None:
+    """``--profile`` and the options that override one of its values (unset: the profile's), defined once for
+    ``bimbot physics`` and ``bimbot run``/``demo``."""
+    chosen = PROFILES[default]
+    parser.add_argument(
+        "--profile",
+        choices=sorted(PROFILES),
+        default=default,
+        help=f"named simulation settings (default {default}: {chosen.physics_hz:g} Hz physics, "
+        f"{chosen.control_period_s:g} s control period, {chosen.laser_beams} laser beams, "
+        f"{'lock-step' if chosen.lock_step else 'free-running'}, "
+        f"{'as fast as the robots follow' if chosen.rtf == 0 else f'real-time factor {chosen.rtf:g}'}; "
+        f"profiles: {', '.join(sorted(PROFILES))}, see services/physics/profiles.py); "
+        "the next options override one value of it",
+    )
+    parser.add_argument(
+        "--rtf", type=float, default=None, help="real-time factor: 1 real time, 0 as fast as possible"
+    )
+    parser.add_argument(
+        "--lock-step",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="advance a period only when every alive robot has answered the clock step (reproducible)",
+    )
+    parser.add_argument("--physics-hz", type=float, default=None, help="physics steps per sim second")
+    parser.add_argument(
+        "--control-period-s", type=float, default=None, help="sim seconds per clock step (control period)"
+    )
+    parser.add_argument("--laser-beams", type=int, default=None, help="beams per laser scan")
