@@ -97,7 +97,7 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
     log_dir = run.logs_dir
     if log_dir.exists():
         shutil.rmtree(log_dir)  # a --run-dir given again: this run's logs only
-    report_dir = options.report_dir or run.report_dir
+    report_dir = run.report_dir
     announce(f"run folder: {run.root}")
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     started = time.perf_counter()
@@ -139,7 +139,7 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
                 if result.input_error is not None:
                     raise UserError(f"the planner rejected its input:\n{result.input_error}")
                 if observer is not None and options.observer is not None:
-                    outcome.rrd_path = options.observer.rrd_path or run.recording_path(manifest.site)
+                    outcome.rrd_path = run.recording_path(manifest.site)
                     if result.ending.how == "done":
                         if (
                             options.observer.keep_serving

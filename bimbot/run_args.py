@@ -26,7 +26,6 @@ DEFAULT_REPORT_EVERY_S = 30.0  # wall seconds between two reports written while 
 class ObserverOptions:
     """The observer in a run: always an ``.rrd``; the web viewer only when asked (``--live``)."""
 
-    rrd_path: Path | None = None  # default: the run folder's observer/<site>.rrd
     web: bool = False
     web_port: int = VIEWER_WEB_PORT
     grpc_port: int = VIEWER_GRPC_PORT
@@ -48,7 +47,6 @@ class RunOptions:
     timeout_s: float = DEFAULT_TIMEOUT_S
     physics_extra: tuple[str, ...] = ()  # more physics arguments (benches, experiments)
     run_dir: Path | None = None  # default: a new folder under BUILD/runs/ (bimbot.shared.run_folder)
-    report_dir: Path | None = None  # default: the run folder's report/
     stall_after_s: float = DEFAULT_STALL_AFTER_S  # sim seconds without a change on the site (0: never)
     clock_stall_wall_s: float = DEFAULT_CLOCK_STALL_WALL_S  # wall seconds without the clock advancing
     report_every_s: float = DEFAULT_REPORT_EVERY_S  # wall seconds; 0: only at the end

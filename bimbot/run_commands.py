@@ -60,8 +60,6 @@ def service_commands(
 
 def observer_arguments(build: Path, observer: ObserverOptions, run: RunFolder) -> list[str]:
     arguments = ["observe", "--build", str(build), "--run-dir", str(run.root), "--no-report"]
-    if observer.rrd_path is not None:
-        arguments += ["--rrd", str(observer.rrd_path)]
     if observer.web:
         arguments += ["--web-port", str(observer.web_port), "--grpc-port", str(observer.grpc_port)]
     else:

@@ -144,16 +144,6 @@ def read_sequence(path: Path) -> ConstructionSequence:
     return sequence_from_xml(path.read_bytes(), origin=str(path))
 
 
-def planned_guids(build_dir: Path, path: Path | None = None) -> list[str]:
-    """The GUIDs in the planned order (``path``, else the build's ``sequence.xml``), for reports; an empty
-    list with a warning when there is none."""
-    try:
-        return read_sequence(path or Path(build_dir) / SEQUENCE_FILE_NAME).guids()
-    except SequenceError as error:
-        _log.warning("no planned sequence for the report (%s)", error)
-        return []
-
-
 def write_sequence(sequence: ConstructionSequence, path: Path) -> Path:
     Path(path).write_bytes(sequence_to_xml(sequence))
     return Path(path)
