@@ -19,6 +19,7 @@ Key space (``<site>`` is the manifest's site slug, ``<key>`` a component's bus k
     bimbot/<site>/physics/attach              (queryable)         physics answers AttachRequest → PhysicsReply
     bimbot/<site>/physics/place               (queryable)         physics answers PlaceRequest → PhysicsReply
     bimbot/<site>/physics/drop                (queryable)         physics answers DropRequest → PhysicsReply
+    bimbot/<site>/physics/poses               (queryable)         physics answers SitePosesMsg
     bimbot/<site>/planner/plan                (queryable)         planner answers PlannedSequenceMsg
     bimbot/<site>/clock                       ClockMsg            physics → all
     bimbot/<site>/progress                    ProgressMsg         planner → all
@@ -263,6 +264,7 @@ PHYSICS_INFO_KEY = "bimbot/{site}/physics/info"
 PHYSICS_ATTACH_KEY = "bimbot/{site}/physics/attach"
 PHYSICS_PLACE_KEY = "bimbot/{site}/physics/place"
 PHYSICS_DROP_KEY = "bimbot/{site}/physics/drop"
+PHYSICS_POSES_KEY = "bimbot/{site}/physics/poses"
 
 
 class SiteInfoMsg(_Message):
@@ -311,6 +313,18 @@ class DropRequest(_Message):
     guid: str
 
 
+class SitePosesMsg(_Message):
+    """Where everything is now, by physics (the one truth of poses): every component and every robot, at
+    clock ``step`` of ``epoch``. A robot that restarts takes its pose from here, the run's as-built audit
+    compares the components with their BIM targets."""
+
+    step: int
+    epoch: int
+    sim_time_s: float
+    components: dict[str, ComponentPoseMsg]  # GUID → pose
+    robots: dict[str, RobotPoseMsg]  # robot id → ground-truth pose
+
+
 class PhysicsReply(_Message):
     ok: bool
     reason: str = ""
@@ -331,6 +345,7 @@ class ClockMsg(_Message):
     step: int  # control step (one per control period), the unit of lock-step
     real_time_factor: float
     lock_step: bool = False
+    epoch: int = 0  # physics starts of this run - 1: a new epoch is a restart, not a jump in time
 
 
 class ProgressMsg(_Message):
@@ -369,6 +384,7 @@ PHYSICS_INFO = Queryable(PHYSICS_INFO_KEY, None, SiteInfoMsg, "physics")
 PHYSICS_ATTACH = Queryable(PHYSICS_ATTACH_KEY, AttachRequest, PhysicsReply, "physics")
 PHYSICS_PLACE = Queryable(PHYSICS_PLACE_KEY, PlaceRequest, PhysicsReply, "physics")
 PHYSICS_DROP = Queryable(PHYSICS_DROP_KEY, DropRequest, PhysicsReply, "physics")
+PHYSICS_POSES = Queryable(PHYSICS_POSES_KEY, None, SitePosesMsg, "physics")
 PLANNER_PLAN = Queryable(PLANNER_PLAN_KEY, None, PlannedSequenceMsg, "planner")
 CLOCK = Topic(CLOCK_KEY, ClockMsg, "physics", "all")
 PROGRESS = Topic(PROGRESS_KEY, ProgressMsg, "planner", "all")
@@ -391,6 +407,7 @@ KEY_SPACE: tuple[Entry, ...] = (
     PHYSICS_ATTACH,
     PHYSICS_PLACE,
     PHYSICS_DROP,
+    PHYSICS_POSES,
     PLANNER_PLAN,
     CLOCK,
     PROGRESS,
