@@ -44,7 +44,7 @@ def service_commands(
     """(name, bimbot arguments) of every service, in start order."""
     bus = ["--connect", endpoint]
     commands = [
-        ("physics", [*physics_arguments(build, options), *bus]),
+        ("physics", [*physics_arguments(build, options), "--run-dir", str(run.root), *bus]),
         ("agents", ["agents", "--build", str(build), "--run-dir", str(run.root), "--fresh", *bus]),
         ("planner", ["planner", "--build", str(build), "--exit-when-done", *options.planner_source, *bus]),
     ]

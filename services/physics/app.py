@@ -33,6 +33,7 @@ import threading
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass
+from pathlib import Path
 
 import zenoh
 from pydantic import BaseModel
@@ -51,10 +52,12 @@ from bimbot.shared.bus import (
 from bimbot.shared.messages import (
     ALIVE_KEY,
     COMPONENT_STATE,
+    COMPONENT_TWIN,
     PHYSICS_ATTACH,
     PHYSICS_DROP,
     PHYSICS_INFO,
     PHYSICS_PLACE,
+    PHYSICS_POSES,
     ROBOT_CMD_VEL,
     AttachRequest,
     CmdVelMsg,
@@ -63,16 +66,20 @@ from bimbot.shared.messages import (
     DropRequest,
     PhysicsReply,
     PlaceRequest,
+    TwinMsg,
     key,
 )
 from bimbot.shared.service_runner import BuildInput
 
 from .clock import LockStepBarrier, Pacer, RtfMeter
 from .profiles import FINE
+from .restore import restore_site
 from .simulation import Outgoing, SimConfig, Simulation
+from .snapshot import SnapshotRecorder, load_snapshot, snapshot_path
 
 _log = logging.getLogger(__name__)
 
+TWINS_TIMEOUT_S = 10.0  # a restarted physics asks the agents what is constructed, this long at most
 LOOP_WAIT_S = 0.05  # longest blocking wait, so a stop request is seen quickly
 STATUS_EVERY_S = 30.0
 
@@ -85,24 +92,58 @@ class RunConfig:
     gui: bool = False
     # hold the clock at 0 until every robot is alive (at most this long)
     wait_for_robots_s: float = FINE.wait_for_robots_s
+    state_dir: Path | None = None  # where physics keeps its record of the site (None: no record, no restart)
 
 
 def main(
-    options: BusOptions, build: BuildInput, sim_config: SimConfig, run: RunConfig, stop: threading.Event
+    options: BusOptions,
+    build: BuildInput,
+    sim_config: SimConfig,
+    run: RunConfig,
+    stop: threading.Event,
 ) -> int:
-    """Build the scene and serve it on the bus until ``stop`` is set; 0 on a clean stop."""
+    """Build the scene and serve it on the bus until ``stop`` is set; 0 on a clean stop.
+
+    With ``run.state_dir``, physics keeps its record of the site there (:mod:`.snapshot`) and, when it finds
+    one left by an earlier physics of this run, continues from it (:mod:`.restore`)."""
     with (
         Simulation(build.manifest, build.dir, sim_config, gui=run.gui) as sim,
         open_session(options) as session,
     ):
-        _Loop(session, sim, run, stop).serve()
+        recorder = None
+        if run.state_dir is not None:
+            path = snapshot_path(run.state_dir)
+            snapshot = load_snapshot(path)
+            if snapshot is not None:
+                restore_site(sim, snapshot, ask_twins(session, sim.site, TWINS_TIMEOUT_S))
+            recorder = SnapshotRecorder(path, sim.epoch)
+        _Loop(session, sim, run, stop, recorder).serve()
     return 0
+
+
+def ask_twins(session: zenoh.Session, site: str, timeout_s: float) -> list[TwinMsg]:
+    """Every twin the agents answer within ``timeout_s`` (none when no agent runs: the record alone)."""
+    invalid, selector = InvalidPayloads(), COMPONENT_TWIN.key(site=site, key="*")
+    twins = []
+    for reply in session.get(selector, timeout=timeout_s):
+        if reply.ok is not None:
+            twin = decode(TwinMsg, str(reply.ok.key_expr), reply.ok.payload.to_bytes(), invalid)
+            if twin is not None:
+                twins.append(twin)
+    _log.info("%d twin(s) answered", len(twins))
+    return twins
 
 
 class _Loop:
     def __init__(
-        self, session: zenoh.Session, sim: Simulation, run: RunConfig, stop: threading.Event
+        self,
+        session: zenoh.Session,
+        sim: Simulation,
+        run: RunConfig,
+        stop: threading.Event,
+        recorder: SnapshotRecorder | None = None,
     ) -> None:
+        self.recorder = recorder
         self.session = session
         self.sim = sim
         self.run = run
@@ -132,6 +173,7 @@ class _Loop:
             inbox.serve(session, PHYSICS_ATTACH, complete=True, site=site),
             inbox.serve(session, PHYSICS_PLACE, complete=True, site=site),
             inbox.serve(session, PHYSICS_DROP, complete=True, site=site),
+            inbox.serve(session, PHYSICS_POSES, complete=True, site=site),
         ]
         declarations.append(
             session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="physics", id="main"))
@@ -257,6 +299,9 @@ class _Loop:
     def _answer(self, item: IncomingQuery) -> None:
         now, served, query = self.sim.sim_time_s, item.queryable, item.query
         reply_key = served.key(site=self.site)
+        if served is PHYSICS_POSES:
+            self._reply(query, reply_key, self.sim.poses())
+            return
         if served.request is None:
             self._reply(query, reply_key, self.sim.info())
             return
@@ -289,6 +334,11 @@ class _Loop:
             query.drop()
 
     def _publish(self, messages: Iterable[Outgoing]) -> None:
+        """Record, then publish: the record is never behind what the bus heard (:mod:`.snapshot`)."""
+        messages = list(messages)
+        if self.recorder is not None and messages:
+            self.recorder.record(item.message for item in messages)
+            self.recorder.write()
         for item in messages:
             payload = encode(item.message)
             if "/components/" in item.key_expr:  # many keys, each rarely: no publisher per component

@@ -17,12 +17,21 @@ from pathlib import Path
 
 from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
-from bimbot.shared.service_runner import resolve_build, run_service, service_bus
+from bimbot.shared.option_types import (
+    finite_float,
+    non_negative_float,
+    non_negative_int,
+    positive_float,
+    positive_int,
+)
+from bimbot.shared.run_folder import open_run_folder
+from bimbot.shared.service_runner import resolve_build, run_service, service_bus, writable_dir
 
 from .profiles import FINE, PROFILES, add_profile_arguments
 from .robots import RobotConfig
 from .sensors import LaserConfig
 from .simulation import SimConfig
+from .snapshot import snapshot_path
 
 _log = logging.getLogger(__name__)
 
@@ -36,43 +45,46 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--build", type=Path, required=True, metavar="OUT/", help="converted build (folder or manifest.json)"
     )
     parser.add_argument(
-        "--robots", type=int, default=sim.robots, help=f"robots at the depot (default {sim.robots})"
+        "--robots",
+        type=non_negative_int,
+        default=sim.robots,
+        help=f"robots at the depot (default {sim.robots})",
     )
     add_profile_arguments(parser, FINE.name)  # bimbot run uses the rehearsal profile
     parser.add_argument(
         "--lock-step-timeout-s",
-        type=float,
+        type=positive_float,
         default=run.lock_step_timeout_s,
         help=f"wall seconds to wait for a robot (default {run.lock_step_timeout_s:g})",
     )
     parser.add_argument(
         "--wait-for-robots-s",
-        type=float,
+        type=non_negative_float,
         default=None,
         metavar="S",
         help="hold the clock at 0 until every robot is alive, at most S wall seconds (0: no)",
     )
     parser.add_argument(
-        "--steps", type=int, default=run.max_steps, help="stop after this many control periods"
+        "--steps", type=positive_int, default=run.max_steps, help="stop after this many control periods"
     )
     parser.add_argument(
         "--seed", type=int, default=sim.seed, help=f"odometry noise seed (default {sim.seed})"
     )
     parser.add_argument(
         "--odom-noise",
-        type=float,
+        type=non_negative_float,
         default=sim.odom_noise,
         help=f"relative std of each odometry increment (default {sim.odom_noise:g}; 0: exact)",
     )
     parser.add_argument(
         "--reach-m",
-        type=float,
+        type=positive_float,
         default=sim.reach_m,
         help=f"attach/place reach (default {sim.reach_m:g} m, the robot description's)",
     )
     parser.add_argument(
         "--pose-refresh-s",
-        type=float,
+        type=positive_float,
         default=sim.pose_refresh_s,
         help=f"repeat every pose this often, sim s (default {sim.pose_refresh_s:g})",
     )
@@ -88,34 +100,48 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     group.add_argument(
         "--max-speed-mps",
-        type=float,
+        type=positive_float,
         default=robot.max_speed_mps,
         help=f"speed limit, m/s (default {robot.max_speed_mps:g})",
     )
     group.add_argument(
         "--max-turn-radps",
-        type=float,
+        type=positive_float,
         default=robot.max_turn_radps,
         help=f"turn rate limit, rad/s (default {robot.max_turn_radps:g})",
     )
     group = parser.add_argument_group("laser")
     fov_deg = math.degrees(laser.fov_rad)
     group.add_argument(
-        "--laser-fov-deg", type=float, default=fov_deg, help=f"field of view, degrees (default {fov_deg:g})"
+        "--laser-fov-deg",
+        type=positive_float,
+        default=fov_deg,
+        help=f"field of view, degrees (default {fov_deg:g})",
     )
     group.add_argument(
         "--laser-range-m",
-        type=float,
+        type=positive_float,
         default=laser.range_max_m,
         help=f"maximum range (default {laser.range_max_m:g} m)",
     )
     group.add_argument(
         "--laser-height-m",
-        type=float,
+        type=finite_float,
         default=laser.height_m,
         help=f"height above ground (default {laser.height_m:g} m)",
     )
     parser.add_argument("--gui", action="store_true", help="open pybullet's GUI instead of running headless")
+    parser.add_argument(
+        "--run-dir",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="the run's folder: physics keeps its record of the site in DIR/state/physics.json and, "
+        "restarted, continues from it (default OUT/runs/latest, made when missing)",
+    )
+    parser.add_argument(
+        "--fresh", action="store_true", help="ignore a record left by an earlier physics of this run"
+    )
     add_bus_arguments(parser)
 
 
@@ -191,11 +217,16 @@ def run(args: argparse.Namespace) -> int:
     build = resolve_build(args.build)
     if not build.manifest.components:
         raise UserError(f"{args.build}: the build has no components to simulate")
+    state_dir = open_run_folder(build.dir, args.run_dir).state_dir
+    writable_dir(state_dir, "--run-dir")
+    if args.fresh:
+        snapshot_path(state_dir).unlink(missing_ok=True)
     run_config = app.RunConfig(
         rtf=args.rtf,
         lock_step_timeout_s=args.lock_step_timeout_s,
         max_steps=args.steps,
         gui=args.gui,
         wait_for_robots_s=args.wait_for_robots_s,
+        state_dir=state_dir,
     )
     return run_service(app.main, options, build, config, run_config)

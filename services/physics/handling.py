@@ -141,6 +141,27 @@ class Handling:
         else:
             self.constructed.discard(guid)
 
+    def restore(self, guid: str, frame: Frame, *, fixed: bool, carrier: Robot | None) -> None:
+        """Put ``guid`` back as a restarted physics found it in its record: carried by ``carrier`` (at once,
+        no lift), fixed to the structure, or resting at ``frame``."""
+        item = self.items[guid]
+        item.pose, item.tag, item.motion_to = frame, None, None
+        item.separating_from, item.dropped_by = None, None
+        if carrier is not None:
+            item.phase, item.carrier = Phase.CARRIED, carrier.robot_id
+            item.offset = carry_offset(item.component, carrier, self.config.carry_clearance_m)
+            item.motion_from, item.motion_start_s = frame, -math.inf
+            self.carrying[carrier.robot_id] = guid
+            self._moving.add(guid)
+            set_filter(self.client_id, item.body.body_id, carrier.group, STATIC_MASK ^ carrier.group)
+        else:
+            item.phase = Phase.FIXED if fixed else Phase.RESTING
+            item.carrier, item.offset, item.motion_from = None, None, None
+            self._moving.discard(guid)
+            set_component_pose(self.client_id, item.body, frame)
+            set_filter(self.client_id, item.body.body_id, STATIC_GROUP, STATIC_MASK)
+        self.changed.add(guid)
+
     # --- requests ------------------------------------------------------------------------------------
 
     def attach(self, robot: Robot, guid: str, now_s: float) -> PhysicsReply:

@@ -48,6 +48,7 @@ from bimbot.shared.messages import (
     RobotPoseMsg,
     ScanMsg,
     SiteInfoMsg,
+    SitePosesMsg,
     key,
 )
 from bimbot.shared.robot_description import DEFAULT_ROBOT, RobotDescription
@@ -133,6 +134,7 @@ class Simulation:
         self.layout: SiteLayout = plan_site(manifest.components, robots=self.config.robots)
         self._client = BulletClient(p.GUI if gui else None)
         self.step = 0
+        self.epoch = 0  # physics starts of this run - 1 (:mod:`.restore`)
         self.robots: dict[str, Robot] = {}
         self.alive: set[str] = set()
         self._odometry: dict[str, Odometry] = {}
@@ -234,6 +236,25 @@ class Simulation:
 
     def robot_pose(self, robot_id: str) -> tuple[float, float, float]:
         return self.robots[robot_id].pose_xy_yaw(self.client_id)
+
+    def poses(self) -> SitePosesMsg:
+        """Every component and robot now (ground truth), for ``physics/poses``."""
+        now, cid = self.sim_time_s, self.client_id
+        return SitePosesMsg(
+            step=self.step,
+            epoch=self.epoch,
+            sim_time_s=now,
+            components={guid: self.handling.pose_message(guid, now) for guid in self.handling.items},
+            robots={
+                robot_id: RobotPoseMsg(
+                    robot_id=robot_id,
+                    pose_xy_yaw=robot.pose_xy_yaw(cid),
+                    sim_time_s=now,
+                    carrying=self.handling.carrying.get(robot_id),
+                )
+                for robot_id, robot in self.robots.items()
+            },
+        )
 
     def component_frame(self, guid: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
         return self.handling.items[guid].pose
@@ -340,7 +361,11 @@ class Simulation:
             Outgoing(
                 key(CLOCK_KEY, site=self.site),
                 ClockMsg(
-                    sim_time_s=now, step=self.step, real_time_factor=rtf, lock_step=self.config.lock_step
+                    sim_time_s=now,
+                    step=self.step,
+                    real_time_factor=rtf,
+                    lock_step=self.config.lock_step,
+                    epoch=self.epoch,
                 ),
             )
         ]
@@ -403,6 +428,10 @@ class Simulation:
             key(COMPONENT_POSE_KEY, site=self.site, key=component.key or guid_to_key(guid)),
             self.handling.pose_message(guid, self.sim_time_s),
         )
+
+    def set_odometry_pose(self, robot_id: str, xy_yaw: tuple[float, float, float]) -> None:
+        """Continue ``robot_id``'s odometry from ``xy_yaw`` (a restart: the robot sees no jump)."""
+        self._odometry[robot_id].pose_xy_yaw = xy_yaw
 
     # --- test helpers --------------------------------------------------------------------------------
 

@@ -1,0 +1,93 @@
+"""A restarted physics puts the site back as it was: its own record for where things are, the agents' twins
+for what is constructed.
+
+Truth, by owner (``docs/architecture.md``, "Restart is normal"):
+
+* **constructed** — the agents' twins. A component whose twin says constructed is fixed to the structure
+  and can no longer be attached: at the pose physics last published for it, or, when its record has none
+  (physics died between the placement and the record), at the pose its agent last saw (the target pose
+  if it saw none).
+* **where things are** — physics' record (:mod:`.snapshot`): robots where their bodies were (their
+  odometry continues from its last value, so a robot's localisation sees no jump), their loads still on
+  them, components where their last pose message put them.
+* **the clock** — continues after the last published step, never backwards, in a new epoch so every
+  consumer knows a restart from a leap (:mod:`bimbot.shared.clock_guard`).
+
+A component that was being placed when physics died is put back on its carrier: the robot's place request
+got no answer, and the robot asks again.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from bimbot.shared.messages import ComponentState, PoseMsg, TwinMsg
+
+from .scene import Frame
+from .simulation import Simulation
+from .snapshot import PhysicsSnapshot
+
+_log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Restored:
+    epoch: int
+    step: int
+    robots: int
+    moved: int  # components not where the fresh scene put them (carried, placed, dropped)
+    constructed: int  # fixed and locked because their twins say constructed
+    fixed_from_twins: int  # of those: constructed with no fixed pose in the record
+
+
+def _frame(pose: PoseMsg) -> Frame:
+    return tuple(pose.position_m), tuple(pose.quat_xyzw)  # type: ignore[return-value]
+
+
+def restore_site(sim: Simulation, snapshot: PhysicsSnapshot, twins: Iterable[TwinMsg]) -> Restored:
+    """Put ``sim`` (a freshly built scene) into the state of ``snapshot`` and the twins; a new epoch."""
+    handling = sim.handling
+    robots = 0
+    for robot_id, record in snapshot.robots.items():
+        if robot_id not in sim.robots:
+            _log.warning("the record has robot %s, this physics has %s: left out", robot_id, sim.robot_ids)
+            continue
+        sim.teleport_robot(robot_id, record.pose.pose_xy_yaw)
+        if record.odom_xy_yaw is not None:
+            sim.set_odometry_pose(robot_id, record.odom_xy_yaw)
+        robots += 1
+    moved = 0
+    for guid, pose in snapshot.components.items():
+        if guid not in handling.items:
+            continue
+        carrier = sim.robots.get(pose.attached_to or "")
+        handling.restore(guid, _frame(pose.pose), fixed=pose.fixed and carrier is None, carrier=carrier)
+        moved += 1
+    constructed = from_twins = 0
+    for twin in twins:
+        if twin.state != ComponentState.CONSTRUCTED or twin.guid not in handling.items:
+            continue
+        constructed += 1
+        handling.note_constructed(twin.guid, True)
+        record = snapshot.components.get(twin.guid)
+        if record is None or not record.fixed:
+            pose = twin.current_pose or twin.target_pose
+            handling.restore(twin.guid, _frame(pose), fixed=True, carrier=None)
+            from_twins += 1
+    sim.step = snapshot.step + 1  # after the last step anyone can have seen
+    sim.epoch = snapshot.epoch + 1
+    restored = Restored(sim.epoch, sim.step, robots, moved, constructed, from_twins)
+    _log.warning(
+        "physics restarted: epoch %d from step %d (sim %.1f s); %d robot(s) where they were, %d component(s) "
+        "moved, %d constructed by their twins (%d fixed from the twin's pose)",
+        restored.epoch,
+        restored.step,
+        sim.sim_time_s,
+        restored.robots,
+        restored.moved,
+        restored.constructed,
+        restored.fixed_from_twins,
+    )
+    return restored
