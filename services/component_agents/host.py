@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from bimbot.shared.bus import Received
+from bimbot.shared.clock_guard import ClockGuard
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     COMPONENT_STATE_KEY,
@@ -106,6 +107,7 @@ class AgentHost:
         self.n_shards = n_shards
         self.config = config or AgentConfig()
         self.clock = SimClock()
+        self.clock_guard = ClockGuard(f"agents {shard}/{n_shards} clock")
         self.machine = ComponentMachine()
         self._journal = journal
         self.agents: dict[str, ComponentAgent] = {}
@@ -203,7 +205,9 @@ class AgentHost:
         return self._commit(agent, agent.observe_pose(msg, now_wall_s))
 
     def on_clock(self, msg: ClockMsg) -> None:
-        self.clock.observe(msg.sim_time_s)
+        """Sim time from a believable clock only (:mod:`bimbot.shared.clock_guard`)."""
+        if self.clock_guard.check(msg, time.monotonic()).accepted:
+            self.clock.observe(msg.sim_time_s)
 
     def tick(self, now_wall_s: float | None = None) -> list[Outgoing]:
         """Verification timeouts: agents in ``verifying`` whose wait for a fresh pose is over decide."""

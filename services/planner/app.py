@@ -38,6 +38,7 @@ from bimbot.shared.bus import (
     open_session,
     query_first,
 )
+from bimbot.shared.clock_guard import ClockGuard
 from bimbot.shared.identifiers import guid_to_key
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
@@ -178,6 +179,7 @@ class _Feeder:
     def __init__(self, core: PlannerCore) -> None:
         self.core = core
         self.alive_components: set[str] = set()
+        self.clock_guard = ClockGuard("planner clock")
 
     def __call__(self, item: object) -> None:
         core = self.core
@@ -189,7 +191,8 @@ class _Feeder:
             case Received(message=RobotStateMsg() as message):
                 core.observe_robot_state(message)
             case Received(message=ClockMsg() as message):
-                core.observe_clock(message.sim_time_s)
+                if self.clock_guard.check(message, time.monotonic()).accepted:
+                    core.observe_clock(message.sim_time_s)
             case LivelinessChange() if "/alive/robot/" in item.key:
                 core.robot_liveliness(item.id, item.alive)
             case LivelinessChange():

@@ -32,6 +32,7 @@ import numpy as np
 import zenoh
 
 from bimbot.shared.bus import BusOptions, Inbox, Received, decode, encode, open_session, query_first
+from bimbot.shared.clock_guard import ClockGuard, Verdict
 from bimbot.shared.identifiers import guid_to_key
 from bimbot.shared.keyspace import Topic
 from bimbot.shared.messages import (
@@ -40,10 +41,12 @@ from bimbot.shared.messages import (
     COMPONENT_EVENT_KEY,
     COMPONENT_POSE,
     COMPONENT_STATE,
+    COMPONENT_TWIN,
     PHYSICS_ATTACH,
     PHYSICS_DROP,
     PHYSICS_INFO,
     PHYSICS_PLACE,
+    PHYSICS_POSES,
     ROBOT_CMD_VEL_KEY,
     ROBOT_ODOM,
     ROBOT_PLAN_KEY,
@@ -58,6 +61,7 @@ from bimbot.shared.messages import (
     PlanMsg,
     RobotStateMsg,
     ScanMsg,
+    TwinMsg,
     key,
 )
 from bimbot.shared.occupancy_grid import OccupancyGrid
@@ -76,6 +80,8 @@ SUBSCRIPTIONS: tuple[tuple[Topic, dict[str, str]], ...] = (
     (ROBOT_STATE, {"robot_id": "*"}),
     (ROBOT_POSE, {"robot_id": "*"}),
 )
+POSES_TIMEOUT_S = 5.0  # wall seconds to ask physics where this robot is (at start)
+TWINS_TIMEOUT_S = 5.0  # wall seconds to collect the twins' answers (at start)
 _PHYSICS_REQUESTS = {"attach": PHYSICS_ATTACH, "place": PHYSICS_PLACE, "drop": PHYSICS_DROP}
 
 
@@ -110,7 +116,13 @@ def main(
         )
         if info is None:
             return 0 if stop.is_set() else _no_physics(options.info_timeout_s)
-        executor = Executor(manifest, info, executor_config)
+        executor = Executor(
+            manifest,
+            info,
+            executor_config,
+            start_xy_yaw=_where_physics_has_me(session, inbox, site, robot_id),
+        )
+        _learn_the_site(session, inbox, site, executor)
         _warm_up()
         loop = _Loop(session, site, executor, inbox, options)
         token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id=robot_id))
@@ -130,6 +142,35 @@ def main(
                 subscriber.undeclare()
             loop.log_metrics("stopped")
     return 0
+
+
+def _where_physics_has_me(
+    session: zenoh.Session, inbox: Inbox, site: str, robot_id: str
+) -> tuple[float, float, float] | None:
+    """This robot's pose by physics (a robot restarted mid-build starts where its body is, not at the
+    depot); None when physics does not say (the depot start then)."""
+    poses = query_first(session, PHYSICS_POSES, inbox.invalid, timeout_s=POSES_TIMEOUT_S, site=site)
+    robot = poses.robots.get(robot_id) if poses is not None else None
+    return robot.pose_xy_yaw if robot is not None else None
+
+
+def _learn_the_site(session: zenoh.Session, inbox: Inbox, site: str, executor: Executor) -> None:
+    """What a robot joining late must know before it acts: every component's state (its twin's last record)
+    and pose, so it neither plans through a placed column nor waits for a change that happened before it
+    started."""
+    selector = COMPONENT_TWIN.key(site=site, key="*")
+    twins = 0
+    for reply in session.get(selector, timeout=TWINS_TIMEOUT_S):
+        if reply.ok is None:
+            continue
+        twin = decode(TwinMsg, str(reply.ok.key_expr), reply.ok.payload.to_bytes(), inbox.invalid)
+        if twin is not None and twin.history:
+            executor.handle(twin.history[-1])
+            twins += 1
+    poses = query_first(session, PHYSICS_POSES, inbox.invalid, timeout_s=POSES_TIMEOUT_S, site=site)
+    for pose in poses.components.values() if poses is not None else ():
+        executor.handle(pose)
+    _log.info("%s learnt the state of %d component(s) from their twins", executor.robot_id, twins)
 
 
 def _no_physics(timeout_s: float) -> int:
@@ -165,6 +206,7 @@ class _Loop:
         self._clock_wall_s = 0.0
         self._scan_sim_s = -math.inf
         self._answered_step = -1
+        self.clock_guard = ClockGuard(f"robot {robot_id} clock")
         self._metrics_wall_s = time.monotonic()
 
     def run(self, stop: threading.Event) -> None:
@@ -189,7 +231,10 @@ class _Loop:
             case PhysicsResult():
                 self.executor.handle(item)
             case Received(message=ClockMsg() as clock):
-                if self._clock is None or clock.step > self._clock.step:
+                verdict = self.clock_guard.check(clock, time.monotonic())
+                if verdict is Verdict.RESTARTED:  # physics restarted: answer its steps from here
+                    self._answered_step = min(self._answered_step, clock.step - 1)
+                if verdict.accepted:
                     self._clock, self._clock_wall_s = clock, time.monotonic()
             case Received(message=ScanMsg() as scan):
                 self._scan_sim_s = scan.sim_time_s

@@ -102,7 +102,10 @@ class Executor(Driving, Handover):
         map_config: MapConfig = DEFAULT_MAP,
         nav_config: NavigatorConfig | None = None,
         approach_config: ApproachConfig | None = None,
+        start_xy_yaw: tuple[float, float, float] | None = None,
     ) -> None:
+        """``start_xy_yaw``: where the robot is (physics says so when a robot restarts mid-build); its depot
+        start when None."""
         if config.robot_id not in info.robot_ids:
             raise InputError(f"robot {config.robot_id!r} is not on site (physics has {info.robot_ids})")
         self.config, self.robot_id = config, config.robot_id
@@ -114,7 +117,8 @@ class Executor(Driving, Handover):
         nav_config = nav_config or NavigatorConfig()
         nav_config = replace(nav_config, dwa=controller_limits(nav_config.dwa, self.description, info))
         rng = np.random.default_rng(config.seed)
-        self.navigator = Navigator(self.site_map, self.home_xy_yaw, nav_config, rng, robot_id=self.robot_id)
+        start = self.home_xy_yaw if start_xy_yaw is None else start_xy_yaw
+        self.navigator = Navigator(self.site_map, start, nav_config, rng, robot_id=self.robot_id)
         self.approach_config = approach_config or ApproachConfig(
             reach_m=self.description.reach_m,
             body_clearance_m=map_config.inflation_m,
