@@ -16,6 +16,7 @@ import logging
 import os
 import signal
 import sys
+from typing import NoReturn
 
 from bimbot import __version__
 from bimbot.shared.errors import UserError
@@ -66,10 +67,20 @@ def configure_logging(verbosity: int) -> None:
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
 
 
+class OneLineErrorParser(argparse.ArgumentParser):
+    """argparse, with a bad option reported as one line and exit 2: ``bimbot run: error: argument --rtf: -1
+    must be zero or a positive number (see bimbot run --help)``. argparse's own ``error`` prints the whole
+    usage first, a screenful for a service's options that buried the one line that matters; ``--help``
+    still prints it all. Sub-command parsers are of this class too (argparse makes them of the parent's)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_USER_ERROR, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser(argv: list[str]) -> argparse.ArgumentParser:
     """The parser, with full arguments for the sub-command named by the first non-option word of ``argv``."""
     chosen = next((word for word in argv if not word.startswith("-")), None)
-    parser = argparse.ArgumentParser(
+    parser = OneLineErrorParser(
         prog="bimbot", description="bimbot: IFC building model → robot construction simulation"
     )
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")

@@ -17,6 +17,7 @@ from bimbot.run_watchdog import DEFAULT_CLOCK_STALL_WALL_S, DEFAULT_STALL_AFTER_
 from bimbot.services.observer import VIEWER_GRPC_PORT, VIEWER_WEB_PORT
 from bimbot.services.physics.profiles import RUN_PROFILE, add_profile_arguments
 from bimbot.shared.errors import UserError
+from bimbot.shared.option_types import non_negative_float, positive_float, positive_int
 
 DEFAULT_TIMEOUT_S = 900.0
 DEFAULT_REPORT_EVERY_S = 30.0  # wall seconds between two reports written while the run goes on
@@ -55,7 +56,9 @@ class RunOptions:
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     """The options ``bimbot run`` and ``bimbot demo`` share."""
-    parser.add_argument("--robots", type=int, default=RunOptions.robots, help="number of robots (default 1)")
+    parser.add_argument(
+        "--robots", type=positive_int, default=RunOptions.robots, help="number of robots (default 1)"
+    )
     parser.add_argument(
         "--run-dir",
         type=Path,
@@ -67,7 +70,7 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     add_profile_arguments(parser, RUN_PROFILE)
     parser.add_argument(
         "--inject-placement-error-m",
-        type=float,
+        type=non_negative_float,
         default=0.0,
         metavar="M",
         help="robots place each component's first attempt this far off (the agents must catch it)",
@@ -82,27 +85,27 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--timeout-s",
-        type=float,
+        type=positive_float,
         default=DEFAULT_TIMEOUT_S,
         help=f"end the run after this many wall seconds, with its report ({DEFAULT_TIMEOUT_S:g})",
     )
     parser.add_argument(
         "--stall-after-s",
-        type=float,
+        type=non_negative_float,
         default=DEFAULT_STALL_AFTER_S,
         help="end the run when nothing on the site changed for this many sim seconds "
         f"({DEFAULT_STALL_AFTER_S:g}; 0: never)",
     )
     parser.add_argument(
         "--stall-wall-s",
-        type=float,
+        type=non_negative_float,
         default=DEFAULT_CLOCK_STALL_WALL_S,
         help="end the run when the sim clock stood still this many wall seconds "
         f"({DEFAULT_CLOCK_STALL_WALL_S:g})",
     )
     parser.add_argument(
         "--report-every-s",
-        type=float,
+        type=non_negative_float,
         default=DEFAULT_REPORT_EVERY_S,
         help="also write the report this often (wall seconds) while it runs "
         f"({DEFAULT_REPORT_EVERY_S:g}; 0: never)",

@@ -22,6 +22,8 @@ from __future__ import annotations
 import argparse
 from dataclasses import dataclass
 
+from bimbot.shared.option_types import non_negative_float, positive_float, positive_int
+
 
 @dataclass(frozen=True)
 class SimProfile:
@@ -72,7 +74,10 @@ def add_profile_arguments(parser: argparse.ArgumentParser, default: str) -> None
         "the next options override one value of it",
     )
     parser.add_argument(
-        "--rtf", type=float, default=None, help="real-time factor: 1 real time, 0 as fast as possible"
+        "--rtf",
+        type=non_negative_float,
+        default=None,
+        help="real-time factor: 1 real time, 0 as fast as possible",
     )
     parser.add_argument(
         "--lock-step",
@@ -80,8 +85,13 @@ def add_profile_arguments(parser: argparse.ArgumentParser, default: str) -> None
         default=None,
         help="advance a period only when every alive robot has answered the clock step (reproducible)",
     )
-    parser.add_argument("--physics-hz", type=float, default=None, help="physics steps per sim second")
     parser.add_argument(
-        "--control-period-s", type=float, default=None, help="sim seconds per clock step (control period)"
+        "--physics-hz", type=positive_float, default=None, help="physics steps per sim second"
     )
-    parser.add_argument("--laser-beams", type=int, default=None, help="beams per laser scan")
+    parser.add_argument(
+        "--control-period-s",
+        type=positive_float,
+        default=None,
+        help="sim seconds per clock step (control period)",
+    )
+    parser.add_argument("--laser-beams", type=positive_int, default=None, help="beams per laser scan")
