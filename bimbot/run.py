@@ -44,6 +44,7 @@ from bimbot.run_loop import LoopLimits, LoopResult, RunWatch, StopSignals
 from bimbot.run_monitor import RunMonitor
 from bimbot.run_preflight import check_run_input
 from bimbot.run_progress import NoProgress, ProgressView, make_progress
+from bimbot.run_restarts import Restart, Restarter, RestartPolicy
 from bimbot.run_table import not_built_table
 from bimbot.run_watchdog import StallWatchdog
 from bimbot.services.observer.report import RunEnding
@@ -102,6 +103,7 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     started = time.perf_counter()
     services: list[ServiceProcess] = []
+    restarter = Restarter(RestartPolicy(max_restarts=options.max_restarts))
     with StopSignals().installed() as stop:
         router = ServiceProcess("bus", ["bus", "--listen", endpoint], log_dir)
         announce(f"bus: {endpoint} (watch it: bimbot watch --build {build} --connect {endpoint})")
@@ -110,8 +112,13 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
         try:
             with open_session(BusOptions(connect=(endpoint,))) as session:
                 monitor = RunMonitor(manifest, session)
+
+                def report_of(ending: RunEnding) -> dict[str, Any]:
+                    return {**monitor.report(ending), "restarts": restarter.report()}
+
                 for name, args in service_commands(build, endpoint, options, run):
-                    services.append(ServiceProcess(name, args, log_dir))
+                    again = [arg for arg in args if arg != "--fresh"]  # a restart resumes its journal
+                    services.append(ServiceProcess(name, args, log_dir, restart_args=again))
                 by_name = {service.name: service for service in services}
                 observer = by_name.get("observer")
                 viewer_url = _announce_viewer(observer, options.observer, announce, stop)
@@ -125,7 +132,8 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
                     watchdog=StallWatchdog(options.stall_after_s, options.clock_stall_wall_s),
                     progress=progress,
                     stop=stop,
-                    write_report=lambda ending: write_report_files(monitor.report(ending), report_dir),
+                    write_report=lambda ending: write_report_files(report_of(ending), report_dir),
+                    restarter=restarter,
                 ).run()
                 ended_how = f"{result.ending.how}: {result.ending.message}"
                 progress.close()
@@ -134,7 +142,7 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
                 outcome.report_dir, outcome.viewer_url, outcome.run_dir = report_dir, viewer_url, run.root
                 plan = monitor.plan.answer
                 outcome.plan_warnings = list(plan.warnings) if plan is not None else []
-                outcome.report = monitor.report(result.ending)
+                outcome.report = report_of(result.ending)
                 write_report_files(outcome.report, report_dir)
                 if result.input_error is not None:
                     raise UserError(f"the planner rejected its input:\n{result.input_error}")
@@ -266,6 +274,10 @@ def summary_text(outcome: RunOutcome) -> str:
             f"robot {robot_id}: {len(robot['tasks'])} task(s), {robot['distance_m']:.0f} m driven, "
             f"busy {robot['busy_s']:.0f} s"
         )
+    restarts = outcome.report.get("restarts", [])
+    if restarts:
+        lines.append(f"services that died during the run ({len(restarts)}):")
+        lines += [f"  {Restart(**record).line()}" for record in restarts]
     if outcome.plan_warnings:
         lines.append(f"the planner warned about its plan ({len(outcome.plan_warnings)}):")
         lines += [f"  {warning}" for warning in outcome.plan_warnings[:MAX_PLAN_WARNINGS_SHOWN]]

@@ -30,6 +30,7 @@ from types import FrameType
 from bimbot.cli import BUG_MARK
 from bimbot.run_monitor import RunMonitor
 from bimbot.run_progress import ProgressView
+from bimbot.run_restarts import Restarter
 from bimbot.run_watchdog import StallWatchdog, stall_details
 from bimbot.services.observer.report import RunEnding
 from bimbot.shared.reasons import ReasonCode
@@ -94,6 +95,7 @@ class RunWatch:
     progress: ProgressView
     stop: StopSignals
     write_report: Callable[[RunEnding], None]
+    restarter: Restarter | None = None  # None: a dead service ends the run
 
     def run(self) -> LoopResult:
         monitor = self.monitor
@@ -130,7 +132,11 @@ class RunWatch:
                 ending = RunEnding("service_stopped", ReasonCode.INTERRUPTED, message)
                 return LoopResult(ending, planner_code=code, input_error=_tail(planner))
             if code not in PLANNER_VERDICTS or _crashed(planner):  # a bug, not a verdict: show its log
-                message = f"the planner stopped unexpectedly (exit {code}) {at}"
+                if self._restarting(planner, code, wall_s):
+                    return None
+                message = (
+                    f"the planner stopped unexpectedly (exit {code}){self._after_restarts(planner)} {at}"
+                )
                 return LoopResult(
                     RunEnding("service_stopped", ReasonCode.INTERRUPTED, message, _tail_details(planner)),
                     planner_code=code,
@@ -139,7 +145,12 @@ class RunWatch:
             return LoopResult(ending, planner_code=code)
         for service in self.everyone:
             if service is not planner and service.name != "observer" and not service.alive():
-                message = f"{service.name} stopped unexpectedly (exit {service.wait(0)}) {at}"
+                code = service.wait(0)
+                if self._restarting(service, code, wall_s):
+                    continue
+                message = (
+                    f"{service.name} stopped unexpectedly (exit {code}){self._after_restarts(service)} {at}"
+                )
                 return LoopResult(
                     RunEnding("service_stopped", ReasonCode.INTERRUPTED, message, _tail_details(service))
                 )
@@ -151,6 +162,16 @@ class RunWatch:
             message = f"the run reached its --timeout-s limit of {self.limits.timeout_s:g} s wall {at}"
             return LoopResult(RunEnding("timeout", ReasonCode.INTERRUPTED, message, self._details()))
         return None
+
+    def _restarting(self, service: ServiceProcess, code: int | None, wall_s: float) -> bool:
+        """Whether the dead ``service`` is (or will be) started again (:mod:`bimbot.run_restarts`)."""
+        if self.restarter is None:
+            return False
+        return self.restarter.keep_going(service, code, wall_s, self.monitor.sim_time_s)
+
+    def _after_restarts(self, service: ServiceProcess) -> str:
+        count = self.restarter.restarts(service.name) if self.restarter is not None else 0
+        return f" after {count} restart(s)" if count else ""
 
     def _details(self) -> tuple[str, ...]:
         monitor = self.monitor

@@ -40,22 +40,50 @@ class ServiceProcess:
     """One ``bimbot <command>`` child process logging to ``<log_dir>/<name>.log``."""
 
     def __init__(
-        self, name: str, args: Sequence[str], log_dir: Path, env: dict[str, str] | None = None
+        self,
+        name: str,
+        args: Sequence[str],
+        log_dir: Path,
+        env: dict[str, str] | None = None,
+        restart_args: Sequence[str] | None = None,
     ) -> None:
+        """``restart_args``: the command line of a restart (default ``args``; the agents drop
+        ``--fresh`` so they resume from their journal)."""
         self.name = name
+        self.args = list(args)
+        self.restart_args = list(args if restart_args is None else restart_args)
+        self._env = env
         log_dir.mkdir(parents=True, exist_ok=True)
         self.log_path = log_dir / f"{name}.log"
         self._log = self.log_path.open("ab")
-        self.process = subprocess.Popen(
+        self.process = self._start(self.args)
+
+    def _start(self, args: Sequence[str]) -> subprocess.Popen[bytes]:
+        process = subprocess.Popen(
             [sys.executable, "-P", "-m", "bimbot.cli", *args],
             stdout=self._log,
             stderr=subprocess.STDOUT,
             # the child stops when this process dies, even by SIGKILL (bimbot.cli.stop_with_parent)
-            env={**os.environ, **(env or {}), STOP_WITH_PARENT_ENV: str(os.getpid())},
+            env={**os.environ, **(self._env or {}), STOP_WITH_PARENT_ENV: str(os.getpid())},
             start_new_session=True,  # its own process group: stop() reaches its children too
         )
-        self.pgid = self.process.pid  # the group it leads
-        _log.debug("started %s (pid %d): bimbot %s", name, self.process.pid, " ".join(args))
+        self.pgid = process.pid  # the group it leads
+        _log.debug("started %s (pid %d): bimbot %s", self.name, process.pid, " ".join(args))
+        return process
+
+    def restart(self) -> None:
+        """Start the service again (it exited): what is left of its group is killed first, and its log
+        goes on in the same file after a line that says so."""
+        if self.process.poll() is None:
+            raise RuntimeError(f"{self.name} is still running")
+        self._signal_group(signal.SIGKILL)
+        if self._log.closed:
+            self._log = self.log_path.open("ab")
+        self._log.write(
+            f"--- bimbot run: {self.name} exited ({self.process.returncode}); restarted ---\n".encode()
+        )
+        self._log.flush()
+        self.process = self._start(self.restart_args)
 
     def log(self) -> str:
         if not self._log.closed:
