@@ -6,6 +6,8 @@ like a failed build ("0/28 constructed", exit 1) after the other services had st
 check, with the services' own code:
 
 * the build: a readable manifest (folder or ``manifest.json``) with components;
+* the run folder: ``--run-dir``, or ``BUILD/runs/`` when none is given, can be written (a read-only build
+  needs ``--run-dir`` elsewhere: the one line says so);
 * each service's command line exactly as :func:`bimbot.run_commands.service_commands` builds it, parsed by
   that service's parser and checked by its option checks (physics' config, the robots' execution config, the
   planner's options, the observer's ports, the agents' tolerances);
@@ -13,7 +15,8 @@ check, with the services' own code:
   (unknown GUIDs, cycles and unreadable XML are the planner's :class:`~bimbot.services.planner.sources.
   PlanError`), or the build's own ``sequence.xml``, or the support graph for ``--derive``.
 
-Nothing here starts a process, opens the bus or writes a file.
+Nothing here starts a process, opens the bus or leaves a file behind (the run folder's check makes and
+removes an empty folder: :mod:`bimbot.shared.output_paths`).
 """
 
 from __future__ import annotations
@@ -28,7 +31,8 @@ from typing import TYPE_CHECKING
 
 from bimbot.run_commands import service_commands
 from bimbot.shared.errors import UserError
-from bimbot.shared.run_folder import RunFolder
+from bimbot.shared.output_paths import check_writable_dir
+from bimbot.shared.run_folder import RUN_DIR_HINT, RunFolder, runs_dir
 from bimbot.shared.service_runner import BuildInput, resolve_build
 
 if TYPE_CHECKING:
@@ -44,6 +48,7 @@ def check_run_input(build: Path, options: RunOptions) -> BuildInput:
     checked = resolve_build(build)
     if not checked.manifest.components:
         raise UserError(f"{build}: the build has no components to construct")
+    check_run_folder(checked.dir, options.run_dir)
     commands = service_commands(build, PLACEHOLDER_ENDPOINT, options, PLACEHOLDER_RUN)
     # the planner's sequence first: the input a user gets wrong most
     for name, arguments in sorted(commands, key=lambda command: command[1][0] != "planner"):
@@ -53,6 +58,14 @@ def check_run_input(build: Path, options: RunOptions) -> BuildInput:
         if check is not None:
             check(args, checked)
     return checked
+
+
+def check_run_folder(build_dir: Path, run_dir: Path | None) -> None:
+    """The run's output folder can be made: ``--run-dir``, else ``BUILD/runs/`` (a UserError: one line)."""
+    if run_dir is not None:
+        check_writable_dir(run_dir, "--run-dir")
+    else:
+        check_writable_dir(runs_dir(build_dir), "run folder", RUN_DIR_HINT)
 
 
 def parse_service_arguments(name: str, arguments: list[str]) -> argparse.Namespace:

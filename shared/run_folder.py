@@ -17,6 +17,9 @@ service started by hand without ``--run-dir`` (or in ``docker compose``) joins `
 that run has not ended, and otherwise makes a new run folder: a finished run is never resumed or
 overwritten by accident. :func:`open_run_folder` decides under a lock, so services starting together agree
 on one folder.
+
+A build that cannot hold a run folder (read-only, ``runs`` not a folder) is a
+:class:`~bimbot.shared.errors.UserError` that says to give the run a folder elsewhere (``--run-dir``).
 """
 
 from __future__ import annotations
@@ -30,12 +33,15 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+from bimbot.shared.errors import UserError
+
 _log = logging.getLogger(__name__)
 
 RUNS_DIR_NAME = "runs"
 LATEST_NAME = "latest"
 ENDED_NAME = "ENDED"  # in a run folder: the run is over (its first line says how)
 _LOCK_NAME = ".lock"
+RUN_DIR_HINT = "a build is input: give the run a folder of its own elsewhere with --run-dir DIR"
 
 
 @dataclass(frozen=True)
@@ -80,8 +86,12 @@ def runs_dir(build_dir: Path) -> Path:
 @contextlib.contextmanager
 def _runs_locked(build_dir: Path) -> Iterator[Path]:
     folder = runs_dir(build_dir)
-    folder.mkdir(parents=True, exist_ok=True)
-    with open(folder / _LOCK_NAME, "a") as lock:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        lock = open(folder / _LOCK_NAME, "a")  # noqa: SIM115 (the with below closes it)
+    except OSError as error:
+        raise _cannot_make(folder, error) from None
+    with lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         try:
             yield folder
@@ -117,7 +127,18 @@ def latest_run_folder(build_dir: Path) -> RunFolder | None:
     return RunFolder(latest.resolve()) if latest.is_dir() else None
 
 
+def _cannot_make(folder: Path, error: OSError) -> UserError:
+    return UserError(f"cannot make a run folder in {folder} ({error.strerror or error}); {RUN_DIR_HINT}")
+
+
 def _make_new(folder: Path, now_s: float) -> RunFolder:
+    try:
+        return _make_new_folder(folder, now_s)
+    except OSError as error:
+        raise _cannot_make(folder, error) from None
+
+
+def _make_new_folder(folder: Path, now_s: float) -> RunFolder:
     stamp = time.strftime("%Y%m%d-%H%M%S", time.localtime(now_s))
     root, number = folder / stamp, 1
     while root.exists():  # two runs within one second

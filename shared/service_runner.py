@@ -30,6 +30,7 @@ from pathlib import Path
 from bimbot.shared.bus import BusOptions, bus_options
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import Manifest, load_manifest
+from bimbot.shared.output_paths import check_writable_dir
 
 STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
 
@@ -87,7 +88,9 @@ def run_service(main: Callable[..., int | None], /, *args: object, **kwargs: obj
 
 def writable_dir(path: Path, what: str) -> Path:
     """``path`` created when missing and writable (journals, recordings, reports), checked before a service
-    starts; a UserError naming ``what`` (the option) otherwise."""
+    starts; a UserError naming ``what`` (the option) otherwise (:func:`~bimbot.shared.output_paths.
+    check_writable_dir` first, so a parent that is a file or a read-only mount is named as such)."""
+    check_writable_dir(path, what)
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as error:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 import time
 from collections import Counter
@@ -20,6 +21,7 @@ from typing import TYPE_CHECKING, Never
 
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import SkippedElement
+from bimbot.shared.output_paths import check_writable_dir
 
 if TYPE_CHECKING:
     from tqdm import tqdm  # imported at run time only once a bar is shown (in update)
@@ -54,6 +56,9 @@ def run(args: argparse.Namespace) -> int:
     from .selection import check_classes, parse_class_list
 
     started = time.perf_counter()
+    if args.threads is not None and args.threads < 1:
+        raise UserError("--threads must be at least 1")
+    check_writable_dir(args.output, "--output")  # before the model is read: that may take minutes
     model = open_model(args.model)
     try:
         include = check_classes(model, parse_class_list(args.include))
@@ -61,8 +66,6 @@ def run(args: argparse.Namespace) -> int:
         only = check_classes(model, parse_class_list(args.only))
     except ValueError as error:
         raise UserError(str(error)) from None
-    if args.threads is not None and args.threads < 1:
-        raise UserError("--threads must be at least 1")
     options = ConvertOptions(include=include, exclude=exclude, only=only, threads=args.threads)
     stats = ConversionStats()
     with _ProgressBar(enabled=not args.no_progress and sys.stderr.isatty()) as bar:
@@ -70,8 +73,12 @@ def run(args: argparse.Namespace) -> int:
             manifest = convert_model(
                 model, args.model, args.output, options, progress=bar.update, stats=stats
             )
-        except PermissionError as error:
-            raise UserError(f"{args.output}: cannot write ({error.strerror})") from None
+        except OSError as error:
+            if not _under(error.filename, args.output):
+                raise  # not the output: a bug, with its traceback
+            raise UserError(
+                f"--output {args.output}: cannot write {error.filename} ({error.strerror})"
+            ) from None
     seconds = time.perf_counter() - started
     _log.debug("stage seconds: %s", {k: round(v, 3) for k, v in stats.seconds_by_stage.items()})
     for item in manifest.skipped:
@@ -90,6 +97,14 @@ def run(args: argparse.Namespace) -> int:
         )
         return 1
     return 0
+
+
+def _under(filename: object, folder: Path) -> bool:
+    """Whether an OSError's ``filename`` lies in the output ``folder`` (what the user chose)."""
+    if not isinstance(filename, str | bytes | Path):
+        return False
+    path = Path(os.fsdecode(filename)).absolute()
+    return path.is_relative_to(Path(folder).absolute())
 
 
 def skipped_summary(skipped: Sequence[SkippedElement], most: int = 4) -> str:

@@ -15,6 +15,7 @@ from collections import Counter
 from pathlib import Path
 
 from bimbot.shared.errors import UserError
+from bimbot.shared.output_paths import check_writable_file
 
 _log = logging.getLogger(__name__)
 
@@ -34,13 +35,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _check_output(path: Path) -> None:
-    if path.is_dir():
-        raise UserError(f"output {path} is a directory; give a file name such as {path / 'frame.ifc'}")
-    if not path.parent.exists():
-        raise UserError(f"output folder {path.parent} does not exist")
-
-
 def run(args: argparse.Namespace) -> int:
     """Build the chosen sample model and write it to ``args.output``; 0 on success."""
     # Imported here so that a bad option fails fast, before ifcopenshell loads.
@@ -50,14 +44,15 @@ def run(args: argparse.Namespace) -> int:
         columns_x, columns_y = sample.parse_bays(args.bays)
     except ValueError as error:
         raise UserError(str(error)) from None
-    output: Path = args.output
-    _check_output(output)
+    output: Path = check_writable_file(args.output, "--output")
     started_s = time.perf_counter()
     model = sample.build_light_steel_frame(columns_x, columns_y)
     try:
         model.write(str(output))
     except OSError as error:
-        raise UserError(f"cannot write {output}: {error.strerror or error}") from None
+        raise UserError(f"--output {output}: cannot write ({error.strerror or error})") from None
+    except RuntimeError as error:  # ifcopenshell's own "Failed to write to path"
+        raise UserError(f"--output {output}: cannot write ({error})") from None
     counts = Counter(element.is_a() for element in model.by_type("IfcElement"))
     _log.info(
         "wrote %s: %s %dx%d, %d footings, %d columns, %d beams, %d tasks (%.1f s)",
