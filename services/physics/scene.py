@@ -7,7 +7,8 @@ ignores ``<inertia>`` and ``<static>``, and caches parsed files by name (every c
 ``model.sdf``). The manifest owns what the ``model.sdf`` files also say, so each component becomes one
 multibody from its manifest entry (:func:`component_model`):
 
-* a compound collision shape of the convex ``collision_<i>.obj`` parts, in the component frame;
+* a compound collision shape of the convex ``collision_<i>.obj`` parts, in the component frame (read
+  through ASCII links when the build's path is not ASCII: :mod:`.mesh_paths`);
 * ``baseInertialFramePosition`` = the CoM and ``baseInertialFrameOrientation`` = the principal axes of the
   full inertia tensor, then ``changeDynamics(mass=…, localInertiaDiagonal=eigenvalues)``, so the full
   tensor (products of inertia included) is honoured;
@@ -45,6 +46,7 @@ from bimbot.shared.manifest import Component
 from bimbot.shared.site_plan import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect
 
 from .client import p
+from .mesh_paths import pybullet_path
 
 _log = logging.getLogger(__name__)
 
@@ -231,13 +233,15 @@ def create_component_body(
     client_id: int, component: Component, model: ComponentModel, frame: Frame, *, visual: bool = False
 ) -> ComponentBody:
     """One multibody for ``component`` at ``frame`` (component frame in the world), static (at rest)."""
-    files = [str(path) for path in model.collision_files if path.is_file()]
-    if len(files) != len(model.collision_files):
-        missing = [str(path) for path in model.collision_files if not path.is_file()]
+    missing = [str(path) for path in model.collision_files if not path.is_file()]
+    if missing:
         raise InputError(f"{component.guid}: collision meshes missing: {', '.join(missing)}")
+    files = [str(path) for path in model.collision_files]
     if files:
-        shape = p.createCollisionShapeArray(
-            shapeTypes=[p.GEOM_MESH] * len(files), fileNames=files, physicsClientId=client_id
+        shape = p.createCollisionShapeArray(  # a non-ASCII path crashes it: mesh_paths gives ASCII ones
+            shapeTypes=[p.GEOM_MESH] * len(files),
+            fileNames=[pybullet_path(path) for path in model.collision_files],
+            physicsClientId=client_id,
         )
     else:  # a component without collision parts still takes its bounding box's room
         low, high = np.array(component.bbox_local.min_m), np.array(component.bbox_local.max_m)
