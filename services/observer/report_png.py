@@ -6,9 +6,11 @@ order (first at the top), a thin bar from its release to its pick-up and a full 
 constructed, in the same colours; misplacements are marked with a red cross when detected, failures
 with a black one. Every component that is not constructed is marked: a red hatched span from where it
 stopped (failed, picked, released, or the start) to the end of the run, its reason code at the right
-edge of its row, its label in red, and a legend entry counting the codes. Both share the sim-time
-axis, so the chart shows at a glance where the run waited, which robot did what, whether the building
-went up in the planned order, and what was not built and why.
+edge of its row, its label in red, and a legend entry counting the codes. The title gives the as-built
+audit made at the end of the run (:mod:`bimbot.as_built`: the largest final error of the constructed
+components, how many physics has away from their BIM target); each of those has its final error at the
+right edge of its row. Both share the sim-time axis, so the chart shows at a glance where the run waited,
+which robot did what, whether the building went up in the planned order, and what was not built and why.
 
 Rendered on a bare ``matplotlib.figure.Figure`` (Agg canvas: no pyplot state, no display), at a fixed
 size (``FIGURE_SIZE_IN`` × ``DPI``).
@@ -90,6 +92,7 @@ def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> No
 
 
 def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> None:
+    wrong = set((report.get("as_built") or {}).get("wrong", []))
     rows = sorted(
         report["components"],
         key=lambda c: (c["sequence_index"] is None, c["sequence_index"] or 0, c["guid"]),
@@ -108,6 +111,8 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> 
             ax.plot([component["failed_s"]], [row], marker="x", color="black", markersize=8)
         if component.get("reason"):
             _mark_not_built(ax, row, component, end_s=float(report.get("sim_time_s") or 0.0))
+        elif component["guid"] in wrong:
+            _mark_at_right(ax, row, f"as-built {component['final_position_error_mm'] or 0.0:.1f} mm")
     if len(rows) <= MAX_ROW_LABELS:
         ax.set_yticks(
             range(len(rows)), [f"{(c['sequence_index'] or 0) + 1}. {_short(c)}" for c in rows], fontsize=6
@@ -136,11 +141,16 @@ def _mark_not_built(ax: Axes, row: int, component: dict[str, Any], end_s: float)
         hatch=NOT_BUILT_HATCH,
         linewidth=0.5,
     )
+    _mark_at_right(ax, row, component["reason"]["code"])
+
+
+def _mark_at_right(ax: Axes, row: int, text: str) -> None:
+    """``text`` in red at the right edge of a sequence row (a reason code, an as-built error)."""
     right_edge = transforms.blended_transform_factory(ax.transAxes, ax.transData)
     ax.text(
         0.995,
         row,
-        component["reason"]["code"],
+        text,
         transform=right_edge,
         ha="right",
         va="center",
@@ -160,6 +170,21 @@ def _not_built_legend(report: dict[str, Any]) -> list[Patch]:
     return [Patch(facecolor="none", edgecolor=NOT_BUILT_COLOR, hatch=NOT_BUILT_HATCH, label=label)]
 
 
+def _as_built_title(report: dict[str, Any]) -> str:
+    """The as-built audit for the title: the largest final error of the constructed components, and how
+    many are away from their target (nothing before the audit)."""
+    audit, totals = report.get("as_built") or {}, report["totals"]
+    if not audit.get("answered"):
+        return ""
+    position_mm, angle_deg = (
+        totals.get("max_final_position_error_mm"),
+        totals.get("max_final_angle_error_deg"),
+    )
+    largest = f" max {position_mm:.2f} mm / {angle_deg:.2f}°," if position_mm is not None else ""
+    errors = len(audit.get("errors", []))
+    return f" — as-built:{largest} {errors} error{'' if errors == 1 else 's'}"
+
+
 def render_report_png(report: dict[str, Any], path: Path) -> Path:
     """Draw ``report`` (from :meth:`.report.ReportCollector.report`) into ``path``."""
     colors = class_colors([c["ifc_class"] for c in report["components"]])
@@ -176,6 +201,7 @@ def render_report_png(report: dict[str, Any], path: Path) -> Path:
         f"{totals['constructed']}/{totals['components']} constructed, retries: {totals['retries']}"
         + (f", makespan {makespan:.1f} s" if makespan is not None else "")
         + (f" — run {how}" if how and how != "done" else "")
+        + _as_built_title(report)
     )
     handles = [Patch(color=color, label=name) for name, color in colors.items()]
     handles += _not_built_legend(report)

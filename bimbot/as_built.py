@@ -1,0 +1,173 @@
+"""The as-built audit at the end of a run: where physics has each component against its BIM target.
+
+A component's agent verifies its placement once, when it is placed. Afterwards it may still be pushed,
+knocked over or dragged by a robot, and nothing would say so. At the end of a run (however it ends, as
+long as physics still answers ``physics/poses``) the run compares every component's pose in physics with
+its BIM target pose, with the agents' own measure (:func:`bimbot.services.component_agents.verification.
+verify`: Euclidean position error, geodesic angle error) and the agents' own tolerances
+(:class:`~bimbot.services.component_agents.agent.AgentConfig`, 10 mm and 1° by default):
+
+* a component whose twin says ``constructed`` but that physics has beyond the tolerances, or has no pose
+  of, is an audit error, named with its numbers;
+* a component that is not constructed is never an error, wherever it is (at its target or in the yard);
+* every component physics has a pose of gets its final errors (``final_position_error_mm``,
+  ``final_angle_error_deg``), the constructed ones the largest of them in the totals.
+
+Pure: a manifest, physics' answer and the set of constructed GUIDs in; an :class:`AsBuiltAudit` out.
+:func:`add_to_report` writes it into ``report.json`` and :func:`as_built_line` reads it back from there
+for the summary ``bimbot run`` prints, so the terminal and the file say the same.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection
+from dataclasses import dataclass
+from typing import Any
+
+from bimbot.services.component_agents.agent import AgentConfig
+from bimbot.services.component_agents.verification import (
+    PlacementCheck,
+    Tolerances,
+    is_valid_pose,
+    verify,
+)
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import SitePosesMsg
+
+AGENT_TOLERANCES = AgentConfig().tolerances  # what the agents of a run accept (they run with the defaults)
+MAX_ERRORS_SHOWN = 5  # in the summary line; report.json has every one
+
+
+@dataclass(frozen=True)
+class AsBuiltAudit:
+    """The audit's result. ``answered`` False: physics did not answer, nothing could be compared."""
+
+    answered: bool
+    tolerances: Tolerances
+    constructed: int  # components whose twins say constructed
+    checked: int  # of those, the ones physics has a pose of
+    final: dict[str, PlacementCheck]  # GUID → errors against the BIM target, every component physics has
+    errors: tuple[str, ...] = ()  # one sentence per constructed component away from its target
+    wrong: tuple[str, ...] = ()  # their GUIDs, in manifest order
+    sim_time_s: float | None = None  # physics' answer: when
+    step: int | None = None
+    epoch: int | None = None
+    wall_time_s: float | None = None  # Unix time the audit asked (the twins and physics)
+
+    def max_errors(self, guids: Collection[str]) -> tuple[float | None, float | None]:
+        """The largest position (m) and angle (rad) errors among ``guids`` (None: none measured)."""
+        checks = [self.final[guid] for guid in guids if guid in self.final]
+        if not checks:
+            return None, None
+        return max(c.position_error_m for c in checks), max(c.angle_error_rad for c in checks)
+
+
+def audit_as_built(
+    manifest: Manifest,
+    poses: SitePosesMsg | None,
+    constructed: Collection[str],
+    tolerances: Tolerances = AGENT_TOLERANCES,
+    wall_time_s: float | None = None,
+) -> AsBuiltAudit:
+    """Compare physics' ``poses`` (None: physics did not answer) with every component's BIM target;
+    ``constructed`` are the GUIDs the agents' twins say are constructed."""
+    built = set(constructed)
+    if poses is None:
+        return AsBuiltAudit(False, tolerances, len(built), 0, {}, wall_time_s=wall_time_s)
+    final: dict[str, PlacementCheck] = {}
+    errors: list[str] = []
+    wrong: list[str] = []
+    for component in manifest.components:
+        label = f"{component.name or component.ifc_class} ({component.guid})"
+        pose = poses.components.get(component.guid)
+        if pose is not None and is_valid_pose(pose.pose.position_m, pose.pose.quat_xyzw):
+            check = verify(pose.pose, component.target_pose_world, tolerances)
+            final[component.guid] = check
+            if component.guid in built and not check.ok:
+                errors.append(
+                    f"{label} is constructed but physics has it {check.position_error_m * 1000:.1f} mm and "
+                    f"{math.degrees(check.angle_error_rad):.2f}° from its BIM target (tolerance "
+                    f"{tolerances.position_m * 1000:g} mm, {math.degrees(tolerances.angle_rad):g}°)"
+                )
+                wrong.append(component.guid)
+        elif component.guid in built:
+            what = "no pose" if pose is None else "an invalid pose"
+            errors.append(f"{label} is constructed but physics has {what} of it")
+            wrong.append(component.guid)
+    return AsBuiltAudit(
+        answered=True,
+        tolerances=tolerances,
+        constructed=len(built),
+        checked=sum(1 for guid in built if guid in final),
+        final=final,
+        errors=tuple(errors),
+        wrong=tuple(wrong),
+        sim_time_s=poses.sim_time_s,
+        step=poses.step,
+        epoch=poses.epoch,
+        wall_time_s=wall_time_s,
+    )
+
+
+def add_to_report(report: dict[str, Any], audit: AsBuiltAudit | None, constructed: Collection[str]) -> None:
+    """Write the audit into ``report`` (from :meth:`ReportCollector.report`): per component
+    ``final_position_error_mm``/``final_angle_error_deg`` (None when physics did not answer or has no pose
+    of it), the totals' ``max_final_*`` over the constructed ones and ``report["as_built"]``. Without an
+    audit (a report written while the run goes on) the same keys hold None."""
+    final = audit.final if audit is not None else {}
+    for component in report["components"]:
+        check = final.get(component["guid"])
+        component["final_position_error_mm"] = check.position_error_m * 1000.0 if check else None
+        component["final_angle_error_deg"] = math.degrees(check.angle_error_rad) if check else None
+    position_m, angle_rad = audit.max_errors(constructed) if audit is not None else (None, None)
+    totals = report["totals"]
+    totals["max_final_position_error_mm"] = position_m * 1000.0 if position_m is not None else None
+    totals["max_final_angle_error_deg"] = math.degrees(angle_rad) if angle_rad is not None else None
+    totals["as_built_errors"] = len(audit.errors) if audit is not None else 0
+    report["as_built"] = _as_dict(audit)
+
+
+def _as_dict(audit: AsBuiltAudit | None) -> dict[str, Any]:
+    if audit is None:
+        return {"audited": False, "answered": False, "errors": [], "wrong": []}
+    return {
+        "audited": True,
+        "answered": audit.answered,
+        "constructed": audit.constructed,
+        "checked": audit.checked,
+        "tolerance_mm": audit.tolerances.position_m * 1000.0,
+        "tolerance_deg": math.degrees(audit.tolerances.angle_rad),
+        "errors": list(audit.errors),
+        "wrong": list(audit.wrong),
+        "sim_time_s": audit.sim_time_s,
+        "step": audit.step,
+        "epoch": audit.epoch,
+        "wall_time_s": audit.wall_time_s,
+    }
+
+
+def as_built_line(report: dict[str, Any]) -> str | None:
+    """The summary's line, from ``report.json``: ``as-built: 28 checked, max 0.40 mm / 0.02°, 0 errors``,
+    the wrong ones named when there are any; None when the run made no audit."""
+    audit = report.get("as_built") or {}
+    if not audit.get("audited"):
+        return None
+    if not audit.get("answered"):
+        return "as-built: not audited (physics did not answer physics/poses)"
+    totals = report.get("totals", {})
+    line = f"as-built: {audit['checked']} checked"
+    position_mm, angle_deg = (
+        totals.get("max_final_position_error_mm"),
+        totals.get("max_final_angle_error_deg"),
+    )
+    if position_mm is not None and angle_deg is not None:
+        line += f", max {position_mm:.2f} mm / {angle_deg:.2f}°"
+    errors: list[str] = audit.get("errors", [])
+    line += f", {len(errors)} error{'' if len(errors) == 1 else 's'}"
+    if not errors:
+        return line
+    shown = [f"  {error}" for error in errors[:MAX_ERRORS_SHOWN]]
+    if len(errors) > MAX_ERRORS_SHOWN:
+        shown.append(f"  … and {len(errors) - MAX_ERRORS_SHOWN} more (report.json: as_built.errors)")
+    return "\n".join([line + ":", *shown])

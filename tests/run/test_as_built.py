@@ -1,0 +1,101 @@
+"""The as-built audit's pure core: a constructed component that physics has away from its BIM target is an
+error naming it with its numbers; within the agents' tolerance, or not constructed, it is not."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from run_builders import GUIDS, manifest, poses
+
+from bimbot.as_built import AGENT_TOLERANCES, add_to_report, as_built_line, audit_as_built
+from bimbot.services.component_agents.agent import AgentConfig
+from bimbot.services.observer.report import ReportCollector
+from bimbot.services.observer.report_png import _as_built_title, render_report_png
+
+SITE_MANIFEST = manifest()
+BEAM, OTHER, THIRD, FOURTH = GUIDS
+
+
+def test_the_audit_uses_the_tolerances_the_agents_verify_with() -> None:
+    assert AgentConfig().tolerances == AGENT_TOLERANCES
+
+
+def test_a_constructed_component_displaced_by_20_mm_is_an_error_naming_it_with_its_numbers() -> None:
+    answer = poses(SITE_MANIFEST, moved={BEAM: ((0.02, 0.0, 0.0), 0.0)})
+    audit = audit_as_built(SITE_MANIFEST, answer, constructed={BEAM, OTHER})
+    assert audit.answered and audit.checked == 2 and audit.wrong == (BEAM,)
+    (error,) = audit.errors
+    name = SITE_MANIFEST.component(BEAM).name
+    assert f"{name} ({BEAM})" in error and "20.0 mm" in error and "tolerance 10 mm, 1°" in error
+    assert audit.final[BEAM].position_error_m == pytest.approx(0.02)
+
+
+def test_a_constructed_component_within_tolerance_is_no_error() -> None:
+    answer = poses(SITE_MANIFEST, moved={BEAM: ((0.003, 0.004, 0.0), 0.5)})  # 5 mm, 0.5°
+    audit = audit_as_built(SITE_MANIFEST, answer, constructed=set(GUIDS))
+    assert audit.errors == () and audit.checked == len(GUIDS)
+    position_m, angle_rad = audit.max_errors(GUIDS)
+    assert position_m == pytest.approx(0.005) and angle_rad == pytest.approx(0.5 * 3.141592653589793 / 180)
+
+
+def test_a_component_that_is_not_constructed_is_never_an_error_wherever_it_is() -> None:
+    answer = poses(SITE_MANIFEST, moved={OTHER: ((5.0, 0.0, 0.0), 90.0)}, missing=(THIRD,))
+    audit = audit_as_built(SITE_MANIFEST, answer, constructed={BEAM})
+    assert audit.errors == () and audit.checked == 1
+    assert audit.final[OTHER].position_error_m == pytest.approx(5.0)  # measured, not judged
+    assert THIRD not in audit.final
+
+
+def test_a_constructed_component_physics_has_no_pose_of_is_an_error() -> None:
+    audit = audit_as_built(SITE_MANIFEST, poses(SITE_MANIFEST, missing=(OTHER,)), constructed={OTHER})
+    assert audit.wrong == (OTHER,) and "physics has no pose of it" in audit.errors[0]
+
+
+def test_the_report_gets_final_errors_per_component_the_largest_of_the_constructed_and_the_errors() -> None:
+    report = ReportCollector(SITE_MANIFEST).report()
+    answer = poses(SITE_MANIFEST, moved={BEAM: ((0.0, 0.0, 0.02), 0.0), FOURTH: ((1.0, 0.0, 0.0), 0.0)})
+    audit = audit_as_built(SITE_MANIFEST, answer, constructed={BEAM, OTHER})
+    add_to_report(report, audit, {BEAM, OTHER})
+    by_guid = {c["guid"]: c for c in report["components"]}
+    assert by_guid[BEAM]["final_position_error_mm"] == pytest.approx(20.0)
+    assert by_guid[OTHER]["final_angle_error_deg"] == pytest.approx(0.0, abs=1e-6)
+    assert by_guid[FOURTH]["final_position_error_mm"] == pytest.approx(1000.0)  # not constructed: not in max
+    assert report["totals"]["max_final_position_error_mm"] == pytest.approx(20.0)
+    assert report["totals"]["as_built_errors"] == 1 and report["as_built"]["wrong"] == [BEAM]
+    json.dumps(report)  # plain JSON
+    line = as_built_line(report)
+    assert line is not None and line.startswith("as-built: 2 checked, max 20.00 mm / 0.00°, 1 error:")
+    assert BEAM in line
+
+
+def test_without_physics_every_final_error_is_null_and_the_summary_says_so() -> None:
+    report = ReportCollector(SITE_MANIFEST).report()
+    add_to_report(report, audit_as_built(SITE_MANIFEST, None, constructed={BEAM}), {BEAM})
+    assert all(c["final_position_error_mm"] is None for c in report["components"])
+    assert report["totals"]["max_final_position_error_mm"] is None
+    assert as_built_line(report) == "as-built: not audited (physics did not answer physics/poses)"
+
+
+def test_a_report_written_before_the_audit_has_the_keys_and_no_summary_line() -> None:
+    report = ReportCollector(SITE_MANIFEST).report()
+    add_to_report(report, None, set())
+    assert report["as_built"]["audited"] is False and as_built_line(report) is None
+    assert all(c["final_angle_error_deg"] is None for c in report["components"])
+
+
+def test_the_summary_line_of_a_clean_build() -> None:
+    report = ReportCollector(SITE_MANIFEST).report()
+    answer = poses(SITE_MANIFEST, moved={OTHER: ((0.0004, 0.0, 0.0), 0.02)})
+    add_to_report(report, audit_as_built(SITE_MANIFEST, answer, constructed=set(GUIDS)), set(GUIDS))
+    assert as_built_line(report) == "as-built: 4 checked, max 0.40 mm / 0.02°, 0 errors"
+
+
+def test_the_chart_carries_the_audit_in_its_title_and_marks_the_wrong_component(tmp_path: Path) -> None:
+    report = ReportCollector(SITE_MANIFEST).report()
+    answer = poses(SITE_MANIFEST, moved={BEAM: ((0.02, 0.0, 0.0), 0.0)})
+    add_to_report(report, audit_as_built(SITE_MANIFEST, answer, constructed={BEAM}), {BEAM})
+    report["components"][0]["reason"] = None  # as if constructed: the row shows its as-built error
+    assert _as_built_title(report) == " — as-built: max 20.00 mm / 0.00°, 1 error"
+    assert render_report_png(report, tmp_path / "report.png").stat().st_size > 10_000
