@@ -6,6 +6,18 @@ The subscriber callbacks only validate and enqueue (:class:`bimbot.shared.bus.In
 at the end of every run, with or without the observer (laser scans and plans are not subscribed: the
 report does not use them).
 
+What is constructed comes from the agents' twins, never from a state message alone
+(:mod:`bimbot.run_states`): a state message is a hint; a claim of a terminal state (or a message that does
+not follow from what is known) makes the monitor ask that component's twin, once, without blocking (the
+answer comes back through the inbox, at most one question per component every ``TWIN_RETRY_S``), and
+only the twin's answer counts; a transition the agents' state table does not allow is dropped at once.
+A component's timeline in the report is rebuilt from its twin whenever one answers.
+
+At the end, before the services stop, :meth:`RunMonitor.audit` asks every twin at once
+(``components/*/twin``: the last word on each component's state) and physics for every pose
+(``physics/poses``), and compares the constructed components with their BIM targets
+(:mod:`bimbot.as_built`); :meth:`RunMonitor.report` includes the result.
+
 It also keeps what the run's terminal and watchdog need: each robot's last state message, each task's
 last message, and ``changes``, a count of every change on the site (a component state change, a change
 of the planner's progress counts), which the stall watchdog (:mod:`bimbot.run_watchdog`) watches.
@@ -13,16 +25,25 @@ of the planner's progress counts), which the stall watchdog (:mod:`bimbot.run_wa
 
 from __future__ import annotations
 
+import logging
+import time
+from typing import Any
+
 import zenoh
 from pydantic import BaseModel
 
+from bimbot.as_built import AGENT_TOLERANCES, AsBuiltAudit, add_to_report, audit_as_built
+from bimbot.run_states import Judgement, TrustedStates
+from bimbot.services.component_agents.verification import Tolerances
 from bimbot.services.observer.report import UNFINISHED, ReportCollector, RunEnding
 from bimbot.shared.asked import Asked
-from bimbot.shared.bus import Inbox, InvalidPayloads, Received
+from bimbot.shared.bus import Answer, Inbox, InvalidPayloads, Received, decode, query_first
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     CLOCK,
     COMPONENT_STATE,
+    COMPONENT_TWIN,
+    PHYSICS_POSES,
     PLANNER_PLAN,
     PROGRESS,
     ROBOT_POSE,
@@ -34,20 +55,30 @@ from bimbot.shared.messages import (
     ProgressMsg,
     RobotStateMsg,
     TaskMsg,
+    TwinMsg,
 )
+
+_log = logging.getLogger(__name__)
+
+TWIN_RETRY_S = 1.0  # wall seconds: one component's twin is asked at most this often
+TWIN_REPLY_TIMEOUT_S = 2.0  # wall seconds a question to one twin stays open
+AUDIT_TIMEOUT_S = 5.0  # wall seconds for the end-of-run twin sweep and physics' poses together
+MIN_POSES_TIMEOUT_S = 1.0  # physics' poses get at least this long, whatever the sweep took
 
 
 class RunMonitor:
     """Subscribes on ``session`` at construction; :meth:`drain` applies what arrived since the last call."""
 
-    def __init__(self, manifest: Manifest, session: zenoh.Session) -> None:
+    def __init__(
+        self, manifest: Manifest, session: zenoh.Session, tolerances: Tolerances = AGENT_TOLERANCES
+    ) -> None:
         site = manifest.site
+        self.manifest, self.tolerances = manifest, tolerances
         self.invalid = InvalidPayloads()
         self.collector = ReportCollector(manifest)
         # the plan the planner builds by (its order is the report's sequence column), asked, never read
         self.plan = Asked(session, PLANNER_PLAN, self.invalid, site=site)
-        self.states: dict[str, ComponentState] = {}
-        self.misplacements = 0
+        self.trusted = TrustedStates(c.guid for c in manifest.components)
         self.sim_time_s = 0.0
         self.done = False
         self.changes = 0
@@ -56,6 +87,12 @@ class RunMonitor:
         self.progress: ProgressMsg | None = None
         self.names = {c.guid: c.name for c in manifest.components}
         self.total = len(manifest.components)
+        self.as_built: AsBuiltAudit | None = None  # set by audit()
+        self._session, self._site = session, site
+        self._twin_keys = {c.guid: COMPONENT_TWIN.key(site=site, key=c.key) for c in manifest.components}
+        self._component_keys = {c.guid: c.key for c in manifest.components}
+        self._to_ask: set[str] = set()  # components whose twin must be asked (when due)
+        self._asked_at: dict[str, float] = {}
         self._inbox = Inbox(self.invalid)
         inbox = self._inbox
         self._subscribers = [
@@ -67,24 +104,41 @@ class RunMonitor:
             inbox.subscribe(session, CLOCK, site=site),
         ]
 
+    @property
+    def states(self) -> dict[str, ComponentState]:
+        """Each component's state as the run trusts it (terminal states only from twins)."""
+        return self.trusted.states
+
+    @property
+    def constructed(self) -> int:
+        """Components whose agents' twins said ``constructed``."""
+        return sum(state == ComponentState.CONSTRUCTED for state in self.trusted.states.values())
+
+    @property
+    def misplacements(self) -> int:
+        """Misplacements caught and retried, as the (twin-checked) timelines hold them."""
+        return sum(timeline.retries for timeline in self.collector.components.values())
+
     def drain(self, wait_s: float = 0.0) -> None:
-        """Apply every queued message (waiting up to ``wait_s`` for the first)."""
+        """Apply every queued message and twin answer (waiting up to ``wait_s`` for the first); ask the
+        twins that are due."""
         plan = self.plan.poll()
         if plan is not None and not self.collector.sequence_guids:
             self.collector.sequence_guids = list(plan.order)
         for item in self._inbox.drain(first_timeout_s=wait_s):
             if isinstance(item, Received):
                 self.apply(item.message)
+            elif isinstance(item, Answer) and isinstance(item.message, TwinMsg):
+                self.take_twin(item.key, item.message)
+        self._ask_due_twins()
 
     def apply(self, message: BaseModel) -> None:
-        self.collector.add(message)
+        """A message heard on the bus (a state message is judged first, see :mod:`bimbot.run_states`)."""
         if isinstance(message, ComponentStateMsg):
-            if self.states.get(message.guid) != message.state:
-                self.changes += 1
-            self.states[message.guid] = message.state
-            if message.state == ComponentState.MISPLACED and message.previous is not None:
-                self.misplacements += 1
-        elif isinstance(message, ClockMsg):
+            self._component_state(message)
+            return
+        self.collector.add(message)
+        if isinstance(message, ClockMsg):
             self.sim_time_s = max(self.sim_time_s, message.sim_time_s)
         elif isinstance(message, ProgressMsg):
             if self.progress is None or _progress_facts(message) != _progress_facts(self.progress):
@@ -96,12 +150,88 @@ class RunMonitor:
         elif isinstance(message, TaskMsg):
             self.tasks[message.task_id] = message
 
-    @property
-    def constructed(self) -> int:
-        return sum(state == ComponentState.CONSTRUCTED for state in self.states.values())
+    def take_twin(self, reply_key: str, twin: TwinMsg) -> None:
+        """A twin as its agent answered on ``reply_key``: the component's state and timeline from it. A
+        twin answered on another component's key is not taken."""
+        if self._twin_keys.get(twin.guid) != reply_key or twin.key != self._component_keys.get(twin.guid):
+            self.invalid.record(reply_key, f"a twin of {twin.guid!r} answered on another key")
+            return
+        if self.trusted.take_twin(twin):
+            self.changes += 1
+        self.collector.replace_from_twin(twin)
 
-    def report(self, ending: RunEnding = UNFINISHED) -> dict:
-        return self.collector.report(ending)
+    def _component_state(self, message: ComponentStateMsg) -> None:
+        judgement = self.trusted.judge(message)
+        if judgement is Judgement.APPLY:
+            if self.trusted.apply(message):
+                self.changes += 1
+            self.collector.add(message)
+        elif judgement is Judgement.ASK:
+            self._to_ask.add(message.guid)
+
+    def _ask_due_twins(self) -> None:
+        """One bounded, non-blocking question per component whose twin is wanted and was not asked within
+        ``TWIN_RETRY_S``; the answers come back through the inbox."""
+        if not self._to_ask:
+            return
+        now = time.monotonic()
+        for guid in [g for g in self._to_ask if now - self._asked_at.get(g, -TWIN_RETRY_S) >= TWIN_RETRY_S]:
+            self._to_ask.discard(guid)
+            self._asked_at[guid] = now
+            self._inbox.ask(
+                self._session,
+                COMPONENT_TWIN,
+                timeout_s=TWIN_REPLY_TIMEOUT_S,
+                site=self._site,
+                key=self._component_keys[guid],
+            )
+
+    def confirm_twins(self, timeout_s: float) -> int:
+        """Ask every twin at once (``components/*/twin``, blocking, at most ``timeout_s``) and take each
+        answer: the last word on every component's state. Returns how many answered."""
+        self.drain()  # what is queued first, so an older answer does not come after the sweep's
+        selector = COMPONENT_TWIN.key(site=self._site, key="*")
+        answered: set[str] = set()
+        for reply in self._session.get(selector, timeout=timeout_s):
+            if reply.ok is None:
+                continue
+            key = str(reply.ok.key_expr)
+            twin = decode(TwinMsg, key, reply.ok.payload.to_bytes(), self.invalid)
+            if twin is not None:
+                self.take_twin(key, twin)
+                answered.add(twin.guid)
+        answered &= set(self._twin_keys)
+        if len(answered) < self.total:
+            _log.warning(
+                "%d of %d component twin(s) answered at the end; the others keep what the run heard",
+                len(answered),
+                self.total,
+            )
+        return len(answered)
+
+    def audit(self, timeout_s: float = AUDIT_TIMEOUT_S) -> AsBuiltAudit:
+        """The end-of-run audit, while the agents and physics still answer: every twin confirms its state
+        (:meth:`confirm_twins`), then physics' poses of every component are compared with their BIM
+        targets (:func:`bimbot.as_built.audit_as_built`). Bounded: about ``timeout_s`` wall seconds at
+        most (physics gets at least ``MIN_POSES_TIMEOUT_S``). The result is kept for :meth:`report`."""
+        wall_time_s, deadline = time.time(), time.monotonic() + timeout_s
+        self.confirm_twins(timeout_s)
+        left_s = max(MIN_POSES_TIMEOUT_S, deadline - time.monotonic())
+        poses = query_first(self._session, PHYSICS_POSES, self.invalid, timeout_s=left_s, site=self._site)
+        if poses is None:
+            _log.warning("physics did not answer physics/poses within %.1f s: no as-built audit", left_s)
+        self.as_built = audit_as_built(
+            self.manifest, poses, self.trusted.constructed(), self.tolerances, wall_time_s=wall_time_s
+        )
+        for error in self.as_built.errors:
+            _log.warning("as-built: %s", error)
+        return self.as_built
+
+    def report(self, ending: RunEnding = UNFINISHED) -> dict[str, Any]:
+        report = self.collector.report(ending)
+        add_to_report(report, self.as_built, self.trusted.constructed())
+        report["totals"]["state_messages_not_taken"] = self.trusted.rejected
+        return report
 
 
 def _progress_facts(progress: ProgressMsg) -> tuple:

@@ -19,7 +19,9 @@ component handled; ``distance_m`` — driven in the plane, from ground truth (``
 odometry, else the robot's own ``distance_m`` in its state messages, else its state poses.
 
 :func:`twin_messages` turns a component's twin (its agent's answer to ``components/<key>/twin``) back into
-the state changes it went through, for an observer that joined a run late.
+the state changes it went through, for an observer that joined a run late;
+:meth:`ReportCollector.replace_from_twin` rebuilds a component's timeline from its twin alone (the run
+trusts a twin over any state message, :mod:`bimbot.run_states`).
 
 Totals: components by final state, retries, makespan (first release → last constructed), busy time,
 distance, robot utilisation (busy / (robots × makespan)), the largest placement errors of the constructed
@@ -170,6 +172,19 @@ class ReportCollector:
             self.progress is None or message.sim_time_s >= self.progress.sim_time_s
         ):
             self.progress = message
+
+    def replace_from_twin(self, twin: TwinMsg) -> None:
+        """Rebuild a component's timeline from its twin alone (its agent's own record): what the bus said
+        of it before is dropped, so a forged state message leaves no trace in the report."""
+        if twin.guid not in self.components:
+            return
+        self.components[twin.guid] = ComponentTimeline()
+        for message in twin.history:
+            self.add(message)
+        timeline = self.components[twin.guid]
+        timeline.state = twin.state
+        if twin.state in _OWN_REASON_STATES and twin.reason is not None:
+            timeline.reason = twin.reason
 
     def _component_state(self, msg: ComponentStateMsg) -> None:
         timeline = self.components.setdefault(msg.guid, ComponentTimeline())

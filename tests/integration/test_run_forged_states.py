@@ -1,0 +1,149 @@
+"""``bimbot run`` counts what the agents' twins say is constructed, not what a state message claims.
+
+A probe once published forged ``constructed`` state messages for every component from a foreign process:
+``bimbot run`` printed ``constructed 12/12`` and exited 0 while the agents' journal held one constructed.
+Here a forger process does the same while the small 2×1 frame of the full-build test is built with real
+processes on a loopback bus, from the moment the first component is really constructed (so the count to
+get right is not zero): announcements, jumps the agents' state table forbids, and plausible verdicts,
+every 0.1 s for every component. The run's report, its summary line and its exit code must say exactly
+what the agents' journal says (up to the end-of-run audit, when the run asks every twin: a component the
+robot finishes while the services are being stopped is in the journal but was never the run's to count).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+import textwrap
+import threading
+from pathlib import Path
+from typing import IO
+
+import pytest
+
+from bimbot.services.component_agents.journal import journal_path, replay
+from bimbot.shared.manifest import read_manifest
+from bimbot.shared.messages import ComponentState
+from bimbot.shared.run_folder import RunFolder
+from bimbot.supervisor import wait_until
+
+pytestmark = pytest.mark.integration
+RUN_TIMEOUT_S = 300
+
+FORGER = textwrap.dedent(
+    """
+    import sys, time
+    from bimbot.shared.bus import BusOptions, encode, open_session
+    from bimbot.shared.manifest import read_manifest
+    from bimbot.shared.messages import COMPONENT_STATE, ComponentState as S, ComponentStateMsg
+
+    endpoint, build = sys.argv[1], sys.argv[2]
+    manifest = read_manifest(build)
+    forgeries = ((None, "resume"), (S.PLANNED, "verified"), (S.VERIFYING, "verified"))
+    with open_session(BusOptions(connect=(endpoint,))) as session:
+        print("forging", flush=True)
+        while True:
+            for component in manifest.components:
+                key = COMPONENT_STATE.key(site=manifest.site, key=component.key)
+                for previous, event in forgeries:
+                    message = ComponentStateMsg(
+                        guid=component.guid, state=S.CONSTRUCTED, previous=previous, event=event,
+                        attempt=1, robot_id="r1", sim_time_s=1.0, wall_time_s=time.time(),
+                    )
+                    session.put(key, encode(message))
+            time.sleep(0.1)
+    """
+)
+
+
+@pytest.fixture(scope="module")
+def small_frame(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("forged_frame")
+    ifc = folder / "frame.ifc"
+    for args in (
+        ("sample", "light-steel-frame", "-o", str(ifc), "--bays", "2x1"),
+        ("convert", str(ifc), "-o", str(folder / "build"), "--no-progress"),
+    ):
+        subprocess.run(
+            [sys.executable, "-m", "bimbot.cli", *args], check=True, capture_output=True, timeout=120
+        )
+    return folder / "build"
+
+
+class _Lines:
+    """A process's stdout, read on a thread (so the test can wait for a line without blocking)."""
+
+    def __init__(self, process: subprocess.Popen[str]) -> None:
+        self.lines: list[str] = []
+        assert process.stdout is not None
+        self._thread = threading.Thread(target=self._read, args=(process.stdout,), daemon=True)
+        self._thread.start()
+
+    def _read(self, stream: IO[str]) -> None:
+        for line in stream:
+            self.lines.append(line)
+
+    def text(self) -> str:
+        self._thread.join(timeout=5.0)
+        return "".join(self.lines)
+
+
+def _constructed_in_journal(run: RunFolder) -> dict[str, float]:
+    """GUID → wall time of its ``constructed`` transition, from the agents' own journal."""
+    records = replay(journal_path(run.state_dir, 1, 1)).records
+    return {
+        guid: record.change.wall_time_s
+        for guid, changes in records.items()
+        for record in changes
+        if record.change.state == ComponentState.CONSTRUCTED and record.change.previous is not None
+    }
+
+
+def test_forged_constructed_messages_change_nothing_the_run_counts_what_the_twins_say(
+    small_frame: Path, tmp_path: Path
+) -> None:
+    manifest = read_manifest(small_frame)
+    run = RunFolder(tmp_path / "run")
+    command = [sys.executable, "-m", "bimbot.cli", "run", str(small_frame), "-q", "--run-dir", str(run.root)]
+    command += ["--timeout-s", str(RUN_TIMEOUT_S - 60)]
+    errors = (tmp_path / "run.stderr").open("w")
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=errors, text=True)
+    out = _Lines(process)
+    forger: subprocess.Popen[str] | None = None
+    try:
+        assert wait_until(lambda: any("bus: tcp/" in line for line in out.lines), timeout_s=60.0)
+        found = re.search(r"bus: (tcp/\S+)", "".join(out.lines))
+        assert found is not None
+        endpoint = found.group(1)
+        assert wait_until(lambda: bool(_constructed_in_journal(run)), timeout_s=RUN_TIMEOUT_S / 2), (
+            "nothing was constructed"
+        )
+        forger = subprocess.Popen(
+            [sys.executable, "-c", FORGER, endpoint, str(small_frame)], stdout=subprocess.PIPE, text=True
+        )
+        assert forger.stdout is not None and forger.stdout.readline().strip() == "forging"
+        process.wait(timeout=RUN_TIMEOUT_S)
+    finally:
+        for child in (forger, process):
+            if child is not None and child.poll() is None:
+                child.kill()
+                child.wait()
+        errors.close()
+    stdout, err = out.text(), (tmp_path / "run.stderr").read_text()
+    journal = _constructed_in_journal(run)
+    report = json.loads((run.report_dir / "report.json").read_text())
+    reported = {c["guid"] for c in report["components"] if c["state"] == "constructed"}
+    detail = f"{stdout}\n{err[-3000:]}\njournal: {sorted(journal)}\nreport: {sorted(reported)}"
+    # the twins were asked at the end (the audit) while the agents still ran: everything the journal has
+    # from before that moment is in the report, and nothing the journal does not have
+    audit = report.get("as_built") or {}
+    assert audit.get("audited"), "bimbot run must call RunMonitor.audit() before it stops the services"
+    before = {guid for guid, at in journal.items() if at < audit["wall_time_s"]}
+    assert before <= reported <= set(journal), detail
+    assert report["totals"]["constructed"] == len(reported), detail
+    assert f"constructed {len(reported)}/{len(manifest.components)} components" in stdout, detail
+    all_built = len(reported) == len(manifest.components)
+    assert (process.returncode == 0) == all_built, detail
+    assert report["totals"]["state_messages_not_taken"] > 0, detail  # the forgeries were heard and refused

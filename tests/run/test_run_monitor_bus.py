@@ -1,0 +1,154 @@
+"""The run monitor over a real (loopback) Zenoh bus: a forged ``constructed`` changes nothing unless the
+component's twin says so, and the end-of-run audit asks every twin and physics' poses.
+
+Three peer sessions: the agents' side (a twin queryable answering from a dict, as the agents would), a
+forger publishing state messages, and the run's monitor; physics' ``physics/poses`` is a small queryable
+on the agents' session.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+
+import pytest
+import zenoh
+from run_builders import GUIDS, manifest, poses, state, twin, walk
+
+from bimbot.run_monitor import RunMonitor
+from bimbot.shared.bus import BusOptions, encode, open_session
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import (
+    COMPONENT_STATE,
+    COMPONENT_TWIN,
+    PHYSICS_POSES,
+    ComponentState,
+    ComponentStateMsg,
+    SitePosesMsg,
+    TwinMsg,
+)
+from bimbot.supervisor import free_port
+
+S = ComponentState
+SITE_MANIFEST = manifest()
+BEAM, OTHER = GUIDS[0], GUIDS[1]
+
+
+@dataclass
+class FakeSite:
+    """What the agents' twins and physics say; the queryables answer from here (tests set it)."""
+
+    twins: dict[str, TwinMsg] = field(default_factory=dict)
+    poses: SitePosesMsg | None = None
+    twin_queries: int = 0
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def answer_twins(self, query: zenoh.Query) -> None:
+        with self.lock:
+            self.twin_queries += 1
+            twins = list(self.twins.values())
+        for item in twins:
+            reply_key = COMPONENT_TWIN.key(site=SITE_MANIFEST.site, key=item.key)
+            if query.key_expr.intersects(zenoh.KeyExpr(reply_key)):
+                query.reply(reply_key, encode(item))
+
+    def answer_poses(self, query: zenoh.Query) -> None:
+        if self.poses is not None:
+            query.reply(PHYSICS_POSES.key(site=SITE_MANIFEST.site), encode(self.poses))
+
+
+@contextmanager
+def _bus() -> Iterator[tuple[FakeSite, zenoh.Session, RunMonitor]]:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    site = FakeSite(twins={guid: twin(SITE_MANIFEST, guid, S.PLANNED) for guid in GUIDS})
+    with (
+        open_session(BusOptions(connect=(), listen=(endpoint,))) as agents,
+        open_session(BusOptions(connect=(endpoint,))) as forger,
+        open_session(BusOptions(connect=(endpoint,))) as run,
+    ):
+        twins = agents.declare_queryable(
+            COMPONENT_TWIN.key(site=SITE_MANIFEST.site, key="*"), site.answer_twins, complete=False
+        )
+        physics = agents.declare_queryable(PHYSICS_POSES.key(site=SITE_MANIFEST.site), site.answer_poses)
+        monitor = RunMonitor(SITE_MANIFEST, run)
+        time.sleep(0.5)  # the sessions meet
+        try:
+            yield site, forger, monitor
+        finally:
+            twins.undeclare()
+            physics.undeclare()
+
+
+def _publish(session: zenoh.Session, site_manifest: Manifest, message: ComponentStateMsg) -> None:
+    key = COMPONENT_STATE.key(site=site_manifest.site, key=site_manifest.component(message.guid).key)
+    session.put(key, encode(message))
+
+
+def _drain_until(monitor: RunMonitor, done: Callable[[], bool], timeout_s: float = 5.0) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        monitor.drain(wait_s=0.05)
+        if done():
+            return True
+    return False
+
+
+def test_forged_constructed_messages_count_nothing_until_the_twin_says_so() -> None:
+    with _bus() as (site, forger, monitor):
+        with site.lock:
+            site.twins[BEAM] = twin(SITE_MANIFEST, BEAM, S.VERIFYING)
+        for message in walk(BEAM, S.VERIFYING):  # the real agent's steps, as hints
+            _publish(forger, SITE_MANIFEST, message)
+        for guid in GUIDS:  # forgeries: an announcement, an illegal jump, a plausible verdict
+            for forged in (
+                state(guid, S.CONSTRUCTED, None, "resume"),
+                state(guid, S.CONSTRUCTED, S.PLANNED, "verified"),
+                state(guid, S.CONSTRUCTED, S.VERIFYING, "verified"),
+            ):
+                _publish(forger, SITE_MANIFEST, forged)
+        assert _drain_until(monitor, lambda: site.twin_queries >= len(GUIDS))
+        _drain_until(monitor, lambda: False, timeout_s=0.5)  # the twins' answers come back
+        assert monitor.constructed == 0 and monitor.states[BEAM] == S.VERIFYING
+        assert monitor.report()["totals"]["constructed"] == 0
+        assert monitor.trusted.rejected >= len(GUIDS)  # planned → constructed is not in the table
+
+        with site.lock:
+            site.twins[BEAM] = twin(SITE_MANIFEST, BEAM, S.CONSTRUCTED)
+        _publish(forger, SITE_MANIFEST, walk(BEAM, S.CONSTRUCTED)[-1])  # the agent's verdict
+        assert _drain_until(monitor, lambda: monitor.constructed == 1, timeout_s=5.0)
+        report = monitor.report()
+        beam = next(c for c in report["components"] if c["guid"] == BEAM)
+        assert beam["state"] == "constructed" and beam["constructed_s"] == 6.0
+        assert report["totals"]["constructed"] == 1
+
+
+def test_the_audit_confirms_every_twin_and_names_a_constructed_component_physics_has_moved() -> None:
+    with _bus() as (site, forger, monitor):
+        with site.lock:
+            site.twins[BEAM] = twin(SITE_MANIFEST, BEAM, S.CONSTRUCTED)
+            site.twins[OTHER] = twin(SITE_MANIFEST, OTHER, S.CONSTRUCTED)
+        site.poses = poses(SITE_MANIFEST, moved={BEAM: ((0.0, 0.02, 0.0), 0.0)})
+        _publish(forger, SITE_MANIFEST, state(GUIDS[2], S.CONSTRUCTED, None, "resume"))  # a forgery
+        _drain_until(monitor, lambda: False, timeout_s=0.5)
+        started = time.monotonic()
+        audit = monitor.audit(timeout_s=5.0)
+        assert time.monotonic() - started < 3.0  # every twin answered at once: no waiting for the bound
+        assert monitor.constructed == 2 and audit.checked == 2
+        assert audit.wrong == (BEAM,) and "20.0 mm" in audit.errors[0]
+        report = monitor.report()
+        assert report["totals"]["constructed"] == 2 and report["totals"]["as_built_errors"] == 1
+        assert report["totals"]["max_final_position_error_mm"] == pytest.approx(20.0)
+
+
+def test_without_a_physics_answer_the_audit_ends_within_its_bound_and_reports_nulls() -> None:
+    with _bus() as (site, _forger, monitor):
+        started = time.monotonic()
+        audit = monitor.audit(timeout_s=1.5)
+        assert time.monotonic() - started < 4.0
+        assert not audit.answered and site.twin_queries >= 1
+        report = monitor.report()
+        assert report["as_built"]["answered"] is False
+        assert all(c["final_position_error_mm"] is None for c in report["components"])
