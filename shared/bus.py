@@ -1,16 +1,8 @@
-"""The one place every service builds its Zenoh configuration and handles what it receives.
+"""The one place every service builds its Zenoh session and handles what it receives.
 
-Defaults (embedded, no router needed beyond ``bimbot bus``): mode ``peer``, connect to the site's bus
-endpoint on loopback (``tcp/127.0.0.1:7447``), listen on a free loopback port so peers can reach each
-other directly, multicast scouting off (nothing leaves the machine). In ``docker compose`` every service
-connects to the ``bus`` service, a small Python process in Zenoh ``router`` mode (``bimbot bus``).
-
-Options, with environment variables as fallbacks (so compose files stay short)::
-
-    --mode    peer|client|router     BIMBOT_ZENOH_MODE      (default peer)
-    --connect ENDPOINT (repeatable)  BIMBOT_ZENOH_CONNECT   (comma-separated; default tcp/127.0.0.1:7447)
-    --listen  ENDPOINT (repeatable)  BIMBOT_ZENOH_LISTEN    (comma-separated; default tcp/127.0.0.1:0)
-    --site    SITE                   BIMBOT_SITE            (default: from the manifest)
+How a service joins the bus (``--mode/--connect/--listen/--bus-config``, their environment fallbacks, the
+Zenoh config and opening a session) is :mod:`bimbot.shared.bus_config`; its names are re-exported here, so
+services import everything bus-related from this module.
 
 Received payloads are validated against their pydantic model by :class:`Inbox`; invalid ones are logged
 with their key and counted, and never reach the service's state. Zenoh calls callbacks on its own
@@ -19,10 +11,7 @@ threads, so callbacks only enqueue: the service's own loop drains the inbox and 
 
 from __future__ import annotations
 
-import argparse
-import json
 import logging
-import os
 import queue
 import threading
 import time
@@ -34,75 +23,45 @@ from typing import Generic, TypeVar
 import zenoh
 from pydantic import BaseModel, ValidationError
 
+from .bus_config import (
+    DEFAULT_ENDPOINT,
+    DEFAULT_LISTEN,
+    MODES,
+    BusOptions,
+    add_bus_arguments,
+    bus_options,
+    open_session,
+    zenoh_config,
+)
 from .keyspace import Queryable, Topic
+
+__all__ = [  # the bus_config names are re-exported: services import everything bus-related from here
+    "DEFAULT_ENDPOINT",
+    "DEFAULT_LISTEN",
+    "MODES",
+    "Answer",
+    "BusOptions",
+    "Handler",
+    "Inbox",
+    "IncomingQuery",
+    "InvalidPayloads",
+    "LivelinessChange",
+    "RawSample",
+    "Received",
+    "add_bus_arguments",
+    "bus_options",
+    "decode",
+    "encode",
+    "open_session",
+    "query_first",
+    "reply_json",
+    "zenoh_config",
+]
 
 _log = logging.getLogger(__name__)
 
-DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
-DEFAULT_LISTEN = "tcp/127.0.0.1:0"
-MODES = ("peer", "client", "router")
-
 M = TypeVar("M", bound=BaseModel)
 R = TypeVar("R", bound=BaseModel)
-
-
-@dataclass(frozen=True)
-class BusOptions:
-    mode: str = "peer"
-    connect: tuple[str, ...] = (DEFAULT_ENDPOINT,)
-    listen: tuple[str, ...] = (DEFAULT_LISTEN,)
-
-
-def _env_list(name: str) -> list[str] | None:
-    value = os.environ.get(name)
-    return [item.strip() for item in value.split(",") if item.strip()] if value else None
-
-
-def add_bus_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add ``--mode/--connect/--listen`` (with BIMBOT_ZENOH_* environment fallbacks)."""
-    group = parser.add_argument_group("bus (Zenoh)")
-    group.add_argument(
-        "--mode", choices=MODES, default=None, help="Zenoh mode (env BIMBOT_ZENOH_MODE; default peer)"
-    )
-    group.add_argument(
-        "--connect", action="append", default=None, metavar="ENDPOINT", help="endpoint to connect to"
-    )
-    group.add_argument(
-        "--listen", action="append", default=None, metavar="ENDPOINT", help="endpoint to listen on"
-    )
-
-
-def bus_options(args: argparse.Namespace) -> BusOptions:
-    """Options from parsed arguments, then the environment, then the defaults."""
-    mode = args.mode or os.environ.get("BIMBOT_ZENOH_MODE") or "peer"
-    if mode not in MODES:
-        raise ValueError(f"BIMBOT_ZENOH_MODE={mode!r}: expected one of {', '.join(MODES)}")
-    connect = args.connect or _env_list("BIMBOT_ZENOH_CONNECT")
-    listen = args.listen or _env_list("BIMBOT_ZENOH_LISTEN")
-    if connect is None:
-        connect = [] if mode == "router" else [DEFAULT_ENDPOINT]
-    if listen is None:
-        listen = [DEFAULT_ENDPOINT] if mode == "router" else ([] if mode == "client" else [DEFAULT_LISTEN])
-    return BusOptions(mode=mode, connect=tuple(connect), listen=tuple(listen))
-
-
-def zenoh_config(options: BusOptions) -> zenoh.Config:
-    """A Zenoh config for ``options``: explicit endpoints, multicast scouting off."""
-    config = zenoh.Config()
-    config.insert_json5("mode", json.dumps(options.mode))
-    config.insert_json5("connect/endpoints", json.dumps(list(options.connect)))
-    config.insert_json5("listen/endpoints", json.dumps(list(options.listen)))
-    config.insert_json5("scouting/multicast/enabled", "false")
-    if options.mode != "router":
-        # Keep retrying the bus endpoint at start-up instead of failing while the router is starting.
-        config.insert_json5("connect/timeout_ms", "-1" if options.connect else "0")
-        config.insert_json5("connect/exit_on_failure", "false")
-    return config
-
-
-def open_session(options: BusOptions) -> zenoh.Session:
-    """Open a session; use it as a context manager (an unclosed session with callbacks hangs at exit)."""
-    return zenoh.open(zenoh_config(options))
 
 
 def encode(message: BaseModel) -> bytes:

@@ -5,8 +5,9 @@ Every ``bimbot <service>`` command (``bus``, ``physics``, ``agents``, ``planner`
 
 * :func:`stop_on_signals`: SIGINT and SIGTERM set a :class:`threading.Event` that the service's loop
   watches (it then closes its Zenoh session and returns), and the previous handlers come back afterwards;
-* :func:`service_bus`: the ``--mode/--connect/--listen`` options (and their environment fallbacks), a bad
-  value being a :class:`~bimbot.shared.errors.UserError` (one line, exit 2);
+* :func:`service_bus`: the ``--mode/--connect/--listen/--bus-config`` options (and their environment
+  fallbacks), a bad value, endpoint or config file being a :class:`~bimbot.shared.errors.UserError` (one
+  line, exit 2);
 * :func:`resolve_build`: ``--build`` may name the build folder or its ``manifest.json``; both give the folder
   and the parsed manifest (a missing or broken manifest is a UserError);
 * :func:`run_service`: calls the service's ``app.main(…, stop=…)`` with the stop event installed and returns
@@ -27,7 +28,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-from bimbot.shared.bus import BusOptions, bus_options
+from bimbot.shared.bus import BusOptions, bus_options, zenoh_config
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import Manifest, load_manifest
 from bimbot.shared.output_paths import check_writable_dir
@@ -58,11 +59,15 @@ def stop_on_signals(signums: Sequence[int] = STOP_SIGNALS) -> Iterator[threading
 
 
 def service_bus(args: argparse.Namespace) -> BusOptions:
-    """The bus options of a command (arguments, then environment, then defaults); a UserError when bad."""
+    """The bus options of a command (arguments, then environment, then the ``--bus-config`` file, then
+    defaults); a UserError when bad, a bad config file or endpoint included (checked here, before the
+    service starts)."""
     try:
-        return bus_options(args)
+        options = bus_options(args)
     except ValueError as error:
         raise UserError(str(error)) from None
+    zenoh_config(options)  # raises InputError (a UserError) for an unusable file or endpoint
+    return options
 
 
 @dataclass(frozen=True)

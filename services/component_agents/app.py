@@ -31,6 +31,7 @@ import logging
 import threading
 import time
 from collections.abc import Iterable
+from dataclasses import replace
 from pathlib import Path
 from typing import cast
 
@@ -99,7 +100,7 @@ def token_session_options(options: BusOptions, n_tokens: int) -> list[BusOptions
     extra = max(0, -(-n_tokens // TOKENS_PER_SESSION) - 1)
     if extra == 0 or options.mode == "router" or not options.connect:
         return []
-    return [BusOptions(mode="client", connect=options.connect, listen=())] * extra
+    return [replace(options, mode="client", listen=())] * extra  # the same credentials (--bus-config)
 
 
 def serve(
