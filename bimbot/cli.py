@@ -34,6 +34,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     ),
     "demo": ("bimbot.demo", "run the demo on the bundled light steel frame (writes out/demo/)"),
     "bus": ("bimbot.services.bus_router", "run the site's Zenoh router (every service connects to it)"),
+    "bus-credentials": (
+        "bimbot.bus_credentials_cli",
+        "write a secured bus's passwords and configs (RUN_DIR/bus/): only the right service can speak",
+    ),
     "agents": ("bimbot.services.component_agents.cli", "run the smart-component agents of a converted build"),
     "planner": (
         "bimbot.services.planner.cli",

@@ -52,6 +52,7 @@ class RunOptions:
     clock_stall_wall_s: float = DEFAULT_CLOCK_STALL_WALL_S  # wall seconds without the clock advancing
     report_every_s: float = DEFAULT_REPORT_EVERY_S  # wall seconds; 0: only at the end
     show_progress: bool = False  # live progress on stdout (the CLI: unless -q)
+    secure: bool = False  # a secured bus: per-service credentials, the router's access control (RUN/bus/)
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
@@ -121,6 +122,12 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
         "--observe", action="store_true", help="also run the observer: a rerun recording (.rrd) of the build"
     )
     parser.add_argument(
+        "--secure",
+        action="store_true",
+        help="a secured bus: each service joins with its own credentials and the router lets only the "
+        "right service speak (Zenoh access control; files in RUN/bus/)",
+    )
+    parser.add_argument(
         "--live",
         action="store_true",
         help="serve the rerun web viewer on 127.0.0.1 during the build and keep it up afterwards",
@@ -183,6 +190,7 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         clock_stall_wall_s=args.stall_wall_s,
         report_every_s=args.report_every_s,
         show_progress=not quiet(args),
+        secure=getattr(args, "secure", False),
     )
 
 

@@ -10,6 +10,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from bimbot.run_args import ObserverOptions, RunOptions
+from bimbot.shared.bus import BusOptions
+from bimbot.shared.bus_access import robot_user
+from bimbot.shared.bus_credentials import BusFiles, robot_ids, write_bus_credentials
+from bimbot.shared.errors import UserError
 from bimbot.shared.run_folder import RunFolder
 
 
@@ -38,23 +42,57 @@ def physics_arguments(build: Path, options: RunOptions) -> list[str]:
     return [*arguments, *options.physics_extra]
 
 
+def secure_bus(run: RunFolder, options: RunOptions, site: str) -> BusFiles | None:
+    """With ``options.secure``: new credentials for this run's services in ``RUN/bus/`` (their paths);
+    None for the open bus."""
+    if not options.secure:
+        return None
+    try:
+        return write_bus_credentials(run.root, robot_ids(options.robots), site=site)
+    except (ValueError, OSError) as error:
+        raise UserError(f"cannot secure the bus in {run.root}: {error}") from None
+
+
+def router_arguments(endpoint: str, bus: BusFiles | None = None) -> list[str]:
+    """``bimbot bus`` of a run: on ``endpoint``; with the access control when the bus is secured."""
+    arguments = ["bus", "--listen", endpoint]
+    return [*arguments, "--bus-config", str(bus.router)] if bus is not None else arguments
+
+
+def monitor_bus_options(endpoint: str, bus: BusFiles | None = None) -> BusOptions:
+    """The bus options of ``bimbot run``'s own session: read-only ``monitor`` on a secured bus."""
+    if bus is None:
+        return BusOptions(connect=(endpoint,))
+    return BusOptions(mode="client", connect=(endpoint,), listen=(), config_file=bus.monitor)
+
+
 def service_commands(
-    build: Path, endpoint: str, options: RunOptions, run: RunFolder
+    build: Path, endpoint: str, options: RunOptions, run: RunFolder, bus: BusFiles | None = None
 ) -> list[tuple[str, list[str]]]:
-    """(name, bimbot arguments) of every service, in start order."""
-    bus = ["--connect", endpoint]
+    """(name, bimbot arguments) of every service, in start order; with ``bus`` (a secured bus) each in
+    client mode with its own credentials."""
+
+    def joined(user: str) -> list[str]:
+        on_bus = ["--connect", endpoint]
+        if bus is None:
+            return on_bus
+        return [*on_bus, "--mode", "client", "--bus-config", str(bus.service(user))]
+
+    agents = ["agents", "--build", str(build), "--run-dir", str(run.root), "--fresh"]
+    planner = ["planner", "--build", str(build), "--exit-when-done", *options.planner_source]
     commands = [
-        ("physics", [*physics_arguments(build, options), "--run-dir", str(run.root), *bus]),
-        ("agents", ["agents", "--build", str(build), "--run-dir", str(run.root), "--fresh", *bus]),
-        ("planner", ["planner", "--build", str(build), "--exit-when-done", *options.planner_source, *bus]),
+        ("physics", [*physics_arguments(build, options), "--run-dir", str(run.root), *joined("physics")]),
+        ("agents", [*agents, *joined("agents")]),
+        ("planner", [*planner, *joined("planner")]),
     ]
-    for number in range(1, options.robots + 1):
-        robot = ["robot", "--build", str(build), "--id", f"r{number}", *bus]
+    for robot_id in robot_ids(options.robots):
+        robot = ["robot", "--build", str(build), "--id", robot_id, *joined(robot_user(robot_id))]
         if options.inject_placement_error_m:
             robot += ["--inject-placement-error-m", repr(options.inject_placement_error_m)]
-        commands.append((f"robot-r{number}", robot))
+        commands.append((f"robot-{robot_id}", robot))
     if options.observer is not None:
-        commands.append(("observer", [*observer_arguments(build, options.observer, run), *bus]))
+        observer = observer_arguments(build, options.observer, run)
+        commands.append(("observer", [*observer, *joined("observer")]))
     return commands
 
 
