@@ -219,6 +219,7 @@ agents="$(container agents)"
 [ -n "$agents" ] || fail "no agents container"
 if ! docker exec -i "$agents" python - >"$LOG_DIR/twins.txt" 2>"$LOG_DIR/twins.err" <<'EOF'
 import sys
+from pathlib import Path
 
 import zenoh
 
@@ -228,7 +229,9 @@ from bimbot.shared.messages import COMPONENT_TWIN_KEY, ComponentState, TwinMsg, 
 
 manifest = read_manifest("/data/build")
 states = {}
-with open_session(BusOptions(mode="client", connect=("tcp/bus:7447",), listen=())) as session:
+# the secured bus: the read-only monitor's credentials (bimbot bus-credentials wrote them into the volume)
+monitor = Path("/data/bus/monitor.json5")
+with open_session(BusOptions(mode="client", connect=("tcp/bus:7447",), listen=(), config_file=monitor)) as session:
     selector = key(COMPONENT_TWIN_KEY, site=manifest.site, key="*")
     for reply in session.get(selector, target=zenoh.QueryTarget.ALL, timeout=10.0):
         if reply.ok is not None:
