@@ -52,7 +52,6 @@ from bimbot.shared.bus import (
 from bimbot.shared.messages import (
     ALIVE_KEY,
     COMPONENT_STATE,
-    COMPONENT_TWIN,
     PHYSICS_ATTACH,
     PHYSICS_DROP,
     PHYSICS_INFO,
@@ -66,10 +65,10 @@ from bimbot.shared.messages import (
     DropRequest,
     PhysicsReply,
     PlaceRequest,
-    TwinMsg,
     key,
 )
 from bimbot.shared.service_runner import BuildInput
+from bimbot.shared.twin_query import ask_twins
 
 from .clock import LockStepBarrier, Pacer, RtfMeter
 from .profiles import FINE
@@ -115,23 +114,12 @@ def main(
             path = snapshot_path(run.state_dir)
             snapshot = load_snapshot(path)
             if snapshot is not None:
-                restore_site(sim, snapshot, ask_twins(session, sim.site, TWINS_TIMEOUT_S))
+                twins = ask_twins(session, sim.site, TWINS_TIMEOUT_S)
+                _log.info("%d twin(s) answered", len(twins))
+                restore_site(sim, snapshot, twins)
             recorder = SnapshotRecorder(path, sim.epoch)
         _Loop(session, sim, run, stop, recorder).serve()
     return 0
-
-
-def ask_twins(session: zenoh.Session, site: str, timeout_s: float) -> list[TwinMsg]:
-    """Every twin the agents answer within ``timeout_s`` (none when no agent runs: the record alone)."""
-    invalid, selector = InvalidPayloads(), COMPONENT_TWIN.key(site=site, key="*")
-    twins = []
-    for reply in session.get(selector, timeout=timeout_s):
-        if reply.ok is not None:
-            twin = decode(TwinMsg, str(reply.ok.key_expr), reply.ok.payload.to_bytes(), invalid)
-            if twin is not None:
-                twins.append(twin)
-    _log.info("%d twin(s) answered", len(twins))
-    return twins
 
 
 class _Loop:

@@ -20,6 +20,7 @@ got no answer, and the robot asks again.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -30,6 +31,8 @@ from .simulation import Simulation
 from .snapshot import PhysicsSnapshot
 
 _log = logging.getLogger(__name__)
+
+MOVED_M = 1e-3  # a component further than this from its yard slot was moved (carried, placed, dropped)
 
 
 @dataclass(frozen=True)
@@ -63,8 +66,11 @@ def restore_site(sim: Simulation, snapshot: PhysicsSnapshot, twins: Iterable[Twi
         if guid not in handling.items:
             continue
         carrier = sim.robots.get(pose.attached_to or "")
-        handling.restore(guid, _frame(pose.pose), fixed=pose.fixed and carrier is None, carrier=carrier)
-        moved += 1
+        frame = _frame(pose.pose)
+        before = handling.items[guid].pose
+        if carrier is not None or pose.fixed or math.dist(before[0], frame[0]) > MOVED_M:
+            moved += 1
+        handling.restore(guid, frame, fixed=pose.fixed and carrier is None, carrier=carrier)
     constructed = from_twins = 0
     for twin in twins:
         if twin.state != ComponentState.CONSTRUCTED or twin.guid not in handling.items:

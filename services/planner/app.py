@@ -24,16 +24,18 @@ import json
 import logging
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import zenoh
 
+from bimbot.services.component_agents.state_table import TERMINAL
 from bimbot.shared.bus import (
+    Answer,
     BusOptions,
     Inbox,
     LivelinessChange,
     Received,
-    decode,
     encode,
     open_session,
     query_first,
@@ -47,7 +49,7 @@ from bimbot.shared.messages import (
     COMPONENT_EVENT_KEY,
     COMPONENT_POSE,
     COMPONENT_STATE,
-    COMPONENT_TWIN_KEY,
+    COMPONENT_TWIN,
     PHYSICS_INFO,
     PLANNER_PLAN,
     PROGRESS_KEY,
@@ -67,6 +69,7 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.reasons import Reason
 from bimbot.shared.service_runner import BuildInput
+from bimbot.shared.twin_query import ask_twins
 
 from .access_plan import access_plan
 from .feasibility import infeasible
@@ -74,6 +77,8 @@ from .scheduler import Outgoing, PlannerCore, PlannerLimits
 from .sources import Plan, PlanSource, load_plan
 
 _log = logging.getLogger(__name__)
+
+TWIN_ASK_TIMEOUT_S = 5.0  # wall seconds for a twin to confirm a constructed/failed/blocked claim
 
 
 @dataclass(frozen=True)
@@ -122,7 +127,12 @@ def main(
             inbox.subscribe_liveliness(session, key(ALIVE_KEY, site=site, kind="component", id="*")),
         ]
         token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="planner", id="main"))
-        feed = _Feeder(core)
+        feed = _Feeder(
+            core,
+            lambda guid: inbox.ask(
+                session, COMPONENT_TWIN, timeout_s=TWIN_ASK_TIMEOUT_S, site=site, key=guid_to_key(guid)
+            ),
+        )
         _log.info("planner for %s: %d task(s) from %s", site, len(plan.order), plan.source)
         _wait_for_agents(inbox, feed, manifest, options.agents_timeout_s, stop)
         _sync_twins(session, site, core, inbox, options.twin_timeout_s)
@@ -173,17 +183,51 @@ def _serve_plan(session: zenoh.Session, site: str, plan: Plan) -> zenoh.Queryabl
     return session.declare_queryable(selector, lambda query: query.reply(selector, answer))
 
 
-class _Feeder:
-    """Hands inbox items to the core; keeps the set of alive component keys."""
+@dataclass
+class _Asking:
+    claim: tuple[object, ...]  # (state, previous, attempt, sim time) of the state message
+    asked_wall_s: float
+    repeated: bool = False  # the same claim arrived again before the answer
 
-    def __init__(self, core: PlannerCore) -> None:
+
+class _Feeder:
+    """Hands inbox items to the core; keeps the set of alive component keys.
+
+    A state message is a hint, the twin is the truth: a claim that a component is constructed, failed or
+    blocked (what releases its dependents or ends the build) is never taken from the message, which
+    anyone on an open bus can put; the planner asks that component's twin and takes its answer."""
+
+    def __init__(self, core: PlannerCore, ask_twin: Callable[[str], None]) -> None:
         self.core = core
+        self.ask_twin = ask_twin
         self.alive_components: set[str] = set()
         self.clock_guard = ClockGuard("planner clock")
+        self._asking: dict[str, _Asking] = {}  # GUID → the claim asked about, not answered yet
+
+    def _claimed(self, message: ComponentStateMsg) -> None:
+        """A constructed/failed/blocked claim: ask the component's twin (once per claim in flight)."""
+        claim = (message.state, message.previous, message.attempt, message.sim_time_s)
+        asking = self._asking.get(message.guid)
+        in_flight = asking is not None and time.monotonic() - asking.asked_wall_s <= TWIN_ASK_TIMEOUT_S
+        if asking is not None and in_flight and asking.claim == claim:
+            asking.repeated = True
+            return
+        self._ask(message.guid, claim)
+
+    def _ask(self, guid: str, claim: tuple[object, ...]) -> None:
+        self._asking[guid] = _Asking(claim, time.monotonic())
+        self.ask_twin(guid)
 
     def __call__(self, item: object) -> None:
         core = self.core
         match item:
+            case Received(message=ComponentStateMsg() as message) if message.state in TERMINAL:
+                self._claimed(message)
+            case Answer(message=TwinMsg() as twin):
+                asking = self._asking.pop(twin.guid, None)
+                if asking is not None and asking.repeated and twin.state != asking.claim[0]:
+                    self._ask(twin.guid, asking.claim)  # the claim came again while its twin was asked
+                core.observe_twin(twin)
             case Received(message=ComponentStateMsg() as message):
                 core.observe_component_state(message)
             case Received(message=ComponentPoseMsg() as message):
@@ -229,15 +273,9 @@ def _wait_for_agents(
 def _sync_twins(session: zenoh.Session, site: str, core: PlannerCore, inbox: Inbox, timeout_s: float) -> None:
     """Apply every agent's twin record: what is already released or constructed is not released again."""
     count = 0
-    selector = key(COMPONENT_TWIN_KEY, site=site, key="*")
-    for reply in session.get(selector, target=zenoh.QueryTarget.ALL, timeout=timeout_s):
-        if reply.ok is None:
-            continue
-        sample = reply.ok
-        twin = decode(TwinMsg, str(sample.key_expr), sample.payload.to_bytes(), inbox.invalid)
-        if twin is not None:
-            core.observe_twin(twin)
-            count += 1
+    for twin in ask_twins(session, site, timeout_s, inbox.invalid):
+        core.observe_twin(twin)
+        count += 1
     _log.info("synced %d digital twin(s)", count)
 
 

@@ -41,7 +41,6 @@ from bimbot.shared.messages import (
     COMPONENT_EVENT_KEY,
     COMPONENT_POSE,
     COMPONENT_STATE,
-    COMPONENT_TWIN,
     PHYSICS_ATTACH,
     PHYSICS_DROP,
     PHYSICS_INFO,
@@ -61,11 +60,11 @@ from bimbot.shared.messages import (
     PlanMsg,
     RobotStateMsg,
     ScanMsg,
-    TwinMsg,
     key,
 )
 from bimbot.shared.occupancy_grid import OccupancyGrid
 from bimbot.shared.service_runner import BuildInput
+from bimbot.shared.twin_query import ask_twins
 
 from .astar import plan_path
 from .executor import Executor, ExecutorConfig, Outgoing
@@ -158,13 +157,9 @@ def _learn_the_site(session: zenoh.Session, inbox: Inbox, site: str, executor: E
     """What a robot joining late must know before it acts: every component's state (its twin's last record)
     and pose, so it neither plans through a placed column nor waits for a change that happened before it
     started."""
-    selector = COMPONENT_TWIN.key(site=site, key="*")
     twins = 0
-    for reply in session.get(selector, timeout=TWINS_TIMEOUT_S):
-        if reply.ok is None:
-            continue
-        twin = decode(TwinMsg, str(reply.ok.key_expr), reply.ok.payload.to_bytes(), inbox.invalid)
-        if twin is not None and twin.history:
+    for twin in ask_twins(session, site, TWINS_TIMEOUT_S, inbox.invalid):
+        if twin.history:
             executor.handle(twin.history[-1])
             twins += 1
     poses = query_first(session, PHYSICS_POSES, inbox.invalid, timeout_s=POSES_TIMEOUT_S, site=site)

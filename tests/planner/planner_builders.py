@@ -21,7 +21,14 @@ from bimbot.shared.manifest import (
     Pose,
     SourceModel,
 )
-from bimbot.shared.messages import ComponentState, ComponentStateMsg, RobotState, RobotStateMsg
+from bimbot.shared.messages import (
+    ComponentState,
+    ComponentStateMsg,
+    PoseMsg,
+    RobotState,
+    RobotStateMsg,
+    TwinMsg,
+)
 from bimbot.shared.reasons import Reason
 
 PORTAL = ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c", "beam")
@@ -118,4 +125,27 @@ def robot_msg(
         pose_xy_yaw=(xy[0], xy[1], 0.0),
         sim_time_s=sim_time_s,
         wall_time_s=0.0,
+    )
+
+
+def twin_msg(guid: str, state: ComponentState) -> TwinMsg:
+    """The twin a component agent of the portal answers: its ``state`` and nothing else of note."""
+    item = portal_manifest().component(guid)
+    pose = item.target_pose_world
+    target = PoseMsg(position_m=pose.position_m, quat_xyzw=pose.quat_xyzw)
+    return TwinMsg(
+        guid=guid,
+        key=guid,
+        ifc_class=item.ifc_class,
+        name=None,
+        storey=None,
+        material=None,
+        mass_kg=1.0,
+        target_pose=target,
+        current_pose=None,
+        current_pose_sim_time_s=None,
+        state=state,
+        attempt=1,
+        robot_id=None,
+        history=[],
     )

@@ -11,7 +11,8 @@ import time
 from pathlib import Path
 
 import pytest
-from planner_builders import portal_manifest, robot_msg, state_msg
+import zenoh
+from planner_builders import portal_manifest, robot_msg, state_msg, twin_msg
 
 from bimbot.cli import build_parser
 from bimbot.cli import main as bimbot_main
@@ -24,6 +25,7 @@ from bimbot.shared.messages import (
     ALIVE_KEY,
     COMPONENT_EVENT_KEY,
     COMPONENT_STATE_KEY,
+    COMPONENT_TWIN_KEY,
     PROGRESS_KEY,
     ROBOT_STATE_KEY,
     TASK_KEY,
@@ -70,7 +72,10 @@ def test_planner_builds_the_portal_over_the_bus_and_exits_0(portal_build: Path) 
     guids = [item.guid for item in portal_manifest().components]
     constructed: list[str] = []
     progress: list[ProgressMsg] = []
+    twins = dict.fromkeys(guids, ComponentState.PLANNED)
+    forged: set[str] = set()
     with open_session(BusOptions(mode="peer", connect=(endpoint,), listen=())) as session:
+        twin_queryable = _serve_twins(session, twins)
         callback = lambda sample: received.put((str(sample.key_expr), sample.payload.to_bytes()))  # noqa: E731
         session.declare_subscriber(key(COMPONENT_EVENT_KEY, site=SITE, key="*"), callback)
         session.declare_subscriber(key(TASK_KEY, site=SITE, task_id="*"), callback)
@@ -94,7 +99,10 @@ def test_planner_builds_the_portal_over_the_bus_and_exits_0(portal_build: Path) 
                 if "/event" in where:
                     event = decode(ComponentEventMsg, where, payload, invalid)
                     if event is not None and event.event is ComponentEvent.RELEASE:
-                        _publish_state(session, event.guid, ComponentState.RELEASED)
+                        _publish_state(session, event.guid, ComponentState.RELEASED, twins)
+                        if event.guid == "foot_a" and not forged:  # a forger claims the beam is built
+                            forged.add("beam")
+                            _publish_state(session, "beam", ComponentState.CONSTRUCTED)
                 elif "/tasks/" in where:
                     task = decode(TaskMsg, where, payload, invalid)
                     if (
@@ -104,13 +112,14 @@ def test_planner_builds_the_portal_over_the_bus_and_exits_0(portal_build: Path) 
                     ):
                         assert task.robot_id == "r1"
                         constructed.append(task.guid)
-                        _publish_state(session, task.guid, ComponentState.CONSTRUCTED)
+                        _publish_state(session, task.guid, ComponentState.CONSTRUCTED, twins)
                 else:
                     message = decode(ProgressMsg, where, payload, invalid)
                     progress.extend([message] if message is not None else [])
         finally:
             stop.set()
             planner.join(timeout=10.0)
+            twin_queryable.undeclare()
             for token in tokens:
                 token.undeclare()
         for where, payload in _drain(received, 0.5):
@@ -133,9 +142,27 @@ def _drain(received: queue.Queue[tuple[str, bytes]], timeout_s: float) -> list[t
         return items
 
 
-def _publish_state(session: object, guid: str, state: ComponentState) -> None:
+def _publish_state(
+    session: object, guid: str, state: ComponentState, twins: dict[str, ComponentState] | None = None
+) -> None:
+    """What an agent does on a state change: its twin says so (unless forged), then it publishes it."""
+    if twins is not None:
+        twins[guid] = state
     message = state_msg(guid, state, event="test", robot_id="r1")
     session.put(key(COMPONENT_STATE_KEY, site=SITE, key=guid), encode(message))  # type: ignore[attr-defined]
+
+
+def _serve_twins(session: zenoh.Session, twins: dict[str, ComponentState]) -> zenoh.Queryable:
+    """The test's component agents answer ``components/<key>/twin`` with the state they hold."""
+
+    def answer(query: zenoh.Query) -> None:
+        wanted = str(query.key_expr).split("/")[-2]
+        for guid, state in list(twins.items()):
+            if wanted in ("*", guid):
+                reply_key = key(COMPONENT_TWIN_KEY, site=SITE, key=guid)
+                query.reply(reply_key, encode(twin_msg(guid, state)))
+
+    return session.declare_queryable(key(COMPONENT_TWIN_KEY, site=SITE, key="*"), answer)
 
 
 def test_planner_cli_reports_an_unreadable_build_in_one_line(tmp_path: Path) -> None:
