@@ -31,6 +31,10 @@ and journals it (:mod:`bimbot.services.component_agents.journal`).
 
 Times: ``sim_time_s`` is simulated time from the physics clock; ``wall_time_s`` is Unix time, only for
 latency measurements. Poses are in the simulation world frame (see :mod:`bimbot.shared.manifest`).
+
+Bounds: every number is declared with a bounded type of :mod:`bimbot.shared.message_bounds` (finite, sim
+times in [0, 1e7] s, steps below 1e9, positions within 1e5 m, unit quaternions, …), so schema-valid nonsense
+is rejected by :func:`bimbot.shared.bus.decode` like any invalid payload.
 """
 
 from __future__ import annotations
@@ -41,7 +45,25 @@ from typing import Final, Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from .keyspace import Entry, Liveliness, Queryable, Topic
-from .manifest import Quat, Vec3
+from .message_bounds import (
+    Angle,
+    Count,
+    NonNegative,
+    Percent,
+    Period,
+    PointXY,
+    PoseXYYaw,
+    Position,
+    Range,
+    RangeMax,
+    SimDuration,
+    SimTime,
+    Speed,
+    Step,
+    TurnRate,
+    UnitQuat,
+    WallTime,
+)
 from .reasons import Reason
 from .robot_description import RobotDescription
 from .site_plan import SiteLayout
@@ -97,8 +119,8 @@ class ComponentEvent(StrEnum):
 
 class PoseMsg(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
-    position_m: Vec3
-    quat_xyzw: Quat
+    position_m: Position
+    quat_xyzw: UnitQuat
 
 
 class ComponentStateMsg(_Message):
@@ -110,12 +132,12 @@ class ComponentStateMsg(_Message):
     previous: ComponentState | None = None
     event: str = Field(description="the event or internal decision that caused the change")
     cause: str = ""
-    attempt: int = 0
+    attempt: Count = 0
     robot_id: str | None = None
-    sim_time_s: float
-    wall_time_s: float
-    position_error_m: float | None = None
-    angle_error_rad: float | None = None
+    sim_time_s: SimTime
+    wall_time_s: WallTime
+    position_error_m: NonNegative | None = None
+    angle_error_rad: NonNegative | None = None
     reason: Reason | None = None  # failed/blocked: why; released after an abandon: why it was given back
 
 
@@ -126,15 +148,15 @@ class ComponentEventMsg(_Message):
     event_id: str = Field(description="unique per event, so a repeated delivery is applied once")
     task_id: str | None = None
     robot_id: str | None = None
-    sim_time_s: float
-    wall_time_s: float
+    sim_time_s: SimTime
+    wall_time_s: WallTime
     reason: Reason | None = None  # abandon, fail, block: why
 
 
 class ComponentPoseMsg(_Message):
     guid: str
     pose: PoseMsg
-    sim_time_s: float
+    sim_time_s: SimTime
     attached_to: str | None = None  # robot id while carried
     fixed: bool = False  # fixed to the structure
 
@@ -148,12 +170,12 @@ class TwinMsg(_Message):
     name: str | None
     storey: str | None
     material: str | None
-    mass_kg: float
+    mass_kg: NonNegative
     target_pose: PoseMsg
     current_pose: PoseMsg | None
-    current_pose_sim_time_s: float | None
+    current_pose_sim_time_s: SimTime | None
     state: ComponentState
-    attempt: int
+    attempt: Count
     robot_id: str | None
     history: list[ComponentStateMsg]  # every transition (``previous`` set), oldest first
     reason: Reason | None = None  # failed/blocked: why; else the last give-back's reason, if any
@@ -178,10 +200,10 @@ class TaskMsg(_Message):
     component_key: str
     status: TaskStatus
     robot_id: str | None = None
-    attempt: int = 0
+    attempt: Count = 0
     target_pose: PoseMsg
-    sim_time_s: float
-    wall_time_s: float
+    sim_time_s: SimTime
+    wall_time_s: WallTime
     reason: Reason | None = None  # failed/blocked tasks: why
 
 
@@ -210,52 +232,54 @@ class RobotStateMsg(_Message):
     state: RobotState
     task_id: str | None = None
     guid: str | None = None
-    pose_xy_yaw: tuple[float, float, float]
-    sim_time_s: float
-    wall_time_s: float
-    distance_m: float = 0.0
+    pose_xy_yaw: PoseXYYaw
+    sim_time_s: SimTime
+    wall_time_s: WallTime
+    distance_m: NonNegative = 0.0
     activity: str = ""  # what the robot is doing, in words (a stall report and the live progress show it)
 
 
 class CmdVelMsg(_Message):
     robot_id: str
-    v_mps: float
-    w_radps: float
-    sim_time_s: float
-    step: int | None = None  # the clock step this command answers (lock-step mode)
+    v_mps: Speed
+    w_radps: TurnRate
+    sim_time_s: SimTime
+    step: Step | None = None  # the clock step this command answers (lock-step mode)
 
 
 class RobotPoseMsg(_Message):
     """Ground truth from physics (robots localise from odometry and laser, not from this)."""
 
     robot_id: str
-    pose_xy_yaw: tuple[float, float, float]
-    sim_time_s: float
+    pose_xy_yaw: PoseXYYaw
+    sim_time_s: SimTime
     carrying: str | None = None  # GUID of the attached component
 
 
 class OdomMsg(_Message):
     robot_id: str
-    pose_xy_yaw: tuple[float, float, float]
-    v_mps: float
-    w_radps: float
-    sim_time_s: float
+    pose_xy_yaw: PoseXYYaw
+    v_mps: Speed
+    w_radps: TurnRate
+    sim_time_s: SimTime
 
 
 class ScanMsg(_Message):
+    # +inf ("no return") goes on the bus as JSON ``Infinity`` and comes back (pydantic's default writes null)
+    model_config = ConfigDict(frozen=True, extra="forbid", ser_json_inf_nan="constants")
     robot_id: str
-    angle_min_rad: float
-    angle_increment_rad: float
-    range_max_m: float
-    ranges_m: list[float]
-    sim_time_s: float
+    angle_min_rad: Angle
+    angle_increment_rad: Angle
+    range_max_m: RangeMax
+    ranges_m: list[Range]  # physics publishes range_max_m for a beam that hits nothing
+    sim_time_s: SimTime
 
 
 class PlanMsg(_Message):
     robot_id: str
-    path_xy_m: list[tuple[float, float]]
-    goal_xy_m: tuple[float, float]
-    sim_time_s: float
+    path_xy_m: list[PointXY]
+    goal_xy_m: PointXY
+    sim_time_s: SimTime
 
 
 # --- physics requests ----------------------------------------------------------------------------------
@@ -271,11 +295,11 @@ class SiteInfoMsg(_Message):
     """What a robot (or the planner) needs from physics: who is on site, of which type, the clock's pace."""
 
     robot_ids: list[str]
-    robot_starts_xy_yaw: list[tuple[float, float, float]]
+    robot_starts_xy_yaw: list[PoseXYYaw]
     robot_type_of: dict[str, str]  # robot id → type name (a key of robot_types)
     robot_types: dict[str, RobotDescription]  # the one description of each type on site
-    step_s: float
-    control_period_s: float
+    step_s: Period
+    control_period_s: Period
     lock_step: bool
     layout: SiteLayout  # the one site plan (yard slots, depot, fence): physics owns it, the rest ask
 
@@ -302,7 +326,7 @@ class PlaceRequest(_Message):
     robot_id: str
     guid: str
     pose: PoseMsg  # where the component must end, world frame
-    duration_s: float = 2.0  # sim seconds of the assembly motion
+    duration_s: SimDuration = 2.0  # sim seconds of the assembly motion
 
 
 class DropRequest(_Message):
@@ -318,9 +342,9 @@ class SitePosesMsg(_Message):
     clock ``step`` of ``epoch``. A robot that restarts takes its pose from here, the run's as-built audit
     compares the components with their BIM targets."""
 
-    step: int
-    epoch: int
-    sim_time_s: float
+    step: Step
+    epoch: Step
+    sim_time_s: SimTime
     components: dict[str, ComponentPoseMsg]  # GUID → pose
     robots: dict[str, RobotPoseMsg]  # robot id → ground-truth pose
 
@@ -328,9 +352,9 @@ class SitePosesMsg(_Message):
 class PhysicsReply(_Message):
     ok: bool
     reason: str = ""
-    sim_time_s: float
+    sim_time_s: SimTime
     pose: PoseMsg | None = None  # the component's pose after the request
-    distance_m: float | None = None  # a reach refusal: the robot's true distance to the footprint (m)
+    distance_m: NonNegative | None = None  # a reach refusal: the robot's true distance to the footprint (m)
 
 
 # --- site-wide -------------------------------------------------------------------------------------------
@@ -341,19 +365,19 @@ ALIVE_KEY = "bimbot/{site}/alive/{kind}/{id}"
 
 
 class ClockMsg(_Message):
-    sim_time_s: float
-    step: int  # control step (one per control period), the unit of lock-step
-    real_time_factor: float
+    sim_time_s: SimTime
+    step: Step  # control step (one per control period), the unit of lock-step
+    real_time_factor: NonNegative
     lock_step: bool = False
-    epoch: int = 0  # physics starts of this run - 1: a new epoch is a restart, not a jump in time
+    epoch: Step = 0  # physics starts of this run - 1: a new epoch is a restart, not a jump in time
 
 
 class ProgressMsg(_Message):
-    total: int
-    counts: dict[str, int]  # by ComponentState value
-    percent_constructed: float
-    sim_time_s: float
-    estimated_finish_sim_time_s: float | None
+    total: Count
+    counts: dict[str, Count]  # by ComponentState value
+    percent_constructed: Percent
+    sim_time_s: SimTime
+    estimated_finish_sim_time_s: NonNegative | None  # an estimate, not a clock: not held to MAX_SIM_TIME_S
     failed: list[str] = []
     blocked: list[str] = []
     reasons: dict[str, Reason] = {}  # GUID → why, for every failed and blocked component

@@ -116,7 +116,9 @@ def test_a_repeated_event_id_is_applied_once() -> None:
 def test_events_for_another_guid_or_with_a_non_finite_time_are_rejected() -> None:
     agent = new_agent()
     assert agent.apply_event(event(GUIDS[0], E.RELEASE), NOW) == []
-    assert agent.apply_event(event(agent.guid, E.RELEASE, sim_time_s=math.nan), NOW) == []
+    # a NaN time no longer passes decode (message bounds); the agent still refuses one handed to it in-process
+    not_a_time = event(agent.guid, E.RELEASE).model_copy(update={"sim_time_s": math.nan})
+    assert agent.apply_event(not_a_time, NOW) == []
     assert agent.state is S.PLANNED
 
 
@@ -233,11 +235,11 @@ def test_invalid_poses_are_ignored() -> None:
     agent = new_agent()
     drive_to_assembling(agent)
     agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=5.0), NOW)
-    bad = pose_of(agent.component, sim_time_s=6.0).model_copy(
-        update={"pose": PoseMsg(position_m=(0.0, 0.0, 0.0), quat_xyzw=(0.0, 0.0, 0.0, 0.0))}
-    )
+    # neither passes decode any more (message bounds); the agent still ignores them handed in-process
+    zero_quat = PoseMsg.model_construct(position_m=(0.0, 0.0, 0.0), quat_xyzw=(0.0, 0.0, 0.0, 0.0))
+    bad = pose_of(agent.component, sim_time_s=6.0).model_copy(update={"pose": zero_quat})
     assert agent.observe_pose(bad, NOW) == []
-    nan = pose_of(agent.component, sim_time_s=math.nan)
+    nan = pose_of(agent.component, sim_time_s=6.0).model_copy(update={"sim_time_s": math.nan})
     assert agent.observe_pose(nan, NOW) == []
     assert agent.pose is None
     assert agent.state is S.VERIFYING

@@ -22,6 +22,7 @@ from bimbot.shared.messages import (
     ComponentPoseMsg,
     DropRequest,
     PlaceRequest,
+    PoseMsg,
     RobotPoseMsg,
 )
 from bimbot.shared.site_layout import GROUND_CLEARANCE_M
@@ -195,9 +196,13 @@ def test_place_refusals_name_the_problem(
     )
     _beside_target(sim, column)
     assert sim.place(_place(sim, column, robot_id="r2")).reason == f"{column.guid} is carried by r1, not r2"
-    bad_quat = _place(sim, column).model_copy(update={"pose": pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0))})
+    # a zero quaternion or a negative duration no longer passes decode (message bounds), but physics still
+    # refuses one handed to it in-process (model_construct and model_copy skip validation)
+    zero_quat = PoseMsg.model_construct(position_m=(0.0, 0.0, 0.0), quat_xyzw=(0.0, 0.0, 0.0, 0.0))
+    bad_quat = _place(sim, column).model_copy(update={"pose": zero_quat})
     assert sim.place(bad_quat).reason.startswith("invalid pose")
-    assert sim.place(_place(sim, column, duration_s=-1.0)).reason.startswith("duration_s must be within")
+    negative = _place(sim, column).model_copy(update={"duration_s": -1.0})
+    assert sim.place(negative).reason.startswith("duration_s must be within")
     outside = _place(sim, column).model_copy(update={"pose": pose((1e4, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))})
     assert "outside the site" in sim.place(outside).reason
     assert sim.place(_place(sim, column)) is None
