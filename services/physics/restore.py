@@ -53,13 +53,13 @@ def restore_site(sim: Simulation, snapshot: PhysicsSnapshot, twins: Iterable[Twi
     """Put ``sim`` (a freshly built scene) into the state of ``snapshot`` and the twins; a new epoch."""
     handling = sim.handling
     robots = 0
-    for robot_id, record in snapshot.robots.items():
+    for robot_id, robot in snapshot.robots.items():
         if robot_id not in sim.robots:
             _log.warning("the record has robot %s, this physics has %s: left out", robot_id, sim.robot_ids)
             continue
-        sim.teleport_robot(robot_id, record.pose.pose_xy_yaw)
-        if record.odom_xy_yaw is not None:
-            sim.set_odometry_pose(robot_id, record.odom_xy_yaw)
+        sim.teleport_robot(robot_id, robot.pose.pose_xy_yaw)
+        if robot.odom_xy_yaw is not None:
+            sim.set_odometry_pose(robot_id, robot.odom_xy_yaw)
         robots += 1
     moved = 0
     for guid, pose in snapshot.components.items():
@@ -79,8 +79,8 @@ def restore_site(sim: Simulation, snapshot: PhysicsSnapshot, twins: Iterable[Twi
         handling.note_constructed(twin.guid, True)
         record = snapshot.components.get(twin.guid)
         if record is None or not record.fixed:
-            pose = twin.current_pose or twin.target_pose
-            handling.restore(twin.guid, _frame(pose), fixed=True, carrier=None)
+            placed = twin.current_pose or twin.target_pose
+            handling.restore(twin.guid, _frame(placed), fixed=True, carrier=None)
             from_twins += 1
     sim.step = snapshot.step + 1  # after the last step anyone can have seen
     sim.epoch = snapshot.epoch + 1
