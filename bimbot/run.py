@@ -33,13 +33,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from bimbot.as_built import as_built_line
 from bimbot.run_args import (
     ObserverOptions,
     RunOptions,
     add_run_arguments,
     run_options,
 )
-from bimbot.run_commands import service_commands
+from bimbot.run_commands import monitor_bus_options, router_arguments, secure_bus, service_commands
 from bimbot.run_loop import LoopLimits, LoopResult, RunWatch, StopSignals
 from bimbot.run_monitor import RunMonitor
 from bimbot.run_preflight import check_run_input
@@ -49,7 +50,7 @@ from bimbot.run_table import not_built_table
 from bimbot.run_watchdog import StallWatchdog
 from bimbot.services.observer.report import RunEnding
 from bimbot.services.observer.report_png import write_report_files
-from bimbot.shared.bus import BusOptions, open_session
+from bimbot.shared.bus import open_session
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import Manifest, load_manifest
 from bimbot.shared.messages import ComponentState
@@ -104,19 +105,23 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
     started = time.perf_counter()
     services: list[ServiceProcess] = []
     restarter = Restarter(RestartPolicy(max_restarts=options.max_restarts))
+    bus = secure_bus(run, options, manifest.site)  # None unless --secure; writes RUN/bus/
     with StopSignals().installed() as stop:
-        router = ServiceProcess("bus", ["bus", "--listen", endpoint], log_dir)
-        announce(f"bus: {endpoint} (watch it: bimbot watch --build {build} --connect {endpoint})")
+        router = ServiceProcess("bus", router_arguments(endpoint, bus), log_dir)
+        watch = f"bimbot watch --build {build} --connect {endpoint}"
+        if bus is not None:
+            watch += f" --mode client --bus-config {bus.monitor}"
+        announce(f"bus: {endpoint}{' (secured)' if bus else ''} (watch it: {watch})")
         progress: ProgressView = NoProgress()
         ended_how = "stopped: the run did not get to its end"
         try:
-            with open_session(BusOptions(connect=(endpoint,))) as session:
+            with open_session(monitor_bus_options(endpoint, bus)) as session:
                 monitor = RunMonitor(manifest, session)
 
                 def report_of(ending: RunEnding) -> dict[str, Any]:
                     return {**monitor.report(ending), "restarts": restarter.report()}
 
-                for name, args in service_commands(build, endpoint, options, run):
+                for name, args in service_commands(build, endpoint, options, run, bus):
                     again = [arg for arg in args if arg != "--fresh"]  # a restart resumes its journal
                     services.append(ServiceProcess(name, args, log_dir, restart_args=again))
                 by_name = {service.name: service for service in services}
@@ -138,11 +143,14 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
                 ended_how = f"{result.ending.how}: {result.ending.message}"
                 progress.close()
                 monitor.drain(wait_s=0.3)  # the last state messages
+                monitor.audit()  # the twins confirm every state, physics' poses against the BIM targets
                 outcome = _outcome(manifest, monitor, result, time.perf_counter() - started)
                 outcome.report_dir, outcome.viewer_url, outcome.run_dir = report_dir, viewer_url, run.root
                 plan = monitor.plan.answer
                 outcome.plan_warnings = list(plan.warnings) if plan is not None else []
                 outcome.report = report_of(result.ending)
+                if outcome.exit_code == 0 and (outcome.report.get("as_built") or {}).get("errors"):
+                    outcome.exit_code = 1  # the bus says built, physics has it elsewhere
                 write_report_files(outcome.report, report_dir)
                 if result.input_error is not None:
                     raise UserError(f"the planner rejected its input:\n{result.input_error}")
@@ -269,6 +277,9 @@ def summary_text(outcome: RunOutcome) -> str:
             f"placement error at most {totals['max_position_error_mm']:.2f} mm and "
             f"{totals['max_angle_error_deg']:.2f}°"
         )
+    as_built = as_built_line(outcome.report)
+    if as_built is not None:
+        lines.append(as_built)
     for robot_id, robot in sorted(outcome.report.get("robots", {}).items()):
         lines.append(
             f"robot {robot_id}: {len(robot['tasks'])} task(s), {robot['distance_m']:.0f} m driven, "

@@ -13,11 +13,12 @@ import logging
 from dataclasses import dataclass
 from pathlib import Path
 
+from bimbot.run_restarts import RestartPolicy
 from bimbot.run_watchdog import DEFAULT_CLOCK_STALL_WALL_S, DEFAULT_STALL_AFTER_S
 from bimbot.services.observer import VIEWER_GRPC_PORT, VIEWER_WEB_PORT
 from bimbot.services.physics.profiles import RUN_PROFILE, add_profile_arguments
 from bimbot.shared.errors import UserError
-from bimbot.shared.option_types import non_negative_float, positive_float, positive_int
+from bimbot.shared.option_types import non_negative_float, non_negative_int, positive_float, positive_int
 
 DEFAULT_TIMEOUT_S = 900.0
 DEFAULT_REPORT_EVERY_S = 30.0  # wall seconds between two reports written while the run goes on
@@ -51,6 +52,7 @@ class RunOptions:
     stall_after_s: float = DEFAULT_STALL_AFTER_S  # sim seconds without a change on the site (0: never)
     clock_stall_wall_s: float = DEFAULT_CLOCK_STALL_WALL_S  # wall seconds without the clock advancing
     report_every_s: float = DEFAULT_REPORT_EVERY_S  # wall seconds; 0: only at the end
+    max_restarts: int = RestartPolicy.max_restarts  # per service: a service that dies is started again
     show_progress: bool = False  # live progress on stdout (the CLI: unless -q)
     secure: bool = False  # a secured bus: per-service credentials, the router's access control (RUN/bus/)
 
@@ -110,6 +112,14 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_REPORT_EVERY_S,
         help="also write the report this often (wall seconds) while it runs "
         f"({DEFAULT_REPORT_EVERY_S:g}; 0: never)",
+    )
+    parser.add_argument(
+        "--max-restarts",
+        type=non_negative_int,
+        default=RestartPolicy.max_restarts,
+        metavar="N",
+        help="restart a service that dies up to N times, with backoff, and go on "
+        f"({RestartPolicy.max_restarts}; 0: a dead service ends the run)",
     )
     parser.add_argument(
         "-q",
@@ -189,6 +199,7 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         stall_after_s=args.stall_after_s,
         clock_stall_wall_s=args.stall_wall_s,
         report_every_s=args.report_every_s,
+        max_restarts=args.max_restarts,
         show_progress=not quiet(args),
         secure=getattr(args, "secure", False),
     )
