@@ -78,6 +78,7 @@ from .sources import Plan, PlanSource, load_plan
 
 _log = logging.getLogger(__name__)
 
+TWIN_REFRESH_S = 10.0  # wall seconds between asking the twins of components in flight (missed messages)
 TWIN_ASK_TIMEOUT_S = 5.0  # wall seconds for a twin to confirm a constructed/failed/blocked claim
 
 
@@ -290,9 +291,14 @@ class _Loop:
     def run(self, options: PlannerOptions, stop: threading.Event) -> int:
         last_progress: str | None = None
         last_progress_wall = 0.0
+        next_refresh_s = time.monotonic() + TWIN_REFRESH_S
         while not stop.is_set():
             for item in self.inbox.drain(first_timeout_s=options.poll_s):
                 self.feed(item)
+            if time.monotonic() >= next_refresh_s:  # recover a state message that went missing
+                next_refresh_s = time.monotonic() + TWIN_REFRESH_S
+                for guid in self.core.in_flight():
+                    self.feed.ask_twin(guid)
             for message in self.core.step(time.time()):
                 self.session.put(outgoing_key(self.site, message), encode(message))
             progress = self.core.progress()

@@ -223,6 +223,13 @@ class PlannerCore:
     def phase(self, guid: str) -> Phase:
         return self._tasks[guid].phase
 
+    def in_flight(self) -> list[str]:
+        """Components released or worked on: a state message of theirs that went missing would hold the
+        build up, so the adapter asks their twins now and then."""
+        return [
+            guid for guid in self._plan.order if self._tasks[guid].phase in (Phase.RELEASED, Phase.ASSIGNED)
+        ]
+
     def robot_of(self, guid: str) -> str | None:
         return self._tasks[guid].robot_id
 

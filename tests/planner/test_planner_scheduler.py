@@ -279,3 +279,13 @@ def test_done_only_when_every_task_is_done_failed_or_blocked() -> None:
 
 def _pose_msg(pose: Pose) -> PoseMsg:
     return PoseMsg(position_m=pose.position_m, quat_xyzw=pose.quat_xyzw)
+
+
+def test_in_flight_names_the_released_and_assigned_components_whose_twins_to_ask() -> None:
+    core = _core()
+    assert core.in_flight() == []
+    core.step(0.0)  # releases the footings
+    assert set(core.in_flight()) == {"foot_a", "foot_b", "foot_c"}
+    _construct(core, "foot_a")
+    core.step(1.0)
+    assert "foot_a" not in core.in_flight()
