@@ -1,0 +1,113 @@
+"""Any service may die mid-build: ``bimbot run`` restarts it and the build completes, nothing done twice.
+
+The bundled frame (28 components, one robot) is built by ``bimbot run`` as a process; while it builds,
+the test SIGKILLs each service once, in turn — physics, the robot, the agents, the planner and the bus
+router — each when a few more components are constructed and the one killed before is running again.
+Then: the run ends by itself with every component constructed and exit 0; its report lists the five
+deaths, each restarted; the agents' journal holds exactly one ``constructed`` transition per component
+(nothing was built twice); and the as-built audit finds every component at its BIM target in physics
+(the restarted physics put the built ones back where they were placed).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+from collections import Counter
+from pathlib import Path
+
+import pytest
+
+from bimbot.services.component_agents.journal import journal_path, replay
+from bimbot.shared.messages import ComponentState
+from bimbot.shared.run_folder import RunFolder
+from bimbot.supervisor import wait_until
+
+pytestmark = pytest.mark.integration
+
+RUN_TIMEOUT_S = 600
+KILLS = ("physics", "robot", "agents", "planner", "bus")  # the `bimbot <command>` of each victim
+FIRST_KILL_AT, KILL_EVERY = 3, 4  # constructed components before the first kill, and between kills
+
+
+def _children(pid: int) -> dict[str, int]:
+    """``bimbot <command>`` → pid of the direct children of ``pid`` (from /proc)."""
+    found: dict[str, int] = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+            argv = (entry / "cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        ppid = int(stat.rsplit(")", 1)[1].split()[1])
+        if ppid == pid and b"bimbot.cli" in argv:
+            command = argv[argv.index(b"bimbot.cli") + 1].decode()
+            found[command] = int(entry.name)
+    return found
+
+
+def _constructions(run: RunFolder) -> Counter[str]:
+    """How often each component went to ``constructed`` in the agents' journal (announcements of a
+    restarted agent, which have no previous state, are not transitions)."""
+    path = journal_path(run.state_dir, 1, 1)
+    if not path.exists():
+        return Counter()
+    return Counter(
+        guid
+        for guid, records in replay(path).records.items()
+        for record in records
+        if record.change.state == ComponentState.CONSTRUCTED and record.change.previous is not None
+    )
+
+
+def test_every_service_killed_once_mid_build_the_build_completes_once(
+    bundled_build: Path, tmp_path: Path
+) -> None:
+    build = tmp_path / "build"
+    shutil.copytree(bundled_build, build)
+    run = RunFolder(tmp_path / "run")
+    command = [sys.executable, "-m", "bimbot.cli", "run", str(build), "-q", "--run-dir", str(run.root)]
+    command += ["--timeout-s", str(RUN_TIMEOUT_S - 60)]
+    with (tmp_path / "run.stdout").open("w") as out, (tmp_path / "run.stderr").open("w") as err:
+        process = subprocess.Popen(command, stdout=out, stderr=err)
+        killed: dict[str, int] = {}
+        try:
+            for number, victim in enumerate(KILLS):
+                due = FIRST_KILL_AT + number * KILL_EVERY
+                assert wait_until(
+                    lambda due=due: sum(_constructions(run).values()) >= due or process.poll() is not None,
+                    timeout_s=RUN_TIMEOUT_S / 2,
+                ), f"fewer than {due} constructed before killing {victim}"
+                assert process.poll() is None, f"the run ended before {victim} was killed"
+                for earlier, pid in killed.items():  # the one killed before runs again
+                    assert wait_until(
+                        lambda e=earlier, p=pid: _children(process.pid).get(e, p) != p, timeout_s=60.0
+                    ), f"{earlier} was not restarted"
+                pid = _children(process.pid)[victim]
+                os.kill(pid, signal.SIGKILL)
+                killed[victim] = pid
+            process.wait(timeout=RUN_TIMEOUT_S)
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+    stdout = (tmp_path / "run.stdout").read_text()
+    detail = f"{stdout}\n{(tmp_path / 'run.stderr').read_text()[-3000:]}"
+    report = json.loads((run.report_dir / "report.json").read_text())
+    total = len(report["components"])
+    assert process.returncode == 0, detail
+    assert f"constructed {total}/{total} components" in stdout, detail
+    deaths = {record["service"]: record for record in report["restarts"]}
+    assert set(deaths) == {"physics", "robot-r1", "agents", "planner", "bus"}, detail
+    assert all(record["restarted_wall_s"] is not None for record in deaths.values()), detail
+    constructions = _constructions(run)
+    assert len(constructions) == total and set(constructions.values()) == {1}, constructions
+    audit = report["as_built"]
+    assert audit["errors"] == [] and audit["checked"] == total, detail
+    assert report["totals"]["max_final_position_error_mm"] <= 10.0, detail
