@@ -48,6 +48,14 @@ from .verification import PlacementCheck, Tolerances, is_valid_pose, verify
 
 _log = logging.getLogger(__name__)
 
+PLANNER_SOURCE = "planner"  # ComponentEventMsg.source of the planner's events; a robot's is its id
+PLANNER_EVENTS = frozenset(
+    {ComponentEvent.RELEASE, ComponentEvent.RETRY, ComponentEvent.FAIL, ComponentEvent.BLOCK}
+)
+ROBOT_EVENTS = frozenset(
+    {ComponentEvent.PICK, ComponentEvent.ATTACH, ComponentEvent.ARRIVE, ComponentEvent.PLACE}
+)
+
 
 @dataclass(frozen=True)
 class AgentConfig:
@@ -145,6 +153,21 @@ class ComponentAgent:
 
     # --- inputs --------------------------------------------------------------------------------------------
 
+    def _sender_refusal(self, msg: ComponentEventMsg) -> str | None:
+        """Who may say what (None: this sender may): the planner releases, retries, fails and blocks; a
+        robot picks, attaches, arrives and places, and once a robot has picked the component up, only that
+        robot until the task is given back or retried; either may abandon."""
+        robot = msg.source != PLANNER_SOURCE
+        if msg.event in PLANNER_EVENTS and robot:
+            return f"{msg.event.value} comes from the planner only, not {clip(msg.source)}"
+        if msg.event in ROBOT_EVENTS and not robot:
+            return f"{msg.event.value} comes from a robot, not the planner"
+        if robot and msg.robot_id not in (None, msg.source):
+            return f"sent by {clip(msg.source)} on behalf of {clip(msg.robot_id)}"
+        if robot and self.robot_id is not None and msg.source != self.robot_id:
+            return f"{clip(self.robot_id)} works on it, not {clip(msg.source)}"
+        return None
+
     def apply_event(self, msg: ComponentEventMsg, now_wall_s: float | None = None) -> list[ComponentStateMsg]:
         """Apply a planner/robot event once; the state messages to publish (none: rejected or a repeat)."""
         now = time.time() if now_wall_s is None else now_wall_s
@@ -158,6 +181,10 @@ class ComponentAgent:
             return []
         if not math.isfinite(msg.sim_time_s):
             _log.warning("%s: rejected %s with sim time %r", self.guid, msg.event.value, msg.sim_time_s)
+            return []
+        refusal = self._sender_refusal(msg)
+        if refusal is not None:
+            _log.warning("%s: rejected %s: %s", self.guid, msg.event.value, refusal)
             return []
         source = self.state
         if not self._machine.fire(self, msg.event.value):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import itertools
 import math
 
+from bimbot.services.component_agents.agent import PLANNER_EVENTS
 from bimbot.shared.identifiers import guid_to_folder, guid_to_key
 from bimbot.shared.manifest import (
     BoundingBox,
@@ -95,12 +96,16 @@ def event(
     event_id: str | None = None,
     robot_id: str | None = "robot-1",
 ) -> ComponentEventMsg:
+    """An event as its sender sends it: the planner's (release, retry, fail, block) from the planner, the
+    rest from ``robot_id`` (from the planner when None)."""
+    event = ComponentEvent(name)
+    planner = event in PLANNER_EVENTS or robot_id is None
     return ComponentEventMsg(
         guid=guid,
-        event=ComponentEvent(name),
-        source=robot_id or "planner",
+        event=event,
+        source="planner" if planner else robot_id,
         event_id=event_id or f"ev-{next(_ids)}",
-        robot_id=robot_id,
+        robot_id=None if planner else robot_id,
         sim_time_s=sim_time_s,
         wall_time_s=0.0,
     )

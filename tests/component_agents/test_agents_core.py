@@ -281,3 +281,20 @@ def test_config_is_validated() -> None:
         AgentConfig(max_attempts=0)
     with pytest.raises(ValueError, match="verify_timeout_s"):
         AgentConfig(verify_timeout_s=0.0)
+
+
+def test_events_are_taken_only_from_who_may_send_them() -> None:
+    agent = new_agent()
+    release_by_a_robot = event(agent.guid, E.RELEASE).model_copy(update={"source": "r9", "robot_id": "r9"})
+    assert agent.apply_event(release_by_a_robot, NOW) == []
+    assert agent.state is S.PLANNED
+    assert agent.apply_event(event(agent.guid, E.RELEASE), NOW)  # from the planner
+    pick_by_the_planner = event(agent.guid, E.PICK).model_copy(update={"source": "planner"})
+    assert agent.apply_event(pick_by_the_planner, NOW) == []
+    assert agent.apply_event(event(agent.guid, E.PICK, robot_id="r1"), NOW)
+    assert agent.apply_event(event(agent.guid, E.ATTACH, robot_id="r2"), NOW) == []  # r1 picked it up
+    on_behalf = event(agent.guid, E.ATTACH, robot_id="r2").model_copy(update={"robot_id": "r1"})
+    assert agent.apply_event(on_behalf, NOW) == []
+    assert agent.state is S.PICKING
+    assert agent.apply_event(event(agent.guid, E.ATTACH, robot_id="r1"), NOW)
+    assert agent.state is S.TRANSPORTING

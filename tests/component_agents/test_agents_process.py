@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 import zenoh
 
+from bimbot.services.component_agents.agent import PLANNER_EVENTS
 from bimbot.shared.bus import BusOptions, encode, open_session
 from bimbot.shared.manifest import Component, read_manifest
 from bimbot.shared.messages import (
@@ -88,11 +89,12 @@ class Observer:
         self, component: Component, name: E, expect: S, *, sim_time_s: float = 1.0, event_id: str = ""
     ) -> str:
         """At-least-once delivery: repeat the same event id until the expected state is seen."""
+        sender = "planner" if name in PLANNER_EVENTS else "robot-t"  # who may send it
         message = ComponentEventMsg(
             guid=component.guid,
             event=name,
-            source="robot-t",
-            robot_id="robot-t",
+            source=sender,
+            robot_id=None if sender == "planner" else sender,
             event_id=event_id or str(uuid.uuid4()),
             sim_time_s=sim_time_s,
             wall_time_s=time.time(),
