@@ -6,8 +6,9 @@ converted into a temporary folder first). For 1 and 3 Huskies with every compone
 1. raw physics: ``stepSimulation`` calls per wall second (1/240 s steps) while the robots drive;
 2. one control period (0.1 s = 24 steps) as ``Simulation.advance`` runs it — steps, the carried load
    following its robot after every step, odometry, one 360-beam laser scan per robot, all messages built —
-   plus encoding and publishing them on an isolated Zenoh session (no router, no subscribers): median and
-   p95 in ms, and the real-time factor that cost allows;
+   plus physics' restart record (written every period before publishing, ``snapshot.py``) and encoding
+   and publishing them on an isolated Zenoh session (no router, no subscribers): median and p95 in ms, the
+   real-time factor that cost allows, and the record's share of the period;
 3. the laser alone: one scan per robot.
 
 A full build needs thousands of control periods (one per 0.1 s of sim time), so the period cost sets how
@@ -26,6 +27,7 @@ from pathlib import Path
 
 from bimbot.services.physics.client import p
 from bimbot.services.physics.simulation import SimConfig, Simulation
+from bimbot.services.physics.snapshot import SnapshotRecorder
 from bimbot.shared.bus import BusOptions, encode, open_session
 from bimbot.shared.manifest import read_manifest
 from bimbot.shared.messages import AttachRequest, CmdVelMsg
@@ -72,25 +74,35 @@ def bench(build: Path, robots: int, steps: int, periods: int) -> None:
         )
 
         period_s = sim.config.control_period_s
-        advance, publish = [], []
-        with open_session(BusOptions(mode="peer", connect=(), listen=())) as session:
+        advance, record, publish = [], [], []
+        with (
+            open_session(BusOptions(mode="peer", connect=(), listen=())) as session,
+            tempfile.TemporaryDirectory(prefix="bimbot-physics-record-") as state_dir,
+        ):
+            recorder = SnapshotRecorder(Path(state_dir), sim.epoch)
+            recorder.record(item.message for item in sim.start_messages())
             for _ in range(periods):
                 t0 = time.perf_counter()
                 result = sim.advance()
                 t1 = time.perf_counter()
+                recorder.record(item.message for item in result.messages)  # as app.py: record, then publish
+                recorder.write()
+                t2 = time.perf_counter()
                 for item in result.messages:
                     session.put(item.key_expr, encode(item.message))
-                t2 = time.perf_counter()
+                t3 = time.perf_counter()
                 advance.append(t1 - t0)
-                publish.append(t2 - t1)
-        total = [a + b for a, b in zip(advance, publish, strict=True)]
+                record.append(t2 - t1)
+                publish.append(t3 - t2)
+        total = [a + r + b for a, r, b in zip(advance, record, publish, strict=True)]
         median = statistics.median(total)
         print(
             f"{label}: control period ({sim.config.substeps} steps, {robots} scan(s), "
             f"{len(result.messages)} messages{', r1 carrying' if carrying else ''}): "
-            f"median {median * 1e3:.2f} ms (advance {statistics.median(advance) * 1e3:.2f} + publish "
-            f"{statistics.median(publish) * 1e3:.2f}), p95 {percentile(total, 0.95) * 1e3:.2f} ms "
-            f"→ up to {period_s / median:.0f}× real time"
+            f"median {median * 1e3:.2f} ms (advance {statistics.median(advance) * 1e3:.2f} + record "
+            f"{statistics.median(record) * 1e3:.2f} + publish {statistics.median(publish) * 1e3:.2f}), "
+            f"p95 {percentile(total, 0.95) * 1e3:.2f} ms → up to {period_s / median:.0f}× real time; "
+            f"the restart record is {statistics.median(record) / median:.1%} of the period"
         )
         robot = sim.robots["r1"]
         mount = sim._laser.mount(robot.frame(sim.client_id), robot.base_height_m)

@@ -74,7 +74,7 @@ from .clock import LockStepBarrier, Pacer, RtfMeter
 from .profiles import FINE
 from .restore import restore_site
 from .simulation import Outgoing, SimConfig, Simulation
-from .snapshot import SnapshotRecorder, load_snapshot, snapshot_path
+from .snapshot import SnapshotRecorder, load_snapshot
 
 _log = logging.getLogger(__name__)
 
@@ -111,14 +111,17 @@ def main(
     ):
         recorder = None
         if run.state_dir is not None:
-            path = snapshot_path(run.state_dir)
-            snapshot = load_snapshot(path)
+            snapshot = load_snapshot(run.state_dir)
             if snapshot is not None:
                 twins = ask_twins(session, sim.site, TWINS_TIMEOUT_S)
                 _log.info("%d twin(s) answered", len(twins))
                 restore_site(sim, snapshot, twins)
-            recorder = SnapshotRecorder(path, sim.epoch)
-        _Loop(session, sim, run, stop, recorder).serve()
+            recorder = SnapshotRecorder(run.state_dir, sim.epoch)
+        try:
+            _Loop(session, sim, run, stop, recorder).serve()
+        finally:
+            if recorder is not None:
+                recorder.close()
     return 0
 
 

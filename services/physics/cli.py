@@ -31,7 +31,7 @@ from .profiles import FINE, PROFILES, add_profile_arguments
 from .robots import RobotConfig
 from .sensors import LaserConfig
 from .simulation import SimConfig
-from .snapshot import snapshot_path
+from .snapshot import clear_snapshot
 
 _log = logging.getLogger(__name__)
 
@@ -220,7 +220,7 @@ def run(args: argparse.Namespace) -> int:
     state_dir = open_run_folder(build.dir, args.run_dir).state_dir
     writable_dir(state_dir, "--run-dir")
     if args.fresh:
-        snapshot_path(state_dir).unlink(missing_ok=True)
+        clear_snapshot(state_dir)
     run_config = app.RunConfig(
         rtf=args.rtf,
         lock_step_timeout_s=args.lock_step_timeout_s,

@@ -15,9 +15,9 @@ from bimbot.services.physics.handling import Phase
 from bimbot.services.physics.restore import restore_site
 from bimbot.services.physics.scene import footprint
 from bimbot.services.physics.simulation import Simulation
-from bimbot.services.physics.snapshot import SnapshotRecorder, load_snapshot, snapshot_path
+from bimbot.services.physics.snapshot import SnapshotRecorder, load_snapshot, record_paths
 from bimbot.shared.manifest import Manifest
-from bimbot.shared.messages import AttachRequest, ComponentState, PlaceRequest, TwinMsg
+from bimbot.shared.messages import AttachRequest, ClockMsg, ComponentState, PlaceRequest, TwinMsg
 
 
 def _record(sim: Simulation, recorder: SnapshotRecorder, messages: list) -> None:
@@ -50,7 +50,7 @@ def test_a_restarted_physics_continues_where_the_last_one_stopped(
     make_sim: Callable[..., Simulation], frame_manifest: Manifest, tmp_path: Path
 ) -> None:
     first = make_sim(robots=2)
-    recorder = SnapshotRecorder(snapshot_path(tmp_path), first.epoch)
+    recorder = SnapshotRecorder(tmp_path, first.epoch)
     _record(first, recorder, first.start_messages())
     footing, column, beam = (
         next(c for c in frame_manifest.components if c.ifc_class == cls)
@@ -75,7 +75,7 @@ def test_a_restarted_physics_continues_where_the_last_one_stopped(
     column_pose = first.component_frame(column.guid)
     last_step = first.step
 
-    snapshot = load_snapshot(snapshot_path(tmp_path))
+    snapshot = load_snapshot(tmp_path)
     assert snapshot is not None and snapshot.step == last_step and snapshot.epoch == 0
     second = make_sim(robots=2)
     twins = [
@@ -104,8 +104,19 @@ def test_a_restarted_physics_continues_where_the_last_one_stopped(
     assert math.dist(moved[:2], column_pose[0][:2]) > 0.2
 
 
-def test_an_unreadable_record_means_a_fresh_start(tmp_path: Path) -> None:
-    path = snapshot_path(tmp_path)
-    assert load_snapshot(path) is None
-    path.write_text("{not json", encoding="utf-8")
-    assert load_snapshot(path) is None
+def test_a_torn_record_falls_back_to_the_other_and_none_means_a_fresh_start(tmp_path: Path) -> None:
+    assert load_snapshot(tmp_path) is None
+    recorder = SnapshotRecorder(tmp_path, epoch=2)
+    for step in (7, 8):
+        recorder.record([ClockMsg(sim_time_s=step * 0.2, step=step, real_time_factor=0.0)])
+        recorder.write()
+    recorder.close()
+    loaded = load_snapshot(tmp_path)
+    assert loaded is not None and (loaded.epoch, loaded.step) == (2, 8)
+    newest = max(record_paths(tmp_path), key=lambda path: b'"step":8' in path.read_bytes())
+    newest.write_bytes(newest.read_bytes()[:20])  # a write cut off by a kill
+    loaded = load_snapshot(tmp_path)
+    assert loaded is not None and loaded.step == 7
+    for path in record_paths(tmp_path):
+        path.write_text("{not json", encoding="utf-8")
+    assert load_snapshot(tmp_path) is None
