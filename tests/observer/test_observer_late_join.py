@@ -31,12 +31,14 @@ _ids = itertools.count()
 
 
 def _event(guid: str, name: ComponentEvent, robot_id: str, sim_time_s: float) -> ComponentEventMsg:
+    """The event as its sender sends it: the release from the planner, the rest from the robot."""
+    sender = "planner" if name is E.RELEASE else robot_id
     return ComponentEventMsg(
         guid=guid,
         event=name,
-        source=robot_id,
+        source=sender,
         event_id=f"ev-{next(_ids)}",
-        robot_id=robot_id,
+        robot_id=None if sender == "planner" else robot_id,
         sim_time_s=sim_time_s,
         wall_time_s=NOW,
     )
