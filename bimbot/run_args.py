@@ -118,7 +118,7 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
         type=non_negative_int,
         default=RestartPolicy.max_restarts,
         metavar="N",
-        help="restart a service that dies up to N times, with backoff, and go on "
+        help="restart each service that dies up to N times (per service), with backoff, and go on "
         f"({RestartPolicy.max_restarts}; 0: a dead service ends the run)",
     )
     parser.add_argument(

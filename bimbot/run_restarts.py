@@ -85,7 +85,13 @@ class Restarter:
             self.records.append(record)
             due = wall_s + self.policy.backoff_s(self._counts[name])
             self._pending[name] = (due, record)
-            _log.warning("%s; restarting it in %.1f s", record.line(), due - wall_s)
+            _log.warning(
+                "%s died (exit %s) at sim %.1f s; restarting it in %.1f s",
+                name,
+                exit_code,
+                sim_time_s,
+                due - wall_s,
+            )
             return True
         due, record = pending
         if wall_s >= due:

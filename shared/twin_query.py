@@ -9,6 +9,7 @@ target all of them (Zenoh's default, best matching, would stop at one).
 from __future__ import annotations
 
 import logging
+import time
 
 import zenoh
 
@@ -17,19 +18,32 @@ from .messages import COMPONENT_TWIN, TwinMsg
 
 _log = logging.getLogger(__name__)
 
+RETRY_S = 0.5
+
 
 def ask_twins(
-    session: zenoh.Session, site: str, timeout_s: float, invalid: InvalidPayloads | None = None
+    session: zenoh.Session,
+    site: str,
+    timeout_s: float,
+    invalid: InvalidPayloads | None = None,
+    retry_s: float = RETRY_S,
 ) -> list[TwinMsg]:
     """Every twin the agents answer within ``timeout_s`` wall seconds (none when no agent runs); invalid
-    answers are counted in ``invalid`` and left out."""
+    answers are counted in ``invalid`` and left out. A session that has just opened may not know the
+    agents' queryables yet (their declarations are still on the way): while nobody answers, it asks again
+    every ``retry_s`` until ``timeout_s`` has passed."""
     invalid = invalid or InvalidPayloads()
     selector = COMPONENT_TWIN.key(site=site, key="*")
-    twins = []
-    for reply in session.get(selector, target=zenoh.QueryTarget.ALL, timeout=timeout_s):
-        if reply.ok is None:
-            continue
-        twin = decode(TwinMsg, str(reply.ok.key_expr), reply.ok.payload.to_bytes(), invalid)
-        if twin is not None:
-            twins.append(twin)
-    return twins
+    deadline = time.monotonic() + timeout_s
+    while True:
+        twins = []
+        left = max(0.1, deadline - time.monotonic())
+        for reply in session.get(selector, target=zenoh.QueryTarget.ALL, timeout=left):
+            if reply.ok is None:
+                continue
+            twin = decode(TwinMsg, str(reply.ok.key_expr), reply.ok.payload.to_bytes(), invalid)
+            if twin is not None:
+                twins.append(twin)
+        if twins or time.monotonic() + retry_s >= deadline:
+            return twins
+        time.sleep(retry_s)

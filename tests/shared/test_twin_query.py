@@ -1,0 +1,62 @@
+"""Asking every twin: all agents answer (not just the best match), and agents that come up a moment after
+the question are still heard."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import zenoh
+
+from bimbot.shared.bus import BusOptions, encode, open_session
+from bimbot.shared.messages import COMPONENT_TWIN, ComponentState, PoseMsg, TwinMsg
+from bimbot.shared.twin_query import ask_twins
+from bimbot.supervisor import free_port
+
+SITE = "test-site"
+
+
+def twin_msg(guid: str, state: ComponentState) -> TwinMsg:
+    target = PoseMsg(position_m=(0.0, 0.0, 0.0), quat_xyzw=(0.0, 0.0, 0.0, 1.0))
+    return TwinMsg(
+        guid=guid,
+        key=guid,
+        ifc_class="IfcColumn",
+        name=None,
+        storey=None,
+        material=None,
+        mass_kg=1.0,
+        target_pose=target,
+        current_pose=None,
+        current_pose_sim_time_s=None,
+        state=state,
+        attempt=0,
+        robot_id=None,
+        history=[],
+    )
+
+
+def _agent(session: zenoh.Session, guid: str) -> zenoh.Queryable:
+    """One agent's complete queryable for its own key, as the agents declare it."""
+    selector = COMPONENT_TWIN.key(site=SITE, key=guid)
+    answer = encode(twin_msg(guid, ComponentState.RELEASED))
+    return session.declare_queryable(selector, lambda query: query.reply(selector, answer), complete=True)
+
+
+def test_every_agent_answers_even_those_that_come_up_after_the_question() -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    with (
+        open_session(BusOptions(mode="peer", connect=(), listen=(endpoint,))) as agents,
+        open_session(BusOptions(mode="peer", connect=(endpoint,), listen=())) as asker,
+    ):
+        queryables: list[zenoh.Queryable] = []
+        later = threading.Timer(
+            1.0, lambda: queryables.extend(_agent(agents, guid) for guid in ("foot_a", "foot_b", "col_a"))
+        )
+        later.start()
+        started = time.monotonic()
+        twins = ask_twins(asker, SITE, timeout_s=10.0)
+        later.join()
+        assert sorted(twin.guid for twin in twins) == ["col_a", "foot_a", "foot_b"]
+        assert 1.0 <= time.monotonic() - started < 5.0
+        assert ask_twins(asker, "no-such-site", timeout_s=1.0) == []
