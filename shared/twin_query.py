@@ -2,8 +2,8 @@
 
 The agents' twins are the truth of construction state (``docs/architecture.md``, "One truth per fact"):
 a restarted physics, planner or robot asks ``bimbot/<site>/components/*/twin`` once instead of waiting for
-the next state change. Every agent declares a *complete* queryable for its own key, so the query must
-target all of them (Zenoh's default, best matching, would stop at one).
+the next state change; every agent's queryable answers (``QueryTarget.ALL``). A session that has just
+opened may not know the agents' queryables yet, so an empty answer is asked again until the bound.
 """
 
 from __future__ import annotations
