@@ -151,6 +151,7 @@ class _Loop:
         self.errors = 0
         self._warned_step = -1
         self._robots_deadline: float | None = None  # while holding the clock for the robots to come up
+        self._held = False  # the clock was held at step 0 for the robots
 
     def serve(self) -> None:
         site, inbox, session = self.site, self.inbox, self.session
@@ -228,7 +229,12 @@ class _Loop:
     def _wait_s(self, now: float) -> float:
         """How long to wait before the next period may run (0: run it now)."""
         if self._holding_for_robots(now):
+            self._held = True
             return LOOP_WAIT_S
+        if self._held:  # the robots are up: step 0 again for them, and their answers waited for from now
+            self._held = False
+            self._publish(self.sim.start_messages())
+            self.barrier.open(self.sim.step, now)
         if self.sim.config.lock_step:
             waited_for = self.sim.alive - self.sim.busy_robots()
             missing = self.barrier.missing(waited_for)

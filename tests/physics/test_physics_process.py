@@ -134,7 +134,8 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
             session.put(cmd_key, encode(command))
             step = _wait_clock(listener, step + 1).step
         time.sleep(0.5)  # no answer: physics waits (up to its 2 s timeout)
-        assert [ClockMsg.model_validate_json(m).step for m in listener.drain("clock")] in ([], [step])
+        # not one step further (step 0 may come again: physics repeats it once the robots are up)
+        assert all(ClockMsg.model_validate_json(m).step <= step for m in listener.drain("clock"))
         moved = RobotPoseMsg.model_validate_json(listener.drain("pose")[-1]).pose_xy_yaw
         assert moved[0] - start[0] == pytest.approx(0.5 * 2.0, abs=0.25)  # 20 periods of 0.1 s at 0.5 m/s
 
