@@ -60,6 +60,7 @@ from bimbot.shared.messages import (
     PlanMsg,
     RobotStateMsg,
     ScanMsg,
+    SitePosesMsg,
     key,
 )
 from bimbot.shared.occupancy_grid import OccupancyGrid
@@ -115,13 +116,9 @@ def main(
         )
         if info is None:
             return 0 if stop.is_set() else _no_physics(options.info_timeout_s)
-        executor = Executor(
-            manifest,
-            info,
-            executor_config,
-            start_xy_yaw=_where_physics_has_me(session, inbox, site, robot_id),
-        )
-        _learn_the_site(session, inbox, site, executor)
+        poses = query_first(session, PHYSICS_POSES, inbox.invalid, timeout_s=POSES_TIMEOUT_S, site=site)
+        executor = Executor(manifest, info, executor_config, start_xy_yaw=_where_physics_has(poses, robot_id))
+        _learn_the_site(session, inbox, site, executor, poses)
         _warm_up()
         loop = _Loop(session, site, executor, inbox, options)
         token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id=robot_id))
@@ -143,26 +140,24 @@ def main(
     return 0
 
 
-def _where_physics_has_me(
-    session: zenoh.Session, inbox: Inbox, site: str, robot_id: str
-) -> tuple[float, float, float] | None:
+def _where_physics_has(poses: SitePosesMsg | None, robot_id: str) -> tuple[float, float, float] | None:
     """This robot's pose by physics (a robot restarted mid-build starts where its body is, not at the
     depot); None when physics does not say (the depot start then)."""
-    poses = query_first(session, PHYSICS_POSES, inbox.invalid, timeout_s=POSES_TIMEOUT_S, site=site)
     robot = poses.robots.get(robot_id) if poses is not None else None
     return robot.pose_xy_yaw if robot is not None else None
 
 
-def _learn_the_site(session: zenoh.Session, inbox: Inbox, site: str, executor: Executor) -> None:
+def _learn_the_site(
+    session: zenoh.Session, inbox: Inbox, site: str, executor: Executor, poses: SitePosesMsg | None
+) -> None:
     """What a robot joining late must know before it acts: every component's state (its twin's last record)
-    and pose, so it neither plans through a placed column nor waits for a change that happened before it
-    started."""
+    and pose (``poses``, physics' answer), so it neither plans through a placed column nor waits for a
+    change that happened before it started."""
     twins = 0
     for twin in ask_twins(session, site, TWINS_TIMEOUT_S, inbox.invalid):
         if twin.history:
             executor.handle(twin.history[-1])
             twins += 1
-    poses = query_first(session, PHYSICS_POSES, inbox.invalid, timeout_s=POSES_TIMEOUT_S, site=site)
     for pose in poses.components.values() if poses is not None else ():
         executor.handle(pose)
     _log.info("%s learnt the state of %d component(s) from their twins", executor.robot_id, twins)
