@@ -37,7 +37,7 @@ from bimbot.run_states import Judgement, TrustedStates
 from bimbot.services.component_agents.verification import Tolerances
 from bimbot.services.observer.report import UNFINISHED, ReportCollector, RunEnding
 from bimbot.shared.asked import Asked
-from bimbot.shared.bus import Answer, Inbox, InvalidPayloads, Received, decode, query_first
+from bimbot.shared.bus import Answer, Inbox, InvalidPayloads, Received, query_first
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     CLOCK,
@@ -57,6 +57,7 @@ from bimbot.shared.messages import (
     TaskMsg,
     TwinMsg,
 )
+from bimbot.shared.twin_query import ask_twins
 
 _log = logging.getLogger(__name__)
 
@@ -190,16 +191,10 @@ class RunMonitor:
         """Ask every twin at once (``components/*/twin``, blocking, at most ``timeout_s``) and take each
         answer: the last word on every component's state. Returns how many answered."""
         self.drain()  # what is queued first, so an older answer does not come after the sweep's
-        selector = COMPONENT_TWIN.key(site=self._site, key="*")
         answered: set[str] = set()
-        for reply in self._session.get(selector, timeout=timeout_s):
-            if reply.ok is None:
-                continue
-            key = str(reply.ok.key_expr)
-            twin = decode(TwinMsg, key, reply.ok.payload.to_bytes(), self.invalid)
-            if twin is not None:
-                self.take_twin(key, twin)
-                answered.add(twin.guid)
+        for twin in ask_twins(self._session, self._site, timeout_s, self.invalid):
+            self.take_twin(COMPONENT_TWIN.key(site=self._site, key=twin.key), twin)
+            answered.add(twin.guid)
         answered &= set(self._twin_keys)
         if len(answered) < self.total:
             _log.warning(

@@ -28,10 +28,10 @@ def ask_twins(
     invalid: InvalidPayloads | None = None,
     retry_s: float = RETRY_S,
 ) -> list[TwinMsg]:
-    """Every twin the agents answer within ``timeout_s`` wall seconds (none when no agent runs); invalid
-    answers are counted in ``invalid`` and left out. A session that has just opened may not know the
-    agents' queryables yet (their declarations are still on the way): while nobody answers, it asks again
-    every ``retry_s`` until ``timeout_s`` has passed."""
+    """Every twin the agents answer within ``timeout_s`` wall seconds (none when no agent runs). Invalid
+    answers, and twins answered on another component's key, are counted in ``invalid`` and left out. A
+    session that has just opened may not know the agents' queryables yet (their declarations are still on
+    the way): while nobody answers, it asks again every ``retry_s`` until ``timeout_s`` has passed."""
     invalid = invalid or InvalidPayloads()
     selector = COMPONENT_TWIN.key(site=site, key="*")
     deadline = time.monotonic() + timeout_s
@@ -41,9 +41,14 @@ def ask_twins(
         for reply in session.get(selector, target=zenoh.QueryTarget.ALL, timeout=left):
             if reply.ok is None:
                 continue
-            twin = decode(TwinMsg, str(reply.ok.key_expr), reply.ok.payload.to_bytes(), invalid)
-            if twin is not None:
-                twins.append(twin)
+            reply_key = str(reply.ok.key_expr)
+            twin = decode(TwinMsg, reply_key, reply.ok.payload.to_bytes(), invalid)
+            if twin is None:
+                continue
+            if COMPONENT_TWIN.key(site=site, key=twin.key) != reply_key:
+                invalid.record(reply_key, f"a twin of {twin.key!r} answered on another key")
+                continue
+            twins.append(twin)
         if twins or time.monotonic() + retry_s >= deadline:
             return twins
         time.sleep(retry_s)
