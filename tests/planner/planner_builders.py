@@ -128,8 +128,9 @@ def robot_msg(
     )
 
 
-def twin_msg(guid: str, state: ComponentState) -> TwinMsg:
-    """The twin a component agent of the portal answers: its ``state`` and nothing else of note."""
+def twin_msg(guid: str, state: ComponentState, *, placed_at_s: float | None = None) -> TwinMsg:
+    """The twin a component agent of the portal answers: its ``state`` and, with ``placed_at_s``, its
+    current pose at its target seen at that sim time."""
     item = portal_manifest().component(guid)
     pose = item.target_pose_world
     target = PoseMsg(position_m=pose.position_m, quat_xyzw=pose.quat_xyzw)
@@ -142,8 +143,8 @@ def twin_msg(guid: str, state: ComponentState) -> TwinMsg:
         material=None,
         mass_kg=1.0,
         target_pose=target,
-        current_pose=None,
-        current_pose_sim_time_s=None,
+        current_pose=None if placed_at_s is None else target,
+        current_pose_sim_time_s=placed_at_s,
         state=state,
         attempt=1,
         robot_id=None,

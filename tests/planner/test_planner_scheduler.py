@@ -6,11 +6,11 @@ import itertools
 from pathlib import Path
 
 import pytest
-from planner_builders import PORTAL, portal_manifest, robot_msg, state_msg
+from planner_builders import PORTAL, portal_manifest, robot_msg, state_msg, twin_msg
 
 from bimbot.services.planner.scheduler import Phase, PlannerCore
 from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan, plan_from_sequence
-from bimbot.shared.manifest import Pose, read_manifest
+from bimbot.shared.manifest import read_manifest
 from bimbot.shared.messages import (
     ComponentEvent,
     ComponentEventMsg,
@@ -20,7 +20,6 @@ from bimbot.shared.messages import (
     RobotState,
     TaskMsg,
     TaskStatus,
-    TwinMsg,
 )
 from bimbot.shared.support_graph import derive_sequence
 
@@ -238,28 +237,8 @@ def test_unacknowledged_assignment_is_resent_until_the_robot_reports_it() -> Non
 
 def test_twin_sync_never_releases_constructed_components_again() -> None:
     core = _core()
-    manifest = portal_manifest()
     for guid in ("foot_a", "foot_b"):
-        item = manifest.component(guid)
-        target = _pose_msg(item.target_pose_world)
-        core.observe_twin(
-            TwinMsg(
-                guid=guid,
-                key=guid,
-                ifc_class=item.ifc_class,
-                name=None,
-                storey=None,
-                material=None,
-                mass_kg=1.0,
-                target_pose=target,
-                current_pose=target,
-                current_pose_sim_time_s=5.0,
-                state=S.CONSTRUCTED,
-                attempt=1,
-                robot_id=None,
-                history=[],
-            )
-        )
+        core.observe_twin(twin_msg(guid, S.CONSTRUCTED, placed_at_s=5.0))
     core.finish_sync()
     released = {m.guid for m in _events(core.step(0.0), ComponentEvent.RELEASE)}
     assert released == {"foot_c", "col_a", "col_b"}
@@ -275,10 +254,6 @@ def test_done_only_when_every_task_is_done_failed_or_blocked() -> None:
     _construct(core, "beam")
     core.step(0.1)
     assert core.done and core.progress().percent_constructed == 100.0
-
-
-def _pose_msg(pose: Pose) -> PoseMsg:
-    return PoseMsg(position_m=pose.position_m, quat_xyzw=pose.quat_xyzw)
 
 
 def test_in_flight_names_the_released_and_assigned_components_whose_twins_to_ask() -> None:

@@ -4,9 +4,16 @@ and physics' answer of every pose (the synthetic manifest of the agent tests, no
 from __future__ import annotations
 
 import math
+import threading
+from typing import cast
 
 from component_agents.agent_builders import GUIDS, SITE, manifest, quat_z
 
+from bimbot.run_loop import LoopLimits, RunWatch, StopSignals
+from bimbot.run_monitor import RunMonitor
+from bimbot.run_progress import NoProgress
+from bimbot.run_restarts import Restarter
+from bimbot.run_watchdog import StallWatchdog
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import (
     ComponentPoseMsg,
@@ -16,8 +23,9 @@ from bimbot.shared.messages import (
     SitePosesMsg,
     TwinMsg,
 )
+from bimbot.supervisor import ServiceProcess
 
-__all__ = ["GUIDS", "SITE", "manifest", "pose", "poses", "state", "twin", "walk"]
+__all__ = ["GUIDS", "SITE", "manifest", "pose", "poses", "state", "twin", "walk", "watch_of"]
 
 S = ComponentState
 # the path of a first-time placement: (event, state reached)
@@ -105,3 +113,23 @@ def poses(
         if component.guid not in missing
     }
     return SitePosesMsg(step=5000, epoch=0, sim_time_s=50.0, components=components, robots={})
+
+
+def watch_of(
+    planner: object, everyone: list, monitor: object, restarter: Restarter | None = None
+) -> RunWatch:
+    """A run loop over stand-in services and monitor (anything with the methods the loop calls), never
+    stopped by a signal, writing no report."""
+    stop = StopSignals()
+    stop.event = threading.Event()
+    return RunWatch(
+        planner=cast(ServiceProcess, planner),
+        everyone=cast(list[ServiceProcess], everyone),
+        monitor=cast(RunMonitor, monitor),
+        limits=LoopLimits(timeout_s=100.0, report_every_s=0.0),
+        watchdog=StallWatchdog(0.0, 0.0),
+        progress=NoProgress(),
+        stop=stop,
+        write_report=lambda _ending: None,
+        restarter=restarter,
+    )

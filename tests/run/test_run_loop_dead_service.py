@@ -4,15 +4,10 @@ verdict."""
 
 from __future__ import annotations
 
-import threading
-from typing import cast
+from run_builders import watch_of
 
 from bimbot.cli import BUG_MARK
-from bimbot.run_loop import LOG_TAIL_LINES, LoopLimits, RunWatch, StopSignals
-from bimbot.run_monitor import RunMonitor
-from bimbot.run_progress import NoProgress
-from bimbot.run_watchdog import StallWatchdog
-from bimbot.supervisor import ServiceProcess
+from bimbot.run_loop import LOG_TAIL_LINES, RunWatch
 
 TRACEBACK = [
     f"ERROR bimbot: bimbot planner {BUG_MARK} (a bug; traceback follows)",
@@ -46,18 +41,7 @@ class _Monitor:
 
 
 def _watch(planner: _Dead, everyone: list[_Dead]) -> RunWatch:
-    stop = StopSignals()
-    stop.event = threading.Event()
-    return RunWatch(
-        planner=cast(ServiceProcess, planner),
-        everyone=cast(list[ServiceProcess], everyone),
-        monitor=cast(RunMonitor, _Monitor()),
-        limits=LoopLimits(timeout_s=100.0, report_every_s=0.0),
-        watchdog=StallWatchdog(0.0, 0.0),
-        progress=NoProgress(),
-        stop=stop,
-        write_report=lambda _ending: None,
-    )
+    return watch_of(planner, everyone, _Monitor())
 
 
 def test_a_crashed_planner_ends_the_run_with_its_traceback_tail() -> None:

@@ -3,15 +3,10 @@ recorded for the report; the run loop goes on meanwhile and ends only when the l
 
 from __future__ import annotations
 
-import threading
-from typing import cast
+from run_builders import watch_of
 
-from bimbot.run_loop import LoopLimits, RunWatch, StopSignals
-from bimbot.run_monitor import RunMonitor
-from bimbot.run_progress import NoProgress
+from bimbot.run_loop import RunWatch
 from bimbot.run_restarts import Restart, Restarter, RestartPolicy
-from bimbot.run_watchdog import StallWatchdog
-from bimbot.supervisor import ServiceProcess
 
 
 class _Service:
@@ -60,19 +55,7 @@ class _Monitor:
 
 
 def _watch(planner: _Service, everyone: list[_Service], restarter: Restarter) -> RunWatch:
-    stop = StopSignals()
-    stop.event = threading.Event()
-    return RunWatch(
-        planner=cast(ServiceProcess, planner),
-        everyone=cast(list[ServiceProcess], everyone),
-        monitor=cast(RunMonitor, _Monitor()),
-        limits=LoopLimits(timeout_s=100.0, report_every_s=0.0),
-        watchdog=StallWatchdog(0.0, 0.0),
-        progress=NoProgress(),
-        stop=stop,
-        write_report=lambda _ending: None,
-        restarter=restarter,
-    )
+    return watch_of(planner, everyone, _Monitor(), restarter)
 
 
 def test_the_run_goes_on_while_a_dead_robot_is_restarted_and_ends_when_the_limit_is_spent() -> None:

@@ -7,33 +7,14 @@ import threading
 import time
 
 import zenoh
+from planner.planner_builders import twin_msg
 
 from bimbot.shared.bus import BusOptions, encode, open_session
-from bimbot.shared.messages import COMPONENT_TWIN, ComponentState, PoseMsg, TwinMsg
+from bimbot.shared.messages import COMPONENT_TWIN, ComponentState
 from bimbot.shared.twin_query import ask_twins
 from bimbot.supervisor import free_port
 
 SITE = "test-site"
-
-
-def twin_msg(guid: str, state: ComponentState) -> TwinMsg:
-    target = PoseMsg(position_m=(0.0, 0.0, 0.0), quat_xyzw=(0.0, 0.0, 0.0, 1.0))
-    return TwinMsg(
-        guid=guid,
-        key=guid,
-        ifc_class="IfcColumn",
-        name=None,
-        storey=None,
-        material=None,
-        mass_kg=1.0,
-        target_pose=target,
-        current_pose=None,
-        current_pose_sim_time_s=None,
-        state=state,
-        attempt=0,
-        robot_id=None,
-        history=[],
-    )
 
 
 def _agent(session: zenoh.Session, guid: str) -> zenoh.Queryable:
