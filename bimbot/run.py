@@ -40,7 +40,13 @@ from bimbot.run_args import (
     add_run_arguments,
     run_options,
 )
-from bimbot.run_commands import monitor_bus_options, router_arguments, secure_bus, service_commands
+from bimbot.run_commands import (
+    monitor_bus_options,
+    restart_arguments,
+    router_arguments,
+    secure_bus,
+    service_commands,
+)
 from bimbot.run_loop import LoopLimits, LoopResult, RunWatch, StopSignals
 from bimbot.run_monitor import RunMonitor
 from bimbot.run_preflight import check_run_input
@@ -122,7 +128,7 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
                     return {**monitor.report(ending), "restarts": restarter.report()}
 
                 for name, args in service_commands(build, endpoint, options, run, bus):
-                    again = [arg for arg in args if arg != "--fresh"]  # a restart resumes its journal
+                    again = restart_arguments(args)
                     services.append(ServiceProcess(name, args, log_dir, restart_args=again))
                 by_name = {service.name: service for service in services}
                 observer = by_name.get("observer")

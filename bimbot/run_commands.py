@@ -105,3 +105,9 @@ def observer_arguments(build: Path, observer: ObserverOptions, run: RunFolder) -
     if not observer.keep_serving:
         arguments.append("--exit-when-done")
     return arguments
+
+
+def restart_arguments(arguments: list[str]) -> list[str]:
+    """A service's command line when ``bimbot run`` restarts it (:mod:`bimbot.run_restarts`): the same,
+    without ``--fresh``, so the agents resume from their journal instead of clearing it."""
+    return [argument for argument in arguments if argument != "--fresh"]
