@@ -136,7 +136,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         default=None,
         metavar="DIR",
-        help="the run's folder: physics keeps its record of the site in DIR/state/physics.json and, "
+        help="the run's folder: physics keeps its record of the site in DIR/state/ and, "
         "restarted, continues from it (default OUT/runs/latest, made when missing)",
     )
     parser.add_argument(
