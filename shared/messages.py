@@ -115,6 +115,7 @@ class ComponentEvent(StrEnum):
     ABANDON = "abandon"  # robot/planner: the task was given up (robot lost, or ``reason``); back to released
     FAIL = "fail"  # planner: the component cannot be built (``reason``: too heavy, give-backs exhausted…)
     BLOCK = "block"  # planner: a predecessor failed (``reason`` blocked_by); never released
+    HAND_OFF = "hand_off"  # robot: put down at a crane's staging spot (a hand-off task); released again
 
 
 class PoseMsg(BaseModel):
@@ -194,6 +195,11 @@ class TaskStatus(StrEnum):
     BLOCKED = "blocked"  # a predecessor failed; never released
 
 
+class TaskKind(StrEnum):
+    BUILD = "build"  # pick the component up and place it at its BIM target
+    HAND_OFF = "hand_off"  # carry it to ``put_down_xy_m`` (a crane's staging spot) and put it down there
+
+
 class TaskMsg(_Message):
     task_id: str
     guid: str
@@ -205,6 +211,8 @@ class TaskMsg(_Message):
     sim_time_s: SimTime
     wall_time_s: WallTime
     reason: Reason | None = None  # failed/blocked tasks: why
+    kind: TaskKind = TaskKind.BUILD
+    put_down_xy_m: PointXY | None = None  # hand-off tasks: where the load goes down
 
 
 # --- robots ----------------------------------------------------------------------------------------------

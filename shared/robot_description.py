@@ -1,18 +1,25 @@
 """What a robot type can carry and reach: the one description physics, robots and the planner share.
 
-Physics owns the robots on site and serves their descriptions with its site info
-(``SiteInfoMsg.robot_types``); a robot reads its own type from there, the planner all of them. Nobody
-keeps a second default for a robot's limits: the rules below are the only place they are applied.
+A fleet file (:mod:`.fleet`) holds one description per robot type. Physics spawns from it and serves the
+descriptions with its site info (``SiteInfoMsg.robot_types``); a robot reads its own type from there, the
+planner all of them. Nobody keeps a second default for a robot's limits: the rules below are the only
+place they are applied.
 
-The reach rule (used by physics to accept or refuse an attach/place, by the robot to choose where it
-stands, and by the planner's feasibility check): a robot reaches a component when the horizontal distance
-from the robot's centre to the *nearest point* of the component's footprint (its posed bounding box seen
-from above) is at most ``reach_m``. A wide slab is therefore reachable from any point along its edge, and
-a robot standing over a component's footprint is at distance 0.
+Two kinds of robot:
 
-Feasibility (before a task is ever assigned): a component heavier than ``payload_kg`` is ``too_heavy``; one
-whose target reaches higher than ``max_place_height_m`` (the top of its posed bounding box) is
-``out_of_reach``. Both are reasons a user can act on (another robot type, another sequence).
+* **ground** robots drive (differential drive, speed and turn limits) and carry a load on their deck. The
+  reach rule (physics accepts or refuses an attach/place with it, the robot chooses where to stand by it,
+  the planner checks feasibility with it): a robot reaches a component when the horizontal distance from
+  the robot's centre to the *nearest point* of the component's footprint (its posed bounding box seen from
+  above) is at most ``reach_m``.
+* **tower cranes** (``crane`` set) stand still. A component is within reach when the nearest point of its
+  footprint lies between the crane's smallest and largest hook radius *and* the crane's load chart allows
+  its mass at the farthest point of its footprint (payload by radius, linear between the chart's points,
+  nothing beyond the last). The crane picks where the hook reaches and places there; it never travels.
+
+Feasibility (before a task is ever assigned): a component heavier than ``payload_kg`` (for a crane: the
+chart's largest payload) is ``too_heavy``; one whose target reaches higher than ``max_place_height_m`` (the
+top of its posed bounding box) is ``out_of_reach``. Both are reasons a user can act on.
 """
 
 from __future__ import annotations
@@ -20,12 +27,74 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from pydantic import BaseModel, ConfigDict, Field
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from .reasons import Reason, ReasonCode
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
+
+
+class LoadPoint(BaseModel):
+    """One line of a crane's load chart: at this hook radius it lifts at most this mass."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    radius_m: float = Field(gt=0, le=150)
+    payload_kg: float = Field(gt=0, le=1e6)
+
+
+class CraneSpec(BaseModel):
+    """A tower crane's joints and chart: slew about the mast, trolley along the jib, hoist below it."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    jib_height_m: float = Field(gt=0, le=300, description="height of the jib (hook's highest point)")
+    min_radius_m: float = Field(ge=0, le=150, description="trolley's innermost hook radius")
+    slew_radps: float = Field(gt=0, le=5)
+    trolley_mps: float = Field(gt=0, le=10)
+    hoist_mps: float = Field(gt=0, le=10)
+    load_chart: tuple[LoadPoint, ...] = Field(min_length=1, description="radii ascending")
+
+    @model_validator(mode="after")
+    def _ascending(self) -> CraneSpec:
+        radii = [point.radius_m for point in self.load_chart]
+        if radii != sorted(radii) or len(set(radii)) != len(radii):
+            raise ValueError("load_chart radii must be strictly ascending")
+        if self.min_radius_m >= radii[-1]:
+            raise ValueError("min_radius_m must be below the load chart's largest radius")
+        return self
+
+    @property
+    def max_radius_m(self) -> float:
+        return self.load_chart[-1].radius_m
+
+    def payload_at(self, radius_m: float) -> float:
+        """The chart's payload at ``radius_m`` (kg): the first point's up to its radius, linear between
+        points, 0 below the trolley's innermost radius and beyond the last point."""
+        if radius_m < self.min_radius_m - 1e-9 or radius_m > self.max_radius_m + 1e-9:
+            return 0.0
+        radii = [point.radius_m for point in self.load_chart]
+        payloads = [point.payload_kg for point in self.load_chart]
+        return float(np.interp(radius_m, radii, payloads, left=payloads[0], right=payloads[-1]))
+
+    def radius_for(self, mass_kg: float) -> float:
+        """The largest hook radius at which the chart lifts ``mass_kg`` (0 when it lifts it nowhere)."""
+        chart = self.load_chart
+        if mass_kg > max(point.payload_kg for point in chart):
+            return 0.0
+        best = 0.0
+        previous: LoadPoint | None = None
+        for point in chart:
+            if point.payload_kg >= mass_kg:
+                best = point.radius_m
+            elif previous is not None and previous.payload_kg >= mass_kg:
+                share = (previous.payload_kg - mass_kg) / (previous.payload_kg - point.payload_kg)
+                best = previous.radius_m + share * (point.radius_m - previous.radius_m)
+                break
+            previous = point
+        return best
 
 
 class RobotDescription(BaseModel):
@@ -34,14 +103,37 @@ class RobotDescription(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     name: str = Field(min_length=1, max_length=64, pattern=r"^[a-z0-9_-]+$")
-    urdf: str = Field(description="URDF path, absolute or relative to pybullet_data")
+    urdf: str = Field(
+        description="URDF: absolute, relative to the fleet file, bimbot's models or pybullet_data"
+    )
     payload_kg: float = Field(gt=0, le=1e6)
-    reach_m: float = Field(gt=0, le=100, description="robot centre → nearest point of the footprint")
+    reach_m: float = Field(gt=0, le=150, description="robot centre → nearest point of the footprint")
     max_place_height_m: float = Field(gt=0, le=300, description="highest target top it can place")
     length_m: float = Field(gt=0, le=50)
     width_m: float = Field(gt=0, le=50)
-    max_speed_mps: float = Field(gt=0, le=20)
-    max_turn_radps: float = Field(gt=0, le=20)
+    max_speed_mps: float = Field(ge=0, le=20, description="0 for a crane: it never drives")
+    max_turn_radps: float = Field(ge=0, le=20)
+    handling_s: float = Field(default=2.0, ge=0, le=3600, description="to grip or sling, and to release")
+    placement_precision_m: float = Field(default=0.0, ge=0, le=1, description="1 σ, per horizontal axis")
+    placement_precision_yaw_deg: float = Field(default=0.0, ge=0, le=45, description="1 σ")
+    crane: CraneSpec | None = None
+
+    @model_validator(mode="after")
+    def _consistent(self) -> RobotDescription:
+        if self.crane is None and (self.max_speed_mps <= 0 or self.max_turn_radps <= 0):
+            raise ValueError(f"ground robot type {self.name!r} needs max_speed_mps and max_turn_radps > 0")
+        if self.crane is not None:
+            chart_max = max(point.payload_kg for point in self.crane.load_chart)
+            if abs(chart_max - self.payload_kg) > 1e-6 or abs(self.crane.max_radius_m - self.reach_m) > 1e-6:
+                raise ValueError(
+                    f"crane type {self.name!r}: payload_kg and reach_m must be its load chart's largest "
+                    f"payload ({chart_max:g} kg) and radius ({self.crane.max_radius_m:g} m)"
+                )
+        return self
+
+    @property
+    def is_crane(self) -> bool:
+        return self.crane is not None
 
     @property
     def radius_m(self) -> float:
@@ -52,9 +144,10 @@ class RobotDescription(BaseModel):
         """``too_heavy`` / ``out_of_reach`` for a component of ``mass_kg`` whose target top is at
         ``target_top_z_m`` (world z, m), or None when this type can carry and place it."""
         if mass_kg > self.payload_kg:
+            what = "largest crane payload (load chart)" if self.is_crane else "payload"
             return Reason(
                 code=ReasonCode.TOO_HEAVY,
-                message=f"{mass_kg:,.0f} kg exceeds the {self.name} payload of {self.payload_kg:,.0f} kg",
+                message=f"{mass_kg:,.0f} kg exceeds the {self.name} {what} of {self.payload_kg:,.0f} kg",
             )
         if target_top_z_m > self.max_place_height_m:
             return Reason(
@@ -66,15 +159,31 @@ class RobotDescription(BaseModel):
             )
         return None
 
-    def reaches(self, robot_xy_m: ArrayLike, footprint_xy_m: ArrayLike) -> bool:
-        """The reach rule (see the module docstring) for one robot position."""
+    def reach_for(self, mass_kg: float) -> float:
+        """How far this type reaches with ``mass_kg`` on the hook or deck (m; 0: it cannot lift it)."""
+        if self.crane is not None:
+            return self.crane.radius_for(mass_kg)
+        return self.reach_m if mass_kg <= self.payload_kg else 0.0
+
+    def reaches(self, robot_xy_m: ArrayLike, footprint_xy_m: ArrayLike, mass_kg: float = 0.0) -> bool:
+        """The reach rule (see the module docstring) for one robot position and a load of ``mass_kg``."""
         from .footprint import footprint_distance_m  # numpy: not loaded by processes that only decode
 
-        return bool(footprint_distance_m(footprint_xy_m, robot_xy_m)[0] <= self.reach_m + 1e-9)
+        nearest = float(footprint_distance_m(footprint_xy_m, robot_xy_m)[0])
+        if self.crane is None:
+            return nearest <= self.reach_m + 1e-9
+        farthest = float(
+            np.max(np.hypot(*(np.asarray(footprint_xy_m, float) - np.asarray(robot_xy_m)[:2]).T))
+        )
+        return (
+            nearest >= self.crane.min_radius_m - 1e-9
+            and nearest <= self.reach_m + 1e-9
+            and farthest <= self.crane.radius_for(mass_kg) + 1e-9
+        )
 
 
-# A Husky-sized site robot (pybullet_data's Husky, 0.99 m × 0.67 m) with the payload of a small site
-# carrier, so that the bundled frame (259 kg footings) builds; the fleet issue brings real robot types.
+# The Husky-sized site robot of earlier versions (pybullet_data's Husky with a 1 t payload): what tests and
+# the site plan fall back to when no fleet is given. The fleet file (:mod:`.fleet`) holds the real types.
 DEFAULT_ROBOT = RobotDescription(
     name="default",
     urdf="husky/husky.urdf",

@@ -44,6 +44,7 @@ from scipy.spatial.transform import Rotation
 
 from .manifest import Component
 from .robot_description import DEFAULT_ROBOT, RobotDescription
+from .site_cranes import crane_pose, staging_area
 from .site_plan import (  # the plan's data types; physics serves a plan with its site info
     Rect,
     SiteLayout,
@@ -145,11 +146,21 @@ class _Row:
 
 
 def plan_site(
-    components: Sequence[Component], robots: int = 1, *, robot: RobotDescription = DEFAULT_ROBOT
+    components: Sequence[Component],
+    robots: int = 1,
+    *,
+    robot: RobotDescription = DEFAULT_ROBOT,
+    fleet: Sequence[RobotDescription] | None = None,
 ) -> SiteLayout:
-    """The site for ``components`` (in manifest order) and ``robots`` robots of type ``robot``."""
+    """The site for ``components`` (in manifest order) and ``robots`` robots of type ``robot``, or the
+    robots of ``fleet`` (one description per robot, in robot id order; cranes beside the building, see
+    :mod:`.site_cranes`)."""
     if not components:
         raise ValueError("a site needs at least one component")
+    if fleet is not None:
+        ground = [item for item in fleet if not item.is_crane]
+        robot = max(ground, key=lambda item: item.radius_m, default=robot)
+        robots = len(ground)
     building = building_footprint(components)
     sizes = np.array([laid_size_m(component)[:2] for component in components])
     bottoms = [round(component.bbox_world.min_m[2], 2) for component in components]
@@ -178,14 +189,34 @@ def plan_site(
         ),
         (yard.min_xy[0] - lane_m, first_y + ROBOT_SPACING_M / 2.0),
     )
-    starts = tuple(
+    depot_starts = [
         (depot.min_xy[0] + depot_width / 2.0, first_y - i * ROBOT_SPACING_M, 0.0) for i in range(robots)
-    )
+    ]
     union = Rect(
         (min(building.min_xy[0], depot.min_xy[0]), min(yard.min_xy[1], depot.min_xy[1])),
         (max(building.max_xy[0], yard.max_xy[0]), building.max_xy[1]),
     )
-    return SiteLayout(building, yard, depot, union.grown(lane_m), slots, starts, aisles)
+    starts: list[tuple[float, float, float]] = []
+    staging: list[Rect] = []
+    for item in fleet if fleet is not None else [robot] * robots:
+        if not item.is_crane:
+            starts.append(depot_starts.pop(0))
+            continue
+        pose = crane_pose(building, len(staging), item, lane_m)
+        starts.append(pose)
+        staging.append(staging_area(pose, item))
+        base = Rect(
+            (pose[0] - item.radius_m, pose[1] - item.radius_m),
+            (pose[0] + item.radius_m, pose[1] + item.radius_m),
+        )
+        for rect in (base, staging[-1]):
+            union = Rect(
+                (min(union.min_xy[0], rect.min_xy[0]), min(union.min_xy[1], rect.min_xy[1])),
+                (max(union.max_xy[0], rect.max_xy[0]), max(union.max_xy[1], rect.max_xy[1])),
+            )
+    return SiteLayout(
+        building, yard, depot, union.grown(lane_m), slots, tuple(starts), aisles, tuple(staging)
+    )
 
 
 def _depth_candidates(sizes: np.ndarray, aisle_m: float) -> list[float]:

@@ -60,6 +60,7 @@ class SiteLayout:
     slots: dict[str, YardSlot]
     robot_starts: tuple[tuple[float, float, float], ...]  # x, y, yaw
     aisles: tuple[Rect, ...] = ()  # between the pairs of rows, north–south across the yard
+    staging: tuple[Rect, ...] = ()  # one per tower crane (robot id order): where hand-offs put loads down
 
     @property
     def bounds(self) -> Rect:

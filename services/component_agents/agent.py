@@ -53,7 +53,13 @@ PLANNER_EVENTS = frozenset(
     {ComponentEvent.RELEASE, ComponentEvent.RETRY, ComponentEvent.FAIL, ComponentEvent.BLOCK}
 )
 ROBOT_EVENTS = frozenset(
-    {ComponentEvent.PICK, ComponentEvent.ATTACH, ComponentEvent.ARRIVE, ComponentEvent.PLACE}
+    {
+        ComponentEvent.PICK,
+        ComponentEvent.ATTACH,
+        ComponentEvent.ARRIVE,
+        ComponentEvent.PLACE,
+        ComponentEvent.HAND_OFF,
+    }
 )
 
 
@@ -155,7 +161,7 @@ class ComponentAgent:
 
     def _sender_refusal(self, msg: ComponentEventMsg) -> str | None:
         """Who may say what (None: this sender may): the planner releases, retries, fails and blocks; a
-        robot picks, attaches, arrives and places, and once a robot has picked the component up, only that
+        robot picks, attaches, arrives, places and hands off, and once a robot has picked the component up, only that
         robot until the task is given back or retried; either may abandon."""
         robot = msg.source != PLANNER_SOURCE
         if msg.event in PLANNER_EVENTS and robot:
@@ -198,7 +204,7 @@ class ComponentAgent:
             )
             return []
         self.event_ids.add(msg.event_id)
-        if msg.event in (ComponentEvent.RETRY, ComponentEvent.ABANDON):
+        if msg.event in (ComponentEvent.RETRY, ComponentEvent.ABANDON, ComponentEvent.HAND_OFF):
             self.robot_id = None
             self.arrive_sim_time_s = None
             self.place_sim_time_s = None

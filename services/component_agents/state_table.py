@@ -6,7 +6,7 @@ a plain tuple of ``{"trigger", "source", "dest"}`` dicts over :class:`bimbot.sha
 Two kinds of trigger:
 
 * **external** — the :class:`bimbot.shared.messages.ComponentEvent` values the planner and robots send on
-  ``components/<key>/event``: release, pick, attach, arrive, place, retry, abandon;
+  ``components/<key>/event``: release, pick, attach, arrive, place, retry, abandon, hand_off, fail, block;
 * **internal** — the agent's own verification verdict after a placement (:class:`Verdict`): verified,
   misplaced_placement, failed_placement. They are never accepted from the bus.
 
@@ -16,6 +16,9 @@ Choices:
   saying ``arrive`` has broken the protocol; since Zenoh keeps the order of one sender's messages on one key,
   a ``place`` can only precede its ``arrive`` when the ``arrive`` was lost, and the sender repeats it (at
   least once delivery) before it repeats ``place``. Being strict keeps a robot's progress observable.
+* ``hand_off`` (a robot's hand-off task: it carried the component to a crane's staging spot and put it
+  down there) is accepted from ``transporting``: the component is released again, now within the crane's
+  reach, and the planner assigns its build task.
 * ``abandon`` (robot lost) is accepted while a robot holds the component (picking, transporting,
   assembling). Once placed (verifying) the component judges itself whatever happened to the robot.
 * ``fail`` (the planner: the component cannot be built, e.g. too heavy for every robot, or given back by
@@ -64,6 +67,7 @@ TRANSITIONS: tuple[dict, ...] = (
         "source": [_S.PICKING, _S.TRANSPORTING, _S.ASSEMBLING],
         "dest": _S.RELEASED,
     },
+    {"trigger": _E.HAND_OFF.value, "source": _S.TRANSPORTING, "dest": _S.RELEASED},
     {"trigger": _E.FAIL.value, "source": [_S.PLANNED, _S.RELEASED, _S.MISPLACED], "dest": _S.FAILED},
     {"trigger": _E.BLOCK.value, "source": [_S.PLANNED, _S.RELEASED], "dest": _S.BLOCKED},
     {"trigger": Verdict.VERIFIED.value, "source": _S.VERIFYING, "dest": _S.CONSTRUCTED},

@@ -1,0 +1,142 @@
+"""The fleet on site: robot types (their descriptions) and how many of each, from one TOML file.
+
+Why one file: physics spawns from it, and serves the descriptions with its site info, so each robot reads
+its own type and the planner all of them from there; nobody repeats a robot's limits. The embedded default
+(``shared/robots/default_fleet.toml``: a Husky, a heavy carrier and a tower crane) is what ``bimbot demo``
+and ``bimbot run`` build with when no ``--fleet`` is given; ``--robots N`` means N robots of the file's
+``default_type``. Robot ids are ``r1``, ``r2``… in the order of the file's ``[[robots]]`` entries.
+
+A URDF path is resolved by :func:`resolve_urdf`: absolute; else relative to the fleet file; else one of
+bimbot's own models (``shared/robots/``); else relative to ``pybullet_data``.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from .errors import InputError
+from .robot_description import RobotDescription
+
+MODELS_DIR = Path(__file__).resolve().parent / "robots"
+DEFAULT_FLEET_FILE = MODELS_DIR / "default_fleet.toml"
+MAX_ROBOTS = 1000
+
+
+class FleetEntry(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    type: str = Field(min_length=1, max_length=64)
+    count: int = Field(ge=0, le=MAX_ROBOTS)
+
+
+class Fleet(BaseModel):
+    """Robot types by name, the robots on site (type and count, in id order) and the ``--robots`` type."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    types: dict[str, RobotDescription]
+    robots: tuple[FleetEntry, ...] = ()
+    default_type: str | None = None
+    source: str = Field(default="", exclude=True, description="where it was read from (messages)")
+    base_dir: str = Field(default="", exclude=True, description="the fleet file's folder (URDF paths)")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _named(cls, data: object) -> object:
+        """Types take their name from their table's key (``[types.husky]``) unless they give one."""
+        if isinstance(data, dict) and isinstance(data.get("types"), dict):
+            types = {}
+            for key, value in data["types"].items():
+                types[key] = {"name": key, **value} if isinstance(value, dict) else value
+            data = {**data, "types": types}
+        return data
+
+    @model_validator(mode="after")
+    def _known_types(self) -> Fleet:
+        for name, description in self.types.items():
+            if description.name != name:
+                raise ValueError(f"type {name!r} is named {description.name!r}: use one name")
+        unknown = sorted({entry.type for entry in self.robots} - set(self.types))
+        if unknown:
+            raise ValueError(f"robots of unknown type(s) {unknown}; types: {sorted(self.types)}")
+        if self.default_type is not None and self.default_type not in self.types:
+            raise ValueError(
+                f"default_type {self.default_type!r} is not among the types {sorted(self.types)}"
+            )
+        if sum(entry.count for entry in self.robots) > MAX_ROBOTS:
+            raise ValueError(f"at most {MAX_ROBOTS} robots")
+        return self
+
+    def robot_types(self) -> list[RobotDescription]:
+        """One description per robot, in robot id order (r1 first)."""
+        return [self.types[entry.type] for entry in self.robots for _ in range(entry.count)]
+
+    def type_of(self) -> dict[str, str]:
+        """Robot id → type name."""
+        return {f"r{index + 1}": robot.name for index, robot in enumerate(self.robot_types())}
+
+    def on_site(self) -> dict[str, RobotDescription]:
+        """The types that have at least one robot on site."""
+        return {entry.type: self.types[entry.type] for entry in self.robots if entry.count > 0}
+
+    def with_robots(self, count: int, type_name: str | None = None) -> Fleet:
+        """This fleet's types with ``count`` robots of ``type_name`` (default: the file's default type)."""
+        name = type_name or self.default_type or next(iter(self.types))
+        if name not in self.types:
+            raise InputError(
+                f"{self.source or 'fleet'}: no robot type {name!r} (types: {sorted(self.types)})"
+            )
+        return self.model_copy(update={"robots": (FleetEntry(type=name, count=count),)})
+
+    def summary(self) -> str:
+        """``1 husky, 1 carrier, 1 tower_crane``."""
+        return ", ".join(f"{entry.count} {entry.type}" for entry in self.robots if entry.count) or "no robots"
+
+    def resolve_urdf(self, urdf: str) -> Path:
+        """A type's URDF path as a file (see the module docstring)."""
+        return resolve_urdf(urdf, Path(self.base_dir) if self.base_dir else None)
+
+
+def resolve_urdf(urdf: str, base_dir: Path | None = None) -> Path:
+    """``urdf`` as a file: absolute, relative to ``base_dir``, bimbot's models, or pybullet_data's."""
+    path = Path(urdf)
+    if path.is_absolute():
+        return path
+    candidates = [base_dir / path] if base_dir is not None else []
+    candidates.append(MODELS_DIR / path)
+    import pybullet_data
+
+    candidates.append(Path(pybullet_data.getDataPath()) / path)
+    for candidate in candidates:
+        if candidate.is_file():
+            return candidate
+    raise InputError(f"robot URDF {urdf!r} not found (looked in: {', '.join(str(c) for c in candidates)})")
+
+
+def load_fleet(path: Path | str | None = None) -> Fleet:
+    """The fleet in ``path`` (TOML), or the embedded default; one clear line when it is wrong."""
+    file = Path(path) if path is not None else DEFAULT_FLEET_FILE
+    try:
+        data = tomllib.loads(file.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"fleet file {file} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"fleet file {file}: {exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"fleet file {file}: not valid TOML: {exc}") from None
+    try:
+        fleet = Fleet.model_validate({**data, "source": str(file), "base_dir": str(file.resolve().parent)})
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(part) for part in first["loc"])
+        raise InputError(
+            f"fleet file {file}: {where}: {first['msg']} ({exc.error_count()} error(s))"
+        ) from None
+    return fleet
+
+
+def default_fleet() -> Fleet:
+    return load_fleet(None)
