@@ -48,6 +48,7 @@ from .keyspace import Entry, Liveliness, Queryable, Topic
 from .message_bounds import (
     Angle,
     Count,
+    JointValue,
     NonNegative,
     Percent,
     Period,
@@ -262,6 +263,8 @@ class RobotPoseMsg(_Message):
     pose_xy_yaw: PoseXYYaw
     sim_time_s: SimTime
     carrying: str | None = None  # GUID of the attached component
+    # a crane's joints (slew rad, trolley m, hoist m) by URDF joint name; empty for ground robots
+    joint_positions: dict[str, JointValue] = {}
 
 
 class OdomMsg(_Message):
