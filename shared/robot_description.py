@@ -12,9 +12,10 @@ Two kinds of robot:
   the planner checks feasibility with it): a robot reaches a component when the horizontal distance from
   the robot's centre to the *nearest point* of the component's footprint (its posed bounding box seen from
   above) is at most ``reach_m``.
-* **tower cranes** (``crane`` set) stand still. A component is within reach when the nearest point of its
-  footprint lies between the crane's smallest and largest hook radius *and* the crane's load chart allows
-  its mass at the farthest point of its footprint (payload by radius, linear between the chart's points,
+* **tower cranes** (``crane`` set) stand still. The hook is slung above a load's centre, so its **hook
+  radius** is the distance from the mast to the centre of the component's footprint; a component is
+  within reach when that radius lies between the trolley's innermost radius and the largest radius at
+  which the crane's load chart lifts its mass (payload by radius, linear between the chart's points,
   nothing beyond the last). The crane picks where the hook reaches and places there; it never travels.
 
 Feasibility (before a task is ever assigned): a component heavier than ``payload_kg`` (for a crane: the
@@ -27,7 +28,6 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from .reasons import Reason, ReasonCode
@@ -73,11 +73,26 @@ class CraneSpec(BaseModel):
     def payload_at(self, radius_m: float) -> float:
         """The chart's payload at ``radius_m`` (kg): the first point's up to its radius, linear between
         points, 0 below the trolley's innermost radius and beyond the last point."""
+        import numpy as np  # not loaded by processes that only decode messages
+
         if radius_m < self.min_radius_m - 1e-9 or radius_m > self.max_radius_m + 1e-9:
             return 0.0
         radii = [point.radius_m for point in self.load_chart]
         payloads = [point.payload_kg for point in self.load_chart]
         return float(np.interp(radius_m, radii, payloads, left=payloads[0], right=payloads[-1]))
+
+    def motion_s(self, base_xy_m: ArrayLike, from_xyz_m: ArrayLike, to_xyz_m: ArrayLike) -> float:
+        """Sim seconds to move a load from ``from_xyz_m`` to ``to_xyz_m`` with the crane at ``base_xy_m``:
+        hoist up to the jib, slew and trolley at once (the longer of the two), lower onto the target."""
+        import numpy as np  # not loaded by processes that only decode messages
+
+        base = np.asarray(base_xy_m, float)[:2]
+        start, end = np.asarray(from_xyz_m, float), np.asarray(to_xyz_m, float)
+        a, b = start[:2] - base, end[:2] - base
+        turn = abs(math.remainder(math.atan2(b[1], b[0]) - math.atan2(a[1], a[0]), math.tau))
+        radial = abs(float(np.hypot(*b)) - float(np.hypot(*a)))
+        hoist = max(0.0, self.jib_height_m - start[2]) + max(0.0, self.jib_height_m - end[2])
+        return max(turn / self.slew_radps, radial / self.trolley_mps) + hoist / self.hoist_mps
 
     def radius_for(self, mass_kg: float) -> float:
         """The largest hook radius at which the chart lifts ``mass_kg`` (0 when it lifts it nowhere)."""
@@ -167,19 +182,23 @@ class RobotDescription(BaseModel):
 
     def reaches(self, robot_xy_m: ArrayLike, footprint_xy_m: ArrayLike, mass_kg: float = 0.0) -> bool:
         """The reach rule (see the module docstring) for one robot position and a load of ``mass_kg``."""
-        from .footprint import footprint_distance_m  # numpy: not loaded by processes that only decode
 
-        nearest = float(footprint_distance_m(footprint_xy_m, robot_xy_m)[0])
+        from .footprint import footprint_distance_m
+
         if self.crane is None:
+            nearest = float(footprint_distance_m(footprint_xy_m, robot_xy_m)[0])
             return nearest <= self.reach_m + 1e-9
-        farthest = float(
-            np.max(np.hypot(*(np.asarray(footprint_xy_m, float) - np.asarray(robot_xy_m)[:2]).T))
-        )
-        return (
-            nearest >= self.crane.min_radius_m - 1e-9
-            and nearest <= self.reach_m + 1e-9
-            and farthest <= self.crane.radius_for(mass_kg) + 1e-9
-        )
+        hook_m = self.hook_radius_m(robot_xy_m, footprint_xy_m)
+        return self.crane.min_radius_m - 1e-9 <= hook_m <= self.crane.radius_for(mass_kg) + 1e-9
+
+    @staticmethod
+    def hook_radius_m(base_xy_m: ArrayLike, footprint_xy_m: ArrayLike) -> float:
+        """A crane's hook radius for a load: from the mast to the centre of the load's footprint (the hook
+        is slung above the load's centre of mass)."""
+        import numpy as np  # not loaded by processes that only decode messages
+
+        centre = np.asarray(footprint_xy_m, float).reshape(-1, 2).mean(axis=0)
+        return float(np.hypot(*(centre - np.asarray(base_xy_m, float)[:2])))
 
 
 # The Husky-sized site robot of earlier versions (pybullet_data's Husky with a 1 t payload): what tests and

@@ -48,8 +48,10 @@ class AccessOutcome:
 
 
 def site_robot(info: SiteInfoMsg) -> RobotDescription:
-    """The robot type the access check plans for: the widest on site (what fits it fits the others)."""
-    return max(info.robot_types.values(), key=lambda robot: (robot.radius_m, robot.name))
+    """The robot type the access check plans for: the widest ground type on site (what fits it fits the
+    others; a tower crane never drives)."""
+    ground = [robot for robot in info.robot_types.values() if not robot.is_crane]
+    return max(ground or info.robot_types.values(), key=lambda robot: (robot.radius_m, robot.name))
 
 
 def access_plan(

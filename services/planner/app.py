@@ -72,6 +72,7 @@ from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.twin_query import ask_twins
 
 from .access_plan import access_plan
+from .capability import site_robots
 from .feasibility import infeasible
 from .scheduler import Outgoing, PlannerCore, PlannerLimits
 from .sources import Plan, PlanSource, load_plan
@@ -117,7 +118,14 @@ def main(
             session, PHYSICS_INFO, inbox.invalid, timeout_s=options.site_info_timeout_s, stop=stop, site=site
         )
         plan, cannot = _checked_plan(plan, manifest, info, options.strict)
-        core = PlannerCore(manifest, plan, resend_s=options.resend_s, limits=options.limits)
+        core = PlannerCore(
+            manifest,
+            plan,
+            resend_s=options.resend_s,
+            limits=options.limits,
+            robots=site_robots(info) if info is not None else None,
+            slots=dict(info.layout.slots) if info is not None else None,
+        )
         plan_queryable = _serve_plan(session, site, plan)
         subscribers = [
             inbox.subscribe(session, COMPONENT_STATE, site=site, key="*"),
@@ -158,7 +166,10 @@ def _checked_plan(
         )
         return plan, {}
     outcome = access_plan(plan, manifest, info, adjust=plan.derived, strict=strict)
-    cannot = {**outcome.unreachable, **infeasible(manifest.components, info.robot_types)}
+    cannot = {
+        **outcome.unreachable,
+        **infeasible(manifest.components, site_robots(info), info.layout.slots),
+    }
     if cannot:
         _log.warning(
             "%d component(s) cannot be built with the robots on site; failed before the build", len(cannot)

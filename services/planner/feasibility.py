@@ -1,62 +1,145 @@
-"""Before the build: which robot types can carry and place each component, or why none can (pure).
+"""Before the build: which robot types can build each component, how, or why none can (pure).
 
 Why: a component no robot on site can lift or place would otherwise be released, assigned and given back
 again and again. The planner fails it at once with the reason a user can act on (another robot type,
-another sequence) and builds the rest. The rule itself is the robot description's
-(:meth:`bimbot.shared.robot_description.RobotDescription.refusal`: payload and placement height); this
-module only applies it to every component and every type on site, and chooses the one reason to report
-when every type refuses: ``too_heavy`` when the component is heavier than every payload, else the first
-type's refusal.
+another sequence) and builds the rest; ``bimbot fleet check`` prints the same table without building.
+
+A component is buildable by a ground type whose payload and placement height allow it; by a tower crane
+whose hook reaches its yard slot and its target with its mass (load chart) and whose jib is high enough;
+or by a **hand-off**: a ground type that can carry it to the crane's staging area, then the crane (see
+:mod:`.capability`). When nothing can: ``too_heavy`` when it is heavier than every payload on site;
+``out_of_reach`` when a crane could lift it but not that far (the numbers of the nearest crane), or when it
+is too high for every ground type; else the first type's refusal.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from bimbot.shared.manifest import Component
 from bimbot.shared.reasons import Reason, ReasonCode
-from bimbot.shared.robot_description import RobotDescription
+from bimbot.shared.site_plan import YardSlot
+
+from .capability import (
+    SiteRobot,
+    Where,
+    can_build_from,
+    can_carry,
+    can_place,
+    laid_half_m,
+    staging_reached,
+)
 
 
 @dataclass(frozen=True)
 class Feasibility:
-    """One component: the robot types that can build it (by name), or the reason none can."""
+    """One component: how it can be built (``routes``: "carrier", "carrier → tower_crane (hand-off)"), the
+    robot types involved, or the reason none can."""
 
     guid: str
     capable_types: tuple[str, ...]
-    reason: Reason | None  # None when some type can
+    routes: tuple[str, ...]
+    reason: Reason | None  # None when some route exists
 
 
-def component_feasibility(component: Component, robot_types: Mapping[str, RobotDescription]) -> Feasibility:
-    """Which of ``robot_types`` can carry and place ``component`` at its BIM target."""
-    top_z_m = component.bbox_world.max_m[2]
-    refusals = {name: robot.refusal(component.mass_kg, top_z_m) for name, robot in robot_types.items()}
-    capable = tuple(sorted(name for name, refusal in refusals.items() if refusal is None))
-    if capable or not refusals:
-        return Feasibility(component.guid, capable, None)
-    heaviest = max(robot_types.values(), key=lambda robot: robot.payload_kg)
-    if component.mass_kg > heaviest.payload_kg:
-        kinds = ", ".join(sorted(robot_types))
-        reason = Reason(
+def slot_where(component: Component, slot: YardSlot | None) -> Where:
+    """The component lying in its yard slot (or at its target when it has no slot)."""
+    if slot is None:
+        position = component.target_pose_world.position_m
+        return Where((position[0], position[1]), laid_half_m(component), component.bbox_world.max_m[2])
+    centre = (
+        (slot.footprint.min_xy[0] + slot.footprint.max_xy[0]) / 2.0,
+        (slot.footprint.min_xy[1] + slot.footprint.max_xy[1]) / 2.0,
+    )
+    return Where(centre, laid_half_m(component), slot.height_m)
+
+
+def component_feasibility(
+    component: Component, robots: Sequence[SiteRobot], slot: YardSlot | None = None
+) -> Feasibility:
+    """How ``component`` can be built by ``robots`` from its yard ``slot``."""
+    where = slot_where(component, slot)
+    routes: list[str] = []
+    types: set[str] = set()
+    for robot in robots:
+        name = robot.description.name
+        if can_build_from(robot, component, where):
+            routes.append(f"{name} ({robot.robot_id})" if robot.is_crane else name)
+            types.add(name)
+        elif robot.is_crane and can_place(robot, component) and staging_reached(robot, component):
+            carriers = sorted({r.description.name for r in robots if can_carry(r, component)})
+            for carrier in carriers:
+                routes.append(f"{carrier} → {name} ({robot.robot_id}, hand-off)")
+                types.update((carrier, name))
+    routes = list(dict.fromkeys(routes))
+    if routes or not robots:
+        return Feasibility(component.guid, tuple(sorted(types)), tuple(routes), None)
+    return Feasibility(component.guid, (), (), _why_not(component, robots, where))
+
+
+def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) -> Reason:
+    mass, top_z = component.mass_kg, component.bbox_world.max_m[2]
+    kinds = ", ".join(sorted({robot.description.name for robot in robots}))
+    heaviest = max((robot.description for robot in robots), key=lambda item: item.payload_kg)
+    if mass > heaviest.payload_kg:
+        return Reason(
             code=ReasonCode.TOO_HEAVY,
             message=(
-                f"{component.mass_kg:,.0f} kg exceeds the largest payload on site "
+                f"{mass:,.0f} kg exceeds the largest payload on site "
                 f"({heaviest.payload_kg:,.0f} kg, robot type {heaviest.name}; types on site: {kinds})"
             ),
         )
-    else:
-        reason = next(refusal for refusal in refusals.values() if refusal is not None)
-    return Feasibility(component.guid, (), reason)
+    for robot in robots:
+        spec = robot.description.crane
+        if spec is None or robot.description.refusal(mass, top_z) is not None:
+            continue
+        base = robot.home_xy_yaw[:2]
+        target = component.target_pose_world.position_m
+        radius = spec.radius_for(mass)
+        if not can_place(robot, component):
+            far = math.dist(base, target[:2])
+            return Reason(
+                code=ReasonCode.OUT_OF_REACH,
+                message=(
+                    f"its target is {far:.1f} m from {robot.description.name} {robot.robot_id}, whose load "
+                    f"chart lifts {mass:,.0f} kg to {radius:.1f} m at most"
+                ),
+                robot_id=robot.robot_id,
+            )
+        far = math.dist(base, where.xy_m)
+        carriers = [r.description for r in robots if not r.is_crane]
+        strongest = max((item.payload_kg for item in carriers), default=0.0)
+        if mass > strongest:
+            hand_off = (
+                f"no ground robot can carry it to the crane (largest ground payload {strongest:,.0f} kg)"
+            )
+        else:
+            hand_off = f"its staging area is not within {radius:.1f} m of it either"
+        return Reason(
+            code=ReasonCode.OUT_OF_REACH,
+            message=(
+                f"its yard slot is {far:.1f} m from {robot.description.name} {robot.robot_id}, whose "
+                f"load chart lifts {mass:,.0f} kg to {radius:.1f} m at most, and {hand_off}"
+            ),
+            robot_id=robot.robot_id,
+        )
+    refusals = [robot.description.refusal(mass, top_z) for robot in robots]
+    return next(refusal for refusal in refusals if refusal is not None)
+
+
+def feasibility_table(
+    components: Sequence[Component], robots: Sequence[SiteRobot], slots: dict[str, YardSlot]
+) -> list[Feasibility]:
+    """One row per component, in manifest order."""
+    return [component_feasibility(item, robots, slots.get(item.guid)) for item in components]
 
 
 def infeasible(
-    components: Sequence[Component], robot_types: Mapping[str, RobotDescription]
+    components: Sequence[Component], robots: Sequence[SiteRobot], slots: dict[str, YardSlot]
 ) -> dict[str, Reason]:
-    """GUID → reason for every component that no robot type on site can build."""
-    result: dict[str, Reason] = {}
-    for component in components:
-        verdict = component_feasibility(component, robot_types)
-        if verdict.reason is not None:
-            result[component.guid] = verdict.reason
-    return result
+    """GUID → reason for every component that no robot on site can build."""
+    return {
+        row.guid: row.reason for row in feasibility_table(components, robots, slots) if row.reason is not None
+    }

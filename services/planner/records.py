@@ -10,7 +10,7 @@ from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
 from enum import StrEnum
 
-from bimbot.shared.messages import ComponentEventMsg, ComponentState, RobotState, TaskMsg
+from bimbot.shared.messages import ComponentEventMsg, ComponentState, RobotState, TaskKind, TaskMsg
 from bimbot.shared.reasons import Reason
 
 SOURCE = "planner"
@@ -55,6 +55,14 @@ class TaskRecord:
     given_back_by: set[str] = field(default_factory=set)  # robots that gave it back: others first
     last_give_back: Reason | None = None
     reason: Reason | None = None  # failed/blocked: why
+    kind: TaskKind = TaskKind.BUILD  # HAND_OFF while a ground robot carries it to a crane's staging spot
+    hand_offs: int = 0  # hand-off tasks started for it (each its own task id)
+    put_down_xy: tuple[float, float] | None = None  # the staging spot of the current hand-off
+
+    @property
+    def active_id(self) -> str:
+        """The id of the task a robot works on now: the build task's, or the current hand-off's."""
+        return self.task_id if self.kind is TaskKind.BUILD else f"{self.task_id}-h{self.hand_offs}"
 
 
 @dataclass
@@ -65,6 +73,7 @@ class RobotRecord:
     reported_task_id: str | None = None
     pose_xy_yaw: tuple[float, float, float] | None = None
     task_guid: str | None = None  # the task the planner gave it, until its part is over
+    busy_until_s: float = 0.0  # sim time its current task should be over (its winning bid)
 
 
 @dataclass

@@ -52,12 +52,16 @@ from bimbot.shared.messages import (
     ProgressMsg,
     RobotState,
     RobotStateMsg,
+    TaskKind,
     TaskMsg,
     TaskStatus,
     TwinMsg,
 )
 from bimbot.shared.reasons import Reason, ReasonCode, blocked_by
 
+from .assignment import choose, staged_where
+from .capability import SiteRobot
+from .feasibility import slot_where
 from .records import (
     CARRYING,
     FINAL,
@@ -92,8 +96,15 @@ class PlannerCore:
         resend_s: float = 2.0,
         new_id: Callable[[], str] = lambda: uuid.uuid4().hex,
         limits: PlannerLimits | None = None,
+        robots: list[SiteRobot] | None = None,
+        slots: dict | None = None,
     ) -> None:
+        """``robots``: the robots on site with their types (:func:`.capability.site_robots`); with them a
+        task goes to the capable robot with the best bid (:mod:`.assignment`), without them to the nearest
+        idle robot. ``slots``: the yard slots of the site plan (where a component lies before any pose)."""
         self._manifest = {item.guid: item for item in manifest.components}
+        self._site = {robot.robot_id: robot for robot in robots} if robots is not None else None
+        self._slots = slots or {}
         self._plan = plan
         self._resend_s = resend_s
         self.limits = limits or PlannerLimits()
@@ -324,6 +335,15 @@ class PlannerCore:
                 self._set_phase(task, Phase.RELEASED, TaskStatus.RELEASED)
             settled = partial(left, component, {ComponentState.MISPLACED})
             self._send_event(guid, ComponentEvent.RETRY, settled)
+        elif state is ComponentState.RELEASED and event == ComponentEvent.HAND_OFF:
+            if task.kind is TaskKind.HAND_OFF and task.phase is Phase.ASSIGNED:
+                _log.info("%s: %s put down at the crane's staging spot by %s", task.active_id, guid, robot_id)
+                self._outbox.append(self._task_msg(task, TaskStatus.DONE))
+                self._free_robot(task)
+                if task.put_down_xy is not None:  # until physics' pose of it arrives: the crane bids on it
+                    component.position_xy = task.put_down_xy
+                task.kind, task.put_down_xy = TaskKind.BUILD, None
+                self._set_phase(task, Phase.RELEASED, TaskStatus.RELEASED)
         elif state is ComponentState.RELEASED:
             abandoned = task.phase in (Phase.ASSIGNED, Phase.RELEASED) and event == ComponentEvent.ABANDON
             if abandoned:
@@ -373,6 +393,8 @@ class PlannerCore:
         )
 
     def _assign(self) -> None:
+        if self._site is not None:
+            return self._assign_by_bids()
         for guid in self._plan.order:
             task = self._tasks[guid]
             component = self._components[guid]
@@ -391,23 +413,100 @@ class PlannerCore:
             idle = fresh or idle
             where = component.position_xy or self._manifest[guid].target_pose_world.position_m[:2]
             robot = min(idle, key=lambda item: (distance(item.pose_xy_yaw, where), item.robot_id))
-            task.robot_id, robot.task_guid = robot.robot_id, guid
-            task.phase = Phase.ASSIGNED
-            task.changed_sim_s = self.sim_time_s
-            if task.assigned_sim_s is None:
-                task.assigned_sim_s = self.sim_time_s
-            _log.info("%s (%s) assigned to %s", task.task_id, guid, robot.robot_id)
-            settled = partial(self._assignment_settled, task, robot, component, robot.robot_id)
-            self._pending[(guid, "task")] = Pending(self._task_msg(task, TaskStatus.ASSIGNED), settled)
+            self._give_to(task, robot, TaskKind.BUILD, None, estimate_s=0.0)
+
+    def _assign_by_bids(self) -> None:
+        """Every released task to the capable robot with the best bid (:mod:`.assignment`)."""
+        assert self._site is not None
+        promised: dict[str, float] = {}
+        taken = self._taken_spots()
+        for guid in self._plan.order:
+            task = self._tasks[guid]
+            component = self._components[guid]
+            if task.phase is not Phase.RELEASED or component.state is not ComponentState.RELEASED:
+                continue
+            if not any(self._is_idle(robot) for robot in self._robots.values()):
+                return
+            item = self._manifest[guid]
+            where = (
+                staged_where(item, component.position_xy)
+                if component.position_xy is not None
+                else slot_where(item, self._slots.get(guid))
+            )
+            choice = choose(
+                item,
+                where,
+                self._robots.values(),
+                self._site,
+                now_s=self.sim_time_s,
+                promised_s=promised,
+                avoid=task.given_back_by,
+                taken_spots=taken,
+            )
+            if choice is None:
+                continue
+            robot = self._robots[choice.robot_id]
+            if not choice.idle or not self._is_idle(robot):
+                promised[choice.robot_id] = promised.get(choice.robot_id, 0.0) + choice.estimate_s
+                continue
+            if choice.put_down_xy_m is not None:
+                taken.append(choice.put_down_xy_m)
+            self._give_to(task, robot, choice.kind, choice.put_down_xy_m, estimate_s=choice.estimate_s)
+
+    def _taken_spots(self) -> list[tuple[float, float]]:
+        """Staging spots in use: a hand-off on its way there, or a component lying in a staging area."""
+        spots = [task.put_down_xy for task in self._tasks.values() if task.put_down_xy is not None]
+        areas = [robot.staging for robot in (self._site or {}).values() if robot.staging is not None]
+        for guid, component in self._components.items():
+            xy = component.position_xy
+            if xy is None or self._tasks[guid].phase in FINAL:
+                continue
+            if any(
+                a.min_xy[0] <= xy[0] <= a.max_xy[0] and a.min_xy[1] <= xy[1] <= a.max_xy[1] for a in areas
+            ):
+                spots.append(xy)
+        return spots
+
+    def _give_to(
+        self,
+        task: TaskRecord,
+        robot: RobotRecord,
+        kind: TaskKind,
+        put_down_xy: tuple[float, float] | None,
+        *,
+        estimate_s: float,
+    ) -> None:
+        component = self._components[task.guid]
+        task.kind, task.put_down_xy = kind, put_down_xy
+        if kind is TaskKind.HAND_OFF:
+            task.hand_offs += 1
+        task.robot_id, robot.task_guid = robot.robot_id, task.guid
+        robot.busy_until_s = self.sim_time_s + estimate_s
+        task.phase = Phase.ASSIGNED
+        task.changed_sim_s = self.sim_time_s
+        if task.assigned_sim_s is None:
+            task.assigned_sim_s = self.sim_time_s
+        what = f"hand-off to {put_down_xy[0]:.1f}, {put_down_xy[1]:.1f}" if put_down_xy else "build"
+        _log.info(
+            "%s (%s, %s) assigned to %s (estimate %.0f s)",
+            task.active_id,
+            task.guid,
+            what,
+            robot.robot_id,
+            estimate_s,
+        )
+        settled = partial(self._assignment_settled, task, robot, component, robot.robot_id, task.active_id)
+        self._pending[(task.guid, "task")] = Pending(self._task_msg(task, TaskStatus.ASSIGNED), settled)
 
     @staticmethod
     def _assignment_settled(
-        task: TaskRecord, robot: RobotRecord, component: ComponentRecord, robot_id: str | None
+        task: TaskRecord, robot: RobotRecord, component: ComponentRecord, robot_id: str | None, task_id: str
     ) -> bool:
         return (
             task.phase is not Phase.ASSIGNED
             or task.robot_id != robot_id
-            or robot.reported_task_id == task.task_id
+            or task.active_id != task_id
+            or robot.reported_task_id == task_id
             or component.state is not ComponentState.RELEASED
         )
 
@@ -431,7 +530,7 @@ class PlannerCore:
         self._free_robot(task)
         if component.state is ComponentState.VERIFYING:
             return  # placed already: verification decides
-        _log.warning("%s (%s) given back: %s", task.task_id, guid, why)
+        _log.warning("%s (%s) given back: %s", task.active_id, guid, why)
         self._set_phase(task, Phase.RELEASED, TaskStatus.RELEASED)
         task.changed_sim_s = self.sim_time_s
         if component.state in CARRYING:
@@ -465,7 +564,7 @@ class PlannerCore:
                 reason = Reason(
                     code=ReasonCode.NO_PROGRESS,
                     message=(
-                        f"{task.task_id} made no progress for {idle_s:.0f} s of sim time "
+                        f"{task.active_id} made no progress for {idle_s:.0f} s of sim time "
                         f"(bound {bound:.0f} s; component {state.value}, robot {task.robot_id})"
                     ),
                     robot_id=task.robot_id,
@@ -517,6 +616,9 @@ class PlannerCore:
 
     def _set_phase(self, task: TaskRecord, phase: Phase, status: TaskStatus) -> None:
         task.phase = phase
+        if task.kind is TaskKind.HAND_OFF and phase is not Phase.ASSIGNED:
+            self._outbox.append(self._task_msg(task, status))  # the hand-off task ends here too
+            task.kind, task.put_down_xy = TaskKind.BUILD, None
         self._outbox.append(self._task_msg(task, status))
 
     def _send_event(
@@ -554,7 +656,7 @@ class PlannerCore:
         component = self._manifest[task.guid]
         pose = component.target_pose_world
         return TaskMsg(
-            task_id=task.task_id,
+            task_id=task.active_id,
             guid=task.guid,
             component_key=component.key,
             status=status,
@@ -564,4 +666,6 @@ class PlannerCore:
             sim_time_s=self.sim_time_s,
             wall_time_s=self._wall_s,
             reason=task.reason if status in (TaskStatus.FAILED, TaskStatus.BLOCKED) else None,
+            kind=task.kind,
+            put_down_xy_m=task.put_down_xy,
         )

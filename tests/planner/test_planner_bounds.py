@@ -14,6 +14,7 @@ from site_models import ROOM_WALLS, WALLS_FIRST_ORDER, build_site_model
 from bimbot.services.converter.convert import convert_model
 from bimbot.services.converter.ifc_input import open_model
 from bimbot.services.planner.access_plan import access_plan
+from bimbot.services.planner.capability import SiteRobot
 from bimbot.services.planner.feasibility import component_feasibility, infeasible
 from bimbot.services.planner.scheduler import Phase, PlannerCore, PlannerLimits
 from bimbot.services.planner.sources import PlanError, PlanSource, SourceKind, load_plan, plan_from_sequence
@@ -147,14 +148,15 @@ def test_feasibility_names_the_mass_and_the_height_against_the_robot_limits() ->
     manifest = portal_manifest()
     beam = next(c for c in manifest.components if c.guid == "beam")
     heavy = beam.model_copy(update={"mass_kg": 5760.0})
-    verdict = component_feasibility(heavy, {"default": DEFAULT_ROBOT})
+    ground = [SiteRobot("r1", DEFAULT_ROBOT, (0.0, 0.0, 0.0))]
+    verdict = component_feasibility(heavy, ground)
     assert verdict.capable_types == () and verdict.reason is not None
     assert verdict.reason.code is ReasonCode.TOO_HEAVY and "5,760 kg" in verdict.reason.message
     low_robot = DEFAULT_ROBOT.model_copy(update={"max_place_height_m": 1.0})
-    verdict = component_feasibility(beam, {"default": low_robot})
+    verdict = component_feasibility(beam, [SiteRobot("r1", low_robot, (0.0, 0.0, 0.0))])
     assert verdict.reason is not None and verdict.reason.code is ReasonCode.OUT_OF_REACH
-    assert component_feasibility(beam, {"default": DEFAULT_ROBOT}).capable_types == ("default",)
-    assert infeasible(manifest.components, {"default": DEFAULT_ROBOT}) == {}
+    assert component_feasibility(beam, ground).capable_types == ("default",)
+    assert infeasible(manifest.components, ground, {}) == {}
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,161 @@
+"""Who gets a released task: the capable robot that would finish it first (a bid), or a hand-off (pure).
+
+Why apart from :mod:`.scheduler`: the scheduler decides *when* a task is assigned; this decides *to whom*.
+For each released component, in plan priority order, every alive robot whose type can build it where it
+lies (:mod:`.capability`) bids its estimated finish: when it will be free (now if idle; its current
+task's estimate, growing once overrun, if busy; plus what this round already promised it) plus the task's
+own estimate. The lowest bid wins. An idle winner gets the task now; a busy winner is promised it (its
+bid time grows by the estimate for the next components of this round) and nothing is assigned, so a
+slow idle robot does not take what a fast busy one would finish sooner.
+
+When no robot can build the component where it lies but a tower crane can place it and its staging area
+is in reach, the same auction runs among ground robots that can carry it to a free staging spot: a
+**hand-off** task (``TaskKind.HAND_OFF``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+from bimbot.shared.manifest import Component
+from bimbot.shared.messages import RobotState, TaskKind
+from bimbot.shared.site_cranes import staging_spots
+
+from .capability import (
+    SiteRobot,
+    Where,
+    can_build_from,
+    can_carry,
+    can_place,
+    laid_half_m,
+    staging_reached,
+    task_estimate_s,
+)
+from .records import RobotRecord
+
+SPOT_CLEARANCE_M = 2.5  # a staging spot is taken while a component lies (or is on its way) this close
+
+
+@dataclass(frozen=True)
+class Choice:
+    robot_id: str
+    kind: TaskKind
+    estimate_s: float  # the task's own duration estimate (sim s)
+    put_down_xy_m: tuple[float, float] | None = None  # hand-off: the staging spot
+    idle: bool = True  # False: the winner is busy, the task waits for it
+
+
+def ready_s(robot: RobotRecord, now_s: float) -> float:
+    """When ``robot`` will be free: now when idle; its estimate when busy, growing once overrun."""
+    if robot.task_guid is None and robot.state is RobotState.IDLE:
+        return now_s
+    if robot.busy_until_s >= now_s:
+        return robot.busy_until_s
+    return now_s + (now_s - robot.busy_until_s)
+
+
+def choose(
+    component: Component,
+    where: Where,
+    records: Iterable[RobotRecord],
+    site: Mapping[str, SiteRobot],
+    *,
+    now_s: float,
+    promised_s: Mapping[str, float],
+    avoid: set[str],
+    taken_spots: list[tuple[float, float]],
+) -> Choice | None:
+    """The winning bid for ``component`` lying at ``where`` (None: no alive robot can take it now).
+    ``promised_s``: extra busy time promised to robots earlier in this round; ``avoid``: robots that gave
+    the task back (bidding only when nobody else can)."""
+    alive = [record for record in records if record.alive and record.robot_id in site]
+    fresh = [record for record in alive if record.robot_id not in avoid] or alive
+    bids: list[tuple[float, str, Choice]] = []
+    for record in fresh:
+        robot = site[record.robot_id]
+        if can_build_from(robot, component, where):
+            bids.append(
+                _bid(
+                    record,
+                    robot,
+                    component,
+                    where,
+                    now_s=now_s,
+                    promised_s=promised_s,
+                    kind=TaskKind.BUILD,
+                    spot=None,
+                )
+            )
+    if not bids:
+        spot = _hand_off_spot(component, fresh, site, taken_spots)
+        if spot is None:
+            return None
+        for record in fresh:
+            robot = site[record.robot_id]
+            if can_carry(robot, component):
+                bids.append(
+                    _bid(
+                        record,
+                        robot,
+                        component,
+                        where,
+                        now_s=now_s,
+                        promised_s=promised_s,
+                        kind=TaskKind.HAND_OFF,
+                        spot=spot,
+                    )
+                )
+    if not bids:
+        return None
+    return min(bids, key=lambda bid: (bid[0], bid[1]))[2]
+
+
+def _bid(
+    record: RobotRecord,
+    robot: SiteRobot,
+    component: Component,
+    where: Where,
+    *,
+    now_s: float,
+    promised_s: Mapping[str, float],
+    kind: TaskKind,
+    spot: tuple[float, float] | None,
+) -> tuple[float, str, Choice]:
+    xy = record.pose_xy_yaw[:2] if record.pose_xy_yaw is not None else robot.home_xy_yaw[:2]
+    estimate = task_estimate_s(robot, xy, component, where, spot)
+    idle = record.task_guid is None and record.state is RobotState.IDLE
+    start = ready_s(record, now_s) + promised_s.get(record.robot_id, 0.0)
+    choice = Choice(record.robot_id, kind, estimate, spot, idle and record.robot_id not in promised_s)
+    return start + estimate, record.robot_id, choice
+
+
+def _hand_off_spot(
+    component: Component,
+    records: list[RobotRecord],
+    site: Mapping[str, SiteRobot],
+    taken: list[tuple[float, float]],
+) -> tuple[float, float] | None:
+    """A free staging spot of an alive crane that can place ``component`` (the nearest crane to its
+    target first), or None."""
+    target = component.target_pose_world.position_m
+    cranes = [
+        site[record.robot_id]
+        for record in records
+        if site[record.robot_id].is_crane
+        and can_place(site[record.robot_id], component)
+        and staging_reached(site[record.robot_id], component)
+    ]
+    cranes.sort(key=lambda crane: math.dist(crane.home_xy_yaw[:2], target[:2]))
+    for crane in cranes:
+        assert crane.staging is not None
+        for spot in staging_spots(crane.staging):
+            if all(math.dist(spot, other) >= SPOT_CLEARANCE_M for other in taken):
+                return spot
+    return None
+
+
+def staged_where(component: Component, xy_m: tuple[float, float]) -> Where:
+    """A component lying at ``xy_m`` (put down flat: its top low)."""
+    return Where(xy_m, laid_half_m(component), 0.5)

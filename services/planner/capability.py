@@ -1,0 +1,151 @@
+"""Which robot on site can build a component, from where, and at what cost: the fleet's capabilities (pure).
+
+Why: the planner gives a task only to a robot that can carry and place its component, and among those to
+the one that would finish it first (a bid). The rules are the robot description's
+(:mod:`bimbot.shared.robot_description`: payload, placement height, reach; for a tower crane its load chart
+and where it stands); this module applies them to a component where it lies now and where it goes.
+
+* a **ground** robot builds a component when its type's payload and placement height allow it (it drives
+  to both ends);
+* a **tower crane** builds it when its hook reaches both where the component lies and its target with the
+  component's mass (load chart), and its jib is high enough;
+* otherwise, when a crane reaches the target but not where the component lies, a ground robot that can
+  carry the mass **hands it off**: it carries it to the crane's staging area (a task of its own), and the
+  crane builds it from there.
+
+A component where it lies is its centre (and half its laid diagonal: the planner follows positions, not
+orientations); a crane's hook radius is the distance to that centre. Its target is its posed footprint.
+Bids (:func:`task_estimate_s`) are sim seconds: driving at the type's speed along ``DETOUR`` times the
+straight line, a crane's slew/trolley/hoist motion, and the type's handling time to grip and to release.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from bimbot.shared.footprint import Footprint, posed_footprint
+from bimbot.shared.manifest import Component
+from bimbot.shared.messages import SiteInfoMsg
+from bimbot.shared.robot_description import RobotDescription
+from bimbot.shared.site_plan import Rect
+
+DETOUR = 1.5  # driven path / straight line on a site with a yard, aisles and lanes
+GROUND_PLACE_S = 2.0  # a ground robot's assembly motion (the executor's place duration)
+STAGING_SLACK_M = 2.0  # a load put down at a staging spot lies beside the robot, up to this far out
+
+
+@dataclass(frozen=True)
+class SiteRobot:
+    """One robot on site: its id, its type, where it starts (a crane: where it stands), its staging area."""
+
+    robot_id: str
+    description: RobotDescription
+    home_xy_yaw: tuple[float, float, float]
+    staging: Rect | None = None
+
+    @property
+    def is_crane(self) -> bool:
+        return self.description.is_crane
+
+
+def site_robots(info: SiteInfoMsg) -> list[SiteRobot]:
+    """The robots in ``info`` with their descriptions; cranes get their staging areas in robot id order."""
+    robots: list[SiteRobot] = []
+    staging = list(info.layout.staging)
+    for robot_id, start in zip(info.robot_ids, info.robot_starts_xy_yaw, strict=True):
+        description = info.robot_types[info.robot_type_of[robot_id]]
+        area = staging.pop(0) if description.is_crane and staging else None
+        robots.append(SiteRobot(robot_id, description, tuple(start), area))  # type: ignore[arg-type]
+    return robots
+
+
+@dataclass(frozen=True)
+class Where:
+    """A component where it lies: centre (x, y), half its laid diagonal, the z of its top."""
+
+    xy_m: tuple[float, float]
+    half_m: float
+    top_z_m: float
+
+
+def laid_half_m(component: Component) -> float:
+    """Half the horizontal diagonal of the component's bounding box (laid down any way: its longest)."""
+    size = np.array(component.bbox_local.max_m) - np.array(component.bbox_local.min_m)
+    two = np.sort(size)[-2:]
+    return 0.5 * float(np.hypot(*two))
+
+
+def target_footprint(component: Component) -> Footprint:
+    pose = component.target_pose_world
+    return posed_footprint(component, pose.position_m, pose.quat_xyzw)
+
+
+def crane_reaches_disc(crane: SiteRobot, where: Where, mass_kg: float) -> bool:
+    """The hook reaches the centre of a component lying at ``where`` with ``mass_kg`` (its hook radius
+    between the trolley's innermost radius and the chart's radius for that mass)."""
+    spec = crane.description.crane
+    assert spec is not None
+    hook_m = math.hypot(where.xy_m[0] - crane.home_xy_yaw[0], where.xy_m[1] - crane.home_xy_yaw[1])
+    return spec.min_radius_m - 1e-9 <= hook_m <= spec.radius_for(mass_kg) + 1e-9
+
+
+def crane_reaches_target(crane: SiteRobot, component: Component) -> bool:
+    polygon = target_footprint(component).polygon_xy_m
+    return crane.description.reaches(crane.home_xy_yaw[:2], polygon, component.mass_kg)
+
+
+def can_place(robot: SiteRobot, component: Component) -> bool:
+    """Payload and placement height allow it, and a crane's hook reaches the target with its mass."""
+    top_z_m = component.bbox_world.max_m[2]
+    if robot.description.refusal(component.mass_kg, top_z_m) is not None:
+        return False
+    return not robot.is_crane or crane_reaches_target(robot, component)
+
+
+def can_build_from(robot: SiteRobot, component: Component, where: Where) -> bool:
+    """``robot`` can pick ``component`` up where it lies and place it."""
+    if not can_place(robot, component):
+        return False
+    return not robot.is_crane or crane_reaches_disc(robot, where, component.mass_kg)
+
+
+def can_carry(robot: SiteRobot, component: Component) -> bool:
+    """A ground robot that can carry the component (to a staging area: its placement height is moot)."""
+    return not robot.is_crane and component.mass_kg <= robot.description.payload_kg
+
+
+def staging_reached(crane: SiteRobot, component: Component) -> bool:
+    """The crane's hook reaches a component put down anywhere in its staging area (or a little beyond:
+    a load is put down beside the robot that carried it)."""
+    area = crane.staging
+    if area is None:
+        return False
+    grown = area.grown(STAGING_SLACK_M)
+    corners = [(x, y) for x in (grown.min_xy[0], grown.max_xy[0]) for y in (grown.min_xy[1], grown.max_xy[1])]
+    return all(crane_reaches_disc(crane, Where(corner, 0.0, 0.0), component.mass_kg) for corner in corners)
+
+
+def task_estimate_s(
+    robot: SiteRobot,
+    robot_xy_m: Sequence[float],
+    component: Component,
+    where: Where,
+    to_xy_m: Sequence[float] | None = None,
+) -> float:
+    """Sim seconds for ``robot`` (at ``robot_xy_m``) to pick ``component`` up where it lies and place it
+    at its target, or put it down at ``to_xy_m`` (a hand-off)."""
+    description = robot.description
+    target = component.target_pose_world.position_m
+    handling_s = 2.0 * description.handling_s
+    if description.crane is not None:
+        start = (*where.xy_m, where.top_z_m)
+        end = (target[0], target[1], component.bbox_world.max_m[2])
+        return description.crane.motion_s(robot.home_xy_yaw[:2], start, end) + handling_s
+    goal = to_xy_m if to_xy_m is not None else target[:2]
+    drive_m = math.dist(robot_xy_m[:2], where.xy_m) + math.dist(where.xy_m, goal[:2])
+    place_s = 0.0 if to_xy_m is not None else GROUND_PLACE_S
+    return DETOUR * drive_m / description.max_speed_mps + handling_s + place_s
