@@ -68,7 +68,7 @@ from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.twin_query import ask_twins
 
 from .astar import plan_path
-from .executor import Executor, ExecutorConfig, Outgoing
+from .executor import Executor, ExecutorConfig, Outgoing, executor_class
 from .protocol import PhysicsRequest, PhysicsResult
 
 _log = logging.getLogger(__name__)
@@ -117,7 +117,9 @@ def main(
         if info is None:
             return 0 if stop.is_set() else _no_physics(options.info_timeout_s)
         poses = query_first(session, PHYSICS_POSES, inbox.invalid, timeout_s=POSES_TIMEOUT_S, site=site)
-        executor = Executor(manifest, info, executor_config, start_xy_yaw=_where_physics_has(poses, robot_id))
+        executor = executor_class(info, robot_id)(
+            manifest, info, executor_config, start_xy_yaw=_where_physics_has(poses, robot_id)
+        )
         _learn_the_site(session, inbox, site, executor, poses)
         _warm_up()
         loop = _Loop(session, site, executor, inbox, options)
@@ -195,6 +197,7 @@ class _Loop:
         self._clock: ClockMsg | None = None
         self._clock_wall_s = 0.0
         self._scan_sim_s = -math.inf
+        self._no_scan = executor.description.is_crane
         self._answered_step = -1
         self.clock_guard = ClockGuard(f"robot {robot_id} clock")
         self._metrics_wall_s = time.monotonic()
@@ -205,7 +208,8 @@ class _Loop:
                 self._take(item)
             now = time.monotonic()
             clock = self._clock
-            scanned = clock is not None and self._scan_sim_s >= clock.sim_time_s
+            # a crane gets no scan from physics: it answers each step at once
+            scanned = clock is not None and (self._no_scan or self._scan_sim_s >= clock.sim_time_s)
             waited = now - self._clock_wall_s >= self.options.tick_wait_s
             if clock is not None and clock.step > self._answered_step and (scanned or waited):
                 self._answered_step = clock.step

@@ -48,7 +48,7 @@ from dataclasses import replace
 import numpy as np
 
 from bimbot.shared.errors import InputError
-from bimbot.shared.footprint import posed_footprint
+from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     AttachRequest,
@@ -59,6 +59,7 @@ from bimbot.shared.messages import (
     ComponentPoseMsg,
     ComponentState,
     ComponentStateMsg,
+    DropRequest,
     OdomMsg,
     PlanMsg,
     RobotPoseMsg,
@@ -66,6 +67,7 @@ from bimbot.shared.messages import (
     RobotStateMsg,
     ScanMsg,
     SiteInfoMsg,
+    TaskKind,
     TaskMsg,
     TaskStatus,
 )
@@ -73,6 +75,7 @@ from bimbot.shared.reasons import Reason
 
 from . import give_back
 from .approach import ApproachConfig, exit_point
+from .crane_work import CraneWork
 from .driving import Driving
 from .handover import Handover
 from .nav_types import controller_limits
@@ -248,6 +251,11 @@ class Executor(Driving, Handover):
             return
         if task.dropping is not None:
             return self._drop(task, task.dropping)
+        if task.handed_off:
+            if _E.HAND_OFF not in task.events.unconfirmed:
+                _log.info("%s: handed %s off", self.robot_id, task.message.guid)
+                self._finish(_C.RELEASED)
+            return None
         stalled_s = self.sim_s - self._state_since_s
         if stalled_s > self.config.task_timeout_s and task.request is None:
             why = give_back.stalled(self.robot_id, self.machine.state, stalled_s, self.config.task_timeout_s)
@@ -278,6 +286,8 @@ class Executor(Driving, Handover):
             component = self.components[message.guid]
             target = component.target_pose_world
             footprint = posed_footprint(component, target.position_m, target.quat_xyzw)
+            if message.kind is TaskKind.HAND_OFF and message.put_down_xy_m is not None:
+                footprint = put_down_footprint(message.put_down_xy_m)
             self.task = Task(message, component, footprint, EventQueue(self.config.resend_s))
             self._idle_since_s = None
             self.navigator.cancel()
@@ -368,9 +378,14 @@ class Executor(Driving, Handover):
         self.navigator.cancel()
 
     def _to_target(self, task: Task) -> None:
-        if self._drive(task, task.target):
-            self._fire(Trigger.ARRIVED)
-            self._queue_event(task, _E.ARRIVE)
+        if not self._drive(task, task.target):
+            return
+        if task.message.kind is TaskKind.HAND_OFF:  # at the staging spot: put it down there
+            if task.request is None and not task.events.unconfirmed & {_E.ATTACH}:
+                self._request(task, "drop", DropRequest(robot_id=self.robot_id, guid=task.message.guid))
+            return
+        self._fire(Trigger.ARRIVED)
+        self._queue_event(task, _E.ARRIVE)
 
     def _assemble(self, task: Task) -> None:
         if not task.placed:
@@ -428,13 +443,18 @@ class Executor(Driving, Handover):
         )
 
     def _finish(self, verdict: ComponentState | None) -> None:
+        """The task is over: a verdict (constructed, misplaced, failed), ``released`` after a hand-off, or
+        None (given back or withdrawn)."""
         task = self.task
         if task is not None and verdict is not None:
             self.done.append((task.message.guid, verdict))
         self.navigator.cancel()
         self.task = None
         self._left_structure = False
-        self._fire(Trigger.FINISHED if verdict is not None else Trigger.ABORTED)
+        if verdict is _C.RELEASED:
+            self._fire(Trigger.HANDED_OFF)
+        else:
+            self._fire(Trigger.FINISHED if verdict is not None else Trigger.ABORTED)
 
     def _separation(self, message: RobotPoseMsg) -> None:
         """Minimum ground-truth distance to another robot at the same sim time: a metric for the logs and the
@@ -451,3 +471,26 @@ class Executor(Driving, Handover):
         for robot_id, (ox, oy, at_s) in self._robot_xy.items():
             if robot_id != self.robot_id and at_s == mine[2]:
                 self.min_separation_m = min(self.min_separation_m, math.hypot(ox - mine[0], oy - mine[1]))
+
+
+class CraneExecutor(CraneWork, Executor):
+    """The executor of a tower crane: the same task cycle, with reach checks instead of driving."""
+
+
+PUT_DOWN_SIDE_M = 1.0  # the square a hand-off drives to (its centre: the staging spot)
+
+
+def put_down_footprint(xy_m: tuple[float, float]) -> Footprint:
+    """The target of a hand-off task: a small square on the ground at the staging spot."""
+    half = PUT_DOWN_SIDE_M / 2.0
+    x, y = xy_m
+    polygon = np.array(
+        [[x - half, y - half], [x + half, y - half], [x + half, y + half], [x - half, y + half]]
+    )
+    return Footprint(polygon, 0.0, 0.5)
+
+
+def executor_class(info: SiteInfoMsg, robot_id: str) -> type[Executor]:
+    """:class:`CraneExecutor` for a crane type, else :class:`Executor`."""
+    description = info.robot_types[info.robot_type_of[robot_id]]
+    return CraneExecutor if description.is_crane else Executor

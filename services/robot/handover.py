@@ -24,6 +24,7 @@ from bimbot.shared.messages import (
     PlaceRequest,
     PoseMsg,
     RobotState,
+    TaskKind,
 )
 from bimbot.shared.reasons import Reason
 
@@ -97,7 +98,11 @@ class Handover:
             return
         kind, task.request = task.request.kind, None
         if result.reply is not None and result.reply.ok:
-            if kind == "drop" and task.dropping is not None:
+            if kind == "drop" and task.dropping is None and task.message.kind is TaskKind.HAND_OFF:
+                _log.info("%s: put %s down at the staging spot", self.robot_id, task.message.guid)
+                task.handed_off = True
+                self._queue_event(task, _E.HAND_OFF)
+            elif kind == "drop" and task.dropping is not None:
                 _log.info("%s: put %s down", self.robot_id, task.message.guid)
                 if task.withdrawn:
                     self._finish(None)

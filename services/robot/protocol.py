@@ -34,6 +34,8 @@ CONFIRMS: dict[ComponentEvent, frozenset[ComponentState]] = {
     _E.ARRIVE: frozenset({_C.ASSEMBLING, _C.VERIFYING, _C.CONSTRUCTED}),
     _E.PLACE: frozenset({_C.VERIFYING, _C.CONSTRUCTED, _C.MISPLACED, _C.FAILED}),
     _E.ABANDON: frozenset({_C.RELEASED, _C.CONSTRUCTED, _C.FAILED, _C.MISPLACED}),
+    # not transporting: that is the state before the hand-off (then a crane picks it up)
+    _E.HAND_OFF: frozenset({_C.RELEASED, _C.PICKING, _C.ASSEMBLING, _C.VERIFYING, _C.CONSTRUCTED}),
 }
 """The component states that show an event applied (or overtaken by what followed it)."""
 

@@ -14,6 +14,7 @@ Triggers (what the executor observed):
 * ``attached`` — physics accepted the attach request: the component rides on the robot;
 * ``arrived`` — the robot stands at the approach pose of the component's target;
 * ``finished`` — the component gave its verdict after the placement (constructed, misplaced or failed);
+* ``handed_off`` — a hand-off task: the component lies at the crane's staging spot, released again;
 * ``aborted`` — the task was withdrawn (reassigned, released again) or given up: back to idle from anywhere.
 """
 
@@ -34,6 +35,7 @@ class Trigger(StrEnum):
     ATTACHED = "attached"
     ARRIVED = "arrived"
     FINISHED = "finished"
+    HANDED_OFF = "handed_off"
     ABORTED = "aborted"
 
 
@@ -46,6 +48,7 @@ TRANSITIONS: tuple[tuple[Trigger, RobotState, RobotState], ...] = (
     (_T.ATTACHED, _S.PICK_UP, _S.IDENTIFY_TARGET_LOCATION),
     (_T.ARRIVED, _S.IDENTIFY_TARGET_LOCATION, _S.ASSEMBLE),
     (_T.FINISHED, _S.ASSEMBLE, _S.IDLE),
+    (_T.HANDED_OFF, _S.IDENTIFY_TARGET_LOCATION, _S.IDLE),
     (_T.ABORTED, _S.DETECT_COMPONENT_POSITION, _S.IDLE),
     (_T.ABORTED, _S.PICK_UP, _S.IDLE),
     (_T.ABORTED, _S.IDENTIFY_TARGET_LOCATION, _S.IDLE),

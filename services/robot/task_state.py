@@ -60,3 +60,4 @@ class Task:
     dropping: Reason | None = None  # putting the load down before giving the task back with this reason
     withdrawn: bool = False  # the planner took it back: after the drop just go idle
     drop_tries: int = 0
+    handed_off: bool = False  # a hand-off task: physics put the load down at the staging spot

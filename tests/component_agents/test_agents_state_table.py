@@ -34,6 +34,7 @@ EXPECTED_EDGES = {
     ("abandon", S.PICKING, S.RELEASED),
     ("abandon", S.TRANSPORTING, S.RELEASED),
     ("abandon", S.ASSEMBLING, S.RELEASED),
+    ("hand_off", S.TRANSPORTING, S.RELEASED),
     ("verified", S.VERIFYING, S.CONSTRUCTED),
     ("misplaced_placement", S.VERIFYING, S.MISPLACED),
     ("failed_placement", S.VERIFYING, S.FAILED),
