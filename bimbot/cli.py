@@ -48,6 +48,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "simulate the site in PyBullet: clock, robots, sensors, attach and place",
     ),
     "robot": ("bimbot.services.robot.cli", "run one construction robot: tasks, navigation, localisation"),
+    "fleet": (
+        "bimbot.fleet_cli",
+        "what a robot fleet can build (feasibility table, no build), or show the default fleet file",
+    ),
     "run": ("bimbot.run", "build a converted model with every service as a process on a loopback bus"),
     "runs": ("bimbot.runs_cli", "list the runs of a build (BUILD/runs/), or make a new run folder"),
     "observe": (

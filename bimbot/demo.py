@@ -21,6 +21,7 @@ from pathlib import Path
 
 from bimbot.run import finish, run_build, say
 from bimbot.run_args import add_run_arguments, run_options
+from bimbot.run_commands import run_fleet
 from bimbot.services.converter.convert import convert_model
 from bimbot.services.converter.ifc_input import open_model
 from bimbot.shared.manifest import Manifest
@@ -55,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     if not manifest.components or args.convert_only:
         return 0 if manifest.components else 1
     options = run_options(args, observe=True)
-    say(f"demo: building it with {args.robots} robot(s)")
+    say(f"demo: building it with {run_fleet(options).summary()}")
     return finish(run_build(world_dir, options, announce=say))
 
 

@@ -36,7 +36,8 @@ class ObserverOptions:
 
 @dataclass(frozen=True)
 class RunOptions:
-    robots: int = 1
+    robots: int | None = None  # None: the fleet's robots; N: N robots of the fleet's default type
+    fleet: Path | None = None  # a fleet file (TOML); None: the embedded default fleet
     profile: str = RUN_PROFILE  # a named physics profile (services/physics/profiles.py)
     rtf: float | None = None  # None: the profile's; likewise the next three
     lock_step: bool | None = None
@@ -60,7 +61,18 @@ class RunOptions:
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     """The options ``bimbot run`` and ``bimbot demo`` share."""
     parser.add_argument(
-        "--robots", type=positive_int, default=RunOptions.robots, help="number of robots (default 1)"
+        "--fleet",
+        type=Path,
+        default=None,
+        metavar="FLEET.toml",
+        help="the robot types on site and how many of each (default: bimbot's mixed fleet: a Husky, a heavy "
+        "carrier and a tower crane; see `bimbot fleet show`)",
+    )
+    parser.add_argument(
+        "--robots",
+        type=positive_int,
+        default=None,
+        help="N robots of the fleet's default type instead of the fleet's robots",
     )
     parser.add_argument(
         "--run-dir",
@@ -158,7 +170,7 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOptions:
     """RunOptions from the shared arguments (a UserError for impossible values)."""
-    if args.robots < 1:
+    if args.robots is not None and args.robots < 1:
         raise UserError("--robots must be at least 1")
     if any(value is not None and value <= 0 for value in (args.physics_hz, args.control_period_s)) or (
         args.laser_beams is not None and args.laser_beams < 1
@@ -185,6 +197,7 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         )
     return RunOptions(
         robots=args.robots,
+        fleet=args.fleet,
         profile=args.profile,
         rtf=args.rtf,
         lock_step=args.lock_step,

@@ -12,22 +12,27 @@ from pathlib import Path
 from bimbot.run_args import ObserverOptions, RunOptions
 from bimbot.shared.bus import BusOptions
 from bimbot.shared.bus_access import robot_user
-from bimbot.shared.bus_credentials import BusFiles, robot_ids, write_bus_credentials
+from bimbot.shared.bus_credentials import BusFiles, write_bus_credentials
 from bimbot.shared.errors import UserError
+from bimbot.shared.fleet import Fleet, load_fleet
 from bimbot.shared.run_folder import RunFolder
 
 
+def run_fleet(options: RunOptions) -> Fleet:
+    """The run's fleet: ``--fleet`` (else the default), with ``--robots N`` N of its default type."""
+    fleet = load_fleet(options.fleet)
+    return fleet.with_robots(options.robots) if options.robots is not None else fleet
+
+
 def physics_arguments(build: Path, options: RunOptions) -> list[str]:
-    """``bimbot physics`` for a run: its profile by name, and only the values the user overrode."""
-    arguments = [
-        "physics",
-        "--build",
-        str(build),
-        "--robots",
-        str(options.robots),
-        "--profile",
-        options.profile,
-    ]
+    """``bimbot physics`` for a run: its fleet, its profile by name, and only the values the user
+    overrode."""
+    arguments = ["physics", "--build", str(build)]
+    if options.fleet is not None:
+        arguments += ["--fleet", str(options.fleet.resolve())]
+    if options.robots is not None:
+        arguments += ["--robots", str(options.robots)]
+    arguments += ["--profile", options.profile]
     overrides = {
         "--rtf": options.rtf,
         "--physics-hz": options.physics_hz,
@@ -48,7 +53,7 @@ def secure_bus(run: RunFolder, options: RunOptions, site: str) -> BusFiles | Non
     if not options.secure:
         return None
     try:
-        return write_bus_credentials(run.root, robot_ids(options.robots), site=site)
+        return write_bus_credentials(run.root, list(run_fleet(options).type_of()), site=site)
     except (ValueError, OSError) as error:
         raise UserError(f"cannot secure the bus in {run.root}: {error}") from None
 
@@ -85,7 +90,7 @@ def service_commands(
         ("agents", [*agents, *joined("agents")]),
         ("planner", [*planner, *joined("planner")]),
     ]
-    for robot_id in robot_ids(options.robots):
+    for robot_id in run_fleet(options).type_of():
         robot = ["robot", "--build", str(build), "--id", robot_id, *joined(robot_user(robot_id))]
         if options.inject_placement_error_m:
             robot += ["--inject-placement-error-m", repr(options.inject_placement_error_m)]

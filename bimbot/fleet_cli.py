@@ -1,0 +1,112 @@
+"""``bimbot fleet check OUT/ [--fleet FLEET.toml] [--robots N]``: what the fleet can build, without building.
+
+Why: a builder choosing robots wants to know, before a run, which robot types can build each component of
+the model, and why none can build the others (``too_heavy``, ``out_of_reach`` with the numbers). The table
+comes from the planner's own feasibility check (:mod:`bimbot.services.planner.feasibility`) on the same
+site plan physics would make, so a run fails exactly these components before it starts.
+``bimbot fleet show [--fleet FLEET.toml]`` prints the fleet file (the embedded default when none is given),
+a starting point for one's own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from collections import Counter
+from pathlib import Path
+
+from bimbot.services.planner.capability import SiteRobot
+from bimbot.services.planner.feasibility import Feasibility, feasibility_table
+from bimbot.shared.fleet import DEFAULT_FLEET_FILE, Fleet, load_fleet
+from bimbot.shared.manifest import Component
+from bimbot.shared.option_types import positive_int
+from bimbot.shared.service_runner import resolve_build
+from bimbot.shared.site_layout import plan_site
+
+_log = logging.getLogger(__name__)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("action", choices=("check", "show"), help="check: feasibility table; show: the file")
+    parser.add_argument("build", type=Path, nargs="?", help="converted build folder (check)")
+    parser.add_argument("--fleet", type=Path, default=None, metavar="FLEET.toml", help="default: bimbot's")
+    parser.add_argument("--robots", type=positive_int, default=None, help="N robots of the default type")
+    parser.add_argument("--json", action="store_true", help="check: one JSON object per component")
+
+
+def site_robots_of(fleet: Fleet, components: list[Component]) -> list[SiteRobot]:
+    """The fleet's robots where physics would put them (the same site plan)."""
+    descriptions = fleet.robot_types()
+    layout = plan_site(components, fleet=descriptions)
+    robots = []
+    staging = list(layout.staging)
+    for index, (description, start) in enumerate(zip(descriptions, layout.robot_starts, strict=True)):
+        area = staging.pop(0) if description.is_crane and staging else None
+        robots.append(SiteRobot(f"r{index + 1}", description, start, area))
+    return robots
+
+
+def check(build: Path, fleet: Fleet) -> list[tuple[Component, Feasibility]]:
+    manifest = resolve_build(build).manifest
+    components = list(manifest.components)
+    robots = site_robots_of(fleet, components)
+    layout_slots = plan_site(components, fleet=fleet.robot_types()).slots
+    rows = feasibility_table(components, robots, dict(layout_slots))
+    return list(zip(components, rows, strict=True))
+
+
+def run(args: argparse.Namespace) -> int:
+    fleet = load_fleet(args.fleet)
+    if args.robots is not None:
+        fleet = fleet.with_robots(args.robots)
+    if args.action == "show":
+        sys.stdout.write((args.fleet or DEFAULT_FLEET_FILE).read_text(encoding="utf-8"))
+        return 0
+    if args.build is None:
+        from bimbot.shared.errors import UserError
+
+        raise UserError("bimbot fleet check: give the converted build folder (OUT/)")
+    rows = check(args.build, fleet)
+    if args.json:
+        for component, row in rows:
+            record = {
+                "guid": row.guid,
+                "name": component.name,
+                "ifc_class": component.ifc_class,
+                "mass_kg": round(component.mass_kg, 1),
+                "target_top_m": round(component.bbox_world.max_m[2], 3),
+                "routes": list(row.routes),
+                "reason": row.reason.model_dump(mode="json") if row.reason else None,
+            }
+            sys.stdout.write(json.dumps(record) + "\n")
+        return 0
+    _print_table(rows, fleet)
+    return 0
+
+
+def _print_table(rows: list[tuple[Component, Feasibility]], fleet: Fleet) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"what {fleet.summary()} can build ({len(rows)} components)")
+    for column in ("component", "class", "mass kg", "top m", "built by / why not"):
+        table.add_column(column, justify="right" if column in ("mass kg", "top m") else "left")
+    for component, row in rows:
+        how = "; ".join(row.routes) if row.reason is None else f"[red]{row.reason.line()}[/red]"
+        table.add_row(
+            f"{component.name or component.guid}",
+            component.ifc_class,
+            f"{component.mass_kg:,.0f}",
+            f"{component.bbox_world.max_m[2]:.2f}",
+            how,
+        )
+    console = Console(width=160)
+    console.print(table)
+    failed = Counter(row.reason.code.value for _, row in rows if row.reason is not None)
+    routes = Counter(route for _, row in rows for route in row.routes[:1])
+    buildable = sum(1 for _, row in rows if row.reason is None)
+    summary = ", ".join(f"{count} {code}" for code, count in failed.items()) or "none"
+    console.print(f"buildable: {buildable} of {len(rows)}; cannot: {summary}")
+    console.print("first route: " + ", ".join(f"{count} {route}" for route, count in routes.most_common()))
