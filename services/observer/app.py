@@ -9,7 +9,9 @@ Wiring, in order:
    --web-viewer-port <port> <grpc url>``) serves only the viewer's HTML/JS/Wasm, bound like the gRPC
    server (the SDK's own ``serve_web_viewer`` always binds every interface). Its page connects to our
    gRPC server;
-3. the static scene (site, every component's mesh once) and the initial yard poses at sim time 0;
+3. the static scene (site, every component's mesh once) and the initial yard poses at sim time 0; once
+   physics answers with its site info, the site plan (staging areas too) and every robot as its type's
+   URDF model (:mod:`.fleet_log`);
 4. one subscriber on ``bimbot/<site>/**``, the liveliness of ``bimbot/<site>/alive/**`` (joins and
    leaves go to the text log) and its own token ``alive/observer/main``; then one query of every
    component's twin (``components/*/twin``), so an observer started mid-run knows what happened before
@@ -83,10 +85,11 @@ from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.site_plan import SiteLayout
 
 from . import VIEWER_GRPC_PORT, VIEWER_WEB_PORT
-from .blueprint import observer_blueprint, series_items, site_items
+from .blueprint import cranes_of, observer_blueprint, series_items, site_items
 from .report import ReportCollector, twin_messages
 from .report_png import write_report_files
-from .twin_log import TIMELINE, LogItem, TwinLog, TwinLogOptions
+from .twin_items import TIMELINE, LogItem
+from .twin_log import TwinLog, TwinLogOptions
 
 _log = logging.getLogger(__name__)
 
@@ -224,11 +227,16 @@ class Observer:
         self._log_items(initial, at_s=0.0)
 
     def site_known(self, info: SiteInfoMsg) -> None:
-        """Physics answered with its site info: draw its site and every component at its yard slot."""
+        """Physics answered with its site info: draw its site (staging areas included), every component at
+        its yard slot and every robot as its type's model."""
         if self.layout is None:
             self.layout = info.layout
-            self._log_items(site_items(info.layout, self.manifest.components))
+            self._log_items(site_items(info.layout, self.manifest.components, cranes_of(info)))
             self._log_items(self.twin.yard_poses(info.layout), at_s=0.0)
+            static, initial, now = self.twin.robots(info)
+            self._log_items(static)
+            self._log_items(initial, at_s=0.0)
+            self._log_items(now, at_s=self.sim_time_s)
 
     def plan_known(self, plan: PlannedSequenceMsg) -> None:
         """The planner answered with its plan: the report's planned order is the one it builds by."""

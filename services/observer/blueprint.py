@@ -6,7 +6,8 @@
   starts with this layout; users can rearrange it ("reset blueprint" brings it back).
 * :func:`site_items` / :func:`series_items` — static log items, logged once per run: Z-up view
   coordinates, the site physics planned and serves with its site info (building footprint, yard, depot
-  outlines and the fence; logged once physics answered), the BIM bounding box of every component as a
+  and each tower crane's staging area — where ground robots put loads down for it — as outlines, and the
+  fence; logged once physics answered), the BIM bounding box of every component as a
   faint wireframe ("what is left to build"), and the style of every progress series (one colour per
   state, from :data:`.twin_log.STATE_COLORS`).
 """
@@ -19,10 +20,10 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from bimbot.shared.manifest import Component
-from bimbot.shared.messages import ComponentState
+from bimbot.shared.messages import ComponentState, SiteInfoMsg
 from bimbot.shared.site_plan import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect, SiteLayout
 
-from .twin_log import SITE_LINE_Z_M, STATE_COLORS, TIMELINE, LogItem
+from .twin_items import SITE_LINE_Z_M, STATE_COLORS, TIMELINE, LogItem
 
 
 def observer_blueprint(site: str) -> rrb.Blueprint:
@@ -54,8 +55,24 @@ def rect_strip(rect: Rect, z_m: float = SITE_LINE_Z_M) -> list[tuple[float, floa
     return [(x0, y0, z_m), (x1, y0, z_m), (x1, y1, z_m), (x0, y1, z_m), (x0, y0, z_m)]
 
 
-def site_items(layout: SiteLayout, components: Iterable[Component]) -> list[LogItem]:
-    """The static scene: coordinates, site outlines, fence walls and the BIM target boxes."""
+STAGING_COLOR = (233, 30, 99, 255)  # pink: not a colour of any state
+
+
+def cranes_of(info: SiteInfoMsg) -> list[str]:
+    """The tower cranes' robot ids in robot id order (the order of ``SiteLayout.staging``)."""
+    types = info.robot_types
+    return [
+        robot_id
+        for robot_id in info.robot_ids
+        if (name := info.robot_type_of.get(robot_id)) in types and types[name].is_crane
+    ]
+
+
+def site_items(
+    layout: SiteLayout, components: Iterable[Component], cranes: list[str] | None = None
+) -> list[LogItem]:
+    """The static scene: coordinates, site outlines (staging areas labelled with their crane, from
+    ``cranes``, robot ids in the order of ``layout.staging``), fence walls and the BIM target boxes."""
     areas = {"building": layout.building, "yard": layout.yard, "depot": layout.depot}
     colors = {"building": (46, 160, 67, 255), "yard": (255, 193, 7, 255), "depot": (33, 150, 243, 255)}
     items = [LogItem("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)]
@@ -64,6 +81,24 @@ def site_items(layout: SiteLayout, components: Iterable[Component]) -> list[LogI
             LogItem(
                 f"world/site/{name}",
                 rr.LineStrips3D([rect_strip(rect)], colors=[colors[name]], radii=0.03, labels=[name]),
+                static=True,
+            )
+        )
+    if layout.staging:
+        crane_ids = list(cranes or [])
+        labels = [
+            f"staging {crane_ids[index]}" if index < len(crane_ids) else f"staging {index + 1}"
+            for index in range(len(layout.staging))
+        ]
+        items.append(
+            LogItem(
+                "world/site/staging",
+                rr.LineStrips3D(
+                    [rect_strip(rect) for rect in layout.staging],
+                    colors=[STAGING_COLOR],
+                    radii=0.05,
+                    labels=labels,
+                ),
                 static=True,
             )
         )

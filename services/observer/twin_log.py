@@ -20,7 +20,9 @@ Entity paths (GUIDs escaped for rerun, ``$`` → ``\\$``; the viewer shows the p
     world, world/site/*, world/targets  the static scene, drawn by :mod:`.blueprint`
     world/components/<guid>             mesh (static) + Transform3D per pose + colour per state
     world/robots/<id>                   Transform3D (ground truth, else the robot's own state pose)
-    world/robots/<id>/body              box coloured by robot state
+    world/robots/<id>/body              box coloured by robot state (a robot without a model)
+    world/robots/<id>/model/<link>      its type's URDF link meshes, moved by joints (:mod:`.fleet_log`)
+    world/robots/<id>/marker            labelled point coloured by robot state (a robot with a model)
     world/robots/<id>/scan              laser points in the robot frame (every N-th scan)
     world/trails/<id>/<segment>         driven path, world frame
     world/plans/<id>                    global plan, world frame; world/plans/<id>/goal
@@ -49,51 +51,30 @@ from bimbot.shared.messages import (
     RobotState,
     RobotStateMsg,
     ScanMsg,
+    SiteInfoMsg,
     TaskMsg,
     TaskStatus,
 )
 from bimbot.shared.site_plan import SiteLayout
 
-TIMELINE = "sim_time"
-Rgba = tuple[int, int, int, int]
-
-# One colour per component state; "carried" (picking/transporting) and the failure path stand out.
-STATE_COLORS: dict[ComponentState, Rgba] = {
-    ComponentState.PLANNED: (170, 170, 170, 255),  # grey: waiting in the yard
-    ComponentState.RELEASED: (33, 150, 243, 255),  # blue: ready, waiting for a robot
-    ComponentState.PICKING: (0, 229, 255, 255),  # cyan: a robot is coming for it
-    ComponentState.TRANSPORTING: (255, 152, 0, 255),  # orange: carried
-    ComponentState.ASSEMBLING: (156, 39, 176, 255),  # purple: being put in place
-    ComponentState.VERIFYING: (255, 235, 59, 255),  # yellow: checking its own pose
-    ComponentState.CONSTRUCTED: (46, 160, 67, 255),  # green: done
-    ComponentState.MISPLACED: (244, 67, 54, 255),  # red: off target, will be retried
-    ComponentState.FAILED: (80, 0, 0, 255),  # dark red: given up
-    ComponentState.BLOCKED: (90, 60, 40, 255),  # brown: a predecessor failed, never released
-}
-ROBOT_COLORS: dict[RobotState, Rgba] = {
-    RobotState.IDLE: (120, 120, 120, 255),
-    RobotState.DETECT_COMPONENT_POSITION: (33, 150, 243, 255),
-    RobotState.PICK_UP: (0, 229, 255, 255),
-    RobotState.IDENTIFY_TARGET_LOCATION: (255, 152, 0, 255),
-    RobotState.ASSEMBLE: (156, 39, 176, 255),
-}
-STATE_LOG_LEVELS: dict[ComponentState, str] = {
-    ComponentState.MISPLACED: "WARN",
-    ComponentState.FAILED: "ERROR",
-    ComponentState.BLOCKED: "WARN",
-}
-ROBOT_HALF_SIZE_M = (0.495, 0.335, 0.19)  # Clearpath Husky body, for drawing
-SITE_LINE_Z_M = 0.01
-PLAN_Z_M = 0.05
-
-
-@dataclass(frozen=True)
-class LogItem:
-    """One ``rr.log`` call: an archetype at an entity path, static or at the current sim time."""
-
-    entity_path: str
-    archetype: rr.AsComponents
-    static: bool = False
+from .fleet_log import FleetLog
+from .twin_items import (
+    PLAN_Z_M,
+    ROBOT_COLORS,
+    ROBOT_HALF_SIZE_M,
+    SITE_LINE_Z_M,
+    STATE_COLORS,
+    STATE_LOG_LEVELS,
+    LogItem,
+    component_color,
+    component_path,
+    mesh_archetype,
+    plan_path,
+    planar_transform,
+    robot_path,
+    trail_path,
+    transform,
+)
 
 
 @dataclass(frozen=True)
@@ -105,41 +86,6 @@ class TwinLogOptions:
     trail_step_m: float = 0.25  # a trail point per this much driving
     trail_segment_points: int = 64
     laser_height_m: float = 0.3  # scan points drawn at this height above the robot frame
-
-
-def component_path(guid: str) -> str:
-    return f"world/components/{rr.escape_entity_path_part(guid)}"
-
-
-def robot_path(robot_id: str) -> str:
-    return f"world/robots/{rr.escape_entity_path_part(robot_id)}"
-
-
-def trail_path(robot_id: str, segment: int) -> str:
-    return f"world/trails/{rr.escape_entity_path_part(robot_id)}/{segment:04d}"
-
-
-def plan_path(robot_id: str) -> str:
-    return f"world/plans/{rr.escape_entity_path_part(robot_id)}"
-
-
-def transform(position_m: Iterable[float], quat_xyzw: Iterable[float]) -> rr.Transform3D:
-    return rr.Transform3D(translation=list(position_m), quaternion=rr.Quaternion(xyzw=list(quat_xyzw)))
-
-
-def planar_transform(pose_xy_yaw: tuple[float, float, float]) -> rr.Transform3D:
-    x, y, yaw = pose_xy_yaw
-    return transform((x, y, 0.0), (0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0)))
-
-
-def component_color(state: ComponentState) -> rr.Asset3D:
-    """A partial update of a component's mesh: only its colour."""
-    return rr.Asset3D.from_fields(albedo_factor=STATE_COLORS[state])
-
-
-def mesh_archetype(contents: bytes, media_type: str) -> rr.Asset3D:
-    """The mesh alone (static): its colour is temporal (a static colour would hide every later one)."""
-    return rr.Asset3D(contents=contents, media_type=media_type)
 
 
 @dataclass
@@ -184,6 +130,7 @@ class TwinLog:
         self._ground_truth: set[str] = set()  # robots seen on robots/<id>/pose
         self._last_plan: dict[str, tuple[tuple[float, float], ...]] = {}
         self._last_counts: tuple[int, ...] = ()
+        self.fleet = FleetLog(self.options.pose_min_interval_s)
         self._handlers: dict[type[BaseModel], Callable[[Any], list[LogItem]]] = {
             ComponentStateMsg: self.component_state,
             ComponentPoseMsg: self.component_pose,
@@ -225,6 +172,17 @@ class TwinLog:
                     LogItem(component_path(component.guid), transform(slot.position_m, slot.quat_xyzw))
                 )
         return items
+
+    def robots(self, info: SiteInfoMsg) -> tuple[list[LogItem], list[LogItem], list[LogItem]]:
+        """``(static meshes, link poses for sim time 0, items for now)``: every robot on site as its type's
+        model; a box drawn before the site was known is cleared, its state goes on the model's marker."""
+        static, initial = self.fleet.site_known(info)
+        now: list[LogItem] = []
+        for robot_id, state in self._robot_states.items():
+            if self.fleet.drawn(robot_id):
+                now.append(LogItem(f"{robot_path(robot_id)}/body", rr.Clear(recursive=False)))
+                now += self.fleet.robot_state(robot_id, state)
+        return static, initial, now
 
     # --- messages ---
 
@@ -268,7 +226,7 @@ class TwinLog:
 
     def robot_pose(self, msg: RobotPoseMsg) -> list[LogItem]:
         self._ground_truth.add(msg.robot_id)
-        return self._robot_motion(msg.robot_id, msg.sim_time_s, msg.pose_xy_yaw)
+        return self._robot_motion(msg.robot_id, msg.sim_time_s, msg.pose_xy_yaw) + self.fleet.robot_pose(msg)
 
     def robot_state(self, msg: RobotStateMsg) -> list[LogItem]:
         items: list[LogItem] = []
@@ -279,18 +237,16 @@ class TwinLog:
             return items
         self._robot_states[msg.robot_id] = msg.state
         color = ROBOT_COLORS[msg.state]
-        items.append(
-            LogItem(
-                f"{robot_path(msg.robot_id)}/body",
-                rr.Boxes3D(
-                    half_sizes=[ROBOT_HALF_SIZE_M],
-                    centers=[(0.0, 0.0, ROBOT_HALF_SIZE_M[2])],
-                    colors=[color],
-                    labels=[msg.robot_id],
-                    fill_mode="solid",
-                ),
+        items += self.fleet.robot_state(msg.robot_id, msg.state)
+        if not self.fleet.drawn(msg.robot_id):
+            box = rr.Boxes3D(
+                half_sizes=[ROBOT_HALF_SIZE_M],
+                centers=[(0.0, 0.0, ROBOT_HALF_SIZE_M[2])],
+                colors=[color],
+                labels=[msg.robot_id],
+                fill_mode="solid",
             )
-        )
+            items.append(LogItem(f"{robot_path(msg.robot_id)}/body", box))
         items.append(
             LogItem(
                 f"{robot_path(msg.robot_id)}/heading",
@@ -374,7 +330,7 @@ class TwinLog:
     def flush(self) -> list[tuple[float, LogItem]]:
         """Poses held back by throttling, with their sim times (call at the end of a run)."""
         taken = (motion.take_pending() for motion in self._motion.values())
-        return [item for item in taken if item is not None]
+        return [item for item in taken if item is not None] + self.fleet.flush()
 
     # --- helpers ---
 

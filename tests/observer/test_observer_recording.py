@@ -124,6 +124,15 @@ def test_the_run_is_on_the_sim_time_timeline_with_its_log_and_plots(recorded: Re
     assert any("verifying → misplaced" in text for text in texts)
 
 
+def test_the_robot_is_drawn_once_from_its_type_urdf_instead_of_a_box(recorded: Recorded) -> None:
+    link = "/world/robots/r1/model/base_link"  # the site info's type: pybullet_data's Husky
+    meshes = [c for c in recorded.chunks if c[0] == link and "Mesh3D:vertex_positions" in c[3]]
+    assert len(meshes) == 1 and meshes[0][1] and meshes[0][2] == 1  # once, static
+    assert any(c[0] == link and not c[1] and "Transform3D:translation" in c[3] for c in recorded.chunks)
+    paths = {c[0] for c in recorded.chunks}
+    assert "/world/robots/r1/marker" in paths and "/world/robots/r1/body" not in paths
+
+
 def test_the_recording_carries_the_observer_blueprint(recorded: Recorded) -> None:
     assert RrdReader(recorded.rrd).blueprints()
 
