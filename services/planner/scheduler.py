@@ -50,7 +50,6 @@ from bimbot.shared.messages import (
     ComponentStateMsg,
     PoseMsg,
     ProgressMsg,
-    RobotState,
     RobotStateMsg,
     TaskKind,
     TaskMsg,
@@ -59,9 +58,8 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.reasons import Reason, ReasonCode, blocked_by
 
-from .assignment import choose, staged_where
 from .capability import SiteRobot
-from .feasibility import slot_where
+from .dispatch import Dispatch
 from .records import (
     CARRYING,
     FINAL,
@@ -74,7 +72,6 @@ from .records import (
     PlannerLimits,
     RobotRecord,
     TaskRecord,
-    distance,
     left,
     reached,
 )
@@ -85,7 +82,7 @@ __all__ = ["Outgoing", "Phase", "PlannerCore", "PlannerLimits"]
 _log = logging.getLogger(__name__)
 
 
-class PlannerCore:
+class PlannerCore(Dispatch):
     """The planner's state and decisions (see the module docstring); no bus, no files, no clock."""
 
     def __init__(
@@ -391,127 +388,6 @@ class PlannerCore:
             Phase.FAILED,
             Phase.BLOCKED,
         )
-
-    def _assign(self) -> None:
-        if self._site is not None:
-            return self._assign_by_bids()
-        for guid in self._plan.order:
-            task = self._tasks[guid]
-            component = self._components[guid]
-            if task.phase is not Phase.RELEASED or component.state is not ComponentState.RELEASED:
-                continue
-            idle = [robot for robot in self._robots.values() if self._is_idle(robot)]
-            if not idle:
-                return
-            # a robot that gave this task back gets it again only when no other alive robot could take it
-            others_alive = any(
-                r.alive and r.robot_id not in task.given_back_by for r in self._robots.values()
-            )
-            fresh = [robot for robot in idle if robot.robot_id not in task.given_back_by]
-            if not fresh and others_alive:
-                continue
-            idle = fresh or idle
-            where = component.position_xy or self._manifest[guid].target_pose_world.position_m[:2]
-            robot = min(idle, key=lambda item: (distance(item.pose_xy_yaw, where), item.robot_id))
-            self._give_to(task, robot, TaskKind.BUILD, None, estimate_s=0.0)
-
-    def _assign_by_bids(self) -> None:
-        """Every released task to the capable robot with the best bid (:mod:`.assignment`)."""
-        assert self._site is not None
-        promised: dict[str, float] = {}
-        taken = self._taken_spots()
-        for guid in self._plan.order:
-            task = self._tasks[guid]
-            component = self._components[guid]
-            if task.phase is not Phase.RELEASED or component.state is not ComponentState.RELEASED:
-                continue
-            if not any(self._is_idle(robot) for robot in self._robots.values()):
-                return
-            item = self._manifest[guid]
-            where = (
-                staged_where(item, component.position_xy)
-                if component.position_xy is not None
-                else slot_where(item, self._slots.get(guid))
-            )
-            choice = choose(
-                item,
-                where,
-                self._robots.values(),
-                self._site,
-                now_s=self.sim_time_s,
-                promised_s=promised,
-                avoid=task.given_back_by,
-                taken_spots=taken,
-            )
-            if choice is None:
-                continue
-            robot = self._robots[choice.robot_id]
-            if not choice.idle or not self._is_idle(robot):
-                promised[choice.robot_id] = promised.get(choice.robot_id, 0.0) + choice.estimate_s
-                continue
-            if choice.put_down_xy_m is not None:
-                taken.append(choice.put_down_xy_m)
-            self._give_to(task, robot, choice.kind, choice.put_down_xy_m, estimate_s=choice.estimate_s)
-
-    def _taken_spots(self) -> list[tuple[float, float]]:
-        """Staging spots in use: a hand-off on its way there, or a component lying in a staging area."""
-        spots = [task.put_down_xy for task in self._tasks.values() if task.put_down_xy is not None]
-        areas = [robot.staging for robot in (self._site or {}).values() if robot.staging is not None]
-        for guid, component in self._components.items():
-            xy = component.position_xy
-            if xy is None or self._tasks[guid].phase in FINAL:
-                continue
-            if any(
-                a.min_xy[0] <= xy[0] <= a.max_xy[0] and a.min_xy[1] <= xy[1] <= a.max_xy[1] for a in areas
-            ):
-                spots.append(xy)
-        return spots
-
-    def _give_to(
-        self,
-        task: TaskRecord,
-        robot: RobotRecord,
-        kind: TaskKind,
-        put_down_xy: tuple[float, float] | None,
-        *,
-        estimate_s: float,
-    ) -> None:
-        component = self._components[task.guid]
-        task.kind, task.put_down_xy = kind, put_down_xy
-        if kind is TaskKind.HAND_OFF:
-            task.hand_offs += 1
-        task.robot_id, robot.task_guid = robot.robot_id, task.guid
-        robot.busy_until_s = self.sim_time_s + estimate_s
-        task.phase = Phase.ASSIGNED
-        task.changed_sim_s = self.sim_time_s
-        if task.assigned_sim_s is None:
-            task.assigned_sim_s = self.sim_time_s
-        what = f"hand-off to {put_down_xy[0]:.1f}, {put_down_xy[1]:.1f}" if put_down_xy else "build"
-        _log.info(
-            "%s (%s, %s) assigned to %s (estimate %.0f s)",
-            task.active_id,
-            task.guid,
-            what,
-            robot.robot_id,
-            estimate_s,
-        )
-        settled = partial(self._assignment_settled, task, robot, component, robot.robot_id, task.active_id)
-        self._pending[(task.guid, "task")] = Pending(self._task_msg(task, TaskStatus.ASSIGNED), settled)
-
-    @staticmethod
-    def _assignment_settled(
-        task: TaskRecord, robot: RobotRecord, component: ComponentRecord, robot_id: str | None, task_id: str
-    ) -> bool:
-        return (
-            task.phase is not Phase.ASSIGNED
-            or task.robot_id != robot_id
-            or task.active_id != task_id
-            or robot.reported_task_id == task_id
-            or component.state is not ComponentState.RELEASED
-        )
-
-    def _is_idle(self, robot: RobotRecord) -> bool:
-        return robot.alive and robot.state is RobotState.IDLE and robot.task_guid is None
 
     def _free_robot(self, task: TaskRecord, *, keep_task_robot: bool = False) -> None:
         if task.robot_id is not None:
