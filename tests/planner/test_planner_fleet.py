@@ -1,0 +1,146 @@
+"""The planner with a fleet: tasks go only to capable robot types, by bid; a crane out of reach of a
+component's slot gets it through a hand-off task of its own (pure core, no bus)."""
+
+from __future__ import annotations
+
+import itertools
+
+from planner_builders import portal_manifest, robot_msg, state_msg
+
+from bimbot.services.planner.capability import SiteRobot, Where, crane_reaches_disc
+from bimbot.services.planner.scheduler import Phase, PlannerCore
+from bimbot.services.planner.sources import plan_from_sequence
+from bimbot.shared.fleet import default_fleet
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import (
+    ComponentEvent,
+    ComponentPoseMsg,
+    ComponentState,
+    PoseMsg,
+    RobotState,
+    TaskKind,
+    TaskMsg,
+    TaskStatus,
+)
+from bimbot.shared.site_plan import Rect
+from bimbot.shared.support_graph import derive_sequence
+
+S = ComponentState
+TYPES = default_fleet().types
+HUSKY, CARRIER, CRANE = TYPES["husky"], TYPES["carrier"], TYPES["tower_crane"]
+
+
+def _manifest(**masses: float) -> Manifest:
+    manifest = portal_manifest()
+    components = [c.model_copy(update={"mass_kg": masses.get(c.guid, 40.0)}) for c in manifest.components]
+    return manifest.model_copy(update={"components": components})
+
+
+def _core(manifest: Manifest, robots: list[SiteRobot]) -> PlannerCore:
+    plan = plan_from_sequence(derive_sequence(manifest.components), manifest.components, "test")
+    counter = itertools.count(1)
+    core = PlannerCore(manifest, plan, new_id=lambda: f"ev{next(counter)}", robots=robots, slots={})
+    for robot in robots:
+        core.robot_liveliness(robot.robot_id, True)
+        core.observe_robot_state(robot_msg(robot.robot_id, robot.home_xy_yaw[:2]))
+    return core
+
+
+def _assignments(out: list) -> dict[str, TaskMsg]:
+    return {m.guid: m for m in out if isinstance(m, TaskMsg) and m.status is TaskStatus.ASSIGNED}
+
+
+def _release(core: PlannerCore, *guids: str, sim_s: float = 0.0) -> list:
+    core.step(0.0)
+    for guid in guids:
+        core.observe_component_state(state_msg(guid, S.RELEASED, event="release", sim_time_s=sim_s))
+    return core.step(0.1)
+
+
+def test_a_component_heavier_than_the_husky_payload_never_goes_to_the_husky_even_when_it_is_idle() -> None:
+    manifest = _manifest(foot_a=259.0, foot_b=259.0, foot_c=259.0)
+    robots = [
+        SiteRobot("r1", HUSKY, (0.0, -5.0, 0.0)),  # right beside the footings
+        SiteRobot("r2", CARRIER, (-30.0, -5.0, 0.0)),  # far away
+    ]
+    core = _core(manifest, robots)
+    out = _release(core, "foot_a", "foot_b", "foot_c")
+    assigned = _assignments(out)
+    assert {m.robot_id for m in assigned.values()} == {"r2"}  # one footing to the carrier, the others wait
+    assert len(assigned) == 1
+    assert all(core.robot_of(guid) != "r1" for guid in ("foot_a", "foot_b", "foot_c"))
+
+
+def test_among_capable_idle_robots_the_lowest_bid_wins_not_the_nearest() -> None:
+    manifest = _manifest()
+    slow = CARRIER.model_copy(update={"name": "slow", "max_speed_mps": 0.05})
+    robots = [
+        SiteRobot("r1", slow, (0.0, -3.0, 0.0)),  # nearest, but crawls
+        SiteRobot("r2", HUSKY, (-20.0, -3.0, 0.0)),
+    ]
+    core = _core(manifest, robots)
+    assigned = _assignments(_release(core, "foot_a"))
+    assert assigned["foot_a"].robot_id == "r2"
+
+
+def test_a_busy_robot_that_would_finish_sooner_is_waited_for() -> None:
+    manifest = _manifest(foot_a=259.0, foot_b=259.0)
+    robots = [
+        SiteRobot("r1", CARRIER, (0.0, -3.0, 0.0)),
+        SiteRobot("r2", CARRIER.model_copy(update={"name": "crawler", "max_speed_mps": 0.02}), (60.0, 0, 0)),
+    ]
+    core = _core(manifest, robots)
+    first = _assignments(_release(core, "foot_a", "foot_b"))
+    assert [m.robot_id for m in first.values()] == ["r1"]  # r2 would take hours: foot_b waits for r1
+    assert core.phase("foot_b") is Phase.RELEASED
+
+
+def test_a_crane_gets_what_only_it_can_place_and_a_hand_off_brings_it_within_its_hook() -> None:
+    manifest = _manifest(beam=300.0)
+    crane_spec = CRANE.crane
+    assert crane_spec is not None
+    crane_at = (2.0, 12.0, -1.5708)
+    staging = Rect((-2.0, 16.0), (6.0, 24.0))
+    robots = [
+        SiteRobot("r1", CARRIER.model_copy(update={"max_place_height_m": 1.0}), (-10.0, -10.0, 0.0)),
+        SiteRobot("r2", CRANE, crane_at, staging),
+    ]
+    core = _core(manifest, robots)
+    for guid in ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c"):
+        core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified"))
+    # the beam lies 70 m from the crane: beyond its 40 m jib
+    core.observe_component_pose(_pose("beam", (2.0, -58.0)))
+    out = _release(core, "beam")
+    hand_off = _assignments(out)["beam"]
+    assert hand_off.kind is TaskKind.HAND_OFF and hand_off.robot_id == "r1"
+    assert hand_off.task_id.endswith("-h1") and hand_off.put_down_xy_m is not None
+    x, y = hand_off.put_down_xy_m
+    assert staging.min_xy[0] <= x <= staging.max_xy[0] and staging.min_xy[1] <= y <= staging.max_xy[1]
+    carrying = RobotState.IDENTIFY_TARGET_LOCATION
+    core.observe_robot_state(robot_msg("r1", (0.0, -50.0), state=carrying, task_id=hand_off.task_id))
+    for state, event, sim_s in ((S.PICKING, "pick", 10), (S.TRANSPORTING, "attach", 11)):
+        core.observe_component_state(state_msg("beam", state, event=event, robot_id="r1", sim_time_s=sim_s))
+    core.observe_component_state(
+        state_msg("beam", S.RELEASED, event=ComponentEvent.HAND_OFF.value, robot_id="r1", sim_time_s=90)
+    )
+    core.observe_robot_state(robot_msg("r1", (x, y - 2.0), sim_time_s=90))
+    out = core.step(1.0)
+    done = [m for m in out if isinstance(m, TaskMsg) and m.task_id == hand_off.task_id]
+    assert done and done[0].status is TaskStatus.DONE
+    build = _assignments(out)["beam"]
+    assert build.robot_id == "r2" and build.kind is TaskKind.BUILD and not build.task_id.endswith("-h1")
+
+
+def _pose(guid: str, xy: tuple[float, float]):
+
+    return ComponentPoseMsg(
+        guid=guid, pose=PoseMsg(position_m=(xy[0], xy[1], 0.1), quat_xyzw=(0, 0, 0, 1)), sim_time_s=0.0
+    )
+
+
+def test_crane_hook_radius_is_to_the_load_centre_and_limited_by_the_load_chart() -> None:
+    crane = SiteRobot("r3", CRANE, (0.0, 0.0, 0.0))
+    assert crane_reaches_disc(crane, Where((30.0, 0.0), 12.0, 0.0), 2000.0)  # 30 m: 2,033 kg allowed
+    assert not crane_reaches_disc(crane, Where((30.0, 0.0), 12.0, 0.0), 2100.0)
+    assert not crane_reaches_disc(crane, Where((1.0, 0.0), 0.5, 0.0), 10.0)  # inside the trolley's minimum
+    assert not crane_reaches_disc(crane, Where((41.0, 0.0), 0.5, 0.0), 10.0)  # beyond the jib
