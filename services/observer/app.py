@@ -237,6 +237,7 @@ class Observer:
             self._log_items(static)
             self._log_items(initial, at_s=0.0)
             self._log_items(now, at_s=self.sim_time_s)
+            self.collector.add(info)  # the report's lanes and utilisation go by robot type
 
     def plan_known(self, plan: PlannedSequenceMsg) -> None:
         """The planner answered with its plan: the report's planned order is the one it builds by."""

@@ -7,16 +7,19 @@ time (``*_s``, seconds on the physics clock), distances in metres.
 Per component (state changes of its agent; start-up announcements carry no times):
 ``released_s`` (first release), ``picked_s`` (first ``picking``), ``placed_s`` (the last ``place``, i.e.
 entering ``verifying``), ``constructed_s``, ``failed_s``, ``retries`` (misplacements, at ``misplaced_s``),
-``give_backs`` (why a robot gave the task back, each time),
-``attempts``, the
-robots that handled it, its final state, its position in the planned sequence and the placement error of
-its last verdict (``position_error_mm``, ``angle_error_deg``, as its agent measured them against the BIM
-pose).
+``give_backs`` (why a robot gave the task back, each time), ``handed_off_s`` (when a ground robot put it
+down at a crane's staging spot, each hand-off), ``attempts``, the robots that handled it, its final
+state, its position in the planned sequence and the placement error of its last verdict
+(``position_error_mm``, ``angle_error_deg``, as its agent measured them against the BIM pose).
 
-Per robot: ``busy_s`` — the time between leaving ``idle`` and returning to it, summed (an interval still
-open at the end of the run is closed at the last sim time seen); ``tasks`` — those intervals with the
-component handled; ``distance_m`` — driven in the plane, from ground truth (``robots/<id>/pose``), else
-odometry, else the robot's own ``distance_m`` in its state messages, else its state poses.
+Per robot: ``type`` (its robot type, from physics' site info, ``SiteInfoMsg``; robots on site that never
+reported are listed too); ``busy_s`` — the time between leaving ``idle`` and returning to it, summed (an
+interval still open at the end of the run is closed at the last sim time seen; a new task without idle
+between starts a new interval); ``tasks`` — those intervals with the component handled and the task's
+``kind`` (``build``, or ``hand_off``: a ground robot carried it to a crane's staging spot, with its
+``put_down_xy_m``; see :mod:`.report_fleet`); ``distance_m`` — driven in the plane, from ground truth
+(``robots/<id>/pose``), else odometry, else the robot's own ``distance_m`` in its state messages, else its
+state poses.
 
 :func:`twin_messages` turns a component's twin (its agent's answer to ``components/<key>/twin``) back into
 the state changes it went through, for an observer that joined a run late;
@@ -24,8 +27,9 @@ the state changes it went through, for an observer that joined a run late;
 trusts a twin over any state message, :mod:`bimbot.run_states`).
 
 Totals: components by final state, retries, makespan (first release → last constructed), busy time,
-distance, robot utilisation (busy / (robots × makespan)), the largest placement errors of the constructed
-components.
+distance, robot utilisation (busy / (robots × makespan)), ``by_type`` (per robot type: robots, busy
+time, build and hand-off tasks, utilisation), the number of hand-off tasks, the largest placement errors
+of the constructed components.
 
 Reasons: every component that is not constructed gets a ``reason`` object (``code``, ``message``,
 ``guid``, ``robot_id``; :class:`bimbot.shared.reasons.Reason`). A failed or blocked component has its own
@@ -46,6 +50,7 @@ from pydantic import BaseModel
 
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
+    ComponentEvent,
     ComponentPoseMsg,
     ComponentState,
     ComponentStateMsg,
@@ -54,9 +59,15 @@ from bimbot.shared.messages import (
     RobotPoseMsg,
     RobotState,
     RobotStateMsg,
+    SiteInfoMsg,
+    TaskKind,
+    TaskMsg,
     TwinMsg,
 )
 from bimbot.shared.reasons import Reason, ReasonCode
+
+from .report_fleet import by_type, task_kind
+from .report_totals import count_reasons, difference, dump_reason, scaled, totals_of
 
 REPORT_SCHEMA_VERSION = 1
 _OWN_REASON_STATES = (ComponentState.FAILED, ComponentState.BLOCKED)
@@ -97,6 +108,7 @@ class ComponentTimeline:
     failed_s: float | None = None
     retries: int = 0
     misplaced_s: list[float] = field(default_factory=list)
+    handed_off_s: list[float] = field(default_factory=list)  # put down at a crane's staging spot, each time
     give_backs: list[str] = field(default_factory=list)  # why a robot gave it back, each time
     attempts: int = 0
     state: ComponentState = ComponentState.PLANNED
@@ -148,6 +160,9 @@ class ReportCollector:
             c.guid: ComponentTimeline() for c in manifest.components
         }
         self.robots: dict[str, RobotTimeline] = {}
+        self.robot_type_of: dict[str, str] = {}  # robot id → type name (physics' site info)
+        self.task_kinds: dict[str, TaskKind] = {}
+        self.put_downs: dict[str, tuple[float, float]] = {}  # hand-off task id → where the load went down
         self.progress: ProgressMsg | None = None
         self.last_sim_time_s = 0.0
         self.messages = 0
@@ -168,6 +183,14 @@ class ReportCollector:
             self._travel(message.robot_id, "ground_truth", message.pose_xy_yaw)
         elif isinstance(message, OdomMsg):
             self._travel(message.robot_id, "odom", message.pose_xy_yaw)
+        elif isinstance(message, TaskMsg):
+            self.task_kinds[message.task_id] = message.kind
+            if message.put_down_xy_m is not None:
+                self.put_downs[message.task_id] = (message.put_down_xy_m[0], message.put_down_xy_m[1])
+        elif isinstance(message, SiteInfoMsg):
+            self.robot_type_of.update(message.robot_type_of)
+            for robot_id in message.robot_ids:
+                self.robots.setdefault(robot_id, RobotTimeline())
         elif isinstance(message, ProgressMsg) and (
             self.progress is None or message.sim_time_s >= self.progress.sim_time_s
         ):
@@ -204,8 +227,10 @@ class ReportCollector:
             return
         if msg.position_error_m is not None:
             timeline.position_error_m, timeline.angle_error_rad = msg.position_error_m, msg.angle_error_rad
-        if msg.state == ComponentState.RELEASED and msg.event == "abandon":
+        if msg.state == ComponentState.RELEASED and msg.event == ComponentEvent.ABANDON:
             timeline.give_backs.append(msg.reason.line() if msg.reason is not None else "given back")
+        if msg.state == ComponentState.RELEASED and msg.event == ComponentEvent.HAND_OFF:
+            timeline.handed_off_s.append(t)
         if msg.state == ComponentState.RELEASED and timeline.released_s is None:
             timeline.released_s = t
         elif msg.state == ComponentState.PICKING and timeline.picked_s is None:
@@ -228,6 +253,14 @@ class ReportCollector:
         self._travel(msg.robot_id, "state_poses", msg.pose_xy_yaw)
         busy = msg.state != RobotState.IDLE
         open_interval = robot.intervals[-1] if robot.intervals and robot.intervals[-1].end_s is None else None
+        if (
+            busy
+            and open_interval is not None
+            and open_interval.task_id is not None
+            and msg.task_id not in (None, open_interval.task_id)
+        ):  # the next task without idle between: its own interval
+            open_interval.end_s = max(msg.sim_time_s, open_interval.start_s)
+            open_interval = None
         if busy and open_interval is None:
             robot.intervals.append(BusyInterval(start_s=msg.sim_time_s, guid=msg.guid, task_id=msg.task_id))
         elif busy and open_interval is not None and open_interval.guid is None:
@@ -256,7 +289,7 @@ class ReportCollector:
         components = []
         for component in self.manifest.components:
             timeline = self.components[component.guid]
-            cycle = _difference(timeline.constructed_s, timeline.released_s)
+            cycle = difference(timeline.constructed_s, timeline.released_s)
             components.append(
                 {
                     "guid": component.guid,
@@ -273,21 +306,25 @@ class ReportCollector:
                     "retries": timeline.retries,
                     "give_backs": list(timeline.give_backs),
                     "misplaced_s": list(timeline.misplaced_s),
+                    "handed_off_s": list(timeline.handed_off_s),
                     "attempts": timeline.attempts,
                     "robot_ids": list(timeline.robot_ids),
-                    "position_error_mm": _scaled(timeline.position_error_m, 1000.0),
-                    "angle_error_deg": _scaled(timeline.angle_error_rad, 180.0 / math.pi),
-                    "reason": _dump(self._reason(component.guid, timeline, ending)),
+                    "position_error_mm": scaled(timeline.position_error_m, 1000.0),
+                    "angle_error_deg": scaled(timeline.angle_error_rad, 180.0 / math.pi),
+                    "reason": dump_reason(self._reason(component.guid, timeline, ending)),
                 }
             )
         robots = {
-            robot_id: self._robot_report(robot, end_s) for robot_id, robot in sorted(self.robots.items())
+            robot_id: self._robot_report(robot_id, robot, end_s)
+            for robot_id, robot in sorted(self.robots.items())
         }
-        totals = _totals(components, robots)
+        totals = totals_of(components, robots)
+        totals["by_type"] = by_type(robots, totals["makespan_s"])
+        totals["hand_off_tasks"] = sum(entry["hand_off_tasks"] for entry in totals["by_type"].values())
         totals["blocked"] = len(self.progress.blocked) if self.progress else 0
         totals["done"] = bool(self.progress and self.progress.done)
         totals["not_constructed"] = totals["components"] - totals["constructed"]
-        totals["by_reason"] = _count_reasons(components)
+        totals["by_reason"] = count_reasons(components)
         return {
             "schema_version": REPORT_SCHEMA_VERSION,
             "site": self.manifest.site,
@@ -323,17 +360,21 @@ class ReportCollector:
         message = f"{ending.message}; {state}"[:MAX_REASON_CHARS]
         return Reason(code=ending.code or ReasonCode.INTERRUPTED, message=message, robot_id=robot_id)
 
-    def _robot_report(self, robot: RobotTimeline, end_s: float) -> dict[str, Any]:
+    def _robot_report(self, robot_id: str, robot: RobotTimeline, end_s: float) -> dict[str, Any]:
         tasks: list[dict[str, Any]] = [
             {
                 "guid": interval.guid,
                 "task_id": interval.task_id,
+                "kind": task_kind(interval.task_id, self.task_kinds),
                 "start_s": interval.start_s,
                 "end_s": interval.end_s if interval.end_s is not None else max(end_s, interval.start_s),
                 "open": interval.end_s is None,
             }
             for interval in robot.intervals
         ]
+        for task in tasks:
+            if task["kind"] == TaskKind.HAND_OFF.value:
+                task["put_down_xy_m"] = self.put_downs.get(task["task_id"])
         distance, source = robot.reported_distance_m, "robot_state"
         for candidate in ("ground_truth", "odom"):
             if candidate in robot.last_xy:
@@ -343,61 +384,10 @@ class ReportCollector:
             if robot.reported_distance_m <= 0.0:
                 distance, source = robot.distances_m["state_poses"], "state_poses"
         return {
+            "type": self.robot_type_of.get(robot_id),
             "busy_s": sum(task["end_s"] - task["start_s"] for task in tasks),
             "distance_m": distance,
             "distance_source": source,
             "tasks": tasks,
             "state": robot.state.value if robot.state else None,
         }
-
-
-def _dump(reason: Reason | None) -> dict[str, Any] | None:
-    return reason.model_dump(mode="json") if reason is not None else None
-
-
-def _count_reasons(components: list[dict[str, Any]]) -> dict[str, int]:
-    counts: dict[str, int] = {}
-    for component in components:
-        if component["reason"] is not None:
-            code = component["reason"]["code"]
-            counts[code] = counts.get(code, 0) + 1
-    return dict(sorted(counts.items()))
-
-
-def _scaled(value: float | None, factor: float) -> float | None:
-    return value * factor if value is not None else None
-
-
-def _difference(later: float | None, earlier: float | None) -> float | None:
-    return later - earlier if later is not None and earlier is not None else None
-
-
-def _totals(components: list[dict[str, Any]], robots: dict[str, dict[str, Any]]) -> dict[str, Any]:
-    by_state: dict[str, int] = {}
-    for component in components:
-        by_state[component["state"]] = by_state.get(component["state"], 0) + 1
-    released = [c["released_s"] for c in components if c["released_s"] is not None]
-    constructed = [c["constructed_s"] for c in components if c["constructed_s"] is not None]
-    makespan = max(constructed) - min(released) if released and constructed else None
-    busy = sum(robot["busy_s"] for robot in robots.values())
-    built = [c for c in components if c["state"] == ComponentState.CONSTRUCTED.value]
-    position_errors = [c["position_error_mm"] for c in built if c["position_error_mm"] is not None]
-    angle_errors = [c["angle_error_deg"] for c in built if c["angle_error_deg"] is not None]
-    utilisation = busy / (len(robots) * makespan) if robots and makespan else None
-    return {
-        "components": len(components),
-        "by_state": dict(sorted(by_state.items())),
-        "constructed": by_state.get(ComponentState.CONSTRUCTED.value, 0),
-        "failed": by_state.get(ComponentState.FAILED.value, 0),
-        "retries": sum(c["retries"] for c in components),
-        "give_backs": sum(len(c["give_backs"]) for c in components),
-        "first_release_s": min(released) if released else None,
-        "last_constructed_s": max(constructed) if constructed else None,
-        "makespan_s": makespan,
-        "robots": len(robots),
-        "busy_s": busy,
-        "distance_m": sum(robot["distance_m"] for robot in robots.values()),
-        "utilisation": utilisation,
-        "max_position_error_mm": max(position_errors) if position_errors else None,
-        "max_angle_error_deg": max(angle_errors) if angle_errors else None,
-    }

@@ -1,16 +1,21 @@
 """``report.png``: a Gantt chart of the simulated construction beside the planned sequence.
 
-Left: one lane per robot, a bar per task (the robot left ``idle`` → came back), coloured by the IFC class
-of the component it handled. Right: the planned sequence, one row per component in ``sequence.xml``
-order (first at the top), a thin bar from its release to its pick-up and a full bar from pick-up to
-constructed, in the same colours; misplacements are marked with a red cross when detected, failures
-with a black one. Every component that is not constructed is marked: a red hatched span from where it
-stopped (failed, picked, released, or the start) to the end of the run, its reason code at the right
-edge of its row, its label in red, and a legend entry counting the codes. The title gives the as-built
-audit made at the end of the run (:mod:`bimbot.as_built`: the largest final error of the constructed
-components, how many physics has away from their BIM target); each of those has its final error at the
-right edge of its row. Both share the sim-time axis, so the chart shows at a glance where the run waited,
-which robot did what, whether the building went up in the planned order, and what was not built and why.
+Left: one lane per robot, labelled with its type (``r2 (carrier)``), the robots of a type together
+(:func:`.report_fleet.robot_order`) with a line between types; a bar per task (the robot left ``idle`` →
+came back), coloured by the IFC class of the component it handled; a hand-off task (a ground robot
+carrying a component to a crane's staging spot) is hatched and outlined, so it is not taken for a build.
+Its title gives each type's utilisation (busy share of its robots over the makespan).
+Right: the planned sequence, one row per component in ``sequence.xml`` order (first at the top), a thin
+bar from its release to its pick-up and a full bar from pick-up to constructed, in the same colours;
+hand-offs to a crane are marked with a black triangle, misplacements with a red cross when detected,
+failures with a black one. Every component that is not constructed is marked: a red hatched span from
+where it stopped (failed, picked, released, or the start) to the end of the run, its reason code at the
+right edge of its row, its label in red, and a legend entry counting the codes. The title gives the
+as-built audit made at the end of the run (:mod:`bimbot.as_built`: the largest final error of the
+constructed components, how many physics has away from their BIM target); each of those has its final
+error at the right edge of its row. Both share the sim-time axis, so the chart shows at a glance where
+the run waited, which robot did what, whether the building went up in the planned order, and what was not
+built and why.
 
 Rendered on a bare ``matplotlib.figure.Figure`` (Agg canvas: no pyplot state, no display), at a fixed
 size (``FIGURE_SIZE_IN`` × ``DPI``).
@@ -29,6 +34,8 @@ from matplotlib.colors import to_rgb
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
+from .report_fleet import lane_label, robot_order, utilisation_line
+
 REPORT_JSON = "report.json"
 REPORT_PNG = "report.png"
 FIGURE_SIZE_IN = (16.0, 9.0)
@@ -36,6 +43,8 @@ DPI = 100  # 1600 × 900 pixels
 MAX_ROW_LABELS = 60  # beyond this many sequence rows, labels are left out
 NOT_BUILT_COLOR = "red"
 NOT_BUILT_HATCH = "////"
+HAND_OFF_HATCH = "xx"
+HAND_OFF_EDGE = "black"
 RGB = tuple[float, float, float]
 
 
@@ -61,34 +70,54 @@ def _short(component: dict[str, Any]) -> str:
 
 def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> None:
     by_guid = {c["guid"]: c for c in report["components"]}
-    robot_ids = list(report["robots"])
+    robots = report["robots"]
+    robot_ids = robot_order(robots)
     for lane, robot_id in enumerate(robot_ids):
-        for task in report["robots"][robot_id]["tasks"]:
+        for task in robots[robot_id]["tasks"]:
             component = by_guid.get(task["guid"] or "")
             color = colors.get(component["ifc_class"], "grey") if component else "lightgrey"
             width = task["end_s"] - task["start_s"]
+            hand_off = task.get("kind") == "hand_off"
             ax.broken_barh(
-                [(task["start_s"], width)], (lane - 0.4, 0.8), facecolors=color, edgecolors="white"
+                [(task["start_s"], width)],
+                (lane - 0.4, 0.8),
+                facecolors=color,
+                edgecolors=HAND_OFF_EDGE if hand_off else "white",
+                hatch=HAND_OFF_HATCH if hand_off else None,
+                linewidth=1.0 if hand_off else 0.5,
             )
             if component and width > 0:
                 ax.text(
                     task["start_s"] + width / 2,
                     lane,
-                    _short(component),
+                    ("→ " if hand_off else "") + _short(component),
                     ha="center",
                     va="center",
                     fontsize=6,
                     rotation=90,
                     clip_on=True,
                 )
-    ax.set_yticks(range(len(robot_ids)), [f"robot {r}" for r in robot_ids])
+    for lane in range(1, len(robot_ids)):  # a line where one robot type's lanes end
+        if robots[robot_ids[lane]].get("type") != robots[robot_ids[lane - 1]].get("type"):
+            ax.axhline(lane - 0.5, color="black", linewidth=0.8, alpha=0.6)
+    ax.set_yticks(range(len(robot_ids)), [lane_label(r, robots[r]) for r in robot_ids])
     ax.set_ylim(-0.6, max(len(robot_ids), 1) - 0.4)
     ax.invert_yaxis()
     ax.set_xlabel("sim time (s)")
-    ax.set_title("simulated construction: one lane per robot")
+    utilisation = utilisation_line(report)
+    title = "simulated construction: one lane per robot, grouped by type"
+    ax.set_title(title + (f"\n{utilisation}" if utilisation else ""))
     ax.grid(axis="x", alpha=0.3)
     if not robot_ids:
         ax.text(0.5, 0.5, "no robot reported a state", transform=ax.transAxes, ha="center", va="center")
+
+
+def _hand_off_legend(report: dict[str, Any]) -> list[Patch]:
+    count = report["totals"].get("hand_off_tasks") or 0
+    if not count:
+        return []
+    label = f"hand-off to a crane's staging area ×{count}"
+    return [Patch(facecolor="white", edgecolor=HAND_OFF_EDGE, hatch=HAND_OFF_HATCH, label=label)]
 
 
 def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> None:
@@ -105,6 +134,8 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> 
             ax.plot([released, picked], [row, row], color=color, linewidth=1.0, alpha=0.6)
         if picked is not None and done is not None:
             ax.broken_barh([(picked, max(done - picked, 0.0))], (row - 0.35, 0.7), facecolors=color)
+        for handed_off_s in component.get("handed_off_s", []):  # put down for a crane
+            ax.plot([handed_off_s], [row], marker="v", color=HAND_OFF_EDGE, markersize=5)
         for misplaced_s in component.get("misplaced_s", []):
             ax.plot([misplaced_s], [row], marker="x", color="red", markersize=7)
         if component["failed_s"] is not None:
@@ -204,7 +235,7 @@ def render_report_png(report: dict[str, Any], path: Path) -> Path:
         + _as_built_title(report)
     )
     handles = [Patch(color=color, label=name) for name, color in colors.items()]
-    handles += _not_built_legend(report)
+    handles += _hand_off_legend(report) + _not_built_legend(report)
     figure.legend(handles=handles, loc="lower center", ncol=min(len(handles), 8) or 1, frameon=False)
     figure.tight_layout(rect=(0.0, 0.05, 1.0, 0.96))
     path = Path(path)

@@ -1,0 +1,97 @@
+"""The report's fleet view: robots grouped by type, utilisation per type, and task kinds (build / hand-off).
+
+Why: with a mixed fleet (Husky, carrier, tower crane) a single utilisation hides which type is the
+bottleneck — a crane busy 90 % of the makespan while two carriers wait says "add a crane", not "add
+robots". And a component a ground robot hands off to a crane costs two tasks (the hand-off, then the
+crane's build), which must be visible as such. Pure functions over the report dictionary
+(:mod:`.report`) and the task ids; no bus, no files.
+
+* Utilisation of a type: the busy time of its robots summed, over (its robots × the makespan); a robot on
+  site that never left idle counts with 0 s.
+* A task's kind: what its ``TaskMsg.kind`` said; a task never heard of is a hand-off when its id ends in
+  ``-h<n>`` (the planner's ids for hand-offs: ``<build task id>-h<n>``), else a build.
+* Lanes: robot types in the order of their first robot (natural id order: r2 before r10), the robots of a
+  type together; robots of unknown type last.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+from bimbot.shared.messages import TaskKind
+
+HAND_OFF_ID = re.compile(r"-h\d+$")
+UNKNOWN_TYPE = "unknown"
+_DIGITS = re.compile(r"(\d+)")
+
+
+def task_kind(task_id: str | None, kinds: Mapping[str, TaskKind]) -> str | None:
+    """``build`` or ``hand_off`` for ``task_id`` (None without a task id), see the module."""
+    if task_id is None:
+        return None
+    kind = kinds.get(task_id)
+    if kind is None:
+        kind = TaskKind.HAND_OFF if HAND_OFF_ID.search(task_id) else TaskKind.BUILD
+    return kind.value
+
+
+def natural_key(robot_id: str) -> tuple:
+    """``r2`` before ``r10``: digit runs compare as numbers."""
+    return tuple(int(part) if part.isdigit() else part for part in _DIGITS.split(robot_id))
+
+
+def robot_order(robots: Mapping[str, Mapping[str, Any]]) -> list[str]:
+    """Robot ids grouped by type (see the module), each robot report carrying its ``type``."""
+    ids = sorted(robots, key=natural_key)
+    first: dict[str, int] = {}
+    for index, robot_id in enumerate(ids):
+        first.setdefault(robots[robot_id].get("type") or UNKNOWN_TYPE, index)
+    first[UNKNOWN_TYPE] = len(ids)  # unknown last
+    return sorted(ids, key=lambda r: (first[robots[r].get("type") or UNKNOWN_TYPE], natural_key(r)))
+
+
+def lane_label(robot_id: str, robot: Mapping[str, Any]) -> str:
+    """``r2 (carrier)``; ``robot r2`` when its type is not known."""
+    return f"{robot_id} ({robot['type']})" if robot.get("type") else f"robot {robot_id}"
+
+
+def by_type(robots: Mapping[str, Mapping[str, Any]], makespan_s: float | None) -> dict[str, dict[str, Any]]:
+    """Per robot type (in lane order): its robots, busy time, tasks by kind and utilisation (None without
+    a makespan)."""
+    out: dict[str, dict[str, Any]] = {}
+    for robot_id in robot_order(robots):
+        robot = robots[robot_id]
+        entry = out.setdefault(
+            robot.get("type") or UNKNOWN_TYPE,
+            {"robots": [], "busy_s": 0.0, "build_tasks": 0, "hand_off_tasks": 0, "utilisation": None},
+        )
+        entry["robots"].append(robot_id)
+        entry["busy_s"] += robot["busy_s"]
+        entry["build_tasks"] += _count(robot["tasks"], TaskKind.BUILD.value)
+        entry["hand_off_tasks"] += _count(robot["tasks"], TaskKind.HAND_OFF.value)
+    for entry in out.values():
+        if makespan_s:
+            entry["utilisation"] = entry["busy_s"] / (len(entry["robots"]) * makespan_s)
+    return out
+
+
+def utilisation_line(report: Mapping[str, Any]) -> str | None:
+    """``utilisation by type: husky 45 % (1 robot), tower_crane 80 % (1 robot)``, or None without types
+    or a makespan."""
+    types = report.get("totals", {}).get("by_type") or {}
+    parts = [
+        f"{name} {entry['utilisation'] * 100:.0f} % ({_robots(len(entry['robots']))})"
+        for name, entry in types.items()
+        if entry.get("utilisation") is not None
+    ]
+    return f"utilisation by type: {', '.join(parts)}" if parts else None
+
+
+def _count(tasks: Iterable[Mapping[str, Any]], kind: str) -> int:
+    return sum(1 for task in tasks if (task.get("kind") or TaskKind.BUILD.value) == kind)
+
+
+def _robots(count: int) -> str:
+    return f"{count} robot{'' if count == 1 else 's'}"
