@@ -55,6 +55,7 @@ from bimbot.run_restarts import Restart, Restarter, RestartPolicy
 from bimbot.run_table import not_built_table
 from bimbot.run_watchdog import StallWatchdog
 from bimbot.services.observer.report import RunEnding
+from bimbot.services.observer.report_fleet import lane_label, robot_order, utilisation_line
 from bimbot.services.observer.report_png import write_report_files
 from bimbot.shared.bus import open_session
 from bimbot.shared.errors import UserError
@@ -286,11 +287,18 @@ def summary_text(outcome: RunOutcome) -> str:
     as_built = as_built_line(outcome.report)
     if as_built is not None:
         lines.append(as_built)
-    for robot_id, robot in sorted(outcome.report.get("robots", {}).items()):
+    robots = outcome.report.get("robots", {})
+    for robot_id in robot_order(robots):
+        robot = robots[robot_id]
+        hand_offs = sum(1 for task in robot["tasks"] if task.get("kind") == "hand_off")
         lines.append(
-            f"robot {robot_id}: {len(robot['tasks'])} task(s), {robot['distance_m']:.0f} m driven, "
-            f"busy {robot['busy_s']:.0f} s"
+            f"{lane_label(robot_id, robot)}: {len(robot['tasks'])} task(s)"
+            + (f" ({hand_offs} hand-off(s))" if hand_offs else "")
+            + f", {robot['distance_m']:.0f} m driven, busy {robot['busy_s']:.0f} s"
         )
+    utilisation = utilisation_line(outcome.report)
+    if utilisation is not None:
+        lines.append(utilisation)
     restarts = outcome.report.get("restarts", [])
     if restarts:
         lines.append(f"services that died during the run ({len(restarts)}):")

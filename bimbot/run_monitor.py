@@ -4,7 +4,8 @@ The subscriber callbacks only validate and enqueue (:class:`bimbot.shared.bus.In
 :meth:`RunMonitor.drain`, called from the run's waiting loop, feeds the messages to the observer's pure
 :class:`bimbot.services.observer.report.ReportCollector`, so ``report.json``/``report.png`` are written
 at the end of every run, with or without the observer (laser scans and plans are not subscribed: the
-report does not use them).
+report does not use them). Physics' site info is asked once it answers: the robots' types, by which the report
+groups its lanes and gives utilisation per type.
 
 What is constructed comes from the agents' twins, never from a state message alone
 (:mod:`bimbot.run_states`): a state message is a hint; a claim of a terminal state (or a message that does
@@ -43,6 +44,7 @@ from bimbot.shared.messages import (
     CLOCK,
     COMPONENT_STATE,
     COMPONENT_TWIN,
+    PHYSICS_INFO,
     PHYSICS_POSES,
     PLANNER_PLAN,
     PROGRESS,
@@ -79,6 +81,9 @@ class RunMonitor:
         self.collector = ReportCollector(manifest)
         # the plan the planner builds by (its order is the report's sequence column), asked, never read
         self.plan = Asked(session, PLANNER_PLAN, self.invalid, site=site)
+        # physics' site info: the robots' types, by which the report groups its lanes and utilisation
+        self.site_info = Asked(session, PHYSICS_INFO, self.invalid, site=site)
+        self._site_info_taken = False
         self.trusted = TrustedStates(c.guid for c in manifest.components)
         self.sim_time_s = 0.0
         self.done = False
@@ -126,6 +131,9 @@ class RunMonitor:
         plan = self.plan.poll()
         if plan is not None and not self.collector.sequence_guids:
             self.collector.sequence_guids = list(plan.order)
+        if not self._site_info_taken and (info := self.site_info.poll()) is not None:
+            self.collector.add(info)
+            self._site_info_taken = True
         for item in self._inbox.drain(first_timeout_s=wait_s):
             if isinstance(item, Received):
                 self.apply(item.message)

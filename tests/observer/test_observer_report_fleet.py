@@ -222,3 +222,19 @@ def test_the_staging_areas_are_drawn_beside_the_yard_and_depot_labelled_with_the
     staging = items["world/site/staging"]
     assert staging.static and isinstance(staging.archetype, rr.LineStrips3D)
     assert [str(label) for label in staging.archetype.labels.pa_array.to_pylist()] == ["staging r3"]
+
+
+def test_the_run_summary_lists_robots_by_type_with_hand_offs_and_utilisation_per_type(report: dict) -> None:
+    from bimbot.run import RunOutcome, summary_text
+
+    text = summary_text(RunOutcome(exit_code=0, constructed=2, total=28, report=report))
+    lines = text.splitlines()
+    robot_lines = [line for line in lines if " task(s)" in line]
+    assert [line.split(":")[0] for line in robot_lines] == [
+        "r1 (husky)",
+        "r2 (carrier)",
+        "r4 (carrier)",
+        "r3 (tower_crane)",
+    ]
+    assert "(1 hand-off(s))" in robot_lines[1] and "hand-off" not in robot_lines[3]
+    assert utilisation_line(report) in lines
