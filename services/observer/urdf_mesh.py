@@ -9,6 +9,11 @@ A mesh file that cannot be loaded (missing, a format trimesh cannot read) does n
 is drawn as the bounding box of its collision shapes (the box a physics engine would collide with), or a
 small box at the visual's origin when it has none, and that file's warning is logged once
 (:class:`LinkMeshes` remembers it). Meshes are cached by file, so robots of one type load each file once.
+
+A mesh file of more than ``MESH_TRIANGLE_BUDGET`` triangles is thinned by vertex clustering on a
+``MESH_CELL_M`` grid (vertices in one cell merge, triangles that collapse go): the recording carries each
+robot's meshes once, and detail below a centimetre is not seen at site scale. pybullet_data's Husky goes
+from 34 000 to 16 000 triangles (its wheels are 7 000 each).
 """
 
 from __future__ import annotations
@@ -28,6 +33,8 @@ CYLINDER_SECTIONS = 24
 SPHERE_SUBDIVISIONS = 2
 FALLBACK_SIZE_M = 0.2  # a link with an unreadable mesh and no collision shape: a box this big
 FALLBACK_RGBA = (1.0, 0.3, 0.8, 0.8)  # magenta, see-through: "this is not the real shape"
+MESH_TRIANGLE_BUDGET = 2000  # a mesh file with more triangles is thinned (see the module)
+MESH_CELL_M = 0.01
 
 
 @dataclass(frozen=True)
@@ -89,6 +96,8 @@ class LinkMeshes:
                 return None
             shape = loaded.copy()
             shape.apply_scale(geometry.scale)  # per axis
+            if len(shape.faces) > MESH_TRIANGLE_BUDGET:
+                shape = clustered(shape, MESH_CELL_M)
         else:
             shape = primitive(geometry)
         shape.apply_transform(geometry.origin)
@@ -112,6 +121,17 @@ def primitive(geometry: Geometry) -> trimesh.Trimesh:
     if geometry.kind == "sphere":
         return trimesh.creation.icosphere(subdivisions=SPHERE_SUBDIVISIONS, radius=geometry.size_m[0])
     raise ValueError(f"not a primitive: {geometry.kind}")
+
+
+def clustered(mesh: trimesh.Trimesh, cell_m: float) -> trimesh.Trimesh:
+    """``mesh`` with its vertices merged per ``cell_m`` grid cell (the first vertex of a cell stands for
+    it); triangles that collapse, and repeats, are dropped; the others keep their orientation."""
+    cells = np.round(np.asarray(mesh.vertices) / cell_m).astype(np.int64)
+    _, first, inverse = np.unique(cells, axis=0, return_index=True, return_inverse=True)
+    faces = inverse.reshape(-1)[np.asarray(mesh.faces)]
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
+    _, once = np.unique(np.sort(faces, axis=1), axis=0, return_index=True)
+    return trimesh.Trimesh(np.asarray(mesh.vertices)[first], faces[np.sort(once)], process=False)
 
 
 def _load_mesh_file(path: Path, uri: str) -> trimesh.Trimesh | None:

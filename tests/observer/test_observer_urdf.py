@@ -14,9 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rerun as rr
+import trimesh
 
 from bimbot.services.observer.fleet_log import FleetLog, link_path, marker_path
-from bimbot.services.observer.urdf_mesh import FALLBACK_RGBA, LinkMeshes
+from bimbot.services.observer.urdf_mesh import FALLBACK_RGBA, LinkMeshes, clustered
 from bimbot.services.observer.urdf_model import read_urdf
 from bimbot.shared.errors import InputError
 from bimbot.shared.fleet import DEFAULT_FLEET_FILE, load_fleet, resolve_urdf
@@ -141,10 +142,22 @@ def test_the_husky_loads_with_its_stl_meshes_and_an_xacro_left_over() -> None:
     assert {"base_link", "top_plate_link", "front_left_wheel_link", "rear_bumper_link"} <= set(meshes)
     fallback = [round(c * 255) for c in FALLBACK_RGBA]
     assert all(mesh.vertex_colors[0].tolist() != fallback for mesh in meshes.values())
+    assert sum(len(mesh.triangles) for mesh in meshes.values()) < 20_000  # 34 000 in its files: thinned
+    wheel = meshes["front_left_wheel_link"].bounds_m
+    np.testing.assert_allclose(wheel, [[-0.178, -0.057, -0.178], [0.178, 0.057, 0.178]], atol=1e-3)
     poses = model.link_poses()
     assert _position(poses["base_link"]) == pytest.approx([0.0, 0.0, 0.14493])
     # imu origin "$(optenv HUSKY_IMU_XYZ 0.19 0 0.149)": the default values after the variable's name
     assert _position(poses["imu_link"]) == pytest.approx([0.19, 0.0, 0.14493 + 0.149])
+
+
+def test_clustering_thins_a_fine_mesh_and_keeps_its_shape_and_orientation() -> None:
+    sphere = trimesh.creation.icosphere(subdivisions=5, radius=0.2)  # 20 480 triangles
+    thin = clustered(sphere, 0.01)
+    assert len(thin.faces) < 0.6 * len(sphere.faces)
+    np.testing.assert_allclose(thin.bounds, sphere.bounds, atol=0.01)
+    outward = np.einsum("ij,ij->i", thin.face_normals, thin.triangles_center)
+    assert (outward > 0).mean() > 0.99  # triangles keep their winding
 
 
 @pytest.mark.parametrize("type_name", sorted(load_fleet(DEFAULT_FLEET_FILE).types))
