@@ -20,7 +20,6 @@ from bimbot.run_commands import physics_arguments
 from bimbot.services.physics.app import RunConfig
 from bimbot.services.physics.cli import apply_profile
 from bimbot.services.physics.profiles import PROFILES, REHEARSAL, RUN_PROFILE
-from bimbot.services.physics.robots import RobotConfig
 from bimbot.services.physics.sensors import LaserConfig
 from bimbot.services.physics.simulation import SimConfig
 from bimbot.services.planner.app import PlannerOptions
@@ -52,9 +51,10 @@ def _sub_parser(name: str) -> argparse.ArgumentParser:
 
 def _expected(name: str) -> dict[str, object]:
     if name == "physics":
-        sim, robot, laser, run = SimConfig(), RobotConfig(), LaserConfig(), RunConfig()
+        sim, laser, run = SimConfig(), LaserConfig(), RunConfig()
         return {
-            "robots": sim.robots,
+            "fleet": None,  # the embedded default fleet
+            "robots": None,  # the fleet's robots; N: N of its default type
             "rtf": run.rtf,
             "lock_step_timeout_s": run.lock_step_timeout_s,
             "wait_for_robots_s": run.wait_for_robots_s,
@@ -63,11 +63,7 @@ def _expected(name: str) -> dict[str, object]:
             "control_period_s": sim.control_period_s,
             "seed": sim.seed,
             "odom_noise": sim.odom_noise,
-            "reach_m": sim.reach_m,
             "pose_refresh_s": sim.pose_refresh_s,
-            "urdf": robot.urdf_path,
-            "max_speed_mps": robot.max_speed_mps,
-            "max_turn_radps": robot.max_turn_radps,
             "laser_beams": laser.beams,
             "laser_fov_deg": math.degrees(laser.fov_rad),
             "laser_range_m": laser.range_max_m,

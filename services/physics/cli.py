@@ -1,11 +1,18 @@
-"""``bimbot physics --build OUT/ [--robots N] [--rtf X] [--lock-step]``: simulate the site in PyBullet.
+"""``bimbot physics --build OUT/ [--fleet FILE] [--robots N] [--rtf X] [--lock-step]``: simulate the site in
+PyBullet.
 
-Builds the scene from a converted build (components in the yard, robots at the depot, fence; see
-:mod:`.simulation`) and serves it on the bus: sim clock, odometry, laser scans, ground-truth poses,
-velocity commands, attach and place requests (:mod:`.app`). Runs until SIGTERM/SIGINT (or ``--steps``),
-then closes its Zenoh session and exits 0. Options are checked before anything starts (exit 2 with one
-line); the defaults are the fields of :class:`.simulation.SimConfig`, :class:`.robots.RobotConfig`,
-:class:`.sensors.LaserConfig` and :class:`.app.RunConfig`.
+Builds the scene from a converted build (components in the yard, the fleet's robots at the depot and its
+tower cranes beside the building, fence; see :mod:`.simulation`) and serves it on the bus: sim clock,
+odometry, laser scans, ground-truth poses, velocity commands, attach and place requests (:mod:`.app`).
+Runs until SIGTERM/SIGINT (or ``--steps``), then closes its Zenoh session and exits 0. Options are checked
+before anything starts (exit 2 with one line); the defaults are the fields of
+:class:`.simulation.SimConfig`, :class:`.robots.RobotConfig`, :class:`.sensors.LaserConfig` and
+:class:`.app.RunConfig`.
+
+The fleet file (:mod:`bimbot.shared.fleet`; default: the embedded one) is the one source of each robot's
+URDF and limits (speed, turn rate, reach, payload): physics clamps commands and checks attach and place
+with them and serves them with its site info, where robots and the planner read them. There are no
+physics options that override them.
 """
 
 from __future__ import annotations
@@ -17,6 +24,7 @@ from pathlib import Path
 
 from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
+from bimbot.shared.fleet import MAX_ROBOTS, Fleet, load_fleet
 from bimbot.shared.option_types import (
     finite_float,
     non_negative_float,
@@ -40,15 +48,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The physics options; every default (and the default named in a help text) is its config's field."""
     from .app import RunConfig  # zenoh only for the physics command
 
-    sim, robot, laser, run = SimConfig(), RobotConfig(), LaserConfig(), RunConfig()
+    sim, laser, run = SimConfig(), LaserConfig(), RunConfig()
     parser.add_argument(
         "--build", type=Path, required=True, metavar="OUT/", help="converted build (folder or manifest.json)"
     )
     parser.add_argument(
+        "--fleet",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="the robot types on site and how many of each (TOML; default: bimbot's embedded fleet, "
+        "a Husky, a heavy carrier and a tower crane)",
+    )
+    parser.add_argument(
         "--robots",
         type=non_negative_int,
-        default=sim.robots,
-        help=f"robots at the depot (default {sim.robots})",
+        default=None,
+        metavar="N",
+        help="N robots of the fleet's default_type instead of the fleet's robots (default: the fleet's)",
     )
     add_profile_arguments(parser, FINE.name)  # bimbot run uses the rehearsal profile
     parser.add_argument(
@@ -77,12 +94,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"relative std of each odometry increment (default {sim.odom_noise:g}; 0: exact)",
     )
     parser.add_argument(
-        "--reach-m",
-        type=positive_float,
-        default=sim.reach_m,
-        help=f"attach/place reach (default {sim.reach_m:g} m, the robot description's)",
-    )
-    parser.add_argument(
         "--pose-refresh-s",
         type=positive_float,
         default=sim.pose_refresh_s,
@@ -90,25 +101,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     group = parser.add_argument_group("robot")
     group.add_argument(
-        "--urdf", type=Path, default=robot.urdf_path, help="robot URDF (default pybullet_data husky)"
-    )
-    group.add_argument(
         "--wheel-joints",
         default=None,
         metavar="J1,J2,…",
-        help="wheel joint names or indices (default: detected)",
-    )
-    group.add_argument(
-        "--max-speed-mps",
-        type=positive_float,
-        default=robot.max_speed_mps,
-        help=f"speed limit, m/s (default {robot.max_speed_mps:g})",
-    )
-    group.add_argument(
-        "--max-turn-radps",
-        type=positive_float,
-        default=robot.max_turn_radps,
-        help=f"turn rate limit, rad/s (default {robot.max_turn_radps:g})",
+        help="wheel joint names or indices, for every ground robot type (default: detected)",
     )
     group = parser.add_argument_group("laser")
     fov_deg = math.degrees(laser.fov_rad)
@@ -161,11 +157,25 @@ def apply_profile(args: argparse.Namespace) -> argparse.Namespace:
     return args
 
 
+def fleet_of(args: argparse.Namespace) -> Fleet:
+    """The fleet on site: ``--fleet`` (or the embedded default), with ``--robots N`` robots of its default
+    type when given; every type's URDF found. An InputError (one line) when the file or a URDF is bad."""
+    fleet = load_fleet(args.fleet)
+    if args.robots is not None:
+        fleet = fleet.with_robots(args.robots)
+    for description in fleet.on_site().values():
+        fleet.resolve_urdf(description.urdf)
+    return fleet
+
+
 def sim_config(args: argparse.Namespace) -> SimConfig:
     """The simulation config from the options and their profile (filled into ``args``); a UserError names
-    what is wrong (also the options that only the adapter uses: rtf, lock-step timeout, URDF), so
-    ``bimbot run`` can check them all up front."""
+    what is wrong (also the options that only the adapter uses: rtf, lock-step timeout, the fleet's URDFs),
+    so ``bimbot run`` can check them all up front."""
     apply_profile(args)
+    if args.robots is not None and args.robots > MAX_ROBOTS:
+        raise UserError(f"physics: --robots must be at most {MAX_ROBOTS}")
+    fleet = fleet_of(args)
     try:
         wheels = (
             tuple(item.strip() for item in args.wheel_joints.split(",") if item.strip())
@@ -173,22 +183,16 @@ def sim_config(args: argparse.Namespace) -> SimConfig:
             else ()
         )
         config = SimConfig(
-            robots=args.robots,
+            fleet=fleet,
             step_s=1.0 / args.physics_hz,
             control_period_s=args.control_period_s,
-            reach_m=args.reach_m,
             odom_noise=args.odom_noise,
             seed=args.seed,
             lock_step=args.lock_step,
             real_time_factor=args.rtf,
             pose_refresh_s=args.pose_refresh_s,
             visuals=args.gui,
-            robot=RobotConfig(
-                urdf_path=args.urdf,
-                wheel_joints=wheels,
-                max_speed_mps=args.max_speed_mps,
-                max_turn_radps=args.max_turn_radps,
-            ),
+            robot=RobotConfig(wheel_joints=wheels),
             laser=LaserConfig(
                 beams=args.laser_beams,
                 fov_rad=math.radians(args.laser_fov_deg),
@@ -199,12 +203,10 @@ def sim_config(args: argparse.Namespace) -> SimConfig:
         config.validate()
     except (ValueError, ZeroDivisionError) as error:
         raise UserError(f"physics: {error}") from error
-    if args.rtf < 0 or args.robots > 1000:
-        raise UserError("physics: --rtf must be >= 0 and --robots at most 1000")
+    if args.rtf < 0:
+        raise UserError("physics: --rtf must be >= 0")
     if args.lock_step_timeout_s <= 0 or args.wait_for_robots_s < 0:
         raise UserError("physics: --lock-step-timeout-s must be positive and --wait-for-robots-s ≥ 0")
-    if args.urdf is not None and not args.urdf.is_file():
-        raise UserError(f"--urdf {args.urdf}: no such file")
     return config
 
 

@@ -7,7 +7,9 @@ Every component is in one of four phases:
 * ``carried`` — attached to a robot: kinematic, reset every physics step to ``robot frame ∘ carry offset``
   (lying flat on top of the robot, centred over its base frame, ``carry_clearance_m`` above its highest
   collision shape). It rises there from where it lay over ``lift_s`` sim seconds. It takes the robot's
-  collision group bit: the carrier neither collides with it nor sees it in its laser; others do.
+  collision group bit: the carrier neither collides with it nor sees it in its laser; others do. A tower
+  crane's load hangs on its hook instead: lifted ``hook_lift_m`` straight up from where it lay, and it
+  stays there until placed; the crane's joints follow it (hook above its top, :mod:`.crane`).
 * ``assembling`` — a place request was accepted: the component moves from its pose at the request to the
   requested pose over ``duration_s`` sim seconds (linear position, slerp orientation); the carrier holds
   still. The request's reply is held back until the motion ends.
@@ -18,10 +20,13 @@ Every component is in one of four phases:
   target footprint is never thrown off. Static bodies never touch the ground plane or each other, so
   footings placed below ground stay there.
 
-Reach (attach and place): the reach rule of the robot description — the horizontal distance from the
-robot's base frame origin to the nearest point of the component's footprint (the shared
+Payload and reach (attach and place), by the carrying robot's own description
+(:mod:`bimbot.shared.robot_description`), on the component's footprint (the shared
 :func:`bimbot.shared.footprint.posed_footprint`) — its current one for attach, the one at the requested pose
-for place — must not exceed ``reach_m`` (the robot type's). Every refusal says why, naming robot,
+for place: a ground robot refuses a component heavier than its ``payload_kg``, and one whose footprint's
+nearest point is farther than its ``reach_m`` from its base frame origin; a crane refuses a footprint whose
+nearest point lies inside its smallest hook radius or beyond its reach, and a component heavier than its
+load chart allows at the footprint's farthest point. Every refusal says why, naming robot, type,
 component and numbers.
 """
 
@@ -35,14 +40,15 @@ from enum import StrEnum
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bimbot.shared.footprint import footprint_distance_m, posed_footprint
+from bimbot.shared.footprint import posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, PhysicsReply, PoseMsg
-from bimbot.shared.robot_description import DEFAULT_ROBOT
-from bimbot.shared.site_layout import GROUND_CLEARANCE_M, lying_rotation
+from bimbot.shared.site_layout import lying_rotation
 from bimbot.shared.site_plan import Rect
 
 from .client import p
+from .crane import hook_joints, load_top
+from .load_rules import carry_refusal, drop_beside, lowered
 from .robots import Robot
 from .scene import (
     STATIC_GROUP,
@@ -52,15 +58,12 @@ from .scene import (
     compose,
     footprint,
     interpolate,
+    invert,
     set_component_pose,
     set_filter,
-    yaw_of,
-    yaw_quat,
 )
 
 _log = logging.getLogger(__name__)
-
-DROP_GAP_M = 0.3  # between a lost robot and the load it drops
 
 
 class Phase(StrEnum):
@@ -72,8 +75,8 @@ class Phase(StrEnum):
 
 @dataclass(frozen=True)
 class HandlingConfig:
-    reach_m: float = DEFAULT_ROBOT.reach_m  # the robot description's, unless physics is told otherwise
     lift_s: float = 1.0
+    hook_lift_m: float = 1.0  # a crane lifts its load this far above where it lay
     carry_clearance_m: float = 0.02
     max_place_duration_s: float = 60.0
 
@@ -99,6 +102,11 @@ class Item:
 
 def pose_msg(frame: Frame) -> PoseMsg:
     return PoseMsg(position_m=frame[0], quat_xyzw=frame[1])
+
+
+def hanging_offset(robot: Robot, frame: Frame, client_id: int) -> Frame:
+    """A crane's load held at ``frame`` (world), in the crane's base frame: it stays there while carried."""
+    return compose(invert(robot.frame(client_id)), frame)
 
 
 def carry_offset(component: Component, robot: Robot, clearance_m: float) -> Frame:
@@ -149,7 +157,11 @@ class Handling:
         item.separating_from, item.dropped_by = None, None
         if carrier is not None:
             item.phase, item.carrier = Phase.CARRIED, carrier.robot_id
-            item.offset = carry_offset(item.component, carrier, self.config.carry_clearance_m)
+            item.offset = (
+                hanging_offset(carrier, frame, self.client_id)
+                if carrier.is_crane
+                else carry_offset(item.component, carrier, self.config.carry_clearance_m)
+            )
             item.motion_from, item.motion_start_s = frame, -math.inf
             self.carrying[carrier.robot_id] = guid
             self._moving.add(guid)
@@ -178,13 +190,17 @@ class Handling:
             refusal = f"robot {robot.robot_id} already carries {self.carrying[robot.robot_id]}"
         beyond: float | None = None
         if refusal is None and item is not None:
-            refusal, beyond = self._beyond_reach(robot, item.component, item.pose, guid)
+            refusal, beyond = self._cannot_carry(robot, item.component, item.pose, guid)
         if refusal is not None or item is None:
             return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s, distance_m=beyond)
         item.phase = Phase.CARRIED
         item.carrier = robot.robot_id
         item.dropped_by = None
-        item.offset = carry_offset(item.component, robot, self.config.carry_clearance_m)
+        if robot.is_crane:  # on the hook, straight up from where it lay
+            (x, y, z), quat = item.pose
+            item.offset = hanging_offset(robot, ((x, y, z + self.config.hook_lift_m), quat), self.client_id)
+        else:
+            item.offset = carry_offset(item.component, robot, self.config.carry_clearance_m)
         item.motion_from = item.pose
         item.motion_start_s = now_s
         item.separating_from = None
@@ -224,7 +240,7 @@ class Handling:
                 refusal = f"target ({centre[0]:.2f}, {centre[1]:.2f}) of {guid} is outside the site"
         beyond: float | None = None
         if refusal is None and item is not None and frame is not None:
-            refusal, beyond = self._beyond_reach(robot, item.component, frame, f"the target of {guid}")
+            refusal, beyond = self._cannot_carry(robot, item.component, frame, f"the target of {guid}")
         if refusal is not None or item is None or frame is None:
             return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s, distance_m=beyond)
         item.phase = Phase.ASSEMBLING
@@ -250,19 +266,12 @@ class Handling:
             return f"{guid} is fixed to the structure"
         return None
 
-    def _beyond_reach(
+    def _cannot_carry(
         self, robot: Robot, component: Component, frame: Frame, what: str
     ) -> tuple[str | None, float | None]:
-        """The reach rule of the robot description (:mod:`bimbot.shared.robot_description`: the robot's
-        centre to the nearest point of the component's footprint at ``frame``): ``(refusal, distance_m)``,
-        ``(None, None)`` within reach."""
-        polygon = posed_footprint(component, frame[0], frame[1]).polygon_xy_m
-        distance = float(footprint_distance_m(polygon, self._robot_xy(robot))[0])
-        if distance <= self.config.reach_m + 1e-9:
-            return None, None
-        return (
-            f"robot {robot.robot_id} is {distance:.2f} m from {what}, reach is {self.config.reach_m:g} m",
-            distance,
+        """:func:`.load_rules.carry_refusal` for ``robot`` where it stands now."""
+        return carry_refusal(
+            robot.description, robot.robot_id, self._robot_xy(robot), component, frame, what=what
         )
 
     def _robot_xy(self, robot: Robot) -> tuple[float, float]:
@@ -276,6 +285,7 @@ class Handling:
         finished: list[tuple[object, PhysicsReply]] = []
         for guid in list(self._moving):
             item = self.items[guid]
+            carrier = robots.get(item.carrier or "")
             if item.phase is Phase.CARRIED and item.carrier is not None and item.offset is not None:
                 target = compose(robots[item.carrier].frame(self.client_id), item.offset)
                 lift = (now_s - item.motion_start_s) / self.config.lift_s if self.config.lift_s > 0 else 1.0
@@ -289,10 +299,20 @@ class Handling:
                 fraction = (now_s - item.motion_start_s) / duration if duration > 0 else 1.0
                 item.pose = interpolate(item.motion_from, item.motion_to, fraction)
                 if fraction >= 1.0:
-                    finished.append((item.tag, self._fix(item, robots.get(item.carrier or ""), now_s)))
+                    finished.append((item.tag, self._fix(item, carrier, now_s)))
             set_component_pose(self.client_id, item.body, item.pose)
+            if carrier is not None and carrier.rig is not None:
+                self._hook_over(carrier, item)
             self.changed.add(guid)
         return finished
+
+    def _hook_over(self, crane: Robot, item: Item) -> None:
+        """A crane's joints with its hook above its load's top (:mod:`.crane`)."""
+        assert crane.rig is not None
+        bbox = item.component.bbox_local
+        top = load_top(bbox.min_m, bbox.max_m, item.pose[0], item.pose[1])
+        joints = hook_joints(crane.start_xy_yaw, top, crane.rig.spec, crane.rig.jib_height_m)
+        crane.rig.set(self.client_id, joints)
 
     def _fix(self, item: Item, carrier: Robot | None, now_s: float) -> PhysicsReply:
         item.pose = item.motion_to  # type: ignore[assignment]
@@ -302,7 +322,7 @@ class Handling:
         item.tag = None
         self._moving.discard(item.component.guid)
         item.separating_from = carrier
-        if carrier is None or not self._overlaps(item, carrier):
+        if carrier is None or carrier.is_crane or not self._overlaps(item, carrier):  # a hook is no body
             self._settle(item)
         _log.info("%s fixed to the structure at t=%.2f s", item.component.guid, now_s)
         return PhysicsReply(ok=True, sim_time_s=now_s, pose=pose_msg(item.pose))
@@ -378,44 +398,12 @@ class Handling:
         return guid
 
     def _drop_pose(self, item: Item, robot: Robot) -> Frame:
-        """Lying like in the yard, beside the robot: left, right, behind or ahead, the first spot that is
-        free of other components and inside the site (else left)."""
-        (x, y, _), quat = robot.frame(self.client_id)
-        heading = yaw_quat(yaw_of(quat))
-        low, high = np.array(item.component.bbox_local.min_m), np.array(item.component.bbox_local.max_m)
-        rotation = lying_rotation(high - low)
-        corners = np.array(
-            [[a, b, c] for a in (low[0], high[0]) for b in (low[1], high[1]) for c in (low[2], high[2])]
-        )
-        turned = corners @ rotation.T
-        centre = (turned.min(axis=0) + turned.max(axis=0)) / 2.0
-        length, depth = turned.max(axis=0)[:2] - turned.min(axis=0)[:2]
-        lying_quat = tuple(float(q) for q in Rotation.from_matrix(rotation).as_quat())
-        half_x, half_y = robot.half_extents_xy_m
-        offsets = (
-            (0.0, half_y + DROP_GAP_M + depth / 2.0),
-            (0.0, -(half_y + DROP_GAP_M + depth / 2.0)),
-            (-(half_x + DROP_GAP_M + length / 2.0), 0.0),
-            (half_x + DROP_GAP_M + length / 2.0, 0.0),
-        )
+        """Beside a ground robot (:func:`.load_rules.drop_beside`); a crane's load straight down."""
+        if robot.is_crane:
+            return lowered(item.component, item.pose)
         others = [footprint(o.component, o.pose) for o in self.items.values() if o is not item]
-        candidates = []
-        for dx, dy in offsets:
-            local = ((dx - centre[0], dy - centre[1], GROUND_CLEARANCE_M - turned[:, 2].min()), lying_quat)
-            frame = compose(((x, y, 0.0), heading), local)  # type: ignore[arg-type]
-            candidates.append(frame)
-            spot = footprint(item.component, frame)
-            inside = (
-                self.site_bounds.min_xy[0] <= spot.min_xy[0] and spot.max_xy[0] <= self.site_bounds.max_xy[0]
-            )
-            inside = (
-                inside
-                and self.site_bounds.min_xy[1] <= spot.min_xy[1]
-                and spot.max_xy[1] <= self.site_bounds.max_xy[1]
-            )
-            if inside and not any(spot.overlaps(other) for other in others):
-                return frame
-        return candidates[0]
+        frame = robot.frame(self.client_id)
+        return drop_beside(item.component, frame, robot.half_extents_xy_m, others, self.site_bounds)
 
     # --- messages ------------------------------------------------------------------------------------
 

@@ -7,9 +7,10 @@ Truth, by owner (``docs/architecture.md``, "Restart is normal"):
   and can no longer be attached: at the pose physics last published for it, or, when its record has none
   (physics died between the placement and the record), at the pose its agent last saw (the target pose
   if it saw none).
-* **where things are** — physics' record (:mod:`.snapshot`): robots where their bodies were (their
+* **where things are** — physics' record (:mod:`.snapshot`): robots (by id) where their bodies were (their
   odometry continues from its last value, so a robot's localisation sees no jump), their loads still on
-  them, components where their last pose message put them.
+  them, components where their last pose message put them. A tower crane stays where the site plan
+  stands it (its base is fixed) and takes back its joint values and its load on the hook.
 * **the clock** — continues after the last published step, never backwards, in a new epoch so every
   consumer knows a restart from a leap (:mod:`bimbot.shared.clock_guard`).
 
@@ -57,7 +58,9 @@ def restore_site(sim: Simulation, snapshot: PhysicsSnapshot, twins: Iterable[Twi
         if robot_id not in sim.robots:
             _log.warning("the record has robot %s, this physics has %s: left out", robot_id, sim.robot_ids)
             continue
-        sim.teleport_robot(robot_id, robot.pose.pose_xy_yaw)
+        sim.teleport_robot(robot_id, robot.pose.pose_xy_yaw)  # a crane stays where it stands
+        if robot.pose.joint_positions:
+            sim.set_crane_joints(robot_id, robot.pose.joint_positions)
         if robot.odom_xy_yaw is not None:
             sim.set_odometry_pose(robot_id, robot.odom_xy_yaw)
         robots += 1

@@ -1,10 +1,12 @@
-"""Robots from a URDF (default: pybullet_data's Husky), driven differentially on their wheel joints, with
-odometry integrated from their true motion plus Gaussian noise.
+"""Robots from their type's URDF (:mod:`bimbot.shared.fleet`): ground robots driven differentially on their
+wheel joints, tower cranes standing still on a fixed base (odometry: :mod:`.odometry`).
 
-Drive: a command ``(v, w)`` (clamped to ``max_speed_mps`` / ``max_turn_radps``, default 1.0 m/s and
-1.5 rad/s, the Husky A200's top speed and a safe turn rate) becomes wheel speeds
-``(v ∓ w·track·k/2) / radius`` for the left/right wheels, applied with VELOCITY_CONTROL and a torque limit.
-The Husky is skid-steered: its wheels must slip sideways to turn, and in Bullet a 4-wheel skid steer turns
+Drive (ground robots): a command ``(v, w)`` (clamped to the robot type's ``max_speed_mps`` /
+``max_turn_radps``) becomes wheel speeds ``(v ∓ w·track·k/2) / radius`` for the left/right wheels, applied
+with VELOCITY_CONTROL and a torque limit. The limit is ``RobotConfig.wheel_torque_nm`` (60 N·m, the
+Husky's) scaled to each robot by its mass times wheel radius per wheel (:func:`wheel_torque_nm`), so every
+type has the Husky's tractive force per kilogram: at 60 N·m the 600 kg carrier could not turn at all.
+Robots are skid-steered: their wheels must slip sideways to turn, and in Bullet a 4-wheel skid steer turns
 at only ~35 % of the geometric rate, with a yaw rate that oscillates with heading (friction pyramid).
 Two measured remedies, both configurable:
 
@@ -13,11 +15,16 @@ Two measured remedies, both configurable:
   as ``husky_control``'s ``wheel_separation_multiplier`` does on the real robot;
 * a low-level integral correction, updated each control period from the measured speed and yaw rate (the
   robot's own wheel encoders and gyro would give the same), removes what is left: measured on flat ground,
-  ``w·t`` within 1 % over 8 s, per-period yaw-rate RMS error ≈ 0.1 rad/s at 1 rad/s.
+  ``w·t`` within 1 % over 8 s, per-period yaw-rate RMS error ≈ 0.1 rad/s at 1 rad/s (Husky and carrier
+  alike; ``tests/physics/test_physics_fleet.py``).
 
-Wheel joints: ``--wheel-joints`` (names or indices), or detected: revolute joints whose axis is along the
-base's y axis; left wheels are those with y > 0. Wheel radius from the wheel's cylinder/sphere collision
-shape (URDF cylinders are loaded as implicit cylinders) or its bounding box; track from the wheel positions.
+Wheel joints: ``--wheel-joints`` (names or indices, for every ground type), or detected: revolute joints
+whose axis is along the base's y axis; left wheels are those with y > 0. Wheel radius from the wheel's
+cylinder/sphere collision shape (URDF cylinders are loaded as implicit cylinders) or its bounding box;
+track from the wheel positions.
+
+Tower cranes (a type with ``crane``): loaded with a fixed base, no wheels, no drive; a command is taken
+(for lock-step) and does nothing. Their joints are a :class:`.crane_rig.CraneRig`.
 
 Frames: a robot's pose is its URDF base link frame (for the Husky ``base_footprint``, on the ground between
 the wheels), not pybullet's base CoM frame. ``pose_xy_yaw`` is (x, y, heading) in the world frame.
@@ -34,36 +41,37 @@ import numpy as np
 
 from bimbot.shared.errors import InputError
 from bimbot.shared.geometry import wrap_angle
-from bimbot.shared.robot_description import DEFAULT_ROBOT
+from bimbot.shared.robot_description import RobotDescription
 
 from .client import p, quiet_stdout
-from .scene import ALL_GROUPS, Frame, Quat, Vec3, compose, invert, set_filter, yaw_of, yaw_quat
+from .crane_rig import CraneRig
+from .scene import ALL_GROUPS, GROUND_GROUP, Frame, Quat, Vec3, compose, invert, set_filter, yaw_of, yaw_quat
 
 _log = logging.getLogger(__name__)
 
-HUSKY_URDF = "husky/husky.urdf"
-
-
-def default_urdf() -> Path:
-    import pybullet_data
-
-    return Path(pybullet_data.getDataPath()) / HUSKY_URDF
+# pybullet_data's Husky as pybullet loads it (its six empty links weigh 1 kg each): the torque reference
+HUSKY_MASS_KG = 50.003
+HUSKY_WHEEL_RADIUS_M = 0.17775
+HUSKY_WHEELS = 4
 
 
 @dataclass(frozen=True)
 class RobotConfig:
-    urdf_path: Path | None = None  # None: pybullet_data's Husky
-    wheel_joints: tuple[str, ...] = ()  # joint names or indices; empty: detected
-    max_speed_mps: float = DEFAULT_ROBOT.max_speed_mps  # the description's; served with the site info
-    max_turn_radps: float = DEFAULT_ROBOT.max_turn_radps
-    wheel_torque_nm: float = 60.0
+    """Drive tuning shared by every ground robot type (a type's limits are in its description)."""
+
+    wheel_joints: tuple[str, ...] = ()  # joint names or indices, for every ground type; empty: detected
+    wheel_torque_nm: float = 60.0  # the Husky's; scaled to each robot (:func:`wheel_torque_nm`)
     track_multiplier: float = 1.5
     wheel_lateral_friction_ratio: float = 0.2
     tracking_gain_per_s: float = 5.0  # integral gain of the speed / yaw-rate correction
     max_correction: tuple[float, float] = (0.5, 2.0)  # |speed| m/s, |yaw rate| rad/s
 
-    def urdf(self) -> Path:
-        return self.urdf_path if self.urdf_path is not None else default_urdf()
+
+def wheel_torque_nm(husky_torque_nm: float, mass_kg: float, wheel_radius_m: float, wheels: int) -> float:
+    """A robot's torque limit per wheel: the Husky's, scaled so that every robot has the Husky's tractive
+    force per kilogram (torque ∝ mass · wheel radius / wheels)."""
+    reference = HUSKY_MASS_KG * HUSKY_WHEEL_RADIUS_M / HUSKY_WHEELS
+    return husky_torque_nm * (mass_kg * wheel_radius_m / max(1, wheels)) / reference
 
 
 @dataclass(frozen=True)
@@ -160,14 +168,15 @@ def _axle_friction(client_id: int, body_id: int, joint: int, ratio: float) -> li
 
 @dataclass
 class Robot:
-    """One spawned robot: its body, drive, command and low-level speed control state."""
+    """One spawned robot: its type, body, drive (None for a crane), command and speed control state."""
 
     robot_id: str
     index: int
     body_id: int
     group: int
-    drive: DriveGeometry
+    drive: DriveGeometry | None
     config: RobotConfig
+    description: RobotDescription
     start_xy_yaw: tuple[float, float, float]
     top_height_m: float  # highest point of its collision shapes above its base frame (where loads go)
     base_height_m: float  # its base frame's height above the ground at rest
@@ -175,6 +184,8 @@ class Robot:
         float, float
     ]  # farthest collision extents from its base frame, forward / sideways
     base_inertial: Frame  # CoM frame in the base link frame
+    wheel_torque_nm: float = 0.0  # per wheel (:func:`wheel_torque_nm`)
+    rig: CraneRig | None = None  # a tower crane's joints
     command: tuple[float, float] = (0.0, 0.0)
     held: bool = False  # wheels stopped whatever the command (assembling, lost)
     _correction: list[float] = field(default_factory=lambda: [0.0, 0.0])
@@ -189,13 +200,18 @@ class Robot:
         (x, y, _), quat = self.frame(client_id)
         return x, y, yaw_of(quat)
 
+    @property
+    def is_crane(self) -> bool:
+        return self.rig is not None
+
     def set_command(self, v_mps: float, w_radps: float) -> None:
+        """Take ``(v, w)`` within the robot type's limits (a crane's are 0: it never drives)."""
         if not (math.isfinite(v_mps) and math.isfinite(w_radps)):
             v_mps, w_radps = 0.0, 0.0
-        c = self.config
+        d = self.description
         self.command = (
-            max(-c.max_speed_mps, min(c.max_speed_mps, v_mps)),
-            max(-c.max_turn_radps, min(c.max_turn_radps, w_radps)),
+            max(-d.max_speed_mps, min(d.max_speed_mps, v_mps)),
+            max(-d.max_turn_radps, min(d.max_turn_radps, w_radps)),
         )
 
     def reset_control(self) -> None:
@@ -203,7 +219,9 @@ class Robot:
         self._correction[:] = [0.0, 0.0]
 
     def apply_motors(self, client_id: int) -> None:
-        """Wheel speed targets for the next control period."""
+        """Wheel speed targets for the next control period (nothing for a crane)."""
+        if self.drive is None:
+            return
         v, w = (0.0, 0.0) if self.held else self.command
         if not self.held:
             v += self._correction[0]
@@ -220,7 +238,7 @@ class Robot:
                     joint,
                     p.VELOCITY_CONTROL,
                     targetVelocity=sign * speed,
-                    force=self.config.wheel_torque_nm,
+                    force=self.wheel_torque_nm,
                     physicsClientId=client_id,
                 )
 
@@ -231,7 +249,7 @@ class Robot:
         previous = self._last_xy_yaw
         current = self.pose_xy_yaw(client_id)
         self._last_xy_yaw = current
-        if not self.held:
+        if not self.held and self.drive is not None:
             dx, dy = current[0] - previous[0], current[1] - previous[1]
             speed = (dx * math.cos(previous[2]) + dy * math.sin(previous[2])) / period_s
             rate = wrap_angle(current[2] - previous[2]) / period_s
@@ -254,15 +272,22 @@ def spawn_robot(
     group: int,
     start_xy_yaw: tuple[float, float, float],
     config: RobotConfig,
+    description: RobotDescription,
+    urdf: Path,
 ) -> Robot:
-    """Load the URDF with its wheels on the ground at ``start_xy_yaw``; set drive, friction and filters."""
-    urdf = config.urdf()
+    """Load ``urdf`` standing on the ground at ``start_xy_yaw``: a ground robot on its wheels with drive,
+    friction and torque set; a crane (``description.crane``) on a fixed base with its joints parked."""
     if not urdf.is_file():
         raise InputError(f"robot URDF {urdf} not found")
     x, y, yaw = start_xy_yaw
+    crane = description.crane
     with quiet_stdout():  # loaded facing +x at the origin to measure it, then moved to its start
         body_id = p.loadURDF(
-            str(urdf), [0.0, 0.0, 0.0], flags=p.URDF_USE_IMPLICIT_CYLINDER, physicsClientId=client_id
+            str(urdf),
+            [0.0, 0.0, 0.0],
+            useFixedBase=crane is not None,
+            flags=p.URDF_USE_IMPLICIT_CYLINDER,
+            physicsClientId=client_id,
         )
     if body_id < 0:
         raise InputError(f"pybullet could not load the robot URDF {urdf}")
@@ -279,21 +304,31 @@ def spawn_robot(
     top = max(box[1][2] for box in boxes)
     half_x = max(max(abs(box[0][0]), abs(box[1][0])) for box in boxes)
     half_y = max(max(abs(box[0][1]), abs(box[1][1])) for box in boxes)
-    base_frame = ((x, y, -bottom), yaw_quat(yaw))  # wheels touching the ground
+    base_frame = ((x, y, -bottom), yaw_quat(yaw))  # wheels (or footing) touching the ground
     com = compose(base_frame, base_inertial)
     p.resetBasePositionAndOrientation(body_id, com[0], com[1], physicsClientId=client_id)
-    drive = detect_drive(client_id, body_id, base_frame, config.wheel_joints)
-    for wheels in (drive.left, drive.right):
-        for joint, _ in wheels:
-            p.changeDynamics(
-                body_id,
-                joint,
-                anisotropicFriction=_axle_friction(
-                    client_id, body_id, joint, config.wheel_lateral_friction_ratio
-                ),
-                physicsClientId=client_id,
-            )
-    set_filter(client_id, body_id, group, ALL_GROUPS ^ group, links)  # not with its own load
+    drive: DriveGeometry | None = None
+    torque = 0.0
+    rig: CraneRig | None = None
+    if crane is not None:  # standing on the ground for good: no contacts with it to compute
+        set_filter(client_id, body_id, group, ALL_GROUPS ^ group ^ GROUND_GROUP, links)
+        rig = CraneRig(client_id, body_id, crane, name=description.name)
+    else:
+        drive = detect_drive(client_id, body_id, base_frame, config.wheel_joints)
+        mass = sum(p.getDynamicsInfo(body_id, link, physicsClientId=client_id)[0] for link in links)
+        wheels = len(drive.left) + len(drive.right)
+        torque = wheel_torque_nm(config.wheel_torque_nm, mass, drive.wheel_radius_m, wheels)
+        for wheel_set in (drive.left, drive.right):
+            for joint, _ in wheel_set:
+                p.changeDynamics(
+                    body_id,
+                    joint,
+                    anisotropicFriction=_axle_friction(
+                        client_id, body_id, joint, config.wheel_lateral_friction_ratio
+                    ),
+                    physicsClientId=client_id,
+                )
+        set_filter(client_id, body_id, group, ALL_GROUPS ^ group, links)  # not with its own load
     robot = Robot(
         robot_id=robot_id,
         index=index,
@@ -301,66 +336,26 @@ def spawn_robot(
         group=group,
         drive=drive,
         config=config,
+        description=description,
         start_xy_yaw=start_xy_yaw,
         top_height_m=top,
         base_height_m=-bottom,
         half_extents_xy_m=(half_x, half_y),
         base_inertial=base_inertial,
+        wheel_torque_nm=torque,
+        rig=rig,
     )
     robot._last_xy_yaw = (x, y, yaw)
-    _log.debug(
-        "robot %s: wheels L%s R%s radius %.3f m track %.3f m top %.3f m",
-        robot_id,
-        [j for j, _ in drive.left],
-        [j for j, _ in drive.right],
-        drive.wheel_radius_m,
-        drive.track_m,
-        robot.top_height_m,
-    )
-    return robot
-
-
-@dataclass(frozen=True)
-class OdomReading:
-    pose_xy_yaw: tuple[float, float, float]
-    v_mps: float
-    w_radps: float
-
-
-class Odometry:
-    """Dead reckoning from the true per-period motion, each increment disturbed by Gaussian noise.
-
-    Per control period, with ``d`` the true distance and ``dθ`` the true heading change:
-    σ(distance) = ``noise``·d and σ(heading) = ``noise``·(|dθ| + ``HEADING_PER_M``·d). Noise 0 gives the
-    true pose exactly; a stopped robot's odometry never drifts. Starts at the robot's true start pose.
-    """
-
-    HEADING_PER_M = 0.2  # rad of heading noise scale per metre driven, times ``noise``
-
-    def __init__(
-        self, start_xy_yaw: tuple[float, float, float], noise: float, rng: np.random.Generator
-    ) -> None:
-        self.pose_xy_yaw = start_xy_yaw
-        self.noise = noise
-        self._rng = rng
-
-    def update(
-        self, previous: tuple[float, float, float], current: tuple[float, float, float], period_s: float
-    ) -> OdomReading:
-        c, s = math.cos(previous[2]), math.sin(previous[2])
-        dx, dy = current[0] - previous[0], current[1] - previous[1]
-        forward, left = c * dx + s * dy, -s * dx + c * dy  # increment in the robot's previous frame
-        turn = wrap_angle(current[2] - previous[2])
-        if self.noise > 0.0:
-            distance = math.hypot(forward, left)
-            scale = 1.0 + self._rng.normal(0.0, self.noise)
-            forward, left = forward * scale, left * scale
-            turn += self._rng.normal(0.0, self.noise * (abs(turn) + self.HEADING_PER_M * distance))
-        x, y, yaw = self.pose_xy_yaw
-        co, so = math.cos(yaw), math.sin(yaw)
-        self.pose_xy_yaw = (
-            x + co * forward - so * left,
-            y + so * forward + co * left,
-            wrap_angle(yaw + turn),
+    if drive is not None:
+        _log.debug(
+            "robot %s (%s): wheels L%s R%s radius %.3f m track %.3f m torque %.0f N·m top %.3f m",
+            robot_id,
+            description.name,
+            [j for j, _ in drive.left],
+            [j for j, _ in drive.right],
+            drive.wheel_radius_m,
+            drive.track_m,
+            torque,
+            robot.top_height_m,
         )
-        return OdomReading(self.pose_xy_yaw, forward / period_s, turn / period_s)
+    return robot

@@ -1,4 +1,5 @@
-"""A simulated 2D laser scanner per robot: one ``rayTestBatch`` per robot per control period.
+"""A simulated 2D laser scanner per ground robot (a tower crane has none): one ``rayTestBatch`` per robot per
+control period.
 
 Beams fan out in the robot's base frame (so they tilt with the chassis) from a mount point
 ``height_m`` above the ground at rest. The batch carries a collision filter mask (:mod:`.scene`) that

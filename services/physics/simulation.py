@@ -3,15 +3,17 @@ time. No bus: requests come in as message objects, outgoing messages go out as `
 
 Scene (from the converter's build and :func:`bimbot.shared.site_layout.plan_site`, like the paper's Fig.
 10): the ground plane, the fence, every component static in its yard slot (its body built from its
-``model.sdf``, :mod:`.scene`), N robots at the depot starts (ids ``r1``…``rN``, :mod:`.robots`).
+``model.sdf``, :mod:`.scene`), and the fleet's robots (ids ``r1``…, each from its own type's URDF,
+:mod:`.fleet_spawn`): ground robots at the depot, tower cranes beside the building.
 
 Clock: physics steps of ``step_s`` (1/240 s); a control period of ``control_period_s`` (0.1 s) is a whole
 number of them. :meth:`Simulation.advance` applies the latest commands, steps one period (moving carried
 and assembling components after every step, :mod:`.handling`), then measures: ``ClockMsg.step`` counts
 control periods, and the messages of a period are stamped with the sim time at its end.
 
-Per period the outgoing messages are: the clock; per robot its odometry (noisy, :class:`.robots.Odometry`,
-seeded per robot from ``seed``), its laser scan (:mod:`.sensors`) and its ground-truth pose; the pose of
+Per period the outgoing messages are: the clock; per robot its odometry (noisy, :class:`.odometry.Odometry`,
+seeded per robot from ``seed``; a crane's is its fixed pose), its laser scan (:mod:`.sensors`; none for a
+crane) and its ground-truth pose (a crane's with its joint values); the pose of
 every component that moved (carried, assembling, just placed or dropped); and a slice of the others, so
 that every component's pose is repeated once per ``pose_refresh_s`` for late subscribers.
 :meth:`Simulation.start_messages` gives all of that for step 0 (every component included).
@@ -30,6 +32,7 @@ from types import TracebackType
 import numpy as np
 from pydantic import BaseModel
 
+from bimbot.shared.fleet import Fleet
 from bimbot.shared.identifiers import guid_to_key
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
@@ -45,27 +48,27 @@ from bimbot.shared.messages import (
     OdomMsg,
     PhysicsReply,
     PlaceRequest,
-    RobotPoseMsg,
     ScanMsg,
     SiteInfoMsg,
     SitePosesMsg,
     key,
 )
-from bimbot.shared.robot_description import DEFAULT_ROBOT, RobotDescription
 from bimbot.shared.site_layout import plan_site
 from bimbot.shared.site_plan import SiteLayout
 
 from .client import BulletClient, p
+from .crane import HOIST, SLEW, TROLLEY, CraneJoints
+from .fleet_spawn import robot_pose_msg, robot_types, spawn_fleet, types_on_site
 from .handling import Handling, HandlingConfig, Item, Phase
+from .odometry import Odometry
 from .profiles import FINE
-from .robots import Odometry, Robot, RobotConfig, spawn_robot
+from .robots import Robot, RobotConfig
 from .scene import (
     component_model,
     compose,
     create_component_body,
     create_fence,
     create_ground,
-    robot_group,
     yaw_quat,
 )
 from .sensors import Laser, LaserConfig
@@ -77,10 +80,13 @@ GRAVITY_MPS2 = 9.80665
 
 @dataclass(frozen=True)
 class SimConfig:
-    robots: int = 1
+    """The simulation's settings. ``fleet``: the robots on site (each type's limits, URDF, reach and
+    payload); without one, ``robots`` robots of ``DEFAULT_ROBOT`` (tests, benches)."""
+
+    fleet: Fleet | None = None
+    robots: int = 1  # without a fleet only
     step_s: float = 1.0 / FINE.physics_hz
     control_period_s: float = FINE.control_period_s
-    reach_m: float = DEFAULT_ROBOT.reach_m
     odom_noise: float = 0.02  # relative standard deviation of each period's odometry increment
     seed: int = 0
     lock_step: bool = False  # reported in ClockMsg and SiteInfoMsg; the adapter does the waiting
@@ -89,7 +95,7 @@ class SimConfig:
     visuals: bool = False
     robot: RobotConfig = field(default_factory=RobotConfig)
     laser: LaserConfig = field(default_factory=LaserConfig)
-    handling: HandlingConfig | None = None  # None: defaults with reach_m
+    handling: HandlingConfig = field(default_factory=HandlingConfig)
 
     @property
     def substeps(self) -> int:
@@ -104,8 +110,8 @@ class SimConfig:
             raise ValueError(
                 f"control period {self.control_period_s} s is not a whole number of {self.step_s} s steps"
             )
-        if self.odom_noise < 0.0 or self.reach_m <= 0.0 or self.pose_refresh_s <= 0.0:
-            raise ValueError("odom noise must be >= 0, reach and pose refresh > 0")
+        if self.odom_noise < 0.0 or self.pose_refresh_s <= 0.0:
+            raise ValueError("odom noise must be >= 0 and pose refresh > 0")
 
 
 @dataclass(frozen=True)
@@ -131,7 +137,8 @@ class Simulation:
         self.config = config or SimConfig()
         self.config.validate()
         self.site = manifest.site
-        self.layout: SiteLayout = plan_site(manifest.components, robots=self.config.robots)
+        self.robot_types = robot_types(self.config.fleet, self.config.robots)  # one per robot, r1 first
+        self.layout: SiteLayout = plan_site(manifest.components, fleet=self.robot_types)
         self._client = BulletClient(p.GUI if gui else None)
         self.step = 0
         self.epoch = 0  # physics starts of this run - 1 (:mod:`.restore`)
@@ -181,21 +188,20 @@ class Simulation:
             body = create_component_body(cid, component, model, frame, visual=self.config.visuals)
             p.setCollisionFilterPair(self.ground_id, body.body_id, -1, -1, 0, physicsClientId=cid)
             items[component.guid] = Item(component, body, Phase.RESTING, frame)
-        handling_config = self.config.handling or HandlingConfig(reach_m=self.config.reach_m)
-        self.handling = Handling(cid, items, handling_config, self.layout.fence)
-        for index, start in enumerate(self.layout.robot_starts):
-            robot_id = f"r{index + 1}"
-            robot = spawn_robot(
-                cid, robot_id, index, group=robot_group(index), start_xy_yaw=start, config=self.config.robot
-            )
-            self.robots[robot_id] = robot
+        self.handling = Handling(cid, items, self.config.handling, self.layout.fence)
+        self.robots = spawn_fleet(
+            cid, self.robot_types, self.layout.robot_starts, self.config.robot, self.config.fleet
+        )
+        for index, (robot_id, robot) in enumerate(self.robots.items()):
             rng = np.random.default_rng([self.config.seed, index])
-            self._odometry[robot_id] = Odometry(start, self.config.odom_noise, rng)
-            self._beam_starts[robot_id] = self._laser.beam_starts(robot.half_extents_xy_m)
+            self._odometry[robot_id] = Odometry(robot.start_xy_yaw, self.config.odom_noise, rng)
+            if not robot.is_crane:  # a crane has no laser
+                self._beam_starts[robot_id] = self._laser.beam_starts(robot.half_extents_xy_m)
         _log.info(
-            "scene: %d components in the yard, %d robot(s) at the depot, fence %s–%s",
+            "scene: %d components in the yard, robots %s, fence %s–%s",
             len(items),
-            len(self.robots),
+            ", ".join(f"{robot_id} {robot.description.name}" for robot_id, robot in self.robots.items())
+            or "none",
             self.layout.fence.min_xy,
             self.layout.fence.max_xy,
         )
@@ -217,21 +223,9 @@ class Simulation:
             step_s=self.config.step_s,
             control_period_s=self.config.control_period_s,
             lock_step=self.config.lock_step,
-            robot_type_of={robot_id: self.robot_type.name for robot_id in self.robots},
-            robot_types={self.robot_type.name: self.robot_type},
+            robot_type_of={robot_id: robot.description.name for robot_id, robot in self.robots.items()},
+            robot_types=types_on_site(self.robots),
             layout=self.layout,
-        )
-
-    @property
-    def robot_type(self) -> RobotDescription:
-        """The description of the robots on site (one type until the fleet brings more)."""
-        robot = self.config.robot
-        return DEFAULT_ROBOT.model_copy(
-            update={
-                "reach_m": self.handling.config.reach_m,
-                "max_speed_mps": robot.max_speed_mps,
-                "max_turn_radps": robot.max_turn_radps,
-            }
         )
 
     def robot_pose(self, robot_id: str) -> tuple[float, float, float]:
@@ -246,11 +240,8 @@ class Simulation:
             sim_time_s=now,
             components={guid: self.handling.pose_message(guid, now) for guid in self.handling.items},
             robots={
-                robot_id: RobotPoseMsg(
-                    robot_id=robot_id,
-                    pose_xy_yaw=robot.pose_xy_yaw(cid),
-                    sim_time_s=now,
-                    carrying=self.handling.carrying.get(robot_id),
+                robot_id: robot_pose_msg(
+                    robot, robot.pose_xy_yaw(cid), now, self.handling.carrying.get(robot_id)
                 )
                 for robot_id, robot in self.robots.items()
             },
@@ -370,7 +361,10 @@ class Simulation:
             )
         ]
         for robot_id, robot in self.robots.items():
-            if odometry:
+            if robot.is_crane:  # it stands where it was built: its odometry is that pose, exactly
+                current = pose = robot.start_xy_yaw
+                v = w = 0.0
+            elif odometry:
                 previous, current = robot.measure(cid, self.config.control_period_s)
                 reading = self._odometry[robot_id].update(previous, current, self.config.control_period_s)
                 pose, v, w = reading.pose_xy_yaw, reading.v_mps, reading.w_radps
@@ -382,35 +376,33 @@ class Simulation:
                     OdomMsg(robot_id=robot_id, pose_xy_yaw=pose, v_mps=v, w_radps=w, sim_time_s=now),
                 )
             )
-            mount = self._laser.mount(robot.frame(cid), robot.base_height_m)
-            out.append(
-                Outgoing(
-                    key(ROBOT_SCAN_KEY, site=self.site, robot_id=robot_id),
-                    ScanMsg(
-                        robot_id=robot_id,
-                        angle_min_rad=self._laser.angle_min_rad,
-                        angle_increment_rad=self._laser.angle_increment_rad,
-                        range_max_m=self.config.laser.range_max_m,
-                        ranges_m=self._laser.scan(cid, mount, robot.group, self._beam_starts[robot_id]),
-                        sim_time_s=now,
-                    ),
-                )
-            )
+            if not robot.is_crane:
+                out.append(self._scan(robot, now))
             out.append(
                 Outgoing(
                     key(ROBOT_POSE_KEY, site=self.site, robot_id=robot_id),
-                    RobotPoseMsg(
-                        robot_id=robot_id,
-                        pose_xy_yaw=current,
-                        sim_time_s=now,
-                        carrying=self.handling.carrying.get(robot_id),
-                    ),
+                    robot_pose_msg(robot, current, now, self.handling.carrying.get(robot_id)),
                 )
             )
         changed = self.handling.take_changed()
         out.extend(self._component_pose(guid) for guid in changed)
         out.extend(self._component_pose(guid) for guid in self._refresh_slice(set(changed)))
         return out
+
+    def _scan(self, robot: Robot, now: float) -> Outgoing:
+        mount = self._laser.mount(robot.frame(self.client_id), robot.base_height_m)
+        ranges = self._laser.scan(self.client_id, mount, robot.group, self._beam_starts[robot.robot_id])
+        return Outgoing(
+            key(ROBOT_SCAN_KEY, site=self.site, robot_id=robot.robot_id),
+            ScanMsg(
+                robot_id=robot.robot_id,
+                angle_min_rad=self._laser.angle_min_rad,
+                angle_increment_rad=self._laser.angle_increment_rad,
+                range_max_m=self.config.laser.range_max_m,
+                ranges_m=ranges,
+                sim_time_s=now,
+            ),
+        )
 
     def _refresh_slice(self, skip: set[str]) -> list[str]:
         """The next few components in turn, so that each is repeated once per ``pose_refresh_s``."""
@@ -433,11 +425,25 @@ class Simulation:
         """Continue ``robot_id``'s odometry from ``xy_yaw`` (a restart: the robot sees no jump)."""
         self._odometry[robot_id].pose_xy_yaw = xy_yaw
 
+    def set_crane_joints(self, robot_id: str, joint_positions: dict[str, float]) -> None:
+        """Put a crane's joints where a record says (a restart; names it lacks stay as they are)."""
+        rig = self.robots[robot_id].rig
+        if rig is None:
+            return
+        now = rig.joints.by_name()
+        value = {name: float(joint_positions.get(name, now[name])) for name in now}
+        rig.set(self.client_id, CraneJoints(value[SLEW], value[TROLLEY], value[HOIST]))
+
     # --- test helpers --------------------------------------------------------------------------------
 
     def teleport_robot(self, robot_id: str, xy_yaw: tuple[float, float, float]) -> None:
-        """Put a robot somewhere (tests, benches): wheels on the ground, at rest; odometry follows."""
+        """Put a robot somewhere (tests, benches): wheels on the ground, at rest; odometry follows. A crane
+        stays where it was built (its base is fixed): asked to move, it is left in place (logged)."""
         robot = self.robots[robot_id]
+        if robot.drive is None:
+            if max(abs(a - b) for a, b in zip(xy_yaw, robot.start_xy_yaw, strict=True)) > 1e-6:
+                _log.warning("crane %s stands at %s: not moved to %s", robot_id, robot.start_xy_yaw, xy_yaw)
+            return
         base = ((xy_yaw[0], xy_yaw[1], robot.base_height_m), yaw_quat(xy_yaw[2]))
         com = compose(base, robot.base_inertial)
         p.resetBasePositionAndOrientation(robot.body_id, com[0], com[1], physicsClientId=self.client_id)

@@ -15,6 +15,7 @@ import pytest
 import zenoh
 
 from bimbot.shared.bus import BusOptions, encode, open_session
+from bimbot.shared.fleet import default_fleet
 from bimbot.shared.manifest import read_manifest
 from bimbot.shared.messages import (
     ALIVE_KEY,
@@ -106,7 +107,10 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
         assert info_bytes is not None, (tmp_path / "physics.log").read_text()
         info = SiteInfoMsg.model_validate_json(info_bytes)
         assert info.robot_ids == ["r1"] and info.lock_step
-        assert info.robot_types[info.robot_type_of["r1"]].reach_m == 1.5
+        fleet = default_fleet()  # --robots 1: one robot of its default type, as the fleet file describes it
+        assert info.robot_type_of == {"r1": fleet.default_type}
+        assert info.robot_types == {fleet.default_type: fleet.types[fleet.default_type]}
+        reach_m = fleet.types[fleet.default_type].reach_m
 
         listener = _Listener(
             session,
@@ -146,7 +150,7 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
         )
         assert not reply.ok
         assert re.fullmatch(
-            rf"robot r1 is \d+\.\d\d m from {re.escape(footing.guid)}, reach is 1.5 m", reply.reason
+            rf"robot r1 is \d+\.\d\d m from {re.escape(footing.guid)}, reach is {reach_m:g} m", reply.reason
         )
 
         token.undeclare()  # r1 gone: physics runs free again

@@ -57,7 +57,8 @@ def test_a_restarted_physics_continues_where_the_last_one_stopped(
         for cls in ("IfcFooting", "IfcColumn", "IfcBeam")
     )
     # r1 places the footing
-    first.handling.config = first.handling.config.__class__(reach_m=50.0)  # reach is not under test here
+    for robot in first.robots.values():  # reach is not under test here
+        robot.description = robot.description.model_copy(update={"reach_m": 50.0})
     assert first.attach(AttachRequest(robot_id="r1", guid=footing.guid)).ok
     target = footing.target_pose_world
     first.teleport_robot("r1", west_of(footprint(footing, (target.position_m, target.quat_xyzw)), 0.8))

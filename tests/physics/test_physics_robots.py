@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from physics_builders import drive, wrap
 
-from bimbot.services.physics.robots import Odometry
+from bimbot.services.physics.odometry import Odometry
 from bimbot.services.physics.simulation import Simulation
 from bimbot.shared.messages import OdomMsg, RobotPoseMsg
 

@@ -179,7 +179,7 @@ def test_run_rejects_an_impossible_option_before_any_service_starts(
     assert _nothing_started(build)
 
 
-@pytest.mark.parametrize("options", [("--physics-hz", "nan"), ("--rtf", "inf"), ("--reach-m", "-1")])
+@pytest.mark.parametrize("options", [("--physics-hz", "nan"), ("--rtf", "inf"), ("--odom-noise", "-1")])
 def test_physics_rejects_a_non_finite_or_negative_number(build: Path, options: tuple[str, ...]) -> None:
     done = _bimbot("physics", "--build", str(build), *options)
     _one_line(done, options[0])
