@@ -233,7 +233,7 @@ class Observer:
             self.layout = info.layout
             self._log_items(site_items(info.layout, self.manifest.components, cranes_of(info)))
             self._log_items(self.twin.yard_poses(info.layout), at_s=0.0)
-            static, initial, now = self.twin.robots(info)
+            static, initial, now = self.twin.robots(info, self.sim_time_s)
             self._log_items(static)
             self._log_items(initial, at_s=0.0)
             self._log_items(now, at_s=self.sim_time_s)

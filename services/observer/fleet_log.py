@@ -112,6 +112,7 @@ class FleetLog:
         self._robots: dict[str, RobotModel] = {}
         self._labels: dict[str, str] = {}
         self._joints: dict[str, _Joints] = {}
+        self._early: dict[str, dict[str, float]] = {}  # joint values heard before the robot was drawn
 
     def drawn(self, robot_id: str) -> bool:
         """True when ``robot_id`` is drawn as its type's model (it needs no box)."""
@@ -143,10 +144,12 @@ class FleetLog:
     def robot_pose(self, msg: RobotPoseMsg) -> list[LogItem]:
         """Transforms of the links that moved since the last logged set (throttled, see the module)."""
         model = self._robots.get(msg.robot_id)
-        if model is None or not msg.joint_positions:
+        values = {name: float(value) for name, value in msg.joint_positions.items()}
+        if model is None or not values:
+            if values:
+                self._early[msg.robot_id] = {**self._early.get(msg.robot_id, {}), **values}
             return []
         joints = self._joints[msg.robot_id]
-        values = {name: float(value) for name, value in msg.joint_positions.items()}
         changed = _changed(values, joints.values)
         if not changed:
             joints.pending = None
@@ -155,6 +158,13 @@ class FleetLog:
             joints.pending = (msg.sim_time_s, values)
             return []
         return self._log_joints(msg.robot_id, msg.sim_time_s, values)
+
+    def catch_up(self, sim_time_s: float) -> list[LogItem]:
+        """Link transforms for the joint values heard before their robot was drawn (log them now)."""
+        items: list[LogItem] = []
+        for robot_id in [r for r in self._early if r in self._robots]:
+            items += self._log_joints(robot_id, sim_time_s, self._early.pop(robot_id))
+        return items
 
     def robot_state(self, robot_id: str, state: RobotState) -> list[LogItem]:
         """The state marker of a drawn robot (none for a robot without a model)."""

@@ -173,11 +173,12 @@ class TwinLog:
                 )
         return items
 
-    def robots(self, info: SiteInfoMsg) -> tuple[list[LogItem], list[LogItem], list[LogItem]]:
-        """``(static meshes, link poses for sim time 0, items for now)``: every robot on site as its type's
-        model; a box drawn before the site was known is cleared, its state goes on the model's marker."""
+    def robots(self, info: SiteInfoMsg, now_s: float) -> tuple[list[LogItem], list[LogItem], list[LogItem]]:
+        """``(static meshes, link poses for sim time 0, items for now_s)``: every robot on site as its
+        type's model; a box drawn before the site was known is cleared, its state goes on the model's
+        marker, and joint values heard before pose its links."""
         static, initial = self.fleet.site_known(info)
-        now: list[LogItem] = []
+        now: list[LogItem] = self.fleet.catch_up(now_s)
         for robot_id, state in self._robot_states.items():
             if self.fleet.drawn(robot_id):
                 now.append(LogItem(f"{robot_path(robot_id)}/body", rr.Clear(recursive=False)))

@@ -242,6 +242,15 @@ def test_joint_values_move_only_the_links_below_the_joints_that_changed(crane_ur
     }
 
 
+def test_joint_values_heard_before_the_site_info_pose_the_links_once_it_comes(crane_urdf: Path) -> None:
+    fleet = FleetLog()
+    assert fleet.robot_pose(_pose(3.0, trolley=2.0)) == []  # not drawn yet: kept
+    fleet.site_known(_site_info(crane_urdf))
+    caught = fleet.catch_up(4.0)
+    assert {item.entity_path for item in caught} == {link_path("r1", "trolley_link"), link_path("r1", "hook")}
+    assert fleet.catch_up(5.0) == []
+
+
 def test_the_state_of_a_drawn_robot_goes_on_its_labelled_marker(crane_urdf: Path) -> None:
     fleet = FleetLog()
     fleet.site_known(_site_info(crane_urdf))
