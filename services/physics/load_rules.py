@@ -54,15 +54,15 @@ def carry_refusal(
     if description.reaches(robot_xy, polygon, mass):
         return None, None
     nearest = float(footprint_distance_m(polygon, robot_xy)[0])
-    kind = "robot" if crane is None else "crane"
+    who = f"{'robot' if crane is None else 'crane'} {robot_id} ({description.name})"
     if crane is None or nearest > description.reach_m + 1e-9:
         return (
-            f"{kind} {robot_id} is {nearest:.2f} m from {what}, reach is {description.reach_m:g} m",
+            f"{who} is {nearest:.2f} m from {what}, reach is {description.reach_m:g} m",
             nearest,
         )
     if nearest < crane.min_radius_m - 1e-9:
         inside = f"inside its smallest hook radius of {crane.min_radius_m:g} m"
-        return f"crane {robot_id} is {nearest:.2f} m from {what}, {inside}", nearest
+        return f"{who} is {nearest:.2f} m from {what}, {inside}", nearest
     farthest = float(np.max(np.hypot(*(polygon - robot_xy).T)))
     chart = (
         f"{description.name}, {crane.payload_at(farthest):,.0f} kg there; it lifts {mass:,.0f} kg out to "

@@ -89,13 +89,15 @@ def test_a_crane_refuses_inside_its_smallest_radius_beyond_its_reach_and_beyond_
     inside = sim.attach(AttachRequest(robot_id="r2", guid=column.guid))
     assert not inside.ok and inside.distance_m is not None and inside.distance_m < 2.5
     assert re.fullmatch(
-        rf"crane r2 is \d\.\d\d m from {column.guid}, inside its smallest hook radius of 2.5 m", inside.reason
+        rf"crane r2 \(tower_crane\) is \d\.\d\d m from {column.guid}, "
+        r"inside its smallest hook radius of 2.5 m",
+        inside.reason,
     )
 
     _lay_at(sim, column, (x + 45.0 * heading[0], y + 45.0 * heading[1]))
     beyond = sim.attach(AttachRequest(robot_id="r2", guid=column.guid))
     assert not beyond.ok and beyond.distance_m is not None and 40.0 < beyond.distance_m < 45.0
-    assert beyond.reason.startswith("crane r2 is ") and beyond.reason.endswith("reach is 40 m")
+    assert beyond.reason.startswith("crane r2 (tower_crane) is ") and beyond.reason.endswith("reach is 40 m")
 
     _lay_at(sim, footing, (x + 20.0 * heading[0], y + 20.0 * heading[1]))  # the chart: ~190 kg at 20 m
     heavy = sim.attach(AttachRequest(robot_id="r2", guid=footing.guid))

@@ -77,7 +77,7 @@ def test_attach_out_of_reach_is_refused_with_the_distance(
     reply = sim.attach(AttachRequest(robot_id="r1", guid=footing.guid))
     assert not reply.ok
     match = re.fullmatch(
-        rf"robot r1 is (\d+\.\d\d) m from {re.escape(footing.guid)}, reach is 1.5 m", reply.reason
+        rf"robot r1 \(default\) is (\d+\.\d\d) m from {re.escape(footing.guid)}, reach is 1.5 m", reply.reason
     )
     assert match, reply.reason
     x, y, _ = sim.robot_pose("r1")
@@ -192,7 +192,8 @@ def test_place_refusals_name_the_problem(
     _picked(sim, column)
     far = sim.place(_place(sim, column))
     assert not far.ok and re.fullmatch(
-        rf"robot r1 is \d+\.\d\d m from the target of {re.escape(column.guid)}, reach is 1.5 m", far.reason
+        rf"robot r1 \(default\) is \d+\.\d\d m from the target of {re.escape(column.guid)}, reach is 1.5 m",
+        far.reason,
     )
     _beside_target(sim, column)
     assert sim.place(_place(sim, column, robot_id="r2")).reason == f"{column.guid} is carried by r1, not r2"

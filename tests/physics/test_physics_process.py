@@ -150,7 +150,9 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
         )
         assert not reply.ok
         assert re.fullmatch(
-            rf"robot r1 is \d+\.\d\d m from {re.escape(footing.guid)}, reach is {reach_m:g} m", reply.reason
+            rf"robot r1 \({fleet.default_type}\) is \d+\.\d\d m from {re.escape(footing.guid)}, "
+            rf"reach is {reach_m:g} m",
+            reply.reason,
         )
 
         token.undeclare()  # r1 gone: physics runs free again
