@@ -36,6 +36,9 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
 
+LIFT_CLEARANCE_M = 3.0  # a crane lifts a load this far above the higher of its two ends before slewing
+
+
 class LoadPoint(BaseModel):
     """One line of a crane's load chart: at this hook radius it lifts at most this mass."""
 
@@ -83,7 +86,8 @@ class CraneSpec(BaseModel):
 
     def motion_s(self, base_xy_m: ArrayLike, from_xyz_m: ArrayLike, to_xyz_m: ArrayLike) -> float:
         """Sim seconds to move a load from ``from_xyz_m`` to ``to_xyz_m`` with the crane at ``base_xy_m``:
-        hoist up to the jib, slew and trolley at once (the longer of the two), lower onto the target."""
+        hoist it ``LIFT_CLEARANCE_M`` above the higher end, slew and trolley at once (the longer of the
+        two), lower it onto the target."""
         import numpy as np  # not loaded by processes that only decode messages
 
         base = np.asarray(base_xy_m, float)[:2]
@@ -91,7 +95,8 @@ class CraneSpec(BaseModel):
         a, b = start[:2] - base, end[:2] - base
         turn = abs(math.remainder(math.atan2(b[1], b[0]) - math.atan2(a[1], a[0]), math.tau))
         radial = abs(float(np.hypot(*b)) - float(np.hypot(*a)))
-        hoist = max(0.0, self.jib_height_m - start[2]) + max(0.0, self.jib_height_m - end[2])
+        peak = min(self.jib_height_m, max(start[2], end[2]) + LIFT_CLEARANCE_M)
+        hoist = max(0.0, peak - start[2]) + max(0.0, peak - end[2])
         return max(turn / self.slew_radps, radial / self.trolley_mps) + hoist / self.hoist_mps
 
     def radius_for(self, mass_kg: float) -> float:

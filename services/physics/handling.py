@@ -78,7 +78,7 @@ class HandlingConfig:
     lift_s: float = 1.0
     hook_lift_m: float = 1.0  # a crane lifts its load this far above where it lay
     carry_clearance_m: float = 0.02
-    max_place_duration_s: float = 60.0
+    max_place_duration_s: float = 900.0  # a tower crane's lift across the site takes minutes
 
 
 @dataclass

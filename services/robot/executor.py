@@ -346,6 +346,11 @@ class Executor(Driving, Handover):
         guid = task.message.guid
         carrier = self.site_map.carried.get(guid)
         if carrier is not None and carrier != self.robot_id:
+            # just put down (a hand-off, a give-back): physics' pose saying so may still be on its way
+            if task.carried_seen_s is None:
+                task.carried_seen_s = self.sim_s
+            if self.sim_s - task.carried_seen_s < self.config.carried_wait_s:
+                return None
             return self._give_up(task, give_back.carried_by(self.robot_id, self._name(task), carrier))
         if self.sim_s < task.retry_at_s:
             return None

@@ -31,6 +31,7 @@ class ExecutorConfig:
     retry_delay_s: float = 1.0  # sim seconds before looking for an approach again
     task_timeout_s: float = 900.0  # sim seconds in one task state → given back (no_progress)
     give_back_timeout_s: float = 60.0  # sim seconds for the agent to confirm an abandon (else go idle)
+    carried_wait_s: float = 10.0  # sim seconds a component on another robot may take to be put down
     park_after_s: float = 8.0  # sim seconds idle → drive back to the start pose (clears the structure)
     leave_margin_m: float = 1.0  # after a task: out of the building footprint grown by this much
     placement_error_m: float = 0.0  # injected on first placement attempts (tests, demos)
@@ -60,4 +61,5 @@ class Task:
     dropping: Reason | None = None  # putting the load down before giving the task back with this reason
     withdrawn: bool = False  # the planner took it back: after the drop just go idle
     drop_tries: int = 0
+    carried_seen_s: float | None = None  # sim time it was first seen on another robot
     handed_off: bool = False  # a hand-off task: physics put the load down at the staging spot

@@ -89,7 +89,7 @@ def _assert_all_constructed_within_tolerance(build: Path, report: dict) -> None:
 
 
 def test_one_robot_builds_the_whole_frame_within_tolerance(build: Path) -> None:
-    result, report = _run(build)
+    result, report = _run(build, "--robots", "1")
     assert re.search(r"constructed 5/5 components", result.stdout)
     _assert_all_constructed_within_tolerance(build, report)
     (robot,) = report["robots"].values()
