@@ -56,3 +56,23 @@ def test_a_child_started_in_a_folder_with_its_own_bimbot_package_runs_ours(tmp_p
         os.chdir(here)
     assert code == 0, log
     assert log.startswith("bimbot "), log
+
+
+def test_every_data_file_the_packages_read_is_installed_with_them() -> None:
+    """A wheel (the container image) gets only what package-data names: the default fleet and the robot
+    models must be in it, else physics in a container cannot start."""
+    globs = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]
+    data_folders = {
+        "bimbot/data": ("bimbot.data", ROOT / "bimbot/data"),
+        "shared/robots": ("bimbot.shared", ROOT / "shared"),
+    }
+    checked = 0
+    for folder, (package, base) in data_folders.items():
+        for path in (ROOT / folder).iterdir():
+            if path.is_file() and path.suffix != ".py":
+                relative = path.relative_to(base)
+                assert any(relative.match(glob) for glob in globs.get(package, [])), (
+                    f"{path} is not installed"
+                )
+                checked += 1
+    assert checked >= 4  # the bundled model, the default fleet, the carrier and the tower crane
