@@ -72,52 +72,31 @@ def choose(
     the task back (bidding only when nobody else can)."""
     alive = [record for record in records if record.alive and record.robot_id in site]
     fresh = [record for record in alive if record.robot_id not in avoid] or alive
-    bids: list[tuple[float, str, Choice]] = []
-    for record in fresh:
-        robot = site[record.robot_id]
-        if can_build_from(robot, component, where):
-            bids.append(
-                _bid(
-                    record,
-                    robot,
-                    component,
-                    where,
-                    now_s=now_s,
-                    promised_s=promised_s,
-                    kind=TaskKind.BUILD,
-                    spot=None,
-                )
-            )
-    if not bids:
+
+    def bids(kind: TaskKind, spot: tuple[float, float] | None) -> list[tuple[float, str, Choice]]:
+        able = (
+            can_build_from if kind is TaskKind.BUILD else lambda robot, item, _where: can_carry(robot, item)
+        )
+        return [
+            _bid(record, site[record.robot_id], component, where, now_s, promised_s, kind, spot)
+            for record in fresh
+            if able(site[record.robot_id], component, where)
+        ]
+
+    found = bids(TaskKind.BUILD, None)
+    if not found:
         spot = _hand_off_spot(component, fresh, site, taken_spots)
-        if spot is None:
-            return None
-        for record in fresh:
-            robot = site[record.robot_id]
-            if can_carry(robot, component):
-                bids.append(
-                    _bid(
-                        record,
-                        robot,
-                        component,
-                        where,
-                        now_s=now_s,
-                        promised_s=promised_s,
-                        kind=TaskKind.HAND_OFF,
-                        spot=spot,
-                    )
-                )
-    if not bids:
+        found = bids(TaskKind.HAND_OFF, spot) if spot is not None else []
+    if not found:
         return None
-    return min(bids, key=lambda bid: (bid[0], bid[1]))[2]
+    return min(found, key=lambda bid: (bid[0], bid[1]))[2]
 
 
-def _bid(
+def _bid(  # noqa: PLR0917 - one bid's inputs, named at the single call
     record: RobotRecord,
     robot: SiteRobot,
     component: Component,
     where: Where,
-    *,
     now_s: float,
     promised_s: Mapping[str, float],
     kind: TaskKind,
