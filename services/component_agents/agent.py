@@ -161,8 +161,8 @@ class ComponentAgent:
 
     def _sender_refusal(self, msg: ComponentEventMsg) -> str | None:
         """Who may say what (None: this sender may): the planner releases, retries, fails and blocks; a
-        robot picks, attaches, arrives, places and hands off, and once a robot has picked the component up, only that
-        robot until the task is given back or retried; either may abandon."""
+        robot picks, attaches, arrives, places and hands off, and once a robot has picked the component up,
+        only that robot until the task is given back, handed off or retried; either may abandon."""
         robot = msg.source != PLANNER_SOURCE
         if msg.event in PLANNER_EVENTS and robot:
             return f"{msg.event.value} comes from the planner only, not {clip(msg.source)}"

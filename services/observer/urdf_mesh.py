@@ -72,7 +72,7 @@ class LinkMeshes:
         for visual in link.visuals:
             shape = self._shape(visual)
             if shape is None:
-                shape, rgba = _fallback_box(link, visual), FALLBACK_RGBA
+                shape, rgba = _fallback_box(link, visual), tuple(FALLBACK_RGBA)
             else:
                 rgba = visual.rgba
             parts.append((shape, rgba))

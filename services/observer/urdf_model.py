@@ -130,11 +130,11 @@ def read_urdf(path: Path) -> UrdfModel:
         raise InputError(f"robot URDF {path}: {exc}") from None
     if robot.tag != "robot":
         raise InputError(f"robot URDF {path}: the root element is <{robot.tag}>, not <robot>")
-    materials = {
-        material.get("name"): _rgba(material)
-        for material in robot.findall("material")
-        if material.get("name") and _rgba(material) is not None
-    }
+    materials: dict[str, tuple] = {}
+    for material in robot.findall("material"):
+        name, rgba = material.get("name"), _rgba(material)
+        if name and rgba is not None:
+            materials[name] = rgba
     links = {}
     for element in robot.findall("link"):
         name = element.get("name")
@@ -253,7 +253,7 @@ def _material_rgba(material: etree._Element | None, materials: dict[str, tuple])
     inline = _rgba(material)
     if inline is not None:
         return inline
-    return materials.get(material.get("name"), DEFAULT_RGBA)
+    return materials.get(material.get("name") or "", DEFAULT_RGBA)
 
 
 def _rgba(material: etree._Element) -> tuple[float, float, float, float] | None:
