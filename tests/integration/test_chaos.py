@@ -104,7 +104,8 @@ def test_every_service_killed_once_mid_build_the_build_completes_once(
     assert process.returncode == 0, detail
     assert f"constructed {total}/{total} components" in stdout, detail
     deaths = {record["service"]: record for record in report["restarts"]}
-    assert set(deaths) == {"physics", "robot-r1", "agents", "planner", "bus"}, detail
+    robots = {name for name in deaths if name.startswith("robot-")}  # one robot of the fleet (any type)
+    assert len(robots) == 1 and set(deaths) - robots == {"physics", "agents", "planner", "bus"}, detail
     assert all(record["restarted_wall_s"] is not None for record in deaths.values()), detail
     constructions = _constructions(run)
     assert len(constructions) == total and set(constructions.values()) == {1}, constructions
