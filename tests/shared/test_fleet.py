@@ -106,3 +106,12 @@ def test_fleet_check_prints_the_husky_only_fleet_footings_too_heavy_with_the_num
     assert done.returncode == 0, done.stderr
     assert "buildable: 19 of 28; cannot: 9 too_heavy" in done.stdout
     assert done.stdout.count("259 kg exceeds the largest payload on site (75 kg") == 9
+
+
+def test_the_example_fleets_load_and_their_types_match_the_default_ones() -> None:
+    examples = sorted((Path(__file__).resolve().parents[2] / "examples" / "fleets").glob("*.toml"))
+    assert examples
+    for path in examples:
+        fleet = load_fleet(path)
+        for name, description in fleet.types.items():
+            assert description == DEFAULT.types[name], f"{path.name}: {name} differs from the default fleet"
