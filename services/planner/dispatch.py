@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentState, RobotState, TaskKind, TaskMsg, TaskStatus
+from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.site_plan import YardSlot
 
 from .assignment import choose, staged_where
@@ -25,6 +26,8 @@ from .records import FINAL, ComponentRecord, Pending, Phase, RobotRecord, TaskRe
 from .sources import Plan
 
 _log = logging.getLogger(__name__)
+
+MAX_HAND_OFFS = 2  # hand-off tasks per component; a third would be a loop: failed out_of_reach
 
 
 class Dispatch:
@@ -43,6 +46,8 @@ class Dispatch:
     if TYPE_CHECKING:  # defined by :class:`.scheduler.PlannerCore`
 
         def _task_msg(self, task: TaskRecord, status: TaskStatus) -> TaskMsg: ...
+
+        def _fail(self, guid: str, reason: Reason, *, block: bool = True) -> None: ...
 
     def _assign(self) -> None:
         if self._site is not None:
@@ -97,6 +102,9 @@ class Dispatch:
             )
             if choice is None:
                 continue
+            if choice.kind is TaskKind.HAND_OFF and task.hand_offs >= MAX_HAND_OFFS:
+                self._fail(guid, self._hand_offs_exhausted(task, item))
+                continue
             robot = self._robots[choice.robot_id]
             if not choice.idle or not self._is_idle(robot):
                 promised[choice.robot_id] = promised.get(choice.robot_id, 0.0) + choice.estimate_s
@@ -104,6 +112,16 @@ class Dispatch:
             if choice.put_down_xy_m is not None:
                 taken.append(choice.put_down_xy_m)
             self._give_to(task, robot, choice.kind, choice.put_down_xy_m, estimate_s=choice.estimate_s)
+
+    @staticmethod
+    def _hand_offs_exhausted(task: TaskRecord, item: Component) -> Reason:
+        return Reason(
+            code=ReasonCode.OUT_OF_REACH,
+            message=(
+                f"{item.name or item.guid} was handed off {task.hand_offs} time(s) and still lies beyond the "
+                f"hook of every crane that could place its {item.mass_kg:,.0f} kg"
+            ),
+        )
 
     def _taken_spots(self) -> list[tuple[float, float]]:
         """Staging spots in use: a hand-off on its way there, or a component lying in a staging area."""

@@ -144,3 +144,36 @@ def test_crane_hook_radius_is_to_the_load_centre_and_limited_by_the_load_chart()
     assert not crane_reaches_disc(crane, Where((30.0, 0.0), 12.0, 0.0), 2100.0)
     assert not crane_reaches_disc(crane, Where((1.0, 0.0), 0.5, 0.0), 10.0)  # inside the trolley's minimum
     assert not crane_reaches_disc(crane, Where((41.0, 0.0), 0.5, 0.0), 10.0)  # beyond the jib
+
+
+def test_a_component_the_crane_still_cannot_reach_after_its_hand_offs_fails_out_of_reach() -> None:
+    manifest = _manifest(beam=300.0)
+    staging = Rect((-2.0, 16.0), (6.0, 24.0))
+    robots = [
+        SiteRobot("r1", CARRIER.model_copy(update={"max_place_height_m": 1.0}), (-10.0, -10.0, 0.0)),
+        SiteRobot("r2", CRANE, (2.0, 12.0, -1.5708), staging),
+    ]
+    core = _core(manifest, robots)
+    for guid in ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c"):
+        core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified"))
+    core.observe_component_pose(_pose("beam", (2.0, -58.0)))
+    _release(core, "beam")
+    for number in (1, 2):  # each hand-off puts it down again out of the hook's reach
+        assert core.phase("beam") is Phase.ASSIGNED
+        for state, event in ((S.PICKING, "pick"), (S.TRANSPORTING, "attach")):
+            core.observe_component_state(
+                state_msg("beam", state, event=event, robot_id="r1", sim_time_s=10.0 * number)
+            )
+        core.observe_component_state(
+            state_msg("beam", S.RELEASED, event="hand_off", robot_id="r1", sim_time_s=10.0 * number + 5)
+        )
+        core.observe_component_pose(_pose("beam", (2.0, -58.0)))
+        core.observe_robot_state(robot_msg("r1", (0.0, -50.0), sim_time_s=10.0 * number + 5))
+        core.step(float(number))
+    assert core.phase("beam") is Phase.FAILED
+    reason = core.reason_of("beam")
+    assert (
+        reason is not None
+        and reason.code.value == "out_of_reach"
+        and "handed off 2 time(s)" in reason.message
+    )
