@@ -40,7 +40,7 @@ import threading
 import time
 import urllib.parse
 import uuid
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from datetime import timedelta
 from pathlib import Path
@@ -310,7 +310,9 @@ class Observer:
             self.recording.log(item.entity_path, item.archetype, static=item.static)
 
 
-def open_recording(site: str, config: ObserverConfig) -> tuple[rr.RecordingStream, str | None]:
+def open_recording(
+    site: str, config: ObserverConfig, components: Sequence[Component] = ()
+) -> tuple[rr.RecordingStream, str | None]:
     """The recording with its sinks: the ``.rrd`` file and (web on) a gRPC server; the server's URL."""
     batching = rr.ChunkBatcherConfig(flush_tick=timedelta(seconds=FLUSH_TICK_S))
     recording = rr.RecordingStream(
@@ -324,7 +326,7 @@ def open_recording(site: str, config: ObserverConfig) -> tuple[rr.RecordingStrea
         server = rr.GrpcServerSink(bind_ip=config.bind, port=config.grpc_port)
         sinks.append(server)
         url = server.uri
-    recording.set_sinks(*sinks, default_blueprint=observer_blueprint(site))
+    recording.set_sinks(*sinks, default_blueprint=observer_blueprint(site, components))
     recording.send_recording_name(f"bimbot {site}")
     return recording, url
 
@@ -334,7 +336,7 @@ def main(options: BusOptions, build: BuildInput, config: ObserverConfig, stop: t
     if config.web:
         check_port_free(config.bind, config.web_port, "--web-port")
         check_port_free(config.bind, config.grpc_port, "--grpc-port")
-    recording, grpc_url = open_recording(build.manifest.site, config)
+    recording, grpc_url = open_recording(build.manifest.site, config, build.manifest.components)
     with contextlib.ExitStack() as stack:
         stack.callback(_close_recording, recording, config.rrd_path, config.compact)
         if grpc_url is not None:

@@ -26,11 +26,31 @@ from bimbot.shared.site_plan import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect, Sit
 from .twin_items import SITE_LINE_Z_M, STATE_COLORS, TIMELINE, LogItem
 
 
-def observer_blueprint(site: str) -> rrb.Blueprint:
-    """3D view of ``world``, "% constructed" and "components by state" plots, and the log."""
+def site_eye(components: Iterable[Component]) -> rrb.EyeControls3D | None:
+    """Where the 3D view's camera starts: south-west of the building, above it, looking at its centre
+    from far enough to see the yard south of it. Without it the viewer fits its camera to every entity,
+    a tower crane's 32 m mast included, and opens on a close-up of the mast."""
+    boxes = [component.bbox_world for component in components]
+    if not boxes:
+        return None
+    low = [min(box.min_m[axis] for box in boxes) for axis in range(3)]
+    high = [max(box.max_m[axis] for box in boxes) for axis in range(3)]
+    centre = [(low[axis] + high[axis]) / 2.0 for axis in range(2)]
+    span = max(high[0] - low[0], high[1] - low[1], EYE_MIN_SPAN_M)
+    target = (centre[0], centre[1] - 0.35 * span, 0.0)  # between the building and the yard
+    position = (target[0] - 0.9 * span, target[1] - 1.6 * span, 1.2 * span)
+    return rrb.EyeControls3D(position=position, look_target=target, eye_up=(0.0, 0.0, 1.0))
+
+
+EYE_MIN_SPAN_M = 15.0  # a small model's site (yard, depot, crane) is still this wide
+
+
+def observer_blueprint(site: str, components: Iterable[Component] = ()) -> rrb.Blueprint:
+    """3D view of ``world`` (its camera from :func:`site_eye`), "% constructed" and "components by state"
+    plots, and the log."""
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Spatial3DView(origin="world", name=f"site {site}"),
+            rrb.Spatial3DView(origin="world", name=f"site {site}", eye_controls=site_eye(components)),
             rrb.Vertical(
                 rrb.TimeSeriesView(
                     origin="progress/percent_constructed",

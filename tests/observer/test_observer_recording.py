@@ -242,3 +242,16 @@ def test_the_planner_leaving_ends_the_wait_even_when_its_done_progress_was_misse
     observer.alive(f"{alive}/planner/main", False)
     assert observer.done_at is not None  # with --exit-when-done the observer now ends
     _close_recording(recording, config.rrd_path, compact=False)
+
+
+def test_the_3d_view_opens_looking_at_the_building_from_the_south_west(frame_manifest: Manifest) -> None:
+    from bimbot.services.observer.blueprint import site_eye
+
+    eye = site_eye(frame_manifest.components)
+    assert eye is not None
+    position, target = (
+        eye.position.as_arrow_array().to_pylist()[0],  # type: ignore[union-attr]
+        eye.look_target.as_arrow_array().to_pylist()[0],  # type: ignore[union-attr]
+    )
+    assert position[0] < target[0] and position[1] < target[1] and position[2] > 10.0
+    assert 0.0 <= target[0] <= 6.0  # the bundled frame spans 0–6 m
