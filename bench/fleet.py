@@ -3,13 +3,20 @@
 Run: ``.venv/bin/python bench/fleet.py [--models frame,hub] [--sizes 1,2,4,8] [--timeout-s 3600]
 [--plot bench/out/fleet.png] [--json bench/out/fleet.json] [--work DIR] [--keep] [--build-sequence]``.
 
-For each model it makes its own build (``bimbot sample light-steel-frame`` + ``bimbot convert``: the bundled
-28-component frame; ``hub``: the Revit structural hub of the public samples folder beside the checkout,
-``../shared/samples/ifc/revit2021_structural_hub.ifc``, whole model, read in place and skipped when it is
-not there), and for each fleet size writes a fleet TOML with the default fleet's robot types
+For each model it makes its own build (``bimbot sample light-steel-frame`` + ``bimbot convert``):
+
+- ``frame``: the bundled 28-component light steel frame;
+- ``hub``: the Revit structural hub of the public samples folder beside the checkout
+  (``../shared/samples/ifc/revit2021_structural_hub.ifc``, read in place, skipped when it is not there),
+  whole model: nearly all of it rests, by the support graph, on a 49 t foundation slab that no fleet lifts,
+  so every fleet builds a few footings and the rest ends ``blocked_by`` that slab;
+- ``hub-steel`` (on request): the hub's steel frame alone (``--only IfcBeam,IfcColumn``, 85 members), the
+  part of that building a fleet can build.
+
+For each fleet size it writes a fleet TOML with the default fleet's robot types
 (``shared/robots/default_fleet.toml``) and this mix:
 
-- 1: 1 carrier (the one robot that lifts footings and slabs; it places up to 3 m, so no beams above that);
+- 1: 1 carrier (the ground robot that lifts footings and slabs);
 - 2: 1 carrier + 1 tower crane (the crane lifts what is high; the carrier hands it loads the hook cannot
   reach in the yard);
 - 4: 1 husky + 2 carrier + 1 tower crane (the Husky takes light members: columns, and
@@ -25,17 +32,20 @@ a loopback bus, lock-step physics as fast as the robots follow). ``--derive``: t
 by its support graph, so robots can work side by side; the bundled frame's IFC work schedule is one chain
 (the paper's single-robot erection order) in which a fleet gains nothing but capability
 (``--build-sequence`` runs with it). Each run gives one row: model, fleet, constructed/buildable/total
-(buildable: the components ``bimbot fleet check --json`` finds a route for with that fleet; the hub's 69 t
-slabs are too heavy for any fleet, and a buildable component that rests on one ends ``blocked_by``),
+(buildable: the components ``bimbot fleet check --json`` finds a route for with that fleet; it does not
+follow supports, so a component it counts that rests on one no fleet lifts still ends ``blocked_by``),
 makespan in sim seconds (the report's release-to-last-constructed makespan when the planner was done,
 else the sim time at the end of the run, marked ``*``), wall seconds, sim/wall ratio, utilisation per robot
 type (busy / (robots of the type × makespan)), hand-off tasks, how the run ended, the reason codes of what
 was not built and the robots that got no task. Then a plot of makespan against fleet size, one line per
-model (hollow markers: the run ended early), and the rows as JSON. A run that ends early (its own
-``--timeout-s``, a stall) still gives its row: a run always writes its report.
+model through the fleets that built the most of it (a cross: a fleet that built less; hollow: the run
+ended early), and the rows as JSON. A run that ends early (its own ``--timeout-s``, a stall) still gives
+its row: a run always writes its report.
 
-The hub takes several minutes of wall time per fleet; the whole study 30-60 min on 2 cores. Run folders
-(journal, ``logs/*.log``, report) are deleted after their row unless ``--keep``.
+Wall time on 2 shared cores: the frame 1-1.5 min per fleet, the whole hub under a minute (it stops after
+the footings), the hub's steel frame 1-12 min per fleet (the crane is its bottleneck); the default study
+about 10 min, with ``hub-steel`` about 40. Run folders (journal, ``logs/*.log``, report) are deleted after
+their row unless ``--keep``.
 """
 
 from __future__ import annotations
@@ -55,7 +65,9 @@ ROOT = Path(__file__).resolve().parents[1]
 BIMBOT = Path(sys.executable).with_name("bimbot")
 DEFAULT_FLEET = ROOT / "shared" / "robots" / "default_fleet.toml"
 HUB_IFC = ROOT.parent / "shared" / "samples" / "ifc" / "revit2021_structural_hub.ifc"
-MODELS = ("frame", "hub")
+MODELS = ("frame", "hub", "hub-steel")
+DEFAULT_MODELS = ("frame", "hub")
+HUB_STEEL = "IfcBeam,IfcColumn"  # hub-steel: the hub converted with --only these classes
 TYPES = ("husky", "carrier", "tower_crane")
 # fleet size → robots per type (in TYPES order); the mixes the module docstring explains
 MIXES: dict[int, tuple[int, int, int]] = {1: (0, 1, 0), 2: (0, 1, 1), 4: (1, 2, 1), 8: (3, 3, 2)}
@@ -107,13 +119,14 @@ def make_build(model: str, work: Path) -> Path | None:
             raise SystemExit(f"bimbot sample failed: {made.stderr.strip()}")
     else:
         if not HUB_IFC.is_file():
-            print(f"hub: {HUB_IFC} is not there; skipped")
+            print(f"{model}: {HUB_IFC} is not there; skipped")
             return None
         source = HUB_IFC
     if build.exists():
         shutil.rmtree(build)
     start = time.perf_counter()
-    converted = bimbot("convert", source, "-o", build, "--no-progress")
+    only = ("--only", HUB_STEEL) if model == "hub-steel" else ()
+    converted = bimbot("convert", source, "-o", build, "--no-progress", *only)
     if converted.returncode != 0:
         raise SystemExit(f"bimbot convert {source} failed: {converted.stderr.strip()[-2000:]}")
     print(f"{model}: converted {source.name} in {time.perf_counter() - start:.1f} s wall → {build}")
@@ -207,7 +220,7 @@ def from_report(report: dict[str, Any], can: int | None, wall_s: float) -> dict[
 
 
 HEADER = (
-    f"{'model':<6} {'fleet':<34} {'built/can/all':>13} {'makespan s':>11} {'wall s':>7} {'sim/wall':>8} "
+    f"{'model':<9} {'fleet':<34} {'built/can/all':>13} {'makespan s':>11} {'wall s':>7} {'sim/wall':>8} "
     f"{'hand-offs':>9}  {'ended':<8} utilisation"
 )
 
@@ -215,7 +228,7 @@ HEADER = (
 def table_row(row: dict[str, Any]) -> str:
     """One printed line (and a second with what was not built, when something was not)."""
     if "error" in row:
-        return f"{row['model']:<6} {row['fleet']:<34} run failed: {row['error']}"
+        return f"{row['model']:<9} {row['fleet']:<34} run failed: {row['error']}"
     can = "?" if row["buildable"] is None else row["buildable"]
     counts = f"{row['constructed']}/{can}/{row['total']}"
     makespan = f"{row['makespan_s']:.0f}{'' if row['complete'] else '*'}"
@@ -224,7 +237,7 @@ def table_row(row: dict[str, Any]) -> str:
         f"{name} {'-' if value is None else f'{value:.2f}'}" for name, value in row["utilisation"].items()
     )
     line = (
-        f"{row['model']:<6} {row['fleet']:<34} {counts:>13} {makespan:>11} {row['wall_s']:>7.0f} "
+        f"{row['model']:<9} {row['fleet']:<34} {counts:>13} {makespan:>11} {row['wall_s']:>7.0f} "
         f"{ratio:>8} {row['hand_offs']:>9}  {row['ended'] or '?':<8} {use}"
     )
     notes = []
@@ -234,11 +247,12 @@ def table_row(row: dict[str, Any]) -> str:
         notes.append("no task: " + ", ".join(row["idle_robots"]))
     if row["ended"] != "done" and row["ending"]:
         notes.append(f"ending: {row['ending']}")
-    return line + "".join(f"\n{'':<7}{note}" for note in notes)
+    return line + "".join(f"\n{'':<10}{note}" for note in notes)
 
 
 def plot(rows: list[dict[str, Any]], path: Path) -> None:
-    """Makespan against fleet size, one line per model; hollow markers: the run ended early."""
+    """Makespan against fleet size, one line per model through the runs that built the most of it (a
+    fleet that builds less is a cross, not on the line); hollow markers: the run ended early."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -251,13 +265,14 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
         )
         if not points:
             continue
-        sizes = [r["size"] for r in points]
-        (line,) = axes.plot(sizes, [r["makespan_s"] for r in points], "-", label=model)
+        most = max(r["constructed"] for r in points)
+        full = [r for r in points if r["constructed"] == most]
+        (line,) = axes.plot([r["size"] for r in full], [r["makespan_s"] for r in full], "-", label=model)
         for r in points:
             axes.plot(
                 r["size"],
                 r["makespan_s"],
-                "o",
+                "o" if r["constructed"] == most else "x",
                 color=line.get_color(),
                 markerfacecolor=line.get_color() if r["complete"] else "white",
             )
@@ -273,7 +288,10 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
     axes.set_xticks(all_sizes, [str(size) for size in all_sizes])
     axes.set_xlabel("robots in the fleet (mixed types)")
     axes.set_ylabel("makespan (sim s)")
-    axes.set_title("What a fleet buys: makespan against fleet size (hollow: run ended early)")
+    axes.set_title(
+        "What a fleet buys: makespan against fleet size, labels constructed/total\n"
+        "(×: built less than the model's best fleet; hollow: the run ended early)"
+    )
     axes.title.set_fontsize(9)
     axes.margins(x=0.1, y=0.1)
     axes.grid(True, alpha=0.3)
@@ -300,7 +318,9 @@ def speedups(rows: list[dict[str, Any]]) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--models", default=",".join(MODELS), help="comma-separated: frame, hub")
+    parser.add_argument(
+        "--models", default=",".join(DEFAULT_MODELS), help="comma-separated: " + ", ".join(MODELS)
+    )
     parser.add_argument("--sizes", default="1,2,4,8", help="comma-separated fleet sizes")
     parser.add_argument("--timeout-s", type=float, default=RUN_TIMEOUT_S, help="per run (bimbot run)")
     parser.add_argument("--plot", type=Path, default=ROOT / "bench" / "out" / "fleet.png")
