@@ -104,3 +104,27 @@ def load_top(
     """Where a hook holds a load: the centre (x, y) and the top (z) of its posed box (world, m)."""
     low, high = load_box(bbox_min_m, bbox_max_m, position_m, quat_xyzw)
     return float(low[0] + high[0]) / 2.0, float(low[1] + high[1]) / 2.0, float(high[2])
+
+
+def lift_position(
+    start_m: ArrayLike, end_m: ArrayLike, fraction: float, peak_z_m: float
+) -> tuple[float, float, float]:
+    """Where a crane's load is at ``fraction`` of its lift from ``start_m`` to ``end_m``: hoisted straight
+    up to ``peak_z_m``, carried across at that height, lowered straight onto the target; each leg takes
+    its share of the time by its length (a straight line would drag the load across the ground)."""
+    start, end = np.asarray(start_m, float), np.asarray(end_m, float)
+    peak = max(peak_z_m, start[2], end[2])
+    up = np.array([start[0], start[1], peak])
+    over = np.array([end[0], end[1], peak])
+    legs = [(start, up), (up, over), (over, end)]
+    lengths = [float(np.linalg.norm(b - a)) for a, b in legs]
+    total = sum(lengths)
+    if total <= 0.0 or fraction >= 1.0:
+        return float(end[0]), float(end[1]), float(end[2])
+    travelled = max(0.0, fraction) * total
+    for (a, b), length in zip(legs, lengths, strict=True):
+        if travelled <= length and length > 0.0:
+            point = a + (b - a) * (travelled / length)
+            return float(point[0]), float(point[1]), float(point[2])
+        travelled -= length
+    return float(end[0]), float(end[1]), float(end[2])

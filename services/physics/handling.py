@@ -43,11 +43,12 @@ from scipy.spatial.transform import Rotation
 from bimbot.shared.footprint import posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, PhysicsReply, PoseMsg
+from bimbot.shared.robot_description import LIFT_CLEARANCE_M
 from bimbot.shared.site_layout import lying_rotation
 from bimbot.shared.site_plan import Rect
 
 from .client import p
-from .crane import hook_joints, load_top
+from .crane import hook_joints, lift_position, load_top
 from .load_rules import carry_refusal, drop_beside, lowered
 from .robots import Robot
 from .scene import (
@@ -298,6 +299,10 @@ class Handling:
                 duration = item.motion_duration_s
                 fraction = (now_s - item.motion_start_s) / duration if duration > 0 else 1.0
                 item.pose = interpolate(item.motion_from, item.motion_to, fraction)
+                if carrier is not None and carrier.rig is not None and fraction < 1.0:  # up, across, down
+                    peak_z = max(item.motion_from[0][2], item.motion_to[0][2]) + LIFT_CLEARANCE_M
+                    position = lift_position(item.motion_from[0], item.motion_to[0], fraction, peak_z)
+                    item.pose = (position, item.pose[1])
                 if fraction >= 1.0:
                     finished.append((item.tag, self._fix(item, carrier, now_s)))
             set_component_pose(self.client_id, item.body, item.pose)

@@ -334,7 +334,8 @@ class PlannerCore(Dispatch):
             self._send_event(guid, ComponentEvent.RETRY, settled)
         elif state is ComponentState.RELEASED and event == ComponentEvent.HAND_OFF:
             if task.kind is TaskKind.HAND_OFF and task.phase is Phase.ASSIGNED:
-                _log.info("%s: %s put down at the crane's staging spot by %s", task.active_id, guid, robot_id)
+                by = task.robot_id
+                _log.info("%s: %s put down at the crane's staging spot by %s", task.active_id, guid, by)
                 self._outbox.append(self._task_msg(task, TaskStatus.DONE))
                 self._free_robot(task)
                 if task.put_down_xy is not None:  # until physics' pose of it arrives: the crane bids on it

@@ -69,3 +69,17 @@ def test_a_hook_holds_a_load_above_the_centre_of_its_posed_box() -> None:
     assert load_top(low, high, (0.0, 0.0, 3.16), quat) == pytest.approx((0.0, 1.5, 3.32))
     box_low, box_high = load_box(low, high, (0.0, 0.0, 3.16), quat)
     assert box_low == pytest.approx((-0.04, 0.0, 3.16)) and box_high == pytest.approx((0.04, 3.0, 3.32))
+
+
+def test_a_crane_lift_rises_to_its_peak_crosses_and_lowers_onto_the_target() -> None:
+    from bimbot.services.physics.crane import lift_position
+
+    start, end = (0.0, 0.0, 1.0), (10.0, 0.0, 3.0)
+    assert lift_position(start, end, 0.0, 6.0) == start
+    assert lift_position(start, end, 1.0, 6.0) == end
+    # legs: up 5 m, across 10 m, down 3 m (18 m): the load is at the peak for the middle of the lift
+    x, _, z = lift_position(start, end, 5.0 / 18.0 + 0.01, 6.0)
+    assert z == pytest.approx(6.0) and 0.0 < x < 1.0
+    x, _, z = lift_position(start, end, 0.5, 6.0)
+    assert z == pytest.approx(6.0) and 0.0 < x < 10.0
+    assert lift_position(start, end, 2.0 / 18.0, 6.0)[:2] == (0.0, 0.0)  # straight up first
