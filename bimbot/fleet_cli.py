@@ -5,7 +5,13 @@ the model, and why none can build the others (``too_heavy``, ``out_of_reach`` wi
 comes from the planner's own feasibility check (:mod:`bimbot.services.planner.feasibility`) on the same
 site plan physics would make, so a run fails exactly these components before it starts.
 ``bimbot fleet show [--fleet FLEET.toml]`` prints the fleet file (the embedded default when none is given),
-a starting point for one's own.
+a starting point for one's own. Exit 0 when the fleet can build every component, 1 when it cannot build
+some (the table says which and why), 2 for unusable input.
+
+Columns: ``built by / why not`` lists every route, the first being the one the planner's bids usually
+take; a tower crane is named with its robot id because where it stands (the site plan puts cranes beside
+the building: east, then north, west, south) decides what it reaches; ``A → crane (r3, hand-off)`` is a
+ground robot of type A bringing the component within the crane's hook first.
 """
 
 from __future__ import annotations
@@ -19,7 +25,7 @@ from pathlib import Path
 
 from bimbot.services.planner.capability import SiteRobot
 from bimbot.services.planner.feasibility import Feasibility, feasibility_table
-from bimbot.shared.fleet import DEFAULT_FLEET_FILE, Fleet, load_fleet
+from bimbot.shared.fleet import DEFAULT_FLEET_FILE, Fleet, check_urdfs, load_fleet
 from bimbot.shared.manifest import Component
 from bimbot.shared.option_types import positive_int
 from bimbot.shared.service_runner import resolve_build
@@ -68,7 +74,9 @@ def run(args: argparse.Namespace) -> int:
         from bimbot.shared.errors import UserError
 
         raise UserError("bimbot fleet check: give the converted build folder (OUT/)")
+    check_urdfs(fleet)  # as physics would: a missing model is one line here too
     rows = check(args.build, fleet)
+    code = 0 if all(row.reason is None for _, row in rows) else 1  # 1: some component has no route
     if args.json:
         for component, row in rows:
             record = {
@@ -81,9 +89,9 @@ def run(args: argparse.Namespace) -> int:
                 "reason": row.reason.model_dump(mode="json") if row.reason else None,
             }
             sys.stdout.write(json.dumps(record) + "\n")
-        return 0
+        return code
     _print_table(rows, fleet)
-    return 0
+    return code
 
 
 def _print_table(rows: list[tuple[Component, Feasibility]], fleet: Fleet) -> None:

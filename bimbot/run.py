@@ -322,5 +322,6 @@ def summary_text(outcome: RunOutcome) -> str:
     if outcome.run_dir is not None:
         lines.append(f"logs: {RunFolder(outcome.run_dir).logs_dir}/ (one per service)")
     if outcome.rrd_path is not None:
-        lines.append(f"recording: {outcome.rrd_path} (open it with: .venv/bin/rerun {outcome.rrd_path})")
+        viewer = Path(sys.executable).with_name("rerun")  # the venv's own viewer, wherever the user stands
+        lines.append(f"recording: {outcome.rrd_path} (open it with: {viewer} {outcome.rrd_path})")
     return "\n".join(lines) + "\n"

@@ -130,12 +130,25 @@ def load_fleet(path: Path | str | None = None) -> Fleet:
     try:
         fleet = Fleet.model_validate({**data, "source": str(file), "base_dir": str(file.resolve().parent)})
     except ValidationError as exc:
-        first = exc.errors()[0]
-        where = ".".join(str(part) for part in first["loc"])
-        raise InputError(
-            f"fleet file {file}: {where}: {first['msg']} ({exc.error_count()} error(s))"
-        ) from None
+        raise InputError(f"fleet file {file}: {_problems(exc)}") from None
     return fleet
+
+
+def _problems(error: ValidationError, shown: int = 3) -> str:
+    """Pydantic's errors as one line: ``types.carrier.paylod_kg: Extra inputs are not permitted; …``."""
+    parts = []
+    for item in error.errors()[:shown]:
+        where = ".".join(str(part) for part in item["loc"])
+        message = str(item["msg"]).removeprefix("Value error, ")
+        parts.append(f"{where}: {message}" if where else message)
+    more = error.error_count() - shown
+    return "; ".join(parts) + (f" (and {more} more)" if more > 0 else "")
+
+
+def check_urdfs(fleet: Fleet) -> None:
+    """Every robot type's URDF can be found (an :class:`InputError` naming the first that cannot)."""
+    for description in fleet.types.values():
+        fleet.resolve_urdf(description.urdf)
 
 
 def default_fleet() -> Fleet:

@@ -42,7 +42,7 @@ LIFT_CLEARANCE_M = 3.0  # a crane lifts a load this far above the higher of its 
 class LoadPoint(BaseModel):
     """One line of a crane's load chart: at this hook radius it lifts at most this mass."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     radius_m: float = Field(gt=0, le=150)
     payload_kg: float = Field(gt=0, le=1e6)
@@ -51,7 +51,7 @@ class LoadPoint(BaseModel):
 class CraneSpec(BaseModel):
     """A tower crane's joints and chart: slew about the mast, trolley along the jib, hoist below it."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     jib_height_m: float = Field(gt=0, le=300, description="height of the jib (hook's highest point)")
     min_radius_m: float = Field(ge=0, le=150, description="trolley's innermost hook radius")
@@ -120,7 +120,7 @@ class CraneSpec(BaseModel):
 class RobotDescription(BaseModel):
     """One robot type: its model, its limits and its footprint (SI units, robot base frame)."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     name: str = Field(min_length=1, max_length=64, pattern=r"^[a-z0-9_-]+$")
     urdf: str = Field(

@@ -66,6 +66,8 @@ def test_a_fleet_file_of_one_type_loads_and_spawns_its_count(tmp_path: Path) -> 
         (HUSKY + '[[robots]]\ntype = "crane"\ncount = 1\n', "unknown type"),
         (HUSKY.replace("payload_kg = 75", "payload_kg = -1"), "types.husky.payload_kg"),
         (HUSKY.replace("max_speed_mps = 1.0", "max_speed_mps = 0"), "needs max_speed_mps"),
+        (HUSKY.replace("max_speed_mps = 1.0", "max_speed_mps = nan"), "finite number"),
+        (HUSKY.replace("payload_kg = 75", "paylod_kg = 75"), "paylod_kg: Extra inputs are not permitted"),
     ],
 )
 def test_a_bad_fleet_file_is_one_line_naming_the_file_and_the_field(
@@ -103,7 +105,7 @@ def test_fleet_check_prints_the_husky_only_fleet_footings_too_heavy_with_the_num
         timeout=120,
         check=False,
     )
-    assert done.returncode == 0, done.stderr
+    assert done.returncode == 1, done.stderr  # 1: the fleet cannot build everything
     assert "buildable: 19 of 28; cannot: 9 too_heavy" in done.stdout
     assert done.stdout.count("259 kg exceeds the largest payload on site (75 kg") == 9
 
