@@ -346,6 +346,7 @@ class DropRequest(_Message):
 
     robot_id: str
     guid: str
+    near_xy_m: PointXY | None = None  # a hand-off: put it down as near this staging spot as is free
 
 
 class SitePosesMsg(_Message):

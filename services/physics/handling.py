@@ -356,7 +356,9 @@ class Handling:
             item.carrier for item in self.items.values() if item.phase is Phase.ASSEMBLING and item.carrier
         }
 
-    def drop_request(self, robot: Robot | None, guid: str, now_s: float) -> PhysicsReply:
+    def drop_request(
+        self, robot: Robot | None, guid: str, now_s: float, near_xy_m: tuple[float, float] | None = None
+    ) -> PhysicsReply:
         """A carrying robot puts ``guid`` down beside it (it cannot deliver it): ``resting`` there, attachable
         again by any robot. A repeated request for a load already put down is answered ok (at least once
         delivery); a component being placed, fixed or carried by another robot is refused, saying why."""
@@ -372,17 +374,23 @@ class Handling:
                 refusal = f"robot {robot.robot_id} does not carry {guid} (carried {holder})"
         if refusal is not None or item is None or robot is None:
             return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s)
-        self.drop(robot, now_s, why="put down on request")
+        self.drop(robot, now_s, why="put down on request", near_xy_m=near_xy_m)
         return PhysicsReply(ok=True, sim_time_s=now_s, pose=pose_msg(item.pose))
 
-    def drop(self, robot: Robot, now_s: float, why: str = "robot lost") -> str | None:
+    def drop(
+        self,
+        robot: Robot,
+        now_s: float,
+        why: str = "robot lost",
+        near_xy_m: tuple[float, float] | None = None,
+    ) -> str | None:
         """A robot's load (if carried, not being placed) laid flat on the ground beside it: a lost robot's,
         or one the robot asked to put down (:meth:`drop_request`)."""
         guid = self.carrying.get(robot.robot_id)
         item = self.items.get(guid or "")
         if guid is None or item is None or item.phase is not Phase.CARRIED:
             return None
-        item.pose = self._drop_pose(item, robot)
+        item.pose = self._drop_pose(item, robot, near_xy_m)
         item.phase = Phase.RESTING
         item.carrier = None
         item.offset = None
@@ -402,13 +410,15 @@ class Handling:
         )
         return guid
 
-    def _drop_pose(self, item: Item, robot: Robot) -> Frame:
+    def _drop_pose(self, item: Item, robot: Robot, near_xy_m: tuple[float, float] | None = None) -> Frame:
         """Beside a ground robot (:func:`.load_rules.drop_beside`); a crane's load straight down."""
         if robot.is_crane:
             return lowered(item.component, item.pose)
         others = [footprint(o.component, o.pose) for o in self.items.values() if o is not item]
         frame = robot.frame(self.client_id)
-        return drop_beside(item.component, frame, robot.half_extents_xy_m, others, self.site_bounds)
+        return drop_beside(
+            item.component, frame, robot.half_extents_xy_m, others, self.site_bounds, near_xy_m=near_xy_m
+        )
 
     # --- messages ------------------------------------------------------------------------------------
 

@@ -8,6 +8,8 @@ report say what to change (a bigger robot, a crane nearer, a lighter element).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
@@ -85,9 +87,12 @@ def drop_beside(
     half_extents_xy_m: tuple[float, float],
     others: list[Rect],
     site_bounds: Rect,
+    *,
+    near_xy_m: tuple[float, float] | None = None,
 ) -> Frame:
     """Lying like in the yard, beside the robot: left, right, behind or ahead, the first spot that is free
-    of ``others`` (the other components' footprints) and inside the site (else left)."""
+    of ``others`` (the other components' footprints) and inside the site (else left); with ``near_xy_m``
+    (a hand-off's staging spot) the free spot whose centre is nearest it first."""
     (x, y, _), quat = robot_frame
     heading = yaw_quat(yaw_of(quat))
     low, high = np.array(component.bbox_local.min_m), np.array(component.bbox_local.max_m)
@@ -109,8 +114,11 @@ def drop_beside(
     candidates = []
     for dx, dy in offsets:
         local = ((dx - centre[0], dy - centre[1], GROUND_CLEARANCE_M - turned[:, 2].min()), lying_quat)
-        frame = compose(((x, y, 0.0), heading), local)  # type: ignore[arg-type]
-        candidates.append(frame)
+        candidates.append(compose(((x, y, 0.0), heading), local))  # type: ignore[arg-type]
+    ordered = list(candidates)
+    if near_xy_m is not None:
+        ordered.sort(key=lambda frame: math.dist(_centre_xy(component, frame), near_xy_m))
+    for frame in ordered:
         spot = footprint(component, frame)
         inside = site_bounds.min_xy[0] <= spot.min_xy[0] and spot.max_xy[0] <= site_bounds.max_xy[0]
         inside = (
@@ -119,3 +127,8 @@ def drop_beside(
         if inside and not any(spot.overlaps(other) for other in others):
             return frame
     return candidates[0]
+
+
+def _centre_xy(component: Component, frame: Frame) -> tuple[float, float]:
+    spot = footprint(component, frame)
+    return ((spot.min_xy[0] + spot.max_xy[0]) / 2.0, (spot.min_xy[1] + spot.max_xy[1]) / 2.0)

@@ -304,7 +304,7 @@ class Simulation:
             return PhysicsReply(
                 ok=False, reason=f"unknown robot {request.robot_id}", sim_time_s=self.sim_time_s
             )
-        return self.handling.drop_request(robot, request.guid, self.sim_time_s)
+        return self.handling.drop_request(robot, request.guid, self.sim_time_s, request.near_xy_m)
 
     def place(self, request: PlaceRequest, tag: object = None) -> PhysicsReply | None:
         """A refusal now, or None: the reply comes with ``tag`` from the :meth:`advance` ending the motion."""

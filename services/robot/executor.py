@@ -387,7 +387,10 @@ class Executor(Driving, Handover):
             return
         if task.message.kind is TaskKind.HAND_OFF:  # at the staging spot: put it down there
             if task.request is None and not task.events.unconfirmed & {_E.ATTACH}:
-                self._request(task, "drop", DropRequest(robot_id=self.robot_id, guid=task.message.guid))
+                drop = DropRequest(
+                    robot_id=self.robot_id, guid=task.message.guid, near_xy_m=task.message.put_down_xy_m
+                )
+                self._request(task, "drop", drop)
             return
         self._fire(Trigger.ARRIVED)
         self._queue_event(task, _E.ARRIVE)

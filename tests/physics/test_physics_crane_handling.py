@@ -200,3 +200,19 @@ def test_a_restarted_physics_gives_a_crane_back_its_joints_and_its_load(
     assert second.handling.carrying == {"r3": beam.guid}
     idle(second, 0.5)
     assert second.component_frame(beam.guid)[0] == pytest.approx(hanging[0], abs=1e-6)  # still on the hook
+
+
+def test_a_hand_off_puts_the_load_down_on_the_side_nearest_its_staging_spot(frame_manifest: Manifest) -> None:
+    from bimbot.services.physics.load_rules import drop_beside
+    from bimbot.shared.site_plan import Rect
+
+    beam = _named(frame_manifest, "Beam A1-A2")
+    robot: Frame = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))  # facing +x
+    site = Rect((-50.0, -50.0), (50.0, 50.0))
+    centres = {}
+    for near in ((0.0, 10.0), (0.0, -10.0), (-10.0, 0.0), (10.0, 0.0)):
+        frame = drop_beside(beam, robot, (0.5, 0.35), [], site, near_xy_m=near)
+        spot = footprint(beam, frame)
+        centres[near] = ((spot.min_xy[0] + spot.max_xy[0]) / 2.0, (spot.min_xy[1] + spot.max_xy[1]) / 2.0)
+    assert centres[(0.0, 10.0)][1] > 0.5 and centres[(0.0, -10.0)][1] < -0.5  # left, right
+    assert centres[(-10.0, 0.0)][0] < -0.5 and centres[(10.0, 0.0)][0] > 0.5  # behind, ahead
