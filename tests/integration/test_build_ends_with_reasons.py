@@ -48,7 +48,7 @@ def test_a_build_that_cannot_finish_ends_with_a_reason_for_every_component_not_b
     walls_first: tuple[SiteModel, Path],
 ) -> None:
     site, build = walls_first
-    result = _bimbot("run", str(build), "-q", "--timeout-s", str(RUN_TIMEOUT_S - 60))
+    result = _bimbot("run", str(build), "-q", "--robots", "1", "--timeout-s", str(RUN_TIMEOUT_S - 60))
     run = _latest(build)
     logs = "\n".join(
         f"--- {log.name}\n" + "\n".join(log.read_text().splitlines()[-12:])
@@ -83,7 +83,7 @@ def test_with_strict_a_sequence_that_walls_a_column_in_is_refused_before_the_bui
 ) -> None:
     site, build = walls_first
     earlier = _runs(build)
-    result = _bimbot("run", str(build), "-q", "--strict", "--timeout-s", "120")
+    result = _bimbot("run", str(build), "-q", "--robots", "1", "--strict", "--timeout-s", "120")
     planner_log = (_latest(build).logs_dir / "planner.log").read_text()
     # a run of its own: the earlier runs on this build keep their folders and reports
     assert len(_runs(build)) == len(earlier) + 1 and set(earlier) < set(_runs(build))

@@ -73,6 +73,7 @@ def test_every_service_killed_once_mid_build_the_build_completes_once(
     shutil.copytree(bundled_build, build)
     run = RunFolder(tmp_path / "run")
     command = [sys.executable, "-m", "bimbot.cli", "run", str(build), "-q", "--run-dir", str(run.root)]
+    command += ["--robots", "1"]  # one process per kind: the one robot is killed too
     command += ["--timeout-s", str(RUN_TIMEOUT_S - 60)]
     with (tmp_path / "run.stdout").open("w") as out, (tmp_path / "run.stderr").open("w") as err:
         process = subprocess.Popen(command, stdout=out, stderr=err)

@@ -107,6 +107,7 @@ def test_forged_constructed_messages_change_nothing_the_run_counts_what_the_twin
     manifest = read_manifest(small_frame)
     run = RunFolder(tmp_path / "run")
     command = [sys.executable, "-m", "bimbot.cli", "run", str(small_frame), "-q", "--run-dir", str(run.root)]
+    command += ["--robots", "1"]
     command += ["--timeout-s", str(RUN_TIMEOUT_S - 60)]
     errors = (tmp_path / "run.stderr").open("w")
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=errors, text=True)

@@ -41,7 +41,7 @@ def small_frame(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _start(build: Path, *options: str) -> subprocess.Popen[str]:
-    command = [sys.executable, "-m", "bimbot.cli", "run", str(build), "--rtf", "1", *options]
+    command = [sys.executable, "-m", "bimbot.cli", "run", str(build), "--rtf", "1", "--robots", "1", *options]
     return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
