@@ -333,10 +333,11 @@ class PlannerCore(Dispatch):
             settled = partial(left, component, {ComponentState.MISPLACED})
             self._send_event(guid, ComponentEvent.RETRY, settled)
         elif state is ComponentState.RELEASED and event == ComponentEvent.HAND_OFF:
-            if task.kind is TaskKind.HAND_OFF and task.phase is Phase.ASSIGNED:
+            if task.phase is Phase.ASSIGNED:  # (a restarted planner adopted it as a build: the same end)
                 by = task.robot_id
                 _log.info("%s: %s put down at the crane's staging spot by %s", task.active_id, guid, by)
-                self._outbox.append(self._task_msg(task, TaskStatus.DONE))
+                if task.kind is TaskKind.HAND_OFF:
+                    self._outbox.append(self._task_msg(task, TaskStatus.DONE))
                 self._free_robot(task)
                 if task.put_down_xy is not None:  # until physics' pose of it arrives: the crane bids on it
                     component.position_xy = task.put_down_xy

@@ -177,3 +177,20 @@ def test_a_component_the_crane_still_cannot_reach_after_its_hand_offs_fails_out_
         and reason.code.value == "out_of_reach"
         and "handed off 2 time(s)" in reason.message
     )
+
+
+def test_a_restarted_planner_that_adopted_a_hand_off_as_a_build_frees_its_robot_when_it_ends() -> None:
+    manifest = _manifest(beam=300.0)
+    robots = [
+        SiteRobot("r1", CARRIER.model_copy(update={"max_place_height_m": 1.0}), (-10.0, -10.0, 0.0)),
+        SiteRobot("r2", CRANE, (2.0, 12.0, -1.5708), Rect((-2.0, 16.0), (6.0, 24.0))),
+    ]
+    core = _core(manifest, robots)  # a new planner: it never assigned the hand-off r1 is carrying out
+    for guid in ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c"):
+        core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified"))
+    core.observe_component_state(state_msg("beam", S.TRANSPORTING, event="attach", robot_id="r1"))
+    assert core.phase("beam") is Phase.ASSIGNED and core.robot_of("beam") == "r1"  # adopted
+    core.observe_component_state(state_msg("beam", S.RELEASED, event="hand_off", robot_id="r1", sim_time_s=5))
+    core.observe_component_pose(_pose("beam", (2.0, 18.0)))
+    out = core.step(1.0)
+    assert _assignments(out)["beam"].robot_id == "r2"  # the crane builds it; r1 is free again
