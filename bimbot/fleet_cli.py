@@ -23,7 +23,7 @@ import sys
 from collections import Counter
 from pathlib import Path
 
-from bimbot.services.planner.capability import SiteRobot
+from bimbot.services.planner.capability import robots_on_plan
 from bimbot.services.planner.feasibility import Feasibility, feasibility_table
 from bimbot.shared.fleet import DEFAULT_FLEET_FILE, Fleet, check_urdfs, load_fleet
 from bimbot.shared.manifest import Component
@@ -42,24 +42,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="check: one JSON object per component")
 
 
-def site_robots_of(fleet: Fleet, components: list[Component]) -> list[SiteRobot]:
-    """The fleet's robots where physics would put them (the same site plan)."""
+def check(build: Path, fleet: Fleet) -> list[tuple[Component, Feasibility]]:
+    """The feasibility table of ``build`` for ``fleet``, on the site plan physics would make."""
+    components = list(resolve_build(build).manifest.components)
     descriptions = fleet.robot_types()
     layout = plan_site(components, fleet=descriptions)
-    robots = []
-    staging = list(layout.staging)
-    for index, (description, start) in enumerate(zip(descriptions, layout.robot_starts, strict=True)):
-        area = staging.pop(0) if description.is_crane and staging else None
-        robots.append(SiteRobot(f"r{index + 1}", description, start, area))
-    return robots
-
-
-def check(build: Path, fleet: Fleet) -> list[tuple[Component, Feasibility]]:
-    manifest = resolve_build(build).manifest
-    components = list(manifest.components)
-    robots = site_robots_of(fleet, components)
-    layout_slots = plan_site(components, fleet=fleet.robot_types()).slots
-    rows = feasibility_table(components, robots, dict(layout_slots))
+    robots = robots_on_plan(list(fleet.type_of()), descriptions, layout)
+    rows = feasibility_table(components, robots, dict(layout.slots))
     return list(zip(components, rows, strict=True))
 
 

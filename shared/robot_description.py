@@ -179,12 +179,6 @@ class RobotDescription(BaseModel):
             )
         return None
 
-    def reach_for(self, mass_kg: float) -> float:
-        """How far this type reaches with ``mass_kg`` on the hook or deck (m; 0: it cannot lift it)."""
-        if self.crane is not None:
-            return self.crane.radius_for(mass_kg)
-        return self.reach_m if mass_kg <= self.payload_kg else 0.0
-
     def reaches(self, robot_xy_m: ArrayLike, footprint_xy_m: ArrayLike, mass_kg: float = 0.0) -> bool:
         """The reach rule (see the module docstring) for one robot position and a load of ``mass_kg``."""
 

@@ -29,7 +29,6 @@ from .capability import (
     can_build_from,
     can_carry,
     can_place,
-    laid_half_m,
     staging_reached,
     task_estimate_s,
 )
@@ -137,4 +136,4 @@ def _hand_off_spot(
 
 def staged_where(component: Component, xy_m: tuple[float, float]) -> Where:
     """A component lying at ``xy_m`` (put down flat: its top low)."""
-    return Where(xy_m, laid_half_m(component), 0.5)
+    return Where(xy_m, 0.5)

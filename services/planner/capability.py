@@ -13,8 +13,8 @@ and where it stands); this module applies them to a component where it lies now 
   carry the mass **hands it off**: it carries it to the crane's staging area (a task of its own), and the
   crane builds it from there.
 
-A component where it lies is its centre (and half its laid diagonal: the planner follows positions, not
-orientations); a crane's hook radius is the distance to that centre. Its target is its posed footprint.
+A component where it lies is its centre (the planner follows positions, not orientations); a crane's hook
+radius is the distance to that centre. Its target is its posed footprint.
 Bids (:func:`task_estimate_s`) are sim seconds: driving at the type's speed along ``DETOUR`` times the
 straight line, a crane's slew/trolley/hoist motion, and the type's handling time to grip and to release.
 """
@@ -25,13 +25,11 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import numpy as np
-
 from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import SiteInfoMsg
 from bimbot.shared.robot_description import RobotDescription
-from bimbot.shared.site_plan import Rect
+from bimbot.shared.site_plan import Rect, SiteLayout
 
 DETOUR = 1.5  # driven path / straight line on a site with a yard, aisles and lanes
 GROUND_PLACE_S = 2.0  # a ground robot's assembly motion (the executor's place duration)
@@ -53,11 +51,18 @@ class SiteRobot:
 
 
 def site_robots(info: SiteInfoMsg) -> list[SiteRobot]:
-    """The robots in ``info`` with their descriptions; cranes get their staging areas in robot id order."""
+    """The robots physics serves in ``info``, with their descriptions and starts."""
+    descriptions = [info.robot_types[info.robot_type_of[robot_id]] for robot_id in info.robot_ids]
+    return robots_on_plan(info.robot_ids, descriptions, info.layout)
+
+
+def robots_on_plan(
+    robot_ids: Sequence[str], descriptions: Sequence[RobotDescription], layout: SiteLayout
+) -> list[SiteRobot]:
+    """The robots where the site plan puts them; cranes get their staging areas in robot id order."""
     robots: list[SiteRobot] = []
-    staging = list(info.layout.staging)
-    for robot_id, start in zip(info.robot_ids, info.robot_starts_xy_yaw, strict=True):
-        description = info.robot_types[info.robot_type_of[robot_id]]
+    staging = list(layout.staging)
+    for robot_id, description, start in zip(robot_ids, descriptions, layout.robot_starts, strict=True):
         area = staging.pop(0) if description.is_crane and staging else None
         robots.append(SiteRobot(robot_id, description, tuple(start), area))  # type: ignore[arg-type]
     return robots
@@ -65,18 +70,10 @@ def site_robots(info: SiteInfoMsg) -> list[SiteRobot]:
 
 @dataclass(frozen=True)
 class Where:
-    """A component where it lies: centre (x, y), half its laid diagonal, the z of its top."""
+    """A component where it lies: its centre (x, y) and the z of its top."""
 
     xy_m: tuple[float, float]
-    half_m: float
     top_z_m: float
-
-
-def laid_half_m(component: Component) -> float:
-    """Half the horizontal diagonal of the component's bounding box (laid down any way: its longest)."""
-    size = np.array(component.bbox_local.max_m) - np.array(component.bbox_local.min_m)
-    two = np.sort(size)[-2:]
-    return 0.5 * float(np.hypot(*two))
 
 
 def target_footprint(component: Component) -> Footprint:
@@ -84,7 +81,7 @@ def target_footprint(component: Component) -> Footprint:
     return posed_footprint(component, pose.position_m, pose.quat_xyzw)
 
 
-def crane_reaches_disc(crane: SiteRobot, where: Where, mass_kg: float) -> bool:
+def crane_reaches_centre(crane: SiteRobot, where: Where, mass_kg: float) -> bool:
     """The hook reaches the centre of a component lying at ``where`` with ``mass_kg`` (its hook radius
     between the trolley's innermost radius and the chart's radius for that mass)."""
     spec = crane.description.crane
@@ -110,7 +107,7 @@ def can_build_from(robot: SiteRobot, component: Component, where: Where) -> bool
     """``robot`` can pick ``component`` up where it lies and place it."""
     if not can_place(robot, component):
         return False
-    return not robot.is_crane or crane_reaches_disc(robot, where, component.mass_kg)
+    return not robot.is_crane or crane_reaches_centre(robot, where, component.mass_kg)
 
 
 def can_carry(robot: SiteRobot, component: Component) -> bool:
@@ -126,7 +123,7 @@ def staging_reached(crane: SiteRobot, component: Component) -> bool:
         return False
     grown = area.grown(STAGING_SLACK_M)
     corners = [(x, y) for x in (grown.min_xy[0], grown.max_xy[0]) for y in (grown.min_xy[1], grown.max_xy[1])]
-    return all(crane_reaches_disc(crane, Where(corner, 0.0, 0.0), component.mass_kg) for corner in corners)
+    return all(crane_reaches_centre(crane, Where(corner, 0.0), component.mass_kg) for corner in corners)
 
 
 def task_estimate_s(

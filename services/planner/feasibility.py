@@ -28,7 +28,6 @@ from .capability import (
     can_build_from,
     can_carry,
     can_place,
-    laid_half_m,
     staging_reached,
 )
 
@@ -48,12 +47,12 @@ def slot_where(component: Component, slot: YardSlot | None) -> Where:
     """The component lying in its yard slot (or at its target when it has no slot)."""
     if slot is None:
         position = component.target_pose_world.position_m
-        return Where((position[0], position[1]), laid_half_m(component), component.bbox_world.max_m[2])
+        return Where((position[0], position[1]), component.bbox_world.max_m[2])
     centre = (
         (slot.footprint.min_xy[0] + slot.footprint.max_xy[0]) / 2.0,
         (slot.footprint.min_xy[1] + slot.footprint.max_xy[1]) / 2.0,
     )
-    return Where(centre, laid_half_m(component), slot.height_m)
+    return Where(centre, slot.height_m)
 
 
 def component_feasibility(

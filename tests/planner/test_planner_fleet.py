@@ -7,7 +7,7 @@ import itertools
 
 from planner_builders import portal_manifest, robot_msg, state_msg
 
-from bimbot.services.planner.capability import SiteRobot, Where, crane_reaches_disc
+from bimbot.services.planner.capability import SiteRobot, Where, crane_reaches_centre
 from bimbot.services.planner.scheduler import Phase, PlannerCore
 from bimbot.services.planner.sources import plan_from_sequence
 from bimbot.shared.fleet import default_fleet
@@ -140,10 +140,10 @@ def _pose(guid: str, xy: tuple[float, float]):
 
 def test_crane_hook_radius_is_to_the_load_centre_and_limited_by_the_load_chart() -> None:
     crane = SiteRobot("r3", CRANE, (0.0, 0.0, 0.0))
-    assert crane_reaches_disc(crane, Where((30.0, 0.0), 12.0, 0.0), 2000.0)  # 30 m: 2,033 kg allowed
-    assert not crane_reaches_disc(crane, Where((30.0, 0.0), 12.0, 0.0), 2100.0)
-    assert not crane_reaches_disc(crane, Where((1.0, 0.0), 0.5, 0.0), 10.0)  # inside the trolley's minimum
-    assert not crane_reaches_disc(crane, Where((41.0, 0.0), 0.5, 0.0), 10.0)  # beyond the jib
+    assert crane_reaches_centre(crane, Where((30.0, 0.0), 0.0), 2000.0)  # 30 m: 2,033 kg allowed
+    assert not crane_reaches_centre(crane, Where((30.0, 0.0), 0.0), 2100.0)
+    assert not crane_reaches_centre(crane, Where((1.0, 0.0), 0.0), 10.0)  # inside the trolley's minimum
+    assert not crane_reaches_centre(crane, Where((41.0, 0.0), 0.0), 10.0)  # beyond the jib
 
 
 def test_a_component_the_crane_still_cannot_reach_after_its_hand_offs_fails_out_of_reach() -> None:
