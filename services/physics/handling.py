@@ -37,19 +37,17 @@ import math
 from dataclasses import dataclass
 from enum import StrEnum
 
-import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bimbot.shared.footprint import posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, PhysicsReply, PoseMsg
 from bimbot.shared.robot_description import LIFT_CLEARANCE_M
-from bimbot.shared.site_layout import lying_rotation
 from bimbot.shared.site_plan import Rect
 
 from .client import p
 from .crane import hook_joints, lift_position, load_top
-from .load_rules import carry_refusal, drop_beside, lowered
+from .load_rules import carry_refusal, drop_beside, lowered, lying_corners
 from .robots import Robot
 from .scene import (
     STATIC_GROUP,
@@ -112,12 +110,7 @@ def hanging_offset(robot: Robot, frame: Frame, client_id: int) -> Frame:
 
 def carry_offset(component: Component, robot: Robot, clearance_m: float) -> Frame:
     """The component lying flat (longest extent along the robot's x) on top of the robot, centred."""
-    low, high = np.array(component.bbox_local.min_m), np.array(component.bbox_local.max_m)
-    rotation = lying_rotation(high - low)
-    corners = np.array(
-        [[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]
-    )
-    turned = corners @ rotation.T
+    rotation, turned = lying_corners(component)
     centre = (turned.min(axis=0) + turned.max(axis=0)) / 2.0
     base_z = robot.top_height_m + clearance_m - turned[:, 2].min()
     quat = Rotation.from_matrix(rotation).as_quat()

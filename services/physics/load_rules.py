@@ -81,6 +81,17 @@ def lowered(component: Component, frame: Frame) -> Frame:
     return (x, y, z - float(low[2]) + GROUND_CLEARANCE_M), quat
 
 
+def lying_corners(component: Component) -> tuple[np.ndarray, np.ndarray]:
+    """The rotation that lays ``component`` flat (as in the yard) and its bounding box's 8 corners turned
+    by it, in the component frame: what carrying and putting down both place it by."""
+    low, high = np.array(component.bbox_local.min_m), np.array(component.bbox_local.max_m)
+    rotation = lying_rotation(high - low)
+    corners = np.array(
+        [[a, b, c] for a in (low[0], high[0]) for b in (low[1], high[1]) for c in (low[2], high[2])]
+    )
+    return rotation, corners @ rotation.T
+
+
 def drop_beside(
     component: Component,
     robot_frame: Frame,
@@ -95,12 +106,7 @@ def drop_beside(
     (a hand-off's staging spot) the free spot whose centre is nearest it first."""
     (x, y, _), quat = robot_frame
     heading = yaw_quat(yaw_of(quat))
-    low, high = np.array(component.bbox_local.min_m), np.array(component.bbox_local.max_m)
-    rotation = lying_rotation(high - low)
-    corners = np.array(
-        [[a, b, c] for a in (low[0], high[0]) for b in (low[1], high[1]) for c in (low[2], high[2])]
-    )
-    turned = corners @ rotation.T
+    rotation, turned = lying_corners(component)
     centre = (turned.min(axis=0) + turned.max(axis=0)) / 2.0
     length, depth = turned.max(axis=0)[:2] - turned.min(axis=0)[:2]
     lying_quat = tuple(float(q) for q in Rotation.from_matrix(rotation).as_quat())
