@@ -1,8 +1,10 @@
 """Converter benchmark: overhead against bare tessellation, and time per element as models grow.
 
 Overhead (target ≤ 1.3): the full conversion against ifcopenshell's bare tessellation of the same elements
-with the same settings and threads, in the same run, on the bundled model and on the largest public sample.
-Measured two ways, median of several runs each:
+with the same settings and threads, in the same run. Cases: the bundled light steel frame, the largest
+public sample (acad2010_objects.ifc), the Revit structural hub's steel (``--only IfcBeam,IfcColumn``: the
+closest public model to issue 12's "64-member Revit steel model") and the whole hub. Measured two ways,
+median of several runs each:
 
 * in process — ``open + convert_model`` against ``open + iterate + read vertices/faces``;
 * as commands — ``bimbot convert`` against a ``python -c`` that opens and tessellates (both pay
@@ -20,7 +22,8 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import ifcopenshell
@@ -28,13 +31,15 @@ import ifcopenshell.geom
 import ifcopenshell.util.shape
 
 from bimbot.demo import bundled_model_path
-from bimbot.services.converter.convert import ConversionStats, convert_model
+from bimbot.services.converter.convert import ConversionStats, ConvertOptions, convert_model
 from bimbot.services.converter.ifc_input import open_model
 from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame
 from bimbot.services.converter.selection import select_elements
 from bimbot.services.converter.tessellation import default_threads, geometry_settings
 
 SAMPLES = Path(__file__).resolve().parents[2] / "shared" / "samples" / "ifc"
+HUB = SAMPLES / "revit2021_structural_hub.ifc"
+HUB_STEEL = ("IfcBeam", "IfcColumn")
 TARGET_RATIO = 1.3
 BARE_SCRIPT = """
 import sys, ifcopenshell, ifcopenshell.geom, ifcopenshell.util.shape
@@ -42,7 +47,7 @@ sys.path.insert(0, {root!r})
 from bimbot.services.converter.selection import select_elements
 from bimbot.services.converter.tessellation import default_threads, geometry_settings
 model = ifcopenshell.open({path!r})
-elements = list(select_elements(model).elements)
+elements = list(select_elements(model, only={only!r}).elements)
 iterator = ifcopenshell.geom.iterator(geometry_settings(), model, default_threads(), include=elements)
 if iterator.initialize():
     while True:
@@ -54,9 +59,16 @@ if iterator.initialize():
 """
 
 
-def bare_tessellation(path: Path) -> int:
+@dataclass(frozen=True)
+class Case:
+    label: str
+    path: Path
+    only: tuple[str, ...] = ()  # --only classes; empty: the default selection
+
+
+def bare_tessellation(path: Path, only: Sequence[str] = ()) -> int:
     model = ifcopenshell.open(str(path))
-    elements = list(select_elements(model).elements)
+    elements = list(select_elements(model, only=only).elements)
     iterator = ifcopenshell.geom.iterator(geometry_settings(), model, default_threads(), include=elements)
     count = 0
     if iterator.initialize():
@@ -70,8 +82,11 @@ def bare_tessellation(path: Path) -> int:
     return count
 
 
-def full_conversion(path: Path, out: Path, stats: ConversionStats | None = None) -> int:
-    return len(convert_model(open_model(path), path, out, stats=stats).components)
+def full_conversion(
+    path: Path, out: Path, stats: ConversionStats | None = None, only: Sequence[str] = ()
+) -> int:
+    options = ConvertOptions(only=tuple(only))
+    return len(convert_model(open_model(path), path, out, options, stats=stats).components)
 
 
 def median_seconds(action: Callable[[], object], runs: int) -> float:
@@ -83,15 +98,16 @@ def median_seconds(action: Callable[[], object], runs: int) -> float:
     return statistics.median(times)
 
 
-def overhead(path: Path, runs: int) -> None:
+def overhead(case: Case, runs: int) -> None:
+    path, only = case.path, case.only
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "out"
-        full_conversion(path, out)  # warm-up (imports, numba/trimesh caches, file system)
-        bare_tessellation(path)
+        full_conversion(path, out, only=only)  # warm-up (imports, numba/trimesh caches, file system)
+        bare_tessellation(path, only)
         stats = ConversionStats()
-        full_conversion(path, out, stats)
-        convert_s = median_seconds(lambda: full_conversion(path, out), runs)
-        bare_s = median_seconds(lambda: bare_tessellation(path), runs)
+        full_conversion(path, out, stats, only)
+        convert_s = median_seconds(lambda: full_conversion(path, out, only=only), runs)
+        bare_s = median_seconds(lambda: bare_tessellation(path, only), runs)
         command = [
             sys.executable,
             "-m",
@@ -102,15 +118,16 @@ def overhead(path: Path, runs: int) -> None:
             "-o",
             str(out),
             "--no-progress",
+            *(["--only", ",".join(only)] if only else []),
         ]
         root = str(Path(__file__).resolve().parents[1])
-        bare_command = [sys.executable, "-c", BARE_SCRIPT.format(root=root, path=str(path))]
+        bare_command = [sys.executable, "-c", BARE_SCRIPT.format(root=root, path=str(path), only=only)]
         convert_cmd_s = median_seconds(lambda: subprocess.run(command, check=True, capture_output=True), runs)
         bare_cmd_s = median_seconds(
             lambda: subprocess.run(bare_command, check=True, capture_output=True), runs
         )
-    n = bare_tessellation(path)
-    print(f"{path.name}: {n} elements")
+    n = bare_tessellation(path, only)
+    print(f"{case.label} ({path.name}{', --only ' + ','.join(only) if only else ''}): {n} elements")
     stages = ", ".join(f"{name} {seconds * 1000:.0f} ms" for name, seconds in stats.seconds_by_stage.items())
     print(f"  stages of one conversion: {stages}")
     print(
@@ -144,15 +161,29 @@ def scaling(sizes: list[tuple[int, int]]) -> None:
     print(f"  time per element, largest / smallest: {per_element[-1] / per_element[0]:.2f} (flat ≈ 1)")
 
 
+def cases() -> list[Case]:
+    """The bundled frame, the largest public sample, the hub's steel and the whole hub (where present)."""
+    found = [Case("bundled frame", bundled_model_path())]
+    if SAMPLES.is_dir():
+        largest = max(SAMPLES.glob("*.ifc"), key=lambda p: p.stat().st_size)
+        found.append(Case("largest sample", largest))
+    if HUB.is_file():
+        found += [Case("hub steel", HUB, HUB_STEEL), Case("whole hub", HUB)]
+    return found
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer runs, scaling only to ~1,000 elements")
+    parser.add_argument("--case", action="append", help="cases whose label contains this (repeatable)")
+    parser.add_argument("--no-scaling", action="store_true", help="overhead only")
     args = parser.parse_args()
     runs = 3 if args.quick else 5
-    overhead(bundled_model_path(), runs)
-    largest = max(SAMPLES.glob("*.ifc"), key=lambda p: p.stat().st_size) if SAMPLES.is_dir() else None
-    if largest is not None:
-        overhead(largest, runs)
+    for case in cases():
+        if not args.case or any(part in case.label for part in args.case):
+            overhead(case, runs)
+    if args.no_scaling:
+        return
     sizes = [(6, 6), (18, 18)] if args.quick else [(6, 6), (18, 18), (58, 58)]
     scaling(sizes)
 
