@@ -70,7 +70,7 @@ from bimbot.shared.messages import (
 from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.twin_query import ask_twins
 
-from .clock import LockStepBarrier, Pacer, RtfMeter
+from .clock import LockStepBarrier, Pacer, PeriodTimes, RtfMeter
 from .profiles import FINE
 from .restore import restore_site
 from .simulation import Outgoing, SimConfig, Simulation
@@ -144,6 +144,7 @@ class _Loop:
         self.barrier = LockStepBarrier(run.lock_step_timeout_s)
         self.pacer = Pacer(run.rtf)
         self.rtf = RtfMeter(run.rtf)
+        self.times = PeriodTimes()
         self.pending: dict[object, zenoh.Query] = {}  # place ticket → its query, answered when placed
         self._tickets = itertools.count(1)
         self._publishers: dict[str, zenoh.Publisher] = {}
@@ -184,12 +185,16 @@ class _Loop:
             while not self.stop.is_set():
                 if self.run.max_steps is not None and self.sim.step >= self.run.max_steps:
                     break
-                wait_s = self._wait_s(time.monotonic())
+                started = time.monotonic()
+                wait_s = self._wait_s(started)
                 if wait_s > 0.0:
                     self._drain(min(wait_s, LOOP_WAIT_S))
+                    self.times.add("wait", time.monotonic() - started)
                     continue
                 self._advance()
+                started = time.monotonic()
                 self._drain(None)
+                self.times.add("drain", time.monotonic() - started)
                 if time.monotonic() - last_status > STATUS_EVERY_S:
                     last_status = time.monotonic()
                     self._status()
@@ -252,10 +257,14 @@ class _Loop:
         return self.pacer.delay_s(self.sim.sim_time_s + self.sim.config.control_period_s, now)
 
     def _advance(self) -> None:
+        started = time.monotonic()
         result = self.sim.advance(self.rtf.value)
         now = time.monotonic()
+        self.times.add("advance", now - started)
+        self.times.period()
         self.rtf.record(self.sim.sim_time_s, now)
         self._publish(result.messages)
+        self.times.add("publish", time.monotonic() - now)
         for ticket, reply in result.replies:
             query = self.pending.pop(ticket, None)
             if query is not None:
@@ -348,10 +357,11 @@ class _Loop:
 
     def _status(self) -> None:
         _log.info(
-            "physics: step %d, sim %.1f s, rtf %.1f, %d invalid payloads, %d handler errors",
+            "physics: step %d, sim %.1f s, rtf %.1f, %d invalid payloads, %d handler errors; wall time: %s",
             self.sim.step,
             self.sim.sim_time_s,
             self.rtf.value,
             self.inbox.invalid.total,
             self.errors,
+            self.times.take(),
         )

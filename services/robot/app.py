@@ -214,6 +214,7 @@ class _Loop:
             if clock is not None and clock.step > self._answered_step and (scanned or waited):
                 self._answered_step = clock.step
                 self.publish(self.executor.tick(clock, time.time()))
+                self.executor.after_tick()  # while physics steps the next period
             else:
                 self.publish(self.executor.poll(time.time()))
             if now - self._metrics_wall_s >= self.options.metric_log_s:

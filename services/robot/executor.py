@@ -2,9 +2,11 @@
 
 Why: the robot's behaviour as a core the tests drive with fake inputs. The adapter feeds it every validated
 message (:meth:`Executor.handle`), calls :meth:`Executor.tick` once per clock step (the answer always holds
-a ``cmd_vel`` stamped with the step, so lock-step physics never waits on this robot) and
-:meth:`Executor.poll` between steps, and publishes what they return. Nothing blocks: physics requests go
-out as :class:`~.protocol.PhysicsRequest` and their replies come back as :class:`~.protocol.PhysicsResult`.
+a ``cmd_vel`` stamped with the step, so lock-step physics never waits on this robot), then
+:meth:`Executor.after_tick` once the answer is out (the localisation update on the step's scan, which need
+not delay the command), and :meth:`Executor.poll` between steps, and publishes what they return. Nothing
+blocks: physics requests go out as :class:`~.protocol.PhysicsRequest` and their replies come back as
+:class:`~.protocol.PhysicsResult`.
 
 A task (states from :mod:`.task_machine`, events through :class:`~.protocol.EventQueue`):
 
@@ -156,7 +158,7 @@ class Executor(Driving, Handover):
     def handle(self, message: object) -> None:
         """Take one validated message (or a :class:`~.protocol.PhysicsResult`)."""
         if isinstance(message, ScanMsg) and message.robot_id == self.robot_id:
-            self.navigator.observe_scan(message)
+            self.navigator.observe_scan(message, defer_localisation=True)
         elif isinstance(message, OdomMsg) and message.robot_id == self.robot_id:
             odom = np.asarray(message.pose_xy_yaw, float)
             if self._last_odom is not None:
@@ -197,6 +199,11 @@ class Executor(Driving, Handover):
             step=clock.step,
         )
         return [*self.poll(wall_s), cmd]
+
+    def after_tick(self) -> None:
+        """Work that may wait until the step's command is out: the localisation update on the step's scan
+        (the robot's heaviest work; run while physics steps the next period, see :mod:`.localisation`)."""
+        self.navigator.localise()
 
     def poll(self, wall_s: float) -> list[Outgoing]:
         """What is due regardless of the clock: a physics request, event (re)sends, the robot's state."""

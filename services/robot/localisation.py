@@ -9,6 +9,13 @@ robot moved ``update_min_d_m`` or turned ``update_min_a_rad`` (AMCL's ``update_m
 standing still does not collapse its particles onto one scan, and a moving one pays for an update every
 other control step at full speed. The likelihood field is rebuilt when the map changes (one distance
 transform). Initialised around the start pose physics reports (:class:`bimbot.shared.messages.SiteInfoMsg`).
+
+A scan may be **deferred** (``observe_scan(..., defer=True)``): it is kept with the odometry it was seen at
+and the filter runs on it in :meth:`Localiser.update`, which the robot calls right after it sent its
+command for the step, so the filter (the robot's heaviest work) overlaps physics stepping the next period
+instead of delaying the command (docs/performance.md). The estimate is the same: the scan is matched at
+the odometry it was taken at and the odometry since then is composed on top; it corrects the pose from the
+next step on. A deferred scan not updated by then is taken before the next scan.
 """
 
 from __future__ import annotations
@@ -75,6 +82,9 @@ def compose_delta(
     )
 
 
+_Scan = tuple[NDArray[np.float64], NDArray[np.float64], float, NDArray[np.float64]]
+
+
 class Localiser:
     """Pose estimate ``pose`` (x_m, y_m, yaw_rad, map frame) from odometry and scans (see the module doc)."""
 
@@ -99,6 +109,8 @@ class Localiser:
         self._field: LikelihoodField | None = None
         self._field_version = -1
         self._sensor: LikelihoodFieldConfig | None = None
+        # a deferred scan: ranges, angles, range max and the odometry it was taken at
+        self._pending: _Scan | None = None
 
     def spread(self, std_xy_m: float, std_yaw_rad: float) -> None:
         """Re-localise: draw the particles again around the estimate, this wide (AMCL's answer to a robot
@@ -119,13 +131,40 @@ class Localiser:
         self.pose = compose_delta(self._anchor_pose, self._anchor_odom, self.odom)
 
     def observe_scan(
-        self, ranges_m: NDArray[np.float64], angles_rad: NDArray[np.float64], range_max_m: float
+        self,
+        ranges_m: NDArray[np.float64],
+        angles_rad: NDArray[np.float64],
+        range_max_m: float,
+        *,
+        defer: bool = False,
     ) -> bool:
-        """Run the filter on this scan if the robot moved enough since the last update; True if it ran."""
+        """Run the filter on this scan if the robot moved enough since the last update; True if it ran.
+        ``defer``: keep it for :meth:`update` (a scan still pending is taken first)."""
+        self.update()
         if self.odom is None or self._anchor_odom is None:
             return False
-        moved = math.hypot(*(self.odom[:2] - self._anchor_odom[:2]))
-        turned = abs(float(wrap_angle(self.odom[2] - self._anchor_odom[2])))
+        if defer:
+            self._pending = (ranges_m, angles_rad, range_max_m, self.odom.copy())
+            return False
+        return self._filter(ranges_m, angles_rad, range_max_m, self.odom)
+
+    def update(self) -> bool:
+        """Run the filter on the deferred scan, if any (and the robot moved enough); True if it ran."""
+        pending, self._pending = self._pending, None
+        return pending is not None and self._filter(*pending)
+
+    def _filter(
+        self,
+        ranges_m: NDArray[np.float64],
+        angles_rad: NDArray[np.float64],
+        range_max_m: float,
+        odom_at_scan: NDArray[np.float64],
+    ) -> bool:
+        """One filter step from the last update's odometry to ``odom_at_scan`` (where the scan was taken);
+        the odometry since then is composed on top of the new estimate."""
+        assert self.odom is not None and self._anchor_odom is not None
+        moved = math.hypot(*(odom_at_scan[:2] - self._anchor_odom[:2]))
+        turned = abs(float(wrap_angle(odom_at_scan[2] - self._anchor_odom[2])))
         if moved < self.config.update_min_d_m and turned < self.config.update_min_a_rad:
             return False
         if self._field is None or self._field_version != self.site_map.version:
@@ -138,14 +177,14 @@ class Localiser:
         self.particles, estimate = mcl_step(
             self.particles,
             self._anchor_odom,
-            self.odom,
+            odom_at_scan,
             ranges_m,
             angles_rad,
             field=self._field,
             config=replace(self.config.pf, sensor=self._sensor),
             rng=self.rng,
         )
-        self._anchor_pose, self._anchor_odom = estimate.pose_xy_yaw.copy(), self.odom.copy()
-        self.pose = self._anchor_pose.copy()
+        self._anchor_pose, self._anchor_odom = estimate.pose_xy_yaw.copy(), odom_at_scan.copy()
+        self.pose = compose_delta(self._anchor_pose, self._anchor_odom, self.odom)
         self.updates += 1
         return True

@@ -102,11 +102,14 @@ class Navigator(Traffic):
     def observe_odom(self, message: OdomMsg) -> None:
         self.localiser.observe_odom(message.pose_xy_yaw)
 
-    def observe_scan(self, message: ScanMsg) -> None:
+    def observe_scan(self, message: ScanMsg, *, defer_localisation: bool = False) -> None:
+        """The scan's local obstacles and marks now; the localisation update on it now, or with
+        ``defer_localisation`` at :meth:`localise` (after the step's command is out, see
+        :mod:`.localisation`)."""
         ranges = np.asarray(message.ranges_m, float)
         beams = np.arange(len(ranges), dtype=np.float64)
         angles = message.angle_min_rad + message.angle_increment_rad * beams
-        self.localiser.observe_scan(ranges, angles, message.range_max_m)
+        self.localiser.observe_scan(ranges, angles, message.range_max_m, defer=defer_localisation)
         hits = scan_endpoints_xy_m(self.localiser.pose, ranges, angles, message.range_max_m)
         pose = self.localiser.pose
         r = self.config.local_obstacle_radius_m
@@ -122,6 +125,10 @@ class Navigator(Traffic):
         local[moving] += towards * (shift / distance)[:, None]
         self.local_points = local
         self.nearest_mark_m = float(distance.min()) if len(distance) else math.inf
+
+    def localise(self) -> bool:
+        """Run the localisation update on a deferred scan (True if the filter ran)."""
+        return self.localiser.update()
 
     def set_goal(
         self, xy_m: ArrayLike, yaw_rad: float | None, sim_s: float, tolerance_m: float | None = None

@@ -84,6 +84,7 @@ class SiteMap:
         self.footprints: dict[str, Footprint] = {}  # not carried, wherever they are (any height)
         self.carried: dict[str, str] = {}  # guid → robot id
         self._placed: set[str] = set()  # guids that left their yard slot for the structure
+        self._applied: dict[str, tuple[object, ...]] = {}  # guid → the last pose message applied (its facts)
         self.version = 0
         self._cache: dict[str, object] = {}
         for guid, slot in layout.slots.items():
@@ -95,10 +96,15 @@ class SiteMap:
     # --- updates ------------------------------------------------------------------------------------------
 
     def observe_pose(self, message: ComponentPoseMsg) -> bool:
-        """Apply a component pose from physics; True when the map changed."""
+        """Apply a component pose from physics; True when the map changed. Physics repeats the poses of
+        components at rest: a pose equal to the last one applied changes nothing and costs a lookup."""
         guid = message.guid
         if guid not in self._components:
             return False
+        seen = (message.pose.position_m, message.pose.quat_xyzw, message.attached_to, message.fixed)
+        if self._applied.get(guid) == seen:
+            return False
+        self._applied[guid] = seen
         if message.attached_to is not None:
             self.carried[guid] = message.attached_to
             return self._clear(guid)
@@ -118,6 +124,7 @@ class SiteMap:
         component = self._components[guid]
         self._placed.add(guid)
         self.carried.pop(guid, None)
+        self._applied.pop(guid, None)
         pose = component.target_pose_world
         return self._set_footprint(guid, posed_footprint(component, pose.position_m, pose.quat_xyzw))
 
