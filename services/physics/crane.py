@@ -111,20 +111,28 @@ def lift_position(
 ) -> tuple[float, float, float]:
     """Where a crane's load is at ``fraction`` of its lift from ``start_m`` to ``end_m``: hoisted straight
     up to ``peak_z_m``, carried across at that height, lowered straight onto the target; each leg takes
-    its share of the time by its length (a straight line would drag the load across the ground)."""
-    start, end = np.asarray(start_m, float), np.asarray(end_m, float)
-    peak = max(peak_z_m, start[2], end[2])
-    up = np.array([start[0], start[1], peak])
-    over = np.array([end[0], end[1], peak])
-    legs = [(start, up), (up, over), (over, end)]
-    lengths = [float(np.linalg.norm(b - a)) for a, b in legs]
-    total = sum(lengths)
+    its share of the time by its length (a straight line would drag the load across the ground). Plain
+    floats: it runs for a lifted load after every physics step."""
+    sx, sy, sz = _xyz(start_m)
+    ex, ey, ez = _xyz(end_m)
+    peak = max(peak_z_m, sz, ez)
+    up, across, down = peak - sz, math.hypot(ex - sx, ey - sy), peak - ez
+    total = up + across + down
     if total <= 0.0 or fraction >= 1.0:
-        return float(end[0]), float(end[1]), float(end[2])
+        return ex, ey, ez
     travelled = max(0.0, fraction) * total
-    for (a, b), length in zip(legs, lengths, strict=True):
-        if travelled <= length and length > 0.0:
-            point = a + (b - a) * (travelled / length)
-            return float(point[0]), float(point[1]), float(point[2])
-        travelled -= length
-    return float(end[0]), float(end[1]), float(end[2])
+    if travelled <= up:
+        return sx, sy, sz + travelled
+    travelled -= up
+    if travelled <= across and across > 0.0:
+        share = travelled / across
+        return sx + (ex - sx) * share, sy + (ey - sy) * share, peak
+    travelled -= across
+    return ex, ey, peak - min(travelled, down)
+
+
+def _xyz(point: ArrayLike) -> tuple[float, float, float]:
+    if isinstance(point, tuple) and len(point) == 3:  # the loop's own frames: no array needed
+        return float(point[0]), float(point[1]), float(point[2])
+    x, y, z = np.asarray(point, dtype=float)[:3]
+    return float(x), float(y), float(z)

@@ -298,11 +298,20 @@ class Handling:
                     item.pose = (position, item.pose[1])
                 if fraction >= 1.0:
                     finished.append((item.tag, self._fix(item, carrier, now_s)))
+                    if carrier is not None and carrier.rig is not None:  # the hook where it set it down
+                        self._hook_over(carrier, item)
             set_component_pose(self.client_id, item.body, item.pose)
-            if carrier is not None and carrier.rig is not None:
-                self._hook_over(carrier, item)
             self.changed.add(guid)
         return finished
+
+    def pose_hooks(self, robots: dict[str, Robot]) -> None:
+        """Once per control period: every crane's joints with its hook above its load. The joints are what
+        the crane shows (its jib and hook do not collide, :mod:`.crane_rig`), so posing them per physics step
+        would cost the same again for nothing (scipy per step made a crane lift 3 ms a period)."""
+        for robot_id, guid in self.carrying.items():
+            crane = robots.get(robot_id)
+            if crane is not None and crane.rig is not None:
+                self._hook_over(crane, self.items[guid])
 
     def _hook_over(self, crane: Robot, item: Item) -> None:
         """A crane's joints with its hook above its load's top (:mod:`.crane`)."""

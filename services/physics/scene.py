@@ -131,23 +131,26 @@ def normalised_quat(quat_xyzw: Quat) -> Quat:
 
 
 def interpolate(start: Frame, end: Frame, fraction: float) -> Frame:
-    """Linear in position, spherical-linear in orientation; exactly ``end`` at ``fraction >= 1``."""
+    """Linear in position, spherical-linear in orientation; exactly ``end`` at ``fraction >= 1``. Plain
+    floats: it runs for every moving load after every physics step."""
     if fraction >= 1.0:
         return end
     s = max(0.0, fraction)
-    position = tuple(a + (b - a) * s for a, b in zip(start[0], end[0], strict=True))
-    q0 = np.asarray(start[1], dtype=float)
-    q1 = np.asarray(end[1], dtype=float)
-    dot = float(np.dot(q0, q1))
+    (x0, y0, z0), (x1, y1, z1) = start[0], end[0]
+    position = (x0 + (x1 - x0) * s, y0 + (y1 - y0) * s, z0 + (z1 - z0) * s)
+    q0, q1 = start[1], end[1]
+    dot = q0[0] * q1[0] + q0[1] * q1[1] + q0[2] * q1[2] + q0[3] * q1[3]
     if dot < 0.0:  # the short way round
-        q1, dot = -q1, -dot
+        q1, dot = (-q1[0], -q1[1], -q1[2], -q1[3]), -dot
     if dot > 0.9995:
-        q = q0 + (q1 - q0) * s
+        a, b = 1.0 - s, s
     else:
         theta = math.acos(min(1.0, dot))
-        q = (math.sin((1.0 - s) * theta) * q0 + math.sin(s * theta) * q1) / math.sin(theta)
-    q /= np.linalg.norm(q)
-    return position, (float(q[0]), float(q[1]), float(q[2]), float(q[3]))  # type: ignore[return-value]
+        sin_theta = math.sin(theta)
+        a, b = math.sin((1.0 - s) * theta) / sin_theta, math.sin(s * theta) / sin_theta
+    q = [a * u + b * v for u, v in zip(q0, q1, strict=True)]
+    norm = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    return position, (q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm)
 
 
 def footprint(component: Component, frame: Frame) -> Rect:
