@@ -1,9 +1,10 @@
 """Convert one element into its component model folder: the per-element half of the converter.
 
 For each tessellated element: its rigid placement and pose (:mod:`.placement`), work that depends only on
-its geometry and is shared by every element with the same tessellation (mass properties, collision parts,
-mesh files written once and hard-linked after), its mass from the IFC, its split IFC, ``model.sdf``,
-``model.config`` and its manifest entry. Pure apart from writing the model folder.
+its geometry and is shared by every element with the same tessellation (the welded mesh, mass properties,
+collision parts, mesh files written once and hard-linked after), its mass from the IFC, its split IFC,
+``model.sdf``, ``model.config`` and its manifest entry. Each mesh is built once and serves every use.
+Pure apart from writing the model folder.
 """
 
 from __future__ import annotations
@@ -22,8 +23,10 @@ from . import mass as mass_chain
 from .collision import CollisionShape, collision_shape
 from .connections import element_connections
 from .mass_properties import MassProperties, mass_properties, mesh_from_arrays
-from .mesh_files import GeometryFiles, link_geometry_files, write_geometry_files
+from .mesh import TriMesh
+from .mesh_files import VISUAL_FORMATS, GeometryFiles, link_geometry_files, write_geometry_files
 from .placement import pose_from_rigid, split_rigid, vec3
+from .prism_split import SectionCache
 from .sdf_writer import ModelSpec, model_config, model_sdf
 from .split_ifc import split_element
 from .tessellation import ElementShape
@@ -33,6 +36,7 @@ from .tessellation import ElementShape
 class GeometryWork:
     """Per distinct geometry: computed once, shared by every element that uses it."""
 
+    mesh: TriMesh  # welded, outward: the visual mesh and the input of every computation
     props: MassProperties
     collision: CollisionShape
     files: GeometryFiles | None = None
@@ -71,24 +75,34 @@ def place_element(element: ifcopenshell.entity_instance, shape: ElementShape) ->
     return PlacedElement(element, shape, key, rigid.rotation, rigid.translation_m, vertices, bbox)
 
 
-def geometry_work(item: PlacedElement, unit_scale_m: float) -> GeometryWork:
+def geometry_work(
+    item: PlacedElement, unit_scale_m: float, sections: SectionCache | None = None
+) -> GeometryWork:
     mesh = mesh_from_arrays(item.vertices_local_m, item.shape.geometry.faces)
     return GeometryWork(
-        props=mass_properties(mesh), collision=collision_shape(item.element, mesh, unit_scale_m)
+        mesh=mesh,
+        props=mass_properties(mesh),
+        collision=collision_shape(item.element, mesh, unit_scale_m, sections=sections),
     )
 
 
 def write_component(
-    model: ifcopenshell.file, item: PlacedElement, work: GeometryWork, origin: np.ndarray, out_dir: Path
+    model: ifcopenshell.file,
+    item: PlacedElement,
+    work: GeometryWork,
+    origin: np.ndarray,
+    out_dir: Path,
+    *,
+    formats: tuple[str, ...] = VISUAL_FORMATS,
 ) -> tuple[Component, ModelSpec]:
+    """Write the model folder of ``item`` (visual mesh ``formats``, see :mod:`.mesh_files`)."""
     element = item.element
     guid = str(element.GlobalId)
     folder = guid_to_folder(guid)
     model_dir = out_dir / "models" / folder
     model_dir.mkdir(parents=True, exist_ok=True)
     if work.files is None or work.files_dir is None:
-        visual = mesh_from_arrays(item.vertices_local_m, item.shape.geometry.faces)
-        work.files = write_geometry_files(model_dir, visual, work.collision.parts)
+        work.files = write_geometry_files(model_dir, work.mesh, work.collision.parts, formats)
         work.files_dir = model_dir
     else:
         link_geometry_files(work.files_dir, model_dir, work.files)
@@ -113,7 +127,7 @@ def write_component(
         mass_kg=mass.mass_kg,
         com_local_m=tuple(props.com_local_m),
         inertia_kg_m2=inertia,
-        visual_mesh=work.files.visual_dae,
+        visual_mesh=work.files.visual_mesh,
         collision_meshes=work.files.collision,
     )
     (model_dir / "model.sdf").write_bytes(model_sdf(spec))
@@ -158,15 +172,20 @@ def write_component(
             sdf_file=f"{rel_dir}/model.sdf",
             config_file=f"{rel_dir}/model.config",
             split_ifc=f"{rel_dir}/{split_name}",
-            visual_dae=f"{rel_dir}/{work.files.visual_dae}",
-            visual_obj=f"{rel_dir}/{work.files.visual_obj}",
-            visual_glb=f"{rel_dir}/{work.files.visual_glb}",
+            visual_dae=_in_folder(rel_dir, work.files.visual_dae),
+            visual_obj=_in_folder(rel_dir, work.files.visual_obj),
+            visual_glb=_in_folder(rel_dir, work.files.visual_glb),
             collision=[f"{rel_dir}/{name}" for name in work.files.collision],
         ),
         connections=element_connections(element),
         warnings=warnings,
     )
     return component, spec
+
+
+def _in_folder(rel_dir: str, name: str) -> str:
+    """``rel_dir/name``; empty for a file not written (a visual format not asked for)."""
+    return f"{rel_dir}/{name}" if name else ""
 
 
 def _predefined_type(element: ifcopenshell.entity_instance) -> str | None:

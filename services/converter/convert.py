@@ -6,7 +6,8 @@
     OUT/worlds/<site>.world                the SDF world (building as designed, every component inlined)
     OUT/models/<folder>/model.config       Gazebo model metadata
     OUT/models/<folder>/model.sdf          the component (movable, BIM pose, inertial, collision parts)
-    OUT/models/<folder>/meshes/            visual DAE/OBJ/GLB and convex collision OBJs, element frame, metres
+    OUT/models/<folder>/meshes/            visual DAE/OBJ/GLB (the formats asked for) and convex collision
+                                           OBJs, element frame, metres
     OUT/models/<folder>/<GUID>.ifc         the component split out as a standalone IFC
     OUT/sequence.xml                       construction sequence (the IFC schedule, else derived)
 
@@ -38,6 +39,7 @@ from bimbot.shared.sequence import SEQUENCE_FILE_NAME, write_sequence
 
 from .component_writer import skipped_entry
 from .ifc_input import file_sha256
+from .mesh_files import VISUAL_FORMATS
 from .placement import choose_local_origin, vec3
 from .sdf_writer import world_sdf
 from .selection import select_elements
@@ -57,6 +59,7 @@ class ConvertOptions:
     only: tuple[str, ...] = ()  # when given, these classes replace the default building elements
     threads: int | None = None  # worker processes (default: all cores)
     far_from_origin_m: float = 1000.0
+    formats: tuple[str, ...] = VISUAL_FORMATS  # visual mesh formats written (collision OBJs always are)
 
 
 @dataclass
@@ -92,7 +95,16 @@ def convert_model(
 
     shards_started = time.perf_counter()
     workers = options.threads or default_threads()
-    results = run_shards(model, elements, origin, out_dir, unit_scale_m, workers=workers, progress=progress)
+    results = run_shards(
+        model,
+        elements,
+        origin,
+        out_dir,
+        unit_scale_m,
+        workers=workers,
+        formats=options.formats,
+        progress=progress,
+    )
     stats.seconds_by_stage["shards_wall"] = time.perf_counter() - shards_started
     merged = sorted(
         (step_id, component, spec)

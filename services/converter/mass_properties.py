@@ -1,10 +1,10 @@
 """Volume, centre of mass and inertia of a component mesh, per kilogram so any mass can be applied later.
 
-Computed once per distinct geometry (elements that share a tessellation share these numbers) with
-trimesh's exact polyhedral integrals. A mesh that is not watertight has no meaningful enclosed volume:
-then the convex hull's volume is used (or the bounding box's when the hull is flat), and the inertia is that
-of a solid box filling the mesh's bounding box, centred on it; the result says so, and the manifest reports
-it.
+Computed once per distinct geometry (elements that share a tessellation share these numbers) with the
+exact polyhedral integrals of :mod:`.mesh` (the ones trimesh uses). A mesh that is not watertight has no
+meaningful enclosed volume: then the convex hull's volume is used (or the bounding box's when the hull is
+flat), and the inertia is that of a solid box filling the mesh's bounding box, centred on it; the result
+says so, and the manifest reports it.
 
 Inertia tensors follow SDF: about the centre of mass, in the element frame's axes, with off-diagonal
 entries equal to the tensor's entries (``ixy = -∫xy dm``), which is trimesh's convention as well.
@@ -15,10 +15,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import trimesh
-from scipy.spatial import ConvexHull, QhullError
 
 from bimbot.shared.manifest import InertiaSource
+
+from .mesh import MeshLike, TriMesh, as_trimesh_lite, convex_hull, welded
 
 MIN_THICKNESS_M = 0.001
 
@@ -36,15 +36,16 @@ class MassProperties:
         return self.inertia_per_kg_m2 * mass_kg
 
 
-def mesh_from_arrays(vertices_m: np.ndarray, faces: np.ndarray) -> trimesh.Trimesh:
-    """A trimesh with merged vertices and consistent outward winding where the topology allows it."""
-    mesh = trimesh.Trimesh(vertices=vertices_m, faces=faces, process=True, validate=False)
+def mesh_from_arrays(vertices_m: np.ndarray, faces: np.ndarray) -> TriMesh:
+    """A mesh with merged vertices and consistent outward winding where the topology allows it."""
+    mesh = welded(vertices_m, faces)
     if mesh.is_watertight and mesh.volume < 0:
-        mesh.invert()
+        mesh = mesh.inverted()
     return mesh
 
 
-def mass_properties(mesh: trimesh.Trimesh) -> MassProperties:
+def mass_properties(mesh_like: MeshLike) -> MassProperties:
+    mesh = as_trimesh_lite(mesh_like)
     bbox = np.array(mesh.bounds, dtype=float)
     if mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0:
         props = mesh.mass_properties  # density 1: mass == volume
@@ -52,19 +53,17 @@ def mass_properties(mesh: trimesh.Trimesh) -> MassProperties:
             volume_m3=float(props.volume),
             watertight=True,
             com_local_m=np.array(props.center_mass, dtype=float),
-            inertia_per_kg_m2=np.array(props.inertia, dtype=float) / float(props.mass),
+            inertia_per_kg_m2=np.array(props.inertia, dtype=float) / float(props.volume),
             source=InertiaSource.MESH,
             bbox_local_m=bbox,
         )
     return _bounding_box_fallback(mesh, bbox)
 
 
-def _bounding_box_fallback(mesh: trimesh.Trimesh, bbox: np.ndarray) -> MassProperties:
+def _bounding_box_fallback(mesh: TriMesh, bbox: np.ndarray) -> MassProperties:
     extents = np.maximum(bbox[1] - bbox[0], MIN_THICKNESS_M)
-    try:
-        volume = float(ConvexHull(mesh.vertices).volume)
-    except (QhullError, ValueError):  # flat or too few points: no hull volume
-        volume = 0.0
+    hull = convex_hull(mesh.vertices)
+    volume = hull.volume if hull is not None else 0.0  # flat or too few points: no hull volume
     if not volume > 1e-12:
         volume = float(np.prod(extents))
     return MassProperties(

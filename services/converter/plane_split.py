@@ -19,7 +19,8 @@ from dataclasses import dataclass
 
 import manifold3d
 import numpy as np
-import trimesh
+
+from .mesh import MeshLike, TriMesh, as_trimesh_lite, manifold_to_mesh
 
 CONCAVITY_TOL = 0.05  # a piece whose hull is ≤ 5 % larger than itself is convex enough
 MAX_PARTS = 16
@@ -30,12 +31,13 @@ TIME_BUDGET_S = 0.3
 
 @dataclass(frozen=True)
 class SplitResult:
-    parts: list[trimesh.Trimesh]  # convex hulls of the pieces, mesh frame
+    parts: list[TriMesh]  # convex hulls of the pieces, mesh frame
     hull_volume_ratio: float  # sum of the parts' volumes / mesh volume (1.0 = exact)
 
 
-def to_manifold(mesh: trimesh.Trimesh) -> manifold3d.Manifold | None:
+def to_manifold(mesh_like: MeshLike) -> manifold3d.Manifold | None:
     """The mesh as a manifold3d solid, or None when it is not a closed 2-manifold."""
+    mesh = as_trimesh_lite(mesh_like)
     if not mesh.is_watertight or not mesh.is_winding_consistent or mesh.volume <= 0:
         return None
     solid = manifold3d.Manifold(
@@ -50,13 +52,14 @@ def to_manifold(mesh: trimesh.Trimesh) -> manifold3d.Manifold | None:
 
 
 def split_into_convex_parts(
-    mesh: trimesh.Trimesh,
+    mesh_like: MeshLike,
     *,
     concavity_tol: float = CONCAVITY_TOL,
     max_parts: int = MAX_PARTS,
     time_budget_s: float = TIME_BUDGET_S,
 ) -> SplitResult | None:
     """Convex parts of a closed mesh by greedy plane cuts; None when the mesh is not a closed manifold."""
+    mesh = as_trimesh_lite(mesh_like)
     solid = to_manifold(mesh)
     if solid is None:
         return None
@@ -89,7 +92,7 @@ def split_into_convex_parts(
     return SplitResult(parts, float(sum(part.volume for part in parts) / mesh.volume))
 
 
-def candidate_normals(mesh: trimesh.Trimesh) -> np.ndarray:
+def candidate_normals(mesh: TriMesh) -> np.ndarray:
     """Unit normals of the cutting planes: the frame's axes, then the mesh's dominant face directions."""
     normals = [np.eye(3)[axis] for axis in range(3)]
     areas: dict[tuple[float, float, float], float] = {}
@@ -147,10 +150,6 @@ def _excess(piece: manifold3d.Manifold) -> float:
     return piece.hull().volume() - piece.volume()
 
 
-def _hull_mesh(piece: manifold3d.Manifold) -> trimesh.Trimesh | None:
-    hull = piece.hull().to_mesh()
-    vertices = np.asarray(hull.vert_properties[:, :3], dtype=float)
-    faces = np.asarray(hull.tri_verts, dtype=np.int64)
-    if len(faces) < 4:
-        return None
-    return trimesh.Trimesh(vertices, faces, process=False)
+def _hull_mesh(piece: manifold3d.Manifold) -> TriMesh | None:
+    hull = manifold_to_mesh(piece.hull())
+    return hull if len(hull.faces) >= 4 else None

@@ -4,7 +4,8 @@ Built with lxml. Every document must pass the reference parser (``ign sdf -k``);
 
 * ``model.sdf``: model and link named by the component's GlobalId (as in the paper), the BIM pose as
   ``<pose>`` (world frame, metres, roll-pitch-yaw), ``<static>false`` so it can be carried, a full
-  ``<inertial>`` (CoM pose, mass, inertia tensor), one visual mesh and one ``<collision>`` per convex part.
+  ``<inertial>`` (CoM pose, mass, inertia tensor), one visual mesh (the DAE, else the first visual format
+  written) and one ``<collision>`` per convex part.
   Mesh URIs are ``model://<folder>/meshes/…`` (Gazebo's model path; PyBullet resolves them too).
 * the world: physics, gravity, magnetic field, atmosphere, scene, a sun, a ground plane, and every
   component inlined at its BIM pose, static: the world shows the building as designed. Its mesh URIs are
@@ -56,7 +57,7 @@ class ModelSpec:
     mass_kg: float
     com_local_m: Sequence[float]
     inertia_kg_m2: np.ndarray  # (3, 3)
-    visual_mesh: str
+    visual_mesh: str  # the visual mesh file (meshes/visual.dae, else .obj, else .glb); empty: no <visual>
     collision_meshes: Sequence[str]
 
 
@@ -139,12 +140,13 @@ def _model_element(spec: ModelSpec, uri_prefix: str, *, static: bool) -> etree._
         semantics.set("ifc_name", spec.ifc_name)
     link = etree.SubElement(model, "link", name=spec.guid)
     link.append(_inertial(spec))
-    visual = etree.SubElement(link, "visual", name="visual")
-    _mesh_geometry(visual, uri_prefix + spec.visual_mesh)
-    material = etree.SubElement(visual, "material")
-    colour = " ".join(repr(c) for c in colour_for_class(spec.ifc_class))
-    _text(material, "ambient", colour)
-    _text(material, "diffuse", colour)
+    if spec.visual_mesh:  # empty when no visual format was asked for: the link has no visual
+        visual = etree.SubElement(link, "visual", name="visual")
+        _mesh_geometry(visual, uri_prefix + spec.visual_mesh)
+        material = etree.SubElement(visual, "material")
+        colour = " ".join(repr(c) for c in colour_for_class(spec.ifc_class))
+        _text(material, "ambient", colour)
+        _text(material, "diffuse", colour)
     for index, mesh in enumerate(spec.collision_meshes):
         collision = etree.SubElement(link, "collision", name=f"collision_{index}")
         _mesh_geometry(collision, uri_prefix + mesh)

@@ -26,6 +26,8 @@ import numpy as np
 from bimbot.shared.manifest import Component, SkippedElement
 
 from .component_writer import GeometryWork, geometry_work, place_element, skipped_entry, write_component
+from .mesh_files import VISUAL_FORMATS
+from .prism_split import SectionCache
 from .sdf_writer import ModelSpec
 from .tessellation import tessellate
 
@@ -80,9 +82,11 @@ def convert_shard(
     unit_scale_m: float,
     *,
     threads: int | None = None,
+    formats: tuple[str, ...] = VISUAL_FORMATS,
     on_element: Callable[[], None] | None = None,
 ) -> ShardResult:
-    """Tessellate and write the components of ``step_ids``; failures become ``skipped`` entries."""
+    """Tessellate and write the components of ``step_ids`` (visual mesh ``formats``); failures become
+    ``skipped`` entries."""
     result = ShardResult()
     started = time.perf_counter()
     elements = [model.by_id(step_id) for step_id in step_ids]
@@ -91,14 +95,15 @@ def convert_shard(
     result.skipped.extend(skipped_entry(by_id[i], reason) for i, reason in tessellation.failures.items())
     tessellated = time.perf_counter()
     works: dict[str, GeometryWork] = {}
+    sections = SectionCache()
     for step_id, shape in sorted(tessellation.shapes.items()):
         element = by_id[step_id]
         try:
             item = place_element(element, shape)
             work = works.get(item.geometry_key)
             if work is None:
-                work = works[item.geometry_key] = geometry_work(item, unit_scale_m)
-            component, spec = write_component(model, item, work, origin, out_dir)
+                work = works[item.geometry_key] = geometry_work(item, unit_scale_m, sections)
+            component, spec = write_component(model, item, work, origin, out_dir, formats=formats)
         except Exception as error:  # one bad element never stops the conversion; the reason is kept
             _log.warning("%s %s: %s", element.is_a(), element.GlobalId, error, exc_info=_log.isEnabledFor(10))
             result.skipped.append(
@@ -127,6 +132,7 @@ def run_shards(
     unit_scale_m: float,
     *,
     workers: int,
+    formats: tuple[str, ...] = VISUAL_FORMATS,
     progress: ProgressCallback | None = None,
 ) -> list[ShardResult]:
     """Convert ``elements`` with ``workers`` processes (in this process when few elements or one worker)."""
@@ -142,7 +148,16 @@ def run_shards(
 
         ids = [element.id() for element in elements]
         return [
-            convert_shard(model, ids, origin, out_dir, unit_scale_m, threads=workers, on_element=on_element)
+            convert_shard(
+                model,
+                ids,
+                origin,
+                out_dir,
+                unit_scale_m,
+                threads=workers,
+                formats=formats,
+                on_element=on_element,
+            )
         ]
     global _MODEL, _DONE
     context = multiprocessing.get_context("fork")
@@ -151,7 +166,8 @@ def run_shards(
     try:
         with ProcessPoolExecutor(max_workers=len(shards), mp_context=context) as pool:
             futures = [
-                pool.submit(_convert_in_worker, shard, origin, out_dir, unit_scale_m) for shard in shards
+                pool.submit(_convert_in_worker, shard, origin, out_dir, unit_scale_m, formats)
+                for shard in shards
             ]
             pending = set(futures)
             while pending:
@@ -166,7 +182,7 @@ def run_shards(
 
 
 def _convert_in_worker(
-    step_ids: list[int], origin: np.ndarray, out_dir: Path, unit_scale_m: float
+    step_ids: list[int], origin: np.ndarray, out_dir: Path, unit_scale_m: float, formats: tuple[str, ...]
 ) -> ShardResult:
     assert _MODEL is not None and _DONE is not None, "worker started without a forked model"
     counter = _DONE
@@ -175,4 +191,6 @@ def _convert_in_worker(
         with counter.get_lock():
             counter.value += 1
 
-    return convert_shard(_MODEL, step_ids, origin, out_dir, unit_scale_m, threads=1, on_element=on_element)
+    return convert_shard(
+        _MODEL, step_ids, origin, out_dir, unit_scale_m, threads=1, formats=formats, on_element=on_element
+    )

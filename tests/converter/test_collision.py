@@ -488,7 +488,9 @@ def test_faceted_brep_sample_falls_back_to_the_mesh(samples_dir: Path) -> None:
 def test_profile_parts_rest_on_the_ground_as_a_compound_body(model: Model, tmp_path: Path) -> None:
     beam = model.element("IfcBeam", model.extrusion(i_section(model), 3.0))
     shape = collision_shape(beam, local_mesh(beam), MM)
-    centre_local = trimesh.util.concatenate(list(shape.parts)).center_mass
+    centre_local = trimesh.util.concatenate(
+        [trimesh.Trimesh(q.vertices, q.faces) for q in shape.parts]
+    ).center_mass
     files = []
     for index, part in enumerate(shape.parts):
         files.append(str(tmp_path / f"part_{index}.obj"))
