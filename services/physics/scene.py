@@ -16,8 +16,10 @@ multibody from its manifest entry (:func:`component_model`):
   :func:`set_component_pose` convert from and to the component frame (the BIM frame of ``<pose>``).
 
 Components at rest are *static* (mass 0): they neither fall nor drift and cost nothing in the solver
-(static–static pairs are never tested). Their real mass and inertia stay in :class:`ComponentBody` and
-:func:`make_dynamic` restores them.
+(static–static pairs are never tested). Each is a Bullet rigid body (``useMaximalCoordinates``), not a
+fixed-base multibody: Bullet updates every multibody each step, so 782 resting multibodies made a step 3.5×
+dearer than 28; as rigid bodies the step costs about the same (``bench/physics.py --build``). Their real
+mass and inertia stay in :class:`ComponentBody` and :func:`make_dynamic` restores them.
 
 Collision filter groups: pybullet lets a pair collide when *either* one's group is in the other's mask
 (measured: its default filter ORs the two tests), so two bodies that must not collide both leave the
@@ -271,6 +273,7 @@ def create_component_body(
         baseOrientation=frame[1],
         baseInertialFramePosition=model.com_local_m,
         baseInertialFrameOrientation=principal,
+        useMaximalCoordinates=True,  # a rigid body: at rest it costs the solver nothing (see module doc)
         physicsClientId=client_id,
     )
     body = ComponentBody(component.guid, body_id, (model.com_local_m, principal), model.mass_kg, diagonal)
