@@ -99,6 +99,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=sim.pose_refresh_s,
         help=f"repeat every pose this often, sim s (default {sim.pose_refresh_s:g})",
     )
+    parser.add_argument(
+        "--pose-refresh-max",
+        type=positive_int,
+        default=sim.pose_refresh_max,
+        help=f"repeat at most this many poses a control period (default {sim.pose_refresh_max})",
+    )
     group = parser.add_argument_group("robot")
     group.add_argument(
         "--wheel-joints",
@@ -191,6 +197,7 @@ def sim_config(args: argparse.Namespace) -> SimConfig:
             lock_step=args.lock_step,
             real_time_factor=args.rtf,
             pose_refresh_s=args.pose_refresh_s,
+            pose_refresh_max=args.pose_refresh_max,
             visuals=args.gui,
             robot=RobotConfig(wheel_joints=wheels),
             laser=LaserConfig(

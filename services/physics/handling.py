@@ -135,6 +135,7 @@ class Handling:
         self.changed: set[str] = set()  # GUIDs whose pose changed since the last take_changed()
         self.constructed: set[str] = set()  # declared constructed by their agents: fixed for good
         self._moving: set[str] = set()
+        self._separating: set[str] = set()  # fixed, still overlapping their former carrier
 
     def note_constructed(self, guid: str, constructed: bool) -> None:
         """What a component's agent says of it (from ``components/<key>/state``)."""
@@ -329,6 +330,7 @@ class Handling:
         item.tag = None
         self._moving.discard(item.component.guid)
         item.separating_from = carrier
+        self._separating.add(item.component.guid)
         if carrier is None or carrier.is_crane or not self._overlaps(item, carrier):  # a hook is no body
             self._settle(item)
         _log.info("%s fixed to the structure at t=%.2f s", item.component.guid, now_s)
@@ -336,6 +338,7 @@ class Handling:
 
     def _settle(self, item: Item) -> None:
         item.separating_from = None
+        self._separating.discard(item.component.guid)
         set_filter(self.client_id, item.body.body_id, STATIC_GROUP, STATIC_MASK)
 
     def _overlaps(self, item: Item, robot: Robot) -> bool:
@@ -348,14 +351,17 @@ class Handling:
 
     def settle_separated(self) -> None:
         """Once per control period: placed components collide with their former carrier once clear of it."""
-        for item in self.items.values():
-            if item.separating_from is not None and not self._overlaps(item, item.separating_from):
+        for guid in list(self._separating):
+            item = self.items[guid]
+            if item.separating_from is None:  # picked up again meanwhile
+                self._separating.discard(guid)
+            elif not self._overlaps(item, item.separating_from):
                 self._settle(item)
 
     def busy_robots(self) -> set[str]:
         """Robots whose placement is running (they hold still and are not waited for in lock-step)."""
         return {
-            item.carrier for item in self.items.values() if item.phase is Phase.ASSEMBLING and item.carrier
+            robot_id for robot_id, guid in self.carrying.items() if self.items[guid].phase is Phase.ASSEMBLING
         }
 
     def drop_request(

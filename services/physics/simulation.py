@@ -15,7 +15,9 @@ Per period the outgoing messages are: the clock; per robot its odometry (noisy, 
 seeded per robot from ``seed``; a crane's is its fixed pose), its laser scan (:mod:`.sensors`; none for a
 crane) and its ground-truth pose (a crane's with its joint values); the pose of
 every component that moved (carried, assembling, just placed or dropped); and a slice of the others, so
-that every component's pose is repeated once per ``pose_refresh_s`` for late subscribers.
+that every component's pose is repeated once per ``pose_refresh_s`` for late subscribers, but at most
+``pose_refresh_max`` a period: on a site of a thousand components the repeats were 80 messages a period
+that every subscriber decoded, for a safety net (who starts late asks ``physics/poses``).
 :meth:`Simulation.start_messages` gives all of that for step 0 (every component included).
 Same build, config, seed and command sequence → the same trajectories (pybullet is deterministic for an
 identical call sequence on a fresh client).
@@ -92,6 +94,7 @@ class SimConfig:
     lock_step: bool = False  # reported in ClockMsg and SiteInfoMsg; the adapter does the waiting
     real_time_factor: float = FINE.rtf  # the pace asked for: reported until one is measured
     pose_refresh_s: float = 2.0
+    pose_refresh_max: int = 5  # repeated poses per control period at most (a large site: a longer cycle)
     visuals: bool = False
     robot: RobotConfig = field(default_factory=RobotConfig)
     laser: LaserConfig = field(default_factory=LaserConfig)
@@ -110,8 +113,8 @@ class SimConfig:
             raise ValueError(
                 f"control period {self.control_period_s} s is not a whole number of {self.step_s} s steps"
             )
-        if self.odom_noise < 0.0 or self.pose_refresh_s <= 0.0:
-            raise ValueError("odom noise must be >= 0 and pose refresh > 0")
+        if self.odom_noise < 0.0 or self.pose_refresh_s <= 0.0 or self.pose_refresh_max < 1:
+            raise ValueError("odom noise must be >= 0, pose refresh > 0 and at least one pose a period")
 
 
 @dataclass(frozen=True)
@@ -189,6 +192,7 @@ class Simulation:
             p.setCollisionFilterPair(self.ground_id, body.body_id, -1, -1, 0, physicsClientId=cid)
             items[component.guid] = Item(component, body, Phase.RESTING, frame)
         self.handling = Handling(cid, items, self.config.handling, self.layout.fence)
+        self._guids = list(items)
         self.robots = spawn_fleet(
             cid, self.robot_types, self.layout.robot_starts, self.config.robot, self.config.fleet
         )
@@ -406,11 +410,13 @@ class Simulation:
         )
 
     def _refresh_slice(self, skip: set[str]) -> list[str]:
-        """The next few components in turn, so that each is repeated once per ``pose_refresh_s``."""
-        guids = list(self.handling.items)
+        """The next few components in turn, so that each is repeated once per ``pose_refresh_s`` (at most
+        ``pose_refresh_max`` a period)."""
+        guids = self._guids
         if not guids:
             return []
         per_period = math.ceil(len(guids) * self.config.control_period_s / self.config.pose_refresh_s)
+        per_period = min(per_period, self.config.pose_refresh_max)
         chosen = [guids[(self._refresh_cursor + i) % len(guids)] for i in range(min(per_period, len(guids)))]
         self._refresh_cursor = (self._refresh_cursor + len(chosen)) % len(guids)
         return [guid for guid in chosen if guid not in skip]

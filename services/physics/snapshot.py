@@ -95,6 +95,7 @@ class SnapshotRecorder:
         self._odom: dict[str, tuple[float, float, float]] = {}
         self._components: dict[str, ComponentPoseMsg] = {}
         self._encoded: dict[str, bytes] = {}  # GUID → its JSON entry
+        self._components_json: bytes | None = None  # every entry joined, until one changes
         Path(state_dir).mkdir(parents=True, exist_ok=True)
         self._fds = [os.open(path, os.O_RDWR | os.O_CREAT, 0o644) for path in record_paths(state_dir)]
         self._turn = 0
@@ -112,6 +113,7 @@ class SnapshotRecorder:
                 if previous is None or _moved(previous, message):
                     self._components[message.guid] = message
                     self._encoded[message.guid] = message.model_dump_json().encode()
+                    self._components_json = None
             elif isinstance(message, RobotPoseMsg):
                 self._robots[message.robot_id] = message
             elif isinstance(message, OdomMsg):
@@ -128,11 +130,15 @@ class SnapshotRecorder:
             robot_id: RobotSnapshot(pose=pose, odom_xy_yaw=self._odom.get(robot_id)).model_dump_json()
             for robot_id, pose in self._robots.items()
         }
+        if self._components_json is None:  # a large site's components rarely change: joined once per change
+            self._components_json = b",".join(
+                b'"%s":%s' % (guid.encode(), entry) for guid, entry in self._encoded.items()
+            )
         parts = [
             b'{"epoch":%d,"step":%d,"sim_time_s":%r,"robots":{' % (self.epoch, clock.step, clock.sim_time_s),
             b",".join(b'"%s":%s' % (robot_id.encode(), entry.encode()) for robot_id, entry in robots.items()),
             b'},"components":{',
-            b",".join(b'"%s":%s' % (guid.encode(), entry) for guid, entry in self._encoded.items()),
+            self._components_json,
             b"}}",
         ]
         data = b"".join(parts)
