@@ -189,6 +189,7 @@ class Robot:
     command: tuple[float, float] = (0.0, 0.0)
     held: bool = False  # wheels stopped whatever the command (assembling, lost)
     _correction: list[float] = field(default_factory=lambda: [0.0, 0.0])
+    _may_sleep: bool = False  # told to stand still: Bullet may put it to sleep once at rest
     _last_xy_yaw: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def frame(self, client_id: int) -> Frame:
@@ -219,10 +220,24 @@ class Robot:
         self._correction[:] = [0.0, 0.0]
 
     def apply_motors(self, client_id: int) -> None:
-        """Wheel speed targets for the next control period (nothing for a crane)."""
+        """Wheel speed targets for the next control period (nothing for a crane). A robot told to stand
+        still may fall asleep in Bullet once it has come to rest (it then costs the solver almost nothing:
+        0.016 ms a step against 0.055 for the carrier at rest); any other command wakes it first."""
         if self.drive is None:
             return
         v, w = (0.0, 0.0) if self.held else self.command
+        still = v == 0.0 and w == 0.0
+        if still != self._may_sleep:
+            self._may_sleep = still
+            state = p.ACTIVATION_STATE_ENABLE_SLEEPING if still else p.ACTIVATION_STATE_WAKE_UP
+            p.changeDynamics(self.body_id, -1, activationState=state, physicsClientId=client_id)
+            if not still:
+                p.changeDynamics(
+                    self.body_id,
+                    -1,
+                    activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING,
+                    physicsClientId=client_id,
+                )
         if not self.held:
             v += self._correction[0]
             w = w * self.config.track_multiplier + self._correction[1]

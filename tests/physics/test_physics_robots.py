@@ -106,3 +106,19 @@ def test_simulated_odometry_drifts_from_the_truth_with_noise(make_sim: Callable[
     truth = next(m.message for m in last if isinstance(m.message, RobotPoseMsg))
     error = math.hypot(odom.pose_xy_yaw[0] - truth.pose_xy_yaw[0], odom.pose_xy_yaw[1] - truth.pose_xy_yaw[1])
     assert 1e-4 < error < 0.5
+
+
+def test_a_robot_told_to_stand_still_falls_asleep_and_a_command_wakes_it(
+    make_sim: Callable[..., Simulation],
+) -> None:
+    """Bullet stops simulating a robot at rest (a sleeping body costs the step almost nothing); a command
+    to drive wakes it, and it drives as an awake one does."""
+    sim = make_sim(robots=1)
+    drive(sim, "r1", 0.5, 0.0, 1.0)
+    drive(sim, "r1", 0.0, 0.0, 4.0)  # stop, then rest for Bullet's deactivation time (2 s)
+    x0, y0, _ = sim.robot_pose("r1")
+    drive(sim, "r1", 0.0, 0.0, 2.0)
+    assert sim.robot_pose("r1")[:2] == pytest.approx((x0, y0), abs=1e-9)  # asleep: not even a jitter
+    drive(sim, "r1", 0.5, 0.0, 2.0)
+    x, y, _ = sim.robot_pose("r1")
+    assert math.hypot(x - x0, y - y0) == pytest.approx(1.0, abs=0.1)
