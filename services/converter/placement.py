@@ -6,22 +6,24 @@ millimetres, so :func:`choose_local_origin` picks a round origin near the model 
 expressed relative to it; the manifest records the origin so nothing is lost.
 
 SDF's ``<pose>`` is ``x y z roll pitch yaw`` with fixed-axis (extrinsic) x-y-z angles, i.e.
-``R = Rz(yaw) · Ry(pitch) · Rx(roll)``, which is scipy's lower-case ``"xyz"`` convention.
+``R = Rz(yaw) · Ry(pitch) · Rx(roll)``, which is scipy's lower-case ``"xyz"`` convention. The conversions
+are scipy's own algorithms (``Rotation.from_matrix``, ``as_euler``, ``as_matrix``) written out for one
+rotation in numpy: importing ``scipy.spatial.transform`` costs ~0.3 s of every ``bimbot convert``.
 """
 
 from __future__ import annotations
 
-import warnings
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from bimbot.shared.manifest import Pose, Quat, Vec3
 
 FAR_FROM_ORIGIN_M = 1000.0
 ORTHONORMAL_TOLERANCE = 1e-9
+GIMBAL_LOCK_RAD = 1e-7  # pitch within this of ±90°: roll and yaw are not unique (scipy's threshold)
 
 
 @dataclass(frozen=True)
@@ -48,12 +50,12 @@ def split_rigid(matrix: np.ndarray) -> RigidPlacement:
 
 
 def pose_from_rigid(rotation: np.ndarray, translation_m: np.ndarray, local_origin_m: np.ndarray) -> Pose:
-    rot = Rotation.from_matrix(rotation)
     position = np.asarray(translation_m, dtype=float) - np.asarray(local_origin_m, dtype=float)
-    quat = rot.as_quat()  # x, y, z, w
+    quat = quat_from_matrix(rotation)  # x, y, z, w
+    rpy = rpy_from_quat(quat)
     if quat[3] < 0:
         quat = -quat
-    return Pose(position_m=vec3(position), quat_xyzw=quat_xyzw(quat), rpy_rad=vec3(_sdf_rpy(rot)))
+    return Pose(position_m=vec3(position), quat_xyzw=quat_xyzw(quat), rpy_rad=vec3(rpy))
 
 
 def vec3(values: Iterable[float]) -> Vec3:
@@ -68,17 +70,70 @@ def quat_xyzw(values: Iterable[float]) -> Quat:
     return x, y, z, w
 
 
-def _sdf_rpy(rotation: Rotation) -> np.ndarray:
-    """Roll-pitch-yaw; at pitch ±90° (gimbal lock) scipy sets yaw to 0 and warns: expected, so silenced."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)
-        return rotation.as_euler("xyz")
+def quat_from_matrix(rotation: np.ndarray) -> np.ndarray:
+    """Unit quaternion (x, y, z, w) of a rotation matrix (scipy's ``from_matrix``: a matrix that is not
+    orthonormal to 1e-12 is first replaced by its nearest rotation)."""
+    matrix = np.asarray(rotation, dtype=float)
+    if not np.allclose(matrix @ matrix.T, np.eye(3), rtol=1e-5, atol=1e-12):
+        u, _, vt = np.linalg.svd(matrix)
+        matrix = u @ vt
+    trace = matrix[0, 0] + matrix[1, 1] + matrix[2, 2]
+    choice = int(np.argmax([matrix[0, 0], matrix[1, 1], matrix[2, 2], trace]))
+    if choice == 3:
+        quat = [
+            matrix[2, 1] - matrix[1, 2],
+            matrix[0, 2] - matrix[2, 0],
+            matrix[1, 0] - matrix[0, 1],
+            1 + trace,
+        ]
+    else:
+        i, j, k = choice, (choice + 1) % 3, (choice + 2) % 3
+        quat = [0.0, 0.0, 0.0, 0.0]
+        quat[i] = 1 - trace + 2 * matrix[i, i]
+        quat[j] = matrix[j, i] + matrix[i, j]
+        quat[k] = matrix[k, i] + matrix[i, k]
+        quat[3] = matrix[k, j] - matrix[j, k]
+    result = np.array(quat, dtype=float)
+    return result / math.sqrt(sum(float(v) * float(v) for v in result))
+
+
+def rpy_from_quat(quat_xyzw: np.ndarray) -> np.ndarray:
+    """Roll, pitch, yaw (extrinsic x-y-z, radians) of a unit quaternion, by scipy's ``as_euler("xyz")``
+    algorithm (Bernardes & Viollet); at pitch ±90° (gimbal lock) yaw is set to 0."""
+    x, y, z, w = (float(v) for v in quat_xyzw)
+    # extrinsic x, y, z: axes i=0, j=1, k=2, not symmetric, sign = +1; libm's atan2 (math), as scipy's
+    # compiled code uses: numpy's differs in the last bit, which turns a yaw of π into -π
+    a, b, c, d = w - y, x + z, y + w, z - x
+    half_sum, half_diff = math.atan2(b, a), math.atan2(d, c)
+    pitch = 2.0 * math.atan2(math.hypot(c, d), math.hypot(a, b))
+    if abs(pitch) <= GIMBAL_LOCK_RAD:
+        roll, yaw = 2.0 * half_sum, 0.0
+    elif abs(pitch - math.pi) <= GIMBAL_LOCK_RAD:
+        roll, yaw = -2.0 * half_diff, 0.0
+    else:
+        roll, yaw = half_sum - half_diff, half_sum + half_diff
+    angles = np.array([roll, pitch - math.pi / 2.0, yaw])
+    angles[angles < -math.pi] += 2.0 * math.pi  # into [-π, π], keeping π as π (as scipy does)
+    angles[angles > math.pi] -= 2.0 * math.pi
+    return angles
+
+
+def matrix_from_quat(quat_xyzw: Iterable[float]) -> np.ndarray:
+    """3×3 rotation matrix of a quaternion (x, y, z, w), normalised first (scipy's ``as_matrix``)."""
+    x, y, z, w = np.asarray(list(quat_xyzw), dtype=float) / np.linalg.norm(list(quat_xyzw))
+    return np.array(
+        [
+            [x * x - y * y - z * z + w * w, 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), -x * x + y * y - z * z + w * w, 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), -x * x - y * y + z * z + w * w],
+        ]
+    )
 
 
 def pose_matrix(pose: Pose) -> np.ndarray:
     """4×4 matrix of a pose (from its quaternion)."""
     matrix = np.eye(4)
-    matrix[:3, :3] = Rotation.from_quat(pose.quat_xyzw).as_matrix()
+    matrix[:3, :3] = matrix_from_quat(pose.quat_xyzw)
     matrix[:3, 3] = pose.position_m
     return matrix
 
