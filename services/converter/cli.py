@@ -1,7 +1,8 @@
 """``bimbot convert MODEL.ifc -o OUT/``: the command-line adapter of the converter.
 
 What is built: building elements and their parts (:mod:`.selection`); ``--include``/``--exclude``/``--only``
-change that by class. The summary line counts the elements left out by reason.
+change that by class. The summary line counts the elements left out by reason. ``--formats`` chooses the
+visual mesh files (:mod:`.mesh_files` says which reader uses which); collision meshes are always written.
 
 Exit codes: 0 when at least one component was converted, 1 when the model was read but nothing could be
 converted (the manifest still lists why), 2 for unreadable input (one clear line, no traceback).
@@ -30,6 +31,8 @@ _log = logging.getLogger(__name__)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from .convert import ConvertOptions  # the run imports it anyway; the defaults are its fields
+
     parser.add_argument("model", type=Path, help="IFC file (IFC2X3, IFC4 or IFC4X3, STEP .ifc)")
     parser.add_argument("-o", "--output", type=Path, required=True, help="output folder (created if missing)")
     parser.add_argument(
@@ -47,17 +50,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="build only these IFC classes instead of the building elements (comma-separated, subclasses)",
     )
     parser.add_argument("--threads", type=int, default=None, help="tessellation threads (default: all cores)")
+    parser.add_argument(
+        "--formats",
+        default=",".join(ConvertOptions.formats),
+        help="visual mesh files to write, comma-separated: dae (Gazebo, named by model.sdf), obj (physics "
+        "--gui), glb (the rerun observer; it falls back to obj); 'none' for collision meshes only "
+        f"(default: {','.join(ConvertOptions.formats)})",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar even on a terminal")
 
 
 def run(args: argparse.Namespace) -> int:
     from .convert import ConversionStats, ConvertOptions, convert_model
     from .ifc_input import open_model
+    from .mesh_files import parse_formats
     from .selection import check_classes, parse_class_list
 
     started = time.perf_counter()
     if args.threads is not None and args.threads < 1:
         raise UserError("--threads must be at least 1")
+    try:
+        formats = () if args.formats.strip().lower() == "none" else parse_formats(args.formats)
+    except ValueError as error:
+        raise UserError(f"--formats: {error}") from None
     check_writable_dir(args.output, "--output")  # before the model is read: that may take minutes
     model = open_model(args.model)
     try:
@@ -66,7 +81,9 @@ def run(args: argparse.Namespace) -> int:
         only = check_classes(model, parse_class_list(args.only))
     except ValueError as error:
         raise UserError(str(error)) from None
-    options = ConvertOptions(include=include, exclude=exclude, only=only, threads=args.threads)
+    options = ConvertOptions(
+        include=include, exclude=exclude, only=only, threads=args.threads, formats=formats
+    )
     stats = ConversionStats()
     with _ProgressBar(enabled=not args.no_progress and sys.stderr.isatty()) as bar:
         try:
