@@ -34,6 +34,8 @@ from .bus_config import (
     zenoh_config,
 )
 from .keyspace import Queryable, Topic
+from .messages import SensorsMsg
+from .wire import encode_sensors, is_binary, sensors_fields
 
 __all__ = [  # the bus_config names are re-exported: services import everything bus-related from here
     "DEFAULT_ENDPOINT",
@@ -65,6 +67,9 @@ R = TypeVar("R", bound=BaseModel)
 
 
 def encode(message: BaseModel) -> bytes:
+    """The payload of ``message``: its JSON, or for a binary topic's model the layout of :mod:`.wire`."""
+    if isinstance(message, SensorsMsg):
+        return encode_sensors(message)
     return message.model_dump_json().encode("utf-8")
 
 
@@ -139,6 +144,8 @@ class InvalidPayloads:
 def decode(model: type[M], key: str, payload: bytes, invalid: InvalidPayloads) -> M | None:
     """The validated message, or None (logged and counted) when the payload does not fit ``model``."""
     try:
+        if is_binary(model):
+            return model.model_validate(sensors_fields(payload))
         return model.model_validate_json(payload)
     except ValidationError as error:
         first = error.errors()[0]

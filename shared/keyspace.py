@@ -5,7 +5,8 @@ who speaks: a :class:`Topic` to its message model and publisher, a :class:`Query
 reply models and the service that answers, a :class:`Liveliness` entry to its token owners. Services name
 the entry, never a model, so a subscriber cannot validate a key against the wrong model
 (:class:`bimbot.shared.bus.Inbox`), and the module docstring's key table is rendered from the same
-entries (:func:`key_table`), so the documentation cannot drift from the code.
+entries (:func:`key_table`), so the documentation cannot drift from the code. Every payload is the model's
+JSON, except on a topic marked ``binary`` (a high-rate one), whose layout is :mod:`bimbot.shared.wire`'s.
 """
 
 from __future__ import annotations
@@ -57,6 +58,7 @@ class Topic(Generic[M]):
     publisher: str
     readers: str
     note: str = ""
+    binary: bool = False  # the compact binary layout of :mod:`bimbot.shared.wire`, not JSON
 
     def key(self, **parts: str) -> str:
         return fill(self.template, **parts)
@@ -65,11 +67,8 @@ class Topic(Generic[M]):
         return template_matches(self.template, site, key_expr)
 
     def row(self) -> tuple[str, str, str]:
-        return (
-            shown(self.template),
-            self.model.__name__,
-            _who(f"{self.publisher} → {self.readers}", self.note),
-        )
+        note = " ".join(part for part in ("binary" if self.binary else "", self.note) if part)
+        return shown(self.template), self.model.__name__, _who(f"{self.publisher} → {self.readers}", note)
 
 
 @dataclass(frozen=True)

@@ -11,10 +11,9 @@ Key space (``<site>`` is the manifest's site slug, ``<key>`` a component's bus k
     bimbot/<site>/tasks/<task_id>             TaskMsg             planner → robots, observer
     bimbot/<site>/robots/<robot_id>/state     RobotStateMsg       robot → planner, observer
     bimbot/<site>/robots/<robot_id>/cmd_vel   CmdVelMsg           robot → physics
-    bimbot/<site>/robots/<robot_id>/odom      OdomMsg             physics → robot
-    bimbot/<site>/robots/<robot_id>/scan      ScanMsg             physics → robot
+    bimbot/<site>/robots/<robot_id>/sensors   SensorsMsg          physics → robot, observer (binary odom+scan)
     bimbot/<site>/robots/<robot_id>/plan      PlanMsg             robot → observer
-    bimbot/<site>/robots/<robot_id>/pose      RobotPoseMsg        physics → observer, tests (ground truth)
+    bimbot/<site>/robots/<robot_id>/pose      RobotPoseMsg        physics → observer, run (ground truth)
     bimbot/<site>/physics/info                (queryable)         physics answers SiteInfoMsg
     bimbot/<site>/physics/attach              (queryable)         physics answers AttachRequest → PhysicsReply
     bimbot/<site>/physics/place               (queryable)         physics answers PlaceRequest → PhysicsReply
@@ -220,8 +219,7 @@ class TaskMsg(_Message):
 
 ROBOT_STATE_KEY = "bimbot/{site}/robots/{robot_id}/state"
 ROBOT_CMD_VEL_KEY = "bimbot/{site}/robots/{robot_id}/cmd_vel"
-ROBOT_ODOM_KEY = "bimbot/{site}/robots/{robot_id}/odom"
-ROBOT_SCAN_KEY = "bimbot/{site}/robots/{robot_id}/scan"
+ROBOT_SENSORS_KEY = "bimbot/{site}/robots/{robot_id}/sensors"
 ROBOT_PLAN_KEY = "bimbot/{site}/robots/{robot_id}/plan"
 ROBOT_POSE_KEY = "bimbot/{site}/robots/{robot_id}/pose"
 
@@ -384,6 +382,17 @@ class ClockMsg(_Message):
     epoch: Step = 0  # physics starts of this run - 1: a new epoch is a restart, not a jump in time
 
 
+class SensorsMsg(_Message):
+    """What physics tells one robot each control period, in one message: the clock step it answers, its
+    odometry and its laser scan (None for a robot without a laser, a crane). One message instead of three
+    wakes the robot once a period; it travels in the compact binary layout of :mod:`bimbot.shared.wire`."""
+
+    robot_id: str
+    clock: ClockMsg
+    odom: OdomMsg
+    scan: ScanMsg | None = None
+
+
 class ProgressMsg(_Message):
     total: Count
     counts: dict[str, Count]  # by ComponentState value
@@ -412,10 +421,9 @@ COMPONENT_TWIN = Queryable(COMPONENT_TWIN_KEY, None, TwinMsg, "agent")
 TASK = Topic(TASK_KEY, TaskMsg, "planner", "robots, observer")
 ROBOT_STATE = Topic(ROBOT_STATE_KEY, RobotStateMsg, "robot", "planner, observer")
 ROBOT_CMD_VEL = Topic(ROBOT_CMD_VEL_KEY, CmdVelMsg, "robot", "physics")
-ROBOT_ODOM = Topic(ROBOT_ODOM_KEY, OdomMsg, "physics", "robot")
-ROBOT_SCAN = Topic(ROBOT_SCAN_KEY, ScanMsg, "physics", "robot")
+ROBOT_SENSORS = Topic(ROBOT_SENSORS_KEY, SensorsMsg, "physics", "robot, observer", "odom+scan", True)
 ROBOT_PLAN = Topic(ROBOT_PLAN_KEY, PlanMsg, "robot", "observer")
-ROBOT_POSE = Topic(ROBOT_POSE_KEY, RobotPoseMsg, "physics", "observer, tests", "ground truth")
+ROBOT_POSE = Topic(ROBOT_POSE_KEY, RobotPoseMsg, "physics", "observer, run", "ground truth")
 PHYSICS_INFO = Queryable(PHYSICS_INFO_KEY, None, SiteInfoMsg, "physics")
 PHYSICS_ATTACH = Queryable(PHYSICS_ATTACH_KEY, AttachRequest, PhysicsReply, "physics")
 PHYSICS_PLACE = Queryable(PHYSICS_PLACE_KEY, PlaceRequest, PhysicsReply, "physics")
@@ -435,8 +443,7 @@ KEY_SPACE: tuple[Entry, ...] = (
     TASK,
     ROBOT_STATE,
     ROBOT_CMD_VEL,
-    ROBOT_ODOM,
-    ROBOT_SCAN,
+    ROBOT_SENSORS,
     ROBOT_PLAN,
     ROBOT_POSE,
     PHYSICS_INFO,

@@ -73,7 +73,6 @@ from bimbot.shared.messages import (
     ComponentStateMsg,
     PlannedSequenceMsg,
     ProgressMsg,
-    ScanMsg,
     SiteInfoMsg,
     TwinMsg,
     key,
@@ -246,8 +245,6 @@ class Observer:
 
     def handle(self, key_expr: str, payload: bytes) -> None:
         model = route_key(self.site, key_expr)
-        if model is ScanMsg and not self.twin.scan_wanted(key_expr.split("/")[-2]):
-            return  # not drawn: not even decoded
         message = decode(model, key_expr, payload, self.invalid) if model is not None else None
         if message is not None:
             self.apply(message)

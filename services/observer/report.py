@@ -59,6 +59,7 @@ from bimbot.shared.messages import (
     RobotPoseMsg,
     RobotState,
     RobotStateMsg,
+    SensorsMsg,
     SiteInfoMsg,
     TaskKind,
     TaskMsg,
@@ -166,6 +167,8 @@ class ReportCollector:
         self.progress: ProgressMsg | None = None
         self.last_sim_time_s = 0.0
         self.messages = 0
+        self.min_separation_m = math.inf  # between two robots at one sim time (ground truth)
+        self._robot_at: dict[str, tuple[float, float, float]] = {}  # robot → (x, y, sim s) last seen
 
     # --- input ---
 
@@ -181,6 +184,9 @@ class ReportCollector:
             self._robot_state(message)
         elif isinstance(message, RobotPoseMsg):
             self._travel(message.robot_id, "ground_truth", message.pose_xy_yaw)
+            self._separation(message)
+        elif isinstance(message, SensorsMsg):
+            self._travel(message.robot_id, "odom", message.odom.pose_xy_yaw)
         elif isinstance(message, OdomMsg):
             self._travel(message.robot_id, "odom", message.pose_xy_yaw)
         elif isinstance(message, TaskMsg):
@@ -277,6 +283,15 @@ class ReportCollector:
             robot.distances_m[source] += math.dist(last, xy)
         robot.last_xy[source] = xy
 
+    def _separation(self, msg: RobotPoseMsg) -> None:
+        """The smallest ground-truth distance between two robots' base frames at one sim time (how close
+        the traffic rules let them come; a metric, never used for control)."""
+        x, y, _ = msg.pose_xy_yaw
+        self._robot_at[msg.robot_id] = (x, y, msg.sim_time_s)
+        for other, (ox, oy, at_s) in self._robot_at.items():
+            if other != msg.robot_id and at_s == msg.sim_time_s:
+                self.min_separation_m = min(self.min_separation_m, math.hypot(ox - x, oy - y))
+
     # --- output ---
 
     def report(self, ending: RunEnding = UNFINISHED) -> dict[str, Any]:
@@ -325,6 +340,8 @@ class ReportCollector:
         totals["done"] = bool(self.progress and self.progress.done)
         totals["not_constructed"] = totals["components"] - totals["constructed"]
         totals["by_reason"] = count_reasons(components)
+        separation = self.min_separation_m
+        totals["min_robot_separation_m"] = None if math.isinf(separation) else separation
         return {
             "schema_version": REPORT_SCHEMA_VERSION,
             "site": self.manifest.site,

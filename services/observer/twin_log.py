@@ -51,6 +51,7 @@ from bimbot.shared.messages import (
     RobotState,
     RobotStateMsg,
     ScanMsg,
+    SensorsMsg,
     SiteInfoMsg,
     TaskMsg,
     TaskStatus,
@@ -137,6 +138,7 @@ class TwinLog:
             RobotStateMsg: self.robot_state,
             RobotPoseMsg: self.robot_pose,
             ScanMsg: self.scan,
+            SensorsMsg: self.sensors,
             PlanMsg: self.plan,
             TaskMsg: self.task,
             ProgressMsg: self.progress,
@@ -268,6 +270,12 @@ class TwinLog:
         count = self._scan_counts.get(robot_id, 0)
         self._scan_counts[robot_id] = count + 1
         return count % max(1, self.options.scan_every) == 0
+
+    def sensors(self, msg: SensorsMsg) -> list[LogItem]:
+        """A robot's sensors of one period: its scan is drawn every ``scan_every``-th time."""
+        if msg.scan is None or not self.scan_wanted(msg.robot_id):
+            return []
+        return self.scan(msg.scan)
 
     def scan(self, msg: ScanMsg) -> list[LogItem]:
         """The scan's hits as points in the robot frame (call for the scans :meth:`scan_wanted` picks)."""

@@ -67,10 +67,12 @@ from bimbot.shared.messages import (
     PlaceRequest,
     key,
 )
+from bimbot.shared.period_times import PeriodTimes
 from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.twin_query import ask_twins
 
-from .clock import LockStepBarrier, Pacer, PeriodTimes, RtfMeter
+from .clock import LockStepBarrier, Pacer, RtfMeter
+from .outbox import bundle
 from .profiles import FINE
 from .restore import restore_site
 from .simulation import Outgoing, SimConfig, Simulation
@@ -345,7 +347,7 @@ class _Loop:
         if self.recorder is not None and messages:
             self.recorder.record(item.message for item in messages)
             self.recorder.write()
-        for item in messages:
+        for item in bundle(messages):
             payload = encode(item.message)
             if "/components/" in item.key_expr:  # many keys, each rarely: no publisher per component
                 self.session.put(item.key_expr, payload)

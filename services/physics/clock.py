@@ -4,8 +4,6 @@
   time (``rtf`` 0: never wait). When the simulation falls behind by more than ``max_lag_s`` it rebases
   instead of bursting to catch up.
 * :class:`RtfMeter` — the real-time factor actually achieved over the last periods (for ``ClockMsg``).
-* :class:`PeriodTimes` — where physics' wall time goes per control period (stepping, publishing, waiting
-  for the robots), summed between two status lines (docs/performance.md quotes them).
 * :class:`LockStepBarrier` — after clock step ``k`` is published, physics waits until every robot it waits
   for has answered step ``k`` (a ``CmdVelMsg`` with ``step >= k``), or until ``timeout_s`` wall seconds
   have passed (then it warns and goes on with the last commands).
@@ -84,26 +82,3 @@ class LockStepBarrier:
         if self._opened_wall_s is None:
             return self.timeout_s
         return max(0.0, self._opened_wall_s + self.timeout_s - now_wall_s)
-
-
-class PeriodTimes:
-    """Wall seconds per control period by kind (``advance``, ``publish``, ``wait`` …) since the last
-    :meth:`take`; the loop adds to them, the status line reports their means."""
-
-    def __init__(self) -> None:
-        self._sums: dict[str, float] = {}
-        self.periods = 0
-
-    def add(self, kind: str, seconds: float) -> None:
-        self._sums[kind] = self._sums.get(kind, 0.0) + seconds
-
-    def period(self) -> None:
-        self.periods += 1
-
-    def take(self) -> str:
-        """``advance 2.91 ms, publish 0.21 ms, wait 1.30 ms per period (n periods)``, then start again."""
-        periods = max(1, self.periods)
-        text = ", ".join(f"{kind} {total / periods * 1e3:.2f} ms" for kind, total in self._sums.items())
-        text = f"{text or 'nothing'} per period ({self.periods} periods)"
-        self._sums, self.periods = {}, 0
-        return text

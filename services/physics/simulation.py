@@ -13,11 +13,13 @@ control periods, and the messages of a period are stamped with the sim time at i
 
 Per period the outgoing messages are: the clock; per robot its odometry (noisy, :class:`.odometry.Odometry`,
 seeded per robot from ``seed``; a crane's is its fixed pose), its laser scan (:mod:`.sensors`; none for a
-crane) and its ground-truth pose (a crane's with its joint values); the pose of
-every component that moved (carried, assembling, just placed or dropped); and a slice of the others, so
-that every component's pose is repeated once per ``pose_refresh_s`` for late subscribers, but at most
-``pose_refresh_max`` a period: on a site of a thousand components the repeats were 80 messages a period
-that every subscriber decoded, for a safety net (who starts late asks ``physics/poses``).
+crane), both keyed on the robot's ``sensors`` key (the adapter sends them, with the clock, as one
+:class:`~bimbot.shared.messages.SensorsMsg`, :mod:`.outbox`), and its ground-truth pose (a crane's with its
+joint values); the pose of every component that moved (carried, assembling, just placed or dropped); and a
+slice of the others, so that every component's pose is repeated once per ``pose_refresh_s`` for late
+subscribers, but at most ``pose_refresh_max`` a period: on a site of a thousand components the repeats were
+80 messages a period that every subscriber decoded, for a safety net (who starts late asks
+``physics/poses``).
 :meth:`Simulation.start_messages` gives all of that for step 0 (every component included).
 Same build, config, seed and command sequence → the same trajectories (pybullet is deterministic for an
 identical call sequence on a fresh client).
@@ -40,9 +42,8 @@ from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     CLOCK_KEY,
     COMPONENT_POSE_KEY,
-    ROBOT_ODOM_KEY,
     ROBOT_POSE_KEY,
-    ROBOT_SCAN_KEY,
+    ROBOT_SENSORS_KEY,
     AttachRequest,
     ClockMsg,
     CmdVelMsg,
@@ -377,7 +378,7 @@ class Simulation:
                 current, pose, v, w = robot.pose_xy_yaw(cid), self._odometry[robot_id].pose_xy_yaw, 0.0, 0.0
             out.append(
                 Outgoing(
-                    key(ROBOT_ODOM_KEY, site=self.site, robot_id=robot_id),
+                    key(ROBOT_SENSORS_KEY, site=self.site, robot_id=robot_id),
                     OdomMsg(robot_id=robot_id, pose_xy_yaw=pose, v_mps=v, w_radps=w, sim_time_s=now),
                 )
             )
@@ -398,7 +399,7 @@ class Simulation:
         mount = self._laser.mount(robot.frame(self.client_id), robot.base_height_m)
         ranges = self._laser.scan(self.client_id, mount, robot.group, self._beam_starts[robot.robot_id])
         return Outgoing(
-            key(ROBOT_SCAN_KEY, site=self.site, robot_id=robot.robot_id),
+            key(ROBOT_SENSORS_KEY, site=self.site, robot_id=robot.robot_id),
             ScanMsg(
                 robot_id=robot.robot_id,
                 angle_min_rad=self._laser.angle_min_rad,

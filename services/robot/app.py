@@ -4,26 +4,26 @@ Start-up, in order (nothing is ticked before the liveliness token, so lock-step 
 robot that is still loading):
 
 1. subscribe (callbacks only enqueue, :class:`bimbot.shared.bus.Inbox`): ``tasks/*``, ``components/*/state``,
-   ``components/*/pose``, ``clock``, this robot's ``odom`` and ``scan``, every robot's ``state`` (the other
-   robots' pose estimates, for the traffic rules) and ``pose`` (ground truth, **only** for the minimum
-   separation metric that is logged; never used for control);
+   ``components/*/pose``, this robot's ``sensors`` (the clock step with its odometry and scan, one message a
+   period), every robot's ``state`` (the other robots' pose estimates, for the traffic rules) and its own
+   ``pose`` (ground truth, **only** for the localisation error that is logged; never used for control);
 2. ask physics for the site (``get physics/info``, retried until it answers): robot ids, start poses, the
    control period and the reach;
 3. build the executor (map, localiser at the start pose), warm up the A* kernel;
 4. declare ``alive/robot/<id>``.
 
-Loop: drain the inbox into the executor; for each new ``clock`` step, wait (``tick_wait_s`` at most) for
-this robot's scan of that step, since physics publishes the clock first, then tick: the ``cmd_vel`` of every
-step is answered, whatever the task is doing. Between steps :meth:`~.executor.Executor.poll` re-sends
-events and the ~1 Hz state. Physics requests never block: ``session.get`` with a callback that enqueues the
-reply (and a drop callback that enqueues "no reply"). Requests are published before the step's
-``cmd_vel``, as the physics contract asks for reproducible lock-step runs.
+Loop: drain the inbox into the executor; for each new clock step (it comes with the step's odometry and
+scan), tick: the ``cmd_vel`` of every step is answered, whatever the task is doing; then the work that can
+wait until the answer is out (:meth:`~.executor.Executor.after_tick`). Between steps
+:meth:`~.executor.Executor.poll` re-sends events and the ~1 Hz state. Physics requests never block:
+``session.get`` with a callback that enqueues the reply (and a drop callback that enqueues "no reply").
+Requests are published before the step's ``cmd_vel``, as the physics contract asks for reproducible
+lock-step runs.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 import threading
 import time
 from dataclasses import dataclass
@@ -37,7 +37,6 @@ from bimbot.shared.identifiers import guid_to_key
 from bimbot.shared.keyspace import Topic
 from bimbot.shared.messages import (
     ALIVE_KEY,
-    CLOCK,
     COMPONENT_EVENT_KEY,
     COMPONENT_POSE,
     COMPONENT_STATE,
@@ -47,10 +46,9 @@ from bimbot.shared.messages import (
     PHYSICS_PLACE,
     PHYSICS_POSES,
     ROBOT_CMD_VEL_KEY,
-    ROBOT_ODOM,
     ROBOT_PLAN_KEY,
     ROBOT_POSE,
-    ROBOT_SCAN,
+    ROBOT_SENSORS,
     ROBOT_STATE,
     ROBOT_STATE_KEY,
     TASK,
@@ -59,11 +57,12 @@ from bimbot.shared.messages import (
     ComponentEventMsg,
     PlanMsg,
     RobotStateMsg,
-    ScanMsg,
+    SensorsMsg,
     SitePosesMsg,
     key,
 )
 from bimbot.shared.occupancy_grid import OccupancyGrid
+from bimbot.shared.period_times import PeriodTimes
 from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.twin_query import ask_twins
 
@@ -78,7 +77,6 @@ SUBSCRIPTIONS: tuple[tuple[Topic, dict[str, str]], ...] = (
     (COMPONENT_STATE, {"key": "*"}),
     (COMPONENT_POSE, {"key": "*"}),
     (ROBOT_STATE, {"robot_id": "*"}),
-    (ROBOT_POSE, {"robot_id": "*"}),
 )
 POSES_TIMEOUT_S = 5.0  # wall seconds to ask physics where this robot is (at start)
 TWINS_TIMEOUT_S = 5.0  # wall seconds to collect the twins' answers (at start)
@@ -88,9 +86,8 @@ _PHYSICS_REQUESTS = {"attach": PHYSICS_ATTACH, "place": PHYSICS_PLACE, "drop": P
 @dataclass(frozen=True)
 class RobotOptions:
     info_timeout_s: float = 120.0  # wall seconds to wait for physics to answer physics/info
-    tick_wait_s: float = 0.05  # wall seconds to wait for this robot's scan after a clock step
     poll_s: float = 0.02  # longest wait for bus input per loop turn
-    metric_log_s: float = 30.0  # wall seconds between progress lines (tasks, distance, separation)
+    metric_log_s: float = 30.0  # wall seconds between progress lines (tasks, distance, localisation)
 
 
 def main(
@@ -107,9 +104,8 @@ def main(
     with open_session(bus) as session:
         subscribers = [inbox.subscribe(session, topic, site=site, **parts) for topic, parts in SUBSCRIPTIONS]
         subscribers += [
-            inbox.subscribe(session, CLOCK, site=site),
-            inbox.subscribe(session, ROBOT_ODOM, site=site, robot_id=robot_id),
-            inbox.subscribe(session, ROBOT_SCAN, site=site, robot_id=robot_id),
+            inbox.subscribe(session, ROBOT_SENSORS, site=site, robot_id=robot_id),
+            inbox.subscribe(session, ROBOT_POSE, site=site, robot_id=robot_id),  # its localisation metric
         ]
         info = query_first(
             session, PHYSICS_INFO, inbox.invalid, timeout_s=options.info_timeout_s, stop=stop, site=site
@@ -195,10 +191,9 @@ class _Loop:
             PlanMsg: session.declare_publisher(key(ROBOT_PLAN_KEY, site=site, robot_id=robot_id)),
         }
         self._clock: ClockMsg | None = None
-        self._clock_wall_s = 0.0
-        self._scan_sim_s = -math.inf
-        self._no_scan = executor.description.is_crane
+        self._sensors_wall_s = 0.0  # when this step's sensors were taken from the inbox
         self._answered_step = -1
+        self.times = PeriodTimes()  # per step: sensors to answer, work after the answer
         self.clock_guard = ClockGuard(f"robot {robot_id} clock")
         self._metrics_wall_s = time.monotonic()
 
@@ -208,13 +203,14 @@ class _Loop:
                 self._take(item)
             now = time.monotonic()
             clock = self._clock
-            # a crane gets no scan from physics: it answers each step at once
-            scanned = clock is not None and (self._no_scan or self._scan_sim_s >= clock.sim_time_s)
-            waited = now - self._clock_wall_s >= self.options.tick_wait_s
-            if clock is not None and clock.step > self._answered_step and (scanned or waited):
+            if clock is not None and clock.step > self._answered_step:
                 self._answered_step = clock.step
                 self.publish(self.executor.tick(clock, time.time()))
+                answered = time.monotonic()
+                self.times.add("answer", answered - self._sensors_wall_s)
                 self.executor.after_tick()  # while physics steps the next period
+                self.times.add("after", time.monotonic() - answered)
+                self.times.period()
             else:
                 self.publish(self.executor.poll(time.time()))
             if now - self._metrics_wall_s >= self.options.metric_log_s:
@@ -225,15 +221,16 @@ class _Loop:
         match item:
             case PhysicsResult():
                 self.executor.handle(item)
-            case Received(message=ClockMsg() as clock):
+            case Received(message=SensorsMsg() as sensors):
+                clock = sensors.clock
                 verdict = self.clock_guard.check(clock, time.monotonic())
                 if verdict is Verdict.RESTARTED:  # physics restarted: answer its steps from here
                     self._answered_step = min(self._answered_step, clock.step - 1)
                 if verdict.accepted:
-                    self._clock, self._clock_wall_s = clock, time.monotonic()
-            case Received(message=ScanMsg() as scan):
-                self._scan_sim_s = scan.sim_time_s
-                self.executor.handle(scan)
+                    self._clock, self._sensors_wall_s = clock, time.monotonic()
+                    self.executor.handle(sensors.odom)
+                    if sensors.scan is not None:  # a crane has no laser
+                        self.executor.handle(sensors.scan)
             case Received(message=message):
                 self.executor.handle(message)
 
@@ -269,18 +266,17 @@ class _Loop:
 
     def log_metrics(self, when: str) -> None:
         executor = self.executor
-        separation = executor.min_separation_m
         _log.info(
-            "robot %s %s: %d task(s) done, %.1f m driven, sim %.1f s, min separation to other robots %s, "
-            "localisation error %.2f m now, %.2f m at most (metrics only)",
+            "robot %s %s: %d task(s) done, %.1f m driven, sim %.1f s, "
+            "localisation error %.2f m now, %.2f m at most (metrics only); wall time: %s",
             executor.robot_id,
             when,
             len(executor.done),
             executor.distance_m,
             executor.sim_s,
-            "n/a" if math.isinf(separation) else f"{separation:.2f} m (ground truth, metric only)",
             executor.localisation_error_m,
             executor.max_localisation_error_m,
+            self.times.take(),
         )
 
 

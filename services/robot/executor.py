@@ -137,11 +137,9 @@ class Executor(Driving, Handover):
         self.performed: set[tuple[str, int, float]] = set()
         self.done: list[tuple[str, ComponentState]] = []  # (GUID, verdict) of finished tasks
         self.sim_s, self.step, self.distance_m = 0.0, -1, 0.0
-        self.min_separation_m = math.inf
         # localisation error against ground truth: a metric for the logs, never used for control
         self.localisation_error_m = 0.0
         self.max_localisation_error_m = 0.0
-        self._robot_xy: dict[str, tuple[float, float, float]] = {}  # robot → (x, y, sim s)
         self._last_odom: np.ndarray | None = None
         self._last_state: tuple[RobotState, str | None] | None = None
         self._last_state_wall_s = -math.inf
@@ -175,7 +173,7 @@ class Executor(Driving, Handover):
         elif isinstance(message, PhysicsResult):
             self._physics_result(message)
         elif isinstance(message, RobotPoseMsg):
-            self._separation(message)
+            self._ground_truth(message)
         elif isinstance(message, RobotStateMsg) and message.robot_id != self.robot_id:
             self.navigator.observe_robot(message.robot_id, message.pose_xy_yaw[:2], message.sim_time_s)
 
@@ -471,21 +469,15 @@ class Executor(Driving, Handover):
         else:
             self._fire(Trigger.FINISHED if verdict is not None else Trigger.ABORTED)
 
-    def _separation(self, message: RobotPoseMsg) -> None:
-        """Minimum ground-truth distance to another robot at the same sim time: a metric for the logs and the
+    def _ground_truth(self, message: RobotPoseMsg) -> None:
+        """Physics' ground truth of this robot: its localisation error, a metric for the logs and the
         benchmarks, never used for control."""
-        x, y, _ = message.pose_xy_yaw
-        self._robot_xy[message.robot_id] = (x, y, message.sim_time_s)
-        if message.robot_id == self.robot_id:
-            believed = self.navigator.pose_xy_yaw
-            self.localisation_error_m = math.hypot(believed[0] - x, believed[1] - y)
-            self.max_localisation_error_m = max(self.max_localisation_error_m, self.localisation_error_m)
-        mine = self._robot_xy.get(self.robot_id)
-        if mine is None:
+        if message.robot_id != self.robot_id:
             return
-        for robot_id, (ox, oy, at_s) in self._robot_xy.items():
-            if robot_id != self.robot_id and at_s == mine[2]:
-                self.min_separation_m = min(self.min_separation_m, math.hypot(ox - mine[0], oy - mine[1]))
+        x, y, _ = message.pose_xy_yaw
+        believed = self.navigator.pose_xy_yaw
+        self.localisation_error_m = math.hypot(believed[0] - x, believed[1] - y)
+        self.max_localisation_error_m = max(self.max_localisation_error_m, self.localisation_error_m)
 
 
 class CraneExecutor(CraneWork, Executor):

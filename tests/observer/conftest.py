@@ -19,12 +19,12 @@ from bimbot.shared.messages import (
     COMPONENT_POSE_KEY,
     COMPONENT_STATE_KEY,
     PROGRESS_KEY,
-    ROBOT_ODOM_KEY,
     ROBOT_PLAN_KEY,
     ROBOT_POSE_KEY,
-    ROBOT_SCAN_KEY,
+    ROBOT_SENSORS_KEY,
     ROBOT_STATE_KEY,
     TASK_KEY,
+    ClockMsg,
     ComponentPoseMsg,
     ComponentState,
     ComponentStateMsg,
@@ -36,6 +36,7 @@ from bimbot.shared.messages import (
     RobotState,
     RobotStateMsg,
     ScanMsg,
+    SensorsMsg,
     TaskMsg,
     TaskStatus,
     key,
@@ -168,7 +169,6 @@ def synthetic_run(manifest: Manifest, sequence: list[str]) -> list[tuple[str, Ba
             odom = OdomMsg(
                 robot_id=robot, pose_xy_yaw=(x * 1.1, y * 1.1, 0.0), v_mps=1.0, w_radps=0.0, sim_time_s=t
             )
-            put(t, key(ROBOT_ODOM_KEY, site=site, robot_id=robot), odom)
             scan = ScanMsg(
                 robot_id=robot,
                 angle_min_rad=-1.0,
@@ -177,7 +177,9 @@ def synthetic_run(manifest: Manifest, sequence: list[str]) -> list[tuple[str, Ba
                 ranges_m=[1.0, 2.0, 30.0, 3.0, 4.0],
                 sim_time_s=t,
             )
-            put(t, key(ROBOT_SCAN_KEY, site=site, robot_id=robot), scan)
+            clock = ClockMsg(sim_time_s=t, step=step, real_time_factor=10.0, lock_step=True)
+            sensors = SensorsMsg(robot_id=robot, clock=clock, odom=odom, scan=scan)
+            put(t, key(ROBOT_SENSORS_KEY, site=site, robot_id=robot), sensors)
         plan = PlanMsg(robot_id=robot, path_xy_m=list(path), goal_xy_m=path[-1], sim_time_s=2.0)
         put(2.0, key(ROBOT_PLAN_KEY, site=site, robot_id=robot), plan)
     total = len(manifest.components)

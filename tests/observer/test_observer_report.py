@@ -4,6 +4,7 @@ and its Gantt chart written at its fixed size."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import matplotlib.image
@@ -14,7 +15,7 @@ from bimbot.services.observer.report import ReportCollector
 from bimbot.services.observer.report_png import DPI, FIGURE_SIZE_IN, render_report_png
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState as S
-from bimbot.shared.messages import ComponentStateMsg, OdomMsg, RobotPoseMsg, RobotState, RobotStateMsg
+from bimbot.shared.messages import ComponentStateMsg, RobotPoseMsg, RobotState, RobotStateMsg, SensorsMsg
 
 
 def _report(manifest: Manifest, sequence: list[str], messages: list[tuple[str, BaseModel]]) -> dict:
@@ -91,7 +92,7 @@ def test_distance_falls_back_to_odometry_without_ground_truth(
     robots = _report(frame_manifest, frame_sequence, without_truth)["robots"]
     assert robots["r1"]["distance_source"] == "odom"
     assert robots["r1"]["distance_m"] == pytest.approx(12.0 * 1.1)  # odometry drifts 10 % in the stream
-    only_states = [(k, m) for k, m in without_truth if not isinstance(m, OdomMsg)]
+    only_states = [(k, m) for k, m in without_truth if not isinstance(m, SensorsMsg)]
     assert (
         _report(frame_manifest, frame_sequence, only_states)["robots"]["r1"]["distance_source"]
         == "state_poses"
@@ -179,3 +180,22 @@ def test_placement_errors_are_those_of_the_last_verdict_in_mm_and_degrees(frame_
     assert entry["angle_error_deg"] == pytest.approx(0.0572958, rel=1e-4)
     assert report["totals"]["max_position_error_mm"] == pytest.approx(4.0)
     assert report["totals"]["max_angle_error_deg"] == pytest.approx(0.0572958, rel=1e-4)
+
+
+def test_the_closest_two_robots_came_is_measured_on_ground_truth_at_equal_sim_times(
+    frame_manifest: Manifest, frame_sequence: list[str], run_messages: list[tuple[str, BaseModel]]
+) -> None:
+    from conftest import ROBOT_PATHS
+
+    shifted = [  # r2 one metre north of its path: the closest approach is then at its first step
+        (k, m.model_copy(update={"pose_xy_yaw": (m.pose_xy_yaw[0], m.pose_xy_yaw[1] + 1.0, 0.0)}))
+        if isinstance(m, RobotPoseMsg) and m.robot_id == "r2"
+        else (k, m)
+        for k, m in run_messages
+    ]
+    together = zip(ROBOT_PATHS["r1"], ROBOT_PATHS["r2"], strict=False)
+    expected = min(math.hypot(x1 - x2, y1 - (y2 + 1.0)) for (x1, y1), (x2, y2) in together)
+    totals = _report(frame_manifest, frame_sequence, shifted)["totals"]
+    assert totals["min_robot_separation_m"] == pytest.approx(expected) and expected == pytest.approx(1.0)
+    alone = [(k, m) for k, m in run_messages if not (isinstance(m, RobotPoseMsg) and m.robot_id == "r2")]
+    assert _report(frame_manifest, frame_sequence, alone)["totals"]["min_robot_separation_m"] is None

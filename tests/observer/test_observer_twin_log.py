@@ -24,7 +24,6 @@ from bimbot.shared.messages import (
     ComponentPoseMsg,
     ComponentState,
     ComponentStateMsg,
-    OdomMsg,
     PlanMsg,
     PoseMsg,
     ProgressMsg,
@@ -32,6 +31,7 @@ from bimbot.shared.messages import (
     RobotState,
     RobotStateMsg,
     ScanMsg,
+    SensorsMsg,
     TaskMsg,
 )
 from bimbot.shared.site_layout import plan_site
@@ -248,8 +248,8 @@ def test_the_synthetic_run_never_sends_a_mesh_again(
         ("bimbot/s/components/1ctEyZqYDQ8hMH8nflPFbd/state", ComponentStateMsg),
         ("bimbot/s/components/0r1e7X-s5TPPvCu2xOwAkz/pose", ComponentPoseMsg),
         ("bimbot/s/tasks/T0001", TaskMsg),
-        ("bimbot/s/robots/r1/odom", OdomMsg),
-        ("bimbot/s/robots/r1/scan", ScanMsg),
+        ("bimbot/s/robots/r1/sensors", SensorsMsg),
+        ("bimbot/s/robots/r1/odom", None),  # travels in sensors
         ("bimbot/s/progress", ProgressMsg),
         ("bimbot/s/robots/r1/cmd_vel", None),
         ("bimbot/s/components/x/event", None),

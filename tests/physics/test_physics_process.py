@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from bimbot.shared.bus import BusOptions, encode, open_session
+from bimbot.shared.bus import BusOptions, InvalidPayloads, decode, encode, open_session
 from bimbot.shared.fleet import default_fleet
 from bimbot.shared.manifest import read_manifest
 from bimbot.shared.messages import (
@@ -24,16 +24,14 @@ from bimbot.shared.messages import (
     PHYSICS_INFO_KEY,
     PHYSICS_PLACE_KEY,
     ROBOT_CMD_VEL_KEY,
-    ROBOT_ODOM_KEY,
     ROBOT_POSE_KEY,
-    ROBOT_SCAN_KEY,
+    ROBOT_SENSORS_KEY,
     AttachRequest,
     ClockMsg,
     CmdVelMsg,
-    OdomMsg,
     PhysicsReply,
     RobotPoseMsg,
-    ScanMsg,
+    SensorsMsg,
     SiteInfoMsg,
     key,
 )
@@ -116,14 +114,13 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
             session,
             {
                 "clock": key(CLOCK_KEY, site=site),
-                "odom": key(ROBOT_ODOM_KEY, site=site, robot_id="r1"),
-                "scan": key(ROBOT_SCAN_KEY, site=site, robot_id="r1"),
+                "sensors": key(ROBOT_SENSORS_KEY, site=site, robot_id="r1"),
                 "pose": key(ROBOT_POSE_KEY, site=site, robot_id="r1"),
             },
         )
-        scan = ScanMsg.model_validate_json(listener.next("scan"))
-        assert scan.robot_id == "r1" and len(scan.ranges_m) == 360
-        assert OdomMsg.model_validate_json(listener.next("odom")).robot_id == "r1"
+        sensors = decode(SensorsMsg, "sensors", listener.next("sensors"), InvalidPayloads())  # binary
+        assert sensors is not None and sensors.robot_id == "r1" and sensors.odom.robot_id == "r1"
+        assert sensors.scan is not None and len(sensors.scan.ranges_m) == 360
 
         # Lock-step: once r1 is alive, physics advances only when r1 answers the clock.
         token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id="r1"))

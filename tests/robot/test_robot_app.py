@@ -34,9 +34,8 @@ from bimbot.shared.messages import (
     PHYSICS_INFO_KEY,
     PHYSICS_PLACE_KEY,
     ROBOT_CMD_VEL_KEY,
-    ROBOT_ODOM_KEY,
     ROBOT_POSE_KEY,
-    ROBOT_SCAN_KEY,
+    ROBOT_SENSORS_KEY,
     TASK_KEY,
     AttachRequest,
     ClockMsg,
@@ -51,6 +50,7 @@ from bimbot.shared.messages import (
     PoseMsg,
     RobotPoseMsg,
     ScanMsg,
+    SensorsMsg,
     TaskMsg,
     TaskStatus,
     key,
@@ -67,14 +67,30 @@ def build(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def outgoing_key(site: str, message: object) -> str:
     if isinstance(message, ClockMsg):
         return key(CLOCK_KEY, site=site)
-    if isinstance(message, OdomMsg):
-        return key(ROBOT_ODOM_KEY, site=site, robot_id=message.robot_id)
-    if isinstance(message, ScanMsg):
-        return key(ROBOT_SCAN_KEY, site=site, robot_id=message.robot_id)
+    if isinstance(message, SensorsMsg):
+        return key(ROBOT_SENSORS_KEY, site=site, robot_id=message.robot_id)
     if isinstance(message, RobotPoseMsg):
         return key(ROBOT_POSE_KEY, site=site, robot_id=message.robot_id)
     assert isinstance(message, ComponentPoseMsg)
     return key(COMPONENT_POSE_KEY, site=site, key=guid_to_key(message.guid))
+
+
+def as_sent(messages: list[object]) -> list[object]:
+    """What physics puts on the bus for a period: each robot's clock, odometry and scan as one
+    ``SensorsMsg`` (as :mod:`bimbot.services.physics.outbox` does), the rest as it is."""
+    clock = next(m for m in messages if isinstance(m, ClockMsg))
+    scans = {m.robot_id: m for m in messages if isinstance(m, ScanMsg)}
+    out: list[object] = []
+    for message in messages:
+        if isinstance(message, OdomMsg):
+            out.append(
+                SensorsMsg(
+                    robot_id=message.robot_id, clock=clock, odom=message, scan=scans.get(message.robot_id)
+                )
+            )
+        elif not isinstance(message, ScanMsg):
+            out.append(message)
+    return out
 
 
 def test_the_robot_process_builds_a_footing_over_the_bus_in_lock_step(build: Path) -> None:
@@ -160,11 +176,14 @@ def test_the_robot_process_builds_a_footing_over_the_bus_in_lock_step(build: Pat
         placing: list[tuple[zenoh.Query, PlaceRequest, int]] = []
         is_alive = False
         clock = ClockMsg(sim_time_s=0.0, step=0, real_time_factor=1.0, lock_step=True)
+        start = tuple(map(float, physics.robots["r1"].odom))
+        odom = OdomMsg(robot_id="r1", pose_xy_yaw=start, v_mps=0.0, w_radps=0.0, sim_time_s=0.0)  # type: ignore[arg-type]
+        sensors = SensorsMsg(robot_id="r1", clock=clock, odom=odom)
         last_clock_wall = 0.0
         deadline = time.monotonic() + 120.0
         while agent.state is not ComponentState.CONSTRUCTED and time.monotonic() < deadline:
             if time.monotonic() - last_clock_wall > 0.2:  # a late subscriber picks up the open step
-                publish(clock)
+                publish(sensors)
                 publish_state(states)
                 session.put(key(TASK_KEY, site=site, task_id="T0001"), encode(task))
                 last_clock_wall = time.monotonic()
@@ -194,8 +213,9 @@ def test_the_robot_process_builds_a_footing_over_the_bus_in_lock_step(build: Pat
             elif tag == "cmd" and item.step == clock.step and is_alive:
                 answered.append(item.step)
                 commands["r1"] = item
-                messages = physics.advance(commands)
+                messages = as_sent(physics.advance(commands))
                 clock = messages[0]
+                sensors = next(m for m in messages if isinstance(m, SensorsMsg))
                 for message in messages:
                     publish(message)
                     if isinstance(message, ComponentPoseMsg) and message.guid == footing.guid:
