@@ -140,6 +140,9 @@ class ComponentStateMsg(_Message):
     position_error_m: NonNegative | None = None
     angle_error_rad: NonNegative | None = None
     reason: Reason | None = None  # failed/blocked: why; released after an abandon: why it was given back
+    # a verdict: how far the component moved after physics released it (slid, tipped, fell); a misplaced
+    # verdict whose cause is that motion carries reason ``unstable``, else ``misplaced``
+    drift_m: NonNegative | None = None
 
 
 class ComponentEventMsg(_Message):
@@ -159,7 +162,12 @@ class ComponentPoseMsg(_Message):
     pose: PoseMsg
     sim_time_s: SimTime
     attached_to: str | None = None  # robot id while carried
-    fixed: bool = False  # fixed to the structure
+    fixed: bool = False  # placed: released and settled, or joined to the structure (``joined``)
+    joined: bool = False  # joined to the structure (its agent verified it): it no longer moves
+    # placed and not joined yet: how far it moved since physics released it (slid, tipped, fell), and
+    # the components it rested on when released (the ground has no GUID: an empty list means only it)
+    drift_m: NonNegative | None = None
+    supports: list[str] = []
 
 
 class TwinMsg(_Message):
@@ -334,8 +342,12 @@ class AttachRequest(_Message):
 class PlaceRequest(_Message):
     robot_id: str
     guid: str
-    pose: PoseMsg  # where the component must end, world frame
+    pose: PoseMsg  # where the robot means to put it, world frame, as the robot believes the world is
     duration_s: SimDuration = 2.0  # sim seconds of the assembly motion
+    # where the robot believes it stands (its localisation): physics places the component where that
+    # belief puts it relative to the robot's true pose, so a localisation error is a placement error
+    # (None: the robot's pose is known exactly, a crane's fixed base)
+    believed_xy_yaw: PoseXYYaw | None = None
 
 
 class DropRequest(_Message):
@@ -363,7 +375,7 @@ class PhysicsReply(_Message):
     ok: bool
     reason: str = ""
     sim_time_s: SimTime
-    pose: PoseMsg | None = None  # the component's pose after the request
+    pose: PoseMsg | None = None  # the component's pose after the request (a placement: once settled)
     distance_m: NonNegative | None = None  # a reach refusal: the robot's true distance to the footprint (m)
 
 
