@@ -341,21 +341,27 @@ def _validate(parts: list[TriMesh], mesh: TriMesh, outline_allowance_m: float) -
 
 
 def _winding_numbers(mesh: TriMesh, points: np.ndarray) -> np.ndarray:
-    """Generalised winding number of ``mesh`` at each point (≈1 inside, ≈0 outside; sum of solid angles)."""
-    return np.array([_winding_number(mesh.triangles, point) for point in points])
-
-
-def _winding_number(triangles: np.ndarray, point: np.ndarray) -> float:
-    a, b, c = (triangles[:, k, :] - point for k in range(3))
-    la, lb, lc = (np.linalg.norm(v, axis=1) for v in (a, b, c))
-    numerator = np.einsum("ij,ij->i", a, np.cross(b, c))
+    """Generalised winding number of ``mesh`` at each point (≈1 inside, ≈0 outside; sum of solid angles,
+    Van Oosterom & Strackee), all points at once."""
+    corners = mesh.triangles[None, :, :, :] - np.asarray(points, dtype=float)[:, None, None, :]
+    a, b, c = corners[:, :, 0, :], corners[:, :, 1, :], corners[:, :, 2, :]
+    la, lb, lc = (np.sqrt(np.einsum("ptj,ptj->pt", v, v)) for v in (a, b, c))
+    bc = np.stack(
+        (
+            b[..., 1] * c[..., 2] - b[..., 2] * c[..., 1],
+            b[..., 2] * c[..., 0] - b[..., 0] * c[..., 2],
+            b[..., 0] * c[..., 1] - b[..., 1] * c[..., 0],
+        ),
+        axis=-1,
+    )
+    numerator = np.einsum("ptj,ptj->pt", a, bc)
     denominator = (
         la * lb * lc
-        + np.einsum("ij,ij->i", a, b) * lc
-        + np.einsum("ij,ij->i", b, c) * la
-        + np.einsum("ij,ij->i", c, a) * lb
+        + np.einsum("ptj,ptj->pt", a, b) * lc
+        + np.einsum("ptj,ptj->pt", b, c) * la
+        + np.einsum("ptj,ptj->pt", c, a) * lb
     )
-    return float(np.sum(np.arctan2(numerator, denominator)) / (2.0 * np.pi))
+    return np.arctan2(numerator, denominator).sum(axis=1) / (2.0 * np.pi)
 
 
 # --- mesh path ---------------------------------------------------------------------------------------------

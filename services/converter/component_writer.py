@@ -9,7 +9,7 @@ Pure apart from writing the model folder.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import ifcopenshell
@@ -30,6 +30,19 @@ from .prism_split import SectionCache
 from .sdf_writer import ModelSpec, model_config, model_sdf
 from .split_ifc import split_element
 from .tessellation import ElementShape
+
+
+@dataclass
+class ShardContext:
+    """What every element of a shard shares, computed once per shard (not per element)."""
+
+    out_dir: Path
+    origin: np.ndarray  # local origin, IFC world frame, metres
+    unit_scale_m: float
+    mass_unit_kg: float = 1.0  # kilograms per project mass unit (mass.mass_unit_kg)
+    formats: tuple[str, ...] = VISUAL_FORMATS  # visual mesh formats written (see mesh_files)
+    sections: SectionCache = field(default_factory=SectionCache)  # section splits by section
+    chains: dict[int, list[ifcopenshell.entity_instance]] = field(default_factory=dict)  # split_ifc
 
 
 @dataclass
@@ -75,40 +88,33 @@ def place_element(element: ifcopenshell.entity_instance, shape: ElementShape) ->
     return PlacedElement(element, shape, key, rigid.rotation, rigid.translation_m, vertices, bbox)
 
 
-def geometry_work(
-    item: PlacedElement, unit_scale_m: float, sections: SectionCache | None = None
-) -> GeometryWork:
+def geometry_work(item: PlacedElement, context: ShardContext) -> GeometryWork:
     mesh = mesh_from_arrays(item.vertices_local_m, item.shape.geometry.faces)
     return GeometryWork(
         mesh=mesh,
         props=mass_properties(mesh),
-        collision=collision_shape(item.element, mesh, unit_scale_m, sections=sections),
+        collision=collision_shape(item.element, mesh, context.unit_scale_m, sections=context.sections),
     )
 
 
 def write_component(
-    model: ifcopenshell.file,
-    item: PlacedElement,
-    work: GeometryWork,
-    origin: np.ndarray,
-    out_dir: Path,
-    *,
-    formats: tuple[str, ...] = VISUAL_FORMATS,
+    model: ifcopenshell.file, item: PlacedElement, work: GeometryWork, context: ShardContext
 ) -> tuple[Component, ModelSpec]:
-    """Write the model folder of ``item`` (visual mesh ``formats``, see :mod:`.mesh_files`)."""
+    """Write the model folder of ``item`` (visual mesh formats of ``context``, see :mod:`.mesh_files`)."""
     element = item.element
+    origin = context.origin
     guid = str(element.GlobalId)
     folder = guid_to_folder(guid)
-    model_dir = out_dir / "models" / folder
-    model_dir.mkdir(parents=True, exist_ok=True)
+    model_dir = context.out_dir / "models" / folder
+    (model_dir / "meshes").mkdir(parents=True, exist_ok=True)
     if work.files is None or work.files_dir is None:
-        work.files = write_geometry_files(model_dir, work.mesh, work.collision.parts, formats)
+        work.files = write_geometry_files(model_dir, work.mesh, work.collision.parts, context.formats)
         work.files_dir = model_dir
     else:
         link_geometry_files(work.files_dir, model_dir, work.files)
     props = work.props
     warnings: list[str] = []
-    mass = mass_chain.element_mass(element, props.volume_m3)
+    mass = mass_chain.element_mass(element, props.volume_m3, unit_kg=context.mass_unit_kg)
     warnings.extend(mass.warnings)
     if not props.watertight:
         warnings.append("mesh is not watertight: inertia from its bounding box, volume from its convex hull")
@@ -117,7 +123,7 @@ def write_component(
     inertia = props.inertia_kg_m2(mass.mass_kg)
     pose = pose_from_rigid(item.rotation, item.translation_m, origin)
     split_name = f"{guid if is_valid_guid(guid) else folder}.ifc"
-    split_element(model, element).write(str(model_dir / split_name))
+    split_element(model, element, chains=context.chains).write(str(model_dir / split_name))
     spec = ModelSpec(
         guid=guid,
         folder=folder,
@@ -132,7 +138,7 @@ def write_component(
     )
     (model_dir / "model.sdf").write_bytes(model_sdf(spec))
     (model_dir / "model.config").write_bytes(model_config(spec))
-    rel_dir = model_dir.relative_to(out_dir).as_posix()
+    rel_dir = f"models/{folder}"
     component = Component(
         guid=guid,
         key=guid_to_key(guid),

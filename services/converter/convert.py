@@ -37,8 +37,9 @@ from bimbot.shared.identifiers import slugify
 from bimbot.shared.manifest import Component, Manifest, SourceModel, write_manifest
 from bimbot.shared.sequence import SEQUENCE_FILE_NAME, write_sequence
 
-from .component_writer import skipped_entry
+from .component_writer import ShardContext, skipped_entry
 from .ifc_input import file_sha256
+from .mass import mass_unit_kg
 from .mesh_files import VISUAL_FORMATS
 from .placement import choose_local_origin, vec3
 from .sdf_writer import world_sdf
@@ -95,16 +96,14 @@ def convert_model(
 
     shards_started = time.perf_counter()
     workers = options.threads or default_threads()
-    results = run_shards(
-        model,
-        elements,
-        origin,
-        out_dir,
-        unit_scale_m,
-        workers=workers,
+    context = ShardContext(
+        out_dir=out_dir,
+        origin=origin,
+        unit_scale_m=unit_scale_m,
+        mass_unit_kg=mass_unit_kg(model),
         formats=options.formats,
-        progress=progress,
     )
+    results = run_shards(model, elements, context, workers=workers, progress=progress)
     stats.seconds_by_stage["shards_wall"] = time.perf_counter() - shards_started
     merged = sorted(
         (step_id, component, spec)
@@ -157,12 +156,29 @@ def _placement_origin(
     elements: list[ifcopenshell.entity_instance], unit_scale_m: float, far_from_origin_m: float
 ) -> np.ndarray:
     """The local origin from where the elements are placed (known before any geometry is built)."""
+    memo: dict[int, np.ndarray] = {}
     points = [
-        ifcopenshell.util.placement.get_local_placement(element.ObjectPlacement)[:3, 3] * unit_scale_m
+        _placement_matrix(element.ObjectPlacement, memo)[:3, 3] * unit_scale_m
         for element in elements
         if element.ObjectPlacement is not None
     ]
     return choose_local_origin(np.array(points).reshape(-1, 3), far_from_origin_m)
+
+
+def _placement_matrix(placement: ifcopenshell.entity_instance, memo: dict[int, np.ndarray]) -> np.ndarray:
+    """ifcopenshell's ``get_local_placement``, each placement of the chain computed once (elements share
+    their storey's and building's placements; recomputing them was most of this step)."""
+    key = placement.id()
+    matrix = memo.get(key)
+    if matrix is None:
+        if placement.is_a("IfcLocalPlacement"):
+            relative = ifcopenshell.util.placement.get_axis2placement(placement.RelativePlacement)
+            parent = placement.PlacementRelTo
+            matrix = relative if parent is None else np.dot(_placement_matrix(parent, memo), relative)
+        else:
+            matrix = ifcopenshell.util.placement.get_local_placement(placement)
+        memo[key] = matrix
+    return matrix
 
 
 def _prepare_out_dir(out_dir: Path) -> None:

@@ -62,14 +62,19 @@ def mass_unit_kg(model: ifcopenshell.file) -> float:
 
 
 def element_mass(
-    element: ifcopenshell.entity_instance, volume_m3: float, material_name_hint: str | None = None
+    element: ifcopenshell.entity_instance,
+    volume_m3: float,
+    material_name_hint: str | None = None,
+    *,
+    unit_kg: float | None = None,
 ) -> MassResult:
-    """Mass of ``element`` whose mesh encloses ``volume_m3`` (> 0), following the module's chain."""
+    """Mass of ``element`` whose mesh encloses ``volume_m3`` (> 0), following the module's chain.
+    ``unit_kg``: :func:`mass_unit_kg` of the model, when the caller has it already (it is per model)."""
     if volume_m3 <= 0:
         raise ValueError(f"volume must be positive, got {volume_m3}")
-    model = element.file
     warnings: list[str] = []
-    unit_kg = mass_unit_kg(model)
+    if unit_kg is None:
+        unit_kg = mass_unit_kg(element.file)
     for source, candidate in (
         (MassSource.QUANTITY_WEIGHT, _quantity_weight(element)),
         (MassSource.VENDOR_PROPERTY, _vendor_weight(element)),

@@ -65,7 +65,7 @@ class TriMesh:
     @cached_property
     def _crosses(self) -> np.ndarray:
         tri = self.triangles
-        return np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        return cross_rows(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
 
     @cached_property
     def area_faces(self) -> np.ndarray:
@@ -135,10 +135,12 @@ class TriMesh:
     def mass_properties(self) -> MassIntegrals:
         return mass_integrals(self.triangles, self._crosses)
 
-    @property
+    @cached_property
     def volume(self) -> float:
-        """Signed enclosed volume (m³); meaningful only for a closed, consistently wound mesh."""
-        return self.mass_properties.volume
+        """Signed enclosed volume (m³); meaningful only for a closed, consistently wound mesh. The first of
+        the mass integrals, alone (the others cost four times more and validation needs only this)."""
+        tri = self.triangles
+        return float(np.sum(self._crosses[:, 0] * (tri[:, 0, 0] + tri[:, 1, 0] + tri[:, 2, 0])) / 6.0)
 
     @property
     def center_mass(self) -> np.ndarray:
@@ -220,6 +222,17 @@ def submesh(vertices: np.ndarray, faces: np.ndarray) -> TriMesh:
     return TriMesh(vertices[used], inverse.reshape(faces.shape).astype(np.int64))
 
 
+def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross products of two (n, 3) arrays (np.cross costs more than the arithmetic on small n)."""
+    return np.column_stack(
+        (
+            a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+            a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
+        )
+    )
+
+
 def mass_integrals(triangles: np.ndarray, crosses: np.ndarray | None = None) -> MassIntegrals:
     """Volume, centre of mass and inertia of a closed triangle surface, unit density.
 
@@ -228,7 +241,7 @@ def mass_integrals(triangles: np.ndarray, crosses: np.ndarray | None = None) -> 
     """
     tri = np.asarray(triangles, dtype=np.float64)
     if crosses is None:
-        crosses = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        crosses = cross_rows(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     x0, x1, x2 = tri[:, 0, :], tri[:, 1, :], tri[:, 2, :]
     f1 = x0 + x1 + x2
     f2 = x0**2 + x1**2 + x0 * x1 + x2 * f1

@@ -76,16 +76,20 @@ CONTEXT_OPERATIONS: tuple[str, ...] = ("IfcCoordinateOperation",)
 GUID_NAMESPACE = uuid.UUID("6f2d1b0e-3c1a-5b7e-9a55-b1b0b07c0de5")
 
 
-def split_element(model: ifcopenshell.file, element: Entity) -> ifcopenshell.file:
+def split_element(
+    model: ifcopenshell.file, element: Entity, *, chains: dict[int, list[Entity]] | None = None
+) -> ifcopenshell.file:
     """Return a new IFC file (same schema as ``model``) that holds ``element`` alone in its spatial chain.
 
-    Pure: nothing is read or written on disk; write the result with ``new.write(path)``.
+    Pure: nothing is read or written on disk; write the result with ``new.write(path)``. ``chains`` (kept by
+    the caller across elements of one model) remembers the spatial chain above each parent, which elements
+    of a storey share.
     """
     # The annotation allows only the general names (IFC4X3), but file() keeps any full identifier as given
     # (IFC4X3_ADD2, IFC2X3_TC1), which the split file must repeat.
     new = ifcopenshell.file(schema=cast(ifcopenshell.util.schema.IFC_SCHEMA, model.schema_identifier))
     copy_header(model, new, element)
-    chain = spatial_chain(model, element)
+    chain = spatial_chain(model, element, chains)
     chain_ids = {spatial.id() for spatial in chain}
     kept = kept_objects(element, chain)
     copies = {obj.id(): copy_object(new, obj, with_shape=obj.id() not in chain_ids) for obj in kept}
@@ -127,22 +131,32 @@ def is_spatial(obj: Entity) -> bool:
     return obj.is_a("IfcProject") or obj.is_a("IfcSpatialStructureElement") or obj.is_a("IfcSpatialElement")
 
 
-def spatial_chain(model: ifcopenshell.file, element: Entity) -> list[Entity]:
+def spatial_chain(
+    model: ifcopenshell.file, element: Entity, chains: dict[int, list[Entity]] | None = None
+) -> list[Entity]:
     """Spatial objects from the element's (possibly indirect) container up to the IfcProject, in that order.
 
     Hosts on the way (the whole of an assembly, a nest host, an opening and the element it voids) are
     skipped. The project is appended even when the chain does not reach it, since every file needs one.
+    ``chains``: a cache by the element's parent (the chain depends only on it, when the element is not
+    its own ancestor).
     """
+    node = ifcopenshell.util.element.get_parent(element)
+    if chains is not None and node is not None and node.id() in chains:
+        return list(chains[node.id()])
     chain: list[Entity] = []
     seen = {element.id()}
-    node = ifcopenshell.util.element.get_parent(element)
+    parent_id = node.id() if node is not None else None
     while node is not None and node.id() not in seen:
         seen.add(node.id())
         if is_spatial(node):
             chain.append(node)
         node = ifcopenshell.util.element.get_parent(node)
+    cycle = node is not None  # the walk came back to the element: its chain is its own, not cached
     if not (chain and chain[-1].is_a("IfcProject")):
         chain.extend(model.by_type("IfcProject")[:1])
+    if chains is not None and parent_id is not None and not cycle:
+        chains[parent_id] = list(chain)
     return chain
 
 
