@@ -13,13 +13,8 @@ state, its position in the planned sequence and the placement error of its last 
 (``position_error_mm``, ``angle_error_deg``, as its agent measured them against the BIM pose).
 
 Per robot: ``type`` (its robot type, from physics' site info, ``SiteInfoMsg``; robots on site that never
-reported are listed too); ``busy_s`` — the time between leaving ``idle`` and returning to it, summed (an
-interval still open at the end of the run is closed at the last sim time seen; a new task without idle
-between starts a new interval); ``tasks`` — those intervals with the component handled and the task's
-``kind`` (``build``, or ``hand_off``: a ground robot carried it to a crane's staging spot, with its
-``put_down_xy_m``; see :mod:`.report_fleet`); ``distance_m`` — driven in the plane, from ground truth
-(``robots/<id>/pose``), else odometry, else the robot's own ``distance_m`` in its state messages, else its
-state poses.
+reported are listed too), ``busy_s``, ``tasks`` (``build``, or ``hand_off``: a ground robot carried it to
+a crane's staging spot) and ``distance_m`` (:mod:`.report_robots`).
 
 :func:`twin_messages` turns a component's twin (its agent's answer to ``components/<key>/twin``) back into
 the state changes it went through, for an observer that joined a run late;
@@ -57,7 +52,6 @@ from bimbot.shared.messages import (
     OdomMsg,
     ProgressMsg,
     RobotPoseMsg,
-    RobotState,
     RobotStateMsg,
     SensorsMsg,
     SiteInfoMsg,
@@ -67,7 +61,8 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.reasons import Reason, ReasonCode
 
-from .report_fleet import by_type, task_kind
+from .report_fleet import by_type
+from .report_robots import RobotTimeline, robot_entry
 from .report_totals import count_reasons, difference, dump_reason, scaled, totals_of
 
 REPORT_SCHEMA_VERSION = 1
@@ -97,7 +92,6 @@ class RunEnding:
 
 UNFINISHED = RunEnding("running", ReasonCode.INTERRUPTED, "the report was written before the run ended")
 PLANNER_DONE = RunEnding("done", None, "the planner reported every task settled")
-DISTANCE_SOURCES = ("ground_truth", "odom", "robot_state", "state_poses")  # best first
 
 
 @dataclass
@@ -119,23 +113,6 @@ class ComponentTimeline:
     last_s: float = 0.0  # latest sim time seen for this component
     reason: Reason | None = None  # failed/blocked: why (from its agent)
     last_give_back: Reason | None = None  # the latest reason a robot gave its task back for
-
-
-@dataclass
-class BusyInterval:
-    start_s: float
-    end_s: float | None = None
-    guid: str | None = None
-    task_id: str | None = None
-
-
-@dataclass
-class RobotTimeline:
-    state: RobotState | None = None
-    intervals: list[BusyInterval] = field(default_factory=list)
-    distances_m: dict[str, float] = field(default_factory=lambda: dict.fromkeys(DISTANCE_SOURCES, 0.0))
-    last_xy: dict[str, tuple[float, float]] = field(default_factory=dict)
-    reported_distance_m: float = 0.0
 
 
 def twin_messages(twin: TwinMsg) -> list[ComponentStateMsg | ComponentPoseMsg]:
@@ -181,14 +158,14 @@ class ReportCollector:
         if isinstance(message, ComponentStateMsg):
             self._component_state(message)
         elif isinstance(message, RobotStateMsg):
-            self._robot_state(message)
+            self._robot(message.robot_id).take_state(message)
         elif isinstance(message, RobotPoseMsg):
-            self._travel(message.robot_id, "ground_truth", message.pose_xy_yaw)
+            self._robot(message.robot_id).travel("ground_truth", message.pose_xy_yaw)
             self._separation(message)
         elif isinstance(message, SensorsMsg):
-            self._travel(message.robot_id, "odom", message.odom.pose_xy_yaw)
+            self._robot(message.robot_id).travel("odom", message.odom.pose_xy_yaw)
         elif isinstance(message, OdomMsg):
-            self._travel(message.robot_id, "odom", message.pose_xy_yaw)
+            self._robot(message.robot_id).travel("odom", message.pose_xy_yaw)
         elif isinstance(message, TaskMsg):
             self.task_kinds[message.task_id] = message.kind
             if message.put_down_xy_m is not None:
@@ -253,35 +230,8 @@ class ReportCollector:
         elif msg.state == ComponentState.FAILED:
             timeline.failed_s = t
 
-    def _robot_state(self, msg: RobotStateMsg) -> None:
-        robot = self.robots.setdefault(msg.robot_id, RobotTimeline())
-        robot.reported_distance_m = max(robot.reported_distance_m, msg.distance_m)
-        self._travel(msg.robot_id, "state_poses", msg.pose_xy_yaw)
-        busy = msg.state != RobotState.IDLE
-        open_interval = robot.intervals[-1] if robot.intervals and robot.intervals[-1].end_s is None else None
-        if (
-            busy
-            and open_interval is not None
-            and open_interval.task_id is not None
-            and msg.task_id not in (None, open_interval.task_id)
-        ):  # the next task without idle between: its own interval
-            open_interval.end_s = max(msg.sim_time_s, open_interval.start_s)
-            open_interval = None
-        if busy and open_interval is None:
-            robot.intervals.append(BusyInterval(start_s=msg.sim_time_s, guid=msg.guid, task_id=msg.task_id))
-        elif busy and open_interval is not None and open_interval.guid is None:
-            open_interval.guid, open_interval.task_id = msg.guid, msg.task_id
-        elif not busy and open_interval is not None:
-            open_interval.end_s = max(msg.sim_time_s, open_interval.start_s)
-        robot.state = msg.state
-
-    def _travel(self, robot_id: str, source: str, pose_xy_yaw: tuple[float, float, float]) -> None:
-        robot = self.robots.setdefault(robot_id, RobotTimeline())
-        xy = (pose_xy_yaw[0], pose_xy_yaw[1])
-        last = robot.last_xy.get(source)
-        if last is not None:
-            robot.distances_m[source] += math.dist(last, xy)
-        robot.last_xy[source] = xy
+    def _robot(self, robot_id: str) -> RobotTimeline:
+        return self.robots.setdefault(robot_id, RobotTimeline())
 
     def _separation(self, msg: RobotPoseMsg) -> None:
         """The smallest ground-truth distance between two robots' base frames at one sim time (how close
@@ -330,7 +280,9 @@ class ReportCollector:
                 }
             )
         robots = {
-            robot_id: self._robot_report(robot_id, robot, end_s)
+            robot_id: robot_entry(
+                robot, self.robot_type_of.get(robot_id), self.task_kinds, self.put_downs, end_s
+            )
             for robot_id, robot in sorted(self.robots.items())
         }
         totals = totals_of(components, robots)
@@ -376,35 +328,3 @@ class ReportCollector:
             state += f"; last given back: {timeline.last_give_back.line()}"
         message = f"{ending.message}; {state}"[:MAX_REASON_CHARS]
         return Reason(code=ending.code or ReasonCode.INTERRUPTED, message=message, robot_id=robot_id)
-
-    def _robot_report(self, robot_id: str, robot: RobotTimeline, end_s: float) -> dict[str, Any]:
-        tasks: list[dict[str, Any]] = [
-            {
-                "guid": interval.guid,
-                "task_id": interval.task_id,
-                "kind": task_kind(interval.task_id, self.task_kinds),
-                "start_s": interval.start_s,
-                "end_s": interval.end_s if interval.end_s is not None else max(end_s, interval.start_s),
-                "open": interval.end_s is None,
-            }
-            for interval in robot.intervals
-        ]
-        for task in tasks:
-            if task["kind"] == TaskKind.HAND_OFF.value:
-                task["put_down_xy_m"] = self.put_downs.get(task["task_id"])
-        distance, source = robot.reported_distance_m, "robot_state"
-        for candidate in ("ground_truth", "odom"):
-            if candidate in robot.last_xy:
-                distance, source = robot.distances_m[candidate], candidate
-                break
-        else:
-            if robot.reported_distance_m <= 0.0:
-                distance, source = robot.distances_m["state_poses"], "state_poses"
-        return {
-            "type": self.robot_type_of.get(robot_id),
-            "busy_s": sum(task["end_s"] - task["start_s"] for task in tasks),
-            "distance_m": distance,
-            "distance_source": source,
-            "tasks": tasks,
-            "state": robot.state.value if robot.state else None,
-        }

@@ -1,0 +1,113 @@
+"""The report's robots: one timeline per robot (busy intervals, distance driven) and its ``report.json``
+entry. Pure: no bus, no files; apart from :mod:`.report` so the collector stays about components.
+
+* ``busy_s`` — the time between leaving ``idle`` and returning to it, summed (an interval still open at
+  the end of the run is closed at the last sim time seen; a new task without idle between starts a new
+  interval).
+* ``tasks`` — those intervals with the component handled and the task's ``kind`` (``build``, or
+  ``hand_off`` with its ``put_down_xy_m``; :mod:`.report_fleet`).
+* ``distance_m`` — driven in the plane, from ground truth (``robots/<id>/pose``), else odometry, else the
+  robot's own ``distance_m`` in its state messages, else its state poses (``distance_source`` says which).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from bimbot.shared.messages import RobotState, RobotStateMsg, TaskKind
+
+from .report_fleet import task_kind
+
+DISTANCE_SOURCES = ("ground_truth", "odom", "robot_state", "state_poses")  # best first
+
+
+@dataclass
+class BusyInterval:
+    start_s: float
+    end_s: float | None = None
+    guid: str | None = None
+    task_id: str | None = None
+
+
+@dataclass
+class RobotTimeline:
+    """What one robot did: its last state, its busy intervals and the distance it drove, per source."""
+
+    state: RobotState | None = None
+    intervals: list[BusyInterval] = field(default_factory=list)
+    distances_m: dict[str, float] = field(default_factory=lambda: dict.fromkeys(DISTANCE_SOURCES, 0.0))
+    last_xy: dict[str, tuple[float, float]] = field(default_factory=dict)
+    reported_distance_m: float = 0.0
+
+    def take_state(self, msg: RobotStateMsg) -> None:
+        """A state message of this robot: opens, names or closes its busy interval."""
+        self.reported_distance_m = max(self.reported_distance_m, msg.distance_m)
+        self.travel("state_poses", msg.pose_xy_yaw)
+        busy = msg.state != RobotState.IDLE
+        open_interval = self.intervals[-1] if self.intervals and self.intervals[-1].end_s is None else None
+        if (
+            busy
+            and open_interval is not None
+            and open_interval.task_id is not None
+            and msg.task_id not in (None, open_interval.task_id)
+        ):  # the next task without idle between: its own interval
+            open_interval.end_s = max(msg.sim_time_s, open_interval.start_s)
+            open_interval = None
+        if busy and open_interval is None:
+            self.intervals.append(BusyInterval(start_s=msg.sim_time_s, guid=msg.guid, task_id=msg.task_id))
+        elif busy and open_interval is not None and open_interval.guid is None:
+            open_interval.guid, open_interval.task_id = msg.guid, msg.task_id
+        elif not busy and open_interval is not None:
+            open_interval.end_s = max(msg.sim_time_s, open_interval.start_s)
+        self.state = msg.state
+
+    def travel(self, source: str, pose_xy_yaw: tuple[float, float, float]) -> None:
+        """A pose of this robot from ``source`` (one of :data:`DISTANCE_SOURCES`): adds the leg driven."""
+        xy = (pose_xy_yaw[0], pose_xy_yaw[1])
+        last = self.last_xy.get(source)
+        if last is not None:
+            self.distances_m[source] += math.dist(last, xy)
+        self.last_xy[source] = xy
+
+
+def robot_entry(
+    robot: RobotTimeline,
+    robot_type: str | None,
+    task_kinds: Mapping[str, TaskKind],
+    put_downs: Mapping[str, tuple[float, float]],
+    end_s: float,
+) -> dict[str, Any]:
+    """A robot as ``report.json`` lists it (see the module); ``end_s`` closes an interval still open."""
+    tasks: list[dict[str, Any]] = [
+        {
+            "guid": interval.guid,
+            "task_id": interval.task_id,
+            "kind": task_kind(interval.task_id, task_kinds),
+            "start_s": interval.start_s,
+            "end_s": interval.end_s if interval.end_s is not None else max(end_s, interval.start_s),
+            "open": interval.end_s is None,
+        }
+        for interval in robot.intervals
+    ]
+    for task in tasks:
+        if task["kind"] == TaskKind.HAND_OFF.value:
+            task["put_down_xy_m"] = put_downs.get(task["task_id"])
+    distance, source = robot.reported_distance_m, "robot_state"
+    for candidate in ("ground_truth", "odom"):
+        if candidate in robot.last_xy:
+            distance, source = robot.distances_m[candidate], candidate
+            break
+    else:
+        if robot.reported_distance_m <= 0.0:
+            distance, source = robot.distances_m["state_poses"], "state_poses"
+    return {
+        "type": robot_type,
+        "busy_s": sum(task["end_s"] - task["start_s"] for task in tasks),
+        "distance_m": distance,
+        "distance_source": source,
+        "tasks": tasks,
+        "state": robot.state.value if robot.state else None,
+    }
