@@ -7,8 +7,9 @@ against 0.25 s). So the elements are split into shards, each converted start to 
 files, by a forked worker process (which inherits the opened model) with a one-thread iterator. There are
 a few more shards than workers, largest first, so a worker that finishes early takes the next one instead
 of idling while the other finishes a slow shard. Elements that share geometry through the same mapped
-representation go to the same shard, so repeated geometry is still tessellated, decomposed and written
-once; within a worker, sections (:mod:`.prism_split`) and spatial chains are shared across its shards.
+representation go to the same shard (unless there are more of them than a shard's share), so repeated
+geometry is tessellated, decomposed and written once per shard; within a worker, sections
+(:mod:`.prism_split`) and spatial chains are shared across its shards.
 With fewer than ``2 × MIN_ELEMENTS_PER_WORKER`` elements no process is forked: a fork costs more than it
 saves.
 """
@@ -42,7 +43,9 @@ from .tessellation import tessellate
 
 _log = logging.getLogger(__name__)
 
-MIN_ELEMENTS_PER_WORKER = 16  # below this a worker process costs more than it saves
+# Below this many elements per worker a process costs more than it saves (the bundled frame's 28 elements:
+# 132 ms in one process, 118 ms in two).
+MIN_ELEMENTS_PER_WORKER = 8
 SHARDS_PER_WORKER = 3  # shards handed out one at a time balance the workers' load
 MIN_ELEMENTS_PER_SHARD = 8  # a shard's own tessellation iterator and caches cost a few milliseconds
 ProgressCallback = Callable[[str, int, int], None]
@@ -77,13 +80,23 @@ def geometry_group(element: ifcopenshell.entity_instance) -> str:
 
 
 def plan_shards(elements: Sequence[ifcopenshell.entity_instance], count: int) -> list[list[int]]:
-    """Step ids in ``count`` shards of similar size, each geometry group whole, each in step-id order."""
+    """Step ids in ``count`` shards of similar size, each in step-id order. A geometry group stays in one
+    shard unless it is larger than a shard's share: then it is cut into pieces of about that size, each
+    costing its shard one more tessellation and decomposition of the geometry (milliseconds) where a whole
+    group would leave the other workers idle (a large frame is three groups of thousands of members)."""
     groups: dict[str, list[int]] = defaultdict(list)
     for element in elements:
         groups[geometry_group(element)].append(element.id())
-    shards: list[list[int]] = [[] for _ in range(max(1, count))]
-    for members in sorted(groups.values(), key=len, reverse=True):
-        min(shards, key=len).extend(members)
+    count = max(1, count)
+    share = -(-len(elements) // count)  # ceil
+    pieces: list[list[int]] = []
+    for members in groups.values():
+        cuts = -(-len(members) // share)
+        size = -(-len(members) // cuts)
+        pieces.extend(members[start : start + size] for start in range(0, len(members), size))
+    shards: list[list[int]] = [[] for _ in range(count)]
+    for piece in sorted(pieces, key=len, reverse=True):
+        min(shards, key=len).extend(piece)
     return [sorted(shard) for shard in shards if shard]
 
 
