@@ -49,7 +49,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="",
         help="build only these IFC classes instead of the building elements (comma-separated, subclasses)",
     )
-    parser.add_argument("--threads", type=int, default=None, help="tessellation threads (default: all cores)")
+    parser.add_argument(
+        "--threads",
+        type=int,
+        default=None,
+        help="worker processes, each tessellating and writing its share of the elements (default: all cores)",
+    )
     parser.add_argument(
         "--formats",
         default=",".join(ConvertOptions.formats),

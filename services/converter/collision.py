@@ -47,6 +47,7 @@ import numpy as np
 from bimbot.shared.manifest import CollisionMethod
 
 from .mesh import MeshLike, TriMesh, as_trimesh_lite, convex_hull
+from .placement import axis2placement_matrix
 from .plane_split import split_into_convex_parts
 from .prism_split import SectionCache, extrusion_parts
 from .profiles import outline_tolerance_m, profile_polygons
@@ -266,7 +267,7 @@ def _extrusion_frame(
     """4×4 from an extrusion's position frame (profile plane XY) to the element frame, metres."""
     position = np.eye(4)
     if item.Position is not None:
-        position = np.asarray(ifcopenshell.util.placement.get_axis2placement(item.Position), dtype=float)
+        position = axis2placement_matrix(item.Position)
     to_element = matrix @ position
     to_element[:3, 3] *= unit_scale_m
     return to_element

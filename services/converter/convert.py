@@ -41,7 +41,7 @@ from .component_writer import ShardContext, skipped_entry
 from .ifc_input import file_sha256
 from .mass import mass_unit_kg
 from .mesh_files import VISUAL_FORMATS
-from .placement import choose_local_origin, vec3
+from .placement import axis2placement_matrix, choose_local_origin, vec3
 from .sdf_writer import world_sdf
 from .selection import select_elements
 from .sequencing import construction_sequence
@@ -172,7 +172,7 @@ def _placement_matrix(placement: ifcopenshell.entity_instance, memo: dict[int, n
     matrix = memo.get(key)
     if matrix is None:
         if placement.is_a("IfcLocalPlacement"):
-            relative = ifcopenshell.util.placement.get_axis2placement(placement.RelativePlacement)
+            relative = axis2placement_matrix(placement.RelativePlacement)
             parent = placement.PlacementRelTo
             matrix = relative if parent is None else np.dot(_placement_matrix(parent, memo), relative)
         else:

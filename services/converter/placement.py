@@ -17,6 +17,8 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+import ifcopenshell
+import ifcopenshell.util.placement
 import numpy as np
 
 from bimbot.shared.manifest import Pose, Quat, Vec3
@@ -136,6 +138,18 @@ def pose_matrix(pose: Pose) -> np.ndarray:
     matrix[:3, :3] = matrix_from_quat(pose.quat_xyzw)
     matrix[:3, 3] = pose.position_m
     return matrix
+
+
+def axis2placement_matrix(placement: ifcopenshell.entity_instance) -> np.ndarray:
+    """4×4 matrix of an IfcAxis2Placement (IFC length units): ifcopenshell's ``get_axis2placement``, except
+    that a 2D placement's direction is widened without ``ndarray.resize``, which refuses to run (and failed
+    the element) whenever a profiler or tracer holds a reference to the array."""
+    if placement.is_a("IfcAxis2Placement2D"):
+        ref = placement.RefDirection
+        x = np.array((*ref.DirectionRatios[:2], 0.0)) if ref is not None else np.array((1.0, 0.0, 0.0))
+        origin = (*placement.Location.Coordinates, 0.0)
+        return np.asarray(ifcopenshell.util.placement.a2p(origin, np.array((0, 0, 1)), x), dtype=float)
+    return np.asarray(ifcopenshell.util.placement.get_axis2placement(placement), dtype=float)
 
 
 def choose_local_origin(points_world_m: np.ndarray, far_m: float = FAR_FROM_ORIGIN_M) -> np.ndarray:

@@ -33,8 +33,9 @@ import logging
 from collections.abc import Callable
 
 import ifcopenshell
-import ifcopenshell.util.placement
 import numpy as np
+
+from .placement import axis2placement_matrix
 
 logger = logging.getLogger(__name__)
 
@@ -145,7 +146,7 @@ def _position_matrix(profile: ifcopenshell.entity_instance) -> np.ndarray:
     position = getattr(profile, "Position", None)
     if position is None:
         return np.eye(4)
-    return np.asarray(ifcopenshell.util.placement.get_axis2placement(position), dtype=float)
+    return axis2placement_matrix(position)
 
 
 def _transform(polygon: Polygon, matrix: np.ndarray) -> Polygon:

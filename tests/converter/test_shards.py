@@ -8,9 +8,13 @@ from collections import Counter
 from pathlib import Path
 
 import ifcopenshell
+import ifcopenshell.api.geometry
+import ifcopenshell.api.root
+import ifcopenshell.api.type
 import pytest
+from ifc_builders import SmallModel, new_model, place, translation
 
-from bimbot.demo import bundled_model_path
+from bimbot.services.converter import convert as convert_module
 from bimbot.services.converter import shards
 from bimbot.services.converter.convert import ConvertOptions, convert_model
 from bimbot.services.converter.ifc_input import open_model
@@ -18,15 +22,43 @@ from bimbot.services.converter.selection import select_elements
 from bimbot.services.converter.shards import geometry_group, plan_shards
 from bimbot.shared.manifest import Manifest
 
+GROUPS = ((10, 5.0), (9, 3.0), (9, 2.0))  # (beams, length m) per beam type: three mapped geometries
+
+
+def typed_beams(small: SmallModel) -> None:
+    """28 beams of three types whose bodies map their type's representation (as a frame's members do)."""
+    model = small.file
+    for index, (count, length_m) in enumerate(GROUPS):
+        beam_type = ifcopenshell.api.root.create_entity(model, ifc_class="IfcBeamType", name=f"T{index}")
+        profile = model.create_entity("IfcRectangleProfileDef", ProfileType="AREA", XDim=200.0, YDim=400.0)
+        body = ifcopenshell.api.geometry.add_profile_representation(
+            model, context=small.body, profile=profile, depth=length_m
+        )
+        ifcopenshell.api.geometry.assign_representation(model, product=beam_type, representation=body)
+        beams = []
+        for number in range(count):
+            beam = ifcopenshell.api.root.create_entity(model, ifc_class="IfcBeam", name=f"B{index}-{number}")
+            beams.append(place(small, beam, translation(6.0 * number, 3.0 * index, 0.0), small.storey))
+        ifcopenshell.api.type.assign_type(model, related_objects=beams, relating_type=beam_type)
+
 
 @pytest.fixture(scope="module")
-def frame_elements() -> list[ifcopenshell.entity_instance]:
-    """The bundled frame's 28 elements: three geometry groups (10 beams, 9 columns, 9 footings)."""
-    model = ifcopenshell.open(str(bundled_model_path()))
-    return list(select_elements(model).elements)
+def model_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    small = new_model()
+    typed_beams(small)
+    path = tmp_path_factory.mktemp("typed") / "typed_beams.ifc"
+    small.file.write(str(path))
+    return path
 
 
-def test_frame_has_three_geometry_groups(frame_elements: list[ifcopenshell.entity_instance]) -> None:
+@pytest.fixture(scope="module")
+def frame_elements(model_file: Path) -> list[ifcopenshell.entity_instance]:
+    return list(select_elements(ifcopenshell.open(str(model_file))).elements)
+
+
+def test_elements_mapping_one_representation_are_one_geometry_group(
+    frame_elements: list[ifcopenshell.entity_instance],
+) -> None:
     assert sorted(Counter(geometry_group(e) for e in frame_elements).values()) == [9, 9, 10]
 
 
@@ -63,16 +95,25 @@ def _files(folder: Path) -> list[str]:
     return [path.relative_to(folder).as_posix() for path in folder.rglob("*") if path.is_file()]
 
 
-def _convert(out: Path, threads: int) -> Manifest:
-    source = bundled_model_path()
+def _convert(source: Path, out: Path, threads: int) -> Manifest:
     return convert_model(open_model(source), source, out, ConvertOptions(threads=threads))
 
 
 def test_several_processes_write_what_one_process_writes(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    model_file: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr(shards, "MIN_ELEMENTS_PER_SHARD", 4)  # six shards for two workers: cut groups
-    one, two = _convert(tmp_path / "one", 1), _convert(tmp_path / "two", 2)
+    results: list[int] = []
+    run_shards = convert_module.run_shards
+
+    def counted(*args: object, **kwargs: object) -> list[shards.ShardResult]:
+        done = run_shards(*args, **kwargs)
+        results.append(len(done))
+        return done
+
+    monkeypatch.setattr(convert_module, "run_shards", counted)
+    one, two = _convert(model_file, tmp_path / "one", 1), _convert(model_file, tmp_path / "two", 2)
+    assert results == [1, 6] and len(one.components) == 28
     assert one.model_dump(exclude={"source"}) == two.model_dump(exclude={"source"})
     for component in one.components:
         folder_one = tmp_path / "one" / component.files.model_dir
