@@ -56,6 +56,7 @@ from bimbot.run_table import not_built_table
 from bimbot.run_watchdog import StallWatchdog
 from bimbot.services.observer.report import RunEnding
 from bimbot.services.observer.report_fleet import lane_label, robot_order, utilisation_line
+from bimbot.services.observer.report_placements import placement_line
 from bimbot.services.observer.report_png import write_report_files
 from bimbot.shared.bus import open_session
 from bimbot.shared.errors import UserError
@@ -284,6 +285,9 @@ def summary_text(outcome: RunOutcome) -> str:
             f"placement error at most {totals['max_position_error_mm']:.2f} mm and "
             f"{totals['max_angle_error_deg']:.2f}°"
         )
+    placements = placement_line(outcome.report)
+    if placements is not None:
+        lines.append(placements)
     as_built = as_built_line(outcome.report)
     if as_built is not None:
         lines.append(as_built)

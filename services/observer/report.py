@@ -10,7 +10,9 @@ entering ``verifying``), ``constructed_s``, ``failed_s``, ``retries`` (misplacem
 ``give_backs`` (why a robot gave the task back, each time), ``handed_off_s`` (when a ground robot put it
 down at a crane's staging spot, each hand-off), ``attempts``, the robots that handled it, its final
 state, its position in the planned sequence and the placement error of its last verdict
-(``position_error_mm``, ``angle_error_deg``, as its agent measured them against the BIM pose).
+(``position_error_mm``, ``angle_error_deg``, as its agent measured them against the BIM pose);
+``placements``, every verified attempt in order (robot and its type, errors, drift after release, verdict
+and cause), and ``max_drift_mm`` (:mod:`.report_placements`).
 
 Per robot: ``type`` (its robot type, from physics' site info, ``SiteInfoMsg``; robots on site that never
 reported are listed too), ``busy_s``, ``tasks`` (``build``, or ``hand_off``: a ground robot carried it to
@@ -24,7 +26,8 @@ trusts a twin over any state message, :mod:`bimbot.run_states`).
 Totals: components by final state, retries, makespan (first release → last constructed), busy time,
 distance, robot utilisation (busy / (robots × makespan)), ``by_type`` (per robot type: robots, busy
 time, build and hand-off tasks, utilisation), the number of hand-off tasks, the largest placement errors
-of the constructed components.
+of the constructed components; ``placement_error_mm_by_type`` (the distribution of every attempt's
+position error per robot type), ``retries_by_cause`` and ``max_drift_mm``.
 
 Reasons: every component that is not constructed gets a ``reason`` object (``code``, ``message``,
 ``guid``, ``robot_id``; :class:`bimbot.shared.reasons.Reason`). A failed or blocked component has its own
@@ -62,6 +65,14 @@ from bimbot.shared.messages import (
 from bimbot.shared.reasons import Reason, ReasonCode
 
 from .report_fleet import by_type
+from .report_placements import (
+    PLACEMENT_REASON_CODES,
+    Placement,
+    max_or_none,
+    placement_entry,
+    placement_of,
+    placement_totals,
+)
 from .report_robots import RobotTimeline, robot_entry
 from .report_totals import count_reasons, difference, dump_reason, scaled, totals_of
 
@@ -113,6 +124,7 @@ class ComponentTimeline:
     last_s: float = 0.0  # latest sim time seen for this component
     reason: Reason | None = None  # failed/blocked: why (from its agent)
     last_give_back: Reason | None = None  # the latest reason a robot gave its task back for
+    placements: list[Placement] = field(default_factory=list)  # every verdict, in order
 
 
 def twin_messages(twin: TwinMsg) -> list[ComponentStateMsg | ComponentPoseMsg]:
@@ -201,7 +213,7 @@ class ReportCollector:
         if msg.reason is not None:
             if msg.state in _OWN_REASON_STATES:
                 timeline.reason = msg.reason
-            else:
+            elif msg.reason.code not in PLACEMENT_REASON_CODES:  # a verdict's cause is not a give-back
                 timeline.last_give_back = msg.reason
         # Senders stamp sim time from their own view of the clock (a verdict may be stamped a little
         # before the placement it judges): a component's times never go backwards.
@@ -210,6 +222,9 @@ class ReportCollector:
             return
         if msg.position_error_m is not None:
             timeline.position_error_m, timeline.angle_error_rad = msg.position_error_m, msg.angle_error_rad
+        placement = placement_of(msg)
+        if placement is not None and placement not in timeline.placements:  # a verdict heard twice: once
+            timeline.placements.append(placement)
         if msg.state == ComponentState.RELEASED and msg.event == ComponentEvent.ABANDON:
             timeline.give_backs.append(msg.reason.line() if msg.reason is not None else "given back")
         if msg.state == ComponentState.RELEASED and msg.event == ComponentEvent.HAND_OFF:
@@ -255,6 +270,9 @@ class ReportCollector:
         for component in self.manifest.components:
             timeline = self.components[component.guid]
             cycle = difference(timeline.constructed_s, timeline.released_s)
+            placements = [
+                placement_entry(p, self.robot_type_of.get(p.robot_id or "")) for p in timeline.placements
+            ]
             components.append(
                 {
                     "guid": component.guid,
@@ -277,6 +295,8 @@ class ReportCollector:
                     "position_error_mm": scaled(timeline.position_error_m, 1000.0),
                     "angle_error_deg": scaled(timeline.angle_error_rad, 180.0 / math.pi),
                     "reason": dump_reason(self._reason(component.guid, timeline, ending)),
+                    "placements": placements,
+                    "max_drift_mm": max_or_none(p["drift_mm"] for p in placements),
                 }
             )
         robots = {
@@ -292,6 +312,7 @@ class ReportCollector:
         totals["done"] = bool(self.progress and self.progress.done)
         totals["not_constructed"] = totals["components"] - totals["constructed"]
         totals["by_reason"] = count_reasons(components)
+        totals.update(placement_totals(components, list(totals["by_type"])))
         separation = self.min_separation_m
         totals["min_robot_separation_m"] = None if math.isinf(separation) else separation
         return {
