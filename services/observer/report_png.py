@@ -1,4 +1,6 @@
-"""``report.png``: a Gantt chart of the simulated construction beside the planned sequence.
+"""``report.png``: a Gantt chart of the simulated construction beside the planned sequence, and under them
+the placement panels (:mod:`.report_placements_png`: placement errors per robot type, drift after
+release).
 
 Left: one lane per robot, labelled with its type (``r2 (carrier)``), the robots of a type together
 (:func:`.report_fleet.robot_order`) with a line between types; a bar per task (the robot left ``idle`` →
@@ -15,7 +17,8 @@ as-built audit made at the end of the run (:mod:`bimbot.as_built`: the largest f
 constructed components, how many physics has away from their BIM target); each of those has its final
 error at the right edge of its row. Both share the sim-time axis, so the chart shows at a glance where
 the run waited, which robot did what, whether the building went up in the planned order, and what was not
-built and why.
+built and why. Below, how precisely each robot type placed, which placements missed and why, and what moved
+after it was released.
 
 Rendered on a bare ``matplotlib.figure.Figure`` (Agg canvas: no pyplot state, no display), at a fixed
 size (``FIGURE_SIZE_IN`` × ``DPI``).
@@ -35,11 +38,14 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
 from .report_fleet import lane_label, robot_order, utilisation_line
+from .report_placements_png import draw_drift, draw_placement_errors, placement_handles
 
 REPORT_JSON = "report.json"
 REPORT_PNG = "report.png"
-FIGURE_SIZE_IN = (16.0, 9.0)
-DPI = 100  # 1600 × 900 pixels
+FIGURE_SIZE_IN = (16.0, 12.0)
+DPI = 100  # 1600 × 1200 pixels
+HEIGHT_RATIOS = (3.0, 1.2)  # the Gantt row over the placement row
+LEGEND_ROW = 0.03  # of the figure's height: one row of legend under the panels
 MAX_ROW_LABELS = 60  # beyond this many sequence rows, labels are left out
 NOT_BUILT_COLOR = "red"
 NOT_BUILT_HATCH = "////"
@@ -216,13 +222,18 @@ def _as_built_title(report: dict[str, Any]) -> str:
     return f" — as-built:{largest} {errors} error{'' if errors == 1 else 's'}"
 
 
-def render_report_png(report: dict[str, Any], path: Path) -> Path:
-    """Draw ``report`` (from :meth:`.report.ReportCollector.report`) into ``path``."""
+def report_figure(report: dict[str, Any]) -> Figure:
+    """The chart of ``report`` (from :meth:`.report.ReportCollector.report`): axes in the order Gantt lanes,
+    planned sequence, placement errors, drift."""
     colors = class_colors([c["ifc_class"] for c in report["components"]])
     figure = Figure(figsize=FIGURE_SIZE_IN, dpi=DPI)  # no pyplot: no global state, no display needed
-    lanes, sequence = figure.subplots(1, 2, sharex=True, gridspec_kw={"width_ratios": [3, 2]})
+    grid = figure.add_gridspec(2, 2, width_ratios=(3, 2), height_ratios=HEIGHT_RATIOS)
+    lanes = figure.add_subplot(grid[0, 0])
+    sequence = figure.add_subplot(grid[0, 1], sharex=lanes)
     _robot_lanes(lanes, report, colors)
     _sequence_rows(sequence, report, colors)
+    draw_placement_errors(figure.add_subplot(grid[1, 0]), report)
+    draw_drift(figure.add_subplot(grid[1, 1]), report)
     totals = report["totals"]
     makespan = totals.get("makespan_s")
     ending = report.get("ending") or {}
@@ -237,9 +248,25 @@ def render_report_png(report: dict[str, Any], path: Path) -> Path:
     handles = [Patch(color=color, label=name) for name, color in colors.items()]
     handles += _hand_off_legend(report) + _not_built_legend(report)
     figure.legend(handles=handles, loc="lower center", ncol=min(len(handles), 8) or 1, frameon=False)
-    figure.tight_layout(rect=(0.0, 0.05, 1.0, 0.96))
+    bottom = LEGEND_ROW
+    placements = placement_handles(report)
+    if placements:  # a row of its own, just under the placement panels
+        figure.legend(
+            handles=placements,
+            loc="lower center",
+            bbox_to_anchor=(0.5, LEGEND_ROW),
+            ncol=len(placements),
+            frameon=False,
+        )
+        bottom += LEGEND_ROW
+    figure.tight_layout(rect=(0.0, bottom, 1.0, 0.97))
+    return figure
+
+
+def render_report_png(report: dict[str, Any], path: Path) -> Path:
+    """Draw ``report`` (from :meth:`.report.ReportCollector.report`) into ``path``."""
     path = Path(path)
-    figure.savefig(path, dpi=DPI)
+    report_figure(report).savefig(path, dpi=DPI)
     return path
 
 

@@ -1,6 +1,6 @@
 """Placements in the construction report (issue 11): every verified attempt per component with its robot
 type, errors, drift after release, verdict and cause; the distribution of position errors per robot type;
-retries by cause; the largest drift and the summary line.
+retries by cause; the largest drift; the summary line and report.png's placement panels.
 
 A synthetic stream on the bundled build's first four components, a fleet of r1 husky and r2, r3 carriers
 (physics' site info). Each attempt goes released → picking → transporting → assembling → verifying →
@@ -22,6 +22,7 @@ import math
 from pathlib import Path
 from typing import Any, NamedTuple
 
+import matplotlib.image
 import numpy as np
 import pytest
 from conftest import site_info
@@ -29,7 +30,8 @@ from pydantic import BaseModel
 
 from bimbot.services.observer.report import ReportCollector
 from bimbot.services.observer.report_placements import percentile, placement_line
-from bimbot.services.observer.report_png import render_report_png
+from bimbot.services.observer.report_placements_png import TOLERANCE_MM
+from bimbot.services.observer.report_png import DPI, FIGURE_SIZE_IN, render_report_png, report_figure
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState as S
 from bimbot.shared.messages import ComponentStateMsg, PoseMsg, TwinMsg
@@ -331,6 +333,41 @@ def test_the_summary_has_one_line_of_placement_errors_by_type_retries_by_cause_a
     assert lines[lines.index(line) - 1].startswith("placement error at most 6.00 mm")
 
 
+def _marker_points(ax: Any, marker: str) -> int:
+    return sum(len(line.get_xdata()) for line in ax.get_lines() if line.get_marker() == marker)
+
+
+def test_the_chart_has_a_placement_error_panel_per_robot_type_and_a_drift_panel(
+    report: dict, tmp_path: Path
+) -> None:
+    figure = report_figure(report)
+    _, _, errors, drift = figure.axes
+    assert "placement position error per robot type" in errors.get_title()
+    assert [label.get_text().split("\n")[0] for label in errors.get_yticklabels()] == ["husky", "carrier"]
+    assert errors.get_yticklabels()[1].get_text() == "carrier\n5 placed, p95 70.0 mm"
+    assert (_marker_points(errors, "o"), _marker_points(errors, "x"), _marker_points(errors, "v")) == (
+        3,
+        4,
+        1,
+    )
+    assert any(list(line.get_xdata()) == [TOLERANCE_MM] * 2 for line in errors.get_lines())  # the dashed line
+    _, placement_legend = figure.legends  # the classes' legend, then the placements' row
+    assert [text.get_text() for text in placement_legend.get_texts()] == [
+        "within tolerance ×3",
+        "misplaced (released off target) ×4",
+        "unstable (moved after release) ×1",
+        "tolerance 10 mm",
+    ]
+    assert errors.get_xscale() == "symlog"
+    assert (
+        _marker_points(drift, "o") + _marker_points(drift, "x") + _marker_points(drift, "v") == 7
+    )  # C unmeasured
+    assert "largest 75.0 mm" in drift.get_title() and "misplaced 3, unstable 1" in drift.get_title()
+    path = render_report_png(report, tmp_path / "report.png")
+    height, width = matplotlib.image.imread(path).shape[:2]
+    assert (width, height) == (FIGURE_SIZE_IN[0] * DPI, FIGURE_SIZE_IN[1] * DPI) == (1600, 1200)
+
+
 def test_a_run_without_placements_has_empty_totals_no_summary_line_and_still_a_chart(
     frame_manifest: Manifest, tmp_path: Path
 ) -> None:
@@ -340,4 +377,8 @@ def test_a_run_without_placements_has_empty_totals_no_summary_line_and_still_a_c
     assert totals["retries_by_cause"] == {"misplaced": 0, "unstable": 0}
     assert all(c["placements"] == [] and c["max_drift_mm"] is None for c in empty["components"])
     assert placement_line(empty) is None
+    _, _, errors, drift = report_figure(empty).axes
+    assert [text.get_text() for text in errors.texts] == ["no placement was verified"]
+    assert [text.get_text() for text in drift.texts] == ["no drift was measured"]
+    assert len(report_figure(empty).legends) == 1  # no placement legend
     assert render_report_png(empty, tmp_path / "empty.png").stat().st_size > 0
