@@ -87,7 +87,7 @@ def _strip(ax: Axes, rows: Sequence[Sequence[Point]], *, box: bool) -> None:
     values = [value for points in rows for value, _ in points]
     ax.set_xscale("symlog", linthresh=LINEAR_BELOW_MM, linscale=0.5)
     ax.xaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))  # 100, not 10²
-    ax.set_xlim(0.0, max([*values, 2.0 * TOLERANCE_MM]) * 1.5)
+    ax.set_xlim(-0.1 * LINEAR_BELOW_MM, max([*values, 2.0 * TOLERANCE_MM]) * 1.5)  # 0 mm off the frame
     ax.set_ylim(len(rows) - 0.5, -0.5)  # the first row at the top
     ax.grid(axis="x", alpha=0.3, which="both")
 
