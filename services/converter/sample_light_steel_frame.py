@@ -32,8 +32,11 @@ top):
   spanning column centre to column centre. Beams along x sit with their bottom flange on the column tops
   (z = ``height_mm``); the end-frame beams along y sit on the ends of the beams along x (z = ``height_mm``
   + 160), so no two beams overlap above a corner column (with N = 1 there are no beams along x and they
-  sit on the column tops). A beam's placement is at its start column's axis at its bottom with local x
-  along the span, so beams along y carry a 90° rotation about z. Beams of one span length share one type.
+  sit on the column tops). Where there are beams along y, a beam along x that ends at an end frame runs
+  on to the end column's outer face (50 mm past its axis), so the beam along y bears on it with its whole
+  flange: a beam resting on the edge of another tips off in the simulation (issue 11). A beam's placement
+  is at its start (the start column's axis, or that column's outer face) at its bottom with local x along
+  the span, so beams along y carry a 90° rotation about z. Beams of one length share one type.
 
 Semantics:
 
@@ -231,16 +234,27 @@ def plan_members(
     spans += [
         ((i, j), (i, j + 1), (0.0, 1.0, 0.0), spacing_y_mm) for i in end_frames for j in range(columns_y - 1)
     ]
-    for start, end, direction, length_mm in spans:
+    overhang_mm = COLUMN_SECTION["size_mm"] / 2.0
+    for start, end, direction, span_mm in spans:
         start_label, end_label = grid_label(*start), grid_label(*end)
+        length_mm = span_mm
         # End-frame beams along y rest on the ends of the beams along x (when there are any), so that
-        # no two beams occupy the same space above a corner column.
+        # no two beams occupy the same space above a corner column. A beam along x that ends at an end
+        # frame runs on to the end column's outer face: the beam along y above it then bears on it with
+        # its whole flange (ending at the column axis, half the flange hung over the edge, and a beam
+        # tipped off as soon as it was placed a millimetre outwards).
         on_top_mm = BEAM_SECTION["depth_mm"] if direction[1] and columns_x > 1 else 0.0
+        origin = [*at[start], height_mm + on_top_mm]
+        if direction[0] and columns_y > 1:
+            before = overhang_mm if start[0] == 0 else 0.0
+            after = overhang_mm if end[0] == columns_x - 1 else 0.0
+            origin[0] -= before
+            length_mm += before + after
         members.append(
             Member(
                 "beam",
                 f"Beam {start_label}-{end_label}",
-                _pose_mm((*at[start], height_mm + on_top_mm), direction),
+                _pose_mm(origin, direction),
                 length_mm,
                 (f"Column {start_label}", f"Column {end_label}"),
             )

@@ -150,7 +150,9 @@ def test_occurrences_map_their_type_geometry(frame: ifcopenshell.file) -> None:
         (item,) = representation.Items
         assert item.is_a("IfcMappedItem"), element.Name
         assert item.MappingSource in element_type.RepresentationMaps
-    assert len(frame.by_type("IfcTypeProduct")) == 3  # footing, column, one beam span
+    assert (
+        len(frame.by_type("IfcTypeProduct")) == 4
+    )  # footing, column, two beam lengths (x: to the end faces)
 
 
 def test_different_spacings_give_one_beam_type_per_span_length() -> None:
@@ -159,7 +161,7 @@ def test_different_spacings_give_one_beam_type_per_span_length() -> None:
         ifcopenshell.util.element.get_psets(beam)["Qto_BeamBaseQuantities"]["Length"]: beam
         for beam in model.by_type("IfcBeam")
     }
-    assert set(lengths) == {4000.0, 2500.0}
+    assert set(lengths) == {4050.0, 2500.0}  # beams along x run on to the end columns' outer faces
     assert len(model.by_type("IfcBeamType")) == 2
 
 
@@ -281,10 +283,19 @@ def test_beams_along_y_are_rotated_long_in_y_and_rest_on_the_beams_along_x(frame
     np.testing.assert_allclose(high, [6.0 + 0.041, 3.0, 3.32], atol=1e-6)
 
 
-def test_beams_along_x_sit_on_the_column_tops(frame: ifcopenshell.file) -> None:
-    low, high = _world_bbox_m(_by_name(frame)["Beam B1-B2"])
-    np.testing.assert_allclose(low, [0.0, 3.0 - 0.041, 3.0], atol=1e-6)
+def test_beams_along_x_sit_on_the_column_tops_and_run_on_to_the_end_columns_outer_faces(
+    frame: ifcopenshell.file,
+) -> None:
+    """An end frame's beam along y then bears on the beams along x with its whole flange (its axis on
+    their end edge, it tipped off in the simulation as soon as it was placed a millimetre outwards)."""
+    elements = _by_name(frame)
+    low, high = _world_bbox_m(elements["Beam B1-B2"])
+    np.testing.assert_allclose(low, [-0.05, 3.0 - 0.041, 3.0], atol=1e-6)  # the outer face of Column B1
     np.testing.assert_allclose(high, [3.0, 3.0 + 0.041, 3.16], atol=1e-6)
+    low, high = _world_bbox_m(elements["Beam B2-B3"])
+    np.testing.assert_allclose([low[0], high[0]], [3.0, 6.05], atol=1e-6)  # to the outer face of Column B3
+    flange_low, flange_high = _world_bbox_m(elements["Beam A1-B1"])
+    assert low[2] < flange_low[2] and flange_low[0] > -0.05 and flange_high[0] < 0.05  # whole flange on it
 
 
 # --- bays parsing and the CLI -------------------------------------------------------------------------------
