@@ -372,24 +372,34 @@ class PlannerCore(Dispatch):
             task.phase = Phase.WAITING
 
     def _release_ready(self) -> None:
+        settled: dict[str, bool] = {}
         for guid in self._plan.order:
             task = self._tasks[guid]
             if task.phase is not Phase.WAITING:
                 continue
             preds = self._plan.predecessors.get(guid, frozenset())
-            if all(self._settled_for_release(pred) for pred in preds):
+            if all(self._settled_for_release(pred, settled) for pred in preds):
                 component = self._components[guid]
                 self._set_phase(task, Phase.RELEASED, TaskStatus.RELEASED)
                 if component.state is ComponentState.PLANNED:
-                    settled = partial(left, component, {ComponentState.PLANNED})
-                    self._send_event(guid, ComponentEvent.RELEASE, settled)
+                    is_released = partial(left, component, {ComponentState.PLANNED})
+                    self._send_event(guid, ComponentEvent.RELEASE, is_released)
 
-    def _settled_for_release(self, pred: str) -> bool:
-        """A predecessor is out of the way: constructed, or not built at all (what rests on it is blocked)."""
-        return self._components[pred].state is ComponentState.CONSTRUCTED or self._tasks[pred].phase in (
-            Phase.FAILED,
-            Phase.BLOCKED,
-        )
+    def _settled_for_release(self, pred: str, memo: dict[str, bool]) -> bool:
+        """A predecessor is out of the way: constructed, or not built at all and its own predecessors out
+        of the way (in a schedule that is one chain, what follows a failed component waits for what came
+        before it, not for nothing: a beam after a blocked column waited for no column at all and was
+        placed on one that was still being set up)."""
+        known = memo.get(pred)
+        if known is not None:
+            return known
+        memo[pred] = False  # a cycle (there is none in a plan) stays unsettled
+        if self._components[pred].state is ComponentState.CONSTRUCTED:
+            memo[pred] = True
+        elif self._tasks[pred].phase in (Phase.FAILED, Phase.BLOCKED):
+            before = self._plan.predecessors.get(pred, frozenset())
+            memo[pred] = all(self._settled_for_release(item, memo) for item in before)
+        return memo[pred]
 
     def _free_robot(self, task: TaskRecord, *, keep_task_robot: bool = False) -> None:
         if task.robot_id is not None:

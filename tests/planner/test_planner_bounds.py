@@ -92,6 +92,31 @@ def test_in_a_chained_schedule_a_failure_blocks_only_what_rests_on_it_and_the_re
     assert core.phase("beam") is Phase.BLOCKED
 
 
+def test_in_a_chained_schedule_what_follows_a_blocked_component_waits_for_what_came_before_it() -> None:
+    """A blocked or failed component counts as done for the schedule, but only once everything before it
+    is out of the way: the beam after a blocked post waited for no column at all and was placed on a
+    column still being set up (and fell off it, in the simulation)."""
+    manifest = portal_manifest()
+    chain = ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c", "beam")
+    preds = {guid: {chain[i - 1]} for i, guid in enumerate(chain) if i}
+    plan = plan_from_sequence(
+        sequence_from_predecessors(chain, preds, source="ifc_schedule"), manifest.components, "chain"
+    )
+    core = PlannerCore(manifest, plan)
+    core.fail_at_start({"foot_c": Reason(code=ReasonCode.TOO_HEAVY, message="too heavy")})
+    assert [m.guid for m in _events(core.step(0.0), ComponentEvent.RELEASE)] == ["foot_a"]
+    core.observe_component_state(state_msg("foot_a", S.CONSTRUCTED, event="verified"))
+    assert [m.guid for m in _events(core.step(1.0), ComponentEvent.RELEASE)] == ["foot_b"]
+    core.observe_component_state(state_msg("foot_b", S.CONSTRUCTED, event="verified"))
+    released = [m.guid for m in _events(core.step(2.0), ComponentEvent.RELEASE)]
+    assert released == ["col_a"]  # foot_c failed: the schedule goes on; post_c (on foot_c) is blocked
+    assert core.phase("post_c") is Phase.BLOCKED and core.phase("beam") is Phase.WAITING  # col_b first
+    core.observe_component_state(state_msg("col_a", S.CONSTRUCTED, event="verified"))
+    assert [m.guid for m in _events(core.step(3.0), ComponentEvent.RELEASE)] == ["col_b"]
+    core.observe_component_state(state_msg("col_b", S.CONSTRUCTED, event="verified"))
+    assert [m.guid for m in _events(core.step(4.0), ComponentEvent.RELEASE)] == ["beam"]
+
+
 def test_a_component_given_back_max_times_fails_with_the_last_robots_reason() -> None:
     core = _core(PlannerLimits(max_give_backs=3))
     for attempt in range(3):
