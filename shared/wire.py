@@ -6,7 +6,8 @@ about 0.9 kB (ranges as float32, rounded back to 10 µm on decoding, which gives
 ranges back exactly). The
 pydantic models stay the schema: :func:`decode` unpacks the bytes into the model's fields and validates
 them like any JSON payload (bounds included, :mod:`bimbot.shared.message_bounds`), so a binary topic is
-checked exactly as strictly as a JSON one.
+checked exactly as strictly as a JSON one. No numpy here: every service loads this module with the bus,
+and the agents' processes stay free of numpy.
 
 Layout of a ``SensorsMsg`` (little-endian): ``b"BS"``, layout version (u8), schema version (u8), robot id
 (u8 length + UTF-8); clock: sim time (f64), step (i64), real-time factor (f64), lock-step (u8), epoch
@@ -19,7 +20,6 @@ from __future__ import annotations
 import struct
 from typing import Any, Final
 
-import numpy as np
 from pydantic import BaseModel
 
 from .messages import SensorsMsg
@@ -54,13 +54,13 @@ def encode_sensors(message: SensorsMsg) -> bytes:
         _FLAG.pack(scan is not None),
     ]
     if scan is not None:
-        ranges = np.asarray(scan.ranges_m, dtype="<f4")
+        ranges = scan.ranges_m
         parts.append(
             _SCAN.pack(
                 scan.angle_min_rad, scan.angle_increment_rad, scan.range_max_m, scan.sim_time_s, len(ranges)
             )
         )
-        parts.append(ranges.tobytes())
+        parts.append(struct.pack(f"<{len(ranges)}f", *ranges))
     return b"".join(parts)
 
 
@@ -93,7 +93,7 @@ def sensors_fields(payload: bytes) -> dict[str, Any]:
             if len(payload) < end:
                 raise WireError(f"scan of {count} beams cut short at byte {len(payload)}")
             # float32 keeps ~7 digits: rounding to 10 µm gives back physics' millimetre ranges exactly
-            ranges = np.round(np.frombuffer(payload, dtype="<f4", count=count, offset=at).astype(float), 5)
+            ranges = [round(r, 5) for r in struct.unpack_from(f"<{count}f", payload, at)]
             at = end
             scan = {
                 "schema_version": schema,
@@ -101,7 +101,7 @@ def sensors_fields(payload: bytes) -> dict[str, Any]:
                 "angle_min_rad": angle_min,
                 "angle_increment_rad": increment,
                 "range_max_m": range_max,
-                "ranges_m": ranges.tolist(),
+                "ranges_m": ranges,
                 "sim_time_s": scan_s,
             }
         if at != len(payload):

@@ -116,6 +116,7 @@ class ComponentAgent:
         "arrive_sim_time_s",
         "attempt",
         "component",
+        "drift_m",
         "event_ids",
         "guid",
         "history",
@@ -127,6 +128,7 @@ class ComponentAgent:
         "reason",
         "robot_id",
         "state",
+        "supports",
         "verify_deadline_wall_s",
     )
 
@@ -149,6 +151,8 @@ class ComponentAgent:
         self.pose: PoseMsg | None = None
         self.pose_sim_time_s: float | None = None
         self.pose_fixed = False
+        self.drift_m: float | None = None  # how far it moved since physics released it (its latest pose)
+        self.supports: tuple[str, ...] = ()  # what it rested on then
         self.arrive_sim_time_s: float | None = None
         self.place_sim_time_s: float | None = None
         self.verify_deadline_wall_s: float | None = None
@@ -243,6 +247,7 @@ class ComponentAgent:
         self.pose = msg.pose
         self.pose_sim_time_s = msg.sim_time_s
         self.pose_fixed = msg.fixed
+        self.drift_m, self.supports = msg.drift_m, tuple(msg.supports)
         return self.try_verify(now_wall_s)
 
     def try_verify(self, now_wall_s: float | None = None) -> list[ComponentStateMsg]:
@@ -265,7 +270,8 @@ class ComponentAgent:
             return []
         check = None
         if self.pose is not None:
-            check = verify(self.pose, self.component.target_pose_world, self._config.tolerances)
+            drift = self.drift_m if fresh else None
+            check = verify(self.pose, self.component.target_pose_world, self._config.tolerances, drift)
         stamp = self.pose_sim_time_s if fresh else None
         return [self._decide(check, cause, self._clock.now(stamp), now)]
 
@@ -361,15 +367,28 @@ class ComponentAgent:
         errors = (check.position_error_m, check.angle_error_rad) if check else (None, None)
         if check is not None:
             why += f": {check.position_error_m * 1000:.1f} mm, {math.degrees(check.angle_error_rad):.2f}°"
+        miss: Reason | None = None
+        if check is not None and check.unstable:
+            rested = ", ".join(self.supports) or "the ground or nothing"
+            miss = Reason(
+                code=ReasonCode.UNSTABLE,
+                message=f"it moved {check.drift_m or 0.0:.3f} m after it was released (slid, tipped or "
+                f"fell; tolerance {tol.drift_m * 1000:g} mm) and came to rest on {rested}; {why}",
+                robot_id=self.robot_id,
+            )
+        elif verdict is not Verdict.VERIFIED:
+            miss = Reason(code=ReasonCode.MISPLACED, message=f"{why}; {cause}", robot_id=self.robot_id)
         if verdict is Verdict.FAILED:
-            self.reason = Reason(code=ReasonCode.MISPLACED, message=f"{why}; {cause}", robot_id=self.robot_id)
+            self.reason = miss
         return self._record(
             source,
             event=verdict.value,
-            cause=f"{why}; {cause}",
+            cause=f"{why}; {cause}" if miss is None or miss.code is ReasonCode.MISPLACED else miss.message,
             sim_time_s=sim_time_s,
             now=now,
             errors=errors,
+            drift_m=check.drift_m if check is not None else None,
+            reason=miss,
         )
 
     def _record(
@@ -381,10 +400,14 @@ class ComponentAgent:
         sim_time_s: float,
         now: float,
         errors: tuple[float | None, float | None] = (None, None),
+        drift_m: float | None = None,
+        reason: Reason | None = None,
     ) -> ComponentStateMsg:
         message = self._message(
             source, event=event, cause=cause, sim_time_s=sim_time_s, now=now, errors=errors
         )
+        if drift_m is not None or reason is not None:  # a verdict: its drift, and why it missed
+            message = message.model_copy(update={"drift_m": drift_m, "reason": reason or message.reason})
         self.history.append(message)
         _log.debug("%s: %s → %s (%s; %s)", self.guid, source.value, self.state.value, event, cause)
         return message

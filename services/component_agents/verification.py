@@ -13,7 +13,9 @@ same angle, ``(target.inv() * current).magnitude()``; the tests compare the two)
 must not load numpy/scipy, which would add tens of MB to each of the processes that hold 10,000 agents
 (tests/component_agents/test_agents_cli.py checks the imports).
 
-A placement is accepted when both errors are within explicit :class:`Tolerances` (inclusive).
+A placement is accepted when both errors are within explicit :class:`Tolerances` (inclusive) and the
+component did not move more than the drift tolerance after physics released it (a component that slid,
+tipped or fell is ``unstable``, even when it came to rest within tolerance by chance).
 """
 
 from __future__ import annotations
@@ -42,9 +44,12 @@ class Tolerances:
 
     position_m: float = 0.01
     angle_rad: float = math.radians(1.0)
+    # how far it may have moved since physics released it (slid, tipped, fell): beyond this it is unstable,
+    # wherever it came to rest (a beam that fell onto its target's neighbour is not a placement)
+    drift_m: float = 0.01
 
     def __post_init__(self) -> None:
-        for name in ("position_m", "angle_rad"):
+        for name in ("position_m", "angle_rad", "drift_m"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"tolerance {name} must be a finite number ≥ 0, got {value!r}")
@@ -52,12 +57,14 @@ class Tolerances:
 
 @dataclass(frozen=True)
 class PlacementCheck:
-    """The result of one verification: accepted or not, and both errors (the agent's verdict trigger, in
-    :mod:`.state_table`, follows from it and the attempts left)."""
+    """The result of one verification: accepted or not, both errors and the drift since release (the
+    agent's verdict trigger, in :mod:`.state_table`, follows from it and the attempts left)."""
 
     ok: bool
     position_error_m: float
     angle_error_rad: float
+    drift_m: float | None = None  # None: physics did not say (a pose from before release)
+    unstable: bool = False  # it moved more than the drift tolerance after release
 
 
 def _unit(quat_xyzw: Quat) -> tuple[float, float, float, float]:
@@ -99,9 +106,13 @@ def angle_error_rad(current_xyzw: Quat, target_xyzw: Quat) -> float:
     return 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
 
 
-def verify(current: HasPose, target: HasPose, tolerances: Tolerances) -> PlacementCheck:
-    """Compare a current pose with the BIM target pose against ``tolerances`` (both bounds inclusive)."""
+def verify(
+    current: HasPose, target: HasPose, tolerances: Tolerances, drift_m: float | None = None
+) -> PlacementCheck:
+    """Compare a current pose with the BIM target pose against ``tolerances`` (every bound inclusive);
+    ``drift_m`` is how far it moved since physics released it, when physics said."""
     position_error = position_error_m(current.position_m, target.position_m)
     angle_error = angle_error_rad(current.quat_xyzw, target.quat_xyzw)
-    ok = position_error <= tolerances.position_m and angle_error <= tolerances.angle_rad
-    return PlacementCheck(ok=ok, position_error_m=position_error, angle_error_rad=angle_error)
+    unstable = drift_m is not None and drift_m > tolerances.drift_m
+    ok = position_error <= tolerances.position_m and angle_error <= tolerances.angle_rad and not unstable
+    return PlacementCheck(ok, position_error, angle_error, drift_m, unstable)

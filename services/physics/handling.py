@@ -1,6 +1,6 @@
 """Attach, carry, place and drop: what happens to components between the yard and the structure.
 
-Every component is in one of four phases:
+Every component is in one of six phases:
 
 * ``resting`` — in its yard slot (or where a robot put it down: a lost robot's load, or a load its robot
   could not deliver and asked to drop): static, attachable by any robot.
@@ -10,15 +10,24 @@ Every component is in one of four phases:
   collision group bit: the carrier neither collides with it nor sees it in its laser; others do. A tower
   crane's load hangs on its hook instead: lifted ``hook_lift_m`` straight up from where it lay, and it
   stays there until placed; the crane's joints follow it (hook above its top, :mod:`.crane`).
-* ``assembling`` — a place request was accepted: the component moves from its pose at the request to the
-  requested pose over ``duration_s`` sim seconds (linear position, slerp orientation); the carrier holds
-  still. The request's reply is held back until the motion ends.
-* ``fixed`` — placed: static exactly at the requested pose. Attach refuses it once its agent has declared it
-  constructed (:meth:`Handling.note_constructed`); before that a robot may pick it up again, which is how a
-  misplaced component is taken off for its retry. It collides with
-  its former carrier again only once their bounding boxes no longer overlap, so a robot standing on a
-  target footprint is never thrown off. Static bodies never touch the ground plane or each other, so
-  footings placed below ground stay there.
+* ``assembling`` — a place request was accepted: the component moves from its pose at the request to where
+  the placement really puts it (:mod:`.placement_error`: the requested pose carried from the robot's
+  believed frame into its true one, plus the robot type's precision) over ``duration_s`` sim seconds
+  (linear position, slerp orientation); the carrier holds still. The reply is held back.
+* ``settling`` — released into dynamics at the end of the motion (:mod:`.release`): its real mass and
+  inertia, its convex parts, friction; it rests on what is under it, or slides, tips or falls (into the
+  pit of a foundation not placed yet, :mod:`.pits`). Once at rest (or after the settling bound) the place
+  request is answered with the pose it came to rest at, its drift and what it rests on.
+* ``placed`` — settled, still dynamic and watched (another placement may knock it), until its agent
+  verifies it. Before that a robot may pick it up again, which is how a misplaced component is taken off
+  for its retry.
+* ``joined`` — its agent declared it constructed (:meth:`Handling.note_constructed`): joined to the
+  structure, static where it came to rest (a fixed constraint to what carries it, which is itself joined
+  or the ground: the same as fixing it in place), never attached again. Static bodies never touch the
+  ground plane or each other, so footings placed below ground stay there.
+
+A placed component collides with its former carrier again only once their bounding boxes no longer
+overlap, so a robot standing on a target footprint is never thrown off.
 
 Payload and reach (attach and place), by the carrying robot's own description
 (:mod:`bimbot.shared.robot_description`), on the component's footprint (the shared
@@ -35,41 +44,40 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
-from enum import StrEnum
 
+import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bimbot.shared.footprint import posed_footprint
 from bimbot.shared.manifest import Component
-from bimbot.shared.messages import ComponentPoseMsg, PhysicsReply, PoseMsg
+from bimbot.shared.messages import ComponentPoseMsg, PhysicsReply
 from bimbot.shared.robot_description import LIFT_CLEARANCE_M
 from bimbot.shared.site_plan import Rect
 
 from .client import p
 from .crane import hook_joints, lift_position, load_top
 from .load_rules import carry_refusal, drop_beside, lowered, lying_corners
+from .pits import Pits
+from .placing import DYNAMIC_PHASES, Phase, Placing, pose_msg
+from .release import SettleConfig, Watch
 from .robots import Robot
 from .scene import (
+    ALL_GROUPS,
+    DYNAMIC_GROUP,
     STATIC_GROUP,
     STATIC_MASK,
     ComponentBody,
     Frame,
+    component_pose,
     compose,
     footprint,
     interpolate,
     invert,
+    make_static,
     set_component_pose,
     set_filter,
 )
 
 _log = logging.getLogger(__name__)
-
-
-class Phase(StrEnum):
-    RESTING = "resting"
-    CARRIED = "carried"
-    ASSEMBLING = "assembling"
-    FIXED = "fixed"
 
 
 @dataclass(frozen=True)
@@ -95,12 +103,10 @@ class Item:
     motion_start_s: float = 0.0
     motion_duration_s: float = 0.0
     tag: object = None  # assembling: handed back with the reply
-    separating_from: Robot | None = None  # fixed, still overlapping its former carrier
+    separating_from: Robot | None = None  # placed, still overlapping its former carrier
     dropped_by: str | None = None  # resting where this robot put it down (a repeated drop request is ok)
-
-
-def pose_msg(frame: Frame) -> PoseMsg:
-    return PoseMsg(position_m=frame[0], quat_xyzw=frame[1])
+    drift_m: float | None = None  # joined: how far it had moved since its release
+    supports: tuple[str, ...] = ()  # placed or joined: the components it rests on
 
 
 def hanging_offset(robot: Robot, frame: Frame, client_id: int) -> Frame:
@@ -117,8 +123,9 @@ def carry_offset(component: Component, robot: Robot, clearance_m: float) -> Fram
     return (float(-centre[0]), float(-centre[1]), float(base_z)), tuple(float(q) for q in quat)  # type: ignore[return-value]
 
 
-class Handling:
-    """The phases of every component; the simulation calls :meth:`follow` after every physics step."""
+class Handling(Placing):
+    """The phases of every component; the simulation calls :meth:`follow` after every physics step and
+    :meth:`watch_placed` once per control period (:class:`.placing.Placing`: place, release, join)."""
 
     def __init__(
         self,
@@ -126,6 +133,11 @@ class Handling:
         items: dict[str, Item],
         config: HandlingConfig,
         site_bounds: Rect,
+        *,
+        ground_id: int = -1,
+        pits: Pits | None = None,
+        settle: SettleConfig | None = None,
+        seed: int = 0,
     ) -> None:
         self.client_id = client_id
         self.items = items
@@ -133,23 +145,37 @@ class Handling:
         self.site_bounds = site_bounds
         self.carrying: dict[str, str] = {}  # robot id → GUID (carried or assembling)
         self.changed: set[str] = set()  # GUIDs whose pose changed since the last take_changed()
-        self.constructed: set[str] = set()  # declared constructed by their agents: fixed for good
+        self.constructed: set[str] = set()  # declared constructed by their agents: joined for good
         self._moving: set[str] = set()
-        self._separating: set[str] = set()  # fixed, still overlapping their former carrier
+        self._separating: set[str] = set()  # placed, still overlapping their former carrier
+        self.ground_id = ground_id
+        self.pits = pits
+        self.settle = settle or SettleConfig()
+        self.watch: dict[str, Watch] = {}  # settling and placed components
+        self.guid_of = {item.body.body_id: guid for guid, item in items.items()}
+        self._seed = seed
+        self._rngs: dict[str, np.random.Generator] = {}  # robot id → its hand's precision draws
+        self._corners: dict[str, np.ndarray] = {}  # GUID → its bounding box's corners (component frame)
 
     def note_constructed(self, guid: str, constructed: bool) -> None:
-        """What a component's agent says of it (from ``components/<key>/state``)."""
+        """What a component's agent says of it (from ``components/<key>/state``): constructed joins it to
+        the structure where it rests."""
         if constructed:
             self.constructed.add(guid)
+            item = self.items.get(guid)
+            if item is not None and item.phase in DYNAMIC_PHASES:
+                self.join(guid)
         else:
             self.constructed.discard(guid)
 
     def restore(self, guid: str, frame: Frame, *, fixed: bool, carrier: Robot | None) -> None:
         """Put ``guid`` back as a restarted physics found it in its record: carried by ``carrier`` (at once,
-        no lift), fixed to the structure, or resting at ``frame``."""
+        no lift), placed (released again where it lay, watched as settled; joined once its twin says
+        constructed, :meth:`note_constructed`), or resting at ``frame``."""
         item = self.items[guid]
         item.pose, item.tag, item.motion_to = frame, None, None
         item.separating_from, item.dropped_by = None, None
+        self.watch.pop(guid, None)
         if carrier is not None:
             item.phase, item.carrier = Phase.CARRIED, carrier.robot_id
             item.offset = (
@@ -160,13 +186,23 @@ class Handling:
             item.motion_from, item.motion_start_s = frame, -math.inf
             self.carrying[carrier.robot_id] = guid
             self._moving.add(guid)
+            make_static(self.client_id, item.body)
             set_filter(self.client_id, item.body.body_id, carrier.group, STATIC_MASK ^ carrier.group)
-        else:
-            item.phase = Phase.FIXED if fixed else Phase.RESTING
+        elif fixed:
             item.carrier, item.offset, item.motion_from = None, None, None
             self._moving.discard(guid)
             set_component_pose(self.client_id, item.body, frame)
-            set_filter(self.client_id, item.body.body_id, STATIC_GROUP, STATIC_MASK)
+            self._release(item, None, now_s=-math.inf, tag=None)
+            self.watch[guid].settled = True
+            item.phase = Phase.PLACED
+            if guid in self.constructed:
+                self.join(guid)
+        else:
+            item.phase = Phase.RESTING
+            item.carrier, item.offset, item.motion_from = None, None, None
+            self._moving.discard(guid)
+            make_static(self.client_id, item.body)
+            set_component_pose(self.client_id, item.body, frame)
         self.changed.add(guid)
 
     # --- requests ------------------------------------------------------------------------------------
@@ -181,6 +217,8 @@ class Handling:
                 if item.phase is Phase.CARRIED
                 else f"{guid} is being placed by {holder}"
             )
+        if refusal is None and item is not None and item.phase is Phase.SETTLING:
+            refusal = f"{guid} was just placed and is settling"
         if refusal is None and robot.robot_id in self.carrying:
             refusal = f"robot {robot.robot_id} already carries {self.carrying[robot.robot_id]}"
         beyond: float | None = None
@@ -188,6 +226,10 @@ class Handling:
             refusal, beyond = self._cannot_carry(robot, item.component, item.pose, guid)
         if refusal is not None or item is None:
             return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s, distance_m=beyond)
+        if item.phase is Phase.PLACED:  # taken off again for its retry: no longer watched, kinematic
+            self.watch.pop(guid, None)
+            item.pose = component_pose(self.client_id, item.body)
+            make_static(self.client_id, item.body)
         item.phase = Phase.CARRIED
         item.carrier = robot.robot_id
         item.dropped_by = None
@@ -206,48 +248,6 @@ class Handling:
         _log.info("%s attached to %s at t=%.2f s", guid, robot.robot_id, now_s)
         return PhysicsReply(ok=True, sim_time_s=now_s, pose=pose_msg(item.pose))
 
-    def place(
-        self, robot: Robot, guid: str, target: PoseMsg, *, duration_s: float, now_s: float, tag: object
-    ) -> PhysicsReply | None:
-        """None when accepted (the reply comes from :meth:`follow` with ``tag``), else the refusal."""
-        item = self.items.get(guid)
-        refusal = self._check_common(robot, guid, item)
-        frame: Frame | None = None
-        if refusal is None:
-            frame, refusal = _valid_frame(target)
-        if refusal is None and not (
-            math.isfinite(duration_s) and 0.0 <= duration_s <= self.config.max_place_duration_s
-        ):
-            refusal = f"duration_s must be within 0..{self.config.max_place_duration_s:g} s, got {duration_s}"
-        if refusal is None and item is not None and item.phase is Phase.ASSEMBLING:
-            refusal = f"{guid} is already being placed by {item.carrier}"
-        if refusal is None and item is not None and item.carrier != robot.robot_id:
-            refusal = (
-                f"{guid} is carried by {item.carrier}, not {robot.robot_id}"
-                if item.carrier
-                else f"robot {robot.robot_id} does not carry {guid}"
-            )
-        if refusal is None and frame is not None and item is not None:
-            # the footprint, not the frame's origin: a Revit element may keep an identity placement with its
-            # geometry in world coordinates, so its frame lies at (0, 0) while it stands on the site
-            centre = posed_footprint(item.component, frame[0], frame[1]).centre_xy_m
-            if not _inside(self.site_bounds, (float(centre[0]), float(centre[1]), 0.0)):
-                refusal = f"target ({centre[0]:.2f}, {centre[1]:.2f}) of {guid} is outside the site"
-        beyond: float | None = None
-        if refusal is None and item is not None and frame is not None:
-            refusal, beyond = self._cannot_carry(robot, item.component, frame, f"the target of {guid}")
-        if refusal is not None or item is None or frame is None:
-            return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s, distance_m=beyond)
-        item.phase = Phase.ASSEMBLING
-        item.motion_from = item.pose
-        item.motion_to = frame
-        item.motion_start_s = now_s
-        item.motion_duration_s = duration_s
-        item.tag = tag
-        self._moving.add(guid)
-        _log.info("%s: %s places it over %.2f s", guid, robot.robot_id, duration_s)
-        return None
-
     def _check_common(
         self, robot: Robot | None, guid: str, item: Item | None, *, fixed_ok: bool = False
     ) -> str | None:
@@ -255,10 +255,10 @@ class Handling:
             return "unknown robot"
         if item is None:
             return f"unknown component {guid}"
-        if item.phase is Phase.FIXED and not fixed_ok:
-            if guid in self.constructed:
-                return f"{guid} is constructed (fixed to the structure)"
-            return f"{guid} is fixed to the structure"
+        if item.phase is Phase.JOINED:
+            return f"{guid} is constructed (joined to the structure)"
+        if item.phase in DYNAMIC_PHASES and not fixed_ok:
+            return f"{guid} is placed"
         return None
 
     def _cannot_carry(
@@ -298,9 +298,10 @@ class Handling:
                     position = lift_position(item.motion_from[0], item.motion_to[0], fraction, peak_z)
                     item.pose = (position, item.pose[1])
                 if fraction >= 1.0:
-                    finished.append((item.tag, self._fix(item, carrier, now_s)))
                     if carrier is not None and carrier.rig is not None:  # the hook where it set it down
                         self._hook_over(carrier, item)
+                    self._release(item, carrier, now_s, item.tag)
+                    continue
             set_component_pose(self.client_id, item.body, item.pose)
             self.changed.add(guid)
         return finished
@@ -322,24 +323,14 @@ class Handling:
         joints = hook_joints(crane.start_xy_yaw, top, crane.rig.spec, crane.rig.jib_height_m)
         crane.rig.set(self.client_id, joints)
 
-    def _fix(self, item: Item, carrier: Robot | None, now_s: float) -> PhysicsReply:
-        item.pose = item.motion_to  # type: ignore[assignment]
-        item.phase = Phase.FIXED
-        self.carrying.pop(item.carrier or "", None)
-        item.carrier = None
-        item.tag = None
-        self._moving.discard(item.component.guid)
-        item.separating_from = carrier
-        self._separating.add(item.component.guid)
-        if carrier is None or carrier.is_crane or not self._overlaps(item, carrier):  # a hook is no body
-            self._settle(item)
-        _log.info("%s fixed to the structure at t=%.2f s", item.component.guid, now_s)
-        return PhysicsReply(ok=True, sim_time_s=now_s, pose=pose_msg(item.pose))
-
     def _settle(self, item: Item) -> None:
+        """Clear of its former carrier: it collides with it again."""
         item.separating_from = None
         self._separating.discard(item.component.guid)
-        set_filter(self.client_id, item.body.body_id, STATIC_GROUP, STATIC_MASK)
+        if item.phase in DYNAMIC_PHASES:
+            set_filter(self.client_id, item.body.body_id, DYNAMIC_GROUP, ALL_GROUPS)
+        else:
+            set_filter(self.client_id, item.body.body_id, STATIC_GROUP, STATIC_MASK)
 
     def _overlaps(self, item: Item, robot: Robot) -> bool:
         low, high = p.getAABB(item.body.body_id, -1, physicsClientId=self.client_id)
@@ -359,10 +350,13 @@ class Handling:
                 self._settle(item)
 
     def busy_robots(self) -> set[str]:
-        """Robots whose placement is running (they hold still and are not waited for in lock-step)."""
-        return {
+        """Robots whose placement is running, its motion or its settling (they hold still and are not
+        waited for in lock-step)."""
+        busy = {
             robot_id for robot_id, guid in self.carrying.items() if self.items[guid].phase is Phase.ASSEMBLING
         }
+        busy.update(w.releaser for w in self.watch.values() if w.tag is not None and w.releaser is not None)
+        return busy
 
     def drop_request(
         self, robot: Robot | None, guid: str, now_s: float, near_xy_m: tuple[float, float] | None = None
@@ -432,30 +426,20 @@ class Handling:
 
     def pose_message(self, guid: str, now_s: float) -> ComponentPoseMsg:
         item = self.items[guid]
+        watch = self.watch.get(guid)
+        drift = watch.drift_m if watch is not None else item.drift_m
         return ComponentPoseMsg(
             guid=guid,
             pose=pose_msg(item.pose),
             sim_time_s=now_s,
             attached_to=item.carrier,
-            fixed=item.phase is Phase.FIXED,
+            fixed=item.phase is Phase.JOINED or (watch is not None and watch.settled),
+            joined=item.phase is Phase.JOINED,
+            drift_m=drift,
+            supports=list(watch.supports if watch is not None else item.supports),
         )
 
     def take_changed(self) -> list[str]:
         changed = sorted(self.changed)
         self.changed.clear()
         return changed
-
-
-def _valid_frame(pose: PoseMsg) -> tuple[Frame | None, str | None]:
-    values = [*pose.position_m, *pose.quat_xyzw]
-    if not all(math.isfinite(v) for v in values):
-        return None, "invalid pose: not finite"
-    norm = math.sqrt(sum(q * q for q in pose.quat_xyzw))
-    if not 0.5 < norm < 1.5:
-        return None, f"invalid pose: quat_xyzw norm {norm:.3g} is not a rotation"
-    quat = tuple(q / norm for q in pose.quat_xyzw)
-    return (tuple(pose.position_m), quat), None  # type: ignore[return-value]
-
-
-def _inside(rect: Rect, position: tuple[float, float, float]) -> bool:
-    return rect.min_xy[0] <= position[0] <= rect.max_xy[0] and rect.min_xy[1] <= position[1] <= rect.max_xy[1]

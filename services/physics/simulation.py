@@ -64,7 +64,9 @@ from .crane import HOIST, SLEW, TROLLEY, CraneJoints
 from .fleet_spawn import robot_pose_msg, robot_types, spawn_fleet, types_on_site
 from .handling import Handling, HandlingConfig, Item, Phase
 from .odometry import Odometry
+from .pits import Pits
 from .profiles import FINE
+from .release import SettleConfig
 from .robots import Robot, RobotConfig
 from .scene import (
     component_model,
@@ -100,6 +102,7 @@ class SimConfig:
     robot: RobotConfig = field(default_factory=RobotConfig)
     laser: LaserConfig = field(default_factory=LaserConfig)
     handling: HandlingConfig = field(default_factory=HandlingConfig)
+    settle: SettleConfig = field(default_factory=SettleConfig)
 
     @property
     def substeps(self) -> int:
@@ -192,7 +195,17 @@ class Simulation:
             body = create_component_body(cid, component, model, frame, visual=self.config.visuals)
             p.setCollisionFilterPair(self.ground_id, body.body_id, -1, -1, 0, physicsClientId=cid)
             items[component.guid] = Item(component, body, Phase.RESTING, frame)
-        self.handling = Handling(cid, items, self.config.handling, self.layout.fence)
+        pits = Pits(cid, self.manifest.components, filled=self._pit_filled)
+        self.handling = Handling(
+            cid,
+            items,
+            self.config.handling,
+            self.layout.fence,
+            ground_id=self.ground_id,
+            pits=pits,
+            settle=self.config.settle,
+            seed=self.config.seed,
+        )
         self._guids = list(items)
         self.robots = spawn_fleet(
             cid, self.robot_types, self.layout.robot_starts, self.config.robot, self.config.fleet
@@ -210,6 +223,10 @@ class Simulation:
             self.layout.fence.min_xy,
             self.layout.fence.max_xy,
         )
+
+    def _pit_filled(self, guid: str) -> bool:
+        """A foundation's pit is filled once the foundation is placed in it (settling, placed or joined)."""
+        return self.handling.items[guid].phase in (Phase.SETTLING, Phase.PLACED, Phase.JOINED)
 
     # --- state ---------------------------------------------------------------------------------------
 
@@ -319,7 +336,13 @@ class Simulation:
                 ok=False, reason=f"unknown robot {request.robot_id}", sim_time_s=self.sim_time_s
             )
         return self.handling.place(
-            robot, request.guid, request.pose, duration_s=request.duration_s, now_s=self.sim_time_s, tag=tag
+            robot,
+            request.guid,
+            request.pose,
+            duration_s=request.duration_s,
+            now_s=self.sim_time_s,
+            tag=tag,
+            believed_xy_yaw=request.believed_xy_yaw,
         )
 
     # --- stepping ------------------------------------------------------------------------------------
@@ -339,6 +362,7 @@ class Simulation:
             if self.handling.carrying:
                 replies.extend(self.handling.follow(self.robots, start_s + index * step_s))
         self.step += 1
+        replies.extend(self.handling.watch_placed(self.sim_time_s))
         self.handling.pose_hooks(self.robots)
         self.handling.settle_separated()
         messages = self._period_messages(real_time_factor, odometry=True)

@@ -145,6 +145,54 @@ def test_misplaced_then_retry_then_constructed() -> None:
     assert second[-1].angle_error_rad == pytest.approx(math.radians(0.5))
 
 
+def test_a_component_that_moved_after_release_is_unstable_even_where_it_came_to_rest_within_tolerance() -> (
+    None
+):
+    """Physics says how far it moved since it was released; beyond the drift tolerance the placement did
+    not hold (it slid back by chance, or fell onto the right spot): misplaced with reason ``unstable``,
+    naming the drift and what it rested on, then failed ``unstable`` after its last attempt."""
+    agent = new_agent(max_attempts=2)
+    drive_to_assembling(agent)
+    moved = pose_of(agent.component, sim_time_s=5.0, offset_m=(0.004, 0.0, 0.0)).model_copy(
+        update={"drift_m": 0.25, "supports": ["3O7yGBh11VRx_0vW3A8nU2"], "fixed": True}
+    )
+    agent.observe_pose(moved, NOW)
+    first = agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=5.0), NOW)
+    assert states(first) == [S.VERIFYING, S.MISPLACED]
+    verdict = first[-1]
+    assert verdict.drift_m == pytest.approx(0.25) and verdict.position_error_m == pytest.approx(0.004)
+    assert verdict.reason is not None and verdict.reason.code.value == "unstable"
+    assert "moved 0.250 m" in verdict.reason.message and "3O7yGBh11VRx_0vW3A8nU2" in verdict.reason.message
+    agent.apply_event(event(agent.guid, E.RETRY), NOW)
+    for name in (E.PICK, E.ATTACH, E.ARRIVE):
+        agent.apply_event(event(agent.guid, name, sim_time_s=6.0), NOW)
+    agent.observe_pose(moved.model_copy(update={"sim_time_s": 7.0}), NOW)
+    second = agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=7.0), NOW)
+    assert states(second) == [S.VERIFYING, S.FAILED]
+    assert agent.reason is not None and agent.reason.code.value == "unstable"
+    assert agent.twin().reason == agent.reason
+
+
+def test_a_small_settling_drift_is_within_tolerance_and_a_miss_says_misplaced() -> None:
+    agent = new_agent()
+    drive_to_assembling(agent)
+    settled = pose_of(agent.component, sim_time_s=5.0, offset_m=(0.0, 0.0, 0.002)).model_copy(
+        update={"drift_m": 0.002}
+    )
+    agent.observe_pose(settled, NOW)
+    done = agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=5.0), NOW)
+    assert states(done) == [S.VERIFYING, S.CONSTRUCTED] and done[-1].drift_m == pytest.approx(0.002)
+    assert done[-1].reason is None
+    other = new_agent()
+    drive_to_assembling(other)
+    other.observe_pose(pose_of(other.component, sim_time_s=5.0, offset_m=(0.02, 0.0, 0.0)), NOW)
+    missed = other.apply_event(event(other.guid, E.PLACE, sim_time_s=5.0), NOW)[-1]
+    assert (
+        missed.state is S.MISPLACED and missed.reason is not None and missed.reason.code.value == "misplaced"
+    )
+    assert "20.0 mm" in missed.reason.message
+
+
 def test_failed_after_max_attempts_and_then_terminal() -> None:
     agent = new_agent(max_attempts=2)
     for attempt in (1, 2):

@@ -1,0 +1,75 @@
+"""The excavation: a pit under every foundation, open until its foundation is placed in it.
+
+Why: a component whose BIM target reaches below ground (a footing, a pile cap, a foundation slab) is
+placed into an excavated pit, and what stands on it (a column) has nothing under it until it is there.
+A plain ground plane at z = 0 would carry a column placed before its footing as if the footing were
+there. So each such component gets a pit: its target's footprint at ground level, with a floor (a static
+box) at its target's bottom. A component released into dynamics (:mod:`.handling`) over an open pit does
+not touch the ground plane: it drops into the pit and rests on the pit floor (a column 0.3 m lower than
+its target, which its agent sees). The pit is filled once its foundation is placed: from then on the
+foundation itself carries what stands on it.
+
+Robots never drive into a pit (the ground plane still carries them: the site's robots are not simulated
+falling into excavations) and the laser does not see the floors (they lie below every laser's height).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from bimbot.shared.manifest import Component
+from bimbot.shared.site_plan import Rect
+
+from .client import p
+from .scene import STATIC_GROUP, STATIC_MASK, set_filter
+
+BELOW_GROUND_M = 0.02  # a target bottom deeper than this below ground makes a pit
+FLOOR_THICKNESS_M = 0.2
+
+
+@dataclass(frozen=True)
+class Pit:
+    owner: str  # the GUID of the foundation that fills it
+    footprint: Rect  # at ground level, world frame
+    floor_z_m: float  # its floor: the foundation's bottom
+    floor_body: int
+
+
+def _overlap(a: Rect, b: Rect) -> bool:
+    return (
+        a.min_xy[0] < b.max_xy[0]
+        and b.min_xy[0] < a.max_xy[0]
+        and a.min_xy[1] < b.max_xy[1]
+        and b.min_xy[1] < a.max_xy[1]
+    )
+
+
+class Pits:
+    """Every foundation's pit and its floor body; ``filled(guid)`` says whether a foundation is placed."""
+
+    def __init__(self, client_id: int, components: Sequence[Component], filled: Callable[[str], bool]):
+        self.client_id = client_id
+        self._filled = filled
+        self.pits: list[Pit] = []
+        for component in components:
+            low, high = component.bbox_world.min_m, component.bbox_world.max_m
+            if low[2] >= -BELOW_GROUND_M:
+                continue
+            footprint = Rect((low[0], low[1]), (high[0], high[1]))
+            half = ((high[0] - low[0]) / 2.0, (high[1] - low[1]) / 2.0, FLOOR_THICKNESS_M / 2.0)
+            shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=client_id)
+            centre = ((low[0] + high[0]) / 2.0, (low[1] + high[1]) / 2.0, low[2] - FLOOR_THICKNESS_M / 2.0)
+            body = p.createMultiBody(0.0, shape, basePosition=centre, physicsClientId=client_id)
+            set_filter(client_id, body, STATIC_GROUP, STATIC_MASK)
+            self.pits.append(Pit(component.guid, footprint, low[2], body))
+
+    @property
+    def floor_bodies(self) -> set[int]:
+        return {pit.floor_body for pit in self.pits}
+
+    def open_under(self, footprint: Rect) -> list[Pit]:
+        """The open pits (foundation not placed yet) that ``footprint`` overlaps at ground level."""
+        return [
+            pit for pit in self.pits if not self._filled(pit.owner) and _overlap(pit.footprint, footprint)
+        ]

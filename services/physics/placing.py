@@ -1,0 +1,307 @@
+"""Placing a component: the assembly motion to where the robot really puts it, the release into dynamics,
+the watch while it settles, and joining it to the structure once its agent verified it.
+
+Why a module of its own: the phases after ``carried`` (:mod:`.handling` documents all six) are where the
+simulation decides whether a placement holds, the heart of the smart components' self-check. This mixin
+holds that half of :class:`.handling.Handling`; the state it uses is the handling's own.
+
+* :meth:`Placing.place` accepts a place request: reach and payload checks on where the component really
+  goes (:func:`.placement_error.physical_placement`: the robot's localisation error and its type's
+  precision), then the assembly motion (``assembling``).
+* :meth:`Placing._release` ends the motion: a dynamic body with its real mass, colliding with what is under
+  it and with the ground, unless it stands over the open pit of a foundation not placed yet (:mod:`.pits`).
+* :meth:`Placing.watch_placed`, once per control period: drift, rest, supports (:mod:`.release`); a settled
+  component's place request is answered with the pose it came to rest at.
+* :meth:`Placing.join`: constructed — static where it rests, part of the structure for good.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from enum import StrEnum
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from bimbot.shared.footprint import posed_footprint
+from bimbot.shared.messages import PhysicsReply, PoseMsg
+from bimbot.shared.site_plan import Rect
+
+from .client import p
+from .placement_error import physical_placement
+from .release import Watch, box_corners, clear_overlap, observe, supports_of
+from .scene import (
+    ALL_GROUPS,
+    DYNAMIC_GROUP,
+    STATIC_MASK,
+    Frame,
+    component_pose,
+    footprint,
+    make_dynamic,
+    make_static,
+    set_component_pose,
+    set_filter,
+)
+
+if TYPE_CHECKING:
+    from bimbot.shared.manifest import Component
+
+    from .handling import HandlingConfig, Item
+    from .pits import Pits
+    from .release import SettleConfig
+    from .robots import Robot
+
+_log = logging.getLogger(__name__)
+
+
+class Phase(StrEnum):
+    RESTING = "resting"
+    CARRIED = "carried"
+    ASSEMBLING = "assembling"
+    SETTLING = "settling"
+    PLACED = "placed"
+    JOINED = "joined"
+
+
+DYNAMIC_PHASES = (Phase.SETTLING, Phase.PLACED)
+
+
+class Placing:
+    """Place, release, watch and join (a mixin of :class:`.handling.Handling`)."""
+
+    if TYPE_CHECKING:  # the handling's state
+        client_id: int
+        items: dict[str, Item]
+        config: HandlingConfig
+        site_bounds: Rect
+        carrying: dict[str, str]
+        changed: set[str]
+        constructed: set[str]
+        ground_id: int
+        pits: Pits | None
+        settle: SettleConfig
+        watch: dict[str, Watch]
+        guid_of: dict[int, str]
+        _moving: set[str]
+        _separating: set[str]
+        _seed: int
+        _rngs: dict[str, np.random.Generator]
+        _corners: dict[str, np.ndarray]  # GUID → its bounding box's corners (component frame)
+
+        def _check_common(
+            self, robot: Robot | None, guid: str, item: Item | None, *, fixed_ok: bool = False
+        ) -> str | None: ...
+
+        def _cannot_carry(
+            self, robot: Robot, component: Component, frame: Frame, what: str
+        ) -> tuple[str | None, float | None]: ...
+
+        def _overlaps(self, item: Item, robot: Robot) -> bool: ...
+
+        def _settle(self, item: Item) -> None: ...
+
+    def place(
+        self,
+        robot: Robot,
+        guid: str,
+        target: PoseMsg,
+        *,
+        duration_s: float,
+        now_s: float,
+        tag: object,
+        believed_xy_yaw: tuple[float, float, float] | None = None,
+    ) -> PhysicsReply | None:
+        """None when accepted (the reply comes from :meth:`watch_placed` with ``tag`` once the component
+        came to rest), else the refusal. ``target`` is where the robot means to put it, in the world as it
+        believes it stands at ``believed_xy_yaw`` (None: it knows its pose)."""
+        item = self.items.get(guid)
+        refusal = self._check_common(robot, guid, item)
+        commanded: Frame | None = None
+        if refusal is None:
+            commanded, refusal = valid_frame(target)
+        if refusal is None and not (
+            math.isfinite(duration_s) and 0.0 <= duration_s <= self.config.max_place_duration_s
+        ):
+            refusal = f"duration_s must be within 0..{self.config.max_place_duration_s:g} s, got {duration_s}"
+        if refusal is None and item is not None and item.phase is Phase.ASSEMBLING:
+            refusal = f"{guid} is already being placed by {item.carrier}"
+        if refusal is None and item is not None and item.carrier != robot.robot_id:
+            refusal = (
+                f"{guid} is carried by {item.carrier}, not {robot.robot_id}"
+                if item.carrier
+                else f"robot {robot.robot_id} does not carry {guid}"
+            )
+        frame: Frame | None = None
+        if refusal is None and commanded is not None and item is not None:
+            frame = self._where_it_goes(robot, commanded, believed_xy_yaw)
+            # the footprint, not the frame's origin: a Revit element may keep an identity placement with its
+            # geometry in world coordinates, so its frame lies at (0, 0) while it stands on the site
+            centre = posed_footprint(item.component, frame[0], frame[1]).centre_xy_m
+            if not inside(self.site_bounds, (float(centre[0]), float(centre[1]))):
+                refusal = f"target ({centre[0]:.2f}, {centre[1]:.2f}) of {guid} is outside the site"
+        beyond: float | None = None
+        if refusal is None and item is not None and frame is not None:
+            refusal, beyond = self._cannot_carry(robot, item.component, frame, f"the target of {guid}")
+        if refusal is not None or item is None or frame is None or commanded is None:
+            return PhysicsReply(ok=False, reason=refusal or "", sim_time_s=now_s, distance_m=beyond)
+        item.phase = Phase.ASSEMBLING
+        item.motion_from = item.pose
+        item.motion_to = frame
+        item.motion_start_s = now_s
+        item.motion_duration_s = duration_s
+        item.tag = tag
+        self._moving.add(guid)
+        _log.info(
+            "%s: %s places it over %.2f s, %.1f mm from where it was asked to",
+            guid,
+            robot.robot_id,
+            duration_s,
+            1000.0 * math.dist(frame[0], commanded[0]),
+        )
+        return None
+
+    def _where_it_goes(
+        self, robot: Robot, commanded: Frame, believed_xy_yaw: tuple[float, float, float] | None
+    ) -> Frame:
+        """Where the robot's placement really puts the component (:mod:`.placement_error`)."""
+        rng = self._rngs.get(robot.robot_id)
+        if rng is None:
+            rng = self._rngs[robot.robot_id] = np.random.default_rng([self._seed, 7, robot.index])
+        description = robot.description
+        return physical_placement(
+            commanded,
+            None if robot.is_crane else believed_xy_yaw,
+            robot.pose_xy_yaw(self.client_id),
+            precision_m=description.placement_precision_m,
+            precision_yaw_rad=math.radians(description.placement_precision_yaw_deg),
+            rng=rng,
+        )
+
+    def _release(self, item: Item, carrier: Robot | None, now_s: float, tag: object) -> None:
+        """The assembly motion ended: a dynamic body where it is, watched until it rests."""
+        guid = item.component.guid
+        cid, body = self.client_id, item.body
+        item.pose = item.motion_to or item.pose
+        set_component_pose(cid, body, item.pose)
+        set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)  # see what it overlaps, the carrier aside
+        item.pose = clear_overlap(cid, body, item.pose, self._nearby_components(item))
+        set_component_pose(cid, body, item.pose)
+        make_dynamic(cid, body)
+        p.resetBaseVelocity(body.body_id, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=cid)
+        if carrier is not None and not carrier.is_crane and self._overlaps(item, carrier):
+            item.separating_from = carrier  # it collides with its carrier again once clear of it
+            self._separating.add(guid)
+            set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS ^ carrier.group)
+        else:
+            item.separating_from = None
+            set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)
+        pits = self.pits.open_under(footprint(item.component, item.pose)) if self.pits else []
+        if self.ground_id >= 0:  # over an open pit it falls in, onto the pit's floor
+            p.setCollisionFilterPair(
+                self.ground_id, body.body_id, -1, -1, 0 if pits else 1, physicsClientId=cid
+            )
+        if pits:
+            _log.info("%s released over the open pit of %s", guid, ", ".join(pit.owner for pit in pits))
+        if carrier is not None:
+            self.carrying.pop(carrier.robot_id, None)
+        releaser = carrier.robot_id if carrier is not None else None
+        item.phase, item.carrier, item.offset, item.tag = Phase.SETTLING, None, None, None
+        self._moving.discard(guid)
+        self.watch[guid] = Watch(item.pose, now_s, releaser, tag)
+        self.changed.add(guid)
+
+    def _nearby_components(self, item: Item) -> dict[int, str]:
+        """Body → GUID of the components whose boxes overlap ``item``'s now (what it may be set into)."""
+        low, high = p.getAABB(item.body.body_id, -1, physicsClientId=self.client_id)
+        margin = 0.01
+        found = p.getOverlappingObjects(
+            [v - margin for v in low], [v + margin for v in high], physicsClientId=self.client_id
+        )
+        return {body: self.guid_of[body] for body, _ in found or () if body in self.guid_of}
+
+    def watch_placed(self, now_s: float) -> list[tuple[object, PhysicsReply]]:
+        """Once per control period: every released component's pose, drift and rest; the placements that
+        came to rest are answered (``(tag, reply)``)."""
+        answered: list[tuple[object, PhysicsReply]] = []
+        config = self.settle
+        for guid, watch in self.watch.items():
+            item = self.items[guid]
+            corners = self._corners.get(guid)
+            if corners is None:
+                corners = self._corners[guid] = box_corners(item.component)
+            was_settled = watch.settled
+            item.pose = observe(self.client_id, item.body, corners, watch, now_s=now_s, config=config)
+            if not watch.settled or abs(watch.drift_m - watch.published_drift_m) >= config.publish_drift_m:
+                watch.published_drift_m = watch.drift_m
+                self.changed.add(guid)
+            if watch.settled and not was_settled:
+                item.phase = Phase.PLACED
+                watch.supports = supports_of(self.client_id, item.body.body_id, self.guid_of)
+                self.changed.add(guid)
+            if watch.settled and watch.tag is not None:
+                answered.append(
+                    (watch.tag, PhysicsReply(ok=True, sim_time_s=now_s, pose=pose_msg(item.pose)))
+                )
+                watch.tag, watch.releaser = None, None
+                _log.info(
+                    "%s at rest at t=%.2f s, %.1f mm from where it was released, on %s",
+                    guid,
+                    now_s,
+                    1000.0 * watch.drift_m,
+                    ", ".join(watch.supports) or "the ground",
+                )
+            if watch.drift_m > config.report_drift_m and not watch.reported:
+                watch.reported = True
+                _log.warning(
+                    "%s moved %.3f m since it was released at t=%.2f s (unstable); it rested on %s",
+                    guid,
+                    watch.drift_m,
+                    watch.start_s,
+                    ", ".join(watch.supports) or "the ground (or nothing)",
+                )
+        return answered
+
+    def join(self, guid: str) -> None:
+        """Its agent verified it: static where it rests, joined to the structure for good."""
+        item = self.items[guid]
+        watch = self.watch.pop(guid, None)
+        cid = self.client_id
+        item.pose = component_pose(cid, item.body)
+        if watch is not None:
+            item.drift_m = watch.drift_m
+            item.supports = watch.supports or supports_of(cid, item.body.body_id, self.guid_of)
+        make_static(cid, item.body)
+        set_component_pose(cid, item.body, item.pose)
+        carrier = item.separating_from
+        if carrier is not None:  # static, but still not colliding with its former carrier until it is clear
+            set_filter(cid, item.body.body_id, carrier.group, STATIC_MASK ^ carrier.group)
+        if self.ground_id >= 0:  # static bodies never touch the ground (footings below it stay there)
+            p.setCollisionFilterPair(self.ground_id, item.body.body_id, -1, -1, 0, physicsClientId=cid)
+        item.phase = Phase.JOINED
+        self.changed.add(guid)
+        _log.info(
+            "%s joined to the structure (%s), %.1f mm from where it was released",
+            guid,
+            ", ".join(item.supports) or "on the ground",
+            1000.0 * (item.drift_m or 0.0),
+        )
+
+
+def pose_msg(frame: Frame) -> PoseMsg:
+    return PoseMsg(position_m=frame[0], quat_xyzw=frame[1])
+
+
+def valid_frame(pose: PoseMsg) -> tuple[Frame | None, str | None]:
+    values = [*pose.position_m, *pose.quat_xyzw]
+    if not all(math.isfinite(v) for v in values):
+        return None, "invalid pose: not finite"
+    norm = math.sqrt(sum(q * q for q in pose.quat_xyzw))
+    if not 0.5 < norm < 1.5:
+        return None, f"invalid pose: quat_xyzw norm {norm:.3g} is not a rotation"
+    quat = tuple(q / norm for q in pose.quat_xyzw)
+    return (tuple(pose.position_m), quat), None  # type: ignore[return-value]
+
+
+def inside(rect: Rect, xy: tuple[float, float]) -> bool:
+    return rect.min_xy[0] <= xy[0] <= rect.max_xy[0] and rect.min_xy[1] <= xy[1] <= rect.max_xy[1]

@@ -1,0 +1,138 @@
+"""A placed component released into dynamics: how far it moved, whether it came to rest, what carries it.
+
+Why: a placement is only a placement if the component stays where it was put. Once a robot's assembly
+motion ends, :mod:`.handling` releases the component as a dynamic body (its real mass and inertia, its
+convex collision parts, friction) onto what is under it, and watches it here every control period:
+
+* **drift** — how far it moved since its release: the largest displacement of its bounding box's corners
+  (a beam tipping off a column moves its free end metres while its centre moves less);
+* **settled** — at rest (speed below ``quiet_speed_mps`` and turn rate below ``quiet_turn_radps``) for
+  ``quiet_s``, or still moving after ``max_settle_s`` (it is falling or sliding: the drift says so); the
+  place request is answered then, with the pose it came to rest at;
+* **supports** — the components it touches once settled (the ground and pit floors have no GUID).
+
+The component's agent judges the placement from that pose and drift (a drift beyond its bound is
+``unstable``); physics logs every drift beyond ``report_drift_m`` with the supports. Pure bookkeeping over
+pybullet reads: no state machine here (that is :mod:`.handling`'s).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from bimbot.shared.manifest import Component
+
+from .client import p
+from .scene import ComponentBody, Frame, component_pose, set_component_pose
+
+PENETRATION_SLOP_M = 0.003  # overlaps shallower than this (collision margins) are the contact solver's
+MAX_CLEARED_M = 0.015  # a deeper overlap is no contact to stop at: released as it is
+
+
+@dataclass(frozen=True)
+class SettleConfig:
+    quiet_speed_mps: float = 0.005
+    quiet_turn_radps: float = 0.02
+    quiet_s: float = 0.6  # at rest this long (sim s): settled
+    max_settle_s: float = 8.0  # still moving after this long (sim s): answered as it is
+    report_drift_m: float = 0.01  # a placed component that moved farther is logged, with its supports
+    publish_drift_m: float = 0.0005  # a settled component's pose goes out again once it moved this much
+
+
+@dataclass
+class Watch:
+    """One released component: where it was let go, and what it has done since."""
+
+    released: Frame
+    start_s: float
+    releaser: str | None  # the robot that placed it (busy until the placement is answered)
+    tag: object = None  # the place request to answer once settled (None: answered)
+    quiet_since_s: float | None = None
+    settled: bool = False
+    drift_m: float = 0.0
+    published_drift_m: float = -1.0
+    supports: tuple[str, ...] = ()
+    reported: bool = False  # its drift beyond report_drift_m was logged
+
+
+def box_corners(component: Component) -> np.ndarray:
+    """The eight corners ``(8, 3)`` of the component's local bounding box (component frame)."""
+    low, high = component.bbox_local.min_m, component.bbox_local.max_m
+    return np.array(
+        [[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]
+    )
+
+
+def corner_drift_m(corners: np.ndarray, a: Frame, b: Frame) -> float:
+    """The largest distance a corner of the box moved from frame ``a`` to frame ``b``."""
+    at_a = Rotation.from_quat(a[1]).apply(corners) + np.asarray(a[0])
+    at_b = Rotation.from_quat(b[1]).apply(corners) + np.asarray(b[0])
+    return float(np.linalg.norm(at_b - at_a, axis=1).max())
+
+
+def at_rest(client_id: int, body_id: int, config: SettleConfig) -> bool:
+    linear, angular = p.getBaseVelocity(body_id, physicsClientId=client_id)
+    return bool(
+        np.linalg.norm(linear) < config.quiet_speed_mps and np.linalg.norm(angular) < config.quiet_turn_radps
+    )
+
+
+def supports_of(client_id: int, body_id: int, guid_of: Mapping[int, str]) -> tuple[str, ...]:
+    """The GUIDs of the components ``body_id`` touches now, sorted (the ground and pit floors left out)."""
+    touching = {contact[2] for contact in p.getContactPoints(bodyA=body_id, physicsClientId=client_id)}
+    return tuple(sorted(guid_of[body] for body in touching if body in guid_of))
+
+
+def clear_overlap(
+    client_id: int, body: ComponentBody, frame: Frame, others: Mapping[int, str], *, tries: int = 4
+) -> Frame:
+    """``frame`` moved out of what the body would penetrate there (other components; the ground and pit
+    floors are left to the contact solver): a robot setting a member down against its neighbour stops at
+    the contact, it does not ram it in (Bullet would throw it out, centimetres, and call it unstable).
+    Each try moves it out of the deepest overlap, along that contact's normal; overlaps of a few
+    millimetres (collision margins) are the solver's, and one deeper than ``MAX_CLEARED_M`` is a collision,
+    released as it is."""
+    for _ in range(tries):
+        set_component_pose(client_id, body, frame)
+        p.performCollisionDetection(physicsClientId=client_id)
+        deepest = None
+        for other in others:
+            if other == body.body_id:
+                continue
+            for point in p.getClosestPoints(body.body_id, other, 0.0, physicsClientId=client_id):
+                depth = -point[8]
+                if PENETRATION_SLOP_M < depth <= MAX_CLEARED_M and (deepest is None or point[8] < deepest[8]):
+                    deepest = point
+        if deepest is None:
+            break
+        normal = np.asarray(deepest[7])  # on B, pointing from B to A: out of the other body
+        shift = -deepest[8] * normal
+        frame = ((frame[0][0] + shift[0], frame[0][1] + shift[1], frame[0][2] + shift[2]), frame[1])
+    return frame
+
+
+def observe(
+    client_id: int,
+    body: ComponentBody,
+    corners: np.ndarray,
+    watch: Watch,
+    *,
+    now_s: float,
+    config: SettleConfig,
+) -> Frame:
+    """Update ``watch`` from the body as it is now; its component frame in the world."""
+    frame = component_pose(client_id, body)
+    watch.drift_m = corner_drift_m(corners, watch.released, frame)
+    if not watch.settled:
+        if at_rest(client_id, body.body_id, config):
+            if watch.quiet_since_s is None:
+                watch.quiet_since_s = now_s
+        else:
+            watch.quiet_since_s = None
+        quiet = watch.quiet_since_s is not None and now_s - watch.quiet_since_s >= config.quiet_s
+        watch.settled = quiet or now_s - watch.start_s >= config.max_settle_s
+    return frame
