@@ -27,6 +27,7 @@ from bimbot.shared.messages import (
     TaskKind,
 )
 from bimbot.shared.reasons import Reason
+from bimbot.shared.robot_description import RobotDescription
 
 from .task_state import ExecutorConfig, Task
 
@@ -53,6 +54,7 @@ class Handover:
     sim_s: float
     site_map: SiteMap
     navigator: Navigator
+    description: RobotDescription
     machine: TaskMachine
     task: Task | None
     given_back: list[tuple[str, Reason]]
@@ -89,8 +91,30 @@ class Handover:
             )
         pose = PoseMsg(position_m=(x, y, z), quat_xyzw=target.quat_xyzw)
         return PlaceRequest(
-            robot_id=self.robot_id, guid=task.message.guid, pose=pose, duration_s=cfg.place_duration_s
+            robot_id=self.robot_id,
+            guid=task.message.guid,
+            pose=pose,
+            duration_s=cfg.place_duration_s,
+            believed_xy_yaw=self._believed_pose(task),
         )
+
+    def _believed_pose(self, task: Task) -> tuple[float, float, float] | None:
+        """Where the robot believes it stands as it places, after a fine alignment to what its laser sees
+        (:mod:`.fine_alignment`): physics puts the component there relative to where it really stands. A
+        crane's base never moves: it knows its pose (None)."""
+        if self.description.is_crane:
+            return None
+        alignment = self.navigator.align()
+        _log.info(
+            "%s: aligned on %d laser hits before placing %s: %s (moved the estimate %.1f mm, rms %.1f mm)",
+            self.robot_id,
+            alignment.hits,
+            task.message.guid,
+            "trusted" if alignment.trusted else "not trusted, the filter's estimate stands",
+            1000.0 * alignment.shift_m,
+            1000.0 * alignment.rms_m,
+        )
+        return self.navigator.pose_xy_yaw
 
     def _physics_result(self, result: PhysicsResult) -> None:
         task = self.task

@@ -124,6 +124,16 @@ class Localiser:
             std_yaw_rad,
         )
 
+    def set_pose(self, pose_xy_yaw: ArrayLike, std_xy_m: float = 0.01, std_yaw_rad: float = 0.005) -> None:
+        """Take ``pose_xy_yaw`` as the estimate now (a fine alignment found it): the odometry from here on
+        is composed on it, and the particles are drawn again tightly around it."""
+        self.pose = np.asarray(pose_xy_yaw, float).copy()
+        self._anchor_pose = self.pose.copy()
+        if self.odom is not None:
+            self._anchor_odom = self.odom.copy()
+        self._pending = None
+        self.particles = init_gaussian(self.pose, std_xy_m, std_yaw_rad, self.config.particles, self.rng)
+
     def observe_odom(self, odom_xy_yaw: ArrayLike) -> None:
         self.odom = np.asarray(odom_xy_yaw, float)
         if self._anchor_odom is None:

@@ -48,6 +48,7 @@ from bimbot.shared.reasons import Reason
 
 from .astar import plan_path, simplify_path
 from .dwa import RobotState, dwa_step
+from .fine_alignment import Alignment, align
 from .localisation import Localiser
 from .motion import Path, carrot, straight_line_clear, turn_command
 from .nav_types import DEFAULT_NAVIGATOR, Goal, NavCommand, NavigatorConfig, NavStatus
@@ -75,6 +76,7 @@ class Navigator(Traffic):
         self._status = NavStatus.IDLE
         self.v_mps = self.w_radps = 0.0
         self.local_points = np.empty((0, 2))
+        self.scan_hits_robot_m = np.empty((0, 2))  # the last scan's hits, robot frame (fine alignment)
         self.marks = np.empty((0, 2))
         self.nearest_mark_m = math.inf
         self.replans = 0
@@ -110,6 +112,10 @@ class Navigator(Traffic):
         beams = np.arange(len(ranges), dtype=np.float64)
         angles = message.angle_min_rad + message.angle_increment_rad * beams
         self.localiser.observe_scan(ranges, angles, message.range_max_m, defer=defer_localisation)
+        hit = np.isfinite(ranges) & (ranges < message.range_max_m) & (ranges > 0)
+        self.scan_hits_robot_m = np.column_stack(
+            [ranges[hit] * np.cos(angles[hit]), ranges[hit] * np.sin(angles[hit])]
+        )
         hits = scan_endpoints_xy_m(self.localiser.pose, ranges, angles, message.range_max_m)
         pose = self.localiser.pose
         r = self.config.local_obstacle_radius_m
@@ -125,6 +131,15 @@ class Navigator(Traffic):
         local[moving] += towards * (shift / distance)[:, None]
         self.local_points = local
         self.nearest_mark_m = float(distance.min()) if len(distance) else math.inf
+
+    def align(self) -> Alignment:
+        """Fine-align the pose estimate to the last scan (:mod:`.fine_alignment`; standing still, before a
+        placement); a trusted alignment becomes the estimate."""
+        self.localiser.update()  # a deferred scan first: the alignment starts from the filter's best
+        result = align(self.localiser.pose, self.scan_hits_robot_m, self.site_map.laser_segments())
+        if result.trusted:
+            self.localiser.set_pose(result.pose_xy_yaw)
+        return result
 
     def localise(self) -> bool:
         """Run the localisation update on a deferred scan (True if the filter ran)."""

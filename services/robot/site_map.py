@@ -195,6 +195,26 @@ class SiteMap:
 
         return self._cached("laser_fine", build)
 
+    def laser_segments(self) -> NDArray[np.float64]:
+        """The exact outlines the laser can see, as segments ``(m, 2, 2)`` (world, m): the fence and every
+        component at the laser's height (the fine alignment before a placement, :mod:`.fine_alignment`)."""
+
+        def build() -> NDArray[np.float64]:
+            outlines = [self.footprints[guid].polygon_xy_m for guid, seen in self._sees.items() if seen]
+            if self.config.laser_height_m <= FENCE_HEIGHT_M:
+                outlines += [
+                    np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
+                    for x0, y0, x1, y1 in fence_boxes(self.layout)
+                ]
+            edges = [
+                np.stack([polygon, np.roll(polygon, -1, axis=0)], axis=1)
+                for polygon in outlines
+                if len(polygon) >= 2
+            ]
+            return np.concatenate(edges) if edges else np.empty((0, 2, 2))
+
+        return self._cached("laser_segments", build)
+
     def obstacle_points_xy_m(self) -> NDArray[np.float64]:
         """Centres of the static grid's occupied cells that border free space, ``(n, 2)`` (for the DWA)."""
 
