@@ -256,6 +256,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if getattr(args, "check_stability", False):
+        from bimbot.stability_cli import check_stability_command
+
+        return check_stability_command(args, say)
     return finish(run_build(args.build, run_options(args), announce=say))
 
 

@@ -99,6 +99,12 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
         help="a sequence step that cuts off later work is an error (exit 2), not a warning",
     )
     parser.add_argument(
+        "--check-stability",
+        action="store_true",
+        help="no build: replay the sequence in physics without robots (every component at its BIM pose, "
+        "released onto what is under it) and report the first step whose partial structure does not stand",
+    )
+    parser.add_argument(
         "--timeout-s",
         type=positive_float,
         default=DEFAULT_TIMEOUT_S,

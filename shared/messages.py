@@ -168,6 +168,7 @@ class ComponentPoseMsg(_Message):
     # the components it rested on when released (the ground has no GUID: an empty list means only it)
     drift_m: NonNegative | None = None
     supports: list[str] = []
+    open_pits: list[str] = []  # the foundations (not placed yet) whose open pit it was released over
 
 
 class TwinMsg(_Message):

@@ -121,6 +121,7 @@ class ComponentAgent:
         "guid",
         "history",
         "key",
+        "open_pits",
         "place_sim_time_s",
         "pose",
         "pose_fixed",
@@ -153,6 +154,7 @@ class ComponentAgent:
         self.pose_fixed = False
         self.drift_m: float | None = None  # how far it moved since physics released it (its latest pose)
         self.supports: tuple[str, ...] = ()  # what it rested on then
+        self.open_pits: tuple[str, ...] = ()  # released over the open pit of these foundations
         self.arrive_sim_time_s: float | None = None
         self.place_sim_time_s: float | None = None
         self.verify_deadline_wall_s: float | None = None
@@ -247,7 +249,7 @@ class ComponentAgent:
         self.pose = msg.pose
         self.pose_sim_time_s = msg.sim_time_s
         self.pose_fixed = msg.fixed
-        self.drift_m, self.supports = msg.drift_m, tuple(msg.supports)
+        self.drift_m, self.supports, self.open_pits = msg.drift_m, tuple(msg.supports), tuple(msg.open_pits)
         return self.try_verify(now_wall_s)
 
     def try_verify(self, now_wall_s: float | None = None) -> list[ComponentStateMsg]:
@@ -369,7 +371,11 @@ class ComponentAgent:
             why += f": {check.position_error_m * 1000:.1f} mm, {math.degrees(check.angle_error_rad):.2f}°"
         miss: Reason | None = None
         if check is not None and check.unstable:
-            rested = ", ".join(self.supports) or "the ground or nothing"
+            rested = ", ".join(self.supports) or (
+                f"the floor of the open pit of {', '.join(self.open_pits)}, not placed yet"
+                if self.open_pits
+                else "the ground or nothing"
+            )
             miss = Reason(
                 code=ReasonCode.UNSTABLE,
                 message=f"it moved {check.drift_m or 0.0:.3f} m after it was released (slid, tipped or "

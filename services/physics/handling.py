@@ -437,6 +437,7 @@ class Handling(Placing):
             joined=item.phase is Phase.JOINED,
             drift_m=drift,
             supports=list(watch.supports if watch is not None else item.supports),
+            open_pits=list(watch.open_pits if watch is not None else ()),
         )
 
     def take_changed(self) -> list[str]:

@@ -201,14 +201,14 @@ class Placing:
             p.setCollisionFilterPair(
                 self.ground_id, body.body_id, -1, -1, 0 if pits else 1, physicsClientId=cid
             )
-        if pits:
+        if any(pit.owner != guid for pit in pits):  # a foundation's own pit is where it goes
             _log.info("%s released over the open pit of %s", guid, ", ".join(pit.owner for pit in pits))
         if carrier is not None:
             self.carrying.pop(carrier.robot_id, None)
         releaser = carrier.robot_id if carrier is not None else None
         item.phase, item.carrier, item.offset, item.tag = Phase.SETTLING, None, None, None
         self._moving.discard(guid)
-        self.watch[guid] = Watch(item.pose, now_s, releaser, tag)
+        self.watch[guid] = Watch(item.pose, now_s, releaser, tag, open_pits=tuple(pit.owner for pit in pits))
         self.changed.add(guid)
 
     def _nearby_components(self, item: Item) -> dict[int, str]:
@@ -232,6 +232,8 @@ class Placing:
                 corners = self._corners[guid] = box_corners(item.component)
             was_settled = watch.settled
             item.pose = observe(self.client_id, item.body, corners, watch, now_s=now_s, config=config)
+            if watch.placed_on is None:  # what it was set down on, before it could slide or tip away
+                watch.placed_on = supports_of(self.client_id, item.body.body_id, self.guid_of)
             if not watch.settled or abs(watch.drift_m - watch.published_drift_m) >= config.publish_drift_m:
                 watch.published_drift_m = watch.drift_m
                 self.changed.add(guid)
@@ -254,13 +256,22 @@ class Placing:
             if watch.drift_m > config.report_drift_m and not watch.reported:
                 watch.reported = True
                 _log.warning(
-                    "%s moved %.3f m since it was released at t=%.2f s (unstable); it rested on %s",
+                    "%s moved %.3f m since it was released at t=%.2f s (unstable); it was set down on %s%s",
                     guid,
                     watch.drift_m,
                     watch.start_s,
-                    ", ".join(watch.supports) or "the ground (or nothing)",
+                    ", ".join(watch.placed_on or ()) or "the ground (or nothing)",
+                    f", over the open pit of {', '.join(watch.open_pits)}" if watch.open_pits else "",
                 )
         return answered
+
+    def set_down(self, guid: str, now_s: float, tag: object = None) -> None:
+        """Put ``guid`` at its BIM pose and release it there, without a robot (the stability replay,
+        :mod:`.stability`); ``tag`` comes back with the reply once it rests."""
+        item = self.items[guid]
+        target = item.component.target_pose_world
+        item.motion_to = (tuple(target.position_m), tuple(target.quat_xyzw))  # type: ignore[assignment]
+        self._release(item, None, now_s, tag)
 
     def join(self, guid: str) -> None:
         """Its agent verified it: static where it rests, joined to the structure for good."""

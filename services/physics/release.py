@@ -55,7 +55,9 @@ class Watch:
     settled: bool = False
     drift_m: float = 0.0
     published_drift_m: float = -1.0
-    supports: tuple[str, ...] = ()
+    supports: tuple[str, ...] = ()  # what it rests on once settled
+    placed_on: tuple[str, ...] | None = None  # what it touched a control period after its release
+    open_pits: tuple[str, ...] = ()  # foundations not placed yet whose open pit it was released over
     reported: bool = False  # its drift beyond report_drift_m was logged
 
 

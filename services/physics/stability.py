@@ -1,0 +1,175 @@
+"""Does every partial structure of a sequence stand? A physics-only replay, without robots.
+
+Why: a builder wants to know whether a schedule leaves the structure unstable before rehearsing it with
+robots (``bimbot run OUT/ --check-stability``: seconds instead of a build). The replay puts every component
+of the sequence, in order, exactly at its BIM pose, releases it into dynamics as a robot's placement does
+(:mod:`.placing`: onto what is under it, into the open pit of a foundation not placed yet), lets it come to
+rest (:mod:`.release`), and checks every component placed so far and not yet joined: one that moved more
+than ``drift_tolerance_m`` since its release means the partial structure does not stand. Each component
+that stood is joined to the structure, as its agent's verification would. The first step that does not
+stand ends the replay, naming the component, how far it moved and what it rested on.
+
+Exact placements, no robots, no localisation: what is tested is the order, not the robots' hands.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.support_graph import support_predecessors
+
+from .profiles import REHEARSAL
+from .release import SettleConfig
+from .simulation import SimConfig, Simulation
+
+_log = logging.getLogger(__name__)
+
+TAG = "stability"
+
+
+@dataclass(frozen=True)
+class Moved:
+    """A component that moved beyond the tolerance in a step: by how much, and what it rested on."""
+
+    guid: str
+    name: str
+    drift_m: float
+    placed_on: tuple[str, ...]  # what it was set down on
+    rests_on: tuple[str, ...]  # what it came to rest on
+    open_pits: tuple[str, ...] = ()  # foundations not placed yet whose open pit it was set down over
+    missing: tuple[str, ...] = ()  # what it rests on in the support graph and was not placed yet
+
+
+@dataclass(frozen=True)
+class StabilityStep:
+    index: int  # 1-based, in the sequence
+    guid: str
+    name: str
+    settle_s: float  # sim seconds until it came to rest (or the settling bound)
+    drift_m: float  # how far it moved since its release
+    supports: tuple[str, ...]  # what it rested on
+    moved: tuple[Moved, ...] = ()  # everything that moved beyond the tolerance in this step
+
+    @property
+    def stands(self) -> bool:
+        return not self.moved
+
+
+@dataclass(frozen=True)
+class StabilityReport:
+    total: int
+    steps: list[StabilityStep] = field(default_factory=list)
+    sim_s: float = 0.0
+    wall_s: float = 0.0
+
+    @property
+    def first_failure(self) -> StabilityStep | None:
+        return next((step for step in self.steps if not step.stands), None)
+
+    @property
+    def stands(self) -> bool:
+        return self.first_failure is None and len(self.steps) == self.total
+
+
+def check_stability(
+    manifest: Manifest,
+    build_dir: Path,
+    order: list[str] | tuple[str, ...],
+    *,
+    drift_tolerance_m: float = 0.01,
+    settle: SettleConfig | None = None,
+    physics_hz: float = REHEARSAL.physics_hz,
+    control_period_s: float = REHEARSAL.control_period_s,
+) -> StabilityReport:
+    """Replay ``order`` (GUIDs of ``manifest``) in physics; stop at the first step that does not stand."""
+    names = {component.guid: component.name or component.ifc_class for component in manifest.components}
+    rests_on = support_predecessors(manifest.components)
+    placed: set[str] = set()
+    config = SimConfig(
+        robots=0,
+        step_s=1.0 / physics_hz,
+        control_period_s=control_period_s,
+        settle=settle or SettleConfig(),
+    )
+    started = time.monotonic()
+    steps: list[StabilityStep] = []
+    with Simulation(manifest, build_dir, config) as sim:
+        handling = sim.handling
+        bound_s = handling.settle.max_settle_s + control_period_s
+        for index, guid in enumerate(order, start=1):
+            since_s = sim.sim_time_s
+            handling.set_down(guid, since_s, tag=TAG)
+            placed.add(guid)
+            while not any(tag == TAG for tag, _ in sim.advance().replies):
+                if sim.sim_time_s - since_s > bound_s:  # the watch answers by then at the latest
+                    break
+            moved = tuple(
+                Moved(
+                    other,
+                    names.get(other, other),
+                    watch.drift_m,
+                    watch.placed_on or (),
+                    watch.supports,
+                    watch.open_pits,
+                    tuple(sorted(rests_on.get(other, set()) - placed - {other})),
+                )
+                for other, watch in handling.watch.items()
+                if watch.drift_m > drift_tolerance_m
+            )
+            watch = handling.watch[guid]
+            step = StabilityStep(
+                index,
+                guid,
+                names.get(guid, guid),
+                sim.sim_time_s - since_s,
+                watch.drift_m,
+                watch.supports,
+                moved,
+            )
+            steps.append(step)
+            _log.info(
+                "step %d/%d: %s %s (%.1f mm after %.1f s, on %s)",
+                index,
+                len(order),
+                step.name,
+                "stands" if step.stands else "does not stand",
+                1000.0 * step.drift_m,
+                step.settle_s,
+                ", ".join(step.supports) or "the ground",
+            )
+            if not step.stands:
+                break
+            handling.note_constructed(guid, True)  # verified: joined to the structure
+            placed.add(guid)
+        sim_s = sim.sim_time_s
+    return StabilityReport(len(order), steps, sim_s, time.monotonic() - started)
+
+
+def describe(report: StabilityReport, names: dict[str, str]) -> list[str]:
+    """The lines a user reads: every partial structure stands, or the first step that does not."""
+    failure = report.first_failure
+    timing = f"{report.sim_s:.0f} s of sim time, {report.wall_s:.1f} s wall"
+    if failure is None:
+        return [f"every partial structure stands: {len(report.steps)} step(s) placed and settled ({timing})"]
+    lines = [f"step {failure.index} of {report.total} does not stand ({timing}):"]
+    for moved in failure.moved:
+
+        def named(guids: tuple[str, ...]) -> str:
+            return ", ".join(f"{guid} ({names.get(guid, guid)})" for guid in guids)
+
+        where = (
+            f"over the open pit of {named(moved.open_pits)}, not placed yet"
+            if moved.open_pits
+            else (f"on {named(moved.placed_on)}" if moved.placed_on else "on nothing but the ground")
+        )
+        rested = named(moved.rests_on) or ("the pit's floor" if moved.open_pits else "the ground")
+        missing = f"; it rests on {named(moved.missing)}, not placed before it" if moved.missing else ""
+        lines.append(
+            f"  {moved.name} ({moved.guid}) moved {moved.drift_m:.3f} m after it was placed: it was set down "
+            f"{where} and came to rest on {rested}{missing}"
+        )
+    return lines

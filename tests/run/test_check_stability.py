@@ -1,0 +1,77 @@
+"""``bimbot run OUT/ --check-stability``: a physics-only replay of the sequence says whether every partial
+structure stands, or names the first step that does not, the component, how far it moved, what it was set
+down on and what it rests on that was not there; in seconds, without robots."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.sequence import read_sequence, sequence_from_predecessors, write_sequence
+
+
+def _check(build: Path, *extra: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-P", "-m", "bimbot.cli", "run", str(build), "--check-stability", *extra],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+
+
+def _reordered(build: Path, manifest: Manifest, tmp_path: Path, move: str, after: str | None) -> Path:
+    """The build's sequence as a plain chain with component ``move`` put right after ``after`` (first when
+    None): a schedule a user might write."""
+    guid = {c.name: c.guid for c in manifest.components}
+    order = [g for g in read_sequence(build / "sequence.xml").guids() if g != guid[move]]
+    order.insert(0 if after is None else order.index(guid[after]) + 1, guid[move])
+    chain = {g: {order[i - 1]} for i, g in enumerate(order) if i}
+    return write_sequence(sequence_from_predecessors(order, chain, source="user"), tmp_path / "bad.xml")
+
+
+def test_the_bundled_schedule_stands_at_every_step(bundled_build: Path) -> None:
+    started = time.monotonic()
+    result = _check(bundled_build)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "every partial structure stands: 28 step(s)" in result.stdout
+    assert time.monotonic() - started < 60.0  # seconds, not a build (0.3 s of physics here)
+
+
+def test_a_beam_on_a_single_column_is_the_step_that_does_not_stand(
+    bundled_build: Path, tmp_path: Path
+) -> None:
+    manifest = read_manifest(bundled_build)
+    names = {c.name: c.guid for c in manifest.components}
+    bad = _reordered(bundled_build, manifest, tmp_path, "Beam A1-A2", after="Column A1")
+    result = _check(bundled_build, "--sequence", str(bad))
+    assert result.returncode == 1, result.stdout + result.stderr
+    assert "step 11 of 28 does not stand" in result.stdout  # 9 footings, Column A1, then the beam
+    line = next(line for line in result.stdout.splitlines() if "Beam A1-A2" in line and "moved" in line)
+    moved_m = float(line.split(" moved ")[1].split(" m ")[0])
+    assert moved_m > 0.5  # it tipped off and fell
+    assert f"set down on {names['Column A1']} (Column A1)" in line
+    assert f"it rests on {names['Column A2']} (Column A2), not placed before it" in line
+
+
+def test_a_column_before_its_footing_drops_into_the_open_pit(bundled_build: Path, tmp_path: Path) -> None:
+    manifest = read_manifest(bundled_build)
+    names = {c.name: c.guid for c in manifest.components}
+    depth = -next(c for c in manifest.components if c.name == "Footing B2").bbox_world.min_m[2]
+    bad = _reordered(bundled_build, manifest, tmp_path, "Column B2", after=None)
+    result = _check(bundled_build, "--sequence", str(bad))
+    assert result.returncode == 1 and "step 1 of 28 does not stand" in result.stdout
+    line = next(line for line in result.stdout.splitlines() if "Column B2" in line and "moved" in line)
+    assert float(line.split(" moved ")[1].split(" m ")[0]) == pytest.approx(depth, abs=0.05)
+    assert f"over the open pit of {names['Footing B2']} (Footing B2), not placed yet" in line
+
+
+def test_a_missing_sequence_file_is_one_line_and_exit_2(bundled_build: Path, tmp_path: Path) -> None:
+    result = _check(bundled_build, "--sequence", str(tmp_path / "nope.xml"))
+    assert result.returncode == 2 and "nope.xml: no such file" in result.stderr
+    assert "Traceback" not in result.stderr
