@@ -43,9 +43,10 @@ from .tessellation import tessellate
 
 _log = logging.getLogger(__name__)
 
-# Below this many elements per worker a process costs more than it saves (the bundled frame's 28 elements:
-# 132 ms in one process, 118 ms in two).
-MIN_ELEMENTS_PER_WORKER = 8
+# Below this many elements per worker a process costs more than it saves. The bundled frame's 28 elements:
+# 132 ms in one process and 118 ms in two on an idle machine, but 171 against 252 ms while other processes
+# keep the cores busy; so small models stay in one process.
+MIN_ELEMENTS_PER_WORKER = 16
 SHARDS_PER_WORKER = 3  # shards handed out one at a time balance the workers' load
 MIN_ELEMENTS_PER_SHARD = 8  # a shard's own tessellation iterator and caches cost a few milliseconds
 ProgressCallback = Callable[[str, int, int], None]

@@ -102,6 +102,7 @@ def _convert(source: Path, out: Path, threads: int) -> Manifest:
 def test_several_processes_write_what_one_process_writes(
     model_file: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    monkeypatch.setattr(shards, "MIN_ELEMENTS_PER_WORKER", 8)  # fork for these 28 elements
     monkeypatch.setattr(shards, "MIN_ELEMENTS_PER_SHARD", 4)  # six shards for two workers: cut groups
     results: list[int] = []
     run_shards = convert_module.run_shards
