@@ -15,6 +15,7 @@ from pathlib import Path
 
 from bimbot.run_restarts import RestartPolicy
 from bimbot.run_watchdog import DEFAULT_CLOCK_STALL_WALL_S, DEFAULT_STALL_AFTER_S
+from bimbot.services.component_agents.agent import AgentConfig
 from bimbot.services.observer import VIEWER_GRPC_PORT, VIEWER_WEB_PORT
 from bimbot.services.physics.profiles import RUN_PROFILE, add_profile_arguments
 from bimbot.shared.errors import UserError
@@ -56,6 +57,7 @@ class RunOptions:
     max_restarts: int = RestartPolicy.max_restarts  # per service: a service that dies is started again
     show_progress: bool = False  # live progress on stdout (the CLI: unless -q)
     secure: bool = False  # a secured bus: per-service credentials, the router's access control (RUN/bus/)
+    max_attempts: int | None = None  # placements a component gets before it fails (None: the agents')
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
@@ -97,6 +99,13 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
         "--strict",
         action="store_true",
         help="a sequence step that cuts off later work is an error (exit 2), not a warning",
+    )
+    parser.add_argument(
+        "--max-attempts",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help=f"placements a component gets before it fails (default {AgentConfig.max_attempts}, the agents')",
     )
     parser.add_argument(
         "--check-stability",
@@ -221,6 +230,7 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         max_restarts=args.max_restarts,
         show_progress=not quiet(args),
         secure=getattr(args, "secure", False),
+        max_attempts=getattr(args, "max_attempts", None),
     )
 
 

@@ -84,6 +84,8 @@ def service_commands(
         return [*on_bus, "--mode", "client", "--bus-config", str(bus.service(user))]
 
     agents = ["agents", "--build", str(build), "--run-dir", str(run.root), "--fresh"]
+    if options.max_attempts is not None:
+        agents += ["--max-attempts", str(options.max_attempts)]
     planner = ["planner", "--build", str(build), "--exit-when-done", *options.planner_source]
     commands = [
         ("physics", [*physics_arguments(build, options), "--run-dir", str(run.root), *joined("physics")]),
