@@ -20,8 +20,11 @@ its traceback (see :func:`bimbot.cli.main`).
 from __future__ import annotations
 
 import argparse
+import logging
 import os
+import resource
 import signal
+import sys
 import threading
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -34,6 +37,8 @@ from bimbot.shared.manifest import Manifest, load_manifest
 from bimbot.shared.output_paths import check_writable_dir
 
 STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
+
+_log = logging.getLogger(__name__)
 
 
 @contextmanager
@@ -86,9 +91,18 @@ def resolve_build(path: Path) -> BuildInput:
 
 
 def run_service(main: Callable[..., int | None], /, *args: object, **kwargs: object) -> int:
-    """``main(*args, stop=<event>, **kwargs)`` with SIGINT/SIGTERM setting the event; its exit code."""
+    """``main(*args, stop=<event>, **kwargs)`` with SIGINT/SIGTERM setting the event; its exit code. Its
+    peak memory is logged as it ends (``bench/build.py`` reads it per service)."""
     with stop_on_signals() as stop:
-        return int(main(*args, stop=stop, **kwargs) or 0)
+        code = int(main(*args, stop=stop, **kwargs) or 0)
+    _log.info("peak memory %.0f MB", peak_rss_mb())  # a service that ran (a user error stays one line)
+    return code
+
+
+def peak_rss_mb() -> float:
+    """This process's peak resident memory (MB; Linux reports kB, macOS bytes)."""
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / (1024.0 * 1024.0) if sys.platform == "darwin" else peak / 1024.0
 
 
 def writable_dir(path: Path, what: str) -> Path:

@@ -209,6 +209,12 @@ class _Loop:
                 )
             self.pending.clear()
             self._status()
+            _log.info(
+                "physics stepping: %d steps in %.2f s wall (bare stepSimulation, %.3f ms a step)",
+                self.sim.steps_taken,
+                self.sim.stepping_wall_s,
+                1000.0 * self.sim.stepping_wall_s / max(1, self.sim.steps_taken),
+            )
             del declarations
 
     # --- pacing --------------------------------------------------------------------------------------

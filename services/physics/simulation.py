@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
@@ -149,6 +150,8 @@ class Simulation:
         self._client = BulletClient(p.GUI if gui else None)
         self.step = 0
         self.epoch = 0  # physics starts of this run - 1 (:mod:`.restore`)
+        self.stepping_wall_s = 0.0  # wall seconds in pybullet's stepSimulation alone (a run's reference)
+        self.steps_taken = 0
         self.robots: dict[str, Robot] = {}
         self.alive: set[str] = set()
         self._odometry: dict[str, Odometry] = {}
@@ -358,7 +361,10 @@ class Simulation:
         start_s = self.sim_time_s
         step_s = self.config.step_s
         for index in range(1, self.config.substeps + 1):
+            started = time.perf_counter()
             p.stepSimulation(physicsClientId=cid)
+            self.stepping_wall_s += time.perf_counter() - started
+            self.steps_taken += 1
             if self.handling.carrying:
                 replies.extend(self.handling.follow(self.robots, start_s + index * step_s))
         self.step += 1
