@@ -55,6 +55,11 @@ def run(args: argparse.Namespace) -> int:
     )
     if not manifest.components or args.convert_only:
         return 0 if manifest.components else 1
+    if args.check_stability:  # the demo's schedule checked in physics, without robots
+        from bimbot.stability_cli import check_stability_command
+
+        args.build = world_dir
+        return check_stability_command(args, say)
     options = run_options(args, observe=True)
     say(f"demo: building it with {run_fleet(options).summary()}")
     return finish(run_build(world_dir, options, announce=say))

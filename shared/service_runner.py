@@ -100,7 +100,15 @@ def run_service(main: Callable[..., int | None], /, *args: object, **kwargs: obj
 
 
 def peak_rss_mb() -> float:
-    """This process's peak resident memory (MB; Linux reports kB, macOS bytes)."""
+    """This process's peak resident memory (MB): Linux's ``VmHWM`` (``ru_maxrss`` keeps the peak of the
+    process it was forked from across the exec, so every service reported its parent's), else ``ru_maxrss``
+    (kB on Linux, bytes on macOS)."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return float(line.split()[1]) / 1024.0
+    except OSError:
+        pass
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return peak / (1024.0 * 1024.0) if sys.platform == "darwin" else peak / 1024.0
 
