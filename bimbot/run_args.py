@@ -45,6 +45,7 @@ class RunOptions:
     physics_hz: float | None = None
     control_period_s: float | None = None
     laser_beams: int | None = None
+    command_latency_steps: int | None = None
     inject_placement_error_m: float = 0.0
     observer: ObserverOptions | None = None
     planner_source: tuple[str, ...] = ()  # extra planner arguments: ("--derive",) etc.
@@ -223,6 +224,7 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         physics_hz=args.physics_hz,
         control_period_s=args.control_period_s,
         laser_beams=args.laser_beams,
+        command_latency_steps=args.command_latency_steps,
         run_dir=args.run_dir,
         stall_after_s=args.stall_after_s,
         clock_stall_wall_s=args.stall_wall_s,

@@ -38,6 +38,7 @@ def physics_arguments(build: Path, options: RunOptions) -> list[str]:
         "--physics-hz": options.physics_hz,
         "--control-period-s": options.control_period_s,
         "--laser-beams": options.laser_beams,
+        "--command-latency-steps": options.command_latency_steps,
     }
     for flag, value in overrides.items():
         if value is not None:

@@ -320,6 +320,9 @@ class SiteInfoMsg(_Message):
     control_period_s: Period
     lock_step: bool
     layout: SiteLayout  # the one site plan (yard slots, depot, fence): physics owns it, the rest ask
+    # control periods between a robot's sensing and its command acting: a robot plans from where it will
+    # be when its command acts (its last command carries it there meanwhile)
+    command_latency_steps: Count = 0
 
 
 PLANNER_PLAN_KEY = "bimbot/{site}/planner/plan"
@@ -338,6 +341,7 @@ class PlannedSequenceMsg(_Message):
 class AttachRequest(_Message):
     robot_id: str
     guid: str
+    step: Step | None = None  # the clock step the robot answered as it asked (physics acts on it in turn)
 
 
 class PlaceRequest(_Message):
@@ -349,6 +353,7 @@ class PlaceRequest(_Message):
     # belief puts it relative to the robot's true pose, so a localisation error is a placement error
     # (None: the robot's pose is known exactly, a crane's fixed base)
     believed_xy_yaw: PoseXYYaw | None = None
+    step: Step | None = None  # the clock step the robot answered as it asked (physics acts on it in turn)
 
 
 class DropRequest(_Message):
@@ -358,6 +363,7 @@ class DropRequest(_Message):
     robot_id: str
     guid: str
     near_xy_m: PointXY | None = None  # a hand-off: put it down as near this staging spot as is free
+    step: Step | None = None  # the clock step the robot answered as it asked (physics acts on it in turn)
 
 
 class SitePosesMsg(_Message):

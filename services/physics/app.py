@@ -72,6 +72,7 @@ from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.twin_query import ask_twins
 
 from .clock import LockStepBarrier, Pacer, RtfMeter
+from .latency import Pipeline
 from .outbox import bundle
 from .profiles import FINE
 from .restore import restore_site
@@ -144,6 +145,8 @@ class _Loop:
         self.site = sim.site
         self.inbox = Inbox(InvalidPayloads())
         self.barrier = LockStepBarrier(run.lock_step_timeout_s)
+        # a command or request answering step k acts from step k + latency (latency.py)
+        self.pipeline: Pipeline[IncomingQuery] = Pipeline(sim.config.command_latency_steps)
         self.pacer = Pacer(run.rtf)
         self.rtf = RtfMeter(run.rtf)
         self.times = PeriodTimes()
@@ -266,6 +269,11 @@ class _Loop:
 
     def _advance(self) -> None:
         started = time.monotonic()
+        step = self.sim.step
+        for command in self.pipeline.due_commands(step):
+            self.sim.command(command)
+        for held in self.pipeline.due_requests(step):
+            self._answer(held, held=True)
         result = self.sim.advance(self.rtf.value)
         now = time.monotonic()
         self.times.add("advance", now - started)
@@ -277,7 +285,7 @@ class _Loop:
             query = self.pending.pop(ticket, None)
             if query is not None:
                 self._reply(query, self._place_key, reply)
-        self.barrier.open(self.sim.step, now)
+        self.barrier.open(self.pipeline.target(self.sim.step), now)
 
     # --- input ---------------------------------------------------------------------------------------
 
@@ -299,18 +307,25 @@ class _Loop:
                         key_expr, f"robot_id {command.robot_id!r} on another robot's key"
                     )
                     return
-                if self.sim.command(command):
-                    self.barrier.record(command.robot_id, command.step)
+                if not self.sim.known(command.robot_id):
+                    return
+                self.barrier.record(command.robot_id, command.step)
+                if self.pipeline.command_now(command):
+                    self.sim.command(command)
             case Received(message=ComponentStateMsg() as state):
                 self.sim.handling.note_constructed(state.guid, state.state == ComponentState.CONSTRUCTED)
             case LivelinessChange():
                 if self.sim.known(item.id):
                     _log.info("robot %s %s", item.id, "alive" if item.alive else "lost")
+                    if not item.alive:
+                        self.pipeline.forget([item.id])
                 self._publish(self.sim.set_alive(item.id, item.alive))
             case IncomingQuery():
                 self._answer(item)
 
-    def _answer(self, item: IncomingQuery) -> None:
+    def _answer(self, item: IncomingQuery, *, held: bool = False) -> None:
+        """Answer a query; a robot's request stamped with a step not due yet waits for it (``held``: it
+        waited and is due now)."""
         now, served, query = self.sim.sim_time_s, item.queryable, item.query
         reply_key = served.key(site=self.site)
         if served is PHYSICS_POSES:
@@ -325,6 +340,8 @@ class _Loop:
             model = served.request
             reason = f"invalid {model.__name__} payload (expected JSON with {', '.join(model.model_fields)})"
             self._reply(query, reply_key, PhysicsReply(ok=False, reason=reason, sim_time_s=now))
+        elif not held and not self.pipeline.request_now(getattr(request, "step", None), self.sim.step, item):
+            return  # held until its step is due (_advance)
         elif isinstance(request, AttachRequest):
             self._reply(query, reply_key, self.sim.attach(request))
         elif isinstance(request, DropRequest):

@@ -157,6 +157,7 @@ def apply_profile(args: argparse.Namespace) -> argparse.Namespace:
         ("physics_hz", profile.physics_hz),
         ("control_period_s", profile.control_period_s),
         ("laser_beams", profile.laser_beams),
+        ("command_latency_steps", profile.command_latency_steps),
     ):
         if getattr(args, name) is None:
             setattr(args, name, value)
@@ -195,6 +196,7 @@ def sim_config(args: argparse.Namespace) -> SimConfig:
             odom_noise=args.odom_noise,
             seed=args.seed,
             lock_step=args.lock_step,
+            command_latency_steps=args.command_latency_steps if args.lock_step else 0,
             real_time_factor=args.rtf,
             pose_refresh_s=args.pose_refresh_s,
             pose_refresh_max=args.pose_refresh_max,

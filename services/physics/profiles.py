@@ -7,11 +7,15 @@ profile instead of repeating its numbers; single options (``--physics-hz`` …) 
 
 * ``rehearsal`` (what ``bimbot run``, ``bimbot demo`` and compose use): 120 Hz physics, a 5 Hz control
   loop (DWA, localisation, the lock-step handshake) and a 180-beam laser (2°: a 0.2 m column at 5 m
-  still takes a beam), lock-step and as fast as the robots follow. It builds the bundled frame within
+  still takes a beam), lock-step and as fast as the robots follow, with one control period (0.2 s) between
+  a robot's sensing and its command taking effect: physics steps the next period while the robots think,
+  on the other core, and every robot plans from where it will be when its command acts (a real robot's
+  sensing-to-actuation latency, held exact and reproducible). It builds the bundled frame within
   tolerance in about half the wall time of ``fine`` (measured with ``bench/build.py``).
-* ``fine``: 240 Hz physics, a 10 Hz control loop and a 360-beam laser, real time and free-running: for
-  watching a site in pybullet's GUI. :class:`.simulation.SimConfig` and :class:`.sensors.LaserConfig`
-  take their defaults from it (this module imports nothing of pybullet, so ``bimbot run`` stays light).
+* ``fine``: 240 Hz physics, a 10 Hz control loop and a 360-beam laser, real time and free-running (no
+  latency held): for watching a site in pybullet's GUI. :class:`.simulation.SimConfig` and
+  :class:`.sensors.LaserConfig` take their defaults from it (this module imports nothing of pybullet, so
+  ``bimbot run`` stays light).
 
 ``wait_for_robots_s`` is an upper bound: the clock starts as soon as every robot is alive, so a long
 bound costs nothing when the robots come up fast (compose's containers need longer than local processes).
@@ -34,6 +38,9 @@ class SimProfile:
     rtf: float  # real-time factor: 1 real time, 0 as fast as possible
     lock_step: bool  # advance a period only when every alive robot answered the clock step
     wait_for_robots_s: float  # hold the clock at 0 until every robot is alive, at most this (wall s)
+    # control periods between a robot's sensing and its command taking effect (lock-step): with 1, physics
+    # steps the next period while the robots compute their commands for the one after (see app.py)
+    command_latency_steps: int = 0
 
 
 REHEARSAL = SimProfile(
@@ -44,6 +51,7 @@ REHEARSAL = SimProfile(
     rtf=0.0,
     lock_step=True,
     wait_for_robots_s=300.0,
+    command_latency_steps=1,
 )
 FINE = SimProfile(
     name="fine",
@@ -95,3 +103,11 @@ def add_profile_arguments(parser: argparse.ArgumentParser, default: str) -> None
         help="sim seconds per clock step (control period)",
     )
     parser.add_argument("--laser-beams", type=positive_int, default=None, help="beams per laser scan")
+    parser.add_argument(
+        "--command-latency-steps",
+        type=int,
+        choices=(0, 1),
+        default=None,
+        help="control periods between a robot's sensing and its command taking effect, in lock-step "
+        "(1: physics steps while the robots think)",
+    )

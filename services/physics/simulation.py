@@ -96,6 +96,9 @@ class SimConfig:
     odom_noise: float = 0.02  # relative standard deviation of each period's odometry increment
     seed: int = 0
     lock_step: bool = False  # reported in ClockMsg and SiteInfoMsg; the adapter does the waiting
+    # lock-step: control periods between a robot's sensing and its command acting (the adapter applies
+    # a command answering step k from step k + this; robots plan from where they will be then)
+    command_latency_steps: int = FINE.command_latency_steps
     real_time_factor: float = FINE.rtf  # the pace asked for: reported until one is measured
     pose_refresh_s: float = 2.0
     pose_refresh_max: int = 5  # repeated poses per control period at most (a large site: a longer cycle)
@@ -118,6 +121,8 @@ class SimConfig:
             raise ValueError(
                 f"control period {self.control_period_s} s is not a whole number of {self.step_s} s steps"
             )
+        if self.command_latency_steps not in (0, 1):
+            raise ValueError("command latency must be 0 or 1 control period")
         if self.odom_noise < 0.0 or self.pose_refresh_s <= 0.0 or self.pose_refresh_max < 1:
             raise ValueError("odom noise must be >= 0, pose refresh > 0 and at least one pose a period")
 
@@ -248,6 +253,7 @@ class Simulation:
             step_s=self.config.step_s,
             control_period_s=self.config.control_period_s,
             lock_step=self.config.lock_step,
+            command_latency_steps=self.config.command_latency_steps,
             robot_type_of={robot_id: robot.description.name for robot_id, robot in self.robots.items()},
             robot_types=types_on_site(self.robots),
             layout=self.layout,

@@ -262,7 +262,9 @@ class _Loop:
             inbox.put(PhysicsResult(request_id, None, "no reply (timeout)"))
 
         handler = zenoh.handlers.Callback(on_reply, on_done)
-        self.session.get(selector, handler, payload=encode(request.message), timeout=request.timeout_s)
+        # stamped with the step this robot answers: physics acts on it with that step's command (latency)
+        message = request.message.model_copy(update={"step": max(0, self.executor.step)})
+        self.session.get(selector, handler, payload=encode(message), timeout=request.timeout_s)
 
     def log_metrics(self, when: str) -> None:
         executor = self.executor

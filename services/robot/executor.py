@@ -120,7 +120,11 @@ class Executor(Driving, Handover):
         self.site_map = SiteMap(info.layout, manifest.components, map_config)
         self.home_xy_yaw = info.robot_starts_xy_yaw[info.robot_ids.index(self.robot_id)]
         nav_config = nav_config or NavigatorConfig()
-        nav_config = replace(nav_config, dwa=controller_limits(nav_config.dwa, self.description, info))
+        nav_config = replace(
+            nav_config,
+            dwa=controller_limits(nav_config.dwa, self.description, info),
+            command_latency_s=info.command_latency_steps * info.control_period_s,
+        )
         rng = np.random.default_rng(config.seed)
         start = self.home_xy_yaw if start_xy_yaw is None else start_xy_yaw
         self.navigator = Navigator(self.site_map, start, nav_config, rng, robot_id=self.robot_id)
@@ -404,7 +408,8 @@ class Executor(Driving, Handover):
         if not task.placed:
             if not self._drive(task, task.target):
                 return  # a refused placement sent the robot to another approach pose
-            if task.request is None and not task.events.unconfirmed & {_E.ATTACH, _E.ARRIVE}:
+            waiting = task.events.unconfirmed & {_E.ATTACH, _E.ARRIVE}
+            if task.request is None and not waiting and self.navigator.at_rest:  # it sets down standing still
                 self._request(task, "place", self._place_request(task))
             return
         if task.verdict is not None and _E.PLACE not in task.events.unconfirmed:

@@ -8,7 +8,8 @@ and the navigator (the state: goal, plan, recoveries, traffic) stays readable.
   sees along a free straight line (no cutting corners into obstacles);
 * :func:`turn_command` — brake and turn on the spot (always safe for a disc robot);
 * :func:`straight_line_clear` — a straight drive stays clear of the grid and of local obstacle points;
-* :func:`yield_point` — where to step aside when another robot has the right of way.
+* :func:`yield_point` — where to step aside when another robot has the right of way;
+* :func:`unicycle` — where a constant ``(v, w)`` carries a pose (the command latency's prediction).
 
 Units: metres, radians, seconds, world frame.
 """
@@ -131,3 +132,15 @@ def yield_point(
             if grid.is_free(*spot) and (not grid.is_free(*here) or segment_is_free(grid, here, spot)):
                 return spot
     return None
+
+
+def unicycle(pose_xy_yaw: ArrayLike, v_mps: float, w_radps: float, seconds: float) -> NDArray[np.float64]:
+    """``pose_xy_yaw`` carried by a constant ``(v, w)`` for ``seconds``: the exact arc (a chord along the
+    mid-arc heading)."""
+    x, y, yaw = (float(value) for value in np.asarray(pose_xy_yaw, dtype=float)[:3])
+    turn = w_radps * seconds
+    chord = v_mps * seconds * (math.sin(turn / 2.0) / (turn / 2.0) if abs(turn) > 1e-9 else 1.0)
+    heading = yaw + turn / 2.0
+    return np.array(
+        [x + chord * math.cos(heading), y + chord * math.sin(heading), math.remainder(yaw + turn, math.tau)]
+    )

@@ -35,6 +35,9 @@ class NavigatorConfig:
     dwa: DwaConfig = DEFAULT_DWA
     localiser: LocaliserConfig = field(default_factory=LocaliserConfig)
     goal_tolerance_m: float = 0.25  # reach is generous (1.5 m to the footprint); localisation error ~0.1 m
+    # sim seconds between sensing and the command acting (physics' lock-step latency, SiteInfoMsg): the
+    # navigator plans from where the command acting meanwhile will have carried the robot
+    command_latency_s: float = 0.0
     yaw_tolerance_rad: float = 0.15
     lookahead_m: float = 2.5  # ≥ max speed × DWA horizon, or the carrot caps the speed
     sight_inflation_m: float = 0.65  # carrot visibility: between the DWA's clearance and the planning grid's

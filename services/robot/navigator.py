@@ -50,13 +50,16 @@ from .astar import plan_path, simplify_path
 from .dwa import RobotState, dwa_step
 from .fine_alignment import Alignment, align
 from .localisation import Localiser
-from .motion import Path, carrot, straight_line_clear, turn_command
+from .motion import Path, carrot, straight_line_clear, turn_command, unicycle
 from .nav_types import DEFAULT_NAVIGATOR, Goal, NavCommand, NavigatorConfig, NavStatus
 from .recovery import ProgressWatchdog, Recovery, diagnose, next_recovery, plan_start
 from .site_map import SiteMap
 from .traffic import Traffic
 
 _log = logging.getLogger(__name__)
+
+REST_MPS = 0.002  # odometry speed below which the robot stands still (noise: ~2 % of the increment)
+REST_RADPS = 0.005
 
 
 class Navigator(Traffic):
@@ -75,6 +78,9 @@ class Navigator(Traffic):
         self.goal: Goal | None = None
         self._status = NavStatus.IDLE
         self.v_mps = self.w_radps = 0.0
+        self._acting = (0.0, 0.0)  # the command acting until the one being computed does (latency)
+        self.still_steps = 0  # consecutive commands to stand still
+        self.odom_speed = (0.0, 0.0)  # the last odometry's (v, w)
         self.local_points = np.empty((0, 2))
         self.scan_hits_robot_m = np.empty((0, 2))  # the last scan's hits, robot frame (fine alignment)
         self.marks = np.empty((0, 2))
@@ -98,11 +104,22 @@ class Navigator(Traffic):
 
     @property
     def pose_xy_yaw(self) -> tuple[float, float, float]:
-        x, y, yaw = self.localiser.pose
+        """Where the robot will be when its next command acts: the estimate now, carried on by the command
+        acting meanwhile over the command latency (physics' lock-step latency; 0: the estimate now)."""
+        x, y, yaw = self._acting_pose()
         return (float(x), float(y), float(yaw))
+
+    def _acting_pose(self) -> NDArray[np.float64]:
+        latency_s = self.config.command_latency_s
+        pose = self.localiser.pose
+        if latency_s <= 0.0:
+            return pose
+        v, w = self._acting
+        return unicycle(pose, v, w, latency_s)
 
     def observe_odom(self, message: OdomMsg) -> None:
         self.localiser.observe_odom(message.pose_xy_yaw)
+        self.odom_speed = (message.v_mps, message.w_radps)
 
     def observe_scan(self, message: ScanMsg, *, defer_localisation: bool = False) -> None:
         """The scan's local obstacles and marks now; the localisation update on it now, or with
@@ -174,12 +191,13 @@ class Navigator(Traffic):
     # --- the control step ----------------------------------------------------------------------------
 
     def step(self, sim_s: float) -> NavCommand:
+        self._acting = (self.v_mps, self.w_radps)  # the last command: it acts until this one does
         if self._resume is not None and self._stepped_aside(sim_s):
             return self._command(0.0, 0.0)
         goal = self.goal
         if goal is None or self._status in (NavStatus.REACHED, NavStatus.FAILED, NavStatus.IDLE):
             return self._command(0.0, 0.0)
-        pose = self.localiser.pose
+        pose = self._acting_pose()
         watchdog = goal.watchdog
         assert watchdog is not None
         if sim_s < goal.hold_until_s:
@@ -282,7 +300,17 @@ class Navigator(Traffic):
 
     def _command(self, v: float, w: float, new_path: NDArray[np.float64] | None = None) -> NavCommand:
         self.v_mps, self.w_radps = v, w
+        self.still_steps = self.still_steps + 1 if v == 0.0 and w == 0.0 else 0
         return NavCommand(v, w, self.status, new_path)
+
+    @property
+    def at_rest(self) -> bool:
+        """Standing still, and commanded to go on standing still until its next command acts (through the
+        command latency): a heavy robot coasts a centimetre or two after its stop command, which a
+        placement commanded meanwhile would carry into the component's pose."""
+        latency_steps = round(self.config.command_latency_s / max(self.config.dwa.control_period_s, 1e-9))
+        v_mps, w_radps = self.odom_speed
+        return self.still_steps >= latency_steps + 1 and abs(v_mps) < REST_MPS and abs(w_radps) < REST_RADPS
 
     def _fail(self, why: str) -> NavCommand:
         """FAILED, with :attr:`failure` naming why (see :func:`.recovery.diagnose`)."""

@@ -237,3 +237,38 @@ def test_yield_point_moves_away_from_the_other_robot() -> None:
     assert spot is not None and walled.is_free(*spot) and abs(spot[1] - 5.0) > 0.5, (
         "sideways when blocked behind"
     )
+
+
+def test_with_a_command_latency_the_robot_plans_from_where_its_acting_command_carries_it() -> None:
+    from bimbot.services.robot.motion import unicycle
+
+    ahead = unicycle((1.0, 2.0, 0.0), 0.5, 0.0, 0.2)
+    assert ahead == pytest.approx((1.1, 2.0, 0.0))
+    quarter = unicycle((0.0, 0.0, 0.0), math.pi / 2, math.pi / 2, 1.0)  # a quarter circle of radius 1
+    assert quarter == pytest.approx((1.0, 1.0, math.pi / 2), abs=1e-9)
+
+
+def test_the_navigator_with_a_latency_gives_its_pose_where_the_acting_command_takes_it_and_waits_to_rest(
+    site: SiteMap,
+) -> None:
+    """With physics' one-period latency, the pose the executor sees (and a placement is commanded from) is
+    the estimate carried on by the command acting meanwhile; at rest only once commanded still through the
+    latency and the odometry says it stands still (a heavy robot coasts after its stop command)."""
+    from dataclasses import replace
+
+    from bimbot.services.robot.nav_types import NavigatorConfig
+
+    config = NavigatorConfig()
+    config = replace(config, command_latency_s=0.2, dwa=replace(config.dwa, control_period_s=0.2))
+    start = (site.layout.robot_starts[0][0], site.layout.robot_starts[0][1], 0.0)
+    navigator = Navigator(site, start, config, np.random.default_rng(0))
+    navigator.observe_odom(OdomMsg(robot_id="r1", pose_xy_yaw=start, v_mps=0.0, w_radps=0.0, sim_time_s=0.0))
+    navigator._command(0.5, 0.0)  # what step() sends while driving
+    navigator.step(0.2)  # no goal: it commands a stop; the 0.5 m/s command acts until then
+    assert navigator.pose_xy_yaw == pytest.approx((start[0] + 0.1, start[1], 0.0), abs=1e-9)
+    assert not navigator.at_rest
+    navigator.observe_odom(OdomMsg(robot_id="r1", pose_xy_yaw=start, v_mps=0.05, w_radps=0.0, sim_time_s=0.4))
+    navigator.step(0.4)  # stopped twice, but still coasting by odometry
+    assert navigator.pose_xy_yaw == pytest.approx(start, abs=1e-9) and not navigator.at_rest
+    navigator.observe_odom(OdomMsg(robot_id="r1", pose_xy_yaw=start, v_mps=0.0, w_radps=0.0, sim_time_s=0.6))
+    assert navigator.at_rest
