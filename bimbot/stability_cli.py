@@ -14,6 +14,7 @@ import logging
 from collections.abc import Callable
 from pathlib import Path
 
+from bimbot.services.component_agents.agent import AgentConfig
 from bimbot.services.physics.stability import check_stability, describe
 from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan
 from bimbot.shared.errors import UserError
@@ -36,7 +37,8 @@ def check_stability_command(args: argparse.Namespace, say: Callable[[str], None]
     build = resolve_build(args.build)
     plan = load_plan(build.manifest, build.dir, plan_source(args))
     say(f"checking the stability of {plan.source}: {len(plan.order)} step(s), physics only, no robots")
-    report = check_stability(build.manifest, build.dir, plan.order)
+    tolerance_m = AgentConfig().tolerances.drift_m  # what the agents of a run accept
+    report = check_stability(build.manifest, build.dir, plan.order, drift_tolerance_m=tolerance_m)
     names = {c.guid: c.name or c.ifc_class for c in build.manifest.components}
     for line in describe(report, names):
         say(line)

@@ -45,8 +45,9 @@ class Tolerances:
     position_m: float = 0.01
     angle_rad: float = math.radians(1.0)
     # how far it may have moved since physics released it (slid, tipped, fell): beyond this it is unstable,
-    # wherever it came to rest (a beam that fell onto its target's neighbour is not a placement)
-    drift_m: float = 0.01
+    # wherever it came to rest (a beam that fell onto its target's neighbour is not a placement); a placement
+    # that holds settles 1-3 mm (Bullet's contact margins)
+    drift_m: float = 0.005
 
     def __post_init__(self) -> None:
         for name in ("position_m", "angle_rad", "drift_m"):

@@ -39,7 +39,7 @@ class SettleConfig:
     quiet_turn_radps: float = 0.02
     quiet_s: float = 0.6  # at rest this long (sim s): settled
     max_settle_s: float = 8.0  # still moving after this long (sim s): answered as it is
-    report_drift_m: float = 0.01  # a placed component that moved farther is logged, with its supports
+    report_drift_m: float = 0.005  # a placed component that moved farther is logged, with its supports
     publish_drift_m: float = 0.0005  # a settled component's pose goes out again once it moved this much
 
 

@@ -83,6 +83,8 @@ class Navigator(Traffic):
         self.odom_speed = (0.0, 0.0)  # the last odometry's (v, w)
         self.local_points = np.empty((0, 2))
         self.scan_hits_robot_m = np.empty((0, 2))  # the last scan's hits, robot frame (fine alignment)
+        self._scan: tuple[NDArray[np.float64], NDArray[np.float64], float] | None = None  # not seen yet
+        self._scan_pose = np.asarray(start_xy_yaw, float)[:3].copy()
         self.marks = np.empty((0, 2))
         self.nearest_mark_m = math.inf
         self.replans = 0
@@ -122,19 +124,29 @@ class Navigator(Traffic):
         self.odom_speed = (message.v_mps, message.w_radps)
 
     def observe_scan(self, message: ScanMsg, *, defer_localisation: bool = False) -> None:
-        """The scan's local obstacles and marks now; the localisation update on it now, or with
-        ``defer_localisation`` at :meth:`localise` (after the step's command is out, see
-        :mod:`.localisation`)."""
+        """The scan for the localisation (now, or with ``defer_localisation`` at :meth:`localise`, after the
+        step's command is out, see :mod:`.localisation`), the fine alignment, and the local obstacles and
+        marks of the next :meth:`step` with a goal."""
         ranges = np.asarray(message.ranges_m, float)
         beams = np.arange(len(ranges), dtype=np.float64)
         angles = message.angle_min_rad + message.angle_increment_rad * beams
         self.localiser.observe_scan(ranges, angles, message.range_max_m, defer=defer_localisation)
+        self._scan_pose = self.localiser.pose.copy()
         hit = np.isfinite(ranges) & (ranges < message.range_max_m) & (ranges > 0)
         self.scan_hits_robot_m = np.column_stack(
             [ranges[hit] * np.cos(angles[hit]), ranges[hit] * np.sin(angles[hit])]
         )
-        hits = scan_endpoints_xy_m(self.localiser.pose, ranges, angles, message.range_max_m)
-        pose = self.localiser.pose
+        self._scan = (ranges, angles, message.range_max_m)  # its marks when a goal needs them (_see)
+
+    def _see(self) -> None:
+        """The last scan's local obstacles and marks, at the estimate it was taken from; computed once per
+        scan and only while the robot has somewhere to go (an idle robot waits for tasks without them)."""
+        if self._scan is None:
+            return
+        ranges, angles, range_max_m = self._scan
+        self._scan = None
+        hits = scan_endpoints_xy_m(self._scan_pose, ranges, angles, range_max_m)
+        pose = self._scan_pose
         r = self.config.local_obstacle_radius_m
         local = hits[(np.abs(hits[:, 0] - pose[0]) < r) & (np.abs(hits[:, 1] - pose[1]) < r)]
         self.marks = self.site_map.unexplained(hits, self.config.mark_beyond_m)
@@ -192,6 +204,8 @@ class Navigator(Traffic):
 
     def step(self, sim_s: float) -> NavCommand:
         self._acting = (self.v_mps, self.w_radps)  # the last command: it acts until this one does
+        if self.goal is not None:
+            self._see()
         if self._resume is not None and self._stepped_aside(sim_s):
             return self._command(0.0, 0.0)
         goal = self.goal
