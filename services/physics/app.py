@@ -89,7 +89,9 @@ STATUS_EVERY_S = 30.0
 @dataclass(frozen=True)
 class RunConfig:
     rtf: float = FINE.rtf  # real-time factor; 0: as fast as possible
-    lock_step_timeout_s: float = 2.0
+    # a robot alive but silent this long (wall s) is left behind: long enough for ten robot processes on two
+    # cores to plan at once (2 s was not), short of a hang
+    lock_step_timeout_s: float = 10.0
     max_steps: int | None = None  # stop after this many control periods (benches, tests)
     gui: bool = False
     # hold the clock at 0 until every robot is alive (at most this long)

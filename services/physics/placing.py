@@ -55,6 +55,9 @@ if TYPE_CHECKING:
 _log = logging.getLogger(__name__)
 
 
+FELL_OFF_M = 5.0  # below the ground or beyond the fence by this much, a released component has fallen off
+
+
 class Phase(StrEnum):
     RESTING = "resting"
     CARRIED = "carried"
@@ -232,6 +235,8 @@ class Placing:
                 corners = self._corners[guid] = box_corners(item.component)
             was_settled = watch.settled
             item.pose = observe(self.client_id, item.body, corners, watch, now_s=now_s, config=config)
+            if not watch.settled and self._fell_off(item):
+                watch.settled = True
             if watch.placed_on is None:  # what it was set down on, before it could slide or tip away
                 watch.placed_on = supports_of(self.client_id, item.body.body_id, self.guid_of)
             if not watch.settled or abs(watch.drift_m - watch.published_drift_m) >= config.publish_drift_m:
@@ -264,6 +269,21 @@ class Placing:
                     f", over the open pit of {', '.join(watch.open_pits)}" if watch.open_pits else "",
                 )
         return answered
+
+    def _fell_off(self, item: Item) -> bool:
+        """A released component far below the ground or off the site (it slid off a pit's floor, or was
+        thrown) would fall for ever: it is stopped where it is, static, and reported as it is (its drift says
+        it did not hold). Poses on the bus stay bounded."""
+        (x, y, z), _ = item.pose
+        (x0, y0), (x1, y1) = self.site_bounds.min_xy, self.site_bounds.max_xy
+        margin = FELL_OFF_M
+        if z > -margin and x0 - margin < x < x1 + margin and y0 - margin < y < y1 + margin:
+            return False
+        make_static(self.client_id, item.body)
+        _log.warning(
+            "%s fell off the site at (%.1f, %.1f, %.1f): stopped there, static", item.component.guid, x, y, z
+        )
+        return True
 
     def set_down(self, guid: str, now_s: float, tag: object = None) -> None:
         """Put ``guid`` at its BIM pose and release it there, without a robot (the stability replay,

@@ -85,6 +85,7 @@ class SiteMap:
         self.carried: dict[str, str] = {}  # guid → robot id
         self._placed: set[str] = set()  # guids that left their yard slot for the structure
         self._applied: dict[str, tuple[object, ...]] = {}  # guid → the last pose message applied (its facts)
+        self._settling: set[str] = set()  # placed, not yet joined: blocking whatever their height
         self.version = 0
         self._cache: dict[str, object] = {}
         for guid, slot in layout.slots.items():
@@ -101,7 +102,13 @@ class SiteMap:
         guid = message.guid
         if guid not in self._components:
             return False
-        seen = (message.pose.position_m, message.pose.quat_xyzw, message.attached_to, message.fixed)
+        seen = (
+            message.pose.position_m,
+            message.pose.quat_xyzw,
+            message.attached_to,
+            message.fixed,
+            message.joined,
+        )
         if self._applied.get(guid) == seen:
             return False
         self._applied[guid] = seen
@@ -112,8 +119,13 @@ class SiteMap:
         footprint = posed_footprint(self._components[guid], message.pose.position_m, message.pose.quat_xyzw)
         if message.fixed:
             self._placed.add(guid)
+        was_settling = guid in self._settling
+        if message.fixed and not message.joined:  # placed, not yet verified: keep off it (it may still move)
+            self._settling.add(guid)
+        else:
+            self._settling.discard(guid)
         old = self.footprints.get(guid)
-        if old is not None and _same_footprint(old, footprint):
+        if old is not None and _same_footprint(old, footprint) and was_settling == (guid in self._settling):
             return False
         return self._set_footprint(guid, footprint)
 
@@ -259,8 +271,12 @@ class SiteMap:
             self._cache[name] = entry
         return entry[1]  # type: ignore[index]
 
-    def blocks(self, footprint: Footprint) -> bool:
-        """Whether a footprint meets the robot's height band (so it occupies the grid)."""
+    def blocks(self, footprint: Footprint, guid: str | None = None) -> bool:
+        """Whether a footprint occupies the grid: it meets the robot's height band, or it is a component
+        placed and not yet joined to the structure (a footing flush with the ground, still settling, is not
+        driven over)."""
+        if guid is not None and guid in self._settling:
+            return True
         return footprint.z_max_m >= self.config.band_min_z_m and footprint.z_min_m <= self.config.band_max_z_m
 
     def _seen(self, footprint: Footprint) -> bool:
@@ -280,7 +296,7 @@ class SiteMap:
     def _set_footprint(self, guid: str, footprint: Footprint) -> bool:
         changed = self._clear(guid)
         self.footprints[guid] = footprint
-        if not self.blocks(footprint) or len(footprint.polygon_xy_m) < 3:
+        if not self.blocks(footprint, guid) or len(footprint.polygon_xy_m) < 3:
             return changed
         cells = _polygon_cells(self._geometry, footprint.polygon_xy_m)
         self._cells[guid] = cells

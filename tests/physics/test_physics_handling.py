@@ -397,3 +397,23 @@ def test_a_target_whose_frame_lies_off_site_but_whose_footprint_stands_on_it_is_
         update={"pose": pose(tuple(np.subtract(target.position_m, offset)), target.quat_xyzw)}
     )
     assert sim.place(request) is None  # accepted: the footprint is where the column stands
+
+
+def test_a_component_that_falls_off_the_site_is_stopped_and_reported_not_a_crash(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """A released component that slid off a pit's floor would fall for ever and its pose leave the bounds
+    every message keeps (physics once died of it on a large site): it is stopped, static, and its drift
+    says it did not hold."""
+    sim = make_sim(robots=0)
+    column = _named(frame_manifest, "Column A1")
+    sim.handling.set_down(column.guid, sim.sim_time_s, tag="t")
+    body = sim.handling.items[column.guid].body
+    p.resetBasePositionAndOrientation(
+        body.body_id, (0.0, 0.0, -40.0), (0, 0, 0, 1), physicsClientId=sim.client_id
+    )
+    replies = [reply for result in idle(sim, 1.0) for reply in result.replies]
+    assert [tag for tag, _ in replies] == ["t"]  # answered at once: it will not come to rest
+    message = sim.handling.pose_message(column.guid, sim.sim_time_s)  # within the message bounds
+    assert message.drift_m is not None and message.drift_m > 30.0
+    assert p.getDynamicsInfo(body.body_id, -1, physicsClientId=sim.client_id)[0] == 0.0  # static
