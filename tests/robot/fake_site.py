@@ -170,7 +170,10 @@ class FakeSite:
                 PhysicsResult(request.request_id, PhysicsReply(ok=True, sim_time_s=now, pose=beside)), 2
             )
         elif isinstance(message, PlaceRequest):
-            self.send(ComponentPoseMsg(guid=message.guid, pose=message.pose, sim_time_s=now, fixed=True), 20)
+            placed = ComponentPoseMsg(
+                guid=message.guid, pose=message.pose, sim_time_s=now, fixed=True, joined=True
+            )
+            self.send(placed, 20)  # no dynamics here: fixed for good at once
             self.send(
                 PhysicsResult(request.request_id, PhysicsReply(ok=True, sim_time_s=now, pose=message.pose)),
                 20,

@@ -218,7 +218,10 @@ class SimPhysics:
             else:
                 del self.placing[guid]
                 self.carried.pop(guid, None)
-                msg = ComponentPoseMsg(guid=guid, pose=request.pose, sim_time_s=self.sim_s, fixed=True)
+                # no dynamics here: a placed component is fixed for good at once (joined, in physics' words)
+                msg = ComponentPoseMsg(
+                    guid=guid, pose=request.pose, sim_time_s=self.sim_s, fixed=True, joined=True
+                )
                 self.poses[guid] = msg
                 self.truth.observe_pose(msg)
                 out.append(msg)
