@@ -161,6 +161,7 @@ def main() -> None:
     parser.add_argument("--fleet", action="store_true", help="also build with the default mixed fleet")
     parser.add_argument("--demo", action="store_true", help="time `bimbot demo` as a user runs it")
     parser.add_argument("--large", action="store_true", help="build a ~1,000-component frame with 10 robots")
+    parser.add_argument("--only-large", action="store_true", help="build only the ~1,000-component frame")
     parser.add_argument("--observer-cost", action="store_true", help="also build with the observer")
     parser.add_argument("--no-navigation", action="store_true", help="skip the A*/DWA figures")
     parser.add_argument("--samples", action="store_true", help="also build the two Revit sample buildings")
@@ -175,6 +176,9 @@ def main() -> None:
                 for robots in args.robots:
                     build_sample(name, only, label, folder, robots)
         if args.only_samples:
+            return
+        if args.only_large:
+            build_large(folder)
             return
         template = convert_bundled(folder)
         plain: dict[int, RunOutcome] = {}
