@@ -34,11 +34,10 @@ from .particle_filter import (
     LikelihoodFieldConfig,
     OdometryNoise,
     ParticleFilterConfig,
-    build_likelihood_field,
     init_gaussian,
     mcl_step,
 )
-from .site_map import SiteMap, outline
+from .site_map import SiteMap
 
 _log = logging.getLogger(__name__)
 
@@ -180,7 +179,10 @@ class Localiser:
         if self._field is None or self._field_version != self.site_map.version:
             # Surfaces only: inside a thick wall the distance grows again, so the likelihood peaks where the
             # laser really hits (a filled wall makes a plateau the estimate drifts along).
-            self._field = build_likelihood_field(outline(self.site_map.laser_field_grid()))
+            geometry = self.site_map.laser_field_geometry
+            self._field = LikelihoodField(
+                self.site_map.laser_distance_m(), geometry.resolution_m, geometry.origin_xy_m
+            )
             self._field_version = self.site_map.version
         if self._sensor is None or self._sensor.max_range_m != range_max_m:
             self._sensor = replace(self.config.pf.sensor, max_range_m=range_max_m)

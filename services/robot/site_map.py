@@ -31,13 +31,20 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bimbot.shared.clipped_distance import ClippedDistanceField
 from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, ComponentState
-from bimbot.shared.occupancy_grid import OccupancyGrid, distance_field_m, empty_grid, from_footprints, inflate
+from bimbot.shared.occupancy_grid import OccupancyGrid, empty_grid, from_footprints, inflate
 from bimbot.shared.site_plan import FENCE_HEIGHT_M, GRID_MARGIN_M, SiteLayout, fence_boxes
 
 _log = logging.getLogger(__name__)
+
+# Distances are kept up to these bounds (farther reads the bound), so a change recomputes only around itself
+# (:mod:`bimbot.shared.clipped_distance`): every question asked of the static distance is about less than a
+# metre (inflation, sight, a laser point unexplained), and the likelihood field was always clipped at 2 m.
+STATIC_DISTANCE_MAX_M = 2.0
+LASER_FIELD_MAX_M = 2.0
 
 
 @dataclass(frozen=True)
@@ -79,6 +86,21 @@ class SiteMap:
         )
         self._counts = np.zeros(self._geometry.shape, np.int32)  # components covering each cell (band)
         self._laser_counts = np.zeros(self._geometry.shape, np.int32)  # components seen by the laser
+        self._static_distance = ClippedDistanceField(
+            self._geometry.shape, config.resolution_m, STATIC_DISTANCE_MAX_M, self._static_window
+        )
+        # The localiser's map, at its finer resolution: the same counts, per component its fine cells.
+        self._fine = empty_grid(self._geometry.bounds_xy_m, config.laser_resolution_m)
+        self._fine_fence = (
+            from_footprints(self._fine.bounds_xy_m, config.laser_resolution_m, boxes_xy_m=fence_boxes(layout))
+            if config.laser_height_m <= FENCE_HEIGHT_M
+            else self._fine
+        ).occupied
+        self._fine_counts = np.zeros(self._fine.shape, np.int16)
+        self._fine_cells: dict[str, NDArray[np.int64]] = {}
+        self._laser_distance = ClippedDistanceField(
+            self._fine.shape, config.laser_resolution_m, LASER_FIELD_MAX_M, self._laser_outline_window
+        )
         self._cells: dict[str, NDArray[np.int64]] = {}  # guid → (n, 2) cells it covers now
         self._sees: dict[str, bool] = {}
         self.footprints: dict[str, Footprint] = {}  # not carried, wherever they are (any height)
@@ -164,8 +186,10 @@ class SiteMap:
 
     def inflated_grid(self, radius_m: float | None = None) -> OccupancyGrid:
         """:meth:`static_grid` inflated by ``radius_m`` (default: the robot radius plus margin, which is
-        where the robot's centre may go), from the cached distance field."""
+        where the robot's centre may go), from the distance field."""
         radius = self.config.inflation_m if radius_m is None else radius_m
+        if radius >= STATIC_DISTANCE_MAX_M:
+            raise ValueError(f"inflation {radius} m reaches the distance bound {STATIC_DISTANCE_MAX_M} m")
         return self._cached(
             f"inflated:{radius:.4f}",
             lambda: self._geometry.with_occupied(
@@ -174,8 +198,9 @@ class SiteMap:
         )
 
     def static_distance_m(self) -> NDArray[np.float64]:
-        """Distance from every cell centre to the nearest cell of :meth:`static_grid` (m)."""
-        return self._cached("distance", lambda: distance_field_m(self.static_grid()))
+        """Distance from every cell centre to the nearest cell of :meth:`static_grid` (m), up to
+        ``STATIC_DISTANCE_MAX_M`` (farther reads that bound); read-only, kept current around each change."""
+        return self._static_distance.distance_m
 
     def laser_grid(self) -> OccupancyGrid:
         """What the laser can see: the fence (if it reaches the laser's height) and tall enough components."""
@@ -192,20 +217,21 @@ class SiteMap:
         """The localiser's map: :meth:`laser_grid` without what is flatter than ``localise_min_top_m``,
         rasterised again at ``laser_resolution_m`` from the exact outlines (at the planning grid's 0.1 m,
         outlines lying on cell borders grow objects by a cell on one side: half a cell of bias)."""
+        return self._cached(
+            "laser_fine", lambda: self._fine.with_occupied(self._fine_fence | (self._fine_counts > 0))
+        )
 
-        def build() -> OccupancyGrid:
-            visible = [
-                self.footprints[guid].polygon_xy_m
-                for guid, seen in self._sees.items()
-                if seen and self.footprints[guid].z_max_m >= self.config.localise_min_top_m
-            ]
-            boxes = fence_boxes(self.layout) if self.config.laser_height_m <= FENCE_HEIGHT_M else []
-            bounds = self._geometry.bounds_xy_m
-            return from_footprints(
-                bounds, self.config.laser_resolution_m, boxes_xy_m=boxes, polygons_xy_m=visible
-            )
+    def laser_distance_m(self) -> NDArray[np.float64]:
+        """The localiser's likelihood field: from every cell of :meth:`laser_field_grid` to the nearest
+        surface (an occupied cell bordering a free one: inside a thick wall the distance grows again, so
+        the likelihood peaks where the laser really hits), up to ``LASER_FIELD_MAX_M``; read-only, kept
+        current around each change."""
+        return self._laser_distance.distance_m
 
-        return self._cached("laser_fine", build)
+    @property
+    def laser_field_geometry(self) -> OccupancyGrid:
+        """An empty grid with the geometry of :meth:`laser_field_grid` and :meth:`laser_distance_m`."""
+        return self._fine
 
     def laser_segments(self) -> NDArray[np.float64]:
         """The exact outlines the laser can see, as segments ``(m, 2, 2)`` (world, m): the fence and every
@@ -257,10 +283,21 @@ class SiteMap:
             return self.inflated_grid()
         rc = self._geometry.world_to_cell(marks)
         rc = rc[self._geometry.in_bounds(rc)]
-        cells = np.zeros(self._geometry.shape, bool)
-        cells[rc[:, 0], rc[:, 1]] = True
-        marked = inflate(self._geometry.with_occupied(cells), self.config.inflation_m + marks_extra_m)
-        return marked.with_occupied(marked.occupied | self.inflated_grid().occupied)
+        occupied = self.inflated_grid().occupied.copy()
+        if len(rc) == 0:
+            return self._geometry.with_occupied(occupied)
+        # The marks are inflated in the window they can reach only (the whole grid of a large site is
+        # millions of cells).
+        radius = self.config.inflation_m + marks_extra_m
+        reach = math.ceil(radius / self.config.resolution_m) + 1
+        rows, cols = self._geometry.shape
+        r0, c0 = (max(0, int(v) - reach) for v in rc.min(axis=0))
+        r1, c1 = (min(n, int(v) + reach + 1) for v, n in zip(rc.max(axis=0), (rows, cols), strict=True))
+        cells = np.zeros((r1 - r0, c1 - c0), bool)
+        cells[rc[:, 0] - r0, rc[:, 1] - c0] = True
+        marked = inflate(OccupancyGrid(cells, self.config.resolution_m, (0.0, 0.0)), radius)
+        occupied[r0:r1, c0:c1] |= marked.occupied
+        return self._geometry.with_occupied(occupied)
 
     # --- internals ----------------------------------------------------------------------------------------
 
@@ -288,8 +325,13 @@ class SiteMap:
         if cells is None:
             return False
         self._counts[cells[:, 0], cells[:, 1]] -= 1
+        self._static_distance.touch(cells)
         if self._sees.pop(guid, False):
             self._laser_counts[cells[:, 0], cells[:, 1]] -= 1
+        fine = self._fine_cells.pop(guid, None)
+        if fine is not None:
+            self._fine_counts[fine[:, 0], fine[:, 1]] -= 1
+            self._laser_distance.touch(fine)
         self.version += 1
         return True
 
@@ -301,19 +343,40 @@ class SiteMap:
         cells = _polygon_cells(self._geometry, footprint.polygon_xy_m)
         self._cells[guid] = cells
         self._counts[cells[:, 0], cells[:, 1]] += 1
+        self._static_distance.touch(cells)
         if self._seen(footprint):
             self._sees[guid] = True
             self._laser_counts[cells[:, 0], cells[:, 1]] += 1
+            if footprint.z_max_m >= self.config.localise_min_top_m:
+                fine = _polygon_cells(self._fine, footprint.polygon_xy_m)
+                self._fine_cells[guid] = fine
+                self._fine_counts[fine[:, 0], fine[:, 1]] += 1
+                self._laser_distance.touch(fine)
         self.version += 1
         return True
+
+    def _static_window(self, rows: slice, cols: slice) -> NDArray[np.bool_]:
+        return self._fence.occupied[rows, cols] | (self._counts[rows, cols] > 0)
+
+    def _laser_outline_window(self, rows: slice, cols: slice) -> NDArray[np.bool_]:
+        """The surfaces of :meth:`laser_field_grid` in a window (read with one cell around it, so the
+        outline at the window's edge is the whole grid's)."""
+        r0, c0 = max(0, rows.start - 1), max(0, cols.start - 1)
+        r1, c1 = min(self._fine.shape[0], rows.stop + 1), min(self._fine.shape[1], cols.stop + 1)
+        occupied = self._fine_fence[r0:r1, c0:c1] | (self._fine_counts[r0:r1, c0:c1] > 0)
+        surfaces = _outline_cells(occupied)
+        return surfaces[rows.start - r0 : rows.stop - r0, cols.start - c0 : cols.stop - c0]
 
 
 def outline(grid: OccupancyGrid) -> OccupancyGrid:
     """Only the occupied cells that border a free cell (4-neighbourhood): the surfaces a laser can hit."""
-    occ = grid.occupied
+    return grid.with_occupied(_outline_cells(grid.occupied))
+
+
+def _outline_cells(occ: NDArray[np.bool_]) -> NDArray[np.bool_]:
     padded = np.pad(occ, 1, constant_values=False)
     interior = padded[:-2, 1:-1] & padded[2:, 1:-1] & padded[1:-1, :-2] & padded[1:-1, 2:] & occ
-    return grid.with_occupied(occ & ~interior)
+    return occ & ~interior
 
 
 def _same_footprint(a: Footprint, b: Footprint, tolerance_m: float = 0.01) -> bool:

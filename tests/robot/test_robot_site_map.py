@@ -10,7 +10,7 @@ from bimbot.services.robot.site_map import MapConfig, SiteMap, outline
 from bimbot.shared.footprint import Footprint, convex_hull_xy
 from bimbot.shared.manifest import Component, Manifest, read_manifest
 from bimbot.shared.messages import ComponentPoseMsg, ComponentState, PoseMsg
-from bimbot.shared.occupancy_grid import OccupancyGrid
+from bimbot.shared.occupancy_grid import OccupancyGrid, inflate
 from bimbot.shared.site_layout import plan_site
 
 
@@ -103,6 +103,14 @@ def test_laser_marks_far_from_the_map_are_added_and_inflated_for_planning(site: 
     grid = site.planning_grid([mark])
     assert not grid.is_free(*(mark + np.array([site.config.inflation_m - 0.1, 0.0])))
     assert site.inflated_grid().is_free(*mark)
+    # inflated around the marks only, the same as inflating them over the whole grid
+    marks = [mark, start + np.array([-1.0, 3.0]), (site.layout.fence.min_xy[0] + 0.05, start[1])]
+    cells = np.zeros(site.geometry.shape, bool)
+    rc = site.geometry.world_to_cell(np.array(marks))
+    cells[rc[:, 0], rc[:, 1]] = True
+    whole = inflate(site.geometry.with_occupied(cells), site.config.inflation_m + 0.2).occupied
+    expected = whole | site.inflated_grid().occupied
+    assert np.array_equal(site.planning_grid(marks, marks_extra_m=0.2).occupied, expected)
 
 
 def test_the_localiser_map_keeps_everything_the_laser_can_see_flat_yard_stacks_too(
@@ -144,3 +152,28 @@ def test_a_placed_footing_not_yet_joined_is_kept_off_until_it_is(frame: Manifest
     assert not site.static_grid().is_free(x, y)
     assert site.observe_pose(at_target(footing, fixed=True, joined=True))
     assert site.static_grid().is_free(x, y)  # built: below the robots' band, driven over
+
+
+def test_the_distance_fields_follow_every_change_as_if_computed_whole(frame: Manifest, site: SiteMap) -> None:
+    """The planner's static distance and the localiser's likelihood field are recomputed around each change
+    only (a large site cannot afford the whole transform per change): after components are picked, carried,
+    placed and moved, both equal the whole transform of their grid, clipped at their bound."""
+    from scipy import ndimage
+
+    from bimbot.services.robot.site_map import LASER_FIELD_MAX_M, STATIC_DISTANCE_MAX_M
+
+    def whole(grid: OccupancyGrid, bound: float) -> np.ndarray:
+        distance = ndimage.distance_transform_edt(~grid.occupied, sampling=grid.resolution_m)
+        return np.minimum(distance, bound)
+
+    assert site.static_distance_m().shape == site.static_grid().shape  # computed once, whole
+    site.laser_distance_m()
+    column, slab_or_beam = of_class(frame, "IfcColumn"), of_class(frame, "IfcBeam")
+    site.observe_pose(pose(column.guid, (0.0, 0.0, 0.5), attached_to="r1"))
+    site.observe_pose(at_target(column, fixed=True))
+    site.observe_pose(pose(slab_or_beam.guid, (1.0, -2.0, 0.05), quat=(0.0, 0.0, 0.38268343, 0.92387953)))
+    site.observe_pose(pose(slab_or_beam.guid, (1.3, -2.2, 0.05)))
+    assert np.array_equal(site.static_distance_m(), whole(site.static_grid(), STATIC_DISTANCE_MAX_M))
+    laser = outline(site.laser_field_grid())
+    assert np.array_equal(site.laser_distance_m(), whole(laser, LASER_FIELD_MAX_M))
+    assert site.laser_distance_m().shape == site.laser_field_geometry.shape
