@@ -155,6 +155,9 @@ class ComponentEventMsg(_Message):
     sim_time_s: SimTime
     wall_time_s: WallTime
     reason: Reason | None = None  # abandon, fail, block: why
+    # place: what the agent's verdict should add if the placement misses (a robot that could not align to
+    # its laser says so: the user's fix is on the site, not in the robot's precision)
+    note: str = Field(default="", max_length=500)
 
 
 class ComponentPoseMsg(_Message):

@@ -122,6 +122,7 @@ class ComponentAgent:
         "history",
         "key",
         "open_pits",
+        "place_note",
         "place_sim_time_s",
         "pose",
         "pose_fixed",
@@ -157,6 +158,7 @@ class ComponentAgent:
         self.open_pits: tuple[str, ...] = ()  # released over the open pit of these foundations
         self.arrive_sim_time_s: float | None = None
         self.place_sim_time_s: float | None = None
+        self.place_note = ""  # what the placing robot said with its place event (e.g. placed unaligned)
         self.verify_deadline_wall_s: float | None = None
         self.history: list[ComponentStateMsg] = []  # every transition, as published
         self.event_ids: set[str] = set()
@@ -224,6 +226,7 @@ class ComponentAgent:
         if msg.event is ComponentEvent.PLACE:
             self.attempt += 1
             self.place_sim_time_s = msg.sim_time_s
+            self.place_note = msg.note
             self.verify_deadline_wall_s = now + self._config.verify_timeout_s
         cause = f"{msg.event.value} from {msg.source}" + (f" (task {msg.task_id})" if msg.task_id else "")
         out = [
@@ -383,7 +386,8 @@ class ComponentAgent:
                 robot_id=self.robot_id,
             )
         elif verdict is not Verdict.VERIFIED:
-            miss = Reason(code=ReasonCode.MISPLACED, message=f"{why}; {cause}", robot_id=self.robot_id)
+            note = f"; {self.place_note}" if self.place_note else ""
+            miss = Reason(code=ReasonCode.MISPLACED, message=f"{why}; {cause}{note}", robot_id=self.robot_id)
         if verdict is Verdict.FAILED:
             self.reason = miss
         return self._record(

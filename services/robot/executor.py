@@ -444,7 +444,12 @@ class Executor(Driving, Handover):
         self._last_state_wall_s = self._wall_s
 
     def _queue_event(
-        self, task: Task, event: ComponentEvent, sim_s: float | None = None, reason: Reason | None = None
+        self,
+        task: Task,
+        event: ComponentEvent,
+        sim_s: float | None = None,
+        reason: Reason | None = None,
+        note: str = "",
     ) -> None:
         task.events.push(
             ComponentEventMsg(
@@ -457,6 +462,7 @@ class Executor(Driving, Handover):
                 sim_time_s=self.sim_s if sim_s is None else sim_s,
                 wall_time_s=self._wall_s,
                 reason=reason,
+                note=note,
             )
         )
 

@@ -65,7 +65,12 @@ class Handover:
         def _attached(self, task: Task) -> None: ...
 
         def _queue_event(
-            self, task: Task, event: ComponentEvent, sim_s: float | None = None, reason: Reason | None = None
+            self,
+            task: Task,
+            event: ComponentEvent,
+            sim_s: float | None = None,
+            reason: Reason | None = None,
+            note: str = "",
         ) -> None: ...
 
         def _finish(self, verdict: ComponentState | None) -> None: ...
@@ -114,6 +119,14 @@ class Handover:
             1000.0 * alignment.shift_m,
             1000.0 * alignment.rms_m,
         )
+        task.placement_note = (
+            ""
+            if alignment.trusted
+            else f"{self.robot_id} could not align to what its laser sees before placing ({alignment.hits} "
+            "laser hits matched to mapped outlines, too few or too scattered to trust) and placed from its "
+            "localisation estimate alone: nothing its laser sees stands near enough (a site with nothing "
+            "standing nearby needs other positioning)"
+        )
         return self.navigator.pose_xy_yaw
 
     def _physics_result(self, result: PhysicsResult) -> None:
@@ -138,7 +151,9 @@ class Handover:
                 task.placed = True
                 # Stamped when physics fixed the component, not at the last tick: the agent judges the first
                 # pose stamped at or after ``place``, which must not be one from the assembly motion.
-                self._queue_event(task, _E.PLACE, max(self.sim_s, result.reply.sim_time_s))
+                self._queue_event(
+                    task, _E.PLACE, max(self.sim_s, result.reply.sim_time_s), note=task.placement_note
+                )
             return
         why = result.reply.reason if result.reply is not None else result.error
         _log.warning("%s: %s of %s refused: %s", self.robot_id, kind, task.message.guid, why)

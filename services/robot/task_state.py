@@ -55,6 +55,7 @@ class Task:
     failed_xy_m: list[tuple[float, float]] = field(default_factory=list)  # stand-points that failed
     misses: int = 0  # approach searches that found nothing
     placed: bool = False
+    placement_note: str = ""  # said with the place event: how the robot placed it when it matters
     verdict: ComponentState | None = None
     abandoning: bool = False
     abandon_at_s: float = math.inf

@@ -193,6 +193,24 @@ def test_a_small_settling_drift_is_within_tolerance_and_a_miss_says_misplaced() 
     assert "20.0 mm" in missed.reason.message
 
 
+def test_a_miss_carries_what_the_placing_robot_said_of_its_placement() -> None:
+    """A robot that could not align to its laser says so with its place event; a miss then names it (the
+    user's fix is on the site, not in the robot's precision), and a hit says nothing of it."""
+    note = "r3 could not align to what its laser sees before placing (0 laser hits ...)"
+    agent = new_agent()
+    drive_to_assembling(agent)
+    agent.observe_pose(pose_of(agent.component, sim_time_s=5.0, offset_m=(0.2, 0.0, 0.0)), NOW)
+    placed = event(agent.guid, E.PLACE, sim_time_s=5.0).model_copy(update={"note": note})
+    missed = agent.apply_event(placed, NOW)[-1]
+    assert missed.state is S.MISPLACED and missed.reason is not None
+    assert "200.0 mm" in missed.reason.message and note in missed.reason.message
+    fine = new_agent()
+    drive_to_assembling(fine)
+    fine.observe_pose(pose_of(fine.component, sim_time_s=5.0), NOW)
+    done = fine.apply_event(event(fine.guid, E.PLACE, sim_time_s=5.0).model_copy(update={"note": note}), NOW)
+    assert done[-1].state is S.CONSTRUCTED and done[-1].reason is None
+
+
 def test_failed_after_max_attempts_and_then_terminal() -> None:
     agent = new_agent(max_attempts=2)
     for attempt in (1, 2):

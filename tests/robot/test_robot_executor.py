@@ -171,3 +171,13 @@ def test_a_task_given_back_and_assigned_again_is_taken_again(frame: Manifest) ->
     site.executor.handle(task.model_copy(update={"wall_time_s": 5.0}))  # the planner assigns it again
     site.run(3)
     assert site.executor.task is not None and site.executor.machine.state is RobotState.PICK_UP
+
+
+def test_a_placement_without_a_trusted_alignment_says_so_with_its_place_event(frame: Manifest) -> None:
+    """Nothing mapped for the fine alignment to match (as inside a large empty site): the robot places from
+    its filter's estimate and its place event says so, for the agent's verdict."""
+    site, released, task = make_site(frame)
+    site.executor.navigator.site_map.laser_segments = lambda: np.empty((0, 2, 2))  # type: ignore[method-assign]
+    run_task(site, released, task)
+    place = next(e for e in site.events if e.event is ComponentEvent.PLACE)
+    assert "could not align to what its laser sees" in place.note and "0 laser hits" in place.note
