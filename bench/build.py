@@ -166,11 +166,13 @@ def main() -> None:
     parser.add_argument("--no-navigation", action="store_true", help="skip the A*/DWA figures")
     parser.add_argument("--samples", action="store_true", help="also build the two Revit sample buildings")
     parser.add_argument("--only-samples", action="store_true", help="build only the Revit sample buildings")
+    parser.add_argument("--keep", type=Path, help="build in this folder and keep it (runs, logs, reports)")
     args = parser.parse_args()
     load = os.getloadavg()[0]
     print(f"build bench: {os.cpu_count()} cores, load average {load:.1f}")
     with tempfile.TemporaryDirectory(prefix="bimbot-bench-build-") as tmp:
-        folder = Path(tmp)
+        folder = Path(tmp) if args.keep is None else args.keep
+        folder.mkdir(parents=True, exist_ok=True)
         if args.samples or args.only_samples:
             for name, only, label in REVIT_SAMPLES:
                 for robots in args.robots:

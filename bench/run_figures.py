@@ -33,8 +33,9 @@ def read_figures(run_dir: Path | None) -> RunFigures:
     physics = logs / "physics.log"
     if physics.is_file():
         found = STEPPING.findall(physics.read_text(errors="replace"))
-        if found:
-            steps, stepping_s = int(found[-1][0]), float(found[-1][1])
+        if found:  # one line per physics process that ended normally (a restarted one logs its own)
+            steps = sum(int(n) for n, _ in found)
+            stepping_s = sum(float(s) for _, s in found)
     peaks = {}
     for log in sorted(logs.glob("*.log")):
         found = PEAK.findall(log.read_text(errors="replace"))

@@ -4,9 +4,10 @@ Why: a component whose BIM target reaches below ground (a footing, a pile cap, a
 placed into an excavated pit, and what stands on it (a column) has nothing under it until it is there.
 A plain ground plane at z = 0 would carry a column placed before its footing as if the footing were
 there. So each such component gets a pit: its target's footprint at ground level, with a floor (a static
-box) at its target's bottom. A component released into dynamics (:mod:`.handling`) over an open pit does
-not touch the ground plane: it drops into the pit and rests on the pit floor (a column 0.3 m lower than
-its target, which its agent sees). The pit is filled once its foundation is placed: from then on the
+box) at its target's bottom. A component released into dynamics (:mod:`.handling`) with its centre of
+mass over an open pit does not touch the ground plane: it drops into the pit and rests on the pit floor
+(a column 0.3 m lower than its target, which its agent sees); beside a pit it is lowered onto the ground,
+overhanging the pit. The pit is filled once its foundation is placed: from then on the
 foundation itself carries what stands on it.
 
 Robots never drive into a pit (the ground plane still carries them: the site's robots are not simulated
@@ -36,15 +37,6 @@ class Pit:
     floor_body: int
 
 
-def _overlap(a: Rect, b: Rect) -> bool:
-    return (
-        a.min_xy[0] < b.max_xy[0]
-        and b.min_xy[0] < a.max_xy[0]
-        and a.min_xy[1] < b.max_xy[1]
-        and b.min_xy[1] < a.max_xy[1]
-    )
-
-
 class Pits:
     """Every foundation's pit and its floor body; ``filled(guid)`` says whether a foundation is placed."""
 
@@ -68,8 +60,14 @@ class Pits:
     def floor_bodies(self) -> set[int]:
         return {pit.floor_body for pit in self.pits}
 
-    def open_under(self, footprint: Rect) -> list[Pit]:
-        """The open pits (foundation not placed yet) that ``footprint`` overlaps at ground level."""
+    def open_around(self, xy: tuple[float, float]) -> list[Pit]:
+        """The open pits whose footprint holds the point ``xy`` (a released body's centre of mass: over an
+        open pit it falls in; beside one it rests on the ground at the pit's edge, overhanging it)."""
+        x, y = xy
         return [
-            pit for pit in self.pits if not self._filled(pit.owner) and _overlap(pit.footprint, footprint)
+            pit
+            for pit in self.pits
+            if not self._filled(pit.owner)
+            and pit.footprint.min_xy[0] <= x <= pit.footprint.max_xy[0]
+            and pit.footprint.min_xy[1] <= y <= pit.footprint.max_xy[1]
         ]

@@ -37,7 +37,6 @@ from .scene import (
     STATIC_MASK,
     Frame,
     component_pose,
-    footprint,
     make_dynamic,
     make_static,
     set_component_pose,
@@ -199,8 +198,19 @@ class Placing:
         else:
             item.separating_from = None
             set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)
-        pits = self.pits.open_under(footprint(item.component, item.pose)) if self.pits else []
-        if self.ground_id >= 0:  # over an open pit it falls in, onto the pit's floor
+        # Its centre of mass over an open pit: it falls in, onto the pit's floor. Beside one it rests on the
+        # ground at the pit's edge (the ground plane has no edge: with it off, a footing set 0.3 m off its
+        # own pit tipped off the floor's edge and fell for ever).
+        com_xy = p.getBasePositionAndOrientation(body.body_id, physicsClientId=cid)[0][:2]
+        pits = self.pits.open_around((com_xy[0], com_xy[1])) if self.pits else []
+        if not pits and self.ground_id >= 0:  # lowered onto the ground, not into it (a footing off its pit)
+            (x, y, z), quat = item.pose
+            turn = np.asarray(p.getMatrixFromQuaternion(quat)).reshape(3, 3)
+            bottom_z = z + float((box_corners(item.component) @ turn.T)[:, 2].min())
+            if bottom_z < 0.0:
+                item.pose = ((x, y, z - bottom_z), quat)
+                set_component_pose(cid, body, item.pose)
+        if self.ground_id >= 0:
             p.setCollisionFilterPair(
                 self.ground_id, body.body_id, -1, -1, 0 if pits else 1, physicsClientId=cid
             )
@@ -235,8 +245,8 @@ class Placing:
                 corners = self._corners[guid] = box_corners(item.component)
             was_settled = watch.settled
             item.pose = observe(self.client_id, item.body, corners, watch, now_s=now_s, config=config)
-            if not watch.settled and self._fell_off(item):
-                watch.settled = True
+            if not watch.stopped and self._fell_off(item):  # settled or not: it may still tip off later
+                watch.settled = watch.stopped = True
             if watch.placed_on is None:  # what it was set down on, before it could slide or tip away
                 watch.placed_on = supports_of(self.client_id, item.body.body_id, self.guid_of)
             if not watch.settled or abs(watch.drift_m - watch.published_drift_m) >= config.publish_drift_m:

@@ -59,6 +59,7 @@ class Watch:
     placed_on: tuple[str, ...] | None = None  # what it touched a control period after its release
     open_pits: tuple[str, ...] = ()  # foundations not placed yet whose open pit it was released over
     reported: bool = False  # its drift beyond report_drift_m was logged
+    stopped: bool = False  # it fell off the site and was stopped there, static
 
 
 def box_corners(component: Component) -> np.ndarray:

@@ -417,3 +417,46 @@ def test_a_component_that_falls_off_the_site_is_stopped_and_reported_not_a_crash
     message = sim.handling.pose_message(column.guid, sim.sim_time_s)  # within the message bounds
     assert message.drift_m is not None and message.drift_m > 30.0
     assert p.getDynamicsInfo(body.body_id, -1, physicsClientId=sim.client_id)[0] == 0.0  # static
+
+
+def test_a_footing_set_down_beside_its_open_pit_rests_on_the_ground_at_its_edge(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """Released with its centre of mass beside its pit (a robot 0.35 m off), a footing rests on the ground
+    overhanging the pit, as on a real site, instead of falling through the ground beside the pit's floor;
+    centred over its pit it drops in."""
+    sim = make_sim(robots=1)
+    footing = _named(frame_manifest, "Footing A1")
+    width = footing.bbox_world.max_m[0] - footing.bbox_world.min_m[0]
+    _picked(sim, footing)
+    _beside_target(sim, footing)
+    x, y, yaw = sim.robot_pose("r1")
+    off = width / 2.0 + 0.05  # centre of mass 5 cm beyond the pit's edge, away from the robot (east)
+    request = _place(sim, footing, duration_s=0.5).model_copy(update={"believed_xy_yaw": (x - off, y, yaw)})
+    assert sim.place(request, tag="t") is None
+    idle(sim, 6.0)
+    rest = component_pose(sim.client_id, sim.handling.items[footing.guid].body)
+    target = footing.target_pose_world.position_m
+    assert rest[0][0] - target[0] == pytest.approx(off, abs=0.05)
+    depth = -footing.bbox_world.min_m[2]
+    assert rest[0][2] == pytest.approx(target[2] + depth, abs=0.05), "on the ground, not in the pit"
+    assert sim.handling.pose_message(footing.guid, sim.sim_time_s).open_pits == []
+
+
+def test_a_placed_component_that_falls_off_after_it_rested_is_stopped_too(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """A placement at rest but not yet joined is still dynamic and may tip off later (a misplaced footing
+    waiting for its retry did, and fell until physics died): stopped, static, within the message bounds."""
+    sim = make_sim(robots=1)
+    column = _named(frame_manifest, "Column A1")
+    reply, _ = _placed_and_answered(sim, column)
+    assert reply.ok
+    body = sim.handling.items[column.guid].body
+    p.resetBasePositionAndOrientation(
+        body.body_id, (0.0, 0.0, -40.0), (0, 0, 0, 1), physicsClientId=sim.client_id
+    )
+    idle(sim, 1.0)
+    message = sim.handling.pose_message(column.guid, sim.sim_time_s)
+    assert message.pose.position_m[2] > -45.0 and message.drift_m is not None and message.drift_m > 30.0
+    assert p.getDynamicsInfo(body.body_id, -1, physicsClientId=sim.client_id)[0] == 0.0  # static
