@@ -13,7 +13,6 @@ from pathlib import Path
 import pytest
 from pydantic import BaseModel
 
-from bimbot.shared.fleet import default_fleet
 from bimbot.shared.identifiers import guid_to_key
 from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.messages import (
@@ -38,13 +37,11 @@ from bimbot.shared.messages import (
     RobotStateMsg,
     ScanMsg,
     SensorsMsg,
-    SiteInfoMsg,
     TaskMsg,
     TaskStatus,
     key,
 )
 from bimbot.shared.sequence import read_sequence
-from bimbot.shared.site_plan import Rect, SiteLayout
 
 S = ComponentState
 # (guid index in the sequence, robot, release, pick, place times, retried?) — place of the last attempt
@@ -202,30 +199,6 @@ def synthetic_run(manifest: Manifest, sequence: list[str]) -> list[tuple[str, Ba
     ]
 
 
-def site_info(robot_type_of: dict[str, str]) -> SiteInfoMsg:
-    """Physics' site info for robots of the default fleet's types (``{"r1": "husky", …}``) on a small
-    made-up site: what the report takes robot types from."""
-    fleet = default_fleet()
-    layout = SiteLayout(
-        building=Rect((0.0, 0.0), (10.0, 10.0)),
-        yard=Rect((12.0, 0.0), (18.0, 10.0)),
-        depot=Rect((12.0, 12.0), (18.0, 14.0)),
-        fence=Rect((-5.0, -5.0), (30.0, 20.0)),
-        slots={},
-        robot_starts=tuple((12.5 + i, 13.0, 0.0) for i in range(len(robot_type_of))),
-    )
-    return SiteInfoMsg(
-        robot_ids=list(robot_type_of),
-        robot_starts_xy_yaw=list(layout.robot_starts),
-        robot_type_of=robot_type_of,
-        robot_types={name: fleet.types[name] for name in set(robot_type_of.values())},
-        step_s=0.01,
-        control_period_s=0.1,
-        lock_step=True,
-        layout=layout,
-    )
-
-
 @pytest.fixture(scope="session")
 def frame_manifest(bundled_build: Path) -> Manifest:
     return read_manifest(bundled_build)
@@ -234,6 +207,12 @@ def frame_manifest(bundled_build: Path) -> Manifest:
 @pytest.fixture(scope="session")
 def frame_sequence(bundled_build: Path) -> list[str]:
     return read_sequence(bundled_build / "sequence.xml").guids()
+
+
+@pytest.fixture(scope="session")
+def robot_paths() -> dict[str, list[tuple[float, float]]]:
+    """The synthetic run's ground-truth robot paths (a fixture: `conftest` is no importable module name)."""
+    return ROBOT_PATHS
 
 
 @pytest.fixture(scope="session")

@@ -183,9 +183,11 @@ def test_placement_errors_are_those_of_the_last_verdict_in_mm_and_degrees(frame_
 
 
 def test_the_closest_two_robots_came_is_measured_on_ground_truth_at_equal_sim_times(
-    frame_manifest: Manifest, frame_sequence: list[str], run_messages: list[tuple[str, BaseModel]]
+    frame_manifest: Manifest,
+    frame_sequence: list[str],
+    run_messages: list[tuple[str, BaseModel]],
+    robot_paths: dict[str, list[tuple[float, float]]],
 ) -> None:
-    from conftest import ROBOT_PATHS
 
     shifted = [  # r2 one metre north of its path: the closest approach is then at its first step
         (k, m.model_copy(update={"pose_xy_yaw": (m.pose_xy_yaw[0], m.pose_xy_yaw[1] + 1.0, 0.0)}))
@@ -193,7 +195,7 @@ def test_the_closest_two_robots_came_is_measured_on_ground_truth_at_equal_sim_ti
         else (k, m)
         for k, m in run_messages
     ]
-    together = zip(ROBOT_PATHS["r1"], ROBOT_PATHS["r2"], strict=False)
+    together = zip(robot_paths["r1"], robot_paths["r2"], strict=False)
     expected = min(math.hypot(x1 - x2, y1 - (y2 + 1.0)) for (x1, y1), (x2, y2) in together)
     totals = _report(frame_manifest, frame_sequence, shifted)["totals"]
     assert totals["min_robot_separation_m"] == pytest.approx(expected) and expected == pytest.approx(1.0)

@@ -25,7 +25,7 @@ from typing import Any, NamedTuple
 import matplotlib.image
 import numpy as np
 import pytest
-from conftest import site_info
+from observer_site_info import site_info
 from pydantic import BaseModel
 
 from bimbot.services.observer.report import ReportCollector
