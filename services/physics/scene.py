@@ -48,6 +48,7 @@ from bimbot.shared.manifest import Component
 from bimbot.shared.site_plan import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect
 
 from .client import p
+from .collision_margin import inset_parts
 from .mesh_paths import pybullet_path
 
 _log = logging.getLogger(__name__)
@@ -243,9 +244,12 @@ def create_component_body(
         raise InputError(f"{component.guid}: collision meshes missing: {', '.join(missing)}")
     files = [str(path) for path in model.collision_files]
     if files:
+        scales, positions = inset_parts(model.collision_files)  # the hulls' margin is the geometry's skin
         shape = p.createCollisionShapeArray(  # a non-ASCII path crashes it: mesh_paths gives ASCII ones
             shapeTypes=[p.GEOM_MESH] * len(files),
             fileNames=[pybullet_path(path) for path in model.collision_files],
+            meshScales=scales,
+            collisionFramePositions=positions,
             physicsClientId=client_id,
         )
     else:  # a component without collision parts still takes its bounding box's room
