@@ -16,7 +16,7 @@ import trimesh
 from lxml import etree
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
-from sdf_checks import ign_sdf_check, sdf_model_pose
+from sdf_checks import sdf_check_all, sdf_model_pose
 
 from bimbot.demo import bundled_model_path
 from bimbot.services.converter.convert import convert_model
@@ -56,10 +56,11 @@ def sample(
 
 
 def _check_every_sdf_is_valid(out: Path, manifest: Manifest) -> None:
-    models_dir = out / "models"
-    for component in manifest.components:
-        assert ign_sdf_check(out / component.files.sdf_file, models_dir) == "Valid.", component.guid
-    assert ign_sdf_check(out / manifest.world_file, models_dir) == "Valid."
+    files = [out / component.files.sdf_file for component in manifest.components] + [
+        out / manifest.world_file
+    ]
+    checked = sdf_check_all(files, out / "models")
+    assert {path: answer for path, answer in checked.items() if answer != "Valid."} == {}
 
 
 def _world_vertices(model: ifcopenshell.file, guid: str) -> np.ndarray:
