@@ -159,14 +159,23 @@ class Handling(Placing):
 
     def note_constructed(self, guid: str, constructed: bool) -> None:
         """What a component's agent says of it (from ``components/<key>/state``): constructed joins it to
-        the structure where it rests."""
+        the structure where it rests, once its placement was answered (no agent can have verified a
+        placement still settling: such a claim joins nothing). Anything else said of a joined component
+        means it was joined on a claim its agent did not make (a forged message on an open bus; the agents'
+        constructed is final): it is released again where it lies, so the robots can take it up again."""
+        item = self.items.get(guid)
         if constructed:
             self.constructed.add(guid)
-            item = self.items.get(guid)
-            if item is not None and item.phase in DYNAMIC_PHASES:
+            if item is not None and item.phase is Phase.PLACED:
                 self.join(guid)
-        else:
-            self.constructed.discard(guid)
+            return
+        self.constructed.discard(guid)
+        if item is not None and item.phase is Phase.JOINED:
+            _log.warning("%s: its agent does not say constructed: released again where it lies", guid)
+            item.motion_to, item.separating_from = None, None
+            self._release(item, None, now_s=-math.inf, tag=None)
+            self.watch[guid].settled = True
+            item.phase = Phase.PLACED
 
     def restore(self, guid: str, frame: Frame, *, fixed: bool, carrier: Robot | None) -> None:
         """Put ``guid`` back as a restarted physics found it in its record: carried by ``carrier`` (at once,

@@ -252,6 +252,51 @@ def test_a_placed_component_not_yet_constructed_can_be_taken_off_again_for_its_r
     assert p.getDynamicsInfo(item.body.body_id, -1, physicsClientId=sim.client_id)[0] == 0.0  # kinematic
 
 
+def test_a_constructed_claim_for_a_placement_still_settling_joins_nothing_and_the_placement_is_answered(
+    make_sim, frame_manifest: Manifest
+) -> None:
+    """A forged ``constructed`` on an open bus, heard while the footing settles, once joined it there and
+    dropped its pending answer: the robot waited 1,200 s and the footing could never be retried."""
+    sim = make_sim(robots=1)
+    footing = _named(frame_manifest, "Footing A1")
+    _picked(sim, footing)
+    _beside_target(sim, footing)
+    assert sim.place(_place(sim, footing, duration_s=1.0), tag="ticket") is None
+    claimed = False
+    for _ in range(120):
+        result = sim.advance()
+        if sim.handling.items[footing.guid].phase is Phase.SETTLING and not claimed:
+            sim.handling.note_constructed(footing.guid, True)  # nobody can have verified it yet
+            claimed = True
+            assert sim.handling.items[footing.guid].phase is Phase.SETTLING
+        if result.replies:
+            assert [tag for tag, _ in result.replies] == ["ticket"] and result.replies[0][1].ok
+            break
+    else:
+        raise AssertionError("the placement was never answered")
+    assert claimed and sim.handling.items[footing.guid].phase is Phase.PLACED
+    sim.handling.note_constructed(footing.guid, True)  # its agent's verdict, after the answer
+    assert sim.handling.items[footing.guid].phase is Phase.JOINED
+
+
+def test_a_joined_component_its_agent_then_calls_misplaced_is_released_and_can_be_retried(
+    make_sim, frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=1)
+    footing = _named(frame_manifest, "Footing A1")
+    _placed_and_answered(sim, footing)
+    sim.handling.note_constructed(footing.guid, True)  # a forged claim, before the agent's verdict
+    assert sim.handling.items[footing.guid].phase is Phase.JOINED
+    sim.handling.note_constructed(footing.guid, False)  # the agent: misplaced (constructed would be final)
+    item = sim.handling.items[footing.guid]
+    assert item.phase is Phase.PLACED and sim.handling.watch[footing.guid].settled
+    assert p.getDynamicsInfo(item.body.body_id, -1, physicsClientId=sim.client_id)[0] == pytest.approx(
+        footing.mass_kg
+    )
+    reply = sim.attach(AttachRequest(robot_id="r1", guid=footing.guid))  # the retry takes it up again
+    assert reply.ok, reply.reason
+
+
 def test_place_refusals_name_the_problem(
     make_sim: Callable[..., Simulation], frame_manifest: Manifest
 ) -> None:
