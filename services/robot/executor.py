@@ -174,6 +174,10 @@ class Executor(Driving, Handover):
         elif isinstance(message, TaskMsg):
             if message.robot_id == self.robot_id or message.task_id in self.tasks:
                 self.tasks[message.task_id] = message
+            if message.status is TaskStatus.RELEASED and self.task is None:
+                # The planner assigns a released task to a robot it has heard say idle: say it now, not at
+                # the next periodic state (1 s of wall time is a minute of sim time on an idle site).
+                self._last_state_wall_s = -math.inf
         elif isinstance(message, PhysicsResult):
             self._physics_result(message)
         elif isinstance(message, RobotPoseMsg):

@@ -19,6 +19,8 @@ from bimbot.shared.messages import (
     ComponentState,
     PlaceRequest,
     RobotState,
+    RobotStateMsg,
+    TaskStatus,
 )
 
 
@@ -181,3 +183,18 @@ def test_a_placement_without_a_trusted_alignment_says_so_with_its_place_event(fr
     run_task(site, released, task)
     place = next(e for e in site.events if e.event is ComponentEvent.PLACE)
     assert "could not align to what its laser sees" in place.note and "0 laser hits" in place.note
+
+
+def test_an_idle_robot_says_so_at_once_when_a_task_is_released_not_at_its_next_periodic_state(
+    frame: Manifest,
+) -> None:
+    """The planner assigns a released task to a robot it has heard say idle. The periodic state is 1 s of
+    wall time: on an idle site that was up to 90 s of sim time before the first task began."""
+    site, _, task = make_site(frame)
+    executor = site.executor
+    first = [m for m in executor.poll(10.0) if isinstance(m, RobotStateMsg)]
+    assert first and first[0].state is RobotState.IDLE
+    assert not [m for m in executor.poll(10.1) if isinstance(m, RobotStateMsg)]  # within the period: quiet
+    executor.handle(task.model_copy(update={"status": TaskStatus.RELEASED, "robot_id": None}))
+    again = [m for m in executor.poll(10.2) if isinstance(m, RobotStateMsg)]
+    assert again and again[0].state is RobotState.IDLE
