@@ -70,7 +70,8 @@ def observed_run(bundled_build: Path, tmp_path_factory: pytest.TempPathFactory) 
         with RobotStandIn(manifest, BusOptions(connect=(endpoint,)), robot_ids=("r1", "r2")):
             agents = ServiceProcess("agents", ["agents", "--build", str(build), "--connect", endpoint], tmp)
             planner_args = ["planner", "--build", str(build), "--connect", endpoint, "--exit-when-done"]
-            planner = ServiceProcess("planner", [*planner_args, "--resend-s", "0.5"], tmp)
+            planner_args += ["--resend-s", "0.5", "--site-info-timeout-s", "0.5"]  # no physics: the stand-in
+            planner = ServiceProcess("planner", planner_args, tmp)
             services += [planner, agents]
             assert planner.wait(RUN_TIMEOUT_S) == 0, planner.log()[-3000:]
             try:
