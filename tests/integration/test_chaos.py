@@ -1,6 +1,6 @@
 """Any service may die mid-build: ``bimbot run`` restarts it and the build completes, nothing done twice.
 
-The bundled frame (28 components, one robot) is built by ``bimbot run`` as a process; while it builds,
+A generated 3×2 frame (18 components, one robot) is built by ``bimbot run`` as a process; while it builds,
 the test SIGKILLs each service once, in turn — physics, the robot, the agents, the planner and the bus
 router — each when a few more components are constructed and the one killed before is running again.
 Then: the run ends by itself with every component constructed and exit 0; its report lists the five
@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -31,7 +30,7 @@ pytestmark = pytest.mark.integration
 
 RUN_TIMEOUT_S = 600
 KILLS = ("physics", "robot", "agents", "planner", "bus")  # the `bimbot <command>` of each victim
-FIRST_KILL_AT, KILL_EVERY = 3, 4  # constructed components before the first kill, and between kills
+FIRST_KILL_AT, KILL_EVERY = 2, 3  # constructed components before the first kill, and between kills
 
 
 def _children(pid: int) -> dict[str, int]:
@@ -66,11 +65,25 @@ def _constructions(run: RunFolder) -> Counter[str]:
     )
 
 
+@pytest.fixture(scope="module")
+def frame_3x2(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """18 components: the last kill (after 14) leaves four to build with every service restarted."""
+    folder = tmp_path_factory.mktemp("chaos_frame")
+    ifc = folder / "frame.ifc"
+    for args in (
+        ("sample", "light-steel-frame", "-o", str(ifc), "--bays", "3x2"),
+        ("convert", str(ifc), "-o", str(folder / "build"), "--no-progress"),
+    ):
+        subprocess.run(
+            [sys.executable, "-m", "bimbot.cli", *args], check=True, capture_output=True, timeout=120
+        )
+    return folder / "build"
+
+
 def test_every_service_killed_once_mid_build_the_build_completes_once(
-    bundled_build: Path, tmp_path: Path
+    frame_3x2: Path, tmp_path: Path
 ) -> None:
-    build = tmp_path / "build"
-    shutil.copytree(bundled_build, build)
+    build = frame_3x2
     run = RunFolder(tmp_path / "run")
     command = [sys.executable, "-m", "bimbot.cli", "run", str(build), "-q", "--run-dir", str(run.root)]
     command += ["--robots", "1"]  # one process per kind: the one robot is killed too
