@@ -283,8 +283,10 @@ class Placing:
     def _fell_off(self, item: Item) -> bool:
         """A released component far below the ground or off the site (it slid off a pit's floor, or was
         thrown) would fall for ever: it is stopped where it is, static, and reported as it is (its drift says
-        it did not hold). Poses on the bus stay bounded."""
-        (x, y, z), _ = item.pose
+        it did not hold). Poses on the bus stay bounded. Judged by its centre of mass, not its frame's origin:
+        an element placed by an identity placement (common in Revit exports) has its origin at the model's
+        origin, far from its geometry and possibly off the site."""
+        (x, y, z), _ = p.getBasePositionAndOrientation(item.body.body_id, physicsClientId=self.client_id)
         (x0, y0), (x1, y1) = self.site_bounds.min_xy, self.site_bounds.max_xy
         margin = FELL_OFF_M
         if z > -margin and x0 - margin < x < x1 + margin and y0 - margin < y < y1 + margin:

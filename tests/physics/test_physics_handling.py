@@ -444,6 +444,22 @@ def test_a_target_whose_frame_lies_off_site_but_whose_footprint_stands_on_it_is_
     assert sim.place(request) is None  # accepted: the footprint is where the column stands
 
 
+def test_falling_off_the_site_is_judged_by_the_centre_of_mass_not_the_frame_origin(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """A Revit element with an identity placement has its frame at the model's origin, possibly off the
+    site, while its geometry stands on it: the hub's steel had 11 columns "fall off the site" at release."""
+    sim = make_sim(robots=1)
+    footing = _named(frame_manifest, "Footing A1")
+    _placed_and_answered(sim, footing)
+    item = sim.handling.items[footing.guid]
+    (x, y, z), quat = item.pose
+    item.pose = ((x - 1000.0, y, z), quat)  # its frame far off the site, its body where it rests
+    assert not sim.handling._fell_off(item)
+    p.resetBasePositionAndOrientation(item.body.body_id, [x, y, -50.0], quat, physicsClientId=sim.client_id)
+    assert sim.handling._fell_off(item)  # its centre of mass 50 m below the ground: stopped
+
+
 def test_a_component_that_falls_off_the_site_is_stopped_and_reported_not_a_crash(
     make_sim: Callable[..., Simulation], frame_manifest: Manifest
 ) -> None:
