@@ -64,7 +64,7 @@ def test_every_data_file_the_packages_read_is_installed_with_them() -> None:
     globs = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]
     data_folders = {
         "bimbot/data": ("bimbot.data", ROOT / "bimbot/data"),
-        "shared/robots": ("bimbot.shared", ROOT / "shared"),
+        "shared/robots": ("bimbot.shared.robots", ROOT / "shared/robots"),
     }
     checked = 0
     for folder, (package, base) in data_folders.items():
