@@ -65,7 +65,11 @@ def robot_line(msg: RobotStateMsg, names: Mapping[str, str | None]) -> str:
 
 
 def progress_line(constructed: int, total: int, sim_time_s: float, rtf: float | None, wall_s: float) -> str:
-    """``constructed 3/9 · sim 412.0 s · 8.1× real time · wall 51 s``."""
+    """``constructed 3/9 · sim 412.0 s · 8.1× real time · wall 51 s``; before the clock moves, that the
+    services are still starting (physics holds its clock until every robot is up)."""
+    if sim_time_s == 0.0 and constructed == 0:
+        waiting = "starting the services (the clock waits for the robots)"
+        return f"constructed 0/{total} · {waiting} · wall {wall_s:.0f} s"
     speed = f"{rtf:.1f}× real time" if rtf is not None else "real time –"
     return f"constructed {constructed}/{total} · sim {sim_time_s:.1f} s · {speed} · wall {wall_s:.0f} s"
 

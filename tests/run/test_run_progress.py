@@ -41,6 +41,7 @@ def test_progress_and_robot_lines() -> None:
         progress_line(3, 9, 412.04, 8.12, 51.2)
         == "constructed 3/9 · sim 412.0 s · 8.1× real time · wall 51 s"
     )
+    assert "starting the services" in progress_line(0, 9, 0.0, None, 12.0)  # the clock has not moved yet
     line = robot_line(ROBOT, {GUID: "Column A1"})
     assert line.startswith("r1 pick_up T0004 Column A1: driving to the yard")
     assert line.endswith("…") and len(line) < 100
