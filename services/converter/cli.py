@@ -28,6 +28,7 @@ if TYPE_CHECKING:
     from tqdm import tqdm  # imported at run time only once a bar is shown (in update)
 
 _log = logging.getLogger(__name__)
+MAX_WARNINGS_SHOWN = 10  # the converter's warnings on stderr; every one is in the manifest
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -103,10 +104,21 @@ def run(args: argparse.Namespace) -> int:
             ) from None
     seconds = time.perf_counter() - started
     _log.debug("stage seconds: %s", {k: round(v, 3) for k, v in stats.seconds_by_stage.items()})
-    for item in manifest.skipped:
-        _log.info("skipped %s %s (%s): %s", item.ifc_class, item.guid, item.name or "unnamed", item.reason)
-    for warning in manifest.warnings:
-        _log.info("warning: %s", warning)
+    from .selection import left_out_by_selection
+
+    for item in manifest.skipped:  # the selection's choices in the summary line; problems one line each
+        level = logging.DEBUG if left_out_by_selection(item.reason) else logging.INFO
+        _log.log(
+            level, "skipped %s %s (%s): %s", item.ifc_class, item.guid, item.name or "unnamed", item.reason
+        )
+    for warning in manifest.warnings[:MAX_WARNINGS_SHOWN]:
+        _log.warning("%s", warning)
+    if len(manifest.warnings) > MAX_WARNINGS_SHOWN:
+        _log.warning(
+            "… and %d more warning(s): 'warnings' in %s/manifest.json",
+            len(manifest.warnings) - MAX_WARNINGS_SHOWN,
+            args.output,
+        )
     sys.stdout.write(
         f"converted {len(manifest.components)} component(s), skipped {len(manifest.skipped)}"
         f"{skipped_summary(manifest.skipped)}, "

@@ -118,6 +118,21 @@ def reason_head(reason: str) -> str:
     return re.split(r"[;:]", reason, maxsplit=1)[0].strip()
 
 
+SELECTION_HEADS = (
+    "virtual element",
+    "feature element",
+    "left out by --exclude",
+    "not in --only",
+    "not a building",
+)
+
+
+def left_out_by_selection(reason: str) -> bool:
+    """Whether a skip ``reason`` is the class selection's (:func:`class_rejection`: what the user chose or the
+    defaults leave out), not a problem with the element (no geometry, a duplicate GlobalId, …)."""
+    return reason.startswith(SELECTION_HEADS)
+
+
 def class_rejection(
     model: ifcopenshell.file, element: ifcopenshell.entity_instance, rule: ClassRule, roots: Sequence[str]
 ) -> str | None:

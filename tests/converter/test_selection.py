@@ -169,6 +169,7 @@ def test_cli_summary_counts_what_was_left_out_by_reason_and_include_adds_it(
     assert "converted 3 component(s), skipped 0," in result.stdout
     result = _bimbot("convert", str(source), "-o", str(tmp_path / "only"), "--only", "IfcWall")
     assert "converted 1 component(s), skipped 2 (2 not in --only IfcWall)" in result.stdout, result.stdout
+    assert "Chair" not in result.stderr  # what the selection leaves out is counted, not listed one by one
 
 
 # --- the public samples ----------------------------------------------------------------------------------
