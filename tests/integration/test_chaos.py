@@ -20,6 +20,7 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
+from frames import convert_small_frame
 
 from bimbot.services.component_agents.journal import journal_path, replay
 from bimbot.shared.messages import ComponentState
@@ -68,16 +69,7 @@ def _constructions(run: RunFolder) -> Counter[str]:
 @pytest.fixture(scope="module")
 def frame_3x2(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """18 components: the last kill (after 14) leaves four to build with every service restarted."""
-    folder = tmp_path_factory.mktemp("chaos_frame")
-    ifc = folder / "frame.ifc"
-    for args in (
-        ("sample", "light-steel-frame", "-o", str(ifc), "--bays", "3x2"),
-        ("convert", str(ifc), "-o", str(folder / "build"), "--no-progress"),
-    ):
-        subprocess.run(
-            [sys.executable, "-m", "bimbot.cli", *args], check=True, capture_output=True, timeout=120
-        )
-    return folder / "build"
+    return convert_small_frame(tmp_path_factory.mktemp("chaos_frame"), (3, 2))
 
 
 def test_every_service_killed_once_mid_build_the_build_completes_once(

@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from frames import convert_small_frame
 
 from bimbot.shared.manifest import read_manifest
 from bimbot.shared.run_folder import RunFolder
@@ -92,15 +93,7 @@ def _bimbot(*args: str, timeout_s: float = 180) -> subprocess.CompletedProcess[s
 
 @pytest.fixture(scope="module")
 def frame_2x2(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    folder = tmp_path_factory.mktemp("fleet_frame")
-    ifc = folder / "frame.ifc"
-    for args in (
-        ("sample", "light-steel-frame", "-o", str(ifc), "--bays", "2x2"),
-        ("convert", str(ifc), "-o", str(folder / "build"), "--no-progress"),
-    ):
-        done = _bimbot(*args)
-        assert done.returncode == 0, done.stderr[-2000:]
-    return folder / "build"
+    return convert_small_frame(tmp_path_factory.mktemp("fleet_frame"), (2, 2))
 
 
 def test_a_mixed_fleet_builds_by_capability_with_crane_lifts_and_hand_offs(

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import IO
 
 import pytest
+from frames import convert_small_frame
 
 from bimbot.services.component_agents.journal import journal_path, replay
 from bimbot.shared.manifest import read_manifest
@@ -60,16 +61,7 @@ FORGER = textwrap.dedent(
 
 @pytest.fixture(scope="module")
 def small_frame(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    folder = tmp_path_factory.mktemp("forged_frame")
-    ifc = folder / "frame.ifc"
-    for args in (
-        ("sample", "light-steel-frame", "-o", str(ifc), "--bays", "2x1"),
-        ("convert", str(ifc), "-o", str(folder / "build"), "--no-progress"),
-    ):
-        subprocess.run(
-            [sys.executable, "-m", "bimbot.cli", *args], check=True, capture_output=True, timeout=120
-        )
-    return folder / "build"
+    return convert_small_frame(tmp_path_factory.mktemp("forged_frame"), (2, 1))
 
 
 class _Lines:

@@ -50,20 +50,6 @@ from bimbot.shared.occupancy_grid import OccupancyGrid
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.site_layout import plan_site
 
-
-def convert_small_frame(out_dir: Path, bays: tuple[int, int] = (2, 1)) -> Path:
-    """Generate the light steel frame sample with ``bays`` columns and convert it into ``out_dir``."""
-    from bimbot.services.converter import sample_light_steel_frame as sample
-    from bimbot.services.converter.convert import convert_model
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    source = out_dir / "frame.ifc"
-    model = sample.build_light_steel_frame(*bays)
-    model.write(str(source))
-    convert_model(model, source, out_dir / "build")
-    return out_dir / "build"
-
-
 BODY_RADIUS_M = 0.45  # what other robots' lasers see of a robot
 N_BEAMS = 180
 RANGE_MAX_M = 15.0

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import pytest
 import zenoh
-from robot_sim import SimPhysics, convert_small_frame
+from frames import convert_small_frame
+from robot_sim import SimPhysics
 
 from bimbot.services.component_agents.agent import ComponentAgent
 from bimbot.services.robot.app import RobotOptions, main

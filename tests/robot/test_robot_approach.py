@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from robot_sim import convert_small_frame
+from frames import convert_small_frame
 
 from bimbot.services.robot.approach import (
     ApproachConfig,

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from fake_site import DT, make_site, run_task
-from robot_sim import convert_small_frame
+from frames import convert_small_frame
 
 from bimbot.services.robot.protocol import EventQueue, injected
 from bimbot.services.robot.task_machine import PAPER_ORDER

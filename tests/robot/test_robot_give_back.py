@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 from fake_site import DT, FakeSite, make_site, run_task
-from robot_sim import convert_small_frame
+from frames import convert_small_frame
 from site_models import ROOM_WALLS, build_site_model
 
 from bimbot.services.converter.convert import convert_model

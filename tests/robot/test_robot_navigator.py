@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
-from robot_sim import convert_small_frame
+from frames import convert_small_frame
 
 from bimbot.services.robot.dwa import DwaConfig
 from bimbot.services.robot.motion import Path, carrot, turn_command, yield_point

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from robot_sim import convert_small_frame
+from frames import convert_small_frame
 from test_robot_navigator import DT, World, start_of
 
 from bimbot.services.robot.navigator import Navigator, NavStatus

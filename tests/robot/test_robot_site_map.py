@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from robot_sim import convert_small_frame
+from frames import convert_small_frame
 
 from bimbot.services.robot.site_map import MapConfig, SiteMap, outline
 from bimbot.shared.footprint import Footprint, convex_hull_xy

@@ -13,7 +13,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from robot_sim import SiteSim, convert_small_frame
+from frames import convert_small_frame
+from robot_sim import SiteSim
 
 from bimbot.services.component_agents.verification import Tolerances
 from bimbot.services.planner.sources import SourceKind

@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 
 import pytest
+from frames import convert_small_frame
 
 from bimbot.shared.run_folder import RunFolder, latest_run_folder
 from bimbot.supervisor import wait_until
@@ -28,16 +29,7 @@ TIMEOUT_S = 120
 
 @pytest.fixture(scope="module")
 def small_frame(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    folder = tmp_path_factory.mktemp("small_frame")
-    ifc = folder / "frame.ifc"
-    for args in (
-        ("sample", "light-steel-frame", "-o", str(ifc), "--bays", "2x1"),
-        ("convert", str(ifc), "-o", str(folder / "build"), "--no-progress"),
-    ):
-        subprocess.run(
-            [sys.executable, "-m", "bimbot.cli", *args], check=True, capture_output=True, timeout=120
-        )
-    return folder / "build"
+    return convert_small_frame(tmp_path_factory.mktemp("small_frame"), (2, 1))
 
 
 def _start(build: Path, *options: str) -> subprocess.Popen[str]:
