@@ -8,10 +8,11 @@ report does not use them). Physics' site info is asked once it answers: the robo
 groups its lanes and gives utilisation per type.
 
 What is constructed comes from the agents' twins, never from a state message alone
-(:mod:`bimbot.run_states`): a state message is a hint; a claim of a terminal state (or a message that does
-not follow from what is known) makes the monitor ask that component's twin, once, without blocking (the
-answer comes back through the inbox, at most one question per component every ``TWIN_RETRY_S``), and
-only the twin's answer counts; a transition the agents' state table does not allow is dropped at once.
+(:mod:`bimbot.services.component_agents.trusted_states`): a state message is a hint; a claim of a terminal
+state (or a message that does not follow from what is known) makes the monitor ask that component's twin,
+once, without blocking (the answer comes back through the inbox, at most one question per component
+every ``TWIN_RETRY_S``), and only the twin's answer counts; a transition the agents' state table does
+not allow is dropped at once.
 A component's timeline in the report is rebuilt from its twin whenever one answers.
 
 At the end, before the services stop, :meth:`RunMonitor.audit` asks every twin at once
@@ -34,7 +35,7 @@ import zenoh
 from pydantic import BaseModel
 
 from bimbot.as_built import AGENT_TOLERANCES, AsBuiltAudit, add_to_report, audit_as_built
-from bimbot.run_states import Judgement, TrustedStates
+from bimbot.services.component_agents.trusted_states import Judgement, TrustedStates
 from bimbot.services.component_agents.verification import Tolerances
 from bimbot.services.observer.report import UNFINISHED, ReportCollector, RunEnding
 from bimbot.shared.asked import Asked
@@ -142,7 +143,8 @@ class RunMonitor:
         self._ask_due_twins()
 
     def apply(self, message: BaseModel) -> None:
-        """A message heard on the bus (a state message is judged first, see :mod:`bimbot.run_states`)."""
+        """A message heard on the bus (a state message is judged first, see
+        :mod:`bimbot.services.component_agents.trusted_states`)."""
         if isinstance(message, ComponentStateMsg):
             self._component_state(message)
             return

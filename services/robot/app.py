@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 import zenoh
 
-from bimbot.shared.bus import BusOptions, Inbox, Received, decode, encode, open_session, query_first
+from bimbot.shared.bus import Answer, BusOptions, Inbox, Received, decode, encode, open_session, query_first
 from bimbot.shared.clock_guard import ClockGuard, Verdict
 from bimbot.shared.identifiers import guid_to_key
 from bimbot.shared.keyspace import Topic
@@ -40,6 +40,7 @@ from bimbot.shared.messages import (
     COMPONENT_EVENT_KEY,
     COMPONENT_POSE,
     COMPONENT_STATE,
+    COMPONENT_TWIN,
     PHYSICS_ATTACH,
     PHYSICS_DROP,
     PHYSICS_INFO,
@@ -59,6 +60,7 @@ from bimbot.shared.messages import (
     RobotStateMsg,
     SensorsMsg,
     SitePosesMsg,
+    TwinMsg,
     key,
 )
 from bimbot.shared.occupancy_grid import OccupancyGrid
@@ -67,6 +69,7 @@ from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.twin_query import ask_twins
 
 from .astar import plan_path
+from .component_states import TwinQuestion
 from .executor import Executor, ExecutorConfig, Outgoing, executor_class
 from .protocol import PhysicsRequest, PhysicsResult
 
@@ -80,6 +83,7 @@ SUBSCRIPTIONS: tuple[tuple[Topic, dict[str, str]], ...] = (
 )
 POSES_TIMEOUT_S = 5.0  # wall seconds to ask physics where this robot is (at start)
 TWINS_TIMEOUT_S = 5.0  # wall seconds to collect the twins' answers (at start)
+TWIN_REPLY_TIMEOUT_S = 2.0  # wall seconds a question to one twin stays open
 _PHYSICS_REQUESTS = {"attach": PHYSICS_ATTACH, "place": PHYSICS_PLACE, "drop": PHYSICS_DROP}
 
 
@@ -154,7 +158,7 @@ def _learn_the_site(
     twins = 0
     for twin in ask_twins(session, site, TWINS_TIMEOUT_S, inbox.invalid):
         if twin.history:
-            executor.handle(twin.history[-1])
+            executor.handle(twin)
             twins += 1
     for pose in poses.components.values() if poses is not None else ():
         executor.handle(pose)
@@ -231,6 +235,11 @@ class _Loop:
                     self.executor.handle(sensors.odom)
                     if sensors.scan is not None:  # a crane has no laser
                         self.executor.handle(sensors.scan)
+            case Answer(key=reply_key, message=TwinMsg() as twin):
+                if reply_key == COMPONENT_TWIN.key(site=self.site, key=twin.key):
+                    self.executor.handle(twin)
+                else:
+                    self.inbox.invalid.record(reply_key, "a twin answered on another component's key")
             case Received(message=message):
                 self.executor.handle(message)
 
@@ -239,6 +248,9 @@ class _Loop:
         for message in sorted(messages, key=_send_order):
             if isinstance(message, PhysicsRequest):
                 self._request(message)
+            elif isinstance(message, TwinQuestion):  # a state message that did not fit: ask the truth
+                twin_key = {"site": self.site, "key": message.key}
+                self.inbox.ask(self.session, COMPONENT_TWIN, timeout_s=TWIN_REPLY_TIMEOUT_S, **twin_key)
             elif isinstance(message, ComponentEventMsg):
                 event_key = key(COMPONENT_EVENT_KEY, site=self.site, key=guid_to_key(message.guid))
                 self.session.put(event_key, encode(message))

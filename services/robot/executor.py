@@ -72,11 +72,13 @@ from bimbot.shared.messages import (
     TaskKind,
     TaskMsg,
     TaskStatus,
+    TwinMsg,
 )
 from bimbot.shared.reasons import Reason
 
 from . import give_back
 from .approach import ApproachConfig, exit_point
+from .component_states import ComponentStates, TwinQuestion
 from .crane_work import CraneWork
 from .driving import Driving
 from .handover import Handover
@@ -92,7 +94,7 @@ _log = logging.getLogger(__name__)
 _S, _E, _C = RobotState, ComponentEvent, ComponentState
 DEFAULT_MAP = MapConfig()
 
-Outgoing = CmdVelMsg | RobotStateMsg | PlanMsg | ComponentEventMsg | PhysicsRequest
+Outgoing = CmdVelMsg | RobotStateMsg | PlanMsg | ComponentEventMsg | PhysicsRequest | TwinQuestion
 
 
 class Executor(Driving, Handover):
@@ -135,7 +137,8 @@ class Executor(Driving, Handover):
         self.machine = TaskMachine()
         self.task: Task | None = None
         self.tasks: dict[str, TaskMsg] = {}  # latest message per task id (assigned to this robot once)
-        self.component_states: dict[str, ComponentStateMsg] = {}
+        # judged state messages, twins asked when one does not fit (a forged state must not stall a task)
+        self.component_states = ComponentStates({c.guid: c.key for c in manifest.components})
         # assignments taken on: (task id, attempt, assignment stamp); a task given back and assigned again
         # (same attempt) is a new assignment with a new stamp, while a repeated delivery is not
         self.performed: set[tuple[str, int, float]] = set()
@@ -170,7 +173,11 @@ class Executor(Driving, Handover):
         elif isinstance(message, ComponentPoseMsg):
             self.site_map.observe_pose(message)
         elif isinstance(message, ComponentStateMsg):
-            self._component_state(message)
+            if (state := self.component_states.hear(message)) is not None:
+                self._component_state(message.guid, state)
+        elif isinstance(message, TwinMsg):
+            if (state := self.component_states.take_twin(message)) is not None:
+                self._component_state(message.guid, state)
         elif isinstance(message, TaskMsg):
             if message.robot_id == self.robot_id or message.task_id in self.tasks:
                 self.tasks[message.task_id] = message
@@ -226,6 +233,7 @@ class Executor(Driving, Handover):
         if signature != self._last_state or wall_s - self._last_state_wall_s >= self.config.state_period_s:
             self._out.append(self.state_message(wall_s))
             self._last_state, self._last_state_wall_s = signature, wall_s
+        self._out.extend(self.component_states.questions(wall_s))
         out, self._out = self._out, []
         return out
 
@@ -251,8 +259,8 @@ class Executor(Driving, Handover):
                 self._park()
                 return
         task = self.task
-        latest = self.component_states.get(task.message.guid)
-        task.events.confirm(latest.state if latest else None, verdict_seen=task.verdict is not None)
+        latest = self.component_states.state(task.message.guid)
+        task.events.confirm(latest, verdict_seen=task.verdict is not None)
         if self._withdrawn(task):
             return
         if task.abandoning:
@@ -292,8 +300,8 @@ class Executor(Driving, Handover):
             assignment = (message.task_id, message.attempt, message.wall_time_s)
             if assignment in self.performed or message.guid not in self.components:
                 continue
-            known = self.component_states.get(message.guid)
-            if known is not None and known.state is not _C.RELEASED:
+            known = self.component_states.state(message.guid)
+            if known is not None and known is not _C.RELEASED:
                 continue  # the assignment is ahead of the component's release: wait for it
             self.performed.add(assignment)
             component = self.components[message.guid]
@@ -422,17 +430,12 @@ class Executor(Driving, Handover):
 
     # --- helpers -----------------------------------------------------------------------------------------
 
-    def _component_state(self, message: ComponentStateMsg) -> None:
-        self.component_states[message.guid] = message
-        self.site_map.observe_state(message.guid, message.state)
+    def _component_state(self, guid: str, state: ComponentState) -> None:
+        """A trusted state change (a judged message, or a twin's answer)."""
+        self.site_map.observe_state(guid, state)
         task = self.task
-        if (
-            task is not None
-            and task.placed
-            and message.guid == task.message.guid
-            and message.state in VERDICTS
-        ):
-            task.verdict = message.state  # kept: a retry may move the state on before the next tick
+        if task is not None and task.placed and guid == task.message.guid and state in VERDICTS:
+            task.verdict = state  # kept: a retry may move the state on before the next tick
 
     def _fire(self, trigger: Trigger) -> None:
         """Change state and publish it at once: every state of the cycle shows on the bus, even those that

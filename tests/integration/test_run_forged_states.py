@@ -8,6 +8,8 @@ get right is not zero): announcements, jumps the agents' state table forbids, an
 every 0.1 s for every component. The run's report, its summary line and its exit code must say exactly
 what the agents' journal says (up to the end-of-run audit, when the run asks every twin: a component the
 robot finishes while the services are being stopped is in the journal but was never the run's to count).
+The robot judges the state messages the same way, so the forger does not stall it either: every component
+is built.
 """
 
 from __future__ import annotations
@@ -137,6 +139,6 @@ def test_forged_constructed_messages_change_nothing_the_run_counts_what_the_twin
     assert before <= reported <= set(journal), detail
     assert report["totals"]["constructed"] == len(reported), detail
     assert f"constructed {len(reported)}/{len(manifest.components)} components" in stdout, detail
-    all_built = len(reported) == len(manifest.components)
-    assert (process.returncode == 0) == all_built, detail
+    # nor does it stall the robot (it asks the twin about a state that does not follow): all are built
+    assert len(reported) == len(manifest.components) and process.returncode == 0, detail
     assert report["totals"]["state_messages_not_taken"] > 0, detail  # the forgeries were heard and refused

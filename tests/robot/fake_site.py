@@ -9,7 +9,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bimbot.services.component_agents.state_table import next_state
+from bimbot.services.component_agents.state_table import Verdict, next_state
+from bimbot.services.robot.component_states import TwinQuestion
 from bimbot.services.robot.executor import Executor, ExecutorConfig
 from bimbot.services.robot.particle_filter import simulate_scan, wrap_angle
 from bimbot.services.robot.protocol import PhysicsRequest, PhysicsResult
@@ -34,6 +35,7 @@ from bimbot.shared.messages import (
     SiteInfoMsg,
     TaskMsg,
     TaskStatus,
+    TwinMsg,
 )
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.site_layout import plan_site
@@ -65,15 +67,21 @@ class FakeSite:
     due: list[tuple[int, object]] = field(default_factory=list)
     carried: str | None = None
     tick_s: list[float] = field(default_factory=list)
+    history: dict[str, list[ComponentStateMsg]] = field(default_factory=dict)  # the twins' transitions
+    twin_questions: list[str] = field(default_factory=list)  # GUIDs whose twin the robot asked
 
     def send(self, message: object, delay: int = 1) -> None:
         self.due.append((self.step + delay, message))
 
     def set_state(self, guid: str, state: ComponentState, event: str) -> None:
+        previous = self.states.get(guid, ComponentState.PLANNED)
         self.states[guid] = state
-        self.send(
-            ComponentStateMsg(guid=guid, state=state, event=event, sim_time_s=self.step * DT, wall_time_s=0.0)
+        now = self.step * DT
+        message = ComponentStateMsg(
+            guid=guid, state=state, previous=previous, event=event, sim_time_s=now, wall_time_s=0.0
         )
+        self.history.setdefault(guid, []).append(message)
+        self.send(message)
 
     def run(self, steps: int, until=None) -> None:
         laser = self.executor.site_map.laser_grid()
@@ -132,6 +140,30 @@ class FakeSite:
         elif isinstance(message, PhysicsRequest):
             self.requests.append(message)
             self.physics(message)
+        elif isinstance(message, TwinQuestion):
+            self.twin_questions.append(message.guid)
+            self.send(self.twin(message.guid))
+
+    def twin(self, guid: str) -> TwinMsg:
+        """The component's twin as its agent would answer it: its state and the transitions that led there."""
+        component = self.component(guid)
+        target = component.target_pose_world
+        return TwinMsg(
+            guid=guid,
+            key=component.key,
+            ifc_class=component.ifc_class,
+            name=component.name,
+            storey=component.storey,
+            material=component.material,
+            mass_kg=component.mass_kg,
+            target_pose=PoseMsg(position_m=target.position_m, quat_xyzw=target.quat_xyzw),
+            current_pose=None,
+            current_pose_sim_time_s=None,
+            state=self.states.get(guid, ComponentState.PLANNED),
+            attempt=1,
+            robot_id="r1",
+            history=self.history.get(guid, []),
+        )
 
     def component_event(self, message: ComponentEventMsg) -> None:
         if message.event in self.drop_first:
@@ -189,9 +221,10 @@ class FakeSite:
         """The agent's verdict once it is verifying (called by the tests' ``until``)."""
         guid, error = self.pending_verdict
         if self.states.get(guid) is ComponentState.VERIFYING:
-            self.set_state(
-                guid, ComponentState.CONSTRUCTED if error < 0.01 else ComponentState.MISPLACED, "verified"
-            )
+            if error < 0.01:
+                self.set_state(guid, ComponentState.CONSTRUCTED, Verdict.VERIFIED.value)
+            else:
+                self.set_state(guid, ComponentState.MISPLACED, Verdict.MISPLACED.value)
 
 
 def make_site(
@@ -226,9 +259,15 @@ def make_site(
         wall_time_s=0.0,
     )
     released = ComponentStateMsg(
-        guid=component.guid, state=ComponentState.RELEASED, event="release", sim_time_s=0, wall_time_s=0
+        guid=component.guid,
+        state=ComponentState.RELEASED,
+        previous=ComponentState.PLANNED,
+        event="release",
+        sim_time_s=0,
+        wall_time_s=0,
     )
     site.states[component.guid] = ComponentState.RELEASED
+    site.history[component.guid] = [released]
     return site, released, task
 
 

@@ -22,6 +22,7 @@ import numpy as np
 from bimbot.services.component_agents.agent import ComponentAgent
 from bimbot.services.planner.scheduler import PlannerCore
 from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan
+from bimbot.services.robot.component_states import TwinQuestion
 from bimbot.services.robot.executor import Executor, ExecutorConfig
 from bimbot.services.robot.particle_filter import simulate_scan, wrap_angle
 from bimbot.services.robot.protocol import PhysicsRequest, PhysicsResult
@@ -439,6 +440,8 @@ class SiteSim:
         elif isinstance(out, ComponentEventMsg):
             self.record.events.append(out)
             self._inflight.append(out)
+        elif isinstance(out, TwinQuestion):  # the agent's twin queryable answers at once
+            self._inflight.append(self.agents[out.guid].twin())
         else:
             self._inflight.append(out)
 

@@ -135,7 +135,9 @@ def test_a_task_given_to_another_robot_is_dropped(frame: Manifest) -> None:
 
 def test_an_assignment_waits_for_the_components_release(frame: Manifest) -> None:
     site, released, task = make_site(frame)
-    planned = released.model_copy(update={"state": ComponentState.PLANNED})
+    planned = released.model_copy(
+        update={"state": ComponentState.PLANNED, "previous": None, "event": "start"}
+    )
     site.executor.handle(planned)
     site.executor.handle(task)
     site.run(5)

@@ -38,14 +38,16 @@ def frame(tmp_path_factory: pytest.TempPathFactory) -> Manifest:
 
 
 def _build_walls(site: FakeSite, manifest: Manifest) -> None:
-    """The room's walls are constructed: the robot's map has them at their targets from now on."""
+    """The room's walls are constructed (their agents announce it; the robot's question to their twins
+    confirms it): the robot's map has them at their targets from now on."""
     for component in manifest.components:
         if component.name in ROOM_WALLS:
+            site.states[component.guid] = ComponentState.CONSTRUCTED
             site.executor.handle(
                 ComponentStateMsg(
                     guid=component.guid,
                     state=ComponentState.CONSTRUCTED,
-                    event="verified",
+                    event="resume",
                     sim_time_s=site.step * DT,
                     wall_time_s=0.0,
                 )
@@ -66,6 +68,8 @@ def _given_back(site: FakeSite) -> bool:
 def test_a_column_walled_in_by_its_room_is_given_back_unreachable_before_it_is_picked(room: Manifest) -> None:
     site, released, task = make_site(room, "Column R1")
     _build_walls(site, room)
+    site.run(3)  # the walls' twins answer
+    assert set(site.twin_questions) == {c.guid for c in room.components if c.name in ROOM_WALLS}
     site.executor.handle(released)
     site.executor.handle(task)
     site.run(200, until=_given_back)

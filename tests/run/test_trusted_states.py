@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from run_builders import GUIDS, manifest, state, twin, walk
 
-from bimbot.run_states import Judgement, TrustedStates
+from bimbot.services.component_agents.trusted_states import Judgement, TrustedStates
 from bimbot.shared.messages import ComponentState as S
 
 SITE_MANIFEST = manifest()

@@ -1,4 +1,6 @@
-"""What ``bimbot run`` believes of each component's state: a state message is a hint, the twin is the truth.
+"""What a listener believes of each component's state: a state message is a hint, the twin is the truth.
+
+Used by ``bimbot run`` (:mod:`bimbot.run_monitor`) and by every robot (:mod:`bimbot.services.robot.executor`).
 
 Anyone on the bus can put a :class:`~bimbot.shared.messages.ComponentStateMsg` on
 ``components/<key>/state``; only the component's agent keeps its twin (``components/<key>/twin``), the
@@ -18,8 +20,10 @@ for every component once made ``bimbot run`` print ``constructed 12/12`` and exi
 * ``APPLY`` — any other, an ordinary step of the protocol: taken as it is, for the live progress and the
   stall report; the twins have the last word at the end (a sweep of ``components/*/twin``).
 
-So ``constructed`` is only ever counted from a twin. Pure: no bus; :class:`bimbot.run_monitor.RunMonitor`
-asks the twins and feeds the answers back.
+So ``constructed`` is only ever counted from a twin. A robot judges the same way: a forged ``constructed``
+for the component it is about to pick would otherwise keep it waiting for a release it already had. Pure:
+no bus; :class:`bimbot.run_monitor.RunMonitor` and the robot's adapter ask the twins and feed the answers
+back.
 """
 
 from __future__ import annotations
