@@ -24,10 +24,10 @@ the state changes it went through, for an observer that joined a run late;
 trusts a twin over any state message, :mod:`bimbot.services.component_agents.trusted_states`).
 
 Totals: components by final state, retries, makespan (first release → last constructed), busy time,
-distance, robot utilisation (busy / (robots × makespan)), ``by_type`` (per robot type: robots, busy
-time, build and hand-off tasks, utilisation), the number of hand-off tasks, the largest placement errors
-of the constructed components; ``placement_error_mm_by_type`` (the distribution of every attempt's
-position error per robot type), ``retries_by_cause`` and ``max_drift_mm``.
+distance, robot utilisation (busy time within the makespan / (robots × makespan)), ``by_type`` (per robot
+type: robots, busy time, build and hand-off tasks, utilisation), the number of hand-off tasks, the largest
+placement errors of the constructed components; ``placement_error_mm_by_type`` (the distribution of every
+attempt's position error per robot type), ``retries_by_cause`` and ``max_drift_mm``.
 
 Reasons: every component that is not constructed gets a ``reason`` object (``code``, ``message``,
 ``guid``, ``robot_id``; :class:`bimbot.shared.reasons.Reason`). A failed or blocked component has its own
@@ -74,7 +74,7 @@ from .report_placements import (
     placement_totals,
 )
 from .report_robots import RobotTimeline, robot_entry
-from .report_totals import count_reasons, difference, dump_reason, scaled, totals_of
+from .report_totals import count_reasons, difference, dump_reason, makespan_window, scaled, totals_of
 
 REPORT_SCHEMA_VERSION = 1
 _OWN_REASON_STATES = (ComponentState.FAILED, ComponentState.BLOCKED)
@@ -306,7 +306,7 @@ class ReportCollector:
             for robot_id, robot in sorted(self.robots.items())
         }
         totals = totals_of(components, robots)
-        totals["by_type"] = by_type(robots, totals["makespan_s"])
+        totals["by_type"] = by_type(robots, makespan_window(components))
         totals["hand_off_tasks"] = sum(entry["hand_off_tasks"] for entry in totals["by_type"].values())
         totals["blocked"] = len(self.progress.blocked) if self.progress else 0
         totals["done"] = bool(self.progress and self.progress.done)

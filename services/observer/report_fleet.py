@@ -22,6 +22,8 @@ from typing import Any
 
 from bimbot.shared.messages import TaskKind
 
+from .report_totals import busy_within_s
+
 HAND_OFF_ID = re.compile(r"-h\d+$")
 UNKNOWN_TYPE = "unknown"
 _DIGITS = re.compile(r"(\d+)")
@@ -57,23 +59,28 @@ def lane_label(robot_id: str, robot: Mapping[str, Any]) -> str:
     return f"{robot_id} ({robot['type']})" if robot.get("type") else f"robot {robot_id}"
 
 
-def by_type(robots: Mapping[str, Mapping[str, Any]], makespan_s: float | None) -> dict[str, dict[str, Any]]:
-    """Per robot type (in lane order): its robots, busy time, tasks by kind and utilisation (None without
-    a makespan)."""
+def by_type(
+    robots: Mapping[str, Mapping[str, Any]], window: tuple[float, float] | None
+) -> dict[str, dict[str, Any]]:
+    """Per robot type (in lane order): its robots, busy time, tasks by kind and utilisation: the busy
+    time inside ``window`` (first release → last construction, sim s) over its robots × the makespan; None
+    without a window."""
     out: dict[str, dict[str, Any]] = {}
+    in_window: dict[str, float] = {}
     for robot_id in robot_order(robots):
         robot = robots[robot_id]
+        name = robot.get("type") or UNKNOWN_TYPE
         entry = out.setdefault(
-            robot.get("type") or UNKNOWN_TYPE,
-            {"robots": [], "busy_s": 0.0, "build_tasks": 0, "hand_off_tasks": 0, "utilisation": None},
+            name, {"robots": [], "busy_s": 0.0, "build_tasks": 0, "hand_off_tasks": 0, "utilisation": None}
         )
         entry["robots"].append(robot_id)
         entry["busy_s"] += robot["busy_s"]
         entry["build_tasks"] += _count(robot["tasks"], TaskKind.BUILD.value)
         entry["hand_off_tasks"] += _count(robot["tasks"], TaskKind.HAND_OFF.value)
-    for entry in out.values():
-        if makespan_s:
-            entry["utilisation"] = entry["busy_s"] / (len(entry["robots"]) * makespan_s)
+        in_window[name] = in_window.get(name, 0.0) + busy_within_s(robot, window)
+    if window is not None and window[1] > window[0]:
+        for name, entry in out.items():
+            entry["utilisation"] = in_window[name] / (len(entry["robots"]) * (window[1] - window[0]))
     return out
 
 

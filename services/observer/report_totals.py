@@ -3,6 +3,7 @@ entries (:mod:`.report`), apart so the collector stays about its timelines."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 from bimbot.shared.messages import ComponentState
@@ -30,6 +31,23 @@ def difference(later: float | None, earlier: float | None) -> float | None:
     return later - earlier if later is not None and earlier is not None else None
 
 
+def busy_within_s(robot: Mapping[str, Any], window: tuple[float, float] | None) -> float:
+    """A robot's busy time inside ``window`` (sim s, first release → last construction): utilisation is
+    the share of the makespan a robot worked, so a task that went on after the last component was built
+    (one that failed, a give-back) counts only up to there; it once gave 116 %."""
+    if window is None:
+        return 0.0
+    start_s, end_s = window
+    return sum(max(0.0, min(end_s, t["end_s"]) - max(start_s, t["start_s"])) for t in robot["tasks"])
+
+
+def makespan_window(components: list[dict[str, Any]]) -> tuple[float, float] | None:
+    """(first release, last construction) in sim seconds, or None before anything was constructed."""
+    released = [c["released_s"] for c in components if c["released_s"] is not None]
+    constructed = [c["constructed_s"] for c in components if c["constructed_s"] is not None]
+    return (min(released), max(constructed)) if released and constructed else None
+
+
 def totals_of(components: list[dict[str, Any]], robots: dict[str, dict[str, Any]]) -> dict[str, Any]:
     by_state: dict[str, int] = {}
     for component in components:
@@ -41,7 +59,9 @@ def totals_of(components: list[dict[str, Any]], robots: dict[str, dict[str, Any]
     built = [c for c in components if c["state"] == ComponentState.CONSTRUCTED.value]
     position_errors = [c["position_error_mm"] for c in built if c["position_error_mm"] is not None]
     angle_errors = [c["angle_error_deg"] for c in built if c["angle_error_deg"] is not None]
-    utilisation = busy / (len(robots) * makespan) if robots and makespan else None
+    window = makespan_window(components)
+    in_window = sum(busy_within_s(robot, window) for robot in robots.values())
+    utilisation = in_window / (len(robots) * makespan) if robots and makespan else None
     return {
         "components": len(components),
         "by_state": dict(sorted(by_state.items())),
