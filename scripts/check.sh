@@ -12,4 +12,6 @@ echo "check: ruff format --check" >&2
 echo "check: mypy" >&2
 bash scripts/typecheck.sh
 echo "check: pytest" >&2
-exec .venv/bin/python -m pytest "$@"
+# two workers (pytest-xdist), a test file at a time each: the suite's builds overlap its unit tests
+# (tests/conftest.py runs the longest files first); BIMBOT_TEST_WORKERS=0 runs it in one process
+exec .venv/bin/python -m pytest -n "${BIMBOT_TEST_WORKERS:-2}" --dist loadfile "$@"

@@ -7,7 +7,10 @@ state):
   its ``robot_id`` is counted invalid; robots physics did not spawn are ignored, logged once);
 * liveliness subscriber ``bimbot/<site>/alive/robot/*``: a robot that disappears stops and drops its load;
 * subscriber ``bimbot/<site>/components/*/state`` (ComponentStateMsg): a component its agent declared
-  constructed can no longer be attached (a misplaced one can, for its retry);
+  constructed can no longer be attached (a misplaced one can, for its retry). Each message is judged as the
+  robots and ``bimbot run`` judge it (:mod:`bimbot.services.component_agents.component_states`): a
+  terminal claim, or a message that does not follow, is asked of the component's twin (``get
+  components/<key>/twin``, answered through the inbox) and only the twin's answer is acted on;
 * queryables ``physics/info`` (SiteInfoMsg), ``physics/attach`` (AttachRequest → PhysicsReply),
   ``physics/drop`` (DropRequest → PhysicsReply: a robot that cannot deliver its load puts it down) and
   ``physics/place`` (PlaceRequest → PhysicsReply). The loop answers them; a place reply is held back
@@ -38,7 +41,9 @@ from pathlib import Path
 import zenoh
 from pydantic import BaseModel
 
+from bimbot.services.component_agents.component_states import ComponentStates
 from bimbot.shared.bus import (
+    Answer,
     BusOptions,
     Inbox,
     IncomingQuery,
@@ -52,6 +57,7 @@ from bimbot.shared.bus import (
 from bimbot.shared.messages import (
     ALIVE_KEY,
     COMPONENT_STATE,
+    COMPONENT_TWIN,
     PHYSICS_ATTACH,
     PHYSICS_DROP,
     PHYSICS_INFO,
@@ -65,6 +71,7 @@ from bimbot.shared.messages import (
     DropRequest,
     PhysicsReply,
     PlaceRequest,
+    TwinMsg,
     key,
 )
 from bimbot.shared.period_times import PeriodTimes
@@ -82,6 +89,7 @@ from .snapshot import SnapshotRecorder, load_snapshot
 _log = logging.getLogger(__name__)
 
 TWINS_TIMEOUT_S = 10.0  # a restarted physics asks the agents what is constructed, this long at most
+TWIN_REPLY_TIMEOUT_S = 2.0  # wall seconds a question to one twin stays open
 LOOP_WAIT_S = 0.05  # longest blocking wait, so a stop request is seen quickly
 STATUS_EVERY_S = 30.0
 
@@ -114,7 +122,7 @@ def main(
         Simulation(build.manifest, build.dir, sim_config, gui=run.gui) as sim,
         open_session(options) as session,
     ):
-        recorder = None
+        recorder, twins = None, []
         if run.state_dir is not None:
             snapshot = load_snapshot(run.state_dir)
             if snapshot is not None:
@@ -123,7 +131,10 @@ def main(
                 restore_site(sim, snapshot, twins)
             recorder = SnapshotRecorder(run.state_dir, sim.epoch)
         try:
-            _Loop(session, sim, run, stop, recorder).serve()
+            loop = _Loop(session, sim, run, stop, recorder)
+            for twin in twins:  # what a restarted physics learnt from the twins is what it trusts
+                loop.states.take_twin(twin)
+            loop.serve()
         finally:
             if recorder is not None:
                 recorder.close()
@@ -160,6 +171,8 @@ class _Loop:
         self._warned_step = -1
         self._robots_deadline: float | None = None  # while holding the clock for the robots to come up
         self._held = False  # the clock was held at step 0 for the robots
+        # judged state messages: a forged constructed must not join a placement that is still settling
+        self.states = ComponentStates({c.guid: c.key for c in sim.manifest.components})
 
     def serve(self) -> None:
         site, inbox, session = self.site, self.inbox, self.session
@@ -300,6 +313,7 @@ class _Loop:
                 _log.exception("handling %s failed; going on", type(item).__name__)
             if self.stop.is_set():
                 break
+        self._ask_twins()
 
     def _handle(self, item: object) -> None:
         match item:
@@ -314,8 +328,14 @@ class _Loop:
                 self.barrier.record(command.robot_id, command.step)
                 if self.pipeline.command_now(command):
                     self.sim.command(command)
-            case Received(message=ComponentStateMsg() as state):
-                self.sim.handling.note_constructed(state.guid, state.state == ComponentState.CONSTRUCTED)
+            case Received(message=ComponentStateMsg() as message):
+                if (state := self.states.hear(message)) is not None:
+                    self.sim.handling.note_constructed(message.guid, state == ComponentState.CONSTRUCTED)
+            case Answer(key=reply_key, message=TwinMsg() as twin):
+                if reply_key != COMPONENT_TWIN.key(site=self.site, key=twin.key):
+                    self.inbox.invalid.record(reply_key, "a twin answered on another component's key")
+                elif (state := self.states.take_twin(twin)) is not None:
+                    self.sim.handling.note_constructed(twin.guid, state == ComponentState.CONSTRUCTED)
             case LivelinessChange():
                 if self.sim.known(item.id):
                     _log.info("robot %s %s", item.id, "alive" if item.alive else "lost")
@@ -324,6 +344,13 @@ class _Loop:
                 self._publish(self.sim.set_alive(item.id, item.alive))
             case IncomingQuery():
                 self._answer(item)
+
+    def _ask_twins(self) -> None:
+        """Ask the twins of the components whose state messages did not fit (non-blocking, bounded)."""
+        for question in self.states.questions(time.monotonic()):
+            self.inbox.ask(
+                self.session, COMPONENT_TWIN, timeout_s=TWIN_REPLY_TIMEOUT_S, site=self.site, key=question.key
+            )
 
     def _answer(self, item: IncomingQuery, *, held: bool = False) -> None:
         """Answer a query; a robot's request stamped with a step not due yet waits for it (``held``: it

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 import zenoh
 
+from bimbot.services.component_agents.component_states import TwinQuestion
 from bimbot.shared.bus import Answer, BusOptions, Inbox, Received, decode, encode, open_session, query_first
 from bimbot.shared.clock_guard import ClockGuard, Verdict
 from bimbot.shared.identifiers import guid_to_key
@@ -69,7 +70,6 @@ from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.twin_query import ask_twins
 
 from .astar import plan_path
-from .component_states import TwinQuestion
 from .executor import Executor, ExecutorConfig, Outgoing, executor_class
 from .protocol import PhysicsRequest, PhysicsResult
 

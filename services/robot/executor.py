@@ -49,6 +49,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from bimbot.services.component_agents.component_states import ComponentStates, TwinQuestion
 from bimbot.shared.errors import InputError
 from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Manifest
@@ -78,7 +79,6 @@ from bimbot.shared.reasons import Reason
 
 from . import give_back
 from .approach import ApproachConfig, exit_point
-from .component_states import ComponentStates, TwinQuestion
 from .crane_work import CraneWork
 from .driving import Driving
 from .handover import Handover

@@ -9,8 +9,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bimbot.services.component_agents.component_states import TwinQuestion
 from bimbot.services.component_agents.state_table import Verdict, next_state
-from bimbot.services.robot.component_states import TwinQuestion
 from bimbot.services.robot.executor import Executor, ExecutorConfig
 from bimbot.services.robot.particle_filter import simulate_scan, wrap_angle
 from bimbot.services.robot.protocol import PhysicsRequest, PhysicsResult

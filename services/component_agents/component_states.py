@@ -1,12 +1,15 @@
-"""What a robot believes of each component's state: state messages judged, twins asked when one does not fit.
+"""What a service outside the agents believes of each component's state: state messages judged, twins asked
+when one does not fit. Used by every robot and by physics.
 
 Why: a robot acts on component states — it starts a task only once its component is ``released``, it takes
-an event as confirmed when the state shows it applied, a verdict ends its task. Taken at face value, one
-forged ``constructed`` on an open bus for the component it is about to pick kept a robot waiting for a
-release it already had, until the planner's no-progress bound (1,200 s of sim time). So every state message
-goes through the agents' :class:`~bimbot.services.component_agents.trusted_states.TrustedStates`, as in
-``bimbot run``: a transition the agents' table forbids is dropped, a terminal claim or a message that does
-not follow from what is known makes the robot ask that component's twin (``components/<key>/twin``), and
+an event as confirmed when the state shows it applied, a verdict ends its task — and physics joins a
+component to the structure when it is ``constructed``. Taken at face value, one forged ``constructed`` on an
+open bus for the component a robot was about to pick kept it waiting for a release it already had, until
+the planner's no-progress bound (1,200 s of sim time); and a forged verdict made physics join a footing
+still settling 300 mm off its target, so the retry's pick-up was refused ("joined to the structure"). So
+every state message goes through the agents' :class:`~.trusted_states.TrustedStates`, as in ``bimbot
+run``: a transition the agents' table forbids is dropped, a terminal claim or a message that does not
+follow from what is known makes the listener ask that component's twin (``components/<key>/twin``), and
 the twin's answer is taken as the truth.
 
 Pure: the questions come out as :class:`TwinQuestion` (at most one per component per ``retry_s`` wall
@@ -19,8 +22,9 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from bimbot.services.component_agents.trusted_states import Judgement, TrustedStates
 from bimbot.shared.messages import ComponentState, ComponentStateMsg, TwinMsg
+
+from .trusted_states import Judgement, TrustedStates
 
 TWIN_RETRY_S = 1.0  # wall seconds: one component's twin is asked at most this often
 
@@ -34,7 +38,7 @@ class TwinQuestion:
 
 
 class ComponentStates:
-    """Each component's state as far as the robot trusts it; None for one it has heard nothing of."""
+    """Each component's state as far as the listener trusts it; None for one it has heard nothing of."""
 
     def __init__(self, keys: Mapping[str, str], retry_s: float = TWIN_RETRY_S) -> None:
         """``keys``: component GUID → its key in the key space (the manifest's)."""
