@@ -97,7 +97,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--pose-refresh-s",
         type=positive_float,
         default=sim.pose_refresh_s,
-        help=f"repeat every pose this often, sim s (default {sim.pose_refresh_s:g})",
+        help=f"repeat every pose this often, wall s (default {sim.pose_refresh_s:g})",
     )
     parser.add_argument(
         "--pose-refresh-max",

@@ -16,10 +16,11 @@ seeded per robot from ``seed``; a crane's is its fixed pose), its laser scan (:m
 crane), both keyed on the robot's ``sensors`` key (the adapter sends them, with the clock, as one
 :class:`~bimbot.shared.messages.SensorsMsg`, :mod:`.outbox`), and its ground-truth pose (a crane's with its
 joint values); the pose of every component that moved (carried, assembling, just placed or dropped); and a
-slice of the others, so that every component's pose is repeated once per ``pose_refresh_s`` for late
-subscribers, but at most ``pose_refresh_max`` a period: on a site of a thousand components the repeats were
-80 messages a period that every subscriber decoded, for a safety net (who starts late asks
-``physics/poses``).
+slice of the others, so that every component's pose is repeated once per ``pose_refresh_s`` of *wall* time
+for late subscribers (the sim time it spans follows the real-time factor: a message missed is a wall-clock
+matter), but at most ``pose_refresh_max`` a period: on a site of a thousand components the repeats were 80
+messages a period that every subscriber decoded, and at ×20 real time a 2 s cycle in sim time repeated
+every pose ten times a wall second, for a safety net (who starts late asks ``physics/poses``).
 :meth:`Simulation.start_messages` gives all of that for step 0 (every component included).
 Same build, config, seed and command sequence → the same trajectories (pybullet is deterministic for an
 identical call sequence on a fresh client).
@@ -28,7 +29,6 @@ identical call sequence on a fresh client).
 from __future__ import annotations
 
 import logging
-import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -100,7 +100,7 @@ class SimConfig:
     # a command answering step k from step k + this; robots plan from where they will be then)
     command_latency_steps: int = FINE.command_latency_steps
     real_time_factor: float = FINE.rtf  # the pace asked for: reported until one is measured
-    pose_refresh_s: float = 2.0
+    pose_refresh_s: float = 2.0  # wall seconds (see the module)
     pose_refresh_max: int = 5  # repeated poses per control period at most (a large site: a longer cycle)
     visuals: bool = False
     robot: RobotConfig = field(default_factory=RobotConfig)
@@ -164,6 +164,7 @@ class Simulation:
         self._beam_starts: dict[str, np.ndarray] = {}
         self._unknown_logged: set[str] = set()
         self._refresh_cursor = 0
+        self._refresh_credit = 0.0  # repeated poses due, a fraction carried to the next period
         self._late_replies: list[tuple[object, PhysicsReply]] = []
         self.handling: Handling
 
@@ -428,7 +429,7 @@ class Simulation:
             )
         changed = self.handling.take_changed()
         out.extend(self._component_pose(guid) for guid in changed)
-        out.extend(self._component_pose(guid) for guid in self._refresh_slice(set(changed)))
+        out.extend(self._component_pose(guid) for guid in self._refresh_slice(set(changed), rtf))
         return out
 
     def _scan(self, robot: Robot, now: float) -> Outgoing:
@@ -446,14 +447,16 @@ class Simulation:
             ),
         )
 
-    def _refresh_slice(self, skip: set[str]) -> list[str]:
-        """The next few components in turn, so that each is repeated once per ``pose_refresh_s`` (at most
-        ``pose_refresh_max`` a period)."""
+    def _refresh_slice(self, skip: set[str], real_time_factor: float) -> list[str]:
+        """The next few components in turn, so that each is repeated once per ``pose_refresh_s`` of wall
+        time at ``real_time_factor`` (at most ``pose_refresh_max`` a period; a fraction carries over)."""
         guids = self._guids
         if not guids:
             return []
-        per_period = math.ceil(len(guids) * self.config.control_period_s / self.config.pose_refresh_s)
-        per_period = min(per_period, self.config.pose_refresh_max)
+        cycle_sim_s = self.config.pose_refresh_s * max(1.0, real_time_factor)
+        self._refresh_credit += len(guids) * self.config.control_period_s / cycle_sim_s
+        per_period = min(int(self._refresh_credit), self.config.pose_refresh_max)
+        self._refresh_credit = min(self._refresh_credit - per_period, 1.0)
         chosen = [guids[(self._refresh_cursor + i) % len(guids)] for i in range(min(per_period, len(guids)))]
         self._refresh_cursor = (self._refresh_cursor + len(chosen)) % len(guids)
         return [guid for guid in chosen if guid not in skip]

@@ -107,3 +107,16 @@ def test_every_component_pose_is_repeated_within_the_refresh_period(
     for _ in range(10):  # 1 s of sim time
         seen |= {m.message.guid for m in sim.advance().messages if hasattr(m.message, "guid")}
     assert seen == {c.guid for c in sim.manifest.components}
+
+
+def test_the_refresh_cycle_is_wall_time_so_a_fast_run_repeats_poses_less_often_in_sim_time(
+    make_sim: Callable[..., Simulation],
+) -> None:
+    sim = make_sim(robots=1, pose_refresh_s=1.0)
+    guids = {c.guid for c in sim.manifest.components}
+    sim.advance(20.0)  # step 0's messages aside: from here each period repeats only what is due
+    repeated: list[str] = []
+    for _ in range(200):  # 20 s of sim time at ×20 real time: one wall second, one refresh cycle
+        repeated += [m.message.guid for m in sim.advance(20.0).messages if hasattr(m.message, "guid")]
+    assert set(repeated) == guids, "every pose repeated once a wall second"
+    assert len(repeated) <= len(guids) + 1, "not ten times a wall second as a sim-time cycle would"
