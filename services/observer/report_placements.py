@@ -159,7 +159,7 @@ def placement_totals(
 
 
 def placement_line(report: Mapping[str, Any]) -> str | None:
-    """One summary line: ``placement error by robot type: husky mean 6.7 / p95 13.0 / max 14.0 mm (3
+    """One summary line: ``every placement attempt by robot type: husky mean 6.7 / p95 13.0 / max 14.0 mm (3
     placements, 1 out of tolerance), …; retries by cause: misplaced 3, unstable 1; largest drift after
     placement 75.0 mm``; None when no placement was verified."""
     totals = report.get("totals", {})
@@ -177,7 +177,7 @@ def placement_line(report: Mapping[str, Any]) -> str | None:
             figures = f"mean {entry['mean']:.1f} / p95 {entry['p95']:.1f} / max {entry['max']:.1f} mm"
             parts.append(f"{name} {figures} ({count})")
     retries = totals.get("retries_by_cause") or {}
-    line = "placement error by robot type: " + ", ".join(parts)
+    line = "every placement attempt by robot type: " + ", ".join(parts)
     line += "; retries by cause: " + ", ".join(f"{cause} {count}" for cause, count in retries.items())
     drift = totals.get("max_drift_mm")
     line += f"; largest drift after placement {drift:.1f} mm" if drift is not None else "; drift not measured"

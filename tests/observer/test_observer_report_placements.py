@@ -281,7 +281,7 @@ def test_a_robot_of_unknown_type_and_a_placement_without_a_pose_are_counted_unme
         }
     }
     assert placement_line(report) == (
-        "placement error by robot type: unknown not measured (1 placement, 1 out of tolerance); "
+        "every placement attempt by robot type: unknown not measured (1 placement, 1 out of tolerance); "
         "retries by cause: misplaced 1, unstable 0; drift not measured"
     )
 
@@ -323,14 +323,16 @@ def test_the_summary_has_one_line_of_placement_errors_by_type_retries_by_cause_a
     from bimbot.run import RunOutcome, summary_text
 
     line = (
-        "placement error by robot type: "
+        "every placement attempt by robot type: "
         "husky mean 6.7 / p95 13.0 / max 14.0 mm (3 placements, 1 out of tolerance), "
         "carrier mean 29.6 / p95 70.0 / max 80.0 mm (5 placements, 4 out of tolerance); "
         "retries by cause: misplaced 3, unstable 1; largest drift after placement 75.0 mm"
     )
     assert placement_line(report) == line
     lines = summary_text(RunOutcome(exit_code=1, constructed=3, total=28, report=report)).splitlines()
-    assert lines[lines.index(line) - 1].startswith("placement error at most 6.00 mm")
+    assert lines[lines.index(line) - 1].startswith(
+        "placement error of the constructed components at most 6.00 mm"
+    )
 
 
 def _marker_points(ax: Any, marker: str) -> int:
