@@ -71,6 +71,7 @@ from bimbot.shared.twin_query import ask_twins
 
 from .astar import plan_path
 from .executor import Executor, ExecutorConfig, Outgoing, executor_class
+from .particle_filter import LikelihoodField, LikelihoodFieldConfig, scan_log_likelihood
 from .protocol import PhysicsRequest, PhysicsResult
 
 _log = logging.getLogger(__name__)
@@ -171,8 +172,11 @@ def _no_physics(timeout_s: float) -> int:
 
 
 def _warm_up() -> None:
-    """Load the compiled A* kernel now, not on the first plan (0.3–0.6 s from numba's cache)."""
+    """Load the compiled A* and laser-model kernels now, not on the first plan or scan (0.3–0.6 s each from
+    numba's cache)."""
     plan_path(OccupancyGrid(np.zeros((4, 4), bool), 1.0, (0.0, 0.0)), (0.5, 0.5), (3.5, 3.5))
+    field = LikelihoodField(np.zeros((4, 4)), 1.0, (0.0, 0.0))
+    scan_log_likelihood(np.zeros((1, 3)), [1.0], [0.0], field, LikelihoodFieldConfig())
 
 
 class _Loop:

@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 
 from bimbot.services.robot.particle_filter import (
+    LikelihoodField,
+    LikelihoodFieldConfig,
     OdometryNoise,
     ParticleFilterConfig,
     ParticleSet,
@@ -20,6 +22,7 @@ from bimbot.services.robot.particle_filter import (
     mcl_step,
     measurement_update,
     motion_update,
+    scan_log_likelihood,
     simulate_scan,
     wrap_angle,
 )
@@ -188,3 +191,36 @@ def test_uniform_initialisation_puts_every_particle_in_free_space(room: Occupanc
     assert room.is_free_xy(particles.poses_xy_yaw[:, :2]).all()
     assert np.abs(particles.poses_xy_yaw[:, 2]).max() <= math.pi
     assert particles.weights.sum() == pytest.approx(1.0)
+
+
+def _reference_log_likelihood(poses, ranges, angles, field, config):
+    """The likelihood-field model written out with numpy (table 6.3 of Probabilistic Robotics, tempered)."""
+    valid = np.isfinite(ranges) & (ranges > 0) & (ranges < config.max_range_m)
+    r, a = ranges[valid], angles[valid]
+    pick = np.linspace(0, len(r) - 1, min(len(r), config.max_beams)).round().astype(int)
+    r, a = r[pick], a[pick]
+    yaw = poses[:, 2:3] + a[None, :]
+    col = np.floor((poses[:, 0:1] + r * np.cos(yaw) - field.origin_xy_m[0]) / field.resolution_m).astype(int)
+    row = np.floor((poses[:, 1:2] + r * np.sin(yaw) - field.origin_xy_m[1]) / field.resolution_m).astype(int)
+    rows, cols = field.distance_m.shape
+    inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
+    dist = field.distance_m[np.where(inside, row, 0), np.where(inside, col, 0)]
+    p_hit = np.where(inside, np.exp(-0.5 * (dist / config.sigma_hit_m) ** 2), 0.0)
+    p = config.z_hit * p_hit + config.z_rand / config.max_range_m
+    return config.likelihood_exponent * np.log(p).sum(axis=1)
+
+
+def test_the_compiled_laser_model_gives_the_models_values_for_every_kind_of_beam() -> None:
+    rng = np.random.default_rng(7)
+    field = LikelihoodField(rng.random((300, 200)) * 2.0, 0.05, (-3.0, -2.0))
+    poses = np.column_stack([rng.uniform(-6, 14, 400), rng.uniform(-5, 16, 400), rng.uniform(-4, 4, 400)])
+    ranges = rng.uniform(0.2, 12.0, 180)  # some beyond max range (10 m), some ending off the field
+    ranges[::9] = np.inf
+    angles = np.linspace(-np.pi, np.pi, 180, endpoint=False)
+    config = LikelihoodFieldConfig()
+    got = scan_log_likelihood(poses, ranges, angles, field, config)
+    expected = _reference_log_likelihood(poses, ranges, angles, field, config)
+    assert got.shape == (400,)
+    np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9)
+    empty = scan_log_likelihood(poses, np.full(180, np.inf), angles, field, config)
+    assert not empty.any(), "no valid beam: no information"
