@@ -82,7 +82,9 @@ def audit_as_built(
         label = f"{component.name or component.ifc_class} ({component.guid})"
         pose = poses.components.get(component.guid)
         if pose is not None and is_valid_pose(pose.pose.position_m, pose.pose.quat_xyzw):
-            check = verify(pose.pose, component.target_pose_world, tolerances)
+            check = verify(
+                pose.pose, component.target_pose_world, tolerances, reference_local_m=component.com_local_m
+            )
             final[component.guid] = check
             if component.guid in built and not check.ok:
                 errors.append(

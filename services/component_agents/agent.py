@@ -276,7 +276,8 @@ class ComponentAgent:
         check = None
         if self.pose is not None:
             drift = self.drift_m if fresh else None
-            check = verify(self.pose, self.component.target_pose_world, self._config.tolerances, drift)
+            target, centre = self.component.target_pose_world, self.component.com_local_m
+            check = verify(self.pose, target, self._config.tolerances, drift, reference_local_m=centre)
         stamp = self.pose_sim_time_s if fresh else None
         return [self._decide(check, cause, self._clock.now(stamp), now)]
 

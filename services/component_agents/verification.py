@@ -2,7 +2,12 @@
 
 Pure functions over positions (metres, simulation world frame) and unit quaternions ``quat_xyzw``:
 
-* position error: Euclidean distance between the two positions, metres;
+* position error: how far the component's centre (``reference_local_m``, its centre of mass in its own
+  frame) is from where the target puts it, metres. Not the distance between the frame origins: a Revit
+  element's frame often sits at the model's origin, 100 m from its geometry, and a turn of 0.01° that
+  the angle tolerance accepts moved that origin 17 mm — concrete columns of the Revit structural hub
+  were failed as misplaced by 20 mm for a turn of a few hundredths of a degree, and a column that tipped
+  over was reported 103 m off. For a component whose frame is at its geometry the two are the same;
 * angle error: the geodesic angle of the rotation that takes the target orientation to the current one,
   radians in ``[0, π]``. ``q`` and ``-q`` are the same rotation, so the error is sign-invariant. It is
   computed as ``2·atan2(|v|, |w|)`` of the relative quaternion, which stays exact for tiny angles (where
@@ -92,6 +97,24 @@ def position_error_m(current_m: Vec3, target_m: Vec3) -> float:
     return math.dist(current_m, target_m)
 
 
+def rotate(quat_xyzw: Quat, vector: Vec3) -> Vec3:
+    """``vector`` turned by the rotation ``quat_xyzw`` (normalised here): v + 2w(q×v) + 2q×(q×v)."""
+    x, y, z, w = _unit(quat_xyzw)
+    vx, vy, vz = vector
+    cx, cy, cz = y * vz - z * vy, z * vx - x * vz, x * vy - y * vx
+    dx, dy, dz = y * cz - z * cy, z * cx - x * cz, x * cy - y * cx
+    return (vx + 2.0 * (w * cx + dx), vy + 2.0 * (w * cy + dy), vz + 2.0 * (w * cz + dz))
+
+
+def point_error_m(current: HasPose, target: HasPose, point_local_m: Vec3) -> float:
+    """How far the point ``point_local_m`` (in the component's frame) is from where the target puts it."""
+    a = rotate(current.quat_xyzw, point_local_m)
+    b = rotate(target.quat_xyzw, point_local_m)
+    here = (current.position_m[0] + a[0], current.position_m[1] + a[1], current.position_m[2] + a[2])
+    there = (target.position_m[0] + b[0], target.position_m[1] + b[1], target.position_m[2] + b[2])
+    return math.dist(here, there)
+
+
 def angle_error_rad(current_xyzw: Quat, target_xyzw: Quat) -> float:
     """Geodesic angle between two orientations, radians in [0, π]; the sign of either quaternion is ignored.
 
@@ -108,11 +131,16 @@ def angle_error_rad(current_xyzw: Quat, target_xyzw: Quat) -> float:
 
 
 def verify(
-    current: HasPose, target: HasPose, tolerances: Tolerances, drift_m: float | None = None
+    current: HasPose,
+    target: HasPose,
+    tolerances: Tolerances,
+    drift_m: float | None = None,
+    reference_local_m: Vec3 = (0.0, 0.0, 0.0),
 ) -> PlacementCheck:
     """Compare a current pose with the BIM target pose against ``tolerances`` (every bound inclusive);
-    ``drift_m`` is how far it moved since physics released it, when physics said."""
-    position_error = position_error_m(current.position_m, target.position_m)
+    ``drift_m`` is how far it moved since physics released it, when physics said; the position error is
+    that of ``reference_local_m``, the component's centre in its own frame (see the module)."""
+    position_error = point_error_m(current, target, reference_local_m)
     angle_error = angle_error_rad(current.quat_xyzw, target.quat_xyzw)
     unstable = drift_m is not None and drift_m > tolerances.drift_m
     ok = position_error <= tolerances.position_m and angle_error <= tolerances.angle_rad and not unstable

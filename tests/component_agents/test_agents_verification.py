@@ -109,3 +109,30 @@ def test_angle_error_matches_scipy_rotation_magnitude() -> None:
         expected = (target.inv() * current).magnitude()
         got = angle_error_rad(tuple(current.as_quat()), tuple(-target.as_quat()))
         assert got == pytest.approx(expected, rel=1e-9, abs=1e-12)
+
+
+def test_the_position_error_is_the_components_centre_not_its_frame_origin_far_from_it() -> None:
+    """A Revit element whose frame sits at the model origin, 100 m from its geometry (the structural hub's
+    concrete columns): turned by 0.01° about its centre it is where it should be, although the frame origin
+    moved 17 mm; shifted by 5 mm it is 5 mm off; tipped over, its centre — not the origin 100 m away —
+    says how far."""
+    centre_local = (-17.1, 101.3, 1.6)
+    target = PoseMsg(position_m=(0.0, 0.0, 0.0), quat_xyzw=(0.0, 0.0, 0.0, 1.0))
+    tolerances = Tolerances()
+
+    def about_centre(rotation: Rotation, shift_m: tuple[float, float, float]) -> PoseMsg:
+        origin = np.asarray(centre_local) - rotation.apply(centre_local) + np.asarray(shift_m)
+        return PoseMsg(position_m=tuple(origin), quat_xyzw=tuple(rotation.as_quat()))
+
+    turned = about_centre(Rotation.from_euler("z", 0.01, degrees=True), (0.0, 0.0, 0.0))
+    assert position_error_m(turned.position_m, target.position_m) > 0.017, "the frame origin moved"
+    check = verify(turned, target, tolerances, reference_local_m=centre_local)
+    assert check.ok and check.position_error_m == pytest.approx(0.0, abs=1e-9)
+    shifted = about_centre(Rotation.identity(), (0.003, 0.004, 0.0))
+    assert verify(
+        shifted, target, tolerances, reference_local_m=centre_local
+    ).position_error_m == pytest.approx(0.005)
+    tipped = about_centre(Rotation.from_euler("x", 90.0, degrees=True), (0.0, 0.0, 0.0))
+    check = verify(tipped, target, tolerances, reference_local_m=centre_local)
+    assert not check.ok and check.position_error_m == pytest.approx(0.0, abs=1e-9)
+    assert check.angle_error_rad == pytest.approx(math.pi / 2), "the tolerance on the angle catches it"

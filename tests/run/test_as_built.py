@@ -6,8 +6,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 from run_builders import GUIDS, manifest, poses
+from scipy.spatial.transform import Rotation
 
 from bimbot.as_built import AGENT_TOLERANCES, add_to_report, as_built_line, audit_as_built
 from bimbot.services.component_agents.agent import AgentConfig
@@ -16,6 +18,18 @@ from bimbot.services.observer.report_png import _as_built_title, render_report_p
 
 SITE_MANIFEST = manifest()
 BEAM, OTHER, THIRD, FOURTH = GUIDS
+
+
+def _centre_error_m(guid: str, offset_m: tuple[float, float, float], yaw_deg: float) -> float:
+    """How far the component's centre moves when its pose is offset and turned as ``poses`` does it (scipy,
+    independently of the audit's own quaternion code)."""
+    component = SITE_MANIFEST.component(guid)
+    moved = poses(SITE_MANIFEST, moved={guid: (offset_m, yaw_deg)}).components[guid].pose
+    target = component.target_pose_world
+    centre = np.asarray(component.com_local_m)
+    here = np.asarray(moved.position_m) + Rotation.from_quat(moved.quat_xyzw).apply(centre)
+    there = np.asarray(target.position_m) + Rotation.from_quat(target.quat_xyzw).apply(centre)
+    return float(np.linalg.norm(here - there))
 
 
 def test_the_audit_uses_the_tolerances_the_agents_verify_with() -> None:
@@ -37,14 +51,17 @@ def test_a_constructed_component_within_tolerance_is_no_error() -> None:
     audit = audit_as_built(SITE_MANIFEST, answer, constructed=set(GUIDS))
     assert audit.errors == () and audit.checked == len(GUIDS)
     position_m, angle_rad = audit.max_errors(GUIDS)
-    assert position_m == pytest.approx(0.005) and angle_rad == pytest.approx(0.5 * 3.141592653589793 / 180)
+    assert position_m == pytest.approx(
+        _centre_error_m(BEAM, (0.003, 0.004, 0.0), 0.5)
+    ) and angle_rad == pytest.approx(0.5 * 3.141592653589793 / 180)
 
 
 def test_a_component_that_is_not_constructed_is_never_an_error_wherever_it_is() -> None:
     answer = poses(SITE_MANIFEST, moved={OTHER: ((5.0, 0.0, 0.0), 90.0)}, missing=(THIRD,))
     audit = audit_as_built(SITE_MANIFEST, answer, constructed={BEAM})
     assert audit.errors == () and audit.checked == 1
-    assert audit.final[OTHER].position_error_m == pytest.approx(5.0)  # measured, not judged
+    expected = _centre_error_m(OTHER, (5.0, 0.0, 0.0), 90.0)
+    assert audit.final[OTHER].position_error_m == pytest.approx(expected)  # measured, not judged
     assert THIRD not in audit.final
 
 
@@ -89,7 +106,8 @@ def test_the_summary_line_of_a_clean_build() -> None:
     report = ReportCollector(SITE_MANIFEST).report()
     answer = poses(SITE_MANIFEST, moved={OTHER: ((0.0004, 0.0, 0.0), 0.02)})
     add_to_report(report, audit_as_built(SITE_MANIFEST, answer, constructed=set(GUIDS)), set(GUIDS))
-    assert as_built_line(report) == "as-built: 4 checked, max 0.40 mm / 0.02°, 0 errors"
+    expected_mm = 1000.0 * _centre_error_m(OTHER, (0.0004, 0.0, 0.0), 0.02)
+    assert as_built_line(report) == f"as-built: 4 checked, max {expected_mm:.2f} mm / 0.02°, 0 errors"
 
 
 def test_the_chart_carries_the_audit_in_its_title_and_marks_the_wrong_component(tmp_path: Path) -> None:
