@@ -136,7 +136,7 @@ class Placing:
             )
         frame: Frame | None = None
         if refusal is None and commanded is not None and item is not None:
-            frame = self._where_it_goes(robot, commanded, believed_xy_yaw)
+            frame = self._where_it_goes(robot, commanded, believed_xy_yaw, item.component.com_local_m)
             # the footprint, not the frame's origin: a Revit element may keep an identity placement with its
             # geometry in world coordinates, so its frame lies at (0, 0) while it stands on the site
             centre = posed_footprint(item.component, frame[0], frame[1]).centre_xy_m
@@ -164,9 +164,14 @@ class Placing:
         return None
 
     def _where_it_goes(
-        self, robot: Robot, commanded: Frame, believed_xy_yaw: tuple[float, float, float] | None
+        self,
+        robot: Robot,
+        commanded: Frame,
+        believed_xy_yaw: tuple[float, float, float] | None,
+        centre_local_m: tuple[float, float, float],
     ) -> Frame:
-        """Where the robot's placement really puts the component (:mod:`.placement_error`)."""
+        """Where the robot's placement really puts the component (:mod:`.placement_error`); the hand's
+        turn is about the component's centre."""
         rng = self._rngs.get(robot.robot_id)
         if rng is None:
             rng = self._rngs[robot.robot_id] = np.random.default_rng([self._seed, 7, robot.index])
@@ -178,6 +183,7 @@ class Placing:
             precision_m=description.placement_precision_m,
             precision_yaw_rad=math.radians(description.placement_precision_yaw_deg),
             rng=rng,
+            centre_local_m=centre_local_m,
         )
 
     def _release(self, item: Item, carrier: Robot | None, now_s: float, tag: object) -> None:

@@ -1,0 +1,56 @@
+"""Where a placement really puts a component: the robot's belief about itself carried into the world, and
+the hand's precision turning the component about its centre (not about a frame origin far from it)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bimbot.services.physics.placement_error import physical_placement
+from bimbot.services.physics.scene import Frame, rotate
+
+REVIT_CENTRE = (-17.1, 101.3, 1.6)  # a Revit column's centre in its frame: the frame sits at the model origin
+
+
+def _centre(frame: Frame, centre_local: tuple[float, float, float]) -> np.ndarray:
+    return np.asarray(frame[0]) + np.asarray(rotate(frame[1], centre_local))
+
+
+def _yaw(frame: Frame) -> float:
+    x, y, z, w = frame[1]
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def test_the_hands_turn_is_about_the_components_centre_so_a_far_frame_origin_does_not_swing_it() -> None:
+    commanded: Frame = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    rng = np.random.default_rng(3)
+    placed = physical_placement(
+        commanded,
+        None,
+        (0.0, 0.0, 0.0),
+        precision_m=0.0,
+        precision_yaw_rad=math.radians(0.2),
+        rng=rng,
+        centre_local_m=REVIT_CENTRE,
+    )
+    assert abs(_yaw(placed)) > 1e-4, "the hand turned it"
+    moved = np.linalg.norm(_centre(placed, REVIT_CENTRE) - _centre(commanded, REVIT_CENTRE))
+    assert moved == pytest.approx(0.0, abs=1e-9), "about its centre: the centre stays where it was set"
+    assert math.dist(placed[0], commanded[0]) > 0.01, "the far frame origin moves instead"
+
+
+def test_a_robot_that_believes_itself_3_cm_east_places_3_cm_west() -> None:
+    target: Frame = ((20.0, 5.0, 0.5), (0.0, 0.0, 0.0, 1.0))
+    placed = physical_placement(
+        target,
+        (10.03, 5.0, 0.0),  # where it believes it stands
+        (10.0, 5.0, 0.0),  # where it stands
+        precision_m=0.0,
+        precision_yaw_rad=0.0,
+        rng=np.random.default_rng(0),
+        centre_local_m=REVIT_CENTRE,
+    )
+    assert placed[0] == pytest.approx((19.97, 5.0, 0.5))
+    assert _yaw(placed) == pytest.approx(0.0, abs=1e-12)
