@@ -8,6 +8,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from twins import twin_message
 
 from bimbot.services.component_agents.component_states import TwinQuestion
 from bimbot.services.component_agents.state_table import Verdict, next_state
@@ -146,24 +147,8 @@ class FakeSite:
 
     def twin(self, guid: str) -> TwinMsg:
         """The component's twin as its agent would answer it: its state and the transitions that led there."""
-        component = self.component(guid)
-        target = component.target_pose_world
-        return TwinMsg(
-            guid=guid,
-            key=component.key,
-            ifc_class=component.ifc_class,
-            name=component.name,
-            storey=component.storey,
-            material=component.material,
-            mass_kg=component.mass_kg,
-            target_pose=PoseMsg(position_m=target.position_m, quat_xyzw=target.quat_xyzw),
-            current_pose=None,
-            current_pose_sim_time_s=None,
-            state=self.states.get(guid, ComponentState.PLANNED),
-            attempt=1,
-            robot_id="r1",
-            history=self.history.get(guid, []),
-        )
+        state = self.states.get(guid, ComponentState.PLANNED)
+        return twin_message(self.component(guid), state, self.history.get(guid, []), attempt=1, robot_id="r1")
 
     def component_event(self, message: ComponentEventMsg) -> None:
         if message.event in self.drop_first:

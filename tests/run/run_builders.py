@@ -8,6 +8,7 @@ import threading
 from typing import cast
 
 from component_agents.agent_builders import GUIDS, SITE, manifest, quat_z
+from twins import twin_message
 
 from bimbot.run_loop import LoopLimits, RunWatch, StopSignals
 from bimbot.run_monitor import RunMonitor
@@ -67,23 +68,13 @@ def walk(guid: str, until: ComponentState) -> list[ComponentStateMsg]:
 
 def twin(site_manifest: Manifest, guid: str, at: ComponentState) -> TwinMsg:
     """The twin an agent answers for ``guid`` once it is ``at`` (its history: the walk there)."""
-    component = site_manifest.component(guid)
-    target = component.target_pose_world
-    return TwinMsg(
-        guid=guid,
-        key=component.key,
-        ifc_class=component.ifc_class,
-        name=component.name,
-        storey=component.storey,
-        material=component.material,
-        mass_kg=component.mass_kg,
-        target_pose=PoseMsg(position_m=target.position_m, quat_xyzw=target.quat_xyzw),
-        current_pose=None,
-        current_pose_sim_time_s=None,
-        state=at,
-        attempt=1 if at != S.PLANNED else 0,
-        robot_id="r1" if at != S.PLANNED else None,
-        history=walk(guid, at) if at != S.PLANNED else [],
+    planned = at == S.PLANNED
+    return twin_message(
+        site_manifest.component(guid),
+        at,
+        [] if planned else walk(guid, at),
+        attempt=0 if planned else 1,
+        robot_id=None if planned else "r1",
     )
 
 
