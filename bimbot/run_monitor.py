@@ -60,12 +60,11 @@ from bimbot.shared.messages import (
     TaskMsg,
     TwinMsg,
 )
-from bimbot.shared.twin_query import ask_twins
+from bimbot.shared.twin_query import ask_twin, ask_twins
 
 _log = logging.getLogger(__name__)
 
 TWIN_RETRY_S = 1.0  # wall seconds: one component's twin is asked at most this often
-TWIN_REPLY_TIMEOUT_S = 2.0  # wall seconds a question to one twin stays open
 AUDIT_TIMEOUT_S = 5.0  # wall seconds for the end-of-run twin sweep and physics' poses together
 MIN_POSES_TIMEOUT_S = 1.0  # physics' poses get at least this long, whatever the sweep took
 
@@ -189,13 +188,7 @@ class RunMonitor:
         for guid in [g for g in self._to_ask if now - self._asked_at.get(g, -TWIN_RETRY_S) >= TWIN_RETRY_S]:
             self._to_ask.discard(guid)
             self._asked_at[guid] = now
-            self._inbox.ask(
-                self._session,
-                COMPONENT_TWIN,
-                timeout_s=TWIN_REPLY_TIMEOUT_S,
-                site=self._site,
-                key=self._component_keys[guid],
-            )
+            ask_twin(self._inbox, self._session, self._site, self._component_keys[guid])
 
     def confirm_twins(self, timeout_s: float) -> int:
         """Ask every twin at once (``components/*/twin``, blocking, at most ``timeout_s``) and take each

@@ -13,12 +13,24 @@ import time
 
 import zenoh
 
-from .bus import InvalidPayloads, decode
+from .bus import Inbox, InvalidPayloads, decode
 from .messages import COMPONENT_TWIN, TwinMsg
 
 _log = logging.getLogger(__name__)
 
 RETRY_S = 0.5
+TWIN_REPLY_TIMEOUT_S = 2.0  # wall seconds a question to one twin stays open
+
+
+def ask_twin(inbox: Inbox, session: zenoh.Session, site: str, key: str) -> None:
+    """Ask one component's twin without blocking; its answer comes back through ``inbox`` as an
+    :class:`~.bus.Answer` (check it with :func:`answered_on_its_key`)."""
+    inbox.ask(session, COMPONENT_TWIN, timeout_s=TWIN_REPLY_TIMEOUT_S, site=site, key=key)
+
+
+def answered_on_its_key(site: str, reply_key: str, twin: TwinMsg) -> bool:
+    """Whether ``twin`` came on its own component's key (a twin answered on another key is not taken)."""
+    return reply_key == COMPONENT_TWIN.key(site=site, key=twin.key)
 
 
 def ask_twins(

@@ -57,7 +57,6 @@ from bimbot.shared.bus import (
 from bimbot.shared.messages import (
     ALIVE_KEY,
     COMPONENT_STATE,
-    COMPONENT_TWIN,
     PHYSICS_ATTACH,
     PHYSICS_DROP,
     PHYSICS_INFO,
@@ -76,7 +75,7 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.period_times import PeriodTimes
 from bimbot.shared.service_runner import BuildInput
-from bimbot.shared.twin_query import ask_twins
+from bimbot.shared.twin_query import answered_on_its_key, ask_twin, ask_twins
 
 from .clock import LockStepBarrier, Pacer, RtfMeter
 from .latency import Pipeline
@@ -89,7 +88,6 @@ from .snapshot import SnapshotRecorder, load_snapshot
 _log = logging.getLogger(__name__)
 
 TWINS_TIMEOUT_S = 10.0  # a restarted physics asks the agents what is constructed, this long at most
-TWIN_REPLY_TIMEOUT_S = 2.0  # wall seconds a question to one twin stays open
 LOOP_WAIT_S = 0.05  # longest blocking wait, so a stop request is seen quickly
 STATUS_EVERY_S = 30.0
 
@@ -332,7 +330,7 @@ class _Loop:
                 if (state := self.states.hear(message)) is not None:
                     self.sim.handling.note_constructed(message.guid, state == ComponentState.CONSTRUCTED)
             case Answer(key=reply_key, message=TwinMsg() as twin):
-                if reply_key != COMPONENT_TWIN.key(site=self.site, key=twin.key):
+                if not answered_on_its_key(self.site, reply_key, twin):
                     self.inbox.invalid.record(reply_key, "a twin answered on another component's key")
                 elif (state := self.states.take_twin(twin)) is not None:
                     self.sim.handling.note_constructed(twin.guid, state == ComponentState.CONSTRUCTED)
@@ -348,9 +346,7 @@ class _Loop:
     def _ask_twins(self) -> None:
         """Ask the twins of the components whose state messages did not fit (non-blocking, bounded)."""
         for question in self.states.questions(time.monotonic()):
-            self.inbox.ask(
-                self.session, COMPONENT_TWIN, timeout_s=TWIN_REPLY_TIMEOUT_S, site=self.site, key=question.key
-            )
+            ask_twin(self.inbox, self.session, self.site, question.key)
 
     def _answer(self, item: IncomingQuery, *, held: bool = False) -> None:
         """Answer a query; a robot's request stamped with a step not due yet waits for it (``held``: it

@@ -41,7 +41,6 @@ from bimbot.shared.messages import (
     COMPONENT_EVENT_KEY,
     COMPONENT_POSE,
     COMPONENT_STATE,
-    COMPONENT_TWIN,
     PHYSICS_ATTACH,
     PHYSICS_DROP,
     PHYSICS_INFO,
@@ -67,7 +66,7 @@ from bimbot.shared.messages import (
 from bimbot.shared.occupancy_grid import OccupancyGrid
 from bimbot.shared.period_times import PeriodTimes
 from bimbot.shared.service_runner import BuildInput
-from bimbot.shared.twin_query import ask_twins
+from bimbot.shared.twin_query import answered_on_its_key, ask_twin, ask_twins
 
 from .astar import plan_path
 from .executor import Executor, ExecutorConfig, Outgoing, executor_class
@@ -84,7 +83,6 @@ SUBSCRIPTIONS: tuple[tuple[Topic, dict[str, str]], ...] = (
 )
 POSES_TIMEOUT_S = 5.0  # wall seconds to ask physics where this robot is (at start)
 TWINS_TIMEOUT_S = 5.0  # wall seconds to collect the twins' answers (at start)
-TWIN_REPLY_TIMEOUT_S = 2.0  # wall seconds a question to one twin stays open
 _PHYSICS_REQUESTS = {"attach": PHYSICS_ATTACH, "place": PHYSICS_PLACE, "drop": PHYSICS_DROP}
 
 
@@ -240,7 +238,7 @@ class _Loop:
                     if sensors.scan is not None:  # a crane has no laser
                         self.executor.handle(sensors.scan)
             case Answer(key=reply_key, message=TwinMsg() as twin):
-                if reply_key == COMPONENT_TWIN.key(site=self.site, key=twin.key):
+                if answered_on_its_key(self.site, reply_key, twin):
                     self.executor.handle(twin)
                 else:
                     self.inbox.invalid.record(reply_key, "a twin answered on another component's key")
@@ -253,8 +251,7 @@ class _Loop:
             if isinstance(message, PhysicsRequest):
                 self._request(message)
             elif isinstance(message, TwinQuestion):  # a state message that did not fit: ask the truth
-                twin_key = {"site": self.site, "key": message.key}
-                self.inbox.ask(self.session, COMPONENT_TWIN, timeout_s=TWIN_REPLY_TIMEOUT_S, **twin_key)
+                ask_twin(self.inbox, self.session, self.site, message.key)
             elif isinstance(message, ComponentEventMsg):
                 event_key = key(COMPONENT_EVENT_KEY, site=self.site, key=guid_to_key(message.guid))
                 self.session.put(event_key, encode(message))
