@@ -9,7 +9,7 @@ robot that is still loading):
    ``pose`` (ground truth, **only** for the localisation error that is logged; never used for control);
 2. ask physics for the site (``get physics/info``, retried until it answers): robot ids, start poses, the
    control period and the reach;
-3. build the executor (map, localiser at the start pose), warm up the A* kernel;
+3. build the executor (map, localiser at the start pose), its compiled kernels (A*, laser model) loaded;
 4. declare ``alive/robot/<id>``.
 
 Loop: drain the inbox into the executor; for each new clock step (it comes with the step's odometry and
@@ -28,7 +28,6 @@ import threading
 import time
 from dataclasses import dataclass
 
-import numpy as np
 import zenoh
 
 from bimbot.services.component_agents.component_states import TwinQuestion
@@ -63,14 +62,11 @@ from bimbot.shared.messages import (
     TwinMsg,
     key,
 )
-from bimbot.shared.occupancy_grid import OccupancyGrid
 from bimbot.shared.period_times import PeriodTimes
 from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.twin_query import answered_on_its_key, ask_twin, ask_twins
 
-from .astar import plan_path
 from .executor import Executor, ExecutorConfig, Outgoing, executor_class
-from .particle_filter import LikelihoodField, LikelihoodFieldConfig, scan_log_likelihood
 from .protocol import PhysicsRequest, PhysicsResult
 
 _log = logging.getLogger(__name__)
@@ -120,7 +116,6 @@ def main(
             manifest, info, executor_config, start_xy_yaw=_where_physics_has(poses, robot_id)
         )
         _learn_the_site(session, inbox, site, executor, poses)
-        _warm_up()
         loop = _Loop(session, site, executor, inbox, options)
         token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id=robot_id))
         _log.info(
@@ -167,14 +162,6 @@ def _learn_the_site(
 def _no_physics(timeout_s: float) -> int:
     _log.error("physics did not answer physics/info within %.0f s (is `bimbot physics` running?)", timeout_s)
     return 2
-
-
-def _warm_up() -> None:
-    """Load the compiled A* and laser-model kernels now, not on the first plan or scan (0.3–0.6 s each from
-    numba's cache)."""
-    plan_path(OccupancyGrid(np.zeros((4, 4), bool), 1.0, (0.0, 0.0)), (0.5, 0.5), (3.5, 3.5))
-    field = LikelihoodField(np.zeros((4, 4)), 1.0, (0.0, 0.0))
-    scan_log_likelihood(np.zeros((1, 3)), [1.0], [0.0], field, LikelihoodFieldConfig())
 
 
 class _Loop:

@@ -79,6 +79,7 @@ from bimbot.shared.reasons import Reason
 
 from . import give_back
 from .approach import ApproachConfig, exit_point
+from .compiled_kernels import warm_up_kernels
 from .crane_work import CraneWork
 from .driving import Driving
 from .handover import Handover
@@ -115,6 +116,7 @@ class Executor(Driving, Handover):
         start when None."""
         if config.robot_id not in info.robot_ids:
             raise InputError(f"robot {config.robot_id!r} is not on site (physics has {info.robot_ids})")
+        warm_up_kernels()  # a tick never waits for a kernel to compile or load
         self.config, self.robot_id = config, config.robot_id
         self.components = {component.guid: component for component in manifest.components}
         self.description = info.robot_types[info.robot_type_of[self.robot_id]]
