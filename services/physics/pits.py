@@ -23,7 +23,7 @@ from bimbot.shared.manifest import Component
 from bimbot.shared.site_plan import Rect
 
 from .client import p
-from .scene import STATIC_GROUP, STATIC_MASK, set_filter
+from .scene import STATIC_GROUP, STATIC_MASK, put_to_sleep, set_filter
 
 BELOW_GROUND_M = 0.02  # a target bottom deeper than this below ground makes a pit
 FLOOR_THICKNESS_M = 0.2
@@ -67,6 +67,7 @@ class Pits:
         )
         body = p.createMultiBody(0.0, shape, physicsClientId=client_id, useMaximalCoordinates=True)
         set_filter(client_id, body, STATIC_GROUP, STATIC_MASK)
+        put_to_sleep(client_id, body)
         self.pits = [Pit(pit.owner, pit.footprint, pit.floor_z_m, body) for pit in self.pits]
 
     def open_around(self, xy: tuple[float, float]) -> list[Pit]:
