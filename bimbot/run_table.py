@@ -13,7 +13,8 @@ from __future__ import annotations
 
 from typing import Any
 
-MAX_NAME_CHARS = 32
+MAX_NAME_CHARS = 48
+NAME_TAIL_CHARS = 16  # a long name keeps its end: Revit names end in the element id that tells them apart
 HEADER = ("component", "guid", "state", "reason", "why")
 GROUP_FROM = 4  # this many components blocked by one failed component take one row (all are in report.json)
 NAMES_SHOWN = 3
@@ -42,14 +43,21 @@ def not_built_rows(report: dict[str, Any]) -> list[tuple[str, str, str, str, str
             if groups[root][0] is component:
                 rows.append(_group_row(root, groups[root]))
             continue
-        name = component.get("name") or component.get("ifc_class") or ""
-        if len(name) > MAX_NAME_CHARS:
-            name = name[: MAX_NAME_CHARS - 1] + "…"
+        name = shortened(component.get("name") or component.get("ifc_class") or "")
         message = reason.get("message", "no reason was given")
         if len(ending_prefix) > 2 and message.startswith(ending_prefix):
             message = message[len(ending_prefix) :]
         rows.append((name, component["guid"], component["state"], reason.get("code", "?"), message))
     return rows
+
+
+def shortened(name: str) -> str:
+    """``name`` within MAX_NAME_CHARS: a longer one loses its middle, not its end
+    (``M_W-Wide Flange-Column:W10X49:Structural Column:W10X49:412345`` →
+    ``M_W-Wide Flange-Column:W10X49:S…mn:W10X49:412345``)."""
+    if len(name) <= MAX_NAME_CHARS:
+        return name
+    return name[: MAX_NAME_CHARS - 1 - NAME_TAIL_CHARS] + "…" + name[-NAME_TAIL_CHARS:]
 
 
 def _group_row(root: str, members: list[dict[str, Any]]) -> tuple[str, str, str, str, str]:

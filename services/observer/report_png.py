@@ -70,6 +70,20 @@ def class_colors(classes: list[str]) -> dict[str, RGB]:
     }
 
 
+def row_label_size_pt(rows: int) -> float:
+    """The sequence rows' label size: as large as a row's height allows, from 6 pt (60 rows, beyond which
+    labels are left out) to 10 pt (up to about 30 rows): the bundled frame's 28 labels read at 10 pt."""
+    panel_pt = FIGURE_SIZE_IN[1] * 72.0 * HEIGHT_RATIOS[0] / sum(HEIGHT_RATIOS) * 0.85
+    return max(6.0, min(10.0, 0.6 * panel_pt / max(rows, 1)))
+
+
+def bar_label_size_pt(width_s: float, span_s: float) -> float:
+    """A task bar's label size (the label runs along the bar's height): as thick as the bar is wide on the
+    lanes panel, 5–9 pt."""
+    panel_pt = FIGURE_SIZE_IN[0] * 72.0 * 0.6 * 0.85  # the lanes panel: 3/5 of the width, less margins
+    return max(5.0, min(9.0, 0.7 * panel_pt * width_s / max(span_s, 1e-9)))
+
+
 def _short(component: dict[str, Any]) -> str:
     return component.get("name") or component["guid"][:8]
 
@@ -78,6 +92,7 @@ def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> No
     by_guid = {c["guid"]: c for c in report["components"]}
     robots = report["robots"]
     robot_ids = robot_order(robots)
+    span_s = max((t["end_s"] for r in robot_ids for t in robots[r]["tasks"]), default=1.0)
     for lane, robot_id in enumerate(robot_ids):
         for task in robots[robot_id]["tasks"]:
             component = by_guid.get(task["guid"] or "")
@@ -99,7 +114,7 @@ def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> No
                     ("→ " if hand_off else "") + _short(component),
                     ha="center",
                     va="center",
-                    fontsize=6,
+                    fontsize=bar_label_size_pt(width, span_s),
                     rotation=90,
                     clip_on=True,
                 )
@@ -152,7 +167,9 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> 
             _mark_at_right(ax, row, f"as-built {component['final_position_error_mm'] or 0.0:.1f} mm")
     if len(rows) <= MAX_ROW_LABELS:
         ax.set_yticks(
-            range(len(rows)), [f"{(c['sequence_index'] or 0) + 1}. {_short(c)}" for c in rows], fontsize=6
+            range(len(rows)),
+            [f"{(c['sequence_index'] or 0) + 1}. {_short(c)}" for c in rows],
+            fontsize=row_label_size_pt(len(rows)),
         )
         for label, component in zip(ax.get_yticklabels(), rows, strict=True):
             if component.get("reason"):

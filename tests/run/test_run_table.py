@@ -108,3 +108,21 @@ def test_many_components_blocked_by_one_failed_component_take_one_row() -> None:
     assert "blocked_by" in group and root in group and "Beam A1-A2, Beam 0, Beam 1 and 3 more" in group
     assert "0Blocked" not in table and "3eV89hRd" not in table
     assert len(lines) == 5  # count, header, the failed footing, the interrupted column, the group
+
+
+def test_a_long_name_keeps_its_end_where_revit_puts_the_element_id() -> None:
+    names = [
+        "M_W-Wide Flange-Column:W10X49:Structural Column:W10X49:412345",
+        "M_W-Wide Flange-Column:W10X49:Structural Column:W10X49:412346",
+    ]
+    report = {
+        "components": [
+            _component(f"guid{index}", name, "failed", index, {"code": "too_heavy", "message": "heavy"})
+            for index, name in enumerate(names)
+        ]
+    }
+    lines = not_built_table(report).splitlines()[2:]
+    assert [line.split("  guid")[0].strip() for line in lines] == [
+        "M_W-Wide Flange-Column:W10X49:S…mn:W10X49:412345",
+        "M_W-Wide Flange-Column:W10X49:S…mn:W10X49:412346",
+    ]
