@@ -70,6 +70,12 @@ class InertiaSource(StrEnum):
     BOUNDING_BOX_FALLBACK = "bounding_box_fallback"
 
 
+MAX_COLLISION_PARTS = 16
+"""Convex collision parts per component at most: pybullet builds a compound shape of the first 16 parts
+it is given and silently drops the rest (its MAX_COMPOUND_COLLISION_SHAPES; measured with 40 boxes: 16 are
+hit by rays), so a 22-part window would collide with 16 of its parts."""
+
+
 class CollisionMethod(StrEnum):
     """How the collision shape of a moving body was made."""
 

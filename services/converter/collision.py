@@ -44,7 +44,7 @@ import ifcopenshell.util.placement
 import ifcopenshell.util.representation
 import numpy as np
 
-from bimbot.shared.manifest import CollisionMethod
+from bimbot.shared.manifest import MAX_COLLISION_PARTS, CollisionMethod
 
 from .mesh import MeshLike, TriMesh, as_trimesh_lite, convex_hull
 from .placement import axis2placement_matrix
@@ -69,7 +69,7 @@ MIN_VOLUME_RATIO = 0.90  # pieces may miss fillet material ...
 MAX_VOLUME_RATIO = 1.05  # ... or add rounded edges and filled small holes, but not more
 MIN_THICKNESS_M = 1e-3  # a mesh whose hull is thinner on average collides as a box this thick
 VHACD_BUDGET_S = 1.0  # per element; concave open pieces beyond it get one hull each (noted)
-MAX_PARTS = 32  # collision parts per element; more separate solids are merged into this many hulls
+MAX_PARTS = MAX_COLLISION_PARTS  # per element; more separate solids are merged into this many hulls
 _MAX_MAPPING_DEPTH = 8
 
 

@@ -20,10 +20,12 @@ from dataclasses import dataclass
 import manifold3d
 import numpy as np
 
+from bimbot.shared.manifest import MAX_COLLISION_PARTS
+
 from .mesh import MeshLike, TriMesh, as_trimesh_lite, manifold_to_mesh
 
 CONCAVITY_TOL = 0.05  # a piece whose hull is ≤ 5 % larger than itself is convex enough
-MAX_PARTS = 16
+MAX_PARTS = MAX_COLLISION_PARTS
 OFFSETS_PER_NORMAL = 9
 DOMINANT_NORMALS = 3
 TIME_BUDGET_S = 0.3

@@ -25,10 +25,12 @@ from dataclasses import dataclass, field
 import manifold3d
 import numpy as np
 
+from bimbot.shared.manifest import MAX_COLLISION_PARTS
+
 from .mesh import TriMesh, convex_hull
 
 CONCAVITY_TOL = 0.05  # a piece whose hull is ≤ 5 % larger than itself is convex enough (as plane_split)
-MAX_PARTS = 16
+MAX_PARTS = MAX_COLLISION_PARTS
 OFFSETS_PER_DIRECTION = 24  # cut positions tried per direction (vertex positions, evenly thinned)
 EXTRA_DIRECTIONS = 3  # dominant edge directions tried besides the section's own x and y axes
 LINE_PREFERENCE = 0.1  # a cut along an edge line wins if its hulls exceed the best cut's by ≤ this × hull

@@ -19,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from bimbot.shared.manifest import Component
+from bimbot.shared.manifest import MAX_COLLISION_PARTS, Component
 from bimbot.shared.site_plan import Rect
 
 from .client import p
@@ -34,7 +34,7 @@ class Pit:
     owner: str  # the GUID of the foundation that fills it
     footprint: Rect  # at ground level, world frame
     floor_z_m: float  # its floor: the foundation's bottom
-    floor_body: int  # the static body of every pit floor (one body, a box per pit)
+    floor_body: int  # the static body holding this pit's floor (a box; up to 16 floors a body)
 
 
 class Pits:
@@ -57,18 +57,28 @@ class Pits:
             )
         if not self.pits:
             return
-        # Every floor is a child of one static body: Bullet updates every body's bounding box every step
-        # (pybullet keeps forceUpdateAllAabbs on): 256 floor bodies cost a 782-component site 0.035 ms a step.
-        shape = p.createCollisionShapeArray(
-            [p.GEOM_BOX] * len(halves),
-            halfExtents=halves,
-            collisionFramePositions=centres,
-            physicsClientId=client_id,
-        )
-        body = p.createMultiBody(0.0, shape, physicsClientId=client_id, useMaximalCoordinates=True)
-        set_filter(client_id, body, STATIC_GROUP, STATIC_MASK)
-        put_to_sleep(client_id, body)
-        self.pits = [Pit(pit.owner, pit.footprint, pit.floor_z_m, body) for pit in self.pits]
+        # The floors are children of a few static bodies, not a body each: Bullet visits every body each
+        # step (see scene.put_to_sleep). pybullet keeps at most MAX_COLLISION_PARTS children of a compound
+        # shape and silently drops the rest — on a site with 324 footings, 308 of them fell through floors
+        # that were not there — so a body holds that many floors, neighbours together (sorted by x, then y).
+        order = sorted(range(len(self.pits)), key=lambda i: (centres[i][0], centres[i][1]))
+        floor_of: dict[int, int] = {}
+        for start in range(0, len(order), MAX_COLLISION_PARTS):
+            chunk = order[start : start + MAX_COLLISION_PARTS]
+            shape = p.createCollisionShapeArray(
+                [p.GEOM_BOX] * len(chunk),
+                halfExtents=[halves[i] for i in chunk],
+                collisionFramePositions=[centres[i] for i in chunk],
+                physicsClientId=client_id,
+            )
+            body = p.createMultiBody(0.0, shape, physicsClientId=client_id, useMaximalCoordinates=True)
+            set_filter(client_id, body, STATIC_GROUP, STATIC_MASK)
+            put_to_sleep(client_id, body)
+            floor_of.update(dict.fromkeys(chunk, body))
+        self.pits = [
+            Pit(pit.owner, pit.footprint, pit.floor_z_m, floor_of[index])
+            for index, pit in enumerate(self.pits)
+        ]
 
     def open_around(self, xy: tuple[float, float]) -> list[Pit]:
         """The open pits whose footprint holds the point ``xy`` (a released body's centre of mass: over an

@@ -45,7 +45,7 @@ from scipy.spatial.transform import Rotation
 
 from bimbot.shared.errors import InputError
 from bimbot.shared.geometry import Quat, Vec3
-from bimbot.shared.manifest import Component
+from bimbot.shared.manifest import MAX_COLLISION_PARTS, Component
 from bimbot.shared.site_plan import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect
 
 from .client import p
@@ -244,6 +244,16 @@ def create_component_body(
     if missing:
         raise InputError(f"{component.guid}: collision meshes missing: {', '.join(missing)}")
     files = [str(path) for path in model.collision_files]
+    if len(files) > MAX_COLLISION_PARTS:  # pybullet would keep 16 of them, silently (a build from before)
+        _log.warning(
+            "%s has %d collision parts, more than the %d pybullet keeps: it collides as its bounding box "
+            "(convert the model again to split it into %d parts)",
+            component.guid,
+            len(files),
+            MAX_COLLISION_PARTS,
+            MAX_COLLISION_PARTS,
+        )
+        files = []
     if files:
         scales, positions = inset_parts(model.collision_files)  # the hulls' margin is the geometry's skin
         shape = p.createCollisionShapeArray(  # a non-ASCII path crashes it: mesh_paths gives ASCII ones
@@ -253,9 +263,10 @@ def create_component_body(
             collisionFramePositions=positions,
             physicsClientId=client_id,
         )
-    else:  # a component without collision parts still takes its bounding box's room
+    else:  # a component without (usable) collision parts still takes its bounding box's room
         low, high = np.array(component.bbox_local.min_m), np.array(component.bbox_local.max_m)
-        _log.warning("%s has no collision parts: using its bounding box", component.guid)
+        if not model.collision_files:
+            _log.warning("%s has no collision parts: using its bounding box", component.guid)
         shape = p.createCollisionShape(
             p.GEOM_BOX,
             halfExtents=((high - low) / 2.0).tolist(),

@@ -33,7 +33,7 @@ from bimbot.services.converter.collision import (
     collision_shape,
     vhacd_parts,
 )
-from bimbot.shared.manifest import CollisionMethod
+from bimbot.shared.manifest import MAX_COLLISION_PARTS, CollisionMethod
 
 MM = 0.001
 Entity = ifcopenshell.entity_instance
@@ -522,3 +522,22 @@ def test_profile_parts_rest_on_the_ground_as_a_compound_body(model: Model, tmp_p
     assert lower[2] == pytest.approx(0.0, abs=0.01)  # on the ground: not sunk, not bouncing
     assert upper[2] - lower[2] == pytest.approx(0.4, abs=0.02)  # lying on its flange, 400 mm deep
     assert np.linalg.norm(velocity) < 0.01 and np.linalg.norm(spin) < 0.01
+
+
+def test_an_element_of_many_separate_solids_keeps_at_most_the_parts_pybullet_keeps() -> None:
+    """A railing of 24 separate posts: pybullet keeps only 16 children of a compound shape (the rest
+    would be silently missing in physics), so the posts are merged into 16 hulls that still hold them all."""
+    posts = [trimesh.creation.box((0.05, 0.05, 1.0)) for _ in range(24)]
+    for index, post in enumerate(posts):
+        post.apply_translation((0.3 * index, 0.0, 0.5))
+    vertices = np.vstack([post.vertices for post in posts])
+    faces = np.vstack([post.faces + 8 * index for index, post in enumerate(posts)])
+    shape = collision_from_mesh(trimesh.Trimesh(vertices, faces, process=False))
+    assert len(shape.parts) == MAX_COLLISION_PARTS
+    for post in posts:  # every post lies inside one of the merged hulls
+        low, high = post.bounds
+        assert any(
+            np.all(part.vertices.min(axis=0) <= low + 1e-9)
+            and np.all(part.vertices.max(axis=0) >= high - 1e-9)
+            for part in shape.parts
+        )
