@@ -17,7 +17,8 @@ loopback bus, lock-step physics as fast as the robots follow) and prints, per ru
 builds with); ``--demo`` times ``bimbot demo`` itself as a user runs it (conversion, observer and all,
 target ≤ 60 s), with one robot (``--robots 1``, the issue's figure) and with the default mixed fleet;
 ``--large`` builds a generated frame of about a thousand components (18×18 columns: 988)
-with ten robots and prints wall time, sim time and peak memory per service; ``--observer-cost`` builds with
+with ten robots and a robotic total station (``--total-station-mm 3``: in the empty footprint the laser
+sees nothing) and prints wall time, sim time and peak memory per service; ``--observer-cost`` builds with
 one robot and the observer recording too; ``--samples`` converts and builds the two Revit buildings of the
 public samples folder beside the checkout (see tests/conftest.py) and the structural hub's steel frame, and
 prints for each how the run ended and the reasons of what was not built. Then the navigation figures (A*
@@ -53,6 +54,7 @@ RTF_TARGETS = {1: 50.0, 3: 20.0}
 LARGE_BAYS = "18x18"  # 324 footings, 324 columns, 340 beams: 988 components
 LARGE_ROBOTS = 10
 LARGE_TIMEOUT_S = 7200.0
+LARGE_TOTAL_STATION_MM = 3.0  # the robots' positioning sensor: the laser sees nothing in the empty footprint
 SAMPLES = ROOT.parent / "shared" / "samples" / "ifc"
 # (file, classes to build or None for the converter's default, label)
 REVIT_SAMPLES = (
@@ -151,9 +153,18 @@ def build_large(folder: Path) -> None:
     started = time.monotonic()
     convert_model(open_model(source), source, build)
     print(f"large frame {LARGE_BAYS}: converted in {time.monotonic() - started:.1f} s")
-    options = RunOptions(robots=LARGE_ROBOTS, planner_source=("--derive",), timeout_s=LARGE_TIMEOUT_S)
+    options = RunOptions(
+        robots=LARGE_ROBOTS,
+        planner_source=("--derive",),
+        timeout_s=LARGE_TIMEOUT_S,
+        total_station_mm=LARGE_TOTAL_STATION_MM,
+    )
     outcome = run_build(build, options, announce=lambda _line: None)
-    describe(f"large frame {LARGE_BAYS}, {LARGE_ROBOTS} robots (derived sequence)", outcome)
+    describe(
+        f"large frame {LARGE_BAYS}, {LARGE_ROBOTS} robots (derived sequence, a total station of "
+        f"{LARGE_TOTAL_STATION_MM:g} mm)",
+        outcome,
+    )
 
 
 def main() -> None:

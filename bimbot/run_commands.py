@@ -39,6 +39,7 @@ def physics_arguments(build: Path, options: RunOptions) -> list[str]:
         "--control-period-s": options.control_period_s,
         "--laser-beams": options.laser_beams,
         "--command-latency-steps": options.command_latency_steps,
+        "--total-station-mm": options.total_station_mm,
     }
     for flag, value in overrides.items():
         if value is not None:

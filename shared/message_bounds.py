@@ -59,3 +59,4 @@ Period = Annotated[float, Field(gt=0.0, le=MAX_SIM_TIME_S, allow_inf_nan=False)]
 RangeMax = Annotated[float, Field(gt=0.0, le=MAX_SITE_M, allow_inf_nan=False)]  # m
 JointValue = Annotated[float, Field(ge=-MAX_SITE_M, le=MAX_SITE_M, allow_inf_nan=False)]  # rad or m
 Percent = Annotated[float, Field(ge=0.0, le=100.0, allow_inf_nan=False)]
+FixStd = Annotated[float, Field(gt=0.0, le=10.0, allow_inf_nan=False)]  # a position fix's std. dev., m

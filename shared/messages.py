@@ -47,6 +47,7 @@ from .keyspace import Entry, Liveliness, Queryable, Topic
 from .message_bounds import (
     Angle,
     Count,
+    FixStd,
     JointValue,
     NonNegative,
     Percent,
@@ -296,6 +297,20 @@ class ScanMsg(_Message):
     sim_time_s: SimTime
 
 
+class PositionFixMsg(_Message):
+    """A positioning sensor's fix of a robot (a robotic total station tracking two prisms on it, as site
+    layout robots use): where its base frame's origin is on the site and which way it faces, with the
+    sensor's standard deviations. Physics sends one each control period when the site has such a sensor
+    (``--total-station-mm``)."""
+
+    robot_id: str
+    position_xy_m: PointXY
+    std_m: FixStd
+    yaw_rad: Angle
+    yaw_std_rad: FixStd
+    sim_time_s: SimTime
+
+
 class PlanMsg(_Message):
     robot_id: str
     path_xy_m: list[PointXY]
@@ -406,13 +421,15 @@ class ClockMsg(_Message):
 
 class SensorsMsg(_Message):
     """What physics tells one robot each control period, in one message: the clock step it answers, its
-    odometry and its laser scan (None for a robot without a laser, a crane). One message instead of three
+    odometry, its laser scan (None for a robot without a laser, a crane) and a position fix (None without a
+    positioning sensor on site). One message instead of three
     wakes the robot once a period; it travels in the compact binary layout of :mod:`bimbot.shared.wire`."""
 
     robot_id: str
     clock: ClockMsg
     odom: OdomMsg
     scan: ScanMsg | None = None
+    fix: PositionFixMsg | None = None  # without a positioning sensor on site: None
 
 
 class ProgressMsg(_Message):

@@ -12,7 +12,10 @@ and the agents' processes stay free of numpy.
 Layout of a ``SensorsMsg`` (little-endian): ``b"BS"``, layout version (u8), schema version (u8), robot id
 (u8 length + UTF-8); clock: sim time (f64), step (i64), real-time factor (f64), lock-step (u8), epoch
 (i64); odometry: x, y, yaw, v, w, sim time (6 × f64); a scan flag (u8), and with a scan: angle min,
-angle increment, range max, sim time (4 × f64), beam count (u32), ranges (f32 each; +inf is "no return").
+angle increment, range max, sim time (4 × f64), beam count (u32), ranges (f32 each; +inf is "no return");
+a fix flag (u8), and with a position fix: x, y, standard deviation, yaw, its standard deviation, sim time
+(6 × f64). Layout 2 added the
+fix; both ends are this codebase, so a layout-1 payload is refused like any other foreign bytes.
 """
 
 from __future__ import annotations
@@ -25,12 +28,13 @@ from pydantic import BaseModel
 from .messages import SensorsMsg
 
 MAGIC: Final = b"BS"
-LAYOUT_VERSION: Final = 1
+LAYOUT_VERSION: Final = 2
 _HEAD = struct.Struct("<2sBBB")  # magic, layout, schema version, robot id length
 _CLOCK = struct.Struct("<dqdBq")
 _ODOM = struct.Struct("<6d")
 _SCAN = struct.Struct("<4dI")
 _FLAG = struct.Struct("<B")
+_FIX = struct.Struct("<6d")
 
 
 class WireError(ValueError):
@@ -61,6 +65,10 @@ def encode_sensors(message: SensorsMsg) -> bytes:
             )
         )
         parts.append(struct.pack(f"<{len(ranges)}f", *ranges))
+    fix = message.fix
+    parts.append(_FLAG.pack(fix is not None))
+    if fix is not None:
+        parts.append(_FIX.pack(*fix.position_xy_m, fix.std_m, fix.yaw_rad, fix.yaw_std_rad, fix.sim_time_s))
     return b"".join(parts)
 
 
@@ -104,6 +112,21 @@ def sensors_fields(payload: bytes) -> dict[str, Any]:
                 "ranges_m": ranges,
                 "sim_time_s": scan_s,
             }
+        (has_fix,) = _FLAG.unpack_from(payload, at)
+        at += _FLAG.size
+        fix = None
+        if has_fix:
+            fix_x, fix_y, fix_std, fix_yaw, fix_yaw_std, fix_s = _FIX.unpack_from(payload, at)
+            at += _FIX.size
+            fix = {
+                "schema_version": schema,
+                "robot_id": robot_id,
+                "position_xy_m": (fix_x, fix_y),
+                "std_m": fix_std,
+                "yaw_rad": fix_yaw,
+                "yaw_std_rad": fix_yaw_std,
+                "sim_time_s": fix_s,
+            }
         if at != len(payload):
             raise WireError(f"{len(payload) - at} byte(s) after the message")
     except (struct.error, UnicodeDecodeError) as error:
@@ -128,4 +151,5 @@ def sensors_fields(payload: bytes) -> dict[str, Any]:
             "sim_time_s": odom_s,
         },
         "scan": scan,
+        "fix": fix,
     }

@@ -201,6 +201,7 @@ def sim_config(args: argparse.Namespace) -> SimConfig:
             pose_refresh_s=args.pose_refresh_s,
             pose_refresh_max=args.pose_refresh_max,
             visuals=args.gui,
+            total_station_std_m=None if args.total_station_mm is None else args.total_station_mm / 1000.0,
             robot=RobotConfig(wheel_joints=wheels),
             laser=LaserConfig(
                 beams=args.laser_beams,

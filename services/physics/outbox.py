@@ -12,27 +12,35 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from bimbot.shared.messages import ClockMsg, OdomMsg, ScanMsg, SensorsMsg
+from bimbot.shared.messages import ClockMsg, OdomMsg, PositionFixMsg, ScanMsg, SensorsMsg
 
 from .simulation import Outgoing
 
 
 def bundle(messages: Iterable[Outgoing]) -> list[Outgoing]:
-    """The period's messages with each robot's odometry and scan folded into one ``SensorsMsg`` (placed
+    """The period's messages with each robot's odometry, scan and fix folded into one ``SensorsMsg`` (placed
     where its odometry was), stamped with the period's clock."""
     items = list(messages)
     clock = next((item.message for item in items if isinstance(item.message, ClockMsg)), None)
     if clock is None:
         return items
     scans = {item.message.robot_id: item.message for item in items if isinstance(item.message, ScanMsg)}
+    fixes = {
+        item.message.robot_id: item.message for item in items if isinstance(item.message, PositionFixMsg)
+    }
     out: list[Outgoing] = []
     for item in items:
         message = item.message
         if isinstance(message, OdomMsg):
+            robot_id = message.robot_id
             sensors = SensorsMsg(
-                robot_id=message.robot_id, clock=clock, odom=message, scan=scans.get(message.robot_id)
+                robot_id=robot_id,
+                clock=clock,
+                odom=message,
+                scan=scans.get(robot_id),
+                fix=fixes.get(robot_id),
             )
             out.append(Outgoing(item.key_expr, sensors))
-        elif not isinstance(message, ScanMsg):
+        elif not isinstance(message, ScanMsg | PositionFixMsg):
             out.append(item)
     return out

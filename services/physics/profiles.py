@@ -104,6 +104,15 @@ def add_profile_arguments(parser: argparse.ArgumentParser, default: str) -> None
     )
     parser.add_argument("--laser-beams", type=positive_int, default=None, help="beams per laser scan")
     parser.add_argument(
+        "--total-station-mm",
+        type=positive_float,
+        default=None,
+        metavar="STD_MM",
+        help="a robotic total station on site: every ground robot gets a fix of its position each control "
+        "period with this standard deviation (mm), fused by its localisation; for large sites, where the "
+        "laser sees nothing in the empty footprint (default: none, laser and odometry only)",
+    )
+    parser.add_argument(
         "--command-latency-steps",
         type=int,
         choices=(0, 1),

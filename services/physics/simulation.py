@@ -66,6 +66,7 @@ from .fleet_spawn import robot_pose_msg, robot_types, spawn_fleet, types_on_site
 from .handling import Handling, HandlingConfig, Item, Phase
 from .odometry import Odometry
 from .pits import Pits
+from .positioning import TotalStation
 from .profiles import FINE
 from .release import SettleConfig
 from .robots import Robot, RobotConfig
@@ -103,6 +104,9 @@ class SimConfig:
     pose_refresh_s: float = 2.0  # wall seconds (see the module)
     pose_refresh_max: int = 5  # repeated poses per control period at most (a large site: a longer cycle)
     visuals: bool = False
+    total_station_std_m: float | None = (
+        None  # a positioning sensor fixing every ground robot (positioning.py)
+    )
     robot: RobotConfig = field(default_factory=RobotConfig)
     laser: LaserConfig = field(default_factory=LaserConfig)
     handling: HandlingConfig = field(default_factory=HandlingConfig)
@@ -123,6 +127,8 @@ class SimConfig:
             )
         if self.command_latency_steps not in (0, 1):
             raise ValueError("command latency must be 0 or 1 control period")
+        if self.total_station_std_m is not None and not 0.0 < self.total_station_std_m <= 1.0:
+            raise ValueError("a total station's standard deviation must be within (0, 1] m")
         if self.odom_noise < 0.0 or self.pose_refresh_s <= 0.0 or self.pose_refresh_max < 1:
             raise ValueError("odom noise must be >= 0, pose refresh > 0 and at least one pose a period")
 
@@ -161,6 +167,8 @@ class Simulation:
         self.alive: set[str] = set()
         self._odometry: dict[str, Odometry] = {}
         self._laser = Laser(self.config.laser)
+        std = self.config.total_station_std_m
+        self._station = TotalStation(std, self.config.seed) if std is not None else None
         self._beam_starts: dict[str, np.ndarray] = {}
         self._unknown_logged: set[str] = set()
         self._refresh_cursor = 0
@@ -421,6 +429,13 @@ class Simulation:
             )
             if not robot.is_crane:
                 out.append(self._scan(robot, now))
+                if self._station is not None:
+                    out.append(
+                        Outgoing(
+                            key(ROBOT_SENSORS_KEY, site=self.site, robot_id=robot_id),
+                            self._station.fix(robot_id, current, robot.description.length_m, now),
+                        )
+                    )
             out.append(
                 Outgoing(
                     key(ROBOT_POSE_KEY, site=self.site, robot_id=robot_id),

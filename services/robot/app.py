@@ -222,6 +222,8 @@ class _Loop:
                 if verdict.accepted:
                     self._clock, self._sensors_wall_s = clock, time.monotonic()
                     self.executor.handle(sensors.odom)
+                    if sensors.fix is not None:  # before the scan: fused with it
+                        self.executor.handle(sensors.fix)
                     if sensors.scan is not None:  # a crane has no laser
                         self.executor.handle(sensors.scan)
             case Answer(key=reply_key, message=TwinMsg() as twin):

@@ -65,6 +65,7 @@ from bimbot.shared.messages import (
     DropRequest,
     OdomMsg,
     PlanMsg,
+    PositionFixMsg,
     RobotPoseMsg,
     RobotState,
     RobotStateMsg,
@@ -166,6 +167,8 @@ class Executor(Driving, Handover):
         """Take one validated message (or a :class:`~.protocol.PhysicsResult`)."""
         if isinstance(message, ScanMsg) and message.robot_id == self.robot_id:
             self.navigator.observe_scan(message, defer_localisation=True)
+        elif isinstance(message, PositionFixMsg) and message.robot_id == self.robot_id:
+            self.navigator.observe_fix(message)
         elif isinstance(message, OdomMsg) and message.robot_id == self.robot_id:
             odom = np.asarray(message.pose_xy_yaw, float)
             if self._last_odom is not None:

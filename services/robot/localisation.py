@@ -1,4 +1,6 @@
-"""AMCL-style localisation of one robot on the site map: a particle filter fed by odometry and the laser.
+"""AMCL-style localisation of one robot on the site map: a particle filter fed by odometry and the laser,
+and by a positioning sensor's fixes where the site has one (a robotic total station, fused with the scan
+of the same period: :func:`.particle_filter.fix_update`).
 
 Why: odometry drifts (physics disturbs every increment), so the robot's pose comes from matching its laser
 against the map, as AMCL does under ROS move_base. The estimate between filter updates is the last
@@ -34,6 +36,7 @@ from .particle_filter import (
     LikelihoodFieldConfig,
     OdometryNoise,
     ParticleFilterConfig,
+    PositionFix,
     init_gaussian,
     mcl_step,
 )
@@ -81,7 +84,9 @@ def compose_delta(
     )
 
 
-_Scan = tuple[NDArray[np.float64], NDArray[np.float64], float, NDArray[np.float64]]
+# ranges, angles, range max, the odometry it was taken at, and the position fix taken with it (or None)
+MAX_STILL_FIXES = 25  # 5 s of fixes at a 0.2 s control period
+_Scan = tuple[NDArray[np.float64], NDArray[np.float64], float, NDArray[np.float64], PositionFix | None]
 
 
 class Localiser:
@@ -108,8 +113,11 @@ class Localiser:
         self._field: LikelihoodField | None = None
         self._field_version = -1
         self._sensor: LikelihoodFieldConfig | None = None
-        # a deferred scan: ranges, angles, range max and the odometry it was taken at
-        self._pending: _Scan | None = None
+        self._pending: _Scan | None = None  # a deferred scan
+        self._fix: PositionFix | None = None  # the positioning sensor's fix of this period, for its scan
+        self.fixes = 0  # filter updates that fused a position fix
+        self._still: list[PositionFix] = []  # the fixes since the odometry last changed (standing still)
+        self._still_odom: NDArray[np.float64] | None = None
 
     def spread(self, std_xy_m: float, std_yaw_rad: float) -> None:
         """Re-localise: draw the particles again around the estimate, this wide (AMCL's answer to a robot
@@ -139,6 +147,33 @@ class Localiser:
             self._anchor_odom = self.odom.copy()
         self.pose = compose_delta(self._anchor_pose, self._anchor_odom, self.odom)
 
+    def observe_fix(self, fix: PositionFix) -> None:
+        """A positioning sensor's fix, taken with this period's scan: fused with it (:meth:`observe_scan`
+        comes next in the same period), and kept while the robot stands still (:meth:`still_fix_pose`)."""
+        self._fix = fix
+        odom = self.odom
+        if (
+            odom is not None
+            and self._still_odom is not None
+            and np.allclose(odom, self._still_odom, atol=1e-4)
+        ):
+            self._still = [*self._still[-(MAX_STILL_FIXES - 1) :], fix]
+        else:
+            self._still, self._still_odom = [fix], None if odom is None else odom.copy()
+
+    def still_fix_pose(self) -> tuple[NDArray[np.float64], int] | None:
+        """The mean of the fixes taken since the robot last moved (position, and heading as a circular
+        mean) and how many they are; None without fixes. Standing still before a placement, n fixes give
+        the pose √n times sharper than one (a layout robot measures before it marks)."""
+        if not self._still or self.odom is None or self._still_odom is None:
+            return None
+        if not np.allclose(self.odom, self._still_odom, atol=1e-4):
+            return None  # moved since
+        xy = np.mean([fix.xy_m for fix in self._still], axis=0)
+        yaws = np.array([fix.yaw_rad for fix in self._still])
+        yaw = math.atan2(float(np.sin(yaws).mean()), float(np.cos(yaws).mean()))
+        return np.array([xy[0], xy[1], yaw]), len(self._still)
+
     def observe_scan(
         self,
         ranges_m: NDArray[np.float64],
@@ -150,12 +185,13 @@ class Localiser:
         """Run the filter on this scan if the robot moved enough since the last update; True if it ran.
         ``defer``: keep it for :meth:`update` (a scan still pending is taken first)."""
         self.update()
+        fix, self._fix = self._fix, None
         if self.odom is None or self._anchor_odom is None:
             return False
         if defer:
-            self._pending = (ranges_m, angles_rad, range_max_m, self.odom.copy())
+            self._pending = (ranges_m, angles_rad, range_max_m, self.odom.copy(), fix)
             return False
-        return self._filter(ranges_m, angles_rad, range_max_m, self.odom)
+        return self._filter(ranges_m, angles_rad, range_max_m, self.odom, fix)
 
     def update(self) -> bool:
         """Run the filter on the deferred scan, if any (and the robot moved enough); True if it ran."""
@@ -168,9 +204,10 @@ class Localiser:
         angles_rad: NDArray[np.float64],
         range_max_m: float,
         odom_at_scan: NDArray[np.float64],
+        fix: PositionFix | None = None,
     ) -> bool:
-        """One filter step from the last update's odometry to ``odom_at_scan`` (where the scan was taken);
-        the odometry since then is composed on top of the new estimate."""
+        """One filter step from the last update's odometry to ``odom_at_scan`` (where the scan, and the fix
+        with it, was taken); the odometry since then is composed on top of the new estimate."""
         assert self.odom is not None and self._anchor_odom is not None
         moved = math.hypot(*(odom_at_scan[:2] - self._anchor_odom[:2]))
         turned = abs(float(wrap_angle(odom_at_scan[2] - self._anchor_odom[2])))
@@ -195,7 +232,9 @@ class Localiser:
             field=self._field,
             config=replace(self.config.pf, sensor=self._sensor),
             rng=self.rng,
+            fix=fix,
         )
+        self.fixes += fix is not None
         self._anchor_pose, self._anchor_odom = estimate.pose_xy_yaw.copy(), odom_at_scan.copy()
         self.pose = compose_delta(self._anchor_pose, self._anchor_odom, self.odom)
         self.updates += 1

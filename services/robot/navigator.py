@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from bimbot.shared.geometry import wrap_angle
-from bimbot.shared.messages import OdomMsg, ScanMsg
+from bimbot.shared.messages import OdomMsg, PositionFixMsg, ScanMsg
 from bimbot.shared.occupancy_grid import scan_endpoints_xy_m
 from bimbot.shared.reasons import Reason
 
@@ -52,11 +52,13 @@ from .fine_alignment import Alignment, align
 from .localisation import Localiser
 from .motion import Path, carrot, straight_line_clear, turn_command, unicycle
 from .nav_types import DEFAULT_NAVIGATOR, Goal, NavCommand, NavigatorConfig, NavStatus
+from .particle_filter import PositionFix
 from .recovery import ProgressWatchdog, Recovery, diagnose, next_recovery, plan_start
 from .site_map import SiteMap
 from .traffic import Traffic
 
 _log = logging.getLogger(__name__)
+MIN_STILL_FIXES = 2  # a placement's pose from the positioning sensor: the mean of this many fixes at least
 
 REST_MPS = 0.002  # odometry speed below which the robot stands still (noise: ~2 % of the increment)
 REST_RADPS = 0.005
@@ -123,6 +125,12 @@ class Navigator(Traffic):
         self.localiser.observe_odom(message.pose_xy_yaw)
         self.odom_speed = (message.v_mps, message.w_radps)
 
+    def observe_fix(self, message: PositionFixMsg) -> None:
+        """A positioning sensor's fix: fused with this period's scan (which comes next)."""
+        self.localiser.observe_fix(
+            PositionFix(message.position_xy_m, message.std_m, message.yaw_rad, message.yaw_std_rad)
+        )
+
     def observe_scan(self, message: ScanMsg, *, defer_localisation: bool = False) -> None:
         """The scan for the localisation (now, or with ``defer_localisation`` at :meth:`localise`, after the
         step's command is out, see :mod:`.localisation`), the fine alignment, and the local obstacles and
@@ -168,6 +176,17 @@ class Navigator(Traffic):
         result = align(self.localiser.pose, self.scan_hits_robot_m, self.site_map.laser_segments())
         if result.trusted:
             self.localiser.set_pose(result.pose_xy_yaw)
+            return result
+        still = self.localiser.still_fix_pose()  # nothing to align on: the positioning sensor, if any
+        if still is not None and still[1] >= MIN_STILL_FIXES:
+            pose, count = still
+            _log.info(
+                "%s: positioned on the mean of %d fixes standing still (moved the estimate %.1f mm)",
+                self.robot_id,
+                count,
+                1000.0 * float(np.hypot(*(pose[:2] - self.localiser.pose[:2]))),
+            )
+            self.localiser.set_pose(pose)
         return result
 
     def localise(self) -> bool:

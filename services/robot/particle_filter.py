@@ -243,6 +243,37 @@ def measurement_update(
     return ParticleSet(particles.poses_xy_yaw, w / w.sum())
 
 
+@dataclass(frozen=True)
+class PositionFix:
+    """A positioning sensor's fix of the robot's base origin (from a ``PositionFixMsg``)."""
+
+    xy_m: tuple[float, float]
+    std_m: float
+    yaw_rad: float
+    yaw_std_rad: float
+
+
+# A fix sharper than these would leave a handful of the particles: it counts as these.
+FIX_STD_FLOOR_M = 0.005
+FIX_YAW_STD_FLOOR_RAD = math.radians(0.3)
+
+
+def fix_update(particles: ParticleSet, fix: PositionFix) -> ParticleSet:
+    """Reweight the particles by a position fix: Gaussians of the fix's standard deviations (at least the
+    floors above) around its position and heading."""
+    sigma_m = max(fix.std_m, FIX_STD_FLOOR_M)
+    sigma_rad = max(fix.yaw_std_rad, FIX_YAW_STD_FLOOR_RAD)
+    offsets = particles.poses_xy_yaw[:, :2] - np.asarray(fix.xy_m, dtype=float)
+    turns = wrap_angle(particles.poses_xy_yaw[:, 2] - fix.yaw_rad)
+    log_w = (
+        np.log(np.maximum(particles.weights, 1e-300))
+        - 0.5 * np.sum(offsets**2, axis=1) / sigma_m**2
+        - 0.5 * turns**2 / sigma_rad**2
+    )
+    w = np.exp(log_w - log_w.max())
+    return ParticleSet(particles.poses_xy_yaw, w / w.sum())
+
+
 def effective_sample_size(weights: ArrayLike) -> float:
     """Kish's effective sample size ``1 / Σ w²`` of normalised weights."""
     w = np.asarray(weights, dtype=float)
@@ -289,13 +320,17 @@ def mcl_step(
     field: LikelihoodField,
     config: ParticleFilterConfig,
     rng: np.random.Generator,
+    fix: PositionFix | None = None,
 ) -> tuple[ParticleSet, PoseEstimate]:
-    """Motion update, measurement update, resampling if the ESS is low; returns particles and estimate.
+    """Motion update, measurement update (the scan, and the position fix taken with it if there is one),
+    resampling if the ESS is low; returns particles and estimate.
 
     The estimate is taken from the weighted particles before resampling (less resampling noise).
     """
     moved = motion_update(particles, odom_prev_xy_yaw, odom_now_xy_yaw, config.noise, rng)
     weighted = measurement_update(moved, ranges_m, angles_rad, field, config.sensor)
+    if fix is not None:
+        weighted = fix_update(weighted, fix)
     estimate = estimate_pose(weighted)
     n = len(weighted.weights)
     if effective_sample_size(weighted.weights) < config.resample_ess_fraction * n:

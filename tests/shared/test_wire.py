@@ -9,7 +9,7 @@ import struct
 import pytest
 
 from bimbot.shared.bus import InvalidPayloads, decode, encode
-from bimbot.shared.messages import ROBOT_SENSORS, ClockMsg, OdomMsg, ScanMsg, SensorsMsg
+from bimbot.shared.messages import ROBOT_SENSORS, ClockMsg, OdomMsg, PositionFixMsg, ScanMsg, SensorsMsg
 from bimbot.shared.wire import decode_sensors
 
 
@@ -66,6 +66,25 @@ def test_bytes_that_do_not_fit_the_layout_are_one_invalid_payload(change, why: s
 def test_values_out_of_bounds_are_rejected_as_in_json() -> None:
     payload = bytearray(encode(_sensors([1.0] * 180)))
     nan = struct.pack("<f", math.nan)
-    payload[-4:] = nan  # the last range: NaN is never a range
+    payload[-5:-1] = nan  # the last range (before the fix flag): NaN is never a range
     invalid = InvalidPayloads()
     assert decode(SensorsMsg, "k", bytes(payload), invalid) is None and invalid.total == 1
+
+
+def test_a_position_fix_travels_with_the_scan_and_is_checked_like_the_rest() -> None:
+    fix = PositionFixMsg(
+        robot_id="r1",
+        position_xy_m=(25.125, -3.5),
+        std_m=0.003,
+        yaw_rad=-2.5,
+        yaw_std_rad=0.004,
+        sim_time_s=12.2,
+    )
+    message = _sensors([2.0] * 180).model_copy(update={"fix": fix})
+    payload = encode(message)
+    assert decode_sensors(payload) == message
+    assert len(payload) == len(encode(_sensors([2.0] * 180))) + 48  # six doubles
+    broken = bytearray(payload)
+    broken[-16:-8] = struct.pack("<d", -0.001)  # a negative standard deviation (of the heading)
+    invalid = InvalidPayloads()
+    assert decode(SensorsMsg, "k", bytes(broken), invalid) is None and invalid.total == 1
