@@ -93,7 +93,7 @@ class Dispatch:
             choice = choose(
                 item,
                 where,
-                self._robots.values(),
+                [robot for robot in self._robots.values() if self.sim_time_s >= robot.held_until_s],
                 self._site,
                 now_s=self.sim_time_s,
                 promised_s=promised,
@@ -181,4 +181,9 @@ class Dispatch:
         )
 
     def _is_idle(self, robot: RobotRecord) -> bool:
-        return robot.alive and robot.state is RobotState.IDLE and robot.task_guid is None
+        return (
+            robot.alive
+            and robot.state is RobotState.IDLE
+            and robot.task_guid is None
+            and self.sim_time_s >= robot.held_until_s
+        )

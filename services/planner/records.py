@@ -25,6 +25,12 @@ class PlannerLimits:
 
     max_give_backs: int = 3  # a component given back this often (by any robots) is failed
     task_timeout_s: float = 1200.0  # sim seconds an assigned task may go without a component state change
+    # A robot that gave back this many tasks in a row (boxed in, lost) gets no task for hold_s of sim time,
+    # twice as long after each further one, hold_max_s at most: handed task after task, a boxed-in robot
+    # gave back 320 on the 988-component site and failed components others could build.
+    hold_after_give_backs: int = 2
+    hold_s: float = 60.0
+    hold_max_s: float = 600.0
 
 
 class Phase(StrEnum):
@@ -74,6 +80,8 @@ class RobotRecord:
     pose_xy_yaw: tuple[float, float, float] | None = None
     task_guid: str | None = None  # the task the planner gave it, until its part is over
     busy_until_s: float = 0.0  # sim time its current task should be over (its winning bid)
+    give_backs_in_row: int = 0  # tasks it gave back since it last placed a component
+    held_until_s: float = 0.0  # no new task before this sim time (PlannerLimits.hold_*)
 
 
 @dataclass

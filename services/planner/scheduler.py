@@ -349,6 +349,7 @@ class PlannerCore(Dispatch):
                 giver = robot_id or (reason.robot_id if reason is not None else None)
                 if giver is not None:  # the agent's released state names no robot; the robot's reason does
                     task.given_back_by.add(giver)
+                    self._robot_gave_back(giver)
                 self._count_give_back(
                     task, reason or Reason(code=ReasonCode.NO_PROGRESS, message="given back")
                 )
@@ -366,6 +367,9 @@ class PlannerCore(Dispatch):
                 if self._synced and not robot.alive:
                     self._give_back(guid, f"robot {robot_id} is not alive")
             if state is ComponentState.VERIFYING:
+                placer = self._robots.get(task.robot_id or "")
+                if placer is not None:  # it placed one: not boxed in
+                    placer.give_backs_in_row = 0
                 self._free_robot(task, keep_task_robot=True)
         elif state is ComponentState.PLANNED and task.phase in (Phase.RELEASED, Phase.ASSIGNED):
             self._free_robot(task)  # the agent lost its state: release again when ready
@@ -428,6 +432,25 @@ class PlannerCore(Dispatch):
             )
         elif reason is not None:
             self._count_give_back(task, reason)
+
+    def _robot_gave_back(self, robot_id: str) -> None:
+        """One more task given back by ``robot_id`` in a row; from ``hold_after_give_backs`` on it gets no
+        new task for a while (:class:`PlannerLimits`), and what it gave back goes to the others."""
+        robot = self._robots.get(robot_id)
+        if robot is None:
+            return
+        robot.give_backs_in_row += 1
+        beyond = robot.give_backs_in_row - self.limits.hold_after_give_backs
+        if beyond < 0:
+            return
+        hold_s = min(self.limits.hold_s * 2.0**beyond, self.limits.hold_max_s)
+        robot.held_until_s = self.sim_time_s + hold_s
+        _log.warning(
+            "%s gave back %d tasks in a row: no new task for it for %.0f s of sim time",
+            robot_id,
+            robot.give_backs_in_row,
+            hold_s,
+        )
 
     def _count_give_back(self, task: TaskRecord, reason: Reason) -> None:
         """One more give-back of ``task``'s component; at the bound it fails with the last reason."""

@@ -118,7 +118,7 @@ def test_in_a_chained_schedule_what_follows_a_blocked_component_waits_for_what_c
 
 
 def test_a_component_given_back_max_times_fails_with_the_last_robots_reason() -> None:
-    core = _core(PlannerLimits(max_give_backs=3))
+    core = _core(PlannerLimits(max_give_backs=3, hold_after_give_backs=10))  # (holds: the next test)
     for attempt in range(3):
         if attempt:
             core.observe_robot_state(robot_msg("r1", (0.0, 0.0)))
@@ -292,3 +292,49 @@ def test_a_task_given_back_goes_to_another_robot_first_and_back_only_when_none_o
     core.robot_liveliness("r2", False)
     core.step(3.0)
     assert core.robot_of("foot_b") == "r1"  # every alive robot has given it back: r1 again, bounded
+
+
+def test_a_robot_that_gives_back_task_after_task_is_held_and_the_others_build() -> None:
+    """Boxed in, a robot gives back whatever it is handed (on the 988-component site one gave back 320
+    tasks, each counting towards its component's failure): after two in a row it gets no task for 60 s of
+    sim time, after the next one 120 s, and meanwhile the other robots get the work."""
+    core = _core(PlannerLimits(max_give_backs=10, hold_after_give_backs=2, hold_s=60.0))
+    core.robot_liveliness("r1", True)
+    core.observe_robot_state(robot_msg("r1", (0.0, 0.0)))
+    core.step(0.0)
+    footings = ("foot_a", "foot_b")
+    for guid in footings:
+        core.observe_component_state(state_msg(guid, S.RELEASED, event="release"))
+    boxed_in = Reason(code=ReasonCode.UNREACHABLE, message="no free approach", robot_id="r1")
+
+    def r1_task() -> str | None:
+        return next(
+            (g for g in footings if core.robot_of(g) == "r1" and core.phase(g) is Phase.ASSIGNED), None
+        )
+
+    def at(now_s: float) -> None:  # sim time from the clock, the step's wall time alongside
+        core.observe_clock(now_s)
+        core.step(now_s)
+
+    def r1_gives_back(now_s: float) -> None:
+        at(now_s)
+        guid = r1_task()
+        assert guid is not None, f"r1 got no task at {now_s} s"
+        core.observe_component_state(
+            state_msg(guid, S.RELEASED, event="abandon", sim_time_s=now_s, reason=boxed_in)
+        )
+        core.observe_robot_state(robot_msg("r1", (0.0, 0.0), sim_time_s=now_s))
+
+    r1_gives_back(0.1)
+    r1_gives_back(1.0)
+    at(30.0)
+    assert r1_task() is None, "held for 60 s after two give-backs in a row"
+    r1_gives_back(62.0)  # the hold is over; a third give-back in a row: 120 s
+    at(150.0)
+    assert r1_task() is None
+    core.robot_liveliness("r2", True)
+    core.observe_robot_state(robot_msg("r2", (10.0, 0.0), sim_time_s=150.0))
+    at(151.0)
+    assert "r2" in {core.robot_of(g) for g in footings if core.phase(g) is Phase.ASSIGNED}
+    at(183.0)  # 62 + 120: r1 may work again
+    assert r1_task() is not None
