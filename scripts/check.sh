@@ -13,5 +13,7 @@ echo "check: mypy" >&2
 bash scripts/typecheck.sh
 echo "check: pytest" >&2
 # two workers (pytest-xdist), a test file at a time each: the suite's builds overlap its unit tests
-# (tests/conftest.py runs the longest files first); BIMBOT_TEST_WORKERS=0 runs it in one process
-exec .venv/bin/python -m pytest -n "${BIMBOT_TEST_WORKERS:-2}" --dist loadfile "$@"
+# (tests/conftest.py runs the longest files first; --no-loadscope-reorder keeps that order: xdist would
+# otherwise hand out the files with the most tests first, and the one-test builds last, one worker idle);
+# BIMBOT_TEST_WORKERS=0 runs it in one process
+exec .venv/bin/python -m pytest -n "${BIMBOT_TEST_WORKERS:-2}" --dist loadfile --no-loadscope-reorder "$@"
