@@ -64,7 +64,11 @@ if ! .venv/bin/python -c "import bimbot, ifcopenshell, zenoh, pybullet, rerun, t
     || [ pyproject.toml -nt .venv/.bimbot-installed ]; then
     echo "setup: installing bimbot and its pinned dependencies into .venv" >&2
     .venv/bin/python -m pip install -q --disable-pip-version-check --upgrade pip
-    .venv/bin/python -m pip install -q --disable-pip-version-check -e '.[test]'
+    # setuptools prints a boxed "Editable installation" warning about package-named folders in the working
+    # directory; bimbot maps services/ and shared/ into its package and every service starts with
+    # `python -P` (no working directory on sys.path), so the warning says nothing a user can act on
+    PYTHONWARNINGS="ignore:Editable installation" \
+        .venv/bin/python -m pip install -q --disable-pip-version-check -e '.[test]'
     touch .venv/.bimbot-installed
 fi
 echo "setup: ready ($(.venv/bin/bimbot --version 2>/dev/null || echo bimbot))" >&2
