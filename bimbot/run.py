@@ -288,7 +288,7 @@ def summary_text(outcome: RunOutcome) -> str:
     lines = [
         f"constructed {outcome.constructed}/{outcome.total} components in "
         f"{outcome.sim_time_s:.1f} s sim time ({outcome.wall_time_s:.1f} s wall{_makespan(totals)}), "
-        f"{outcome.misplacements} misplacement(s) caught and retried, "
+        f"{outcome.misplacements} placement(s) caught off target or unstable and retried, "
         f"{totals.get('give_backs', 0)} give-back(s) by robots"
     ]
     if totals.get("max_position_error_mm") is not None:

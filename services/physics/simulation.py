@@ -169,6 +169,10 @@ class Simulation:
         self._laser = Laser(self.config.laser)
         std = self.config.total_station_std_m
         self._station = TotalStation(std, self.config.seed) if std is not None else None
+        if std is not None:
+            _log.info(
+                "a total station on site: every ground robot gets a fix each period (%.1f mm)", std * 1e3
+            )
         self._beam_starts: dict[str, np.ndarray] = {}
         self._unknown_logged: set[str] = set()
         self._refresh_cursor = 0

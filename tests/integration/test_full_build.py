@@ -124,7 +124,7 @@ def test_an_injected_placement_error_is_caught_and_the_retry_fixes_it(build: Pat
     assert report["totals"]["retries"] >= 1
     retried = [c for c in report["components"] if c["retries"]]
     assert all(c["misplaced_s"] and c["misplaced_s"][0] < c["constructed_s"] for c in retried)
-    assert re.search(r"[1-9]\d* misplacement\(s\) caught and retried", result.stdout)
+    assert re.search(r"[1-9]\d* placement\(s\) caught off target or unstable and retried", result.stdout)
 
 
 def test_a_folder_that_is_not_a_build_gets_one_clear_line(tmp_path: Path) -> None:
