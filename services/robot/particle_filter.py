@@ -236,9 +236,14 @@ def measurement_update(
     config: LikelihoodFieldConfig,
 ) -> ParticleSet:
     """Reweight the particles by the scan likelihood (computed in the log domain, then normalised)."""
-    log_w = np.log(np.maximum(particles.weights, 1e-300)) + scan_log_likelihood(
-        particles.poses_xy_yaw, ranges_m, angles_rad, field, config
+    return reweighted(
+        particles, scan_log_likelihood(particles.poses_xy_yaw, ranges_m, angles_rad, field, config)
     )
+
+
+def reweighted(particles: ParticleSet, log_likelihood: NDArray[np.float64]) -> ParticleSet:
+    """The particles' weights times a likelihood given per particle in the log domain, normalised."""
+    log_w = np.log(np.maximum(particles.weights, 1e-300)) + log_likelihood
     w = np.exp(log_w - log_w.max())
     return ParticleSet(particles.poses_xy_yaw, w / w.sum())
 
@@ -265,13 +270,9 @@ def fix_update(particles: ParticleSet, fix: PositionFix) -> ParticleSet:
     sigma_rad = max(fix.yaw_std_rad, FIX_YAW_STD_FLOOR_RAD)
     offsets = particles.poses_xy_yaw[:, :2] - np.asarray(fix.xy_m, dtype=float)
     turns = wrap_angle(particles.poses_xy_yaw[:, 2] - fix.yaw_rad)
-    log_w = (
-        np.log(np.maximum(particles.weights, 1e-300))
-        - 0.5 * np.sum(offsets**2, axis=1) / sigma_m**2
-        - 0.5 * turns**2 / sigma_rad**2
+    return reweighted(
+        particles, -0.5 * np.sum(offsets**2, axis=1) / sigma_m**2 - 0.5 * turns**2 / sigma_rad**2
     )
-    w = np.exp(log_w - log_w.max())
-    return ParticleSet(particles.poses_xy_yaw, w / w.sum())
 
 
 def effective_sample_size(weights: ArrayLike) -> float:
