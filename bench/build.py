@@ -99,7 +99,8 @@ def describe(label: str, outcome: RunOutcome, target_rtf: float | None = None) -
         f"{robot_id} {robot['distance_m']:.0f} m/{len(robot['tasks'])} tasks"
         for robot_id, robot in sorted(outcome.report.get("robots", {}).items())
     )
-    print(f"  makespan {totals.get('makespan_s')} s; {distance}")
+    makespan = totals.get("makespan_s")
+    print(f"  makespan {'–' if makespan is None else f'{float(makespan):.1f}'} s; {distance}")
     if figures.peak_mb:
         print("  peak memory: " + ", ".join(f"{name} {mb:.0f} MB" for name, mb in figures.peak_mb.items()))
 

@@ -1,7 +1,9 @@
 """Benchmark of the physics: physics steps per second and the cost of one control period.
 
-Run: ``.venv/bin/python bench/physics.py [--build OUT/]`` (default: the bundled light steel frame,
-converted into a temporary folder first). For 1 and 3 Huskies with every component of the build:
+Run: ``.venv/bin/python bench/physics.py [--build OUT/]``: the bundled light steel frame (converted into
+a temporary folder first) and, with ``--build``, that build too and its control period over the bundled
+frame's, same run (the issue's "782 vs 28 components" with a 16×16 frame). For 1 and 3 Huskies with
+every component of the build:
 
 1. raw physics: ``stepSimulation`` calls per wall second (1/240 s steps) while the robots drive;
 2. one control period (0.1 s = 24 steps) as ``Simulation.advance`` runs it — steps, the carried load
@@ -32,6 +34,8 @@ from bimbot.shared.bus import BusOptions, encode, open_session
 from bimbot.shared.manifest import read_manifest
 from bimbot.shared.messages import AttachRequest, CmdVelMsg
 
+PERIOD_RATIO_TARGET = 1.5  # issue 12: a large site's control period at most 1.5× the bundled frame's
+
 
 def bundled_build(out: Path) -> Path:
     from bimbot.demo import bundled_model_path
@@ -54,7 +58,8 @@ def percentile(values: list[float], fraction: float) -> float:
     return ordered[min(len(ordered) - 1, int(fraction * len(ordered)))]
 
 
-def bench(build: Path, robots: int, steps: int, periods: int) -> None:
+def bench(build: Path, robots: int, steps: int, periods: int) -> float:
+    """Print the figures of ``robots`` Huskies in ``build``; return the median control period (s)."""
     manifest = read_manifest(build)
     label = f"{robots} Husk{'y' if robots == 1 else 'ies'} + {len(manifest.components)} components"
     with Simulation(manifest, build, SimConfig(robots=robots)) as sim:
@@ -115,6 +120,7 @@ def bench(build: Path, robots: int, steps: int, periods: int) -> None:
         print(
             f"{label}: one {sim.config.laser.beams}-beam scan: median {statistics.median(scans) * 1e3:.2f} ms"
         )
+        return median
 
 
 def main() -> None:
@@ -128,9 +134,24 @@ def main() -> None:
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"physics bench: {os.cpu_count()} cores, load average {load:.1f}, pybullet DIRECT, 1/240 s steps")
     with tempfile.TemporaryDirectory(prefix="bimbot-physics-bench-") as tmp:
-        build = args.build or bundled_build(Path(tmp))
-        for robots in (1, 3):
-            bench(build, robots, args.steps, args.periods)
+        bundled = bundled_build(Path(tmp))
+        builds = [bundled] if args.build is None else [bundled, args.build]
+        periods = {
+            (build, robots): bench(build, robots, args.steps, args.periods)
+            for build in builds
+            for robots in (1, 3)
+        }
+        if (
+            args.build is not None
+        ):  # the issue's measure: a large site's control period against the bundled frame's
+            large, small = (len(read_manifest(build).components) for build in (args.build, bundled))
+            for robots in (1, 3):
+                ratio = periods[(args.build, robots)] / periods[(bundled, robots)]
+                huskies = f"{robots} Husk{'y' if robots == 1 else 'ies'}"
+                print(
+                    f"control period, {large} vs {small} components, {huskies}: {ratio:.2f}× "
+                    f"(target ≤ {PERIOD_RATIO_TARGET:.1f}×)"
+                )
 
 
 if __name__ == "__main__":

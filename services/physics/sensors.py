@@ -14,6 +14,17 @@ Each ray starts just outside the robot's rectangular footprint (:meth:`Laser.bea
 ray starting inside the robot tests all its links), and nearer than that is inside the robot anyway. So a
 scan's minimum range is that start distance (≈ 0.36–0.63 m around a Husky), like a real scanner's.
 
+Near first, then far (:data:`NEAR_SEGMENT_M`): Bullet tests a ray against every body whose bounding box
+it crosses over its whole length and only then keeps the closest hit (and pybullet applies the filter
+mask after that test), so a 15 m beam through a yard costs a narrow-phase test per item along it even when
+the first item is 1 m away. Every beam is therefore cast to ``NEAR_SEGMENT_M`` first, and only the beams
+that hit nothing there go on to the full range, from a little before that point (:data:`SEGMENT_OVERLAP_M`,
+well over the 1 mm hull margin, within which a ray starting just short of a surface would report a hit
+at its own start). The closest hit is the same either way; measured over 40 random poses (`bench/physics.py`
+prints the scan's cost): a 180-beam scan 0.73 → 0.56 ms in the bundled frame's yard and 2.19 → 0.88 ms in
+a 988-component site's, with the same error against short reference rays (mean < 0.01 mm; Bullet's
+convex cast has rare mm outliers either way: max 2.7 → 2.7 and 3.6 → 3.0 mm).
+
 ScanMsg conventions: ``angle_min_rad`` is the first beam's angle from the robot's +x axis (counter-clockwise
 positive); a full circle has ``beams`` beams over [-π, π), a narrower fan ``beams`` beams from -fov/2 to
 +fov/2 inclusive; a beam without a return reads ``range_max_m`` (JSON has no infinity).
@@ -31,6 +42,8 @@ from .profiles import FINE
 from .scene import ALL_GROUPS, GROUND_GROUP, Frame, compose
 
 FULL_CIRCLE_RAD = 2.0 * math.pi
+NEAR_SEGMENT_M = 4.0  # beams are cast this far first; the ones that hit nothing go on (see the module doc)
+SEGMENT_OVERLAP_M = 0.25  # the far segment starts this much before the near one's end
 
 
 @dataclass(frozen=True)
@@ -94,13 +107,25 @@ class Laser:
         rotation = np.asarray(p.getMatrixFromQuaternion(mount_frame[1]), dtype=float).reshape(3, 3)
         directions = self._directions @ rotation.T
         limit = self.config.range_max_m
-        begin = np.zeros(len(directions)) if starts_m is None else starts_m
-        hits = p.rayTestBatch(
-            (origin + directions * begin[:, None]).tolist(),
-            (origin + directions * limit).tolist(),
-            collisionFilterMask=ALL_GROUPS ^ GROUND_GROUP ^ own_group,
-            physicsClientId=client_id,
-        )
-        fractions = np.array([hit[2] if hit[0] >= 0 else 1.0 for hit in hits])
-        ranges = np.round(begin + fractions * (limit - begin), self.config.decimals)
-        return ranges.tolist()
+        begin = np.zeros(len(directions)) if starts_m is None else np.array(starts_m, dtype=float)
+        ranges = np.full(len(directions), limit)
+        mask = ALL_GROUPS ^ GROUND_GROUP ^ own_group
+        unresolved = np.ones(len(directions), dtype=bool)
+        for end_m in (NEAR_SEGMENT_M, limit) if limit > NEAR_SEGMENT_M else (limit,):
+            casting = np.flatnonzero(unresolved & (begin < end_m))
+            if len(casting) == 0:
+                continue
+            near = begin[casting]
+            hits = p.rayTestBatch(
+                (origin + directions[casting] * near[:, None]).tolist(),
+                (origin + directions[casting] * end_m).tolist(),
+                collisionFilterMask=mask,
+                physicsClientId=client_id,
+            )
+            hit = np.fromiter((h[0] >= 0 for h in hits), dtype=bool, count=len(hits))
+            fraction = np.fromiter((h[2] for h in hits), dtype=float, count=len(hits))
+            ranges[casting[hit]] = near[hit] + fraction[hit] * (end_m - near[hit])
+            unresolved[casting[hit]] = False
+            missed = casting[~hit]
+            begin[missed] = np.maximum(near[~hit], end_m - SEGMENT_OVERLAP_M)
+        return np.round(ranges, self.config.decimals).tolist()

@@ -6,10 +6,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+import numpy as np
 import pytest
 from physics_builders import drive, idle, west_of
 
-from bimbot.services.physics.sensors import LaserConfig
+from bimbot.services.physics import sensors
+from bimbot.services.physics.client import p
+from bimbot.services.physics.scene import ALL_GROUPS, GROUND_GROUP
+from bimbot.services.physics.sensors import NEAR_SEGMENT_M, LaserConfig
 from bimbot.services.physics.simulation import Simulation
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import AttachRequest, ScanMsg
@@ -80,3 +84,59 @@ def test_a_robot_does_not_see_its_own_load_but_others_do(
     assert min(unfiltered[120:241]) < 0.2  # so the load is there to be seen
     other = _scan(sim, "r2")  # 3 m to the side of r1's column, facing it
     assert _beam(other, 0.0) == pytest.approx(3.0 - 0.05, abs=0.01)  # the column is 0.1 m wide
+
+
+def _single_segment_ranges(sim: Simulation, robot_id: str) -> np.ndarray:
+    """The scan as one ray per beam over the whole range (what the two segments must agree with)."""
+    robot, laser = sim.robots[robot_id], sim._laser
+    mount = laser.mount(robot.frame(sim.client_id), robot.base_height_m)
+    origin = np.asarray(mount[0])
+    rotation = np.asarray(p.getMatrixFromQuaternion(mount[1])).reshape(3, 3)
+    directions = laser._directions @ rotation.T
+    begin = sim._beam_starts[robot_id]
+    limit = laser.config.range_max_m
+    hits = p.rayTestBatch(
+        (origin + directions * begin[:, None]).tolist(),
+        (origin + directions * limit).tolist(),
+        collisionFilterMask=ALL_GROUPS ^ GROUND_GROUP ^ robot.group,
+        physicsClientId=sim.client_id,
+    )
+    fractions = np.array([hit[2] if hit[0] >= 0 else 1.0 for hit in hits])
+    return np.round(begin + fractions * (limit - begin), 3)
+
+
+def test_near_then_far_segments_give_the_single_ray_ranges(make_sim: Callable[..., Simulation]) -> None:
+    sim = make_sim(robots=1)
+    slots = [slot.footprint for slot in sim.layout.slots.values()]
+    low = np.min([spot.min_xy for spot in slots], axis=0) - 2.0
+    high = np.max([spot.max_xy for spot in slots], axis=0) + 2.0
+    rng = np.random.default_rng(7)
+    beams = differing = 0
+    for _ in range(12):  # in and around the yard: items near and far, beams that go on past 4 m
+        sim.teleport_robot("r1", (*rng.uniform(low, high), float(rng.uniform(-math.pi, math.pi))))
+        robot = sim.robots["r1"]
+        mount = sim._laser.mount(robot.frame(sim.client_id), robot.base_height_m)
+        scan = np.array(sim._laser.scan(sim.client_id, mount, robot.group, sim._beam_starts["r1"]))
+        reference = _single_segment_ranges(sim, "r1")
+        beams += len(scan)
+        differing += int(np.count_nonzero(np.abs(scan - reference) > 0.0015))
+        assert np.abs(scan - reference).max() < 0.02  # Bullet's convex cast: rare mm outliers either way
+        assert np.any((scan > NEAR_SEGMENT_M) & (scan < sim._laser.config.range_max_m))  # far hits too
+    assert differing <= 0.01 * beams
+
+
+def test_a_surface_at_the_end_of_the_near_segment_is_seen_where_it_is(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A footing lying in the yard 1.5 m ahead, with the near segment ending just short of its face, just
+    # past it or inside it: the far segment starts before the near one ends (a ray starting inside the
+    # footing would not see it, one starting within its hull margin would report its own start).
+    sim = make_sim(robots=1)
+    footing = next(c for c in frame_manifest.components if c.ifc_class == "IfcFooting")
+    spot = sim.layout.slots[footing.guid].footprint
+    sim.teleport_robot("r1", ((spot.min_xy[0] + spot.max_xy[0]) / 2.0, spot.min_xy[1] - 1.5, math.pi / 2))
+    ahead = _beam(_scan(sim, "r1"), 0.0)
+    assert ahead == pytest.approx(1.5, abs=0.01)
+    for near_end_m in (ahead - 0.0005, ahead + 0.0005, ahead + 0.1):
+        monkeypatch.setattr(sensors, "NEAR_SEGMENT_M", near_end_m)
+        assert _beam(_scan(sim, "r1"), 0.0) == pytest.approx(ahead, abs=0.003)  # Bullet's cast: ~mm
