@@ -66,7 +66,7 @@ REPORT = {
 def test_the_table_names_each_component_not_built_with_its_guid_state_code_and_message() -> None:
     table = not_built_table(REPORT)
     lines = table.splitlines()
-    assert lines[0] == "not built: 3 component(s)"
+    assert lines[0] == "not built: 3 component(s): 1 blocked_by, 1 interrupted, 1 too_heavy"
     assert lines[1].split() == ["component", "guid", "state", "reason", "why"]
     footing, column, beam = lines[2:]  # planned order
     assert footing.split()[:5] == ["Footing", "A1", "1ctEyZqYn3Ov0qQ8GwbUTf", "failed", "too_heavy"]
@@ -103,7 +103,7 @@ def test_many_components_blocked_by_one_failed_component_take_one_row() -> None:
     report = {**REPORT, "components": [*REPORT["components"], *blocked]}
     table = not_built_table(report)
     lines = table.splitlines()
-    assert lines[0] == "not built: 8 component(s)"
+    assert lines[0] == "not built: 8 component(s): 6 blocked_by, 1 interrupted, 1 too_heavy"  # most first
     [group] = [line for line in lines if "6 components" in line]  # the report's own beam rests on it too
     assert "blocked_by" in group and root in group and "Beam A1-A2, Beam 0, Beam 1 and 3 more" in group
     assert "0Blocked" not in table and "3eV89hRd" not in table
