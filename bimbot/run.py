@@ -52,6 +52,7 @@ from bimbot.run_monitor import RunMonitor
 from bimbot.run_preflight import check_run_input
 from bimbot.run_progress import NoProgress, ProgressView, make_progress
 from bimbot.run_restarts import Restart, Restarter, RestartPolicy
+from bimbot.run_settings import run_settings
 from bimbot.run_table import not_built_table
 from bimbot.run_watchdog import StallWatchdog
 from bimbot.services.observer.report import RunEnding
@@ -127,7 +128,11 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
                 monitor = RunMonitor(manifest, session)
 
                 def report_of(ending: RunEnding) -> dict[str, Any]:
-                    return {**monitor.report(ending), "restarts": restarter.report()}
+                    return {
+                        **monitor.report(ending),
+                        "settings": run_settings(options),
+                        "restarts": restarter.report(),
+                    }
 
                 for name, args in service_commands(build, endpoint, options, run, bus):
                     again = restart_arguments(args)

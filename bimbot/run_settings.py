@@ -1,0 +1,50 @@
+"""What a run was asked to simulate, for its report: the physics profile with every value it resolved to.
+
+Why: two reports of the same building differ by their settings as much as by the code (a total station on
+site, another physics rate, fewer laser beams, a fleet file), and a report that does not say which
+settings made it cannot be compared with another. ``report.json`` therefore carries a ``settings`` object:
+the options as ``bimbot run`` resolved them, each value the profile's unless the user set it, and the
+total station's precision (``null``: none on site). Pure: from :class:`~bimbot.run_args.RunOptions` only.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from bimbot.run_args import RunOptions
+from bimbot.services.component_agents.agent import AgentConfig
+from bimbot.services.physics.profiles import PROFILES
+
+
+def run_settings(options: RunOptions) -> dict[str, Any]:
+    """The run's settings as JSON-ready values (see the module doc)."""
+    profile = PROFILES[options.profile]
+
+    def chosen(value: Any, default: Any) -> Any:
+        return default if value is None else value
+
+    return {
+        "profile": profile.name,
+        "robots": options.robots,
+        "fleet": None if options.fleet is None else str(options.fleet),
+        "physics_hz": float(chosen(options.physics_hz, profile.physics_hz)),
+        "control_period_s": float(chosen(options.control_period_s, profile.control_period_s)),
+        "laser_beams": int(chosen(options.laser_beams, profile.laser_beams)),
+        "lock_step": bool(chosen(options.lock_step, profile.lock_step)),
+        "command_latency_steps": int(chosen(options.command_latency_steps, profile.command_latency_steps)),
+        "real_time_factor": float(chosen(options.rtf, profile.rtf)),  # 0: as fast as it can
+        "total_station_mm": options.total_station_mm,
+        "sequence": sequence_source(options.planner_source),
+        "max_attempts": int(chosen(options.max_attempts, AgentConfig.max_attempts)),
+        "timeout_s": options.timeout_s,
+        "inject_placement_error_m": options.inject_placement_error_m,
+    }
+
+
+def sequence_source(planner_source: tuple[str, ...]) -> str:
+    """Where the planner's sequence came from, in words: ``derived``, a file, or the build's own."""
+    if "--derive" in planner_source:
+        return "derived from the structure (--derive)"
+    if "--sequence" in planner_source:
+        return planner_source[planner_source.index("--sequence") + 1]
+    return "the build's sequence.xml"

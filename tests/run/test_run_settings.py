@@ -1,0 +1,43 @@
+"""report.json's ``settings``: the profile's values unless the user set them, the total station, the
+sequence's source; JSON-ready."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from bimbot.run_args import RunOptions
+from bimbot.run_settings import run_settings
+from bimbot.services.physics.profiles import FINE, REHEARSAL
+
+
+def test_the_profile_fills_what_the_user_left_open() -> None:
+    settings = run_settings(RunOptions())
+    assert settings["profile"] == REHEARSAL.name
+    assert settings["physics_hz"] == REHEARSAL.physics_hz
+    assert settings["control_period_s"] == REHEARSAL.control_period_s
+    assert settings["laser_beams"] == REHEARSAL.laser_beams
+    assert settings["command_latency_steps"] == REHEARSAL.command_latency_steps
+    assert settings["lock_step"] is REHEARSAL.lock_step
+    assert settings["total_station_mm"] is None and settings["fleet"] is None
+    assert settings["max_attempts"] == 3
+    assert json.loads(json.dumps(settings)) == settings
+
+
+def test_what_the_user_set_is_what_the_report_says() -> None:
+    options = RunOptions(
+        profile=FINE.name,
+        physics_hz=480.0,
+        laser_beams=90,
+        total_station_mm=3.0,
+        fleet=Path("fleet.toml"),
+        planner_source=("--derive", "--strict"),
+        max_attempts=5,
+    )
+    settings = run_settings(options)
+    assert settings["profile"] == FINE.name and settings["physics_hz"] == 480.0
+    assert settings["control_period_s"] == FINE.control_period_s  # left open: the fine profile's
+    assert settings["laser_beams"] == 90 and settings["total_station_mm"] == 3.0
+    assert settings["fleet"] == "fleet.toml" and settings["max_attempts"] == 5
+    assert settings["sequence"].startswith("derived")
+    assert run_settings(RunOptions(planner_source=("--sequence", "my.xml")))["sequence"] == "my.xml"
