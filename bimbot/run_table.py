@@ -13,6 +13,7 @@ table runs to dozens of rows, and the tally says at once which kind of problem t
 
 from __future__ import annotations
 
+import re
 from collections import Counter
 from typing import Any
 
@@ -21,6 +22,7 @@ NAME_TAIL_CHARS = 16  # a long name keeps its end: Revit names end in the elemen
 HEADER = ("component", "guid", "state", "reason", "why")
 GROUP_FROM = 4  # this many components blocked by one failed component take one row (all are in report.json)
 NAMES_SHOWN = 3
+GUID = re.compile(r"(?<![0-9A-Za-z_$])[0-9A-Za-z_$]{22}(?![0-9A-Za-z_$])")  # an IFC GlobalId in a sentence
 
 
 def not_built_rows(report: dict[str, Any]) -> list[tuple[str, str, str, str, str]]:
@@ -37,6 +39,7 @@ def not_built_rows(report: dict[str, Any]) -> list[tuple[str, str, str, str, str
         if component["state"] == "blocked" and reason.get("code") == "blocked_by" and reason.get("guid"):
             groups.setdefault(reason["guid"], []).append(component)
     grouped = {guid for guid, members in groups.items() if len(members) >= GROUP_FROM}
+    names = {c["guid"]: c["name"] for c in components if c.get("name")}
     for component in components:
         if component["state"] == "constructed":
             continue
@@ -44,12 +47,13 @@ def not_built_rows(report: dict[str, Any]) -> list[tuple[str, str, str, str, str
         root = reason.get("guid")
         if component["state"] == "blocked" and reason.get("code") == "blocked_by" and root in grouped:
             if groups[root][0] is component:
-                rows.append(_group_row(root, groups[root]))
+                rows.append(_group_row(root, groups[root], names))
             continue
         name = shortened(component.get("name") or component.get("ifc_class") or "")
         message = reason.get("message", "no reason was given")
         if len(ending_prefix) > 2 and message.startswith(ending_prefix):
             message = message[len(ending_prefix) :]
+        message = with_names(message, names, own=component["guid"])
         rows.append((name, component["guid"], component["state"], reason.get("code", "?"), message))
     return rows
 
@@ -63,9 +67,27 @@ def shortened(name: str) -> str:
     return name[: MAX_NAME_CHARS - 1 - NAME_TAIL_CHARS] + "…" + name[-NAME_TAIL_CHARS:]
 
 
-def _group_row(root: str, members: list[dict[str, Any]]) -> tuple[str, str, str, str, str]:
+def with_names(message: str, names: dict[str, str], own: str = "") -> str:
+    """``message`` with every other component's GUID it mentions preceded by that component's name
+    (``came to rest on 2mLB0dQuXv1Ub0xTLNyjS4`` → ``came to rest on Beam A1-A2 (2mLB0dQuXv1Ub0xTLNyjS4)``),
+    unless the name is there already: a GUID alone tells a user nothing."""
+
+    def named(match: re.Match[str]) -> str:
+        guid = match.group(0)
+        name = names.get(guid)
+        if name is None or guid == own or message[: match.start()].rstrip(" (").endswith(name):
+            return guid
+        return f"{name} ({guid})"
+
+    return GUID.sub(named, message)
+
+
+def _group_row(
+    root: str, members: list[dict[str, Any]], names_by_guid: dict[str, str]
+) -> tuple[str, str, str, str, str]:
     """One row for every component blocked by ``root``: how many, and the first few names."""
     names = [member.get("name") or member.get("ifc_class") or member["guid"] for member in members]
+    failed = with_names(root, names_by_guid)
     shown = ", ".join(names[:NAMES_SHOWN]) + (
         f" and {len(names) - NAMES_SHOWN} more" if len(names) > NAMES_SHOWN else ""
     )
@@ -74,7 +96,7 @@ def _group_row(root: str, members: list[dict[str, Any]]) -> tuple[str, str, str,
         "(report.json)",
         "blocked",
         "blocked_by",
-        f"they rest, directly or through others, on {root}, which was not built: {shown}",
+        f"they rest, directly or through others, on {failed}, which was not built: {shown}",
     )
 
 

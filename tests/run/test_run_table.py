@@ -105,7 +105,8 @@ def test_many_components_blocked_by_one_failed_component_take_one_row() -> None:
     lines = table.splitlines()
     assert lines[0] == "not built: 8 component(s): 6 blocked_by, 1 interrupted, 1 too_heavy"  # most first
     [group] = [line for line in lines if "6 components" in line]  # the report's own beam rests on it too
-    assert "blocked_by" in group and root in group and "Beam A1-A2, Beam 0, Beam 1 and 3 more" in group
+    assert "blocked_by" in group and "Beam A1-A2, Beam 0, Beam 1 and 3 more" in group
+    assert f"on Footing A1 ({root})" in group  # the failed component by name, not by GUID alone
     assert "0Blocked" not in table and "3eV89hRd" not in table
     assert len(lines) == 5  # count, header, the failed footing, the interrupted column, the group
 
@@ -126,3 +127,29 @@ def test_a_long_name_keeps_its_end_where_revit_puts_the_element_id() -> None:
         "M_W-Wide Flange-Column:W10X49:S…mn:W10X49:412345",
         "M_W-Wide Flange-Column:W10X49:S…mn:W10X49:412346",
     ]
+
+
+def test_other_components_named_by_guid_in_a_message_get_their_names() -> None:
+    support = "2mLB0dQuXv1Ub0xTLNyjS4"
+    unstable = _component(
+        "0T1QiaRO4mQe8b2k0fjN8H",
+        "Column A2",
+        "failed",
+        1,
+        {
+            "code": "unstable",
+            "message": f"it moved 0.300 m and came to rest on {support}, 0r1e7X$sCbW9Zz2Ms0mWcF",
+        },
+    )
+    beam = _component(support, "Beam A1-A2", "constructed", 0, None)
+    footing = _component("0r1e7X$sCbW9Zz2Ms0mWcF", "Footing A2", "constructed", 2, None)
+    table = not_built_table({"components": [unstable, beam, footing]})
+    assert f"came to rest on Beam A1-A2 ({support}), Footing A2 (0r1e7X$sCbW9Zz2Ms0mWcF)" in table
+    already = _component(
+        "3eV89hRdQ1Bx5b6PaC9rjw",
+        "Beam B",
+        "failed",
+        3,
+        {"code": "misplaced", "message": f"Beam A1-A2 ({support})"},
+    )
+    assert f"Beam A1-A2 (Beam A1-A2 ({support}))" not in not_built_table({"components": [already, beam]})
