@@ -70,12 +70,13 @@ def shortened(name: str) -> str:
 def with_names(message: str, names: dict[str, str], own: str = "") -> str:
     """``message`` with every other component's GUID it mentions preceded by that component's name
     (``came to rest on 2mLB0dQuXv1Ub0xTLNyjS4`` → ``came to rest on Beam A1-A2 (2mLB0dQuXv1Ub0xTLNyjS4)``),
-    unless the name is there already: a GUID alone tells a user nothing."""
+    unless the name is there already (before it or after it): a GUID alone tells a user nothing."""
 
     def named(match: re.Match[str]) -> str:
         guid = match.group(0)
         name = names.get(guid)
-        if name is None or guid == own or message[: match.start()].rstrip(" (").endswith(name):
+        before, after = message[: match.start()].rstrip(" ("), message[match.end() :].lstrip(" (")
+        if name is None or guid == own or before.endswith(name) or after.startswith(name):
             return guid
         return f"{name} ({guid})"
 

@@ -153,3 +153,11 @@ def test_other_components_named_by_guid_in_a_message_get_their_names() -> None:
         {"code": "misplaced", "message": f"Beam A1-A2 ({support})"},
     )
     assert f"Beam A1-A2 (Beam A1-A2 ({support}))" not in not_built_table({"components": [already, beam]})
+    after = _component(
+        "3eV89hRdQ1Bx5b6PaC9rjw",
+        "Beam B",
+        "blocked",
+        3,
+        {"code": "blocked_by", "message": f"on {support} (Beam A1-A2)"},
+    )
+    assert f"on {support} (Beam A1-A2)" in not_built_table({"components": [after, beam]})  # named already
