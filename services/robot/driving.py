@@ -6,6 +6,13 @@ answered by re-choosing the approach pose away from the stand-points that failed
 component), at most ``max_tries`` times; a search that finds no stand-point is repeated at most
 ``max_approach_misses`` times; then the task is given back (:mod:`.handover`) with the reason. Before the
 pick-up the target is checked on the static map, so nothing is carried to a target cut off already.
+
+Traffic: when the static map has a stand-point the robot can drive to and only its laser marks (what it
+sees and the site plan does not: other robots and their loads) cut every one off, the blockage passes as
+the others move on. The robot then keeps looking, one second of sim time apart, for up to
+``traffic_wait_s`` (120 s) before it gives the task back, the reason saying so: ten looks in ten seconds
+gave tasks back while another robot merely stood at the neighbouring slot, and three give-backs fail a
+component (a ten-robot yard failed five components so in 1,300 s).
 """
 
 from __future__ import annotations
@@ -124,6 +131,7 @@ class Driving:
     def _approach(self, task: Task, footprint: Footprint) -> bool:
         # The navigator's own planning grid (laser marks inflated by its dynamic margin): an approach pose
         # free only in a less inflated grid is a goal A* can never reach, chosen again on every retry.
+        self.navigator.see()
         grid = self.site_map.planning_grid(self.navigator.marks, self.navigator.config.dynamic_margin_m)
         xy = self.navigator.pose_xy_yaw[:2]
         blocks = self.site_map.blocks(footprint)
@@ -134,13 +142,36 @@ class Driving:
         if found is None and task.failed_xy_m:  # every other side tried: the failed ones again
             found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=config)
         if found is None:
-            task.misses += 1
             task.retry_at_s = self.sim_s + self.config.retry_delay_s
-            if task.misses >= self.config.max_approach_misses:
-                carrying = self.machine.state not in (_S.DETECT_COMPONENT_POSITION, _S.PICK_UP)
-                what = f"the target of {self._name(task)}" if carrying else self._name(task)
-                self._give_back(task, self._no_approach(task, grid, footprint, what))
+            traffic = approach_pose(
+                self.site_map.inflated_grid(), footprint, xy, blocks_band=blocks, config=config
+            )
+            if traffic is not None:  # free on the static map: only what the laser sees blocks it
+                if task.traffic_since_s is None:
+                    task.traffic_since_s = self.sim_s
+                    _log.info(
+                        "%s: every stand-point of %s is blocked by traffic: waiting",
+                        self.robot_id,
+                        self._name(task),
+                    )
+                waited_s = self.sim_s - task.traffic_since_s
+                if waited_s < self.config.traffic_wait_s:
+                    return False
+            else:
+                task.misses += 1
+                if task.misses < self.config.max_approach_misses:
+                    return False
+            carrying = self.machine.state not in (_S.DETECT_COMPONENT_POSITION, _S.PICK_UP)
+            what = f"the target of {self._name(task)}" if carrying else self._name(task)
+            reason = self._no_approach(task, grid, footprint, what)
+            if traffic is not None:
+                why = (
+                    f"; for {waited_s:.0f} s, by what the laser saw and the site plan does not have (other "
+                    "robots, their loads): on the site plan there is a way"
+                )
+                reason = reason.model_copy(update={"message": reason.message + why})
+            self._give_back(task, reason)
             return False
-        task.approach = found
+        task.approach, task.traffic_since_s = found, None
         self.navigator.set_goal(found.xy_m, found.yaw_rad, self.sim_s)
         return True

@@ -146,6 +146,11 @@ class Navigator(Traffic):
         )
         self._scan = (ranges, angles, message.range_max_m)  # its marks when a goal needs them (_see)
 
+    def see(self) -> None:
+        """Take the latest scan's marks now, goal or not: the executor looks for a stand-point (no goal yet)
+        with what the robot sees, not with the marks of the last step it drove."""
+        self._see()
+
     def _see(self) -> None:
         """The last scan's local obstacles and marks, at the estimate it was taken from; computed once per
         scan and only while the robot has somewhere to go (an idle robot waits for tasks without them)."""

@@ -38,6 +38,7 @@ from bimbot.shared.messages import (
     TaskStatus,
     TwinMsg,
 )
+from bimbot.shared.occupancy_grid import OccupancyGrid
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.site_layout import plan_site
 
@@ -70,6 +71,11 @@ class FakeSite:
     tick_s: list[float] = field(default_factory=list)
     history: dict[str, list[ComponentStateMsg]] = field(default_factory=dict)  # the twins' transitions
     twin_questions: list[str] = field(default_factory=list)  # GUIDs whose twin the robot asked
+    traffic_xy_m: list[tuple[float, float]] = field(default_factory=list)  # other robots its laser sees
+    traffic_radius_m: float = 0.4
+    _traffic_grid: tuple[tuple[tuple[float, float], ...], OccupancyGrid] | None = field(
+        default=None, repr=False
+    )
 
     def send(self, message: object, delay: int = 1) -> None:
         self.due.append((self.step + delay, message))
@@ -84,9 +90,25 @@ class FakeSite:
         self.history.setdefault(guid, []).append(message)
         self.send(message)
 
+    def laser_grid(self) -> OccupancyGrid:
+        """What the laser sees: the robot's own laser grid of the site and the traffic (discs)."""
+        grid = self.executor.site_map.laser_grid()
+        if not self.traffic_xy_m:
+            return grid
+        traffic = tuple(self.traffic_xy_m)
+        if self._traffic_grid is not None and self._traffic_grid[0] == traffic:
+            return self._traffic_grid[1]
+        rows, cols = np.indices(grid.shape)
+        centres = grid.cell_to_world(np.column_stack([rows.ravel(), cols.ravel()])).reshape(*grid.shape, 2)
+        cells = grid.occupied.copy()
+        for x, y in self.traffic_xy_m:
+            cells |= np.hypot(centres[..., 0] - x, centres[..., 1] - y) <= self.traffic_radius_m
+        self._traffic_grid = (traffic, grid.with_occupied(cells))
+        return self._traffic_grid[1]
+
     def run(self, steps: int, until=None) -> None:
-        laser = self.executor.site_map.laser_grid()
         for _ in range(steps):
+            laser = self.laser_grid()
             self.step += 1
             now = self.step * DT
             ready = [m for t, m in self.due if t <= self.step]

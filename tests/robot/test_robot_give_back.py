@@ -3,6 +3,7 @@ bounded sim time with ``abandon`` carrying a reason with the numbers (the carrie
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from fake_site import DT, FakeSite, make_site, run_task
 from frames import convert_small_frame
@@ -157,3 +158,57 @@ def test_a_task_withdrawn_while_the_robot_carries_it_puts_the_load_down_first(fr
     assert [r.kind for r in site.requests] == ["attach", "drop"]
     assert site.carried is None and site.executor.machine.state is RobotState.IDLE
     assert ComponentEvent.ABANDON not in [e.event for e in site.events], "not ours to give back any more"
+
+
+def _ring(centre_xy: tuple[float, float], radius_m: float, count: int) -> list[tuple[float, float]]:
+    angles = np.linspace(0.0, 2.0 * np.pi, count, endpoint=False)
+    return [(centre_xy[0] + radius_m * np.cos(a), centre_xy[1] + radius_m * np.sin(a)) for a in angles]
+
+
+def _walled_in_by_traffic(site: FakeSite) -> list[tuple[float, float]]:
+    """Other robots standing shoulder to shoulder in a ring 3 m around this one: the laser sees the whole
+    ring, so no stand-point anywhere is reachable on the robot's planning grid, while the site plan has
+    its way free."""
+    return _ring((float(site.pose[0]), float(site.pose[1])), 3.0, 64)
+
+
+def _picking(site: FakeSite) -> bool:
+    return site.carried is not None
+
+
+def test_a_stand_point_blocked_by_traffic_is_waited_for_and_taken_once_it_clears(
+    frame: Manifest, caplog: pytest.LogCaptureFixture
+) -> None:
+    site, released, task = make_site(frame)
+    site.traffic_xy_m = _walled_in_by_traffic(site)
+    site.executor.handle(released)
+    site.executor.handle(task)
+    with caplog.at_level("INFO", logger="bimbot.services.robot.driving"):
+        site.run(900, until=_given_back)  # 90 s of sim time: more than ten looks, less than the traffic wait
+    assert "is blocked by traffic: waiting" in caplog.text
+    assert not [e for e in site.events if e.event is ComponentEvent.ABANDON], (
+        "no give-back while traffic lasts"
+    )
+    site.traffic_xy_m = []  # the others drive on
+    site.run(3000, until=_picking)
+    assert site.carried == task.guid and not [e for e in site.events if e.event is ComponentEvent.ABANDON]
+
+
+def test_traffic_that_does_not_clear_ends_the_wait_with_a_reason_that_says_so(frame: Manifest) -> None:
+    site, released, task = make_site(frame, traffic_wait_s=30.0)
+    site.traffic_xy_m = _walled_in_by_traffic(site)
+    site.executor.handle(released)
+    site.executor.handle(task)
+    site.run(3000, until=_given_back)
+    abandon = _abandon(site)
+    assert abandon.sim_time_s >= 30.0 and abandon.sim_time_s < 60.0, "the bound, in sim time"
+    assert abandon.reason.code in (
+        ReasonCode.UNREACHABLE,
+        ReasonCode.NO_APPROACH_POSE,
+        ReasonCode.ROBOT_TRAPPED,
+    )
+    assert (
+        "other robots" in abandon.reason.message
+        and "on the site plan there is a way" in abandon.reason.message
+    )
+    assert site.requests == [], "nothing picked"
