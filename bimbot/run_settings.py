@@ -15,6 +15,8 @@ from bimbot.run_args import RunOptions
 from bimbot.services.component_agents.agent import AgentConfig
 from bimbot.services.physics.profiles import PROFILES
 
+DEFAULT_FLEET = "the default fleet"  # the fleet embedded in bimbot (shared/models/default_fleet.toml)
+
 
 def run_settings(options: RunOptions) -> dict[str, Any]:
     """The run's settings as JSON-ready values (see the module doc)."""
@@ -23,16 +25,18 @@ def run_settings(options: RunOptions) -> dict[str, Any]:
     def chosen(value: Any, default: Any) -> Any:
         return default if value is None else value
 
+    rtf = float(chosen(options.rtf, profile.rtf))
     return {
         "profile": profile.name,
-        "robots": options.robots,
-        "fleet": None if options.fleet is None else str(options.fleet),
+        "robots": options.robots,  # null: the fleet's own robots
+        "fleet": DEFAULT_FLEET if options.fleet is None else str(options.fleet),
         "physics_hz": float(chosen(options.physics_hz, profile.physics_hz)),
         "control_period_s": float(chosen(options.control_period_s, profile.control_period_s)),
         "laser_beams": int(chosen(options.laser_beams, profile.laser_beams)),
         "lock_step": bool(chosen(options.lock_step, profile.lock_step)),
         "command_latency_steps": int(chosen(options.command_latency_steps, profile.command_latency_steps)),
-        "real_time_factor": float(chosen(options.rtf, profile.rtf)),  # 0: as fast as it can
+        "real_time_factor": rtf,
+        "pace": "as fast as it can" if rtf == 0.0 else f"{rtf:g}× real time",
         "total_station_mm": options.total_station_mm,
         "sequence": sequence_source(options.planner_source),
         "max_attempts": int(chosen(options.max_attempts, AgentConfig.max_attempts)),

@@ -25,9 +25,13 @@ NAMES_SHOWN = 3
 GUID = re.compile(r"(?<![0-9A-Za-z_$])[0-9A-Za-z_$]{22}(?![0-9A-Za-z_$])")  # an IFC GlobalId in a sentence
 
 
-def not_built_rows(report: dict[str, Any]) -> list[tuple[str, str, str, str, str]]:
-    """(name, GUID, state, reason code, message) per component not constructed, in planned order."""
-    rows = []
+Row = tuple[str, str, str, str, str]  # name, GUID, state, reason code, message
+
+
+def not_built_rows(report: dict[str, Any]) -> list[Row]:
+    """(name, GUID, state, reason code, message) per component not constructed: grouped by reason code,
+    most frequent first, planned order within a code; alike rows taken together."""
+    rows: list[Row] = []
     ending_prefix = f"{(report.get('ending') or {}).get('message', '')}; "
     components = sorted(
         report.get("components", []),
@@ -54,8 +58,35 @@ def not_built_rows(report: dict[str, Any]) -> list[tuple[str, str, str, str, str
         if len(ending_prefix) > 2 and message.startswith(ending_prefix):
             message = message[len(ending_prefix) :]
         message = with_names(message, names, own=component["guid"])
-        rows.append((name, component["guid"], component["state"], reason.get("code", "?"), message))
-    return rows
+        rows.append((name, component["guid"], component["state"], reason.get("code") or "?", message))
+    counts = Counter(
+        (c.get("reason") or {}).get("code") or "?" for c in components if c["state"] != "constructed"
+    )
+    return by_reason(same_reason_together(rows), counts)
+
+
+def same_reason_together(rows: list[Row]) -> list[Row]:
+    """Rows that say the same (state, code and message: ``planned  interrupted  it was planned``) take one
+    row from ``GROUP_FROM`` of them on: how many, and the first names (every one is in report.json)."""
+    alike: dict[tuple[str, str, str], list[Row]] = {}
+    for row in rows:
+        alike.setdefault(row[2:], []).append(row)
+    out: list[Row] = []
+    for row in rows:
+        members = alike[row[2:]]
+        if len(members) < GROUP_FROM or row[1] == "(report.json)":
+            out.append(row)
+        elif members[0] is row:
+            shown = ", ".join(member[0] for member in members[:NAMES_SHOWN])
+            more = f" and {len(members) - NAMES_SHOWN} more" if len(members) > NAMES_SHOWN else ""
+            out.append((f"{len(members)} components", "(report.json)", *row[2:4], f"{row[4]}: {shown}{more}"))
+    return out
+
+
+def by_reason(rows: list[Row], counts: Counter[str]) -> list[Row]:
+    """The rows grouped by reason code in the tally's order (``counts``: components per code, most first,
+    then by code), planned order within a code."""
+    return sorted(rows, key=lambda row: (-counts[row[3]], row[3]))  # stable: planned order within a code
 
 
 def shortened(name: str) -> str:

@@ -119,11 +119,12 @@ def run(args: argparse.Namespace) -> int:
             len(manifest.warnings) - MAX_WARNINGS_SHOWN,
             args.output,
         )
+    origin = sequence_origin(manifest.sequence_source)
     sys.stdout.write(
         f"converted {len(manifest.components)} component(s), skipped {len(manifest.skipped)}"
         f"{skipped_summary(manifest.skipped)}, "
         f"{len(manifest.warnings)} warning(s) in {seconds:.1f} s → {args.output}/ "
-        f"(world {manifest.world_file}, sequence {manifest.sequence_file} from {manifest.sequence_source})\n"
+        f"(world {manifest.world_file}, sequence {manifest.sequence_file} {origin})\n"
     )
     if not manifest.components:
         _log.error(
@@ -184,3 +185,15 @@ class _ProgressBar:
         assert self._bar is not None
         self._bar.n = done
         self._bar.refresh()
+
+
+SEQUENCE_ORIGINS = {
+    "ifc_schedule": "from the IFC's own schedule",
+    "derived": "derived from the structure (what rests on what)",
+    "ifc_schedule+derived": "from the IFC's schedule, the rest derived from the structure",
+}
+
+
+def sequence_origin(source: str) -> str:
+    """Where the build's sequence came from, in words (``derived`` → "derived from the structure …")."""
+    return SEQUENCE_ORIGINS.get(source, f"from {source}")

@@ -145,7 +145,7 @@ def convert_model(
         sequence_source=sequence.source,
         components=components,
         skipped=sorted(skipped, key=lambda item: (item.ifc_class, item.guid)),
-        warnings=warnings + [f"{c.guid}: {w}" for c in components for w in c.warnings],
+        warnings=warnings + [f"{_named(c)}: {w}" for c in components for w in c.warnings],
     )
     write_manifest(manifest, out_dir)
     stats.seconds_by_stage["world_sequence_manifest"] = time.perf_counter() - finishing
@@ -200,3 +200,10 @@ def _world_extent_m(components: list[Component]) -> float:
         return 0.0
     corners = np.array([c.bbox_world.min_m for c in components] + [c.bbox_world.max_m for c in components])
     return float(4.0 * np.abs(corners[:, :2]).max() + 20.0)
+
+
+def _named(component: Component) -> str:
+    """``IfcWindow 'Ventana fija:1200 x 1500:161371' (2idC0G3ezCdhA9WVjWe$V2)``: a warning a user can act on
+    says which element, not only its GUID."""
+    name = f" {component.name!r}" if component.name else ""
+    return f"{component.ifc_class}{name} ({component.guid})"

@@ -32,14 +32,16 @@ _log = logging.getLogger(__name__)
 DEFAULT_DENSITY_KG_M3 = 1000.0
 PLAUSIBLE_DENSITY_KG_M3 = (10.0, 25_000.0)
 # (pattern on material name or category, density kg/m³); first match wins, so specific words come first.
+# Names in English, German, French, Spanish and Italian: exports keep the authoring tool's language (the
+# Revit sample house names its glass "Vidrio" and "Cristal", its timber "Madera").
 DENSITY_TABLE_KG_M3: tuple[tuple[re.Pattern[str], float], ...] = (
     (re.compile(r"alumin", re.I), 2700.0),
-    (re.compile(r"steel|stahl|acier|\bs\d{3}\b|\bmetal", re.I), 7850.0),
-    (re.compile(r"concrete|beton|\bc\d{2}/\d{2}\b", re.I), 2400.0),
-    (re.compile(r"timber|wood|\bholz\b|\bglulam\b|\bclt\b", re.I), 500.0),
-    (re.compile(r"glass|glazing|\bglas\b", re.I), 2500.0),
-    (re.compile(r"brick|masonry|block", re.I), 1900.0),
-    (re.compile(r"gypsum|plaster", re.I), 900.0),
+    (re.compile(r"steel|stahl|acier|acero|acciaio|\bs\d{3}\b|\bmetal", re.I), 7850.0),
+    (re.compile(r"concrete|b[eé]ton|hormig[oó]n|calcestruzzo|\bc\d{2}/\d{2}\b", re.I), 2400.0),
+    (re.compile(r"timber|wood|\bholz\b|\bglulam\b|\bclt\b|madera|\bbois\b|legno", re.I), 500.0),
+    (re.compile(r"glass|glazing|\bglas\b|vidrio|cristal|verre|vetro", re.I), 2500.0),
+    (re.compile(r"brick|masonry|block|ladrillo|brique|mattone|ziegel|mauerwerk", re.I), 1900.0),
+    (re.compile(r"gypsum|plaster|yeso|enlucido|pl[aâ]tre|gesso|\bgips|\bputz", re.I), 900.0),
 )
 WEIGHT_QUANTITY_PREFERENCE = ("netweight", "grossweight", "weight")
 # Property names (lower-case, without spaces) that vendors use for an element's weight.

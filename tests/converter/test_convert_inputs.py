@@ -123,6 +123,7 @@ def test_cli_converts_and_prints_a_summary(tmp_path: Path) -> None:
     result = _bimbot("convert", str(source), "-o", str(tmp_path / "out"))
     assert result.returncode == 0, result.stderr
     assert "converted 1 component(s), skipped 0" in result.stdout
+    assert "sequence sequence.xml derived from the structure" in result.stdout  # no schedule in the file
     assert (tmp_path / "out" / "manifest.json").is_file()
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import ifcopenshell.api.pset
 import ifcopenshell.api.unit
 import pytest
@@ -84,6 +86,13 @@ def test_material_density_property_is_used_with_the_mesh_volume() -> None:
         ("Glulam timber", 500),
         ("Aluminium 6061", 2700),
         ("Float glass", 2500),
+        ("Vidrio", 2500),  # the Revit sample house's glass, in Spanish
+        ("Cristal", 2500),
+        ("Madera - Castaño", 500),
+        ("Hormigón armado", 2400),
+        ("Enlucido - Blanco", 900),
+        ("Béton C25/30", 2400),
+        ("Mauerwerk Ziegel", 1900),
     ],
 )
 def test_material_table_by_name(material: str, density: float) -> None:
@@ -125,3 +134,16 @@ def test_material_label_names_the_material() -> None:
     beam = add_beam(small)
     add_material(small, [beam], "S235 Steel", "steel")
     assert material_label(beam) == "S235 Steel"
+
+
+def test_a_conversion_warning_names_the_element_not_only_its_guid(tmp_path: Path) -> None:
+    from bimbot.services.converter.convert import convert_model
+
+    small = new_model()
+    beam = add_beam(small, "Beam B7")
+    add_material(small, [beam], "Unobtainium", category="")
+    source = tmp_path / "beam.ifc"
+    small.file.write(str(source))
+    manifest = convert_model(small.file, source, tmp_path / "out")
+    expected = f"IfcBeam 'Beam B7' ({beam.GlobalId}): material 'Unobtainium': density unknown"
+    assert any(warning.startswith(expected) for warning in manifest.warnings), manifest.warnings

@@ -68,7 +68,7 @@ def test_the_table_names_each_component_not_built_with_its_guid_state_code_and_m
     lines = table.splitlines()
     assert lines[0] == "not built: 3 component(s): 1 blocked_by, 1 interrupted, 1 too_heavy"
     assert lines[1].split() == ["component", "guid", "state", "reason", "why"]
-    footing, column, beam = lines[2:]  # planned order
+    beam, column, footing = lines[2:]  # by reason code (one each: by code), planned order within a code
     assert footing.split()[:5] == ["Footing", "A1", "1ctEyZqYn3Ov0qQ8GwbUTf", "failed", "too_heavy"]
     assert footing.endswith("Footing A1 weighs 5,760 kg; the robot carries 1,000 kg")
     assert "0T1QiaRO" in column and "interrupted" in column
@@ -78,7 +78,7 @@ def test_the_table_names_each_component_not_built_with_its_guid_state_code_and_m
 
 
 def test_columns_line_up() -> None:
-    header, footing, column, _ = not_built_table(REPORT).splitlines()[1:]
+    header, _, column, footing = not_built_table(REPORT).splitlines()[1:]
     assert header.index("guid") == footing.index("1ctEyZqY") == column.index("0T1QiaRO")
     assert header.index("why") == footing.index("Footing A1 weighs") == column.index("it was picking")
 
@@ -161,3 +161,29 @@ def test_other_components_named_by_guid_in_a_message_get_their_names() -> None:
         {"code": "blocked_by", "message": f"on {support} (Beam A1-A2)"},
     )
     assert f"on {support} (Beam A1-A2)" in not_built_table({"components": [after, beam]})  # named already
+
+
+def test_rows_follow_the_tally_and_alike_rows_take_one() -> None:
+    interrupted = [
+        _component(
+            f"0Planned{i:014d}",
+            f"Beam {i}",
+            "planned",
+            10 + i,
+            {"code": "interrupted", "message": "it was planned"},
+        )
+        for i in range(5)
+    ]
+    heavy = [
+        _component(
+            f"0Heavy{i:016d}", f"Slab {i}", "failed", 20 + i, {"code": "too_heavy", "message": f"{i} t"}
+        )
+        for i in range(2)
+    ]
+    table = not_built_table({"components": [*heavy, *interrupted]})
+    lines = table.splitlines()
+    assert lines[0] == "not built: 7 component(s): 5 interrupted, 2 too_heavy"
+    assert [line.split()[0:2] for line in lines[2:]] == [["5", "components"], ["Slab", "0"], ["Slab", "1"]]
+    assert (
+        lines[2].endswith("it was planned: Beam 0, Beam 1, Beam 2 and 2 more") and "(report.json)" in lines[2]
+    )
