@@ -59,6 +59,7 @@ from bimbot.services.observer.report import RunEnding
 from bimbot.services.observer.report_fleet import lane_label, robot_order, utilisation_line
 from bimbot.services.observer.report_placements import placement_line
 from bimbot.services.observer.report_png import write_report_files
+from bimbot.services.observer.report_totals import busy_within_s, makespan_window
 from bimbot.shared.bus import open_session
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import Manifest, load_manifest
@@ -288,6 +289,15 @@ def _makespan(totals: dict[str, Any]) -> str:
     return f"; makespan {makespan:.1f} s from the first release to the last construction" if makespan else ""
 
 
+def _busy_outside(robot: dict[str, Any], window: tuple[float, float] | None) -> str:
+    """`` (120 s of it after the last construction)``: the utilisation counts a robot's busy time within
+    the makespan only; without this a robot busy 360 s beside a 268 s makespan read as a contradiction."""
+    if window is None:
+        return ""
+    outside = robot["busy_s"] - busy_within_s(robot, window)
+    return f" ({outside:.0f} s of it outside the makespan)" if outside >= 1.0 else ""
+
+
 def summary_text(outcome: RunOutcome) -> str:
     totals = outcome.report.get("totals", {})
     lines = [
@@ -308,6 +318,7 @@ def summary_text(outcome: RunOutcome) -> str:
     if as_built is not None:
         lines.append(as_built)
     robots = outcome.report.get("robots", {})
+    window = makespan_window(outcome.report.get("components", []))
     for robot_id in robot_order(robots):
         robot = robots[robot_id]
         hand_offs = sum(1 for task in robot["tasks"] if task.get("kind") == "hand_off")
@@ -315,6 +326,7 @@ def summary_text(outcome: RunOutcome) -> str:
             f"{lane_label(robot_id, robot)}: {len(robot['tasks'])} task(s)"
             + (f" ({hand_offs} hand-off(s))" if hand_offs else "")
             + f", {robot['distance_m']:.0f} m driven, busy {robot['busy_s']:.0f} s"
+            + _busy_outside(robot, window)
         )
     utilisation = utilisation_line(outcome.report)
     if utilisation is not None:
