@@ -38,7 +38,8 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
 from .report_fleet import lane_label, robot_order, utilisation_line
-from .report_placements_png import draw_drift, draw_placement_errors, placement_handles
+from .report_placements import MISPLACED, RETRY_CAUSES
+from .report_placements_png import CAUSE_STYLES, draw_drift, draw_placement_errors, placement_handles
 
 REPORT_JSON = "report.json"
 REPORT_PNG = "report.png"
@@ -157,8 +158,9 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> 
             ax.broken_barh([(picked, max(done - picked, 0.0))], (row - 0.35, 0.7), facecolors=color)
         for handed_off_s in component.get("handed_off_s", []):  # put down for a crane
             ax.plot([handed_off_s], [row], marker="v", color=HAND_OFF_EDGE, markersize=5)
-        for misplaced_s in component.get("misplaced_s", []):
-            ax.plot([misplaced_s], [row], marker="x", color="red", markersize=7)
+        for misplaced_s, cause in retry_causes(component):  # each retry with its cause's marker (legend)
+            style = CAUSE_STYLES[cause]
+            ax.plot([misplaced_s], [row], marker=style["marker"], color=style["color"], markersize=7)
         if component["failed_s"] is not None:
             ax.plot([component["failed_s"]], [row], marker="x", color="black", markersize=8)
         if component.get("reason"):
@@ -181,6 +183,17 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> 
     ax.set_xlabel("sim time (s)")
     ax.set_title("planned sequence (top = first): release ─ pick ▬ constructed")
     ax.grid(axis="x", alpha=0.3)
+
+
+def retry_causes(component: dict[str, Any]) -> list[tuple[float, str]]:
+    """(sim time, cause) of each retried placement: the cause its verdict gave (``misplaced`` or
+    ``unstable``, :mod:`.report_placements`), ``misplaced`` when no placement of that time is recorded."""
+    causes = {
+        round(float(p["sim_time_s"]), 3): p["cause"]
+        for p in component.get("placements", [])
+        if p.get("cause") in RETRY_CAUSES
+    }
+    return [(t, causes.get(round(float(t), 3), MISPLACED)) for t in component.get("misplaced_s", [])]
 
 
 def _mark_not_built(ax: Axes, row: int, component: dict[str, Any], end_s: float) -> None:

@@ -125,7 +125,17 @@ def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) ->
             robot_id=robot.robot_id,
         )
     refusals = [robot.description.refusal(mass, top_z) for robot in robots]
-    return next(refusal for refusal in refusals if refusal is not None)
+    refusal = next(refusal for refusal in refusals if refusal is not None)
+    if refusal.code is ReasonCode.OUT_OF_REACH and not any(robot.is_crane for robot in robots):
+        return refusal.model_copy(update={"message": refusal.message + NO_CRANE_HINT})
+    return refusal
+
+
+#: What a user can do about a component too high for every ground robot when no crane is on site.
+NO_CRANE_HINT = (
+    "; no tower crane is on site to place it higher (the default fleet has one: run without --robots, "
+    "or give --fleet a fleet file with a tower_crane)"
+)
 
 
 def feasibility_table(

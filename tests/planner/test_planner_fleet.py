@@ -194,3 +194,21 @@ def test_a_restarted_planner_that_adopted_a_hand_off_as_a_build_frees_its_robot_
     core.observe_component_pose(_pose("beam", (2.0, 18.0)))
     out = core.step(1.0)
     assert _assignments(out)["beam"].robot_id == "r2"  # the crane builds it; r1 is free again
+
+
+def test_a_component_too_high_for_every_ground_robot_says_what_would_place_it() -> None:
+    from bimbot.services.planner.feasibility import infeasible
+
+    manifest = _manifest()
+    low = CARRIER.model_copy(update={"max_place_height_m": 1.0})  # below every beam of the portal
+    without_crane = infeasible(manifest.components, [SiteRobot("r1", low, (-10.0, -10.0, 0.0))], {})
+    assert without_crane, "the portal's beam is above 1 m"
+    for reason in without_crane.values():
+        assert reason.code.value == "out_of_reach"
+        assert "no tower crane is on site" in reason.message and "--fleet" in reason.message
+    with_crane = infeasible(
+        manifest.components,
+        [SiteRobot("r1", low, (-10.0, -10.0, 0.0)), SiteRobot("r2", CRANE, (60.0, 60.0, 0.0))],
+        {},
+    )
+    assert all("no tower crane" not in reason.message for reason in with_crane.values())
