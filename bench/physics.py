@@ -141,9 +141,7 @@ def main() -> None:
             for build in builds
             for robots in (1, 3)
         }
-        if (
-            args.build is not None
-        ):  # the measure: a large site's control period against the bundled frame's
+        if args.build is not None:  # the measure: a large site's period over the bundled frame's
             large, small = (len(read_manifest(build).components) for build in (args.build, bundled))
             for robots in (1, 3):
                 ratio = periods[(args.build, robots)] / periods[(bundled, robots)]

@@ -59,9 +59,7 @@ def not_built_rows(report: dict[str, Any]) -> list[Row]:
             message = message[len(ending_prefix) :]
         message = with_names(message, names, own=component["guid"])
         rows.append((name, component["guid"], component["state"], reason.get("code") or "?", message))
-    counts = Counter(
-        (c.get("reason") or {}).get("code") or "?" for c in components if c["state"] != "constructed"
-    )
+    counts = reason_counts([c for c in components if c["state"] != "constructed"])
     return by_reason(same_reason_together(rows), counts)
 
 
@@ -77,9 +75,8 @@ def same_reason_together(rows: list[Row]) -> list[Row]:
         if len(members) < GROUP_FROM or row[1] == "(report.json)":
             out.append(row)
         elif members[0] is row:
-            shown = ", ".join(member[0] for member in members[:NAMES_SHOWN])
-            more = f" and {len(members) - NAMES_SHOWN} more" if len(members) > NAMES_SHOWN else ""
-            out.append((f"{len(members)} components", "(report.json)", *row[2:4], f"{row[4]}: {shown}{more}"))
+            shown = first_names([member[0] for member in members])
+            out.append((f"{len(members)} components", "(report.json)", *row[2:4], f"{row[4]}: {shown}"))
     return out
 
 
@@ -120,9 +117,7 @@ def _group_row(
     """One row for every component blocked by ``root``: how many, and the first few names."""
     names = [member.get("name") or member.get("ifc_class") or member["guid"] for member in members]
     failed = with_names(root, names_by_guid)
-    shown = ", ".join(names[:NAMES_SHOWN]) + (
-        f" and {len(names) - NAMES_SHOWN} more" if len(names) > NAMES_SHOWN else ""
-    )
+    shown = first_names(names)
     return (
         f"{len(members)} components",
         "(report.json)",
@@ -132,12 +127,23 @@ def _group_row(
     )
 
 
+def first_names(names: list[str]) -> str:
+    """``Beam 0, Beam 1, Beam 2 and 3 more``: the first names of a row that stands for many."""
+    more = f" and {len(names) - NAMES_SHOWN} more" if len(names) > NAMES_SHOWN else ""
+    return ", ".join(names[:NAMES_SHOWN]) + more
+
+
+def reason_counts(components: list[dict[str, Any]]) -> Counter[str]:
+    """Components per reason code (``?`` for a component without one)."""
+    return Counter((component.get("reason") or {}).get("code") or "?" for component in components)
+
+
 def reason_tally(components: list[dict[str, Any]]) -> str:
     """``69 out_of_reach, 2 blocked_by, 1 unstable``: the components by reason code, most first (then by
-    code); a component without a reason counts as ``?``."""
-    counts = Counter((component.get("reason") or {}).get("code") or "?" for component in components)
+    code), the order :func:`by_reason` puts the rows in."""
+    counts = reason_counts(components)
     return ", ".join(
-        f"{n} {code}" for code, n in sorted(counts.items(), key=lambda item: (-item[1], item[0]))
+        f"{counts[code]} {code}" for code in sorted(counts, key=lambda code: (-counts[code], code))
     )
 
 

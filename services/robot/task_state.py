@@ -55,9 +55,7 @@ class Task:
     approach: Approach | None = None
     failed_xy_m: list[tuple[float, float]] = field(default_factory=list)  # stand-points that failed
     misses: int = 0  # approach searches that found nothing
-    traffic_since_s: float | None = (
-        None  # since when only laser marks (other robots) cut every stand-point off
-    )
+    traffic_since_s: float | None = None  # since when only laser marks cut every stand-point off
     placed: bool = False
     placement_note: str = ""  # said with the place event: how the robot placed it when it matters
     verdict: ComponentState | None = None
