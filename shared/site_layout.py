@@ -62,6 +62,7 @@ MIN_YARD_WIDTH_M = 12.0  # a small model's site keeps lanes long enough for robo
 MAX_DEPTH_CANDIDATES = 12
 WIDTH_CLASS_BASE_M = 0.5  # width classes: ≤ 0.5 m, ≤ 1 m, ≤ 2 m, ≤ 4 m, …
 ROBOT_SPACING_M = 1.6
+SPREAD_MIN_ROW_M = 8.0  # a kind is spread over more rows (one aisle per robot) only while rows stay this deep
 
 
 def aisle_width_m(robot: RobotDescription = DEFAULT_ROBOT) -> float:
@@ -171,7 +172,7 @@ def plan_site(
     front_y = building.min_xy[1] - lane_m  # the yard's north edge
     best: tuple[float, float, list[_Row]] | None = None
     for depth_m in _depth_candidates(sizes, aisle_m):
-        rows = _fill_rows(sizes, priority, depth_m)
+        rows = _fill_rows(sizes, priority, depth_m, spread_rows=2 * max(1, robots))
         cost = _mean_drive_m(rows, sizes, aisle_m)
         if best is None or cost < best[0] - 1e-9:
             best = (cost, depth_m, rows)
@@ -232,9 +233,16 @@ def _depth_candidates(sizes: np.ndarray, aisle_m: float) -> list[float]:
     return [float(depth) for depth in np.geomspace(first, last, steps + 1)]
 
 
-def _fill_rows(sizes: np.ndarray, priority: Sequence[int], depth_m: float) -> list[_Row]:
+def _fill_rows(
+    sizes: np.ndarray, priority: Sequence[int], depth_m: float, spread_rows: int = 1
+) -> list[_Row]:
     """Components in rows of one kind each (long or not, width class); in priority order, each goes to
-    the least filled row of its kind that has room, so the first ones needed lie at the row fronts."""
+    the least filled row of its kind that has room, so the first ones needed lie at the row fronts.
+
+    A kind gets at least ``spread_rows`` rows (two per robot: one aisle each, see :func:`_ordered_pairs`)
+    while its rows stay ``SPREAD_MIN_ROW_M`` deep: components of one kind are needed at about the same
+    time, and robots fetching them from one deep aisle that fits a single robot meet head-on in it (on a
+    988-component site with ten robots, the 324 footings filled eight 44 m rows and the robots jammed)."""
     longest = float(sizes[:, 1].max())
     kinds: dict[tuple[bool, int], list[int]] = {}
     rank = {index: number for number, index in enumerate(priority)}
@@ -247,7 +255,8 @@ def _fill_rows(sizes: np.ndarray, priority: Sequence[int], depth_m: float) -> li
         limit = longest if kind[0] else depth_m
         total = sum(float(sizes[i, 1]) + GAP_M for i in members)
         start = len(rows)
-        count = max(1, math.ceil(total / (limit + GAP_M)))
+        spread = min(spread_rows, len(members), math.ceil(total / SPREAD_MIN_ROW_M))
+        count = max(1, math.ceil(total / (limit + GAP_M)), spread)
         rows += [_Row(kind, limit, []) for _ in range(count)]
         heap = [(0.0, number) for number in range(start, len(rows))]
         for index in members:
@@ -271,14 +280,36 @@ def _fill_rows(sizes: np.ndarray, priority: Sequence[int], depth_m: float) -> li
 
 def _ordered_pairs(rows: list[_Row]) -> list[list[_Row]]:
     """Rows sorted by the first component they hold, paired back to back, the first pair in the middle,
-    the next ones alternately east and west of it (west to east)."""
+    the next ones alternately east and west of it (west to east).
+
+    Within a run of rows of one kind, row ``i`` pairs with row ``i + ⌈n/2⌉``: consecutive components go
+    to consecutive rows (least filled first), so the ones needed together sit at different aisles."""
     rows = sorted(rows, key=lambda row: row.first_rank)
+    rows = [row for run in _kind_runs(rows) for row in _interleaved(run)]
     pairs = [rows[i : i + 2] for i in range(0, len(rows), 2)]
     west: list[list[_Row]] = []
     east: list[list[_Row]] = []
     for number, pair in enumerate(pairs):
         (east if number % 2 == 0 else west).append(pair)
     return [*reversed(west), *east]
+
+
+def _kind_runs(rows: list[_Row]) -> list[list[_Row]]:
+    """``rows`` cut into runs of consecutive rows of one kind."""
+    runs: list[list[_Row]] = []
+    for row in rows:
+        if runs and runs[-1][0].kind == row.kind:
+            runs[-1].append(row)
+        else:
+            runs.append([row])
+    return runs
+
+
+def _interleaved(run: list[_Row]) -> list[_Row]:
+    """``[0, h, 1, h + 1, …]`` with ``h = ⌈n/2⌉``: paired two by two, row i shares an aisle with row i + h."""
+    half = math.ceil(len(run) / 2)
+    order = [index for pair in zip(range(half), range(half, len(run) + 1), strict=False) for index in pair]
+    return [run[index] for index in order if index < len(run)]
 
 
 def _pair_width_m(pair: list[_Row]) -> float:

@@ -345,3 +345,39 @@ def test_a_large_site_is_planned_quickly_enough_for_every_service_start() -> Non
     site = plan_site(components, robots=4)
     assert len(site.slots) == 10_000
     assert len(site.aisles) < 2_500
+
+
+def _aisle_index(site: SiteLayout, slot) -> int:
+    """The aisle (or -1: a lane at the yard's edge) that ``slot`` is flush with."""
+    edge_x = slot.footprint.min_xy[0] if slot.aisle_side < 0 else slot.footprint.max_xy[0]
+    for number, aisle in enumerate(site.aisles):
+        if min(abs(aisle.min_xy[0] - edge_x), abs(aisle.max_xy[0] - edge_x)) < 1e-6:
+            return number
+    return -1
+
+
+def _grid_of(name: str, size_m: tuple[float, float, float], z_m: float) -> list[Component]:
+    """300 components of one size on a 2 m grid, 20 by 15."""
+    return [_component(f"{name}{n:03d}", size_m, (2.0 * (n % 20), 2.0 * (n // 20), z_m)) for n in range(300)]
+
+
+@pytest.mark.parametrize("robots", [4, 10])
+def test_components_needed_together_lie_at_one_aisle_per_robot(robots: int) -> None:
+    """300 footings on a 40 m grid (needed first, all at once) and 300 columns on them: the first
+    ``robots`` footings lie at ``robots`` different aisles, near the front (before: eight 44 m rows of
+    footings in four aisles, where ten robots met head-on), and the footing rows stay ≥ 8 m deep."""
+    footings, columns = _grid_of("footing", (0.6, 0.6, 0.3), 0.0), _grid_of("column", (0.2, 0.2, 3.5), 0.3)
+    site = plan_site(footings + columns, robots=robots)
+    first = [site.slots[f"footing{n:03d}"] for n in range(robots)]
+    aisles = [_aisle_index(site, slot) for slot in first]
+    assert len(set(aisles)) == robots, aisles
+    assert all(site.yard.max_xy[1] - slot.footprint.min_xy[1] < 1.0 for slot in first)
+    deepest = max(site.yard.max_xy[1] - site.slots[f"footing{n:03d}"].footprint.min_xy[1] for n in range(300))
+    assert deepest >= 8.0 - 1.0  # spread only while a row stays about 8 m deep (1 m: a footing and its gap)
+
+
+def test_one_robot_keeps_the_rows_as_deep_as_driving_asks() -> None:
+    """With one robot nothing is spread: the footings fill as few rows as the compact yard wants."""
+    footings = _grid_of("footing", (0.6, 0.6, 0.3), 0.0)
+    one, ten = plan_site(footings, robots=1), plan_site(footings, robots=10)
+    assert len(one.aisles) < len(ten.aisles)
