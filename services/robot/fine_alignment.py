@@ -44,6 +44,8 @@ class Alignment:
     hits: int  # scan hits matched to an edge
     rms_m: float  # their residual distance after the alignment
     shift_m: float  # how far the alignment moved the estimate
+    disagrees_m: float = 0.0  # set by the navigator: how far a fit lay from the positioning sensor's fixes
+    fixes: int = 0  # set by the navigator: the positioning sensor's fixes the pose was taken from instead
 
 
 def nearest_on_segments(

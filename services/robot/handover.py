@@ -115,13 +115,17 @@ class Handover:
             self.robot_id,
             alignment.hits,
             task.message.guid,
-            "trusted" if alignment.trusted else "not trusted, the filter's estimate stands",
+            "trusted"
+            if alignment.trusted
+            else f"not trusted, placed from the mean of {alignment.fixes} fixes"
+            if alignment.fixes
+            else "not trusted, the filter's estimate stands",
             1000.0 * alignment.shift_m,
             1000.0 * alignment.rms_m,
         )
         task.placement_note = (
             ""
-            if alignment.trusted
+            if alignment.trusted or alignment.fixes
             else f"{self.robot_id} could not align to what its laser sees before placing ({alignment.hits} "
             "laser hits matched to mapped outlines, too few or too scattered to trust) and placed from its "
             "localisation estimate alone: nothing its laser sees stands near enough (a site with nothing "

@@ -174,6 +174,12 @@ class Localiser:
         yaw = math.atan2(float(np.sin(yaws).mean()), float(np.cos(yaws).mean()))
         return np.array([xy[0], xy[1], yaw]), len(self._still)
 
+    def still_fix_std_m(self) -> float:
+        """The standard deviation of :meth:`still_fix_pose`'s position (per axis): the fixes' own over √n."""
+        if not self._still:
+            return math.inf
+        return float(np.mean([fix.std_m for fix in self._still])) / math.sqrt(len(self._still))
+
     def observe_scan(
         self,
         ranges_m: NDArray[np.float64],

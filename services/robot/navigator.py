@@ -59,6 +59,11 @@ from .traffic import Traffic
 
 _log = logging.getLogger(__name__)
 MIN_STILL_FIXES = 2  # a placement's pose from the positioning sensor: the mean of this many fixes at least
+# A laser alignment farther than this many standard deviations (of the still fixes' mean), plus the margin,
+# from the positioning sensor's fixes is not trusted: the laser matched outlines the wrong way (hits on a
+# few parallel faces leave the alignment free along them, its residual tiny) and the fixes stand.
+FIX_AGREEMENT_SIGMAS = 3.0
+FIX_AGREEMENT_MARGIN_M = 0.003
 
 REST_MPS = 0.002  # odometry speed below which the robot stands still (noise: ~2 % of the increment)
 REST_RADPS = 0.005
@@ -179,11 +184,25 @@ class Navigator(Traffic):
         placement); a trusted alignment becomes the estimate."""
         self.localiser.update()  # a deferred scan first: the alignment starts from the filter's best
         result = align(self.localiser.pose, self.scan_hits_robot_m, self.site_map.laser_segments())
+        still = self.localiser.still_fix_pose()  # the positioning sensor's fixes standing here, if any
+        fixed = still is not None and still[1] >= MIN_STILL_FIXES
+        if result.trusted and fixed and still is not None:
+            gate_m = FIX_AGREEMENT_SIGMAS * self.localiser.still_fix_std_m() + FIX_AGREEMENT_MARGIN_M
+            apart_m = float(np.hypot(*(result.pose_xy_yaw[:2] - still[0][:2])))
+            if apart_m > gate_m:
+                _log.info(
+                    "%s: the laser alignment lies %.1f mm from the mean of %d fixes (more than %.1f mm): "
+                    "not trusted",
+                    self.robot_id,
+                    1000.0 * apart_m,
+                    still[1],
+                    1000.0 * gate_m,
+                )
+                result = replace(result, pose_xy_yaw=self.localiser.pose, trusted=False, disagrees_m=apart_m)
         if result.trusted:
             self.localiser.set_pose(result.pose_xy_yaw)
             return result
-        still = self.localiser.still_fix_pose()  # nothing to align on: the positioning sensor, if any
-        if still is not None and still[1] >= MIN_STILL_FIXES:
+        if fixed and still is not None:  # nothing (trusted) to align on: the positioning sensor
             pose, count = still
             _log.info(
                 "%s: positioned on the mean of %d fixes standing still (moved the estimate %.1f mm)",
@@ -192,6 +211,7 @@ class Navigator(Traffic):
                 1000.0 * float(np.hypot(*(pose[:2] - self.localiser.pose[:2]))),
             )
             self.localiser.set_pose(pose)
+            return replace(result, fixes=count)
         return result
 
     def localise(self) -> bool:

@@ -164,3 +164,50 @@ def test_standing_still_with_nothing_to_align_on_the_placement_pose_is_the_mean_
     assert abs(wrap_angle(pose[2] - truth[2])) < 0.003
     navigator.observe_odom(odom.model_copy(update={"pose_xy_yaw": (0.1, 0.0, 0.0)}))  # it moved
     assert navigator.localiser.still_fix_pose() is None
+
+
+def _ranges_from(segments: np.ndarray, pose: tuple[float, float, float]) -> list[float]:
+    """An exact scan from ``pose`` against ``segments`` ``(m, 2, 2)`` (nearest crossing per beam)."""
+    origin = np.array(pose[:2])
+    ranges = []
+    for angle in ANGLES + pose[2]:
+        direction = np.array([math.cos(angle), math.sin(angle)])
+        a, edge = segments[:, 0], segments[:, 1] - segments[:, 0]
+        denominator = direction[0] * edge[:, 1] - direction[1] * edge[:, 0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = ((a[:, 0] - origin[0]) * edge[:, 1] - (a[:, 1] - origin[1]) * edge[:, 0]) / denominator
+            u = ((a[:, 0] - origin[0]) * direction[1] - (a[:, 1] - origin[1]) * direction[0]) / denominator
+        hit = (np.abs(denominator) > 1e-12) & (t > 0) & (u >= 0) & (u <= 1)
+        ranges.append(float(min(t[hit].min(), RANGE_MAX_M)) if hit.any() else RANGE_MAX_M)
+    return ranges
+
+
+def test_a_laser_alignment_that_disagrees_with_the_fixes_is_not_trusted(frame: Manifest) -> None:
+    """On the 988-component site, robots aligned on a few parallel faces with a tiny residual, moved their
+    estimate 8–13 mm the wrong way and set footings 11–19 mm off although the total station knew better.
+    Here the scan fits the map perfectly from 15 mm east of where the fixes (3 mm) put the robot: the fixes
+    stand, the laser's fit is not trusted and the placement pose is the fixes' mean."""
+    site = SiteMap(plan_site(frame.components, robots=1), frame.components)
+    corner = site.layout.fence.min_xy
+    truth = (corner[0] + 3.0, corner[1] + 3.0, 0.3)
+    fitted = (truth[0] + 0.015, truth[1], truth[2])  # where the scan says the robot stands
+    navigator = Navigator(site, truth, NavigatorConfig(), np.random.default_rng(0), robot_id="r1")
+    rng = np.random.default_rng(2)
+    odom = OdomMsg(robot_id="r1", pose_xy_yaw=(0.0, 0.0, 0.0), v_mps=0.0, w_radps=0.0, sim_time_s=1.0)
+    scan = ScanMsg(
+        robot_id="r1",
+        angle_min_rad=-math.pi,
+        angle_increment_rad=2 * math.pi / 180,
+        range_max_m=RANGE_MAX_M,
+        ranges_m=_ranges_from(site.laser_segments(), fitted),
+        sim_time_s=1.0,
+    )
+    for _ in range(10):
+        navigator.observe_odom(odom)
+        navigator.observe_fix(_fix_msg(truth[:2], truth[2], rng))
+        navigator.observe_scan(scan)
+    alignment = navigator.align()
+    assert alignment.hits >= 20 and alignment.rms_m < 0.002  # a fit as good as a fit gets
+    assert not alignment.trusted and alignment.disagrees_m > 0.01 and alignment.fixes == 10
+    pose = navigator.localiser.pose
+    assert math.hypot(pose[0] - truth[0], pose[1] - truth[1]) < 0.004
