@@ -2,9 +2,10 @@
 
 Every sub-command module exposes ``add_arguments(parser)`` and ``run(args) -> int``; only the chosen one is
 imported, so ``bimbot --help`` stays fast. A :class:`bimbot.shared.errors.UserError` ends in one clear
-line and exit code 2, never a traceback. Any other exception is a bug: its traceback is logged to stderr
-(a service's log file under ``bimbot run``, which shows its tail) and the exit code is 1. Commands check
-the user's input before they start their work, so a bug is never reported as bad input.
+line (``bimbot run: error: …``, as a bad option's) and exit code 2, never a traceback. Any other
+exception is a bug: its traceback is logged to stderr (a service's log file under ``bimbot run``, which
+shows its tail) and the exit code is 1. Commands check the user's input before they start their work, so
+a bug is never reported as bad input.
 """
 
 from __future__ import annotations
@@ -128,8 +129,8 @@ def main(argv: list[str] | None = None) -> int:
     module = importlib.import_module(args._module)
     try:
         return int(module.run(args) or 0)
-    except UserError as error:
-        _log.error("%s", error)
+    except UserError as error:  # the same one-line form as a bad option's (OneLineErrorParser)
+        sys.stderr.write(f"bimbot {args.command}: error: {error}\n")
         return EXIT_USER_ERROR
     except KeyboardInterrupt:
         _log.error("interrupted")

@@ -11,36 +11,37 @@ import pytest
 from bimbot.cli import main
 
 
-def run_cli(args: list[str], caplog: pytest.LogCaptureFixture) -> tuple[int, str]:
-    caplog.clear()
-    with caplog.at_level("ERROR", logger="bimbot"):
-        code = main(["agents", *args])
-    return code, "\n".join(r.getMessage() for r in caplog.records if r.name == "bimbot")
+def run_cli(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    capsys.readouterr()
+    code = main(["agents", *args])
+    err = capsys.readouterr().err.rstrip("\n")
+    assert err.startswith("bimbot agents: error: "), err
+    return code, err.removeprefix("bimbot agents: error: ")
 
 
-def test_missing_manifest_is_one_line_and_exit_2(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
-    code, message = run_cli(["--build", str(tmp_path)], caplog)
+def test_missing_manifest_is_one_line_and_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code, message = run_cli(["--build", str(tmp_path)], capsys)
     assert code == 2
     assert "no manifest" in message
     assert "\n" not in message
 
 
 def test_an_ifc_model_given_as_the_build_says_to_convert_it_first(
-    tmp_path: Path, caplog: pytest.LogCaptureFixture
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     model = tmp_path / "house.ifc"
     model.write_text("ISO-10303-21;\n")
-    code, message = run_cli(["--build", str(model)], caplog)
+    code, message = run_cli(["--build", str(model)], capsys)
     assert code == 2
     assert "an IFC model, not a converted build" in message and f"bimbot convert {model}" in message
 
 
-def test_invalid_manifest_is_one_line_and_exit_2(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+def test_invalid_manifest_is_one_line_and_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     (tmp_path / "manifest.json").write_text('{"schema_version": 1, "components": 3}')
-    code, message = run_cli(["--build", str(tmp_path)], caplog)
+    code, message = run_cli(["--build", str(tmp_path)], capsys)
     assert (code, "invalid manifest" in message) == (2, True)
     (tmp_path / "manifest.json").write_text("{not json")
-    code, message = run_cli(["--build", str(tmp_path)], caplog)
+    code, message = run_cli(["--build", str(tmp_path)], capsys)
     assert (code, "not a JSON manifest" in message) == (2, True)
 
 
@@ -55,9 +56,9 @@ def test_invalid_manifest_is_one_line_and_exit_2(tmp_path: Path, caplog: pytest.
     ],
 )
 def test_bad_options_are_one_line_and_exit_2(
-    agents_build: Path, args: list[str], expected: str, caplog: pytest.LogCaptureFixture
+    agents_build: Path, args: list[str], expected: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    code, message = run_cli(["--build", str(agents_build), *args], caplog)
+    code, message = run_cli(["--build", str(agents_build), *args], capsys)
     assert code == 2
     assert expected in message
 

@@ -165,17 +165,21 @@ def _serve_twins(session: zenoh.Session, twins: dict[str, ComponentState]) -> ze
     return session.declare_queryable(key(COMPONENT_TWIN_KEY, site=SITE, key="*"), answer)
 
 
-def test_planner_cli_reports_an_unreadable_build_in_one_line(tmp_path: Path) -> None:
+def test_planner_cli_reports_an_unreadable_build_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert bimbot_main(["planner", "--build", str(tmp_path / "absent")]) == 2
+    [line] = capsys.readouterr().err.splitlines()
+    assert line.startswith("bimbot planner: error: ") and "absent" in line
 
 
 def test_planner_cli_reports_an_unknown_sequence_guid_in_one_line(
-    portal_build: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+    portal_build: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     bad = tmp_path / "bad.xml"
     bad.write_text('<construction_sequence><task guid="nope"/></construction_sequence>', encoding="utf-8")
     assert bimbot_main(["planner", "--build", str(portal_build), "--sequence", str(bad)]) == 2
-    assert any("nope" in record.getMessage() for record in caplog.records)
+    assert "nope" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(
