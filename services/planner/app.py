@@ -302,6 +302,7 @@ class _Loop:
     def run(self, options: PlannerOptions, stop: threading.Event) -> int:
         last_progress: str | None = None
         last_progress_wall = 0.0
+        progress_revision = -1
         next_refresh_s = time.monotonic() + TWIN_REFRESH_S
         while not stop.is_set():
             for item in self.inbox.drain(first_timeout_s=options.poll_s):
@@ -312,10 +313,14 @@ class _Loop:
                     self.feed.ask_twin(guid)
             for message in self.core.step(time.time()):
                 self.session.put(outgoing_key(self.site, message), encode(message))
+            now = time.monotonic()
+            due = now - last_progress_wall >= options.progress_interval_s
+            if self.core.revision == progress_revision and not due:
+                continue  # nothing changed since the last progress (a pass over every component)
+            progress_revision = self.core.revision
             progress = self.core.progress()
             signature = _progress_signature(progress)
-            now = time.monotonic()
-            if signature != last_progress or now - last_progress_wall >= options.progress_interval_s:
+            if signature != last_progress or due:
                 self.session.put(outgoing_key(self.site, progress), encode(progress))
                 last_progress, last_progress_wall = signature, now
             if progress.done and options.exit_when_done:

@@ -42,6 +42,7 @@ class Dispatch:
     _slots: Mapping[str, YardSlot]
     _pending: dict[tuple[str, str], Pending]
     sim_time_s: float
+    revision: int
 
     if TYPE_CHECKING:  # defined by :class:`.scheduler.PlannerCore`
 
@@ -75,6 +76,8 @@ class Dispatch:
     def _assign_by_bids(self) -> None:
         """Every released task to the capable robot with the best bid (:mod:`.assignment`)."""
         assert self._site is not None
+        if not any(self._is_idle(robot) for robot in self._robots.values()):
+            return  # (before the staging spots in use: a pass over every component)
         promised: dict[str, float] = {}
         taken = self._taken_spots()
         for guid in self._plan.order:
@@ -153,6 +156,7 @@ class Dispatch:
         task.robot_id, robot.task_guid = robot.robot_id, task.guid
         robot.busy_until_s = self.sim_time_s + estimate_s
         task.phase = Phase.ASSIGNED
+        self.revision += 1
         task.changed_sim_s = self.sim_time_s
         if task.assigned_sim_s is None:
             task.assigned_sim_s = self.sim_time_s
