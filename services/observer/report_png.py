@@ -33,9 +33,11 @@ from typing import Any
 import matplotlib
 from matplotlib import transforms
 from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import to_rgb
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
+from matplotlib.text import Text
 
 from .report_fleet import lane_label, robot_order, utilisation_line
 from .report_placements import MISPLACED, RETRY_CAUSES
@@ -85,11 +87,36 @@ def bar_label_size_pt(width_s: float, span_s: float) -> float:
     return max(5.0, min(9.0, 0.7 * panel_pt * width_s / max(span_s, 1e-9)))
 
 
+def fit_bar_labels(figure: Figure, ax: Axes, labels: list[Text]) -> None:
+    """Cut each task bar's label (ending in "…") to the height of its bar as drawn, after the layout: a
+    Revit name such as 'M_W-Wide Flange-Column:W310X97:318275' ran over the lanes above and below."""
+    if not labels:
+        return
+    renderer = FigureCanvasAgg(figure).get_renderer()
+    low, high = ax.transData.transform([(0.0, -0.4), (0.0, 0.4)])
+    bar_px = abs(float(high[1] - low[1]))
+    for label in labels:
+        full = label.get_text()
+        length_px = label.get_window_extent(renderer).height
+        if length_px <= bar_px:
+            continue
+        keep = int(len(full) * bar_px / length_px)  # a first guess, then shorter until it fits
+        while keep > 0:
+            label.set_text(full[:keep] + "…")
+            if label.get_window_extent(renderer).height <= bar_px:
+                break
+            keep -= 1
+        if keep <= 0:
+            label.set_text("")
+
+
 def _short(component: dict[str, Any]) -> str:
     return component.get("name") or component["guid"][:8]
 
 
-def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> None:
+def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> list[Text]:
+    """The Gantt lanes; the task bars' labels (fitted to their bars once the figure is laid out)."""
+    labels: list[Text] = []
     by_guid = {c["guid"]: c for c in report["components"]}
     robots = report["robots"]
     robot_ids = robot_order(robots)
@@ -109,7 +136,7 @@ def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> No
                 linewidth=1.0 if hand_off else 0.5,
             )
             if component and width > 0:
-                ax.text(
+                label = ax.text(
                     task["start_s"] + width / 2,
                     lane,
                     ("→ " if hand_off else "") + _short(component),
@@ -119,6 +146,7 @@ def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> No
                     rotation=90,
                     clip_on=True,
                 )
+                labels.append(label)
     for lane in range(1, len(robot_ids)):  # a line where one robot type's lanes end
         if robots[robot_ids[lane]].get("type") != robots[robot_ids[lane - 1]].get("type"):
             ax.axhline(lane - 0.5, color="black", linewidth=0.8, alpha=0.6)
@@ -132,6 +160,7 @@ def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> No
     ax.grid(axis="x", alpha=0.3)
     if not robot_ids:
         ax.text(0.5, 0.5, "no robot reported a state", transform=ax.transAxes, ha="center", va="center")
+    return labels
 
 
 def _hand_off_legend(report: dict[str, Any]) -> list[Patch]:
@@ -260,7 +289,7 @@ def report_figure(report: dict[str, Any]) -> Figure:
     grid = figure.add_gridspec(2, 2, width_ratios=(3, 2), height_ratios=HEIGHT_RATIOS)
     lanes = figure.add_subplot(grid[0, 0])
     sequence = figure.add_subplot(grid[0, 1], sharex=lanes)
-    _robot_lanes(lanes, report, colors)
+    labels = _robot_lanes(lanes, report, colors)
     _sequence_rows(sequence, report, colors)
     draw_placement_errors(figure.add_subplot(grid[1, 0]), report)
     draw_drift(figure.add_subplot(grid[1, 1]), report)
@@ -290,6 +319,7 @@ def report_figure(report: dict[str, Any]) -> Figure:
         )
         bottom += LEGEND_ROW
     figure.tight_layout(rect=(0.0, bottom, 1.0, 0.97))
+    fit_bar_labels(figure, lanes, labels)
     return figure
 
 
