@@ -426,7 +426,7 @@ class Executor(Driving, Handover):
             if not self._drive(task, task.target):
                 return  # a refused placement sent the robot to another approach pose
             waiting = task.events.unconfirmed & {_E.ATTACH, _E.ARRIVE}
-            if task.request is None and not waiting and self.navigator.at_rest:  # it sets down standing still
+            if task.request is None and not waiting and self.navigator.ready_to_place:  # standing still
                 self._request(task, "place", self._place_request(task))
             return
         if task.verdict is not None and _E.PLACE not in task.events.unconfirmed:
