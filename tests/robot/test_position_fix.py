@@ -136,6 +136,18 @@ def _fix_msg(xy: tuple[float, float], yaw: float, rng: np.random.Generator) -> P
     )
 
 
+def _scan_msg(ranges_m: list[float]) -> ScanMsg:
+    """A scan of r1's 180-beam laser (all around, from -π) at sim time 1 s."""
+    return ScanMsg(
+        robot_id="r1",
+        angle_min_rad=-math.pi,
+        angle_increment_rad=2 * math.pi / 180,
+        range_max_m=RANGE_MAX_M,
+        ranges_m=ranges_m,
+        sim_time_s=1.0,
+    )
+
+
 def test_standing_still_with_nothing_to_align_on_the_placement_pose_is_the_mean_of_the_fixes(
     frame: Manifest,
 ) -> None:
@@ -146,14 +158,7 @@ def test_standing_still_with_nothing_to_align_on_the_placement_pose_is_the_mean_
     navigator = Navigator(site, (40.3, 40.0, 0.5), NavigatorConfig(), np.random.default_rng(0), robot_id="r1")
     rng = np.random.default_rng(1)
     odom = OdomMsg(robot_id="r1", pose_xy_yaw=(0.0, 0.0, 0.0), v_mps=0.0, w_radps=0.0, sim_time_s=1.0)
-    nothing = ScanMsg(
-        robot_id="r1",
-        angle_min_rad=-math.pi,
-        angle_increment_rad=2 * math.pi / 180,
-        range_max_m=RANGE_MAX_M,
-        ranges_m=[RANGE_MAX_M] * 180,
-        sim_time_s=1.0,
-    )
+    nothing = _scan_msg([RANGE_MAX_M] * 180)
     for _ in range(10):  # 2 s standing still
         navigator.observe_odom(odom)
         navigator.observe_fix(_fix_msg(truth[:2], truth[2], rng))
@@ -194,14 +199,7 @@ def test_a_laser_alignment_that_disagrees_with_the_fixes_is_not_trusted(frame: M
     navigator = Navigator(site, truth, NavigatorConfig(), np.random.default_rng(0), robot_id="r1")
     rng = np.random.default_rng(2)
     odom = OdomMsg(robot_id="r1", pose_xy_yaw=(0.0, 0.0, 0.0), v_mps=0.0, w_radps=0.0, sim_time_s=1.0)
-    scan = ScanMsg(
-        robot_id="r1",
-        angle_min_rad=-math.pi,
-        angle_increment_rad=2 * math.pi / 180,
-        range_max_m=RANGE_MAX_M,
-        ranges_m=_ranges_from(site.laser_segments(), fitted),
-        sim_time_s=1.0,
-    )
+    scan = _scan_msg(_ranges_from(site.laser_segments(), fitted))
     for _ in range(10):
         navigator.observe_odom(odom)
         navigator.observe_fix(_fix_msg(truth[:2], truth[2], rng))
