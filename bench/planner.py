@@ -11,7 +11,11 @@ clock moves:
 * quiet: as the planner runs them (the passes skipped while the revision stands);
 * forced: the revision bumped before every turn, so every pass runs (what every turn cost before);
 
-and prints both and their ratio, same run. Run: ``.venv/bin/python bench/planner.py [--turns N]``.
+and prints both and their ratio, same run. Then the planner's start-up access check on the same site
+(``shared/site_access.py``: every component placed in plan order on the robots' 0.1 m grid, what each
+placement cuts off): its wall time per placement, with the free region kept current around each change,
+against one whole distance transform and labelling of the grid (what every placement cost before).
+Run: ``.venv/bin/python bench/planner.py [--turns N]``.
 """
 
 from __future__ import annotations
@@ -23,20 +27,46 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+from scipy import ndimage
+
 from bimbot.services.converter.convert import convert_model
 from bimbot.services.converter.ifc_input import open_model
 from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame
+from bimbot.services.planner.access_plan import FINE
 from bimbot.services.planner.capability import SiteRobot
 from bimbot.services.planner.scheduler import PlannerCore
 from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan
 from bimbot.shared.manifest import read_manifest
 from bimbot.shared.messages import RobotState, RobotStateMsg, TaskMsg, TaskStatus
+from bimbot.shared.occupancy_grid import distance_field_m
 from bimbot.shared.robot_description import DEFAULT_ROBOT
+from bimbot.shared.site_access import SiteAccess, check_order
 from bimbot.shared.site_layout import plan_site
 
 BAYS = (18, 18)  # 988 components, as bench/build.py --large
 ROBOTS = 10
 PERIOD_S = 0.1
+ACCESS_STEPS = 200  # placements of the access check timed
+
+
+def access_check_ms(folder: Path) -> tuple[float, float, int]:
+    """(ms a placement of the access check over the first ``ACCESS_STEPS`` of the plan, ms of one whole
+    transform and labelling of the same grid, its cells)."""
+    manifest = read_manifest(folder / "build")
+    plan = load_plan(manifest, folder / "build", PlanSource(SourceKind.DERIVE))
+    access = SiteAccess(manifest.components, plan_site(manifest.components, ROBOTS), DEFAULT_ROBOT, FINE)
+    access.region()
+    started = time.perf_counter()
+    check_order(access, list(plan.order)[:ACCESS_STEPS])
+    per_placement = 1000.0 * (time.perf_counter() - started) / ACCESS_STEPS
+    wholes = []
+    for _ in range(5):
+        started = time.perf_counter()
+        free = ~(distance_field_m(access.occupancy()) <= access.inflation_m + 1e-9)
+        ndimage.label(free, structure=np.ones((3, 3), bool))
+        wholes.append(1000.0 * (time.perf_counter() - started))
+    return per_placement, statistics.median(wholes), access.grid.shape[0] * access.grid.shape[1]
 
 
 def planner_core(folder: Path) -> PlannerCore:
@@ -100,6 +130,7 @@ def main() -> None:
     logging.basicConfig(level=logging.WARNING)
     with tempfile.TemporaryDirectory(prefix="bimbot-bench-planner-") as tmp:
         core = planner_core(Path(tmp))
+        placement_ms, whole_ms, cells = access_check_ms(Path(tmp))
     tasks = len(core.in_flight())
     medians = {}
     for label, forced in (("quiet", False), ("forced", True), ("quiet", False), ("forced", True)):
@@ -108,6 +139,9 @@ def main() -> None:
     print(f"planner loop turn, 988 components, {ROBOTS} robots busy, {tasks} tasks released or assigned:")
     print(f"  quiet (nothing changed): {quiet:.3f} ms; every pass forced: {forced:.3f} ms")
     print(f"  ratio quiet / forced: {quiet / forced:.3f}")
+    print(f"access check at start-up, {cells:,} cells at 0.1 m, first {ACCESS_STEPS} placements of the plan:")
+    print(f"  {placement_ms:.1f} ms a placement; one whole transform and labelling {whole_ms:.1f} ms")
+    print(f"  ratio placement / whole transform: {placement_ms / whole_ms:.3f}")
 
 
 if __name__ == "__main__":
