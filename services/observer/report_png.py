@@ -87,9 +87,13 @@ def bar_label_size_pt(width_s: float, span_s: float) -> float:
     return max(5.0, min(9.0, 0.7 * panel_pt * width_s / max(span_s, 1e-9)))
 
 
+HAND_OFF_PREFIX = "→ "  # a hand-off task's bar label: the load goes to a crane's staging spot
+
+
 def fit_bar_labels(figure: Figure, ax: Axes, labels: list[Text]) -> None:
-    """Cut each task bar's label (ending in "…") to the height of its bar as drawn, after the layout: a
-    Revit name such as 'M_W-Wide Flange-Column:W310X97:318275' ran over the lanes above and below."""
+    """Cut each task bar's label to the height of its bar as drawn, after the layout, keeping its end: a
+    Revit name such as 'Concrete-Rectangular-Column:300x300:318275' ran over the lanes above and below,
+    and its end (type and element id) is what tells one bar from the next ("…300x300:318275")."""
     if not labels:
         return
     renderer = FigureCanvasAgg(figure).get_renderer()
@@ -100,9 +104,11 @@ def fit_bar_labels(figure: Figure, ax: Axes, labels: list[Text]) -> None:
         length_px = label.get_window_extent(renderer).height
         if length_px <= bar_px:
             continue
-        keep = int(len(full) * bar_px / length_px)  # a first guess, then shorter until it fits
+        prefix = HAND_OFF_PREFIX if full.startswith(HAND_OFF_PREFIX) else ""
+        body = full[len(prefix) :]
+        keep = int(len(body) * bar_px / length_px)  # a first guess, then shorter until it fits
         while keep > 0:
-            label.set_text(full[:keep] + "…")
+            label.set_text(f"{prefix}…{body[-keep:]}")
             if label.get_window_extent(renderer).height <= bar_px:
                 break
             keep -= 1
@@ -139,7 +145,7 @@ def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> li
                 label = ax.text(
                     task["start_s"] + width / 2,
                     lane,
-                    ("→ " if hand_off else "") + _short(component),
+                    (HAND_OFF_PREFIX if hand_off else "") + _short(component),
                     ha="center",
                     va="center",
                     fontsize=bar_label_size_pt(width, span_s),

@@ -40,7 +40,8 @@ def test_each_retry_in_the_sequence_panel_takes_its_cause_from_the_placement_ver
 
 def test_a_bar_label_is_cut_to_the_height_of_its_bar() -> None:
     """A Revit name ran over the lanes above and below: once the figure is laid out, a label longer than
-    its bar is cut with "…" until it fits; one that fits stays whole."""
+    its bar is cut from the front with "…" until it fits, keeping the end (type and element id, what tells
+    the bars apart); one that fits stays whole."""
     from matplotlib.figure import Figure
 
     from bimbot.services.observer.report_png import DPI, FIGURE_SIZE_IN, fit_bar_labels
@@ -53,7 +54,7 @@ def test_a_bar_label_is_cut_to_the_height_of_its_bar() -> None:
     long = ax.text(30.0, 2.0, name, rotation=90, ha="center", va="center", fontsize=9.0)
     short = ax.text(60.0, 2.0, "C2", rotation=90, ha="center", va="center", fontsize=9.0)
     fit_bar_labels(figure, ax, [long, short])
-    assert long.get_text().endswith("…") and name.startswith(long.get_text()[:-1])
+    assert long.get_text().startswith("…") and name.endswith(long.get_text()[1:])
     assert short.get_text() == "C2"
     renderer = figure.canvas.get_renderer()  # type: ignore[attr-defined]
     low, high = ax.transData.transform([(0.0, -0.4), (0.0, 0.4)])
