@@ -59,9 +59,10 @@ def _points(placements: Sequence[Mapping[str, Any]], field: str) -> list[Point]:
 def _strip(ax: Axes, rows: Sequence[Sequence[Point]], *, box: bool) -> None:
     """Points of each row (row 0 at the top), a box per row if ``box``."""
     for row, points in enumerate(rows):
-        if box and points:
+        boxed = [value for value, cause in points if cause != UNSTABLE]  # as the distribution (totals)
+        if box and boxed:
             ax.boxplot(
-                [value for value, _ in points],
+                boxed,
                 positions=[row],
                 orientation="horizontal",
                 widths=0.6,

@@ -189,6 +189,7 @@ def test_placement_errors_are_distributed_per_robot_type_in_lane_order(report: d
     assert _rounded(by_type) == {
         "husky": {
             "placements": 3,
+            "unstable": 0,
             "unmeasured": 0,
             "mean": round(20.0 / 3.0, 9),
             "p50": 4.0,
@@ -196,13 +197,14 @@ def test_placement_errors_are_distributed_per_robot_type_in_lane_order(report: d
             "max": 14.0,
             "out_of_tolerance": 1,
         },
-        "carrier": {
+        "carrier": {  # B's first attempt slid 75 mm after release: counted unstable, not in the errors
             "placements": 5,
+            "unstable": 1,
             "unmeasured": 0,
-            "mean": 29.6,
-            "p50": 20.0,
-            "p95": 70.0,
-            "max": 80.0,
+            "mean": 17.0,
+            "p50": 16.0,
+            "p95": 28.5,
+            "max": 30.0,
             "out_of_tolerance": 4,
         },
     }
@@ -272,6 +274,7 @@ def test_a_robot_of_unknown_type_and_a_placement_without_a_pose_are_counted_unme
     assert report["totals"]["placement_error_mm_by_type"] == {
         "unknown": {
             "placements": 1,
+            "unstable": 0,
             "unmeasured": 1,
             "mean": None,
             "p50": None,
@@ -325,7 +328,8 @@ def test_the_summary_has_one_line_of_placement_errors_by_type_retries_by_cause_a
     line = (
         "every placement attempt by robot type: "
         "husky mean 6.7 / p95 13.0 / max 14.0 mm (3 placements, 1 out of tolerance), "
-        "carrier mean 29.6 / p95 70.0 / max 80.0 mm (5 placements, 4 out of tolerance); "
+        "carrier mean 17.0 / p95 28.5 / max 30.0 mm (5 placements, 4 out of tolerance, "
+        "1 unstable: moved after release, not in these errors); "
         "retries by cause: misplaced 3, unstable 1; largest drift after placement 75.0 mm"
     )
     assert placement_line(report) == line
@@ -346,7 +350,7 @@ def test_the_chart_has_a_placement_error_panel_per_robot_type_and_a_drift_panel(
     _, _, errors, drift = figure.axes
     assert "placement position error per robot type" in errors.get_title()
     assert [label.get_text().split("\n")[0] for label in errors.get_yticklabels()] == ["husky", "carrier"]
-    assert errors.get_yticklabels()[1].get_text() == "carrier\n5 placed, p95 70.0 mm"
+    assert errors.get_yticklabels()[1].get_text() == "carrier\n5 placed, p95 28.5 mm"
     assert (_marker_points(errors, "o"), _marker_points(errors, "x"), _marker_points(errors, "v")) == (
         3,
         4,
