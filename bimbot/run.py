@@ -295,7 +295,9 @@ def _busy_outside(robot: dict[str, Any], window: tuple[float, float] | None) -> 
     if window is None:
         return ""
     outside = robot["busy_s"] - busy_within_s(robot, window)
-    return f" ({outside:.0f} s of it outside the makespan)" if outside >= 1.0 else ""
+    if outside < 1.0:
+        return ""
+    return f" ({outside:.0f} s of it after the last construction, on tasks that built nothing more)"
 
 
 def summary_text(outcome: RunOutcome) -> str:

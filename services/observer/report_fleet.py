@@ -85,15 +85,17 @@ def by_type(
 
 
 def utilisation_line(report: Mapping[str, Any]) -> str | None:
-    """``utilisation by type: husky 45 % (1 robot), tower_crane 80 % (1 robot)``, or None without types
-    or a makespan."""
+    """``utilisation by type (busy within the makespan / robots × makespan): husky 45 % (1 robot), …``,
+    or None without types or a makespan; the part in brackets says what the percentages measure."""
     types = report.get("totals", {}).get("by_type") or {}
     parts = [
         f"{name} {entry['utilisation'] * 100:.0f} % ({_robots(len(entry['robots']))})"
         for name, entry in types.items()
         if entry.get("utilisation") is not None
     ]
-    return f"utilisation by type: {', '.join(parts)}" if parts else None
+    if not parts:
+        return None
+    return f"utilisation by type (busy within the makespan / robots × makespan): {', '.join(parts)}"
 
 
 def _count(tasks: Iterable[Mapping[str, Any]], kind: str) -> int:

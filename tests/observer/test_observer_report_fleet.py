@@ -156,7 +156,8 @@ def test_utilisation_per_type_is_busy_share_of_its_robots_over_the_makespan(repo
     assert by_type["carrier"]["utilisation"] == pytest.approx(40.0 / (2 * 100.0))
     assert by_type["tower_crane"]["utilisation"] == pytest.approx(0.70)
     assert utilisation_line(report) == (
-        "utilisation by type: husky 25 % (1 robot), carrier 20 % (2 robots), tower_crane 70 % (1 robot)"
+        "utilisation by type (busy within the makespan / robots × makespan): "
+        "husky 25 % (1 robot), carrier 20 % (2 robots), tower_crane 70 % (1 robot)"
     )
 
 

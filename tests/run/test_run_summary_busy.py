@@ -26,6 +26,6 @@ def test_busy_time_after_the_last_construction_is_said_to_be_outside_the_makespa
         ).splitlines()
         if line.startswith("r1")
     )
-    assert "busy 160 s (60 s of it outside the makespan)" in line
+    assert "busy 160 s (60 s of it after the last construction, on tasks that built nothing more)" in line
     within = summary_text(RunOutcome(exit_code=1, constructed=1, total=2, report=_report(100.0)))
-    assert "busy 100 s" in within and "outside the makespan" not in within
+    assert "busy 100 s" in within and "after the last construction" not in within
