@@ -187,3 +187,33 @@ def test_rows_follow_the_tally_and_alike_rows_take_one() -> None:
     assert (
         lines[2].endswith("it was planned: Beam 0, Beam 1, Beam 2 and 2 more") and "(report.json)" in lines[2]
     )
+
+
+def test_rows_that_differ_only_in_their_figures_take_one_with_the_ranges() -> None:
+    """The Revit hub's 69 out_of_reach rows differed only in a height (16 of them shown, each with the same
+    long advice): one row, each differing figure as its range, the figures that agree as they are."""
+    high = [
+        _component(
+            f"0High{i:017d}",
+            f"Column {i}",
+            "failed",
+            i,
+            {
+                "code": "out_of_reach",
+                "message": f"target top at {3.9 + 0.1 * i:.2f} m is above 3.50 m; 1,200 kg",
+            },
+        )
+        for i in range(5)
+    ]
+    heavy = [
+        _component(
+            f"0Heavy{i:016d}", f"Slab {i}", "failed", 20 + i, {"code": "too_heavy", "message": f"{i} t"}
+        )
+        for i in range(2)
+    ]
+    lines = not_built_table({"components": [*high, *heavy]}).splitlines()
+    assert [line.split()[0:2] for line in lines[2:]] == [["5", "components"], ["Slab", "0"], ["Slab", "1"]]
+    assert (
+        "target top at 3.90–4.30 m is above 3.50 m; 1,200 kg: Column 0, Column 1, Column 2 and 2 more"
+        in (lines[2])
+    )
