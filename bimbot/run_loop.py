@@ -105,8 +105,14 @@ class RunWatch:
             monitor.drain(wait_s=0.1)
             now = time.monotonic()
             self.watchdog.observe(monitor.changes, monitor.sim_time_s, now)
+            planner = monitor.progress
             self.progress.update(
-                monitor.constructed, monitor.total, monitor.sim_time_s, monitor.robots, now - started
+                monitor.constructed,
+                monitor.total,
+                monitor.sim_time_s,
+                monitor.robots,
+                now - started,
+                not_built=len(planner.failed) + len(planner.blocked) if planner is not None else 0,
             )
             result = self._ended(now - started)
             if result is not None:

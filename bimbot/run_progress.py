@@ -64,14 +64,19 @@ def robot_line(msg: RobotStateMsg, names: Mapping[str, str | None]) -> str:
     return line
 
 
-def progress_line(constructed: int, total: int, sim_time_s: float, rtf: float | None, wall_s: float) -> str:
-    """``constructed 3/9 · sim 412.0 s · 8.1× real time · wall 51 s``; before the clock moves, that the
-    services are still starting (physics holds its clock until every robot is up)."""
+def progress_line(
+    constructed: int, total: int, sim_time_s: float, rtf: float | None, wall_s: float, *, not_built: int = 0
+) -> str:
+    """``constructed 3/9 · sim 412.0 s · 8.1× real time · wall 51 s``, with ``· 2 will not be built (the
+    table at the end says why)`` once the planner has failed or blocked some (those no robot on site can
+    build fail before the build starts: "13/85" alone read as a run going badly); before the clock moves,
+    that the services are still starting (physics holds its clock until every robot is up)."""
+    lost = f" · {not_built} will not be built (the table at the end says why)" if not_built else ""
     if sim_time_s == 0.0 and constructed == 0:
         waiting = "starting the services (the clock waits for the robots)"
-        return f"constructed 0/{total} · {waiting} · wall {wall_s:.0f} s"
+        return f"constructed 0/{total}{lost} · {waiting} · wall {wall_s:.0f} s"
     speed = f"{rtf:.1f}× real time" if rtf is not None else "real time –"
-    return f"constructed {constructed}/{total} · sim {sim_time_s:.1f} s · {speed} · wall {wall_s:.0f} s"
+    return f"constructed {constructed}/{total}{lost} · sim {sim_time_s:.1f} s · {speed} · wall {wall_s:.0f} s"
 
 
 class ProgressView(Protocol):
@@ -84,6 +89,8 @@ class ProgressView(Protocol):
         sim_time_s: float,
         robots: Mapping[str, RobotStateMsg],
         wall_s: float,
+        *,
+        not_built: int = 0,
     ) -> None: ...
 
     def close(self) -> None: ...
@@ -101,9 +108,11 @@ class _Base:
         sim_time_s: float,
         robots: Mapping[str, RobotStateMsg],
         wall_s: float,
+        *,
+        not_built: int = 0,
     ) -> None:
         self.rate.add(wall_s, sim_time_s)
-        head = progress_line(constructed, total, sim_time_s, self.rate.factor(), wall_s)
+        head = progress_line(constructed, total, sim_time_s, self.rate.factor(), wall_s, not_built=not_built)
         self._show(head, [robot_line(msg, self.names) for _, msg in sorted(robots.items())], wall_s)
 
     def _show(self, head: str, robot_lines: list[str], wall_s: float) -> None:
@@ -113,7 +122,7 @@ class _Base:
 class NoProgress:
     """``-q``: nothing."""
 
-    def update(self, *_: object) -> None:
+    def update(self, *_: object, **__: object) -> None:
         pass
 
     def close(self) -> None:

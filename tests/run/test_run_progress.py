@@ -42,6 +42,10 @@ def test_progress_and_robot_lines() -> None:
         == "constructed 3/9 · sim 412.0 s · 8.1× real time · wall 51 s"
     )
     assert "starting the services" in progress_line(0, 9, 0.0, None, 12.0)  # the clock has not moved yet
+    assert progress_line(13, 85, 300.0, 9.0, 30.0, not_built=69) == (  # failed before the build: said at once
+        "constructed 13/85 · 69 will not be built (the table at the end says why) · sim 300.0 s · "
+        "9.0× real time · wall 30 s"
+    )
     line = robot_line(ROBOT, {GUID: "Column A1"})
     assert line.startswith("r1 pick_up T0004 Column A1: driving to the yard")
     assert line.endswith("…") and len(line) < 100
