@@ -74,6 +74,10 @@ def configure_logging(verbosity: int) -> None:
     """Configure the root logger once, from ``main`` only (libraries just call ``getLogger``)."""
     level = logging.WARNING if verbosity < 0 else logging.INFO if verbosity == 0 else logging.DEBUG
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
+    if level > logging.DEBUG:
+        # transitions logs every state entry and exit at INFO: thousands of lines a second in the agents,
+        # most of a robot's log; the services log their own transitions where they matter
+        logging.getLogger("transitions").setLevel(logging.WARNING)
 
 
 class OneLineErrorParser(argparse.ArgumentParser):

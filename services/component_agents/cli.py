@@ -105,9 +105,6 @@ def run(args: argparse.Namespace) -> int:
     )
     if not manifest.components:
         _log.warning("shard %d/%d owns none of the %d components", shard, n_shards, total)
-    if not _log.isEnabledFor(logging.DEBUG):
-        # transitions logs every state entry and exit at INFO: thousands of lines per second under load.
-        logging.getLogger("transitions").setLevel(logging.WARNING)
     return run_service(
         app.main,
         options,
