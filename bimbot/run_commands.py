@@ -32,7 +32,7 @@ def physics_arguments(build: Path, options: RunOptions) -> list[str]:
         arguments += ["--fleet", str(options.fleet.resolve())]
     if options.robots is not None:
         arguments += ["--robots", str(options.robots)]
-    arguments += ["--profile", options.profile]
+    arguments += ["--profile", options.profile, "--wait-for-planner"]  # its start-up is not sim time
     overrides = {
         "--rtf": options.rtf,
         "--physics-hz": options.physics_hz,

@@ -147,7 +147,8 @@ def test_physics_takes_a_named_profile_and_single_options_override_one_value() -
 
 def test_bimbot_run_names_its_profile_and_passes_only_what_the_user_changed() -> None:
     plain = physics_arguments(Path("OUT"), RunOptions(robots=2))
-    assert plain == ["physics", "--build", "OUT", "--robots", "2", "--profile", RUN_PROFILE]
+    wait = "--wait-for-planner"  # the planner's start-up is not sim time
+    assert plain == ["physics", "--build", "OUT", "--robots", "2", "--profile", RUN_PROFILE, wait]
     changed = physics_arguments(Path("OUT"), RunOptions(physics_hz=240.0, lock_step=False))
     assert changed[-3:] == ["--physics-hz", "240.0", "--no-lock-step"]
 

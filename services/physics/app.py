@@ -102,6 +102,9 @@ class RunConfig:
     gui: bool = False
     # hold the clock at 0 until every robot is alive (at most this long)
     wait_for_robots_s: float = FINE.wait_for_robots_s
+    # also until the planner is alive (within the same bound): its start-up (the access check of the plan,
+    # 20 s of wall time on a 988-component site) is not sim time, and the idle site would step meanwhile
+    wait_for_planner: bool = False
     state_dir: Path | None = None  # where physics keeps its record of the site (None: no record, no restart)
 
 
@@ -168,6 +171,7 @@ class _Loop:
         self.errors = 0
         self._warned_step = -1
         self._robots_deadline: float | None = None  # while holding the clock for the robots to come up
+        self._planner_alive = False  # (heard only with RunConfig.wait_for_planner)
         self._held = False  # the clock was held at step 0 for the robots
         # judged state messages: a forged constructed must not join a placement that is still settling
         self.states = ComponentStates({c.guid: c.key for c in sim.manifest.components})
@@ -179,6 +183,9 @@ class _Loop:
             inbox.subscribe_liveliness(session, key(ALIVE_KEY, site=site, kind="robot", id="*")),
             inbox.subscribe(session, COMPONENT_STATE, site=site, key="*"),
         ]
+        if self.run.wait_for_planner:
+            planner = key(ALIVE_KEY, site=site, kind="planner", id="*")
+            declarations.append(inbox.subscribe_liveliness(session, planner))
         declarations += [
             inbox.serve(session, PHYSICS_INFO, complete=True, site=site),
             inbox.serve(session, PHYSICS_ATTACH, complete=True, site=site),
@@ -236,21 +243,26 @@ class _Loop:
     # --- pacing --------------------------------------------------------------------------------------
 
     def _holding_for_robots(self, now: float) -> bool:
-        """Whether the clock still waits at step 0 for robots that are not alive yet (``wait_for_robots_s``):
-        a run then starts when its robots can act, not after sim time nobody used."""
+        """Whether the clock still waits at step 0 for robots that are not alive yet (``wait_for_robots_s``),
+        and with ``wait_for_planner`` for the planner: a run then starts when its robots can act and its
+        planner hands out work, not after sim time nobody used."""
         if self.run.wait_for_robots_s <= 0.0 or self.sim.step > 0:
             return False
-        missing = sorted(set(self.sim.robot_ids) - self.sim.alive)
+        missing = [f"robot {robot_id}" for robot_id in sorted(set(self.sim.robot_ids) - self.sim.alive)]
+        if self.run.wait_for_planner and not self._planner_alive:
+            missing.append("the planner")
         if not missing:
             return False
         if self._robots_deadline is None:
             self._robots_deadline = now + self.run.wait_for_robots_s
-            _log.info("holding the clock until robots %s are alive", ", ".join(missing))
+            _log.info("holding the clock until %s are alive", _and(missing))
         if now < self._robots_deadline:
             return True
         if self._robots_deadline != -math.inf:
             _log.warning(
-                "robots %s not alive after %.0f s; starting without them", missing, self.run.wait_for_robots_s
+                "%s not alive after %.0f s; starting without them",
+                _and(missing),
+                self.run.wait_for_robots_s,
             )
             self._robots_deadline = -math.inf
         return False
@@ -334,6 +346,9 @@ class _Loop:
                     self.inbox.invalid.record(reply_key, "a twin answered on another component's key")
                 elif (state := self.states.take_twin(twin)) is not None:
                     self.sim.handling.note_constructed(twin.guid, state == ComponentState.CONSTRUCTED)
+            case LivelinessChange() if "/alive/planner/" in item.key:
+                self._planner_alive = item.alive
+                _log.info("planner %s", "alive" if item.alive else "gone")
             case LivelinessChange():
                 if self.sim.known(item.id):
                     _log.info("robot %s %s", item.id, "alive" if item.alive else "lost")
@@ -415,3 +430,8 @@ class _Loop:
             self.errors,
             self.times.take(),
         )
+
+
+def _and(names: list[str]) -> str:
+    """``robot r1, robot r2 and the planner``."""
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} and {names[-1]}"

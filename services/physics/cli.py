@@ -82,6 +82,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="hold the clock at 0 until every robot is alive, at most S wall seconds (0: no)",
     )
     parser.add_argument(
+        "--wait-for-planner",
+        action="store_true",
+        help="with --wait-for-robots-s, also hold the clock until the planner is alive (bimbot run does: "
+        "the planner's start-up is not sim time)",
+    )
+    parser.add_argument(
         "--steps", type=positive_int, default=run.max_steps, help="stop after this many control periods"
     )
     parser.add_argument(
@@ -239,6 +245,7 @@ def run(args: argparse.Namespace) -> int:
         max_steps=args.steps,
         gui=args.gui,
         wait_for_robots_s=args.wait_for_robots_s,
+        wait_for_planner=args.wait_for_planner,
         state_dir=state_dir,
     )
     return run_service(app.main, options, build, config, run_config)
