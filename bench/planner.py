@@ -25,6 +25,7 @@ import logging
 import statistics
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -36,13 +37,14 @@ from bimbot.services.converter.sample_light_steel_frame import build_light_steel
 from bimbot.services.planner.access_plan import FINE
 from bimbot.services.planner.capability import SiteRobot
 from bimbot.services.planner.scheduler import PlannerCore
-from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan
-from bimbot.shared.manifest import read_manifest
+from bimbot.services.planner.sources import Plan, PlanSource, SourceKind, load_plan
+from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.messages import RobotState, RobotStateMsg, TaskMsg, TaskStatus
 from bimbot.shared.occupancy_grid import distance_field_m
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.site_access import SiteAccess, check_order
 from bimbot.shared.site_layout import plan_site
+from bimbot.shared.site_plan import SiteLayout
 
 BAYS = (18, 18)  # 988 components, as bench/build.py --large
 ROBOTS = 10
@@ -50,12 +52,28 @@ PERIOD_S = 0.1
 ACCESS_STEPS = 200  # placements of the access check timed
 
 
-def access_check_ms(folder: Path) -> tuple[float, float, int]:
-    """(ms a placement of the access check over the first ``ACCESS_STEPS`` of the plan, ms of one whole
-    transform and labelling of the same grid, its cells)."""
+@dataclass(frozen=True)
+class Site:
+    manifest: Manifest
+    plan: Plan
+    layout: SiteLayout
+
+
+def large_site(folder: Path) -> Site:
+    """The generated 988-component frame converted into ``folder``, its derived plan and its site."""
+    source = folder / "large.ifc"
+    build_light_steel_frame(*BAYS).write(str(source))
+    convert_model(open_model(source), source, folder / "build")
     manifest = read_manifest(folder / "build")
     plan = load_plan(manifest, folder / "build", PlanSource(SourceKind.DERIVE))
-    access = SiteAccess(manifest.components, plan_site(manifest.components, ROBOTS), DEFAULT_ROBOT, FINE)
+    return Site(manifest, plan, plan_site(manifest.components, ROBOTS))
+
+
+def access_check_ms(site: Site) -> tuple[float, float, int]:
+    """(ms a placement of the access check over the first ``ACCESS_STEPS`` of the plan, ms of one whole
+    transform and labelling of the same grid, its cells)."""
+    plan = site.plan
+    access = SiteAccess(site.manifest.components, site.layout, DEFAULT_ROBOT, FINE)
     access.region()
     started = time.perf_counter()
     check_order(access, list(plan.order)[:ACCESS_STEPS])
@@ -69,18 +87,13 @@ def access_check_ms(folder: Path) -> tuple[float, float, int]:
     return per_placement, statistics.median(wholes), access.grid.shape[0] * access.grid.shape[1]
 
 
-def planner_core(folder: Path) -> PlannerCore:
+def planner_core(site: Site) -> PlannerCore:
     """The core of a 988-component site with ten robots, each given its first task and reporting busy."""
-    source = folder / "large.ifc"
-    build_light_steel_frame(*BAYS).write(str(source))
-    convert_model(open_model(source), source, folder / "build")
-    manifest = read_manifest(folder / "build")
-    plan = load_plan(manifest, folder / "build", PlanSource(SourceKind.DERIVE))
-    layout = plan_site(manifest.components, ROBOTS)
     robots = [
-        SiteRobot(f"r{number + 1}", DEFAULT_ROBOT, start) for number, start in enumerate(layout.robot_starts)
+        SiteRobot(f"r{number + 1}", DEFAULT_ROBOT, start)
+        for number, start in enumerate(site.layout.robot_starts)
     ]
-    core = PlannerCore(manifest, plan, robots=robots, slots=dict(layout.slots))
+    core = PlannerCore(site.manifest, site.plan, robots=robots, slots=dict(site.layout.slots))
     for robot in robots:
         core.robot_liveliness(robot.robot_id, True)
         core.observe_robot_state(_robot_state(robot, RobotState.IDLE, None))
@@ -129,8 +142,9 @@ def main() -> None:
     args = parser.parse_args()
     logging.basicConfig(level=logging.WARNING)
     with tempfile.TemporaryDirectory(prefix="bimbot-bench-planner-") as tmp:
-        core = planner_core(Path(tmp))
-        placement_ms, whole_ms, cells = access_check_ms(Path(tmp))
+        site = large_site(Path(tmp))
+    core = planner_core(site)
+    placement_ms, whole_ms, cells = access_check_ms(site)
     tasks = len(core.in_flight())
     medians = {}
     for label, forced in (("quiet", False), ("forced", True), ("quiet", False), ("forced", True)):

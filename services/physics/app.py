@@ -242,7 +242,7 @@ class _Loop:
 
     # --- pacing --------------------------------------------------------------------------------------
 
-    def _holding_for_robots(self, now: float) -> bool:
+    def _holding_clock(self, now: float) -> bool:
         """Whether the clock still waits at step 0 for robots that are not alive yet (``wait_for_robots_s``),
         and with ``wait_for_planner`` for the planner: a run then starts when its robots can act and its
         planner hands out work, not after sim time nobody used."""
@@ -269,7 +269,7 @@ class _Loop:
 
     def _wait_s(self, now: float) -> float:
         """How long to wait before the next period may run (0: run it now)."""
-        if self._holding_for_robots(now):
+        if self._holding_clock(now):
             self._held = True
             return LOOP_WAIT_S
         if self._held:  # the robots are up: step 0 again for them, and their answers waited for from now
