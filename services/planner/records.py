@@ -97,6 +97,8 @@ class ComponentRecord:
     attempt: int = 0
     position_xy: tuple[float, float] | None = None  # last pose, world frame (m)
     last: tuple[object, ...] | None = field(default=None, repr=False)  # last state message applied
+    # agent's wall clock of the newest transition applied: older news (a late twin answer) is not applied
+    changed_wall_s: float = float("-inf")
 
 
 def reached(component: ComponentRecord, states: Collection[ComponentState]) -> bool:

@@ -137,7 +137,10 @@ class PlannerCore(Dispatch):
         signature = (msg.state, msg.previous, msg.event, msg.attempt, msg.robot_id, msg.sim_time_s)
         if signature == component.last:
             return  # a repeated delivery
-        component.last = signature
+        if msg.wall_time_s < component.changed_wall_s:
+            _log.debug("%s: %s is older than the state applied; not applied", msg.guid, msg.state)
+            return
+        component.last, component.changed_wall_s = signature, msg.wall_time_s
         self.observe_clock(msg.sim_time_s)
         self._apply_state(
             msg.guid,
@@ -150,11 +153,23 @@ class PlannerCore(Dispatch):
         )
 
     def observe_twin(self, twin: TwinMsg) -> None:
-        """A component's digital-twin record (start-up sync: agents may already be further on)."""
-        if twin.guid not in self._components:
+        """A component's digital-twin record (start-up sync: agents may already be further on; in flight, a
+        message that went missing). An answer is not applied when its last transition is older than, or the
+        same as, one already applied: it can arrive after the state messages of later transitions."""
+        component = self._components.get(twin.guid)
+        if component is None:
             return
+        newest = twin.history[-1] if twin.history else None
+        if newest is not None and (
+            newest.wall_time_s < component.changed_wall_s
+            or (newest.wall_time_s == component.changed_wall_s and twin.state is component.state)
+        ):
+            _log.debug("%s: twin answer (%s) is not newer than the state applied", twin.guid, twin.state)
+            return
+        if newest is not None:
+            component.changed_wall_s = newest.wall_time_s
         if twin.current_pose is not None:
-            self._components[twin.guid].position_xy = twin.current_pose.position_m[:2]
+            component.position_xy = twin.current_pose.position_m[:2]
         event = twin.history[-1].event if twin.history else "sync"
         self._apply_state(
             twin.guid,

@@ -97,16 +97,19 @@ def state_msg(
     robot_id: str | None = None,
     attempt: int = 0,
     sim_time_s: float = 0.0,
+    wall_time_s: float = 0.0,
     reason: Reason | None = None,
+    previous: ComponentState | None = None,
 ) -> ComponentStateMsg:
     return ComponentStateMsg(
         guid=guid,
         state=state,
+        previous=previous,
         event=event,
         attempt=attempt,
         robot_id=robot_id,
         sim_time_s=sim_time_s,
-        wall_time_s=0.0,
+        wall_time_s=wall_time_s,
         reason=reason,
     )
 
@@ -128,9 +131,15 @@ def robot_msg(
     )
 
 
-def twin_msg(guid: str, state: ComponentState, *, placed_at_s: float | None = None) -> TwinMsg:
+def twin_msg(
+    guid: str,
+    state: ComponentState,
+    *,
+    placed_at_s: float | None = None,
+    history: list[ComponentStateMsg] | None = None,
+) -> TwinMsg:
     """The twin a component agent of the portal answers: its ``state`` and, with ``placed_at_s``, its
-    current pose at its target seen at that sim time."""
+    current pose at its target seen at that sim time; ``history`` its transitions (default none)."""
     item = portal_manifest().component(guid)
     pose = item.target_pose_world
     target = PoseMsg(position_m=pose.position_m, quat_xyzw=pose.quat_xyzw)
@@ -148,5 +157,5 @@ def twin_msg(guid: str, state: ComponentState, *, placed_at_s: float | None = No
         state=state,
         attempt=1,
         robot_id=None,
-        history=[],
+        history=history or [],
     )

@@ -245,6 +245,37 @@ def test_twin_sync_never_releases_constructed_components_again() -> None:
     assert core.phase("foot_a") is Phase.DONE
 
 
+def test_a_stale_twin_answer_never_takes_a_constructed_component_back() -> None:
+    """The twin refresh asks an in-flight component's agent for its record; the answer can arrive after the
+    state messages of later transitions (a different route over the bus). A bench build stalled for 1,500 s
+    when an answer saying "assembling" overwrote a column's "constructed": its beam was never released."""
+    core = _core()
+    core.step(0.0)
+    for guid in ("foot_a", "foot_b"):
+        _construct(core, guid)
+    core.step(0.1)
+    assembling = state_msg("col_a", S.ASSEMBLING, event="arrive", previous=S.TRANSPORTING, wall_time_s=9.0)
+    core.observe_component_state(assembling)
+    core.observe_component_state(
+        state_msg("col_a", S.CONSTRUCTED, event="verified", previous=S.VERIFYING, wall_time_s=10.0)
+    )
+    core.observe_twin(twin_msg("col_a", S.ASSEMBLING, history=[assembling]))  # asked at wall 9, late
+    core.observe_component_state(assembling)  # a late repeat of the old message
+    assert core.progress().counts["constructed"] == 3
+    _construct(core, "col_b")
+    assert [m.guid for m in _events(core.step(0.3), ComponentEvent.RELEASE)] == ["beam"]
+
+
+def test_a_twin_answer_newer_than_the_last_message_still_applies() -> None:
+    """The refresh exists for messages that went missing: a twin whose last transition is newer wins."""
+    core = _core()
+    core.step(0.0)
+    core.observe_component_state(state_msg("foot_a", S.RELEASED, event="release", wall_time_s=1.0))
+    verified = state_msg("foot_a", S.CONSTRUCTED, event="verified", previous=S.VERIFYING, wall_time_s=5.0)
+    core.observe_twin(twin_msg("foot_a", S.CONSTRUCTED, history=[verified]))
+    assert core.phase("foot_a") is Phase.DONE
+
+
 def test_done_only_when_every_task_is_done_failed_or_blocked() -> None:
     core = _core()
     for guid in PORTAL[:-1]:
