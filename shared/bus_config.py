@@ -43,6 +43,10 @@ DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 DEFAULT_LISTEN = "tcp/127.0.0.1:0"
 MODES = ("peer", "client", "router")
 SECURE_JOIN_TIMEOUT_S = 30.0  # a session with credentials gives up joining after this long (wall s)
+# Zenoh retries an endpoint that refused after 1 s at first: a session opened while its router is still
+# starting (bimbot run opens its monitor right after starting the router) waited 1.0 s for a router that
+# was listening after 0.25 s. Retry fast at first, then back off to Zenoh's usual pace.
+CONNECT_RETRY = {"period_init_ms": 50, "period_max_ms": 4000, "period_increase_factor": 2}
 _RUST_LOCATION = re.compile(r"\s+at /\S+\.rs:\d+\.?")
 
 
@@ -190,6 +194,8 @@ def zenoh_config(options: BusOptions) -> zenoh.Config:
             # Keep retrying the bus endpoint at start-up instead of failing while the router is starting.
             config.insert_json5("connect/timeout_ms", "-1" if options.connect else "0")
             config.insert_json5("connect/exit_on_failure", "false")
+    if options.mode != "router" and options.connect and json.loads(config.get_json("connect/retry")) is None:
+        config.insert_json5("connect/retry", json.dumps(CONNECT_RETRY))
     return config
 
 

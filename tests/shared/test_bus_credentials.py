@@ -132,3 +132,19 @@ def test_the_agents_extra_token_sessions_join_with_the_same_credentials(tmp_path
     options = BusOptions(mode="client", connect=("tcp/127.0.0.1:7000",), listen=(), config_file=files.agents)
     extra = token_session_options(options, 2500)
     assert extra and all(each.config_file == files.agents and each.mode == "client" for each in extra)
+
+
+def test_a_client_retries_a_router_that_is_still_starting_fast_first(tmp_path: Path) -> None:
+    """bimbot run opens its monitor's session right after starting the router: Zenoh's own first retry
+    comes after 1 s, the router listens after about 0.25 s. A config file's own retry settings are kept."""
+    client = zenoh_config(BusOptions(mode="client", connect=("tcp/127.0.0.1:7447",), listen=()))
+    retry = json.loads(client.get_json("connect/retry"))
+    assert retry["period_init_ms"] <= 100 and retry["period_max_ms"] >= 1000
+    router = zenoh_config(BusOptions(mode="router", connect=(), listen=("tcp/127.0.0.1:7447",)))
+    assert json.loads(router.get_json("connect/retry")) is None
+    own = tmp_path / "own.json5"
+    own.write_text("{ connect: { retry: { period_init_ms: 700 } } }")
+    mine = zenoh_config(
+        BusOptions(mode="client", connect=("tcp/127.0.0.1:7447",), listen=(), config_file=own)
+    )
+    assert json.loads(mine.get_json("connect/retry"))["period_init_ms"] == 700
