@@ -71,7 +71,6 @@ from bimbot.shared.reasons import Reason
 from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.twin_query import ask_twins
 
-from .access_plan import access_plan
 from .capability import site_robots
 from .feasibility import infeasible
 from .scheduler import Outgoing, PlannerCore, PlannerLimits
@@ -165,6 +164,8 @@ def _checked_plan(
             "physics did not answer with the site info: robot feasibility and site access not checked"
         )
         return plan, {}
+    from .access_plan import access_plan  # scipy.ndimage: not for `bimbot run`'s argument check
+
     outcome = access_plan(plan, manifest, info, adjust=plan.derived, strict=strict)
     cannot = {
         **outcome.unreachable,

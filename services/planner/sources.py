@@ -29,10 +29,8 @@ from dataclasses import dataclass, replace
 from enum import StrEnum
 from pathlib import Path
 
-from bimbot.services.converter.ifc_input import open_model
 from bimbot.shared.errors import UserError
 from bimbot.shared.identifiers import guid_to_key
-from bimbot.shared.ifc_schedule import schedule_from_ifc
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.sequence import (
     ConstructionSequence,
@@ -252,6 +250,9 @@ def _read_xml(path: Path) -> ConstructionSequence:
 
 
 def _ifc_sequence(path: Path, components: Sequence[Component]) -> ConstructionSequence:
+    from bimbot.services.converter.ifc_input import open_model  # ifcopenshell: only for an IFC schedule
+    from bimbot.shared.ifc_schedule import schedule_from_ifc
+
     model = open_model(Path(path))  # UserError naming the problem when unreadable
     try:
         schedule = schedule_from_ifc(model, [item.guid for item in components])
