@@ -25,11 +25,6 @@ prints the scan's cost): a 180-beam scan 0.73 → 0.56 ms in the bundled frame's
 a 988-component site's, with the same error against short reference rays (mean < 0.01 mm; Bullet's
 convex cast has rare mm outliers either way: max 2.7 → 2.7 and 3.6 → 3.0 mm).
 
-Threads: pybullet casts a batch's rays on one thread unless told otherwise (``numThreads``). Each ray is
-independent, so casting them on every core (``RAY_THREADS`` 0) gives the same ranges, bit for bit, in
-less wall time: three 180-beam scans in the bundled frame's yard 2.43 → 1.63 ms on 2 cores. Physics' own
-thread is the one the whole lock-step build waits for, while the robots leave part of the other core idle.
-
 ScanMsg conventions: ``angle_min_rad`` is the first beam's angle from the robot's +x axis (counter-clockwise
 positive); a full circle has ``beams`` beams over [-π, π), a narrower fan ``beams`` beams from -fov/2 to
 +fov/2 inclusive; a beam without a return reads ``range_max_m`` (JSON has no infinity).
@@ -48,7 +43,6 @@ from .scene import ALL_GROUPS, GROUND_GROUP, Frame, compose
 
 FULL_CIRCLE_RAD = 2.0 * math.pi
 NEAR_SEGMENT_M = 4.0  # beams are cast this far first; the ones that hit nothing go on (see the module doc)
-RAY_THREADS = 0  # every core: same ranges, a third less wall time per scan (see the module doc)
 SEGMENT_OVERLAP_M = 0.25  # the far segment starts this much before the near one's end
 
 
@@ -60,7 +54,6 @@ class LaserConfig:
     height_m: float = 0.06  # above the ground, robot at rest
     mount_x_m: float = 0.0  # forward of the base frame origin
     decimals: int = 3  # ranges rounded to mm: shorter messages, no fake precision
-    threads: int = RAY_THREADS  # Bullet's ray-test threads (0: every core; see the module doc)
 
     def __post_init__(self) -> None:
         if self.beams < 1 or not 0.0 < self.fov_rad <= FULL_CIRCLE_RAD or self.range_max_m <= 0.0:
@@ -127,7 +120,6 @@ class Laser:
                 (origin + directions[casting] * near[:, None]).tolist(),
                 (origin + directions[casting] * end_m).tolist(),
                 collisionFilterMask=mask,
-                numThreads=self.config.threads,
                 physicsClientId=client_id,
             )
             hit = np.fromiter((h[0] >= 0 for h in hits), dtype=bool, count=len(hits))

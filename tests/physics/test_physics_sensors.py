@@ -140,25 +140,3 @@ def test_a_surface_at_the_end_of_the_near_segment_is_seen_where_it_is(
     for near_end_m in (ahead - 0.0005, ahead + 0.0005, ahead + 0.1):
         monkeypatch.setattr(sensors, "NEAR_SEGMENT_M", near_end_m)
         assert _beam(_scan(sim, "r1"), 0.0) == pytest.approx(ahead, abs=0.003)  # Bullet's cast: ~mm
-
-
-def test_rays_cast_on_every_core_give_the_one_thread_ranges(make_sim: Callable[..., Simulation]) -> None:
-    """Casting a batch's rays on several threads (the default) is for speed alone: bit for bit the ranges
-    of one thread, wherever the robot stands in and around the yard."""
-    sim = make_sim(robots=1)
-    assert sim._laser.config.threads == sensors.RAY_THREADS == 0
-    one_thread = sensors.Laser(LaserConfig(beams=sim._laser.config.beams, threads=1))
-    slots = [slot.footprint for slot in sim.layout.slots.values()]
-    low = np.min([spot.min_xy for spot in slots], axis=0) - 2.0
-    high = np.max([spot.max_xy for spot in slots], axis=0) + 2.0
-    rng = np.random.default_rng(11)
-    hits = 0
-    for _ in range(8):
-        sim.teleport_robot("r1", (*rng.uniform(low, high), float(rng.uniform(-math.pi, math.pi))))
-        robot = sim.robots["r1"]
-        mount = sim._laser.mount(robot.frame(sim.client_id), robot.base_height_m)
-        starts = sim._beam_starts["r1"]
-        threaded = sim._laser.scan(sim.client_id, mount, robot.group, starts)
-        assert threaded == one_thread.scan(sim.client_id, mount, robot.group, starts)
-        hits += sum(r < sim._laser.config.range_max_m for r in threaded)
-    assert hits > 0  # the poses saw something
