@@ -3,7 +3,8 @@
 ``bimbot run`` with real processes on a loopback Zenoh bus builds generated light steel frames:
 
 * a schedule that sets a beam on a single column: the beam is released onto the column, tips off, and its
-  agent judges it ``unstable`` after every attempt (its drift named), while the rest of the frame is built;
+  agent judges it ``unstable`` after every attempt (its drift named), while the rest of the frame is built
+  (or, when the fallen beam boxes the robot in, not built with that reason);
 * a schedule that sets a column before its footing: the column drops into the footing's open pit;
 * a robot type with a poor hand (its precision in the fleet file): its placements miss, the agents catch
   every miss with its numbers and the retries fix them; every error comes from physics, none is injected.
@@ -76,7 +77,7 @@ def _by_name(report: dict) -> dict[str, dict]:
     return {component["name"]: component for component in report["components"]}
 
 
-def test_a_beam_set_on_a_single_column_tips_off_is_unstable_and_the_rest_is_built(
+def test_a_beam_set_on_a_single_column_tips_off_is_unstable_and_the_rest_goes_on(
     two_by_one: Path, tmp_path: Path
 ) -> None:
     build = _copy(two_by_one, tmp_path)
@@ -88,9 +89,14 @@ def test_a_beam_set_on_a_single_column_tips_off_is_unstable_and_the_rest_is_buil
     assert beam["state"] == "failed" and beam["reason"]["code"] == "unstable"
     assert "moved" in beam["reason"]["message"] and beam["max_drift_mm"] > 100.0  # it fell
     assert [p["cause"] for p in beam["placements"]] == ["unstable"] * 3
-    assert all(
-        components[name]["state"] == "constructed" for name in ("Footing A1", "Footing A2", "Column A2")
-    )
+    assert all(components[name]["state"] == "constructed" for name in ("Footing A1", "Footing A2"))
+    # Column A2 comes after the beam. Where the beam comes to rest after its third fall is physics': in
+    # about one run of ten it lay so that the robot, which had just released it, was boxed in between the
+    # beam and the standing column. Then the column cannot be built either, and it must say why.
+    column = components["Column A2"]
+    if column["state"] != "constructed":
+        assert column["state"] == "failed" and column["reason"]["code"] == "no_progress", column
+        assert "could not drive" in column["reason"]["message"] and "r1" in column["reason"]["message"]
     assert "unstable" in result.stdout and "Beam A1-A2" in result.stdout  # the closing table names it
 
 
