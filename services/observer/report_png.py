@@ -49,7 +49,7 @@ FIGURE_SIZE_IN = (16.0, 12.0)
 DPI = 100  # 1600 × 1200 pixels
 HEIGHT_RATIOS = (3.0, 1.2)  # the Gantt row over the placement row
 LEGEND_ROW = 0.03  # of the figure's height: one row of legend under the panels
-MAX_ROW_LABELS = 60  # beyond this many sequence rows, labels are left out
+MAX_ROW_LABELS = 60  # beyond this many sequence rows, every k-th row is named (at most this many labels)
 NOT_BUILT_COLOR = "red"
 NOT_BUILT_HATCH = "////"
 HAND_OFF_HATCH = "xx"
@@ -78,6 +78,13 @@ def row_label_size_pt(rows: int) -> float:
     labels are left out) to 10 pt (up to about 30 rows): the bundled frame's 28 labels read at 10 pt."""
     panel_pt = FIGURE_SIZE_IN[1] * 72.0 * HEIGHT_RATIOS[0] / sum(HEIGHT_RATIOS) * 0.85
     return max(6.0, min(10.0, 0.6 * panel_pt / max(rows, 1)))
+
+
+def labelled_rows(rows: int) -> range:
+    """The sequence rows that get a label: all up to :data:`MAX_ROW_LABELS`, else every k-th from the first
+    (k the smallest step that keeps to that many), so a user can still find a row of an 85-member frame."""
+    step = max(1, -(-rows // MAX_ROW_LABELS))
+    return range(0, rows, step)
 
 
 def bar_label_size_pt(width_s: float, span_s: float) -> float:
@@ -202,17 +209,17 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> 
             _mark_not_built(ax, row, component, end_s=float(report.get("sim_time_s") or 0.0))
         elif component["guid"] in wrong:
             _mark_at_right(ax, row, f"as-built {component['final_position_error_mm'] or 0.0:.1f} mm")
-    if len(rows) <= MAX_ROW_LABELS:
-        ax.set_yticks(
-            range(len(rows)),
-            [f"{(c['sequence_index'] or 0) + 1}. {_short(c)}" for c in rows],
-            fontsize=row_label_size_pt(len(rows)),
-        )
-        for label, component in zip(ax.get_yticklabels(), rows, strict=True):
-            if component.get("reason"):
-                label.set_color(NOT_BUILT_COLOR)
-    else:
-        ax.set_ylabel(f"{len(rows)} components in planned order")
+    named = labelled_rows(len(rows))
+    ax.set_yticks(
+        named,
+        [f"{(rows[row]['sequence_index'] or 0) + 1}. {_short(rows[row])}" for row in named],
+        fontsize=row_label_size_pt(len(named)),
+    )
+    for label, row in zip(ax.get_yticklabels(), named, strict=True):
+        if rows[row].get("reason"):
+            label.set_color(NOT_BUILT_COLOR)
+    if named.step > 1:
+        ax.set_ylabel(f"{len(rows)} components in planned order (one row in {named.step} named)")
     ax.set_ylim(-0.6, max(len(rows), 1) - 0.4)
     ax.invert_yaxis()
     ax.set_xlabel("sim time (s)")

@@ -3,7 +3,7 @@ than a row or a bar (a new user found the 6 pt labels of the bundled frame's 28 
 
 from __future__ import annotations
 
-from bimbot.services.observer.report_png import bar_label_size_pt, row_label_size_pt
+from bimbot.services.observer.report_png import bar_label_size_pt, labelled_rows, row_label_size_pt
 
 
 def test_row_labels_grow_with_the_room_a_row_has() -> None:
@@ -12,6 +12,17 @@ def test_row_labels_grow_with_the_room_a_row_has() -> None:
     assert row_label_size_pt(60) == 6.0  # the most rows that are labelled
     sizes = [row_label_size_pt(rows) for rows in range(1, 61)]
     assert sizes == sorted(sizes, reverse=True)
+
+
+def test_a_long_sequence_still_names_every_kth_row() -> None:
+    """Beyond 60 rows the panel had no names at all (the hub's 85 steel members): a user could not tell
+    which row was which."""
+    assert list(labelled_rows(28)) == list(range(28))
+    assert list(labelled_rows(60)) == list(range(60))
+    hub = labelled_rows(85)
+    assert hub.step == 2 and len(hub) == 43 and hub[0] == 0
+    large = labelled_rows(988)
+    assert len(large) <= 60 and large.step == 17
 
 
 def test_a_bar_label_is_no_thicker_than_its_bar() -> None:
