@@ -129,7 +129,7 @@ class RunWatch:
         at = f"after {wall_s:.0f} s wall, at sim {monitor.sim_time_s:.1f} s, with {built}"
         if self.stop.signum is not None:
             name = signal.Signals(self.stop.signum).name
-            ending = RunEnding("interrupted", ReasonCode.INTERRUPTED, f"the run was stopped by {name} {at}")
+            ending = RunEnding("interrupted", ReasonCode.INTERRUPTED, f"stopped by {name} {at}")
             return LoopResult(ending, signum=self.stop.signum)
         if not planner.alive():
             code = planner.wait(0)

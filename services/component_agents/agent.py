@@ -47,6 +47,11 @@ from .state_table import INITIAL, ComponentMachine, Verdict
 from .verification import PlacementCheck, Tolerances, is_valid_pose, verify
 
 _log = logging.getLogger(__name__)
+# What a user can do about a component that would not stand: its failed reason ends with this.
+UNSTABLE_HINT = (
+    "it stands only with supports placed first or temporary bracing, which is not simulated: "
+    "`bimbot run BUILD --check-stability` shows which steps of the sequence stand on their own"
+)
 
 PLANNER_SOURCE = "planner"  # ComponentEventMsg.source of the planner's events; a robot's is its id
 PLANNER_EVENTS = frozenset(
@@ -389,6 +394,8 @@ class ComponentAgent:
         elif verdict is not Verdict.VERIFIED:
             note = f"; {self.place_note}" if self.place_note else ""
             miss = Reason(code=ReasonCode.MISPLACED, message=f"{why}; {cause}{note}", robot_id=self.robot_id)
+        if verdict is Verdict.FAILED and miss is not None and miss.code is ReasonCode.UNSTABLE:
+            miss = miss.model_copy(update={"message": f"{miss.message}; {UNSTABLE_HINT}"})
         if verdict is Verdict.FAILED:
             self.reason = miss
         return self._record(

@@ -27,15 +27,18 @@ size (``FIGURE_SIZE_IN`` × ``DPI``).
 from __future__ import annotations
 
 import json
+import textwrap
 from pathlib import Path
 from typing import Any
 
 import matplotlib
 from matplotlib import transforms
+from matplotlib.artist import Artist
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import to_rgb
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.text import Text
 
@@ -49,6 +52,7 @@ FIGURE_SIZE_IN = (16.0, 12.0)
 DPI = 100  # 1600 × 1200 pixels
 HEIGHT_RATIOS = (3.0, 1.2)  # the Gantt row over the placement row
 LEGEND_ROW = 0.03  # of the figure's height: one row of legend under the panels
+TITLE_CHARS_LEFT = 95  # the lanes panel's title wraps here (a fleet's utilisation ran into the next title)
 MAX_ROW_LABELS = 60  # beyond this many sequence rows, every k-th row is named (at most this many labels)
 NOT_BUILT_COLOR = "red"
 NOT_BUILT_HATCH = "////"
@@ -169,7 +173,8 @@ def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> li
     ax.set_xlabel("sim time (s)")
     utilisation = utilisation_line(report)
     title = "simulated construction: one lane per robot, grouped by type"
-    ax.set_title(title + (f"\n{utilisation}" if utilisation else ""))
+    wrapped = textwrap.fill(utilisation, TITLE_CHARS_LEFT) if utilisation else ""
+    ax.set_title(title + (f"\n{wrapped}" if wrapped else ""))
     ax.grid(axis="x", alpha=0.3)
     if not robot_ids:
         ax.text(0.5, 0.5, "no robot reported a state", transform=ax.transAxes, ha="center", va="center")
@@ -190,7 +195,9 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> 
         report["components"],
         key=lambda c: (c["sequence_index"] is None, c["sequence_index"] or 0, c["guid"]),
     )
+    named = labelled_rows(len(rows))
     for row, component in enumerate(rows):
+        labelled = row in named  # a reason or error at the right edge too (else they pile up)
         color = colors[component["ifc_class"]]
         released, picked = component["released_s"], component["picked_s"]
         done = component["constructed_s"] if component["constructed_s"] is not None else component["failed_s"]
@@ -206,10 +213,10 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> 
         if component["failed_s"] is not None:
             ax.plot([component["failed_s"]], [row], marker="x", color="black", markersize=8)
         if component.get("reason"):
-            _mark_not_built(ax, row, component, end_s=float(report.get("sim_time_s") or 0.0))
-        elif component["guid"] in wrong:
+            end_s = float(report.get("sim_time_s") or 0.0)
+            _mark_not_built(ax, row, component, end_s=end_s, labelled=labelled)
+        elif component["guid"] in wrong and labelled:
             _mark_at_right(ax, row, f"as-built {component['final_position_error_mm'] or 0.0:.1f} mm")
-    named = labelled_rows(len(rows))
     ax.set_yticks(
         named,
         [f"{(rows[row]['sequence_index'] or 0) + 1}. {_short(rows[row])}" for row in named],
@@ -223,7 +230,7 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> 
     ax.set_ylim(-0.6, max(len(rows), 1) - 0.4)
     ax.invert_yaxis()
     ax.set_xlabel("sim time (s)")
-    ax.set_title("planned sequence (top = first): release ─ pick ▬ constructed")
+    ax.set_title("planned sequence (top = first)\nrelease ─ pick ▬ constructed")
     ax.grid(axis="x", alpha=0.3)
 
 
@@ -238,8 +245,11 @@ def retry_causes(component: dict[str, Any]) -> list[tuple[float, str]]:
     return [(t, causes.get(round(float(t), 3), MISPLACED)) for t in component.get("misplaced_s", [])]
 
 
-def _mark_not_built(ax: Axes, row: int, component: dict[str, Any], end_s: float) -> None:
-    """A red hatched span from where the component stopped to the end of the run, and its reason code."""
+def _mark_not_built(
+    ax: Axes, row: int, component: dict[str, Any], end_s: float, *, labelled: bool = True
+) -> None:
+    """A red hatched span from where the component stopped to the end of the run, and (``labelled``) its
+    reason code."""
     stops = (component["failed_s"], component["picked_s"], component["released_s"])
     start = next((t for t in stops if t is not None), 0.0)
     ax.broken_barh(
@@ -250,7 +260,8 @@ def _mark_not_built(ax: Axes, row: int, component: dict[str, Any], end_s: float)
         hatch=NOT_BUILT_HATCH,
         linewidth=0.5,
     )
-    _mark_at_right(ax, row, component["reason"]["code"])
+    if labelled:
+        _mark_at_right(ax, row, component["reason"]["code"])
 
 
 def _mark_at_right(ax: Axes, row: int, text: str) -> None:
@@ -270,13 +281,22 @@ def _mark_at_right(ax: Axes, row: int, text: str) -> None:
     )
 
 
-def _not_built_legend(report: dict[str, Any]) -> list[Patch]:
+def _not_built_legend(report: dict[str, Any]) -> list[Artist]:
+    """The hatch of what was not built, with its reasons counted, and the cross marking when a component
+    failed (at sim 0 for one the planner found it cannot build)."""
     by_reason = report["totals"].get("by_reason") or {}
     if not by_reason:
         return []
     counts = ", ".join(f"{code} ×{count}" for code, count in by_reason.items())
     label = f"not constructed: {counts}"
-    return [Patch(facecolor="none", edgecolor=NOT_BUILT_COLOR, hatch=NOT_BUILT_HATCH, label=label)]
+    handles: list[Artist] = [
+        Patch(facecolor="none", edgecolor=NOT_BUILT_COLOR, hatch=NOT_BUILT_HATCH, label=label)
+    ]
+    if any(component.get("failed_s") is not None for component in report["components"]):
+        handles.append(
+            Line2D([], [], marker="x", color="black", linestyle="none", markersize=8, label="failed (when)")
+        )
+    return handles
 
 
 def _as_built_title(report: dict[str, Any]) -> str:
@@ -317,8 +337,8 @@ def report_figure(report: dict[str, Any]) -> Figure:
         + (f" — run {how}" if how and how != "done" else "")
         + _as_built_title(report)
     )
-    handles = [Patch(color=color, label=name) for name, color in colors.items()]
-    handles += _hand_off_legend(report) + _not_built_legend(report)
+    handles: list[Artist] = [Patch(color=color, label=name) for name, color in colors.items()]
+    handles += [*_hand_off_legend(report), *_not_built_legend(report)]
     figure.legend(handles=handles, loc="lower center", ncol=min(len(handles), 8) or 1, frameon=False)
     bottom = LEGEND_ROW
     placements = placement_handles(report)

@@ -170,6 +170,8 @@ def test_a_component_that_moved_after_release_is_unstable_even_where_it_came_to_
     second = agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=7.0), NOW)
     assert states(second) == [S.VERIFYING, S.FAILED]
     assert agent.reason is not None and agent.reason.code.value == "unstable"
+    assert "--check-stability" in agent.reason.message  # the failed reason says what a user can do
+    assert "--check-stability" not in verdict.reason.message  # a retried verdict stays short
     assert agent.twin().reason == agent.reason
 
 

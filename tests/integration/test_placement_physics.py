@@ -88,6 +88,7 @@ def test_a_beam_set_on_a_single_column_tips_off_is_unstable_and_the_rest_goes_on
     beam = components["Beam A1-A2"]
     assert beam["state"] == "failed" and beam["reason"]["code"] == "unstable"
     assert "moved" in beam["reason"]["message"] and beam["max_drift_mm"] > 100.0  # it fell
+    assert "--check-stability" in beam["reason"]["message"]  # and what a user can do about it
     assert [p["cause"] for p in beam["placements"]] == ["unstable"] * 3
     assert all(components[name]["state"] == "constructed" for name in ("Footing A1", "Footing A2"))
     # Column A2 comes after the beam. Where the beam comes to rest after its third fall is physics': in

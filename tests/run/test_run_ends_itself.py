@@ -115,7 +115,7 @@ def test_sigterm_stops_every_service_and_their_groups_and_still_writes_the_repor
     for component in _assert_every_component_not_built_has_a_reason(report):
         assert component["reason"]["code"] == "interrupted"
         assert _in_the_table(out, component), out
-    assert "interrupted" in out and "the run was stopped by SIGTERM" in out
+    assert "interrupted" in out and "the run ended early: stopped by SIGTERM" in out
 
 
 def test_a_site_where_nothing_changes_ends_stalled_saying_what_each_robot_was_doing(

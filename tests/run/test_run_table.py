@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from bimbot.run_table import not_built_table
 
-ENDING = "the run was stopped by SIGTERM after 11 s wall, at sim 10.0 s, with 1/4 constructed"
+ENDING = "stopped by SIGTERM after 11 s wall, at sim 10.0 s, with 1/4 constructed"
 
 
 def _component(guid: str, name: str, state: str, index: int, reason: dict | None) -> dict:
