@@ -68,6 +68,7 @@ class NavigatorConfig:
     aside_s: float = 8.0  # longest drive to a step-aside spot
     hold_s: float = 4.0  # standing still while the other robot steps aside (and waiting at the spot)
     max_wait_s: float = 30.0  # waiting for a path, at most
+    beside_m: float = 1.0  # a failure names the components this near the robot (what may hold it up)
     timeout_s: float = 600.0  # one goal, at most
 
 

@@ -398,6 +398,7 @@ class Navigator(Traffic):
             why=why,
             trapped_area_m2=self.config.trapped_area_m2,
             tried=goal.tried if goal is not None else (),
+            beside=self.site_map.components_near(pose[:2], self.config.beside_m),
         )
         _log.warning("navigation to %s failed: %s", np.round(goal_xy, 2).tolist(), self.failure.line())
         self._status = NavStatus.FAILED

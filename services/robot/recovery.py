@@ -23,12 +23,14 @@ The chain, as data (:data:`RECOVERY_CHAIN`):
 :func:`diagnose` names the failure on the static inflated grid (laser marks left out, so another robot in
 the way never makes a goal "unreachable"): ``robot_trapped`` when the free space the robot can reach is
 smaller than ``trapped_area_m2``, ``unreachable`` when the goal lies outside it (a flood fill of the grid
-from the robot), else ``no_progress``.
+from the robot), else ``no_progress``; each message ends with the components within ``beside_m`` of the
+robot, nearest first (what may hold it up: a beam that fell beside it).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -132,11 +134,16 @@ def diagnose(
     why: str,
     trapped_area_m2: float,
     tried: tuple[Recovery, ...],
+    beside: Sequence[tuple[str, float]] = (),
 ) -> Reason:
-    """The reason a navigation failed (see the module doc): a sentence with positions and numbers."""
+    """The reason a navigation failed (see the module doc): a sentence with positions and numbers, ending
+    with the components ``beside`` the robot (name, distance), nearest first: what may hold it up."""
     here = np.asarray(robot_xy_m, float)
     goal = np.asarray(goal_xy_m, float)
     robot = robot_id or "the robot"
+    beside_text = (
+        "; beside it: " + ", ".join(f"{name} ({m:.1f} m)" for name, m in beside[:3]) if beside else ""
+    )
     at = f"({here[0]:.2f}, {here[1]:.2f})"
     to = f"({goal[0]:.2f}, {goal[1]:.2f})"
     done = ", ".join(r.value for r in tried) or "none"
@@ -148,7 +155,7 @@ def diagnose(
             robot_id=robot_id or None,
             message=(
                 f"{robot} at {at} is boxed in: {area_m2:.1f} m² of free space around it, less than "
-                f"{trapped_area_m2:.1f} m², after the recoveries ({done}); it {why}"
+                f"{trapped_area_m2:.1f} m², after the recoveries ({done}); it {why}{beside_text}"
             ),
         )
     assert region is not None
@@ -164,7 +171,7 @@ def diagnose(
             message=(
                 f"the goal {to} is cut off from {robot} at {at} ({math.dist(here, goal):.1f} m apart): no "
                 f"free way joins them on the planning grid (cells of {grid.resolution_m:.2f} m, the robot "
-                f"inflated); it {why}"
+                f"inflated); it {why}{beside_text}"
             ),
         )
     return Reason(
@@ -172,6 +179,6 @@ def diagnose(
         robot_id=robot_id or None,
         message=(
             f"{robot} at {at} {why}, {math.dist(here, goal):.1f} m from its goal {to}, after the recoveries "
-            f"({done})"
+            f"({done}){beside_text}"
         ),
     )

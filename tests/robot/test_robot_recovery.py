@@ -142,3 +142,34 @@ def test_a_robot_parked_inside_the_inflation_plans_its_way_out(site: SiteMap, fr
     assert Recovery.PLAN_OUT in [kind for _, kind in navigator.recoveries]
     assert math.dist(world.pose[:2], goal) < 0.5
     assert world.sim_s < 90.0
+
+
+def test_a_robot_that_cannot_get_on_names_the_components_beside_it(site: SiteMap) -> None:
+    """A robot boxed in by a beam that fell beside it said only "found no path": its reason now names what
+    lies within a metre of it, nearest first, so a user can see what holds it up."""
+    slot_guid, slot = next(iter(site.layout.slots.items()))
+    name = site._components[slot_guid].name or slot_guid
+    box = slot.footprint
+    start = np.array([box.min_xy[0] - 0.7, (box.min_xy[1] + box.max_xy[1]) / 2.0, 0.0])
+    assert site.components_near(start[:2], 1.0)[0] == (name, pytest.approx(0.7, abs=0.05))
+    assert site.components_near(start[:2], 0.5) == []
+    navigator = Navigator(site, start, robot_id="r1")
+    navigator.set_goal((start[0] - 8.0, start[1]), None, 0.0)
+    world = World(site.laser_grid(), start)
+    for _ in range(1200):  # the wheels never turn: it stays beside the yard item
+        world.sense(navigator)
+        navigator.step(world.sim_s)
+        if navigator.status is NavStatus.FAILED:
+            break
+        world.sim_s += DT
+    assert navigator.failure is not None, "bounded: it gives up"
+    assert f"; beside it: {name} (0.7 m)" in navigator.failure.message, navigator.failure.message
+
+
+def test_a_reason_names_at_most_three_components_beside_the_robot() -> None:
+    grid = from_footprints((0.0, 0.0, 20.0, 20.0), 0.1)
+    beside = [("Beam A1-A2", 0.24), ("Column A1", 0.61), ("Footing A1", 0.8), ("Footing A2", 0.95)]
+    spec = {"robot_id": "r1", "why": "found no path in 13 s", "tried": tuple(RECOVERY_CHAIN)}
+    reason = diagnose(grid, (5.0, 5.0), (15.0, 5.0), trapped_area_m2=2.0, beside=beside, **spec)
+    assert reason.message.endswith("; beside it: Beam A1-A2 (0.2 m), Column A1 (0.6 m), Footing A1 (0.8 m)")
+    assert "beside" not in diagnose(grid, (5.0, 5.0), (15.0, 5.0), trapped_area_m2=2.0, **spec).message
