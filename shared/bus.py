@@ -94,6 +94,11 @@ class LivelinessChange:
         """The token's last key chunk (a robot id, a component key, …)."""
         return self.key.rsplit("/", 1)[-1]
 
+    @property
+    def kind(self) -> str:
+        """The token owner's kind, the chunk before its id in ``ALIVE_KEY`` (robot, planner, component, …)."""
+        return self.key.rsplit("/", 2)[-2]
+
 
 @dataclass(frozen=True)
 class IncomingQuery(Generic[R]):

@@ -134,9 +134,8 @@ class SiteAccess:
         """The robot's free region: inflated free cells 8-connected to its depot start."""
         if self._region is None:
             free = ~(self._distance.distance_m <= self.inflation_m + 1e-9)
-            base = self.occupancy()
             labels, _ = ndimage.label(free, structure=_EIGHT)
-            start = nearest_free_cell(base.with_occupied(~free), self._start, max_distance_m=5.0)
+            start = nearest_free_cell(self.grid.with_occupied(~free), self._start, max_distance_m=5.0)
             self._region = labels == labels[start] if start is not None else np.zeros_like(free)
         return self._region
 

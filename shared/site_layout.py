@@ -38,6 +38,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import lru_cache
+from itertools import groupby, zip_longest
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -285,7 +286,7 @@ def _ordered_pairs(rows: list[_Row]) -> list[list[_Row]]:
     Within a run of rows of one kind, row ``i`` pairs with row ``i + ⌈n/2⌉``: consecutive components go
     to consecutive rows (least filled first), so the ones needed together sit at different aisles."""
     rows = sorted(rows, key=lambda row: row.first_rank)
-    rows = [row for run in _kind_runs(rows) for row in _interleaved(run)]
+    rows = [row for _, run in groupby(rows, key=lambda row: row.kind) for row in _interleaved(list(run))]
     pairs = [rows[i : i + 2] for i in range(0, len(rows), 2)]
     west: list[list[_Row]] = []
     east: list[list[_Row]] = []
@@ -294,22 +295,10 @@ def _ordered_pairs(rows: list[_Row]) -> list[list[_Row]]:
     return [*reversed(west), *east]
 
 
-def _kind_runs(rows: list[_Row]) -> list[list[_Row]]:
-    """``rows`` cut into runs of consecutive rows of one kind."""
-    runs: list[list[_Row]] = []
-    for row in rows:
-        if runs and runs[-1][0].kind == row.kind:
-            runs[-1].append(row)
-        else:
-            runs.append([row])
-    return runs
-
-
 def _interleaved(run: list[_Row]) -> list[_Row]:
     """``[0, h, 1, h + 1, …]`` with ``h = ⌈n/2⌉``: paired two by two, row i shares an aisle with row i + h."""
     half = math.ceil(len(run) / 2)
-    order = [index for pair in zip(range(half), range(half, len(run) + 1), strict=False) for index in pair]
-    return [run[index] for index in order if index < len(run)]
+    return [row for pair in zip_longest(run[:half], run[half:]) for row in pair if row is not None]
 
 
 def _pair_width_m(pair: list[_Row]) -> float:

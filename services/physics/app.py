@@ -346,7 +346,7 @@ class _Loop:
                     self.inbox.invalid.record(reply_key, "a twin answered on another component's key")
                 elif (state := self.states.take_twin(twin)) is not None:
                     self.sim.handling.note_constructed(twin.guid, state == ComponentState.CONSTRUCTED)
-            case LivelinessChange() if "/alive/planner/" in item.key:
+            case LivelinessChange() if item.kind == "planner":
                 self._planner_alive = item.alive
                 _log.info("planner %s", "alive" if item.alive else "gone")
             case LivelinessChange():

@@ -250,7 +250,7 @@ class _Feeder:
             case Received(message=ClockMsg() as message):
                 if self.clock_guard.check(message, time.monotonic()).accepted:
                     core.observe_clock(message.sim_time_s)
-            case LivelinessChange() if "/alive/robot/" in item.key:
+            case LivelinessChange() if item.kind == "robot":
                 core.robot_liveliness(item.id, item.alive)
             case LivelinessChange():
                 (self.alive_components.add if item.alive else self.alive_components.discard)(item.id)
