@@ -11,7 +11,7 @@ every component of the build:
    plus physics' restart record (written every period before publishing, ``snapshot.py``) and encoding
    and publishing them on an isolated Zenoh session (no router, no subscribers): median and p95 in ms, the
    real-time factor that cost allows, and the record's share of the period;
-3. the laser alone: one scan per robot.
+3. the laser alone: one scan, by the compiled caster (the default) and by Bullet's ray test, same run.
 
 A full build needs thousands of control periods (one per 0.1 s of sim time), so the period cost sets how
 fast a build can run. Times depend on the machine (and on what else runs on it); the bench prints its
@@ -28,6 +28,7 @@ import time
 from pathlib import Path
 
 from bimbot.services.physics.client import p
+from bimbot.services.physics.ray_scene import RayScene
 from bimbot.services.physics.simulation import SimConfig, Simulation
 from bimbot.services.physics.snapshot import SnapshotRecorder
 from bimbot.shared.bus import BusOptions, encode, open_session
@@ -112,13 +113,22 @@ def bench(build: Path, robots: int, steps: int, periods: int) -> float:
         robot = sim.robots["r1"]
         mount = sim._laser.mount(robot.frame(sim.client_id), robot.base_height_m)
         starts = sim._laser.beam_starts(robot.half_extents_xy_m)
-        scans = []
-        for _ in range(50):
-            t0 = time.perf_counter()
-            sim._laser.scan(sim.client_id, mount, robot.group, starts)
-            scans.append(time.perf_counter() - t0)
+        scene = sim._ray_scene or RayScene(sim.client_id)
+        scene.refresh()
+        t0 = time.perf_counter()
+        scene.refresh()  # as each period: the robots' links, the carried load, what Bullet moves
+        refresh_s = time.perf_counter() - t0
+        scans: dict[str, list[float]] = {"bullet": [], "compiled": []}
+        for _ in range(50):  # alternated, so that load weighs on both alike
+            for kind, caster in (("bullet", None), ("compiled", scene)):
+                t0 = time.perf_counter()
+                sim._laser.scan(sim.client_id, mount, robot.group, starts, caster)
+                scans[kind].append(time.perf_counter() - t0)
+        bullet, compiled = (statistics.median(scans[kind]) for kind in ("bullet", "compiled"))
         print(
-            f"{label}: one {sim.config.laser.beams}-beam scan: median {statistics.median(scans) * 1e3:.2f} ms"
+            f"{label}: one {sim.config.laser.beams}-beam scan: median {compiled * 1e3:.3f} ms compiled "
+            f"(posing its shapes once a period {refresh_s * 1e3:.2f} ms), {bullet * 1e3:.3f} ms by "
+            f"Bullet's ray test: ratio {compiled / bullet:.2f}"
         )
         return median
 

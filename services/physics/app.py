@@ -238,6 +238,12 @@ class _Loop:
                 self.sim.stepping_wall_s,
                 1000.0 * self.sim.stepping_wall_s / max(1, self.sim.steps_taken),
             )
+            _log.info(
+                "physics laser: %d scans in %.2f s wall (%.3f ms a scan)",
+                self.sim.scans_taken,
+                self.sim.scan_wall_s,
+                1000.0 * self.sim.scan_wall_s / max(1, self.sim.scans_taken),
+            )
             del declarations
 
     # --- pacing --------------------------------------------------------------------------------------

@@ -92,6 +92,9 @@ class BulletClient:
 
     def close(self) -> None:
         if self._id is not None:
+            from .ray_scene import forget  # it imports this module
+
+            forget(self._id)  # pybullet gives the next client this id again
             if p.isConnected(physicsClientId=self._id):
                 p.disconnect(physicsClientId=self._id)
             _log.debug("pybullet client %d disconnected", self._id)

@@ -23,12 +23,17 @@ import numpy as np
 BULLET_HULL_MARGIN_M = 0.001  # pybullet's default collision margin of a mesh's convex hull
 
 
-def obj_vertex_bounds(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """The smallest and largest vertex coordinates ``(3,), (3,)`` of a Wavefront OBJ file."""
+def obj_vertices(path: Path) -> np.ndarray:
+    """The vertices ``(n, 3)`` of a Wavefront OBJ file."""
     rows = [line.split()[1:4] for line in path.read_text().splitlines() if line.startswith("v ")]
     if not rows:
         raise ValueError(f"{path}: no vertices")
-    vertices = np.asarray(rows, dtype=float)
+    return np.asarray(rows, dtype=float)
+
+
+def obj_vertex_bounds(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """The smallest and largest vertex coordinates ``(3,), (3,)`` of a Wavefront OBJ file."""
+    vertices = obj_vertices(path)
     return vertices.min(axis=0), vertices.max(axis=0)
 
 

@@ -23,6 +23,7 @@ from bimbot.shared.manifest import MAX_COLLISION_PARTS, Component
 from bimbot.shared.site_plan import Rect
 
 from .client import p
+from .ray_scene import register_boxes
 from .scene import STATIC_GROUP, STATIC_MASK, put_to_sleep, set_filter
 
 BELOW_GROUND_M = 0.02  # a target bottom deeper than this below ground makes a pit
@@ -72,6 +73,7 @@ class Pits:
                 physicsClientId=client_id,
             )
             body = p.createMultiBody(0.0, shape, physicsClientId=client_id, useMaximalCoordinates=True)
+            register_boxes(client_id, body, [halves[i] for i in chunk], [centres[i] for i in chunk])
             set_filter(client_id, body, STATIC_GROUP, STATIC_MASK)
             put_to_sleep(client_id, body)
             floor_of.update(dict.fromkeys(chunk, body))

@@ -49,8 +49,9 @@ from bimbot.shared.manifest import MAX_COLLISION_PARTS, Component
 from bimbot.shared.site_plan import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect
 
 from .client import p
-from .collision_margin import inset_parts
+from .collision_margin import inset_parts, obj_vertices
 from .mesh_paths import pybullet_path
+from .ray_scene import note_dynamic, note_group, note_moved, register_hulls
 
 _log = logging.getLogger(__name__)
 
@@ -293,6 +294,13 @@ def create_component_body(
         physicsClientId=client_id,
     )
     body = ComponentBody(component.guid, body_id, (model.com_local_m, principal), model.mass_kg, diagonal)
+    if files:  # the parts as the laser sees them (:mod:`.ray_scene`)
+        parts = [obj_vertices(path) for path in model.collision_files]
+    else:
+        (x0, y0, z0), (x1, y1, z1) = component.bbox_local.min_m, component.bbox_local.max_m
+        parts = [np.array([[x, y, z] for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)])]
+    to_body = Rotation.from_quat(principal).as_matrix()  # vertices into the body's (centre-of-mass) frame
+    register_hulls(client_id, body_id, [(part - np.asarray(model.com_local_m)) @ to_body for part in parts])
     make_static(client_id, body)
     return body
 
@@ -303,6 +311,7 @@ def make_static(client_id: int, body: ComponentBody) -> None:
     p.changeDynamics(body.body_id, -1, mass=0.0, physicsClientId=client_id)
     put_to_sleep(client_id, body.body_id)
     set_filter(client_id, body.body_id, STATIC_GROUP, STATIC_MASK)
+    note_dynamic(client_id, body.body_id, dynamic=False)
 
 
 def make_dynamic(client_id: int, body: ComponentBody) -> None:
@@ -318,6 +327,7 @@ def make_dynamic(client_id: int, body: ComponentBody) -> None:
         body.body_id, -1, activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=client_id
     )
     set_filter(client_id, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)
+    note_dynamic(client_id, body.body_id, dynamic=True)  # posed for the laser every period
 
 
 def put_to_sleep(client_id: int, body_id: int) -> None:
@@ -336,12 +346,14 @@ def put_to_sleep(client_id: int, body_id: int) -> None:
 def set_filter(client_id: int, body_id: int, group: int, mask: int, links: range | None = None) -> None:
     for link in links if links is not None else (-1,):
         p.setCollisionFilterGroupMask(body_id, link, group, mask, physicsClientId=client_id)
+        note_group(client_id, body_id, link, group)  # the laser's caster filters as Bullet does
 
 
 def set_component_pose(client_id: int, body: ComponentBody, frame: Frame) -> None:
     """Put the component frame at ``frame`` (pybullet's base frame is the CoM frame)."""
     com = compose(frame, body.inertial_frame)
     p.resetBasePositionAndOrientation(body.body_id, com[0], com[1], physicsClientId=client_id)
+    note_moved(client_id, body.body_id)
 
 
 def component_pose(client_id: int, body: ComponentBody) -> Frame:

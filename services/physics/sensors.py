@@ -1,5 +1,7 @@
-"""A simulated 2D laser scanner per ground robot (a tower crane has none): one ``rayTestBatch`` per robot per
-control period.
+"""A simulated 2D laser scanner per ground robot (a tower crane has none): one scan per robot per control
+period, cast by the compiled caster (:mod:`.ray_scene`, :mod:`.ray_kernel`: exact ray–shape intersections
+against the same collision shapes, about a tenth of the cost) or, where it cannot stand in (a shape it
+does not represent) and with ``SimConfig(compiled_laser=False)``, by Bullet's ``rayTestBatch`` as below.
 
 Beams fan out in the robot's base frame (so they tilt with the chassis) from a mount point
 ``height_m`` above the ground at rest. The batch carries a collision filter mask (:mod:`.scene`) that
@@ -14,16 +16,16 @@ Each ray starts just outside the robot's rectangular footprint (:meth:`Laser.bea
 ray starting inside the robot tests all its links), and nearer than that is inside the robot anyway. So a
 scan's minimum range is that start distance (≈ 0.36–0.63 m around a Husky), like a real scanner's.
 
-Near first, then far (:data:`NEAR_SEGMENT_M`): Bullet tests a ray against every body whose bounding box
-it crosses over its whole length and only then keeps the closest hit (and pybullet applies the filter
-mask after that test), so a 15 m beam through a yard costs a narrow-phase test per item along it even when
-the first item is 1 m away. Every beam is therefore cast to ``NEAR_SEGMENT_M`` first, and only the beams
-that hit nothing there go on to the full range, from a little before that point (:data:`SEGMENT_OVERLAP_M`,
-well over the 1 mm hull margin, within which a ray starting just short of a surface would report a hit
-at its own start). The closest hit is the same either way; measured over 40 random poses (`bench/physics.py`
-prints the scan's cost): a 180-beam scan 0.73 → 0.56 ms in the bundled frame's yard and 2.19 → 0.88 ms in
-a 988-component site's, with the same error against short reference rays (mean < 0.01 mm; Bullet's
-convex cast has rare mm outliers either way: max 2.7 → 2.7 and 3.6 → 3.0 mm).
+Bullet's casts go near first, then far (:data:`NEAR_SEGMENT_M`): Bullet tests a ray against every body whose
+bounding box it crosses over its whole length and only then keeps the closest hit (and pybullet applies the
+filter mask after that test), so a 15 m beam through a yard costs a narrow-phase test per item along it even
+when the first item is 1 m away. Every beam is therefore cast to ``NEAR_SEGMENT_M`` first, and only the
+beams that hit nothing there go on to the full range, from a little before that point
+(:data:`SEGMENT_OVERLAP_M`, well over the 1 mm hull margin, within which a ray starting just short of a
+surface would report a hit at its own start). The closest hit is the same either way; measured over 40
+random poses (`bench/physics.py` prints the scan's cost): a 180-beam scan 0.73 → 0.56 ms in the bundled
+frame's yard and 2.19 → 0.88 ms in a 988-component site's, with the same error against short reference rays
+(mean < 0.01 mm; Bullet's convex cast has rare mm outliers either way: max 2.7 → 2.7 and 3.6 → 3.0 mm).
 
 ScanMsg conventions: ``angle_min_rad`` is the first beam's angle from the robot's +x axis (counter-clockwise
 positive); a full circle has ``beams`` beams over [-π, π), a narrower fan ``beams`` beams from -fov/2 to
@@ -39,6 +41,7 @@ import numpy as np
 
 from .client import p
 from .profiles import FINE
+from .ray_scene import RayScene
 from .scene import ALL_GROUPS, GROUND_GROUP, Frame, compose
 
 FULL_CIRCLE_RAD = 2.0 * math.pi
@@ -99,17 +102,44 @@ class Laser:
         return compose(base_frame, (offset, (0.0, 0.0, 0.0, 1.0)))
 
     def scan(
-        self, client_id: int, mount_frame: Frame, own_group: int, starts_m: np.ndarray | None = None
+        self,
+        client_id: int,
+        mount_frame: Frame,
+        own_group: int,
+        starts_m: np.ndarray | None = None,
+        scene: RayScene | None = None,
     ) -> list[float]:
         """Ranges (m) from ``mount_frame``, ignoring the ground and every body in ``own_group``; rays begin
-        ``starts_m`` (per beam, see :meth:`beam_starts`) from the mount."""
+        ``starts_m`` (per beam, see :meth:`beam_starts`) from the mount. With ``scene`` (posed this period)
+        the compiled caster casts them; without, or where it cannot stand in, Bullet does."""
         origin = np.asarray(mount_frame[0], dtype=float)
         rotation = np.asarray(p.getMatrixFromQuaternion(mount_frame[1]), dtype=float).reshape(3, 3)
+        limit = self.config.range_max_m
+        begin = np.zeros(self.config.beams) if starts_m is None else np.array(starts_m, dtype=float)
+        mask = ALL_GROUPS ^ GROUND_GROUP ^ own_group
+        if scene is not None:
+            full = self.config.fov_rad >= FULL_CIRCLE_RAD - 1e-9
+            cast = scene.cast(
+                origin,
+                rotation,
+                angle_min=self.angle_min_rad,
+                angle_increment=self.angle_increment_rad,
+                full_circle=full,
+                starts=begin,
+                range_max=limit,
+                mask=mask,
+            )
+            if cast is not None:
+                return np.round(cast, self.config.decimals).tolist()
+        return self._bullet_scan(client_id, origin, rotation, begin, mask)
+
+    def _bullet_scan(
+        self, client_id: int, origin: np.ndarray, rotation: np.ndarray, begin: np.ndarray, mask: int
+    ) -> list[float]:
+        """The same ranges from Bullet's batched ray test, near segment first (see the module doc)."""
         directions = self._directions @ rotation.T
         limit = self.config.range_max_m
-        begin = np.zeros(len(directions)) if starts_m is None else np.array(starts_m, dtype=float)
         ranges = np.full(len(directions), limit)
-        mask = ALL_GROUPS ^ GROUND_GROUP ^ own_group
         unresolved = np.ones(len(directions), dtype=bool)
         for end_m in (NEAR_SEGMENT_M, limit) if limit > NEAR_SEGMENT_M else (limit,):
             casting = np.flatnonzero(unresolved & (begin < end_m))

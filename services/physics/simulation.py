@@ -68,6 +68,7 @@ from .odometry import Odometry
 from .pits import Pits
 from .positioning import TotalStation
 from .profiles import FINE
+from .ray_scene import RayScene
 from .release import SettleConfig
 from .robots import Robot, RobotConfig
 from .scene import (
@@ -109,6 +110,7 @@ class SimConfig:
     )
     robot: RobotConfig = field(default_factory=RobotConfig)
     laser: LaserConfig = field(default_factory=LaserConfig)
+    compiled_laser: bool = True  # scans cast by the compiled caster (ray_scene.py); False: by Bullet
     handling: HandlingConfig = field(default_factory=HandlingConfig)
     settle: SettleConfig = field(default_factory=SettleConfig)
 
@@ -163,10 +165,13 @@ class Simulation:
         self.epoch = 0  # physics starts of this run - 1 (:mod:`.restore`)
         self.stepping_wall_s = 0.0  # wall seconds in pybullet's stepSimulation alone (a run's reference)
         self.steps_taken = 0
+        self.scan_wall_s = 0.0  # wall seconds in the laser's scans (status line: their share of a period)
+        self.scans_taken = 0
         self.robots: dict[str, Robot] = {}
         self.alive: set[str] = set()
         self._odometry: dict[str, Odometry] = {}
         self._laser = Laser(self.config.laser)
+        self._ray_scene: RayScene | None = None  # the laser's compiled caster (built with the scene)
         std = self.config.total_station_std_m
         self._station = TotalStation(std, self.config.seed) if std is not None else None
         if std is not None:
@@ -236,6 +241,8 @@ class Simulation:
             self._odometry[robot_id] = Odometry(robot.start_xy_yaw, self.config.odom_noise, rng)
             if not robot.is_crane:  # a crane has no laser
                 self._beam_starts[robot_id] = self._laser.beam_starts(robot.half_extents_xy_m)
+        if self.config.compiled_laser:
+            self._ray_scene = RayScene(cid)
         _log.info(
             "scene: %d components in the yard, robots %s, fence %s–%s",
             len(items),
@@ -415,6 +422,8 @@ class Simulation:
                 ),
             )
         ]
+        if self._ray_scene is not None and any(not robot.is_crane for robot in self.robots.values()):
+            self._ray_scene.refresh()  # once a period, before the scans: what moved since the last
         for robot_id, robot in self.robots.items():
             if robot.is_crane:  # it stands where it was built: its odometry is that pose, exactly
                 current = pose = robot.start_xy_yaw
@@ -452,8 +461,13 @@ class Simulation:
         return out
 
     def _scan(self, robot: Robot, now: float) -> Outgoing:
+        started = time.perf_counter()
         mount = self._laser.mount(robot.frame(self.client_id), robot.base_height_m)
-        ranges = self._laser.scan(self.client_id, mount, robot.group, self._beam_starts[robot.robot_id])
+        ranges = self._laser.scan(
+            self.client_id, mount, robot.group, self._beam_starts[robot.robot_id], self._ray_scene
+        )
+        self.scan_wall_s += time.perf_counter() - started
+        self.scans_taken += 1
         return Outgoing(
             key(ROBOT_SENSORS_KEY, site=self.site, robot_id=robot.robot_id),
             ScanMsg(
