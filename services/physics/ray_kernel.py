@@ -179,8 +179,64 @@ def cast_fan(  # noqa: PLR0917 - numba kernels take plain positional arguments
     return ranges
 
 
+@numba.njit(cache=True)
+def pose_shapes(  # noqa: PLR0917 - numba kernels take plain positional arguments
+    slots: np.ndarray,
+    slot_positions: np.ndarray,
+    slot_quaternions: np.ndarray,
+    slot_first_shape: np.ndarray,
+    local_rotations: np.ndarray,
+    local_positions: np.ndarray,
+    bound_centres: np.ndarray,
+    rotations: np.ndarray,
+    positions: np.ndarray,
+    centres: np.ndarray,
+) -> None:
+    """Pose the shapes of each slot (a body's link) in ``slots`` from its world pose (position and
+    quaternion x, y, z, w): a shape's frame is its slot's frame composed with its own local frame."""
+    slot_rotation = np.empty((3, 3))
+    for k in range(slots.shape[0]):
+        x, y, z, w = (
+            slot_quaternions[k, 0],
+            slot_quaternions[k, 1],
+            slot_quaternions[k, 2],
+            slot_quaternions[k, 3],
+        )
+        norm = x * x + y * y + z * z + w * w
+        scale = 2.0 / norm if norm > 0.0 else 0.0
+        slot_rotation[0, 0] = 1.0 - scale * (y * y + z * z)
+        slot_rotation[0, 1] = scale * (x * y - z * w)
+        slot_rotation[0, 2] = scale * (x * z + y * w)
+        slot_rotation[1, 0] = scale * (x * y + z * w)
+        slot_rotation[1, 1] = 1.0 - scale * (x * x + z * z)
+        slot_rotation[1, 2] = scale * (y * z - x * w)
+        slot_rotation[2, 0] = scale * (x * z - y * w)
+        slot_rotation[2, 1] = scale * (y * z + x * w)
+        slot_rotation[2, 2] = 1.0 - scale * (x * x + y * y)
+        slot = slots[k]
+        for s in range(slot_first_shape[slot], slot_first_shape[slot + 1]):
+            for i in range(3):
+                for j in range(3):
+                    rotations[s, i, j] = (
+                        slot_rotation[i, 0] * local_rotations[s, 0, j]
+                        + slot_rotation[i, 1] * local_rotations[s, 1, j]
+                        + slot_rotation[i, 2] * local_rotations[s, 2, j]
+                    )
+                positions[s, i] = slot_positions[k, i] + (
+                    slot_rotation[i, 0] * local_positions[s, 0]
+                    + slot_rotation[i, 1] * local_positions[s, 1]
+                    + slot_rotation[i, 2] * local_positions[s, 2]
+                )
+            for i in range(3):
+                centres[s, i] = positions[s, i] + (
+                    rotations[s, i, 0] * bound_centres[s, 0]
+                    + rotations[s, i, 1] * bound_centres[s, 1]
+                    + rotations[s, i, 2] * bound_centres[s, 2]
+                )
+
+
 def warm_up() -> None:
-    """Compile (or load from numba's cache) the kernel on a tiny input, so that no scan waits for it."""
+    """Compile (or load from numba's cache) the kernels on tiny inputs, so that no scan waits for them."""
     empty = np.zeros(0)
     cast_fan(
         np.zeros(3),
@@ -199,4 +255,17 @@ def warm_up() -> None:
         np.zeros((0, 3)),
         empty,
         np.zeros(0, np.bool_),
+    )
+    no_shapes = np.zeros((0, 3))
+    pose_shapes(
+        np.zeros(1, np.int64),
+        np.zeros((1, 3)),
+        np.array([[0.0, 0.0, 0.0, 1.0]]),
+        np.zeros(2, np.int64),
+        np.zeros((0, 3, 3)),
+        no_shapes,
+        no_shapes,
+        np.zeros((0, 3, 3)),
+        no_shapes,
+        no_shapes,
     )

@@ -31,7 +31,7 @@ from scipy.spatial import ConvexHull, QhullError
 from scipy.spatial.transform import Rotation
 
 from .client import p
-from .ray_kernel import KIND_CONVEX, KIND_CYLINDER, KIND_SPHERE, cast_fan, warm_up
+from .ray_kernel import KIND_CONVEX, KIND_CYLINDER, KIND_SPHERE, cast_fan, pose_shapes, warm_up
 
 _log = logging.getLogger(__name__)
 
@@ -284,8 +284,7 @@ class RayScene:
         self._rotations = np.zeros((n, 3, 3))
         self._positions = np.zeros((n, 3))
         self._centres = np.zeros((n, 3))
-        self._slot_rot = np.zeros((len(slots), 3, 3))
-        self._slot_pos = np.zeros((len(slots), 3))
+        self._slot_first_shape = np.searchsorted(self._slot_of, np.arange(len(slots) + 1)).astype(np.int64)
         self._slots_of = {}  # body → link → slot index
         for index, slot in enumerate(slots):
             self._slots_of.setdefault(slot.body_id, {})[slot.link] = index
@@ -310,29 +309,32 @@ class RayScene:
             return
         cid = self.client_id
         slots: list[int] = []
-        positions, quaternions = [], []
+        poses: list[tuple[float, ...]] = []  # x, y, z, qx, qy, qz, qw
         for body in bodies:
-            links = [link for link in self._slots_of[body] if link >= 0]
-            state_of: dict[int, tuple] = {}
-            if links:
-                states = p.getLinkStates(body, links, computeForwardKinematics=1, physicsClientId=cid)
-                state_of = dict(zip(links, states, strict=True))
-            for link, slot in self._slots_of[body].items():
-                if link < 0:
-                    position, quaternion = p.getBasePositionAndOrientation(body, physicsClientId=cid)
-                else:
-                    position, quaternion = state_of[link][0], state_of[link][1]
-                slots.append(slot)
-                positions.append(position)
-                quaternions.append(quaternion)
-        self._slot_rot[slots] = Rotation.from_quat(quaternions).as_matrix()
-        self._slot_pos[slots] = positions
-        shapes = np.flatnonzero(np.isin(self._slot_of, slots))
-        slot_rot, slot_pos = self._slot_rot[self._slot_of[shapes]], self._slot_pos[self._slot_of[shapes]]
-        self._rotations[shapes] = slot_rot @ self._local_rot[shapes]
-        self._positions[shapes] = np.einsum("sij,sj->si", slot_rot, self._local_pos[shapes]) + slot_pos
-        centres = np.einsum("sij,sj->si", self._rotations[shapes], self._bound_centre[shapes])
-        self._centres[shapes] = centres + self._positions[shapes]
+            links = self._slots_of[body]
+            moving = [link for link in links if link >= 0]
+            if moving:
+                states = p.getLinkStates(body, moving, physicsClientId=cid)  # as of the last step or reset
+                for link, state in zip(moving, states, strict=True):
+                    slots.append(links[link])
+                    poses.append((*state[0], *state[1]))
+            if -1 in links:
+                position, quaternion = p.getBasePositionAndOrientation(body, physicsClientId=cid)
+                slots.append(links[-1])
+                poses.append((*position, *quaternion))
+        posed = np.asarray(poses, dtype=float)
+        pose_shapes(
+            np.asarray(slots, dtype=np.int64),
+            np.ascontiguousarray(posed[:, :3]),
+            np.ascontiguousarray(posed[:, 3:]),
+            self._slot_first_shape,
+            self._local_rot,
+            self._local_pos,
+            self._bound_centre,
+            self._rotations,
+            self._positions,
+            self._centres,
+        )
 
     # --- casting --------------------------------------------------------------------------------------
 
