@@ -66,7 +66,10 @@ _RECORDS: dict[int, _ClientRecord] = {}
 
 
 def _record(client_id: int) -> _ClientRecord:
-    return _RECORDS.setdefault(client_id, _ClientRecord())
+    record = _RECORDS.get(client_id)  # asked for every carried load after every step: no record made
+    if record is None:
+        record = _RECORDS[client_id] = _ClientRecord()
+    return record
 
 
 def forget(client_id: int) -> None:

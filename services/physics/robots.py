@@ -191,11 +191,15 @@ class Robot:
     _correction: list[float] = field(default_factory=lambda: [0.0, 0.0])
     _may_sleep: bool = False  # told to stand still: Bullet may put it to sleep once at rest
     _last_xy_yaw: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    _base_from_com: Frame = field(init=False)  # the base link frame in the CoM frame (asked every step)
+
+    def __post_init__(self) -> None:
+        self._base_from_com = invert(self.base_inertial)
 
     def frame(self, client_id: int) -> Frame:
         """Base link frame in the world."""
         position, quat = p.getBasePositionAndOrientation(self.body_id, physicsClientId=client_id)
-        return compose((tuple(position), tuple(quat)), invert(self.base_inertial))
+        return compose((position, quat), self._base_from_com)
 
     def pose_xy_yaw(self, client_id: int) -> tuple[float, float, float]:
         (x, y, _), quat = self.frame(client_id)
