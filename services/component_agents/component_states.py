@@ -12,8 +12,11 @@ run``: a transition the agents' table forbids is dropped, a terminal claim or a 
 follow from what is known makes the listener ask that component's twin (``components/<key>/twin``), and
 the twin's answer is taken as the truth.
 
-Pure: the questions come out as :class:`TwinQuestion` (at most one per component per ``retry_s`` wall
-seconds) for the adapter to send; the answers come back through :meth:`ComponentStates.take_twin`.
+Pure: the questions come out as :class:`TwinQuestion` for the adapter to send; the answers come back
+through :meth:`ComponentStates.take_twin`. A question not answered is asked again after ``retry_s`` wall
+seconds; an answered one does not hold back the next question about that component: the robot learnt a
+component's twin at start-up and then heard its ``constructed`` verdict within the second, and waited
+out the rest of that second for its answer — 0.5 s of wall time in which an idle site's clock ran 137 s.
 """
 
 from __future__ import annotations
@@ -78,6 +81,7 @@ class ComponentStates:
         self._trusted.take_twin(twin)
         self._heard.add(twin.guid)
         self._to_ask.discard(twin.guid)
+        self._asked_at.pop(twin.guid, None)  # answered: the next question about it goes out at once
         return twin.state
 
     def questions(self, wall_s: float) -> list[TwinQuestion]:

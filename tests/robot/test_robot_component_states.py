@@ -63,6 +63,26 @@ def test_a_twin_answer_is_the_truth_and_ends_the_questions(frame: Manifest) -> N
     assert states.take_twin(site.twin(guid).model_copy(update={"key": other.key})) is None, "another's key"
 
 
+def test_an_answered_question_does_not_hold_back_the_next_about_the_same_component(
+    frame: Manifest,
+) -> None:
+    # A robot learnt the component's twin a moment ago; its verdict comes within the same second: the
+    # question about the verdict goes out at once (waiting out the second let an idle site's clock run
+    # 137 s of sim time while the robot did not know its task was done).
+    site, released, _ = make_site(frame)
+    guid = released.guid
+    states = ComponentStates({c.guid: c.key for c in frame.components})
+    states.hear(released.model_copy(update={"previous": None, "event": "resume"}))
+    assert [q.guid for q in states.questions(10.0)] == [guid]
+    states.take_twin(site.twin(guid))
+    verdict = released.model_copy(
+        update={"state": _S.CONSTRUCTED, "previous": _S.VERIFYING, "event": "verified"}
+    )
+    assert states.hear(verdict) is None, "a verdict is asked of the twin"
+    assert [q.guid for q in states.questions(10.2)] == [guid]
+    assert states.questions(10.4) == [], "not answered yet: asked again only after a second"
+
+
 def test_a_forged_constructed_for_the_assigned_component_does_not_keep_the_robot_from_its_task(
     frame: Manifest,
 ) -> None:
