@@ -57,6 +57,7 @@ def test_a_beam_on_a_single_column_is_the_step_that_does_not_stand(
     assert moved_m > 0.5  # it tipped off and fell
     assert f"set down on {names['Column A1']} (Column A1)" in line
     assert f"it rests on {names['Column A2']} (Column A2), not placed before it" in line
+    assert "bimbot.services.physics" not in result.stdout + result.stderr  # the verdict says it, with names
 
 
 def test_a_column_before_its_footing_drops_into_the_open_pit(bundled_build: Path, tmp_path: Path) -> None:
