@@ -300,13 +300,30 @@ def _busy_outside(robot: dict[str, Any], window: tuple[float, float] | None) -> 
     return f" ({outside:.0f} s of it after the last construction, on tasks that built nothing more)"
 
 
+def _caught(outcome: RunOutcome) -> str:
+    """How many placements the agents caught off target or unstable, and how many of those were retried
+    (a component's last attempt is not: it fails with its reason)."""
+    verdicts = [
+        placement.get("verdict")
+        for component in outcome.report.get("components", [])
+        for placement in component.get("placements", [])
+    ]
+    caught = max(outcome.misplacements, sum(verdict in ("misplaced", "failed") for verdict in verdicts))
+    if caught == outcome.misplacements:
+        return f"{caught} placement(s) caught off target or unstable and retried"
+    last = caught - outcome.misplacements
+    return (
+        f"{caught} placement(s) caught off target or unstable: {outcome.misplacements} retried, "
+        f"{last} on its component's last attempt (failed, with its reason below)"
+    )
+
+
 def summary_text(outcome: RunOutcome) -> str:
     totals = outcome.report.get("totals", {})
     lines = [
         f"constructed {outcome.constructed}/{outcome.total} components in "
         f"{outcome.sim_time_s:.1f} s sim time ({outcome.wall_time_s:.1f} s wall{_makespan(totals)}), "
-        f"{outcome.misplacements} placement(s) caught off target or unstable and retried, "
-        f"{totals.get('give_backs', 0)} give-back(s) by robots"
+        f"{_caught(outcome)}, {totals.get('give_backs', 0)} give-back(s) by robots"
     ]
     if totals.get("max_position_error_mm") is not None:
         lines.append(

@@ -1,4 +1,5 @@
-"""The summary's robot lines: busy time beside the makespan, with what of it lies outside the makespan."""
+"""The summary: robot lines with busy time beside the makespan (and what of it lies outside it); placements
+caught and retried."""
 
 from __future__ import annotations
 
@@ -29,3 +30,19 @@ def test_busy_time_after_the_last_construction_is_said_to_be_outside_the_makespa
     assert "busy 160 s (60 s of it after the last construction, on tasks that built nothing more)" in line
     within = summary_text(RunOutcome(exit_code=1, constructed=1, total=2, report=_report(100.0)))
     assert "busy 100 s" in within and "after the last construction" not in within
+
+
+def test_a_caught_placement_on_a_components_last_attempt_is_counted_but_not_called_retried() -> None:
+    report = _report(100.0)
+    report["components"][1]["placements"] = [
+        {"attempt": 1, "verdict": "misplaced", "cause": "unstable"},
+        {"attempt": 2, "verdict": "failed", "cause": "unstable"},
+    ]
+    first = summary_text(RunOutcome(exit_code=1, constructed=1, total=2, misplacements=1, report=report))
+    assert (
+        "2 placement(s) caught off target or unstable: 1 retried, 1 on its component's last attempt"
+        in first.splitlines()[0]
+    )
+    report["components"][1]["placements"] = report["components"][1]["placements"][:1]
+    retried = summary_text(RunOutcome(exit_code=1, constructed=1, total=2, misplacements=1, report=report))
+    assert "1 placement(s) caught off target or unstable and retried" in retried.splitlines()[0]
