@@ -301,20 +301,18 @@ def _busy_outside(robot: dict[str, Any], window: tuple[float, float] | None) -> 
 
 
 def _caught(outcome: RunOutcome) -> str:
-    """How many placements the agents caught off target or unstable, and how many of those were retried
-    (a component's last attempt is not: it fails with its reason)."""
-    verdicts = [
-        placement.get("verdict")
+    """The placements the agents caught off target or unstable: the retried ones, and those on a component's
+    last attempt (verdict ``failed``: not retried, the component fails with its reason)."""
+    last = sum(
+        placement.get("verdict") == "failed"
         for component in outcome.report.get("components", [])
         for placement in component.get("placements", [])
-    ]
-    caught = max(outcome.misplacements, sum(verdict in ("misplaced", "failed") for verdict in verdicts))
-    if caught == outcome.misplacements:
-        return f"{caught} placement(s) caught off target or unstable and retried"
-    last = caught - outcome.misplacements
+    )
+    if not last:
+        return f"{outcome.misplacements} placement(s) caught off target or unstable and retried"
     return (
-        f"{caught} placement(s) caught off target or unstable: {outcome.misplacements} retried, "
-        f"{last} on its component's last attempt (failed, with its reason below)"
+        f"{outcome.misplacements + last} placement(s) caught off target or unstable: {outcome.misplacements} "
+        f"retried, {last} on its component's last attempt (failed, with its reason below)"
     )
 
 

@@ -31,12 +31,6 @@ def obj_vertices(path: Path) -> np.ndarray:
     return np.asarray(rows, dtype=float)
 
 
-def obj_vertex_bounds(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """The smallest and largest vertex coordinates ``(3,), (3,)`` of a Wavefront OBJ file."""
-    vertices = obj_vertices(path)
-    return vertices.min(axis=0), vertices.max(axis=0)
-
-
 def inset_by_margin(
     low: np.ndarray, high: np.ndarray, margin_m: float = BULLET_HULL_MARGIN_M
 ) -> tuple[list[float], list[float]]:
@@ -48,12 +42,13 @@ def inset_by_margin(
     return scale.tolist(), (centre * (1.0 - scale)).tolist()
 
 
-def inset_parts(files: tuple[Path, ...]) -> tuple[list[list[float]], list[list[float]]]:
-    """Mesh scales and frame positions of every collision part in ``files`` (see :func:`inset_by_margin`)."""
+def inset_parts(parts: list[np.ndarray]) -> tuple[list[list[float]], list[list[float]]]:
+    """Mesh scales and frame positions of every collision part, given by its vertices (see
+    :func:`inset_by_margin`)."""
     scales: list[list[float]] = []
     positions: list[list[float]] = []
-    for path in files:
-        scale, position = inset_by_margin(*obj_vertex_bounds(path))
+    for vertices in parts:
+        scale, position = inset_by_margin(vertices.min(axis=0), vertices.max(axis=0))
         scales.append(scale)
         positions.append(position)
     return scales, positions

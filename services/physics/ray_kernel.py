@@ -13,7 +13,7 @@ Shapes (one per collision primitive, in its own frame ``R_s, p_s`` in the world)
 * ``KIND_CYLINDER``: radius ``dims[s, 0]``, half length ``dims[s, 1]``, axis along local z;
 * ``KIND_SPHERE``: radius ``dims[s, 0]``.
 
-Culling: each shape has a bounding sphere (``centres``, ``radii`` in the world). Seen from the laser, a
+Culling: each shape has a bounding sphere about its frame's origin (radius ``radii``). Seen from the laser, a
 sphere of radius r at distance d covers the beams whose azimuth lies within asin(r / d) of its centre's
 (the angle between a beam in the laser's plane and the centre's direction is never less than their
 azimuth difference), so a shape is tested against those beams only, and not at all once every beam
@@ -112,7 +112,6 @@ def cast_fan(  # noqa: PLR0917 - numba kernels take plain positional arguments
     dims: np.ndarray,
     plane_first: np.ndarray,
     planes: np.ndarray,
-    centres: np.ndarray,
     radii: np.ndarray,
     visible: np.ndarray,
 ) -> np.ndarray:
@@ -129,7 +128,7 @@ def cast_fan(  # noqa: PLR0917 - numba kernels take plain positional arguments
         if not visible[s]:
             continue
         for i in range(3):
-            w[i] = centres[s, i] - origin[i]
+            w[i] = positions[s, i] - origin[i]
         distance = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
         radius = radii[s]
         if distance - radius >= range_max:
@@ -187,10 +186,8 @@ def pose_shapes(  # noqa: PLR0917 - numba kernels take plain positional argument
     slot_first_shape: np.ndarray,
     local_rotations: np.ndarray,
     local_positions: np.ndarray,
-    bound_centres: np.ndarray,
     rotations: np.ndarray,
     positions: np.ndarray,
-    centres: np.ndarray,
 ) -> None:
     """Pose the shapes of each slot (a body's link) in ``slots`` from its world pose (position and
     quaternion x, y, z, w): a shape's frame is its slot's frame composed with its own local frame."""
@@ -227,12 +224,6 @@ def pose_shapes(  # noqa: PLR0917 - numba kernels take plain positional argument
                     + slot_rotation[i, 1] * local_positions[s, 1]
                     + slot_rotation[i, 2] * local_positions[s, 2]
                 )
-            for i in range(3):
-                centres[s, i] = positions[s, i] + (
-                    rotations[s, i, 0] * bound_centres[s, 0]
-                    + rotations[s, i, 1] * bound_centres[s, 1]
-                    + rotations[s, i, 2] * bound_centres[s, 2]
-                )
 
 
 def warm_up() -> None:
@@ -252,7 +243,6 @@ def warm_up() -> None:
         np.zeros((0, 2)),
         np.zeros(1, np.int64),
         np.zeros((0, 4)),
-        np.zeros((0, 3)),
         empty,
         np.zeros(0, np.bool_),
     )
@@ -264,8 +254,6 @@ def warm_up() -> None:
         np.zeros(2, np.int64),
         np.zeros((0, 3, 3)),
         no_shapes,
-        no_shapes,
         np.zeros((0, 3, 3)),
-        no_shapes,
         no_shapes,
     )

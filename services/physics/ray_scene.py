@@ -49,8 +49,7 @@ class Primitive:
     quaternion: tuple[float, float, float, float]  # x, y, z, w
     dims: tuple[float, float] = (0.0, 0.0)  # cylinder: radius, half length; sphere: radius
     planes: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))  # convex: n·x ≤ d
-    bound_centre: tuple[float, float, float] = (0.0, 0.0, 0.0)  # in the primitive's frame
-    bound_radius: float = 0.0
+    bound_radius: float = 0.0  # of the bounding sphere about the primitive's frame origin
 
 
 @dataclass
@@ -278,15 +277,12 @@ class RayScene:
         self._local_rot = Rotation.from_quat(quaternions).as_matrix() if n else np.zeros((0, 3, 3))
         self._local_pos = np.array([prim.position for _, prim in primitives], dtype=float).reshape(n, 3)
         self._dims = np.array([prim.dims for _, prim in primitives], dtype=float).reshape(n, 2)
-        centres = [prim.bound_centre for _, prim in primitives]
-        self._bound_centre = np.array(centres, dtype=float).reshape(n, 3)
         self._radii = np.array([prim.bound_radius for _, prim in primitives], dtype=float)
         counts = [len(prim.planes) for _, prim in primitives]
         self._plane_first = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         self._planes = np.vstack([np.zeros((0, 4)), *(prim.planes for _, prim in primitives)])
         self._rotations = np.zeros((n, 3, 3))
         self._positions = np.zeros((n, 3))
-        self._centres = np.zeros((n, 3))
         self._slot_first_shape = np.searchsorted(self._slot_of, np.arange(len(slots) + 1)).astype(np.int64)
         self._slots_of = {}  # body → link → slot index
         for index, slot in enumerate(slots):
@@ -333,10 +329,8 @@ class RayScene:
             self._slot_first_shape,
             self._local_rot,
             self._local_pos,
-            self._bound_centre,
             self._rotations,
             self._positions,
-            self._centres,
         )
 
     # --- casting --------------------------------------------------------------------------------------
@@ -388,7 +382,6 @@ class RayScene:
             self._dims,
             self._plane_first,
             self._planes,
-            self._centres,
             self._radii,
             visible,
         )

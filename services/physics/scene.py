@@ -38,6 +38,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
+from itertools import product
 from pathlib import Path
 
 import numpy as np
@@ -255,8 +256,9 @@ def create_component_body(
             MAX_COLLISION_PARTS,
         )
         files = []
-    if files:
-        scales, positions = inset_parts(model.collision_files)  # the hulls' margin is the geometry's skin
+    if files:  # each part's vertices read once: for pybullet's inset hulls and for the laser (ray_scene.py)
+        parts = [obj_vertices(path) for path in model.collision_files]
+        scales, positions = inset_parts(parts)  # the hulls' margin is the geometry's skin
         shape = p.createCollisionShapeArray(  # a non-ASCII path crashes it: mesh_paths gives ASCII ones
             shapeTypes=[p.GEOM_MESH] * len(files),
             fileNames=[pybullet_path(path) for path in model.collision_files],
@@ -266,6 +268,7 @@ def create_component_body(
         )
     else:  # a component without (usable) collision parts still takes its bounding box's room
         low, high = np.array(component.bbox_local.min_m), np.array(component.bbox_local.max_m)
+        parts = [np.array(list(product(*zip(low, high, strict=True))))]  # its corners: what the laser sees
         if not model.collision_files:
             _log.warning("%s has no collision parts: using its bounding box", component.guid)
         shape = p.createCollisionShape(
@@ -294,11 +297,6 @@ def create_component_body(
         physicsClientId=client_id,
     )
     body = ComponentBody(component.guid, body_id, (model.com_local_m, principal), model.mass_kg, diagonal)
-    if files:  # the parts as the laser sees them (:mod:`.ray_scene`)
-        parts = [obj_vertices(path) for path in model.collision_files]
-    else:
-        (x0, y0, z0), (x1, y1, z1) = component.bbox_local.min_m, component.bbox_local.max_m
-        parts = [np.array([[x, y, z] for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)])]
     to_body = Rotation.from_quat(principal).as_matrix()  # vertices into the body's (centre-of-mass) frame
     register_hulls(client_id, body_id, [(part - np.asarray(model.com_local_m)) @ to_body for part in parts])
     make_static(client_id, body)

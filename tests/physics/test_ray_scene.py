@@ -55,7 +55,6 @@ def _cast(shapes: list[Shape], rotations: np.ndarray | None = None, **kw: object
         np.array([s[1] for s in shapes], float).reshape(n, 2),
         first,
         np.vstack(planes) if n else np.zeros((0, 4)),
-        positions,
         np.full(n, 3.0),
         np.ones(n, bool),
     )
