@@ -34,6 +34,8 @@ from pathlib import Path
 from typing import Any
 
 from bimbot.as_built import as_built_line
+from bimbot.fork_server import ForkServer
+from bimbot.fork_server import enabled as fork_server_enabled
 from bimbot.run_args import (
     ObserverOptions,
     RunOptions,
@@ -103,6 +105,23 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
     """Run every service on ``build`` until the planner is done or the run is ended (stall, time limit,
     signal, a dead service); always stops them all and writes the report (``report.json``,
     ``report.png``). ``announce`` gets the lines a user must see while it runs (the viewer's URL)."""
+    started = time.perf_counter()
+    # the services' code loads in the fork server while this process checks the input
+    launcher = ForkServer() if fork_server_enabled() else None
+    try:
+        return _run_build(build, options, announce, launcher, started)
+    finally:
+        if launcher is not None:
+            launcher.close()
+
+
+def _run_build(
+    build: Path,
+    options: RunOptions,
+    announce: Callable[[str], None],
+    launcher: ForkServer | None,
+    started: float,
+) -> RunOutcome:
     check_run_input(build, options)  # bad input: one line and exit 2, before any service starts
     manifest = load_manifest(build)
     run = RunFolder(options.run_dir) if options.run_dir is not None else new_run_folder(build)
@@ -111,8 +130,10 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
         shutil.rmtree(log_dir)  # a --run-dir given again: this run's logs only
     report_dir = run.report_dir
     announce(f"run folder: {run.root}")
+    if launcher is not None:
+        log_dir.mkdir(parents=True, exist_ok=True)
+        launcher.attach_log(log_dir / "fork-server.log")
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    started = time.perf_counter()
     services: list[ServiceProcess] = []
     restarter = Restarter(RestartPolicy(max_restarts=options.max_restarts))
     bus = secure_bus(run, options, manifest.site)  # None unless --secure; writes RUN/bus/
@@ -137,7 +158,9 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
 
                 for name, args in service_commands(build, endpoint, options, run, bus):
                     again = restart_arguments(args)
-                    services.append(ServiceProcess(name, args, log_dir, restart_args=again))
+                    services.append(
+                        ServiceProcess(name, args, log_dir, restart_args=again, launcher=launcher)
+                    )
                 by_name = {service.name: service for service in services}
                 observer = by_name.get("observer")
                 viewer_url = _announce_viewer(observer, options.observer, announce, stop)

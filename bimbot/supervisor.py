@@ -1,7 +1,9 @@
 """Start bimbot services as child processes on one machine, watch them, and stop them cleanly.
 
 Used by ``bimbot run``/``bimbot demo`` and by the integration tests. Each child is ``python -m bimbot.cli
-<command> …`` with its output in its own log file, so a failure can be shown with what the service said.
+<command> …`` with its output in its own log file, so a failure can be shown with what the service said;
+under ``bimbot run`` it is forked by the run's fork server instead (:mod:`bimbot.fork_server`: the same
+command, without importing everything again), and started plainly when there is none.
 
 Each child leads a process group of its own (``start_new_session``): a service's own children (the
 observer's ``rerun --serve-web``) are in that group, so stopping signals the whole group and nothing is
@@ -22,6 +24,10 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from bimbot.fork_server import ForkedChild, ForkServer
 
 _log = logging.getLogger(__name__)
 
@@ -46,10 +52,14 @@ class ServiceProcess:
         log_dir: Path,
         env: dict[str, str] | None = None,
         restart_args: Sequence[str] | None = None,
+        *,
+        launcher: ForkServer | None = None,
     ) -> None:
         """``restart_args``: the command line of a restart (default ``args``; the agents drop
-        ``--fresh`` so they resume from their journal)."""
+        ``--fresh`` so they resume from their journal); ``launcher``: fork it from this server when it
+        still runs."""
         self.name = name
+        self._launcher = launcher
         self.args = list(args)
         self.restart_args = list(args if restart_args is None else restart_args)
         self._env = env
@@ -58,15 +68,21 @@ class ServiceProcess:
         self._log = self.log_path.open("ab")
         self.process = self._start(self.args)
 
-    def _start(self, args: Sequence[str]) -> subprocess.Popen[bytes]:
-        process = subprocess.Popen(
-            [sys.executable, "-P", "-m", "bimbot.cli", *args],
-            stdout=self._log,
-            stderr=subprocess.STDOUT,
-            # the child stops when this process dies, even by SIGKILL (bimbot.cli.stop_with_parent)
-            env={**os.environ, **(self._env or {}), STOP_WITH_PARENT_ENV: str(os.getpid())},
-            start_new_session=True,  # its own process group: stop() reaches its children too
-        )
+    def _start(self, args: Sequence[str]) -> subprocess.Popen[bytes] | ForkedChild:
+        env = {**os.environ, **(self._env or {})}
+        process: subprocess.Popen[bytes] | ForkedChild | None = None
+        if self._launcher is not None:
+            self._log.flush()
+            process = self._launcher.spawn(args, self.log_path, env)
+        if process is None:
+            process = subprocess.Popen(
+                [sys.executable, "-P", "-m", "bimbot.cli", *args],
+                stdout=self._log,
+                stderr=subprocess.STDOUT,
+                # the child stops when this process dies, even by SIGKILL (bimbot.cli.stop_with_parent)
+                env={**env, STOP_WITH_PARENT_ENV: str(os.getpid())},
+                start_new_session=True,  # its own process group: stop() reaches its children too
+            )
         self.pgid = process.pid  # the group it leads
         _log.debug("started %s (pid %d): bimbot %s", self.name, process.pid, " ".join(args))
         return process
@@ -144,6 +160,7 @@ def running(name: str, args: Sequence[str], log_dir: Path) -> Iterator[subproces
     """``bimbot <args>`` for the length of a ``with`` block (tests): its Popen, logging to
     ``<log_dir>/<name>.log``; stopped at the end (TERM, then KILL) if still running."""
     service = ServiceProcess(name, args, log_dir)
+    assert isinstance(service.process, subprocess.Popen)  # no launcher: a plain process
     try:
         yield service.process
     finally:

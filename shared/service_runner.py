@@ -36,6 +36,8 @@ from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import Manifest, load_manifest
 from bimbot.shared.output_paths import check_writable_dir
 
+PRELOADED_ENV = "BIMBOT_PRELOADED_MB"  # set by bimbot.fork_server in a child: its server's resident MB
+
 STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
 
 _log = logging.getLogger(__name__)
@@ -95,7 +97,10 @@ def run_service(main: Callable[..., int | None], /, *args: object, **kwargs: obj
     peak memory is logged as it ends (``bench/build.py`` reads it per service)."""
     with stop_on_signals() as stop:
         code = int(main(*args, stop=stop, **kwargs) or 0)
-    _log.info("peak memory %.0f MB", peak_rss_mb())  # a service that ran (a user error stays one line)
+    # a service that ran (a user error stays one line); a forked one shares what its fork server loaded
+    shared = os.environ.get(PRELOADED_ENV)
+    note = f" (forked from a {shared} MB fork server: what they share counts in both)" if shared else ""
+    _log.info("peak memory %.0f MB%s", peak_rss_mb(), note)
     return code
 
 

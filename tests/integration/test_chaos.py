@@ -35,20 +35,26 @@ FIRST_KILL_AT, KILL_EVERY = 2, 3  # constructed components before the first kill
 
 
 def _children(pid: int) -> dict[str, int]:
-    """``bimbot <command>`` → pid of the direct children of ``pid`` (from /proc)."""
-    found: dict[str, int] = {}
+    """``bimbot <command>`` → pid of the services started by ``pid`` (from /proc): its children, or the
+    children of its fork server (:mod:`bimbot.fork_server`), whose command line is the service's."""
+    parents: dict[int, int] = {}
+    argvs: dict[int, list[bytes]] = {}
     for entry in Path("/proc").iterdir():
         if not entry.name.isdigit():
             continue
         try:
             stat = (entry / "stat").read_text()
-            argv = (entry / "cmdline").read_bytes().split(b"\0")
+            argv = (entry / "cmdline").read_bytes().replace(b"\0", b" ").split()
         except OSError:
             continue
-        ppid = int(stat.rsplit(")", 1)[1].split()[1])
-        if ppid == pid and b"bimbot.cli" in argv:
-            command = argv[argv.index(b"bimbot.cli") + 1].decode()
-            found[command] = int(entry.name)
+        parents[int(entry.name)] = int(stat.rsplit(")", 1)[1].split()[1])
+        argvs[int(entry.name)] = argv
+    found: dict[str, int] = {}
+    for child, parent in parents.items():
+        argv = argvs[child]
+        started_by_run = parent == pid or parents.get(parent) == pid
+        if started_by_run and b"bimbot.cli" in argv:
+            found[argv[argv.index(b"bimbot.cli") + 1].decode()] = child
     return found
 
 
