@@ -60,7 +60,6 @@ from bimbot.run_watchdog import StallWatchdog
 from bimbot.services.observer.report import RunEnding
 from bimbot.services.observer.report_fleet import lane_label, robot_order, utilisation_line
 from bimbot.services.observer.report_placements import placement_line
-from bimbot.services.observer.report_png import write_report_files
 from bimbot.services.observer.report_totals import busy_within_s, makespan_window
 from bimbot.shared.bus import open_session
 from bimbot.shared.errors import UserError
@@ -174,7 +173,7 @@ def _run_build(
                     watchdog=StallWatchdog(options.stall_after_s, options.clock_stall_wall_s),
                     progress=progress,
                     stop=stop,
-                    write_report=lambda ending: write_report_files(report_of(ending), report_dir),
+                    write_report=lambda ending: _write_report(report_of(ending), report_dir),
                     restarter=restarter,
                 ).run()
                 ended_how = f"{result.ending.how}: {result.ending.message}"
@@ -188,7 +187,7 @@ def _run_build(
                 outcome.report = report_of(result.ending)
                 if outcome.exit_code == 0 and (outcome.report.get("as_built") or {}).get("errors"):
                     outcome.exit_code = 1  # the bus says built, physics has it elsewhere
-                write_report_files(outcome.report, report_dir)
+                _write_report(outcome.report, report_dir)
                 if result.input_error is not None:
                     raise UserError(f"the planner rejected its input:\n{result.input_error}")
                 if observer is not None and options.observer is not None:
@@ -205,6 +204,14 @@ def _run_build(
             progress.close()
             stop_all([router, *services])
             run.mark_ended(ended_how)  # services started by hand later make a new run folder
+
+
+def _write_report(report: dict[str, Any], report_dir: Path) -> None:
+    """``report.json`` and ``report.png``; matplotlib is imported here, when the first report is due, not
+    before the services start (a quarter of a second of every run's start)."""
+    from bimbot.services.observer.report_png import write_report_files
+
+    write_report_files(report, report_dir)
 
 
 def _outcome(manifest: Manifest, monitor: RunMonitor, result: LoopResult, wall_s: float) -> RunOutcome:
