@@ -59,7 +59,7 @@ from bimbot.run_table import not_built_table
 from bimbot.run_watchdog import StallWatchdog
 from bimbot.services.observer.report import RunEnding
 from bimbot.services.observer.report_fleet import lane_label, robot_order, utilisation_line
-from bimbot.services.observer.report_placements import placement_line
+from bimbot.services.observer.report_placements import caught_on_last_attempt, placement_line
 from bimbot.services.observer.report_totals import busy_within_s, makespan_window
 from bimbot.shared.bus import open_session
 from bimbot.shared.errors import UserError
@@ -333,11 +333,7 @@ def _busy_outside(robot: dict[str, Any], window: tuple[float, float] | None) -> 
 def _caught(outcome: RunOutcome) -> str:
     """The placements the agents caught off target or unstable: the retried ones, and those on a component's
     last attempt (verdict ``failed``: not retried, the component fails with its reason)."""
-    last = sum(
-        placement.get("verdict") == "failed"
-        for component in outcome.report.get("components", [])
-        for placement in component.get("placements", [])
-    )
+    last = caught_on_last_attempt(outcome.report)
     if not last:
         return f"{outcome.misplacements} placement(s) caught off target or unstable and retried"
     return (

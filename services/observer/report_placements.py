@@ -189,3 +189,13 @@ def placement_line(report: Mapping[str, Any]) -> str | None:
     drift = totals.get("max_drift_mm")
     line += f"; largest drift after placement {drift:.1f} mm" if drift is not None else "; drift not measured"
     return line
+
+
+def caught_on_last_attempt(report: dict[str, Any]) -> int:
+    """Placements caught off target or unstable on their component's last attempt (verdict ``failed``):
+    not retried, so not among the retries, but drawn among the placement panels' markers."""
+    return sum(
+        placement.get("verdict") == "failed"
+        for component in report.get("components", [])
+        for placement in component.get("placements", [])
+    )

@@ -43,7 +43,7 @@ from matplotlib.patches import Patch
 from matplotlib.text import Text
 
 from .report_fleet import lane_label, robot_order, utilisation_line
-from .report_placements import MISPLACED, RETRY_CAUSES
+from .report_placements import MISPLACED, RETRY_CAUSES, caught_on_last_attempt
 from .report_placements_png import CAUSE_STYLES, draw_drift, draw_placement_errors, placement_handles
 
 REPORT_JSON = "report.json"
@@ -299,6 +299,11 @@ def _not_built_legend(report: dict[str, Any]) -> list[Artist]:
     return handles
 
 
+def caught_last_title(report: dict[str, Any]) -> str:
+    last = caught_on_last_attempt(report)
+    return f" (and {last} caught on a last attempt)" if last else ""
+
+
 def _as_built_title(report: dict[str, Any]) -> str:
     """The as-built audit for the title: the largest final error of the constructed components, and how
     many are away from their target (nothing before the audit)."""
@@ -333,6 +338,7 @@ def report_figure(report: dict[str, Any]) -> Figure:
     figure.suptitle(
         f"bimbot construction report — site {report['site']}: "
         f"{totals['constructed']}/{totals['components']} constructed, retries: {totals['retries']}"
+        + caught_last_title(report)
         + (f", makespan {makespan:.1f} s" if makespan is not None else "")
         + (f" — run {how}" if how and how != "done" else "")
         + _as_built_title(report)
