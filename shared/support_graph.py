@@ -12,7 +12,10 @@ A component that would float (none of the above, and its bottom above the lowest
 held by what it touches at its side: every component whose bounding box meets its own (within
 ``tolerance_m``) and whose bottom is lower. Real models frame beams into the faces of columns and other
 beams (the structural hub's 40 purlins and channels at 3–5 m rest on nothing from above); without this they
-would be erected first, standing in the air.
+would be erected first, standing in the air. So is a component that rests on something but would tip off it:
+the centre of its footprint lies outside the rectangle around where it touches its supports from above (the
+hub's channel beam 692716 sits on one column at one end and is framed into the face of another at the other:
+with only the first as its support it was erected while the second was never built, and fell every time).
 
 Edges run from a strictly lower bottom to a higher one, or from a host to its filling (a host never
 depends on what fills it), so the graph has no cycle. Footprints and
@@ -72,15 +75,35 @@ def support_predecessors(
                     preds[item.guid].add(other)
                 elif lower(other, item.guid):
                     preds[other].add(item.guid)
-    _add_contacts(components, preds, bottoms, tolerance_m)
-    _add_side_contacts(components, preds, bottoms, tolerance_m)
+    connected = {guid for guid, supports in preds.items() if supports}
+    resting = _add_contacts(components, preds, bottoms, tolerance_m)
+    tipping = {
+        item.guid
+        for item in components
+        if item.guid in resting and item.guid not in connected and not _balanced(item, resting[item.guid])
+    }
+    _add_side_contacts(components, preds, bottoms, tolerance_m, tipping)
     return preds
 
 
+def _balanced(item: Component, rests: list[tuple[float, float, float, float]]) -> bool:
+    """Whether the centre of ``item``'s footprint lies within the rectangle around where it rests."""
+    x0, y0 = min(r[0] for r in rests), min(r[1] for r in rests)
+    x1, y1 = max(r[2] for r in rests), max(r[3] for r in rests)
+    low, high = item.bbox_world.min_m, item.bbox_world.max_m
+    centre_x, centre_y = (low[0] + high[0]) / 2.0, (low[1] + high[1]) / 2.0
+    return bool(x0 <= centre_x <= x1 and y0 <= centre_y <= y1)
+
+
 def _add_side_contacts(
-    components: Sequence[Component], preds: dict[str, set[str]], bottoms: dict[str, float], tolerance_m: float
+    components: Sequence[Component],
+    preds: dict[str, set[str]],
+    bottoms: dict[str, float],
+    tolerance_m: float,
+    tipping: set[str],
 ) -> None:
-    """Floating components are held by what they touch with a lower bottom (see the module docstring)."""
+    """Floating components, and those in ``tipping``, are held by what they touch with a lower bottom (see
+    the module docstring)."""
     if not components:
         return
     ground = min(bottoms.values())
@@ -88,7 +111,8 @@ def _add_side_contacts(
     maxs = np.array([item.bbox_world.max_m for item in components]) + tolerance_m
     lows = np.array([bottoms[item.guid] for item in components])
     for index, item in enumerate(components):
-        if preds[item.guid] or lows[index] <= ground + tolerance_m:
+        floating = not preds[item.guid] and lows[index] > ground + tolerance_m
+        if not floating and item.guid not in tipping:
             continue
         touching = np.all((mins <= maxs[index]) & (maxs >= mins[index]), axis=1)
         lower = lows < lows[index] - tolerance_m
@@ -98,7 +122,9 @@ def _add_side_contacts(
 
 def _add_contacts(
     components: Sequence[Component], preds: dict[str, set[str]], bottoms: dict[str, float], tolerance_m: float
-) -> None:
+) -> dict[str, list[tuple[float, float, float, float]]]:
+    """Supports from below; GUID → where it rests on each (x0, y0, x1, y1 of the overlapping footprints)."""
+    resting: dict[str, list[tuple[float, float, float, float]]] = {}
     tops = sorted((item.bbox_world.max_m[2], index) for index, item in enumerate(components))
     top_values = [value for value, _ in tops]
     mins = np.array([item.bbox_world.min_m for item in components])
@@ -122,6 +148,15 @@ def _add_contacts(
             guid = components[int(other)].guid
             if bottoms[guid] < bottom - tolerance_m:
                 preds[item.guid].add(guid)
+                resting.setdefault(item.guid, []).append(
+                    (
+                        max(mins[other, 0], mins[index, 0]),
+                        max(mins[other, 1], mins[index, 1]),
+                        min(maxs[other, 0], maxs[index, 0]),
+                        min(maxs[other, 1], maxs[index, 1]),
+                    )
+                )
+    return resting
 
 
 def erection_key(component: Component) -> tuple[float, int, str]:

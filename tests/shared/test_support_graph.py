@@ -125,3 +125,30 @@ def test_a_beam_framed_into_the_faces_of_two_columns_waits_for_them() -> None:
     assert preds["beam"] == {"col_a", "col_b"}
     assert preds["far"] == set()
     assert derive_sequence(components).guids().index("beam") > 1
+
+
+def test_a_beam_resting_on_one_end_is_also_held_by_the_column_it_is_framed_into() -> None:
+    """The hub's channel beam 692716 sits on a channel column at one end and is framed into the face of a
+    taller column at the other. With only the first as its support it was erected while the taller
+    column was never built (out of the carrier's reach), and tipped off three times; now it waits for both
+    (and is blocked by the one not built, which names it)."""
+    components = [
+        _component("short", "IfcColumn", (5.7, -0.05, 0.0), (6.0, 0.05, 3.2)),
+        _component("tall", "IfcColumn", (-0.3, -0.15, 0.0), (0.0, 0.15, 3.9)),
+        _component("beam", "IfcBeam", (0.01, -0.05, 3.2), (6.0, 0.05, 3.5)),
+    ]
+    preds = support_predecessors(components)
+    assert preds["beam"] == {"short", "tall"}
+    order = derive_sequence(components).guids()
+    assert order.index("beam") > max(order.index("short"), order.index("tall"))
+
+
+def test_a_beam_resting_on_both_ends_gains_no_side_supports() -> None:
+    """Balanced on its supports, a beam does not wait for a column it merely touches at its side."""
+    components = [
+        _component("col_a", "IfcColumn", (-0.05, -0.05, 0.0), (0.05, 0.05, 3.0)),
+        _component("col_b", "IfcColumn", (3.95, -0.05, 0.0), (4.05, 0.05, 3.0)),
+        _component("beside", "IfcColumn", (2.0, 0.05, 0.0), (2.2, 0.25, 4.0)),  # touches the beam's side
+        _component("beam", "IfcBeam", (-0.05, -0.05, 3.0), (4.05, 0.05, 3.2)),
+    ]
+    assert support_predecessors(components)["beam"] == {"col_a", "col_b"}
