@@ -1,4 +1,5 @@
-"""Load the robot's compiled kernels (A*, the laser likelihood model) once per process, before the first tick.
+"""Load the robot's compiled kernels (A*, the laser likelihood model, the DWA) once per process, before the
+first tick.
 
 numba compiles a kernel on its first call, or loads it from its cache next to the source (0.3–0.6 s each);
 on a fresh clone there is no cache yet and the first call takes seconds. A tick must never wait on that, so
@@ -13,6 +14,7 @@ import numpy as np
 
 from bimbot.shared.occupancy_grid import OccupancyGrid
 
+from . import dwa_kernel
 from .astar import plan_path
 from .particle_filter import LikelihoodField, LikelihoodFieldConfig, scan_log_likelihood
 
@@ -23,3 +25,4 @@ def warm_up_kernels() -> None:
     plan_path(OccupancyGrid(np.zeros((4, 4), bool), 1.0, (0.0, 0.0)), (0.5, 0.5), (3.5, 3.5))
     field = LikelihoodField(np.zeros((4, 4)), 1.0, (0.0, 0.0))
     scan_log_likelihood(np.zeros((1, 3)), [1.0], [0.0], field, LikelihoodFieldConfig())
+    dwa_kernel.warm_up()
