@@ -34,6 +34,7 @@ from bimbot.run_restarts import Restarter
 from bimbot.run_watchdog import StallWatchdog, stall_details
 from bimbot.services.observer.report import RunEnding
 from bimbot.shared.reasons import ReasonCode
+from bimbot.shared.signal_event import SignalEvent
 from bimbot.supervisor import ServiceProcess
 
 _log = logging.getLogger(__name__)
@@ -50,23 +51,28 @@ class StopSignals:
     def __init__(self) -> None:
         self.signum: int | None = None
         self.event = threading.Event()
+        self._setter: SignalEvent | None = None
 
     def _handle(self, signum: int, _frame: FrameType | None) -> None:
         if self.signum is None:
             self.signum = signum
-        self.event.set()
+        if self._setter is not None:  # never the event's lock in a handler (shared/signal_event.py)
+            self._setter.request()
 
     @contextmanager
     def installed(self) -> Iterator[StopSignals]:
         if threading.current_thread() is not threading.main_thread():  # only the main thread may
             yield self
             return
+        self._setter = SignalEvent(self.event)
         previous = {signum: signal.signal(signum, self._handle) for signum in (signal.SIGTERM, signal.SIGINT)}
         try:
             yield self
         finally:
             for signum, handler in previous.items():
                 signal.signal(signum, handler)
+            self._setter.close()
+            self._setter = None
 
 
 @dataclass

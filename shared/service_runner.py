@@ -35,6 +35,7 @@ from bimbot.shared.bus import BusOptions, bus_options, zenoh_config
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import Manifest, load_manifest
 from bimbot.shared.output_paths import check_writable_dir
+from bimbot.shared.signal_event import SignalEvent
 
 PRELOADED_ENV = "BIMBOT_PRELOADED_MB"  # set by bimbot.fork_server in a child: its server's resident MB
 
@@ -47,22 +48,25 @@ _log = logging.getLogger(__name__)
 def stop_on_signals(signums: Sequence[int] = STOP_SIGNALS) -> Iterator[threading.Event]:
     """An event that ``signums`` set (instead of killing the process) for the length of the ``with`` block.
 
-    The handlers only set the event, so the service ends its loop itself and closes its session (an
-    unclosed Zenoh session hangs at exit). The previous handlers are restored on the way out. Outside the
-    main thread (where Python allows no handlers) the event is only set by whoever holds it.
+    The handlers only have the event set (by a thread: :mod:`bimbot.shared.signal_event`), so the service
+    ends its loop itself and closes its session (an unclosed Zenoh session hangs at exit). The previous
+    handlers are restored on the way out. Outside the main thread (where Python allows no handlers) the
+    event is only set by whoever holds it.
     """
     stop = threading.Event()
     if threading.current_thread() is not threading.main_thread():
         yield stop
         return
+    setter = SignalEvent(stop)  # a handler must not take the event's lock (shared/signal_event.py)
     previous: dict[int, object] = {}
     try:
         for signum in signums:
-            previous[signum] = signal.signal(signum, lambda *_: stop.set())
+            previous[signum] = signal.signal(signum, lambda *_: setter.request())
         yield stop
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)  # type: ignore[arg-type]
+        setter.close()
 
 
 def service_bus(args: argparse.Namespace) -> BusOptions:

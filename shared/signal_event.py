@@ -1,0 +1,52 @@
+"""Set a :class:`threading.Event` from a signal handler without ever blocking the process.
+
+Python runs a signal handler in the main thread, between two bytecodes of whatever it was doing. A handler
+that calls ``event.set()`` takes the event's lock; when the main thread already holds that lock (it is
+inside ``event.wait()`` reacquiring it, or inside the first handler's ``event.set()`` when a second signal
+lands), the lock is not reentrant and the main thread waits for itself forever. Seen: a bus router left
+running for 35 minutes after its run was killed, its main thread five handlers deep in ``Event.set``; and
+two Ctrl-C in a row could do the same to ``bimbot run`` waiting on its viewer.
+
+So the handler only writes a byte to a pipe (one system call, no lock), and a small daemon thread that
+reads the pipe sets the event; if the main thread holds the lock, that thread waits until it lets go.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import threading
+
+
+class SignalEvent:
+    """``event``, set by :meth:`request` — safe to call from a signal handler, any number of times."""
+
+    def __init__(self, event: threading.Event | None = None) -> None:
+        self.event = event if event is not None else threading.Event()
+        self._read_fd, self._write_fd = os.pipe()
+        os.set_blocking(self._write_fd, False)  # a full pipe already holds a request: drop this one
+        self._watcher = threading.Thread(target=self._watch, name="signal-event", daemon=True)
+        self._watcher.start()
+
+    def request(self) -> None:
+        """Ask for the event to be set (from a handler: no lock taken, returns at once)."""
+        with contextlib.suppress(OSError):  # full (a request is pending) or closed (shutting down)
+            os.write(self._write_fd, b"\0")
+
+    def close(self) -> None:
+        """Stop the watcher (requests made before are still applied)."""
+        with contextlib.suppress(OSError):
+            os.close(self._write_fd)
+        self._watcher.join(timeout=5.0)
+        with contextlib.suppress(OSError):
+            os.close(self._read_fd)
+
+    def _watch(self) -> None:
+        while True:
+            try:
+                data = os.read(self._read_fd, 64)
+            except OSError:
+                return
+            if not data:  # the write end closed: no more requests
+                return
+            self.event.set()
