@@ -42,7 +42,7 @@ from typing import IO, Any
 
 import setproctitle
 
-from bimbot.shared.service_runner import PRELOADED_ENV
+from bimbot.shared.service_runner import PRELOADED_ENV, process_status_mb
 
 _log = logging.getLogger(__name__)
 
@@ -345,13 +345,7 @@ def _become_service(request: dict[str, Any], requests: int, answers: int, preloa
 
 
 def _resident_mb() -> float:
-    try:
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("VmRSS:"):
-                return float(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    return 0.0
+    return process_status_mb("VmRSS") or 0.0
 
 
 def main() -> int:

@@ -108,16 +108,25 @@ def run_service(main: Callable[..., int | None], /, *args: object, **kwargs: obj
     return code
 
 
+def process_status_mb(field: str) -> float | None:
+    """A memory figure of this process from Linux's ``/proc/self/status`` (``VmHWM``, ``VmRSS``) in MB;
+    None where there is none."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith(f"{field}:"):
+                return float(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return None
+
+
 def peak_rss_mb() -> float:
     """This process's peak resident memory (MB): Linux's ``VmHWM`` (``ru_maxrss`` keeps the peak of the
     process it was forked from across the exec, so every service reported its parent's), else ``ru_maxrss``
     (kB on Linux, bytes on macOS)."""
-    try:
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("VmHWM:"):
-                return float(line.split()[1]) / 1024.0
-    except OSError:
-        pass
+    peak_mb = process_status_mb("VmHWM")
+    if peak_mb is not None:
+        return peak_mb
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return peak / (1024.0 * 1024.0) if sys.platform == "darwin" else peak / 1024.0
 

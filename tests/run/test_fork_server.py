@@ -2,7 +2,8 @@
 
 Each test starts a real server (``python -m bimbot.fork_server``, which preloads every service's code) and
 real services from it: a bus router that must listen, a physics command that must reject its input in one
-line, a service killed by a signal, and a parent killed by SIGKILL whose services must not outlive it.
+line, a service killed by a signal, and a server killed by SIGKILL whose services must not outlive it
+(a killed run's: tests/run/test_stop_with_parent.py).
 """
 
 from __future__ import annotations
@@ -10,8 +11,6 @@ from __future__ import annotations
 import os
 import signal
 import subprocess
-import sys
-import textwrap
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -27,14 +26,6 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[ForkServer]:
     launcher.attach_log(tmp_path_factory.mktemp("fork_server") / "fork-server.log")
     yield launcher
     launcher.close()
-
-
-def _alive(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
 
 
 def test_a_forked_service_runs_its_command_in_a_session_of_its_own(
@@ -78,11 +69,10 @@ def test_a_killed_forked_service_reports_the_signal_as_popen_does(server: ForkSe
     assert not bus.alive()
 
 
-def test_without_a_usable_server_a_service_starts_as_a_plain_process(tmp_path: Path) -> None:
-    launcher = ForkServer()
-    launcher.close()
+def _plain_bus(name: str, tmp_path: Path, launcher: ForkServer) -> None:
+    """A bus router asked of a server that is gone: started plainly, it listens and stops with 0."""
     bus = ServiceProcess(
-        "bus", ["bus", "--listen", f"tcp/127.0.0.1:{free_port()}"], tmp_path, launcher=launcher
+        name, ["bus", "--listen", f"tcp/127.0.0.1:{free_port()}"], tmp_path, launcher=launcher
     )
     try:
         assert isinstance(bus.process, subprocess.Popen)
@@ -91,37 +81,10 @@ def test_without_a_usable_server_a_service_starts_as_a_plain_process(tmp_path: P
         assert bus.stop() == 0
 
 
-PARENT = textwrap.dedent(
-    """
-    import sys, time
-    from pathlib import Path
-    from bimbot.fork_server import ForkServer
-    from bimbot.supervisor import ServiceProcess
-    server = ForkServer()
-    bus = ServiceProcess("bus", ["bus", "--listen", sys.argv[1]], Path(sys.argv[2]), launcher=server)
-    print(bus.process.pid, flush=True)
-    time.sleep(600)
-    """
-)
-
-
-def test_forked_services_stop_when_the_run_that_started_them_is_killed(tmp_path: Path) -> None:
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    parent = subprocess.Popen(
-        [sys.executable, "-c", PARENT, endpoint, str(tmp_path)], stdout=subprocess.PIPE, text=True
-    )
-    child = 0
-    try:
-        assert parent.stdout is not None
-        child = int(parent.stdout.readline())
-        assert wait_until(lambda: "listening" in (tmp_path / "bus.log").read_text(), timeout_s=60.0)
-        parent.send_signal(signal.SIGKILL)
-        parent.wait(timeout=10)
-        assert wait_until(lambda: not _alive(child), timeout_s=15.0), "the service outlived its run"
-    finally:
-        parent.kill()
-        if child and _alive(child):
-            os.kill(child, signal.SIGKILL)
+def test_without_a_usable_server_a_service_starts_as_a_plain_process(tmp_path: Path) -> None:
+    launcher = ForkServer()
+    launcher.close()
+    _plain_bus("bus", tmp_path, launcher)
 
 
 def test_when_the_server_dies_its_services_stop_and_the_next_start_plainly(tmp_path: Path) -> None:
@@ -135,13 +98,6 @@ def test_when_the_server_dies_its_services_stop_and_the_next_start_plainly(tmp_p
         launcher._process.kill()  # as a user's kill -9 would
         assert wait_until(lambda: not bus.alive(), timeout_s=15.0), "the service outlived its fork server"
         assert bus.process.returncode is not None
-        again = ServiceProcess(
-            "bus-again", ["bus", "--listen", f"tcp/127.0.0.1:{free_port()}"], tmp_path, launcher=launcher
-        )
-        try:
-            assert isinstance(again.process, subprocess.Popen)
-            assert wait_until(lambda: "listening" in again.log(), timeout_s=30.0), again.log()
-        finally:
-            again.stop()
+        _plain_bus("bus-again", tmp_path, launcher)
     finally:
         launcher.close()
