@@ -353,8 +353,11 @@ def main() -> int:
 
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
     stop_with_parent()  # the run's death ends the server, and the server's its children
-    # setproctitle claims the room for a longer title now, while the environment is the original one
-    setproctitle.setproctitle(setproctitle.getproctitle())
+    # setproctitle claims the room for its children's longer titles now, while the environment is the
+    # original one; ps says what this process is for
+    setproctitle.setproctitle(
+        f"{sys.executable} -P -m bimbot.fork_server (starts the services of bimbot run {os.getppid()})"
+    )
     started = time.perf_counter()
     # the answers go on a copy of stdout: a child's fd 1 becomes its log, and nothing buffered follows it
     answers = os.dup(1)

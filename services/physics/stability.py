@@ -150,26 +150,44 @@ def check_stability(
 
 
 def describe(report: StabilityReport, names: dict[str, str]) -> list[str]:
-    """The lines a user reads: every partial structure stands, or the first step that does not."""
+    """The lines a user reads: every partial structure stands, or the first step that does not, what was
+    left unchecked and what to try. Components as ``Name (GUID)``, as the run's table names them."""
     failure = report.first_failure
     timing = f"{report.sim_s:.0f} s of sim time, {report.wall_s:.1f} s wall"
     if failure is None:
         return [f"every partial structure stands: {len(report.steps)} step(s) placed and settled ({timing})"]
     lines = [f"step {failure.index} of {report.total} does not stand ({timing}):"]
+
+    def named(guids: tuple[str, ...]) -> str:
+        return ", ".join(f"{names.get(guid, guid)} ({guid})" for guid in guids)
+
+    missing: list[str] = []
     for moved in failure.moved:
-
-        def named(guids: tuple[str, ...]) -> str:
-            return ", ".join(f"{guid} ({names.get(guid, guid)})" for guid in guids)
-
         where = (
             f"over the open pit of {named(moved.open_pits)}, not placed yet"
             if moved.open_pits
             else (f"on {named(moved.placed_on)}" if moved.placed_on else "on nothing but the ground")
         )
         rested = named(moved.rests_on) or ("the pit's floor" if moved.open_pits else "the ground")
-        missing = f"; it rests on {named(moved.missing)}, not placed before it" if moved.missing else ""
+        unplaced = f"; it rests on {named(moved.missing)}, not placed before it" if moved.missing else ""
+        missing += [*moved.open_pits, *moved.missing]
         lines.append(
             f"  {moved.name} ({moved.guid}) moved {moved.drift_m:.3f} m after it was placed: it was set down "
-            f"{where} and came to rest on {rested}{missing}"
+            f"{where} and came to rest on {rested}{unplaced}"
+        )
+    if failure.index < report.total:
+        lines.append(
+            f"steps {failure.index + 1}–{report.total} were not checked: the replay stops at the first step "
+            "that does not stand"
+        )
+    if missing:
+        first = named(tuple(dict.fromkeys(missing)))
+        lines.append(
+            f"to try: place {first} earlier (--sequence F.xml), or --derive for the support graph's order"
+        )
+    else:
+        lines.append(
+            "to try: what holds it must be placed before it (--sequence F.xml, or --derive); a member held "
+            "by a connection (bolted or welded to a face) stands only with bracing until then: not simulated"
         )
     return lines

@@ -55,8 +55,10 @@ def test_a_beam_on_a_single_column_is_the_step_that_does_not_stand(
     line = next(line for line in result.stdout.splitlines() if "Beam A1-A2" in line and "moved" in line)
     moved_m = float(line.split(" moved ")[1].split(" m ")[0])
     assert moved_m > 0.5  # it tipped off and fell
-    assert f"set down on {names['Column A1']} (Column A1)" in line
-    assert f"it rests on {names['Column A2']} (Column A2), not placed before it" in line
+    assert f"set down on Column A1 ({names['Column A1']})" in line
+    assert f"it rests on Column A2 ({names['Column A2']}), not placed before it" in line
+    assert "steps 12–28 were not checked" in result.stdout  # the replay stopped there, and says so
+    assert f"to try: place Column A2 ({names['Column A2']}) earlier" in result.stdout
     assert "bimbot.services.physics" not in result.stdout + result.stderr  # the verdict says it, with names
 
 
@@ -69,7 +71,7 @@ def test_a_column_before_its_footing_drops_into_the_open_pit(bundled_build: Path
     assert result.returncode == 1 and "step 1 of 28 does not stand" in result.stdout
     line = next(line for line in result.stdout.splitlines() if "Column B2" in line and "moved" in line)
     assert float(line.split(" moved ")[1].split(" m ")[0]) == pytest.approx(depth, abs=0.05)
-    assert f"over the open pit of {names['Footing B2']} (Footing B2), not placed yet" in line
+    assert f"over the open pit of Footing B2 ({names['Footing B2']}), not placed yet" in line
 
 
 def test_a_missing_sequence_file_is_one_line_and_exit_2(bundled_build: Path, tmp_path: Path) -> None:
