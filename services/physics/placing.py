@@ -198,9 +198,12 @@ class Placing:
         make_dynamic(cid, body)
         p.resetBaseVelocity(body.body_id, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=cid)
         if carrier is not None and not carrier.is_crane and self._overlaps(item, carrier):
-            item.separating_from = carrier  # it collides with its carrier again once clear of it
+            # it collides with its carrier again once clear of it. Until then it keeps the carrier's group, as
+            # when carried: a pair collides when either mask admits the other's group (scene.py), and the
+            # carrier's mask admits the dynamic group, so that group here let the carrier kick it over
+            item.separating_from = carrier
             self._separating.add(guid)
-            set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS ^ carrier.group)
+            set_filter(cid, body.body_id, carrier.group, ALL_GROUPS ^ carrier.group)
         else:
             item.separating_from = None
             set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)

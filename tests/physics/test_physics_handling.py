@@ -521,3 +521,39 @@ def test_a_placed_component_that_falls_off_after_it_rested_is_stopped_too(
     message = sim.handling.pose_message(column.guid, sim.sim_time_s)
     assert message.pose.position_m[2] > -45.0 and message.drift_m is not None and message.drift_m > 30.0
     assert p.getDynamicsInfo(body.body_id, -1, physicsClientId=sim.client_id)[0] == 0.0  # static
+
+
+def test_a_carrier_overlapping_the_component_it_released_does_not_push_it(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """Carried kinematically, a load may end its placement inside its carrier's bounding box; released, the
+    two must not collide until they are clear of each other. They did: the release filter gave the load
+    the dynamic group, which the carrier's mask holds, and pybullet lets a pair collide when either mask
+    admits the other's group. The hub's concrete columns were kicked 0.2–1.4 m by the carrier that had
+    just set them down (2 cm of overlap), and some toppled on every attempt."""
+    sim = make_sim(robots=1)
+    column = _named(frame_manifest, "Column A1")
+    _joined(sim, _named(frame_manifest, "Footing A1"))
+    _picked(sim, column)
+    target = footprint(column, (column.target_pose_world.position_m, column.target_pose_world.quat_xyzw))
+    robot = sim.robots["r1"]
+    sim.teleport_robot("r1", west_of(target, 0.8))
+    front_x = max(
+        p.getAABB(robot.body_id, link, physicsClientId=sim.client_id)[1][0]
+        for link in range(-1, p.getNumJoints(robot.body_id, physicsClientId=sim.client_id))
+    )
+    overlap_m = 0.02  # the robot's front 2 cm inside the column's footprint, as a carrier at the hub stood
+    sim.teleport_robot("r1", west_of(target, 0.8 - (target.min_xy[0] - front_x) - overlap_m))
+    assert sim.place(_place(sim, column, duration_s=1.0), tag="ticket") is None
+    replies = [
+        reply for _ in range(round(12.0 / sim.config.control_period_s)) for reply in sim.advance().replies
+    ]
+    assert replies and replies[0][1].ok
+    item = sim.handling.items[column.guid]
+    assert item.separating_from is robot  # still inside its carrier's box: they pass through each other
+    assert sim.handling.watch[column.guid].drift_m < 0.003  # not kicked over
+    drive(sim, "r1", -0.5, 0.0, 3.0)  # the carrier backs out: clear, they collide again
+    assert item.separating_from is None
+    rest = component_pose(sim.client_id, item.body)
+    drive(sim, "r1", 0.6, 0.0, 4.0)  # and driving into the column now moves it
+    assert math.dist(component_pose(sim.client_id, item.body)[0], rest[0]) > 0.01
