@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import json
 import textwrap
+from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
@@ -89,6 +90,25 @@ def labelled_rows(rows: int) -> range:
     (k the smallest step that keeps to that many), so a user can still find a row of an 85-member frame."""
     step = max(1, -(-rows // MAX_ROW_LABELS))
     return range(0, rows, step)
+
+
+def with_marked_rows(named: range, marked: Collection[int]) -> list[int]:
+    """``named`` plus the ``marked`` rows (a placement caught off target or unstable, an as-built error: what
+    a user looks for), each taking the place of a named neighbour whose label would overlap it; at most a
+    quarter of :data:`MAX_ROW_LABELS` of them, the first in the sequence. A new user could not tell which
+    component of the hub's 85 had toppled: its row was one of the unnamed."""
+    if named.step == 1:
+        return list(named)
+    extra = sorted(set(marked))[: MAX_ROW_LABELS // 4]
+    kept = [row for row in named if row in extra or all(abs(row - mark) > 1 for mark in extra)]
+    return sorted(set(kept) | set(extra))
+
+
+def marked_row(component: dict[str, Any], wrong: Collection[str]) -> bool:
+    """Whether a sequence row carries a mark a user looks for: a placement caught, an as-built error."""
+    verdicts = {placement.get("verdict") for placement in component.get("placements", [])}
+    caught = bool(verdicts & {"misplaced", "failed"})
+    return caught or component["guid"] in wrong
 
 
 def bar_label_size_pt(width_s: float, span_s: float) -> float:
@@ -195,7 +215,8 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> 
         report["components"],
         key=lambda c: (c["sequence_index"] is None, c["sequence_index"] or 0, c["guid"]),
     )
-    named = labelled_rows(len(rows))
+    regular = labelled_rows(len(rows))
+    named = with_marked_rows(regular, [row for row, c in enumerate(rows) if marked_row(c, wrong)])
     for row, component in enumerate(rows):
         labelled = row in named  # a reason or error at the right edge too (else they pile up)
         color = colors[component["ifc_class"]]
@@ -225,8 +246,10 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> 
     for label, row in zip(ax.get_yticklabels(), named, strict=True):
         if rows[row].get("reason"):
             label.set_color(NOT_BUILT_COLOR)
-    if named.step > 1:
-        ax.set_ylabel(f"{len(rows)} components in planned order (one row in {named.step} named)")
+    if regular.step > 1:
+        ax.set_ylabel(
+            f"{len(rows)} components in planned order (one row in {regular.step} named, and those with marks)"
+        )
     ax.set_ylim(-0.6, max(len(rows), 1) - 0.4)
     ax.invert_yaxis()
     ax.set_xlabel("sim time (s)")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from bimbot.services.observer.report_png import caught_last_title
+from bimbot.services.observer.report_png import caught_last_title, labelled_rows, marked_row, with_marked_rows
 
 
 def test_the_title_counts_placements_caught_on_a_last_attempt_beside_the_retries() -> None:
@@ -18,3 +18,16 @@ def test_the_title_counts_placements_caught_on_a_last_attempt_beside_the_retries
         " (and 1 caught on a last attempt)"
     )
     assert caught_last_title({"components": [{"placements": [{"verdict": "misplaced"}]}]}) == ""
+
+
+def test_a_row_with_a_caught_placement_is_named_even_between_the_kth_rows() -> None:
+    """A new user could not tell which of the hub's 85 members had toppled: its row was an unnamed one."""
+    regular = labelled_rows(85)  # every second row
+    named = with_marked_rows(regular, [7, 40])
+    assert 7 in named and 40 in named
+    assert 6 not in named and 8 not in named  # their neighbours give way: the labels would overlap
+    assert all(row in named for row in regular if abs(row - 7) > 1 and abs(row - 40) > 1)
+    assert with_marked_rows(labelled_rows(28), [3]) == list(range(28))  # every row named anyway
+    caught = {"guid": "a", "placements": [{"verdict": "misplaced"}, {"verdict": "constructed"}]}
+    clean = {"guid": "b", "placements": [{"verdict": "constructed"}]}
+    assert marked_row(caught, set()) and not marked_row(clean, set()) and marked_row(clean, {"b"})
