@@ -353,6 +353,11 @@ def main() -> int:
 
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
     stop_with_parent()  # the run's death ends the server, and the server's its children
+    try:  # a child's end is watched through a pidfd (Linux 5.3): without one, the run starts plain processes
+        os.close(os.pidfd_open(os.getpid()))
+    except (AttributeError, OSError) as error:
+        sys.stderr.write(f"fork server: no pidfd here ({error}); the run starts its services as processes\n")
+        return 3
     # setproctitle claims the room for its children's longer titles now, while the environment is the
     # original one; ps says what this process is for
     setproctitle.setproctitle(
