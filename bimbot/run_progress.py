@@ -54,7 +54,7 @@ def robot_line(msg: RobotStateMsg, names: Mapping[str, str | None]) -> str:
     if msg.task_id:
         parts.append(msg.task_id)
     if msg.guid:
-        parts.append(names.get(msg.guid) or msg.guid[:8])
+        parts.append(names.get(msg.guid) or msg.guid)  # a whole GUID: Revit's share their first characters
     line = " ".join(parts)
     if msg.activity:
         activity = msg.activity

@@ -38,10 +38,12 @@ def check_stability_command(args: argparse.Namespace, say: Callable[[str], None]
     logging.getLogger("bimbot.services.physics.placing").setLevel(logging.ERROR)
     build = resolve_build(args.build)
     plan = load_plan(build.manifest, build.dir, plan_source(args))
-    say(f"checking the stability of {plan.source}: {len(plan.order)} step(s), physics only, no robots")
+    steps = len(plan.order)
+    say(f"checking the stability of the plan, {plan.source}: {steps} step(s), physics only, no robots")
     tolerance_m = AgentConfig().tolerances.drift_m  # what the agents of a run accept
     report = check_stability(build.manifest, build.dir, plan.order, drift_tolerance_m=tolerance_m)
     names = {c.guid: c.name or c.ifc_class for c in build.manifest.components}
-    for line in describe(report, names):
+    derived = args.derive or (args.sequence is None and build.manifest.sequence_source == "derived")
+    for line in describe(report, names, derived=derived):
         say(line)
     return 0 if report.stands else 1

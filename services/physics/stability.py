@@ -149,9 +149,10 @@ def check_stability(
     return StabilityReport(len(order), steps, sim_s, time.monotonic() - started)
 
 
-def describe(report: StabilityReport, names: dict[str, str]) -> list[str]:
+def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = False) -> list[str]:
     """The lines a user reads: every partial structure stands, or the first step that does not, what was
-    left unchecked and what to try. Components as ``Name (GUID)``, as the run's table names them."""
+    left unchecked and what to try (``derived``: the order already is the support graph's). Components as
+    ``Name (GUID)``, as the run's table names them."""
     failure = report.first_failure
     timing = f"{report.sim_s:.0f} s of sim time, {report.wall_s:.1f} s wall"
     if failure is None:
@@ -184,6 +185,11 @@ def describe(report: StabilityReport, names: dict[str, str]) -> list[str]:
         first = named(tuple(dict.fromkeys(missing)))
         lines.append(
             f"to try: place {first} earlier (--sequence F.xml), or --derive for the support graph's order"
+        )
+    elif derived:
+        lines.append(
+            "to try: everything it rests on was placed before it, so it is held by a connection (bolted or "
+            "welded to a face), which a crew braces until it is made: not simulated, so it cannot stand here"
         )
     else:
         lines.append(

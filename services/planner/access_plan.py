@@ -147,4 +147,4 @@ def _priority_order(order: tuple[str, ...], preds: Mapping[str, frozenset[str]])
 
 def _describe(guid: str, by_guid: Mapping[str, Component]) -> str:
     component = by_guid.get(guid)
-    return f"{guid} ({component.name or component.ifc_class})" if component else guid
+    return f"{component.name or component.ifc_class} ({guid})" if component else guid

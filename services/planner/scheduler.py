@@ -553,7 +553,7 @@ class PlannerCore(Dispatch):
     def _describe(self, guid: str) -> str:
         component = self._manifest.get(guid)
         name = (component.name or component.ifc_class) if component is not None else None
-        return f"{guid} ({name})" if name else guid
+        return f"{name} ({guid})" if name else guid  # as the run's table and --check-stability name them
 
     def _set_phase(self, task: TaskRecord, phase: Phase, status: TaskStatus) -> None:
         task.phase = phase

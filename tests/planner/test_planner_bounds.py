@@ -261,11 +261,11 @@ def test_a_blocked_component_resting_on_the_failed_one_through_another_names_bot
     core.step(0.0)
     column, beam = core.reason_of("col_a"), core.reason_of("beam")
     assert column is not None
-    assert column.message == "it rests on foot_a (IfcFooting), which was not built (too_heavy)"
+    assert column.message == "it rests on IfcFooting (foot_a), which was not built (too_heavy)"
     assert beam is not None and beam.guid == "foot_a"
     assert (
         beam.message
-        == "it rests on col_a (IfcColumn), which stands on foot_a (IfcFooting), not built (too_heavy)"
+        == "it rests on IfcColumn (col_a), which stands on IfcFooting (foot_a), not built (too_heavy)"
     )
 
 

@@ -78,3 +78,19 @@ def test_a_missing_sequence_file_is_one_line_and_exit_2(bundled_build: Path, tmp
     result = _check(bundled_build, "--sequence", str(tmp_path / "nope.xml"))
     assert result.returncode == 2 and "nope.xml: no such file" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+def test_the_advice_fits_the_order_checked() -> None:
+    """In the support graph's own order (derived), reordering cannot help: a member that falls although all
+    it rests on came first is held by a connection, and the advice says so instead of "--derive"."""
+    from bimbot.services.physics.stability import Moved, StabilityReport, StabilityStep, describe
+
+    beam = Moved("b", "Beam", 3.5, placed_on=("c1",), rests_on=("c1", "c2"))
+    step = StabilityStep(24, "b", "Beam", 2.0, 3.5, ("c1",), moved=(beam,))
+    report = StabilityReport(85, [step], 24.0, 0.4)
+    names = {"b": "Beam", "c1": "Column 1", "c2": "Column 2"}
+    derived = describe(report, names, derived=True)
+    assert "steps 25–85 were not checked" in derived[-2]
+    assert "held by a connection" in derived[-1] and "--derive" not in derived[-1]
+    assert "--derive" in describe(report, names)[-1]  # a user's own order: try the support graph's
+    assert "set down on Column 1 (c1) and came to rest on Column 1 (c1), Column 2 (c2)" in derived[1]

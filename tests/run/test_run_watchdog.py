@@ -97,9 +97,11 @@ def test_stall_details_say_what_each_robot_and_open_task_was_doing() -> None:
     names = {"2O2Fr$t4X7Zf8NOew3FLOH": "Column A1", "0aaaaaaaaaaaaaaaaaaaaa": "Footing A1"}
     lines = stall_details(robots, tasks, states, names)
     assert lines[0] == (
-        "robot r1: pick_up task T0004 on Column A1 (2O2Fr$t4): no path to [-0.05, -0.83] yet: waiting "
-        "(at sim 768.0 s)"
+        "robot r1: pick_up task T0004 on Column A1 (2O2Fr$t4X7Zf8NOew3FLOH): no path to [-0.05, -0.83] yet: "
+        "waiting (at sim 768.0 s)"
     )
     assert lines[1].startswith("robot r2: idle")
-    assert lines[2] == "task T0004 (Column A1 (2O2Fr$t4)): assigned to r1, attempt 1, component picking"
+    assert lines[2] == (
+        "task T0004 (Column A1 (2O2Fr$t4X7Zf8NOew3FLOH)): assigned to r1, attempt 1, component picking"
+    )
     assert len(lines) == 3  # the done task and the constructed component are not open
