@@ -21,6 +21,7 @@ import threading
 from bimbot.shared.bus import DEFAULT_ENDPOINT, BusOptions, open_session, zenoh_config
 from bimbot.shared.bus_config import add_bus_config_argument, bus_config_file, file_settings
 from bimbot.shared.service_runner import run_service
+from bimbot.shared.signal_event import wait_stop
 
 _log = logging.getLogger(__name__)
 
@@ -78,7 +79,7 @@ def main(options: BusOptions, stop: threading.Event, seconds: float | None = Non
             ", ".join(options.listen),
             access_summary(options),
         )
-        stop.wait(seconds)
+        wait_stop(stop, seconds)  # in slices: a signal is handled when the main thread runs
     _log.info("bus router stopped")
 
 

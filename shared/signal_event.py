@@ -9,13 +9,22 @@ two Ctrl-C in a row could do the same to ``bimbot run`` waiting on its viewer.
 
 So the handler only writes a byte to a pipe (one system call, no lock), and a small daemon thread that
 reads the pipe sets the event; if the main thread holds the lock, that thread waits until it lets go.
+That thread blocks the stop signals itself: the kernel hands a process's signal to any thread that does not
+block it, and Python runs the handler only when the main thread next runs Python code, so a signal taken by
+a thread that then sleeps in ``read`` would wait there; for the same reason a main thread must not wait
+without a bound (:func:`wait_stop`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import signal
 import threading
+import time
+
+STOP_SIGNALS = frozenset({signal.SIGINT, signal.SIGTERM})
+WAKE_S = 0.25  # a main thread waiting for a stop looks at its pending signal handlers this often
 
 
 class SignalEvent:
@@ -42,6 +51,7 @@ class SignalEvent:
             os.close(self._read_fd)
 
     def _watch(self) -> None:
+        signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)  # delivered to a thread that runs handlers
         while True:
             try:
                 data = os.read(self._read_fd, 64)
@@ -50,3 +60,15 @@ class SignalEvent:
             if not data:  # the write end closed: no more requests
                 return
             self.event.set()
+
+
+def wait_stop(stop: threading.Event, seconds: float | None = None) -> bool:
+    """``stop.wait(seconds)`` in slices of :data:`WAKE_S`, so the main thread runs a signal handler that is
+    due (a signal another thread received sets no event until then); whether ``stop`` is set."""
+    deadline = None if seconds is None else time.monotonic() + seconds
+    while True:
+        left = WAKE_S if deadline is None else min(WAKE_S, deadline - time.monotonic())
+        if left <= 0.0:
+            return stop.is_set()
+        if stop.wait(left):
+            return True

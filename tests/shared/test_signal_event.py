@@ -3,6 +3,8 @@
 A bus router was found alive 35 minutes after its run had been killed, its main thread five signal
 handlers deep in ``Event.set``: a handler that takes the stop event's lock while the main thread already
 holds it (inside ``Event.wait``, or inside the first handler when a second signal lands) waits for itself.
+And a main thread that waits without a bound never runs a handler for a signal another thread received:
+the router hung on the first burst of signals once a thread of its own (the pipe's reader) could take them.
 """
 
 from __future__ import annotations
@@ -12,7 +14,6 @@ import signal
 import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 from bimbot.supervisor import ServiceProcess, free_port, wait_until
@@ -60,11 +61,11 @@ def test_a_burst_of_signals_stops_a_service_cleanly(tmp_path: Path) -> None:
                 os.kill(bus.process.pid, signal.SIGTERM if number % 2 else signal.SIGINT)
             except ProcessLookupError:
                 break
-        started = time.monotonic()
-        code = bus.wait(timeout_s=20.0)
-        assert code == 0, bus.log()
-        assert time.monotonic() - started < 20.0
-        assert "bus router stopped" in bus.log()
+        code = bus.wait(timeout_s=20.0)  # raises TimeoutExpired when it hangs
+        assert "bus router stopped" in bus.log(), bus.log()  # it stopped itself, session closed
+        # 0; or a signal of the burst that landed after the service had finished, while the interpreter
+        # exits with its default handlers back
+        assert code in {0, -signal.SIGINT, -signal.SIGTERM}, bus.log()
     finally:
         if bus.alive():
             bus.kill()
