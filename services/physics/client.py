@@ -78,6 +78,9 @@ class BulletClient:
             client_id = p.connect(self.mode)
         if client_id < 0:
             raise RuntimeError("could not connect a pybullet physics server")
+        from .ray_scene import forget  # it imports this module
+
+        forget(client_id)  # whatever an earlier client of this id left (one disconnected without close())
         self._id = client_id
         _log.debug("pybullet client %d connected", client_id)
         return self

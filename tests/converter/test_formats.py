@@ -18,6 +18,7 @@ from bimbot.services.converter.convert import ConvertOptions, convert_model
 from bimbot.services.converter.ifc_input import open_model
 from bimbot.services.converter.mesh_files import VISUAL_FORMATS, parse_formats
 from bimbot.services.observer.app import load_mesh
+from bimbot.services.physics.client import BulletClient
 from bimbot.services.physics.scene import IDENTITY, component_model, create_component_body
 from bimbot.shared.manifest import Manifest
 
@@ -40,8 +41,8 @@ def _sdf_visual_uris(path: Path) -> list[str]:
 
 def _physics_builds_every_body(out: Path, manifest: Manifest, *, visual: bool = False) -> None:
     """Physics' own loader (``visual``: as with ``--gui``) makes a body of every component."""
-    client = pybullet.connect(pybullet.DIRECT)
-    try:
+    with BulletClient() as bullet:  # closed, it forgets what the laser's caster recorded of its bodies
+        client = bullet.id
         for component in manifest.components:
             model = component_model(component, out)
             body = create_component_body(client, component, model, IDENTITY, visual=visual)
@@ -53,8 +54,6 @@ def _physics_builds_every_body(out: Path, manifest: Manifest, *, visual: bool = 
             # with visual.obj (and --gui) pybullet draws it, else it draws the collision parts
             expected = "visual.obj" if visual and model.visual_file is not None else "collision_0.obj"
             assert expected in drawn, (component.guid, drawn)
-    finally:
-        pybullet.disconnect(client)
 
 
 def test_default_formats_are_every_visual_format_a_reader_uses() -> None:
