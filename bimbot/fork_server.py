@@ -95,9 +95,6 @@ class ForkedChild:
     def kill(self) -> None:
         self.send_signal(signal.SIGKILL)
 
-    def terminate(self) -> None:
-        self.send_signal(signal.SIGTERM)
-
 
 class ForkServer:
     """The run's side of a fork server: start it, ask it for children, learn how they ended."""

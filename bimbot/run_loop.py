@@ -25,7 +25,6 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from types import FrameType
 
 from bimbot.cli import BUG_MARK
 from bimbot.run_monitor import RunMonitor
@@ -34,7 +33,7 @@ from bimbot.run_restarts import Restarter
 from bimbot.run_watchdog import StallWatchdog, stall_details
 from bimbot.services.observer.report import RunEnding
 from bimbot.shared.reasons import ReasonCode
-from bimbot.shared.signal_event import SignalEvent
+from bimbot.shared.signal_event import stop_handlers
 from bimbot.supervisor import ServiceProcess
 
 _log = logging.getLogger(__name__)
@@ -51,28 +50,18 @@ class StopSignals:
     def __init__(self) -> None:
         self.signum: int | None = None
         self.event = threading.Event()
-        self._setter: SignalEvent | None = None
 
-    def _handle(self, signum: int, _frame: FrameType | None) -> None:
+    def _note(self, signum: int) -> None:
         if self.signum is None:
             self.signum = signum
-        if self._setter is not None:  # never the event's lock in a handler (shared/signal_event.py)
-            self._setter.request()
 
     @contextmanager
     def installed(self) -> Iterator[StopSignals]:
         if threading.current_thread() is not threading.main_thread():  # only the main thread may
             yield self
             return
-        self._setter = SignalEvent(self.event)
-        previous = {signum: signal.signal(signum, self._handle) for signum in (signal.SIGTERM, signal.SIGINT)}
-        try:
+        with stop_handlers(self.event, on_signal=self._note):  # never the event's lock in a handler
             yield self
-        finally:
-            for signum, handler in previous.items():
-                signal.signal(signum, handler)
-            self._setter.close()
-            self._setter = None
 
 
 @dataclass

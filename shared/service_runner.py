@@ -23,7 +23,6 @@ import argparse
 import logging
 import os
 import resource
-import signal
 import sys
 import threading
 from collections.abc import Callable, Iterator, Sequence
@@ -35,11 +34,9 @@ from bimbot.shared.bus import BusOptions, bus_options, zenoh_config
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import Manifest, load_manifest
 from bimbot.shared.output_paths import check_writable_dir
-from bimbot.shared.signal_event import SignalEvent
+from bimbot.shared.signal_event import STOP_SIGNALS, stop_handlers
 
 PRELOADED_ENV = "BIMBOT_PRELOADED_MB"  # set by bimbot.fork_server in a child: its server's resident MB
-
-STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
 
 _log = logging.getLogger(__name__)
 
@@ -57,16 +54,8 @@ def stop_on_signals(signums: Sequence[int] = STOP_SIGNALS) -> Iterator[threading
     if threading.current_thread() is not threading.main_thread():
         yield stop
         return
-    setter = SignalEvent(stop)  # a handler must not take the event's lock (shared/signal_event.py)
-    previous: dict[int, object] = {}
-    try:
-        for signum in signums:
-            previous[signum] = signal.signal(signum, lambda *_: setter.request())
+    with stop_handlers(stop, signums):  # a handler must not take the event's lock (shared/signal_event.py)
         yield stop
-    finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)  # type: ignore[arg-type]
-        setter.close()
 
 
 def service_bus(args: argparse.Namespace) -> BusOptions:

@@ -22,16 +22,20 @@ import os
 import signal
 import threading
 import time
+from collections.abc import Callable, Collection, Iterator
+from contextlib import contextmanager
 
-STOP_SIGNALS = frozenset({signal.SIGINT, signal.SIGTERM})
+STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
 WAKE_S = 0.25  # a main thread waiting for a stop looks at its pending signal handlers this often
 
 
 class SignalEvent:
-    """``event``, set by :meth:`request` — safe to call from a signal handler, any number of times."""
+    """``event``, set by :meth:`request` — safe to call from a signal handler, any number of times. Its
+    thread blocks ``signums``, the signals whose handlers call :meth:`request`."""
 
-    def __init__(self, event: threading.Event | None = None) -> None:
-        self.event = event if event is not None else threading.Event()
+    def __init__(self, event: threading.Event, signums: Collection[int] = STOP_SIGNALS) -> None:
+        self.event = event
+        self._signums = set(signums)
         self._read_fd, self._write_fd = os.pipe()
         os.set_blocking(self._write_fd, False)  # a full pipe already holds a request: drop this one
         self._watcher = threading.Thread(target=self._watch, name="signal-event", daemon=True)
@@ -51,7 +55,7 @@ class SignalEvent:
             os.close(self._read_fd)
 
     def _watch(self) -> None:
-        signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)  # delivered to a thread that runs handlers
+        signal.pthread_sigmask(signal.SIG_BLOCK, self._signums)  # delivered to a thread that runs handlers
         while True:
             try:
                 data = os.read(self._read_fd, 64)
@@ -60,6 +64,30 @@ class SignalEvent:
             if not data:  # the write end closed: no more requests
                 return
             self.event.set()
+
+
+@contextmanager
+def stop_handlers(
+    event: threading.Event,
+    signums: Collection[int] = STOP_SIGNALS,
+    on_signal: Callable[[int], None] | None = None,
+) -> Iterator[None]:
+    """For the ``with`` block (main thread only), ``signums`` set ``event`` through a :class:`SignalEvent`,
+    after ``on_signal(signum)`` if given (it must take no lock); the previous handlers come back after."""
+    setter = SignalEvent(event, signums)
+
+    def handle(signum: int, _frame: object) -> None:
+        if on_signal is not None:
+            on_signal(signum)
+        setter.request()
+
+    previous = {signum: signal.signal(signum, handle) for signum in signums}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        setter.close()
 
 
 def wait_stop(stop: threading.Event, seconds: float | None = None) -> bool:
