@@ -255,6 +255,10 @@ def reply_json(query: zenoh.Query, key: str, message: BaseModel) -> None:
 
 
 Handler = Callable[[zenoh.Query], None]
+# A start-up question asked before its answerer is up (a robot's for physics' site info, asked while
+# physics builds its scene) is asked again soon, then less often: a fixed 0.5 s held every run's first step
+# for up to half a second after physics was ready. A question nobody can answer yet costs next to nothing.
+FIRST_RETRY_S = 0.05
 
 
 def query_first(
@@ -271,10 +275,12 @@ def query_first(
     ``stop``).
 
     For start-up questions to another service's queryable (physics' site info): a bounded wait, never a
-    hang; None when nobody answered in time.
+    hang; None when nobody answered in time. Asked again after 0.05 s, then twice as long each time up to
+    ``retry_s``.
     """
     selector, model = queryable.key(**parts), queryable.reply
     deadline = time.monotonic() + timeout_s
+    pause_s = min(FIRST_RETRY_S, retry_s)
     while stop is None or not stop.is_set():
         left = deadline - time.monotonic()
         if left <= 0:
@@ -284,8 +290,10 @@ def query_first(
                 message = decode(model, selector, reply.ok.payload.to_bytes(), invalid)
                 if message is not None:
                     return message
+        wait_s = min(pause_s, max(0.0, deadline - time.monotonic()))
         if stop is not None:
-            stop.wait(min(retry_s, max(0.0, deadline - time.monotonic())))
+            stop.wait(wait_s)
         else:
-            time.sleep(min(retry_s, max(0.0, deadline - time.monotonic())))
+            time.sleep(wait_s)
+        pause_s = min(2.0 * pause_s, retry_s)
     return None

@@ -47,6 +47,11 @@ SECURE_JOIN_TIMEOUT_S = 30.0  # a session with credentials gives up joining afte
 # starting (bimbot run opens its monitor right after starting the router) waited 1.0 s for a router that
 # was listening after 0.25 s. Retry fast at first, then back off to Zenoh's usual pace.
 CONNECT_RETRY = {"period_init_ms": 50, "period_max_ms": 4000, "period_increase_factor": 2}
+# Zenoh spends ``scouting/delay`` (500 ms) of every session's opening looking for peers to connect to before
+# it returns, multicast scouting on or off. A bimbot session finds its peers through the router it connects
+# to (gossip), whenever they come, so it waits for none: each service, the router and bimbot run's own
+# session opened 0.5 s later than they could, before every run's first step and in every test.
+SCOUTING_DELAY_MS = 0
 _RUST_LOCATION = re.compile(r"\s+at /\S+\.rs:\d+\.?")
 
 
@@ -179,12 +184,15 @@ def bus_user(config: zenoh.Config) -> str | None:
 
 def zenoh_config(options: BusOptions) -> zenoh.Config:
     """A Zenoh config for ``options``: the config file (if any), then explicit endpoints, multicast
-    scouting off. Raises :class:`InputError` for an unusable file or endpoint."""
+    scouting off, no scouting delay unless the file sets one. Raises :class:`InputError` for an unusable
+    file or endpoint."""
     config = load_config_file(options.config_file) if options.config_file else zenoh.Config()
     config.insert_json5("mode", json.dumps(options.mode))
     _insert_endpoints(config, "connect", options.connect)
     _insert_endpoints(config, "listen", options.listen)
     config.insert_json5("scouting/multicast/enabled", "false")
+    if json.loads(config.get_json("scouting/delay")) is None:
+        config.insert_json5("scouting/delay", str(SCOUTING_DELAY_MS))
     if options.mode != "router" and json.loads(config.get_json("connect/timeout_ms")) is None:
         if bus_user(config) is not None:
             # Secured: a refused password looks like an absent router; give up after a bound, not never.

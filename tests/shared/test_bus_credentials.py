@@ -148,3 +148,14 @@ def test_a_client_retries_a_router_that_is_still_starting_fast_first(tmp_path: P
         BusOptions(mode="client", connect=("tcp/127.0.0.1:7447",), listen=(), config_file=own)
     )
     assert json.loads(mine.get_json("connect/retry"))["period_init_ms"] == 700
+
+
+def test_a_session_waits_for_no_scouting_unless_its_config_file_says_so(tmp_path: Path) -> None:
+    """Zenoh's default ``scouting/delay`` held every session's opening for 0.5 s, multicast off or on."""
+    for mode in ("peer", "client", "router"):
+        config = zenoh_config(BusOptions(mode=mode, connect=("tcp/127.0.0.1:7447",), listen=()))
+        assert json.loads(config.get_json("scouting/delay")) == 0, mode
+    own = tmp_path / "own.json5"
+    own.write_text("{ scouting: { delay: 300 } }")
+    mine = zenoh_config(BusOptions(mode="peer", connect=("tcp/127.0.0.1:7447",), listen=(), config_file=own))
+    assert json.loads(mine.get_json("scouting/delay")) == 300
