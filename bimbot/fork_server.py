@@ -113,6 +113,7 @@ class ForkServer:
         )
         self._changed = threading.Condition()
         self._pids: list[int] = []  # answers to spawn requests, in order
+        self._checks: dict[str, dict[str, Any]] = {}  # answers to check requests, by token ({}: none came)
         self._exits: dict[int, int] = {}
         self._gone = False  # the server's stdout closed: it is dead, no more answers come
         self._lock = threading.Lock()  # one spawn request at a time
@@ -158,6 +159,24 @@ class ForkServer:
                     self._gone = True
                     return None
                 return ForkedChild(self, self._pids.pop(0))
+
+    def check(self, request: dict[str, Any]) -> dict[str, Any] | None:
+        """Have a child of the server run the input check ``request`` asks for (:mod:`bimbot.forked_check`);
+        its answer, or None when none comes (the server is gone, or the child ended without answering)."""
+        token = request["check"]
+        with self._lock:
+            if not self.usable:
+                return None
+            assert self._process.stdin is not None
+            try:
+                self._process.stdin.write(json.dumps(request).encode() + b"\n")
+                self._process.stdin.flush()
+            except (BrokenPipeError, OSError):
+                return None
+            with self._changed:
+                while token not in self._checks and not self._gone:
+                    self._changed.wait(timeout=0.5)  # bounded by the child: it answers or ends
+                return self._checks.pop(token, None) or None
 
     def exit_code(self, pid: int) -> int | None:
         """How the child ended (None: still running)."""
@@ -206,6 +225,10 @@ class ForkServer:
             with self._changed:
                 if "pid" in message:
                     self._pids.append(int(message["pid"]))
+                elif "checked" in message:
+                    self._checks[str(message["checked"])] = message
+                elif "check_ended" in message:  # after its answer, if it gave one
+                    self._checks.setdefault(str(message["check_ended"]), {})
                 elif "exited" in message:
                     self._exits[int(message["exited"])] = int(message["code"])
                 self._changed.notify_all()
@@ -254,7 +277,7 @@ def serve(requests: int = 0, answers: int = 1) -> int:
     selector = selectors.DefaultSelector()
     selector.register(requests, selectors.EVENT_READ)
     pending = b""
-    children: dict[int, int] = {}  # pidfd → pid
+    children: dict[int, tuple[int, str | None]] = {}  # pidfd → pid, and the token of a check's child
     while True:
         for key, _events in selector.select():
             if key.fd == requests:
@@ -264,17 +287,22 @@ def serve(requests: int = 0, answers: int = 1) -> int:
                 pending += data
                 while b"\n" in pending:
                     line, pending = pending.split(b"\n", 1)
-                    pid = _fork_child(json.loads(line), keep_open=(requests, answers, selector))
+                    request = json.loads(line)
+                    token = request.get("check")
+                    keep_open = (requests, answers, selector)
+                    pid = _fork_check(request, keep_open) if token else _fork_child(request, keep_open)
                     pidfd = os.pidfd_open(pid)
-                    children[pidfd] = pid
+                    children[pidfd] = (pid, token)
                     selector.register(pidfd, selectors.EVENT_READ)
-                    _answer(answers, {"pid": pid})
+                    if not token:
+                        _answer(answers, {"pid": pid})
             else:
-                pid = children.pop(key.fd)
+                pid, token = children.pop(key.fd)
                 selector.unregister(key.fd)
                 os.close(key.fd)
                 _, status = os.waitpid(pid, 0)
-                _answer(answers, {"exited": pid, "code": os.waitstatus_to_exitcode(status)})
+                code = os.waitstatus_to_exitcode(status)
+                _answer(answers, {"check_ended": token} if token else {"exited": pid, "code": code})
 
 
 def _answer(fd: int, message: dict[str, Any]) -> None:
@@ -310,6 +338,29 @@ def _fork_child(request: dict[str, Any], keep_open: tuple[int, int, selectors.Ba
             atexit._run_exitfuncs()  # what an interpreter does at exit (logging flushes, zenoh …)
             sys.stdout.flush()
             sys.stderr.flush()
+        os._exit(code)
+
+
+def _fork_check(request: dict[str, Any], keep_open: tuple[int, int, selectors.BaseSelector]) -> int:
+    """A child that runs ``bimbot run``'s input check and answers (:mod:`bimbot.forked_check`)."""
+    pid = os.fork()
+    if pid:
+        return pid
+    code = 1
+    try:
+        requests, answers, selector = keep_open
+        selector.close()
+        os.dup2(os.open(os.devnull, os.O_RDONLY), requests)  # the run's requests are the server's
+        from bimbot.forked_check import answer_check
+
+        _answer(answers, answer_check(request))
+        code = 0
+    except BaseException:
+        import traceback
+
+        traceback.print_exc()  # into the server's log
+    finally:
+        sys.stderr.flush()
         os._exit(code)
 
 

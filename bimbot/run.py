@@ -36,6 +36,7 @@ from typing import Any
 from bimbot.as_built import as_built_line
 from bimbot.fork_server import ForkServer
 from bimbot.fork_server import enabled as fork_server_enabled
+from bimbot.forked_check import apply_answer, check_request
 from bimbot.run_args import (
     ObserverOptions,
     RunOptions,
@@ -121,7 +122,7 @@ def _run_build(
     launcher: ForkServer | None,
     started: float,
 ) -> RunOutcome:
-    check_run_input(build, options)  # bad input: one line and exit 2, before any service starts
+    _check_input(build, options, launcher)  # bad input: one line and exit 2, before any service starts
     manifest = load_manifest(build)
     run = RunFolder(options.run_dir) if options.run_dir is not None else new_run_folder(build)
     log_dir = run.logs_dir
@@ -137,7 +138,7 @@ def _run_build(
     restarter = Restarter(RestartPolicy(max_restarts=options.max_restarts))
     bus = secure_bus(run, options, manifest.site)  # None unless --secure; writes RUN/bus/
     with StopSignals().installed() as stop:
-        router = ServiceProcess("bus", router_arguments(endpoint, bus), log_dir)
+        router = ServiceProcess("bus", router_arguments(endpoint, bus), log_dir, launcher=launcher)
         watch = f"bimbot watch --build {build} --connect {endpoint}"
         if bus is not None:
             watch += f" --mode client --bus-config {bus.monitor}"
@@ -204,6 +205,16 @@ def _run_build(
             progress.close()
             stop_all([router, *services])
             run.mark_ended(ended_how)  # services started by hand later make a new run folder
+
+
+def _check_input(build: Path, options: RunOptions, launcher: ForkServer | None) -> None:
+    """:func:`check_run_input`, in a child of the fork server when there is one (:mod:`bimbot.forked_check`:
+    this process then never imports the services' code), else here."""
+    if launcher is not None:
+        answer = launcher.check(check_request(build, options))
+        if answer is not None and apply_answer(answer):
+            return
+    check_run_input(build, options)
 
 
 def _write_report(report: dict[str, Any], report_dir: Path) -> None:

@@ -101,11 +101,11 @@ def test_one_robot_builds_the_whole_frame_within_tolerance(build: Path) -> None:
     # the schedule's order (a chain in the IFC work schedule) was kept
     order = sorted(report["components"], key=lambda c: c["sequence_index"])
     assert [c["constructed_s"] for c in order] == sorted(c["constructed_s"] for c in order)
-    # every service but the router was forked from the run's fork server (bimbot.fork_server)
+    # every service, the router too, was forked from the run's fork server (bimbot.fork_server)
     logs = _latest(build).logs_dir
     assert "service modules preloaded" in (logs / "fork-server.log").read_text()
     forked = {log.stem for log in logs.glob("*.log") if "forked from a" in log.read_text()}
-    assert forked == {"physics", "agents", "planner", "robot-r1"}, forked
+    assert forked == {"bus", "physics", "agents", "planner", "robot-r1"}, forked
 
 
 def test_two_robots_share_the_work_and_keep_apart(build: Path) -> None:

@@ -3,7 +3,9 @@
 Each test starts a real server (``python -m bimbot.fork_server``, which preloads every service's code) and
 real services from it: a bus router that must listen, a physics command that must reject its input in one
 line, a service killed by a signal, and a server killed by SIGKILL whose services must not outlive it
-(a killed run's: tests/run/test_stop_with_parent.py).
+(a killed run's: tests/run/test_stop_with_parent.py). The run's input check, done by a child of the server
+(:mod:`bimbot.forked_check`), must answer as the check in the run's own process does, and leave the run's
+process without the services' code.
 """
 
 from __future__ import annotations
@@ -11,12 +13,17 @@ from __future__ import annotations
 import os
 import signal
 import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
 from bimbot.fork_server import ForkedChild, ForkServer
+from bimbot.forked_check import apply_answer, check_request
+from bimbot.run_args import RunOptions
+from bimbot.run_preflight import check_run_input
+from bimbot.shared.errors import UserError
 from bimbot.supervisor import ServiceProcess, free_port, wait_until
 
 
@@ -101,3 +108,71 @@ def test_when_the_server_dies_its_services_stop_and_the_next_start_plainly(tmp_p
         _plain_bus("bus-again", tmp_path, launcher)
     finally:
         launcher.close()
+
+
+def _local_answer(build: Path, options: RunOptions) -> str:
+    try:
+        check_run_input(build, options)
+    except UserError as error:
+        return str(error)
+    return "ok"
+
+
+def _forked_answer(server: ForkServer, build: Path, options: RunOptions) -> str:
+    answer = server.check(check_request(build, options))
+    assert answer is not None and "failed" not in answer, answer
+    try:
+        assert apply_answer(answer)
+    except UserError as error:
+        return str(error)
+    return "ok"
+
+
+def test_the_run_s_input_check_answers_in_a_child_of_the_server_as_it_does_in_the_run(
+    server: ForkServer, bundled_build: Path, tmp_path: Path
+) -> None:
+    broken = tmp_path / "broken.xml"
+    broken.write_text("this is not XML")
+    cases = [
+        RunOptions(robots=1),
+        RunOptions(planner_source=("--derive",)),
+        RunOptions(planner_source=("--sequence", str(broken))),
+        RunOptions(planner_source=("--sequence", str(tmp_path / "missing.xml"))),
+        RunOptions(physics_hz=120.0, control_period_s=0.0125),
+        RunOptions(inject_placement_error_m=-1.0),
+    ]
+    answers = [
+        (_forked_answer(server, bundled_build, each), _local_answer(bundled_build, each)) for each in cases
+    ]
+    assert [forked for forked, _ in answers] == [local for _, local in answers]
+    assert [forked == "ok" for forked, _ in answers] == [True, True, False, False, False, False]
+    assert str(broken) in answers[2][0]
+    assert server.check(check_request(tmp_path / "no_such_build", RunOptions())) is not None
+
+
+CHECK_IN_RUN = """
+import sys
+from pathlib import Path
+from bimbot.fork_server import ForkServer
+from bimbot.run import _check_input
+from bimbot.run_args import RunOptions
+launcher = ForkServer()
+try:
+    _check_input(Path(sys.argv[1]), RunOptions(robots=1), launcher)
+finally:
+    launcher.close()
+print(sorted(name for name in sys.modules if name.startswith("bimbot.services.")))
+"""
+
+
+def test_with_a_server_the_run_s_process_never_imports_the_services_code(bundled_build: Path) -> None:
+    done = subprocess.run(
+        [sys.executable, "-c", CHECK_IN_RUN, str(bundled_build)],
+        check=True,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    imported = done.stdout.strip()
+    for heavy in ("physics.app", "physics.simulation", "planner.app", "robot.app"):
+        assert f"bimbot.services.{heavy}'" not in imported, imported
