@@ -53,6 +53,11 @@ UNSTABLE_HINT = (
     "`bimbot run BUILD --check-stability` shows which steps of the sequence stand on their own"
 )
 
+BUMPED_HINT = (
+    "a robot drove into it before it was joined to the structure: its route passed too close (see that "
+    "robot's log), or its laser did not see the component"
+)
+
 PLANNER_SOURCE = "planner"  # ComponentEventMsg.source of the planner's events; a robot's is its id
 PLANNER_EVENTS = frozenset(
     {ComponentEvent.RELEASE, ComponentEvent.RETRY, ComponentEvent.FAIL, ComponentEvent.BLOCK}
@@ -120,6 +125,7 @@ class ComponentAgent:
         "_machine",
         "arrive_sim_time_s",
         "attempt",
+        "bumped",
         "component",
         "drift_m",
         "event_ids",
@@ -161,6 +167,7 @@ class ComponentAgent:
         self.drift_m: float | None = None  # how far it moved since physics released it (its latest pose)
         self.supports: tuple[str, ...] = ()  # what it rested on then
         self.open_pits: tuple[str, ...] = ()  # released over the open pit of these foundations
+        self.bumped: tuple[str, float] | None = None  # the robot that touched it since its release, when
         self.arrive_sim_time_s: float | None = None
         self.place_sim_time_s: float | None = None
         self.place_note = ""  # what the placing robot said with its place event (e.g. placed unaligned)
@@ -258,6 +265,8 @@ class ComponentAgent:
         self.pose_sim_time_s = msg.sim_time_s
         self.pose_fixed = msg.fixed
         self.drift_m, self.supports, self.open_pits = msg.drift_m, tuple(msg.supports), tuple(msg.open_pits)
+        bumped_at_s = msg.bumped_at_s if msg.bumped_at_s is not None else msg.sim_time_s
+        self.bumped = (msg.bumped_by, bumped_at_s) if msg.bumped_by else None
         return self.try_verify(now_wall_s)
 
     def try_verify(self, now_wall_s: float | None = None) -> list[ComponentStateMsg]:
@@ -385,17 +394,23 @@ class ComponentAgent:
                 if self.open_pits
                 else "the ground or nothing"
             )
+            how = (
+                f"robot {self.bumped[0]} touched it at t={self.bumped[1]:.1f} s"
+                if self.bumped is not None
+                else "slid, tipped or fell"
+            )
             miss = Reason(
                 code=ReasonCode.UNSTABLE,
-                message=f"it moved {check.drift_m or 0.0:.3f} m after it was released (slid, tipped or "
-                f"fell; tolerance {tol.drift_m * 1000:g} mm) and came to rest on {rested}; {why}",
+                message=f"it moved {check.drift_m or 0.0:.3f} m after it was released ({how}; tolerance "
+                f"{tol.drift_m * 1000:g} mm) and came to rest on {rested}; {why}",
                 robot_id=self.robot_id,
             )
         elif verdict is not Verdict.VERIFIED:
             note = f"; {self.place_note}" if self.place_note else ""
             miss = Reason(code=ReasonCode.MISPLACED, message=f"{why}; {cause}{note}", robot_id=self.robot_id)
         if verdict is Verdict.FAILED and miss is not None and miss.code is ReasonCode.UNSTABLE:
-            miss = miss.model_copy(update={"message": f"{miss.message}; {UNSTABLE_HINT}"})
+            hint = BUMPED_HINT if self.bumped is not None else UNSTABLE_HINT
+            miss = miss.model_copy(update={"message": f"{miss.message}; {hint}"})
         if verdict is Verdict.FAILED:
             self.reason = miss
         return self._record(

@@ -447,6 +447,8 @@ class Handling(Placing):
             drift_m=drift,
             supports=list(watch.supports if watch is not None else item.supports),
             open_pits=list(watch.open_pits if watch is not None else ()),
+            bumped_by=watch.bumped_by if watch is not None else None,
+            bumped_at_s=watch.bumped_at_s if watch is not None else None,
         )
 
     def take_changed(self) -> list[str]:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Mapping
 from enum import StrEnum
 from typing import TYPE_CHECKING
 
@@ -30,7 +31,7 @@ from bimbot.shared.site_plan import Rect
 
 from .client import p
 from .placement_error import physical_placement
-from .release import Watch, box_corners, clear_overlap, observe, supports_of
+from .release import Watch, box_corners, clear_overlap, observe, supports_of, touching_robot
 from .scene import (
     ALL_GROUPS,
     DYNAMIC_GROUP,
@@ -242,11 +243,14 @@ class Placing:
         )
         return {body: self.guid_of[body] for body, _ in found or () if body in self.guid_of}
 
-    def watch_placed(self, now_s: float) -> list[tuple[object, PhysicsReply]]:
-        """Once per control period: every released component's pose, drift and rest; the placements that
-        came to rest are answered (``(tag, reply)``)."""
+    def watch_placed(
+        self, now_s: float, robots: Mapping[str, Robot] | None = None
+    ) -> list[tuple[object, PhysicsReply]]:
+        """Once per control period: every released component's pose, drift and rest, and the first of
+        ``robots`` to touch it; the placements that came to rest are answered (``(tag, reply)``)."""
         answered: list[tuple[object, PhysicsReply]] = []
         config = self.settle
+        robot_of = {robot.body_id: robot_id for robot_id, robot in (robots or {}).items()}
         for guid, watch in self.watch.items():
             item = self.items[guid]
             corners = self._corners.get(guid)
@@ -258,6 +262,18 @@ class Placing:
                 watch.settled = watch.stopped = True
             if watch.placed_on is None:  # what it was set down on, before it could slide or tip away
                 watch.placed_on = supports_of(self.client_id, item.body.body_id, self.guid_of)
+            if watch.bumped_by is None and robot_of and not watch.stopped:
+                bumper = touching_robot(self.client_id, item.body.body_id, robot_of)
+                if bumper is not None:
+                    watch.bumped_by, watch.bumped_at_s = bumper, now_s
+                    self.changed.add(guid)
+                    _log.info(
+                        "%s touched by robot %s at t=%.2f s, %.1f mm from where it was released",
+                        guid,
+                        bumper,
+                        now_s,
+                        1000.0 * watch.drift_m,
+                    )
             if not watch.settled or abs(watch.drift_m - watch.published_drift_m) >= config.publish_drift_m:
                 watch.published_drift_m = watch.drift_m
                 self.changed.add(guid)
@@ -280,12 +296,15 @@ class Placing:
             if watch.drift_m > config.report_drift_m and not watch.reported:
                 watch.reported = True
                 _log.warning(
-                    "%s moved %.3f m since it was released at t=%.2f s (unstable); it was set down on %s%s",
+                    "%s moved %.3f m since it was released at t=%.2f s (unstable); it was set down on %s%s%s",
                     guid,
                     watch.drift_m,
                     watch.start_s,
                     ", ".join(watch.placed_on or ()) or "the ground (or nothing)",
                     f", over the open pit of {', '.join(watch.open_pits)}" if watch.open_pits else "",
+                    f"; robot {watch.bumped_by} touched it at t={watch.bumped_at_s:.2f} s"
+                    if watch.bumped_by
+                    else "",
                 )
         return answered
 

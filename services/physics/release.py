@@ -9,7 +9,10 @@ convex collision parts, friction) onto what is under it, and watches it here eve
 * **settled** — at rest (speed below ``quiet_speed_mps`` and turn rate below ``quiet_turn_radps``) for
   ``quiet_s``, or still moving after ``max_settle_s`` (it is falling or sliding: the drift says so); the
   place request is answered then, with the pose it came to rest at;
-* **supports** — the components it touches once settled (the ground and pit floors have no GUID).
+* **supports** — the components it touches once settled (the ground and pit floors have no GUID);
+* **bumped by** — the first robot that touched it after its release (a robot driving past a placed
+  component pushes it; its releaser does not collide with it until they are clear), so a drift it caused
+  is not taken for a component that could not stand.
 
 The component's agent judges the placement from that pose and drift (a drift beyond its bound is
 ``unstable``); physics logs every drift beyond ``report_drift_m`` with the supports. Pure bookkeeping over
@@ -60,6 +63,8 @@ class Watch:
     open_pits: tuple[str, ...] = ()  # foundations not placed yet whose open pit it was released over
     reported: bool = False  # its drift beyond report_drift_m was logged
     stopped: bool = False  # it fell off the site and was stopped there, static
+    bumped_by: str | None = None  # the first robot that touched it since its release (traffic past it)
+    bumped_at_s: float | None = None  # when (sim s)
 
 
 def box_corners(component: Component) -> np.ndarray:
@@ -139,3 +144,12 @@ def observe(
         quiet = watch.quiet_since_s is not None and now_s - watch.quiet_since_s >= config.quiet_s
         watch.settled = quiet or now_s - watch.start_s >= config.max_settle_s
     return frame
+
+
+def touching_robot(client_id: int, body_id: int, robot_of: Mapping[int, str]) -> str | None:
+    """The robot (id) whose body touches ``body_id`` now, if any (``robot_of``: robot body → robot id)."""
+    for contact in p.getContactPoints(bodyA=body_id, physicsClientId=client_id) or ():
+        robot_id = robot_of.get(contact[2])
+        if robot_id is not None:
+            return robot_id
+    return None

@@ -394,7 +394,7 @@ class Simulation:
             if self.handling.carrying:
                 replies.extend(self.handling.follow(self.robots, start_s + index * step_s))
         self.step += 1
-        replies.extend(self.handling.watch_placed(self.sim_time_s))
+        replies.extend(self.handling.watch_placed(self.sim_time_s, self.robots))
         self.handling.pose_hooks(self.robots)
         self.handling.settle_separated()
         messages = self._period_messages(real_time_factor, odometry=True)

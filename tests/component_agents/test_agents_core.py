@@ -175,6 +175,29 @@ def test_a_component_that_moved_after_release_is_unstable_even_where_it_came_to_
     assert agent.twin().reason == agent.reason
 
 
+def test_a_component_a_robot_drove_into_names_that_robot_not_a_structure_that_could_not_stand() -> None:
+    """Physics says which robot touched a released component: its ``unstable`` reason names that robot
+    and when, and the failed reason points at the robot's route, not at bracing or --check-stability."""
+    agent = new_agent(max_attempts=1)
+    drive_to_assembling(agent)
+    pushed = pose_of(agent.component, sim_time_s=5.0, offset_m=(0.03, 0.0, 0.0)).model_copy(
+        update={"drift_m": 0.027, "fixed": True, "bumped_by": "r2", "bumped_at_s": 4.5}
+    )
+    agent.observe_pose(pushed, NOW)
+    failed = agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=5.0), NOW)
+    assert states(failed) == [S.VERIFYING, S.FAILED]
+    assert agent.reason is not None and agent.reason.code.value == "unstable"
+    message = agent.reason.message
+    assert "robot r2 touched it at t=4.5 s" in message and "moved 0.027 m" in message
+    assert "slid, tipped or fell" not in message and "--check-stability" not in message
+    assert "route" in message
+    calm = new_agent(max_attempts=1)
+    drive_to_assembling(calm)
+    calm.observe_pose(pushed.model_copy(update={"bumped_by": None, "bumped_at_s": None}), NOW)
+    calm.apply_event(event(calm.guid, E.PLACE, sim_time_s=5.0), NOW)
+    assert calm.reason is not None and "slid, tipped or fell" in calm.reason.message
+
+
 def test_a_small_settling_drift_is_within_tolerance_and_a_miss_says_misplaced() -> None:
     agent = new_agent()
     drive_to_assembling(agent)

@@ -523,7 +523,7 @@ def test_a_placed_component_that_falls_off_after_it_rested_is_stopped_too(
     assert p.getDynamicsInfo(body.body_id, -1, physicsClientId=sim.client_id)[0] == 0.0  # static
 
 
-def test_a_carrier_overlapping_the_component_it_released_does_not_push_it(
+def test_a_carrier_overlapping_what_it_released_does_not_push_it_but_a_robot_driving_into_it_is_named(
     make_sim: Callable[..., Simulation], frame_manifest: Manifest
 ) -> None:
     """Carried kinematically, a load may end its placement inside its carrier's bounding box; released, the
@@ -554,6 +554,16 @@ def test_a_carrier_overlapping_the_component_it_released_does_not_push_it(
     assert sim.handling.watch[column.guid].drift_m < 0.003  # not kicked over
     drive(sim, "r1", -0.5, 0.0, 3.0)  # the carrier backs out: clear, they collide again
     assert item.separating_from is None
+    assert sim.handling.watch[column.guid].bumped_by is None  # passing through its releaser is no touch
     rest = component_pose(sim.client_id, item.body)
     drive(sim, "r1", 0.6, 0.0, 4.0)  # and driving into the column now moves it
     assert math.dist(component_pose(sim.client_id, item.body)[0], rest[0]) > 0.01
+    # and physics says who did it, so its agent's verdict names the robot, not a column that cannot stand
+    watch = sim.handling.watch[column.guid]
+    assert (
+        watch.bumped_by == "r1"
+        and watch.bumped_at_s is not None
+        and watch.bumped_at_s > replies[0][1].sim_time_s
+    )
+    message = sim.handling.pose_message(column.guid, sim.sim_time_s)
+    assert message.bumped_by == "r1" and message.bumped_at_s == watch.bumped_at_s
