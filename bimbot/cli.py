@@ -105,6 +105,7 @@ def build_parser(argv: list[str]) -> argparse.ArgumentParser:
         sub_parser.set_defaults(_module=module_name)
         if name == chosen:
             importlib.import_module(module_name).add_arguments(sub_parser)
+            sub_parser.set_defaults(_parser=sub_parser)  # its own errors name it (``main``)
     return parser
 
 
@@ -124,11 +125,21 @@ def stop_with_parent() -> None:
         raise SystemExit(f"the process that started this service ({parent}) is gone")
 
 
+def parse_arguments(argv: list[str]) -> argparse.Namespace:
+    """``argv`` parsed; an option the sub-command does not know is that sub-command's error (``bimbot
+    convert: error: unrecognized arguments: --robots 3``), not the top-level parser's."""
+    parser = build_parser(argv)
+    args, extras = parser.parse_known_args(argv)
+    if extras:
+        getattr(args, "_parser", parser).error(f"unrecognized arguments: {' '.join(extras)}")
+    return args
+
+
 def main(argv: list[str] | None = None) -> int:
     """Parse ``argv``, run the chosen sub-command and map how it ended to the exit code."""
     argv = sys.argv[1:] if argv is None else argv
     stop_with_parent()
-    args = build_parser(argv).parse_args(argv)
+    args = parse_arguments(argv)
     configure_logging(-1 if args.quiet else args.verbose)
     module = importlib.import_module(args._module)
     try:

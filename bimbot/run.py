@@ -26,6 +26,7 @@ import argparse
 import logging
 import re
 import shutil
+import signal
 import sys
 import time
 from collections.abc import Callable
@@ -179,6 +180,9 @@ def _run_build(
                 ).run()
                 ended_how = f"{result.ending.how}: {result.ending.message}"
                 progress.close()
+                if result.signum is not None:  # a user who pressed Ctrl-C sees at once that it was heard
+                    name = signal.Signals(result.signum).name
+                    announce(f"{name}: stopping the services and writing the report …")
                 monitor.drain(wait_s=0.3)  # the last state messages
                 monitor.audit()  # the twins confirm every state, physics' poses against the BIM targets
                 outcome = _outcome(manifest, monitor, result, time.perf_counter() - started)
@@ -355,10 +359,15 @@ def _caught(outcome: RunOutcome) -> str:
 
 def summary_text(outcome: RunOutcome) -> str:
     totals = outcome.report.get("totals", {})
+    ending = outcome.ending
+    early = []  # first: why the numbers below are what they are
+    if ending is not None and ending.how != "done":
+        early = [f"the run ended early: {ending.message}", *(f"  {detail}" for detail in ending.details)]
     lines = [
+        *early,
         f"constructed {outcome.constructed}/{outcome.total} components in "
         f"{outcome.sim_time_s:.1f} s sim time ({outcome.wall_time_s:.1f} s wall{_makespan(totals)}), "
-        f"{_caught(outcome)}, {totals.get('give_backs', 0)} give-back(s) by robots"
+        f"{_caught(outcome)}, {totals.get('give_backs', 0)} give-back(s) by robots",
     ]
     if totals.get("max_position_error_mm") is not None:
         lines.append(
@@ -396,10 +405,6 @@ def summary_text(outcome: RunOutcome) -> str:
             lines.append(
                 f"  … and {len(outcome.plan_warnings) - MAX_PLAN_WARNINGS_SHOWN} more (logs/planner.log)"
             )
-    ending = outcome.ending
-    if ending is not None and ending.how != "done":
-        lines.append(f"the run ended early: {ending.message}")
-        lines += [f"  {detail}" for detail in ending.details]
     table = not_built_table(outcome.report)
     if table:
         lines.append(table.rstrip("\n"))

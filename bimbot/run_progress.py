@@ -2,9 +2,9 @@
 
 A slow build and a stuck one must look different while they run. On a terminal the progress is a rich
 ``Live`` display (redrawn a few times a second, one row per robot: state, task, component, what it is
-doing); when stdout is not a terminal (a log file, CI) it is one plain line every ``PLAIN_EVERY_S`` wall
-seconds, so logs stay readable; ``-q`` turns it off. The text is made by pure functions
-(:func:`progress_line`, :func:`robot_line`, :class:`RateWindow`); the displays only show it.
+doing); when stdout is not a terminal (a log file, CI) it is one plain line as the clock starts, then one
+every ``PLAIN_EVERY_S`` wall seconds, so logs stay readable; ``-q`` turns it off. The text is made by pure
+functions (:func:`progress_line`, :func:`robot_line`, :class:`RateWindow`); the displays only show it.
 """
 
 from __future__ import annotations
@@ -130,7 +130,8 @@ class NoProgress:
 
 
 class PlainProgress(_Base):
-    """One line every ``every_s`` wall seconds (stdout is not a terminal)."""
+    """One line as the site's clock starts, then one every ``every_s`` wall seconds (stdout is not a
+    terminal: a log, a pipe, CI; the first line had come only after ``every_s``)."""
 
     def __init__(
         self, names: Mapping[str, str | None], say: Callable[[str], None], every_s: float = PLAIN_EVERY_S
@@ -138,6 +139,22 @@ class PlainProgress(_Base):
         super().__init__(names)
         self.say, self.every_s = say, every_s
         self._next_s = every_s
+        self._clock_seen = False
+
+    def update(
+        self,
+        constructed: int,
+        total: int,
+        sim_time_s: float,
+        robots: Mapping[str, RobotStateMsg],
+        wall_s: float,
+        *,
+        not_built: int = 0,
+    ) -> None:
+        if not self._clock_seen and sim_time_s > 0.0:
+            self._clock_seen = True
+            self._next_s = min(self._next_s, wall_s)
+        super().update(constructed, total, sim_time_s, robots, wall_s, not_built=not_built)
 
     def _show(self, head: str, robot_lines: list[str], wall_s: float) -> None:
         if wall_s >= self._next_s:

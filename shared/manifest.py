@@ -192,6 +192,8 @@ def load_manifest(build: Path) -> Manifest:
     line naming the file (what every service and ``bimbot run`` report), never a traceback."""
     build = Path(build)
     path = build / MANIFEST_FILE_NAME if build.is_dir() else build
+    if not build.exists():
+        raise UserError(f"{build}: no such folder (convert a model first: bimbot convert MODEL.ifc -o OUT/)")
     if not path.is_file():
         raise UserError(f"{path}: no manifest (convert a model first: bimbot convert MODEL.ifc -o OUT/)")
     if path.suffix.lower() in (".ifc", ".ifczip", ".ifcxml"):

@@ -183,3 +183,17 @@ def test_run_rejects_an_impossible_option_before_any_service_starts(
 def test_physics_rejects_a_non_finite_or_negative_number(build: Path, options: tuple[str, ...]) -> None:
     done = _bimbot("physics", "--build", str(build), *options)
     _one_line(done, options[0])
+
+
+# --- from a new user's trial ---------------------------------------------------------------------------
+
+
+def test_an_option_the_sub_command_does_not_know_is_that_sub_command_s_error(tmp_path: Path) -> None:
+    done = _bimbot("convert", str(bundled_model_path()), "-o", str(tmp_path / "out"), "--robots", "3")
+    _one_line(done, "bimbot convert: error: unrecognized arguments: --robots 3", "bimbot convert --help")
+    assert not (tmp_path / "out").exists()
+
+
+def test_run_on_a_folder_that_does_not_exist_says_so(tmp_path: Path) -> None:
+    missing = tmp_path / "no_build_here"
+    _one_line(_bimbot("run", str(missing)), str(missing), "no such folder", "bimbot convert")

@@ -116,6 +116,9 @@ def test_sigterm_stops_every_service_and_their_groups_and_still_writes_the_repor
         assert component["reason"]["code"] == "interrupted"
         assert _in_the_table(out, component), out
     assert "interrupted" in out and "the run ended early: stopped by SIGTERM" in out
+    # the signal is acknowledged at once, and the summary starts with why it is short
+    heard = out.index("SIGTERM: stopping the services and writing the report")
+    assert heard < out.index("the run ended early") < out.index(" components in ")
 
 
 def test_a_site_where_nothing_changes_ends_stalled_saying_what_each_robot_was_doing(

@@ -51,12 +51,20 @@ def test_progress_and_robot_lines() -> None:
     assert line.endswith("…") and len(line) < 100
 
 
-def test_plain_progress_says_one_line_every_ten_seconds() -> None:
+def test_plain_progress_says_one_line_as_the_clock_starts_then_one_every_ten_seconds() -> None:
     said: list[str] = []
-    plain = PlainProgress({GUID: "Column A1"}, said.append, every_s=10.0)
-    for tenth in range(0, 305):  # 30.5 s of updates, ten a second
-        plain.update(1, 5, tenth * 0.5, {"r1": ROBOT}, tenth / 10.0)
-    assert len(said) == 3
+    said_at: list[float] = []
+    wall = [0.0]
+
+    def say(line: str) -> None:
+        said.append(line)
+        said_at.append(wall[0])
+
+    plain = PlainProgress({GUID: "Column A1"}, say, every_s=10.0)
+    for tenth in range(0, 305):  # 30.5 s of updates, ten a second; the clock held at 0 for the first 1 s
+        wall[0] = tenth / 10.0
+        plain.update(1, 5, max(0.0, tenth - 10) * 0.5, {"r1": ROBOT}, wall[0])
+    assert said_at == [1.1, 11.1, 21.1]  # as the clock started, then every ten seconds
     assert (
         said[0].startswith("progress: constructed 1/5 · sim ") and "; r1 pick_up T0004 Column A1" in said[0]
     )
