@@ -256,13 +256,15 @@ class Placing:
             corners = self._corners.get(guid)
             if corners is None:
                 corners = self._corners[guid] = box_corners(item.component)
-            was_settled = watch.settled
+            was_settled, drift_before_m = watch.settled, watch.drift_m
             item.pose = observe(self.client_id, item.body, corners, watch, now_s=now_s, config=config)
             if not watch.stopped and self._fell_off(item):  # settled or not: it may still tip off later
                 watch.settled = watch.stopped = True
             if watch.placed_on is None:  # what it was set down on, before it could slide or tip away
                 watch.placed_on = supports_of(self.client_id, item.body.body_id, self.guid_of)
-            if watch.bumped_by is None and robot_of and not watch.stopped:
+            # a robot that touches it where it lay at the start of this period pushed it; one it fell onto
+            # (a beam tipping off its column onto the carrier beside it) did not
+            if watch.bumped_by is None and robot_of and drift_before_m <= config.report_drift_m:
                 bumper = touching_robot(self.client_id, item.body.body_id, robot_of)
                 if bumper is not None:
                     watch.bumped_by, watch.bumped_at_s = bumper, now_s

@@ -10,9 +10,10 @@ convex collision parts, friction) onto what is under it, and watches it here eve
   ``quiet_s``, or still moving after ``max_settle_s`` (it is falling or sliding: the drift says so); the
   place request is answered then, with the pose it came to rest at;
 * **supports** — the components it touches once settled (the ground and pit floors have no GUID);
-* **bumped by** — the first robot that touched it after its release (a robot driving past a placed
-  component pushes it; its releaser does not collide with it until they are clear), so a drift it caused
-  is not taken for a component that could not stand.
+* **bumped by** — the first robot that touched it while it still lay where it was put at the start of
+  that control period (a robot driving past a placed component pushes it; its releaser does not collide
+  with it until they are clear; a component that tipped and fell onto a robot was not pushed by it), so a
+  drift a robot caused is not taken for a component that could not stand.
 
 The component's agent judges the placement from that pose and drift (a drift beyond its bound is
 ``unstable``); physics logs every drift beyond ``report_drift_m`` with the supports. Pure bookkeeping over

@@ -14,7 +14,13 @@ from physics_builders import angle_between, bottom_z, distance_to_footprint, dri
 
 from bimbot.services.physics.client import p
 from bimbot.services.physics.handling import Phase
-from bimbot.services.physics.scene import component_pose, compose, distance_to_rect, footprint
+from bimbot.services.physics.scene import (
+    component_pose,
+    compose,
+    distance_to_rect,
+    footprint,
+    set_component_pose,
+)
 from bimbot.services.physics.simulation import Simulation
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import (
@@ -567,3 +573,29 @@ def test_a_carrier_overlapping_what_it_released_does_not_push_it_but_a_robot_dri
     )
     message = sim.handling.pose_message(column.guid, sim.sim_time_s)
     assert message.bumped_by == "r1" and message.bumped_at_s == watch.bumped_at_s
+
+
+def test_a_robot_that_a_released_component_fell_onto_is_not_named_as_its_cause(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """A beam that tipped off its column lands on the carrier beside it: the carrier touched it, but only
+    after it had moved, so its verdict must not blame the carrier (a hub run named the carrier for three
+    channel beams that had fallen 2.75 m onto it)."""
+    sim = make_sim(robots=1)
+    column = _named(frame_manifest, "Column A1")
+    _joined(sim, _named(frame_manifest, "Footing A1"))
+    reply, _ = _placed_and_answered(sim, column)
+    assert reply.ok
+    drive(sim, "r1", -0.5, 0.0, 3.0)  # the carrier backs out, clear of the column
+    item = sim.handling.items[column.guid]
+    moved = component_pose(sim.client_id, item.body)
+    fallen = ((moved[0][0], moved[0][1] + 1.0, moved[0][2]), moved[1])  # as if it had slid 1 m away
+    set_component_pose(sim.client_id, item.body, fallen)
+    idle(sim, 0.4)
+    assert sim.handling.watch[column.guid].drift_m > 0.5
+    target = footprint(column, component_pose(sim.client_id, item.body))
+    sim.teleport_robot("r1", west_of(target, 0.8))
+    drive(sim, "r1", 0.6, 0.0, 4.0)  # the robot now runs into it where it lies
+    assert math.dist(component_pose(sim.client_id, item.body)[0], fallen[0]) > 0.01  # it was touched
+    assert sim.handling.watch[column.guid].bumped_by is None
+    assert sim.handling.pose_message(column.guid, sim.sim_time_s).bumped_by is None
