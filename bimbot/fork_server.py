@@ -36,7 +36,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import IO, Any
 
@@ -142,13 +142,7 @@ class ForkServer:
         """Fork ``bimbot <args>`` logging to ``log_path``; None when the server is gone (start it plainly)."""
         request = {"args": list(args), "log": str(log_path), "env": dict(env), "cwd": os.getcwd()}
         with self._lock:
-            if not self.usable:
-                return None
-            assert self._process.stdin is not None
-            try:
-                self._process.stdin.write(json.dumps(request).encode() + b"\n")
-                self._process.stdin.flush()
-            except (BrokenPipeError, OSError):
+            if not self._send(request):
                 return None
             deadline = time.monotonic() + SPAWN_TIMEOUT_S
             with self._changed:
@@ -165,18 +159,24 @@ class ForkServer:
         its answer, or None when none comes (the server is gone, or the child ended without answering)."""
         token = request["check"]
         with self._lock:
-            if not self.usable:
-                return None
-            assert self._process.stdin is not None
-            try:
-                self._process.stdin.write(json.dumps(request).encode() + b"\n")
-                self._process.stdin.flush()
-            except (BrokenPipeError, OSError):
+            if not self._send(request):
                 return None
             with self._changed:
                 while token not in self._checks and not self._gone:
                     self._changed.wait(timeout=0.5)  # bounded by the child: it answers or ends
                 return self._checks.pop(token, None) or None
+
+    def _send(self, request: dict[str, Any]) -> bool:
+        """Write one request line (under ``_lock``); False when the server is gone."""
+        if not self.usable:
+            return False
+        assert self._process.stdin is not None
+        try:
+            self._process.stdin.write(json.dumps(request).encode() + b"\n")
+            self._process.stdin.flush()
+        except (BrokenPipeError, OSError):
+            return False
+        return True
 
     def exit_code(self, pid: int) -> int | None:
         """How the child ended (None: still running)."""
@@ -310,7 +310,34 @@ def _answer(fd: int, message: dict[str, Any]) -> None:
 
 
 def _fork_child(request: dict[str, Any], keep_open: tuple[int, int, selectors.BaseSelector]) -> int:
+    """A child that runs the service ``request`` names, as ``python -m bimbot.cli`` would."""
     preloaded_mb = _resident_mb()
+
+    def service(requests: int, answers: int) -> int:
+        _become_service(request, requests, answers, preloaded_mb)
+        from bimbot.cli import main
+
+        return main(list(request["args"]))
+
+    return _in_child(keep_open, service)
+
+
+def _fork_check(request: dict[str, Any], keep_open: tuple[int, int, selectors.BaseSelector]) -> int:
+    """A child that runs ``bimbot run``'s input check and answers (:mod:`bimbot.forked_check`)."""
+
+    def check(requests: int, answers: int) -> int:
+        os.dup2(os.open(os.devnull, os.O_RDONLY), requests)  # the run's requests are the server's
+        from bimbot.forked_check import answer_check
+
+        _answer(answers, answer_check(request))
+        return 0
+
+    return _in_child(keep_open, check)
+
+
+def _in_child(keep_open: tuple[int, int, selectors.BaseSelector], body: Callable[[int, int], int]) -> int:
+    """Fork; the child runs ``body(requests, answers)`` and exits with its code, never returning into the
+    server's loop; the server gets the child's pid."""
     pid = os.fork()
     if pid:
         return pid
@@ -318,15 +345,12 @@ def _fork_child(request: dict[str, Any], keep_open: tuple[int, int, selectors.Ba
     try:
         requests, answers, selector = keep_open
         selector.close()
-        _become_service(request, requests, answers, preloaded_mb)
-        from bimbot.cli import main
-
-        code = main(list(request["args"]))
+        code = body(requests, answers)
     except SystemExit as stop:
         code = stop.code if isinstance(stop.code, int) else (0 if stop.code is None else 1)
         if isinstance(stop.code, str):
             sys.stderr.write(stop.code + "\n")
-    except BaseException:  # the child must never return into the server's loop
+    except BaseException:
         import traceback
 
         traceback.print_exc()
@@ -338,29 +362,6 @@ def _fork_child(request: dict[str, Any], keep_open: tuple[int, int, selectors.Ba
             atexit._run_exitfuncs()  # what an interpreter does at exit (logging flushes, zenoh …)
             sys.stdout.flush()
             sys.stderr.flush()
-        os._exit(code)
-
-
-def _fork_check(request: dict[str, Any], keep_open: tuple[int, int, selectors.BaseSelector]) -> int:
-    """A child that runs ``bimbot run``'s input check and answers (:mod:`bimbot.forked_check`)."""
-    pid = os.fork()
-    if pid:
-        return pid
-    code = 1
-    try:
-        requests, answers, selector = keep_open
-        selector.close()
-        os.dup2(os.open(os.devnull, os.O_RDONLY), requests)  # the run's requests are the server's
-        from bimbot.forked_check import answer_check
-
-        _answer(answers, answer_check(request))
-        code = 0
-    except BaseException:
-        import traceback
-
-        traceback.print_exc()  # into the server's log
-    finally:
-        sys.stderr.flush()
         os._exit(code)
 
 

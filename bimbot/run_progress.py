@@ -113,9 +113,10 @@ class _Base:
     ) -> None:
         self.rate.add(wall_s, sim_time_s)
         head = progress_line(constructed, total, sim_time_s, self.rate.factor(), wall_s, not_built=not_built)
-        self._show(head, [robot_line(msg, self.names) for _, msg in sorted(robots.items())], wall_s)
+        robot_lines = [robot_line(msg, self.names) for _, msg in sorted(robots.items())]
+        self._show(head, robot_lines, wall_s, sim_time_s)
 
-    def _show(self, head: str, robot_lines: list[str], wall_s: float) -> None:
+    def _show(self, head: str, robot_lines: list[str], wall_s: float, sim_time_s: float) -> None:
         raise NotImplementedError
 
 
@@ -141,22 +142,10 @@ class PlainProgress(_Base):
         self._next_s = every_s
         self._clock_seen = False
 
-    def update(
-        self,
-        constructed: int,
-        total: int,
-        sim_time_s: float,
-        robots: Mapping[str, RobotStateMsg],
-        wall_s: float,
-        *,
-        not_built: int = 0,
-    ) -> None:
+    def _show(self, head: str, robot_lines: list[str], wall_s: float, sim_time_s: float) -> None:
         if not self._clock_seen and sim_time_s > 0.0:
             self._clock_seen = True
             self._next_s = min(self._next_s, wall_s)
-        super().update(constructed, total, sim_time_s, robots, wall_s, not_built=not_built)
-
-    def _show(self, head: str, robot_lines: list[str], wall_s: float) -> None:
         if wall_s >= self._next_s:
             self._next_s = wall_s + self.every_s
             self.say(f"progress: {head}" + "".join(f"; {line}" for line in robot_lines))
@@ -178,7 +167,7 @@ class LiveProgress(_Base):
         )
         self._live.start()
 
-    def _show(self, head: str, robot_lines: list[str], wall_s: float) -> None:
+    def _show(self, head: str, robot_lines: list[str], wall_s: float, sim_time_s: float) -> None:
         rows = [Text(head, style="bold")] + [
             Text(f"  {line}", overflow="ellipsis", no_wrap=True) for line in robot_lines
         ]

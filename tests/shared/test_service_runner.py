@@ -65,8 +65,11 @@ def test_build_may_be_the_folder_or_its_manifest_file(bundled_build: Path) -> No
 
 
 def test_a_missing_build_is_one_line(tmp_path: Path) -> None:
-    with pytest.raises(UserError, match="no manifest"):
+    with pytest.raises(UserError, match="nowhere: no such folder"):
         resolve_build(tmp_path / "nowhere")
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(UserError, match="no manifest"):
+        resolve_build(tmp_path / "empty")
 
 
 def test_an_unwritable_output_folder_is_a_user_error(tmp_path: Path) -> None:
