@@ -86,7 +86,7 @@ def answer_check(request: dict[str, Any]) -> dict[str, Any]:
 def apply_answer(answer: dict[str, Any]) -> bool:
     """In the run: log the check's warnings again and raise its :class:`UserError`; whether the input was
     checked (False: the check itself failed, so the run checks in its own process)."""
-    if "failed" in answer or not ("user_error" in answer or answer.get("ok")):
+    if "user_error" not in answer and not answer.get("ok"):  # "failed", or an answer of no known kind
         _log.debug("the fork server's input check failed; checking here:\n%s", answer.get("failed"))
         return False
     for name, level, message in answer.get("warnings", ()):

@@ -243,14 +243,12 @@ class Placing:
         )
         return {body: self.guid_of[body] for body, _ in found or () if body in self.guid_of}
 
-    def watch_placed(
-        self, now_s: float, robots: Mapping[str, Robot] | None = None
-    ) -> list[tuple[object, PhysicsReply]]:
+    def watch_placed(self, now_s: float, robots: Mapping[str, Robot]) -> list[tuple[object, PhysicsReply]]:
         """Once per control period: every released component's pose, drift and rest, and the first of
         ``robots`` to touch it; the placements that came to rest are answered (``(tag, reply)``)."""
         answered: list[tuple[object, PhysicsReply]] = []
         config = self.settle
-        robot_of = {robot.body_id: robot_id for robot_id, robot in (robots or {}).items()}
+        robot_of = {robot.body_id: robot_id for robot_id, robot in robots.items()} if self.watch else {}
         for guid, watch in self.watch.items():
             item = self.items[guid]
             corners = self._corners.get(guid)
