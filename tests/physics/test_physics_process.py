@@ -122,13 +122,14 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
         assert sensors is not None and sensors.robot_id == "r1" and sensors.odom.robot_id == "r1"
         assert sensors.scan is not None and len(sensors.scan.ranges_m) == 360
 
+        # the clock runs free while no robot is alive: a clock and a pose are heard before r1 comes up
+        seen_clock, seen_pose = listener.next("clock"), listener.next("pose")
+
         # Lock-step: once r1 is alive, physics advances only when r1 answers the clock.
         token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id="r1"))
         time.sleep(0.5)
-        step = max(
-            ClockMsg.model_validate_json(m).step for m in [listener.next("clock"), *listener.drain("clock")]
-        )
-        start = RobotPoseMsg.model_validate_json(listener.drain("pose")[-1]).pose_xy_yaw
+        step = max(ClockMsg.model_validate_json(m).step for m in [seen_clock, *listener.drain("clock")])
+        start = RobotPoseMsg.model_validate_json([seen_pose, *listener.drain("pose")][-1]).pose_xy_yaw
         cmd_key = key(ROBOT_CMD_VEL_KEY, site=site, robot_id="r1")
         for _ in range(20):
             command = CmdVelMsg(robot_id="r1", v_mps=0.5, w_radps=0.0, sim_time_s=0.0, step=step)
