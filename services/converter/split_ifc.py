@@ -81,9 +81,9 @@ def split_element(
 ) -> ifcopenshell.file:
     """Return a new IFC file (same schema as ``model``) that holds ``element`` alone in its spatial chain.
 
-    Pure: nothing is read or written on disk; write the result with ``new.write(path)``. ``chains`` (kept by
-    the caller across elements of one model) remembers the spatial chain above each parent, which elements
-    of a storey share.
+    Pure: nothing is read or written on disk; write the result with ``new.write(path)`` or its
+    ``to_string()``. ``chains`` (kept by the caller across elements of one model) remembers the spatial
+    chain above each parent, which elements of a storey share.
     """
     # The annotation allows only the general names (IFC4X3), but file() keeps any full identifier as given
     # (IFC4X3_ADD2, IFC2X3_TC1), which the split file must repeat.
