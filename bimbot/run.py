@@ -48,6 +48,7 @@ from bimbot.run_commands import (
     monitor_bus_options,
     restart_arguments,
     router_arguments,
+    run_fleet,
     secure_bus,
     service_commands,
 )
@@ -148,7 +149,7 @@ def _run_build(
         ended_how = "stopped: the run did not get to its end"
         try:
             with open_session(monitor_bus_options(endpoint, bus)) as session:
-                monitor = RunMonitor(manifest, session)
+                monitor = RunMonitor(manifest, session, robot_types=run_fleet(options).type_of())
 
                 def report_of(ending: RunEnding) -> dict[str, Any]:
                     return {

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Mapping
 from typing import Any
 
 import zenoh
@@ -73,12 +74,19 @@ class RunMonitor:
     """Subscribes on ``session`` at construction; :meth:`drain` applies what arrived since the last call."""
 
     def __init__(
-        self, manifest: Manifest, session: zenoh.Session, tolerances: Tolerances = AGENT_TOLERANCES
+        self,
+        manifest: Manifest,
+        session: zenoh.Session,
+        tolerances: Tolerances = AGENT_TOLERANCES,
+        robot_types: Mapping[str, str] | None = None,
     ) -> None:
+        """``robot_types``: robot id → type of the fleet the run started, so a robot's type is known even
+        when the run ends before physics' site info arrives (that info still wins when it does)."""
         site = manifest.site
         self.manifest, self.tolerances = manifest, tolerances
         self.invalid = InvalidPayloads()
         self.collector = ReportCollector(manifest)
+        self.collector.robot_type_of.update(robot_types or {})
         # the plan the planner builds by (its order is the report's sequence column), asked, never read
         self.plan = Asked(session, PLANNER_PLAN, self.invalid, site=site)
         # physics' site info: the robots' types, by which the report groups its lanes and utilisation

@@ -19,14 +19,18 @@ import zenoh
 from run_builders import GUIDS, manifest, poses, state, twin, walk
 
 from bimbot.run_monitor import RunMonitor
+from bimbot.services.observer.report_fleet import lane_label
 from bimbot.shared.bus import BusOptions, encode, open_session
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     COMPONENT_STATE,
     COMPONENT_TWIN,
     PHYSICS_POSES,
+    ROBOT_STATE,
     ComponentState,
     ComponentStateMsg,
+    RobotState,
+    RobotStateMsg,
     SitePosesMsg,
     TwinMsg,
 )
@@ -61,7 +65,7 @@ class FakeSite:
 
 
 @contextmanager
-def _bus() -> Iterator[tuple[FakeSite, zenoh.Session, RunMonitor]]:
+def _bus(robot_types: dict[str, str] | None = None) -> Iterator[tuple[FakeSite, zenoh.Session, RunMonitor]]:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     site = FakeSite(twins={guid: twin(SITE_MANIFEST, guid, S.PLANNED) for guid in GUIDS})
     with (
@@ -73,7 +77,7 @@ def _bus() -> Iterator[tuple[FakeSite, zenoh.Session, RunMonitor]]:
             COMPONENT_TWIN.key(site=SITE_MANIFEST.site, key="*"), site.answer_twins, complete=False
         )
         physics = agents.declare_queryable(PHYSICS_POSES.key(site=SITE_MANIFEST.site), site.answer_poses)
-        monitor = RunMonitor(SITE_MANIFEST, run)
+        monitor = RunMonitor(SITE_MANIFEST, run, robot_types=robot_types)
         time.sleep(0.5)  # the sessions meet
         try:
             yield site, forger, monitor
@@ -152,3 +156,22 @@ def test_without_a_physics_answer_the_audit_ends_within_its_bound_and_reports_nu
         report = monitor.report()
         assert report["as_built"]["answered"] is False
         assert all(c["final_position_error_mm"] is None for c in report["components"])
+
+
+@pytest.mark.parametrize("fleet_types", [{"r1": "carrier"}, None])
+def test_a_robot_heard_before_physics_site_info_has_the_type_the_run_started_it_with(
+    fleet_types: dict[str, str] | None,
+) -> None:
+    """A run that ends before physics' site info reaches the monitor still names its robots' types (from
+    the fleet it started); without them the report could only say ``robot r1``."""
+    with _bus(fleet_types) as (_site, forger, monitor):
+        message = RobotStateMsg(
+            robot_id="r1", state=RobotState.IDLE, pose_xy_yaw=(0.0, 0.0, 0.0), sim_time_s=1.0, wall_time_s=0.0
+        )
+        forger.put(ROBOT_STATE.key(site=SITE_MANIFEST.site, robot_id="r1"), encode(message))
+        assert _drain_until(monitor, lambda: "r1" in monitor.report()["robots"])
+        robot = monitor.report()["robots"]["r1"]
+    if fleet_types is None:
+        assert robot["type"] is None and lane_label("r1", robot) == "robot r1"
+    else:
+        assert robot["type"] == "carrier" and lane_label("r1", robot) == "r1 (carrier)"
