@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -149,6 +150,21 @@ def check_stability(
     return StabilityReport(len(order), steps, sim_s, time.monotonic() - started)
 
 
+def _came_to_rest(moved: Moved, named: Callable[[tuple[str, ...]], str]) -> str:
+    """Where a moved component ended, without naming twice what it was set down on: a member that slid
+    along its supports ``slid or tipped on it``, one that also met another ``came to rest on it and on …``."""
+    placed_on = set(moved.placed_on)
+    if placed_on and placed_on <= set(moved.rests_on):
+        pronoun = "it" if len(placed_on) == 1 else "them"
+        others = tuple(guid for guid in moved.rests_on if guid not in placed_on)
+        return (
+            f"came to rest on {pronoun} and on {named(others)}" if others else f"slid or tipped on {pronoun}"
+        )
+    return "came to rest on " + (
+        named(moved.rests_on) or ("the pit's floor" if moved.open_pits else "the ground")
+    )
+
+
 def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = False) -> list[str]:
     """The lines a user reads: every partial structure stands, or the first step that does not, what was
     left unchecked and what to try (``derived``: the order already is the support graph's). Components as
@@ -169,12 +185,11 @@ def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = 
             if moved.open_pits
             else (f"on {named(moved.placed_on)}" if moved.placed_on else "on nothing but the ground")
         )
-        rested = named(moved.rests_on) or ("the pit's floor" if moved.open_pits else "the ground")
         unplaced = f"; it rests on {named(moved.missing)}, not placed before it" if moved.missing else ""
         missing += [*moved.open_pits, *moved.missing]
         lines.append(
             f"  {moved.name} ({moved.guid}) moved {moved.drift_m:.3f} m after it was placed: it was set down "
-            f"{where} and came to rest on {rested}{unplaced}"
+            f"{where} and {_came_to_rest(moved, named)}{unplaced}"
         )
     if failure.index < report.total:
         lines.append(
