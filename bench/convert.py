@@ -9,7 +9,9 @@ ratios, so that load from other processes weighs on both sides alike:
 
 * in process — ``open + convert_model`` against ``open + iterate + read vertices/faces``;
 * as commands — ``bimbot convert`` against a ``python -c`` that opens and tessellates (both pay
-  interpreter start-up and imports, as a user does).
+  interpreter start-up and imports, as a user does); then ``bimbot convert --no-split-ifc`` (no standalone
+  IFC per component) the same way, and the floor: the bare command that also imports what
+  ``bimbot convert`` imports, converting nothing (the ratio no conversion can go below).
 
 Scaling: generated light steel frames of ~100, ~1,000 and ~10,000 elements, converted in process; time
 per element must stay flat. Run: ``.venv/bin/python bench/convert.py [--quick]``.
@@ -160,6 +162,11 @@ def overhead(case: Case, runs: int) -> None:
             lambda: subprocess.run(bare_command, check=True, capture_output=True),
             runs,
         )
+        without_split = paired(
+            lambda: subprocess.run([*command, "--no-split-ifc"], check=True, capture_output=True),
+            lambda: subprocess.run(bare_command, check=True, capture_output=True),
+            runs,
+        )
         # the bare command that also imports what `bimbot convert` imports: the ratio's floor as commands
         floor_command = [
             sys.executable,
@@ -177,6 +184,7 @@ def overhead(case: Case, runs: int) -> None:
     print(f"  stages of one conversion: {stages}")
     print(in_process.line("in process "))
     print(as_commands.line("as commands"))
+    print(without_split.line("as commands, --no-split-ifc"))
     print(
         f"  floor as commands (the bare command plus the converter's imports, no conversion): "
         f"ratio {imports_only.ratio:4.2f}"

@@ -98,7 +98,7 @@ class ComponentFiles(_Frozen):
     model_dir: str
     sdf_file: str
     config_file: str
-    split_ifc: str
+    split_ifc: str  # empty: not written (``bimbot convert --no-split-ifc``)
     visual_dae: str
     visual_obj: str
     visual_glb: str

@@ -63,6 +63,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--gui), glb (the rerun observer; it falls back to obj); 'none' for collision meshes only "
         f"(default: {','.join(ConvertOptions.formats)})",
     )
+    parser.add_argument(
+        "--no-split-ifc",
+        action="store_true",
+        help="do not write each component's standalone <GUID>.ifc: the paper's component package has it, "
+        "nothing in a run reads it, and it is the largest part of converting a member that tessellates fast "
+        "(the Revit hub's 85 steel members: 0.75 s instead of 0.90 s for the whole command)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar even on a terminal")
 
 
@@ -88,7 +95,12 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as error:
         raise UserError(str(error)) from None
     options = ConvertOptions(
-        include=include, exclude=exclude, only=only, threads=args.threads, formats=formats
+        include=include,
+        exclude=exclude,
+        only=only,
+        threads=args.threads,
+        formats=formats,
+        split_ifc=not args.no_split_ifc,
     )
     stats = ConversionStats()
     with _ProgressBar(enabled=not args.no_progress and sys.stderr.isatty()) as bar:

@@ -41,6 +41,7 @@ class ShardContext:
     unit_scale_m: float
     mass_unit_kg: float = 1.0  # kilograms per project mass unit (mass.mass_unit_kg)
     formats: tuple[str, ...] = VISUAL_FORMATS  # visual mesh formats written (see mesh_files)
+    split_ifc: bool = True  # write each component's standalone IFC
     sections: SectionCache = field(default_factory=SectionCache)  # section splits by section
     chains: dict[int, list[ifcopenshell.entity_instance]] = field(default_factory=dict)  # split_ifc
 
@@ -122,10 +123,11 @@ def write_component(
         warnings.append(work.collision.note)
     inertia = props.inertia_kg_m2(mass.mass_kg)
     pose = pose_from_rigid(item.rotation, item.translation_m, origin)
-    split_name = f"{guid if is_valid_guid(guid) else folder}.ifc"
-    # to_string and one write: file.write() costs 0.9 ms a file here against 0.3 ms for the same bytes
-    split = split_element(model, element, chains=context.chains)
-    (model_dir / split_name).write_bytes(split.to_string().encode())
+    split_name = f"{guid if is_valid_guid(guid) else folder}.ifc" if context.split_ifc else ""
+    if split_name:
+        # to_string and one write: file.write() costs 0.9 ms a file here against 0.3 ms for the same bytes
+        split = split_element(model, element, chains=context.chains)
+        (model_dir / split_name).write_bytes(split.to_string().encode())
     spec = ModelSpec(
         guid=guid,
         folder=folder,
@@ -179,7 +181,7 @@ def write_component(
             model_dir=rel_dir,
             sdf_file=f"{rel_dir}/model.sdf",
             config_file=f"{rel_dir}/model.config",
-            split_ifc=f"{rel_dir}/{split_name}",
+            split_ifc=_in_folder(rel_dir, split_name),
             visual_dae=_in_folder(rel_dir, work.files.visual_dae),
             visual_obj=_in_folder(rel_dir, work.files.visual_obj),
             visual_glb=_in_folder(rel_dir, work.files.visual_glb),
@@ -192,7 +194,7 @@ def write_component(
 
 
 def _in_folder(rel_dir: str, name: str) -> str:
-    """``rel_dir/name``; empty for a file not written (a visual format not asked for)."""
+    """``rel_dir/name``; empty for a file not written (a visual format or the split IFC not asked for)."""
     return f"{rel_dir}/{name}" if name else ""
 
 

@@ -8,7 +8,7 @@
     OUT/models/<folder>/model.sdf          the component (movable, BIM pose, inertial, collision parts)
     OUT/models/<folder>/meshes/            visual DAE/OBJ/GLB (the formats asked for) and convex collision
                                            OBJs, element frame, metres
-    OUT/models/<folder>/<GUID>.ifc         the component split out as a standalone IFC
+    OUT/models/<folder>/<GUID>.ifc         the component split out as a standalone IFC (unless not asked for)
     OUT/sequence.xml                       construction sequence (the IFC schedule, else derived)
 
 Elements are converted in shards, one forked worker per core (:mod:`.shards`); within a shard, work that
@@ -61,6 +61,7 @@ class ConvertOptions:
     threads: int | None = None  # worker processes (default: all cores)
     far_from_origin_m: float = 1000.0
     formats: tuple[str, ...] = VISUAL_FORMATS  # visual mesh formats written (collision OBJs always are)
+    split_ifc: bool = True  # each component's standalone <GUID>.ifc (paper §4.3.1); no run reads it
 
 
 @dataclass
@@ -102,6 +103,7 @@ def convert_model(
         unit_scale_m=unit_scale_m,
         mass_unit_kg=mass_unit_kg(model),
         formats=options.formats,
+        split_ifc=options.split_ifc,
     )
     results = run_shards(model, elements, context, workers=workers, progress=progress)
     stats.seconds_by_stage["shards_wall"] = time.perf_counter() - shards_started

@@ -162,3 +162,25 @@ def test_cli_formats_option_writes_the_formats_and_refuses_unknown_ones(tmp_path
     refused = bimbot("-o", str(tmp_path / "bad"), "--formats", "glb,stl")
     assert refused.returncode == 2 and "--formats" in refused.stderr and "stl" in refused.stderr
     assert "Traceback" not in refused.stderr and not (tmp_path / "bad" / "manifest.json").exists()
+
+
+def test_no_split_ifc_writes_no_standalone_ifc_and_the_run_still_has_what_it_reads(tmp_path: Path) -> None:
+    source = tmp_path / "frame.ifc"
+    ifcopenshell.open(str(bundled_model_path())).write(str(source))
+    command = [sys.executable, "-m", "bimbot.cli", "convert", str(source), "--no-progress", "--no-split-ifc"]
+    done = subprocess.run(
+        [*command, "-o", str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    out = tmp_path / "out"
+    manifest = Manifest.model_validate_json((out / "manifest.json").read_text())
+    assert manifest.components and all(c.files.split_ifc == "" for c in manifest.components)
+    assert not list((out / "models").rglob("*.ifc"))
+    assert all((out / c.files.sdf_file).is_file() for c in manifest.components)
+    _physics_builds_every_body(out, manifest)
+    with_split = _convert(tmp_path / "default", VISUAL_FORMATS)  # the default still writes one per component
+    assert all((tmp_path / "default" / c.files.split_ifc).is_file() for c in with_split.components)
