@@ -20,6 +20,7 @@ per element must stay flat. Run: ``.venv/bin/python bench/convert.py [--quick]``
 from __future__ import annotations
 
 import argparse
+import itertools
 import statistics
 import subprocess
 import sys
@@ -135,35 +136,45 @@ def paired(convert: Callable[[], object], bare: Callable[[], object], runs: int)
 def overhead(case: Case, runs: int) -> None:
     path, only = case.path, case.only
     with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "out"
-        full_conversion(path, out, only=only)  # warm-up (imports, numba/trimesh caches, file system)
+        # every conversion into a folder of its own, as a first conversion: re-converting into the same
+        # folder also deletes the earlier output (a thousand files), which no bare tessellation does
+        fresh = itertools.count()
+
+        def new_out() -> Path:
+            return Path(tmp) / f"out{next(fresh)}"
+
+        full_conversion(path, new_out(), only=only)  # warm-up (imports, numba/trimesh caches, file system)
         bare_tessellation(path, only)
         stats = ConversionStats()
-        full_conversion(path, out, stats, only)
+        full_conversion(path, new_out(), stats, only)
         in_process = paired(
-            lambda: full_conversion(path, out, only=only), lambda: bare_tessellation(path, only), runs
+            lambda: full_conversion(path, new_out(), only=only), lambda: bare_tessellation(path, only), runs
         )
-        command = [
-            sys.executable,
-            "-m",
-            "bimbot.cli",
-            "-q",
-            "convert",
-            str(path),
-            "-o",
-            str(out),
-            "--no-progress",
-            *(["--only", ",".join(only)] if only else []),
-        ]
+
+        def convert_command(*extra: str) -> list[str]:
+            return [
+                sys.executable,
+                "-m",
+                "bimbot.cli",
+                "-q",
+                "convert",
+                str(path),
+                "-o",
+                str(new_out()),
+                "--no-progress",
+                *(["--only", ",".join(only)] if only else []),
+                *extra,
+            ]
+
         root = str(Path(__file__).resolve().parents[1])
         bare_command = [sys.executable, "-c", BARE_SCRIPT.format(root=root, path=str(path), only=only)]
         as_commands = paired(
-            lambda: subprocess.run(command, check=True, capture_output=True),
+            lambda: subprocess.run(convert_command(), check=True, capture_output=True),
             lambda: subprocess.run(bare_command, check=True, capture_output=True),
             runs,
         )
         without_split = paired(
-            lambda: subprocess.run([*command, "--no-split-ifc"], check=True, capture_output=True),
+            lambda: subprocess.run(convert_command("--no-split-ifc"), check=True, capture_output=True),
             lambda: subprocess.run(bare_command, check=True, capture_output=True),
             runs,
         )
