@@ -1,9 +1,9 @@
 """The fork server starts services as ``python -m bimbot.cli`` would, only without their imports.
 
-Each test starts a real server (``python -m bimbot.fork_server_process``, which preloads every service's code) and
-real services from it: a bus router that must listen, a physics command that must reject its input in one
-line, a service killed by a signal, and a server killed by SIGKILL whose services must not outlive it
-(a killed run's: tests/run/test_stop_with_parent.py). The run's input check, done by a child of the server
+Each test starts a real server (``python -m bimbot.fork_server_process``, which preloads every service's code)
+and real services from it: a bus router that must listen, a physics command that must reject its input in one
+line, a service killed by a signal, and a server killed by SIGKILL whose services must not outlive it (a
+killed run's: tests/run/test_stop_with_parent.py). The run's input check, done by a child of the server
 (:mod:`bimbot.forked_check`), must answer as the check in the run's own process does, and leave the run's
 process without the services' code.
 """
