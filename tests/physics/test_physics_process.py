@@ -169,6 +169,12 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
         session.put(
             key(ROBOT_CMD_VEL_KEY, site=site, robot_id="zz"), encode(stranger), congestion_control=blocking
         )
+        # physics says so once it has taken the stranger's command (at rtf 0 ten clock steps can pass
+        # before the router has forwarded it, so wait for the line, not for a number of steps)
+        stranger_logged = "robot 'zz' was not spawned by physics"
+        deadline = time.monotonic() + 10.0
+        while stranger_logged not in (tmp_path / "physics.log").read_text() and time.monotonic() < deadline:
+            time.sleep(0.05)
         seen = max([step, *(ClockMsg.model_validate_json(m).step for m in listener.drain("clock"))])
         assert _wait_clock(listener, seen + 10, timeout_s=10.0).step > step  # still running, past all of that
         assert physics.poll() is None and bus.poll() is None
@@ -179,7 +185,7 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
         assert time.monotonic() - started < 5.0
     log = (tmp_path / "physics.log").read_text()
     assert "invalid payload" in log and "Traceback" not in log
-    assert log.count("robot 'zz' was not spawned by physics") == 1
+    assert log.count(stranger_logged) == 1
 
 
 @pytest.mark.parametrize("planner", [False, True])
