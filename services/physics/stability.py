@@ -151,15 +151,13 @@ def check_stability(
 
 
 def _came_to_rest(moved: Moved, named: Callable[[tuple[str, ...]], str]) -> str:
-    """Where a moved component ended, without naming twice what it was set down on: a member that slid
-    along its supports ``slid or tipped on it``, one that also met another ``came to rest on it and on …``."""
+    """Where a moved component ended, without naming twice what it was set down on (a member that slid or
+    tipped but still touches its supports: ``came to rest on …, still touching what it was set down on``)."""
     placed_on = set(moved.placed_on)
     if placed_on and placed_on <= set(moved.rests_on):
-        pronoun = "it" if len(placed_on) == 1 else "them"
         others = tuple(guid for guid in moved.rests_on if guid not in placed_on)
-        return (
-            f"came to rest on {pronoun} and on {named(others)}" if others else f"slid or tipped on {pronoun}"
-        )
+        still = "still touching what it was set down on"
+        return f"came to rest on {named(others)}, {still}" if others else f"came to rest {still}"
     return "came to rest on " + (
         named(moved.rests_on) or ("the pit's floor" if moved.open_pits else "the ground")
     )
