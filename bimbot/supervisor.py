@@ -67,6 +67,7 @@ class ServiceProcess:
         self.log_path = log_dir / f"{name}.log"
         self._log = self.log_path.open("ab")
         self.process = self._start(self.args)
+        self._asked_to_stop: object | None = None  # the process SIGTERM went to (one is enough)
 
     def _start(self, args: Sequence[str]) -> subprocess.Popen[bytes] | ForkedChild:
         env = {**os.environ, **(self._env or {})}
@@ -119,15 +120,17 @@ class ServiceProcess:
         self._signal_group(signal.SIGKILL)
 
     def terminate(self) -> None:
-        """SIGTERM to the service's process group (it and its children), without waiting."""
-        if self.process.poll() is None:
+        """SIGTERM to the service's process group (it and its children), without waiting; once: a service
+        restores the default handler as it finishes, and a second SIGTERM then would kill it mid-exit."""
+        if self.process.poll() is None and self._asked_to_stop is not self.process:
             self._signal_group(signal.SIGTERM)
+            self._asked_to_stop = self.process
 
     def stop(self, timeout_s: float = 10.0) -> int | None:
         """SIGTERM to the group, then SIGKILL after ``timeout_s``; the service's exit code. Whatever of
         its group is still there once the service has exited (an orphaned grandchild) is killed."""
         if self.process.poll() is None:
-            self._signal_group(signal.SIGTERM)
+            self.terminate()
             try:
                 self.process.wait(timeout=timeout_s)
             except subprocess.TimeoutExpired:

@@ -90,10 +90,11 @@ def run_service(main: Callable[..., int | None], /, *args: object, **kwargs: obj
     peak memory is logged as it ends (``bench/build.py`` reads it per service)."""
     with stop_on_signals() as stop:
         code = int(main(*args, stop=stop, **kwargs) or 0)
-    # a service that ran (a user error stays one line); a forked one shares what its fork server loaded
-    shared = os.environ.get(PRELOADED_ENV)
-    note = f" (forked from a {shared} MB fork server: what they share counts in both)" if shared else ""
-    _log.info("peak memory %.0f MB%s", peak_rss_mb(), note)
+        # a service that ran (a user error stays one line); a forked one shares what its fork server
+        # loaded. Logged while a late SIGTERM still only sets the event.
+        shared = os.environ.get(PRELOADED_ENV)
+        note = f" (forked from a {shared} MB fork server: what they share counts in both)" if shared else ""
+        _log.info("peak memory %.0f MB%s", peak_rss_mb(), note)
     return code
 
 
