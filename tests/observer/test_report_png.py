@@ -28,6 +28,8 @@ def test_a_row_with_a_caught_placement_is_named_even_between_the_kth_rows() -> N
     assert 6 not in named and 8 not in named  # their neighbours give way: the labels would overlap
     assert all(row in named for row in regular if abs(row - 7) > 1 and abs(row - 40) > 1)
     assert with_marked_rows(labelled_rows(28), [3]) == list(range(28))  # every row named anyway
+    run = with_marked_rows(regular, range(23, 36))  # thirteen toppled in a row: every second one named
+    assert [row for row in run if 22 <= row <= 36] == [23, 25, 27, 29, 31, 33, 35]
     caught = {"guid": "a", "placements": [{"verdict": "misplaced"}, {"verdict": "constructed"}]}
     clean = {"guid": "b", "placements": [{"verdict": "constructed"}]}
     assert marked_row(caught, set()) and not marked_row(clean, set()) and marked_row(clean, {"b"})
