@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import random
 import signal
 import socket
 import subprocess
@@ -32,11 +33,39 @@ if TYPE_CHECKING:
 _log = logging.getLogger(__name__)
 
 
+EPHEMERAL_RANGE_FILE = Path("/proc/sys/net/ipv4/ip_local_port_range")
+FREE_PORT_SPAN = 8000  # free_port picks among this many ports just below the kernel's ephemeral range
+_port_choice = random.Random()  # seeded from the OS, whatever a caller does with the global generator
+
+
 def free_port() -> int:
-    """A TCP port on 127.0.0.1 that was free a moment ago."""
+    """A TCP port on 127.0.0.1 that was free a moment ago, from below the kernel's ephemeral range.
+
+    A port the kernel hands out (``bind(0)``) is one it may hand out again at once, to another process's
+    outgoing connection or ``listen tcp/…:0``, before the service that was given it listens: an observer
+    in the suite found its port taken ("Address already in use"). Ports below that range are only ever
+    taken on purpose. Falls back to the kernel's choice when none of a few random tries is free."""
+    low = _ephemeral_low()
+    first = max(1024, low - FREE_PORT_SPAN)
+    for _ in range(50):
+        port = _port_choice.randrange(first, low) if low > first else 0
+        with socket.socket() as sock:
+            try:
+                sock.bind(("127.0.0.1", port))
+            except OSError:
+                continue
+            return int(sock.getsockname()[1])
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
         return int(sock.getsockname()[1])
+
+
+def _ephemeral_low() -> int:
+    """The first port of the kernel's ephemeral range (32768 where it cannot be read)."""
+    try:
+        return int(EPHEMERAL_RANGE_FILE.read_text().split()[0])
+    except (OSError, ValueError, IndexError):
+        return 32768
 
 
 STOP_WITH_PARENT_ENV = "BIMBOT_STOP_WITH_PARENT"  # the pid of the process that started the service
