@@ -17,6 +17,8 @@ import re
 from collections import Counter
 from typing import Any
 
+from bimbot.shared.identifiers import named_guid
+
 MAX_NAME_CHARS = 48
 NAME_TAIL_CHARS = 16  # a long name keeps its end: Revit names end in the element id that tells them apart
 HEADER = ("component", "guid", "state", "reason", "why")
@@ -132,7 +134,7 @@ def with_names(message: str, names: dict[str, str], own: str = "") -> str:
         before, after = message[: match.start()].rstrip(" ("), message[match.end() :].lstrip(" (")
         if name is None or guid == own or before.endswith(name) or after.startswith(name):
             return guid
-        return f"{name} ({guid})"
+        return named_guid(guid, name)
 
     return GUID.sub(named, message)
 

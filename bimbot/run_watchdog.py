@@ -17,6 +17,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from bimbot.shared.identifiers import named_guid
 from bimbot.shared.messages import ComponentState, RobotStateMsg, TaskMsg, TaskStatus
 
 DEFAULT_STALL_AFTER_S = 1500.0  # sim seconds without a change on the site (above every lower watchdog)
@@ -109,7 +110,4 @@ def stall_details(
 
 
 def _label(guid: str, names: Mapping[str, str | None]) -> str:
-    """``Name (GUID)``, the whole GUID: a Revit model's GUIDs share their first characters (nine columns of
-    the structural hub all began ``20hzUDJS``)."""
-    name = names.get(guid)
-    return f"{name} ({guid})" if name else guid
+    return named_guid(guid, names.get(guid))

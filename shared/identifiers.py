@@ -93,3 +93,10 @@ def slugify(name: str | None, default: str = "site") -> str:
     text = unicodedata.normalize("NFKD", name or "").encode("ascii", "ignore").decode("ascii").lower()
     text = re.sub(r"[^a-z0-9_-]+", "-", text).strip("-_")
     return text[:64] or default
+
+
+def named_guid(guid: str, name: str | None) -> str:
+    """How a user reads a component: ``Name (GUID)``, the whole GUID (a Revit model's share their first
+    characters); the GUID alone without a name. The run's table, its stall report, the planner and
+    ``--check-stability`` all name components so."""
+    return f"{name} ({guid})" if name else guid

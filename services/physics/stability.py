@@ -20,6 +20,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from bimbot.shared.identifiers import named_guid
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.support_graph import support_predecessors
 
@@ -174,7 +175,7 @@ def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = 
     lines = [f"step {failure.index} of {report.total} does not stand ({timing}):"]
 
     def named(guids: tuple[str, ...]) -> str:
-        return ", ".join(f"{names.get(guid, guid)} ({guid})" for guid in guids)
+        return ", ".join(named_guid(guid, names.get(guid)) for guid in guids)
 
     missing: list[str] = []
     for moved in failure.moved:

@@ -23,6 +23,7 @@ import logging
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
+from bimbot.shared.identifiers import named_guid
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import SiteInfoMsg
 from bimbot.shared.reasons import Reason, ReasonCode
@@ -147,4 +148,4 @@ def _priority_order(order: tuple[str, ...], preds: Mapping[str, frozenset[str]])
 
 def _describe(guid: str, by_guid: Mapping[str, Component]) -> str:
     component = by_guid.get(guid)
-    return f"{component.name or component.ifc_class} ({guid})" if component else guid
+    return named_guid(guid, component.name or component.ifc_class) if component else guid

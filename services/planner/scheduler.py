@@ -41,6 +41,7 @@ import uuid
 from collections.abc import Callable
 from functools import partial
 
+from bimbot.shared.identifiers import named_guid
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     ComponentEvent,
@@ -553,7 +554,7 @@ class PlannerCore(Dispatch):
     def _describe(self, guid: str) -> str:
         component = self._manifest.get(guid)
         name = (component.name or component.ifc_class) if component is not None else None
-        return f"{name} ({guid})" if name else guid  # as the run's table and --check-stability name them
+        return named_guid(guid, name)
 
     def _set_phase(self, task: TaskRecord, phase: Phase, status: TaskStatus) -> None:
         task.phase = phase
