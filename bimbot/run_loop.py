@@ -57,9 +57,6 @@ class StopSignals:
 
     @contextmanager
     def installed(self) -> Iterator[StopSignals]:
-        if threading.current_thread() is not threading.main_thread():  # only the main thread may
-            yield self
-            return
         with stop_handlers(self.event, on_signal=self._note):  # never the event's lock in a handler
             yield self
 

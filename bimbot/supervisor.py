@@ -47,8 +47,8 @@ def free_port() -> int:
     taken on purpose. Falls back to the kernel's choice when none of a few random tries is free."""
     low = _ephemeral_low()
     first = max(1024, low - FREE_PORT_SPAN)
-    for _ in range(50):
-        port = _port_choice.randrange(first, low) if low > first else 0
+    for _ in range(50 if low > first else 0):
+        port = _port_choice.randrange(first, low)
         with socket.socket() as sock:
             try:
                 sock.bind(("127.0.0.1", port))

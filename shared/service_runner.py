@@ -51,9 +51,6 @@ def stop_on_signals(signums: Sequence[int] = STOP_SIGNALS) -> Iterator[threading
     event is only set by whoever holds it.
     """
     stop = threading.Event()
-    if threading.current_thread() is not threading.main_thread():
-        yield stop
-        return
     with stop_handlers(stop, signums):  # a handler must not take the event's lock (shared/signal_event.py)
         yield stop
 

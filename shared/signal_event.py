@@ -72,8 +72,12 @@ def stop_handlers(
     signums: Collection[int] = STOP_SIGNALS,
     on_signal: Callable[[int], None] | None = None,
 ) -> Iterator[None]:
-    """For the ``with`` block (main thread only), ``signums`` set ``event`` through a :class:`SignalEvent`,
-    after ``on_signal(signum)`` if given (it must take no lock); the previous handlers come back after."""
+    """For the ``with`` block, ``signums`` set ``event`` through a :class:`SignalEvent`, after
+    ``on_signal(signum)`` if given (it must take no lock); the previous handlers come back after. Outside
+    the main thread (Python allows no handlers there) nothing is installed: the event's holder sets it."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
     setter = SignalEvent(event, signums)
 
     def handle(signum: int, _frame: object) -> None:
