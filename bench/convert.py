@@ -168,27 +168,24 @@ def overhead(case: Case, runs: int) -> None:
 
         root = str(Path(__file__).resolve().parents[1])
         bare_command = [sys.executable, "-c", BARE_SCRIPT.format(root=root, path=str(path), only=only)]
-        as_commands = paired(
-            lambda: subprocess.run(convert_command(), check=True, capture_output=True),
-            lambda: subprocess.run(bare_command, check=True, capture_output=True),
-            runs,
-        )
-        without_split = paired(
-            lambda: subprocess.run(convert_command("--no-split-ifc"), check=True, capture_output=True),
-            lambda: subprocess.run(bare_command, check=True, capture_output=True),
-            runs,
-        )
+
+        def against_bare(command: Callable[[], list[str]]) -> Paired:
+            """``command()`` (made anew each run) and the bare command, run as processes in pairs."""
+            return paired(
+                lambda: subprocess.run(command(), check=True, capture_output=True),
+                lambda: subprocess.run(bare_command, check=True, capture_output=True),
+                runs,
+            )
+
+        as_commands = against_bare(convert_command)
+        without_split = against_bare(lambda: convert_command("--no-split-ifc"))
         # the bare command that also imports what `bimbot convert` imports: the ratio's floor as commands
         floor_command = [
             sys.executable,
             "-c",
             CONVERTER_IMPORTS + BARE_SCRIPT.format(root=root, path=str(path), only=only),
         ]
-        imports_only = paired(
-            lambda: subprocess.run(floor_command, check=True, capture_output=True),
-            lambda: subprocess.run(bare_command, check=True, capture_output=True),
-            runs,
-        )
+        imports_only = against_bare(lambda: floor_command)
     n = bare_tessellation(path, only)
     print(f"{case.label} ({path.name}{', --only ' + ','.join(only) if only else ''}): {n} elements")
     stages = ", ".join(f"{name} {seconds * 1000:.0f} ms" for name, seconds in stats.seconds_by_stage.items())
