@@ -224,14 +224,15 @@ class Placing:
             p.setCollisionFilterPair(
                 self.ground_id, body.body_id, -1, -1, 0 if pits else 1, physicsClientId=cid
             )
-        if any(pit.owner != guid for pit in pits):  # a foundation's own pit is where it goes
-            _log.info("%s released over the open pit of %s", guid, ", ".join(pit.owner for pit in pits))
+        others = tuple(pit.owner for pit in pits if pit.owner != guid)  # its own pit is where it goes
+        if others:
+            _log.info("%s released over the open pit of %s", guid, ", ".join(others))
         if carrier is not None:
             self.carrying.pop(carrier.robot_id, None)
         releaser = carrier.robot_id if carrier is not None else None
         item.phase, item.carrier, item.offset, item.tag = Phase.SETTLING, None, None, None
         self._moving.discard(guid)
-        self.watch[guid] = Watch(item.pose, now_s, releaser, tag, open_pits=tuple(pit.owner for pit in pits))
+        self.watch[guid] = Watch(item.pose, now_s, releaser, tag, open_pits=others)
         self.changed.add(guid)
 
     def _nearby_components(self, item: Item) -> dict[int, str]:

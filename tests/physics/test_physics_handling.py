@@ -510,6 +510,21 @@ def test_a_footing_set_down_beside_its_open_pit_rests_on_the_ground_at_its_edge(
     assert sim.handling.pose_message(footing.guid, sim.sim_time_s).open_pits == []
 
 
+def test_a_footing_in_its_own_pit_names_no_open_pit(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """Its own pit is where a foundation goes, not a pit "not placed yet": a Revit slab's unstable reason
+    had listed itself among the open pits it came to rest in (and --check-stability would advise placing it
+    before itself)."""
+    sim = make_sim(robots=1)
+    footing = _named(frame_manifest, "Footing A1")
+    _picked(sim, footing)
+    _beside_target(sim, footing)
+    assert sim.place(_place(sim, footing, duration_s=0.5), tag="t") is None
+    idle(sim, 6.0)
+    assert footing.guid not in sim.handling.pose_message(footing.guid, sim.sim_time_s).open_pits
+
+
 def test_a_placed_component_that_falls_off_after_it_rested_is_stopped_too(
     make_sim: Callable[..., Simulation], frame_manifest: Manifest
 ) -> None:
