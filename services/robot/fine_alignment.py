@@ -10,6 +10,12 @@ component at the laser's height, :meth:`.site_map.SiteMap.laser_segments`), not 
 match is not limited by a cell size. What remains is the laser's own error and the map's (a member's
 bounding box against its real section): the localisation share of the placement error.
 
+Only the edges that face the robot are matched (each segment carries its outside on its right,
+:func:`outline_edges`): a laser never sees the far face of a member, and matched against both faces a scan
+of a beam's near face fits its far face just as well, a section's depth away. An estimate 15 cm off towards
+a 160 mm beam lying in the yard was "aligned" on to that far face with a 0.3 mm fit, trusted, and a column
+was placed 161 mm off three times running (the same with the 100 mm columns and the fence's 0.2 m thickness).
+
 A correction larger than ``max_shift_m``, too few matched hits or a poor fit is not trusted: the filter's
 estimate stands (and the placement error shows it). Pure: arrays in, a pose out (metres, radians, world).
 """
@@ -17,6 +23,7 @@ estimate stands (and the placement error shows it). Pure: arrays in, a pose out 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,6 +53,28 @@ class Alignment:
     shift_m: float  # how far the alignment moved the estimate
     disagrees_m: float = 0.0  # set by the navigator: how far a fit lay from the positioning sensor's fixes
     fixes: int = 0  # set by the navigator: the positioning sensor's fixes the pose was taken from instead
+
+
+def outline_edges(outlines: Sequence[NDArray[np.float64]]) -> NDArray[np.float64]:
+    """The edges ``(m, 2, 2)`` of closed outlines (each ``(k, 2)``, either winding), each running
+    counter-clockwise round its outline: the outside lies on the edge's right."""
+    edges = []
+    for polygon in outlines:
+        if len(polygon) < 2:
+            continue
+        x, y = polygon[:, 0], polygon[:, 1]
+        twice_area = float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+        ccw = polygon if twice_area >= 0.0 else polygon[::-1]
+        edges.append(np.stack([ccw, np.roll(ccw, -1, axis=0)], axis=1))
+    return np.concatenate(edges) if edges else np.empty((0, 2, 2))
+
+
+def facing(segments: NDArray[np.float64], point_xy: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Which segments (outside on the right) ``point_xy`` sees from outside: the faces a laser there can
+    hit. Edge-on ones are left out too."""
+    a, b = segments[:, 0], segments[:, 1]
+    ab, ap = b - a, point_xy[None, :2] - a
+    return (ab[:, 0] * ap[:, 1] - ab[:, 1] * ap[:, 0]) < 0.0
 
 
 def nearest_on_segments(
@@ -86,8 +115,8 @@ def align(
     segments_m: NDArray[np.float64],
     config: AlignConfig = AlignConfig(),
 ) -> Alignment:
-    """Align ``estimate_xy_yaw`` so that the scan's hits (robot frame, ``(n, 2)``) lie on ``segments_m``
-    (world, ``(m, 2, 2)``)."""
+    """Align ``estimate_xy_yaw`` so that the scan's hits (robot frame, ``(n, 2)``) lie on the faces of
+    ``segments_m`` (world, ``(m, 2, 2)``, outside on the right) that face the robot."""
     start = np.asarray(estimate_xy_yaw, dtype=float)
     untrusted = Alignment(start, False, 0, math.inf, 0.0)
     if len(hits_robot_m) < config.min_hits or len(segments_m) == 0:
@@ -105,7 +134,7 @@ def align(
             return untrusted
         pose = stepped
     world = _to_world(pose, local)
-    _, distance = nearest_on_segments(world, segments)
+    _, distance = nearest_on_segments(world, segments[facing(segments, pose)])
     inlier = distance <= config.gates_m[-1]
     used = int(inlier.sum())
     rms = float(np.sqrt(np.mean(distance[inlier] ** 2))) if used else math.inf
@@ -131,8 +160,11 @@ def _gauss_newton(
     """Point-to-line Gauss–Newton steps with hits within ``gate_m`` of an edge; None: too few of them."""
     pose = pose.copy()
     for _ in range(config.iterations):
+        seen = segments[facing(segments, pose)]
+        if len(seen) == 0:
+            return None
         world = _to_world(pose, local)
-        near, distance = nearest_on_segments(world, segments)
+        near, distance = nearest_on_segments(world, seen)
         inlier = distance <= gate_m
         if int(inlier.sum()) < config.min_hits:
             return None

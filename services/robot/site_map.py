@@ -38,6 +38,8 @@ from bimbot.shared.messages import ComponentPoseMsg, ComponentState
 from bimbot.shared.occupancy_grid import OccupancyGrid, empty_grid, from_footprints, inflate
 from bimbot.shared.site_plan import FENCE_HEIGHT_M, GRID_MARGIN_M, SiteLayout, fence_boxes
 
+from .fine_alignment import outline_edges
+
 _log = logging.getLogger(__name__)
 
 # Distances are kept up to these bounds (farther reads the bound), so a change recomputes only around itself
@@ -247,7 +249,8 @@ class SiteMap:
 
     def laser_segments(self) -> NDArray[np.float64]:
         """The exact outlines the laser can see, as segments ``(m, 2, 2)`` (world, m): the fence and every
-        component at the laser's height (the fine alignment before a placement, :mod:`.fine_alignment`)."""
+        component at the laser's height (the fine alignment before a placement, :mod:`.fine_alignment`),
+        each with its outside on its right (:func:`.fine_alignment.outline_edges`)."""
 
         def build() -> NDArray[np.float64]:
             outlines = [self.footprints[guid].polygon_xy_m for guid, seen in self._sees.items() if seen]
@@ -256,12 +259,7 @@ class SiteMap:
                     np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
                     for x0, y0, x1, y1 in fence_boxes(self.layout)
                 ]
-            edges = [
-                np.stack([polygon, np.roll(polygon, -1, axis=0)], axis=1)
-                for polygon in outlines
-                if len(polygon) >= 2
-            ]
-            return np.concatenate(edges) if edges else np.empty((0, 2, 2))
+            return outline_edges(outlines)
 
         return self._cached("laser_segments", build)
 
