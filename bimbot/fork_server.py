@@ -43,6 +43,7 @@ _log = logging.getLogger(__name__)
 
 FORK_SERVER_ENV = "BIMBOT_FORK_SERVER"  # "0": start every service as a plain process
 SPAWN_TIMEOUT_S = 120.0  # a fresh clone compiles the kernels first (numba has no cache yet)
+CHECK_TIMEOUT_S = SPAWN_TIMEOUT_S  # the same preload, then a check of under a second
 
 
 class ForkedChild:
@@ -132,16 +133,26 @@ class ForkServer:
                     return None
                 return ForkedChild(self, self._pids.pop(0))
 
-    def check(self, request: dict[str, Any]) -> dict[str, Any] | None:
+    def check(self, request: dict[str, Any], timeout_s: float | None = None) -> dict[str, Any] | None:
         """Have a child of the server run the input check ``request`` asks for (:mod:`bimbot.forked_check`);
-        its answer, or None when none comes (the server is gone, or the child ended without answering)."""
+        its answer, or None when none comes: the server is gone, the child ended without answering, or
+        nothing came in ``timeout_s`` (:data:`CHECK_TIMEOUT_S`; a child hung, say on a lock a fork copied
+        held): the run then checks in its own process."""
         token = request["check"]
+        timeout_s = CHECK_TIMEOUT_S if timeout_s is None else timeout_s
         with self._lock:
             if not self._send(request):
                 return None
+            deadline = time.monotonic() + timeout_s
             with self._changed:
                 while token not in self._checks and not self._gone:
-                    self._changed.wait(timeout=0.5)  # bounded by the child: it answers or ends
+                    left = deadline - time.monotonic()
+                    if left <= 0:
+                        _log.warning(
+                            "the fork server's input check did not answer in %.0f s: checking here", timeout_s
+                        )
+                        return None
+                    self._changed.wait(timeout=min(left, 0.5))
                 return self._checks.pop(token, None) or None
 
     def _send(self, request: dict[str, Any]) -> bool:

@@ -12,7 +12,8 @@ itself. The bus router is then forked too, in a blink.
 The answer is one JSON line: ``{"checked": token, "ok": true}``, ``{"checked": token, "user_error":
 "…"}`` (the one line a user sees, exit 2), or ``{"checked": token, "failed": "traceback"}`` when the check
 itself broke; the warnings the check logged travel with it and are logged again in the run. Without an
-answer (no server, a child that died) the run checks in its own process, as it always could.
+answer (no server, a child that died, none within :data:`bimbot.fork_server.CHECK_TIMEOUT_S`) the run checks
+in its own process, as it always could.
 """
 
 from __future__ import annotations

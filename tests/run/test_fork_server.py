@@ -14,13 +14,16 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
+import bimbot.fork_server
 from bimbot.fork_server import ForkedChild, ForkServer
 from bimbot.forked_check import apply_answer, check_request
+from bimbot.run import _check_input
 from bimbot.run_args import RunOptions
 from bimbot.run_preflight import check_run_input
 from bimbot.shared.errors import UserError
@@ -148,6 +151,35 @@ def test_the_run_s_input_check_answers_in_a_child_of_the_server_as_it_does_in_th
     assert [forked == "ok" for forked, _ in answers] == [True, True, False, False, False, False]
     assert str(broken) in answers[2][0]
     assert server.check(check_request(tmp_path / "no_such_build", RunOptions())) is not None
+
+
+def test_a_check_the_server_never_answers_is_given_up_and_the_run_checks_itself(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A server that takes the request and never answers (stopped here; a child hung on a lock would do the
+    same) must not hold the run: after the bound the run checks in its own process, which answers."""
+    monkeypatch.setattr(bimbot.fork_server, "CHECK_TIMEOUT_S", 1.0)
+    launcher = ForkServer()
+    pid = launcher._process.pid
+    try:
+        os.kill(pid, signal.SIGSTOP)
+        said: list[str] = []
+
+        def check() -> None:
+            try:
+                _check_input(tmp_path / "no_such_build", RunOptions(), launcher)
+            except UserError as error:
+                said.append(str(error))
+
+        checking = threading.Thread(target=check, daemon=True)  # a wait without bound fails, not hangs
+        checking.start()
+        checking.join(timeout=30.0)
+        assert not checking.is_alive(), "the run still waits for the stopped server's answer"
+        assert len(said) == 1 and "no_such_build" in said[0]
+        assert "input check did not answer in 1 s: checking here" in caplog.text
+    finally:
+        os.kill(pid, signal.SIGCONT)
+        launcher.close()
 
 
 CHECK_IN_RUN = """
