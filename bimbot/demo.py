@@ -23,7 +23,7 @@ from bimbot.run import finish, run_build, say
 from bimbot.run_args import add_run_arguments, run_options
 from bimbot.run_commands import run_fleet
 from bimbot.services.converter.convert import convert_model
-from bimbot.services.converter.ifc_input import open_model
+from bimbot.services.converter.ifc_input import read_model
 from bimbot.shared.manifest import Manifest
 
 DEFAULT_OUT = Path("out/demo")
@@ -48,7 +48,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     model_path = args.model or bundled_model_path()
     world_dir = args.output / "world"
-    manifest = convert_model(open_model(model_path), model_path, world_dir)
+    read = read_model(model_path)
+    manifest = convert_model(read.model, model_path, world_dir, damage=read.damage)
     say(
         f"demo: {model_path.name} → {world_dir}/: {len(manifest.components)} components "
         f"({', '.join(_class_counts(manifest))}), {len(manifest.skipped)} skipped"

@@ -74,7 +74,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from .convert import ConversionStats, ConvertOptions, convert_model
-    from .ifc_input import open_model
+    from .ifc_input import read_model
     from .mesh_files import parse_formats
     from .selection import check_classes, parse_class_list
 
@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as error:
         raise UserError(f"--formats: {error}") from None
     check_writable_dir(args.output, "--output")  # before the model is read: that may take minutes
-    model = open_model(args.model)
+    model, damage = (read := read_model(args.model)).model, read.damage
     try:
         include = check_classes(model, parse_class_list(args.include))
         exclude = check_classes(model, parse_class_list(args.exclude))
@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     with _ProgressBar(enabled=not args.no_progress and sys.stderr.isatty()) as bar:
         try:
             manifest = convert_model(
-                model, args.model, args.output, options, progress=bar.update, stats=stats
+                model, args.model, args.output, options, progress=bar.update, stats=stats, damage=damage
             )
         except OSError as error:
             if not _under(error.filename, args.output):

@@ -41,9 +41,10 @@ from .component_writer import ShardContext, skipped_entry
 from .ifc_input import file_sha256
 from .mass import mass_unit_kg
 from .mesh_files import VISUAL_FORMATS
+from .parse_damage import ParseDamage, damaged_elements, describe_unreadable
 from .placement import axis2placement_matrix, choose_local_origin, vec3
 from .sdf_writer import world_sdf
-from .selection import select_elements
+from .selection import left_out_by_selection, select_elements
 from .sequencing import construction_sequence
 from .shards import run_shards
 from .tessellation import default_threads
@@ -79,17 +80,32 @@ def convert_model(
     *,
     progress: ProgressCallback | None = None,
     stats: ConversionStats | None = None,
+    damage: ParseDamage | None = None,
 ) -> Manifest:
+    """Convert ``model`` (read from ``source_path``) into ``out_dir``. ``damage``: what the parser could
+    not read in the file (:func:`.ifc_input.read_model`); the elements it leaves incomplete are skipped."""
     out_dir = Path(out_dir)
     options = options or ConvertOptions()
     stats = stats if stats is not None else ConversionStats()
     started = time.perf_counter()
     selection = select_elements(model, options.include, options.exclude, options.only)
     elements = list(selection.elements)
-    skipped = [skipped_entry(rejection.element, rejection.reason) for rejection in selection.rejected]
+    warnings: list[str] = []
+    damaged: dict[int, str] = {}
+    if damage:  # what the damage took overrides the reason it made (a body lost reads as "no body")
+        warnings += describe_unreadable(damage, Path(source_path))
+        candidates = elements + [r.element for r in selection.rejected if not left_out_by_selection(r.reason)]
+        damaged = damaged_elements(model, damage, candidates)
+    skipped = [
+        skipped_entry(rejection.element, damaged.get(rejection.element.id(), rejection.reason))
+        for rejection in selection.rejected
+    ]
+    skipped += [
+        skipped_entry(element, damaged[element.id()]) for element in elements if element.id() in damaged
+    ]
+    elements = [element for element in elements if element.id() not in damaged]
     unit_scale_m = ifcopenshell.util.unit.calculate_unit_scale(model)
     origin = _placement_origin(elements, unit_scale_m, options.far_from_origin_m)
-    warnings: list[str] = []
     if np.any(origin):
         warnings.append(f"model far from the IFC origin: world shifted by local origin {origin.tolist()} m")
     _prepare_out_dir(out_dir)

@@ -2,18 +2,23 @@
 
 ifcopenshell opens a truncated STEP file without complaint and reports other problems with several
 exception types; the converter wants one line that says what is wrong with which file: missing, empty, not
-IFC, truncated, an unsupported schema. IFC2X3, IFC4 and IFC4X3 (any addendum) are supported.
+IFC, truncated, an unsupported schema. IFC2X3, IFC4 and IFC4X3 (any addendum) are supported. What the
+parser could not read inside an otherwise readable file (a damaged line) comes back with the model
+(:func:`read_model`, :mod:`.parse_damage`): the converter leaves out the elements it leaves incomplete.
 """
 
 from __future__ import annotations
 
 import hashlib
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 
 import ifcopenshell
 
 from bimbot.shared.errors import UserError
+
+from .parse_damage import ParseDamage, read_parse_log
 
 _log = logging.getLogger(__name__)
 
@@ -23,8 +28,19 @@ _STEP_MAGIC = b"ISO-10303-21;"
 _STEP_END = b"END-ISO-10303-21;"
 
 
+@dataclass(frozen=True)
+class ReadModel:
+    model: ifcopenshell.file
+    damage: ParseDamage  # what the parser could not read (empty for a sound file)
+
+
 def open_model(path: Path) -> ifcopenshell.file:
     """Open ``path`` as an IFC-SPF model or raise :class:`UserError` with one line naming the problem."""
+    return read_model(path).model
+
+
+def read_model(path: Path) -> ReadModel:
+    """:func:`open_model`, and what the parser could not read in the file."""
     path = Path(path)
     if not path.exists():
         raise UserError(f"{path}: no such file")
@@ -34,6 +50,7 @@ def open_model(path: Path) -> ifcopenshell.file:
     if size == 0:
         raise UserError(f"{path}: empty file, not an IFC model")
     _check_step_frame(path, size)
+    ifcopenshell.get_log()  # what earlier opens logged: the log is read (and emptied) after this one
     try:
         model = ifcopenshell.open(str(path))
     except ifcopenshell.SchemaError as error:
@@ -45,9 +62,16 @@ def open_model(path: Path) -> ifcopenshell.file:
     schema = model.schema_identifier if hasattr(model, "schema_identifier") else model.schema
     if not str(schema).upper().startswith(SUPPORTED_SCHEMA_PREFIXES):
         raise UserError(f"{path}: unsupported IFC schema {schema} (bimbot reads {SUPPORTED_SCHEMAS})")
+    damage = read_parse_log(ifcopenshell.get_log(), path)
     if not model.by_type("IfcProject"):
+        if damage.unreadable:
+            line, what = damage.unreadable[0]
+            raise UserError(
+                f"{path} line {line}: could not be read ({what.rstrip()}), and no IfcProject was read after "
+                "it: a damaged IFC file"
+            )
         raise UserError(f"{path}: no IfcProject, not a complete IFC model")
-    return model
+    return ReadModel(model, damage)
 
 
 def _check_step_frame(path: Path, size: int) -> None:
