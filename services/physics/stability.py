@@ -197,9 +197,13 @@ def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = 
         )
     if missing:
         first = named(tuple(dict.fromkeys(missing)))
-        lines.append(
-            f"to try: place {first} earlier (--sequence F.xml), or --derive for the support graph's order"
+        why = (
+            ": the support graph's order (derived) places what rests on something after it, but does not "
+            "see open pits (a foundation's pit is its bounding box at ground level)"
+            if derived
+            else ", or --derive for the support graph's order"
         )
+        lines.append(f"to try: place {first} earlier (--sequence F.xml){why}")
     elif derived:
         lines.append(
             "to try: everything it rests on was placed before it, so it is held by a connection (bolted or "

@@ -107,6 +107,13 @@ def test_the_advice_fits_the_order_checked() -> None:
             names,
         )[1]
     )
+    # the derived order itself set a slab over a foundation's open pit (the Revit hub's step 1): reordering
+    # by hand helps, "--derive" (already the order checked) does not
+    slab = Moved("s", "Slab", 0.4, placed_on=(), rests_on=(), open_pits=("f",))
+    over_pit = StabilityReport(115, [StabilityStep(1, "s", "Slab", 0.5, 0.5, (), moved=(slab,))], 1.0, 0.1)
+    advice = describe(over_pit, {**names, "s": "Slab", "f": "Footing"}, derived=True)[-1]
+    assert advice.startswith("to try: place Footing (f) earlier (--sequence F.xml)")
+    assert "--derive" not in advice and "does not see open pits" in advice
     fell = Moved("b", "Beam", 2.0, placed_on=("c1",), rests_on=())
     assert (
         "set down on Column 1 (c1) and came to rest on the ground"
