@@ -224,7 +224,8 @@ class Placing:
             p.setCollisionFilterPair(
                 self.ground_id, body.body_id, -1, -1, 0 if pits else 1, physicsClientId=cid
             )
-        others = tuple(pit.owner for pit in pits if pit.owner != guid)  # its own pit is where it goes
+        # its own pit is where it goes; a foundation of several parts has a pit a part
+        others = tuple(dict.fromkeys(pit.owner for pit in pits if pit.owner != guid))
         if others:
             _log.info("%s released over the open pit of %s", guid, ", ".join(others))
         if carrier is not None:

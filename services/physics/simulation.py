@@ -65,7 +65,7 @@ from .crane import HOIST, SLEW, TROLLEY, CraneJoints
 from .fleet_spawn import robot_pose_msg, robot_types, spawn_fleet, types_on_site
 from .handling import Handling, HandlingConfig, Item, Phase
 from .odometry import Odometry
-from .pits import Pits
+from .pits import Pits, collision_part_boxes
 from .positioning import TotalStation
 from .profiles import FINE
 from .ray_scene import RayScene
@@ -221,7 +221,13 @@ class Simulation:
             body = create_component_body(cid, component, model, frame, visual=self.config.visuals)
             p.setCollisionFilterPair(self.ground_id, body.body_id, -1, -1, 0, physicsClientId=cid)
             items[component.guid] = Item(component, body, Phase.RESTING, frame)
-        pits = Pits(cid, self.manifest.components, filled=self._pit_filled)
+        build_dir = self.build_dir
+        pits = Pits(
+            cid,
+            self.manifest.components,
+            filled=self._pit_filled,
+            part_boxes=lambda component: collision_part_boxes(component, build_dir),
+        )
         self.handling = Handling(
             cid,
             items,

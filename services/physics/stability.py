@@ -199,7 +199,7 @@ def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = 
         first = named(tuple(dict.fromkeys(missing)))
         why = (
             ": the support graph's order (derived) places what rests on something after it, but does not "
-            "see open pits (a foundation's pit is its bounding box at ground level)"
+            "see open pits (the excavation under a foundation, open until it is placed)"
             if derived
             else ", or --derive for the support graph's order"
         )
