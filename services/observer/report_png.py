@@ -68,7 +68,13 @@ def _palette(name: str) -> tuple[RGB, ...]:
     return tuple(to_rgb(colormap(index)) for index in range(colormap.N))
 
 
-CLASS_PALETTE = _palette("tab10") + _palette("Dark2")
+# No red: red marks what was not constructed (a constructed slab in tab10's red looked like the failed
+# ones round it on the Revit hub's chart)
+CLASS_PALETTE = tuple(
+    color
+    for color in _palette("tab10") + _palette("Dark2")
+    if sum((a - b) ** 2 for a, b in zip(color, to_rgb(NOT_BUILT_COLOR), strict=True)) > 0.35**2
+)
 
 
 def class_colors(classes: list[str]) -> dict[str, RGB]:
@@ -372,14 +378,13 @@ def report_figure(report: dict[str, Any]) -> Figure:
     )
     handles: list[Artist] = [Patch(color=color, label=name) for name, color in colors.items()]
     handles += [*_hand_off_legend(report), *_not_built_legend(report)]
-    figure.legend(handles=handles, loc="lower center", ncol=min(len(handles), 8) or 1, frameon=False)
-    bottom = LEGEND_ROW
+    bottom = LEGEND_ROW * fitting_legend(figure, handles)
     placements = placement_handles(report)
     if placements:  # a row of its own, just under the placement panels
         figure.legend(
             handles=placements,
             loc="lower center",
-            bbox_to_anchor=(0.5, LEGEND_ROW),
+            bbox_to_anchor=(0.5, bottom),
             ncol=len(placements),
             frameon=False,
         )
@@ -387,6 +392,19 @@ def report_figure(report: dict[str, Any]) -> Figure:
     figure.tight_layout(rect=(0.0, bottom, 1.0, 0.97))
     fit_bar_labels(figure, lanes, labels)
     return figure
+
+
+def fitting_legend(figure: Figure, handles: list[Artist], max_columns: int = 8) -> int:
+    """The figure's legend at its foot, in as many columns (up to ``max_columns``) as fit its width; the
+    number of rows it takes. Eight columns of the Revit hub's classes and reasons ran off both edges."""
+    renderer = FigureCanvasAgg(figure).get_renderer()
+    columns = min(len(handles), max_columns) or 1
+    while True:
+        legend = figure.legend(handles=handles, loc="lower center", ncol=columns, frameon=False)
+        if columns == 1 or legend.get_window_extent(renderer).width <= 0.98 * figure.bbox.width:
+            return -(-len(handles) // columns)
+        legend.remove()
+        columns -= 1
 
 
 def render_report_png(report: dict[str, Any], path: Path) -> Path:

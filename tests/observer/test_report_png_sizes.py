@@ -71,3 +71,40 @@ def test_a_bar_label_is_cut_to_the_height_of_its_bar() -> None:
     low, high = ax.transData.transform([(0.0, -0.4), (0.0, 0.4)])
     assert long.get_window_extent(renderer).height <= abs(high[1] - low[1])
     assert len(long.get_text()) > 3  # cut to the bar, not emptied
+
+
+def test_the_legend_keeps_within_the_figure_and_no_class_is_drawn_in_the_not_built_red() -> None:
+    """The Revit hub's eight legend columns (five classes, a long 'not constructed' count, 'failed') ran off
+    both edges, and its constructed slab was drawn in the red of the failed ones round it."""
+    from matplotlib.colors import to_rgb
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    from bimbot.services.observer.report_png import (
+        CLASS_PALETTE,
+        DPI,
+        FIGURE_SIZE_IN,
+        NOT_BUILT_COLOR,
+        class_colors,
+        fitting_legend,
+    )
+
+    red = to_rgb(NOT_BUILT_COLOR)
+    assert all(sum((a - b) ** 2 for a, b in zip(c, red, strict=True)) > 0.1 for c in CLASS_PALETTE)
+    classes = ["IfcBeam", "IfcBuildingElementProxy", "IfcColumn", "IfcSlab", "IfcWallStandardCase"]
+    assert red not in class_colors(classes).values()
+    figure = Figure(figsize=FIGURE_SIZE_IN, dpi=DPI)
+    handles = [Patch(color=color, label=name) for name, color in class_colors(classes).items()]
+    handles += [
+        Patch(label="not constructed: blocked_by ×22, no_progress ×1, out_of_reach ×71, too_heavy ×19"),
+        Line2D([], [], marker="x", label="failed (when)"),
+    ]
+    rows = fitting_legend(figure, handles)
+    assert rows >= 2
+    (legend,) = figure.legends
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    extent = legend.get_window_extent(FigureCanvasAgg(figure).get_renderer())
+    assert extent.x0 >= 0.0 and extent.x1 <= figure.bbox.width
+    assert fitting_legend(Figure(figsize=FIGURE_SIZE_IN, dpi=DPI), handles[:3]) == 1  # a short one: one row
