@@ -30,8 +30,9 @@ from bimbot.shared.messages import PhysicsReply, PoseMsg
 from bimbot.shared.site_plan import Rect
 
 from .client import p
+from .pits import DEEPER_M
 from .placement_error import physical_placement
-from .release import Watch, box_corners, clear_overlap, observe, supports_of, touching_robot
+from .release import Watch, box_corners, clashes_at, clear_overlap, observe, supports_of, touching_robot
 from .scene import (
     ALL_GROUPS,
     DYNAMIC_GROUP,
@@ -194,8 +195,16 @@ class Placing:
         item.pose = item.motion_to or item.pose
         set_component_pose(cid, body, item.pose)
         set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)  # see what it overlaps, the carrier aside
-        item.pose = clear_overlap(cid, body, item.pose, self._nearby_components(item))
+        nearby = self._nearby_components(item)
+        item.pose = clear_overlap(cid, body, item.pose, nearby)
         set_component_pose(cid, body, item.pose)
+        clashes = clashes_at(cid, body, nearby)
+        if clashes:
+            _log.info(
+                "%s released into %s: the model puts them in one place (a clash in the IFC)",
+                guid,
+                ", ".join(f"{other} ({1000.0 * depth:.0f} mm deep)" for other, depth in clashes),
+            )
         make_dynamic(cid, body)
         p.resetBaseVelocity(body.body_id, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=cid)
         if carrier is not None and not carrier.is_crane and self._overlaps(item, carrier):
@@ -213,19 +222,26 @@ class Placing:
         # own pit tipped off the floor's edge and fell for ever).
         com_xy = p.getBasePositionAndOrientation(body.body_id, physicsClientId=cid)[0][:2]
         pits = self.pits.open_around((com_xy[0], com_xy[1])) if self.pits else []
-        if not pits and self.ground_id >= 0:  # lowered onto the ground, not into it (a footing off its pit)
-            (x, y, z), quat = item.pose
-            turn = np.asarray(p.getMatrixFromQuaternion(quat)).reshape(3, 3)
-            bottom_z = z + float((box_corners(item.component) @ turn.T)[:, 2].min())
-            if bottom_z < 0.0:
-                item.pose = ((x, y, z - bottom_z), quat)
-                set_component_pose(cid, body, item.pose)
+        (x, y, z), quat = item.pose
+        turn = np.asarray(p.getMatrixFromQuaternion(quat)).reshape(3, 3)
+        bottom_z = z + float((box_corners(item.component) @ turn.T)[:, 2].min())
+        if not pits and self.ground_id >= 0 and bottom_z < 0.0:
+            # lowered onto the ground, not into it (a footing off its pit)
+            item.pose = ((x, y, z - bottom_z), quat)
+            set_component_pose(cid, body, item.pose)
         if self.ground_id >= 0:
             p.setCollisionFilterPair(
                 self.ground_id, body.body_id, -1, -1, 0 if pits else 1, physicsClientId=cid
             )
-        # its own pit is where it goes; a foundation of several parts has a pit a part
-        others = tuple(dict.fromkeys(pit.owner for pit in pits if pit.owner != guid))
+        # its own pit is where it goes; a foundation of several parts has a pit a part; a pit whose floor
+        # lies above its bottom cannot take it (the hub's 0.56 m footing under the 125 mm ground slab was
+        # said to be "over the open pit" of the slab that rests on it, and --check-stability advised
+        # placing the slab first)
+        others = tuple(
+            dict.fromkeys(
+                pit.owner for pit in pits if pit.owner != guid and pit.floor_z_m < bottom_z - DEEPER_M
+            )
+        )
         if others:
             _log.info("%s released over the open pit of %s", guid, ", ".join(others))
         if carrier is not None:
@@ -233,7 +249,7 @@ class Placing:
         releaser = carrier.robot_id if carrier is not None else None
         item.phase, item.carrier, item.offset, item.tag = Phase.SETTLING, None, None, None
         self._moving.discard(guid)
-        self.watch[guid] = Watch(item.pose, now_s, releaser, tag, open_pits=others)
+        self.watch[guid] = Watch(item.pose, now_s, releaser, tag, open_pits=others, clashes=clashes)
         self.changed.add(guid)
 
     def _nearby_components(self, item: Item) -> dict[int, str]:

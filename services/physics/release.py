@@ -62,6 +62,8 @@ class Watch:
     supports: tuple[str, ...] = ()  # what it rests on once settled
     placed_on: tuple[str, ...] | None = None  # what it touched a control period after its release
     open_pits: tuple[str, ...] = ()  # foundations not placed yet whose open pit it was released over
+    # components it was released into deeper than a contact (GUID, metres): a clash in the model itself
+    clashes: tuple[tuple[str, float], ...] = ()
     reported: bool = False  # its drift beyond report_drift_m was logged
     stopped: bool = False  # it fell off the site and was stopped there, static
     bumped_by: str | None = None  # the first robot that touched it since its release (traffic past it)
@@ -122,6 +124,24 @@ def clear_overlap(
         shift = -deepest[8] * normal
         frame = ((frame[0][0] + shift[0], frame[0][1] + shift[1], frame[0][2] + shift[2]), frame[1])
     return frame
+
+
+def clashes_at(
+    client_id: int, body: ComponentBody, others: Mapping[int, str]
+) -> tuple[tuple[str, float], ...]:
+    """The components (``others``: body → GUID) that ``body``, where it is, overlaps deeper than
+    ``MAX_CLEARED_M`` (no contact :func:`clear_overlap` stops at: the model puts the two in one place),
+    deepest first, with the depth in metres."""
+    p.performCollisionDetection(physicsClientId=client_id)
+    deepest: dict[str, float] = {}
+    for other, guid in others.items():
+        if other == body.body_id:
+            continue
+        for point in p.getClosestPoints(body.body_id, other, 0.0, physicsClientId=client_id):
+            depth = -point[8]
+            if depth > MAX_CLEARED_M:
+                deepest[guid] = max(depth, deepest.get(guid, 0.0))
+    return tuple(sorted(deepest.items(), key=lambda item: -item[1]))
 
 
 def observe(

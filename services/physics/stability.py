@@ -44,6 +44,7 @@ class Moved:
     rests_on: tuple[str, ...]  # what it came to rest on
     open_pits: tuple[str, ...] = ()  # foundations not placed yet whose open pit it was set down over
     missing: tuple[str, ...] = ()  # what it rests on in the support graph and was not placed yet
+    clashes: tuple[tuple[str, float], ...] = ()  # what the model puts where it is (GUID, overlap in m)
 
 
 @dataclass(frozen=True)
@@ -118,6 +119,7 @@ def check_stability(
                     watch.supports,
                     watch.open_pits,
                     tuple(sorted(rests_on.get(other, set()) - placed - {other})),
+                    watch.clashes,
                 )
                 for other, watch in handling.watch.items()
                 if watch.drift_m > drift_tolerance_m
@@ -178,6 +180,7 @@ def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = 
         return ", ".join(named_guid(guid, names.get(guid)) for guid in guids)
 
     missing: list[str] = []
+    clashing: list[str] = []
     for moved in failure.moved:
         where = (
             f"over the open pit of {named(moved.open_pits)}, not placed yet"
@@ -185,17 +188,31 @@ def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = 
             else (f"on {named(moved.placed_on)}" if moved.placed_on else "on nothing but the ground")
         )
         unplaced = f"; it rests on {named(moved.missing)}, not placed before it" if moved.missing else ""
+        clash = (
+            "; at its target the model puts it into "
+            + ", ".join(f"{named((other,))} ({1000.0 * depth:.0f} mm deep)" for other, depth in moved.clashes)
+            + ": a clash in the IFC, and physics pushed the two apart"
+            if moved.clashes
+            else ""
+        )
         missing += [*moved.open_pits, *moved.missing]
+        clashing += [other for other, _ in moved.clashes]
         lines.append(
             f"  {moved.name} ({moved.guid}) moved {moved.drift_m:.3f} m after it was placed: it was set down "
-            f"{where} and {_came_to_rest(moved, named)}{unplaced}"
+            f"{where} and {_came_to_rest(moved, named)}{unplaced}{clash}"
         )
     if failure.index < report.total:
         lines.append(
             f"steps {failure.index + 1}–{report.total} were not checked: the replay stops at the first step "
             "that does not stand"
         )
-    if missing:
+    if clashing:
+        lines.append(
+            "to try: repair the clash in the model (two components cannot both be placed where they "
+            f"overlap), or leave one of them out: {named(tuple(dict.fromkeys(clashing)))} and "
+            f"{failure.name} ({failure.guid})"
+        )
+    elif missing:
         first = named(tuple(dict.fromkeys(missing)))
         why = (
             ": the support graph's order (derived) places what rests on something after it, but does not "

@@ -85,7 +85,8 @@ def test_the_hub_s_foundations_stand_in_the_derived_order_until_a_clash(
     samples_dir: Path, tmp_path: Path
 ) -> None:
     """The hub's first four foundations stand (before: the thickened slab, step 1, did not); step 5 is a
-    footing whose box overlaps the next footing's in the model itself."""
+    footing the model puts 229 mm into the strip footing (before: "over the open pit" of the ground slab
+    that rests on it, and the advice was to place that slab first)."""
     build = tmp_path / "hub"
 
     def bimbot(*args: str) -> subprocess.CompletedProcess[str]:
@@ -98,3 +99,6 @@ def test_the_hub_s_foundations_stand_in_the_derived_order_until_a_clash(
     assert "step 1 of 115 does not stand" not in checked.stdout
     failing = [line for line in checked.stdout.splitlines() if "does not stand" in line]
     assert failing and int(failing[0].split("step ")[1].split(" of")[0]) >= 5, checked.stdout
+    # that step says why: a clash in the model, not the open pit of the ground slab that rests on it
+    assert "a clash in the IFC" in checked.stdout and "over the open pit" not in checked.stdout
+    assert "to try: repair the clash in the model" in checked.stdout

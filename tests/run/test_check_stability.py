@@ -114,6 +114,15 @@ def test_the_advice_fits_the_order_checked() -> None:
     advice = describe(over_pit, {**names, "s": "Slab", "f": "Footing"}, derived=True)[-1]
     assert advice.startswith("to try: place Footing (f) earlier (--sequence F.xml)")
     assert "--derive" not in advice and "does not see open pits" in advice
+    # the model itself puts it into what was placed before it: the advice is the model, not the order
+    clash = Moved("b", "Beam", 0.23, placed_on=("c1",), rests_on=("c1",), clashes=(("c1", 0.229),))
+    lines = describe(
+        StabilityReport(85, [StabilityStep(24, "b", "Beam", 2.0, 0.23, ("c1",), moved=(clash,))], 24.0, 0.4),
+        names,
+        derived=True,
+    )
+    assert "the model puts it into Column 1 (c1) (229 mm deep): a clash in the IFC" in lines[1]
+    assert lines[-1].startswith("to try: repair the clash in the model") and "--derive" not in lines[-1]
     fell = Moved("b", "Beam", 2.0, placed_on=("c1",), rests_on=())
     assert (
         "set down on Column 1 (c1) and came to rest on the ground"
