@@ -32,7 +32,7 @@ from bimbot.shared.site_plan import Rect
 from .client import p
 from .pits import DEEPER_M
 from .placement_error import physical_placement
-from .release import Watch, box_corners, clashes_at, clear_overlap, observe, supports_of, touching_robot
+from .release import Watch, box_corners, clear_overlap, observe, supports_of, touching_robot
 from .scene import (
     ALL_GROUPS,
     DYNAMIC_GROUP,
@@ -195,10 +195,9 @@ class Placing:
         item.pose = item.motion_to or item.pose
         set_component_pose(cid, body, item.pose)
         set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)  # see what it overlaps, the carrier aside
-        nearby = self._nearby_components(item)
-        item.pose = clear_overlap(cid, body, item.pose, nearby)
+        cleared = clear_overlap(cid, body, item.pose, self._nearby_components(item))
+        item.pose, clashes = cleared.frame, cleared.clashes
         set_component_pose(cid, body, item.pose)
-        clashes = clashes_at(cid, body, nearby)
         if clashes:
             _log.info(
                 "%s released into %s: the model puts them in one place (a clash in the IFC)",

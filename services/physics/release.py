@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -98,50 +99,58 @@ def supports_of(client_id: int, body_id: int, guid_of: Mapping[int, str]) -> tup
     return tuple(sorted(guid_of[body] for body in touching if body in guid_of))
 
 
+@dataclass(frozen=True)
+class Cleared:
+    """Where :func:`clear_overlap` left a body, and what it overlaps there too deeply to clear."""
+
+    frame: Frame
+    # the components it overlaps deeper than ``MAX_CLEARED_M`` (GUID, metres), deepest first: no contact
+    # to stop at, the model puts the two in one place (a clash in the IFC)
+    clashes: tuple[tuple[str, float], ...] = ()
+
+
 def clear_overlap(
     client_id: int, body: ComponentBody, frame: Frame, others: Mapping[int, str], *, tries: int = 4
-) -> Frame:
+) -> Cleared:
     """``frame`` moved out of what the body would penetrate there (other components; the ground and pit
     floors are left to the contact solver): a robot setting a member down against its neighbour stops at
     the contact, it does not ram it in (Bullet would throw it out, centimetres, and call it unstable).
     Each try moves it out of the deepest overlap, along that contact's normal; overlaps of a few
     millimetres (collision margins) are the solver's, and one deeper than ``MAX_CLEARED_M`` is a collision,
-    released as it is."""
+    released as it is and reported with the frame."""
     for _ in range(tries):
-        set_component_pose(client_id, body, frame)
-        p.performCollisionDetection(physicsClientId=client_id)
-        deepest = None
-        for other in others:
-            if other == body.body_id:
-                continue
-            for point in p.getClosestPoints(body.body_id, other, 0.0, physicsClientId=client_id):
-                depth = -point[8]
-                if PENETRATION_SLOP_M < depth <= MAX_CLEARED_M and (deepest is None or point[8] < deepest[8]):
-                    deepest = point
-        if deepest is None:
-            break
+        points = _penetrations(client_id, body, frame, others)
+        clearable = [point for point, _ in points if PENETRATION_SLOP_M < -point[8] <= MAX_CLEARED_M]
+        if not clearable:
+            return Cleared(frame, _clashes(points))
+        deepest = min(clearable, key=lambda point: point[8])
         normal = np.asarray(deepest[7])  # on B, pointing from B to A: out of the other body
         shift = -deepest[8] * normal
         frame = ((frame[0][0] + shift[0], frame[0][1] + shift[1], frame[0][2] + shift[2]), frame[1])
-    return frame
+    return Cleared(frame, _clashes(_penetrations(client_id, body, frame, others)))
 
 
-def clashes_at(
-    client_id: int, body: ComponentBody, others: Mapping[int, str]
-) -> tuple[tuple[str, float], ...]:
-    """The components (``others``: body → GUID) that ``body``, where it is, overlaps deeper than
-    ``MAX_CLEARED_M`` (no contact :func:`clear_overlap` stops at: the model puts the two in one place),
-    deepest first, with the depth in metres."""
-    p.performCollisionDetection(physicsClientId=client_id)
+def _clashes(points: list[tuple[tuple[Any, ...], str]]) -> tuple[tuple[str, float], ...]:
+    """The components overlapped deeper than ``MAX_CLEARED_M`` (GUID, metres), deepest first."""
     deepest: dict[str, float] = {}
-    for other, guid in others.items():
-        if other == body.body_id:
-            continue
-        for point in p.getClosestPoints(body.body_id, other, 0.0, physicsClientId=client_id):
-            depth = -point[8]
-            if depth > MAX_CLEARED_M:
-                deepest[guid] = max(depth, deepest.get(guid, 0.0))
+    for point, guid in points:
+        if -point[8] > MAX_CLEARED_M:
+            deepest[guid] = max(-point[8], deepest.get(guid, 0.0))
     return tuple(sorted(deepest.items(), key=lambda item: -item[1]))
+
+
+def _penetrations(
+    client_id: int, body: ComponentBody, frame: Frame, others: Mapping[int, str]
+) -> list[tuple[tuple[Any, ...], str]]:
+    """The contact points of ``body`` at ``frame`` with ``others`` (body → GUID), overlapping or touching."""
+    set_component_pose(client_id, body, frame)
+    p.performCollisionDetection(physicsClientId=client_id)
+    return [
+        (point, guid)
+        for other, guid in others.items()
+        if other != body.body_id
+        for point in p.getClosestPoints(body.body_id, other, 0.0, physicsClientId=client_id)
+    ]
 
 
 def observe(
