@@ -93,7 +93,7 @@ def convert_model(
     warnings: list[str] = []
     damaged: dict[int, str] = {}
     if damage:  # what the damage took overrides the reason it made (a body lost reads as "no body")
-        warnings += describe_unreadable(damage, Path(source_path))
+        warnings += describe_unreadable(damage)
         candidates = elements + [r.element for r in selection.rejected if not left_out_by_selection(r.reason)]
         damaged = damaged_elements(model, damage, candidates)
     skipped = [

@@ -112,12 +112,13 @@ def _damaged_line(damage: ParseDamage, written_at: int | None) -> int | None:
     return max(before, default=written_at)
 
 
-def describe_unreadable(damage: ParseDamage, path: Path) -> list[str]:
+def describe_unreadable(damage: ParseDamage) -> list[str]:
     """One warning per line the parser could not read."""
+    name = damage.source.name if damage.source is not None else "the file"
     return [
-        f"{path.name} line {line}: could not be read ({what.rstrip()}); what refers to it is incomplete"
+        f"{name} line {line}: could not be read ({what.rstrip()}); what refers to it is incomplete"
         if line is not None
-        else f"{path.name}: {what.rstrip()}"
+        else f"{name}: {what.rstrip()}"
         for line, what in damage.unreadable
     ]
 
