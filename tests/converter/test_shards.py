@@ -11,15 +11,16 @@ import ifcopenshell
 import ifcopenshell.api.geometry
 import ifcopenshell.api.root
 import ifcopenshell.api.type
+import numpy as np
 import pytest
-from ifc_builders import SmallModel, new_model, place, translation
+from ifc_builders import SmallModel, add_beam, new_model, place, translation
 
 from bimbot.services.converter import convert as convert_module
 from bimbot.services.converter import shards
 from bimbot.services.converter.convert import ConvertOptions, convert_model
 from bimbot.services.converter.ifc_input import open_model
 from bimbot.services.converter.selection import select_elements
-from bimbot.services.converter.shards import geometry_group, plan_shards
+from bimbot.services.converter.shards import geometry_group, plan_shards, representation_size
 from bimbot.shared.manifest import Manifest
 
 GROUPS = ((10, 5.0), (9, 3.0), (9, 2.0))  # (beams, length m) per beam type: three mapped geometries
@@ -87,8 +88,58 @@ def test_a_group_larger_than_a_share_is_cut_so_workers_stay_busy(
     assert len(planned) == 6 and sizes[-1] - sizes[0] <= 1
 
 
-def _files(folder: Path) -> list[str]:
-    return [path.relative_to(folder).as_posix() for path in folder.rglob("*") if path.is_file()]
+def polygon_profile(model: ifcopenshell.file, corners: int) -> ifcopenshell.entity_instance:
+    """A closed profile of ``corners`` points on a 200 × 400 mm ellipse: a representation of many parts."""
+    angles = np.linspace(0.0, 2.0 * np.pi, corners, endpoint=False)
+    points = [
+        model.create_entity("IfcCartesianPoint", Coordinates=(100.0 * np.cos(a), 200.0 * np.sin(a)))
+        for a in angles
+    ]
+    curve = model.create_entity("IfcPolyline", Points=[*points, points[0]])
+    return model.create_entity("IfcArbitraryClosedProfileDef", ProfileType="AREA", OuterCurve=curve)
+
+
+def mixed_elements(plain: int, heavy_group: int) -> tuple[list[ifcopenshell.entity_instance], list[int]]:
+    """``plain`` beams of their own small geometry, then ``heavy_group`` beams mapping one type's
+    400-corner section (one heavy beam without a type when ``heavy_group`` is 1); and the heavy ids."""
+    small = new_model()
+    model = small.file
+    for number in range(plain):
+        add_beam(
+            small, f"plain-{number}", length_m=2.0 + 0.1 * number, matrix_m=translation(0.0, number, 0.0)
+        )
+    body = ifcopenshell.api.geometry.add_profile_representation(
+        model, context=small.body, profile=polygon_profile(model, 400), depth=3.0
+    )
+    heavy = []
+    for number in range(heavy_group):
+        beam = ifcopenshell.api.root.create_entity(model, ifc_class="IfcBeam", name=f"heavy-{number}")
+        heavy.append(place(small, beam, translation(10.0, number, 0.0), small.storey))
+    if heavy_group == 1:
+        ifcopenshell.api.geometry.assign_representation(model, product=heavy[0], representation=body)
+    else:
+        beam_type = ifcopenshell.api.root.create_entity(model, ifc_class="IfcBeamType", name="heavy")
+        ifcopenshell.api.geometry.assign_representation(model, product=beam_type, representation=body)
+        ifcopenshell.api.type.assign_type(model, related_objects=heavy, relating_type=beam_type)
+    return list(select_elements(model).elements), [beam.id() for beam in heavy]
+
+
+def test_the_costliest_element_is_a_shard_of_its_own_and_handed_out_first() -> None:
+    elements, (heavy,) = mixed_elements(plain=20, heavy_group=1)
+    assert representation_size(next(e for e in elements if e.id() == heavy)) > 400
+    planned = plan_shards(elements, 6, workers=2)
+    assert planned[0] == [heavy]  # a 0.2 s element handed out last would idle the other worker
+    assert sorted(i for shard in planned for i in shard) == sorted(e.id() for e in elements)
+    # before, shards were planned by element count only: the heavy beam was one member of an equal shard
+    assert max(len(shard) for shard in planned[1:]) <= 4
+
+
+def test_a_costly_group_within_a_workers_share_is_not_cut() -> None:
+    """Cutting would decompose its heavy geometry once per piece (the Revit house's windows: 0.29 s)."""
+    elements, heavy = mixed_elements(plain=30, heavy_group=6)
+    planned = plan_shards(elements, 6, workers=2)
+    assert [shard for shard in planned if set(heavy) & set(shard)] == [sorted(heavy)]
+    assert planned[0] == sorted(heavy)
 
 
 def _files(folder: Path) -> list[str]:
@@ -103,7 +154,7 @@ def test_several_processes_write_what_one_process_writes(
     model_file: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr(shards, "MIN_ELEMENTS_PER_WORKER", 8)  # fork for these 28 elements
-    monkeypatch.setattr(shards, "MIN_ELEMENTS_PER_SHARD", 4)  # six shards for two workers: cut groups
+    monkeypatch.setattr(shards, "MIN_ELEMENTS_PER_SHARD", 4)  # up to nine shards for three workers
     results: list[int] = []
     run_shards = convert_module.run_shards
 
@@ -113,8 +164,9 @@ def test_several_processes_write_what_one_process_writes(
         return done
 
     monkeypatch.setattr(convert_module, "run_shards", counted)
-    one, two = _convert(model_file, tmp_path / "one", 1), _convert(model_file, tmp_path / "two", 2)
-    assert results == [1, 6] and len(one.components) == 28
+    # three workers: each of the three groups is more than a worker's share, so they are cut
+    one, two = _convert(model_file, tmp_path / "one", 1), _convert(model_file, tmp_path / "two", 3)
+    assert results[0] == 1 and results[1] > len(GROUPS) and len(one.components) == 28
     assert one.model_dump(exclude={"source"}) == two.model_dump(exclude={"source"})
     for component in one.components:
         folder_one = tmp_path / "one" / component.files.model_dir
