@@ -173,6 +173,9 @@ class ComponentPoseMsg(_Message):
     drift_m: NonNegative | None = None
     supports: list[str] = []
     open_pits: list[str] = []  # the foundations (not placed yet) whose open pit it was released over
+    # placed and not joined yet: the components the model puts where it was released, GUID → how deep it
+    # went into each (m; deeper than a contact: a clash in the IFC, which physics pushes apart)
+    clash_depth_m: dict[str, NonNegative] = {}
     # placed and not joined yet: the first robot that touched it since its release, and when (sim s)
     bumped_by: str | None = None
     bumped_at_s: SimTime | None = None

@@ -58,6 +58,11 @@ BUMPED_HINT = (
     "robot's log), or its laser did not see the component"
 )
 
+CLASH_HINT = (
+    "repair the clash in the model (two components cannot both be placed where they overlap), or leave "
+    "one of them out (--exclude or --only at conversion)"
+)
+
 PLANNER_SOURCE = "planner"  # ComponentEventMsg.source of the planner's events; a robot's is its id
 PLANNER_EVENTS = frozenset(
     {ComponentEvent.RELEASE, ComponentEvent.RETRY, ComponentEvent.FAIL, ComponentEvent.BLOCK}
@@ -126,6 +131,7 @@ class ComponentAgent:
         "arrive_sim_time_s",
         "attempt",
         "bumped",
+        "clash_depth_m",
         "component",
         "drift_m",
         "event_ids",
@@ -167,6 +173,7 @@ class ComponentAgent:
         self.drift_m: float | None = None  # how far it moved since physics released it (its latest pose)
         self.supports: tuple[str, ...] = ()  # what it rested on then
         self.open_pits: tuple[str, ...] = ()  # released over the open pit of these foundations
+        self.clash_depth_m: dict[str, float] = {}  # the model put it into these components (GUID → m)
         self.bumped: tuple[str, float] | None = None  # the robot that touched it since its release, when
         self.arrive_sim_time_s: float | None = None
         self.place_sim_time_s: float | None = None
@@ -265,6 +272,7 @@ class ComponentAgent:
         self.pose_sim_time_s = msg.sim_time_s
         self.pose_fixed = msg.fixed
         self.drift_m, self.supports, self.open_pits = msg.drift_m, tuple(msg.supports), tuple(msg.open_pits)
+        self.clash_depth_m = dict(msg.clash_depth_m)
         bumped_at_s = msg.bumped_at_s if msg.bumped_at_s is not None else msg.sim_time_s
         self.bumped = (msg.bumped_by, bumped_at_s) if msg.bumped_by else None
         return self.try_verify(now_wall_s)
@@ -399,17 +407,32 @@ class ComponentAgent:
                 if self.bumped is not None
                 else "slid, tipped or fell"
             )
+            clash = (
+                "; at its target the model puts it into "
+                + ", ".join(
+                    f"{other} ({depth * 1000:.0f} mm deep)" for other, depth in self.clash_depth_m.items()
+                )
+                + ": a clash in the IFC, and physics pushed the two apart"
+                if self.clash_depth_m
+                else ""
+            )
             miss = Reason(
                 code=ReasonCode.UNSTABLE,
                 message=f"it moved {check.drift_m or 0.0:.3f} m after it was released ({how}; tolerance "
-                f"{tol.drift_m * 1000:g} mm) and came to rest on {rested}; {why}",
+                f"{tol.drift_m * 1000:g} mm) and came to rest on {rested}{clash}; {why}",
                 robot_id=self.robot_id,
             )
         elif verdict is not Verdict.VERIFIED:
             note = f"; {self.place_note}" if self.place_note else ""
             miss = Reason(code=ReasonCode.MISPLACED, message=f"{why}; {cause}{note}", robot_id=self.robot_id)
         if verdict is Verdict.FAILED and miss is not None and miss.code is ReasonCode.UNSTABLE:
-            hint = BUMPED_HINT if self.bumped is not None else UNSTABLE_HINT
+            hint = (
+                CLASH_HINT
+                if self.clash_depth_m
+                else BUMPED_HINT
+                if self.bumped is not None
+                else UNSTABLE_HINT
+            )
             miss = miss.model_copy(update={"message": f"{miss.message}; {hint}"})
         if verdict is Verdict.FAILED:
             self.reason = miss

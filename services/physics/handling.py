@@ -447,6 +447,7 @@ class Handling(Placing):
             drift_m=drift,
             supports=list(watch.supports if watch is not None else item.supports),
             open_pits=list(watch.open_pits if watch is not None else ()),
+            clash_depth_m=dict(watch.clashes if watch is not None else ()),
             bumped_by=watch.bumped_by if watch is not None else None,
             bumped_at_s=watch.bumped_at_s if watch is not None else None,
         )

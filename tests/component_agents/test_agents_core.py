@@ -198,6 +198,23 @@ def test_a_component_a_robot_drove_into_names_that_robot_not_a_structure_that_co
     assert calm.reason is not None and "slid, tipped or fell" in calm.reason.message
 
 
+def test_a_component_the_model_puts_into_another_says_it_is_a_clash_in_the_ifc() -> None:
+    """Physics names what the model put it into (a clash in the IFC, pushed apart): the ``unstable`` reason
+    says so and the failed one advises repairing the model, not bracing or --check-stability."""
+    agent = new_agent(max_attempts=1)
+    drive_to_assembling(agent)
+    pushed = pose_of(agent.component, sim_time_s=5.0, offset_m=(0.2, 0.0, 0.0)).model_copy(
+        update={"drift_m": 0.229, "fixed": True, "clash_depth_m": {"2hQ7nQyXr5XBJw0GkS1lVd": 0.229}}
+    )
+    agent.observe_pose(pushed, NOW)
+    failed = agent.apply_event(event(agent.guid, E.PLACE, sim_time_s=5.0), NOW)
+    assert states(failed) == [S.VERIFYING, S.FAILED]
+    assert agent.reason is not None and agent.reason.code.value == "unstable"
+    message = agent.reason.message
+    assert "puts it into 2hQ7nQyXr5XBJw0GkS1lVd (229 mm deep): a clash in the IFC" in message
+    assert "repair the clash in the model" in message and "--check-stability" not in message
+
+
 def test_a_small_settling_drift_is_within_tolerance_and_a_miss_says_misplaced() -> None:
     agent = new_agent()
     drive_to_assembling(agent)

@@ -614,3 +614,23 @@ def test_a_robot_that_a_released_component_fell_onto_is_not_named_as_its_cause(
     assert math.dist(component_pose(sim.client_id, item.body)[0], fallen[0]) > 0.01  # it was touched
     assert sim.handling.watch[column.guid].bumped_by is None
     assert sim.handling.pose_message(column.guid, sim.sim_time_s).bumped_by is None
+
+
+def test_a_component_released_into_another_names_the_clash_in_its_pose(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """A model that puts two components in one place (a clash in the IFC): physics pushes them apart and
+    the pose message names the other and how deep, so the agent's reason can say it (the Revit hub's
+    footing, 229 mm inside the strip footing, had been reported as merely unstable)."""
+    sim = make_sim(robots=0)
+    first, second = _named(frame_manifest, "Footing A1"), _named(frame_manifest, "Footing A2")  # 0.6 m wide
+    x, y, z = first.target_pose_world.position_m
+    into_first = second.target_pose_world.model_copy(update={"position_m": (x + 0.3, y, z)})
+    sim.handling.items[second.guid].component = second.model_copy(update={"target_pose_world": into_first})
+    sim.handling.set_down(first.guid, sim.sim_time_s)
+    p.performCollisionDetection(physicsClientId=sim.client_id)  # its box where it is now, as a step leaves it
+    sim.handling.set_down(second.guid, sim.sim_time_s)  # half its width into the first, still at its target
+    clashes = sim.handling.pose_message(second.guid, sim.sim_time_s).clash_depth_m
+    assert list(clashes) == [first.guid]
+    assert clashes[first.guid] == pytest.approx(0.3, abs=0.01)
+    assert sim.handling.pose_message(first.guid, sim.sim_time_s).clash_depth_m == {}
