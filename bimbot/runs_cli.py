@@ -42,7 +42,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def run_summary(run: RunFolder) -> str:
-    """One line from the run's report: constructed/total, how it ended, sim time; or why there is none."""
+    """One line from the run's report: constructed/total, how it ended, sim time and, when some were not
+    constructed, the count per reason (a run that ended by itself as ``done`` may have built 3 of 115: the
+    reasons say why without opening the report); or why there is none."""
     path = run.report_dir / "report.json"
     try:
         report = json.loads(path.read_text(encoding="utf-8"))
@@ -54,7 +56,13 @@ def run_summary(run: RunFolder) -> str:
     ending = report.get("ending") or {}
     sim_s = report.get("sim_time_s", totals.get("makespan_s"))
     sim = f", {sim_s:.0f} s sim" if isinstance(sim_s, int | float) else ""
+    by_reason = totals.get("by_reason") or {}
+    reasons = ", ".join(
+        f"{count} {reason}"
+        for reason, count in sorted(by_reason.items(), key=lambda item: (-item[1], item[0]))
+        if isinstance(count, int) and count > 0
+    )
     return (
         f"constructed {totals.get('constructed', '?')}/{totals.get('components', '?')}, "
-        f"{ending.get('how', 'unfinished')}{sim}"
+        f"{ending.get('how', 'unfinished')}{sim}" + (f"; not constructed: {reasons}" if reasons else "")
     )

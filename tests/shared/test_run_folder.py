@@ -76,5 +76,15 @@ def test_bimbot_runs_lists_runs_with_their_reports_and_makes_new_ones(
     (made / "report" / "report.json").write_text(json.dumps(report))
     assert main(["runs", str(build)]) == 0
     listed = capsys.readouterr().out
-    assert f"{made.name} (latest)  constructed 27/28, stalled, 812 s sim" in listed
+    assert f"{made.name} (latest)  constructed 27/28, stalled, 812 s sim\n" in listed
+    # a run that ended by itself with much left unbuilt says why, most common reason first
+    report["totals"] |= {"constructed": 3, "by_reason": {"too_heavy": 8, "blocked_by": 95, "out_of_reach": 9}}
+    report["ending"] = {"how": "done"}
+    (made / "report" / "report.json").write_text(json.dumps(report))
+    assert main(["runs", str(build)]) == 0
+    listed = capsys.readouterr().out
+    assert (
+        "constructed 3/28, done, 812 s sim; not constructed: 95 blocked_by, 9 out_of_reach, 8 too_heavy"
+        in listed
+    )
     assert main(["runs", str(tmp_path / "nothing")]) == 2
