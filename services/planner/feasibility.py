@@ -18,7 +18,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from bimbot.shared.manifest import Component
+from bimbot.shared.manifest import Component, MassSource
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.site_plan import YardSlot
 
@@ -78,6 +78,21 @@ def component_feasibility(
     return Feasibility(component.guid, (), (), _why_not(component, robots, where))
 
 
+#: How a mass the IFC does not state was estimated (the converter's chain, ``mass.py``): a reason that turns
+#: on the mass says so, since a user may know better (a hollow-core slab, a lighter material).
+ESTIMATED_MASS = {
+    MassSource.MATERIAL_DENSITY_PROPERTY: "its mesh volume × its material's MassDensity",
+    MassSource.MATERIAL_DENSITY_TABLE: "its mesh volume × a typical density for its material's name",
+    MassSource.DEFAULT_DENSITY: "its mesh volume × a default density (no material the converter knows)",
+}
+
+
+def mass_note(component: Component) -> str:
+    """``"; the mass is an estimate, <how>: …"`` when the IFC states no weight for it, else ``""``."""
+    how = ESTIMATED_MASS.get(component.mass_source)
+    return f"; the mass is an estimate, {how}: the IFC states no weight for it" if how else ""
+
+
 def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) -> Reason:
     mass, top_z = component.mass_kg, component.bbox_world.max_m[2]
     kinds = ", ".join(sorted({robot.description.name for robot in robots}))
@@ -88,6 +103,7 @@ def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) ->
             message=(
                 f"{mass:,.0f} kg exceeds the largest payload on site "
                 f"({heaviest.payload_kg:,.0f} kg, robot type {heaviest.name}; types on site: {kinds})"
+                + mass_note(component)
             ),
         )
     for robot in robots:
@@ -103,7 +119,7 @@ def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) ->
                 code=ReasonCode.OUT_OF_REACH,
                 message=(
                     f"its target is {far:.1f} m from {robot.description.name} {robot.robot_id}, whose load "
-                    f"chart lifts {mass:,.0f} kg to {radius:.1f} m at most"
+                    f"chart lifts {mass:,.0f} kg to {radius:.1f} m at most{mass_note(component)}"
                 ),
                 robot_id=robot.robot_id,
             )
@@ -121,6 +137,7 @@ def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) ->
             message=(
                 f"its yard slot is {far:.1f} m from {robot.description.name} {robot.robot_id}, whose "
                 f"load chart lifts {mass:,.0f} kg to {radius:.1f} m at most, and {hand_off}"
+                + mass_note(component)
             ),
             robot_id=robot.robot_id,
         )

@@ -18,7 +18,7 @@ from bimbot.services.planner.capability import SiteRobot
 from bimbot.services.planner.feasibility import component_feasibility, infeasible
 from bimbot.services.planner.scheduler import Phase, PlannerCore, PlannerLimits
 from bimbot.services.planner.sources import PlanError, PlanSource, SourceKind, load_plan, plan_from_sequence
-from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.manifest import Manifest, MassSource, read_manifest
 from bimbot.shared.messages import (
     ComponentEvent,
     ComponentEventMsg,
@@ -177,6 +177,13 @@ def test_feasibility_names_the_mass_and_the_height_against_the_robot_limits() ->
     verdict = component_feasibility(heavy, ground)
     assert verdict.capable_types == () and verdict.reason is not None
     assert verdict.reason.code is ReasonCode.TOO_HEAVY and "5,760 kg" in verdict.reason.message
+    # a mass the converter estimated is said to be one (a user may know the real weight); a stated one not
+    for source, estimated in ((MassSource.DEFAULT_DENSITY, True), (MassSource.QUANTITY_WEIGHT, False)):
+        verdict = component_feasibility(heavy.model_copy(update={"mass_source": source}), ground)
+        assert verdict.reason is not None
+        assert (
+            "the mass is an estimate, its mesh volume × a default density" in verdict.reason.message
+        ) is estimated
     low_robot = DEFAULT_ROBOT.model_copy(update={"max_place_height_m": 1.0})
     verdict = component_feasibility(beam, [SiteRobot("r1", low_robot, (0.0, 0.0, 0.0))])
     assert verdict.reason is not None and verdict.reason.code is ReasonCode.OUT_OF_REACH
