@@ -30,6 +30,7 @@ from .capability import (
     can_carry,
     can_place,
     staging_reached,
+    target_centre_xy,
     task_estimate_s,
 )
 from .records import RobotRecord
@@ -117,7 +118,7 @@ def _hand_off_spot(
 ) -> tuple[float, float] | None:
     """A free staging spot of an alive crane that can place ``component`` (the nearest crane to its
     target first), or None."""
-    target = component.target_pose_world.position_m
+    target = target_centre_xy(component)
     cranes = [
         site[record.robot_id]
         for record in records
@@ -125,7 +126,7 @@ def _hand_off_spot(
         and can_place(site[record.robot_id], component)
         and staging_reached(site[record.robot_id], component)
     ]
-    cranes.sort(key=lambda crane: math.dist(crane.home_xy_yaw[:2], target[:2]))
+    cranes.sort(key=lambda crane: math.dist(crane.home_xy_yaw[:2], target))
     for crane in cranes:
         assert crane.staging is not None
         for spot in staging_spots(crane.staging):

@@ -76,6 +76,13 @@ class Where:
     top_z_m: float
 
 
+def target_centre_xy(component: Component) -> tuple[float, float]:
+    """Where the component's body is at its target (the centre of its BIM box), which is not its
+    placement's origin: a Revit member may have that at the project origin, 100 m from its body."""
+    low, high = component.bbox_world.min_m, component.bbox_world.max_m
+    return ((low[0] + high[0]) / 2.0, (low[1] + high[1]) / 2.0)
+
+
 def target_footprint(component: Component) -> Footprint:
     pose = component.target_pose_world
     return posed_footprint(component, pose.position_m, pose.quat_xyzw)
@@ -93,6 +100,13 @@ def crane_reaches_centre(crane: SiteRobot, where: Where, mass_kg: float) -> bool
 def crane_reaches_target(crane: SiteRobot, component: Component) -> bool:
     polygon = target_footprint(component).polygon_xy_m
     return crane.description.reaches(crane.home_xy_yaw[:2], polygon, component.mass_kg)
+
+
+def target_hook_radius_m(crane: SiteRobot, component: Component) -> float:
+    """The crane's hook radius over the component at its target: what :func:`crane_reaches_target` holds
+    against the load chart (the centre of its footprint, not its placement's origin, which a Revit member
+    may have at the project origin, 100 m away)."""
+    return crane.description.hook_radius_m(crane.home_xy_yaw[:2], target_footprint(component).polygon_xy_m)
 
 
 def can_place(robot: SiteRobot, component: Component) -> bool:
@@ -136,13 +150,13 @@ def task_estimate_s(
     """Sim seconds for ``robot`` (at ``robot_xy_m``) to pick ``component`` up where it lies and place it
     at its target, or put it down at ``to_xy_m`` (a hand-off)."""
     description = robot.description
-    target = component.target_pose_world.position_m
+    target = target_centre_xy(component)
     handling_s = 2.0 * description.handling_s
     if description.crane is not None:
         start = (*where.xy_m, where.top_z_m)
         end = (target[0], target[1], component.bbox_world.max_m[2])
         return description.crane.motion_s(robot.home_xy_yaw[:2], start, end) + handling_s
-    goal = to_xy_m if to_xy_m is not None else target[:2]
+    goal = to_xy_m if to_xy_m is not None else target
     drive_m = math.dist(robot_xy_m[:2], where.xy_m) + math.dist(where.xy_m, goal[:2])
     place_s = 0.0 if to_xy_m is not None else GROUND_PLACE_S
     return DETOUR * drive_m / description.max_speed_mps + handling_s + place_s

@@ -20,7 +20,7 @@ from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.site_plan import YardSlot
 
 from .assignment import choose, staged_where
-from .capability import SiteRobot
+from .capability import SiteRobot, target_centre_xy
 from .feasibility import slot_where
 from .records import FINAL, ComponentRecord, Pending, Phase, RobotRecord, TaskRecord, distance
 from .sources import Plan
@@ -69,7 +69,7 @@ class Dispatch:
             if not fresh and others_alive:
                 continue
             idle = fresh or idle
-            where = component.position_xy or self._manifest[guid].target_pose_world.position_m[:2]
+            where = component.position_xy or target_centre_xy(self._manifest[guid])
             robot = min(idle, key=lambda item: (distance(item.pose_xy_yaw, where), item.robot_id))
             self._give_to(task, robot, TaskKind.BUILD, None, estimate_s=0.0)
 

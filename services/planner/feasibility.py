@@ -29,6 +29,8 @@ from .capability import (
     can_carry,
     can_place,
     staging_reached,
+    target_centre_xy,
+    target_hook_radius_m,
 )
 
 
@@ -46,8 +48,7 @@ class Feasibility:
 def slot_where(component: Component, slot: YardSlot | None) -> Where:
     """The component lying in its yard slot (or at its target when it has no slot)."""
     if slot is None:
-        position = component.target_pose_world.position_m
-        return Where((position[0], position[1]), component.bbox_world.max_m[2])
+        return Where(target_centre_xy(component), component.bbox_world.max_m[2])
     centre = (
         (slot.footprint.min_xy[0] + slot.footprint.max_xy[0]) / 2.0,
         (slot.footprint.min_xy[1] + slot.footprint.max_xy[1]) / 2.0,
@@ -111,15 +112,19 @@ def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) ->
         if spec is None or robot.description.refusal(mass, top_z) is not None:
             continue
         base = robot.home_xy_yaw[:2]
-        target = component.target_pose_world.position_m
         radius = spec.radius_for(mass)
         if not can_place(robot, component):
-            far = math.dist(base, target[:2])
+            far = target_hook_radius_m(robot, component)
+            limit = (
+                f"whose trolley comes no nearer than {spec.min_radius_m:.1f} m"
+                if far < spec.min_radius_m
+                else f"whose load chart lifts {mass:,.0f} kg to {radius:.1f} m at most{mass_note(component)}"
+            )
             return Reason(
                 code=ReasonCode.OUT_OF_REACH,
                 message=(
-                    f"its target is {far:.1f} m from {robot.description.name} {robot.robot_id}, whose load "
-                    f"chart lifts {mass:,.0f} kg to {radius:.1f} m at most{mass_note(component)}"
+                    f"its target (the centre of its footprint) is {far:.1f} m from "
+                    f"{robot.description.name} {robot.robot_id}, {limit}"
                 ),
                 robot_id=robot.robot_id,
             )
@@ -128,7 +133,9 @@ def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) ->
         strongest = max((item.payload_kg for item in carriers), default=0.0)
         if mass > strongest:
             hand_off = (
-                f"no ground robot can carry it to the crane (largest ground payload {strongest:,.0f} kg)"
+                f"no ground robot can carry it to the crane (largest ground payload {strongest:,.0f} kg; a "
+                f"ground robot type that carries {mass:,.0f} kg, in a fleet file given with --fleet, could "
+                "bring it to the crane's staging area)"
             )
         else:
             hand_off = f"its staging area is not within {radius:.1f} m of it either"

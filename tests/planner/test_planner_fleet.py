@@ -4,6 +4,7 @@ component's slot gets it through a hand-off task of its own (pure core, no bus).
 from __future__ import annotations
 
 import itertools
+import math
 
 from planner_builders import portal_manifest, robot_msg, state_msg
 
@@ -177,6 +178,33 @@ def test_a_component_the_crane_still_cannot_reach_after_its_hand_offs_fails_out_
         and reason.code.value == "out_of_reach"
         and "handed off 2 time(s)" in reason.message
     )
+
+
+def test_an_out_of_reach_reason_measures_to_the_footprint_the_decision_used_not_the_placement_origin() -> (
+    None
+):
+    """A Revit member may have its placement at the project origin and its body 100 m away: the reason
+    said "its target is 100.2 m from tower_crane r3" for a beam whose body lay elsewhere."""
+    from bimbot.services.planner.feasibility import component_feasibility
+
+    beam = next(c for c in _manifest(beam=300.0).components if c.guid == "beam")
+    shift = 55.0  # the body 55 m east of its placement's origin, which lies at the crane's mast
+    local = beam.bbox_local.model_copy(
+        update={
+            "min_m": (beam.bbox_local.min_m[0] + shift, *beam.bbox_local.min_m[1:]),
+            "max_m": (beam.bbox_local.max_m[0] + shift, *beam.bbox_local.max_m[1:]),
+        }
+    )
+    origin = beam.target_pose_world.model_copy(
+        update={"position_m": (0.0, 0.0, 0.0), "quat_xyzw": (0, 0, 0, 1)}
+    )
+    far_body = beam.model_copy(update={"bbox_local": local, "target_pose_world": origin})
+    verdict = component_feasibility(far_body, [SiteRobot("r3", CRANE, (0.0, 0.0, 0.0))])
+    assert verdict.reason is not None and verdict.reason.code.value == "out_of_reach"
+    low, high = local.min_m, local.max_m
+    centre_m = math.hypot((low[0] + high[0]) / 2.0, (low[1] + high[1]) / 2.0)
+    assert f"is {centre_m:.1f} m from tower_crane r3" in verdict.reason.message
+    assert "is 0.0 m from" not in verdict.reason.message
 
 
 def test_a_restarted_planner_that_adopted_a_hand_off_as_a_build_frees_its_robot_when_it_ends() -> None:
