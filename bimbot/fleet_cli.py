@@ -30,6 +30,7 @@ from bimbot.shared.manifest import Component
 from bimbot.shared.option_types import positive_int
 from bimbot.shared.service_runner import resolve_build
 from bimbot.shared.site_layout import plan_site
+from bimbot.shared.support_graph import support_predecessors
 
 _log = logging.getLogger(__name__)
 
@@ -105,5 +106,33 @@ def _print_table(rows: list[tuple[Component, Feasibility]], fleet: Fleet) -> Non
     routes = Counter(route for _, row in rows for route in row.routes[:1])
     buildable = sum(1 for _, row in rows if row.reason is None)
     summary = ", ".join(f"{count} {code}" for code, count in failed.items()) or "none"
+    blocked = resting_on_unbuildable(
+        [component for component, _ in rows], {r.guid for _, r in rows if r.reason}
+    )
     console.print(f"buildable: {buildable} of {len(rows)}; cannot: {summary}")
-    console.print("first route: " + ", ".join(f"{count} {route}" for route, count in routes.most_common()))
+    if blocked:
+        console.print(
+            f"of the buildable, {len(blocked)} rest (directly or through others) on one that cannot: a run "
+            f"fails them blocked_by, so it can build at most {buildable - len(blocked)}"
+        )
+    if routes:
+        console.print(
+            "first route: " + ", ".join(f"{count} {route}" for route, count in routes.most_common())
+        )
+
+
+def resting_on_unbuildable(components: list[Component], unbuildable: set[str]) -> set[str]:
+    """The GUIDs, not in ``unbuildable``, that rest on one of them in the support graph, transitively: what
+    a run blocks (the planner's ``blocked_by``) when the model's own sequence is not given."""
+    dependents: dict[str, set[str]] = {}
+    for guid, supports in support_predecessors(components).items():
+        for support in supports:
+            dependents.setdefault(support, set()).add(guid)
+    blocked: set[str] = set()
+    pending = list(unbuildable)
+    while pending:
+        for dependent in dependents.get(pending.pop(), ()):
+            if dependent not in blocked and dependent not in unbuildable:
+                blocked.add(dependent)
+                pending.append(dependent)
+    return blocked

@@ -107,6 +107,9 @@ def test_fleet_check_prints_the_husky_only_fleet_footings_too_heavy_with_the_num
     )
     assert done.returncode == 1, done.stderr  # 1: the fleet cannot build everything
     assert "buildable: 19 of 28; cannot: 9 too_heavy" in done.stdout
+    # what rests on the footings cannot be built either: the check says so, as a run's blocked_by would
+    assert "of the buildable, 19 rest (directly or through others) on one that cannot" in done.stdout
+    assert "so it can build at most 0" in done.stdout
     assert done.stdout.count("259 kg exceeds the largest payload on site (75 kg") == 9
 
 
