@@ -26,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    build = args.build if args.build.is_dir() else args.build.parent
+    build = args.build.parent if args.build.is_file() else args.build  # BUILD/ or BUILD/manifest.json
     load_manifest(build)  # one clear line when it is not a build
     if args.new:
         sys.stdout.write(f"{new_run_folder(build).root}\n")

@@ -88,3 +88,5 @@ def test_bimbot_runs_lists_runs_with_their_reports_and_makes_new_ones(
         in listed
     )
     assert main(["runs", str(tmp_path / "nothing")]) == 2
+    # the folder asked for, not its parent's missing manifest (a new-user trial was told of tmp/manifest.json)
+    assert f"{tmp_path / 'nothing'}: no such folder" in capsys.readouterr().err
