@@ -60,7 +60,7 @@ BUMPED_HINT = (
 
 CLASH_HINT = (
     "repair the clash in the model (two components cannot both be placed where they overlap), or leave "
-    "one of them out (--exclude or --only at conversion)"
+    "one of them out: bimbot convert MODEL.ifc -o OUT/ --exclude GLOBALID"
 )
 
 PLANNER_SOURCE = "planner"  # ComponentEventMsg.source of the planner's events; a robot's is its id

@@ -43,7 +43,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "by default building elements and their parts are built",
     )
     parser.add_argument(
-        "--exclude", default="", help="leave out these IFC classes (comma-separated, with subclasses)"
+        "--exclude",
+        default="",
+        help="leave out these IFC classes (comma-separated, with subclasses) or single elements by GlobalId",
     )
     parser.add_argument(
         "--only",
@@ -76,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
     from .convert import ConversionStats, ConvertOptions, convert_model
     from .ifc_input import read_model
     from .mesh_files import parse_formats
-    from .selection import check_classes, parse_class_list
+    from .selection import check_classes, check_exclusions, parse_class_list
 
     started = time.perf_counter()
     if args.threads is not None and args.threads < 1:
@@ -89,13 +91,14 @@ def run(args: argparse.Namespace) -> int:
     model, damage = (read := read_model(args.model)).model, read.damage
     try:
         include = check_classes(model, parse_class_list(args.include))
-        exclude = check_classes(model, parse_class_list(args.exclude))
+        exclude, exclude_guids = check_exclusions(model, parse_class_list(args.exclude))
         only = check_classes(model, parse_class_list(args.only))
     except ValueError as error:
         raise UserError(str(error)) from None
     options = ConvertOptions(
         include=include,
         exclude=exclude,
+        exclude_guids=exclude_guids,
         only=only,
         threads=args.threads,
         formats=formats,

@@ -58,6 +58,7 @@ ProgressCallback = Callable[[str, int, int], None]  # (stage, done, total)
 class ConvertOptions:
     include: tuple[str, ...] = ()  # classes built on top of the default building elements (with subclasses)
     exclude: tuple[str, ...] = ()  # classes left out (with subclasses)
+    exclude_guids: tuple[str, ...] = ()  # single elements left out, by GlobalId
     only: tuple[str, ...] = ()  # when given, these classes replace the default building elements
     threads: int | None = None  # worker processes (default: all cores)
     far_from_origin_m: float = 1000.0
@@ -88,7 +89,7 @@ def convert_model(
     options = options or ConvertOptions()
     stats = stats if stats is not None else ConversionStats()
     started = time.perf_counter()
-    selection = select_elements(model, options.include, options.exclude, options.only)
+    selection = select_elements(model, options.include, options.exclude, options.only, options.exclude_guids)
     elements = list(selection.elements)
     warnings: list[str] = []
     damaged: dict[int, str] = {}

@@ -10,6 +10,7 @@ The rule, as in the paper (building components are what robots assemble):
   IFC2X3 ``IfcElectricalElement``/``IfcEquipmentElement``), transport, geographic, civil and geotechnical
   elements. ``include`` adds classes back, ``exclude`` takes classes away, ``only`` replaces the default
   rule by a list of classes; all three take subclasses (``IfcWall`` takes ``IfcWallStandardCase``).
+  ``exclude`` also takes GlobalIds: single elements left out (one of two that clash in the model).
 * **Never built:** feature elements (openings, projections, surface features) and virtual elements; spaces
   and annotations are not ``IfcElement``\\ s at all.
 * An element that aggregates parts which are built (a curtain wall of plates and members, a roof of slabs)
@@ -56,6 +57,7 @@ class ClassRule:
     include: tuple[str, ...] = ()
     exclude: tuple[str, ...] = ()
     only: tuple[str, ...] = ()
+    exclude_guids: frozenset[str] = frozenset()  # single elements left out by their GlobalId
 
 
 def parse_class_list(text: str | None) -> tuple[str, ...]:
@@ -76,6 +78,40 @@ def check_classes(model: ifcopenshell.file, classes: Iterable[str]) -> tuple[str
     if unknown:
         raise ValueError(f"unknown IFC class(es) for {model.schema}: {', '.join(unknown)}")
     return tuple(known[name.lower()] for name in classes)
+
+
+def check_exclusions(
+    model: ifcopenshell.file, names: Iterable[str]
+) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """``--exclude``'s classes (the schema's spelling) and GlobalIds of single elements (one of a clash in
+    the IFC, a part a user builds otherwise); ``ValueError`` naming any that is neither a class of the
+    schema nor the GlobalId of an element in the model."""
+    known = {declaration.name().lower(): declaration.name() for declaration in _schema(model).declarations()}
+    classes: list[str] = []
+    guids: list[str] = []
+    unknown: list[str] = []
+    for name in names:
+        if name.lower() in known:
+            classes.append(known[name.lower()])
+        elif _is_element_guid(model, name):
+            guids.append(name)
+        else:
+            unknown.append(name)
+    if unknown:
+        raise ValueError(
+            f"--exclude: neither an IFC class of {model.schema} nor the GlobalId of an element in the model: "
+            + ", ".join(unknown)
+        )
+    return tuple(classes), tuple(guids)
+
+
+def _is_element_guid(model: ifcopenshell.file, guid: str) -> bool:
+    if len(guid) != 22:
+        return False
+    try:
+        return bool(model.by_guid(guid).is_a("IfcElement"))
+    except RuntimeError:  # no instance with that GlobalId
+        return False
 
 
 def buildable_roots(model: ifcopenshell.file) -> tuple[str, ...]:
@@ -141,6 +177,8 @@ def class_rejection(
         category = element_category(model, element.is_a())
         kind = "virtual element" if category == "IfcVirtualElement" else "feature element"
         return f"{kind} ({element.is_a()}): a void or mark on its host, never built as a component"
+    if element.GlobalId in rule.exclude_guids:
+        return f"left out by --exclude {element.GlobalId}"
     for name in rule.exclude:
         if element.is_a(name):
             return f"left out by --exclude {name}"
@@ -161,10 +199,11 @@ def select_elements(
     include: Sequence[str] = (),
     exclude: Sequence[str] = (),
     only: Sequence[str] = (),
+    exclude_guids: Iterable[str] = (),
 ) -> Selection:
     """Components to convert, in STEP id order, and every other ``IfcElement`` with the reason it is left
     out (see the module docstring for the rule)."""
-    rule = ClassRule(tuple(include), tuple(exclude), tuple(only))
+    rule = ClassRule(tuple(include), tuple(exclude), tuple(only), frozenset(exclude_guids))
     roots = buildable_roots(model)
     candidates: list[ifcopenshell.entity_instance] = []
     rejected: list[Rejection] = []

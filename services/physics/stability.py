@@ -209,8 +209,8 @@ def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = 
     if clashing:
         lines.append(
             "to try: repair the clash in the model (two components cannot both be placed where they "
-            f"overlap), or leave one of them out: {named(tuple(dict.fromkeys(clashing)))} and "
-            f"{failure.name} ({failure.guid})"
+            f"overlap), or leave one of them out (bimbot convert MODEL.ifc -o OUT/ --exclude GLOBALID): "
+            f"{named(tuple(dict.fromkeys(clashing)))} and {failure.name} ({failure.guid})"
         )
     elif missing:
         first = named(tuple(dict.fromkeys(missing)))

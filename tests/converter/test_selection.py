@@ -244,3 +244,28 @@ def test_convert_model_takes_only_include_and_exclude_options(tmp_path: Path) ->
     assert [(s.name, s.reason.split(";")[0]) for s in manifest.skipped] == [
         ("W", "not in --only IfcFurniture")
     ]
+
+
+def test_exclude_takes_a_single_element_by_its_global_id_and_names_what_it_does_not_know(
+    tmp_path: Path,
+) -> None:
+    """The advice for a clash in the IFC is to leave one of the two out: --exclude takes its GlobalId
+    (it took classes only, so the advice could not be followed); a token that is neither is one line."""
+    small = new_model()
+    first, second = add_wall(small, "W1"), add_wall(small, "W2", matrix_m=translation(0.0, 5.0, 0.0))
+    source = tmp_path / "m.ifc"
+    small.file.write(str(source))
+    out = tmp_path / "out"
+    result = _bimbot("convert", str(source), "-o", str(out), "--exclude", f"{second.GlobalId},IfcBeam")
+    assert result.returncode == 0, result.stderr
+    manifest = Manifest.model_validate_json((out / "manifest.json").read_text())
+    assert [c.guid for c in manifest.components] == [first.GlobalId]
+    assert [(s.guid, s.reason) for s in manifest.skipped] == [
+        (second.GlobalId, f"left out by --exclude {second.GlobalId}")
+    ]
+    unknown = _bimbot("convert", str(source), "-o", str(out), "--exclude", "0000000000000000000000")
+    assert unknown.returncode == 2 and "Traceback" not in unknown.stderr
+    assert (
+        "neither an IFC class of IFC4 nor the GlobalId of an element in the model: 0000000000000000000000"
+        in (unknown.stderr)
+    )
