@@ -15,6 +15,7 @@ import ctypes
 import importlib
 import logging
 import os
+import re
 import signal
 import sys
 from typing import NoReturn
@@ -125,10 +126,20 @@ def stop_with_parent() -> None:
         raise SystemExit(f"the process that started this service ({parent}) is gone")
 
 
+#: What ``bimbot`` itself takes before a sub-command (``-vv`` counts twice).
+TOP_LEVEL_OPTION = re.compile(r"^(-h|--help|-v+|--verbose|-q|--quiet|--version)$")
+
+
 def parse_arguments(argv: list[str]) -> argparse.Namespace:
     """``argv`` parsed; an option the sub-command does not know is that sub-command's error (``bimbot
-    convert: error: unrecognized arguments: --robots 3``), not the top-level parser's."""
+    convert: error: unrecognized arguments: --robots 3``), not the top-level parser's. Without a
+    sub-command, an option ``bimbot`` does not know is named as such (argparse would only say a command
+    is missing)."""
     parser = build_parser(argv)
+    if not any(not word.startswith("-") for word in argv):
+        unknown = [word for word in argv if not TOP_LEVEL_OPTION.match(word)]
+        if unknown:
+            parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     args, extras = parser.parse_known_args(argv)
     if extras:
         getattr(args, "_parser", parser).error(f"unrecognized arguments: {' '.join(extras)}")

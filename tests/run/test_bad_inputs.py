@@ -194,6 +194,11 @@ def test_an_option_the_sub_command_does_not_know_is_that_sub_command_s_error(tmp
     assert not (tmp_path / "out").exists()
 
 
+def test_an_option_before_any_sub_command_is_named_not_reported_as_a_missing_command() -> None:
+    _one_line(_bimbot("--frobnicate"), "bimbot: error: unrecognized arguments: --frobnicate")
+    _one_line(_bimbot("-v"), "the following arguments are required: COMMAND")  # a known option: as before
+
+
 def test_run_on_a_folder_that_does_not_exist_says_so(tmp_path: Path) -> None:
     missing = tmp_path / "no_build_here"
     _one_line(_bimbot("run", str(missing)), str(missing), "no such folder", "bimbot convert")
