@@ -118,7 +118,10 @@ def write_component(
     mass = mass_chain.element_mass(element, props.volume_m3, unit_kg=context.mass_unit_kg)
     warnings.extend(mass.warnings)
     if not props.watertight:
-        warnings.append("mesh is not watertight: inertia from its bounding box, volume from its convex hull")
+        warnings.append(
+            "mesh is not watertight: inertia from its bounding box, volume from its closed pieces and the "
+            "convex hulls of its open ones"
+        )
     if work.collision.note:
         warnings.append(work.collision.note)
     inertia = props.inertia_kg_m2(mass.mass_kg)

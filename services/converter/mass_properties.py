@@ -2,9 +2,13 @@
 
 Computed once per distinct geometry (elements that share a tessellation share these numbers) with the
 exact polyhedral integrals of :mod:`.mesh` (the ones trimesh uses). A mesh that is not watertight has no
-meaningful enclosed volume: then the convex hull's volume is used (or the bounding box's when the hull is
-flat), and the inertia is that of a solid box filling the mesh's bounding box, centred on it; the result
-says so, and the manifest reports it.
+meaningful enclosed volume as a whole: then it is taken piece by piece (faces connected through shared
+edges), each closed piece with its exact volume and each open one with its convex hull's, and the inertia
+is that of a solid box filling the mesh's bounding box, centred on it; the result says so, and the manifest
+reports it. One convex hull over the whole mesh had filled what lies between the pieces: acad2010's roof
+of 33 open planes weighed 3,167 t (its hull 3,167 m³, its pieces' 202 m³), the Revit hub's strip footing
+(two closed rings that only touch, so not watertight together) 69.6 m³ against its own 10.6 m³.
+Where the pieces give nothing (a flat open mesh), the whole hull's volume, then the bounding box's.
 
 Inertia tensors follow SDF: about the centre of mass, in the element frame's axes, with off-diagonal
 entries equal to the tensor's entries (``ixy = -∫xy dm``), which is trimesh's convention as well.
@@ -60,10 +64,25 @@ def mass_properties(mesh_like: MeshLike) -> MassProperties:
     return _bounding_box_fallback(mesh, bbox)
 
 
+def piecewise_volume_m3(mesh: TriMesh) -> float:
+    """The volume of a mesh that is not watertight as a whole: each closed piece's own, each open piece's
+    convex hull's (0 when flat)."""
+    total = 0.0
+    for piece in mesh.split():
+        if piece.is_watertight and piece.is_winding_consistent:
+            total += abs(piece.volume)
+        else:
+            hull = convex_hull(piece.vertices)
+            total += hull.volume if hull is not None else 0.0
+    return total
+
+
 def _bounding_box_fallback(mesh: TriMesh, bbox: np.ndarray) -> MassProperties:
     extents = np.maximum(bbox[1] - bbox[0], MIN_THICKNESS_M)
-    hull = convex_hull(mesh.vertices)
-    volume = hull.volume if hull is not None else 0.0  # flat or too few points: no hull volume
+    volume = piecewise_volume_m3(mesh)
+    if not volume > 1e-12:
+        hull = convex_hull(mesh.vertices)
+        volume = hull.volume if hull is not None else 0.0  # flat or too few points: no hull volume
     if not volume > 1e-12:
         volume = float(np.prod(extents))
     return MassProperties(

@@ -63,3 +63,18 @@ def test_flat_open_mesh_still_gets_a_positive_volume() -> None:
     props = mass_properties(square)
     assert props.volume_m3 > 0
     assert np.all(np.linalg.eigvalsh(props.inertia_per_kg_m2) > 0)
+
+
+def test_a_mesh_not_watertight_as_a_whole_is_weighed_piece_by_piece() -> None:
+    """Two closed 1 m cubes 10 m apart and a stray open triangle: the mesh is not watertight, so it used to
+    weigh as its convex hull (the space between the cubes too: acad2010's roof weighed 3,167 t); each closed
+    piece now counts with its own volume and an open flat one with none."""
+    first = trimesh.creation.box((1.0, 1.0, 1.0))
+    second = trimesh.creation.box((1.0, 1.0, 1.0))
+    second.apply_translation((10.0, 0.0, 0.0))
+    stray = trimesh.Trimesh([[5.0, 3.0, 0.0], [6.0, 3.0, 0.0], [5.0, 4.0, 0.0]], [[0, 1, 2]])
+    mesh = trimesh.util.concatenate([first, second, stray])
+    props = mass_properties(mesh)
+    assert not props.watertight and props.source == InertiaSource.BOUNDING_BOX_FALLBACK
+    assert props.volume_m3 == pytest.approx(2.0)
+    assert trimesh.convex.convex_hull(mesh).volume > 10.0  # what it weighed before
