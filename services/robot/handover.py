@@ -41,6 +41,10 @@ from .protocol import PhysicsRequest, PhysicsResult, injected
 
 _log = logging.getLogger(__name__)
 _S, _E = RobotState, ComponentEvent
+#: What a user can do when a robot cannot tell where it is from what its laser sees.
+TOTAL_STATION_HINT = (
+    "a total station gives every ground robot position fixes, bimbot run BUILD --total-station-mm 3"
+)
 LOCALISATION_DOUBT_M = 0.5  # physics measured the robot this much farther than it believed: re-localise
 MAX_SPREAD_M = 3.0  # the widest particle cloud a re-localisation draws (m, one standard deviation)
 SPREAD_YAW_RAD = 0.2
@@ -129,7 +133,7 @@ class Handover:
             else f"{self.robot_id} could not align to what its laser sees before placing ({alignment.hits} "
             "laser hits matched to mapped outlines, too few or too scattered to trust) and placed from its "
             "localisation estimate alone: nothing its laser sees stands near enough (a site with nothing "
-            "standing nearby needs other positioning)"
+            f"standing nearby needs other positioning: {TOTAL_STATION_HINT})"
         )
         return self.navigator.pose_xy_yaw
 
@@ -169,6 +173,11 @@ class Handover:
             return None
         task.tries += 1
         if task.tries >= self.config.max_tries:
+            if task.localisation_off_m > LOCALISATION_DOUBT_M:
+                why += (
+                    f"; {self.robot_id}'s localisation was off by {task.localisation_off_m:.1f} m or more "
+                    f"({TOTAL_STATION_HINT})"
+                )
             refused = give_back.physics_refused(self.robot_id, kind, self._name(task), task.tries, why)
             return self._give_back(task, refused)
         task.retry_at_s = self.sim_s + self.config.retry_delay_s * min(task.tries, 10)
@@ -185,6 +194,7 @@ class Handover:
             return
         believed_m = float(footprint.distance_m(np.asarray(self.navigator.pose_xy_yaw[:2]))[0])
         off_m = measured_m - believed_m
+        task.localisation_off_m = max(task.localisation_off_m, off_m)
         if off_m > LOCALISATION_DOUBT_M:
             _log.warning(
                 "%s: physics measured %.2f m to %s where %s believed %.2f m: localisation off by %.2f m+",

@@ -50,6 +50,7 @@ class Task:
     request: PhysicsRequest | None = None
     request_sent: bool = False
     tries: int = 0
+    localisation_off_m: float = 0.0  # the most physics found the robot's belief off by (refused requests)
     reselections: int = 0  # approach poses chosen again because their cell became occupied
     retry_at_s: float = -math.inf
     approach: Approach | None = None

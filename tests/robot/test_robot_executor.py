@@ -106,6 +106,23 @@ def test_too_many_refusals_give_the_task_up_with_abandon(frame: Manifest) -> Non
     assert site.executor.task is None
 
 
+def test_a_task_given_back_after_refusals_that_measured_the_robot_far_off_says_its_localisation_was_off(
+    frame: Manifest,
+) -> None:
+    """On the Revit hub a carrier lost its localisation by 7–19 m: each attach was refused as out of reach
+    and the task given back saying only "8.26 m from …, reach is 1.8 m". The reason now says the robot's
+    belief was wrong and what gives a robot position fixes."""
+    site, released, task = make_site(frame, max_tries=2)
+    site.refuse_attach, site.refuse_distance_m = 10, 8.0  # the robot believes it stands within reach
+    site.executor.handle(released)
+    site.executor.handle(task)
+    site.run(3000, until=lambda s: s.executor.machine.state is RobotState.IDLE and s.step > 5)
+    abandon = next(e for e in site.events if e.event is ComponentEvent.ABANDON)
+    assert abandon.reason is not None and abandon.reason.code.value == "physics_refused"
+    assert "localisation was off by" in abandon.reason.message
+    assert "--total-station-mm" in abandon.reason.message
+
+
 def test_an_injected_error_offsets_only_the_first_attempt(frame: Manifest) -> None:
     site, released, task = make_site(frame, placement_error_m=0.05)
     run_task(site, released, task)
