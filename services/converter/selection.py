@@ -98,11 +98,31 @@ def check_exclusions(
         else:
             unknown.append(name)
     if unknown:
+        cut = [name for name in unknown if name and len(name) < 22 and _guids_starting(model, name)]
+        hint = ""
+        if cut:
+            matches = _guids_starting(model, cut[0])
+            example = f"'{matches[0]}'" if len(matches) == 1 else "'…$…' (whole, in single quotes)"
+            hint = (
+                f" ({cut[0]}: the start of {len(matches)} GlobalId(s) with a $ after it, which the shell cut "
+                f"off: quote the GlobalId, --exclude {example})"
+            )
         raise ValueError(
             f"--exclude: neither an IFC class of {model.schema} nor the GlobalId of an element in the model: "
             + ", ".join(unknown)
+            + hint
         )
     return tuple(classes), tuple(guids)
+
+
+def _guids_starting(model: ifcopenshell.file, prefix: str) -> list[str]:
+    """The GlobalIds of elements that start with ``prefix`` followed by a ``$``: what an unquoted GlobalId
+    leaves after the shell expanded ``$…`` to nothing."""
+    return sorted(
+        str(element.GlobalId)
+        for element in model.by_type("IfcElement")
+        if element.GlobalId.startswith(prefix) and element.GlobalId[len(prefix) : len(prefix) + 1] == "$"
+    )
 
 
 def _is_element_guid(model: ifcopenshell.file, guid: str) -> bool:

@@ -15,6 +15,7 @@ Exact placements, no robots, no localisation: what is tested is the order, not t
 from __future__ import annotations
 
 import logging
+import shlex
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -209,8 +210,9 @@ def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = 
     if clashing:
         lines.append(
             "to try: repair the clash in the model (two components cannot both be placed where they "
-            f"overlap), or leave one of them out (bimbot convert MODEL.ifc -o OUT/ --exclude GLOBALID): "
-            f"{named(tuple(dict.fromkeys(clashing)))} and {failure.name} ({failure.guid})"
+            f"overlap), or leave one of them out: {named(tuple(dict.fromkeys(clashing)))} or "
+            f"{failure.name} ({failure.guid}), e.g. bimbot convert MODEL.ifc -o OUT/ --exclude "
+            f"{shlex.quote(failure.guid)} (a GlobalId may hold a $: keep the quotes)"
         )
     elif missing:
         first = named(tuple(dict.fromkeys(missing)))

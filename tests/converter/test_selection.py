@@ -16,7 +16,7 @@ import pytest
 from ifc_builders import SmallModel, add_assembly, add_beam, add_opening, add_wall, new_model, translation
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
-from bimbot.services.converter.selection import reason_head, select_elements
+from bimbot.services.converter.selection import check_exclusions, reason_head, select_elements
 from bimbot.shared.manifest import Manifest
 
 SCHEMAS = ["IFC2X3", "IFC4", "IFC4X3"]
@@ -269,3 +269,20 @@ def test_exclude_takes_a_single_element_by_its_global_id_and_names_what_it_does_
         "neither an IFC class of IFC4 nor the GlobalId of an element in the model: 0000000000000000000000"
         in (unknown.stderr)
     )
+
+
+def test_a_global_id_the_shell_cut_at_its_dollar_is_named_with_the_quoting_that_keeps_it() -> None:
+    """``--exclude 0sfBnoLAb0R9H9P$iaZWkY`` unquoted reaches bimbot as ``0sfBnoLAb0R9H9P`` (the shell
+    expands ``$iaZWkY`` to nothing): the error says so and shows the quoted GlobalId."""
+    small = new_model()
+    wall = add_wall(small, "W")
+    wall.GlobalId = "0sfBnoLAb0R9H9P$iaZWkY"
+    assert check_exclusions(small.file, [wall.GlobalId, "IfcBeam"]) == (("IfcBeam",), (wall.GlobalId,))
+    cut = r"which the shell cut off: quote the GlobalId, --exclude '0sfBnoLAb0R9H9P\$iaZWkY'"
+    with pytest.raises(ValueError, match=cut):
+        check_exclusions(small.file, ["0sfBnoLAb0R9H9P"])
+    # several elements share that start (Revit's GlobalIds do): none is picked for the user
+    other = add_wall(small, "W2")
+    other.GlobalId = "0sfBnoLAb0R9H9P$iaZdP4"
+    with pytest.raises(ValueError, match=r"the start of 2 GlobalId\(s\).*--exclude '…\$…'"):
+        check_exclusions(small.file, ["0sfBnoLAb0R9H9P"])

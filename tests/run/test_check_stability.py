@@ -123,6 +123,7 @@ def test_the_advice_fits_the_order_checked() -> None:
     )
     assert "the model puts it into Column 1 (c1) (229 mm deep): a clash in the IFC" in lines[1]
     assert lines[-1].startswith("to try: repair the clash in the model") and "--derive" not in lines[-1]
+    assert "bimbot convert MODEL.ifc -o OUT/ --exclude b " in lines[-1]  # a command the user can paste
     fell = Moved("b", "Beam", 2.0, placed_on=("c1",), rests_on=())
     assert (
         "set down on Column 1 (c1) and came to rest on the ground"
