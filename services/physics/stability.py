@@ -22,11 +22,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bimbot.shared.identifiers import named_guid
-from bimbot.shared.manifest import Manifest
+from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.support_graph import support_predecessors
 
+from .model_clashes import Clash, model_clashes
 from .profiles import REHEARSAL
 from .release import SettleConfig
+from .scene import Frame
 from .simulation import SimConfig, Simulation
 
 _log = logging.getLogger(__name__)
@@ -69,6 +71,7 @@ class StabilityReport:
     steps: list[StabilityStep] = field(default_factory=list)
     sim_s: float = 0.0
     wall_s: float = 0.0
+    clashes: list[Clash] = field(default_factory=list)  # every pair the model puts into each other
 
     @property
     def first_failure(self) -> StabilityStep | None:
@@ -103,6 +106,12 @@ def check_stability(
     steps: list[StabilityStep] = []
     with Simulation(manifest, build_dir, config) as sim:
         handling = sim.handling
+        in_order = {guid: handling.items[guid] for guid in order if guid in handling.items}
+        clashes = model_clashes(
+            sim.client_id,
+            {guid: item.body for guid, item in in_order.items()},
+            {guid: _target_frame(item.component) for guid, item in in_order.items()},
+        )
         bound_s = handling.settle.max_settle_s + control_period_s
         for index, guid in enumerate(order, start=1):
             since_s = sim.sim_time_s
@@ -151,7 +160,34 @@ def check_stability(
             handling.note_constructed(guid, True)  # verified: joined to the structure
             placed.add(guid)
         sim_s = sim.sim_time_s
-    return StabilityReport(len(order), steps, sim_s, time.monotonic() - started)
+    return StabilityReport(len(order), steps, sim_s, time.monotonic() - started, clashes)
+
+
+def _target_frame(component: Component) -> Frame:
+    target = component.target_pose_world
+    position, quat = target.position_m, target.quat_xyzw
+    return ((position[0], position[1], position[2]), (quat[0], quat[1], quat[2], quat[3]))
+
+
+MAX_CLASHES_SHOWN = 30  # named in the output; the rest are counted
+
+
+def _clash_lines(clashes: list[Clash], named: Callable[[tuple[str, ...]], str]) -> list[str]:
+    """Every clash in the model, deepest first (at most ``MAX_CLASHES_SHOWN`` named), before the replay's
+    verdict: the replay stops at the first that makes a step fail, a user repairs them all at once."""
+    if not clashes:
+        return []
+    lines = [
+        f"the model puts {len(clashes)} pair(s) of components into each other, deeper than a contact "
+        "(clashes in the IFC: physics pushes each pair apart, so a step with one does not stand):"
+    ]
+    lines += [
+        f"  {named((clash.first,))} and {named((clash.second,))}: {1000.0 * clash.depth_m:.0f} mm deep"
+        for clash in clashes[:MAX_CLASHES_SHOWN]
+    ]
+    if len(clashes) > MAX_CLASHES_SHOWN:
+        lines.append(f"  and {len(clashes) - MAX_CLASHES_SHOWN} more pair(s), less deep")
+    return lines
 
 
 def _came_to_rest(moved: Moved, named: Callable[[tuple[str, ...]], str]) -> str:
@@ -173,12 +209,17 @@ def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = 
     ``Name (GUID)``, as the run's table names them."""
     failure = report.first_failure
     timing = f"{report.sim_s:.0f} s of sim time, {report.wall_s:.1f} s wall"
-    if failure is None:
-        return [f"every partial structure stands: {len(report.steps)} step(s) placed and settled ({timing})"]
-    lines = [f"step {failure.index} of {report.total} does not stand ({timing}):"]
 
     def named(guids: tuple[str, ...]) -> str:
         return ", ".join(named_guid(guid, names.get(guid)) for guid in guids)
+
+    clash_lines = _clash_lines(report.clashes, named)
+    if failure is None:
+        return [
+            *clash_lines,
+            f"every partial structure stands: {len(report.steps)} step(s) placed and settled ({timing})",
+        ]
+    lines = [*clash_lines, f"step {failure.index} of {report.total} does not stand ({timing}):"]
 
     missing: list[str] = []
     clashing: list[str] = []

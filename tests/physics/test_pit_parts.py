@@ -8,6 +8,7 @@ failed `unstable`. Here with real pybullet floors (ray tests from above), and on
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -97,8 +98,16 @@ def test_the_hub_s_foundations_stand_in_the_derived_order_until_a_clash(
     assert converted.returncode == 0, converted.stderr
     checked = bimbot("run", str(build), "--check-stability")
     assert "step 1 of 115 does not stand" not in checked.stdout
-    failing = [line for line in checked.stdout.splitlines() if "does not stand" in line]
+    failing = [
+        line for line in checked.stdout.splitlines() if line.startswith("step ") and "does not stand" in line
+    ]
     assert failing and int(failing[0].split("step ")[1].split(" of")[0]) >= 5, checked.stdout
     # that step says why: a clash in the model, not the open pit of the ground slab that rests on it
     assert "a clash in the IFC" in checked.stdout and "over the open pit" not in checked.stdout
     assert "to try: repair the clash in the model" in checked.stdout
+    # and every clash of the model is listed before the replay, not only the one that stopped it
+    listed = re.search(r"the model puts (\d+) pair\(s\) of components into each other", checked.stdout)
+    assert listed and int(listed.group(1)) >= 2, checked.stdout  # 24 on this hub: concrete and steel joins
+    assert (
+        "Existing Strip Footing:Existing Strip Footing:682677 (03RdpMwXDAcxzTBzSbZ5wE) and " in checked.stdout
+    )
