@@ -140,12 +140,33 @@ def run(args: argparse.Namespace) -> int:
         f"{len(manifest.warnings)} warning(s) in {seconds:.1f} s → {args.output}/ "
         f"(world {manifest.world_file}, sequence {manifest.sequence_file} {origin})\n"
     )
+    earlier = earlier_runs(args.output)
+    if earlier:
+        _log.warning(
+            "%s/runs/ holds %d run(s) of an earlier conversion into this folder: their reports describe what "
+            "was converted then (bimbot runs %s lists them; a new run gets a folder of its own)",
+            args.output,
+            earlier,
+            args.output,
+        )
     if not manifest.components:
         _log.error(
             "%s: no element could be converted (see 'skipped' in %s/manifest.json)", args.model, args.output
         )
         return 1
     return 0
+
+
+def earlier_runs(output: Path) -> int:
+    """How many run folders ``output/runs/`` holds (runs of what was converted there before)."""
+    from bimbot.shared.run_folder import runs_dir
+
+    folder = runs_dir(Path(output))
+    return (
+        sum(1 for path in folder.glob("*") if path.is_dir() and not path.is_symlink())
+        if folder.is_dir()
+        else 0
+    )
 
 
 def _under(filename: object, folder: Path) -> bool:

@@ -125,6 +125,13 @@ def test_cli_converts_and_prints_a_summary(tmp_path: Path) -> None:
     assert "converted 1 component(s), skipped 0" in result.stdout
     assert "sequence sequence.xml derived from the structure" in result.stdout  # no schedule in the file
     assert (tmp_path / "out" / "manifest.json").is_file()
+    assert "earlier conversion" not in result.stderr
+    # converting again into a folder that holds runs keeps them, and says they are of the earlier conversion
+    (tmp_path / "out" / "runs" / "20261127-120000").mkdir(parents=True)
+    again = _bimbot("convert", str(source), "-o", str(tmp_path / "out"))
+    assert again.returncode == 0, again.stderr
+    assert "out/runs/ holds 1 run(s) of an earlier conversion into this folder" in again.stderr
+    assert (tmp_path / "out" / "runs" / "20261127-120000").is_dir()
 
 
 @pytest.mark.parametrize(
