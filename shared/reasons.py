@@ -71,3 +71,22 @@ def blocked_by(failed_guid: str, failed_reason: Reason | None = None, *, via: st
         else f"it rests on {via}, which stands on {failed_guid}, not built{why}"
     )
     return Reason(code=ReasonCode.BLOCKED_BY, message=message, guid=failed_guid)
+
+
+#: What a user can do about a clash in the IFC (two components the model puts into each other): said by a
+#: component's failed ``unstable`` reason and by ``bimbot run --check-stability``.
+CLASH_ADVICE = (
+    "repair the clash in the model (two components cannot both be placed where they overlap), or leave one "
+    "of them out"
+)
+
+
+def clash_clause(depths_m: list[tuple[str, float]]) -> str:
+    """``"; at its target the model puts it into A (229 mm deep): a clash in the IFC, …"`` for the
+    components (as the caller names them) a placed one overlapped deeper than a contact, or ``""``."""
+    if not depths_m:
+        return ""
+    into = ", ".join(f"{name} ({1000.0 * depth_m:.0f} mm deep)" for name, depth_m in depths_m)
+    return (
+        f"; at its target the model puts it into {into}: a clash in the IFC, and physics pushed the two apart"
+    )

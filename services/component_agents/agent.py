@@ -41,7 +41,7 @@ from bimbot.shared.messages import (
     PoseMsg,
     TwinMsg,
 )
-from bimbot.shared.reasons import Reason, ReasonCode
+from bimbot.shared.reasons import CLASH_ADVICE, Reason, ReasonCode, clash_clause
 
 from .state_table import INITIAL, ComponentMachine, Verdict
 from .verification import PlacementCheck, Tolerances, is_valid_pose, verify
@@ -58,10 +58,7 @@ BUMPED_HINT = (
     "robot's log), or its laser did not see the component"
 )
 
-CLASH_HINT = (
-    "repair the clash in the model (two components cannot both be placed where they overlap), or leave "
-    "one of them out: bimbot convert MODEL.ifc -o OUT/ --exclude GLOBALID"
-)
+CLASH_HINT = f"{CLASH_ADVICE}: bimbot convert MODEL.ifc -o OUT/ --exclude GLOBALID"
 
 PLANNER_SOURCE = "planner"  # ComponentEventMsg.source of the planner's events; a robot's is its id
 PLANNER_EVENTS = frozenset(
@@ -407,15 +404,7 @@ class ComponentAgent:
                 if self.bumped is not None
                 else "slid, tipped or fell"
             )
-            clash = (
-                "; at its target the model puts it into "
-                + ", ".join(
-                    f"{other} ({depth * 1000:.0f} mm deep)" for other, depth in self.clash_depth_m.items()
-                )
-                + ": a clash in the IFC, and physics pushed the two apart"
-                if self.clash_depth_m
-                else ""
-            )
+            clash = clash_clause(list(self.clash_depth_m.items()))
             miss = Reason(
                 code=ReasonCode.UNSTABLE,
                 message=f"it moved {check.drift_m or 0.0:.3f} m after it was released ({how}; tolerance "

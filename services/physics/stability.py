@@ -23,6 +23,7 @@ from pathlib import Path
 
 from bimbot.shared.identifiers import named_guid
 from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.reasons import CLASH_ADVICE, clash_clause
 from bimbot.shared.support_graph import support_predecessors
 
 from .model_clashes import Clash, model_clashes
@@ -230,13 +231,7 @@ def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = 
             else (f"on {named(moved.placed_on)}" if moved.placed_on else "on nothing but the ground")
         )
         unplaced = f"; it rests on {named(moved.missing)}, not placed before it" if moved.missing else ""
-        clash = (
-            "; at its target the model puts it into "
-            + ", ".join(f"{named((other,))} ({1000.0 * depth:.0f} mm deep)" for other, depth in moved.clashes)
-            + ": a clash in the IFC, and physics pushed the two apart"
-            if moved.clashes
-            else ""
-        )
+        clash = clash_clause([(named((other,)), depth_m) for other, depth_m in moved.clashes])
         missing += [*moved.open_pits, *moved.missing]
         clashing += [other for other, _ in moved.clashes]
         lines.append(
@@ -250,8 +245,7 @@ def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = 
         )
     if clashing:
         lines.append(
-            "to try: repair the clash in the model (two components cannot both be placed where they "
-            f"overlap), or leave one of them out: {named(tuple(dict.fromkeys(clashing)))} or "
+            f"to try: {CLASH_ADVICE}: {named(tuple(dict.fromkeys(clashing)))} or "
             f"{failure.name} ({failure.guid}), e.g. bimbot convert MODEL.ifc -o OUT/ --exclude "
             f"{shlex.quote(failure.guid)} (a GlobalId may hold a $: keep the quotes)"
         )
