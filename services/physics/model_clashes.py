@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from .client import p
-from .release import MAX_CLEARED_M
+from .release import clashes_among
 from .scene import ComponentBody, Frame, component_pose, set_component_pose
 
 
@@ -45,10 +45,9 @@ def model_clashes(
                 other_guid = guid_of.get(other)
                 if other_guid is None or other_guid <= guid:  # not a component, itself, or the pair seen
                     continue
-                for point in p.getClosestPoints(body.body_id, other, 0.0, physicsClientId=client_id):
-                    depth_m = -point[8]
-                    if depth_m > MAX_CLEARED_M:
-                        deepest[guid, other_guid] = max(depth_m, deepest.get((guid, other_guid), 0.0))
+                points = p.getClosestPoints(body.body_id, other, 0.0, physicsClientId=client_id)
+                for _, depth_m in clashes_among([(point, other_guid) for point in points]):
+                    deepest[guid, other_guid] = depth_m
     finally:
         for guid, body in bodies.items():
             set_component_pose(client_id, body, before[guid])

@@ -122,16 +122,17 @@ def clear_overlap(
         points = _penetrations(client_id, body, frame, others)
         clearable = [point for point, _ in points if PENETRATION_SLOP_M < -point[8] <= MAX_CLEARED_M]
         if not clearable:
-            return Cleared(frame, _clashes(points))
+            return Cleared(frame, clashes_among(points))
         deepest = min(clearable, key=lambda point: point[8])
         normal = np.asarray(deepest[7])  # on B, pointing from B to A: out of the other body
         shift = -deepest[8] * normal
         frame = ((frame[0][0] + shift[0], frame[0][1] + shift[1], frame[0][2] + shift[2]), frame[1])
-    return Cleared(frame, _clashes(_penetrations(client_id, body, frame, others)))
+    return Cleared(frame, clashes_among(_penetrations(client_id, body, frame, others)))
 
 
-def _clashes(points: list[tuple[tuple[Any, ...], str]]) -> tuple[tuple[str, float], ...]:
-    """The components overlapped deeper than ``MAX_CLEARED_M`` (GUID, metres), deepest first."""
+def clashes_among(points: list[tuple[tuple[Any, ...], str]]) -> tuple[tuple[str, float], ...]:
+    """Of contact points with other components (point, GUID), the components overlapped deeper than
+    ``MAX_CLEARED_M`` (GUID, metres), deepest first."""
     deepest: dict[str, float] = {}
     for point, guid in points:
         if -point[8] > MAX_CLEARED_M:
