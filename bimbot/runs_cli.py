@@ -15,7 +15,7 @@ from pathlib import Path
 
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import load_manifest
-from bimbot.shared.run_folder import RunFolder, latest_run_folder, new_run_folder, runs_dir
+from bimbot.shared.run_folder import RunFolder, latest_run_folder, new_run_folder, run_folders
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -31,7 +31,7 @@ def run(args: argparse.Namespace) -> int:
     if args.new:
         sys.stdout.write(f"{new_run_folder(build).root}\n")
         return 0
-    folders = sorted(path for path in runs_dir(build).glob("*") if path.is_dir() and not path.is_symlink())
+    folders = run_folders(build)
     if not folders:
         raise UserError(f"{build}: no runs yet (bimbot run {build})")
     latest = latest_run_folder(build)

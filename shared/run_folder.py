@@ -83,6 +83,14 @@ def runs_dir(build_dir: Path) -> Path:
     return Path(build_dir) / RUNS_DIR_NAME
 
 
+def run_folders(build_dir: Path) -> list[Path]:
+    """The build's run folders, oldest first (``latest`` is a link, not one of them)."""
+    folder = runs_dir(build_dir)
+    if not folder.is_dir():
+        return []
+    return sorted(path for path in folder.glob("*") if path.is_dir() and not path.is_symlink())
+
+
 @contextlib.contextmanager
 def _runs_locked(build_dir: Path) -> Iterator[Path]:
     folder = runs_dir(build_dir)

@@ -140,7 +140,9 @@ def run(args: argparse.Namespace) -> int:
         f"{len(manifest.warnings)} warning(s) in {seconds:.1f} s → {args.output}/ "
         f"(world {manifest.world_file}, sequence {manifest.sequence_file} {origin})\n"
     )
-    earlier = earlier_runs(args.output)
+    from bimbot.shared.run_folder import run_folders
+
+    earlier = len(run_folders(args.output))  # runs of what was converted here before
     if earlier:
         _log.warning(
             "%s/runs/ holds %d run(s) of an earlier conversion into this folder: their reports describe what "
@@ -155,18 +157,6 @@ def run(args: argparse.Namespace) -> int:
         )
         return 1
     return 0
-
-
-def earlier_runs(output: Path) -> int:
-    """How many run folders ``output/runs/`` holds (runs of what was converted there before)."""
-    from bimbot.shared.run_folder import runs_dir
-
-    folder = runs_dir(Path(output))
-    return (
-        sum(1 for path in folder.glob("*") if path.is_dir() and not path.is_symlink())
-        if folder.is_dir()
-        else 0
-    )
 
 
 def _under(filename: object, folder: Path) -> bool:
