@@ -71,9 +71,14 @@ def _schema(model: ifcopenshell.file) -> ifcopenshell.ifcopenshell_wrapper.schem
     return ifcopenshell.ifcopenshell_wrapper.schema_by_name(model.schema_identifier)  # IFC4X3_ADD2, …
 
 
+def _class_spellings(model: ifcopenshell.file) -> dict[str, str]:
+    """Every declaration of the model's schema, lower-case name → the schema's spelling."""
+    return {declaration.name().lower(): declaration.name() for declaration in _schema(model).declarations()}
+
+
 def check_classes(model: ifcopenshell.file, classes: Iterable[str]) -> tuple[str, ...]:
     """Return the classes with the schema's spelling; ``ValueError`` naming any class the schema lacks."""
-    known = {declaration.name().lower(): declaration.name() for declaration in _schema(model).declarations()}
+    known = _class_spellings(model)
     unknown = [name for name in classes if name.lower() not in known]
     if unknown:
         raise ValueError(f"unknown IFC class(es) for {model.schema}: {', '.join(unknown)}")
@@ -86,7 +91,7 @@ def check_exclusions(
     """``--exclude``'s classes (the schema's spelling) and GlobalIds of single elements (one of a clash in
     the IFC, a part a user builds otherwise); ``ValueError`` naming any that is neither a class of the
     schema nor the GlobalId of an element in the model."""
-    known = {declaration.name().lower(): declaration.name() for declaration in _schema(model).declarations()}
+    known = _class_spellings(model)
     classes: list[str] = []
     guids: list[str] = []
     unknown: list[str] = []
