@@ -346,8 +346,7 @@ class Placing:
         """Put ``guid`` at its BIM pose and release it there, without a robot (the stability replay,
         :mod:`.stability`); ``tag`` comes back with the reply once it rests."""
         item = self.items[guid]
-        target = item.component.target_pose_world
-        item.motion_to = (tuple(target.position_m), tuple(target.quat_xyzw))  # type: ignore[assignment]
+        item.motion_to = target_frame(item.component)
         self._release(item, None, now_s, tag)
 
     def join(self, guid: str) -> None:
@@ -374,6 +373,13 @@ class Placing:
             ", ".join(item.supports) or "on the ground",
             1000.0 * (item.drift_m or 0.0),
         )
+
+
+def target_frame(component: Component) -> Frame:
+    """The component frame at its BIM target pose."""
+    target = component.target_pose_world
+    position, quat = target.position_m, target.quat_xyzw
+    return ((position[0], position[1], position[2]), (quat[0], quat[1], quat[2], quat[3]))
 
 
 def pose_msg(frame: Frame) -> PoseMsg:

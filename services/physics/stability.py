@@ -22,14 +22,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bimbot.shared.identifiers import named_guid
-from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.manifest import Manifest
 from bimbot.shared.reasons import CLASH_ADVICE, clash_clause
 from bimbot.shared.support_graph import support_predecessors
 
 from .model_clashes import Clash, model_clashes
+from .placing import target_frame
 from .profiles import REHEARSAL
 from .release import SettleConfig
-from .scene import Frame
 from .simulation import SimConfig, Simulation
 
 _log = logging.getLogger(__name__)
@@ -111,7 +111,7 @@ def check_stability(
         clashes = model_clashes(
             sim.client_id,
             {guid: item.body for guid, item in in_order.items()},
-            {guid: _target_frame(item.component) for guid, item in in_order.items()},
+            {guid: target_frame(item.component) for guid, item in in_order.items()},
         )
         bound_s = handling.settle.max_settle_s + control_period_s
         for index, guid in enumerate(order, start=1):
@@ -162,12 +162,6 @@ def check_stability(
             placed.add(guid)
         sim_s = sim.sim_time_s
     return StabilityReport(len(order), steps, sim_s, time.monotonic() - started, clashes)
-
-
-def _target_frame(component: Component) -> Frame:
-    target = component.target_pose_world
-    position, quat = target.position_m, target.quat_xyzw
-    return ((position[0], position[1], position[2]), (quat[0], quat[1], quat[2], quat[3]))
 
 
 MAX_CLASHES_SHOWN = 30  # named in the output; the rest are counted

@@ -7,9 +7,10 @@ from collections.abc import Callable
 import pytest
 
 from bimbot.services.physics.model_clashes import model_clashes
+from bimbot.services.physics.placing import target_frame
 from bimbot.services.physics.scene import Frame, component_pose
 from bimbot.services.physics.simulation import Simulation
-from bimbot.services.physics.stability import StabilityReport, _target_frame, describe
+from bimbot.services.physics.stability import StabilityReport, describe
 from bimbot.shared.manifest import Component, Manifest
 
 
@@ -22,7 +23,7 @@ def _scan(sim: Simulation) -> list:
     return model_clashes(
         sim.client_id,
         {guid: item.body for guid, item in items.items()},
-        {guid: _target_frame(item.component) for guid, item in items.items()},
+        {guid: target_frame(item.component) for guid, item in items.items()},
     )
 
 
