@@ -34,6 +34,9 @@ from bimbot.supervisor import wait_until
 
 pytestmark = pytest.mark.integration
 RUN_TIMEOUT_S = 300
+# at most 20× real time: the small frame's ~140 s of sim time take ≥ 7 s, so the forgeries have seconds
+# of the run left to be heard in (as fast as possible it took 3.5 s, and once ended before they came)
+RUN_RTF = 20.0
 
 FORGER = textwrap.dedent(
     """
@@ -46,7 +49,9 @@ FORGER = textwrap.dedent(
     manifest = read_manifest(build)
     forgeries = ((None, "resume"), (S.PLANNED, "verified"), (S.VERIFYING, "verified"))
     with open_session(BusOptions(connect=(endpoint,))) as session:
-        print("forging", flush=True)
+        print("ready", flush=True)
+        sys.stdin.readline()  # the test says when: once a component is really constructed
+        rounds = 0
         while True:
             for component in manifest.components:
                 key = COMPONENT_STATE.key(site=manifest.site, key=component.key)
@@ -56,6 +61,9 @@ FORGER = textwrap.dedent(
                         attempt=1, robot_id="r1", sim_time_s=1.0, wall_time_s=time.time(),
                     )
                     session.put(key, encode(message))
+            rounds += 1
+            if rounds == 1:
+                print("forging", flush=True)
             time.sleep(0.1)
     """
 )
@@ -101,7 +109,7 @@ def test_forged_constructed_messages_change_nothing_the_run_counts_what_the_twin
     manifest = read_manifest(small_frame)
     run = RunFolder(tmp_path / "run")
     command = [sys.executable, "-m", "bimbot.cli", "run", str(small_frame), "-q", "--run-dir", str(run.root)]
-    command += ["--robots", "1"]
+    command += ["--robots", "1", "--rtf", str(RUN_RTF)]
     command += ["--timeout-s", str(RUN_TIMEOUT_S - 60)]
     errors = (tmp_path / "run.stderr").open("w")
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=errors, text=True)
@@ -112,13 +120,22 @@ def test_forged_constructed_messages_change_nothing_the_run_counts_what_the_twin
         found = re.search(r"bus: (tcp/\S+)", "".join(out.lines))
         assert found is not None
         endpoint = found.group(1)
+        # the forger starts (imports, joins the bus) while the run does, so its first forgeries go out as
+        # soon as a component is constructed, not a second later when a fast run may be over
+        forger = subprocess.Popen(
+            [sys.executable, "-c", FORGER, endpoint, str(small_frame)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        assert forger.stdin is not None and forger.stdout is not None
+        assert forger.stdout.readline().strip() == "ready"
         assert wait_until(lambda: bool(_constructed_in_journal(run)), timeout_s=RUN_TIMEOUT_S / 2), (
             "nothing was constructed"
         )
-        forger = subprocess.Popen(
-            [sys.executable, "-c", FORGER, endpoint, str(small_frame)], stdout=subprocess.PIPE, text=True
-        )
-        assert forger.stdout is not None and forger.stdout.readline().strip() == "forging"
+        forger.stdin.write("go\n")
+        forger.stdin.flush()
+        assert forger.stdout.readline().strip() == "forging"
         process.wait(timeout=RUN_TIMEOUT_S)
     finally:
         for child in (forger, process):
