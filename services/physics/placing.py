@@ -36,9 +36,11 @@ from .release import Watch, box_corners, clear_overlap, observe, supports_of, to
 from .scene import (
     ALL_GROUPS,
     DYNAMIC_GROUP,
+    IDENTITY,
     STATIC_MASK,
     Frame,
     component_pose,
+    compose,
     make_dynamic,
     make_static,
     set_component_pose,
@@ -157,11 +159,14 @@ class Placing:
         item.tag = tag
         self._moving.add(guid)
         _log.info(
-            "%s: %s places it over %.2f s, %.1f mm from where it was asked to",
+            "%s: %s places it over %.2f s, its centre %.1f mm from where it was asked to",
             guid,
             robot.robot_id,
             duration_s,
-            1000.0 * math.dist(frame[0], commanded[0]),
+            1000.0
+            * math.dist(
+                *(compose(f, (item.component.com_local_m, IDENTITY[1]))[0] for f in (frame, commanded))
+            ),
         )
         return None
 
@@ -232,6 +237,17 @@ class Placing:
             p.setCollisionFilterPair(
                 self.ground_id, body.body_id, -1, -1, 0 if pits else 1, physicsClientId=cid
             )
+        if pits and self.pits is not None:
+            # over the pit but hanging over its edge (or over a shallower pit's floor): it rests on what
+            # is under it there, not in the soil, which the contact solver would throw it out of
+            lift = self.pits.lift_onto_ground(body.body_id)
+            if lift > 0.0:
+                item.pose = component_pose(cid, body)
+                _log.info(
+                    "%s set down on the edge of its excavation, %.0f mm above where it was released",
+                    guid,
+                    1000.0 * lift,
+                )
         # its own pit is where it goes; a foundation of several parts has a pit a part; a pit whose floor
         # lies above its bottom cannot take it (the hub's 0.56 m footing under the 125 mm ground slab was
         # said to be "over the open pit" of the slab that rests on it, and --check-stability advised

@@ -45,7 +45,19 @@ from bimbot.shared.robot_description import RobotDescription
 
 from .client import p, quiet_stdout
 from .crane_rig import CraneRig
-from .scene import ALL_GROUPS, GROUND_GROUP, Frame, Quat, Vec3, compose, invert, set_filter, yaw_of, yaw_quat
+from .scene import (
+    ALL_GROUPS,
+    GROUND_GROUP,
+    PIT_EDGE_GROUP,
+    Frame,
+    Quat,
+    Vec3,
+    compose,
+    invert,
+    set_filter,
+    yaw_of,
+    yaw_quat,
+)
 
 _log = logging.getLogger(__name__)
 
@@ -330,7 +342,7 @@ def spawn_robot(
     torque = 0.0
     rig: CraneRig | None = None
     if crane is not None:  # standing on the ground for good: no contacts with it to compute
-        set_filter(client_id, body_id, group, ALL_GROUPS ^ group ^ GROUND_GROUP, links)
+        set_filter(client_id, body_id, group, ALL_GROUPS ^ group ^ GROUND_GROUP ^ PIT_EDGE_GROUP, links)
         rig = CraneRig(client_id, body_id, crane, name=description.name)
     else:
         drive = detect_drive(client_id, body_id, base_frame, config.wheel_joints)
@@ -347,7 +359,8 @@ def spawn_robot(
                     ),
                     physicsClientId=client_id,
                 )
-        set_filter(client_id, body_id, group, ALL_GROUPS ^ group, links)  # not with its own load
+        # not with its own load, nor the pits' rims (the ground plane carries robots over the pits)
+        set_filter(client_id, body_id, group, ALL_GROUPS ^ group ^ PIT_EDGE_GROUP, links)
     robot = Robot(
         robot_id=robot_id,
         index=index,

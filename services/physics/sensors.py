@@ -42,7 +42,7 @@ import numpy as np
 from .client import p
 from .profiles import FINE
 from .ray_scene import RayScene
-from .scene import ALL_GROUPS, GROUND_GROUP, Frame, compose
+from .scene import ALL_GROUPS, GROUND_GROUP, PIT_EDGE_GROUP, Frame, compose
 
 FULL_CIRCLE_RAD = 2.0 * math.pi
 NEAR_SEGMENT_M = 4.0  # beams are cast this far first; the ones that hit nothing go on (see the module doc)
@@ -116,7 +116,7 @@ class Laser:
         rotation = np.asarray(p.getMatrixFromQuaternion(mount_frame[1]), dtype=float).reshape(3, 3)
         limit = self.config.range_max_m
         begin = np.zeros(self.config.beams) if starts_m is None else np.array(starts_m, dtype=float)
-        mask = ALL_GROUPS ^ GROUND_GROUP ^ own_group
+        mask = ALL_GROUPS ^ GROUND_GROUP ^ PIT_EDGE_GROUP ^ own_group
         if scene is not None:
             full = self.config.fov_rad >= FULL_CIRCLE_RAD - 1e-9
             cast = scene.cast(

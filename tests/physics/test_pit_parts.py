@@ -8,6 +8,7 @@ failed `unstable`. Here with real pybullet floors (ray tests from above), and on
 
 from __future__ import annotations
 
+import math
 import re
 import subprocess
 import sys
@@ -111,3 +112,62 @@ def test_the_hub_s_foundations_stand_in_the_derived_order_until_a_clash(
     assert (
         "Existing Strip Footing:Existing Strip Footing:682677 (03RdpMwXDAcxzTBzSbZ5wE) and " in checked.stdout
     )
+
+
+def _dropped_box(client_id: int, low: tuple[float, float, float], high: tuple[float, float, float]) -> int:
+    """A dynamic 500 kg box with these world corners, as a released component is (Bullet's default group)."""
+    half = [(b - a) / 2.0 for a, b in zip(low, high, strict=True)]
+    centre = [(a + b) / 2.0 for a, b in zip(low, high, strict=True)]
+    shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=client_id)
+    return p.createMultiBody(500.0, shape, basePosition=centre, physicsClientId=client_id)
+
+
+def _settle(client_id: int, seconds: float = 3.0) -> None:
+    for _ in range(int(seconds * 240)):
+        p.stepSimulation(physicsClientId=client_id)
+
+
+def test_a_slab_set_down_off_its_pit_inside_a_shallower_one_rests_on_that_floor_not_in_it() -> None:
+    """The hub's thickened slab (0.56 m deep, 0.6 m wide, inside the 125 mm ground slab's pit), set down
+    0.3 m off its own pit by a robot that was 0.3 m off: before, it was released half inside the ground
+    slab's floor, thrown out by the contact solver, and fell through the ground, 7 m away. Now it is lifted
+    onto that floor and settles there or tips into its pit, where it was set down."""
+    foundations = [_foundation("slab", GROUND_SLAB), _foundation("thick", THICKENED)]
+    with BulletClient() as client:
+        p.setGravity(0.0, 0.0, -9.81, physicsClientId=client.id)
+        pits = Pits(client.id, foundations, filled=lambda guid: False, part_boxes=lambda c: c.parts)
+        (x0, y0, z0), (x1, y1, z1) = THICKENED[0]
+        body = _dropped_box(client.id, (x0, y0 + 0.3, z0), (x1, y1 + 0.3, z1))
+        lift = pits.lift_onto_ground(body)
+        bottom = p.getAABB(body, -1, physicsClientId=client.id)[0][2]
+        assert lift == pytest.approx(0.56 - 0.125, abs=0.03) and bottom == pytest.approx(-0.125, abs=0.03)
+        released = p.getBasePositionAndOrientation(body, physicsClientId=client.id)[0]
+        _settle(client.id)
+        rest = p.getBasePositionAndOrientation(body, physicsClientId=client.id)[0]
+        assert math.dist(rest, released) < 0.8, rest  # not thrown anywhere
+        assert p.getAABB(body, -1, physicsClientId=client.id)[0][2] > -0.6  # above its pit's floor
+        # centred over its pit it goes in, untouched
+        centred = _dropped_box(client.id, (x0, y0, z0), (x1, y1, z1))
+        assert pits.lift_onto_ground(centred) == 0.0
+
+
+def test_a_footing_hanging_over_its_pit_s_edge_rests_on_the_rim_and_never_falls_through() -> None:
+    """No ground plane here at all (as for a body released over an open pit, which the plane does not
+    touch): a footing 0.3 m off its pit, its centre still over it, is lifted onto the rim of ground round
+    the pit and tips in or stays on the edge; a few millimetres off (within the excavation's working
+    space) it goes in untouched."""
+    footing = [((0.0, 0.0, -0.5), (1.0, 1.0, 0.0))]
+    with BulletClient() as client:
+        p.setGravity(0.0, 0.0, -9.81, physicsClientId=client.id)
+        pits = Pits(
+            client.id, [_foundation("f", footing)], filled=lambda guid: False, part_boxes=lambda c: c.parts
+        )
+        near = _dropped_box(client.id, (0.005, 0.0, -0.5), (1.005, 1.0, 0.0))
+        assert pits.lift_onto_ground(near) == 0.0
+        p.removeBody(near, physicsClientId=client.id)
+        off = _dropped_box(client.id, (0.3, 0.0, -0.5), (1.3, 1.0, 0.0))
+        assert pits.lift_onto_ground(off) == pytest.approx(0.5, abs=0.03)
+        _settle(client.id)
+        (x, y, _), _ = p.getBasePositionAndOrientation(off, physicsClientId=client.id)
+        assert p.getAABB(off, -1, physicsClientId=client.id)[0][2] > -0.55  # on the floor at worst
+        assert math.dist((x, y), (0.8, 0.5)) < 0.6  # where it was set down, not thrown off
