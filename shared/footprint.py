@@ -83,3 +83,20 @@ def footprint_distance_m(polygon_xy_m: ArrayLike, points_xy_m: ArrayLike) -> NDA
         inside = (cross >= -1e-12).all(axis=1) | (cross <= 1e-12).all(axis=1)
         distance[inside] = 0.0
     return distance
+
+
+def body_centre_xy(
+    component: Component, position_m: Sequence[float], quat_xyzw: Sequence[float]
+) -> tuple[float, float]:
+    """Where ``component`` lies, seen from above: the centre of its local bounding box at a pose (world,
+    m). Not the pose's position: a Revit element may keep an identity placement with its geometry in world
+    coordinates, so its frame's origin lies at the project origin, 100 m from the body. Plain arithmetic
+    (a pose message each period per carried component): the quaternion's rotation of the centre."""
+    low, high = component.bbox_local.min_m, component.bbox_local.max_m
+    cx, cy, cz = ((low[i] + high[i]) / 2.0 for i in range(3))
+    qx, qy, qz, qw = (float(value) for value in quat_xyzw)
+    # v + 2w (q × v) + 2 q × (q × v), q the vector part
+    tx, ty, tz = 2.0 * (qy * cz - qz * cy), 2.0 * (qz * cx - qx * cz), 2.0 * (qx * cy - qy * cx)
+    x = cx + qw * tx + (qy * tz - qz * ty)
+    y = cy + qw * ty + (qz * tx - qx * tz)
+    return float(position_m[0]) + x, float(position_m[1]) + y

@@ -71,25 +71,31 @@ def choose(
     ``promised_s``: extra busy time promised to robots earlier in this round; ``avoid``: robots that gave
     the task back (bidding only when nobody else can)."""
     alive = [record for record in records if record.alive and record.robot_id in site]
-    fresh = [record for record in alive if record.robot_id not in avoid] or alive
+    fresh = [record for record in alive if record.robot_id not in avoid]
 
-    def bids(kind: TaskKind, spot: tuple[float, float] | None) -> list[tuple[float, str, Choice]]:
+    def bids(
+        kind: TaskKind, spot: tuple[float, float] | None, pool: list[RobotRecord]
+    ) -> list[tuple[float, str, Choice]]:
         able = (
             can_build_from if kind is TaskKind.BUILD else lambda robot, item, _where: can_carry(robot, item)
         )
         return [
             _bid(record, site[record.robot_id], component, where, now_s, promised_s, kind, spot)
-            for record in fresh
+            for record in pool
             if able(site[record.robot_id], component, where)
         ]
 
-    found = bids(TaskKind.BUILD, None)
-    if not found:
-        spot = _hand_off_spot(component, fresh, site, taken_spots)
-        found = bids(TaskKind.HAND_OFF, spot) if spot is not None else []
-    if not found:
-        return None
-    return min(found, key=lambda bid: (bid[0], bid[1]))[2]
+    # a robot that gave the task back bids again only when no other robot *can* take it (not: when no
+    # other is alive — on the hub a trapped carrier's give-back left a beam only carriers lift "waiting
+    # for a robot" beside an idle Husky and crane until the run stalled)
+    for pool in (fresh, alive) if len(fresh) < len(alive) else (alive,):
+        found = bids(TaskKind.BUILD, None, pool)
+        if not found:
+            spot = _hand_off_spot(component, pool, site, taken_spots)
+            found = bids(TaskKind.HAND_OFF, spot, pool) if spot is not None else []
+        if found:
+            return min(found, key=lambda bid: (bid[0], bid[1]))[2]
+    return None
 
 
 def _bid(  # noqa: PLR0917 - one bid's inputs, named at the single call

@@ -41,6 +41,7 @@ import uuid
 from collections.abc import Callable
 from functools import partial
 
+from bimbot.shared.footprint import body_centre_xy
 from bimbot.shared.identifiers import named_guid
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
@@ -170,7 +171,8 @@ class PlannerCore(Dispatch):
         if newest is not None:
             component.changed_wall_s = newest.wall_time_s
         if twin.current_pose is not None:
-            component.position_xy = twin.current_pose.position_m[:2]
+            pose = twin.current_pose
+            component.position_xy = body_centre_xy(self._manifest[twin.guid], pose.position_m, pose.quat_xyzw)
         event = twin.history[-1].event if twin.history else "sync"
         self._apply_state(
             twin.guid,
@@ -184,8 +186,9 @@ class PlannerCore(Dispatch):
 
     def observe_component_pose(self, msg: ComponentPoseMsg) -> None:
         component = self._components.get(msg.guid)
-        if component is not None:
-            component.position_xy = (msg.pose.position_m[0], msg.pose.position_m[1])
+        if component is not None:  # where its body lies (its frame's origin may be 100 m away)
+            pose = msg.pose
+            component.position_xy = body_centre_xy(self._manifest[msg.guid], pose.position_m, pose.quat_xyzw)
             self.observe_clock(msg.sim_time_s)
 
     def observe_robot_state(self, msg: RobotStateMsg) -> None:

@@ -159,6 +159,9 @@ class Executor(Driving, Handover):
         self._idle_since_s: float | None = None
         self._state_since_s = 0.0  # sim time of the last task state change (the task watchdog)
         self._left_structure = True  # after a task: out of the building footprint (or tried)
+        self._parking = False  # the navigator's goal is the depot
+        self._park_again_s = 0.0  # not before this sim time (a parking drive failed)
+        self.activity = ""  # what an idle robot is up to, in words, when it matters (its state message)
         self.given_back: list[tuple[str, Reason]] = []  # (GUID, reason) of every task given back
 
     # --- inputs and outputs ------------------------------------------------------------------------------
@@ -253,6 +256,7 @@ class Executor(Driving, Handover):
             sim_time_s=self.sim_s,
             wall_time_s=wall_s,
             distance_m=self.distance_m,
+            activity="" if task else self.activity,
         )
 
     # --- the task ----------------------------------------------------------------------------------------
@@ -316,6 +320,7 @@ class Executor(Driving, Handover):
                 footprint = put_down_footprint(message.put_down_xy_m)
             self.task = Task(message, component, footprint, EventQueue(self.config.resend_s))
             self._idle_since_s = None
+            self._parking, self._park_again_s, self.activity = False, 0.0, ""
             self.navigator.cancel()
             self._fire(Trigger.ASSIGNED)
             _log.info(
@@ -337,15 +342,35 @@ class Executor(Driving, Handover):
                 _log.info("%s: leaving the structure to %s", self.robot_id, np.round(spot, 2).tolist())
                 self.navigator.set_goal(spot, None, self.sim_s, tolerance_m=0.4)
                 return
-        if self.navigator.status is not NavStatus.ACTIVE and self.navigator.goal is not None:
-            self.navigator.cancel()  # out of the structure (or it failed): idle until parking time
-        if self.navigator.goal is not None or self.sim_s - self._idle_since_s < self.config.park_after_s:
+        status = self.navigator.status
+        if self.navigator.goal is not None and status in (NavStatus.REACHED, NavStatus.FAILED):
+            # out of the structure, parked, or failed (its recoveries spent): idle until parking time. Not
+            # while WAITING for a path: a robot parked in an inflated cell was sent to the depot, cancelled
+            # while it waited, sent again, every period, so its recoveries never ran (14,000 log lines)
+            if status is NavStatus.FAILED and self._parking:
+                self._park_again_s = self.sim_s + self.config.park_retry_s
+                failure = self.navigator.failure
+                why = failure.message if failure is not None else "no path"
+                self.activity = (
+                    f"cannot drive to the depot (trying again at sim {self._park_again_s:.0f} s): {why}"
+                )
+                _log.warning("%s: %s", self.robot_id, self.activity)
+            elif status is NavStatus.REACHED and self._parking:
+                self.activity = ""
+            self._parking = False
+            self.navigator.cancel()
+        if (
+            self.navigator.goal is not None
+            or self.sim_s - self._idle_since_s < self.config.park_after_s
+            or self.sim_s < self._park_again_s
+        ):
             return
         x, y, yaw = self.home_xy_yaw
         pose = self.navigator.pose_xy_yaw
         if math.hypot(pose[0] - x, pose[1] - y) > 0.5:
             _log.info("%s: idle, parking at the depot", self.robot_id)
             self.navigator.set_goal((x, y), yaw, self.sim_s, tolerance_m=0.3)
+            self._parking = True
 
     def _withdrawn(self, task: Task) -> bool:
         """The planner took the task back (given to another robot, released): stop and go idle."""

@@ -34,6 +34,9 @@ class ExecutorConfig:
     give_back_timeout_s: float = 60.0  # sim seconds for the agent to confirm an abandon (else go idle)
     carried_wait_s: float = 10.0  # sim seconds a component on another robot may take to be put down
     park_after_s: float = 8.0  # sim seconds idle → drive back to the start pose (clears the structure)
+    park_retry_s: float = (
+        120.0  # a parking drive that failed (its recoveries spent) is tried again after this
+    )
     leave_margin_m: float = 1.0  # after a task: out of the building footprint grown by this much
     placement_error_m: float = 0.0  # injected on first placement attempts (tests, demos)
     inject_guids: frozenset[str] = frozenset()

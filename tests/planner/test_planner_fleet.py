@@ -12,7 +12,7 @@ from bimbot.services.planner.capability import SiteRobot, Where, crane_reaches_c
 from bimbot.services.planner.scheduler import Phase, PlannerCore
 from bimbot.services.planner.sources import plan_from_sequence
 from bimbot.shared.fleet import default_fleet
-from bimbot.shared.manifest import Manifest
+from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import (
     ComponentEvent,
     ComponentPoseMsg,
@@ -23,6 +23,7 @@ from bimbot.shared.messages import (
     TaskMsg,
     TaskStatus,
 )
+from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.site_plan import Rect
 from bimbot.shared.support_graph import derive_sequence
 
@@ -240,3 +241,66 @@ def test_a_component_too_high_for_every_ground_robot_says_what_would_place_it() 
         {},
     )
     assert all("no tower crane" not in reason.message for reason in with_crane.values())
+
+
+def _far_origin(manifest: Manifest, guid: str, offset_xy: tuple[float, float]) -> Manifest:
+    """``guid`` as Revit exports it: the same body, its frame's origin ``offset_xy`` away (identity
+    placement, geometry in world coordinates): local box moved by the offset, target moved back."""
+    dx, dy = offset_xy
+
+    def moved(component: Component) -> Component:
+        if component.guid != guid:
+            return component
+        low, high = component.bbox_local.min_m, component.bbox_local.max_m
+        box = component.bbox_local.model_copy(
+            update={
+                "min_m": (low[0] + dx, low[1] + dy, low[2]),
+                "max_m": (high[0] + dx, high[1] + dy, high[2]),
+            }
+        )
+        x, y, z = component.target_pose_world.position_m
+        target = component.target_pose_world.model_copy(update={"position_m": (x - dx, y - dy, z)})
+        return component.model_copy(update={"bbox_local": box, "target_pose_world": target})
+
+    return manifest.model_copy(update={"components": [moved(c) for c in manifest.components]})
+
+
+def test_where_a_component_lies_is_its_body_not_its_frame_origin_100_m_away() -> None:
+    """On the Revit hub a 3.4 t wall lay in the crane's reach, but its pose's position (the project origin,
+    where its frame lies) was out of it: the planner never assigned it, and the run stalled."""
+    manifest = _far_origin(_manifest(beam=300.0), "beam", (100.0, 0.0))
+    crane_at = (2.0, 12.0, -1.5708)
+    robots = [
+        SiteRobot("r1", CARRIER.model_copy(update={"max_place_height_m": 1.0}), (-10.0, -10.0, 0.0)),
+        SiteRobot("r2", CRANE, crane_at, Rect((-2.0, 16.0), (6.0, 24.0))),
+    ]
+    core = _core(manifest, robots)
+    for guid in ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c"):
+        core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified"))
+    beam = next(c for c in manifest.components if c.guid == "beam")
+    low, high = beam.bbox_local.min_m, beam.bbox_local.max_m
+    centre = ((low[0] + high[0]) / 2.0, (low[1] + high[1]) / 2.0)
+    # its body lies at (2, 20), in the crane's staging area; its frame's origin 100 m west of it
+    core.observe_component_pose(_pose("beam", (2.0 - centre[0], 20.0 - centre[1])))
+    build = _assignments(_release(core, "beam"))["beam"]
+    assert build.robot_id == "r2" and build.kind is TaskKind.BUILD
+
+
+def test_a_robot_that_gave_a_task_back_gets_it_again_when_no_other_robot_can_take_it() -> None:
+    """The hub: a carrier gave back a 1.1 t beam (it could not drive there); the Husky (75 kg) and the
+    crane (out of reach) were alive and idle, so the beam waited "for a robot" until the run stalled.
+    Another robot that *can* take it goes first; when none can, the one that gave it back bids again (its
+    give-backs stay bounded: max_give_backs fails the component with its reason)."""
+    manifest = _manifest(foot_a=259.0)
+    robots = [SiteRobot("r1", HUSKY, (0.0, -5.0, 0.0)), SiteRobot("r2", CARRIER, (-30.0, -5.0, 0.0))]
+    core = _core(manifest, robots)
+    assert _assignments(_release(core, "foot_a"))["foot_a"].robot_id == "r2"
+    why = Reason(code=ReasonCode.NO_PROGRESS, message="r2 could not drive there", robot_id="r2")
+    core.observe_component_state(state_msg("foot_a", S.PICKING, event="pick", robot_id="r2", sim_time_s=1.0))
+    core.observe_component_state(
+        state_msg("foot_a", S.RELEASED, event="abandon", robot_id=None, sim_time_s=2.0, reason=why)
+    )
+    core.observe_robot_state(robot_msg("r2", (-30.0, -5.0), sim_time_s=2.0))
+    core.observe_clock(3.0)
+    out = core.step(3.0)
+    assert _assignments(out)["foot_a"].robot_id == "r2"  # the Husky, idle beside it, cannot carry 259 kg

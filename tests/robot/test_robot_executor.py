@@ -217,3 +217,23 @@ def test_an_idle_robot_says_so_at_once_when_a_task_is_released_not_at_its_next_p
     executor.handle(task.model_copy(update={"status": TaskStatus.RELEASED, "robot_id": None}))
     again = [m for m in executor.poll(10.2) if isinstance(m, RobotStateMsg)]
     assert again and again[0].state is RobotState.IDLE
+
+
+def test_an_idle_robot_that_cannot_reach_its_depot_says_so_and_tries_again_later_not_every_period(
+    frame: Manifest, caplog: pytest.LogCaptureFixture
+) -> None:
+    """On the Revit hub a carrier idle inside the structure could not drive to its depot: it was sent there,
+    the goal cancelled, and sent again every period (14,000 log lines), and the run's stall report said
+    only "idle". Now a failed parking drive (its recoveries spent) is tried again after park_retry_s, with
+    one warning, and the robot's state message says why it stands where it is."""
+    site, released, task = make_site(frame, park_after_s=2.0, park_retry_s=120.0)
+    run_task(site, released, task)
+    assert site.executor.done == [(task.guid, ComponentState.CONSTRUCTED)]
+    site.frozen = True  # its wheels turn no more: wherever it goes, it stays
+    with caplog.at_level("INFO"):
+        site.run(int(150.0 / DT))
+    parking = caplog.text.count("idle, parking at the depot")
+    failed = [r for r in caplog.records if "cannot drive to the depot" in r.getMessage()]
+    assert parking == 1 and len(failed) == 1, caplog.text[-3000:]  # once, not every period
+    state = site.executor.state_message(0.0)
+    assert state.state is RobotState.IDLE and state.activity.startswith("cannot drive to the depot"), state
