@@ -370,6 +370,11 @@ def summary_text(outcome: RunOutcome) -> str:
         f"{outcome.sim_time_s:.1f} s sim time ({outcome.wall_time_s:.1f} s wall{_makespan(totals)}), "
         f"{_caught(outcome)}, {totals.get('give_backs', 0)} give-back(s) by robots",
     ]
+    if totals.get("in_place"):
+        lines.append(
+            f"in place before the run (convert --in-place): {totals['in_place']} component(s), not built "
+            "by the robots and not counted above"
+        )
     if totals.get("max_position_error_mm") is not None:
         lines.append(
             "placement error of the constructed components at most "

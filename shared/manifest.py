@@ -156,6 +156,9 @@ class Manifest(_Frozen):
     sequence_file: str
     sequence_source: str
     components: list[Component]
+    # in place before the robots come (cast in situ, built by others: ``convert --in-place``): physics puts
+    # them at their BIM pose, static; nothing plans, carries or counts them
+    in_place: list[Component] = []
     skipped: list[SkippedElement] = []
     warnings: list[str] = []
 

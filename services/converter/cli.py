@@ -48,6 +48,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="leave out these IFC classes (comma-separated, with subclasses) or single elements by GlobalId",
     )
     parser.add_argument(
+        "--in-place",
+        default="",
+        help="components in place before the robots come (cast in situ, built by others): 'foundations' "
+        "(every component whose target lies in the ground), IFC classes or GlobalIds, comma-separated. "
+        "They are converted, stand at their BIM pose from the start, and are neither built nor counted; "
+        "what rests on them is built at once",
+    )
+    parser.add_argument(
         "--only",
         default="",
         help="build only these IFC classes instead of the building elements (comma-separated, subclasses)",
@@ -77,6 +85,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from .convert import ConversionStats, ConvertOptions, convert_model
     from .ifc_input import read_model
+    from .in_place import FOUNDATIONS, above_ground
     from .mesh_files import parse_formats
     from .selection import check_classes, check_exclusions, parse_class_list
 
@@ -93,8 +102,16 @@ def run(args: argparse.Namespace) -> int:
         include = check_classes(model, parse_class_list(args.include))
         exclude, exclude_guids = check_exclusions(model, parse_class_list(args.exclude))
         only = check_classes(model, parse_class_list(args.only))
+        in_place = parse_class_list(args.in_place)
+        foundations = any(token.lower() == FOUNDATIONS for token in in_place)
+        in_place_classes, in_place_guids = check_exclusions(
+            model, [token for token in in_place if token.lower() != FOUNDATIONS], option="--in-place"
+        )
     except ValueError as error:
         raise UserError(str(error)) from None
+    in_place_guids += tuple(
+        str(element.GlobalId) for name in in_place_classes for element in model.by_type(name)
+    )
     options = ConvertOptions(
         include=include,
         exclude=exclude,
@@ -103,6 +120,8 @@ def run(args: argparse.Namespace) -> int:
         threads=args.threads,
         formats=formats,
         split_ifc=not args.no_split_ifc,
+        in_place_guids=in_place_guids,
+        foundations_in_place=foundations,
     )
     stats = ConversionStats()
     with _ProgressBar(enabled=not args.no_progress and sys.stderr.isatty()) as bar:
@@ -134,8 +153,9 @@ def run(args: argparse.Namespace) -> int:
             args.output,
         )
     origin = sequence_origin(manifest.sequence_source)
+    placed = f" (and {len(manifest.in_place)} in place before the robots come)" if manifest.in_place else ""
     sys.stdout.write(
-        f"converted {len(manifest.components)} component(s), skipped {len(manifest.skipped)}"
+        f"converted {len(manifest.components)} component(s){placed}, skipped {len(manifest.skipped)}"
         f"{skipped_summary(manifest.skipped)}, "
         f"{len(manifest.warnings)} warning(s) in {seconds:.1f} s → {args.output}/ "
         f"(world {manifest.world_file}, sequence {manifest.sequence_file} {origin})\n"
@@ -151,6 +171,19 @@ def run(args: argparse.Namespace) -> int:
             earlier,
             args.output,
         )
+    standing = above_ground(manifest.in_place)
+    if standing:
+        _log.warning(
+            "%d component(s) in place reach above the ground (%s): physics has them, but the robots' maps "
+            "and the planner's access checks do not, so a robot may plan a path through them",
+            len(standing),
+            ", ".join(c.name or c.guid for c in standing[:3]) + (" …" if len(standing) > 3 else ""),
+        )
+    if not manifest.components and manifest.in_place:
+        _log.error(
+            "%s: every component converted is in place (--in-place): nothing is left to build", args.model
+        )
+        return 1
     if not manifest.components:
         _log.error(
             "%s: no element could be converted (see 'skipped' in %s/manifest.json)", args.model, args.output

@@ -39,6 +39,7 @@ from bimbot.shared.sequence import SEQUENCE_FILE_NAME, write_sequence
 
 from .component_writer import ShardContext, skipped_entry
 from .ifc_input import file_sha256
+from .in_place import split_in_place
 from .mass import mass_unit_kg
 from .mesh_files import VISUAL_FORMATS
 from .parse_damage import ParseDamage, damaged_elements, describe_unreadable
@@ -64,6 +65,8 @@ class ConvertOptions:
     far_from_origin_m: float = 1000.0
     formats: tuple[str, ...] = VISUAL_FORMATS  # visual mesh formats written (collision OBJs always are)
     split_ifc: bool = True  # each component's standalone <GUID>.ifc (paper §4.3.1); no run reads it
+    in_place_guids: tuple[str, ...] = ()  # in place before the robots come (.in_place), by GlobalId
+    foundations_in_place: bool = False  # every component in the ground is in place too
 
 
 @dataclass
@@ -129,7 +132,11 @@ def convert_model(
         for result in results
         for step_id, component, spec in zip(result.step_ids, result.components, result.specs, strict=True)
     )
-    components = [component for _, component, _ in merged]
+    components, in_place = split_in_place(
+        [component for _, component, _ in merged],
+        options.in_place_guids,
+        foundations=options.foundations_in_place,
+    )
     specs = [spec for _, _, spec in merged]
     for result in results:
         skipped.extend(result.skipped)
@@ -144,7 +151,7 @@ def convert_model(
     site = slugify(site_name)
     world_path = out_dir / "worlds" / f"{site}.world"
     world_path.parent.mkdir(parents=True, exist_ok=True)
-    world_path.write_bytes(world_sdf(site, specs, extent_m=_world_extent_m(components)))
+    world_path.write_bytes(world_sdf(site, specs, extent_m=_world_extent_m([*components, *in_place])))
     sequence, sequence_warnings = construction_sequence(model, components)
     warnings.extend(sequence_warnings)
     write_sequence(sequence, out_dir / SEQUENCE_FILE_NAME)
@@ -163,8 +170,9 @@ def convert_model(
         sequence_file=SEQUENCE_FILE_NAME,
         sequence_source=sequence.source,
         components=components,
+        in_place=in_place,
         skipped=sorted(skipped, key=lambda item: (item.ifc_class, item.guid)),
-        warnings=warnings + [f"{_named(c)}: {w}" for c in components for w in c.warnings],
+        warnings=warnings + [f"{_named(c)}: {w}" for c in [*components, *in_place] for w in c.warnings],
     )
     write_manifest(manifest, out_dir)
     stats.seconds_by_stage["world_sequence_manifest"] = time.perf_counter() - finishing

@@ -86,7 +86,7 @@ def check_classes(model: ifcopenshell.file, classes: Iterable[str]) -> tuple[str
 
 
 def check_exclusions(
-    model: ifcopenshell.file, names: Iterable[str]
+    model: ifcopenshell.file, names: Iterable[str], option: str = "--exclude"
 ) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """``--exclude``'s classes (the schema's spelling) and GlobalIds of single elements (one of a clash in
     the IFC, a part a user builds otherwise); ``ValueError`` naming any that is neither a class of the
@@ -110,10 +110,10 @@ def check_exclusions(
             example = f"'{matches[0]}'" if len(matches) == 1 else "'…$…' (whole, in single quotes)"
             hint = (
                 f" ({cut[0]}: the start of {len(matches)} GlobalId(s) with a $ after it, which the shell cut "
-                f"off: quote the GlobalId, --exclude {example})"
+                f"off: quote the GlobalId, {option} {example})"
             )
         raise ValueError(
-            f"--exclude: neither an IFC class of {model.schema} nor the GlobalId of an element in the model: "
+            f"{option}: neither an IFC class of {model.schema} nor the GlobalId of an element in the model: "
             + ", ".join(unknown)
             + hint
         )

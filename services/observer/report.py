@@ -315,6 +315,7 @@ class ReportCollector:
         totals.update(placement_totals(components, list(totals["by_type"])))
         separation = self.min_separation_m
         totals["min_robot_separation_m"] = None if math.isinf(separation) else separation
+        totals["in_place"] = len(self.manifest.in_place)
         return {
             "schema_version": REPORT_SCHEMA_VERSION,
             "site": self.manifest.site,
@@ -323,6 +324,10 @@ class ReportCollector:
             "progress": self.progress.model_dump(mode="json") if self.progress else None,
             "totals": totals,
             "components": components,
+            # in place before the run (convert --in-place): not built by the robots, not in the totals above
+            "in_place": [
+                {"guid": c.guid, "name": c.name, "ifc_class": c.ifc_class} for c in self.manifest.in_place
+            ],
             "robots": robots,
         }
 

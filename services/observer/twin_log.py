@@ -161,6 +161,14 @@ class TwinLog:
             if mesh is not None:
                 static.append(LogItem(path, mesh_archetype(*mesh), static=True))
             initial.append(LogItem(path, component_color(ComponentState.PLANNED)))
+        for component in self.manifest.in_place:  # in place from the start (convert --in-place): built
+            path = component_path(component.guid)
+            mesh = load_mesh(component)
+            if mesh is not None:
+                target = component.target_pose_world
+                static.append(LogItem(path, mesh_archetype(*mesh), static=True))
+                static.append(LogItem(path, transform(target.position_m, target.quat_xyzw), static=True))
+                static.append(LogItem(path, component_color(ComponentState.CONSTRUCTED), static=True))
         return static, initial
 
     def yard_poses(self, layout: SiteLayout) -> list[LogItem]:

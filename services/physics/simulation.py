@@ -170,6 +170,7 @@ class Simulation:
         self.robots: dict[str, Robot] = {}
         self.alive: set[str] = set()
         self._odometry: dict[str, Odometry] = {}
+        self.in_place_bodies: dict[str, int] = {}  # GUID → body of a component in place from the start
         self._laser = Laser(self.config.laser)
         self._ray_scene: RayScene | None = None  # the laser's compiled caster (built with the scene)
         std = self.config.total_station_std_m
@@ -221,6 +222,13 @@ class Simulation:
             body = create_component_body(cid, component, model, frame, visual=self.config.visuals)
             p.setCollisionFilterPair(self.ground_id, body.body_id, -1, -1, 0, physicsClientId=cid)
             items[component.guid] = Item(component, body, Phase.RESTING, frame)
+        for component in self.manifest.in_place:  # cast in situ or built by others: static where they stand
+            target = component.target_pose_world
+            frame = (target.position_m, target.quat_xyzw)
+            model = component_model(component, self.build_dir)
+            body = create_component_body(cid, component, model, frame, visual=self.config.visuals)
+            p.setCollisionFilterPair(self.ground_id, body.body_id, -1, -1, 0, physicsClientId=cid)
+            self.in_place_bodies[component.guid] = body.body_id
         build_dir = self.build_dir
         pits = Pits(
             cid,
@@ -250,8 +258,9 @@ class Simulation:
         if self.config.compiled_laser:
             self._ray_scene = RayScene(cid)
         _log.info(
-            "scene: %d components in the yard, robots %s, fence %s–%s",
+            "scene: %d components in the yard, %d in place, robots %s, fence %s–%s",
             len(items),
+            len(self.in_place_bodies),
             ", ".join(f"{robot_id} {robot.description.name}" for robot_id, robot in self.robots.items())
             or "none",
             self.layout.fence.min_xy,

@@ -105,6 +105,27 @@ def test_the_scene_logs_every_mesh_once_static_and_puts_components_in_the_yard_a
         assert values(transform.archetype.translation) == [pytest.approx(list(layout.slots[guid].position_m))]
 
 
+def test_components_in_place_are_drawn_at_their_target_from_the_start_as_built(
+    frame_manifest: Manifest,
+) -> None:
+    """``convert --in-place``: the footings stand where the model puts them for the whole recording."""
+    footings = [c for c in frame_manifest.components if c.ifc_class == "IfcFooting"]
+    rest = [c for c in frame_manifest.components if c.ifc_class != "IfcFooting"]
+    twin = TwinLog(frame_manifest.model_copy(update={"components": rest, "in_place": footings}))
+    meshes, initial = twin.scene(lambda component: (b"glb-bytes", "model/gltf-binary"))
+    for footing in footings:
+        drawn = _by_path(meshes, component_path(footing.guid))
+        assert drawn and all(item.static for item in drawn)
+        (transform,) = [item for item in drawn if isinstance(item.archetype, rr.Transform3D)]
+        target = footing.target_pose_world.position_m
+        assert values(transform.archetype.translation) == [pytest.approx(list(target))]
+        colours = [
+            item for item in drawn if isinstance(item.archetype, rr.Asset3D) and item.archetype.albedo_factor
+        ]
+        assert rgba(values(colours[0].archetype.albedo_factor)[0]) == STATE_COLORS[ComponentState.CONSTRUCTED]
+        assert not _by_path(initial, component_path(footing.guid))  # no state of its own to follow
+
+
 def test_a_pose_becomes_the_components_transform(twin: TwinLog, frame_manifest: Manifest) -> None:
     guid = frame_manifest.components[3].guid
     pose = PoseMsg(position_m=(1.0, 2.0, 3.0), quat_xyzw=(0.0, 0.0, 0.7071068, 0.7071068))

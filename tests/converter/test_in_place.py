@@ -1,0 +1,88 @@
+"""``convert --in-place``: components in place before the robots come are converted but listed apart.
+
+The Revit hub's foundations (a 49 t ground slab, 3–11 t footings) are heavier than any robot: without
+them in place a run built 3 of 115, everything else ``blocked_by`` them. Here on the generated 2×1 frame
+(two footings in the ground, two columns, a beam), with the real command.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from bimbot.services.converter.in_place import above_ground, in_the_ground, split_in_place
+from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame
+from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.sequence import read_sequence
+
+
+@pytest.fixture(scope="module")
+def frame_ifc(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    source = tmp_path_factory.mktemp("frame") / "frame.ifc"
+    build_light_steel_frame(2, 1).write(str(source))
+    return source
+
+
+def _convert(source: Path, out: Path, *extra: str) -> subprocess.CompletedProcess[str]:
+    command = [sys.executable, "-m", "bimbot.cli", "convert", str(source), "-o", str(out), "--no-progress"]
+    return subprocess.run([*command, *extra], capture_output=True, text=True, timeout=300, check=False)
+
+
+def test_foundations_in_place_are_converted_apart_and_left_out_of_the_sequence(
+    frame_ifc: Path, tmp_path: Path
+) -> None:
+    result = _convert(frame_ifc, tmp_path / "out", "--in-place", "foundations")
+    assert result.returncode == 0, result.stderr
+    assert "converted 3 component(s) (and 2 in place before the robots come)" in result.stdout
+    manifest = read_manifest(tmp_path / "out")
+    assert sorted(c.name for c in manifest.in_place) == ["Footing A1", "Footing A2"]
+    assert sorted(c.ifc_class for c in manifest.components) == ["IfcBeam", "IfcColumn", "IfcColumn"]
+    sequence = read_sequence(tmp_path / "out" / manifest.sequence_file)
+    assert sorted(sequence.guids()) == sorted(c.guid for c in manifest.components)
+    # converted like any other: physics builds them from their collision parts
+    assert all((tmp_path / "out" / c.files.collision[0]).is_file() for c in manifest.in_place)
+
+
+def test_in_place_takes_classes_and_global_ids_and_names_a_token_it_does_not_know(
+    frame_ifc: Path, tmp_path: Path
+) -> None:
+    by_class = _convert(frame_ifc, tmp_path / "a", "--in-place", "IfcFooting")
+    assert by_class.returncode == 0, by_class.stderr
+    footings = read_manifest(tmp_path / "a").in_place
+    assert sorted(c.name for c in footings) == ["Footing A1", "Footing A2"]
+    column = next(c for c in read_manifest(tmp_path / "a").components if c.ifc_class == "IfcColumn")
+    standing = _convert(frame_ifc, tmp_path / "b", "--in-place", column.guid)
+    assert standing.returncode == 0, standing.stderr
+    assert [c.guid for c in read_manifest(tmp_path / "b").in_place] == [column.guid]
+    # a column stands above the ground: the robots' maps do not know it, and the user is told
+    assert "reach above the ground" in standing.stderr and column.name in standing.stderr
+    unknown = _convert(frame_ifc, tmp_path / "c", "--in-place", "foundation")
+    assert unknown.returncode == 2 and "Traceback" not in unknown.stderr
+    assert (
+        "--in-place: neither an IFC class of IFC4 nor the GlobalId of an element in the model: foundation"
+        in (unknown.stderr)
+    )
+
+
+def test_every_component_in_place_leaves_nothing_to_build_and_says_so(
+    frame_ifc: Path, tmp_path: Path
+) -> None:
+    result = _convert(frame_ifc, tmp_path / "out", "--in-place", "IfcFooting,IfcColumn,IfcBeam")
+    assert result.returncode == 1
+    assert "every component converted is in place (--in-place): nothing is left to build" in result.stderr
+
+
+def test_split_in_place_keeps_the_order_and_the_ground_rule(frame_ifc: Path, tmp_path: Path) -> None:
+    assert _convert(frame_ifc, tmp_path / "out").returncode == 0
+    manifest: Manifest = read_manifest(tmp_path / "out")
+    beam = next(c for c in manifest.components if c.ifc_class == "IfcBeam")
+    build, in_place = split_in_place(manifest.components, [beam.guid], foundations=True)
+    assert [c.guid for c in build] == [c.guid for c in manifest.components if c.ifc_class == "IfcColumn"]
+    assert [c.guid for c in in_place] == [
+        c.guid for c in manifest.components if c.ifc_class == "IfcFooting" or c.guid == beam.guid
+    ]
+    assert [c.guid for c in above_ground(in_place)] == [beam.guid]
+    assert all(in_the_ground(c) for c in in_place if c.ifc_class == "IfcFooting")
