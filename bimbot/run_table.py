@@ -49,6 +49,7 @@ def not_built_rows(report: dict[str, Any]) -> list[Row]:
             groups.setdefault(reason["guid"], []).append(component)
     grouped = {guid for guid, members in groups.items() if len(members) >= GROUP_FROM}
     names = {c["guid"]: c["name"] for c in components if c.get("name")}
+    codes = {c["guid"]: (c.get("reason") or {}).get("code") for c in components}
     for component in components:
         if component["state"] == "constructed":
             continue
@@ -56,7 +57,7 @@ def not_built_rows(report: dict[str, Any]) -> list[Row]:
         root = reason.get("guid")
         if component["state"] == "blocked" and reason.get("code") == "blocked_by" and root in grouped:
             if groups[root][0] is component:
-                rows.append(_group_row(root, groups[root], names))
+                rows.append(_group_row(root, groups[root], names, codes.get(root)))
             continue
         name = shortened(component.get("name") or component.get("ifc_class") or "")
         message = reason.get("message", "no reason was given")
@@ -140,9 +141,10 @@ def with_names(message: str, names: dict[str, str], own: str = "") -> str:
 
 
 def _group_row(
-    root: str, members: list[dict[str, Any]], names_by_guid: dict[str, str]
+    root: str, members: list[dict[str, Any]], names_by_guid: dict[str, str], root_code: str | None
 ) -> tuple[str, str, str, str, str]:
-    """One row for every component blocked by ``root``: how many, and the first few names."""
+    """One row for every component blocked by ``root``: how many, why ``root`` was not built (as a single
+    row says it), and the first few names."""
     names = [member.get("name") or member.get("ifc_class") or member["guid"] for member in members]
     failed = with_names(root, names_by_guid)
     shown = first_names(names)
@@ -151,7 +153,9 @@ def _group_row(
         "(report.json)",
         "blocked",
         "blocked_by",
-        f"they rest, directly or through others, on {failed}, which was not built: {shown}",
+        f"they rest, directly or through others, on {failed}, which was not built"
+        + (f" ({root_code})" if root_code else "")
+        + f": {shown}",
     )
 
 

@@ -60,6 +60,13 @@ BUMPED_HINT = (
 
 CLASH_HINT = f"{CLASH_ADVICE}: bimbot convert MODEL.ifc -o OUT/ --exclude GLOBALID"
 
+MISPLACED_HINT = (
+    "every attempt landed out of tolerance: the robot type's placement precision is too coarse for it "
+    "(placement_precision_m and placement_precision_yaw_deg in a fleet file, `bimbot fleet show`; a long "
+    "member turns a small turn into centimetres at its ends), or its localisation was off (a total station: "
+    "`bimbot run BUILD --total-station-mm 3`)"
+)
+
 PLANNER_SOURCE = "planner"  # ComponentEventMsg.source of the planner's events; a robot's is its id
 PLANNER_EVENTS = frozenset(
     {ComponentEvent.RELEASE, ComponentEvent.RETRY, ComponentEvent.FAIL, ComponentEvent.BLOCK}
@@ -423,6 +430,9 @@ class ComponentAgent:
                 else UNSTABLE_HINT
             )
             miss = miss.model_copy(update={"message": f"{miss.message}; {hint}"})
+        elif verdict is Verdict.FAILED and miss is not None and not self.place_note:
+            # (a place note already says why: the robot could not align before placing)
+            miss = miss.model_copy(update={"message": f"{miss.message}; {MISPLACED_HINT}"})
         if verdict is Verdict.FAILED:
             self.reason = miss
         return self._record(

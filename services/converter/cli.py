@@ -108,10 +108,19 @@ def run(args: argparse.Namespace) -> int:
             model, [token for token in in_place if token.lower() != FOUNDATIONS], option="--in-place"
         )
     except ValueError as error:
-        raise UserError(str(error)) from None
+        near = [
+            t for t in parse_class_list(args.in_place) if t.lower().rstrip("s") == FOUNDATIONS.rstrip("s")
+        ]
+        hint = f" (the keyword is '{FOUNDATIONS}')" if near else ""
+        raise UserError(f"{error}{hint}") from None
+    for name in in_place_classes:
+        if not model.by_type(name):
+            _log.warning("--in-place %s: the model has no element of that class", name)
     in_place_guids += tuple(
         str(element.GlobalId) for name in in_place_classes for element in model.by_type(name)
     )
+    for guid in sorted(set(in_place_guids) & set(exclude_guids)):
+        _log.warning("%s is in --exclude and --in-place: it is left out (--exclude wins)", guid)
     options = ConvertOptions(
         include=include,
         exclude=exclude,
@@ -170,6 +179,12 @@ def run(args: argparse.Namespace) -> int:
             args.output,
             earlier,
             args.output,
+        )
+    if manifest.in_place:
+        _log.info(
+            "in place before the robots come: %s",
+            ", ".join(c.name or c.guid for c in manifest.in_place[:6])
+            + (f" and {len(manifest.in_place) - 6} more" if len(manifest.in_place) > 6 else ""),
         )
     standing = above_ground(manifest.in_place)
     if standing:

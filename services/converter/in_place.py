@@ -6,9 +6,11 @@ so a run failed them ``too_heavy`` and every member resting on them ``blocked_by
 ``bimbot convert … --in-place foundations`` (or classes, or GlobalIds) those components are converted as
 usual but listed in the manifest's ``in_place``, not in its ``components``: physics puts them at their BIM
 pose from the start, static, and nothing plans, carries or counts them; what rests on them is released at
-once. ``foundations`` means every component whose target lies in the ground (its top at most
-``IN_THE_GROUND_M`` above it): a robot's laser never sees them and it drives over them, so the robots'
-maps and the planner's access checks, which follow ``components``, stay right.
+once. ``foundations`` means every component whose target lies in the ground: it reaches more than
+``BELOW_GROUND_M`` below it and its top is at most ``IN_THE_GROUND_M`` above it (a trial's first rule, the
+top alone, also took the Revit house's 5 cm curtain-wall sills, and a robot got stuck on them). A robot's
+laser never sees such a component and it drives over it, so the robots' maps and the planner's access
+checks, which follow ``components``, stay right.
 """
 
 from __future__ import annotations
@@ -18,12 +20,14 @@ from collections.abc import Iterable, Sequence
 from bimbot.shared.manifest import Component
 
 FOUNDATIONS = "foundations"  # the --in-place keyword
-IN_THE_GROUND_M = 0.05  # a target whose top is at most this above ground lies in the ground
+IN_THE_GROUND_M = 0.02  # a foundation's top is at most this above the ground
+BELOW_GROUND_M = 0.02  # and its bottom more than this below it
 
 
 def in_the_ground(component: Component) -> bool:
     """Its BIM target lies in the ground (a footing, a ground slab, a pile cap flush with the ground)."""
-    return component.bbox_world.max_m[2] <= IN_THE_GROUND_M
+    low, high = component.bbox_world.min_m[2], component.bbox_world.max_m[2]
+    return low < -BELOW_GROUND_M and high <= IN_THE_GROUND_M
 
 
 def split_in_place(

@@ -71,6 +71,7 @@ class Phase(StrEnum):
 
 
 DYNAMIC_PHASES = (Phase.SETTLING, Phase.PLACED)
+AT_TARGET_M = 0.1  # a component this close to its target stands where the model puts it (clash or not)
 
 
 class Placing:
@@ -201,7 +202,14 @@ class Placing:
         set_component_pose(cid, body, item.pose)
         set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)  # see what it overlaps, the carrier aside
         cleared = clear_overlap(cid, body, item.pose, self._nearby_components(item))
-        item.pose, clashes = cleared.frame, cleared.clashes
+        item.pose = cleared.frame
+        # a clash in the IFC only where both stand where the model puts them: a mullion a robot dropped
+        # beside a panel's target, or a component set down 2 m off, is no fault of the model
+        clashes = (
+            tuple(clash for clash in cleared.clashes if self._at_its_target(self.items[clash[0]]))
+            if self._at_its_target(item, released=True)
+            else ()
+        )
         set_component_pose(cid, body, item.pose)
         if clashes:
             _log.info(
@@ -266,6 +274,19 @@ class Placing:
         self._moving.discard(guid)
         self.watch[guid] = Watch(item.pose, now_s, releaser, tag, open_pits=others, clashes=clashes)
         self.changed.add(guid)
+
+    def _at_its_target(self, item: Item, *, released: bool = False) -> bool:
+        """Whether ``item`` lies where the model puts it (its box's centre within ``AT_TARGET_M`` of its
+        target's): the one being released, or one placed, not one lying where a robot dropped it."""
+        if not released and item.phase not in (Phase.SETTLING, Phase.PLACED, Phase.JOINED):
+            return False
+        component = item.component
+        low, high = component.bbox_local.min_m, component.bbox_local.max_m
+        centre = ((low[0] + high[0]) / 2.0, (low[1] + high[1]) / 2.0, (low[2] + high[2]) / 2.0)
+        target = component.target_pose_world
+        here = compose(item.pose, (centre, IDENTITY[1]))[0]
+        there = compose((target.position_m, target.quat_xyzw), (centre, IDENTITY[1]))[0]
+        return math.dist(here, there) <= AT_TARGET_M
 
     def _nearby_components(self, item: Item) -> dict[int, str]:
         """Body → GUID of the components whose boxes overlap ``item``'s now (what it may be set into)."""

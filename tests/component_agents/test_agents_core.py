@@ -11,6 +11,7 @@ from bimbot.services.component_agents.agent import AgentConfig, ComponentAgent, 
 from bimbot.services.component_agents.state_table import ComponentMachine
 from bimbot.services.component_agents.verification import Tolerances
 from bimbot.shared.messages import ComponentEvent, ComponentState, ComponentStateMsg, PoseMsg
+from bimbot.shared.reasons import ReasonCode
 
 S = ComponentState
 E = ComponentEvent
@@ -267,6 +268,11 @@ def test_failed_after_max_attempts_and_then_terminal() -> None:
     assert states(out) == [S.VERIFYING, S.FAILED]
     assert out[-1].event == "failed_placement"
     assert out[-1].attempt == 2
+    # what to try, as every other failure says (a trial found a bare "out of tolerance … 13.6 mm")
+    assert out[-1].reason is not None and out[-1].reason.code is ReasonCode.MISPLACED
+    assert (
+        "placement_precision_m" in out[-1].reason.message and "--total-station-mm" in out[-1].reason.message
+    )
     for name in ComponentEvent:
         assert agent.apply_event(event(agent.guid, name), NOW) == []
     assert agent.state is S.FAILED

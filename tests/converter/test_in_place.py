@@ -86,3 +86,23 @@ def test_split_in_place_keeps_the_order_and_the_ground_rule(frame_ifc: Path, tmp
     ]
     assert [c.guid for c in above_ground(in_place)] == [beam.guid]
     assert all(in_the_ground(c) for c in in_place if c.ifc_class == "IfcFooting")
+
+
+def test_foundations_reach_below_the_ground_a_sill_flush_with_it_is_no_foundation(
+    frame_ifc: Path, tmp_path: Path
+) -> None:
+    """A trial's first rule (the top at most 5 cm above the ground) also took the Revit house's four 9 kg
+    curtain-wall sills, 0–5 cm high, and a robot got stuck on one (the robots' maps leave in-place
+    components out). A foundation also reaches below the ground."""
+    assert _convert(frame_ifc, tmp_path / "out").returncode == 0
+    column = next(c for c in read_manifest(tmp_path / "out").components if c.ifc_class == "IfcColumn")
+    box = column.bbox_world
+
+    def spanning(low_z: float, high_z: float):
+        world = box.model_copy(update={"min_m": (*box.min_m[:2], low_z), "max_m": (*box.max_m[:2], high_z)})
+        return column.model_copy(update={"bbox_world": world})
+
+    assert not in_the_ground(spanning(0.0, 0.05))  # a sill on the ground
+    assert in_the_ground(spanning(-0.56, 0.0))  # a thickened slab
+    assert in_the_ground(spanning(-0.5, -0.13))  # a footing below a slab
+    assert not in_the_ground(spanning(-0.3, 3.0))  # a column set into its footing stands above it

@@ -107,6 +107,8 @@ def test_many_components_blocked_by_one_failed_component_take_one_row() -> None:
     [group] = [line for line in lines if "6 components" in line]  # the report's own beam rests on it too
     assert "blocked_by" in group and "Beam A1-A2, Beam 0, Beam 1 and 3 more" in group
     assert f"on Footing A1 ({root})" in group  # the failed component by name, not by GUID alone
+    # and why it was not built, as its own row says (a trial had to find the root's row to learn that)
+    assert f"on Footing A1 ({root}), which was not built (too_heavy): Beam A1-A2" in group
     assert "0Blocked" not in table and "3eV89hRd" not in table
     assert len(lines) == 5  # count, header, the failed footing, the interrupted column, the group
 
