@@ -64,5 +64,19 @@ def run_summary(run: RunFolder) -> str:
     )
     return (
         f"constructed {totals.get('constructed', '?')}/{totals.get('components', '?')}, "
-        f"{ending.get('how', 'unfinished')}{sim}" + (f"; not constructed: {reasons}" if reasons else "")
+        f"{ending.get('how', 'unfinished')}{sim}{_with(report)}"
+        + (f"; not constructed: {reasons}" if reasons else "")
     )
+
+
+def _with(report: dict) -> str:
+    """``, 3 robots, 9 in place``: what tells two runs of one build apart (a trial could not tell a
+    ``--robots 1`` run from one of the default fleet)."""
+    settings = report.get("settings") or {}
+    robots = settings.get("robots")
+    fleet = settings.get("fleet")
+    parts = [f"{robots} robot(s) of the default type" if robots else f"{fleet}" if fleet else ""]
+    in_place = (report.get("totals") or {}).get("in_place")
+    if in_place:
+        parts.append(f"{in_place} in place")
+    return "".join(f", {part}" for part in parts if part)

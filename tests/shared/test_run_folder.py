@@ -87,6 +87,16 @@ def test_bimbot_runs_lists_runs_with_their_reports_and_makes_new_ones(
         "constructed 3/28, done, 812 s sim; not constructed: 95 blocked_by, 9 out_of_reach, 8 too_heavy"
         in listed
     )
+    # and what tells two runs of one build apart: the robots asked for, the components in place
+    report["settings"] = {"robots": 3, "fleet": "the default fleet"}
+    report["totals"] |= {"in_place": 9}
+    (made / "report" / "report.json").write_text(json.dumps(report))
+    assert main(["runs", str(build)]) == 0
+    assert "812 s sim, 3 robot(s) of the default type, 9 in place; not constructed" in capsys.readouterr().out
+    report["settings"] = {"robots": None, "fleet": "site.toml"}
+    (made / "report" / "report.json").write_text(json.dumps(report))
+    assert main(["runs", str(build)]) == 0
+    assert "812 s sim, site.toml, 9 in place; not constructed" in capsys.readouterr().out
     assert main(["runs", str(tmp_path / "nothing")]) == 2
     # the folder asked for, not its parent's missing manifest (a new-user trial was told of tmp/manifest.json)
     assert f"{tmp_path / 'nothing'}: no such folder" in capsys.readouterr().err
