@@ -85,11 +85,11 @@ def footprint_distance_m(polygon_xy_m: ArrayLike, points_xy_m: ArrayLike) -> NDA
     return distance
 
 
-def body_centre_xy(
+def body_centre_m(
     component: Component, position_m: Sequence[float], quat_xyzw: Sequence[float]
-) -> tuple[float, float]:
-    """Where ``component`` lies, seen from above: the centre of its local bounding box at a pose (world,
-    m). Not the pose's position: a Revit element may keep an identity placement with its geometry in world
+) -> tuple[float, float, float]:
+    """Where ``component``'s body is: the centre of its local bounding box at a pose (world, m). Not the
+    pose's position: a Revit element may keep an identity placement with its geometry in world
     coordinates, so its frame's origin lies at the project origin, 100 m from the body. Plain arithmetic
     (a pose message each period per carried component): the quaternion's rotation of the centre."""
     low, high = component.bbox_local.min_m, component.bbox_local.max_m
@@ -99,4 +99,13 @@ def body_centre_xy(
     tx, ty, tz = 2.0 * (qy * cz - qz * cy), 2.0 * (qz * cx - qx * cz), 2.0 * (qx * cy - qy * cx)
     x = cx + qw * tx + (qy * tz - qz * ty)
     y = cy + qw * ty + (qz * tx - qx * tz)
-    return float(position_m[0]) + x, float(position_m[1]) + y
+    z = cz + qw * tz + (qx * ty - qy * tx)
+    return float(position_m[0]) + x, float(position_m[1]) + y, float(position_m[2]) + z
+
+
+def body_centre_xy(
+    component: Component, position_m: Sequence[float], quat_xyzw: Sequence[float]
+) -> tuple[float, float]:
+    """Where ``component`` lies, seen from above (:func:`body_centre_m`)."""
+    x, y, _ = body_centre_m(component, position_m, quat_xyzw)
+    return x, y

@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     from .ifc_input import read_model
     from .in_place import FOUNDATIONS, above_ground
     from .mesh_files import parse_formats
-    from .selection import check_classes, check_exclusions, parse_class_list
+    from .selection import check_classes, check_exclusions, check_in_place, parse_class_list
 
     started = time.perf_counter()
     if args.threads is not None and args.threads < 1:
@@ -102,23 +102,13 @@ def run(args: argparse.Namespace) -> int:
         include = check_classes(model, parse_class_list(args.include))
         exclude, exclude_guids = check_exclusions(model, parse_class_list(args.exclude))
         only = check_classes(model, parse_class_list(args.only))
-        in_place = parse_class_list(args.in_place)
-        foundations = any(token.lower() == FOUNDATIONS for token in in_place)
-        in_place_classes, in_place_guids = check_exclusions(
-            model, [token for token in in_place if token.lower() != FOUNDATIONS], option="--in-place"
+        foundations, in_place_guids, in_place_warnings = check_in_place(
+            model, parse_class_list(args.in_place), FOUNDATIONS
         )
     except ValueError as error:
-        near = [
-            t for t in parse_class_list(args.in_place) if t.lower().rstrip("s") == FOUNDATIONS.rstrip("s")
-        ]
-        hint = f" (the keyword is '{FOUNDATIONS}')" if near else ""
-        raise UserError(f"{error}{hint}") from None
-    for name in in_place_classes:
-        if not model.by_type(name):
-            _log.warning("--in-place %s: the model has no element of that class", name)
-    in_place_guids += tuple(
-        str(element.GlobalId) for name in in_place_classes for element in model.by_type(name)
-    )
+        raise UserError(str(error)) from None
+    for warning in in_place_warnings:
+        _log.warning("%s", warning)
     for guid in sorted(set(in_place_guids) & set(exclude_guids)):
         _log.warning("%s is in --exclude and --in-place: it is left out (--exclude wins)", guid)
     options = ConvertOptions(

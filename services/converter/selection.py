@@ -120,6 +120,28 @@ def check_exclusions(
     return tuple(classes), tuple(guids)
 
 
+def check_in_place(
+    model: ifcopenshell.file, names: Iterable[str], keyword: str
+) -> tuple[bool, tuple[str, ...], list[str]]:
+    """``--in-place``'s tokens: whether ``keyword`` (``foundations``) is among them, the GlobalIds of the
+    elements named by class or GlobalId, and a warning per class the model has no element of;
+    ``ValueError`` as :func:`check_exclusions`, with the keyword's spelling when a token is close to it."""
+    names = list(names)
+    keyworded = any(name.lower() == keyword for name in names)
+    try:
+        classes, guids = check_exclusions(model, [n for n in names if n.lower() != keyword], "--in-place")
+    except ValueError as error:
+        near = any(name.lower().rstrip("s") == keyword.rstrip("s") for name in names)
+        raise ValueError(f"{error} (the keyword is '{keyword}')" if near else str(error)) from None
+    warnings = [
+        f"--in-place {name}: the model has no element of that class"
+        for name in classes
+        if not model.by_type(name)
+    ]
+    guids += tuple(str(element.GlobalId) for name in classes for element in model.by_type(name))
+    return keyworded, guids, warnings
+
+
 def _guids_starting(model: ifcopenshell.file, prefix: str) -> list[str]:
     """The GlobalIds of elements that start with ``prefix`` followed by a ``$``: what an unquoted GlobalId
     leaves after the shell expanded ``$…`` to nothing."""

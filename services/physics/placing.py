@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from bimbot.shared.footprint import posed_footprint
+from bimbot.shared.footprint import body_centre_m, posed_footprint
 from bimbot.shared.messages import PhysicsReply, PoseMsg
 from bimbot.shared.site_plan import Rect
 
@@ -281,12 +281,9 @@ class Placing:
         if not released and item.phase not in (Phase.SETTLING, Phase.PLACED, Phase.JOINED):
             return False
         component = item.component
-        low, high = component.bbox_local.min_m, component.bbox_local.max_m
-        centre = ((low[0] + high[0]) / 2.0, (low[1] + high[1]) / 2.0, (low[2] + high[2]) / 2.0)
         target = component.target_pose_world
-        here = compose(item.pose, (centre, IDENTITY[1]))[0]
-        there = compose((target.position_m, target.quat_xyzw), (centre, IDENTITY[1]))[0]
-        return math.dist(here, there) <= AT_TARGET_M
+        here = body_centre_m(component, *item.pose)
+        return math.dist(here, body_centre_m(component, target.position_m, target.quat_xyzw)) <= AT_TARGET_M
 
     def _nearby_components(self, item: Item) -> dict[int, str]:
         """Body → GUID of the components whose boxes overlap ``item``'s now (what it may be set into)."""
