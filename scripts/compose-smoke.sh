@@ -59,25 +59,35 @@ if ! docker compose version >/dev/null 2>&1 && ! command -v docker-compose >/dev
     missing+=(docker-compose)
 fi
 ((${#missing[@]} == 0)) || no_docker "${missing[*]} not installed (bash scripts/setup.sh --tests installs them)"
-wait_for_docker() { # seconds; true once the daemon answers this user
+wait_for_docker() { # seconds [pid]; true once the daemon answers this user, false at once if pid exits
     local _
     for _ in $(seq "$1"); do
         docker info >/dev/null 2>&1 && return 0
+        if [ -n "${2:-}" ] && ! kill -0 "$2" 2>/dev/null; then
+            say "dockerd exited before it answered"
+            return 1
+        fi
         sleep 1
     done
     return 1
 }
+# shellcheck source=scripts/lib/pid-file.sh
+source scripts/lib/pid-file.sh # (the working directory is the repository, see above)
 if ! docker info >/dev/null 2>&1; then
     if { pidof dockerd || pgrep -x dockerd; } >/dev/null 2>&1; then
         say "dockerd runs but does not answer yet; waiting for it"
         wait_for_docker 30 || no_docker "dockerd runs but does not answer this user (not in the docker group?)"
     else
+        remove_stale_pid_file /var/run/docker.pid dockerd
+        # and the containerd dockerd starts: a reused pid there makes dockerd wait for it, then give up
+        remove_stale_pid_file /var/run/docker/containerd/containerd.pid containerd
         say "starting dockerd (log: /tmp/bimbot-dockerd.log)"
         # setsid: the daemon outlives this script and whatever started it; it is left running afterwards.
         $SUDO setsid dockerd >/tmp/bimbot-dockerd.log 2>&1 </dev/null &
-        wait_for_docker 60 || {
+        dockerd_pid=$!
+        wait_for_docker 60 "$dockerd_pid" || {
             tail -n 20 /tmp/bimbot-dockerd.log >&2 || true
-            no_docker "dockerd did not start within 60 s (log above: /tmp/bimbot-dockerd.log)"
+            no_docker "dockerd did not start (log above: /tmp/bimbot-dockerd.log)"
         }
     fi
 fi
