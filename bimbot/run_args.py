@@ -47,6 +47,7 @@ class RunOptions:
     laser_beams: int | None = None
     command_latency_steps: int | None = None
     total_station_mm: float | None = None  # a positioning sensor on site (None: none)
+    connections: bool = True  # components set down at their target are connected to what is built
     inject_placement_error_m: float = 0.0
     observer: ObserverOptions | None = None
     planner_source: tuple[str, ...] = ()  # extra planner arguments: ("--derive",) etc.
@@ -227,6 +228,7 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         laser_beams=args.laser_beams,
         command_latency_steps=args.command_latency_steps,
         total_station_mm=args.total_station_mm,
+        connections=args.connections,
         run_dir=args.run_dir,
         stall_after_s=args.stall_after_s,
         clock_stall_wall_s=args.stall_wall_s,

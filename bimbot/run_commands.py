@@ -46,6 +46,8 @@ def physics_arguments(build: Path, options: RunOptions) -> list[str]:
             arguments += [flag, repr(value)]
     if options.lock_step is not None:
         arguments.append("--lock-step" if options.lock_step else "--no-lock-step")
+    if not options.connections:
+        arguments.append("--no-connections")
     return [*arguments, *options.physics_extra]
 
 

@@ -38,6 +38,7 @@ def run_settings(options: RunOptions) -> dict[str, Any]:
         "real_time_factor": rtf,
         "pace": "as fast as it can" if rtf == 0.0 else f"{rtf:g}× real time",
         "total_station_mm": options.total_station_mm,
+        "connections": options.connections,
         "sequence": sequence_source(options.planner_source),
         "max_attempts": int(chosen(options.max_attempts, AgentConfig.max_attempts)),
         "timeout_s": options.timeout_s,

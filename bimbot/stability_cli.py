@@ -15,6 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from bimbot.services.component_agents.agent import AgentConfig
+from bimbot.services.physics.connections import ConnectionConfig
 from bimbot.services.physics.stability import check_stability, describe
 from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan
 from bimbot.shared.errors import UserError
@@ -41,7 +42,12 @@ def check_stability_command(args: argparse.Namespace, say: Callable[[str], None]
     steps = len(plan.order)
     say(f"checking the stability of the plan, {plan.source}: {steps} step(s), physics only, no robots")
     tolerance_m = AgentConfig().tolerances.drift_m  # what the agents of a run accept
-    report = check_stability(build.manifest, build.dir, plan.order, drift_tolerance_m=tolerance_m)
+    connections = ConnectionConfig(enabled=args.connections)
+    if not connections.enabled:
+        say("without connections: every component must stand by itself (--no-connections)")
+    report = check_stability(
+        build.manifest, build.dir, plan.order, drift_tolerance_m=tolerance_m, connections=connections
+    )
     names = {c.guid: c.name or c.ifc_class for c in build.manifest.components}
     derived = args.derive or (args.sequence is None and build.manifest.sequence_source == "derived")
     for line in describe(report, names, derived=derived):

@@ -179,6 +179,9 @@ class ComponentPoseMsg(_Message):
     # placed and not joined yet: the first robot that touched it since its release, and when (sim s)
     bumped_by: str | None = None
     bumped_at_s: SimTime | None = None
+    # placed: the built components it was connected to as it was set down at its target (bolted, welded,
+    # fixed at its side; physics' connections), which hold it where it was put
+    connected_to: list[str] = []
 
 
 class TwinMsg(_Message):

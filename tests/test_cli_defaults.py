@@ -151,6 +151,16 @@ def test_bimbot_run_names_its_profile_and_passes_only_what_the_user_changed() ->
     assert plain == ["physics", "--build", "OUT", "--robots", "2", "--profile", RUN_PROFILE, wait]
     changed = physics_arguments(Path("OUT"), RunOptions(physics_hz=240.0, lock_step=False))
     assert changed[-3:] == ["--physics-hz", "240.0", "--no-lock-step"]
+    unconnected = physics_arguments(Path("OUT"), RunOptions(connections=False))
+    assert unconnected[-1] == "--no-connections"
+
+
+def test_connections_are_made_unless_the_user_says_no_connections() -> None:
+    default = build_parser(["run", "OUT"]).parse_args(["run", "OUT"])
+    assert run_options(default).connections is True
+    off = build_parser(["run", "OUT"]).parse_args(["run", "OUT", "--no-connections"])
+    assert run_options(off).connections is False
+    assert vars(_parsed("physics", "--no-connections"))["connections"] is False
 
 
 def test_bimbot_run_and_physics_share_one_definition_of_the_profile_options() -> None:

@@ -49,8 +49,10 @@ from .verification import PlacementCheck, Tolerances, is_valid_pose, verify
 _log = logging.getLogger(__name__)
 # What a user can do about a component that would not stand: its failed reason ends with this.
 UNSTABLE_HINT = (
-    "it stands only with supports placed first or temporary bracing, which is not simulated: "
-    "`bimbot run BUILD --check-stability` shows which steps of the sequence stand on their own"
+    "no connection held it: a component is connected to the structure only when set down within the "
+    "tolerances of its target with a component already built beside it (within 0.1 m at its side); else it "
+    "stands only on supports placed first (temporary bracing is not simulated): `bimbot run BUILD "
+    "--check-stability` shows which steps of the sequence stand"
 )
 
 BUMPED_HINT = (

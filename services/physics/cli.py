@@ -35,6 +35,7 @@ from bimbot.shared.option_types import (
 from bimbot.shared.run_folder import open_run_folder
 from bimbot.shared.service_runner import resolve_build, run_service, service_bus, writable_dir
 
+from .connections import ConnectionConfig
 from .profiles import FINE, PROFILES, add_profile_arguments
 from .robots import RobotConfig
 from .sensors import LaserConfig
@@ -208,6 +209,7 @@ def sim_config(args: argparse.Namespace) -> SimConfig:
             pose_refresh_max=args.pose_refresh_max,
             visuals=args.gui,
             total_station_std_m=None if args.total_station_mm is None else args.total_station_mm / 1000.0,
+            connections=ConnectionConfig(enabled=args.connections),
             robot=RobotConfig(wheel_joints=wheels),
             laser=LaserConfig(
                 beams=args.laser_beams,

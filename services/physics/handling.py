@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,6 +55,7 @@ from bimbot.shared.robot_description import LIFT_CLEARANCE_M
 from bimbot.shared.site_plan import Rect
 
 from .client import p
+from .connections import ConnectionConfig
 from .crane import hook_joints, lift_position, load_top
 from .load_rules import carry_refusal, drop_beside, lowered, lying_corners
 from .pits import Pits
@@ -107,6 +109,7 @@ class Item:
     dropped_by: str | None = None  # resting where this robot put it down (a repeated drop request is ok)
     drift_m: float | None = None  # joined: how far it had moved since its release
     supports: tuple[str, ...] = ()  # placed or joined: the components it rests on
+    connected_to: tuple[str, ...] = ()  # joined: the components it was connected to as it was set down
 
 
 def hanging_offset(robot: Robot, frame: Frame, client_id: int) -> Frame:
@@ -137,6 +140,8 @@ class Handling(Placing):
         ground_id: int = -1,
         pits: Pits | None = None,
         settle: SettleConfig | None = None,
+        connections: ConnectionConfig | None = None,
+        in_place: Mapping[int, str] | None = None,
         seed: int = 0,
     ) -> None:
         self.client_id = client_id
@@ -153,6 +158,8 @@ class Handling(Placing):
         self.settle = settle or SettleConfig()
         self.watch: dict[str, Watch] = {}  # settling and placed components
         self.guid_of = {item.body.body_id: guid for guid, item in items.items()}
+        self.connections = connections or ConnectionConfig()
+        self.in_place = dict(in_place or {})  # body → GUID of the components in place from the start
         self._seed = seed
         self._rngs: dict[str, np.random.Generator] = {}  # robot id → its hand's precision draws
         self._corners: dict[str, np.ndarray] = {}  # GUID → its bounding box's corners (component frame)
@@ -336,7 +343,8 @@ class Handling(Placing):
         """Clear of its former carrier: it collides with it again."""
         item.separating_from = None
         self._separating.discard(item.component.guid)
-        if item.phase in DYNAMIC_PHASES:
+        watch = self.watch.get(item.component.guid)
+        if item.phase in DYNAMIC_PHASES and not (watch is not None and watch.connected_to):
             set_filter(self.client_id, item.body.body_id, DYNAMIC_GROUP, ALL_GROUPS)
         else:
             set_filter(self.client_id, item.body.body_id, STATIC_GROUP, STATIC_MASK)
@@ -450,6 +458,7 @@ class Handling(Placing):
             clash_depth_m=dict(watch.clashes if watch is not None else ()),
             bumped_by=watch.bumped_by if watch is not None else None,
             bumped_at_s=watch.bumped_at_s if watch is not None else None,
+            connected_to=list(watch.connected_to if watch is not None else item.connected_to),
         )
 
     def take_changed(self) -> list[str]:

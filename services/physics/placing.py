@@ -30,6 +30,7 @@ from bimbot.shared.messages import PhysicsReply, PoseMsg
 from bimbot.shared.site_plan import Rect
 
 from .client import p
+from .connections import fits_its_target, side_neighbours
 from .pits import DEEPER_M
 from .placement_error import physical_placement
 from .release import Watch, box_corners, clear_overlap, observe, supports_of, touching_robot
@@ -50,6 +51,7 @@ from .scene import (
 if TYPE_CHECKING:
     from bimbot.shared.manifest import Component
 
+    from .connections import ConnectionConfig
     from .handling import HandlingConfig, Item
     from .pits import Pits
     from .release import SettleConfig
@@ -88,6 +90,8 @@ class Placing:
         ground_id: int
         pits: Pits | None
         settle: SettleConfig
+        connections: ConnectionConfig
+        in_place: dict[int, str]
         watch: dict[str, Watch]
         guid_of: dict[int, str]
         _moving: set[str]
@@ -267,13 +271,56 @@ class Placing:
         )
         if others:
             _log.info("%s released over the open pit of %s", guid, ", ".join(others))
+        connected_to = () if clashes or others else self._connect(item)
         if carrier is not None:
             self.carrying.pop(carrier.robot_id, None)
         releaser = carrier.robot_id if carrier is not None else None
         item.phase, item.carrier, item.offset, item.tag = Phase.SETTLING, None, None, None
         self._moving.discard(guid)
         self.watch[guid] = Watch(item.pose, now_s, releaser, tag, open_pits=others, clashes=clashes)
+        if connected_to:
+            watch = self.watch[guid]
+            watch.connected_to = connected_to
+            watch.hold_until_s = now_s + self.connections.hold_s
+            _log.info(
+                "%s connected to %s where it was set down (%s holds it %.0f s while the connection is made)",
+                guid,
+                ", ".join(connected_to),
+                releaser or "nobody",
+                self.connections.hold_s,
+            )
         self.changed.add(guid)
+
+    def _connect(self, item: Item) -> tuple[str, ...]:
+        """Connect ``item``, just let go, to the structure beside it when it lies at its target
+        (:mod:`.connections`): fixed where it is, static. The GUIDs it was connected to, or ()."""
+        config = self.connections
+        if not config.enabled or not fits_its_target(item.component, item.pose, config.fit):
+            return ()
+        structure = dict(self.in_place)
+        structure.update(
+            (other.body.body_id, guid) for guid, other in self.items.items() if other.phase is Phase.JOINED
+        )
+        if not structure:
+            return ()
+        cid, body = self.client_id, item.body
+        near = self._nearby_components(item, margin_m=config.gap_m, among=structure)
+        found = side_neighbours(cid, body.body_id, near, config.gap_m)
+        if found:
+            self._fix(item)
+        return found
+
+    def _fix(self, item: Item) -> None:
+        """Static where it is: connected, or joined. It still passes through a former carrier it overlaps
+        until they are clear; static bodies never touch the ground (footings below it stay there)."""
+        cid = self.client_id
+        make_static(cid, item.body)
+        set_component_pose(cid, item.body, item.pose)
+        carrier = item.separating_from
+        if carrier is not None:
+            set_filter(cid, item.body.body_id, carrier.group, STATIC_MASK ^ carrier.group)
+        if self.ground_id >= 0:
+            p.setCollisionFilterPair(self.ground_id, item.body.body_id, -1, -1, 0, physicsClientId=cid)
 
     def _at_its_target(self, item: Item, *, released: bool = False) -> bool:
         """Whether ``item`` lies where the model puts it (its box's centre within ``AT_TARGET_M`` of its
@@ -285,14 +332,17 @@ class Placing:
         here = body_centre_m(component, *item.pose)
         return math.dist(here, body_centre_m(component, target.position_m, target.quat_xyzw)) <= AT_TARGET_M
 
-    def _nearby_components(self, item: Item) -> dict[int, str]:
-        """Body → GUID of the components whose boxes overlap ``item``'s now (what it may be set into)."""
+    def _nearby_components(
+        self, item: Item, *, margin_m: float = 0.01, among: Mapping[int, str] | None = None
+    ) -> dict[int, str]:
+        """Body → GUID of the components (of ``among``, body → GUID; default every one physics moves) whose
+        boxes come within ``margin_m`` of ``item``'s now (what it may be set into, or connected to)."""
+        bodies = self.guid_of if among is None else among
         low, high = p.getAABB(item.body.body_id, -1, physicsClientId=self.client_id)
-        margin = 0.01
         found = p.getOverlappingObjects(
-            [v - margin for v in low], [v + margin for v in high], physicsClientId=self.client_id
+            [v - margin_m for v in low], [v + margin_m for v in high], physicsClientId=self.client_id
         )
-        return {body: self.guid_of[body] for body, _ in found or () if body in self.guid_of}
+        return {body: bodies[body] for body, _ in found or () if body in bodies}
 
     def watch_placed(self, now_s: float, robots: Mapping[str, Robot]) -> list[tuple[object, PhysicsReply]]:
         """Once per control period: every released component's pose, drift and rest, and the first of
@@ -330,9 +380,11 @@ class Placing:
                 self.changed.add(guid)
             if watch.settled and not was_settled:
                 item.phase = Phase.PLACED
-                watch.supports = supports_of(self.client_id, item.body.body_id, self.guid_of)
+                # a connected component is static: Bullet makes no contacts between static bodies
+                rests_on = supports_of(self.client_id, item.body.body_id, self.guid_of)
+                watch.supports = tuple(dict.fromkeys(rests_on + watch.connected_to))
                 self.changed.add(guid)
-            if watch.settled and watch.tag is not None:
+            if watch.settled and watch.tag is not None and now_s >= watch.hold_until_s:
                 answered.append(
                     (watch.tag, PhysicsReply(ok=True, sim_time_s=now_s, pose=pose_msg(item.pose)))
                 )
@@ -392,13 +444,8 @@ class Placing:
         if watch is not None:
             item.drift_m = watch.drift_m
             item.supports = watch.supports or supports_of(cid, item.body.body_id, self.guid_of)
-        make_static(cid, item.body)
-        set_component_pose(cid, item.body, item.pose)
-        carrier = item.separating_from
-        if carrier is not None:  # static, but still not colliding with its former carrier until it is clear
-            set_filter(cid, item.body.body_id, carrier.group, STATIC_MASK ^ carrier.group)
-        if self.ground_id >= 0:  # static bodies never touch the ground (footings below it stay there)
-            p.setCollisionFilterPair(self.ground_id, item.body.body_id, -1, -1, 0, physicsClientId=cid)
+            item.connected_to = watch.connected_to
+        self._fix(item)
         item.phase = Phase.JOINED
         self.changed.add(guid)
         _log.info(

@@ -113,6 +113,14 @@ def add_profile_arguments(parser: argparse.ArgumentParser, default: str) -> None
         "laser sees nothing in the empty footprint (default: none, laser and odometry only)",
     )
     parser.add_argument(
+        "--connections",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="a component set down at its target beside a component already built is connected to it "
+        "(bolted, welded, fixed) while its robot holds it, and stands; --no-connections: every component "
+        "must stand by itself (default: connections are made)",
+    )
+    parser.add_argument(
         "--command-latency-steps",
         type=int,
         choices=(0, 1),

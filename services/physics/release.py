@@ -22,6 +22,7 @@ pybullet reads: no state machine here (that is :mod:`.handling`'s).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -69,6 +70,9 @@ class Watch:
     stopped: bool = False  # it fell off the site and was stopped there, static
     bumped_by: str | None = None  # the first robot that touched it since its release (traffic past it)
     bumped_at_s: float | None = None  # when (sim s)
+    # joined components it was connected to as it was set down (connections.py): fixed where it was put
+    connected_to: tuple[str, ...] = ()
+    hold_until_s: float = -math.inf  # its robot holds it until the connection is made (sim s)
 
 
 def box_corners(component: Component) -> np.ndarray:

@@ -61,6 +61,7 @@ from bimbot.shared.site_layout import plan_site
 from bimbot.shared.site_plan import SiteLayout
 
 from .client import BulletClient, p
+from .connections import ConnectionConfig
 from .crane import HOIST, SLEW, TROLLEY, CraneJoints
 from .fleet_spawn import robot_pose_msg, robot_types, spawn_fleet, types_on_site
 from .handling import Handling, HandlingConfig, Item, Phase
@@ -113,6 +114,7 @@ class SimConfig:
     compiled_laser: bool = True  # scans cast by the compiled caster (ray_scene.py); False: by Bullet
     handling: HandlingConfig = field(default_factory=HandlingConfig)
     settle: SettleConfig = field(default_factory=SettleConfig)
+    connections: ConnectionConfig = field(default_factory=ConnectionConfig)
 
     @property
     def substeps(self) -> int:
@@ -244,6 +246,8 @@ class Simulation:
             ground_id=self.ground_id,
             pits=pits,
             settle=self.config.settle,
+            connections=self.config.connections,
+            in_place={body: guid for guid, body in self.in_place_bodies.items()},
             seed=self.config.seed,
         )
         self._guids = list(items)

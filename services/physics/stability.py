@@ -26,6 +26,7 @@ from bimbot.shared.manifest import Manifest
 from bimbot.shared.reasons import CLASH_ADVICE, clash_clause
 from bimbot.shared.support_graph import support_predecessors
 
+from .connections import ConnectionConfig
 from .model_clashes import Clash, model_clashes
 from .placing import target_frame
 from .profiles import REHEARSAL
@@ -90,6 +91,7 @@ def check_stability(
     *,
     drift_tolerance_m: float = 0.005,  # the agents' (bimbot run passes theirs)
     settle: SettleConfig | None = None,
+    connections: ConnectionConfig | None = None,
     physics_hz: float = REHEARSAL.physics_hz,
     control_period_s: float = REHEARSAL.control_period_s,
 ) -> StabilityReport:
@@ -102,6 +104,7 @@ def check_stability(
         step_s=1.0 / physics_hz,
         control_period_s=control_period_s,
         settle=settle or SettleConfig(),
+        connections=connections or ConnectionConfig(),
     )
     started = time.monotonic()
     steps: list[StabilityStep] = []
@@ -113,13 +116,14 @@ def check_stability(
             {guid: item.body for guid, item in in_order.items()},
             {guid: target_frame(item.component) for guid, item in in_order.items()},
         )
-        bound_s = handling.settle.max_settle_s + control_period_s
+        # the watch answers by then at the latest (a connected component once its connection is made)
+        bound_s = handling.settle.max_settle_s + handling.connections.hold_s + control_period_s
         for index, guid in enumerate(order, start=1):
             since_s = sim.sim_time_s
             handling.set_down(guid, since_s, tag=TAG)
             placed.add(guid)
             while not any(tag == TAG for tag, _ in sim.advance().replies):
-                if sim.sim_time_s - since_s > bound_s:  # the watch answers by then at the latest
+                if sim.sim_time_s - since_s > bound_s:
                     break
             moved = tuple(
                 Moved(
@@ -254,12 +258,13 @@ def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = 
         lines.append(f"to try: place {first} earlier (--sequence F.xml){why}")
     elif derived:
         lines.append(
-            "to try: everything it rests on was placed before it, so it is held by a connection (bolted or "
-            "welded to a face), which a crew braces until it is made: not simulated, so it cannot stand here"
+            "to try: everything it rests on was placed before it, and no component built beside it (within "
+            "0.1 m at its side) could be connected to it: a member held only by a connection to one placed "
+            "after it stands only with temporary bracing, which is not simulated"
         )
     else:
         lines.append(
-            "to try: what holds it must be placed before it (--sequence F.xml, or --derive); a member held "
-            "by a connection (bolted or welded to a face) stands only with bracing until then: not simulated"
+            "to try: what holds it must be placed before it (--sequence F.xml, or --derive): it is connected "
+            "only to components built beside it before it (within 0.1 m at its side)"
         )
     return lines

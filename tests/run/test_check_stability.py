@@ -43,6 +43,16 @@ def test_the_bundled_schedule_stands_at_every_step(bundled_build: Path) -> None:
     assert time.monotonic() - started < 60.0  # seconds, not a build (0.3 s of physics here)
 
 
+def test_without_connections_the_bundled_frame_still_stands_and_the_check_says_so(
+    bundled_build: Path,
+) -> None:
+    """Every member of the bundled frame rests on what is under it: it needs no connection."""
+    result = _check(bundled_build, "--no-connections")
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "without connections: every component must stand by itself" in result.stdout
+    assert "every partial structure stands: 28 step(s)" in result.stdout
+
+
 def test_a_beam_on_a_single_column_is_the_step_that_does_not_stand(
     bundled_build: Path, tmp_path: Path
 ) -> None:
@@ -82,7 +92,8 @@ def test_a_missing_sequence_file_is_one_line_and_exit_2(bundled_build: Path, tmp
 
 def test_the_advice_fits_the_order_checked() -> None:
     """In the support graph's own order (derived), reordering cannot help: a member that falls although all
-    it rests on came first is held by a connection, and the advice says so instead of "--derive"."""
+    it rests on came first had nothing built beside it to be connected to, and the advice says so instead
+    of "--derive"."""
     from bimbot.services.physics.stability import Moved, StabilityReport, StabilityStep, describe
 
     beam = Moved("b", "Beam", 3.5, placed_on=("c1",), rests_on=("c1", "c2"))
@@ -91,7 +102,7 @@ def test_the_advice_fits_the_order_checked() -> None:
     names = {"b": "Beam", "c1": "Column 1", "c2": "Column 2"}
     derived = describe(report, names, derived=True)
     assert "steps 25–85 were not checked" in derived[-2]
-    assert "held by a connection" in derived[-1] and "--derive" not in derived[-1]
+    assert "no component built beside it" in derived[-1] and "--derive" not in derived[-1]
     assert "--derive" in describe(report, names)[-1]  # a user's own order: try the support graph's
     assert (
         "set down on Column 1 (c1) and came to rest on Column 2 (c2), still touching what it was set down on"

@@ -1,0 +1,166 @@
+"""Connections (services/physics/connections.py), with real pybullet on the bundled frame.
+
+Beam A1-A2 lies on Column A1 and Column A2 and meets Beam A2-A3 end to end over Column A2. With only
+Column A1 under it, it tips off its free end (test_physics_handling.py). With Beam A2-A3 built beside it,
+its crew connects it to that beam while the robot holds it: it stays where it was set down. Resting on
+top of something is not a connection, a placement off its target is never connected, and with
+connections off every component must stand by itself.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+
+import pytest
+from physics_builders import angle_between, idle, pose
+
+from bimbot.services.physics.client import p
+from bimbot.services.physics.connections import ConnectionConfig, side_neighbours
+from bimbot.services.physics.handling import Phase
+from bimbot.services.physics.scene import component_pose, footprint
+from bimbot.services.physics.simulation import Simulation
+from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.messages import AttachRequest, PhysicsReply, PlaceRequest
+
+HOLD_S = 3.0  # short, so that the tests stay fast; the default is 20 s
+
+
+def _named(manifest: Manifest, name: str) -> Component:
+    return next(c for c in manifest.components if c.name == name)
+
+
+def _built(sim: Simulation, component: Component) -> None:
+    """``component`` at its target, joined to the structure (as a restarted physics puts one back)."""
+    target = component.target_pose_world
+    sim.handling.restore(component.guid, (target.position_m, target.quat_xyzw), fixed=True, carrier=None)
+    sim.handling.note_constructed(component.guid, True)
+
+
+def _place(
+    sim: Simulation, component: Component, *, offset_y_m: float = 0.0, within_s: float = 15.0
+) -> tuple[PhysicsReply, float]:
+    """Pick ``component`` from the yard, stand west of its target and place it (``offset_y_m`` off its
+    target); the reply and the sim seconds from the end of the motion to the reply."""
+    slot = sim.layout.slots[component.guid]
+    spot = slot.footprint
+    x = spot.min_xy[0] - 0.8 if slot.aisle_side < 0 else spot.max_xy[0] + 0.8
+    sim.teleport_robot("r1", (x, (spot.min_xy[1] + spot.max_xy[1]) / 2.0, math.pi / 2))
+    assert sim.attach(AttachRequest(robot_id="r1", guid=component.guid)).ok
+    idle(sim, 1.2)
+    target = component.target_pose_world
+    rect = footprint(component, (target.position_m, target.quat_xyzw))
+    sim.teleport_robot("r1", (rect.min_xy[0] - 0.8, (rect.min_xy[1] + rect.max_xy[1]) / 2.0, 0.0))
+    x0, y0, z0 = target.position_m
+    request = PlaceRequest(
+        robot_id="r1",
+        guid=component.guid,
+        pose=pose((x0, y0 + offset_y_m, z0), target.quat_xyzw),
+        duration_s=1.0,
+    )
+    assert sim.place(request, tag="ticket") is None
+    released_s = sim.sim_time_s + 1.0
+    for _ in range(round(within_s / sim.config.control_period_s)):
+        result = sim.advance()
+        for tag, reply in result.replies:
+            assert tag == "ticket"
+            return reply, sim.sim_time_s - released_s
+    raise AssertionError(f"no reply to the placement of {component.name} within {within_s} s")
+
+
+def test_a_beam_set_down_at_its_target_beside_a_built_beam_is_connected_and_stays(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest, caplog: pytest.LogCaptureFixture
+) -> None:
+    caplog.set_level(logging.INFO, logger="bimbot.services.physics.placing")
+    sim = make_sim(robots=1, connections=ConnectionConfig(hold_s=HOLD_S))
+    beam, neighbour = _named(frame_manifest, "Beam A1-A2"), _named(frame_manifest, "Beam A2-A3")
+    for name in ("Footing A1", "Column A1"):  # Column A2 is not there: alone, the beam would tip off
+        _built(sim, _named(frame_manifest, name))
+    _built(sim, neighbour)
+    reply, waited_s = _place(sim, beam)
+    assert reply.ok, reply.reason
+    assert waited_s >= HOLD_S - 1e-6, "the robot holds it until the connection is made"
+    message = sim.handling.pose_message(beam.guid, sim.sim_time_s)
+    assert message.connected_to == [neighbour.guid]
+    assert neighbour.guid in message.supports
+    assert message.drift_m is not None and message.drift_m < 0.001
+    target = beam.target_pose_world
+    rest = component_pose(sim.client_id, sim.handling.items[beam.guid].body)
+    assert math.dist(rest[0], target.position_m) < 0.003 and angle_between(rest[1], target.quat_xyzw) < 1e-3
+    assert f"{beam.guid} connected to {neighbour.guid}" in caplog.text
+    idle(sim, 3.0)  # connected: it does not move while it waits for its agent's verdict
+    assert sim.handling.pose_message(beam.guid, sim.sim_time_s).drift_m == pytest.approx(message.drift_m)
+    sim.handling.note_constructed(beam.guid, True)
+    assert sim.handling.items[beam.guid].phase is Phase.JOINED
+    assert sim.handling.pose_message(beam.guid, sim.sim_time_s).connected_to == [neighbour.guid]
+
+
+def test_without_connections_the_same_beam_tips_off(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=1, connections=ConnectionConfig(enabled=False))
+    beam = _named(frame_manifest, "Beam A1-A2")
+    for name in ("Footing A1", "Column A1", "Beam A2-A3"):
+        _built(sim, _named(frame_manifest, name))
+    reply, _ = _place(sim, beam)
+    assert reply.ok
+    message = sim.handling.pose_message(beam.guid, sim.sim_time_s)
+    assert message.connected_to == []
+    assert message.drift_m is not None and message.drift_m > 0.5  # its free end fell
+
+
+def test_a_beam_set_down_off_its_target_is_not_connected_and_tips_off(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=1, connections=ConnectionConfig(hold_s=HOLD_S))
+    beam = _named(frame_manifest, "Beam A1-A2")
+    for name in ("Footing A1", "Column A1", "Beam A2-A3"):
+        _built(sim, _named(frame_manifest, name))
+    reply, _ = _place(sim, beam, offset_y_m=0.03)  # 30 mm: beyond the agents' 10 mm, the holes miss
+    assert reply.ok
+    message = sim.handling.pose_message(beam.guid, sim.sim_time_s)
+    assert message.connected_to == []
+    assert message.drift_m is not None and message.drift_m > 0.5
+
+
+def test_resting_on_top_of_a_built_column_is_not_a_connection(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=1, connections=ConnectionConfig(hold_s=HOLD_S))
+    beam = _named(frame_manifest, "Beam A1-A2")
+    for name in ("Footing A1", "Column A1"):
+        _built(sim, _named(frame_manifest, name))
+    reply, waited_s = _place(sim, beam)
+    assert reply.ok and waited_s < HOLD_S + 3.0
+    message = sim.handling.pose_message(beam.guid, sim.sim_time_s)
+    assert message.connected_to == []
+    assert message.drift_m is not None and message.drift_m > 0.5
+
+
+def test_side_neighbours_are_beside_within_the_gap_not_below(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=0)
+    handling = sim.handling
+    for name in ("Column A1", "Beam A1-A2", "Beam A2-A3"):
+        _built(sim, _named(frame_manifest, name))
+    names = ("Column A1", "Beam A1-A2", "Beam A2-A3")
+    body = {name: handling.items[_named(frame_manifest, name).guid].body.body_id for name in names}
+    guid = {name: _named(frame_manifest, name).guid for name in names}
+    structure = {body["Column A1"]: guid["Column A1"], body["Beam A2-A3"]: guid["Beam A2-A3"]}
+    # Beam A1-A2 lies on Column A1 (below it) and meets Beam A2-A3 end to end
+    assert side_neighbours(sim.client_id, body["Beam A1-A2"], structure, 0.1) == (guid["Beam A2-A3"],)
+    # Beam A2-A3 moved 0.3 m east: beyond the gap
+    position, quat = p.getBasePositionAndOrientation(body["Beam A2-A3"], physicsClientId=sim.client_id)
+    moved = (position[0] + 0.3, position[1], position[2])
+    p.resetBasePositionAndOrientation(body["Beam A2-A3"], moved, quat, physicsClientId=sim.client_id)
+    assert side_neighbours(sim.client_id, body["Beam A1-A2"], structure, 0.1) == ()
+    assert side_neighbours(sim.client_id, body["Beam A1-A2"], structure, 0.4) == (guid["Beam A2-A3"],)
+
+
+def test_connection_settings_are_checked() -> None:
+    with pytest.raises(ValueError, match="gap_m"):
+        ConnectionConfig(gap_m=-0.1)
+    with pytest.raises(ValueError, match="hold_s"):
+        ConnectionConfig(hold_s=math.nan)
