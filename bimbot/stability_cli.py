@@ -50,6 +50,6 @@ def check_stability_command(args: argparse.Namespace, say: Callable[[str], None]
     )
     names = {c.guid: c.name or c.ifc_class for c in build.manifest.components}
     derived = args.derive or (args.sequence is None and build.manifest.sequence_source == "derived")
-    for line in describe(report, names, derived=derived):
+    for line in describe(report, names, derived=derived, connections=connections.enabled):
         say(line)
     return 0 if report.stands else 1

@@ -202,10 +202,13 @@ def _came_to_rest(moved: Moved, named: Callable[[tuple[str, ...]], str]) -> str:
     )
 
 
-def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = False) -> list[str]:
+def describe(
+    report: StabilityReport, names: dict[str, str], *, derived: bool = False, connections: bool = True
+) -> list[str]:
     """The lines a user reads: every partial structure stands, or the first step that does not, what was
-    left unchecked and what to try (``derived``: the order already is the support graph's). Components as
-    ``Name (GUID)``, as the run's table names them."""
+    left unchecked and what to try (``derived``: the order already is the support graph's; ``connections``:
+    whether the replay connected components to what was built beside them). Components as ``Name (GUID)``,
+    as the run's table names them."""
     failure = report.first_failure
     timing = f"{report.sim_s:.0f} s of sim time, {report.wall_s:.1f} s wall"
 
@@ -256,6 +259,11 @@ def describe(report: StabilityReport, names: dict[str, str], *, derived: bool = 
             else ", or --derive for the support graph's order"
         )
         lines.append(f"to try: place {first} earlier (--sequence F.xml){why}")
+    elif not connections:
+        lines.append(
+            "to try: the replay made no connections (--no-connections): without it, a member set down at "
+            "its target beside one already built (within 0.1 m at its side) is connected to it and stays"
+        )
     elif derived:
         lines.append(
             "to try: everything it rests on was placed before it, and no component built beside it (within "

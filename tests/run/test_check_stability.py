@@ -104,6 +104,8 @@ def test_the_advice_fits_the_order_checked() -> None:
     assert "steps 25–85 were not checked" in derived[-2]
     assert "no component built beside it" in derived[-1] and "--derive" not in derived[-1]
     assert "--derive" in describe(report, names)[-1]  # a user's own order: try the support graph's
+    unconnected = describe(report, names, derived=True, connections=False)[-1]
+    assert "--no-connections" in unconnected and "is connected to it" in unconnected
     assert (
         "set down on Column 1 (c1) and came to rest on Column 2 (c2), still touching what it was set down on"
         in derived[1]
