@@ -64,8 +64,13 @@ def restore_site(sim: Simulation, snapshot: PhysicsSnapshot, twins: Iterable[Twi
         if robot.odom_xy_yaw is not None:
             sim.set_odometry_pose(robot_id, robot.odom_xy_yaw)
         robots += 1
+    twins = list(twins)
+    built = {t.guid for t in twins if t.state == ComponentState.CONSTRUCTED and t.guid in handling.items}
+    # the constructed first, joined as they are put back: a placed component that was connected to one of
+    # them (connections.py) is connected again only to a structure already there, else it would fall
+    handling.constructed.update(built)
     moved = 0
-    for guid, pose in snapshot.components.items():
+    for guid, pose in sorted(snapshot.components.items(), key=lambda entry: entry[0] not in built):
         if guid not in handling.items:
             continue
         carrier = sim.robots.get(pose.attached_to or "")

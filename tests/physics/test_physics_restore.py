@@ -15,9 +15,16 @@ from bimbot.services.physics.handling import Phase
 from bimbot.services.physics.restore import restore_site
 from bimbot.services.physics.scene import footprint
 from bimbot.services.physics.simulation import Simulation
-from bimbot.services.physics.snapshot import SnapshotRecorder, load_snapshot, record_paths
-from bimbot.shared.manifest import Manifest
-from bimbot.shared.messages import AttachRequest, ClockMsg, ComponentState, PlaceRequest, TwinMsg
+from bimbot.services.physics.snapshot import PhysicsSnapshot, SnapshotRecorder, load_snapshot, record_paths
+from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.messages import (
+    AttachRequest,
+    ClockMsg,
+    ComponentPoseMsg,
+    ComponentState,
+    PlaceRequest,
+    TwinMsg,
+)
 
 
 def _record(sim: Simulation, recorder: SnapshotRecorder, messages: list) -> None:
@@ -121,3 +128,36 @@ def test_a_torn_record_falls_back_to_the_other_and_none_means_a_fresh_start(tmp_
     for path in record_paths(tmp_path):
         path.write_text("{not json", encoding="utf-8")
     assert load_snapshot(tmp_path) is None
+
+
+def test_a_placed_component_connected_to_a_constructed_one_is_connected_again_whatever_the_record_order(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """Beam A1-A2 was connected to Beam A2-A3 (constructed) and awaited its verdict when physics died; the
+    record lists it first. Put back, it is connected again and stays, instead of tipping off Column A1."""
+    named = {c.name: c for c in frame_manifest.components}
+    sim = make_sim(robots=0)
+    beam = named["Beam A1-A2"]
+    built = [named[name] for name in ("Footing A1", "Column A1", "Beam A2-A3")]
+
+    def record(component: Component, *, joined: bool) -> ComponentPoseMsg:
+        target = component.target_pose_world
+        return ComponentPoseMsg(
+            guid=component.guid,
+            pose=pose(target.position_m, target.quat_xyzw),
+            sim_time_s=100.0,
+            fixed=True,
+            joined=joined,
+        )
+
+    components = {beam.guid: record(beam, joined=False)}
+    components.update((c.guid, record(c, joined=True)) for c in built)
+    snapshot = PhysicsSnapshot(epoch=0, step=500, sim_time_s=100.0, robots={}, components=components)
+    twins = [_twin(sim, c.guid, ComponentState.CONSTRUCTED) for c in built]
+    twins.append(_twin(sim, beam.guid, ComponentState.VERIFYING))
+    restore_site(sim, snapshot, twins)
+    idle(sim, 3.0)
+    message = sim.handling.pose_message(beam.guid, sim.sim_time_s)
+    assert message.connected_to == [named["Beam A2-A3"].guid]
+    assert message.drift_m is not None and message.drift_m < 0.001
+    assert sim.handling.items[named["Beam A2-A3"].guid].phase is Phase.JOINED
