@@ -375,6 +375,11 @@ def summary_text(outcome: RunOutcome) -> str:
             f"in place before the run (convert --in-place): {totals['in_place']} component(s), not built "
             "by the robots and not counted above"
         )
+    if (outcome.report.get("settings") or {}).get("connections") is False:
+        lines.append(
+            "without connections (--no-connections): every component had to stand by itself, none was "
+            "connected to what was built beside it"
+        )
     if totals.get("max_position_error_mm") is not None:
         lines.append(
             "placement error of the constructed components at most "

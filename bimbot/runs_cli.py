@@ -70,8 +70,8 @@ def run_summary(run: RunFolder) -> str:
 
 
 def _with(report: dict) -> str:
-    """``, 3 robots, 9 in place``: what tells two runs of one build apart (a trial could not tell a
-    ``--robots 1`` run from one of the default fleet)."""
+    """``, 3 robots, 9 in place, without connections``: what tells two runs of one build apart (a trial
+    could not tell a ``--robots 1`` run from one of the default fleet, nor one with ``--no-connections``)."""
     settings = report.get("settings") or {}
     robots = settings.get("robots")
     fleet = settings.get("fleet")
@@ -79,4 +79,6 @@ def _with(report: dict) -> str:
     in_place = (report.get("totals") or {}).get("in_place")
     if in_place:
         parts.append(f"{in_place} in place")
+    if settings.get("connections") is False:
+        parts.append("without connections")
     return "".join(f", {part}" for part in parts if part)

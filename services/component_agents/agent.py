@@ -50,9 +50,9 @@ _log = logging.getLogger(__name__)
 # What a user can do about a component that would not stand: its failed reason ends with this.
 UNSTABLE_HINT = (
     "no connection held it: a component is connected to the structure only when set down within the "
-    "tolerances of its target with a component already built beside it (within 0.1 m at its side); else it "
-    "stands only on supports placed first (temporary bracing is not simulated): `bimbot run BUILD "
-    "--check-stability` shows which steps of the sequence stand"
+    "tolerances of its target with a component already built beside it (within 0.1 m at its side), and "
+    "never in a run with --no-connections; else it stands only on supports placed first (temporary "
+    "bracing is not simulated): `bimbot run BUILD --check-stability` shows which steps of the sequence stand"
 )
 
 BUMPED_HINT = (

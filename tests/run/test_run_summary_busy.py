@@ -46,3 +46,12 @@ def test_a_caught_placement_on_a_components_last_attempt_is_counted_but_not_call
     report["components"][1]["placements"] = report["components"][1]["placements"][:1]
     retried = summary_text(RunOutcome(exit_code=1, constructed=1, total=2, misplacements=1, report=report))
     assert "1 placement(s) caught off target or unstable and retried" in retried.splitlines()[0]
+
+
+def test_a_run_without_connections_says_so_in_its_summary() -> None:
+    report = _report(100.0)
+    plain = summary_text(RunOutcome(exit_code=1, constructed=1, total=2, report=report))
+    assert "without connections" not in plain
+    report["settings"] = {"connections": False}
+    unconnected = summary_text(RunOutcome(exit_code=1, constructed=1, total=2, report=report))
+    assert "without connections (--no-connections): every component had to stand by itself" in unconnected
