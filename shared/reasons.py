@@ -80,6 +80,12 @@ CLASH_ADVICE = (
     "of them out"
 )
 
+#: How far a connection reaches (services/physics/connections.py): a component set down at its target is
+#: connected to what is built this close at its side. Said by the ``unstable`` reasons and by
+#: ``bimbot run --check-stability``, so one number serves physics and what the user reads.
+CONNECTION_GAP_M = 0.1
+BESIDE_IT = f"within {CONNECTION_GAP_M:g} m at its side"
+
 
 def clash_clause(depths_m: list[tuple[str, float]]) -> str:
     """``"; at its target the model puts it into A (229 mm deep): a clash in the IFC, …"`` for the

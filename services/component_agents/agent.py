@@ -41,7 +41,7 @@ from bimbot.shared.messages import (
     PoseMsg,
     TwinMsg,
 )
-from bimbot.shared.reasons import CLASH_ADVICE, Reason, ReasonCode, clash_clause
+from bimbot.shared.reasons import BESIDE_IT, CLASH_ADVICE, Reason, ReasonCode, clash_clause
 
 from .state_table import INITIAL, ComponentMachine, Verdict
 from .verification import PlacementCheck, Tolerances, is_valid_pose, verify
@@ -50,7 +50,7 @@ _log = logging.getLogger(__name__)
 # What a user can do about a component that would not stand: its failed reason ends with this.
 UNSTABLE_HINT = (
     "no connection held it: a component is connected to the structure only when set down within the "
-    "tolerances of its target with a component already built beside it (within 0.1 m at its side), and "
+    f"tolerances of its target with a component already built beside it ({BESIDE_IT}), and "
     "never in a run with --no-connections; else it stands only on supports placed first (temporary "
     "bracing is not simulated): `bimbot run BUILD --check-stability` shows which steps of the sequence stand"
 )

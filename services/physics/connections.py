@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 from bimbot.services.component_agents.verification import Tolerances, verify
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import PoseMsg
+from bimbot.shared.reasons import CONNECTION_GAP_M
 
 from .client import p
 from .scene import Frame
@@ -48,7 +49,7 @@ class ConnectionConfig:
     # the gap a connection bridges: models leave out cleats, end plates, fin plates and ties (the Revit
     # hub's channel beams stop 95 mm short of the columns they frame into, an SHS beam 11 mm), and the
     # collision parts are inset 1 mm each (two faces that touch in the model are 2 mm apart in physics)
-    gap_m: float = 0.1
+    gap_m: float = CONNECTION_GAP_M
     # how long the robot holds the component while the connection is made (sim s)
     hold_s: float = 20.0
     # the connection is made only where its agent would accept the placement

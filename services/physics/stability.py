@@ -23,7 +23,7 @@ from pathlib import Path
 
 from bimbot.shared.identifiers import named_guid
 from bimbot.shared.manifest import Manifest
-from bimbot.shared.reasons import CLASH_ADVICE, clash_clause
+from bimbot.shared.reasons import BESIDE_IT, CLASH_ADVICE, clash_clause
 from bimbot.shared.support_graph import support_predecessors
 
 from .connections import ConnectionConfig
@@ -262,17 +262,17 @@ def describe(
     elif not connections:
         lines.append(
             "to try: the replay made no connections (--no-connections): without it, a member set down at "
-            "its target beside one already built (within 0.1 m at its side) is connected to it and stays"
+            f"its target beside one already built ({BESIDE_IT}) is connected to it and stays"
         )
     elif derived:
         lines.append(
-            "to try: everything it rests on was placed before it, and no component built beside it (within "
-            "0.1 m at its side) could be connected to it: a member held only by a connection to one placed "
+            "to try: everything it rests on was placed before it, and no component built beside it "
+            f"({BESIDE_IT}) could be connected to it: a member held only by a connection to one placed "
             "after it stands only with temporary bracing, which is not simulated"
         )
     else:
         lines.append(
             "to try: what holds it must be placed before it (--sequence F.xml, or --derive): it is connected "
-            "only to components built beside it before it (within 0.1 m at its side)"
+            f"only to components built beside it before it ({BESIDE_IT})"
         )
     return lines

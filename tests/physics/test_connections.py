@@ -96,46 +96,43 @@ def test_a_beam_set_down_at_its_target_beside_a_built_beam_is_connected_and_stay
     assert sim.handling.pose_message(beam.guid, sim.sim_time_s).connected_to == [neighbour.guid]
 
 
-def test_without_connections_the_same_beam_tips_off(
-    make_sim: Callable[..., Simulation], frame_manifest: Manifest
-) -> None:
-    sim = make_sim(robots=1, connections=ConnectionConfig(enabled=False))
-    beam = _named(frame_manifest, "Beam A1-A2")
-    for name in ("Footing A1", "Column A1", "Beam A2-A3"):
-        _built(sim, _named(frame_manifest, name))
-    reply, _ = _place(sim, beam)
+def _placed_unconnected_and_tipped(
+    sim: Simulation, manifest: Manifest, built: tuple[str, ...], offset_y_m: float = 0.0
+) -> float:
+    """Beam A1-A2 placed with ``built`` in place: it was not connected and its free end fell. The sim seconds
+    from the end of its motion to the reply."""
+    beam = _named(manifest, "Beam A1-A2")
+    for name in built:
+        _built(sim, _named(manifest, name))
+    reply, waited_s = _place(sim, beam, offset_y_m=offset_y_m)
     assert reply.ok
     message = sim.handling.pose_message(beam.guid, sim.sim_time_s)
     assert message.connected_to == []
     assert message.drift_m is not None and message.drift_m > 0.5  # its free end fell
+    return waited_s
+
+
+def test_without_connections_the_same_beam_tips_off(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    sim = make_sim(robots=1, connections=ConnectionConfig(enabled=False))
+    _placed_unconnected_and_tipped(sim, frame_manifest, ("Footing A1", "Column A1", "Beam A2-A3"))
 
 
 def test_a_beam_set_down_off_its_target_is_not_connected_and_tips_off(
     make_sim: Callable[..., Simulation], frame_manifest: Manifest
 ) -> None:
     sim = make_sim(robots=1, connections=ConnectionConfig(hold_s=HOLD_S))
-    beam = _named(frame_manifest, "Beam A1-A2")
-    for name in ("Footing A1", "Column A1", "Beam A2-A3"):
-        _built(sim, _named(frame_manifest, name))
-    reply, _ = _place(sim, beam, offset_y_m=0.03)  # 30 mm: beyond the agents' 10 mm, the holes miss
-    assert reply.ok
-    message = sim.handling.pose_message(beam.guid, sim.sim_time_s)
-    assert message.connected_to == []
-    assert message.drift_m is not None and message.drift_m > 0.5
+    # 30 mm: beyond the agents' 10 mm, the holes miss
+    _placed_unconnected_and_tipped(sim, frame_manifest, ("Footing A1", "Column A1", "Beam A2-A3"), 0.03)
 
 
 def test_resting_on_top_of_a_built_column_is_not_a_connection(
     make_sim: Callable[..., Simulation], frame_manifest: Manifest
 ) -> None:
     sim = make_sim(robots=1, connections=ConnectionConfig(hold_s=HOLD_S))
-    beam = _named(frame_manifest, "Beam A1-A2")
-    for name in ("Footing A1", "Column A1"):
-        _built(sim, _named(frame_manifest, name))
-    reply, waited_s = _place(sim, beam)
-    assert reply.ok and waited_s < HOLD_S + 3.0
-    message = sim.handling.pose_message(beam.guid, sim.sim_time_s)
-    assert message.connected_to == []
-    assert message.drift_m is not None and message.drift_m > 0.5
+    waited_s = _placed_unconnected_and_tipped(sim, frame_manifest, ("Footing A1", "Column A1"))
+    assert waited_s < HOLD_S + 3.0
 
 
 def test_side_neighbours_are_beside_within_the_gap_not_below(
