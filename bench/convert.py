@@ -36,10 +36,10 @@ import ifcopenshell.util.shape
 
 from bimbot.demo import bundled_model_path
 from bimbot.services.converter.convert import ConversionStats, ConvertOptions, convert_model
-from bimbot.services.converter.ifc_input import open_model
 from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame
 from bimbot.services.converter.selection import select_elements
 from bimbot.services.converter.tessellation import default_threads, geometry_settings
+from bimbot.shared.ifc_input import open_model
 
 SAMPLES = Path(__file__).resolve().parents[2] / "shared" / "samples" / "ifc"
 HUB = SAMPLES / "revit2021_structural_hub.ifc"

@@ -41,7 +41,7 @@ PERIOD_RATIO_TARGET = 1.5  # issue 12: a large site's control period at most 1.5
 def bundled_build(out: Path) -> Path:
     from bimbot.demo import bundled_model_path
     from bimbot.services.converter.convert import convert_model
-    from bimbot.services.converter.ifc_input import open_model
+    from bimbot.shared.ifc_input import open_model
 
     source = bundled_model_path()
     convert_model(open_model(source), source, out)

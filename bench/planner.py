@@ -32,12 +32,12 @@ import numpy as np
 from scipy import ndimage
 
 from bimbot.services.converter.convert import convert_model
-from bimbot.services.converter.ifc_input import open_model
 from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame
 from bimbot.services.planner.access_plan import FINE
 from bimbot.services.planner.capability import SiteRobot
 from bimbot.services.planner.scheduler import PlannerCore
 from bimbot.services.planner.sources import Plan, PlanSource, SourceKind, load_plan
+from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.messages import RobotState, RobotStateMsg, TaskMsg, TaskStatus
 from bimbot.shared.occupancy_grid import distance_field_m

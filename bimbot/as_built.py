@@ -3,7 +3,7 @@
 A component's agent verifies its placement once, when it is placed. Afterwards it may still be pushed,
 knocked over or dragged by a robot, and nothing would say so. At the end of a run (however it ends, as
 long as physics still answers ``physics/poses``) the run compares every component's pose in physics with
-its BIM target pose, with the agents' own measure (:func:`bimbot.services.component_agents.verification.
+its BIM target pose, with the agents' own measure (:func:`bimbot.shared.verification.
 verify`: Euclidean position error, geodesic angle error) and the agents' own tolerances
 (:class:`~bimbot.services.component_agents.agent.AgentConfig`, 10 mm and 1° by default):
 
@@ -26,14 +26,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from bimbot.services.component_agents.agent import AgentConfig
-from bimbot.services.component_agents.verification import (
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import SitePosesMsg
+from bimbot.shared.verification import (
     PlacementCheck,
     Tolerances,
     is_valid_pose,
     verify,
 )
-from bimbot.shared.manifest import Manifest
-from bimbot.shared.messages import SitePosesMsg
 
 AGENT_TOLERANCES = AgentConfig().tolerances  # what the agents of a run accept (they run with the defaults)
 MAX_ERRORS_SHOWN = 5  # in the summary line; report.json has every one

@@ -23,7 +23,7 @@ from bimbot.run import finish, run_build, say
 from bimbot.run_args import add_run_arguments, run_options
 from bimbot.run_commands import run_fleet
 from bimbot.services.converter.convert import convert_model
-from bimbot.services.converter.ifc_input import read_model
+from bimbot.shared.ifc_input import read_model
 from bimbot.shared.manifest import Manifest
 
 DEFAULT_OUT = Path("out/demo")

@@ -8,7 +8,7 @@ report does not use them). Physics' site info is asked once it answers: the robo
 groups its lanes and gives utilisation per type.
 
 What is constructed comes from the agents' twins, never from a state message alone
-(:mod:`bimbot.services.component_agents.trusted_states`): a state message is a hint; a claim of a terminal
+(:mod:`bimbot.shared.trusted_states`): a state message is a hint; a claim of a terminal
 state (or a message that does not follow from what is known) makes the monitor ask that component's twin,
 once, without blocking (the answer comes back through the inbox, at most one question per component
 every ``TWIN_RETRY_S``), and only the twin's answer counts; a transition the agents' state table does
@@ -36,8 +36,6 @@ import zenoh
 from pydantic import BaseModel
 
 from bimbot.as_built import AGENT_TOLERANCES, AsBuiltAudit, add_to_report, audit_as_built
-from bimbot.services.component_agents.trusted_states import Judgement, TrustedStates
-from bimbot.services.component_agents.verification import Tolerances
 from bimbot.services.observer.report import UNFINISHED, ReportCollector, RunEnding
 from bimbot.shared.asked import Asked
 from bimbot.shared.bus import Answer, Inbox, InvalidPayloads, Received, query_first
@@ -61,7 +59,9 @@ from bimbot.shared.messages import (
     TaskMsg,
     TwinMsg,
 )
+from bimbot.shared.trusted_states import Judgement, TrustedStates
 from bimbot.shared.twin_query import ask_twin, ask_twins
+from bimbot.shared.verification import Tolerances
 
 _log = logging.getLogger(__name__)
 
@@ -151,7 +151,7 @@ class RunMonitor:
 
     def apply(self, message: BaseModel) -> None:
         """A message heard on the bus (a state message is judged first, see
-        :mod:`bimbot.services.component_agents.trusted_states`)."""
+        :mod:`bimbot.shared.trusted_states`)."""
         if isinstance(message, ComponentStateMsg):
             self._component_state(message)
             return

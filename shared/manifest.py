@@ -18,6 +18,13 @@ from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from bimbot.shared.construction_methods import (
+    CastWork,
+    ConstructionMethod,
+    GuestElement,
+    MethodSource,
+    PanelisedElement,
+)
 from bimbot.shared.errors import UserError
 from bimbot.shared.geometry import Quat, Vec3
 
@@ -129,6 +136,13 @@ class Component(_Frozen):
     files: ComponentFiles
     connections: list[Connection] = []
     warnings: list[str] = []
+    # how it is built (shared/construction_methods.py): decided at conversion from the IFC, rules, the user
+    method: ConstructionMethod = ConstructionMethod.LIFTED
+    method_source: MethodSource = MethodSource.RULE
+    method_note: str = Field(default="", description="why this method: what the IFC or the rule said")
+    parent_guid: str | None = Field(default=None, description="a panel: the element it was cut from")
+    cast: CastWork | None = Field(default=None, description="cast_in_place: its formwork, pour and cure")
+    guests: list[GuestElement] = Field(default=[], description="elements built into it (with_host)")
 
 
 class SkippedElement(_Frozen):
@@ -159,6 +173,8 @@ class Manifest(_Frozen):
     # in place before the robots come (cast in situ, built by others: ``convert --in-place``): physics puts
     # them at their BIM pose, static; nothing plans, carries or counts them
     in_place: list[Component] = []
+    # elements split into precast panels: each panel is a component with ``parent_guid`` set
+    panelised: list[PanelisedElement] = []
     skipped: list[SkippedElement] = []
     warnings: list[str] = []
 

@@ -44,7 +44,7 @@ def bundled_build(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The bundled light steel frame converted once per session. Read-only: copy it before writing."""
     from bimbot.demo import bundled_model_path  # heavy imports only when a test needs it
     from bimbot.services.converter.convert import convert_model
-    from bimbot.services.converter.ifc_input import open_model
+    from bimbot.shared.ifc_input import open_model
 
     source = bundled_model_path()
     out = tmp_path_factory.mktemp("bundled_build")

@@ -42,9 +42,8 @@ from bimbot.shared.messages import (
     TwinMsg,
 )
 from bimbot.shared.reasons import BESIDE_IT, CLASH_ADVICE, Reason, ReasonCode, clash_clause
-
-from .state_table import INITIAL, ComponentMachine, Verdict
-from .verification import PlacementCheck, Tolerances, is_valid_pose, verify
+from bimbot.shared.state_table import INITIAL, ComponentMachine, Verdict
+from bimbot.shared.verification import PlacementCheck, Tolerances, is_valid_pose, verify
 
 _log = logging.getLogger(__name__)
 # What a user can do about a component that would not stand: its failed reason ends with this.

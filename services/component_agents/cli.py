@@ -18,11 +18,11 @@ from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
 from bimbot.shared.run_folder import open_run_folder
 from bimbot.shared.service_runner import resolve_build, run_service, service_bus, writable_dir
+from bimbot.shared.verification import Tolerances
 
 from . import app
 from .agent import AgentConfig
 from .host import parse_shard, shard_manifest
-from .verification import Tolerances
 
 _log = logging.getLogger(__name__)
 

@@ -42,10 +42,10 @@ from bimbot.shared.messages import (
     TwinMsg,
     key,
 )
+from bimbot.shared.state_table import ComponentMachine
 
 from .agent import AgentConfig, ComponentAgent, SimClock, clip
 from .journal import JournalRecord, Replay
-from .state_table import ComponentMachine
 
 _log = logging.getLogger(__name__)
 

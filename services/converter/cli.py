@@ -83,8 +83,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from bimbot.shared.ifc_input import read_model
+
     from .convert import ConversionStats, ConvertOptions, convert_model
-    from .ifc_input import read_model
     from .in_place import FOUNDATIONS, above_ground
     from .mesh_files import parse_formats
     from .selection import check_classes, check_exclusions, check_in_place, parse_class_list

@@ -34,15 +34,15 @@ import numpy as np
 
 from bimbot import __version__
 from bimbot.shared.identifiers import slugify
+from bimbot.shared.ifc_input import file_sha256
+from bimbot.shared.ifc_parse_damage import ParseDamage, damaged_elements, describe_unreadable
 from bimbot.shared.manifest import Component, Manifest, SourceModel, write_manifest
 from bimbot.shared.sequence import SEQUENCE_FILE_NAME, write_sequence
 
 from .component_writer import ShardContext, skipped_entry
-from .ifc_input import file_sha256
 from .in_place import split_in_place
 from .mass import mass_unit_kg
 from .mesh_files import VISUAL_FORMATS
-from .parse_damage import ParseDamage, damaged_elements, describe_unreadable
 from .placement import axis2placement_matrix, choose_local_origin, vec3
 from .sdf_writer import world_sdf
 from .selection import left_out_by_selection, select_elements

@@ -21,7 +21,7 @@ a crane's staging spot) and ``distance_m`` (:mod:`.report_robots`).
 :func:`twin_messages` turns a component's twin (its agent's answer to ``components/<key>/twin``) back into
 the state changes it went through, for an observer that joined a run late;
 :meth:`ReportCollector.replace_from_twin` rebuilds a component's timeline from its twin alone (the run
-trusts a twin over any state message, :mod:`bimbot.services.component_agents.trusted_states`).
+trusts a twin over any state message, :mod:`bimbot.shared.trusted_states`).
 
 Totals: components by final state, retries, makespan (first release → last constructed), busy time,
 distance, robot utilisation (busy time within the makespan / (robots × makespan)), ``by_type`` (per robot

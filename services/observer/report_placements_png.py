@@ -22,7 +22,7 @@ from matplotlib.axes import Axes
 from matplotlib.lines import Line2D
 from matplotlib.ticker import FuncFormatter
 
-from bimbot.services.component_agents.verification import Tolerances
+from bimbot.shared.verification import Tolerances
 
 from .report_placements import MISPLACED, UNSTABLE, WITHIN_TOLERANCE, type_of
 

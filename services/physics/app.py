@@ -8,7 +8,7 @@ state):
 * liveliness subscriber ``bimbot/<site>/alive/robot/*``: a robot that disappears stops and drops its load;
 * subscriber ``bimbot/<site>/components/*/state`` (ComponentStateMsg): a component its agent declared
   constructed can no longer be attached (a misplaced one can, for its retry). Each message is judged as the
-  robots and ``bimbot run`` judge it (:mod:`bimbot.services.component_agents.component_states`): a
+  robots and ``bimbot run`` judge it (:mod:`bimbot.shared.component_states`): a
   terminal claim, or a message that does not follow, is asked of the component's twin (``get
   components/<key>/twin``, answered through the inbox) and only the twin's answer is acted on;
 * queryables ``physics/info`` (SiteInfoMsg), ``physics/attach`` (AttachRequest → PhysicsReply),
@@ -41,7 +41,6 @@ from pathlib import Path
 import zenoh
 from pydantic import BaseModel
 
-from bimbot.services.component_agents.component_states import ComponentStates
 from bimbot.shared.bus import (
     Answer,
     BusOptions,
@@ -54,6 +53,7 @@ from bimbot.shared.bus import (
     encode,
     open_session,
 )
+from bimbot.shared.component_states import ComponentStates
 from bimbot.shared.messages import (
     ALIVE_KEY,
     COMPONENT_STATE,

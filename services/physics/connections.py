@@ -28,10 +28,10 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from bimbot.services.component_agents.verification import Tolerances, verify
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import PoseMsg
 from bimbot.shared.reasons import CONNECTION_GAP_M
+from bimbot.shared.verification import Tolerances, verify
 
 from .client import p
 from .scene import Frame

@@ -29,7 +29,6 @@ from dataclasses import dataclass, field, replace
 
 import zenoh
 
-from bimbot.services.component_agents.state_table import TERMINAL
 from bimbot.shared.bus import (
     Answer,
     BusOptions,
@@ -69,6 +68,7 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.reasons import Reason
 from bimbot.shared.service_runner import BuildInput
+from bimbot.shared.state_table import TERMINAL
 from bimbot.shared.twin_query import ask_twins
 
 from .capability import site_robots

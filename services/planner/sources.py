@@ -250,7 +250,7 @@ def _read_xml(path: Path) -> ConstructionSequence:
 
 
 def _ifc_sequence(path: Path, components: Sequence[Component]) -> ConstructionSequence:
-    from bimbot.services.converter.ifc_input import open_model  # ifcopenshell: only for an IFC schedule
+    from bimbot.shared.ifc_input import open_model  # ifcopenshell: only for an IFC schedule
     from bimbot.shared.ifc_schedule import schedule_from_ifc
 
     model = open_model(Path(path))  # UserError naming the problem when unreadable

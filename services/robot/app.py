@@ -30,9 +30,9 @@ from dataclasses import dataclass
 
 import zenoh
 
-from bimbot.services.component_agents.component_states import TwinQuestion
 from bimbot.shared.bus import Answer, BusOptions, Inbox, Received, decode, encode, open_session, query_first
 from bimbot.shared.clock_guard import ClockGuard, Verdict
+from bimbot.shared.component_states import TwinQuestion
 from bimbot.shared.identifiers import guid_to_key
 from bimbot.shared.keyspace import Topic
 from bimbot.shared.messages import (

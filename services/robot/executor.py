@@ -49,7 +49,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from bimbot.services.component_agents.component_states import ComponentStates, TwinQuestion
+from bimbot.shared.component_states import ComponentStates, TwinQuestion
 from bimbot.shared.errors import InputError
 from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Manifest

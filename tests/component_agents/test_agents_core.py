@@ -8,10 +8,10 @@ import pytest
 from agent_builders import GUIDS, clock, component, event, pose_of
 
 from bimbot.services.component_agents.agent import AgentConfig, ComponentAgent, SimClock
-from bimbot.services.component_agents.state_table import ComponentMachine
-from bimbot.services.component_agents.verification import Tolerances
 from bimbot.shared.messages import ComponentEvent, ComponentState, ComponentStateMsg, PoseMsg
 from bimbot.shared.reasons import ReasonCode
+from bimbot.shared.state_table import ComponentMachine
+from bimbot.shared.verification import Tolerances
 
 S = ComponentState
 E = ComponentEvent

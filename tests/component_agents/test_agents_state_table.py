@@ -6,7 +6,8 @@ import itertools
 
 import pytest
 
-from bimbot.services.component_agents.state_table import (
+from bimbot.shared.messages import ComponentEvent, ComponentState
+from bimbot.shared.state_table import (
     EXTERNAL_TRIGGERS,
     INITIAL,
     INTERNAL_TRIGGERS,
@@ -19,7 +20,6 @@ from bimbot.services.component_agents.state_table import (
     reachable_from,
     triggers_from,
 )
-from bimbot.shared.messages import ComponentEvent, ComponentState
 
 S = ComponentState
 

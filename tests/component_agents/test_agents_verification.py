@@ -9,14 +9,14 @@ import pytest
 from agent_builders import quat_z
 from scipy.spatial.transform import Rotation
 
-from bimbot.services.component_agents.verification import (
+from bimbot.shared.messages import PoseMsg
+from bimbot.shared.verification import (
     Tolerances,
     angle_error_rad,
     is_valid_pose,
     position_error_m,
     verify,
 )
-from bimbot.shared.messages import PoseMsg
 
 
 def pose(position: tuple[float, float, float], quat: tuple[float, float, float, float]) -> PoseMsg:

@@ -20,8 +20,8 @@ from sdf_checks import sdf_check_all, sdf_model_pose
 
 from bimbot.demo import bundled_model_path
 from bimbot.services.converter.convert import convert_model
-from bimbot.services.converter.ifc_input import open_model
 from bimbot.shared.identifiers import folder_to_guid, key_to_guid
+from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import CollisionMethod, Manifest, MassSource, read_manifest
 from bimbot.shared.sequence import read_sequence
 from bimbot.shared.support_graph import support_predecessors, support_violations

@@ -15,11 +15,11 @@ from sdf_checks import ign_sdf_check
 
 from bimbot.demo import bundled_model_path
 from bimbot.services.converter.convert import ConvertOptions, convert_model
-from bimbot.services.converter.ifc_input import open_model
 from bimbot.services.converter.mesh_files import VISUAL_FORMATS, parse_formats
 from bimbot.services.observer.app import load_mesh
 from bimbot.services.physics.client import BulletClient
 from bimbot.services.physics.scene import IDENTITY, component_model, create_component_body
+from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Manifest
 
 VISUAL_NAMES = {"dae": "visual.dae", "obj": "visual.obj", "glb": "visual.glb"}

@@ -11,7 +11,7 @@ import ifcopenshell.api.root
 from ifc_builders import add_opening, add_wall, new_model, place, translation
 
 from bimbot.services.converter.convert import convert_model
-from bimbot.services.converter.ifc_input import open_model
+from bimbot.shared.ifc_input import open_model
 from bimbot.shared.support_graph import derive_sequence, support_predecessors
 
 

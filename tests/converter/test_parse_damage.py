@@ -13,10 +13,10 @@ import ifcopenshell
 import pytest
 
 from bimbot.services.converter.convert import convert_model
-from bimbot.services.converter.ifc_input import read_model
-from bimbot.services.converter.parse_damage import damaged_elements
 from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame
 from bimbot.services.converter.selection import select_elements
+from bimbot.shared.ifc_input import read_model
+from bimbot.shared.ifc_parse_damage import damaged_elements
 
 
 def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:

@@ -18,9 +18,9 @@ from ifc_builders import SmallModel, add_beam, new_model, place, translation
 from bimbot.services.converter import convert as convert_module
 from bimbot.services.converter import shards
 from bimbot.services.converter.convert import ConvertOptions, convert_model
-from bimbot.services.converter.ifc_input import open_model
 from bimbot.services.converter.selection import select_elements
 from bimbot.services.converter.shards import geometry_group, plan_shards, representation_size
+from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Manifest
 
 GROUPS = ((10, 5.0), (9, 3.0), (9, 2.0))  # (beams, length m) per beam type: three mapped geometries

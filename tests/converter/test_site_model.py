@@ -19,7 +19,7 @@ from site_models import (
 )
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
-from bimbot.services.converter.ifc_input import open_model
+from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Component, Manifest, MassSource
 from bimbot.shared.reasons import ReasonCode
 from bimbot.shared.robot_description import DEFAULT_ROBOT

@@ -17,11 +17,11 @@ from pathlib import Path
 
 import pytest
 
-from bimbot.services.component_agents.verification import Tolerances
 from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan
 from bimbot.shared.manifest import read_manifest
 from bimbot.shared.run_folder import RunFolder, latest_run_folder
 from bimbot.shared.sequence import read_sequence
+from bimbot.shared.verification import Tolerances
 
 pytestmark = pytest.mark.integration
 RUN_TIMEOUT_S = 300

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from bimbot.services.converter.convert import convert_model
-from bimbot.services.converter.ifc_input import open_model
+from bimbot.shared.ifc_input import open_model
 
 SCHEDULING_TASK_IFC = "construction_scheduling_task.ifc"
 

@@ -12,12 +12,12 @@ from planner_builders import portal_manifest, robot_msg, state_msg
 from site_models import ROOM_WALLS, WALLS_FIRST_ORDER, build_site_model
 
 from bimbot.services.converter.convert import convert_model
-from bimbot.services.converter.ifc_input import open_model
 from bimbot.services.planner.access_plan import access_plan
 from bimbot.services.planner.capability import SiteRobot
 from bimbot.services.planner.feasibility import component_feasibility, infeasible
 from bimbot.services.planner.scheduler import Phase, PlannerCore, PlannerLimits
 from bimbot.services.planner.sources import PlanError, PlanSource, SourceKind, load_plan, plan_from_sequence
+from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Manifest, MassSource, read_manifest
 from bimbot.shared.messages import (
     ComponentEvent,

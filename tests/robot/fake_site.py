@@ -10,11 +10,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from twins import twin_message
 
-from bimbot.services.component_agents.component_states import TwinQuestion
-from bimbot.services.component_agents.state_table import Verdict, next_state
 from bimbot.services.robot.executor import Executor, ExecutorConfig
 from bimbot.services.robot.particle_filter import simulate_scan, wrap_angle
 from bimbot.services.robot.protocol import PhysicsRequest, PhysicsResult
+from bimbot.shared.component_states import TwinQuestion
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     AttachRequest,
@@ -41,6 +40,7 @@ from bimbot.shared.messages import (
 from bimbot.shared.occupancy_grid import OccupancyGrid
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.site_layout import plan_site
+from bimbot.shared.state_table import Verdict, next_state
 
 ANGLES = np.linspace(-math.pi, math.pi, 120, endpoint=False)
 DT = 0.1

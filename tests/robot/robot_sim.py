@@ -20,13 +20,13 @@ from pathlib import Path
 import numpy as np
 
 from bimbot.services.component_agents.agent import ComponentAgent
-from bimbot.services.component_agents.component_states import TwinQuestion
 from bimbot.services.planner.scheduler import PlannerCore
 from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan
 from bimbot.services.robot.executor import Executor, ExecutorConfig
 from bimbot.services.robot.particle_filter import simulate_scan, wrap_angle
 from bimbot.services.robot.protocol import PhysicsRequest, PhysicsResult
 from bimbot.services.robot.site_map import SiteMap
+from bimbot.shared.component_states import TwinQuestion
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     AttachRequest,

@@ -6,7 +6,7 @@ import pytest
 from fake_site import make_site
 from frames import convert_small_frame
 
-from bimbot.services.component_agents.component_states import ComponentStates, TwinQuestion
+from bimbot.shared.component_states import ComponentStates, TwinQuestion
 from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.messages import ComponentState, ComponentStateMsg, RobotState
 

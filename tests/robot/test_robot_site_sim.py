@@ -16,10 +16,10 @@ import pytest
 from frames import convert_small_frame
 from robot_sim import SiteSim
 
-from bimbot.services.component_agents.verification import Tolerances
 from bimbot.services.planner.sources import SourceKind
 from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.messages import ComponentEvent, ComponentState, RobotState
+from bimbot.shared.verification import Tolerances
 
 
 @pytest.fixture(scope="module")

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from run_builders import GUIDS, manifest, state, twin, walk
 
-from bimbot.services.component_agents.trusted_states import Judgement, TrustedStates
 from bimbot.shared.messages import ComponentState as S
+from bimbot.shared.trusted_states import Judgement, TrustedStates
 
 SITE_MANIFEST = manifest()
 GUID = GUIDS[0]

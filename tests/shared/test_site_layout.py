@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 from site_models import build_site_model
 
 from bimbot.services.converter.convert import convert_model
-from bimbot.services.converter.ifc_input import open_model
+from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Component, Manifest, read_manifest
 from bimbot.shared.occupancy_grid import from_footprints, inflate
 from bimbot.shared.robot_description import DEFAULT_ROBOT

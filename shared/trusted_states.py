@@ -11,7 +11,7 @@ for every component once made ``bimbot run`` print ``constructed 12/12`` and exi
 * ``REJECT`` — a component not in the manifest; a component already terminal (``constructed``, ``failed``,
   ``blocked`` are only ever set from its twin, and nothing leaves them; a message that repeats the
   terminal state, as a restarted agent's announcement does, is dropped without a warning); a transition
-  the agents' own state table (:mod:`bimbot.services.component_agents.state_table`) does not allow:
+  the agents' own state table (:mod:`bimbot.shared.state_table`) does not allow:
   ``previous --event--> state`` must be one of its rows. A cheap first filter: a forgery that does not
   know the table ends here.
 * ``ASK`` — a claim of a terminal state, or a message that does not follow from what is known (its
@@ -32,8 +32,8 @@ import logging
 from collections.abc import Iterable
 from enum import Enum
 
-from bimbot.services.component_agents.state_table import TERMINAL, next_state
 from bimbot.shared.messages import ComponentState, ComponentStateMsg, TwinMsg
+from bimbot.shared.state_table import TERMINAL, next_state
 
 _log = logging.getLogger(__name__)
 

@@ -18,7 +18,7 @@ import ifcopenshell
 
 from bimbot.shared.errors import UserError
 
-from .parse_damage import ParseDamage, read_parse_log
+from .ifc_parse_damage import ParseDamage, read_parse_log
 
 _log = logging.getLogger(__name__)
 

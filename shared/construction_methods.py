@@ -1,0 +1,94 @@
+"""How each component is built on site: the construction methods and the work records the manifest carries.
+
+A real building is not only lifted: concrete is cast in place, masonry is laid course by course, a wall too
+heavy to lift is split into precast panels, an anchor bolt goes in with its footing. The converter decides
+one method per component (from what the IFC says, then rules, then the user's methods file) and writes it
+to the manifest; the planner, the robots, physics and the report act on it. This module is the vocabulary
+every service shares; how a method is decided lives in the converter, how it is executed in the services
+that own each step.
+
+Methods:
+
+================  ========================================================================================
+``lifted``        a prefabricated part carried and set by a robot or a crane (the paper's one method)
+``panelised``     a panel cut from an element too heavy or too large to lift or transport whole; each
+                  panel is lifted; the element counts as built when all its panels are
+``cast_in_place`` formwork, pour and cure: a timed task of a concrete crew; it appears at its BIM pose when
+                  poured, and what rests on it waits for its curing
+``laid``          masonry built course by course by a block-laying robot standing within its boom's reach
+``with_host``     a fastener, anchor, embed or shop-welded plate: built into its host (cast into the
+                  footing, carried with the column), never a task of its own
+``in_place``      existing work, or built by others before the robots come
+================  ========================================================================================
+"""
+
+from __future__ import annotations
+
+from enum import StrEnum
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class ConstructionMethod(StrEnum):
+    LIFTED = "lifted"
+    PANELISED = "panelised"
+    CAST_IN_PLACE = "cast_in_place"
+    LAID = "laid"
+    WITH_HOST = "with_host"
+    IN_PLACE = "in_place"
+
+
+class MethodSource(StrEnum):
+    """Who decided a component's method: the IFC said so, a rule did, or the user's methods file."""
+
+    IFC = "ifc"
+    RULE = "rule"
+    USER = "user"
+
+
+class CastWork(BaseModel):
+    """A cast-in-place element's work, from its geometry and the methods file's rates (SI units)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    formwork_area_m2: float = Field(ge=0, description="faces that need formwork (not the top, not in soil)")
+    volume_m3: float = Field(ge=0)
+    formwork_s: float = Field(ge=0, description="setting the formwork and reinforcement")
+    pour_s: float = Field(ge=0, description="placing the concrete")
+    cure_s: float = Field(ge=0, description="until what rests on it may be placed (struck and loaded)")
+
+
+class GuestElement(BaseModel):
+    """An element built into its host (``with_host``): its geometry and mass are part of the host's body."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    guid: str
+    ifc_class: str
+    name: str | None = None
+    mass_kg: float = Field(ge=0)
+    relation: str = Field(description="how the host was found: an IFC relationship or 'embedded'/'contact'")
+
+
+class PanelJoint(BaseModel):
+    """A joint between two panels cut from one element: where the cut runs and how long it is."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    guids: tuple[str, str]
+    length_m: float = Field(ge=0)
+    kind: str = Field(description="vertical (wall panels side by side) or longitudinal (slab planks)")
+
+
+class PanelisedElement(BaseModel):
+    """An element split into precast panels: the element itself and the components cut from it."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    guid: str
+    ifc_class: str
+    name: str | None = None
+    mass_kg: float = Field(gt=0)
+    panel_guids: tuple[str, ...] = Field(min_length=1)
+    joints: tuple[PanelJoint, ...] = ()
+    why: str = Field(description="the sentence with the numbers: why it was split")
