@@ -5,18 +5,22 @@ descriptions with its site info (``SiteInfoMsg.robot_types``); a robot reads its
 planner all of them. Nobody keeps a second default for a robot's limits: the rules below are the only
 place they are applied.
 
-Two kinds of robot:
+A robot type says what it can do as a set of :class:`Capability` values; every service asks for a
+capability, never for a kind of robot. Adding a kind is a fleet entry (its capabilities and the specs they
+need) plus, per service, at most one module that implements a new capability. The reach rules, the only
+place they are applied:
 
-* **ground** robots drive (differential drive, speed and turn limits) and carry a load on their deck. The
-  reach rule (physics accepts or refuses an attach/place with it, the robot chooses where to stand by it,
-  the planner checks feasibility with it): a robot reaches a component when the horizontal distance from
-  the robot's centre to the *nearest point* of the component's footprint (its posed bounding box seen from
-  above) is at most ``reach_m``.
-* **tower cranes** (``crane`` set) stand still. The hook is slung above a load's centre, so its **hook
-  radius** is the distance from the mast to the centre of the component's footprint; a component is
-  within reach when that radius lies between the trolley's innermost radius and the largest radius at
-  which the crane's load chart lifts its mass (payload by radius, linear between the chart's points,
-  nothing beyond the last). The crane picks where the hook reaches and places there; it never travels.
+* a robot that ``drive``s reaches a component when the horizontal distance from the robot's centre to the
+  *nearest point* of the component's footprint (its posed bounding box seen from above) is at most
+  ``reach_m`` (physics accepts or refuses an attach/place with it, the robot chooses where to stand by
+  it, the planner checks feasibility with it);
+* a robot that lifts by hook (``hook_lift``, its ``crane`` spec) stands still. The hook is slung above a
+  load's centre, so its **hook radius** is the distance from the mast to the centre of the component's
+  footprint; a component is within reach when that radius lies between the trolley's innermost radius and
+  the largest radius at which the load chart lifts its mass (linear between the chart's points, nothing
+  beyond the last);
+* a boom machine that stands fixed and works in place (``pour``, ``lay``) reaches a component when its
+  whole footprint lies within ``reach_m`` of its base (the boom covers every part of it).
 
 Feasibility (before a task is ever assigned): a component heavier than ``payload_kg`` (for a crane: the
 chart's largest payload) is ``too_heavy``; one whose target reaches higher than ``max_place_height_m`` (the
@@ -26,14 +30,32 @@ top of its posed bounding box) is ``out_of_reach``. Both are reasons a user can 
 from __future__ import annotations
 
 import math
+from enum import StrEnum
 from typing import TYPE_CHECKING
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_serializer, model_validator
 
 from .reasons import Reason, ReasonCode
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
+
+
+class Capability(StrEnum):
+    """What a robot type can do. Services ask for these, never for a kind of robot."""
+
+    DRIVE = "drive"  # moves itself across the site on wheels or tracks: plans paths, scans, localises
+    STAND_FIXED = "stand_fixed"  # stands where the site plan puts it and never moves: it knows its pose
+    CARRY = "carry"  # carries a load on itself from where it lies to where it goes
+    HOOK_LIFT = "hook_lift"  # lifts a load by its hook within its load chart (``crane``)
+    PLACE = "place"  # sets a component at its target, up to ``max_place_height_m``
+    HAND_OFF = "hand_off"  # puts a load down in a crane's staging area for the crane to lift
+    POUR = "pour"  # forms and pours cast-in-place concrete within its boom's reach (``reach_m``)
+    LAY = "lay"  # lays masonry course by course within its boom's reach (``laying``)
+
+
+GROUND_CAPABILITIES = frozenset({Capability.DRIVE, Capability.CARRY, Capability.PLACE, Capability.HAND_OFF})
+CRANE_CAPABILITIES = frozenset({Capability.STAND_FIXED, Capability.HOOK_LIFT, Capability.PLACE})
 
 
 LIFT_CLEARANCE_M = 3.0  # a crane lifts a load this far above the higher of its two ends before slewing
@@ -117,6 +139,18 @@ class CraneSpec(BaseModel):
         return best
 
 
+class LayingSpec(BaseModel):
+    """A block-laying machine's work: the block it lays and how fast (a course is one block high)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    block_length_m: float = Field(gt=0, le=5)
+    block_height_m: float = Field(gt=0, le=2)
+    block_width_m: float = Field(gt=0, le=2)
+    block_mass_kg: float = Field(gt=0, le=1000)
+    blocks_per_h: float = Field(gt=0, le=10000)
+
+
 class RobotDescription(BaseModel):
     """One robot type: its model, its limits and its footprint (SI units, robot base frame)."""
 
@@ -137,11 +171,41 @@ class RobotDescription(BaseModel):
     placement_precision_m: float = Field(default=0.0, ge=0, le=1, description="1 σ, per horizontal axis")
     placement_precision_yaw_deg: float = Field(default=0.0, ge=0, le=45, description="1 σ")
     crane: CraneSpec | None = None
+    laying: LayingSpec | None = None
+    capabilities: frozenset[Capability] = Field(
+        default=frozenset(),
+        description="what it can do; when left out: a crane spec means "
+        "stand_fixed, hook_lift, place; else drive, carry, place, hand_off",
+    )
+
+    @field_serializer("capabilities")
+    def _sorted(self, capabilities: frozenset[Capability]) -> list[str]:
+        return sorted(capabilities)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _implied_capabilities(cls, data: object) -> object:
+        """A type that names no capabilities is a ground robot, or a crane when it has a crane spec."""
+        if isinstance(data, dict) and not data.get("capabilities"):
+            implied = CRANE_CAPABILITIES if data.get("crane") is not None else GROUND_CAPABILITIES
+            data = {**data, "capabilities": implied}
+        return data
 
     @model_validator(mode="after")
     def _consistent(self) -> RobotDescription:
-        if self.crane is None and (self.max_speed_mps <= 0 or self.max_turn_radps <= 0):
-            raise ValueError(f"ground robot type {self.name!r} needs max_speed_mps and max_turn_radps > 0")
+        has = self.capabilities
+        if (Capability.DRIVE in has) == (Capability.STAND_FIXED in has):
+            raise ValueError(f"robot type {self.name!r} must either drive or stand_fixed (one of the two)")
+        if Capability.DRIVE in has and (self.max_speed_mps <= 0 or self.max_turn_radps <= 0):
+            raise ValueError(
+                f"robot type {self.name!r} drives: it needs max_speed_mps and max_turn_radps > 0"
+            )
+        if (Capability.HOOK_LIFT in has) != (self.crane is not None):
+            raise ValueError(f"robot type {self.name!r}: hook_lift and a [crane] spec go together")
+        if (Capability.LAY in has) != (self.laying is not None):
+            raise ValueError(f"robot type {self.name!r}: lay and a [laying] spec go together")
+        if Capability.HAND_OFF in has and Capability.CARRY not in has:
+            raise ValueError(f"robot type {self.name!r}: hand_off needs carry")
         if self.crane is not None:
             chart_max = max(point.payload_kg for point in self.crane.load_chart)
             if abs(chart_max - self.payload_kg) > 1e-6 or abs(self.crane.max_radius_m - self.reach_m) > 1e-6:
@@ -151,9 +215,9 @@ class RobotDescription(BaseModel):
                 )
         return self
 
-    @property
-    def is_crane(self) -> bool:
-        return self.crane is not None
+    def can(self, capability: Capability) -> bool:
+        """Whether this type has ``capability``."""
+        return capability in self.capabilities
 
     @property
     def radius_m(self) -> float:
@@ -164,7 +228,7 @@ class RobotDescription(BaseModel):
         """``too_heavy`` / ``out_of_reach`` for a component of ``mass_kg`` whose target top is at
         ``target_top_z_m`` (world z, m), or None when this type can carry and place it."""
         if mass_kg > self.payload_kg:
-            what = "largest crane payload (load chart)" if self.is_crane else "payload"
+            what = "largest crane payload (load chart)" if self.crane is not None else "payload"
             return Reason(
                 code=ReasonCode.TOO_HEAVY,
                 message=f"{mass_kg:,.0f} kg exceeds the {self.name} {what} of {self.payload_kg:,.0f} kg",
@@ -184,11 +248,21 @@ class RobotDescription(BaseModel):
 
         from .footprint import footprint_distance_m
 
-        if self.crane is None:
-            nearest = float(footprint_distance_m(footprint_xy_m, robot_xy_m)[0])
-            return nearest <= self.reach_m + 1e-9
-        hook_m = self.hook_radius_m(robot_xy_m, footprint_xy_m)
-        return self.crane.min_radius_m - 1e-9 <= hook_m <= self.crane.radius_for(mass_kg) + 1e-9
+        if self.crane is not None:
+            hook_m = self.hook_radius_m(robot_xy_m, footprint_xy_m)
+            return self.crane.min_radius_m - 1e-9 <= hook_m <= self.crane.radius_for(mass_kg) + 1e-9
+        if self.can(Capability.STAND_FIXED):
+            return self.boom_covers(robot_xy_m, footprint_xy_m)
+        nearest = float(footprint_distance_m(footprint_xy_m, robot_xy_m)[0])
+        return nearest <= self.reach_m + 1e-9
+
+    def boom_covers(self, base_xy_m: ArrayLike, footprint_xy_m: ArrayLike) -> bool:
+        """A fixed boom machine reaches every corner of the footprint from ``base_xy_m``."""
+        import numpy as np  # not loaded by processes that only decode messages
+
+        corners = np.asarray(footprint_xy_m, float).reshape(-1, 2)
+        far_m = float(np.max(np.hypot(*(corners - np.asarray(base_xy_m, float)[:2]).T)))
+        return far_m <= self.reach_m + 1e-9
 
     @staticmethod
     def hook_radius_m(base_xy_m: ArrayLike, footprint_xy_m: ArrayLike) -> float:

@@ -44,7 +44,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .manifest import Component
-from .robot_description import DEFAULT_ROBOT, RobotDescription
+from .robot_description import DEFAULT_ROBOT, Capability, RobotDescription
 from .site_cranes import crane_pose, staging_area
 from .site_plan import (  # the plan's data types; physics serves a plan with its site info
     Rect,
@@ -160,7 +160,7 @@ def plan_site(
     if not components:
         raise ValueError("a site needs at least one component")
     if fleet is not None:
-        ground = [item for item in fleet if not item.is_crane]
+        ground = [item for item in fleet if item.can(Capability.DRIVE)]
         robot = max(ground, key=lambda item: item.radius_m, default=robot)
         robots = len(ground)
     building = building_footprint(components)
@@ -201,7 +201,7 @@ def plan_site(
     starts: list[tuple[float, float, float]] = []
     staging: list[Rect] = []
     for item in fleet if fleet is not None else [robot] * robots:
-        if not item.is_crane:
+        if item.can(Capability.DRIVE):
             starts.append(depot_starts.pop(0))
             continue
         pose = crane_pose(building, len(staging), item, lane_m)

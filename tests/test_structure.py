@@ -64,3 +64,23 @@ def test_services_import_nothing_of_the_command_line_package_above_them() -> Non
             if module.startswith("bimbot.") and not module.startswith(("bimbot.shared", "bimbot.services")):
                 upward.append(f"{path.relative_to(ROOT)}:{line} imports {module}")
     assert upward == []
+
+
+KIND_FLAGS = ("is_crane", "is_ground", "is_carrier", "is_husky", "is_tower_crane", "is_pump", "is_layer")
+
+
+def test_services_ask_for_capabilities_never_for_a_kind_of_robot() -> None:
+    """A robot kind is a fleet entry: no service tests a kind flag or compares a type's name."""
+    found = []
+    for folder in ("services", "shared", "bimbot"):
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            tree = ast.parse(path.read_text(encoding="utf-8"))
+            for node in ast.walk(tree):
+                if isinstance(node, ast.Attribute) and node.attr in KIND_FLAGS:
+                    found.append(f"{path.relative_to(ROOT)}:{node.lineno} .{node.attr}")
+                if isinstance(node, ast.Compare) and any(
+                    isinstance(side, ast.Constant) and side.value in ("tower_crane", "carrier", "husky")
+                    for side in (node.left, *node.comparators)
+                ):
+                    found.append(f"{path.relative_to(ROOT)}:{node.lineno} compares a robot type's name")
+    assert found == []

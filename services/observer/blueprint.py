@@ -21,6 +21,7 @@ import rerun.blueprint as rrb
 
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentState, SiteInfoMsg
+from bimbot.shared.robot_description import Capability
 from bimbot.shared.site_plan import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect, SiteLayout
 
 from .twin_items import SITE_LINE_Z_M, STATE_COLORS, TIMELINE, LogItem
@@ -84,7 +85,7 @@ def cranes_of(info: SiteInfoMsg) -> list[str]:
     return [
         robot_id
         for robot_id in info.robot_ids
-        if (name := info.robot_type_of.get(robot_id)) in types and types[name].is_crane
+        if (name := info.robot_type_of.get(robot_id)) in types and types[name].can(Capability.HOOK_LIFT)
     ]
 
 

@@ -196,7 +196,7 @@ class Handling(Placing):
             item.phase, item.carrier = Phase.CARRIED, carrier.robot_id
             item.offset = (
                 hanging_offset(carrier, frame, self.client_id)
-                if carrier.is_crane
+                if carrier.lifts_by_hook
                 else carry_offset(item.component, carrier, self.config.carry_clearance_m)
             )
             item.motion_from, item.motion_start_s = frame, -math.inf
@@ -249,7 +249,7 @@ class Handling(Placing):
         item.phase = Phase.CARRIED
         item.carrier = robot.robot_id
         item.dropped_by = None
-        if robot.is_crane:  # on the hook, straight up from where it lay
+        if robot.lifts_by_hook:  # on the hook, straight up from where it lay
             (x, y, z), quat = item.pose
             item.offset = hanging_offset(robot, ((x, y, z + self.config.hook_lift_m), quat), self.client_id)
         else:
@@ -431,7 +431,7 @@ class Handling(Placing):
 
     def _drop_pose(self, item: Item, robot: Robot, near_xy_m: tuple[float, float] | None = None) -> Frame:
         """Beside a ground robot (:func:`.load_rules.drop_beside`); a crane's load straight down."""
-        if robot.is_crane:
+        if robot.lifts_by_hook:
             return lowered(item.component, item.pose)
         others = [footprint(o.component, o.pose) for o in self.items.values() if o is not item]
         frame = robot.frame(self.client_id)

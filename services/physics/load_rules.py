@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from bimbot.shared.footprint import footprint_distance_m, posed_footprint
 from bimbot.shared.manifest import Component
-from bimbot.shared.robot_description import RobotDescription
+from bimbot.shared.robot_description import Capability, RobotDescription
 from bimbot.shared.site_layout import GROUND_CLEARANCE_M, lying_rotation
 from bimbot.shared.site_plan import Rect
 
@@ -43,7 +43,8 @@ def carry_refusal(
     A ground robot: no heavier than its payload, the footprint's nearest point within its reach. A crane
     (:meth:`~bimbot.shared.robot_description.RobotDescription.reaches`): that point between its smallest
     hook radius and its reach, and the mass within its load chart at the footprint's farthest point."""
-    crane, mass = description.crane, component.mass_kg
+    crane = description.crane if description.can(Capability.HOOK_LIFT) else None
+    mass = component.mass_kg
     weight = f"{mass:,.0f} kg"
     load = (
         f"{component.name} ({component.guid}, {weight})" if component.name else f"{component.guid} ({weight})"

@@ -190,7 +190,7 @@ class Placing:
         description = robot.description
         return physical_placement(
             commanded,
-            None if robot.is_crane else believed_xy_yaw,
+            believed_xy_yaw if robot.drives else None,
             robot.pose_xy_yaw(self.client_id),
             precision_m=description.placement_precision_m,
             precision_yaw_rad=math.radians(description.placement_precision_yaw_deg),
@@ -223,7 +223,7 @@ class Placing:
             )
         make_dynamic(cid, body)
         p.resetBaseVelocity(body.body_id, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=cid)
-        if carrier is not None and not carrier.is_crane and self._overlaps(item, carrier):
+        if carrier is not None and carrier.drives and self._overlaps(item, carrier):
             # it collides with its carrier again once clear of it. Until then it keeps the carrier's group, as
             # when carried: a pair collides when either mask admits the other's group (scene.py), and the
             # carrier's mask admits the dynamic group, so that group here let the carrier kick it over

@@ -41,7 +41,7 @@ import numpy as np
 
 from bimbot.shared.errors import InputError
 from bimbot.shared.geometry import wrap_angle
-from bimbot.shared.robot_description import RobotDescription
+from bimbot.shared.robot_description import Capability, RobotDescription
 
 from .client import p, quiet_stdout
 from .crane_rig import CraneRig
@@ -218,8 +218,13 @@ class Robot:
         return x, y, yaw_of(quat)
 
     @property
-    def is_crane(self) -> bool:
-        return self.rig is not None
+    def drives(self) -> bool:
+        """It moves itself (differential drive, odometry, a laser); else it stands where it was set up."""
+        return self.description.can(Capability.DRIVE)
+
+    @property
+    def lifts_by_hook(self) -> bool:
+        return self.description.can(Capability.HOOK_LIFT)
 
     def set_command(self, v_mps: float, w_radps: float) -> None:
         """Take ``(v, w)`` within the robot type's limits (a crane's are 0: it never drives)."""
@@ -316,7 +321,7 @@ def spawn_robot(
         body_id = p.loadURDF(
             str(urdf),
             [0.0, 0.0, 0.0],
-            useFixedBase=crane is not None,
+            useFixedBase=description.can(Capability.STAND_FIXED),
             flags=p.URDF_USE_IMPLICIT_CYLINDER,
             physicsClientId=client_id,
         )
@@ -341,9 +346,10 @@ def spawn_robot(
     drive: DriveGeometry | None = None
     torque = 0.0
     rig: CraneRig | None = None
-    if crane is not None:  # standing on the ground for good: no contacts with it to compute
+    if description.can(Capability.STAND_FIXED):  # on the ground for good: no contacts with it to compute
         set_filter(client_id, body_id, group, ALL_GROUPS ^ group ^ GROUND_GROUP ^ PIT_EDGE_GROUP, links)
-        rig = CraneRig(client_id, body_id, crane, name=description.name)
+        if crane is not None:  # a hook's slew, trolley and hoist joints
+            rig = CraneRig(client_id, body_id, crane, name=description.name)
     else:
         drive = detect_drive(client_id, body_id, base_frame, config.wheel_joints)
         mass = sum(p.getDynamicsInfo(body_id, link, physicsClientId=client_id)[0] for link in links)

@@ -257,7 +257,7 @@ class Simulation:
         for index, (robot_id, robot) in enumerate(self.robots.items()):
             rng = np.random.default_rng([self.config.seed, index])
             self._odometry[robot_id] = Odometry(robot.start_xy_yaw, self.config.odom_noise, rng)
-            if not robot.is_crane:  # a crane has no laser
+            if robot.drives:  # a machine standing fixed has no laser
                 self._beam_starts[robot_id] = self._laser.beam_starts(robot.half_extents_xy_m)
         if self.config.compiled_laser:
             self._ray_scene = RayScene(cid)
@@ -441,10 +441,10 @@ class Simulation:
                 ),
             )
         ]
-        if self._ray_scene is not None and any(not robot.is_crane for robot in self.robots.values()):
+        if self._ray_scene is not None and any(robot.drives for robot in self.robots.values()):
             self._ray_scene.refresh()  # once a period, before the scans: what moved since the last
         for robot_id, robot in self.robots.items():
-            if robot.is_crane:  # it stands where it was built: its odometry is that pose, exactly
+            if not robot.drives:  # it stands where it was set up: its odometry is that pose, exactly
                 current = pose = robot.start_xy_yaw
                 v = w = 0.0
             elif odometry:
@@ -459,7 +459,7 @@ class Simulation:
                     OdomMsg(robot_id=robot_id, pose_xy_yaw=pose, v_mps=v, w_radps=w, sim_time_s=now),
                 )
             )
-            if not robot.is_crane:
+            if robot.drives:
                 out.append(self._scan(robot, now))
                 if self._station is not None:
                     out.append(

@@ -27,7 +27,7 @@ from bimbot.shared.identifiers import named_guid
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import SiteInfoMsg
 from bimbot.shared.reasons import Reason, ReasonCode
-from bimbot.shared.robot_description import RobotDescription
+from bimbot.shared.robot_description import Capability, RobotDescription
 from bimbot.shared.sequence import priority_topological_order
 from bimbot.shared.site_access import AccessConfig, SiteAccess, check_order
 
@@ -50,8 +50,8 @@ class AccessOutcome:
 
 def site_robot(info: SiteInfoMsg) -> RobotDescription:
     """The robot type the access check plans for: the widest ground type on site (what fits it fits the
-    others; a tower crane never drives)."""
-    ground = [robot for robot in info.robot_types.values() if not robot.is_crane]
+    others; a machine that stands fixed never drives)."""
+    ground = [robot for robot in info.robot_types.values() if robot.can(Capability.DRIVE)]
     return max(ground or info.robot_types.values(), key=lambda robot: (robot.radius_m, robot.name))
 
 

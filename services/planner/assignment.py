@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import RobotState, TaskKind
+from bimbot.shared.robot_description import Capability
 from bimbot.shared.site_cranes import staging_spots
 
 from .capability import (
@@ -128,7 +129,7 @@ def _hand_off_spot(
     cranes = [
         site[record.robot_id]
         for record in records
-        if site[record.robot_id].is_crane
+        if site[record.robot_id].description.can(Capability.HOOK_LIFT)
         and can_place(site[record.robot_id], component)
         and staging_reached(site[record.robot_id], component)
     ]

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import SiteInfoMsg
-from bimbot.shared.robot_description import RobotDescription
+from bimbot.shared.robot_description import Capability, RobotDescription
 from bimbot.shared.site_plan import Rect, SiteLayout
 
 DETOUR = 1.5  # driven path / straight line on a site with a yard, aisles and lanes
@@ -46,8 +46,13 @@ class SiteRobot:
     staging: Rect | None = None
 
     @property
-    def is_crane(self) -> bool:
-        return self.description.is_crane
+    def stands_fixed(self) -> bool:
+        """It stands where the site plan put it (``home_xy_yaw``) for the whole build."""
+        return self.description.can(Capability.STAND_FIXED)
+
+    @property
+    def lifts_by_hook(self) -> bool:
+        return self.description.can(Capability.HOOK_LIFT)
 
 
 def site_robots(info: SiteInfoMsg) -> list[SiteRobot]:
@@ -63,7 +68,7 @@ def robots_on_plan(
     robots: list[SiteRobot] = []
     staging = list(layout.staging)
     for robot_id, description, start in zip(robot_ids, descriptions, layout.robot_starts, strict=True):
-        area = staging.pop(0) if description.is_crane and staging else None
+        area = staging.pop(0) if description.can(Capability.HOOK_LIFT) and staging else None
         robots.append(SiteRobot(robot_id, description, tuple(start), area))  # type: ignore[arg-type]
     return robots
 
@@ -114,19 +119,19 @@ def can_place(robot: SiteRobot, component: Component) -> bool:
     top_z_m = component.bbox_world.max_m[2]
     if robot.description.refusal(component.mass_kg, top_z_m) is not None:
         return False
-    return not robot.is_crane or crane_reaches_target(robot, component)
+    return not robot.lifts_by_hook or crane_reaches_target(robot, component)
 
 
 def can_build_from(robot: SiteRobot, component: Component, where: Where) -> bool:
     """``robot`` can pick ``component`` up where it lies and place it."""
     if not can_place(robot, component):
         return False
-    return not robot.is_crane or crane_reaches_centre(robot, where, component.mass_kg)
+    return not robot.lifts_by_hook or crane_reaches_centre(robot, where, component.mass_kg)
 
 
 def can_carry(robot: SiteRobot, component: Component) -> bool:
-    """A ground robot that can carry the component (to a staging area: its placement height is moot)."""
-    return not robot.is_crane and component.mass_kg <= robot.description.payload_kg
+    """A robot that can carry the component to a crane's staging area (its placement height is moot)."""
+    return robot.description.can(Capability.HAND_OFF) and component.mass_kg <= robot.description.payload_kg
 
 
 def staging_reached(crane: SiteRobot, component: Component) -> bool:
@@ -152,7 +157,7 @@ def task_estimate_s(
     description = robot.description
     target = target_centre_xy(component)
     handling_s = 2.0 * description.handling_s
-    if description.crane is not None:
+    if robot.lifts_by_hook and description.crane is not None:
         start = (*where.xy_m, where.top_z_m)
         end = (target[0], target[1], component.bbox_world.max_m[2])
         return description.crane.motion_s(robot.home_xy_yaw[:2], start, end) + handling_s

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 from bimbot.shared.manifest import Component, MassSource
 from bimbot.shared.reasons import Reason, ReasonCode
+from bimbot.shared.robot_description import Capability
 from bimbot.shared.site_plan import YardSlot
 
 from .capability import (
@@ -66,9 +67,13 @@ def component_feasibility(
     for robot in robots:
         name = robot.description.name
         if can_build_from(robot, component, where):
-            routes.append(f"{name} ({robot.robot_id})" if robot.is_crane else name)
+            routes.append(f"{name} ({robot.robot_id})" if robot.stands_fixed else name)
             types.add(name)
-        elif robot.is_crane and can_place(robot, component) and staging_reached(robot, component):
+        elif (
+            robot.description.can(Capability.HOOK_LIFT)
+            and can_place(robot, component)
+            and staging_reached(robot, component)
+        ):
             carriers = sorted({r.description.name for r in robots if can_carry(r, component)})
             for carrier in carriers:
                 routes.append(f"{carrier} → {name} ({robot.robot_id}, hand-off)")
@@ -110,7 +115,7 @@ def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) ->
     for robot in robots:
         spec = robot.description.crane
         if spec is None or robot.description.refusal(mass, top_z) is not None:
-            continue
+            continue  # only a hook's load chart turns on the distance
         base = robot.home_xy_yaw[:2]
         radius = spec.radius_for(mass)
         if not can_place(robot, component):
@@ -129,7 +134,7 @@ def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) ->
                 robot_id=robot.robot_id,
             )
         far = math.dist(base, where.xy_m)
-        carriers = [r.description for r in robots if not r.is_crane]
+        carriers = [r.description for r in robots if r.description.can(Capability.HAND_OFF)]
         strongest = max((item.payload_kg for item in carriers), default=0.0)
         if mass > strongest:
             hand_off = (
@@ -150,7 +155,9 @@ def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) ->
         )
     refusals = [robot.description.refusal(mass, top_z) for robot in robots]
     refusal = next(refusal for refusal in refusals if refusal is not None)
-    if refusal.code is ReasonCode.OUT_OF_REACH and not any(robot.is_crane for robot in robots):
+    if refusal.code is ReasonCode.OUT_OF_REACH and not any(
+        robot.description.can(Capability.HOOK_LIFT) for robot in robots
+    ):
         return refusal.model_copy(update={"message": refusal.message + NO_CRANE_HINT})
     return refusal
 

@@ -77,6 +77,7 @@ from bimbot.shared.messages import (
     TwinMsg,
 )
 from bimbot.shared.reasons import Reason
+from bimbot.shared.robot_description import Capability
 
 from . import give_back
 from .approach import ApproachConfig, exit_point
@@ -546,6 +547,6 @@ def put_down_footprint(xy_m: tuple[float, float]) -> Footprint:
 
 
 def executor_class(info: SiteInfoMsg, robot_id: str) -> type[Executor]:
-    """:class:`CraneExecutor` for a crane type, else :class:`Executor`."""
+    """:class:`CraneExecutor` for a type that lifts by hook, else :class:`Executor`."""
     description = info.robot_types[info.robot_type_of[robot_id]]
-    return CraneExecutor if description.is_crane else Executor
+    return CraneExecutor if description.can(Capability.HOOK_LIFT) else Executor

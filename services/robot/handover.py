@@ -27,7 +27,7 @@ from bimbot.shared.messages import (
     TaskKind,
 )
 from bimbot.shared.reasons import Reason
-from bimbot.shared.robot_description import RobotDescription
+from bimbot.shared.robot_description import Capability, RobotDescription
 
 from .task_state import ExecutorConfig, Task
 
@@ -110,8 +110,8 @@ class Handover:
     def _believed_pose(self, task: Task) -> tuple[float, float, float] | None:
         """Where the robot believes it stands as it places, after a fine alignment to what its laser sees
         (:mod:`.fine_alignment`): physics puts the component there relative to where it really stands. A
-        crane's base never moves: it knows its pose (None)."""
-        if self.description.is_crane:
+        machine that stands fixed knows its pose (None)."""
+        if not self.description.can(Capability.DRIVE):
             return None
         alignment = self.navigator.align()
         _log.info(
