@@ -18,6 +18,8 @@ Key space (``<site>`` is the manifest's site slug, ``<key>`` a component's bus k
     bimbot/<site>/physics/attach              (queryable)         physics answers AttachRequest → PhysicsReply
     bimbot/<site>/physics/place               (queryable)         physics answers PlaceRequest → PhysicsReply
     bimbot/<site>/physics/drop                (queryable)         physics answers DropRequest → PhysicsReply
+    bimbot/<site>/physics/build               (queryable)         physics answers BuildRequest → PhysicsReply
+    bimbot/<site>/physics/skip                (queryable)         physics answers SkipRequest → PhysicsReply
     bimbot/<site>/physics/poses               (queryable)         physics answers SitePosesMsg
     bimbot/<site>/planner/plan                (queryable)         planner answers PlannedSequenceMsg
     bimbot/<site>/clock                       ClockMsg            physics → all
@@ -43,6 +45,7 @@ from typing import Final, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from .construction_methods import ConstructionMethod
 from .keyspace import Entry, Liveliness, Queryable, Topic
 from .message_bounds import (
     Angle,
@@ -97,6 +100,9 @@ class ComponentState(StrEnum):
     PICKING = "picking"
     TRANSPORTING = "transporting"
     ASSEMBLING = "assembling"
+    FORMING = "forming"  # cast in place: formwork and reinforcement being set
+    POURING = "pouring"  # cast in place: concrete being placed
+    LAYING = "laying"  # laid: courses being laid
     VERIFYING = "verifying"
     CONSTRUCTED = "constructed"
     MISPLACED = "misplaced"
@@ -117,6 +123,9 @@ class ComponentEvent(StrEnum):
     FAIL = "fail"  # planner: the component cannot be built (``reason``: too heavy, give-backs exhausted…)
     BLOCK = "block"  # planner: a predecessor failed (``reason`` blocked_by); never released
     HAND_OFF = "hand_off"  # robot: put down at a crane's staging spot (a hand-off task); released again
+    FORM = "form"  # crew: formwork begins (cast in place)
+    POUR = "pour"  # crew: the pour begins (cast in place)
+    LAY = "lay"  # block layer: laying begins (laid)
 
 
 class PoseMsg(BaseModel):
@@ -235,6 +244,7 @@ class TaskMsg(_Message):
     reason: Reason | None = None  # failed/blocked tasks: why
     kind: TaskKind = TaskKind.BUILD
     put_down_xy_m: PointXY | None = None  # hand-off tasks: where the load goes down
+    method: ConstructionMethod = ConstructionMethod.LIFTED  # how it is built (the manifest's method)
 
 
 # --- robots ----------------------------------------------------------------------------------------------
@@ -254,6 +264,7 @@ class RobotState(StrEnum):
     PICK_UP = "pick_up"
     IDENTIFY_TARGET_LOCATION = "identify_target_location"
     ASSEMBLE = "assemble"
+    WORK_IN_PLACE = "work_in_place"  # cast in place or laid: timed work at the component's target
 
 
 class RobotStateMsg(_Message):
@@ -266,6 +277,9 @@ class RobotStateMsg(_Message):
     wall_time_s: WallTime
     distance_m: NonNegative = 0.0
     activity: str = ""  # what the robot is doing, in words (a stall report and the live progress show it)
+    # timed work in place (formwork, pour, a course): nothing of this robot changes before this sim time,
+    # so a site where nothing else moves may skip to it (``physics/skip``)
+    busy_until_s: SimTime | None = None
 
 
 class CmdVelMsg(_Message):
@@ -334,6 +348,8 @@ PHYSICS_ATTACH_KEY = "bimbot/{site}/physics/attach"
 PHYSICS_PLACE_KEY = "bimbot/{site}/physics/place"
 PHYSICS_DROP_KEY = "bimbot/{site}/physics/drop"
 PHYSICS_POSES_KEY = "bimbot/{site}/physics/poses"
+PHYSICS_BUILD_KEY = "bimbot/{site}/physics/build"
+PHYSICS_SKIP_KEY = "bimbot/{site}/physics/skip"
 
 
 class SiteInfoMsg(_Message):
@@ -391,6 +407,26 @@ class DropRequest(_Message):
     guid: str
     near_xy_m: PointXY | None = None  # a hand-off: put it down as near this staging spot as is free
     step: Step | None = None  # the clock step the robot answered as it asked (physics acts on it in turn)
+
+
+class BuildRequest(_Message):
+    """A component built where it stands (cast in place, laid): physics makes it stand at its BIM target,
+    static, up to ``height_fraction`` of its height from its bottom (a laid wall grows course by course;
+    1.0: the whole component, a pour)."""
+
+    robot_id: str
+    guid: str
+    height_fraction: float = Field(default=1.0, gt=0.0, le=1.0)
+    step: Step | None = None  # the clock step the robot answered as it asked (physics acts on it in turn)
+
+
+class SkipRequest(_Message):
+    """The planner sees a site where nothing moves until ``to_sim_s`` (curing, timed work in place): physics
+    jumps its clock there if nothing moves indeed (no load carried or settling, every robot standing still),
+    else it refuses and says why."""
+
+    to_sim_s: SimTime
+    why: str = Field(default="", max_length=500)
 
 
 class SitePosesMsg(_Message):
@@ -477,6 +513,8 @@ PHYSICS_ATTACH = Queryable(PHYSICS_ATTACH_KEY, AttachRequest, PhysicsReply, "phy
 PHYSICS_PLACE = Queryable(PHYSICS_PLACE_KEY, PlaceRequest, PhysicsReply, "physics")
 PHYSICS_DROP = Queryable(PHYSICS_DROP_KEY, DropRequest, PhysicsReply, "physics")
 PHYSICS_POSES = Queryable(PHYSICS_POSES_KEY, None, SitePosesMsg, "physics")
+PHYSICS_BUILD = Queryable(PHYSICS_BUILD_KEY, BuildRequest, PhysicsReply, "physics")
+PHYSICS_SKIP = Queryable(PHYSICS_SKIP_KEY, SkipRequest, PhysicsReply, "physics")
 PLANNER_PLAN = Queryable(PLANNER_PLAN_KEY, None, PlannedSequenceMsg, "planner")
 CLOCK = Topic(CLOCK_KEY, ClockMsg, "physics", "all")
 PROGRESS = Topic(PROGRESS_KEY, ProgressMsg, "planner", "all")
@@ -498,6 +536,8 @@ KEY_SPACE: tuple[Entry, ...] = (
     PHYSICS_ATTACH,
     PHYSICS_PLACE,
     PHYSICS_DROP,
+    PHYSICS_BUILD,
+    PHYSICS_SKIP,
     PHYSICS_POSES,
     PLANNER_PLAN,
     CLOCK,

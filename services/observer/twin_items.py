@@ -24,6 +24,9 @@ STATE_COLORS: dict[ComponentState, Rgba] = {
     ComponentState.PICKING: (0, 229, 255, 255),  # cyan: a robot is coming for it
     ComponentState.TRANSPORTING: (255, 152, 0, 255),  # orange: carried
     ComponentState.ASSEMBLING: (156, 39, 176, 255),  # purple: being put in place
+    ComponentState.FORMING: (0, 0, 195, 255),  # navy: formwork going up around it
+    ComponentState.POURING: (0, 150, 136, 255),  # teal: concrete going in
+    ComponentState.LAYING: (233, 30, 99, 255),  # pink: courses going up
     ComponentState.VERIFYING: (255, 235, 59, 255),  # yellow: checking its own pose
     ComponentState.CONSTRUCTED: (46, 160, 67, 255),  # green: done
     ComponentState.MISPLACED: (244, 67, 54, 255),  # red: off target, will be retried
@@ -36,6 +39,7 @@ ROBOT_COLORS: dict[RobotState, Rgba] = {
     RobotState.PICK_UP: (0, 229, 255, 255),
     RobotState.IDENTIFY_TARGET_LOCATION: (255, 152, 0, 255),
     RobotState.ASSEMBLE: (156, 39, 176, 255),
+    RobotState.WORK_IN_PLACE: (0, 150, 136, 255),
 }
 STATE_LOG_LEVELS: dict[ComponentState, str] = {
     ComponentState.MISPLACED: "WARN",

@@ -14,7 +14,16 @@ from bimbot.shared.messages import ComponentEventMsg, ComponentState, RobotState
 from bimbot.shared.reasons import Reason
 
 SOURCE = "planner"
-CARRYING = frozenset({ComponentState.PICKING, ComponentState.TRANSPORTING, ComponentState.ASSEMBLING})
+CARRYING = frozenset(
+    {
+        ComponentState.PICKING,
+        ComponentState.TRANSPORTING,
+        ComponentState.ASSEMBLING,
+        ComponentState.FORMING,
+        ComponentState.POURING,
+        ComponentState.LAYING,
+    }
+)
 TERMINAL = frozenset({ComponentState.CONSTRUCTED, ComponentState.FAILED, ComponentState.BLOCKED})
 Outgoing = ComponentEventMsg | TaskMsg
 
