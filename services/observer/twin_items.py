@@ -26,7 +26,7 @@ STATE_COLORS: dict[ComponentState, Rgba] = {
     ComponentState.ASSEMBLING: (156, 39, 176, 255),  # purple: being put in place
     ComponentState.FORMING: (0, 0, 195, 255),  # navy: formwork going up around it
     ComponentState.POURING: (0, 150, 136, 255),  # teal: concrete going in
-    ComponentState.LAYING: (233, 30, 99, 255),  # pink: courses going up
+    ComponentState.LAYING: (255, 90, 255, 255),  # magenta: courses going up
     ComponentState.VERIFYING: (255, 235, 59, 255),  # yellow: checking its own pose
     ComponentState.CONSTRUCTED: (46, 160, 67, 255),  # green: done
     ComponentState.MISPLACED: (244, 67, 54, 255),  # red: off target, will be retried
