@@ -13,7 +13,8 @@ Protocol (docs/architecture.md, "Construction protocol"):
 * each ``event_id`` is applied once (delivery is at least once), a repeat is ignored;
 * each ``place`` is one attempt. In ``verifying`` the agent needs a pose of itself from the placement: one
   stamped at or after the ``place`` event's sim time, or one marked ``fixed`` (fixed to the structure by
-  physics) stamped at or after the ``arrive`` event, since physics fixes the component before the robot
+  physics) stamped at or after the ``arrive`` event (``pour``, ``lay`` for work in place), since physics
+  fixes the component before the robot
   reports ``place``. It compares that pose with its BIM target (:mod:`.verification`). When none
   arrives within ``verify_timeout_s`` wall seconds it verifies the latest pose it has, or, with no pose at
   all, judges the placement a failure ("no pose on the bus"). A failure with attempts left is
@@ -79,8 +80,14 @@ ROBOT_EVENTS = frozenset(
         ComponentEvent.ARRIVE,
         ComponentEvent.PLACE,
         ComponentEvent.HAND_OFF,
+        ComponentEvent.FORM,
+        ComponentEvent.POUR,
+        ComponentEvent.LAY,
     }
 )
+# events after which physics may fix the component where it stands before the robot says place: a lifted
+# component at its target (connected), a cast one poured, a laid one's last course
+FIXED_AFTER = frozenset({ComponentEvent.ARRIVE, ComponentEvent.POUR, ComponentEvent.LAY})
 
 
 @dataclass(frozen=True)
@@ -245,7 +252,7 @@ class ComponentAgent:
             self.robot_id = msg.robot_id
         if msg.reason is not None:
             self.reason = msg.reason
-        if msg.event is ComponentEvent.ARRIVE:
+        if msg.event in FIXED_AFTER:
             self.arrive_sim_time_s = msg.sim_time_s
         if msg.event is ComponentEvent.PLACE:
             self.attempt += 1

@@ -13,7 +13,9 @@ state):
   components/<key>/twin``, answered through the inbox) and only the twin's answer is acted on;
 * queryables ``physics/info`` (SiteInfoMsg), ``physics/attach`` (AttachRequest → PhysicsReply),
   ``physics/drop`` (DropRequest → PhysicsReply: a robot that cannot deliver its load puts it down) and
-  ``physics/place`` (PlaceRequest → PhysicsReply). The loop answers them; a place reply is held back
+  ``physics/place`` (PlaceRequest → PhysicsReply), ``physics/build`` (BuildRequest → PhysicsReply: a
+  component built where it stands) and ``physics/skip`` (SkipRequest → PhysicsReply: the clock jumps over
+  a quiet site). The loop answers them; a place reply is held back
   until the assembly motion ends (a querier's timeout must exceed ``duration_s`` / rtf). An invalid
   payload is counted and answered ``ok=False`` with the reason;
 * liveliness token ``bimbot/<site>/alive/physics/main``.
@@ -58,18 +60,22 @@ from bimbot.shared.messages import (
     ALIVE_KEY,
     COMPONENT_STATE,
     PHYSICS_ATTACH,
+    PHYSICS_BUILD,
     PHYSICS_DROP,
     PHYSICS_INFO,
     PHYSICS_PLACE,
     PHYSICS_POSES,
+    PHYSICS_SKIP,
     ROBOT_CMD_VEL,
     AttachRequest,
+    BuildRequest,
     CmdVelMsg,
     ComponentState,
     ComponentStateMsg,
     DropRequest,
     PhysicsReply,
     PlaceRequest,
+    SkipRequest,
     TwinMsg,
     key,
 )
@@ -191,6 +197,8 @@ class _Loop:
             inbox.serve(session, PHYSICS_ATTACH, complete=True, site=site),
             inbox.serve(session, PHYSICS_PLACE, complete=True, site=site),
             inbox.serve(session, PHYSICS_DROP, complete=True, site=site),
+            inbox.serve(session, PHYSICS_BUILD, complete=True, site=site),
+            inbox.serve(session, PHYSICS_SKIP, complete=True, site=site),
             inbox.serve(session, PHYSICS_POSES, complete=True, site=site),
         ]
         declarations.append(
@@ -392,6 +400,13 @@ class _Loop:
             self._reply(query, reply_key, self.sim.attach(request))
         elif isinstance(request, DropRequest):
             self._reply(query, reply_key, self.sim.drop(request))
+        elif isinstance(request, BuildRequest):
+            self._reply(query, reply_key, self.sim.build(request))
+        elif isinstance(request, SkipRequest):
+            skipped = self.sim.skip(request)
+            if skipped.ok:
+                self.pacer.rebase()  # paced runs go on from the new sim time, not sleep through the jump
+            self._reply(query, reply_key, skipped)
         elif isinstance(request, PlaceRequest):
             ticket = next(self._tickets)
             reply = self.sim.place(request, ticket)

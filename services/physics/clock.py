@@ -24,6 +24,10 @@ class Pacer:
         self._wall0: float | None = None
         self._sim0 = 0.0
 
+    def rebase(self) -> None:
+        """Pace on from the next period as if it were the first (the clock jumped over a quiet site)."""
+        self._wall0 = None
+
     def delay_s(self, sim_time_s: float, now_wall_s: float) -> float:
         """Wall seconds to wait before simulating past ``sim_time_s`` (0 when due or unpaced)."""
         if self.rtf == 0.0:

@@ -1,6 +1,7 @@
 """Attach, carry, place and drop: what happens to components between the yard and the structure.
 
-Every component is in one of six phases:
+Every component is in one of seven phases (one more, ``unbuilt``, for a component cast in place or laid
+before it is built: :mod:`.in_place_work`):
 
 * ``resting`` — in its yard slot (or where a robot put it down: a lost robot's load, or a load its robot
   could not deliver and asked to drop): static, attachable by any robot.
@@ -49,6 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, PhysicsReply
 from bimbot.shared.robot_description import LIFT_CLEARANCE_M
@@ -80,6 +82,8 @@ from .scene import (
 )
 
 _log = logging.getLogger(__name__)
+
+BUILT_WHERE_IT_STANDS = (ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID)
 
 
 @dataclass(frozen=True)
@@ -273,6 +277,8 @@ class Handling(Placing):
             return f"unknown component {guid}"
         if item.phase is Phase.JOINED:
             return f"{guid} is constructed (joined to the structure)"
+        if item.phase is Phase.UNBUILT or item.component.method in BUILT_WHERE_IT_STANDS:
+            return f"{guid} is {item.component.method.value}: it is built where it stands, never carried"
         if item.phase in DYNAMIC_PHASES and not fixed_ok:
             return f"{guid} is placed"
         return None
@@ -450,7 +456,9 @@ class Handling(Placing):
             pose=pose_msg(item.pose),
             sim_time_s=now_s,
             attached_to=item.carrier,
-            fixed=item.phase is Phase.JOINED or (watch is not None and watch.settled),
+            # built in place (poured, laid) is placed without a watch: it stands where it was built
+            fixed=item.phase is Phase.JOINED
+            or (watch.settled if watch is not None else item.phase is Phase.PLACED),
             joined=item.phase is Phase.JOINED,
             drift_m=drift,
             supports=list(watch.supports if watch is not None else item.supports),

@@ -64,6 +64,7 @@ FELL_OFF_M = 5.0  # below the ground or beyond the fence by this much, a release
 
 
 class Phase(StrEnum):
+    UNBUILT = "unbuilt"  # cast in place or laid, not built yet: out of sight (:mod:`.in_place_work`)
     RESTING = "resting"
     CARRIED = "carried"
     ASSEMBLING = "assembling"

@@ -59,6 +59,7 @@ class _ClientRecord:
     version: int = 0  # changes with every group that changes
     dynamic: set[int] = field(default_factory=set)  # bodies Bullet moves (posed every period)
     moved: set[int] = field(default_factory=set)  # bodies set somewhere since the last posing
+    bodies_version: int = 0  # changes with every body registered or removed: the caster rebuilds
 
 
 _RECORDS: dict[int, _ClientRecord] = {}
@@ -74,6 +75,18 @@ def _record(client_id: int) -> _ClientRecord:
 def forget(client_id: int) -> None:
     """Drop what was recorded for a client (it was disconnected)."""
     _RECORDS.pop(client_id, None)
+
+
+def unregister(client_id: int, body_id: int) -> None:
+    """Forget a body about to be removed from the client (a course of a wall being laid)."""
+    record = _record(client_id)
+    record.compounds.pop(body_id, None)
+    record.dynamic.discard(body_id)
+    record.moved.discard(body_id)
+    for slot in [slot for slot in record.groups if slot[0] == body_id]:
+        del record.groups[slot]
+    record.version += 1
+    record.bodies_version += 1
 
 
 def note_group(client_id: int, body_id: int, link: int, group: int) -> None:
@@ -167,6 +180,7 @@ def _flat_hull_planes(points: np.ndarray) -> np.ndarray | None:
 def register_hulls(client_id: int, body_id: int, parts: Sequence[np.ndarray]) -> None:
     """A compound body's convex parts, each as vertices in the body's (centre-of-mass) frame."""
     primitives = [hull_primitive(part) for part in parts]
+    _record(client_id).bodies_version += 1
     if any(primitive is None for primitive in primitives):
         _log.info("body %d has a collision part without volume: the laser casts with Bullet", body_id)
         _record(client_id).compounds[body_id] = []  # known, but not representable
@@ -225,6 +239,7 @@ class RayScene:
         self.client_id = client_id
         self.unsupported: str | None = None  # why the caster cannot stand in for Bullet (then cast is None)
         self._bodies = -1  # bodies seen at the last build
+        self._bodies_version = -1  # the record's bodies_version at the last build
         self._slots: list[_Slot] = []
         self._planes_of: set[tuple[int, int]] = set()  # (body, link) holding a plane (the ground)
         self._groups_at: tuple[int, int] = (-1, -1)  # (record version, bodies) the shape groups are from
@@ -297,7 +312,11 @@ class RayScene:
         components) and the bodies set somewhere (carried, placed, restored); all of them after the
         scene changed. A resting component is static in Bullet (mass 0): it moves only when set."""
         record = _record(self.client_id)
-        if p.getNumBodies(physicsClientId=self.client_id) != self._bodies:
+        if (
+            p.getNumBodies(physicsClientId=self.client_id) != self._bodies
+            or record.bodies_version != self._bodies_version
+        ):
+            self._bodies_version = record.bodies_version
             self._build()
             bodies = set(self._slots_of)
         else:

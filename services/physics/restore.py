@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 from bimbot.shared.messages import ComponentState, PoseMsg, TwinMsg
 
+from .placing import Phase
 from .scene import Frame
 from .simulation import Simulation
 from .snapshot import PhysicsSnapshot
@@ -78,6 +79,10 @@ def restore_site(sim: Simulation, snapshot: PhysicsSnapshot, twins: Iterable[Twi
         before = handling.items[guid].pose
         if carrier is not None or pose.fixed or math.dist(before[0], frame[0]) > MOVED_M:
             moved += 1
+        if handling.items[guid].phase is Phase.UNBUILT:  # built where it stands: poured or laid
+            if pose.fixed:
+                sim.in_place_work.stand_built(guid, frame)
+            continue
         handling.restore(guid, frame, fixed=pose.fixed and carrier is None, carrier=carrier)
     constructed = from_twins = 0
     for twin in twins:
@@ -88,9 +93,15 @@ def restore_site(sim: Simulation, snapshot: PhysicsSnapshot, twins: Iterable[Twi
         record = snapshot.components.get(twin.guid)
         if record is None or not record.fixed:
             placed = twin.current_pose or twin.target_pose
-            handling.restore(twin.guid, _frame(placed), fixed=True, carrier=None)
+            if handling.items[twin.guid].phase is Phase.UNBUILT:
+                sim.in_place_work.stand_built(twin.guid, _frame(placed))
+                handling.note_constructed(twin.guid, True)
+            else:
+                handling.restore(twin.guid, _frame(placed), fixed=True, carrier=None)
             from_twins += 1
     sim.step = snapshot.step + 1  # after the last step anyone can have seen
+    # the clock's jumps over quiet sites (Simulation.skip) carry over: sim time is not step × period
+    sim.skipped_s = max(0.0, snapshot.sim_time_s - snapshot.step * sim.config.control_period_s)
     sim.epoch = snapshot.epoch + 1
     restored = Restored(sim.epoch, sim.step, robots, moved, constructed, from_twins)
     _log.warning(

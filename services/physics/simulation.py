@@ -46,6 +46,7 @@ from bimbot.shared.messages import (
     ROBOT_POSE_KEY,
     ROBOT_SENSORS_KEY,
     AttachRequest,
+    BuildRequest,
     ClockMsg,
     CmdVelMsg,
     DropRequest,
@@ -55,6 +56,7 @@ from bimbot.shared.messages import (
     ScanMsg,
     SiteInfoMsg,
     SitePosesMsg,
+    SkipRequest,
     key,
 )
 from bimbot.shared.site_layout import plan_site
@@ -65,6 +67,7 @@ from .connections import ConnectionConfig
 from .crane import HOIST, SLEW, TROLLEY, CraneJoints
 from .fleet_spawn import robot_pose_msg, robot_types, spawn_fleet, types_on_site
 from .handling import Handling, HandlingConfig, Item, Phase
+from .in_place_work import BUILT_IN_PLACE, InPlaceWork, hide
 from .odometry import Odometry
 from .pits import Pits, collision_part_boxes
 from .positioning import TotalStation
@@ -164,6 +167,9 @@ class Simulation:
         self.layout: SiteLayout = plan_site(manifest.components, fleet=self.robot_types)
         self._client = BulletClient(p.GUI if gui else None)
         self.step = 0
+        self.skipped_s = (
+            0.0  # sim time jumped over a quiet site (:meth:`skip`): sim time is not step × period
+        )
         self.epoch = 0  # physics starts of this run - 1 (:mod:`.restore`)
         self.stepping_wall_s = 0.0  # wall seconds in pybullet's stepSimulation alone (a run's reference)
         self.steps_taken = 0
@@ -186,7 +192,9 @@ class Simulation:
         self._refresh_cursor = 0
         self._refresh_credit = 0.0  # repeated poses due, a fraction carried to the next period
         self._late_replies: list[tuple[object, PhysicsReply]] = []
+        self.skips = 0  # clock jumps over a quiet site
         self.handling: Handling
+        self.in_place_work: InPlaceWork
 
     # --- lifecycle -----------------------------------------------------------------------------------
 
@@ -218,8 +226,9 @@ class Simulation:
         self.fence_ids = create_fence(cid, self.layout.fence)
         items: dict[str, Item] = {}
         for component in self.manifest.components:
-            slot = self.layout.slots[component.guid]
-            frame = (slot.position_m, slot.quat_xyzw)
+            slot = self.layout.slots.get(component.guid)
+            target = component.target_pose_world
+            frame = (slot.position_m, slot.quat_xyzw) if slot else (target.position_m, target.quat_xyzw)
             model = component_model(component, self.build_dir)
             body = create_component_body(cid, component, model, frame, visual=self.config.visuals)
             p.setCollisionFilterPair(self.ground_id, body.body_id, -1, -1, 0, physicsClientId=cid)
@@ -250,6 +259,10 @@ class Simulation:
             in_place={body: guid for guid, body in self.in_place_bodies.items()},
             seed=self.config.seed,
         )
+        self.in_place_work = InPlaceWork(cid, self.handling, self.build_dir, ground_id=self.ground_id)
+        for item in items.values():
+            if item.component.method in BUILT_IN_PLACE:  # built where it stands, never in the yard
+                hide(cid, item)
         self._guids = list(items)
         self.robots = spawn_fleet(
             cid, self.robot_types, self.layout.robot_starts, self.config.robot, self.config.fleet
@@ -279,7 +292,7 @@ class Simulation:
 
     @property
     def sim_time_s(self) -> float:
-        return self.step * self.config.control_period_s
+        return self.step * self.config.control_period_s + self.skipped_s
 
     @property
     def robot_ids(self) -> list[str]:
@@ -308,7 +321,11 @@ class Simulation:
             step=self.step,
             epoch=self.epoch,
             sim_time_s=now,
-            components={guid: self.handling.pose_message(guid, now) for guid in self.handling.items},
+            components={
+                guid: self.handling.pose_message(guid, now)
+                for guid, item in self.handling.items.items()
+                if item.phase is not Phase.UNBUILT
+            },
             robots={
                 robot_id: robot_pose_msg(
                     robot, robot.pose_xy_yaw(cid), now, self.handling.carrying.get(robot_id)
@@ -393,6 +410,48 @@ class Simulation:
             believed_xy_yaw=request.believed_xy_yaw,
         )
 
+    def build(self, request: BuildRequest) -> PhysicsReply:
+        """Build a component where it stands, up to a fraction of its height (:mod:`.in_place_work`)."""
+        robot = self.robots.get(request.robot_id)
+        return self.in_place_work.build(robot, request.guid, request.height_fraction, self.sim_time_s)
+
+    def quiet(self) -> str | None:
+        """None when nothing moves on the site (no load carried or being placed, nothing settling or held
+        while it is connected, no robot commanded to move); else what moves, in words."""
+        now = self.sim_time_s
+        handling = self.handling
+        for robot_id, guid in sorted(handling.carrying.items()):
+            return f"{robot_id} carries {guid}"
+        for guid, watch in sorted(handling.watch.items()):
+            if not watch.settled:
+                return f"{guid} is settling"
+            if watch.tag is not None or now < watch.hold_until_s:
+                return f"{guid} is being set down"
+        if self._late_replies:
+            return "a placement is being answered"
+        for robot_id, robot in self.robots.items():
+            if robot.drives and max(abs(value) for value in robot.command) > 1e-6:
+                return f"{robot_id} is driving"
+        return None
+
+    def skip(self, request: SkipRequest) -> PhysicsReply:
+        """Jump the clock to ``request.to_sim_s`` over a quiet site (:meth:`quiet`), or say what moves."""
+        now = self.sim_time_s
+        if request.to_sim_s <= now:
+            return PhysicsReply(ok=True, sim_time_s=now)
+        moving = self.quiet()
+        if moving is not None:
+            return PhysicsReply(ok=False, reason=f"not quiet: {moving}", sim_time_s=now)
+        self.skipped_s += request.to_sim_s - now
+        self.skips += 1
+        _log.info(
+            "skipped %.0f s of sim time over a quiet site, to t=%.0f s%s",
+            request.to_sim_s - now,
+            request.to_sim_s,
+            f" ({request.why})" if request.why else "",
+        )
+        return PhysicsReply(ok=True, sim_time_s=self.sim_time_s)
+
     # --- stepping ------------------------------------------------------------------------------------
 
     def advance(self, real_time_factor: float | None = None) -> PeriodResult:
@@ -423,7 +482,11 @@ class Simulation:
         """Step 0: the clock, every robot's sensors and pose, and every component's pose."""
         messages = self._period_messages(None, odometry=False)
         listed = {m.message.guid for m in messages if hasattr(m.message, "guid")}
-        messages.extend(self._component_pose(guid) for guid in self.handling.items if guid not in listed)
+        messages.extend(
+            self._component_pose(guid)
+            for guid, item in self.handling.items.items()
+            if guid not in listed and item.phase is not Phase.UNBUILT
+        )
         return messages
 
     def _period_messages(self, real_time_factor: float | None, *, odometry: bool) -> list[Outgoing]:
@@ -474,7 +537,8 @@ class Simulation:
                     robot_pose_msg(robot, current, now, self.handling.carrying.get(robot_id)),
                 )
             )
-        changed = self.handling.take_changed()
+        items = self.handling.items
+        changed = [guid for guid in self.handling.take_changed() if items[guid].phase is not Phase.UNBUILT]
         out.extend(self._component_pose(guid) for guid in changed)
         out.extend(self._component_pose(guid) for guid in self._refresh_slice(set(changed), rtf))
         return out
@@ -511,7 +575,8 @@ class Simulation:
         self._refresh_credit = min(self._refresh_credit - per_period, 1.0)
         chosen = [guids[(self._refresh_cursor + i) % len(guids)] for i in range(min(per_period, len(guids)))]
         self._refresh_cursor = (self._refresh_cursor + len(chosen)) % len(guids)
-        return [guid for guid in chosen if guid not in skip]
+        items = self.handling.items
+        return [guid for guid in chosen if guid not in skip and items[guid].phase is not Phase.UNBUILT]
 
     def _component_pose(self, guid: str) -> Outgoing:
         component = self.handling.items[guid].component
