@@ -41,6 +41,7 @@ from bimbot.shared.messages import (
     COMPONENT_POSE,
     COMPONENT_STATE,
     PHYSICS_ATTACH,
+    PHYSICS_BUILD,
     PHYSICS_DROP,
     PHYSICS_INFO,
     PHYSICS_PLACE,
@@ -66,8 +67,8 @@ from bimbot.shared.period_times import PeriodTimes
 from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.twin_query import answered_on_its_key, ask_twin, ask_twins
 
-from .executor import Executor, ExecutorConfig, Outgoing, executor_class
-from .protocol import PhysicsRequest, PhysicsResult
+from .executor import ExecutorConfig, executor_class
+from .protocol import Outgoing, PhysicsRequest, PhysicsResult, RobotExecutor
 
 _log = logging.getLogger(__name__)
 
@@ -79,7 +80,12 @@ SUBSCRIPTIONS: tuple[tuple[Topic, dict[str, str]], ...] = (
 )
 POSES_TIMEOUT_S = 5.0  # wall seconds to ask physics where this robot is (at start)
 TWINS_TIMEOUT_S = 5.0  # wall seconds to collect the twins' answers (at start)
-_PHYSICS_REQUESTS = {"attach": PHYSICS_ATTACH, "place": PHYSICS_PLACE, "drop": PHYSICS_DROP}
+_PHYSICS_REQUESTS = {
+    "attach": PHYSICS_ATTACH,
+    "place": PHYSICS_PLACE,
+    "drop": PHYSICS_DROP,
+    "build": PHYSICS_BUILD,
+}
 
 
 @dataclass(frozen=True)
@@ -144,7 +150,7 @@ def _where_physics_has(poses: SitePosesMsg | None, robot_id: str) -> tuple[float
 
 
 def _learn_the_site(
-    session: zenoh.Session, inbox: Inbox, site: str, executor: Executor, poses: SitePosesMsg | None
+    session: zenoh.Session, inbox: Inbox, site: str, executor: RobotExecutor, poses: SitePosesMsg | None
 ) -> None:
     """What a robot joining late must know before it acts: every component's state (its twin's last record)
     and pose (``poses``, physics' answer), so it neither plans through a placed column nor waits for a
@@ -168,7 +174,7 @@ class _Loop:
     """Inbox → executor → bus, one ``cmd_vel`` per clock step."""
 
     def __init__(
-        self, session: zenoh.Session, site: str, executor: Executor, inbox: Inbox, options: RobotOptions
+        self, session: zenoh.Session, site: str, executor: RobotExecutor, inbox: Inbox, options: RobotOptions
     ):
         self.session, self.site, self.executor, self.inbox, self.options = (
             session,

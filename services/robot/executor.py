@@ -49,7 +49,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from bimbot.shared.component_states import ComponentStates, TwinQuestion
+from bimbot.shared.component_states import ComponentStates
 from bimbot.shared.errors import InputError
 from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Manifest
@@ -87,8 +87,9 @@ from .driving import Driving
 from .handover import Handover
 from .nav_types import controller_limits
 from .navigator import Navigator, NavigatorConfig, NavStatus
-from .protocol import VERDICTS, EventQueue, PhysicsRequest, PhysicsResult
+from .protocol import VERDICTS, EventQueue, Outgoing, PhysicsResult
 from .site_map import MapConfig, SiteMap
+from .site_work import SiteWorkExecutor
 from .task_machine import TaskMachine, Trigger
 from .task_state import ExecutorConfig, Task
 
@@ -96,8 +97,6 @@ _log = logging.getLogger(__name__)
 
 _S, _E, _C = RobotState, ComponentEvent, ComponentState
 DEFAULT_MAP = MapConfig()
-
-Outgoing = CmdVelMsg | RobotStateMsg | PlanMsg | ComponentEventMsg | PhysicsRequest | TwinQuestion
 
 
 class Executor(Driving, Handover):
@@ -546,7 +545,9 @@ def put_down_footprint(xy_m: tuple[float, float]) -> Footprint:
     return Footprint(polygon, 0.0, 0.5)
 
 
-def executor_class(info: SiteInfoMsg, robot_id: str) -> type[Executor]:
-    """:class:`CraneExecutor` for a type that lifts by hook, else :class:`Executor`."""
+def executor_class(info: SiteInfoMsg, robot_id: str) -> type[Executor] | type[SiteWorkExecutor]:
+    """The executor of a robot's capabilities: work in place (pour, lay), lifting by hook, or carrying."""
     description = info.robot_types[info.robot_type_of[robot_id]]
+    if description.can(Capability.POUR) or description.can(Capability.LAY):
+        return SiteWorkExecutor
     return CraneExecutor if description.can(Capability.HOOK_LIFT) else Executor

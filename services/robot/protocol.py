@@ -4,8 +4,8 @@
   unconfirmed event is (re)sent, every ``resend_s`` wall seconds with the same ``event_id``, until the
   component's state shows it applied (:data:`CONFIRMS`); then the next goes out at once. An agent that is
   down for a while loses nothing, and never sees ``attach`` before ``pick``.
-* :class:`PhysicsRequest` / :class:`PhysicsResult` — an attach, place or drop request for the adapter to send
-  without blocking (``session.get`` with a callback), and what came back (or a timeout).
+* :class:`PhysicsRequest` / :class:`PhysicsResult` — an attach, place, drop or build request for the adapter
+  to send without blocking (``session.get`` with a callback), and what came back (or a timeout).
 * :func:`injected` — which first placements are deliberately offset (tests, demos), deterministically.
 """
 
@@ -15,15 +15,22 @@ import math
 import zlib
 from collections import deque
 from dataclasses import dataclass
+from typing import Protocol
 
+from bimbot.shared.component_states import TwinQuestion
 from bimbot.shared.messages import (
     AttachRequest,
+    BuildRequest,
+    ClockMsg,
+    CmdVelMsg,
     ComponentEvent,
     ComponentEventMsg,
     ComponentState,
     DropRequest,
     PhysicsReply,
     PlaceRequest,
+    PlanMsg,
+    RobotStateMsg,
 )
 
 _E, _C = ComponentEvent, ComponentState
@@ -36,6 +43,9 @@ CONFIRMS: dict[ComponentEvent, frozenset[ComponentState]] = {
     _E.ABANDON: frozenset({_C.RELEASED, _C.CONSTRUCTED, _C.FAILED, _C.MISPLACED}),
     # not transporting: that is the state before the hand-off (then a crane picks it up)
     _E.HAND_OFF: frozenset({_C.RELEASED, _C.PICKING, _C.ASSEMBLING, _C.VERIFYING, _C.CONSTRUCTED}),
+    _E.FORM: frozenset({_C.FORMING, _C.POURING, _C.VERIFYING, _C.CONSTRUCTED}),
+    _E.POUR: frozenset({_C.POURING, _C.VERIFYING, _C.CONSTRUCTED}),
+    _E.LAY: frozenset({_C.LAYING, _C.VERIFYING, _C.CONSTRUCTED}),
 }
 """The component states that show an event applied (or overtaken by what followed it)."""
 
@@ -85,9 +95,9 @@ class EventQueue:
 class PhysicsRequest:
     """A request for the adapter to send to ``physics/<kind>`` with a callback (never blocking)."""
 
-    kind: str  # "attach", "place" or "drop"
+    kind: str  # "attach", "place", "drop" or "build"
     request_id: int
-    message: AttachRequest | PlaceRequest | DropRequest
+    message: AttachRequest | PlaceRequest | DropRequest | BuildRequest
     timeout_s: float
 
 
@@ -98,6 +108,32 @@ class PhysicsResult:
     request_id: int
     reply: PhysicsReply | None
     error: str = ""
+
+
+Outgoing = CmdVelMsg | RobotStateMsg | PlanMsg | ComponentEventMsg | PhysicsRequest | TwinQuestion
+"""What an executor hands its adapter to send."""
+
+
+class RobotExecutor(Protocol):
+    """What the robot's adapter needs of an executor (:class:`.executor.Executor` for robots that carry or
+    lift, :class:`.site_work.SiteWorkExecutor` for those that work in place)."""
+
+    robot_id: str
+    home_xy_yaw: tuple[float, float, float]
+    sim_s: float
+    step: int
+    distance_m: float
+    localisation_error_m: float
+    max_localisation_error_m: float
+    done: list[tuple[str, ComponentState]]
+
+    def handle(self, message: object) -> None: ...
+
+    def tick(self, clock: ClockMsg, wall_s: float) -> list[Outgoing]: ...
+
+    def after_tick(self) -> None: ...
+
+    def poll(self, wall_s: float) -> list[Outgoing]: ...
 
 
 def injected(

@@ -15,7 +15,9 @@ Triggers (what the executor observed):
 * ``arrived`` — the robot stands at the approach pose of the component's target;
 * ``finished`` — the component gave its verdict after the placement (constructed, misplaced or failed);
 * ``handed_off`` — a hand-off task: the component lies at the crane's staging spot, released again;
-* ``aborted`` — the task was withdrawn (reassigned, released again) or given up: back to idle from anywhere.
+* ``aborted`` — the task was withdrawn (reassigned, released again) or given up: back to idle from anywhere;
+* ``work_assigned`` — a machine that builds in place (a pump, a block layer) took a task: it works where
+  it stands (``work_in_place``) until the component's verdict (``finished``) or it gives the task back.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ class Trigger(StrEnum):
     FINISHED = "finished"
     HANDED_OFF = "handed_off"
     ABORTED = "aborted"
+    WORK_ASSIGNED = "work_assigned"
 
 
 _S = RobotState
@@ -53,6 +56,9 @@ TRANSITIONS: tuple[tuple[Trigger, RobotState, RobotState], ...] = (
     (_T.ABORTED, _S.PICK_UP, _S.IDLE),
     (_T.ABORTED, _S.IDENTIFY_TARGET_LOCATION, _S.IDLE),
     (_T.ABORTED, _S.ASSEMBLE, _S.IDLE),
+    (_T.WORK_ASSIGNED, _S.IDLE, _S.WORK_IN_PLACE),
+    (_T.FINISHED, _S.WORK_IN_PLACE, _S.IDLE),
+    (_T.ABORTED, _S.WORK_IN_PLACE, _S.IDLE),
 )
 
 INITIAL = RobotState.IDLE

@@ -34,7 +34,7 @@ def test_every_busy_state_can_be_aborted_back_to_idle(state: RobotState) -> None
 
 
 def test_idle_only_accepts_an_assignment() -> None:
-    assert triggers_from(RobotState.IDLE) == {Trigger.ASSIGNED}
+    assert triggers_from(RobotState.IDLE) == {Trigger.ASSIGNED, Trigger.WORK_ASSIGNED}
 
 
 def test_out_of_order_triggers_are_refused_and_leave_the_state_alone() -> None:
