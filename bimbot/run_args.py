@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from bimbot.run_restarts import RestartPolicy
@@ -20,6 +20,8 @@ from bimbot.services.observer import VIEWER_GRPC_PORT, VIEWER_WEB_PORT
 from bimbot.services.physics.profiles import RUN_PROFILE, add_profile_arguments
 from bimbot.shared.errors import UserError
 from bimbot.shared.option_types import non_negative_float, non_negative_int, positive_float, positive_int
+from bimbot.shared.tolerance_options import add_tolerance_arguments, tolerances_from
+from bimbot.shared.verification import Tolerances
 
 DEFAULT_TIMEOUT_S = 900.0
 DEFAULT_REPORT_EVERY_S = 30.0  # wall seconds between two reports written while the run goes on
@@ -61,6 +63,7 @@ class RunOptions:
     show_progress: bool = False  # live progress on stdout (the CLI: unless -q)
     secure: bool = False  # a secured bus: per-service credentials, the router's access control (RUN/bus/)
     max_attempts: int | None = None  # placements a component gets before it fails (None: the agents')
+    tolerances: Tolerances = field(default_factory=Tolerances)  # in force on site: physics serves them
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
@@ -88,6 +91,7 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
         "linked as BUILD/runs/latest)",
     )
     add_profile_arguments(parser, RUN_PROFILE)
+    add_tolerance_arguments(parser)
     parser.add_argument(
         "--inject-placement-error-m",
         type=non_negative_float,
@@ -237,6 +241,7 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         show_progress=not quiet(args),
         secure=getattr(args, "secure", False),
         max_attempts=getattr(args, "max_attempts", None),
+        tolerances=tolerances_from(args),
     )
 
 

@@ -16,6 +16,7 @@ from bimbot.shared.bus_credentials import BusFiles, write_bus_credentials
 from bimbot.shared.errors import UserError
 from bimbot.shared.fleet import Fleet, load_fleet
 from bimbot.shared.run_folder import RunFolder
+from bimbot.shared.tolerance_options import tolerance_flags
 
 
 def run_fleet(options: RunOptions) -> Fleet:
@@ -48,6 +49,7 @@ def physics_arguments(build: Path, options: RunOptions) -> list[str]:
         arguments.append("--lock-step" if options.lock_step else "--no-lock-step")
     if not options.connections:
         arguments.append("--no-connections")
+    arguments += tolerance_flags(options.tolerances)  # physics serves them to every service
     return [*arguments, *options.physics_extra]
 
 

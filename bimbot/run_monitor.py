@@ -141,6 +141,7 @@ class RunMonitor:
             self.collector.sequence_guids = list(plan.order)
         if not self._site_info_taken and (info := self.site_info.poll()) is not None:
             self.collector.add(info)
+            self.tolerances = info.tolerances  # the tolerances in force: the audit judges with them
             self._site_info_taken = True
         for item in self._inbox.drain(first_timeout_s=wait_s):
             if isinstance(item, Received):

@@ -9,6 +9,7 @@ total station's precision (``null``: none on site). Pure: from :class:`~bimbot.r
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from bimbot.run_args import RunOptions
@@ -43,6 +44,11 @@ def run_settings(options: RunOptions) -> dict[str, Any]:
         "max_attempts": int(chosen(options.max_attempts, AgentConfig.max_attempts)),
         "timeout_s": options.timeout_s,
         "inject_placement_error_m": options.inject_placement_error_m,
+        "tolerances": {
+            "position_mm": 1000.0 * options.tolerances.position_m,
+            "angle_deg": math.degrees(options.tolerances.angle_rad),
+            "drift_mm": 1000.0 * options.tolerances.drift_m,
+        },
     }
 
 

@@ -71,6 +71,7 @@ from .message_bounds import (
 from .reasons import Reason
 from .robot_description import RobotDescription
 from .site_plan import SiteLayout
+from .verification import Tolerances
 
 MESSAGE_SCHEMA_VERSION: Final = 2  # 2: TwinMsg.history holds ComponentStateMsg records (was TransitionRecord)
 
@@ -366,6 +367,9 @@ class SiteInfoMsg(_Message):
     # control periods between a robot's sensing and its command acting: a robot plans from where it will
     # be when its command acts (its last command carries it there meanwhile)
     command_latency_steps: Count = 0
+    # the placement tolerances in force: the agents verify with them, physics connects with them, the
+    # run's audit and report judge with them (one override: ``bimbot run --position-tolerance-m``)
+    tolerances: Tolerances = Field(default_factory=Tolerances)
 
 
 PLANNER_PLAN_KEY = "bimbot/{site}/planner/plan"

@@ -68,14 +68,16 @@ def _expected(name: str) -> dict[str, object]:
             "laser_fov_deg": math.degrees(laser.fov_rad),
             "laser_range_m": laser.range_max_m,
             "laser_height_m": laser.height_m,
+            # the placement tolerances in force on site: physics serves them to every service
+            "position_tolerance_m": sim.tolerances.position_m,
+            "angle_tolerance_deg": math.degrees(sim.tolerances.angle_rad),
+            "drift_tolerance_m": sim.tolerances.drift_m,
         }
     if name == "agents":
         from bimbot.services.component_agents.agent import AgentConfig
 
         agent = AgentConfig()
         return {
-            "position_tolerance_m": agent.tolerances.position_m,
-            "angle_tolerance_deg": math.degrees(agent.tolerances.angle_rad),
             "max_attempts": agent.max_attempts,
             "verify_timeout_s": agent.verify_timeout_s,
         }

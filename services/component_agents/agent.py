@@ -97,6 +97,9 @@ class AgentConfig:
     tolerances: Tolerances = field(default_factory=Tolerances)
     max_attempts: int = 3
     verify_timeout_s: float = 5.0
+    # False until the site's tolerances are known (physics' site info): a placement then waits for them,
+    # up to its verification timeout, rather than be judged by another tolerance than the site's
+    tolerances_known: bool = True
 
     def __post_init__(self) -> None:
         if self.max_attempts < 1:
@@ -289,12 +292,19 @@ class ComponentAgent:
         self.bumped = (msg.bumped_by, bumped_at_s) if msg.bumped_by else None
         return self.try_verify(now_wall_s)
 
+    def use_config(self, config: AgentConfig) -> None:
+        """Settings shared by the host's agents, changed (the site's tolerances became known)."""
+        self._config = config
+
     def try_verify(self, now_wall_s: float | None = None) -> list[ComponentStateMsg]:
         """In ``verifying``: decide when a fresh pose is known or the wait timed out; else nothing."""
         if self.state is not ComponentState.VERIFYING:
             return []
         now = time.time() if now_wall_s is None else now_wall_s
         fresh = self._has_placement_pose()
+        timed_out = self.verify_deadline_wall_s is not None and now >= self.verify_deadline_wall_s
+        if not self._config.tolerances_known and not timed_out:
+            return []  # judged with the site's tolerances once physics says them (or after the timeout)
         if fresh:
             cause = f"pose at sim {self.pose_sim_time_s:.3f} s"
         elif self.verify_deadline_wall_s is not None and now >= self.verify_deadline_wall_s:

@@ -37,6 +37,7 @@ from typing import cast
 
 import zenoh
 
+from bimbot.shared.asked import Asked
 from bimbot.shared.bus import BusOptions, Inbox, IncomingQuery, encode, open_session
 from bimbot.shared.messages import (
     ALIVE_KEY,
@@ -45,6 +46,8 @@ from bimbot.shared.messages import (
     COMPONENT_POSE,
     COMPONENT_STATE_KEY,
     COMPONENT_TWIN,
+    PHYSICS_INFO,
+    SiteInfoMsg,
     key,
 )
 from bimbot.shared.service_runner import BuildInput
@@ -75,7 +78,8 @@ def main(
     manifest, (index, n_shards) = build.manifest, shard
     path = journal_path(state_dir, index, n_shards)  # in the run folder (bimbot.shared.run_folder)
     with Journal(path, fresh=fresh) as journal:
-        host = AgentHost(manifest, index, n_shards, config=config, journal=journal, resume=journal.replayed)
+        waiting = replace(config, tolerances_known=False)  # until physics' site info says the site's
+        host = AgentHost(manifest, index, n_shards, config=waiting, journal=journal, resume=journal.replayed)
         _log.info(
             "shard %d/%d: %d agents of site %s (journal %s, %d resumed)",
             index,
@@ -136,8 +140,12 @@ def serve(
     if host.agents:
         _wait_for_listeners(session, key(COMPONENT_STATE_KEY, site=site, key=next(iter(host.agents))))
     _publish(session, host.start())
+    site_info: Asked[SiteInfoMsg] | None = Asked(session, PHYSICS_INFO, inbox.invalid, site=site)
 
     while not stop.is_set():
+        if site_info is not None and (info := site_info.poll()) is not None:
+            host.use_tolerances(info.tolerances)  # the tolerances in force: physics' site info
+            site_info = None
         for item in inbox.drain(first_timeout_s=LOOP_WAIT_S):
             try:
                 if isinstance(item, IncomingQuery):

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import math
 from dataclasses import replace
 from pathlib import Path
 
@@ -18,7 +17,6 @@ from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
 from bimbot.shared.run_folder import open_run_folder
 from bimbot.shared.service_runner import resolve_build, run_service, service_bus, writable_dir
-from bimbot.shared.verification import Tolerances
 
 from . import app
 from .agent import AgentConfig
@@ -29,7 +27,6 @@ _log = logging.getLogger(__name__)
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     defaults = AgentConfig()
-    default_angle_deg = math.degrees(defaults.tolerances.angle_rad)
     parser.add_argument(
         "--build", type=Path, required=True, metavar="OUT/", help="converted build (folder or manifest.json)"
     )
@@ -42,18 +39,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         metavar="DIR",
         help="the run's folder; the journal goes to DIR/state/ (default OUT/runs/latest, made when missing)",
-    )
-    parser.add_argument(
-        "--position-tolerance-m",
-        type=float,
-        default=defaults.tolerances.position_m,
-        help=f"accepted placement position error, m (default {defaults.tolerances.position_m:g})",
-    )
-    parser.add_argument(
-        "--angle-tolerance-deg",
-        type=float,
-        default=default_angle_deg,
-        help=f"accepted placement angle error, degrees (default {default_angle_deg:g})",
     )
     parser.add_argument(
         "--max-attempts",
@@ -77,9 +62,6 @@ def agent_config(args: argparse.Namespace) -> AgentConfig:
     """The agents' config from the options; a UserError names an impossible value."""
     try:
         return AgentConfig(
-            tolerances=Tolerances(
-                position_m=args.position_tolerance_m, angle_rad=math.radians(args.angle_tolerance_deg)
-            ),
             max_attempts=args.max_attempts,
             verify_timeout_s=args.verify_timeout_s,
         )

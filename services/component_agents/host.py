@@ -21,11 +21,12 @@ state once (event ``resume`` for those, ``start`` for the others).
 from __future__ import annotations
 
 import logging
+import math
 import time
 import zlib
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 from bimbot.shared.bus import Received
@@ -43,6 +44,7 @@ from bimbot.shared.messages import (
     key,
 )
 from bimbot.shared.state_table import ComponentMachine
+from bimbot.shared.verification import Tolerances
 
 from .agent import AgentConfig, ComponentAgent, SimClock, clip
 from .journal import JournalRecord, Replay
@@ -121,6 +123,20 @@ class AgentHost:
         self.counts: Counter[str] = Counter()
         if resume is not None:
             self._resume(resume, time.time() if now_wall_s is None else now_wall_s)
+
+    def use_tolerances(self, tolerances: Tolerances) -> None:
+        """Verify with ``tolerances`` from now on: the ones in force on the site (physics' site info)."""
+        if tolerances == self.config.tolerances and self.config.tolerances_known:
+            return
+        self.config = replace(self.config, tolerances=tolerances, tolerances_known=True)
+        for agent in self.agents.values():
+            agent.use_config(self.config)
+        _log.info(
+            "placement tolerances in force: %g mm, %g°, drift %g mm",
+            1000.0 * tolerances.position_m,
+            math.degrees(tolerances.angle_rad),
+            1000.0 * tolerances.drift_m,
+        )
 
     # --- start ---------------------------------------------------------------------------------------------
 

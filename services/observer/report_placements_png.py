@@ -6,7 +6,7 @@ Left, *placement position error per robot type*: one row per robot type (the ord
 median and whiskers to the farthest attempts within the 5th–95th percentiles, and every attempt
 as a point, jittered across its row (deterministically), shaped and coloured by its cause: a green dot
 within tolerance, a red cross released off target (``misplaced``), an orange triangle that moved after
-release (``unstable``). A dashed line marks the agents' default position tolerance (10 mm); each row's
+release (``unstable``). A dashed line marks the position tolerance in force (10 mm by default); each row's
 label gives its count and p95. Right, *drift after release*: the same rows and markers, each attempt whose
 drift was measured, with the largest drift and the retries by cause in the title. The markers, counted
 per cause, join the figure's legend under both panels (:func:`placement_handles`). Both x axes are
@@ -26,7 +26,18 @@ from bimbot.shared.verification import Tolerances
 
 from .report_placements import MISPLACED, UNSTABLE, WITHIN_TOLERANCE, type_of
 
-TOLERANCE_MM = Tolerances().position_m * 1000.0  # the agents' default (a run uses it)
+TOLERANCE_MM = Tolerances().position_m * 1000.0  # the default; a report says the one in force
+
+
+def tolerance_mm(report: Mapping[str, Any]) -> float:
+    """The position tolerance the run judged with (its audit's, else its settings', else the default)."""
+    audited = (report.get("as_built") or {}).get("tolerance_mm")
+    if audited is not None:
+        return float(audited)
+    settings = (report.get("settings") or {}).get("tolerances") or {}
+    return float(settings.get("position_mm", TOLERANCE_MM))
+
+
 LINEAR_BELOW_MM = 1.0  # the symmetric-log axis is linear from 0 to here
 CAUSE_STYLES: dict[str, dict[str, Any]] = {
     WITHIN_TOLERANCE: {"marker": "o", "color": "tab:green", "label": "within tolerance"},
@@ -56,7 +67,7 @@ def _points(placements: Sequence[Mapping[str, Any]], field: str) -> list[Point]:
     return [(float(p[field]), p["cause"]) for p in placements if p.get(field) is not None]
 
 
-def _strip(ax: Axes, rows: Sequence[Sequence[Point]], *, box: bool) -> None:
+def _strip(ax: Axes, rows: Sequence[Sequence[Point]], *, box: bool, tolerance: float = TOLERANCE_MM) -> None:
     """Points of each row (row 0 at the top), a box per row if ``box``."""
     for row, points in enumerate(rows):
         boxed = [value for value, cause in points if cause != UNSTABLE]  # as the distribution (totals)
@@ -88,7 +99,7 @@ def _strip(ax: Axes, rows: Sequence[Sequence[Point]], *, box: bool) -> None:
     values = [value for points in rows for value, _ in points]
     ax.set_xscale("symlog", linthresh=LINEAR_BELOW_MM, linscale=0.5)
     ax.xaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))  # 100, not 10²
-    ax.set_xlim(-0.1 * LINEAR_BELOW_MM, max([*values, 2.0 * TOLERANCE_MM]) * 1.5)  # 0 mm off the frame
+    ax.set_xlim(-0.1 * LINEAR_BELOW_MM, max([*values, 2.0 * tolerance]) * 1.5)  # 0 mm off the frame
     ax.set_ylim(len(rows) - 0.5, -0.5)  # the first row at the top
     ax.grid(axis="x", alpha=0.3, which="both")
 
@@ -110,7 +121,8 @@ def placement_handles(report: Mapping[str, Any]) -> list[Line2D]:
         )
         for cause, style in CAUSE_STYLES.items()
     ]
-    tolerance = Line2D([], [], color="black", linestyle="--", label=f"tolerance {TOLERANCE_MM:g} mm")
+    line_mm = tolerance_mm(report)
+    tolerance = Line2D([], [], color="black", linestyle="--", label=f"tolerance {line_mm:g} mm")
     return [*handles, tolerance]
 
 
@@ -128,8 +140,9 @@ def draw_placement_errors(ax: Axes, report: Mapping[str, Any]) -> None:
         _no_data(ax, "no placement was verified")
         return
     distribution = (report.get("totals") or {}).get("placement_error_mm_by_type") or {}
-    _strip(ax, [_points(placements, "position_error_mm") for placements in rows.values()], box=True)
-    ax.axvline(TOLERANCE_MM, color="black", linestyle="--", linewidth=1.0)
+    line_mm = tolerance_mm(report)
+    _strip(ax, [_points(p, "position_error_mm") for p in rows.values()], box=True, tolerance=line_mm)
+    ax.axvline(line_mm, color="black", linestyle="--", linewidth=1.0)
     labels = []
     for name, placements in rows.items():
         p95 = (distribution.get(name) or {}).get("p95")

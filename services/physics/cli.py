@@ -34,6 +34,7 @@ from bimbot.shared.option_types import (
 )
 from bimbot.shared.run_folder import open_run_folder
 from bimbot.shared.service_runner import resolve_build, run_service, service_bus, writable_dir
+from bimbot.shared.tolerance_options import add_tolerance_arguments, tolerances_from
 
 from .connections import ConnectionConfig
 from .profiles import FINE, PROFILES, add_profile_arguments
@@ -69,6 +70,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="N robots of the fleet's default_type instead of the fleet's robots (default: the fleet's)",
     )
     add_profile_arguments(parser, FINE.name)  # bimbot run uses the rehearsal profile
+    add_tolerance_arguments(parser)
     parser.add_argument(
         "--lock-step-timeout-s",
         type=positive_float,
@@ -210,6 +212,7 @@ def sim_config(args: argparse.Namespace) -> SimConfig:
             visuals=args.gui,
             total_station_std_m=None if args.total_station_mm is None else args.total_station_mm / 1000.0,
             connections=ConnectionConfig(enabled=args.connections),
+            tolerances=tolerances_from(args),
             robot=RobotConfig(wheel_joints=wheels),
             laser=LaserConfig(
                 beams=args.laser_beams,

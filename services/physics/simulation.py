@@ -29,8 +29,9 @@ identical call sequence on a fresh client).
 from __future__ import annotations
 
 import logging
+import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import TracebackType
 
@@ -61,6 +62,7 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.site_layout import plan_site
 from bimbot.shared.site_plan import SiteLayout
+from bimbot.shared.verification import Tolerances
 
 from .client import BulletClient, p
 from .connections import ConnectionConfig
@@ -118,6 +120,9 @@ class SimConfig:
     handling: HandlingConfig = field(default_factory=HandlingConfig)
     settle: SettleConfig = field(default_factory=SettleConfig)
     connections: ConnectionConfig = field(default_factory=ConnectionConfig)
+    # the placement tolerances in force: served in the site info, and a connection is made only where
+    # the agents would accept the placement
+    tolerances: Tolerances = field(default_factory=Tolerances)
 
     @property
     def substeps(self) -> int:
@@ -255,7 +260,7 @@ class Simulation:
             ground_id=self.ground_id,
             pits=pits,
             settle=self.config.settle,
-            connections=self.config.connections,
+            connections=replace(self.config.connections, fit=self.config.tolerances),
             in_place={body: guid for guid, body in self.in_place_bodies.items()},
             seed=self.config.seed,
         )
@@ -274,6 +279,13 @@ class Simulation:
                 self._beam_starts[robot_id] = self._laser.beam_starts(robot.half_extents_xy_m)
         if self.config.compiled_laser:
             self._ray_scene = RayScene(cid)
+        tolerances = self.config.tolerances
+        _log.info(
+            "placement tolerances in force: %g mm, %g°, drift %g mm (the site info serves them)",
+            1000.0 * tolerances.position_m,
+            math.degrees(tolerances.angle_rad),
+            1000.0 * tolerances.drift_m,
+        )
         _log.info(
             "scene: %d components in the yard, %d in place, robots %s, fence %s–%s",
             len(items),
@@ -309,6 +321,7 @@ class Simulation:
             robot_type_of={robot_id: robot.description.name for robot_id, robot in self.robots.items()},
             robot_types=types_on_site(self.robots),
             layout=self.layout,
+            tolerances=self.config.tolerances,
         )
 
     def robot_pose(self, robot_id: str) -> tuple[float, float, float]:

@@ -51,7 +51,6 @@ def test_invalid_manifest_is_one_line_and_exit_2(tmp_path: Path, capsys: pytest.
         (["--shard", "3/2"], "--shard"),
         (["--shard", "x"], "--shard"),
         (["--max-attempts", "0"], "max_attempts"),
-        (["--position-tolerance-m", "-1"], "tolerance"),
         (["--verify-timeout-s", "0"], "verify_timeout_s"),
     ],
 )

@@ -28,6 +28,7 @@ from bimbot.shared.messages import (
     ComponentState,
     key,
 )
+from bimbot.shared.verification import Tolerances
 
 S = ComponentState
 E = ComponentEvent
@@ -164,3 +165,31 @@ def test_poses_reach_their_agent_and_trigger_verification() -> None:
         key(COMPONENT_POSE_KEY, site=SITE, key=agent.key), pose_of(agent.component, sim_time_s=5.5), NOW
     )
     assert [o.message.state for o in out] == [S.CONSTRUCTED]
+
+
+def test_a_placement_waits_for_the_sites_tolerances_and_is_judged_by_them() -> None:
+    """Until physics' site info says the tolerances in force, a placement is not judged (up to its
+    verification bound): a 20 mm placement is then accepted under the site's 30 mm, not failed at 10 mm."""
+    host = AgentHost(manifest(), config=AgentConfig(tolerances_known=False))
+    guid = GUIDS[0]
+    target = host.agents[guid_to_key(guid)].component
+    for name, sim_s in ((E.RELEASE, 1.0), (E.PICK, 2.0), (E.ATTACH, 3.0), (E.ARRIVE, 4.0), (E.PLACE, 5.0)):
+        host.on_event(event_key(guid), event(guid, name, sim_time_s=sim_s), NOW)
+    pose_key = key(COMPONENT_POSE_KEY, site=SITE, key=guid_to_key(guid))
+    assert host.on_pose(pose_key, pose_of(target, sim_time_s=5.5, offset_m=(0.02, 0.0, 0.0)), NOW) == []
+    assert host.tick(NOW + 1.0) == []  # not judged by a tolerance the site may not use
+    host.use_tolerances(Tolerances(position_m=0.03))
+    (verdict,) = host.tick(NOW + 1.5)
+    assert verdict.message.state is S.CONSTRUCTED
+
+
+def test_without_the_sites_tolerances_a_placement_is_judged_by_the_agents_own_after_its_bound() -> None:
+    host = AgentHost(manifest(), config=AgentConfig(tolerances_known=False))
+    guid = GUIDS[1]
+    target = host.agents[guid_to_key(guid)].component
+    for name, sim_s in ((E.RELEASE, 1.0), (E.PICK, 2.0), (E.ATTACH, 3.0), (E.ARRIVE, 4.0), (E.PLACE, 5.0)):
+        host.on_event(event_key(guid), event(guid, name, sim_time_s=sim_s), NOW)
+    pose_key = key(COMPONENT_POSE_KEY, site=SITE, key=guid_to_key(guid))
+    host.on_pose(pose_key, pose_of(target, sim_time_s=5.5, offset_m=(0.02, 0.0, 0.0)), NOW)
+    (verdict,) = host.tick(NOW + AgentConfig().verify_timeout_s + 0.1)
+    assert verdict.message.state is S.MISPLACED  # 20 mm against the default 10 mm
