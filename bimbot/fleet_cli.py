@@ -11,7 +11,9 @@ some (the table says which and why), 2 for unusable input.
 Columns: ``built by / why not`` lists every route, the first being the one the planner's bids usually
 take; a tower crane is named with its robot id because where it stands (the site plan puts cranes beside
 the building: east, then north, west, south) decides what it reaches; ``A → crane (r3, hand-off)`` is a
-ground robot of type A bringing the component within the crane's hook first.
+ground robot of type A bringing the component within the crane's hook first; a component cast in place or
+laid (column ``method``) is built where it stands by a machine that pours or lays, named with its robot id
+when it stands fixed (its boom must cover the whole footprint from where the site plan puts it).
 """
 
 from __future__ import annotations
@@ -73,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
                 "guid": row.guid,
                 "name": component.name,
                 "ifc_class": component.ifc_class,
+                "method": component.method.value,
                 "mass_kg": round(component.mass_kg, 1),
                 "target_top_m": round(component.bbox_world.max_m[2], 3),
                 "routes": list(row.routes),
@@ -89,13 +92,14 @@ def _print_table(rows: list[tuple[Component, Feasibility]], fleet: Fleet) -> Non
     from rich.table import Table
 
     table = Table(title=f"what {fleet.summary()} can build ({len(rows)} components)")
-    for column in ("component", "class", "mass kg", "top m", "built by / why not"):
+    for column in ("component", "class", "method", "mass kg", "top m", "built by / why not"):
         table.add_column(column, justify="right" if column in ("mass kg", "top m") else "left")
     for component, row in rows:
         how = "; ".join(row.routes) if row.reason is None else f"[red]{row.reason.line()}[/red]"
         table.add_row(
             f"{component.name or component.guid}",
             component.ifc_class,
+            component.method.value,
             f"{component.mass_kg:,.0f}",
             f"{component.bbox_world.max_m[2]:.2f}",
             how,

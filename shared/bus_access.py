@@ -8,7 +8,8 @@ This module turns it into rules the router enforces on its links, one bus user p
 bus user       speaks as     may also
 =============  ============  ==================================================================
 ``physics``    physics       token ``alive/physics/*``
-``planner``    planner       token ``alive/planner/*``
+``planner``    planner       token ``alive/planner/*``; ask physics to skip a quiet site's clock
+                             (``physics/skip``)
 ``agents``     agent         token ``alive/component/*`` (every shard and token session)
 ``robot-<id>`` robot         token ``alive/robot/<id>``; its topics under ``robots/<id>/`` only;
                              ask the queryables that take a request (physics attach/place/drop)
@@ -35,7 +36,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from .keyspace import Entry, Liveliness, Queryable, Topic
-from .messages import KEY_SPACE
+from .messages import KEY_SPACE, PHYSICS_SKIP_KEY
 
 ROUTER_USER = "bus"
 ANY_SITE = "*"
@@ -44,6 +45,8 @@ ROBOT_PREFIX = "robot-"
 # The registry's speaker names (Topic.publisher, Queryable.answerer), one bus user each (robots: per id).
 SPEAKERS = ("agent", "physics", "planner", "robot")
 REQUESTERS = ("robot",)  # who may ask a queryable that takes a request (it changes the site)
+# who may ask only some of them: the planner asks physics to skip its clock over a quiet site
+SOME_REQUESTS = {"planner": (PHYSICS_SKIP_KEY,)}
 
 # Zenoh 1.x access-control message kinds.
 PUBLISH = ("put", "delete")
@@ -159,6 +162,9 @@ def _speaking_rules(user: BusUser, site: str, key_space: Sequence[Entry]) -> lis
         if requests:
             keys = (key_expr(q.template, site) for q in requests)
             rules.append(_rule(f"request:{user.name}", ("query",), "ingress", keys))
+    elif user.speaker in SOME_REQUESTS:
+        keys = (key_expr(template, site) for template in SOME_REQUESTS[user.speaker])
+        rules.append(_rule(f"request:{user.name}", ("query",), "ingress", keys))
     if user.token_kind is not None:
         alive = next(e for e in key_space if isinstance(e, Liveliness))
         token = alive.template.format(site=site, kind=user.token_kind, id=user.token_id)

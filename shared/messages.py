@@ -481,6 +481,15 @@ class SensorsMsg(_Message):
     fix: PositionFixMsg | None = None  # without a positioning sensor on site: None
 
 
+class CuringHold(BaseModel):
+    """In the progress: ``guid`` waits for the cast element ``cast_guid`` to cure, until ``until_s``."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+    guid: str
+    cast_guid: str
+    until_s: SimTime
+
+
 class ProgressMsg(_Message):
     total: Count
     counts: dict[str, Count]  # by ComponentState value
@@ -491,6 +500,7 @@ class ProgressMsg(_Message):
     blocked: list[str] = []
     reasons: dict[str, Reason] = {}  # GUID → why, for every failed and blocked component
     done: bool = False
+    curing: list[CuringHold] = []  # what is ready but for the curing of a cast element it rests on
 
 
 def key(template: str, **parts: str) -> str:

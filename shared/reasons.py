@@ -15,6 +15,7 @@ Codes (what a user can act on):
 ``robot_trapped``         the robot could not get out of where it stood (recoveries exhausted)
 ``too_heavy``             the component's mass exceeds every robot's payload
 ``out_of_reach``          the target's height or distance exceeds the robot's reach
+``no_capable_robot``      no robot on site can do the work its method needs (pour, lay, carry or lift)
 ``physics_refused``       physics refused an attach or a placement (its own reason quoted)
 ``misplaced``             every placement attempt was out of tolerance (the agent's own verdict)
 ``no_progress``           a task made no progress within its bound of sim time
@@ -38,6 +39,7 @@ class ReasonCode(StrEnum):
     ROBOT_TRAPPED = "robot_trapped"
     TOO_HEAVY = "too_heavy"
     OUT_OF_REACH = "out_of_reach"
+    NO_CAPABLE_ROBOT = "no_capable_robot"
     PHYSICS_REFUSED = "physics_refused"
     MISPLACED = "misplaced"
     NO_PROGRESS = "no_progress"

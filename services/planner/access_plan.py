@@ -15,6 +15,10 @@ of the robot type on site and finds, for every step, the components it cuts off.
   ancestors in the plan) can never be built: it is returned with reason ``unreachable`` naming them, and
   the planner fails it before the build starts. Checked on the robots' own 0.1 m grid, so a coarse grid
   never fails a buildable component.
+
+A component built where it stands (cast in place, laid: :mod:`.work_in_place`) is reached by its machine's
+boom, not driven to: it is still an obstacle once built, but its own access is not checked and nothing is
+reordered or failed for it.
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ from bimbot.shared.sequence import priority_topological_order
 from bimbot.shared.site_access import AccessConfig, SiteAccess, check_order
 
 from .sources import Plan, PlanError
+from .work_in_place import works_in_place
 
 _log = logging.getLogger(__name__)
 
@@ -63,12 +68,13 @@ def access_plan(
     robot = site_robot(info)
     layout = info.layout  # physics' site plan: the one the robots drive in
     by_guid = {component.guid: component for component in components}
+    in_place = {component.guid for component in components if works_in_place(component)}
     added = 0
     check = check_order(SiteAccess(components, layout, robot), plan.order)
     for _ in range(MAX_ROUNDS if adjust else 0):
         preds = {guid: set(plan.predecessors.get(guid, ())) for guid in plan.order}
         new = 0
-        for placed, cut in check.cut_offs:
+        for placed, cut in _driven_to(check.cut_offs, in_place):
             if cut not in preds[placed] and not _depends_on(preds, cut, placed):
                 preds[placed].add(cut)
                 new += 1
@@ -80,10 +86,12 @@ def access_plan(
         check = check_order(SiteAccess(components, layout, robot), plan.order)
     warnings = [
         f"access check: placing {_describe(placed, by_guid)} cuts off {_describe(cut, by_guid)}"
-        for placed, cut in check.cut_offs
+        for placed, cut in _driven_to(check.cut_offs, in_place)
     ]
     unreachable: dict[str, Reason] = {}
     for guid in check.inaccessible:
+        if guid in in_place:
+            continue
         ancestors = _ancestors(plan.predecessors, guid)
         fine = SiteAccess(components, layout, robot, FINE)
         for other in plan.order:
@@ -112,6 +120,11 @@ def access_plan(
     if strict and warnings:
         raise PlanError(f"{len(warnings)} step(s) of the sequence cut off later work; first: {warnings[0]}")
     return AccessOutcome(plan, unreachable, tuple(warnings), added)
+
+
+def _driven_to(cut_offs: tuple[tuple[str, str], ...], in_place: set[str]) -> list[tuple[str, str]]:
+    """The cut-offs of components a robot drives to (not those a boom reaches where they stand)."""
+    return [(placed, cut) for placed, cut in cut_offs if cut not in in_place]
 
 
 def _depends_on(preds: Mapping[str, set[str]], guid: str, other: str) -> bool:

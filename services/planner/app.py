@@ -13,7 +13,9 @@ Start-up, in order:
 
 Then the loop: drain the inbox into the core, ``step`` it, publish events (``components/<key>/event``) and
 tasks (``tasks/<task_id>``), and publish progress (``progress``) when it changes and at least every
-``progress_interval_s``. With ``exit_when_done`` the planner returns when every task is done, failed or
+``progress_interval_s``. When the core says nothing on site can happen before a known sim time (curing,
+timed work in place; :mod:`.quiet`), the loop asks physics to skip its clock there (:mod:`.skip_requests`,
+``skip_quiet``). With ``exit_when_done`` the planner returns when every task is done, failed or
 blocked: 0 when everything was constructed, 1 (with a summary naming the failed and blocked components)
 otherwise. It also returns (0) when ``stop`` is set.
 """
@@ -74,6 +76,7 @@ from bimbot.shared.twin_query import ask_twins
 from .capability import site_robots
 from .feasibility import infeasible
 from .scheduler import Outgoing, PlannerCore, PlannerLimits
+from .skip_requests import SkipAnswer, Skipper, bus_sender
 from .sources import Plan, PlanSource, load_plan
 
 _log = logging.getLogger(__name__)
@@ -92,6 +95,7 @@ class PlannerOptions:
     poll_s: float = 0.05  # longest wait for bus input per loop turn
     site_info_timeout_s: float = 30.0  # wall seconds to wait for physics' site info (robot types, site)
     strict: bool = False  # a sequence step that cuts off later work is an error, not a warning
+    skip_quiet: bool = True  # ask physics to skip its clock over a quiet site (curing, timed work)
     limits: PlannerLimits = field(default_factory=PlannerLimits)
 
 
@@ -146,7 +150,8 @@ def main(
         _sync_twins(session, site, core, inbox, options.twin_timeout_s)
         core.finish_sync()
         core.fail_at_start(cannot)
-        code = _Loop(session, site, core, inbox, feed).run(options, stop)
+        skipper = Skipper(bus_sender(session, site, inbox)) if options.skip_quiet else None
+        code = _Loop(session, site, core, inbox, feed, skipper=skipper).run(options, stop)
         token.undeclare()
         plan_queryable.undeclare()
         for subscriber in subscribers:
@@ -296,9 +301,17 @@ class _Loop:
     """The planner's main loop: inbox → core → bus."""
 
     def __init__(
-        self, session: zenoh.Session, site: str, core: PlannerCore, inbox: Inbox, feed: _Feeder
+        self,
+        session: zenoh.Session,
+        site: str,
+        core: PlannerCore,
+        inbox: Inbox,
+        feed: _Feeder,
+        *,
+        skipper: Skipper | None = None,
     ) -> None:
         self.session, self.site, self.core, self.inbox, self.feed = session, site, core, inbox, feed
+        self.skipper = skipper
 
     def run(self, options: PlannerOptions, stop: threading.Event) -> int:
         last_progress: str | None = None
@@ -307,13 +320,19 @@ class _Loop:
         next_refresh_s = time.monotonic() + TWIN_REFRESH_S
         while not stop.is_set():
             for item in self.inbox.drain(first_timeout_s=options.poll_s):
-                self.feed(item)
+                if isinstance(item, SkipAnswer):
+                    if self.skipper is not None:
+                        self.skipper.answered(item)
+                else:
+                    self.feed(item)
             if time.monotonic() >= next_refresh_s:  # recover a state message that went missing
                 next_refresh_s = time.monotonic() + TWIN_REFRESH_S
                 for guid in self.core.in_flight():
                     self.feed.ask_twin(guid)
             for message in self.core.step(time.time()):
                 self.session.put(outgoing_key(self.site, message), encode(message))
+            if self.skipper is not None:
+                self.skipper.tick(self.core.quiet_until, time.monotonic())
             now = time.monotonic()
             due = now - last_progress_wall >= options.progress_interval_s
             if self.core.revision == progress_revision and not due:

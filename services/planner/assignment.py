@@ -49,12 +49,14 @@ class Choice:
 
 
 def ready_s(robot: RobotRecord, now_s: float) -> float:
-    """When ``robot`` will be free: now when idle; its estimate when busy, growing once overrun."""
+    """When ``robot`` will be free: now when idle; its estimate when busy, growing once overrun, and not
+    before the end of timed work it says it is busy with (``RobotStateMsg.busy_until_s``)."""
     if robot.task_guid is None and robot.state is RobotState.IDLE:
         return now_s
-    if robot.busy_until_s >= now_s:
-        return robot.busy_until_s
-    return now_s + (now_s - robot.busy_until_s)
+    said_s = robot.reported_busy_until_s if robot.state is RobotState.WORK_IN_PLACE else None
+    overrun_s = max(0.0, now_s - robot.busy_until_s)
+    estimate_s = max(robot.busy_until_s, now_s) + overrun_s
+    return max(estimate_s, said_s) if said_s is not None else estimate_s
 
 
 def choose(

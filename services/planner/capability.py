@@ -11,12 +11,17 @@ and where it stands); this module applies them to a component where it lies now 
   component's mass (load chart), and its jib is high enough;
 * otherwise, when a crane reaches the target but not where the component lies, a ground robot that can
   carry the mass **hands it off**: it carries it to the crane's staging area (a task of its own), and the
-  crane builds it from there.
+  crane builds it from there;
+* a component cast in place or laid is built where it stands, only by a machine that can ``pour`` or
+  ``lay`` within its boom's reach (:mod:`.work_in_place`): never carried, never handed off, its mass moot;
+  a machine that only pours or lays never gets a part to carry.
 
 A component where it lies is its centre (the planner follows positions, not orientations); a crane's hook
 radius is the distance to that centre. Its target is its posed footprint.
 Bids (:func:`task_estimate_s`) are sim seconds: driving at the type's speed along ``DETOUR`` times the
-straight line, a crane's slew/trolley/hoist motion, and the type's handling time to grip and to release.
+straight line, a crane's slew/trolley/hoist motion, and the type's handling time to grip and to release;
+for work in place, the work itself (formwork + pour, or the blocks at the machine's rate), its handling
+time to set up and to clear, and the drive of a machine that drives.
 """
 
 from __future__ import annotations
@@ -25,11 +30,12 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import SiteInfoMsg
 from bimbot.shared.robot_description import Capability, RobotDescription
 from bimbot.shared.site_plan import Rect, SiteLayout
+
+from .work_in_place import can_work_on, lifts, target_footprint, work_s, works_in_place
 
 DETOUR = 1.5  # driven path / straight line on a site with a yard, aisles and lanes
 GROUND_PLACE_S = 2.0  # a ground robot's assembly motion (the executor's place duration)
@@ -88,11 +94,6 @@ def target_centre_xy(component: Component) -> tuple[float, float]:
     return ((low[0] + high[0]) / 2.0, (low[1] + high[1]) / 2.0)
 
 
-def target_footprint(component: Component) -> Footprint:
-    pose = component.target_pose_world
-    return posed_footprint(component, pose.position_m, pose.quat_xyzw)
-
-
 def crane_reaches_centre(crane: SiteRobot, where: Where, mass_kg: float) -> bool:
     """The hook reaches the centre of a component lying at ``where`` with ``mass_kg`` (its hook radius
     between the trolley's innermost radius and the chart's radius for that mass)."""
@@ -115,7 +116,12 @@ def target_hook_radius_m(crane: SiteRobot, component: Component) -> float:
 
 
 def can_place(robot: SiteRobot, component: Component) -> bool:
-    """Payload and placement height allow it, and a crane's hook reaches the target with its mass."""
+    """Payload and placement height allow it, and a crane's hook reaches the target with its mass; for work
+    in place: the robot can do the work and its boom covers the target (:mod:`.work_in_place`)."""
+    if works_in_place(component):
+        return can_work_on(robot.description, robot.home_xy_yaw[:2], component)
+    if not lifts(robot.description):
+        return False
     top_z_m = component.bbox_world.max_m[2]
     if robot.description.refusal(component.mass_kg, top_z_m) is not None:
         return False
@@ -123,15 +129,22 @@ def can_place(robot: SiteRobot, component: Component) -> bool:
 
 
 def can_build_from(robot: SiteRobot, component: Component, where: Where) -> bool:
-    """``robot`` can pick ``component`` up where it lies and place it."""
+    """``robot`` can pick ``component`` up where it lies and place it (or, for work in place, build it)."""
     if not can_place(robot, component):
         return False
+    if works_in_place(component):
+        return True
     return not robot.lifts_by_hook or crane_reaches_centre(robot, where, component.mass_kg)
 
 
 def can_carry(robot: SiteRobot, component: Component) -> bool:
-    """A robot that can carry the component to a crane's staging area (its placement height is moot)."""
-    return robot.description.can(Capability.HAND_OFF) and component.mass_kg <= robot.description.payload_kg
+    """A robot that can carry the component to a crane's staging area (its placement height is moot); a
+    component built in place is never carried."""
+    return (
+        not works_in_place(component)
+        and robot.description.can(Capability.HAND_OFF)
+        and component.mass_kg <= robot.description.payload_kg
+    )
 
 
 def staging_reached(crane: SiteRobot, component: Component) -> bool:
@@ -153,10 +166,16 @@ def task_estimate_s(
     to_xy_m: Sequence[float] | None = None,
 ) -> float:
     """Sim seconds for ``robot`` (at ``robot_xy_m``) to pick ``component`` up where it lies and place it
-    at its target, or put it down at ``to_xy_m`` (a hand-off)."""
+    at its target, or put it down at ``to_xy_m`` (a hand-off); for work in place, to go there (a machine
+    that drives), set up, do the work and clear."""
     description = robot.description
     target = target_centre_xy(component)
     handling_s = 2.0 * description.handling_s
+    if works_in_place(component):
+        drive_s = 0.0
+        if description.can(Capability.DRIVE):
+            drive_s = DETOUR * math.dist(robot_xy_m[:2], target) / description.max_speed_mps
+        return drive_s + handling_s + work_s(component, description)
     if robot.lifts_by_hook and description.crane is not None:
         start = (*where.xy_m, where.top_z_m)
         end = (target[0], target[1], component.bbox_world.max_m[2])

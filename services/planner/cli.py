@@ -81,6 +81,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="take a task back when its component has not changed state for this long "
         f"(default {limits.task_timeout_s:g} sim s)",
     )
+    parser.add_argument(
+        "--no-skip",
+        action="store_true",
+        help="never ask physics to skip its clock over a quiet site (curing, timed work in place)",
+    )
     add_bus_arguments(parser)
 
 
@@ -122,6 +127,7 @@ def planner_options(args: argparse.Namespace) -> PlannerOptions:
         resend_s=args.resend_s,
         site_info_timeout_s=args.site_info_timeout_s,
         strict=args.strict,
+        skip_quiet=not args.no_skip,
         limits=PlannerLimits(max_give_backs=args.max_give_backs, task_timeout_s=args.task_timeout_s),
     )
 

@@ -20,7 +20,7 @@ from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.site_plan import YardSlot
 
 from .assignment import choose, staged_where
-from .capability import SiteRobot, target_centre_xy
+from .capability import SiteRobot, Where, target_centre_xy
 from .feasibility import slot_where
 from .records import FINAL, ComponentRecord, Pending, Phase, RobotRecord, TaskRecord, distance
 from .sources import Plan
@@ -88,14 +88,9 @@ class Dispatch:
             if not any(self._is_idle(robot) for robot in self._robots.values()):
                 return
             item = self._manifest[guid]
-            where = (
-                staged_where(item, component.position_xy)
-                if component.position_xy is not None
-                else slot_where(item, self._slots.get(guid))
-            )
             choice = choose(
                 item,
-                where,
+                self._lies(guid),
                 [robot for robot in self._robots.values() if self.sim_time_s >= robot.held_until_s],
                 self._site,
                 now_s=self.sim_time_s,
@@ -115,6 +110,11 @@ class Dispatch:
             if choice.put_down_xy_m is not None:
                 taken.append(choice.put_down_xy_m)
             self._give_to(task, robot, choice.kind, choice.put_down_xy_m, estimate_s=choice.estimate_s)
+
+    def _lies(self, guid: str) -> Where:
+        """Where ``guid`` lies now: its last pose, else its yard slot (else its target)."""
+        item, xy = self._manifest[guid], self._components[guid].position_xy
+        return staged_where(item, xy) if xy is not None else slot_where(item, self._slots.get(guid))
 
     @staticmethod
     def _hand_offs_exhausted(task: TaskRecord, item: Component) -> Reason:

@@ -9,7 +9,14 @@ whose hook reaches its yard slot and its target with its mass (load chart) and w
 or by a **hand-off**: a ground type that can carry it to the crane's staging area, then the crane (see
 :mod:`.capability`). When nothing can: ``too_heavy`` when it is heavier than every payload on site;
 ``out_of_reach`` when a crane could lift it but not that far (the numbers of the nearest crane), or when it
-is too high for every ground type; else the first type's refusal.
+is too high for every ground type; else the first type's refusal. Only types that can carry or hook a part
+count for this; a site with none says so (``no_capable_robot``).
+
+A component cast in place or laid is built where it stands by a machine that can ``pour`` or ``lay``
+(:mod:`.work_in_place`; its mass never matters). When none can: ``no_capable_robot`` when no robot on site
+has the capability (add a concrete pump or a block layer); ``out_of_reach`` when every such machine's
+boom is too low for its top, or too short to cover its footprint from where it stands (the numbers of the
+nearest one: the footprint's span from its base against its boom's reach).
 """
 
 from __future__ import annotations
@@ -32,6 +39,15 @@ from .capability import (
     staging_reached,
     target_centre_xy,
     target_hook_radius_m,
+)
+from .work_in_place import (
+    WORK_MACHINE,
+    WORK_WORDS,
+    boom_span_m,
+    can_work_on,
+    lifts,
+    work_capability,
+    works_in_place,
 )
 
 
@@ -61,6 +77,8 @@ def component_feasibility(
     component: Component, robots: Sequence[SiteRobot], slot: YardSlot | None = None
 ) -> Feasibility:
     """How ``component`` can be built by ``robots`` from its yard ``slot``."""
+    if works_in_place(component):
+        return _in_place_feasibility(component, robots)
     where = slot_where(component, slot)
     routes: list[str] = []
     types: set[str] = set()
@@ -81,7 +99,84 @@ def component_feasibility(
     routes = list(dict.fromkeys(routes))
     if routes or not robots:
         return Feasibility(component.guid, tuple(sorted(types)), tuple(routes), None)
-    return Feasibility(component.guid, (), (), _why_not(component, robots, where))
+    lifters = [robot for robot in robots if lifts(robot.description)]
+    if not lifters:
+        return Feasibility(component.guid, (), (), _no_lifter(component, robots))
+    return Feasibility(component.guid, (), (), _why_not(component, lifters, where))
+
+
+def _in_place_feasibility(component: Component, robots: Sequence[SiteRobot]) -> Feasibility:
+    """A component built where it stands: the machines that can do its work from where they stand."""
+    able = [robot for robot in robots if can_work_on(robot.description, robot.home_xy_yaw[:2], component)]
+    if able or not robots:
+        routes = [
+            f"{robot.description.name} ({robot.robot_id})" if robot.stands_fixed else robot.description.name
+            for robot in able
+        ]
+        types = sorted({robot.description.name for robot in able})
+        return Feasibility(component.guid, tuple(types), tuple(dict.fromkeys(routes)), None)
+    return Feasibility(component.guid, (), (), _why_no_worker(component, robots))
+
+
+#: How a reason names a method of work in place.
+METHOD_WORDS = {"cast_in_place": "cast in place", "laid": "laid masonry"}
+
+
+def _why_no_worker(component: Component, robots: Sequence[SiteRobot]) -> Reason:
+    capability = work_capability(component)
+    assert capability is not None
+    words, method = WORK_WORDS[capability], METHOD_WORDS.get(component.method.value, component.method.value)
+    workers = [robot for robot in robots if robot.description.can(capability)]
+    if not workers:
+        kinds = ", ".join(sorted({robot.description.name for robot in robots}))
+        return Reason(
+            code=ReasonCode.NO_CAPABLE_ROBOT,
+            message=(
+                f"it is {method}, and no robot on site can {words} (capability {capability.value}; types on "
+                f"site: {kinds}): add {WORK_MACHINE[capability]} to the fleet (--fleet FLEET.toml)"
+            ),
+        )
+    top_z = component.bbox_world.max_m[2]
+    high = [robot for robot in workers if top_z <= robot.description.max_place_height_m + 1e-9]
+    if not high:
+        best = max(workers, key=lambda robot: robot.description.max_place_height_m)
+        return Reason(
+            code=ReasonCode.OUT_OF_REACH,
+            message=(
+                f"its top at {top_z:.2f} m is above the {best.description.name} {best.robot_id}'s working "
+                f"height of {best.description.max_place_height_m:.2f} m, the highest of the robots on site "
+                f"that can {words}"
+            ),
+            robot_id=best.robot_id,
+        )
+    spans = {robot.robot_id: boom_span_m(robot.home_xy_yaw[:2], component) for robot in high}
+    nearest = min(
+        high, key=lambda robot: (spans[robot.robot_id][1] - robot.description.reach_m, robot.robot_id)
+    )
+    near, far = spans[nearest.robot_id]
+    others = f" (the nearest of {len(high)} robots that can {words})" if len(high) > 1 else ""
+    return Reason(
+        code=ReasonCode.OUT_OF_REACH,
+        message=(
+            f"its footprint spans {near:.1f}–{far:.1f} m from {nearest.description.name} {nearest.robot_id}, "
+            f"whose boom reaches {nearest.description.reach_m:.1f} m{others}: a longer boom (reach_m in the "
+            "fleet file) would cover it"
+        ),
+        robot_id=nearest.robot_id,
+    )
+
+
+def _no_lifter(component: Component, robots: Sequence[SiteRobot]) -> Reason:
+    kinds = ", ".join(sorted({robot.description.name for robot in robots}))
+    method = component.method.value
+    return Reason(
+        code=ReasonCode.NO_CAPABLE_ROBOT,
+        message=(
+            f"it is {method} (a prefabricated part), and no robot on site can carry or lift it (capabilities "
+            f"carry, hook_lift; types on site: {kinds}): add a ground robot or a tower crane to the fleet "
+            "(--fleet FLEET.toml)"
+        ),
+    )
 
 
 #: How a mass the IFC does not state was estimated (the converter's chain, ``mass.py``): a reason that turns

@@ -89,6 +89,8 @@ class RobotRecord:
     pose_xy_yaw: tuple[float, float, float] | None = None
     task_guid: str | None = None  # the task the planner gave it, until its part is over
     busy_until_s: float = 0.0  # sim time its current task should be over (its winning bid)
+    # timed work in place: the robot says nothing of it changes before this sim time (its state message)
+    reported_busy_until_s: float | None = None
     give_backs_in_row: int = 0  # tasks it gave back since it last placed a component
     held_until_s: float = 0.0  # no new task before this sim time (PlannerLimits.hold_*)
 

@@ -7,7 +7,9 @@ calls :meth:`PlannerCore.step` with the wall time; ``step`` returns the messages
 ``docs/architecture.md``:
 
 1. **Release** every task whose predecessors are all constructed — the whole ready set at once, in plan
-   priority order: event ``release`` and task ``released``.
+   priority order: event ``release`` and task ``released``. A predecessor cast in place must also have
+   cured: it holds what follows it for its ``cast.cure_s`` of sim time after it became constructed
+   (:mod:`.curing`; the holds are in the progress, ``curing``).
 2. **Assign** a released task once its component reports ``released``, to the nearest alive, idle robot
    (robot ``pose_xy_yaw`` against the component's last pose, else its BIM target): task ``assigned``. A
    robot is idle when it last reported ``idle`` and holds no task of the planner's.
@@ -20,13 +22,18 @@ calls :meth:`PlannerCore.step` with the wall time; ``step`` returns the messages
 5. **Bounds** (:class:`PlannerLimits`): a component given back ``max_give_backs`` times, by any robots, is
    failed with the last give-back's reason (the robot's own: ``no_approach_pose``, ``unreachable``,
    ``robot_trapped``…); a task whose component has not changed state for ``task_timeout_s`` sim seconds is
-   taken back from its robot (``no_progress``, counted as a give-back). Components no robot type on site can
+   taken back from its robot (``no_progress``, counted as a give-back); one worked on in place (forming,
+   pouring, laying) gets the expected duration of its work on top (:func:`.work_in_place.work_s`).
+   Components no robot type on site can
    build are failed before anything is released (:meth:`PlannerCore.fail_at_start`). What rests on a failed
    component (transitively, in the support graph) is ``blocked`` (event ``block`` with a ``blocked_by``
    reason naming it); a component that only follows it in the schedule goes on: for the release, a failed
    or blocked predecessor it does not rest on counts as done (a too-heavy footing on one side of the site
    does not stop the walls on the other). Every failed or blocked component's reason travels on its task
    and in the progress (``reasons``).
+
+A site where nothing can happen before a known sim time (curing, timed work) says until when:
+:meth:`PlannerCore.quiet_until` (:mod:`.quiet`), which the adapter sends to physics as a skip request.
 
 Delivery is at least once: each event and each ``assigned`` task is re-sent unchanged (same ``event_id``)
 every ``resend_s`` wall seconds until its effect is observed (the component leaves ``planned`` after a
@@ -50,6 +57,7 @@ from bimbot.shared.messages import (
     ComponentPoseMsg,
     ComponentState,
     ComponentStateMsg,
+    CuringHold,
     PoseMsg,
     ProgressMsg,
     RobotStateMsg,
@@ -61,7 +69,9 @@ from bimbot.shared.messages import (
 from bimbot.shared.reasons import Reason, ReasonCode, blocked_by
 
 from .capability import SiteRobot
+from .curing import CuringHolds, Hold, constructed_time_s
 from .dispatch import Dispatch
+from .quiet import WORKING, Quiet, Skip
 from .records import (
     CARRYING,
     FINAL,
@@ -78,13 +88,14 @@ from .records import (
     reached,
 )
 from .sources import Plan
+from .work_in_place import cure_s, work_s
 
-__all__ = ["Outgoing", "Phase", "PlannerCore", "PlannerLimits"]
+__all__ = ["Outgoing", "Phase", "PlannerCore", "PlannerLimits", "Skip"]
 
 _log = logging.getLogger(__name__)
 
 
-class PlannerCore(Dispatch):
+class PlannerCore(Dispatch, Quiet):
     """The planner's state and decisions (see the module docstring); no bus, no files, no clock."""
 
     def __init__(
@@ -113,6 +124,11 @@ class PlannerCore(Dispatch):
             guid: TaskRecord(guid, plan.task_ids[guid], priority) for priority, guid in enumerate(plan.order)
         }
         self._components = {guid: ComponentRecord() for guid in plan.order}
+        self._curing = CuringHolds(
+            {guid: cure_s(item) for guid, item in self._manifest.items() if cure_s(item) > 0}
+        )
+        self._held: dict[str, Hold] = {}  # GUID → the curing that holds its release (the last release pass)
+        self._next_cure_s: float | None = None  # the earliest end of a hold: the release pass runs again then
         self._robots: dict[str, RobotRecord] = {}
         self._pending: dict[tuple[str, str], Pending] = {}
         self._outbox: list[Outgoing] = []
@@ -161,6 +177,9 @@ class PlannerCore(Dispatch):
         component = self._components.get(twin.guid)
         if component is None:
             return
+        constructed_s = constructed_time_s(twin) if twin.state is ComponentState.CONSTRUCTED else None
+        if constructed_s is not None:  # the exact time, from its history: a restarted planner's curing holds
+            self._curing.constructed(twin.guid, constructed_s)
         newest = twin.history[-1] if twin.history else None
         if newest is not None and (
             newest.wall_time_s < component.changed_wall_s
@@ -196,6 +215,7 @@ class PlannerCore(Dispatch):
         robot.state = msg.state
         robot.reported_task_id = msg.task_id
         robot.pose_xy_yaw = msg.pose_xy_yaw
+        robot.reported_busy_until_s = msg.busy_until_s
         self.observe_clock(msg.sim_time_s)
 
     def robot_liveliness(self, robot_id: str, alive: bool) -> None:
@@ -299,7 +319,16 @@ class PlannerCore(Dispatch):
             blocked=self.blocked(),
             reasons=self.reasons(),
             done=self.done,
+            curing=[
+                CuringHold(guid=hold.guid, cast_guid=hold.cast_guid, until_s=hold.until_s)
+                for hold in self.curing_holds()
+            ],
         )
+
+    def curing_holds(self) -> list[Hold]:
+        """What is ready but for the curing of a cast predecessor, soonest first."""
+        holds = [hold for guid, hold in self._held.items() if self._tasks[guid].phase is Phase.WAITING]
+        return sorted(holds, key=lambda hold: (hold.until_s, self._tasks[hold.guid].priority))
 
     def reasons(self) -> dict[str, Reason]:
         """GUID → why, for every failed and blocked component."""
@@ -333,6 +362,7 @@ class PlannerCore(Dispatch):
         if task.phase in FINAL and state is not ComponentState.CONSTRUCTED:
             return
         if state is ComponentState.CONSTRUCTED:
+            self._curing.constructed(guid, sim_s)  # (a twin's is exact and earlier: the earlier is kept)
             if task.phase is not Phase.DONE:
                 if task.assigned_sim_s is not None:
                     task.duration_sim_s = max(0.0, sim_s - task.assigned_sim_s)
@@ -404,21 +434,40 @@ class PlannerCore(Dispatch):
             self.revision += 1
 
     def _release_ready(self) -> None:
-        if self._released_revision == self.revision:
+        cured = self._next_cure_s is not None and self.sim_time_s >= self._next_cure_s
+        if self._released_revision == self.revision and not cured:
             return  # nothing changed that could make a task ready
         self._released_revision = self.revision
         settled: dict[str, bool] = {}
+        held: dict[str, Hold] = {}
         for guid in self._plan.order:
             task = self._tasks[guid]
             if task.phase is not Phase.WAITING:
                 continue
             preds = self._plan.predecessors.get(guid, frozenset())
             if all(self._settled_for_release(pred, settled) for pred in preds):
+                hold = self._curing.holding(guid, preds, self.sim_time_s)
+                if hold is not None:
+                    held[guid] = hold
+                    continue
+                if guid in self._held:
+                    _log.info("%s released: %s has cured", guid, self._describe(self._held[guid].cast_guid))
                 component = self._components[guid]
                 self._set_phase(task, Phase.RELEASED, TaskStatus.RELEASED)
                 if component.state is ComponentState.PLANNED:
                     is_released = partial(left, component, {ComponentState.PLANNED})
                     self._send_event(guid, ComponentEvent.RELEASE, is_released)
+        for guid, hold in held.items():
+            if guid not in self._held:
+                _log.info(
+                    "%s waits for the curing of %s until %.0f s of sim time (now %.0f s)",
+                    self._describe(guid),
+                    self._describe(hold.cast_guid),
+                    hold.until_s,
+                    self.sim_time_s,
+                )
+        self._held = held
+        self._next_cure_s = min((hold.until_s for hold in held.values()), default=None)
 
     def _settled_for_release(self, pred: str, memo: dict[str, bool]) -> bool:
         """A predecessor is out of the way: constructed, or not built at all and its own predecessors out
@@ -496,7 +545,6 @@ class PlannerCore(Dispatch):
     def _watch_tasks(self) -> None:
         """The no-progress watchdog: an assigned task whose component has not changed state for
         ``task_timeout_s`` sim seconds is taken back from its robot."""
-        bound = self.limits.task_timeout_s
         if self._watched == (self.revision, self.sim_time_s):
             return  # no sim time passed and nothing changed since the last pass
         self._watched = (self.revision, self.sim_time_s)
@@ -505,16 +553,28 @@ class PlannerCore(Dispatch):
             if task.phase is not Phase.ASSIGNED or state is ComponentState.VERIFYING:
                 continue
             idle_s = self.sim_time_s - task.changed_sim_s
+            bound = self._task_bound_s(task)
             if idle_s > bound:
+                work = bound - self.limits.task_timeout_s
+                of_work = f" with {work:.0f} s of work in place" if work > 0 else ""
                 reason = Reason(
                     code=ReasonCode.NO_PROGRESS,
                     message=(
                         f"{task.active_id} made no progress for {idle_s:.0f} s of sim time "
-                        f"(bound {bound:.0f} s; component {state.value}, robot {task.robot_id})"
+                        f"(bound {bound:.0f} s{of_work}; component {state.value}, robot {task.robot_id})"
                     ),
                     robot_id=task.robot_id,
                 )
                 self._give_back(task.guid, reason.message, reason)
+
+    def _task_bound_s(self, task: TaskRecord) -> float:
+        """How long an assigned task may go without a state change of its component (sim s): the fixed
+        bound, plus the expected duration of its work while it is worked on in place."""
+        bound = self.limits.task_timeout_s
+        if self._components[task.guid].state in WORKING:
+            robot = self._site.get(task.robot_id or "") if self._site is not None else None
+            bound += work_s(self._manifest[task.guid], robot.description if robot is not None else None)
+        return bound
 
     def _fail(self, guid: str, reason: Reason, *, block: bool = True) -> None:
         """The component cannot be built: event ``fail`` with ``reason``; its dependents are blocked."""
@@ -614,4 +674,5 @@ class PlannerCore(Dispatch):
             reason=task.reason if status in (TaskStatus.FAILED, TaskStatus.BLOCKED) else None,
             kind=task.kind,
             put_down_xy_m=task.put_down_xy,
+            method=component.method,
         )

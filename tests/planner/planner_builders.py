@@ -9,6 +9,7 @@ Layout (world frame, metres)::
 
 from __future__ import annotations
 
+from bimbot.shared.construction_methods import CastWork, ConstructionMethod
 from bimbot.shared.manifest import (
     BoundingBox,
     CollisionMethod,
@@ -30,6 +31,7 @@ from bimbot.shared.messages import (
     TwinMsg,
 )
 from bimbot.shared.reasons import Reason
+from bimbot.shared.robot_description import Capability, LayingSpec, RobotDescription
 
 PORTAL = ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c", "beam")
 
@@ -159,3 +161,49 @@ def twin_msg(
         robot_id=None,
         history=history or [],
     )
+
+
+# --- work in place: a boom pump and a block layer that stand fixed, and the portal with cast/laid parts ----
+
+PUMP = RobotDescription(
+    name="concrete_pump",
+    urdf="pump.urdf",
+    payload_kg=1.0,
+    reach_m=32.0,
+    max_place_height_m=28.0,
+    length_m=2.5,
+    width_m=2.5,
+    max_speed_mps=0.0,
+    max_turn_radps=0.0,
+    handling_s=600.0,
+    capabilities=frozenset({Capability.STAND_FIXED, Capability.POUR}),
+)
+LAYER = RobotDescription(
+    name="block_layer",
+    urdf="layer.urdf",
+    payload_kg=1.0,
+    reach_m=15.0,
+    max_place_height_m=6.0,
+    length_m=2.0,
+    width_m=2.0,
+    max_speed_mps=0.0,
+    max_turn_radps=0.0,
+    handling_s=300.0,
+    capabilities=frozenset({Capability.STAND_FIXED, Capability.LAY}),
+    laying=LayingSpec(
+        block_length_m=0.5, block_height_m=0.25, block_width_m=0.2, block_mass_kg=20.0, blocks_per_h=100.0
+    ),
+)
+FOOTING_CAST = CastWork(
+    formwork_area_m2=1.2, volume_m3=0.108, formwork_s=3600.0, pour_s=1800.0, cure_s=86400.0
+)
+
+
+def with_methods(manifest: Manifest, **methods: ConstructionMethod) -> Manifest:
+    """``manifest`` with the named components built by other methods (a cast one gets FOOTING_CAST)."""
+    components = []
+    for item in manifest.components:
+        method = methods.get(item.guid, item.method)
+        cast = FOOTING_CAST if method is ConstructionMethod.CAST_IN_PLACE else None
+        components.append(item.model_copy(update={"method": method, "cast": cast}))
+    return manifest.model_copy(update={"components": components})

@@ -18,21 +18,25 @@ from bimbot.cli import build_parser
 from bimbot.cli import main as bimbot_main
 from bimbot.services.planner.app import PlannerOptions, main
 from bimbot.services.planner.cli import plan_source
+from bimbot.services.planner.skip_requests import SkipAnswer, bus_sender
 from bimbot.services.planner.sources import PlanSource, SourceKind
-from bimbot.shared.bus import BusOptions, InvalidPayloads, decode, encode, open_session
+from bimbot.shared.bus import BusOptions, Inbox, InvalidPayloads, decode, encode, open_session
 from bimbot.shared.manifest import write_manifest
 from bimbot.shared.messages import (
     ALIVE_KEY,
     COMPONENT_EVENT_KEY,
     COMPONENT_STATE_KEY,
     COMPONENT_TWIN_KEY,
+    PHYSICS_SKIP,
     PROGRESS_KEY,
     ROBOT_STATE_KEY,
     TASK_KEY,
     ComponentEvent,
     ComponentEventMsg,
     ComponentState,
+    PhysicsReply,
     ProgressMsg,
+    SkipRequest,
     TaskMsg,
     TaskStatus,
     key,
@@ -201,3 +205,40 @@ def test_planner_cli_source_options_are_mutually_exclusive() -> None:
     argv = ["planner", "--build", "out", "--derive", "--from-ifc"]
     with pytest.raises(SystemExit):
         build_parser(argv).parse_args(argv)
+
+
+def test_a_skip_request_reaches_physics_skip_with_its_payload_and_the_answer_comes_back_to_the_inbox() -> (
+    None
+):
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    asked: list[SkipRequest] = []
+    with (
+        open_session(BusOptions(mode="peer", connect=(), listen=(endpoint,))) as physics,
+        open_session(BusOptions(mode="peer", connect=(endpoint,), listen=())) as planner,
+    ):
+        selector = PHYSICS_SKIP.key(site=SITE)
+
+        def answer(query: zenoh.Query) -> None:
+            assert query.payload is not None
+            request = decode(SkipRequest, selector, query.payload.to_bytes(), InvalidPayloads())
+            assert request is not None
+            asked.append(request)
+            reply = PhysicsReply(ok=False, reason="r1 is moving", sim_time_s=12.0)
+            query.reply(selector, encode(reply))
+
+        queryable = physics.declare_queryable(selector, answer)
+        inbox = Inbox()
+        request = SkipRequest(to_sim_s=86500.0, why="curing of foot_a until 86500 s")
+        deadline = time.monotonic() + 5.0
+        answers: list[SkipAnswer] = []
+        while time.monotonic() < deadline:  # until the peers have met: before, no reply at all
+            bus_sender(planner, SITE, inbox)(request)
+            answers = [item for item in inbox.drain(first_timeout_s=1.0) if isinstance(item, SkipAnswer)]
+            if answers and answers[0].reply is not None:
+                break
+            assert all(item.error == "no reply (timeout)" for item in answers)
+        queryable.undeclare()
+    assert asked and asked[0] == request
+    first = answers[0]
+    assert first.request == request and len(answers) == 1  # one answer per question
+    assert first.reply is not None and not first.reply.ok and first.reply.reason == "r1 is moving"

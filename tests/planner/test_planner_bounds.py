@@ -17,6 +17,7 @@ from bimbot.services.planner.capability import SiteRobot
 from bimbot.services.planner.feasibility import component_feasibility, infeasible
 from bimbot.services.planner.scheduler import Phase, PlannerCore, PlannerLimits
 from bimbot.services.planner.sources import PlanError, PlanSource, SourceKind, load_plan, plan_from_sequence
+from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Manifest, MassSource, read_manifest
 from bimbot.shared.messages import (
@@ -229,6 +230,25 @@ def test_a_given_sequence_that_walls_in_a_column_fails_it_before_the_build_namin
     assert any(guid["Column R1"] in w and "cuts off" in w for w in outcome.warnings)
     with pytest.raises(PlanError, match="cut off"):
         access_plan(plan, manifest, _info(manifest), adjust=False, strict=True)
+
+
+def test_a_column_cast_in_place_inside_the_walls_is_reached_by_a_boom_not_failed_unreachable(
+    walls_first_build: Path,
+) -> None:
+    manifest = read_manifest(walls_first_build)
+    column = next(c.guid for c in manifest.components if c.name == "Column R1")
+    cast = manifest.model_copy(
+        update={
+            "components": [
+                c.model_copy(update={"method": ConstructionMethod.CAST_IN_PLACE}) if c.guid == column else c
+                for c in manifest.components
+            ]
+        }
+    )
+    plan = load_plan(cast, walls_first_build, PlanSource(SourceKind.BUILD))
+    outcome = access_plan(plan, cast, _info(cast), adjust=plan.derived)
+    assert outcome.unreachable == {}
+    assert not any(column in warning for warning in outcome.warnings)
 
 
 def test_a_derived_sequence_builds_the_column_before_the_wall_that_would_close_the_room(

@@ -22,7 +22,7 @@ from bimbot.shared.bus_access import (
     speakers_of,
 )
 from bimbot.shared.keyspace import Queryable, Topic
-from bimbot.shared.messages import CLOCK, KEY_SPACE, ROBOT_CMD_VEL, TOPICS, TwinMsg
+from bimbot.shared.messages import CLOCK, KEY_SPACE, PHYSICS_SKIP, ROBOT_CMD_VEL, TOPICS, TwinMsg
 
 SITE = "site_a"
 ROBOTS = ("r1", "r2")
@@ -97,6 +97,13 @@ def test_only_the_answerer_declares_a_queryable_and_only_robots_send_requests(ac
         requests = {key_expr(q.template, SITE) for q in queryables if q.request is not None}
         assert reads <= asked, f"{user.name} cannot read the twins, site info or plan"
         assert (requests <= asked) == (user.speaker == "robot"), user.name
+
+
+def test_the_planner_may_ask_physics_to_skip_its_clock_and_send_no_other_request(acl: dict) -> None:
+    requests = {key_expr(q.template, SITE) for q in KEY_SPACE if isinstance(q, Queryable) and q.request}
+    asked = _rule_keys(acl, "planner", "query") & requests
+    assert asked == {key_expr(PHYSICS_SKIP.template, SITE)}
+    assert key_expr(PHYSICS_SKIP.template, SITE) not in _rule_keys(acl, "observer", "query")
 
 
 def test_liveliness_tokens_only_under_the_users_own_kind(acl: dict) -> None:

@@ -1,0 +1,166 @@
+"""Quiet-site skips: when nothing on site can happen before a known sim time, say until when (pure mixin).
+
+Why: a cast slab cures for days and a crew pours for hours; stepped at the physics rate, a real building
+would take weeks of wall time waiting. When the planner sees that nothing can happen before a known sim
+time, it asks physics to skip its clock there (``physics/skip``; physics refuses if anything moves). The
+decision is the planner's own, from its core, so a skip never jumps over something it would do.
+
+The site is **quiet** (:meth:`Quiet.quiet_until`) when, with the robots' types known:
+
+* no event or assignment of the planner is still on its way (each one is waiting for its effect);
+* every alive robot is idle (holding no task of the planner's), or in timed work: state
+  ``work_in_place`` with a ``busy_until_s`` after now (its own word: nothing of it changes before);
+* no component is being carried, placed, verified or retried (picking, transporting, assembling,
+  verifying, misplaced); a component worked on in place (forming, pouring, laying) is worked on by a
+  robot in timed work; no assigned task waits for its robot to start;
+* no released task could be taken by an idle robot now (one that can build it, or carry it for a
+  hand-off); an idle robot that could but is held after give-backs makes its hold's end an event.
+
+Then the next event is the earliest of: a curing hold's end, a robot's ``busy_until_s``, a held robot's
+release, and the no-progress bound of a task worked on in place. A skip to it is returned when it lies at
+least ``min_skip_s`` ahead; else None (not quiet, or nothing known to wait for).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from bimbot.shared.manifest import Component
+from bimbot.shared.messages import ComponentState, RobotState
+from bimbot.shared.site_plan import YardSlot
+
+from .capability import SiteRobot, Where, can_build_from, can_carry
+from .curing import Hold
+from .records import FINAL, ComponentRecord, Pending, Phase, RobotRecord, TaskRecord
+from .sources import Plan
+
+MIN_SKIP_S = 1.0  # a skip shorter than this is not worth a question to physics
+
+#: Components worked on in place by a robot in timed work.
+WORKING = frozenset({ComponentState.FORMING, ComponentState.POURING, ComponentState.LAYING})
+#: Components something happens to soon: carried, placed, verified, or about to be retried.
+MOVING = frozenset(
+    {
+        ComponentState.PICKING,
+        ComponentState.TRANSPORTING,
+        ComponentState.ASSEMBLING,
+        ComponentState.VERIFYING,
+        ComponentState.MISPLACED,
+    }
+)
+
+
+@dataclass(frozen=True)
+class Skip:
+    """Nothing on site can happen before ``to_sim_s``; ``why`` names the event that ends the wait."""
+
+    to_sim_s: float
+    why: str
+
+
+class Quiet:
+    """The quiet-site decision, for :class:`.scheduler.PlannerCore`."""
+
+    _plan: Plan
+    _tasks: dict[str, TaskRecord]
+    _components: dict[str, ComponentRecord]
+    _robots: dict[str, RobotRecord]
+    _manifest: dict[str, Component]
+    _site: Mapping[str, SiteRobot] | None
+    _slots: Mapping[str, YardSlot]
+    _pending: dict[tuple[str, str], Pending]
+    sim_time_s: float
+
+    if TYPE_CHECKING:  # defined by :class:`.scheduler.PlannerCore` and :class:`.dispatch.Dispatch`
+
+        @property
+        def done(self) -> bool: ...
+
+        def curing_holds(self) -> list[Hold]: ...
+
+        def _task_bound_s(self, task: TaskRecord) -> float: ...
+
+        def _describe(self, guid: str) -> str: ...
+
+        def _lies(self, guid: str) -> Where: ...
+
+    def quiet_until(self, min_skip_s: float = MIN_SKIP_S) -> Skip | None:
+        """The skip the site allows now (see the module docstring), or None."""
+        if (
+            self._site is None
+            or self.done
+            or any(not pending.settled() for pending in self._pending.values())
+        ):
+            return None
+        events: list[tuple[float, str]] = []
+        for robot in self._robots.values():
+            if not robot.alive:
+                continue
+            if self._in_timed_work(robot):
+                assert robot.reported_busy_until_s is not None
+                what = self._describe(robot.task_guid) if robot.task_guid else "its work"
+                events.append((robot.reported_busy_until_s, f"{robot.robot_id} at work on {what}"))
+            elif robot.state is not RobotState.IDLE or robot.task_guid is not None:
+                return None  # driving, lifting, not heard from, or about to take up a task
+        for guid in self._plan.order:
+            found = self._task_events(guid)
+            if found is None:
+                return None
+            events.extend(found)
+        events.extend(
+            (hold.until_s, f"curing of {self._describe(hold.cast_guid)} (holds {self._describe(hold.guid)})")
+            for hold in self.curing_holds()
+        )
+        if not events:
+            return None
+        to_sim_s, why = min(events)
+        if to_sim_s - self.sim_time_s < min_skip_s:
+            return None
+        return Skip(to_sim_s, f"{why} until {to_sim_s:.0f} s")
+
+    def _task_events(self, guid: str) -> list[tuple[float, str]] | None:
+        """What ``guid``'s task waits for (events), or None when something can happen to it now."""
+        task, state = self._tasks[guid], self._components[guid].state
+        if task.phase in FINAL or task.phase is Phase.WAITING:
+            return []
+        if state in MOVING:
+            return None
+        if task.phase is Phase.ASSIGNED:
+            robot = self._robots.get(task.robot_id or "")
+            if state not in WORKING or robot is None or not self._in_timed_work(robot):
+                return None  # not started yet, or worked on without a known end
+            return [
+                (task.changed_sim_s + self._task_bound_s(task), f"the no-progress bound of {task.active_id}")
+            ]
+        if state is not ComponentState.RELEASED:
+            return None  # its release is on its way
+        return self._held_takers(guid)
+
+    def _held_takers(self, guid: str) -> list[tuple[float, str]] | None:
+        """A released task: None when an idle robot could take it now; else the ends of the holds of the
+        idle robots that could once held (none: it waits for a busy robot, or for none at all)."""
+        assert self._site is not None
+        item, where = self._manifest[guid], self._lies(guid)
+        events: list[tuple[float, str]] = []
+        for robot in self._robots.values():
+            site_robot = self._site.get(robot.robot_id)
+            if not robot.alive or site_robot is None or robot.state is not RobotState.IDLE:
+                continue
+            if robot.task_guid is not None:
+                continue
+            if not (can_build_from(site_robot, item, where) or can_carry(site_robot, item)):
+                continue
+            if self.sim_time_s >= robot.held_until_s:
+                return None
+            events.append((robot.held_until_s, f"the hold of {robot.robot_id} after its give-backs"))
+        return events
+
+    def _in_timed_work(self, robot: RobotRecord) -> bool:
+        """The robot says it works in place until a sim time still ahead."""
+        return (
+            robot.state is RobotState.WORK_IN_PLACE
+            and robot.reported_busy_until_s is not None
+            and robot.reported_busy_until_s > self.sim_time_s
+        )
