@@ -96,7 +96,7 @@ class RunWatch:
         while True:
             monitor.drain(wait_s=0.1)
             now = time.monotonic()
-            self.watchdog.observe(monitor.changes, monitor.sim_time_s, now)
+            self.watchdog.observe(monitor.changes, monitor.sim_time_s, now, monitor.awaited_sim_s())
             planner = monitor.progress
             self.progress.update(
                 monitor.constructed,

@@ -128,6 +128,13 @@ class RunMonitor:
         """Components whose agents' twins said ``constructed``."""
         return sum(state == ComponentState.CONSTRUCTED for state in self.trusted.states.values())
 
+    def awaited_sim_s(self) -> float:
+        """The latest sim time a change is scheduled for: a robot's timed work, a curing hold; 0: none."""
+        times = [msg.busy_until_s for msg in self.robots.values() if msg.busy_until_s is not None]
+        if self.progress is not None:
+            times += [hold.until_s for hold in self.progress.curing]
+        return max(times, default=0.0)
+
     @property
     def misplacements(self) -> int:
         """Misplacements caught and retried, as the (twin-checked) timelines hold them."""

@@ -5,7 +5,10 @@ failed, blocked) for ``stall_after_s`` seconds of *sim* time: robots that wait f
 a task handed back and forth without a state change, a planner that waits for nobody. The sim clock is
 the measure, so a run at 50× real time stalls after the same simulated minutes as one at 1×. Should the
 clock itself stop (a service hung in lock-step, physics stuck), sim time no longer passes; then the
-fallback bound is in wall time: the clock stood still for ``clock_stall_wall_s`` real seconds.
+fallback bound is in wall time: the clock stood still for ``clock_stall_wall_s`` real seconds. Timed work
+that says when it ends (a robot's ``busy_until_s``: formwork, a pour, a course) and curing holds (the
+planner's progress) are changes scheduled ahead: the quiet time counts from the latest of them once it has
+passed, so a site that skipped its clock over a three-day cure is not a stalled one.
 
 :class:`StallWatchdog` is the pure core (no bus, no clock of its own: every call passes the times), fed by
 the run's waiting loop. :func:`stall_details` says what each robot and each open component was doing when
@@ -34,14 +37,17 @@ class StallWatchdog:
     clock_stall_wall_s: float = DEFAULT_CLOCK_STALL_WALL_S
     _changes: int = -1
     _last_change_sim_s: float = 0.0
+    _awaited_sim_s: float = 0.0  # the latest sim time something was scheduled to happen (timed work)
     _sim_s: float = 0.0
     _clock_sim_s: float | None = None
     _clock_moved_wall_s: float | None = None
     _wall_s: float = 0.0
 
-    def observe(self, changes: int, sim_time_s: float, wall_s: float) -> None:
+    def observe(self, changes: int, sim_time_s: float, wall_s: float, awaited_sim_s: float = 0.0) -> None:
         """``changes`` counts every change on the site so far (state changes, progress changes);
-        ``sim_time_s`` is the latest clock, ``wall_s`` a monotonic wall time."""
+        ``sim_time_s`` is the latest clock, ``wall_s`` a monotonic wall time; ``awaited_sim_s`` the latest
+        sim time a change is scheduled for (timed work, curing), 0 when none."""
+        self._awaited_sim_s = max(self._awaited_sim_s, awaited_sim_s)
         if self._clock_moved_wall_s is None:
             self._clock_moved_wall_s = wall_s  # the wall bound counts from the first observation
         if self._clock_sim_s is None or sim_time_s > self._clock_sim_s:
@@ -53,8 +59,8 @@ class StallWatchdog:
 
     @property
     def quiet_sim_s(self) -> float:
-        """Sim seconds since the last change on the site."""
-        return self._sim_s - self._last_change_sim_s
+        """Sim seconds since the last change on the site (or since a scheduled one came due)."""
+        return max(0.0, self._sim_s - max(self._last_change_sim_s, min(self._awaited_sim_s, self._sim_s)))
 
     @property
     def clock_still_wall_s(self) -> float:

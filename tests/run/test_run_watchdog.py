@@ -105,3 +105,18 @@ def test_stall_details_say_what_each_robot_and_open_task_was_doing() -> None:
         "task T0004 (Column A1 (2O2Fr$t4X7Zf8NOew3FLOH)): assigned to r1, attempt 1, component picking"
     )
     assert len(lines) == 3  # the done task and the constructed component are not open
+
+
+def test_timed_work_and_curing_scheduled_ahead_are_not_a_stall() -> None:
+    """A site that skipped its clock over a pour and a 3-day cure changed nothing for that long, as
+    scheduled: it stalls only once the scheduled time has passed by the bound."""
+    dog = StallWatchdog(stall_after_s=100.0)
+    dog.observe(5, 10.0, 0.0)
+    cure_ends_s = 10.0 + 72 * 3600.0
+    dog.observe(5, cure_ends_s - 1.0, 1.0, awaited_sim_s=cure_ends_s)
+    assert dog.verdict() is None
+    dog.observe(5, cure_ends_s + 99.0, 2.0)  # the awaited time stays known once heard
+    assert dog.verdict() is None
+    dog.observe(5, cure_ends_s + 101.0, 3.0)
+    verdict = dog.verdict()
+    assert verdict is not None and "for 101 s of sim time" in verdict
