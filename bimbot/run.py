@@ -358,6 +358,15 @@ def _caught(outcome: RunOutcome) -> str:
     )
 
 
+def method_line(totals: dict) -> str | None:
+    """``by method: cast_in_place 9/9, lifted 33/33, …`` (constructed/components), unless all are lifted."""
+    by_method = totals.get("by_method") or {}
+    if set(by_method) <= {"lifted"}:
+        return None
+    parts = [f"{method} {entry['constructed']}/{entry['components']}" for method, entry in by_method.items()]
+    return "by method (constructed/components): " + ", ".join(parts)
+
+
 def summary_text(outcome: RunOutcome) -> str:
     totals = outcome.report.get("totals", {})
     ending = outcome.ending
@@ -370,6 +379,9 @@ def summary_text(outcome: RunOutcome) -> str:
         f"{outcome.sim_time_s:.1f} s sim time ({outcome.wall_time_s:.1f} s wall{_makespan(totals)}), "
         f"{_caught(outcome)}, {totals.get('give_backs', 0)} give-back(s) by robots",
     ]
+    methods = method_line(totals)
+    if methods:
+        lines.append(methods)
     if totals.get("in_place"):
         lines.append(
             f"in place before the run (convert --in-place): {totals['in_place']} component(s), not built "

@@ -81,4 +81,7 @@ def _with(report: dict) -> str:
         parts.append(f"{in_place} in place")
     if settings.get("connections") is False:
         parts.append("without connections")
+    by_method = (report.get("totals") or {}).get("by_method") or {}
+    if set(by_method) - {"lifted"}:
+        parts.append(" ".join(f"{entry['components']} {method}" for method, entry in by_method.items()))
     return "".join(f", {part}" for part in parts if part)

@@ -65,6 +65,7 @@ from bimbot.shared.messages import (
 from bimbot.shared.reasons import Reason, ReasonCode
 
 from .report_fleet import by_type
+from .report_methods import methods_count, panelised_elements, with_host_elements
 from .report_placements import (
     PLACEMENT_REASON_CODES,
     Placement,
@@ -278,6 +279,14 @@ class ReportCollector:
                     "guid": component.guid,
                     "name": component.name,
                     "ifc_class": component.ifc_class,
+                    "method": component.method.value,
+                    "method_source": component.method_source.value,
+                    "method_note": component.method_note,
+                    "parent_guid": component.parent_guid,
+                    "guests": [guest.guid for guest in component.guests],
+                    "resources": sorted(
+                        {self.robot_type_of[r] for r in timeline.robot_ids if r in self.robot_type_of}
+                    ),
                     "sequence_index": order.get(component.guid),
                     "state": timeline.state.value,
                     "released_s": timeline.released_s,
@@ -316,6 +325,8 @@ class ReportCollector:
         separation = self.min_separation_m
         totals["min_robot_separation_m"] = None if math.isinf(separation) else separation
         totals["in_place"] = len(self.manifest.in_place)
+        totals["by_method"] = methods_count(components, self.manifest)
+        elements = panelised_elements(self.manifest, components)
         return {
             "schema_version": REPORT_SCHEMA_VERSION,
             "site": self.manifest.site,
@@ -326,8 +337,13 @@ class ReportCollector:
             "components": components,
             # in place before the run (convert --in-place): not built by the robots, not in the totals above
             "in_place": [
-                {"guid": c.guid, "name": c.name, "ifc_class": c.ifc_class} for c in self.manifest.in_place
+                {"guid": c.guid, "name": c.name, "ifc_class": c.ifc_class, "method": "in_place"}
+                for c in self.manifest.in_place
             ],
+            # elements split into precast panels: each built when all its panels are; the joints between
+            "panelised": elements,
+            # built into their hosts (anchor bolts cast into a footing, a base plate welded to its column)
+            "with_host": with_host_elements(self.manifest, components),
             "robots": robots,
         }
 
