@@ -43,7 +43,7 @@ from .component_writer import ShardContext, skipped_entry
 from .in_place import split_in_place
 from .mass import mass_unit_kg
 from .mesh_files import VISUAL_FORMATS
-from .method_seam import MethodDecision, MethodLimits
+from .method_seam import MethodDecision, MethodLimits, default_limits
 from .panel_links import link_panels
 from .placement import axis2placement_matrix, choose_local_origin, vec3
 from .sdf_writer import world_sdf
@@ -70,7 +70,7 @@ class ConvertOptions:
     in_place_guids: tuple[str, ...] = ()  # in place before the robots come (.in_place), by GlobalId
     foundations_in_place: bool = False  # every component in the ground is in place too
     decisions: Mapping[str, MethodDecision] = field(default_factory=dict)  # methods by GlobalId, as given
-    limits: MethodLimits = field(default_factory=MethodLimits)  # what a lift and a truck take (panels)
+    limits: MethodLimits = field(default_factory=default_limits)  # what a lift and a truck take (panels)
 
 
 @dataclass

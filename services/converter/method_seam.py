@@ -10,12 +10,13 @@ an element with no decision is lifted. When the real decision lands, this module
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 
 from bimbot.shared.construction_methods import ConstructionMethod, MethodSource
+from bimbot.shared.fleet import default_fleet
 
-# a 40 ft semitrailer's deck (13.6 m × 2.55 m); wall panels stand upright on an inloader, up to 3.6 m high
+# a semitrailer's deck (13.6 m × 2.55 m); wall panels stand upright on an inloader, up to 3.6 m high
 TRANSPORT_SIZE_M = (13.6, 2.55, 3.6)
-LIFT_CAPACITY_KG = 4000.0  # the default fleet's largest payload (its tower crane's load chart)
 
 
 @dataclass(frozen=True)
@@ -30,8 +31,14 @@ class MethodDecision:
 class MethodLimits:
     """What one piece may be: the heaviest lift of the fleet and the load a truck carries (l × w × h)."""
 
-    lift_capacity_kg: float = LIFT_CAPACITY_KG
+    lift_capacity_kg: float
     transport_size_m: tuple[float, float, float] = TRANSPORT_SIZE_M
+
+
+@cache
+def default_limits() -> MethodLimits:
+    """The default fleet's largest payload on site (its tower crane's load chart: 4,000 kg) and a truck."""
+    return MethodLimits(max(robot.payload_kg for robot in default_fleet().on_site().values()))
 
 
 def final_method(

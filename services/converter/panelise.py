@@ -38,6 +38,7 @@ from .mesh import MeshLike, TriMesh, as_trimesh_lite
 
 PLANK_WIDTH_M = (1.2, 2.4)  # hollow-core and solid planks
 MIN_WALL_PANEL_M = 0.6  # narrower wall panels are not made
+MIN_PLANK_M = 0.6  # a narrower closure plank beside an opening is not made either
 JAMB_MARGIN_M = 0.1  # a cut stays this far from an opening where the pier is wide enough
 MIN_ROW_M = 0.5  # a storey level closer than this to the wall's top or bottom is no cut
 BREAK_DIGITS = 3  # section breakpoints closer than 1 mm are one
@@ -283,7 +284,7 @@ class _CutPlanner:
         """``count - 1`` cut positions, equal widths moved to the nearest allowed place; None if two of
         them fall together or a panel would be too narrow."""
         start, end = float(self.low[0]), float(self.high[0])
-        narrowest = PLANK_WIDTH_M[0] / 2 if self.kind is PanelKind.SLAB else MIN_WALL_PANEL_M / 2
+        narrowest = MIN_PLANK_M if self.kind is PanelKind.SLAB else MIN_WALL_PANEL_M
         cuts = []
         for index in range(1, count):
             ideal = start + (end - start) * index / count

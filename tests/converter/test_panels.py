@@ -16,7 +16,7 @@ from ifc_builders import SmallModel, add_beam, add_opening, add_wall, new_model,
 from sdf_checks import sdf_check_all
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
-from bimbot.services.converter.method_seam import MethodDecision, MethodLimits
+from bimbot.services.converter.method_seam import MethodDecision, default_limits
 from bimbot.services.converter.panel_writer import panel_guid
 from bimbot.shared.construction_methods import ConstructionMethod, MethodSource
 from bimbot.shared.identifiers import guid_to_folder, is_valid_guid
@@ -111,7 +111,7 @@ def test_a_panelised_element_becomes_its_panels(build: tuple[Path, Manifest, dic
         }
         assert all(c.method_note == entry.why for c in panels)
         assert sum(c.mass_kg for c in panels) == pytest.approx(entry.mass_kg)
-        assert max(c.mass_kg for c in panels) <= MethodLimits().lift_capacity_kg
+        assert max(c.mass_kg for c in panels) <= default_limits().lift_capacity_kg
         assert "over the 4,000 kg lift capacity" in entry.why
 
 
