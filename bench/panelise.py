@@ -23,7 +23,7 @@ from pathlib import Path
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
 from bimbot.services.converter.method_seam import MethodDecision
-from bimbot.shared.construction_methods import ConstructionMethod
+from bimbot.shared.construction_methods import ConstructionMethod, MethodSource
 from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Manifest
 
@@ -49,7 +49,9 @@ def convert(
 
 def forced_decisions(path: Path) -> dict[str, MethodDecision]:
     model = open_model(path)
-    decision = MethodDecision(ConstructionMethod.PANELISED, note="every wall and slab panelised (benchmark)")
+    decision = MethodDecision(
+        method=ConstructionMethod.PANELISED, source=MethodSource.USER, note="every wall and slab (benchmark)"
+    )
     return {str(e.GlobalId): decision for cls in PANELISED_CLASSES for e in model.by_type(cls)}
 
 

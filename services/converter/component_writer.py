@@ -26,7 +26,7 @@ from .connections import element_connections
 from .mass_properties import MassProperties, mass_properties, mesh_from_arrays
 from .mesh import TriMesh
 from .mesh_files import VISUAL_FORMATS, GeometryFiles, link_geometry_files, write_geometry_files
-from .method_seam import MethodDecision, MethodLimits, default_limits
+from .method_seam import MethodDecision, MethodLimits
 from .placement import pose_from_rigid, split_rigid, vec3
 from .prism_split import SectionCache
 from .sdf_writer import ModelSpec, model_config, model_sdf
@@ -47,7 +47,7 @@ class ShardContext:
     sections: SectionCache = field(default_factory=SectionCache)  # section splits by section
     chains: dict[int, list[ifcopenshell.entity_instance]] = field(default_factory=dict)  # split_ifc
     decisions: dict[str, MethodDecision] = field(default_factory=dict)  # by GlobalId; absent: lifted/rule
-    limits: MethodLimits = field(default_factory=default_limits)  # what a panel may weigh and measure
+    limits: MethodLimits | None = None  # what a lifted part may weigh and measure (None: the default fleet's)
     storey_levels_m: tuple[float, ...] = ()  # storey elevations, IFC world z, metres (panels' rows)
 
 

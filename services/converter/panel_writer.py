@@ -38,7 +38,7 @@ from .component_writer import (
 from .mass_properties import mass_properties
 from .mesh import TriMesh
 from .mesh_files import write_geometry_files
-from .method_seam import MethodDecision, final_method
+from .method_seam import DEFAULT_DECISION, MethodDecision, default_limits, final_method
 from .panelise import PanelisationError, PanelLimits, panel_kind, panelise
 from .sdf_writer import ModelSpec
 
@@ -71,7 +71,10 @@ def write_element(
     mass = mass_chain.element_mass(element, work.props.volume_m3, unit_kg=context.mass_unit_kg)
     low, high = work.props.bbox_local_m
     size = (float(high[0] - low[0]), float(high[1] - low[1]), float(high[2] - low[2]))
-    decision = final_method(context.decisions.get(guid), mass.mass_kg, size, element.is_a(), context.limits)
+    limits = context.limits or default_limits()
+    decision = final_method(
+        context.decisions.get(guid, DEFAULT_DECISION), mass.mass_kg, size, element.is_a(), limits
+    )
     warnings: tuple[str, ...] = ()
     if decision.method is ConstructionMethod.PANELISED:
         try:
@@ -97,7 +100,9 @@ def write_panels(
     kind = panel_kind(element.is_a(), mass_chain.material_label(element))
     if kind is None:
         raise PanelisationError(f"an {element.is_a()} is not cut into panels (only walls and slabs are)")
-    limits = PanelLimits(context.limits.lift_capacity_kg, context.limits.transport_size_m)
+    given = context.limits or default_limits()
+    truck = (given.transport_length_m, given.transport_width_m, given.transport_height_m)
+    limits = PanelLimits(given.lift_capacity_kg, truck)
     levels = [level - float(item.translation_m[2]) for level in context.storey_levels_m]
     cut = panelise(
         work.mesh, kind, mass.mass_kg, limits, rotation=item.rotation, levels_m=levels, reason=decision.note

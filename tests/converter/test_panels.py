@@ -29,7 +29,9 @@ from bimbot.shared.support_graph import support_predecessors, support_violations
 WALL_M = (16.9, 3.0, 0.2)  # length, height, thickness
 WINDOWS_X = ((5.0, 6.5), (10.8, 12.3))  # where the equal thirds' cuts (5.63 m, 11.27 m) would fall
 SPAN_M = 7.4
-PANELISED = MethodDecision(ConstructionMethod.PANELISED, MethodSource.USER, "precast, as the user asked")
+PANELISED = MethodDecision(
+    method=ConstructionMethod.PANELISED, source=MethodSource.USER, note="precast, as the user asked"
+)
 
 
 def _window(small: SmallModel, wall, x0: float, name: str):
