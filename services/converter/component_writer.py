@@ -4,7 +4,8 @@ For each tessellated element: its rigid placement and pose (:mod:`.placement`), 
 its geometry and is shared by every element with the same tessellation (the welded mesh, mass properties,
 collision parts, mesh files written once and hard-linked after), its mass from the IFC, its split IFC,
 ``model.sdf``, ``model.config`` and its manifest entry. Each mesh is built once and serves every use.
-Pure apart from writing the model folder.
+Pure apart from writing the model folder. An element split into panels is written by :mod:`.panel_writer`,
+one model folder per panel, through :func:`write_entry`.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import ifcopenshell.util.element
 import numpy as np
 
 from bimbot.shared.identifiers import guid_to_folder, guid_to_key, is_valid_guid
-from bimbot.shared.manifest import BoundingBox, Component, ComponentFiles, Inertia, SkippedElement
+from bimbot.shared.manifest import BoundingBox, Component, ComponentFiles, Inertia, MassSource, SkippedElement
 
 from . import mass as mass_chain
 from .collision import CollisionShape, collision_shape
@@ -25,6 +26,7 @@ from .connections import element_connections
 from .mass_properties import MassProperties, mass_properties, mesh_from_arrays
 from .mesh import TriMesh
 from .mesh_files import VISUAL_FORMATS, GeometryFiles, link_geometry_files, write_geometry_files
+from .method_seam import MethodDecision, MethodLimits
 from .placement import pose_from_rigid, split_rigid, vec3
 from .prism_split import SectionCache
 from .sdf_writer import ModelSpec, model_config, model_sdf
@@ -44,6 +46,9 @@ class ShardContext:
     split_ifc: bool = True  # write each component's standalone IFC
     sections: SectionCache = field(default_factory=SectionCache)  # section splits by section
     chains: dict[int, list[ifcopenshell.entity_instance]] = field(default_factory=dict)  # split_ifc
+    decisions: dict[str, MethodDecision] = field(default_factory=dict)  # by GlobalId; absent: lifted/rule
+    limits: MethodLimits | None = None  # what a lifted part may weigh and measure (None: the default fleet's)
+    storey_levels_m: tuple[float, ...] = ()  # storey elevations, IFC world z, metres (panels' rows)
 
 
 @dataclass
@@ -99,11 +104,17 @@ def geometry_work(item: PlacedElement, context: ShardContext) -> GeometryWork:
 
 
 def write_component(
-    model: ifcopenshell.file, item: PlacedElement, work: GeometryWork, context: ShardContext
+    model: ifcopenshell.file,
+    item: PlacedElement,
+    work: GeometryWork,
+    context: ShardContext,
+    *,
+    mass: mass_chain.MassResult | None = None,
+    warnings: tuple[str, ...] = (),
 ) -> tuple[Component, ModelSpec]:
-    """Write the model folder of ``item`` (visual mesh formats of ``context``, see :mod:`.mesh_files`)."""
+    """Write the model folder of ``item`` (visual mesh formats of ``context``, see :mod:`.mesh_files`).
+    ``mass``: the element's, when the caller has it already; ``warnings``: more for its manifest entry."""
     element = item.element
-    origin = context.origin
     guid = str(element.GlobalId)
     folder = guid_to_folder(guid)
     model_dir = context.out_dir / "models" / folder
@@ -114,35 +125,84 @@ def write_component(
     else:
         link_geometry_files(work.files_dir, model_dir, work.files)
     props = work.props
-    warnings: list[str] = []
-    mass = mass_chain.element_mass(element, props.volume_m3, unit_kg=context.mass_unit_kg)
-    warnings.extend(mass.warnings)
+    if mass is None:
+        mass = mass_chain.element_mass(element, props.volume_m3, unit_kg=context.mass_unit_kg)
+    notes = [*mass.warnings, *warnings]
     if not props.watertight:
-        warnings.append(
+        notes.append(
             "mesh is not watertight: inertia from its bounding box, volume from its closed pieces and the "
             "convex hulls of its open ones"
         )
     if work.collision.note:
-        warnings.append(work.collision.note)
-    inertia = props.inertia_kg_m2(mass.mass_kg)
-    pose = pose_from_rigid(item.rotation, item.translation_m, origin)
+        notes.append(work.collision.note)
     split_name = f"{guid if is_valid_guid(guid) else folder}.ifc" if context.split_ifc else ""
     if split_name:
         # to_string and one write: file.write() costs 0.9 ms a file here against 0.3 ms for the same bytes
         split = split_element(model, element, chains=context.chains)
         (model_dir / split_name).write_bytes(split.to_string().encode())
+    return write_entry(
+        element,
+        EntryParts(
+            guid=guid,
+            name=element.Name,
+            rotation=item.rotation,
+            translation_m=item.translation_m,
+            bbox_ifc_world_m=item.bbox_ifc_world_m,
+            props=props,
+            mass_kg=mass.mass_kg,
+            mass_source=mass.source,
+            collision=work.collision,
+            files=work.files,
+            split_ifc=split_name,
+            warnings=notes,
+        ),
+        context,
+    )
+
+
+@dataclass
+class EntryParts:
+    """What one component's ``model.sdf``, ``model.config`` and manifest entry are made of (an element's or
+    a panel's); its mesh files are already in its model folder."""
+
+    guid: str
+    name: str | None
+    rotation: np.ndarray  # component frame → world axes
+    translation_m: np.ndarray  # component frame origin, IFC world frame, metres
+    bbox_ifc_world_m: np.ndarray  # (2, 3), IFC world frame
+    props: MassProperties
+    mass_kg: float
+    mass_source: MassSource
+    collision: CollisionShape
+    files: GeometryFiles
+    split_ifc: str = ""  # file name in the model folder; empty: not written
+    warnings: list[str] = field(default_factory=list)
+    extra: dict[str, object] = field(default_factory=dict)  # more manifest fields (a panel's parent_guid…)
+
+
+def write_entry(
+    element: ifcopenshell.entity_instance, parts: EntryParts, context: ShardContext
+) -> tuple[Component, ModelSpec]:
+    """Write ``model.sdf`` and ``model.config`` of a component of ``element`` and make its manifest entry."""
+    origin = context.origin
+    guid = parts.guid
+    folder = guid_to_folder(guid)
+    props = parts.props
+    inertia = props.inertia_kg_m2(parts.mass_kg)
+    pose = pose_from_rigid(parts.rotation, parts.translation_m, origin)
     spec = ModelSpec(
         guid=guid,
         folder=folder,
         ifc_class=element.is_a(),
-        ifc_name=element.Name,
+        ifc_name=parts.name,
         pose_world=pose,
-        mass_kg=mass.mass_kg,
+        mass_kg=parts.mass_kg,
         com_local_m=tuple(props.com_local_m),
         inertia_kg_m2=inertia,
-        visual_mesh=work.files.visual_mesh,
-        collision_meshes=work.files.collision,
+        visual_mesh=parts.files.visual_mesh,
+        collision_meshes=parts.files.collision,
     )
+    model_dir = context.out_dir / "models" / folder
     (model_dir / "model.sdf").write_bytes(model_sdf(spec))
     (model_dir / "model.config").write_bytes(model_config(spec))
     rel_dir = f"models/{folder}"
@@ -152,13 +212,13 @@ def write_component(
         folder=folder,
         ifc_class=element.is_a(),
         predefined_type=_predefined_type(element),
-        name=element.Name,
+        name=parts.name,
         storey=_storey_name(element),
         material=mass_chain.material_label(element),
         target_pose_world=pose,
         bbox_world=BoundingBox(
-            min_m=vec3(item.bbox_ifc_world_m[0] - origin),
-            max_m=vec3(item.bbox_ifc_world_m[1] - origin),
+            min_m=vec3(parts.bbox_ifc_world_m[0] - origin),
+            max_m=vec3(parts.bbox_ifc_world_m[1] - origin),
         ),
         bbox_local=BoundingBox(
             min_m=vec3(props.bbox_local_m[0]),
@@ -166,8 +226,8 @@ def write_component(
         ),
         volume_m3=props.volume_m3,
         watertight=props.watertight,
-        mass_kg=mass.mass_kg,
-        mass_source=mass.source,
+        mass_kg=parts.mass_kg,
+        mass_source=parts.mass_source,
         com_local_m=vec3(props.com_local_m),
         inertia_kg_m2=Inertia(
             ixx=inertia[0, 0],
@@ -178,20 +238,21 @@ def write_component(
             izz=inertia[2, 2],
         ),
         inertia_source=props.source,
-        collision_method=work.collision.method,
-        collision_parts=len(work.collision.parts),
+        collision_method=parts.collision.method,
+        collision_parts=len(parts.collision.parts),
         files=ComponentFiles(
             model_dir=rel_dir,
             sdf_file=f"{rel_dir}/model.sdf",
             config_file=f"{rel_dir}/model.config",
-            split_ifc=_in_folder(rel_dir, split_name),
-            visual_dae=_in_folder(rel_dir, work.files.visual_dae),
-            visual_obj=_in_folder(rel_dir, work.files.visual_obj),
-            visual_glb=_in_folder(rel_dir, work.files.visual_glb),
-            collision=[f"{rel_dir}/{name}" for name in work.files.collision],
+            split_ifc=_in_folder(rel_dir, parts.split_ifc),
+            visual_dae=_in_folder(rel_dir, parts.files.visual_dae),
+            visual_obj=_in_folder(rel_dir, parts.files.visual_obj),
+            visual_glb=_in_folder(rel_dir, parts.files.visual_glb),
+            collision=[f"{rel_dir}/{name}" for name in parts.files.collision],
         ),
         connections=element_connections(element),
-        warnings=warnings,
+        warnings=parts.warnings,
+        **parts.extra,  # type: ignore[arg-type]
     )
     return component, spec
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 import logging
 import shutil
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -43,6 +43,8 @@ from .component_writer import ShardContext, skipped_entry
 from .in_place import split_in_place
 from .mass import mass_unit_kg
 from .mesh_files import VISUAL_FORMATS
+from .method_seam import MethodDecision, MethodLimits, default_limits
+from .panel_links import link_panels
 from .placement import axis2placement_matrix, choose_local_origin, vec3
 from .sdf_writer import world_sdf
 from .selection import left_out_by_selection, select_elements
@@ -67,6 +69,8 @@ class ConvertOptions:
     split_ifc: bool = True  # each component's standalone <GUID>.ifc (paper §4.3.1); no run reads it
     in_place_guids: tuple[str, ...] = ()  # in place before the robots come (.in_place), by GlobalId
     foundations_in_place: bool = False  # every component in the ground is in place too
+    decisions: Mapping[str, MethodDecision] = field(default_factory=dict)  # methods by GlobalId, as given
+    limits: MethodLimits = field(default_factory=default_limits)  # what a lift and a truck take (panels)
 
 
 @dataclass
@@ -124,20 +128,29 @@ def convert_model(
         mass_unit_kg=mass_unit_kg(model),
         formats=options.formats,
         split_ifc=options.split_ifc,
+        decisions=dict(options.decisions),
+        limits=options.limits,
+        storey_levels_m=_storey_levels_m(model, unit_scale_m),
     )
     results = run_shards(model, elements, context, workers=workers, progress=progress)
     stats.seconds_by_stage["shards_wall"] = time.perf_counter() - shards_started
-    merged = sorted(
-        (step_id, component, spec)
-        for result in results
-        for step_id, component, spec in zip(result.step_ids, result.components, result.specs, strict=True)
+    merged = sorted(  # element order; an element's panels in their order
+        (
+            (step_id, index, component, spec)
+            for result in results
+            for index, (step_id, component, spec) in enumerate(
+                zip(result.step_ids, result.components, result.specs, strict=True)
+            )
+        ),
+        key=lambda row: (row[0], row[1]),
     )
+    panelised = sorted((entry for result in results for entry in result.panelised), key=lambda e: e.guid)
     components, in_place = split_in_place(
-        [component for _, component, _ in merged],
+        link_panels([component for _, _, component, _ in merged], panelised),
         options.in_place_guids,
         foundations=options.foundations_in_place,
     )
-    specs = [spec for _, _, spec in merged]
+    specs = [spec for _, _, _, spec in merged]
     for result in results:
         skipped.extend(result.skipped)
         for stage, seconds in result.seconds_by_stage.items():
@@ -171,6 +184,7 @@ def convert_model(
         sequence_source=sequence.source,
         components=components,
         in_place=in_place,
+        panelised=panelised,
         skipped=sorted(skipped, key=lambda item: (item.ifc_class, item.guid)),
         warnings=warnings + [f"{_named(c)}: {w}" for c in [*components, *in_place] for w in c.warnings],
     )
@@ -206,6 +220,17 @@ def _placement_matrix(placement: ifcopenshell.entity_instance, memo: dict[int, n
             matrix = ifcopenshell.util.placement.get_local_placement(placement)
         memo[key] = matrix
     return matrix
+
+
+def _storey_levels_m(model: ifcopenshell.file, unit_scale_m: float) -> tuple[float, ...]:
+    """The storeys' elevations (IFC world z of their placements, metres): where wall panels are cut."""
+    memo: dict[int, np.ndarray] = {}
+    levels = {
+        round(float(_placement_matrix(storey.ObjectPlacement, memo)[2, 3]) * unit_scale_m, 6)
+        for storey in model.by_type("IfcBuildingStorey")
+        if storey.ObjectPlacement is not None
+    }
+    return tuple(sorted(levels))
 
 
 def _prepare_out_dir(out_dir: Path) -> None:

@@ -31,16 +31,11 @@ from multiprocessing.sharedctypes import Synchronized
 import ifcopenshell
 import numpy as np
 
+from bimbot.shared.construction_methods import PanelisedElement
 from bimbot.shared.manifest import Component, SkippedElement
 
-from .component_writer import (
-    GeometryWork,
-    ShardContext,
-    geometry_work,
-    place_element,
-    skipped_entry,
-    write_component,
-)
+from .component_writer import GeometryWork, ShardContext, geometry_work, place_element, skipped_entry
+from .panel_writer import write_element
 from .sdf_writer import ModelSpec
 from .tessellation import tessellate
 
@@ -70,11 +65,12 @@ _DONE: Synchronized[int] | None = None
 
 @dataclass
 class ShardResult:
-    step_ids: list[int] = field(default_factory=list)  # of the converted components, in their order
-    components: list[Component] = field(default_factory=list)
+    step_ids: list[int] = field(default_factory=list)  # of the converted components' elements, in order
+    components: list[Component] = field(default_factory=list)  # an element's panels follow each other
     specs: list[ModelSpec] = field(default_factory=list)
     skipped: list[SkippedElement] = field(default_factory=list)
     bboxes_ifc_world_m: list[np.ndarray] = field(default_factory=list)
+    panelised: list[PanelisedElement] = field(default_factory=list)
     seconds_by_stage: dict[str, float] = field(default_factory=dict)
 
 
@@ -162,7 +158,7 @@ def convert_shard(
             work = works.get(item.geometry_key)
             if work is None:
                 work = works[item.geometry_key] = geometry_work(item, context)
-            component, spec = write_component(model, item, work, context)
+            written = write_element(model, item, work, context)
         except Exception as error:  # one bad element never stops the conversion; the reason is kept
             _log.warning("%s %s: %s", element.is_a(), element.GlobalId, error, exc_info=_log.isEnabledFor(10))
             result.skipped.append(
@@ -172,10 +168,12 @@ def convert_shard(
         finally:
             if on_element is not None:
                 on_element()
-        result.step_ids.append(step_id)
-        result.components.append(component)
-        result.specs.append(spec)
-        result.bboxes_ifc_world_m.append(item.bbox_ifc_world_m)
+        result.step_ids.extend([step_id] * len(written.components))
+        result.components.extend(written.components)
+        result.specs.extend(written.specs)
+        result.bboxes_ifc_world_m.extend(written.bboxes_ifc_world_m)
+        if written.panelised is not None:
+            result.panelised.append(written.panelised)
     result.seconds_by_stage = {
         "tessellate": tessellated - started,
         "components": time.perf_counter() - tessellated,

@@ -1,0 +1,166 @@
+"""Write one element as its components: whole, or as the precast panels it is split into.
+
+Once the element's mass is known, the method decision's ``final_method`` says whether it is panelised
+(:mod:`.method_seam`). A panelised element is cut by :mod:`.panelise` and each panel becomes a component of
+its own, written like any other (:func:`.component_writer.write_entry`): a deterministic IFC GlobalId (a
+UUID5 of the element's GlobalId and the panel's number), the name ``"<element> panel i/n"``, the element's
+class, ``parent_guid`` and method ``panelised``, its own model folder, mass (the element's, split by volume),
+collision parts (the converter's mesh decomposition of the panel) and mesh files, no split IFC. The panel's
+frame has the element's axes, its origin at the centre of the panel's bounding box. The element gets one
+:class:`PanelisedElement` entry (its panels, the joints between them, why it was split) and is no component
+itself. An element that cannot be cut within the limits stays whole, with a warning saying why.
+"""
+
+from __future__ import annotations
+
+import logging
+import uuid
+from dataclasses import dataclass, field
+
+import ifcopenshell
+import ifcopenshell.guid
+import numpy as np
+
+from bimbot.shared.construction_methods import ConstructionMethod, PanelisedElement, PanelJoint
+from bimbot.shared.identifiers import guid_to_folder
+from bimbot.shared.manifest import Component
+
+from . import mass as mass_chain
+from .collision import collision_from_mesh
+from .component_writer import (
+    EntryParts,
+    GeometryWork,
+    PlacedElement,
+    ShardContext,
+    write_component,
+    write_entry,
+)
+from .mass_properties import mass_properties
+from .mesh import TriMesh
+from .mesh_files import write_geometry_files
+from .method_seam import DEFAULT_DECISION, MethodDecision, default_limits, final_method
+from .panelise import PanelisationError, PanelLimits, panel_kind, panelise
+from .sdf_writer import ModelSpec
+
+_log = logging.getLogger(__name__)
+
+PANEL_NAMESPACE = uuid.uuid5(uuid.NAMESPACE_URL, "https://bimbot/panel")  # panel GlobalIds: uuid5 in it
+
+
+@dataclass
+class WrittenElement:
+    """The components one element became (one, or its panels) and its panelised entry, if split."""
+
+    components: list[Component] = field(default_factory=list)
+    specs: list[ModelSpec] = field(default_factory=list)
+    bboxes_ifc_world_m: list[np.ndarray] = field(default_factory=list)
+    panelised: PanelisedElement | None = None
+
+
+def panel_guid(parent_guid: str, index: int) -> str:
+    """The GlobalId of panel ``index`` (0-based) of ``parent_guid``: the same in every conversion."""
+    return str(ifcopenshell.guid.compress(uuid.uuid5(PANEL_NAMESPACE, f"{parent_guid}/{index}").hex))
+
+
+def write_element(
+    model: ifcopenshell.file, item: PlacedElement, work: GeometryWork, context: ShardContext
+) -> WrittenElement:
+    """Write ``item`` whole or, when its final method is panelised, as its panels."""
+    element = item.element
+    guid = str(element.GlobalId)
+    mass = mass_chain.element_mass(element, work.props.volume_m3, unit_kg=context.mass_unit_kg)
+    low, high = work.props.bbox_local_m
+    size = (float(high[0] - low[0]), float(high[1] - low[1]), float(high[2] - low[2]))
+    limits = context.limits or default_limits()
+    decision = final_method(
+        context.decisions.get(guid, DEFAULT_DECISION), mass.mass_kg, size, element.is_a(), limits
+    )
+    warnings: tuple[str, ...] = ()
+    if decision.method is ConstructionMethod.PANELISED:
+        try:
+            return write_panels(item, work, context, mass, decision)
+        except PanelisationError as error:
+            _log.info("%s %s not panelised: %s", element.is_a(), guid, error)
+            warnings = (f"not panelised: {error}",)
+    component, spec = write_component(model, item, work, context, mass=mass, warnings=warnings)
+    return WrittenElement([component], [spec], [item.bbox_ifc_world_m])
+
+
+def write_panels(
+    item: PlacedElement,
+    work: GeometryWork,
+    context: ShardContext,
+    mass: mass_chain.MassResult,
+    decision: MethodDecision,
+) -> WrittenElement:
+    """Cut ``item`` into panels and write each as a component (see the module); PanelisationError when it
+    cannot be cut within ``context.limits``."""
+    element = item.element
+    parent_guid = str(element.GlobalId)
+    kind = panel_kind(element.is_a(), mass_chain.material_label(element))
+    if kind is None:
+        raise PanelisationError(f"an {element.is_a()} is not cut into panels (only walls and slabs are)")
+    given = context.limits or default_limits()
+    truck = (given.transport_length_m, given.transport_width_m, given.transport_height_m)
+    limits = PanelLimits(given.lift_capacity_kg, truck)
+    levels = [level - float(item.translation_m[2]) for level in context.storey_levels_m]
+    cut = panelise(
+        work.mesh, kind, mass.mass_kg, limits, rotation=item.rotation, levels_m=levels, reason=decision.note
+    )
+    count = len(cut.panels)
+    guids = [panel_guid(parent_guid, index) for index in range(count)]
+    label = element.Name or element.is_a()
+    written = WrittenElement()
+    for index, (mesh, mass_kg) in enumerate(zip(cut.panels, cut.masses_kg, strict=True)):
+        centre = mesh.bounds.mean(axis=0)
+        local = TriMesh(mesh.vertices - centre, mesh.faces)
+        collision = collision_from_mesh(local)
+        model_dir = context.out_dir / "models" / guid_to_folder(guids[index])
+        files = write_geometry_files(model_dir, local, collision.parts, context.formats)
+        translation = item.translation_m + item.rotation @ centre
+        world = local.vertices @ item.rotation.T + translation
+        bbox = np.array([world.min(axis=0), world.max(axis=0)])
+        notes = list(mass.warnings) if index == 0 else []  # the element's mass notes, once
+        if collision.note:
+            notes.append(collision.note)
+        component, spec = write_entry(
+            element,
+            EntryParts(
+                guid=guids[index],
+                name=f"{label} panel {index + 1}/{count}",
+                rotation=item.rotation,
+                translation_m=translation,
+                bbox_ifc_world_m=bbox,
+                props=mass_properties(local),
+                mass_kg=mass_kg,
+                mass_source=mass.source,
+                collision=collision,
+                files=files,
+                warnings=notes,
+                extra={
+                    "method": ConstructionMethod.PANELISED,
+                    "method_source": decision.source,
+                    "method_note": cut.why,
+                    "parent_guid": parent_guid,
+                },
+            ),
+            context,
+        )
+        written.components.append(component)
+        written.specs.append(spec)
+        written.bboxes_ifc_world_m.append(bbox)
+    written.panelised = PanelisedElement(
+        guid=parent_guid,
+        ifc_class=element.is_a(),
+        name=element.Name,
+        mass_kg=mass.mass_kg,
+        panel_guids=tuple(guids),
+        joints=tuple(
+            PanelJoint(
+                guids=(guids[joint.first], guids[joint.second]), length_m=joint.length_m, kind=joint.kind
+            )
+            for joint in cut.joints
+        ),
+        why=cut.why,
+    )
+    return written

@@ -1,0 +1,231 @@
+"""Panelised elements in a conversion: each panel a valid component of its own, the element listed with its
+panels and joints, the windows and the slab's planks after the wall panels that carry them."""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import ifcopenshell.api.feature
+import ifcopenshell.api.geometry
+import ifcopenshell.api.root
+import numpy as np
+import pybullet
+import pytest
+from ifc_builders import SmallModel, add_beam, add_opening, add_wall, new_model, place, translation
+from sdf_checks import sdf_check_all
+
+from bimbot.services.converter.convert import ConvertOptions, convert_model
+from bimbot.services.converter.method_seam import MethodDecision, default_limits
+from bimbot.services.converter.panel_writer import panel_guid
+from bimbot.shared.construction_methods import ConstructionMethod, MethodSource
+from bimbot.shared.identifiers import guid_to_folder, is_valid_guid
+from bimbot.shared.ifc_input import open_model
+from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.sequence import check_sequence, read_sequence
+from bimbot.shared.site_layout import plan_site
+from bimbot.shared.support_graph import support_predecessors, support_violations
+
+WALL_M = (16.9, 3.0, 0.2)  # length, height, thickness
+WINDOWS_X = ((5.0, 6.5), (10.8, 12.3))  # where the equal thirds' cuts (5.63 m, 11.27 m) would fall
+SPAN_M = 7.4
+PANELISED = MethodDecision(
+    method=ConstructionMethod.PANELISED, source=MethodSource.USER, note="precast, as the user asked"
+)
+
+
+def _window(small: SmallModel, wall, x0: float, name: str):
+    opening = add_opening(
+        small, wall, width_m=1.5, height_m=1.2, depth_m=0.6, matrix_m=translation(x0, -0.2, 0.9)
+    )
+    window = ifcopenshell.api.root.create_entity(small.file, ifc_class="IfcWindow", name=name)
+    body = ifcopenshell.api.geometry.add_wall_representation(
+        small.file, context=small.body, length=1.5, height=1.2, thickness=0.05
+    )
+    ifcopenshell.api.geometry.assign_representation(small.file, product=window, representation=body)
+    place(small, window, translation(x0, 0.07, 0.9), small.storey)
+    ifcopenshell.api.feature.add_filling(small.file, opening=opening, element=window)
+    return window
+
+
+def _house(path: Path) -> dict[str, str]:
+    """Two 16.9 m walls 7.4 m apart (one with two windows), a 0.3 m slab on them, a column beside."""
+    small = new_model()
+    length, height, thickness = WALL_M
+    front = add_wall(small, "Front", length_m=length, height_m=height, thickness_m=thickness)
+    back = add_wall(
+        small,
+        "Back",
+        length_m=length,
+        height_m=height,
+        thickness_m=thickness,
+        matrix_m=translation(0, 7.2, 0),
+    )
+    windows = [_window(small, front, x0, f"Window {i}") for i, (x0, _) in enumerate(WINDOWS_X, 1)]
+    slab = ifcopenshell.api.root.create_entity(small.file, ifc_class="IfcSlab", name="Roof")
+    body = ifcopenshell.api.geometry.add_wall_representation(
+        small.file, context=small.body, length=length, height=0.3, thickness=SPAN_M
+    )
+    ifcopenshell.api.geometry.assign_representation(small.file, product=slab, representation=body)
+    place(small, slab, translation(0, 0, height), small.storey)
+    column = add_beam(small, "Column", length_m=3.0, matrix_m=translation(20, 0, 0), schema_class="IfcColumn")
+    small.file.write(str(path))
+    guids = {"front": front, "back": back, "slab": slab, "column": column, "w1": windows[0], "w2": windows[1]}
+    return {key: str(element.GlobalId) for key, element in guids.items()}
+
+
+@pytest.fixture(scope="module")
+def build(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Manifest, dict[str, str]]:
+    out = tmp_path_factory.mktemp("panels")
+    source = out / "house.ifc"
+    guids = _house(source)
+    decisions = {guids[key]: PANELISED for key in ("front", "back", "slab", "column")}
+    manifest = convert_model(open_model(source), source, out / "build", ConvertOptions(decisions=decisions))
+    return out / "build", manifest, guids
+
+
+def _panels(manifest: Manifest, parent: str) -> list[Component]:
+    return [c for c in manifest.components if c.parent_guid == parent]
+
+
+def _span(component: Component, axis: int) -> tuple[float, float]:
+    return component.bbox_world.min_m[axis], component.bbox_world.max_m[axis]
+
+
+def test_a_panelised_element_becomes_its_panels(build: tuple[Path, Manifest, dict[str, str]]) -> None:
+    _, manifest, guids = build
+    parents = {entry.guid: entry for entry in manifest.panelised}
+    assert set(parents) == {guids["front"], guids["back"], guids["slab"]}
+    in_manifest = {c.guid for c in manifest.components}
+    assert not in_manifest & set(parents)  # the element is no component itself
+    all_panels = [c for c in manifest.components if c.parent_guid]
+    assert len({c.guid for c in all_panels}) == len(all_panels)
+    for parent, entry in parents.items():
+        panels = _panels(manifest, parent)
+        assert [c.guid for c in panels] == list(entry.panel_guids)
+        assert [c.guid for c in panels] == [panel_guid(parent, i) for i in range(len(panels))]
+        assert all(is_valid_guid(c.guid) and c.folder == guid_to_folder(c.guid) for c in panels)
+        assert [c.name for c in panels] == [
+            f"{entry.name} panel {i}/{len(panels)}" for i in range(1, len(panels) + 1)
+        ]
+        assert {(c.ifc_class, c.method, c.method_source, c.files.split_ifc) for c in panels} == {
+            (entry.ifc_class, ConstructionMethod.PANELISED, MethodSource.USER, "")
+        }
+        assert all(c.method_note == entry.why for c in panels)
+        assert sum(c.mass_kg for c in panels) == pytest.approx(entry.mass_kg)
+        assert max(c.mass_kg for c in panels) <= default_limits().lift_capacity_kg
+        assert "over the 4,000 kg lift capacity" in entry.why
+
+
+def test_wall_panels_keep_the_openings_and_the_volume(build: tuple[Path, Manifest, dict[str, str]]) -> None:
+    _, manifest, guids = build
+    panels = sorted(_panels(manifest, guids["front"]), key=lambda c: c.bbox_world.min_m[0])
+    assert len(panels) >= 3  # 9,420 kg of wall (no material: 1,000 kg/m³)
+    length, height, thickness = WALL_M
+    volume = length * height * thickness - 2 * 1.5 * 1.2 * thickness
+    assert sum(c.volume_m3 for c in panels) == pytest.approx(volume, rel=0.01)
+    assert all(c.bbox_world.max_m[2] - c.bbox_world.min_m[2] == pytest.approx(height) for c in panels)
+    for a, b in WINDOWS_X:  # each window's opening lies within one panel
+        assert any(lo <= a and b <= hi for lo, hi in (_span(c, 0) for c in panels)), (a, b)
+    entry = next(e for e in manifest.panelised if e.guid == guids["front"])
+    assert [(j.guids, j.kind, round(j.length_m, 3)) for j in entry.joints] == [
+        ((left.guid, right.guid), "vertical", height) for left, right in itertools.pairwise(panels)
+    ]
+
+
+def test_slab_planks_run_along_the_span(build: tuple[Path, Manifest, dict[str, str]]) -> None:
+    _, manifest, guids = build
+    planks = _panels(manifest, guids["slab"])
+    assert len(planks) == 10  # 37.5 t: nine planks of 1.88 m would weigh 4,169 kg each
+    for plank in planks:
+        low, high = np.array(plank.bbox_world.min_m), np.array(plank.bbox_world.max_m)
+        assert high[1] - low[1] == pytest.approx(SPAN_M)
+        assert 1.2 <= high[0] - low[0] <= 2.4
+    entry = next(e for e in manifest.panelised if e.guid == guids["slab"])
+    assert len(entry.joints) == 9 and {j.kind for j in entry.joints} == {"longitudinal"}
+
+
+def test_an_element_that_is_not_cut_stays_whole_and_says_why(
+    build: tuple[Path, Manifest, dict[str, str]],
+) -> None:
+    _, manifest, guids = build
+    column = manifest.component(guids["column"])
+    assert column.parent_guid is None
+    assert any("not panelised: an IfcColumn is not cut into panels" in note for note in column.warnings)
+
+
+def test_panels_are_valid_models_at_their_places(build: tuple[Path, Manifest, dict[str, str]]) -> None:
+    out, manifest, _ = build
+    panels = [c for c in manifest.components if c.parent_guid]
+    files = [out / c.files.sdf_file for c in panels] + [out / manifest.world_file]
+    checked = sdf_check_all(files, out / "models")
+    assert {path: answer for path, answer in checked.items() if answer != "Valid."} == {}
+    client = pybullet.connect(pybullet.DIRECT)
+    try:
+        bodies = pybullet.loadSDF(str(out / manifest.world_file), physicsClientId=client)
+        names = {pybullet.getBodyInfo(b, physicsClientId=client)[1].decode(): b for b in bodies}
+        assert {c.guid for c in panels} <= set(names)
+        for panel in panels:
+            body = names[panel.guid]
+            assert pybullet.getDynamicsInfo(body, -1, physicsClientId=client)[0] == pytest.approx(
+                panel.mass_kg
+            )
+            low, high = pybullet.getAABB(body, physicsClientId=client)
+            np.testing.assert_allclose(low, panel.bbox_world.min_m, atol=0.02)
+            np.testing.assert_allclose(high, panel.bbox_world.max_m, atol=0.02)
+    finally:
+        pybullet.disconnect(client)
+
+
+def test_the_derived_sequence_sets_windows_and_planks_after_the_wall_panels(
+    build: tuple[Path, Manifest, dict[str, str]],
+) -> None:
+    out, manifest, guids = build
+    sequence = read_sequence(out / manifest.sequence_file)
+    check_sequence(sequence)  # no cycle
+    assert sorted(sequence.guids()) == sorted(c.guid for c in manifest.components)
+    preds = support_predecessors(manifest.components)
+    assert support_violations(sequence.guids(), preds) == []
+    wall_panels = {c.guid for c in manifest.components if c.parent_guid in (guids["front"], guids["back"])}
+    for window in ("w1", "w2"):
+        hosts = preds[guids[window]]
+        assert len(hosts) == 1 and hosts <= wall_panels
+    for plank in _panels(manifest, guids["slab"]):
+        assert len(preds[plank.guid] & wall_panels) >= 2  # it rests on both walls
+    site = plan_site(manifest.components)
+    assert set(site.slots) == {c.guid for c in manifest.components}
+
+
+HOUSE_HEAVY_WALL = "2idC0G3ezCdhA9WVjWemcz"  # 16.78 m, 4,532 kg, no opening
+HOUSE_WINDOW_WALL = "2idC0G3ezCdhA9WVjWemc$"  # 16.89 m, 2,696 kg, nine windows 0.2 m apart
+HOUSE_ROOF_SLAB = "1s5utE$rDDfRKgzV6jUJ0r"  # 16.9 × 7.4 × 0.3 m, 37,518 kg, on the walls at 3 m
+
+
+def test_the_revit_house_heavy_wall_and_roof_slab_split_sensibly(samples_dir: Path, tmp_path: Path) -> None:
+    source = samples_dir / "revit2021_sample_project.ifc"
+    decisions = {guid: PANELISED for guid in (HOUSE_HEAVY_WALL, HOUSE_WINDOW_WALL, HOUSE_ROOF_SLAB)}
+    manifest = convert_model(open_model(source), source, tmp_path, ConvertOptions(decisions=decisions))
+    planks = _panels(manifest, HOUSE_ROOF_SLAB)
+    assert [round(c.mass_kg) for c in planks] == [3752] * 10
+    assert all(
+        c.bbox_world.max_m[0] - c.bbox_world.min_m[0] == pytest.approx(SPAN_M, abs=0.01)
+        and c.bbox_world.max_m[1] - c.bbox_world.min_m[1] == pytest.approx(1.69, abs=0.01)
+        for c in planks
+    )
+    assert [round(c.mass_kg) for c in _panels(manifest, HOUSE_HEAVY_WALL)] == [2266, 2266]
+    wall_panels = _panels(manifest, HOUSE_WINDOW_WALL)
+    assert len(wall_panels) == 2 and sum(c.mass_kg for c in wall_panels) == pytest.approx(2696, abs=1)
+    panel_guids = {c.guid for c in wall_panels}
+    windows = [
+        c
+        for c in manifest.components
+        if any(link.role == "filling" and link.other_guid in panel_guids for link in c.connections)
+    ]
+    assert len(windows) == 9  # the wall's windows are hosted by its panels now
+    spans = [_span(c, 1) for c in wall_panels]
+    for window in windows:  # each lies within one of the panels
+        low, high = _span(window, 1)
+        assert any(a - 0.01 <= low and high <= b + 0.01 for a, b in spans), window.name
+    preds = support_predecessors(manifest.components)
+    assert all(preds[c.guid] & {p.guid for p in wall_panels} for c in planks[:1] + planks[-1:])
+    check_sequence(read_sequence(tmp_path / manifest.sequence_file))
