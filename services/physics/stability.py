@@ -7,7 +7,9 @@ of the sequence, in order, exactly at its BIM pose, releases it into dynamics as
 rest (:mod:`.release`), and checks every component placed so far and not yet joined: one that moved more
 than ``drift_tolerance_m`` since its release means the partial structure does not stand. Each component
 that stood is joined to the structure, as its agent's verification would. The first step that does not
-stand ends the replay, naming the component, how far it moved and what it rested on.
+stand ends the replay, naming the component, how far it moved and what it rested on. A component cast in
+place or laid is built where it stands (static, as concrete in its formwork or masonry in mortar), not
+released; a panel is released like any lifted component.
 
 Exact placements, no robots, no localisation: what is tested is the order, not the robots' hands.
 """
@@ -27,6 +29,7 @@ from bimbot.shared.reasons import BESIDE_IT, CLASH_ADVICE, clash_clause
 from bimbot.shared.support_graph import support_predecessors
 
 from .connections import ConnectionConfig
+from .in_place_work import BUILT_IN_PLACE
 from .model_clashes import Clash, model_clashes
 from .placing import target_frame
 from .profiles import REHEARSAL
@@ -120,6 +123,21 @@ def check_stability(
         bound_s = handling.settle.max_settle_s + handling.connections.hold_s + control_period_s
         for index, guid in enumerate(order, start=1):
             since_s = sim.sim_time_s
+            item = handling.items.get(guid)
+            if item is not None and item.component.method in BUILT_IN_PLACE:
+                # cast in its formwork or laid in mortar: it stands where it is built, static
+                sim.in_place_work.stand_built(guid)
+                handling.note_constructed(guid, True)
+                placed.add(guid)
+                steps.append(StabilityStep(index, guid, names.get(guid, guid), 0.0, 0.0, ()))
+                _log.info(
+                    "step %d/%d: %s built in place (%s)",
+                    index,
+                    len(order),
+                    names.get(guid, guid),
+                    item.component.method.value,
+                )
+                continue
             handling.set_down(guid, since_s, tag=TAG)
             placed.add(guid)
             while not any(tag == TAG for tag, _ in sim.advance().replies):

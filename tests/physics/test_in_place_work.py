@@ -166,3 +166,28 @@ def test_the_clock_skips_over_a_quiet_site_and_refuses_while_a_robot_drives(
     drive(sim, "r4", 0.5, 0.0, 0.4)
     refused = sim.skip(SkipRequest(to_sim_s=sim.sim_time_s + 600.0))
     assert not refused.ok and "r4 is driving" in refused.reason
+
+
+def test_the_stability_replay_builds_cast_components_where_they_stand(
+    bundled_build: Path, frame_manifest: Manifest
+) -> None:
+    """``--check-stability``: a cast footing stands in its formwork (not released, not settling); the
+    frame's columns and beams then stand on it as before."""
+    from bimbot.services.physics.stability import check_stability
+    from bimbot.shared.sequence import read_sequence
+
+    cast = {c.guid for c in frame_manifest.components if c.ifc_class == "IfcFooting"}
+    manifest = frame_manifest.model_copy(
+        update={
+            "components": [
+                c.model_copy(update={"method": ConstructionMethod.CAST_IN_PLACE}) if c.guid in cast else c
+                for c in frame_manifest.components
+            ]
+        }
+    )
+    order = read_sequence(bundled_build / "sequence.xml").guids()
+    report = check_stability(manifest, bundled_build, order)
+    assert report.stands, [step for step in report.steps if not step.stands]
+    built_in_place = [step for step in report.steps if step.guid in cast]
+    assert len(built_in_place) == len(cast) == 9
+    assert all(step.settle_s == 0.0 and step.drift_m == 0.0 for step in built_in_place)
