@@ -5,7 +5,8 @@ IfcRelAssignsToProcess (its inputs, accepted as well), IfcRelSequence (predecess
 IfcTaskTime (ScheduleStart, for ordering). A task's components are the products assigned to it or to any
 task nested under it; an IfcRelSequence between two tasks makes every component of the successor wait for
 every component of the predecessor. Tasks are listed by start time, then in precedence order, then by
-Identification. Only components (GUIDs the caller passes) are kept; the caller decides what to do with
+Identification. A model with several work schedules (a master schedule and the simulated one ``bimbot
+export`` adds, say) is read from one: the last one in the file that is not a baseline. Only components (GUIDs the caller passes) are kept; the caller decides what to do with
 components the schedule does not mention (see :func:`schedule_from_ifc`'s ``unscheduled``).
 """
 
@@ -29,7 +30,7 @@ class IfcSchedule:
 def schedule_from_ifc(model: ifcopenshell.file, component_guids: Collection[str]) -> IfcSchedule | None:
     """The model's task schedule restricted to ``component_guids``; None when no task names a component."""
     wanted = set(component_guids)
-    tasks = sorted(model.by_type("IfcTask"), key=lambda task: task.id())
+    tasks = sorted(_schedule_tasks(model), key=lambda task: task.id())
     outputs = {task.id(): _task_components(task, wanted) for task in tasks}
     if not any(outputs.values()):
         return None
@@ -51,6 +52,20 @@ def schedule_from_ifc(model: ifcopenshell.file, component_guids: Collection[str]
     sequence = sequence_from_predecessors(ordered, predecessors, source="ifc_schedule", names=names)
     unscheduled = tuple(sorted(wanted - set(owner)))
     return IfcSchedule(sequence, unscheduled)
+
+
+def _schedule_tasks(model: ifcopenshell.file) -> list[ifcopenshell.entity_instance]:
+    """Every task of the model, or of its last non-baseline work schedule when it has several."""
+    schedules = [
+        schedule
+        for schedule in model.by_type("IfcWorkSchedule")
+        if ifcopenshell.util.sequence.get_root_tasks(schedule)
+    ]
+    if len(schedules) < 2:
+        return list(model.by_type("IfcTask"))
+    current = [item for item in schedules if getattr(item, "PredefinedType", None) != "BASELINE"] or schedules
+    chosen = max(current, key=lambda item: item.id())
+    return list(set(ifcopenshell.util.sequence.get_work_schedule_tasks(chosen)))
 
 
 def _nested(task: ifcopenshell.entity_instance) -> list[ifcopenshell.entity_instance]:
