@@ -60,9 +60,12 @@ def add_simulated_schedule(
     week: WorkWeek | None = None,
     products: Mapping[str, ifcopenshell.entity_instance] | None = None,
     element_names: Mapping[str, str] | None = None,
+    link_steps: bool = False,
 ) -> WrittenSchedule:
     """Write ``schedule`` into ``model`` (IFC4); ``products`` (GUID → product, components and panelised
-    elements) become the tasks' outputs. ``element_names``: a panelised element's GUID → its name."""
+    elements) become the tasks' outputs. ``element_names``: a panelised element's GUID → its name.
+    ``link_steps``: precedences from a predecessor's last step to the successor's first (for tools such as
+    P6 that link activities only, not the summary tasks above them)."""
     products = products or {}
     plan = ifcopenshell.api.sequence.add_work_plan(model, name="bimbot")
     work_schedule = ifcopenshell.api.sequence.add_work_schedule(
@@ -96,9 +99,11 @@ def add_simulated_schedule(
     for work in schedule.components:
         for predecessor in work.predecessors:
             if predecessor in written.tasks:
-                ifcopenshell.api.sequence.assign_sequence(
-                    model, relating_process=written.tasks[predecessor], related_process=written.tasks[work.guid]
-                )
+                before, after = written.tasks[predecessor], written.tasks[work.guid]
+                if link_steps:
+                    before = (_subtasks(before) or [before])[-1]
+                    after = (_subtasks(after) or [after])[0]
+                ifcopenshell.api.sequence.assign_sequence(model, relating_process=before, related_process=after)
     ifcopenshell.api.control.assign_control(
         model, relating_control=calendar, related_objects=list(_top_tasks(written))
     )

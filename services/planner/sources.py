@@ -3,7 +3,9 @@
 Four sources (:class:`SourceKind`):
 
 * ``build`` — the build's own ``sequence.xml`` (the converter wrote it from the IFC schedule, or derived it);
-* ``sequence`` — a user's XML file in the same format (``docs/sequence-format.md``);
+* ``sequence`` — a user's XML file in the same format (``docs/sequence-format.md``), or a planner's
+  schedule: MS Project XML, Primavera P6 XML or XER (:mod:`bimbot.shared.planner_schedules`: tasks
+  matched to components by GlobalId or name, the unmatched ones named in one warning);
 * ``ifc`` — the 4D schedule of an IFC file (IfcTask, IfcRelAssignsToProduct, IfcRelSequence), by default the
   model the build was converted from (``manifest.source.path``);
 * ``derive`` — derived from the support graph (connections plus contact under gravity).
@@ -115,7 +117,8 @@ def load_plan(manifest: Manifest, build_dir: Path, source: PlanSource) -> Plan:
     elif source.kind is SourceKind.SEQUENCE:
         if source.path is None:
             raise PlanError("a sequence source needs the XML file's path")
-        sequence = _read_xml(source.path)
+        sequence, notes = _read_sequence_file(source.path, components)
+        extra_warnings += notes
         label = f"{source.path} ({sequence.source})"
     else:
         path = source.path or _build_source_ifc(manifest, build_dir, extra_warnings)
@@ -247,6 +250,26 @@ def _read_xml(path: Path) -> ConstructionSequence:
         raise PlanError(str(error)) from None
     except OSError as error:
         raise PlanError(f"{path}: cannot read ({error.strerror})") from None
+
+
+def _read_sequence_file(path: Path, components: Sequence[Component]) -> tuple[ConstructionSequence, list[str]]:
+    """A sequence XML, or a planner's schedule (MS Project, P6 XML or XER) matched to ``components``."""
+    if not Path(path).is_file():
+        return _read_xml(path), []
+    from bimbot.shared.planner_schedules import ScheduleFormat, read_planner_schedule, schedule_format, summary
+
+    kind = schedule_format(Path(path))
+    if kind is ScheduleFormat.BIMBOT:
+        return _read_xml(path), []
+    names = {item.guid: item.name or item.ifc_class for item in components}
+    try:
+        matched = read_planner_schedule(Path(path), kind, names)
+    except SequenceError as error:
+        raise PlanError(str(error)) from None
+    if not matched.sequence.tasks:
+        raise PlanError(f"{path}: no task of the {kind.value} file matched a component of the build by GlobalId or name")
+    _log.info("%s (%s): %s", path, kind.value, summary(matched, list(names)))
+    return matched.sequence, matched.notes(str(path))
 
 
 def _ifc_sequence(path: Path, components: Sequence[Component]) -> ConstructionSequence:
