@@ -61,6 +61,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "log the live twin to rerun: web viewer on 127.0.0.1 and an .rrd recording",
     ),
     "watch": ("bimbot.services.observer.watch", "live table of component states in the terminal"),
+    "export": (
+        "bimbot.export.cli",
+        "a run for builders' tools: 4D IFC, MS Project and P6 schedules, a USD stage, a component as URDF/SDF",
+    ),
 }
 
 _log = logging.getLogger("bimbot")
