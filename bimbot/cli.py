@@ -63,7 +63,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "watch": ("bimbot.services.observer.watch", "live table of component states in the terminal"),
     "export": (
         "bimbot.export.cli",
-        "a run for builders' tools: 4D IFC, MS Project and P6 schedules, a USD stage, a component as URDF/SDF",
+        "a run for builders' tools: 4D IFC, MS Project and P6 XML, a USD stage, a component as URDF/SDF",
     ),
 }
 

@@ -6,8 +6,9 @@ IfcTaskTime (ScheduleStart, for ordering). A task's components are the products 
 task nested under it; an IfcRelSequence between two tasks makes every component of the successor wait for
 every component of the predecessor. Tasks are listed by start time, then in precedence order, then by
 Identification. A model with several work schedules (a master schedule and the simulated one ``bimbot
-export`` adds, say) is read from one: the last one in the file that is not a baseline. Only components (GUIDs the caller passes) are kept; the caller decides what to do with
-components the schedule does not mention (see :func:`schedule_from_ifc`'s ``unscheduled``).
+export`` adds, say) is read from one: the last one in the file that is not a baseline. Only components
+(GUIDs the caller passes) are kept; the caller decides what to do with components the schedule does not
+mention (see :func:`schedule_from_ifc`'s ``unscheduled``).
 """
 
 from __future__ import annotations

@@ -63,7 +63,9 @@ class MatchedSchedule:
             return []
         shown = ", ".join(repr(name) for name in self.unmatched[:5])
         more = f" and {len(self.unmatched) - 5} more" if len(self.unmatched) > 5 else ""
-        return [f"{origin}: {len(self.unmatched)} task(s) matched no component by GlobalId or name: {shown}{more}"]
+        return [
+            f"{origin}: {len(self.unmatched)} task(s) matched no component by GlobalId or name: {shown}{more}"
+        ]
 
 
 def schedule_format(path: Path) -> ScheduleFormat:
@@ -73,7 +75,9 @@ def schedule_format(path: Path) -> ScheduleFormat:
     if head.lstrip(b"\xef\xbb\xbf").startswith(b"ERMHDR"):
         return ScheduleFormat.P6_XER
     try:
-        root = etree.parse(str(path), parser=etree.XMLParser(resolve_entities=False, no_network=True)).getroot()
+        root = etree.parse(
+            str(path), parser=etree.XMLParser(resolve_entities=False, no_network=True)
+        ).getroot()
     except etree.XMLSyntaxError:
         return ScheduleFormat.BIMBOT  # the sequence reader names what is wrong with it
     local = etree.QName(root).localname
@@ -95,7 +99,9 @@ def planner_schedule_model(path: Path, kind: ScheduleFormat) -> ifcopenshell.fil
         with contextlib.redirect_stdout(printed):  # ifc4d prints progress
             _read_into(model, Path(path), kind)
     except Exception as error:  # a malformed file fails anywhere in ifc4d's parser
-        raise SequenceError(f"{path}: not a readable {kind.value} file ({type(error).__name__}: {error})") from None
+        raise SequenceError(
+            f"{path}: not a readable {kind.value} file ({type(error).__name__}: {error})"
+        ) from None
     return model
 
 
@@ -120,7 +126,10 @@ def _read_into(model: ifcopenshell.file, path: Path, kind: ScheduleFormat) -> No
 
 
 def read_planner_schedule(
-    path: Path, kind: ScheduleFormat, components: Mapping[str, str], plan_names: Mapping[str, str] | None = None
+    path: Path,
+    kind: ScheduleFormat,
+    components: Mapping[str, str],
+    plan_names: Mapping[str, str] | None = None,
 ) -> MatchedSchedule:
     """The construction sequence of a planner's file; ``components``: GUID → name (manifest order)."""
     model = planner_schedule_model(path, kind)
@@ -170,7 +179,10 @@ def match_tasks(
 
     ordered = priority_topological_order(predecessors, key)
     sequence = sequence_from_predecessors(
-        ordered, predecessors, source=source, names={guid: task.Name for guid, task in taken.items() if task.Name}
+        ordered,
+        predecessors,
+        source=source,
+        names={guid: task.Name for guid, task in taken.items() if task.Name},
     )
     return MatchedSchedule(sequence, by_guid, by_name, tuple(unmatched))
 
@@ -235,6 +247,7 @@ def _start(task: ifcopenshell.entity_instance) -> str:
 def summary(matched: MatchedSchedule, components: Sequence[str]) -> str:
     """``28 of 30 components matched (26 by GlobalId, 2 by name), 1 task unmatched``."""
     return (
-        f"{len(matched.sequence.tasks)} of {len(components)} components matched ({matched.by_guid} by GlobalId, "
-        f"{matched.by_name} by name), {len(matched.unmatched)} task(s) unmatched"
+        f"{len(matched.sequence.tasks)} of {len(components)} components matched "
+        f"({matched.by_guid} by GlobalId, {matched.by_name} by name), "
+        f"{len(matched.unmatched)} task(s) unmatched"
     )

@@ -22,24 +22,46 @@ USD_SUFFIXES = (".usda", ".usdc", ".usd")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("run", type=Path, metavar="BUILD|RUN", help="a build (its latest run) or a run folder")
-    parser.add_argument("--build", type=Path, default=None, help="the run's build, when the run is kept elsewhere")
-    parser.add_argument("--ifc", type=Path, metavar="OUT.ifc", help="the source model with the simulated 4D schedule")
-    parser.add_argument("--msp", type=Path, metavar="OUT.xml", help="the simulated schedule as MS Project XML")
-    parser.add_argument("--p6", type=Path, metavar="OUT.xml", help="the simulated schedule as Primavera P6 XML")
-    parser.add_argument("--usd", type=Path, metavar="OUT.usda", help="the run as a USD stage (.usda or .usdc)")
+    parser.add_argument(
+        "run", type=Path, metavar="BUILD|RUN", help="a build (its latest run) or a run folder"
+    )
+    parser.add_argument(
+        "--build", type=Path, default=None, help="the run's build, when the run is kept elsewhere"
+    )
+    parser.add_argument(
+        "--ifc", type=Path, metavar="OUT.ifc", help="the source model with the simulated 4D schedule"
+    )
+    parser.add_argument(
+        "--msp", type=Path, metavar="OUT.xml", help="the simulated schedule as MS Project XML"
+    )
+    parser.add_argument(
+        "--p6", type=Path, metavar="OUT.xml", help="the simulated schedule as Primavera P6 XML"
+    )
+    parser.add_argument(
+        "--usd", type=Path, metavar="OUT.usda", help="the run as a USD stage (.usda or .usdc)"
+    )
     parser.add_argument("--component", metavar="GUID", help="the component --urdf and --sdf export")
-    parser.add_argument("--urdf", type=Path, metavar="OUT.urdf", help="one component as a URDF (meshes beside it)")
-    parser.add_argument("--sdf", type=Path, metavar="OUT_DIR", help="one component's SDF model folder, copied")
-    parser.add_argument("--start", metavar="DATETIME", help="project start, e.g. 2027-03-01T07:00 (default: the run's)")
+    parser.add_argument(
+        "--urdf", type=Path, metavar="OUT.urdf", help="one component as a URDF (meshes beside it)"
+    )
+    parser.add_argument(
+        "--sdf", type=Path, metavar="OUT_DIR", help="one component's SDF model folder, copied"
+    )
+    parser.add_argument(
+        "--start", metavar="DATETIME", help="project start, e.g. 2027-03-01T07:00 (default: the run's)"
+    )
     parser.add_argument(
         "--calendar",
         metavar="WEEK",
         help="the site's working week, e.g. 'Mon-Fri 07:00-12:00 13:00-17:00': sim time counts working time "
         "(default: elapsed time)",
     )
-    parser.add_argument("--source", type=Path, metavar="FILE.ifc", help="the source IFC (default: the build's)")
-    parser.add_argument("--validate", action="store_true", help="validate the written IFC (ifcopenshell.validate)")
+    parser.add_argument(
+        "--source", type=Path, metavar="FILE.ifc", help="the source IFC (default: the build's)"
+    )
+    parser.add_argument(
+        "--validate", action="store_true", help="validate the written IFC (ifcopenshell.validate)"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -65,10 +87,13 @@ def run(args: argparse.Namespace) -> int:
     if args.ifc is not None:
         from bimbot.export.ifc_export import export_ifc, validate_ifc
 
-        result = export_ifc(data.manifest, data.build_dir, schedule, args.ifc, start, week=week, source=args.source)
+        result = export_ifc(
+            data.manifest, data.build_dir, schedule, args.ifc, start, week=week, source=args.source
+        )
         say(
-            f"ifc: {result.path} ({result.size_bytes / 1e6:.2f} MB, {result.tasks} tasks, {result.timed_tasks} timed, "
-            f"{result.resources} resources{', from IFC2X3' if result.migrated_from else ''}) in {result.seconds:.2f} s"
+            f"ifc: {result.path} ({result.size_bytes / 1e6:.2f} MB, {result.tasks} tasks, "
+            f"{result.timed_tasks} timed, {result.resources} resources"
+            f"{', from IFC2X3' if result.migrated_from else ''}) in {result.seconds:.2f} s"
         )
         if args.validate:
             began = time.perf_counter()

@@ -38,16 +38,19 @@ def write_urdf(component: Component, build_dir: Path, out: Path) -> Path:
     etree.SubElement(inertial, "origin", xyz=_xyz(component.com_local_m), rpy="0 0 0")
     etree.SubElement(inertial, "mass", value=f"{component.mass_kg:.6g}")
     inertia = component.inertia_kg_m2
-    etree.SubElement(
-        inertial,
-        "inertia",
-        **{name: f"{getattr(inertia, name):.6g}" for name in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")},
-    )
+    moments = {name: f"{getattr(inertia, name):.6g}" for name in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+    etree.SubElement(inertial, "inertia", attrib=moments)
     visual = etree.SubElement(link, "visual")
-    etree.SubElement(etree.SubElement(visual, "geometry"), "mesh", filename=_copy(build_dir, component.files.visual_obj, meshes))
+    etree.SubElement(
+        etree.SubElement(visual, "geometry"),
+        "mesh",
+        filename=_copy(build_dir, component.files.visual_obj, meshes),
+    )
     for part in component.files.collision:
         collision = etree.SubElement(link, "collision")
-        etree.SubElement(etree.SubElement(collision, "geometry"), "mesh", filename=_copy(build_dir, part, meshes))
+        etree.SubElement(
+            etree.SubElement(collision, "geometry"), "mesh", filename=_copy(build_dir, part, meshes)
+        )
     out.write_bytes(etree.tostring(robot, pretty_print=True, xml_declaration=True, encoding="UTF-8"))
     return out
 

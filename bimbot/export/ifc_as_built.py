@@ -21,8 +21,10 @@ import ifcopenshell.api.pset
 import ifcopenshell.api.root
 import ifcopenshell.util.representation
 import numpy as np
+import trimesh
 from scipy.spatial.transform import Rotation
 
+from bimbot.export.meshes import load_triangles
 from bimbot.export.sim_schedule import ComponentWork
 from bimbot.shared.manifest import Component, Manifest
 
@@ -67,10 +69,14 @@ def add_panels(
     for element in manifest.panelised:
         host = _by_guid(model, element.guid)
         if host is None:
-            _log.warning("panelised element %s is not in the source model: its panels are left out", element.guid)
+            _log.warning(
+                "panelised element %s is not in the source model: its panels are left out", element.guid
+            )
             continue
         made = [
-            _panel(model, by_guid[guid], manifest, build_dir) for guid in element.panel_guids if guid in by_guid
+            _panel(model, by_guid[guid], manifest, build_dir)
+            for guid in element.panel_guids
+            if guid in by_guid
         ]
         if made:
             ifcopenshell.api.aggregate.assign_object(model, products=made, relating_object=host)
@@ -89,7 +95,10 @@ def _panel(
     model: ifcopenshell.file, panel: Component, manifest: Manifest, build_dir: Path
 ) -> ifcopenshell.entity_instance:
     part = ifcopenshell.api.root.create_entity(
-        model, ifc_class="IfcBuildingElementPart", name=panel.name or panel.guid, predefined_type="PRECASTPANEL"
+        model,
+        ifc_class="IfcBuildingElementPart",
+        name=panel.name or panel.guid,
+        predefined_type="PRECASTPANEL",
     )
     ifcopenshell.api.attribute.edit_attributes(model, product=part, attributes={"GlobalId": panel.guid})
     pose = panel.target_pose_world
@@ -97,23 +106,24 @@ def _panel(
     matrix[:3, :3] = Rotation.from_quat(pose.quat_xyzw).as_matrix()
     matrix[:3, 3] = np.add(pose.position_m, manifest.local_origin_m)  # the IFC's world coordinates, metres
     ifcopenshell.api.geometry.edit_object_placement(model, product=part, matrix=matrix, is_si=True)
-    mesh = build_dir / panel.files.visual_obj if panel.files.visual_obj else None
-    if mesh is not None and mesh.is_file():
+    mesh = load_triangles(build_dir / panel.files.visual_obj) if panel.files.visual_obj else None
+    if mesh is not None:
         _add_mesh(model, part, mesh)
     return part
 
 
-def _add_mesh(model: ifcopenshell.file, part: ifcopenshell.entity_instance, path: Path) -> None:
-    import trimesh
-
-    mesh = trimesh.load(path, force="mesh", process=False)
+def _add_mesh(model: ifcopenshell.file, part: ifcopenshell.entity_instance, mesh: trimesh.Trimesh) -> None:
     context = ifcopenshell.util.representation.get_context(model, "Model", "Body", "MODEL_VIEW")
     if context is None:
         model_context = ifcopenshell.util.representation.get_context(model, "Model") or (
             ifcopenshell.api.context.add_context(model, context_type="Model")
         )
         context = ifcopenshell.api.context.add_context(
-            model, context_type="Model", context_identifier="Body", target_view="MODEL_VIEW", parent=model_context
+            model,
+            context_type="Model",
+            context_identifier="Body",
+            target_view="MODEL_VIEW",
+            parent=model_context,
         )
     representation = ifcopenshell.api.geometry.add_mesh_representation(
         model,

@@ -1,27 +1,25 @@
 """The 4D IFC of a run: the source model with the simulated construction written into it.
 
 The source model (``manifest.source.path``) is opened, brought to IFC4 when it is IFC2X3 (IfcTaskTime and
-the 4D relationships 4D tools read are IFC4's; ``ifcopenshell.util.schema.Migrator``), and gets the
+the 4D relationships 4D tools read are IFC4's; :mod:`.ifc_upgrade`), and gets the
 simulated schedule (:mod:`.ifc_tasks`), the as-built property sets and the precast panels
 (:mod:`.ifc_as_built`). :func:`validate_ifc` checks a written file with ``ifcopenshell.validate``.
 """
 
 from __future__ import annotations
 
-import contextlib
 import datetime as dt
-import io
 import logging
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import ifcopenshell
-import ifcopenshell.util.schema
 import ifcopenshell.validate
 
 from bimbot.export.ifc_as_built import add_as_built_pset, add_panels
 from bimbot.export.ifc_tasks import add_simulated_schedule
+from bimbot.export.ifc_upgrade import upgrade_to_ifc4
 from bimbot.export.sim_schedule import SimSchedule
 from bimbot.export.work_time import WorkWeek, site_time
 from bimbot.shared.errors import UserError
@@ -61,13 +59,7 @@ def open_as_ifc4(path: Path) -> tuple[ifcopenshell.file, str | None]:
         return model, None
     if model.schema != "IFC2X3":
         raise UserError(f"{path}: schema {model.schema}: the export writes IFC4 from IFC4 or IFC2X3 models")
-    migrated = ifcopenshell.file(schema=EXPORT_SCHEMA)
-    migrator = ifcopenshell.util.schema.Migrator()
-    notes = io.StringIO()
-    with contextlib.redirect_stdout(notes):  # the migrator prints each attribute IFC4 has no place for
-        for element in model:
-            migrator.migrate(element, migrated)
-    dropped = notes.getvalue().count("Unable to find equivalent attribute")
+    migrated, dropped = upgrade_to_ifc4(model)
     _log.info("%s: IFC2X3 → IFC4, %d attribute value(s) with no IFC4 equivalent dropped", path, dropped)
     return migrated, model.schema
 

@@ -17,6 +17,7 @@ sim times stay as simulated (``edit_task_time`` would snap them to 09:00/17:00 o
 from __future__ import annotations
 
 import datetime as dt
+import itertools
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
@@ -25,7 +26,6 @@ import ifcopenshell.api.attribute
 import ifcopenshell.api.control
 import ifcopenshell.api.resource
 import ifcopenshell.api.sequence
-import ifcopenshell.util.date
 
 from bimbot.export.sim_schedule import ComponentWork, SimSchedule
 from bimbot.export.work_time import WorkWeek
@@ -72,7 +72,7 @@ def add_simulated_schedule(
         model,
         name=f"Simulated construction of {schedule.name}",
         predefined_type="PLANNED",
-        start_time=clock(0.0),
+        start_time=ifc_datetime(clock(0.0)),
         work_plan=plan,
     )
     calendar = _calendar(model, week or EVERY_DAY, "Site working week" if week else "Continuous")
@@ -87,9 +87,11 @@ def add_simulated_schedule(
             attributes={"Description": f"{work.method.value}; {work.ifc_class}", "Status": work.state},
         )
         written.tasks[work.guid] = task
-        steps = [_task(model, written, f"{step.name} {work.name}", f"{work.guid}.{step.name}", task)
-                 for step in work.steps]
-        for before, after in zip(steps, steps[1:], strict=False):
+        steps = [
+            _task(model, written, f"{step.name} {work.name}", f"{work.guid}.{step.name}", task)
+            for step in work.steps
+        ]
+        for before, after in itertools.pairwise(steps):
             ifcopenshell.api.sequence.assign_sequence(model, relating_process=before, related_process=after)
         if work.guid in products:
             ifcopenshell.api.sequence.assign_product(
@@ -103,20 +105,22 @@ def add_simulated_schedule(
                 if link_steps:
                     before = (_subtasks(before) or [before])[-1]
                     after = (_subtasks(after) or [after])[0]
-                ifcopenshell.api.sequence.assign_sequence(model, relating_process=before, related_process=after)
+                ifcopenshell.api.sequence.assign_sequence(
+                    model, relating_process=before, related_process=after
+                )
     ifcopenshell.api.control.assign_control(
         model, relating_control=calendar, related_objects=list(_top_tasks(written))
     )
     for work in schedule.components:
-        _time(model, written.tasks[work.guid], work.start_s, work.finish_s, clock, week)
+        _time(model, written.tasks[work.guid], work.start_s, finish_s=work.finish_s, clock=clock, week=week)
         for step, step_task in zip(work.steps, _subtasks(written.tasks[work.guid]), strict=False):
-            _time(model, step_task, step.start_s, step.finish_s, clock, week)
+            _time(model, step_task, step.start_s, finish_s=step.finish_s, clock=clock, week=week)
     for guid, element_task in written.element_tasks.items():
         panels = [work for work in schedule.components if work.parent_guid == guid and work.timed]
         if panels:
             start = min(work.start_s for work in panels if work.start_s is not None)
             finish = max(work.finish_s for work in panels if work.finish_s is not None)
-            _time(model, element_task, start, finish, clock, week)
+            _time(model, element_task, start, finish_s=finish, clock=clock, week=week)
     return written
 
 
@@ -171,13 +175,17 @@ def _element_task(
 
 def _calendar(model: ifcopenshell.file, week: WorkWeek, name: str) -> ifcopenshell.entity_instance:
     calendar = ifcopenshell.api.sequence.add_work_calendar(model, name=name)
-    work_time = ifcopenshell.api.sequence.add_work_time(model, work_calendar=calendar, time_type="WorkingTimes")
+    work_time = ifcopenshell.api.sequence.add_work_time(
+        model, work_calendar=calendar, time_type="WorkingTimes"
+    )
     ifcopenshell.api.attribute.edit_attributes(model, product=work_time, attributes={"Name": week.text})
     pattern = ifcopenshell.api.sequence.assign_recurrence_pattern(
         model, parent=work_time, recurrence_type="WEEKLY"
     )
     ifcopenshell.api.sequence.edit_recurrence_pattern(
-        model, recurrence_pattern=pattern, attributes={"WeekdayComponent": [day + 1 for day in sorted(week.days)]}
+        model,
+        recurrence_pattern=pattern,
+        attributes={"WeekdayComponent": [day + 1 for day in sorted(week.days)]},
     )
     for start, end in week.periods:
         ifcopenshell.api.sequence.add_time_period(
@@ -210,7 +218,10 @@ def _add_resources(model: ifcopenshell.file, schedule: SimSchedule, written: Wri
 
 
 def _assign_resources(
-    model: ifcopenshell.file, work: ComponentWork, task: ifcopenshell.entity_instance, written: WrittenSchedule
+    model: ifcopenshell.file,
+    work: ComponentWork,
+    task: ifcopenshell.entity_instance,
+    written: WrittenSchedule,
 ) -> None:
     names = list(work.robot_ids)
     if work.method is ConstructionMethod.CAST_IN_PLACE:
@@ -226,6 +237,7 @@ def _time(
     model: ifcopenshell.file,
     task: ifcopenshell.entity_instance,
     start_s: float | None,
+    *,
     finish_s: float | None,
     clock: Clock,
     week: WorkWeek | None,
@@ -240,9 +252,7 @@ def _time(
         attributes={
             "ScheduleStart": ifc_datetime(clock(start_s)),
             "ScheduleFinish": ifc_datetime(clock(finish_s)),
-            "ScheduleDuration": ifcopenshell.util.date.datetime2ifc(
-                dt.timedelta(seconds=round(finish_s - start_s, 3)), "IfcDuration"
-            ),
+            "ScheduleDuration": ifc_duration(finish_s - start_s),
             "DurationType": "WORKTIME" if week is not None else "ELAPSEDTIME",
         },
     )
@@ -251,3 +261,11 @@ def _time(
 def ifc_datetime(moment: dt.datetime) -> str:
     """IfcDateTime to the second (``2027-03-01T07:00:31``)."""
     return moment.replace(microsecond=0).isoformat()
+
+
+def ifc_duration(seconds: float) -> str:
+    """IfcDuration (ISO 8601) to the millisecond: ``PT1H2M3.4S``."""
+    millis = round(max(seconds, 0.0) * 1000)
+    hours, rest = divmod(millis, 3_600_000)
+    minutes, rest = divmod(rest, 60_000)
+    return f"PT{hours}H{minutes}M{rest / 1000:g}S"

@@ -96,7 +96,6 @@ def _msp_durations(path: Path, model: ifcopenshell.file) -> None:
         seconds = int(ifcopenshell.util.date.ifc2datetime(task_time.ScheduleDuration).total_seconds())
         duration = task.find("p:Duration", namespaces)
         if duration is None:
-            duration = etree.Element(f"{{{MSP_NS}}}Duration")
-            task.find("p:DurationFormat", namespaces).addnext(duration)
+            duration = etree.SubElement(task, f"{{{MSP_NS}}}Duration")
         duration.text = f"PT{seconds // 3600}H{seconds % 3600 // 60}M{seconds % 60}S"
     tree.write(str(path), encoding="utf-8", xml_declaration=True)

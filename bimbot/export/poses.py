@@ -64,7 +64,9 @@ def poses_from_recording(path: Path, guids: Mapping[str, str], robot_ids: Mappin
             time_s = time.total_seconds() if hasattr(time, "total_seconds") else (time or 0) / NS_PER_S
             position, quat = translation[0], rotation[0]
             target.setdefault(key, []).append(
-                PoseSample(time_s, (position[0], position[1], position[2]), (quat[0], quat[1], quat[2], quat[3]))
+                PoseSample(
+                    time_s, (position[0], position[1], position[2]), (quat[0], quat[1], quat[2], quat[3])
+                )
             )
     for samples in (*poses.components.values(), *poses.robots.values()):
         samples.sort(key=lambda sample: sample.time_s)

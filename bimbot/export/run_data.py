@@ -124,4 +124,3 @@ def run_start(run: RunFolder) -> dt.datetime:
         return dt.datetime.strptime(run.root.resolve().name, RUN_NAME_FORMAT)
     except ValueError:
         return dt.datetime.fromtimestamp(run.root.stat().st_mtime).replace(microsecond=0)
-

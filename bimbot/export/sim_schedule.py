@@ -177,9 +177,7 @@ def method_steps(
         return ()
     if component.method is ConstructionMethod.CAST_IN_PLACE and component.cast is not None:
         cast = component.cast
-        return _fitted(
-            CAST_STEPS, (cast.formwork_s, cast.pour_s, cast.cure_s), start_s, finish_s
-        )
+        return _fitted(CAST_STEPS, (cast.formwork_s, cast.pour_s, cast.cure_s), start_s, finish_s)
     if component.method is ConstructionMethod.LAID:
         return (Step("lay", start_s, finish_s),)
     return _lifted_steps(states, finish_s)

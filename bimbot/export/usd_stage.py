@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
+from bimbot.export.meshes import load_triangles
 from bimbot.export.poses import PoseSample, RunPoses
 from bimbot.export.sim_schedule import SimSchedule
 from bimbot.shared.manifest import Component, Manifest
@@ -32,7 +33,9 @@ GROUND_MARGIN_M = 10.0
 ROBOT_BOX_M = (1.0, 0.7, 0.5)
 
 
-def write_usd(manifest: Manifest, build_dir: Path, schedule: SimSchedule, poses: RunPoses, out: Path) -> Usd.Stage:
+def write_usd(
+    manifest: Manifest, build_dir: Path, schedule: SimSchedule, poses: RunPoses, out: Path
+) -> Usd.Stage:
     """Write the stage to ``out`` (``.usda`` text or ``.usdc`` binary, by its suffix) and return it."""
     out.parent.mkdir(parents=True, exist_ok=True)
     stage = Usd.Stage.CreateNew(str(out))
@@ -43,7 +46,7 @@ def write_usd(manifest: Manifest, build_dir: Path, schedule: SimSchedule, poses:
     stage.SetStartTimeCode(0.0)
     stage.SetEndTimeCode(_code(schedule.end_s))
     animated: list[tuple[UsdGeom.Xform, list[PoseSample]]] = []
-    _fill(stage, manifest, build_dir, schedule, poses, animated)
+    _fill(stage, manifest, build_dir=build_dir, schedule=schedule, poses=poses, animated=animated)
     layer = stage.GetRootLayer()
     with Sdf.ChangeBlock():  # samples straight into the layer, one change notice (not one per sample)
         for xform, samples in animated:
@@ -55,6 +58,7 @@ def write_usd(manifest: Manifest, build_dir: Path, schedule: SimSchedule, poses:
 def _fill(
     stage: Usd.Stage,
     manifest: Manifest,
+    *,
     build_dir: Path,
     schedule: SimSchedule,
     poses: RunPoses,
@@ -137,18 +141,15 @@ def _quat(sample: PoseSample) -> Gf.Quatd:
 
 def _mesh(stage: Usd.Stage, path: str, build_dir: Path, component: Component) -> None:
     """The converter's visual mesh (component frame, metres) as a UsdGeom.Mesh, when it is there."""
-    obj = build_dir / component.files.visual_obj if component.files.visual_obj else None
-    if obj is None or not obj.is_file():
-        return
-    import trimesh
-
-    mesh = trimesh.load(obj, force="mesh", process=False)
-    if len(mesh.faces) == 0:
+    mesh = load_triangles(build_dir / component.files.visual_obj) if component.files.visual_obj else None
+    if mesh is None:
         return
     usd_mesh = UsdGeom.Mesh.Define(stage, path)
     usd_mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(np.asarray(mesh.vertices, dtype=np.float32)))
     usd_mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(mesh.faces), 3, dtype=np.int32)))
-    usd_mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(np.asarray(mesh.faces, dtype=np.int32).ravel()))
+    usd_mesh.CreateFaceVertexIndicesAttr(
+        Vt.IntArray.FromNumpy(np.asarray(mesh.faces, dtype=np.int32).ravel())
+    )
     usd_mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     usd_mesh.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(np.asarray(mesh.bounds, dtype=np.float32)))
 
@@ -157,12 +158,22 @@ def _ground(stage: Usd.Stage, manifest: Manifest) -> None:
     """A ground quad at z 0 under every component's BIM box, with a margin for the yard and the robots."""
     UsdGeom.Xform.Define(stage, "/World/Site")
     boxes = [component.bbox_world for component in manifest.components]
-    low = np.min([box.min_m for box in boxes], axis=0) - GROUND_MARGIN_M if boxes else np.full(3, -GROUND_MARGIN_M)
-    high = np.max([box.max_m for box in boxes], axis=0) + GROUND_MARGIN_M if boxes else np.full(3, GROUND_MARGIN_M)
+    low = (
+        np.min([box.min_m for box in boxes], axis=0) - GROUND_MARGIN_M
+        if boxes
+        else np.full(3, -GROUND_MARGIN_M)
+    )
+    high = (
+        np.max([box.max_m for box in boxes], axis=0) + GROUND_MARGIN_M
+        if boxes
+        else np.full(3, GROUND_MARGIN_M)
+    )
     ground = UsdGeom.Mesh.Define(stage, "/World/Site/Ground")
     corners = [(low[0], low[1]), (high[0], low[1]), (high[0], high[1]), (low[0], high[1])]
     ground.CreatePointsAttr([Gf.Vec3f(float(x), float(y), 0.0) for x, y in corners])
     ground.CreateFaceVertexCountsAttr([4])
     ground.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
-    ground.CreateExtentAttr([Gf.Vec3f(float(low[0]), float(low[1]), 0.0), Gf.Vec3f(float(high[0]), float(high[1]), 0.0)])
+    ground.CreateExtentAttr(
+        [Gf.Vec3f(float(low[0]), float(low[1]), 0.0), Gf.Vec3f(float(high[0]), float(high[1]), 0.0)]
+    )
     ground.CreateDisplayColorAttr([Gf.Vec3f(0.45, 0.42, 0.36)])

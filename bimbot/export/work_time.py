@@ -8,6 +8,7 @@ time: a task that starts at 16:50 and works 20 minutes finishes at 07:10 the nex
 from __future__ import annotations
 
 import datetime as dt
+import itertools
 import re
 from dataclasses import dataclass
 
@@ -59,7 +60,7 @@ def parse_work_week(text: str) -> WorkWeek:
             raise UserError(f"--calendar {text!r}: {word!r} ends before it starts")
         periods.append((start, end))
     periods.sort()
-    if any(prev[1] > nxt[0] for prev, nxt in zip(periods, periods[1:], strict=False)):
+    if any(prev[1] > nxt[0] for prev, nxt in itertools.pairwise(periods)):
         raise UserError(f"--calendar {text!r}: the periods overlap")
     return WorkWeek(frozenset(days), tuple(periods))
 

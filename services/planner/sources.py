@@ -252,11 +252,18 @@ def _read_xml(path: Path) -> ConstructionSequence:
         raise PlanError(f"{path}: cannot read ({error.strerror})") from None
 
 
-def _read_sequence_file(path: Path, components: Sequence[Component]) -> tuple[ConstructionSequence, list[str]]:
+def _read_sequence_file(
+    path: Path, components: Sequence[Component]
+) -> tuple[ConstructionSequence, list[str]]:
     """A sequence XML, or a planner's schedule (MS Project, P6 XML or XER) matched to ``components``."""
     if not Path(path).is_file():
         return _read_xml(path), []
-    from bimbot.shared.planner_schedules import ScheduleFormat, read_planner_schedule, schedule_format, summary
+    from bimbot.shared.planner_schedules import (
+        ScheduleFormat,
+        read_planner_schedule,
+        schedule_format,
+        summary,
+    )
 
     kind = schedule_format(Path(path))
     if kind is ScheduleFormat.BIMBOT:
@@ -267,7 +274,9 @@ def _read_sequence_file(path: Path, components: Sequence[Component]) -> tuple[Co
     except SequenceError as error:
         raise PlanError(str(error)) from None
     if not matched.sequence.tasks:
-        raise PlanError(f"{path}: no task of the {kind.value} file matched a component of the build by GlobalId or name")
+        raise PlanError(
+            f"{path}: no task of the {kind.value} file matched a component of the build by GlobalId or name"
+        )
     _log.info("%s (%s): %s", path, kind.value, summary(matched, list(names)))
     return matched.sequence, matched.notes(str(path))
 
