@@ -151,7 +151,7 @@ def test_panels_become_parts_of_their_element_each_with_its_task(frame_run: Path
         halves[0].guid: [("picking", 500.0), ("constructed", 510.0)],
         halves[1].guid: [("picking", 520.0), ("constructed", 530.0)],
     }
-    order = tuple(guid for guid in data.plan.order if guid != beam.guid) + (halves[0].guid, halves[1].guid)
+    order = (*(guid for guid in data.plan.order if guid != beam.guid), halves[0].guid, halves[1].guid)
     schedule = sim_schedule(manifest, data.report, journal, PlanView(order, {}, {}, {}))
     result = export_ifc(manifest, data.build_dir, schedule, tmp_path / "panels.ifc", START)
     assert validate_ifc(result.path) == []

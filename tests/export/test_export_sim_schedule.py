@@ -1,4 +1,4 @@
-"""The simulated schedule: one task per component, its method's steps and times, and sim time on a calendar."""
+"""The simulated schedule: a task per component, its method's steps and times, sim time on a calendar."""
 
 from __future__ import annotations
 
