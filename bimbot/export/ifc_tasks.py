@@ -140,7 +140,9 @@ def _task(
         predefined_type="CONSTRUCTION",
     )
     # add_task numbers a sub-task after its parent (<parent>.1); the GlobalId-based one says what it is
-    ifcopenshell.api.attribute.edit_attributes(model, product=task, attributes={"Identification": identification})
+    ifcopenshell.api.attribute.edit_attributes(
+        model, product=task, attributes={"Identification": identification}
+    )
     written.all_tasks.append(task)
     return task
 
