@@ -12,6 +12,7 @@ import ifcopenshell.util.element
 import ifcopenshell.util.sequence
 import pytest
 from converter.ifc_builders import add_beam, new_model, translation
+from export_runs import write_run
 
 from bimbot.export.ifc_as_built import AS_BUILT_PSET
 from bimbot.export.ifc_export import IfcExport, export_ifc, validate_ifc
@@ -177,8 +178,6 @@ def test_an_ifc2x3_model_is_exported_as_valid_ifc4(tmp_path: Path) -> None:
     small.file.write(str(source))
     build = tmp_path / "build"
     manifest = convert_model(ifcopenshell.open(str(source)), source, build)
-    from conftest import write_run  # the export tests' run writer (tests/export/conftest.py)
-
     write_run(build, manifest, read_sequence(build / manifest.sequence_file).guids())
     data = load_run(build)
     result = export_ifc(data.manifest, build, data.schedule(), tmp_path / "two-beams-4d.ifc", START)
@@ -192,8 +191,6 @@ def test_the_revit_house_exports_as_valid_ifc4(samples_dir: Path, tmp_path: Path
     source = samples_dir / "revit2021_sample_project.ifc"
     build = tmp_path / "house"
     manifest: Manifest = convert_model(ifcopenshell.open(str(source)), source, build)
-    from conftest import write_run
-
     write_run(build, manifest, read_sequence(build / manifest.sequence_file).guids())
     data = load_run(build)
     result = export_ifc(read_manifest(build), build, data.schedule(), tmp_path / "house-4d.ifc", START)
