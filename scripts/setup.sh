@@ -2,7 +2,9 @@
 # Set up bimbot on a fresh Debian/Ubuntu machine: system packages, a virtual environment, the project.
 # Idempotent: a second run only checks. Usage: bash scripts/setup.sh [--tests]
 #   --tests  also what the test suite needs beyond the demo: the Docker engine (dockerd), compose and
-#            debootstrap for the compose smoke test (tests/compose; scripts/compose-smoke.sh starts dockerd)
+#            debootstrap for the compose smoke test (tests/compose; scripts/compose-smoke.sh starts dockerd),
+#            and Xvfb (xvfb-run, xauth) for the dashboard test's real browser window
+#            (tests/observer/test_dashboard_browser.py)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -45,6 +47,8 @@ if [ "$TESTS" -eq 1 ]; then
         fi
     fi
     command -v debootstrap >/dev/null || missing+=(debootstrap)
+    command -v xvfb-run >/dev/null || missing+=(xvfb)
+    command -v xauth >/dev/null || missing+=(xauth)
 fi
 if ((${#missing[@]})); then
     echo "setup: installing system packages: ${missing[*]}" >&2

@@ -1,0 +1,165 @@
+"""The dashboard in a real browser: the observer's recording of a run, served by rerun's web viewer, drawn
+by Chromium (not headless, WebGL through SwiftShader, under Xvfb) and screenshotted by the shared
+``page_shot.py`` tool; the 3D view must not be blank. A test decides: enough pixels of the 3D view differ
+from its background.
+
+The tool is ``<repo>/../shared/tools/page_shot.py``; the test skips only when ``../shared`` is absent
+(as the samples do). It needs chromium, xvfb-run and xauth (``scripts/setup.sh`` installs them) and
+websocket-client (a test dependency).
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import urllib.parse
+import urllib.request
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+from pydantic import BaseModel
+
+from bimbot.services.observer.app import (
+    Observer,
+    ObserverConfig,
+    _close_recording,
+    open_recording,
+    rerun_cli_binary,
+)
+from bimbot.shared.bus import encode
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import PlannedSequenceMsg, SiteInfoMsg
+from bimbot.shared.robot_description import DEFAULT_ROBOT
+from bimbot.shared.site_layout import plan_site
+from bimbot.supervisor import free_port, wait_until
+
+pytestmark = pytest.mark.integration
+
+SHARED = Path(__file__).resolve().parents[2].parent / "shared"
+PAGE_SHOT = SHARED / "tools" / "page_shot.py"
+VIEW_BOX = (
+    0.01,
+    0.08,
+    0.65,
+    0.78,
+)  # the 3D view in the observer's layout: left, top, right, bottom (fractions)
+MIN_DRAWN = 0.02  # of the 3D view's pixels differ from its background (a real run draws ~0.1)
+WAIT_S = 20.0  # for the viewer to load the recording and draw it (software rendering)
+
+
+def site_info(manifest: Manifest) -> SiteInfoMsg:
+    """What physics answers on physics/info for the frame's site with the synthetic run's two robots."""
+    layout = plan_site(manifest.components, robots=2)
+    return SiteInfoMsg(
+        robot_ids=["r1", "r2"],
+        robot_starts_xy_yaw=list(layout.robot_starts),
+        robot_type_of={"r1": DEFAULT_ROBOT.name, "r2": DEFAULT_ROBOT.name},
+        robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
+        step_s=1 / 240,
+        control_period_s=0.1,
+        lock_step=True,
+        layout=layout,
+    )
+
+
+@pytest.fixture(scope="module")
+def recording(
+    bundled_build: Path,
+    frame_manifest: Manifest,
+    run_messages: list[tuple[str, BaseModel]],
+    tmp_path_factory: pytest.TempPathFactory,
+) -> Path:
+    """The observer's recording of the synthetic run (its own blueprint: the 3D view of the site)."""
+    out = tmp_path_factory.mktemp("dashboard")
+    config = ObserverConfig(rrd_path=out / "site.rrd", report_dir=out / "report", web=False)
+    stream, _ = open_recording(frame_manifest.site, config, frame_manifest.components)
+    observer = Observer(frame_manifest, bundled_build, config, stream)
+    observer.site_known(site_info(frame_manifest))
+    order = [component.guid for component in frame_manifest.components]
+    observer.plan_known(PlannedSequenceMsg(source="test", order=order, predecessors={}))
+    for key_expr, message in run_messages:
+        observer.handle(key_expr, encode(message))
+    observer.finish()
+    _close_recording(stream, config.rrd_path, compact=True)
+    return config.rrd_path
+
+
+@pytest.fixture(scope="module")
+def served(recording: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """The recording served by rerun's web viewer on loopback; the viewer's URL."""
+    grpc_port, web_port = free_port(), free_port()
+    log = (tmp_path_factory.mktemp("rerun") / "rerun.log").open("w")
+    server = subprocess.Popen(
+        [
+            str(rerun_cli_binary()),
+            *("--serve-web", "--bind", "127.0.0.1", "--port", str(grpc_port)),
+            *("--web-viewer-port", str(web_port), str(recording)),
+        ],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+    )
+    try:
+        assert wait_until(lambda: _answers(f"http://127.0.0.1:{web_port}/"), 30.0), (
+            "the web viewer never answered"
+        )
+        data = urllib.parse.quote(f"rerun+http://127.0.0.1:{grpc_port}/proxy", safe="")
+        yield f"http://127.0.0.1:{web_port}/?url={data}"
+    finally:
+        server.terminate()
+        server.wait(10)
+        log.close()
+
+
+def _answers(url: str) -> bool:
+    try:
+        with urllib.request.urlopen(url, timeout=2) as reply:
+            return bool(reply.status == 200)
+    except OSError:
+        return False
+
+
+def drawn_fraction(png: Path, box: tuple[float, float, float, float] = VIEW_BOX) -> float:
+    """The share of the box's pixels that differ from its most common colour (its background) by more
+    than 40 in the sum of their RGB channels."""
+    pixels = np.asarray(Image.open(png).convert("RGB"), dtype=np.int32)
+    height, width, _ = pixels.shape
+    left, top, right, bottom = box
+    region = pixels[int(top * height) : int(bottom * height), int(left * width) : int(right * width)].reshape(
+        -1, 3
+    )
+    colours, counts = np.unique(region, axis=0, return_counts=True)
+    background = colours[counts.argmax()]
+    return float((np.abs(region - background).sum(axis=1) > 40).mean())
+
+
+def test_a_blank_page_counts_as_blank(tmp_path: Path) -> None:
+    blank = tmp_path / "blank.png"
+    Image.new("RGB", (1600, 1000), (255, 255, 255)).save(blank)
+    assert drawn_fraction(blank) == 0.0
+
+
+def test_the_recording_draws_the_site_in_the_3d_view_of_a_real_browser(served: str, tmp_path: Path) -> None:
+    if not SHARED.is_dir():
+        pytest.skip(f"{SHARED} is not beside the checkout")
+    assert PAGE_SHOT.is_file(), f"{PAGE_SHOT} is missing"
+    xvfb_run = shutil.which("xvfb-run")
+    assert xvfb_run is not None, "xvfb-run is not installed (scripts/setup.sh --tests installs it)"
+    shot = tmp_path / "dashboard.png"
+    command = [
+        xvfb_run,
+        "-a",
+        "-s",
+        "-screen 0 1600x1000x24",
+        sys.executable,
+        str(PAGE_SHOT),
+        served,
+        str(shot),
+    ]
+    command += ["--wait-s", str(WAIT_S), "--port", str(free_port())]
+    result = subprocess.run(command, check=False, capture_output=True, text=True, timeout=240)
+    assert result.returncode == 0 and shot.is_file(), result.stdout[-2000:] + result.stderr[-2000:]
+    assert drawn_fraction(shot) >= MIN_DRAWN, f"the 3D view is blank (see {shot})"
