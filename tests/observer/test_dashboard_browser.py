@@ -142,9 +142,8 @@ def test_a_blank_page_counts_as_blank(tmp_path: Path) -> None:
     assert drawn_fraction(blank) == 0.0
 
 
+@pytest.mark.skipif(not SHARED.is_dir(), reason=f"{SHARED} is not beside the checkout")
 def test_the_recording_draws_the_site_in_the_3d_view_of_a_real_browser(served: str, tmp_path: Path) -> None:
-    if not SHARED.is_dir():
-        pytest.skip(f"{SHARED} is not beside the checkout")
     assert PAGE_SHOT.is_file(), f"{PAGE_SHOT} is missing"
     xvfb_run = shutil.which("xvfb-run")
     assert xvfb_run is not None, "xvfb-run is not installed (scripts/setup.sh --tests installs it)"
