@@ -101,7 +101,20 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     )
     source = parser.add_mutually_exclusive_group()
     source.add_argument("--derive", action="store_true", help="planner derives the sequence from supports")
-    source.add_argument("--sequence", type=Path, default=None, help="planner uses this sequence XML")
+    source.add_argument(
+        "--sequence",
+        type=Path,
+        default=None,
+        help="planner uses this sequence XML, or an MS Project XML, P6 XML or P6 XER schedule",
+    )
+    source.add_argument(
+        "--from-ifc",
+        nargs="?",
+        const="",
+        default=None,
+        metavar="FILE.ifc",
+        help="planner reads the 4D schedule of an IFC file (default: the model the build was converted from)",
+    )
     parser.add_argument(
         "--strict",
         action="store_true",
@@ -207,6 +220,8 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         planner_source = ("--derive",)
     elif args.sequence is not None:
         planner_source = ("--sequence", str(args.sequence))
+    elif getattr(args, "from_ifc", None) is not None:
+        planner_source = ("--from-ifc", args.from_ifc) if args.from_ifc else ("--from-ifc",)
     if args.strict:
         planner_source = (*planner_source, "--strict")
     observer = None

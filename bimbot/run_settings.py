@@ -58,4 +58,7 @@ def sequence_source(planner_source: tuple[str, ...]) -> str:
         return "derived from the structure (--derive)"
     if "--sequence" in planner_source:
         return planner_source[planner_source.index("--sequence") + 1]
+    if "--from-ifc" in planner_source:
+        named = [*planner_source[planner_source.index("--from-ifc") + 1 :], "--"][0]
+        return f"the IFC schedule of {'the build model' if named.startswith('--') else named}"
     return "the build's sequence.xml"

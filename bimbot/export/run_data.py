@@ -108,6 +108,9 @@ def run_plan(manifest: Manifest, build_dir: Path, report: dict[str, Any]) -> Pla
     source = PlanSource()
     if "--derive" in said:
         source = PlanSource(SourceKind.DERIVE)
+    elif said.startswith("the IFC schedule of "):
+        named = said.removeprefix("the IFC schedule of ")
+        source = PlanSource(SourceKind.IFC, None if named == "the build model" else Path(named))
     elif said and said != "the build's sequence.xml":
         source = PlanSource(SourceKind.SEQUENCE, Path(said))
     try:

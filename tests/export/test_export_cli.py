@@ -73,3 +73,26 @@ def test_bad_options_are_one_line_and_exit_2(
 def test_a_folder_that_is_no_run_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["export", str(tmp_path), "--ifc", str(tmp_path / "x.ifc")]) == 2
     assert "neither a build" in capsys.readouterr().err
+
+
+def test_bimbot_run_from_ifc_reaches_the_planner_and_the_export_reads_the_same_plan(
+    frame_run: Path, tmp_path: Path
+) -> None:
+    from bimbot.cli import parse_arguments
+    from bimbot.export.run_data import run_plan
+    from bimbot.run_args import run_options
+    from bimbot.run_settings import run_settings
+    from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan
+
+    build = frame_run.parent.parent
+    plain = run_options(parse_arguments(["run", str(build), "--from-ifc"]))
+    named = run_options(parse_arguments(["run", str(build), "--from-ifc", "model.ifc", "--strict"]))
+    assert plain.planner_source == ("--from-ifc",)
+    assert named.planner_source == ("--from-ifc", "model.ifc", "--strict")
+    settings = run_settings(plain)
+    assert settings["sequence"] == "the IFC schedule of the build model"
+    assert run_settings(named)["sequence"] == "the IFC schedule of model.ifc"
+    manifest = read_manifest(build)
+    plan = run_plan(manifest, build, {"settings": settings})
+    ifc_plan = load_plan(manifest, build, PlanSource(SourceKind.IFC))
+    assert plan.order == ifc_plan.order and dict(plan.predecessors) == dict(ifc_plan.predecessors)
