@@ -27,7 +27,7 @@ import ifcopenshell.api.control
 import ifcopenshell.api.resource
 import ifcopenshell.api.sequence
 
-from bimbot.export.sim_schedule import ComponentWork, SimSchedule
+from bimbot.export.sim_schedule import ComponentWork, SimSchedule, Step
 from bimbot.export.work_time import WorkWeek
 from bimbot.shared.construction_methods import ConstructionMethod
 
@@ -64,8 +64,9 @@ def add_simulated_schedule(
 ) -> WrittenSchedule:
     """Write ``schedule`` into ``model`` (IFC4); ``products`` (GUID → product, components and panelised
     elements) become the tasks' outputs. ``element_names``: a panelised element's GUID → its name.
-    ``link_steps``: precedences from a predecessor's last step to the successor's first (for tools such as
-    P6 that link activities only, not the summary tasks above them)."""
+    ``link_steps``: precedences from a predecessor's last step to the successor's first, and a component
+    without steps gets one (``erect``; zero long at the run's end when the run never started it), for
+    tools such as P6 whose activities have dates and links, and whose WBS nodes have neither."""
     products = products or {}
     plan = ifcopenshell.api.sequence.add_work_plan(model, name="bimbot")
     work_schedule = ifcopenshell.api.sequence.add_work_schedule(
@@ -89,7 +90,7 @@ def add_simulated_schedule(
         written.tasks[work.guid] = task
         steps = [
             _task(model, written, f"{step.name} {work.name}", f"{work.guid}.{step.name}", task)
-            for step in work.steps
+            for step in _steps(work, one_at_least=link_steps, end_s=schedule.end_s)
         ]
         for before, after in itertools.pairwise(steps):
             ifcopenshell.api.sequence.assign_sequence(model, relating_process=before, related_process=after)
@@ -113,7 +114,11 @@ def add_simulated_schedule(
     )
     for work in schedule.components:
         _time(model, written.tasks[work.guid], work.start_s, finish_s=work.finish_s, clock=clock, week=week)
-        for step, step_task in zip(work.steps, _subtasks(written.tasks[work.guid]), strict=False):
+        for step, step_task in zip(
+            _steps(work, one_at_least=link_steps, end_s=schedule.end_s),
+            _subtasks(written.tasks[work.guid]),
+            strict=False,
+        ):
             _time(model, step_task, step.start_s, finish_s=step.finish_s, clock=clock, week=week)
     for guid, element_task in written.element_tasks.items():
         panels = [work for work in schedule.components if work.parent_guid == guid and work.timed]
@@ -122,6 +127,16 @@ def add_simulated_schedule(
             finish = max(work.finish_s for work in panels if work.finish_s is not None)
             _time(model, element_task, start, finish_s=finish, clock=clock, week=week)
     return written
+
+
+def _steps(work: ComponentWork, *, one_at_least: bool, end_s: float) -> tuple[Step, ...]:
+    """The component's steps; with ``one_at_least``, a single ``erect`` over its span when it has none
+    (a component the run never started: zero long at the run's end ``end_s``, not built by then)."""
+    if work.steps or not one_at_least:
+        return work.steps
+    if work.start_s is None or work.finish_s is None:
+        return (Step("erect", end_s, end_s),)
+    return (Step("erect", work.start_s, work.finish_s),)
 
 
 def _task(

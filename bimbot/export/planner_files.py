@@ -4,7 +4,8 @@ The schedule goes into a small IFC4 of its own (project, work schedule, calendar
 resources: :func:`bimbot.export.ifc_tasks.add_simulated_schedule`, no building), which ``ifc4d``'s
 ``Ifc2Msp`` / ``Ifc2P6`` turn into the planners' files. A component is a summary task (MS Project) or a WBS
 node (P6) identified by its GlobalId, its method's steps the tasks under it; P6 links activities only, so
-there the precedences run from a predecessor's last step to the successor's first.
+there the precedences run from a predecessor's last step to the successor's first, and a component the run
+never started is one zero-long activity at the run's end (P6 activities have dates).
 
 ``Ifc2Msp`` writes durations in whole eight-hour days, which rounds a robot's minutes to zero: the written
 file's ``Duration`` of each task is set again from its IfcTaskTime, to the second.

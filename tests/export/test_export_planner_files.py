@@ -109,3 +109,25 @@ def test_a_broken_p6_file_is_one_clear_error(run_data: RunData, tmp_path: Path) 
     )
     with pytest.raises(PlanError, match="not a readable Primavera P6 XML file"):
         load_plan(run_data.manifest, run_data.build_dir, PlanSource(SourceKind.SEQUENCE, path))
+
+
+def test_a_component_the_run_never_started_is_a_linked_p6_activity(run_data: RunData, tmp_path: Path) -> None:
+    from bimbot.export.sim_schedule import sim_schedule
+
+    guid = run_data.plan.order[-2]  # waited for by the last one
+    journal = {key: value for key, value in run_data.journal.items() if key != guid}
+    report = {
+        **run_data.report,
+        "components": [c for c in run_data.report["components"] if c["guid"] != guid],
+    }
+    schedule = sim_schedule(run_data.manifest, report, journal, run_data.plan)
+    assert not schedule.component(guid).timed
+    msp, p6 = tmp_path / "msp.xml", tmp_path / "p6.xml"
+    write_msp(schedule, msp, START)
+    write_p6(schedule, p6, START)
+    from_msp, from_p6 = _read_back(MSP2Ifc(), msp), _read_back(P62Ifc(), p6)
+    assert len(from_p6.by_type("IfcRelSequence")) == len(from_msp.by_type("IfcRelSequence"))
+    (erect,) = [
+        task for task in from_p6.by_type("IfcTask") if task.Name == f"erect {schedule.component(guid).name}"
+    ]
+    assert erect.TaskTime.ScheduleStart == erect.TaskTime.ScheduleFinish  # zero long, at the run's end
