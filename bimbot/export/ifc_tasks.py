@@ -6,9 +6,9 @@ of one element sit under a task of their element. Each task has an IfcTaskTime (
 -Duration) from the project start plus sim time (:func:`bimbot.export.work_time.site_time`). The
 planner's precedences are IfcRelSequence (finish-to-start) between component tasks. Each component is the
 output of its task (IfcRelAssignsToProduct: the task constructs it, which is what 4D tools animate); each
-robot is an IfcConstructionEquipmentResource of a crew (IfcCrewResource), assigned to the tasks it worked
-on (IfcRelAssignsToProcess), as is a concrete crew to cast-in-place work. A working week, when given, is
-the IfcWorkCalendar that controls the tasks.
+robot of the run (the machines that pour or lay too) is an IfcConstructionEquipmentResource of the fleet's
+crew (IfcCrewResource), assigned to the tasks it worked on (IfcRelAssignsToProcess). A working week, when
+given, is the IfcWorkCalendar that controls the tasks.
 
 Sequences are related before any task has a time, so ``assign_sequence`` has nothing to cascade and the
 sim times stay as simulated (``edit_task_time`` would snap them to 09:00/17:00 of a working day).
@@ -29,11 +29,9 @@ import ifcopenshell.api.sequence
 
 from bimbot.export.sim_schedule import ComponentWork, SimSchedule, Step
 from bimbot.export.work_time import WorkWeek
-from bimbot.shared.construction_methods import ConstructionMethod
 
 Clock = Callable[[float], dt.datetime]  # sim seconds → the site's date and time
 EVERY_DAY = WorkWeek(frozenset(range(7)), ((dt.time(0, 0), dt.time(23, 59, 59)),))
-CONCRETE_CREW = "Concrete crew"
 
 
 @dataclass
@@ -44,7 +42,7 @@ class WrittenSchedule:
     calendar: ifcopenshell.entity_instance
     tasks: dict[str, ifcopenshell.entity_instance] = field(default_factory=dict)  # GUID → component task
     all_tasks: list[ifcopenshell.entity_instance] = field(default_factory=list)
-    resources: dict[str, ifcopenshell.entity_instance] = field(default_factory=dict)  # robot id/crew
+    resources: dict[str, ifcopenshell.entity_instance] = field(default_factory=dict)  # robot id → equipment
     element_tasks: dict[str, ifcopenshell.entity_instance] = field(default_factory=dict)  # panelised
 
     @property
@@ -214,7 +212,7 @@ def _calendar(model: ifcopenshell.file, week: WorkWeek, name: str) -> ifcopenshe
 
 
 def _add_resources(model: ifcopenshell.file, schedule: SimSchedule, written: WrittenSchedule) -> None:
-    """The robot fleet as a crew of construction equipment, and a concrete crew for cast-in-place work."""
+    """The run's robots (pumps and block layers too) as construction equipment of one crew, the fleet."""
     fleet = ifcopenshell.api.resource.add_resource(
         model, ifc_class="IfcCrewResource", name="Robot fleet", predefined_type="SITE"
     )
@@ -230,10 +228,6 @@ def _add_resources(model: ifcopenshell.file, schedule: SimSchedule, written: Wri
             model, product=robot, attributes={"Identification": robot_id, "Description": robot_type}
         )
         written.resources[robot_id] = robot
-    if any(work.method is ConstructionMethod.CAST_IN_PLACE for work in schedule.components):
-        written.resources[CONCRETE_CREW] = ifcopenshell.api.resource.add_resource(
-            model, ifc_class="IfcCrewResource", name=CONCRETE_CREW, predefined_type="SITE"
-        )
 
 
 def _assign_resources(
@@ -242,13 +236,10 @@ def _assign_resources(
     task: ifcopenshell.entity_instance,
     written: WrittenSchedule,
 ) -> None:
-    names = list(work.robot_ids)
-    if work.method is ConstructionMethod.CAST_IN_PLACE:
-        names.append(CONCRETE_CREW)
-    for name in names:
-        if name in written.resources:
+    for robot_id in work.robot_ids:
+        if robot_id in written.resources:
             ifcopenshell.api.sequence.assign_process(
-                model, relating_process=task, related_object=written.resources[name]
+                model, relating_process=task, related_object=written.resources[robot_id]
             )
 
 

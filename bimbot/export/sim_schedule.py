@@ -10,9 +10,10 @@ come from its construction method (:mod:`bimbot.shared.construction_methods`):
 
 * ``lifted`` / ``panelised``: pick (picking → transporting), carry (→ the last assembling), place (→ the
   last verifying), connect (→ constructed), from the journal's state entries;
-* ``cast_in_place``: formwork, pour, cure, with the durations of ``Component.cast``, fitted into the task's
-  span when the run timed it;
-* ``laid``: one step, lay.
+* ``cast_in_place``: formwork (forming → pouring), pour (→ verifying), cure (from constructed, for
+  ``Component.cast.cure_s``: what rests on it waits for it, so the task ends there); without those states in
+  the journal, the durations of ``Component.cast`` fitted into the task's span;
+* ``laid``: lay (laying → constructed).
 
 A component the run never started has no times (a task without dates); one without a journal has no steps.
 """
@@ -29,7 +30,9 @@ from bimbot.shared.manifest import Component, Manifest
 LIFTED_STEPS = ("pick", "carry", "place", "connect")
 CAST_STEPS = ("formwork", "pour", "cure")
 LAID_STEPS = ("lay",)
-WORK_STATES = frozenset({"picking", "transporting", "assembling", "verifying", "misplaced"})
+WORK_STATES = frozenset(
+    {"picking", "transporting", "assembling", "forming", "pouring", "laying", "verifying", "misplaced"}
+)
 END_STATES = frozenset({"constructed", "failed"})
 
 StateEntries = Sequence[tuple[str, float]]
@@ -134,6 +137,9 @@ def _work(
     component: Component, entry: Mapping[str, Any], states: StateEntries, plan: PlanView, index: int
 ) -> ComponentWork:
     start_s, finish_s = _span(entry, states)
+    steps = method_steps(component, states, start_s, finish_s)
+    if steps and finish_s is not None:
+        finish_s = max(finish_s, steps[-1].finish_s)  # a cast component's task ends when it has cured
     reason = entry.get("reason")
     return ComponentWork(
         guid=component.guid,
@@ -145,7 +151,7 @@ def _work(
         state=str(entry.get("state") or (states[-1][0] if states else "planned")),
         start_s=start_s,
         finish_s=finish_s,
-        steps=method_steps(component, states, start_s, finish_s),
+        steps=steps,
         robot_ids=tuple(entry.get("robot_ids") or ()),
         predecessors=tuple(sorted(plan.predecessors.get(component.guid, frozenset()))),
         attempts=int(entry.get("attempts") or 0),
@@ -177,10 +183,33 @@ def method_steps(
         return ()
     if component.method is ConstructionMethod.CAST_IN_PLACE and component.cast is not None:
         cast = component.cast
-        return _fitted(CAST_STEPS, (cast.formwork_s, cast.pour_s, cast.cure_s), start_s, finish_s)
+        marks = _marks(states, ("forming", "pouring"), ("verifying",), finish_s)
+        if marks is None:
+            return _fitted(CAST_STEPS, (cast.formwork_s, cast.pour_s, cast.cure_s), start_s, finish_s)
+        formed, poured, placed = marks
+        built = next((time_s for state, time_s in states if state == "constructed"), None)
+        steps = [Step("formwork", formed, poured), Step("pour", poured, placed)]
+        return (*steps, Step("cure", built, built + cast.cure_s)) if built is not None else tuple(steps)
     if component.method is ConstructionMethod.LAID:
-        return (Step("lay", start_s, finish_s),)
+        laying = next((time_s for state, time_s in states if state == "laying"), start_s)
+        return (Step("lay", laying, max(finish_s, laying)),)
     return _lifted_steps(states, finish_s)
+
+
+def _marks(
+    states: StateEntries, firsts: Sequence[str], lasts: Sequence[str], finish_s: float
+) -> tuple[float, ...] | None:
+    """The first entry of each of ``firsts`` and the last of each of ``lasts`` (else ``finish_s``); None
+    when a state of ``firsts`` was never entered."""
+    marks: list[float] = []
+    for state in firsts:
+        found = next((time_s for name, time_s in states if name == state), None)
+        if found is None:
+            return None
+        marks.append(found)
+    for state in lasts:
+        marks.append(next((time_s for name, time_s in reversed(states) if name == state), finish_s))
+    return tuple(marks)
 
 
 def _fitted(

@@ -53,11 +53,41 @@ def test_cast_in_place_and_laid_components_get_their_own_steps(frame_run: Path) 
         ("pour", 110.0, 115.0),
         ("cure", 115.0, 150.0),
     ]
+    states = [("forming", 100.0), ("pouring", 120.0), ("verifying", 130.0), ("constructed", 131.0)]
+    assert [(s.name, s.start_s, s.finish_s) for s in method_steps(cast, states, 100.0, 131.0)] == [
+        ("formwork", 100.0, 120.0),
+        ("pour", 120.0, 130.0),
+        ("cure", 131.0, 201.0),  # cure_s after it was constructed: what rests on it waits
+    ]
     laid = footing.model_copy(update={"method": ConstructionMethod.LAID})
+    laying = [("released", 0.0), ("laying", 5.0), ("verifying", 20.0), ("constructed", 25.0)]
+    assert [(s.name, s.start_s, s.finish_s) for s in method_steps(laid, laying, 5.0, 25.0)] == [
+        ("lay", 5.0, 25.0)
+    ]
     assert [(s.name, s.start_s, s.finish_s) for s in method_steps(laid, [], 5.0, 25.0)] == [
         ("lay", 5.0, 25.0)
     ]
     assert method_steps(laid, [], None, None) == ()
+
+
+def test_a_cast_component_s_task_ends_when_it_has_cured(frame_run: Path) -> None:
+    data = load_run(frame_run)
+    guid = data.plan.order[0]
+    cast = CastWork(formwork_area_m2=4.0, volume_m3=1.0, formwork_s=2.0, pour_s=6.0, cure_s=600.0)
+    components = [
+        item.model_copy(update={"method": ConstructionMethod.CAST_IN_PLACE, "cast": cast})
+        if item.guid == guid
+        else item
+        for item in data.manifest.components
+    ]
+    manifest = data.manifest.model_copy(update={"components": components})
+    journal = {
+        **data.journal,
+        guid: [("forming", 0.0), ("pouring", 2.0), ("verifying", 8.0), ("constructed", 9.0)],
+    }
+    work = sim_schedule(manifest, data.report, journal, data.plan).component(guid)
+    assert [step.name for step in work.steps] == ["formwork", "pour", "cure"]
+    assert (work.start_s, work.finish_s) == (0.0, 609.0)
 
 
 def test_a_component_the_run_never_started_has_no_times(frame_run: Path) -> None:
