@@ -27,6 +27,7 @@ class _Upgrade:
         self.source, self.target = source, target
         self.migrator = _Migrator(self)
         self.done: dict[int, int] = self.migrator.migrated_ids  # source id → target id, shared
+        self.copies: dict[int, ifcopenshell.entity_instance] = {}  # source id → target entity, no lookups
         self.same: dict[str, bool] = {}
         self.old_schema = wrapper.schema_by_name(source.schema_identifier)
         self.new_schema = wrapper.schema_by_name(target.schema_identifier)
@@ -52,8 +53,13 @@ class _Upgrade:
     def entity(self, element: ifcopenshell.entity_instance) -> ifcopenshell.entity_instance:
         if element.id() == 0:  # a typed value (IfcLabel('x'))
             return self.target.create_entity(element.is_a(), element.wrappedValue)
-        if element.id() in self.done:
-            return self.target.by_id(self.done[element.id()])
+        number = element.id()
+        copy = self.copies.get(number)
+        if copy is not None:
+            return copy
+        if number in self.done:  # migrated by the Migrator
+            copy = self.copies[number] = self.target.by_id(self.done[number])
+            return copy
         ifc_class = element.is_a()
         if self.same_layout(ifc_class):
             values = [self.value(element[index]) for index in range(len(element))]
@@ -64,7 +70,8 @@ class _Upgrade:
             except (RuntimeError, TypeError, ValueError):  # a value IFC4 types otherwise: the Migrator's way
                 self.target.remove(copied)
             else:
-                self.done[element.id()] = copied.id()
+                self.done[number] = copied.id()
+                self.copies[number] = copied
                 return copied
         return ifcopenshell.util.schema.Migrator.migrate(self.migrator, element, self.target)
 
