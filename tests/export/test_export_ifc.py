@@ -197,3 +197,31 @@ def test_the_revit_house_exports_as_valid_ifc4(samples_dir: Path, tmp_path: Path
     assert result.migrated_from == "IFC2X3" and result.timed_tasks >= len(manifest.components)
     assert validate_ifc(result.path) == []
     shutil.rmtree(build)
+
+
+def test_the_fast_ifc2x3_upgrade_gives_what_the_migrator_gives() -> None:
+    import collections
+    import contextlib
+    import io
+
+    import ifcopenshell.util.schema
+
+    from bimbot.export.ifc_upgrade import upgrade_to_ifc4
+
+    small = new_model("IFC2X3")
+    for index in range(3):
+        add_beam(small, f"Beam {index}", matrix_m=translation(0.0, 2.0 * index, 0.0))
+    fast, _ = upgrade_to_ifc4(small.file)
+    slow = ifcopenshell.file(schema="IFC4")
+    migrator = ifcopenshell.util.schema.Migrator()
+    with contextlib.redirect_stdout(io.StringIO()):
+        for element in small.file:
+            migrator.migrate(element, slow)
+
+    def content(model: ifcopenshell.file) -> collections.Counter[str]:
+        return collections.Counter(
+            repr(e.get_info(recursive=True, include_identifier=False)) for e in model.by_type("IfcRoot")
+        )
+
+    assert collections.Counter(e.is_a() for e in fast) == collections.Counter(e.is_a() for e in slow)
+    assert content(fast) == content(slow)
