@@ -131,3 +131,11 @@ def test_a_component_the_run_never_started_is_a_linked_p6_activity(run_data: Run
         task for task in from_p6.by_type("IfcTask") if task.Name == f"erect {schedule.component(guid).name}"
     ]
     assert erect.TaskTime.ScheduleStart == erect.TaskTime.ScheduleFinish  # zero long, at the run's end
+
+
+def test_a_p6_xer_is_told_by_its_header_and_read_by_ifc4d(run_data: RunData, tmp_path: Path) -> None:
+    path = tmp_path / "programme.xer"
+    path.write_text("ERMHDR\t19.12\t2027-03-01\tProject\tadmin\n%T\tPROJECT\n%E\n", encoding="utf-8")
+    assert schedule_format(path) is ScheduleFormat.P6_XER
+    with pytest.raises(PlanError, match="not a readable Primavera P6 XER file"):  # no project, no tasks
+        load_plan(run_data.manifest, run_data.build_dir, PlanSource(SourceKind.SEQUENCE, path))
