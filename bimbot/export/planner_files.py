@@ -17,6 +17,7 @@ import contextlib
 import datetime as dt
 import io
 import logging
+from collections.abc import Callable
 from pathlib import Path
 
 import ifcopenshell
@@ -75,11 +76,11 @@ def write_p6(schedule: SimSchedule, out: Path, start: dt.datetime, week: WorkWee
     return len(model.by_type("IfcTask"))
 
 
-def _quietly(action: object) -> None:
+def _quietly(action: Callable[[], object]) -> None:
     """Run an ``ifc4d`` writer; what it prints goes to the debug log, not the user's terminal."""
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
-        action()  # type: ignore[operator]
+        action()
     if printed.getvalue():
         _log.debug("ifc4d: %s", printed.getvalue().strip())
 
