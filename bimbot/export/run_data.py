@@ -68,6 +68,8 @@ def load_run(path: Path, build: Path | None = None) -> RunData:
     run, build_dir = resolve_run(path, build)
     manifest = load_manifest(build_dir)
     report_path = run.report_dir / "report.json"
+    if not report_path.is_file():
+        raise UserError(f"{run.root}: the run has no report yet (still running, or it ended without one)")
     try:
         report = json.loads(report_path.read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as error:
