@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 import rerun as rr
-from pxr import Usd, UsdGeom
+from pxr import Usd, UsdGeom, UsdValidation
 
 from bimbot.export.poses import run_poses
 from bimbot.export.run_data import RunData, load_run
@@ -49,6 +49,9 @@ def test_from_the_journal_each_placed_component_appears_at_its_target(
     mesh = UsdGeom.Mesh(stage.GetPrimAtPath(prim.GetPath().AppendChild("Body")))
     assert len(mesh.GetFaceVertexCountsAttr().Get()) > 0
     assert {p.GetName() for p in stage.GetPrimAtPath("/World/Robots").GetChildren()} == {"r1", "r2"}
+    registry = UsdValidation.ValidationRegistry()  # USD's own validators, every one loaded
+    errors = UsdValidation.ValidationContext(registry.GetOrLoadAllValidators()).Validate(stage)
+    assert [error.GetMessage() for error in errors] == []
 
 
 def test_from_the_recording_components_and_robots_move_over_the_run(
