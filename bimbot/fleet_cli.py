@@ -9,11 +9,12 @@ a starting point for one's own. Exit 0 when the fleet can build every component,
 some (the table says which and why), 2 for unusable input.
 
 Columns: ``built by / why not`` lists every route, the first being the one the planner's bids usually
-take; a tower crane is named with its robot id because where it stands (the site plan puts cranes beside
-the building: east, then north, west, south) decides what it reaches; ``A → crane (r3, hand-off)`` is a
-ground robot of type A bringing the component within the crane's hook first; a component cast in place or
-laid (column ``method``) is built where it stands by a machine that pours or lays, named with its robot id
-when it stands fixed (its boom must cover the whole footprint from where the site plan puts it).
+take; a crane is named with its robot id because where it stands (the site plan sets it up where its hook
+covers the building and the yard best, :mod:`bimbot.shared.site_machines`) decides what it reaches;
+``A → crane (r3, hand-off)`` is a ground robot of type A bringing the component within the crane's hook
+first; a component cast in place or laid (column ``method``) is built where it stands by a machine that
+pours or lays, named with its robot id when it stands fixed (its boom must cover the whole footprint from
+where the site plan puts it).
 """
 
 from __future__ import annotations
@@ -41,7 +42,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("action", choices=("check", "show"), help="check: feasibility table; show: the file")
     parser.add_argument("build", type=Path, nargs="?", help="converted build folder (check)")
     parser.add_argument("--fleet", type=Path, default=None, metavar="FLEET.toml", help="default: bimbot's")
-    parser.add_argument("--robots", type=positive_int, default=None, help="N robots of the default type")
+    parser.add_argument(
+        "--robots",
+        type=positive_int,
+        default=None,
+        help="N robots of the default type, plus the fleet's machines that stand fixed (cranes, pumps, …)",
+    )
     parser.add_argument("--json", action="store_true", help="check: one JSON object per component")
 
 

@@ -39,7 +39,7 @@ class ObserverOptions:
 
 @dataclass(frozen=True)
 class RunOptions:
-    robots: int | None = None  # None: the fleet's robots; N: N robots of the fleet's default type
+    robots: int | None = None  # None: the fleet's robots; N: N of its default type and its fixed machines
     fleet: Path | None = None  # a fleet file (TOML); None: the embedded default fleet
     profile: str = RUN_PROFILE  # a named physics profile (services/physics/profiles.py)
     rtf: float | None = None  # None: the profile's; likewise the next three
@@ -74,13 +74,14 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         metavar="FLEET.toml",
         help="the robot types on site and how many of each (default: bimbot's mixed fleet: a Husky, a heavy "
-        "carrier and a tower crane; see `bimbot fleet show`)",
+        "carrier, a tower crane, a concrete pump and a block-laying robot; see `bimbot fleet show`)",
     )
     parser.add_argument(
         "--robots",
         type=positive_int,
         default=None,
-        help="N robots of the fleet's default type instead of the fleet's robots",
+        help="N robots of the fleet's default type instead of its ground robots; the machines that stand "
+        "fixed (its cranes, pumps, block layers) stay",
     )
     parser.add_argument(
         "--run-dir",

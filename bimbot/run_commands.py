@@ -20,7 +20,8 @@ from bimbot.shared.tolerance_options import tolerance_flags
 
 
 def run_fleet(options: RunOptions) -> Fleet:
-    """The run's fleet: ``--fleet`` (else the default), with ``--robots N`` N of its default type."""
+    """The run's fleet: ``--fleet`` (else the default), with ``--robots N`` N of its default type and
+    every machine of it that stands fixed (:meth:`bimbot.shared.fleet.Fleet.with_robots`)."""
     fleet = load_fleet(options.fleet)
     return fleet.with_robots(options.robots) if options.robots is not None else fleet
 

@@ -2,9 +2,11 @@
 
 Why one file: physics spawns from it, and serves the descriptions with its site info, so each robot reads
 its own type and the planner all of them from there; nobody repeats a robot's limits. The embedded default
-(``shared/robots/default_fleet.toml``: a Husky, a heavy carrier and a tower crane) is what ``bimbot demo``
-and ``bimbot run`` build with when no ``--fleet`` is given; ``--robots N`` means N robots of the file's
-``default_type``. Robot ids are ``r1``, ``r2``… in the order of the file's ``[[robots]]`` entries.
+(``shared/robots/default_fleet.toml``: a Husky, a heavy carrier, a tower crane, a concrete pump and a
+block-laying robot) is what ``bimbot demo`` and ``bimbot run`` build with when no ``--fleet`` is given.
+``--robots N`` means N robots of the file's ``default_type`` plus every machine of the file that stands
+fixed (its cranes, pumps, block layers): a site keeps its crane when one asks for more carriers. Robot ids
+are ``r1``, ``r2``… in the order of the file's ``[[robots]]`` entries (with ``--robots``: the N first).
 
 A URDF path is resolved by :func:`resolve_urdf`: absolute; else relative to the fleet file; else one of
 bimbot's own models (``shared/robots/``); else relative to ``pybullet_data``.
@@ -18,7 +20,7 @@ from pathlib import Path
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from .errors import InputError
-from .robot_description import RobotDescription
+from .robot_description import Capability, RobotDescription
 
 MODELS_DIR = Path(__file__).resolve().parent / "robots"
 DEFAULT_FLEET_FILE = MODELS_DIR / "default_fleet.toml"
@@ -83,16 +85,23 @@ class Fleet(BaseModel):
         return {entry.type: self.types[entry.type] for entry in self.robots if entry.count > 0}
 
     def with_robots(self, count: int, type_name: str | None = None) -> Fleet:
-        """This fleet's types with ``count`` robots of ``type_name`` (default: the file's default type)."""
+        """This fleet's types with ``count`` robots of ``type_name`` (default: the file's default type) first,
+        then every machine of the fleet that stands fixed (cranes, pumps, block layers: their entries as the
+        file has them, except ``type_name``'s own, which ``count`` replaces)."""
         name = type_name or self.default_type or next(iter(self.types))
         if name not in self.types:
             raise InputError(
                 f"{self.source or 'fleet'}: no robot type {name!r} (types: {sorted(self.types)})"
             )
-        return self.model_copy(update={"robots": (FleetEntry(type=name, count=count),)})
+        machines = tuple(
+            entry
+            for entry in self.robots
+            if entry.type != name and self.types[entry.type].can(Capability.STAND_FIXED)
+        )
+        return self.model_copy(update={"robots": (FleetEntry(type=name, count=count), *machines)})
 
     def summary(self) -> str:
-        """``1 husky, 1 carrier, 1 tower_crane``."""
+        """``1 husky, 1 carrier, 1 tower_crane, 1 concrete_pump, 1 block_layer``."""
         return ", ".join(f"{entry.count} {entry.type}" for entry in self.robots if entry.count) or "no robots"
 
     def resolve_urdf(self, urdf: str) -> Path:

@@ -36,7 +36,7 @@ from .manifest import Component
 from .occupancy_grid import OccupancyGrid, empty_grid, from_footprints, nearest_free_cell
 from .robot_description import RobotDescription
 from .site_layout import INFLATION_MARGIN_M
-from .site_plan import GRID_MARGIN_M, SiteLayout, fence_boxes
+from .site_plan import GRID_MARGIN_M, SiteLayout, fence_boxes, machine_boxes
 
 _log = logging.getLogger(__name__)
 
@@ -76,7 +76,8 @@ class SiteAccess:
         self._reach_m = robot.reach_m - config.reach_margin_m
         bounds = layout.bounds.grown(GRID_MARGIN_M)
         self.grid = empty_grid((*bounds.min_xy, *bounds.max_xy), config.resolution_m)
-        fence = from_footprints(self.grid.bounds_xy_m, config.resolution_m, boxes_xy_m=fence_boxes(layout))
+        boxes = fence_boxes(layout) + machine_boxes(layout)  # the fence and the machines set up on site
+        fence = from_footprints(self.grid.bounds_xy_m, config.resolution_m, boxes_xy_m=boxes)
         self._fence = fence.occupied
         self._counts = np.zeros(self.grid.shape, np.int32)
         # the distance to the nearest occupied cell, kept current around each change (a whole transform of

@@ -1,10 +1,10 @@
-"""Where tower cranes stand and where ground robots stage loads for them (pure, part of the site plan).
+"""Where ground robots stage loads for a crane (pure, part of the site plan).
 
-Why: a tower crane never travels, so its position decides what it reaches. The first crane stands east of
-the building, on the building's centre line, beyond a driving lane; further cranes north, then west, then
-south of it. East of each crane lies its **staging area**: where a ground robot puts down a component
-whose yard slot the hook cannot reach (a hand-off), inside the crane's smallest load-chart radius band.
-:func:`staging_spots` lists the spots a planner hands out, nearest the crane first.
+Why: a crane never travels (where it stands: :mod:`.site_machines`), so a component whose yard slot its
+hook cannot reach is brought to it. Beside each machine that lifts by hook, on its side away from the
+building, lies its **staging area**: where a ground robot puts such a component down (a hand-off), well
+inside the crane's reach. :func:`staging_spots` lists the spots a planner hands out, nearest the centre
+first. Only hook-lifting machines have one: a pump or a block layer works where it stands.
 """
 
 from __future__ import annotations
@@ -17,25 +17,6 @@ from .site_plan import Rect
 STAGING_SIDE_M = 8.0  # a staging area is this square, beside its crane
 STAGING_GAP_M = 1.5  # between the crane's base and its staging area
 STAGING_SPACING_M = 3.0  # between staging spots
-
-
-def crane_pose(
-    building: Rect, number: int, crane: RobotDescription, lane_m: float
-) -> tuple[float, float, float]:
-    """The ``number``-th crane's base (x, y, yaw): east, north, west, south of ``building`` in turn."""
-    half = crane.radius_m
-    (x0, y0), (x1, y1) = building.min_xy, building.max_xy
-    centre_x, centre_y = (x0 + x1) / 2.0, (y0 + y1) / 2.0
-    ring = number // 4
-    offset = lane_m + half + ring * (2.0 * half + STAGING_SIDE_M + 2.0 * STAGING_GAP_M)
-    side = number % 4
-    if side == 0:
-        return (x1 + offset, centre_y, math.pi)
-    if side == 1:
-        return (centre_x, y1 + offset, -math.pi / 2.0)
-    if side == 2:
-        return (x0 - offset, centre_y, 0.0)
-    return (centre_x, y0 - offset, math.pi / 2.0)
 
 
 def staging_area(crane_xy_yaw: tuple[float, float, float], crane: RobotDescription) -> Rect:

@@ -24,6 +24,9 @@ observer (which draws it) ask for it instead of planning a copy. The plan's data
   building, and the rows holding them nearest the building's centre line.
 * **depot** — west of the yard (−x), beyond a lane: the robots' start poses one behind the other, facing
   +x, the first on the line of the lane between the building and the yard (the site's main street).
+* **machines that stand fixed** — cranes, concrete pumps, block layers set up around the building, clear of
+  every lane, the yard and the depot (a crane where its hook covers the building and the yard, with a
+  staging area beside it; a boom machine where its boom covers the most of its work): :mod:`.site_machines`.
 * **fence** — a rectangle around all of it with a driving lane inside (site hoarding), which also gives
   the robots' lasers something to localise against on an otherwise empty site.
 
@@ -45,7 +48,7 @@ from scipy.spatial.transform import Rotation
 
 from .manifest import Component
 from .robot_description import DEFAULT_ROBOT, Capability, RobotDescription
-from .site_cranes import crane_pose, staging_area
+from .site_machines import plan_machines
 from .site_plan import (  # the plan's data types; physics serves a plan with its site info
     Rect,
     SiteLayout,
@@ -155,8 +158,8 @@ def plan_site(
     fleet: Sequence[RobotDescription] | None = None,
 ) -> SiteLayout:
     """The site for ``components`` (in manifest order) and ``robots`` robots of type ``robot``, or the
-    robots of ``fleet`` (one description per robot, in robot id order; cranes beside the building, see
-    :mod:`.site_cranes`)."""
+    robots of ``fleet`` (one description per robot, in robot id order; the machines that stand fixed set up
+    around the building, see :mod:`.site_machines`)."""
     if not components:
         raise ValueError("a site needs at least one component")
     if fleet is not None:
@@ -198,26 +201,38 @@ def plan_site(
         (min(building.min_xy[0], depot.min_xy[0]), min(yard.min_xy[1], depot.min_xy[1])),
         (max(building.max_xy[0], yard.max_xy[0]), building.max_xy[1]),
     )
+    types = list(fleet) if fleet is not None else [robot] * robots
+    machines = [item for item in types if not item.can(Capability.DRIVE)]
+    setups = iter(
+        plan_machines(machines, components, building=building, yard=yard, depot=depot, lane_m=lane_m)
+    )
     starts: list[tuple[float, float, float]] = []
     staging: list[Rect] = []
-    for item in fleet if fleet is not None else [robot] * robots:
+    bases: list[Rect] = []
+    for item in types:
         if item.can(Capability.DRIVE):
             starts.append(depot_starts.pop(0))
             continue
-        pose = crane_pose(building, len(staging), item, lane_m)
-        starts.append(pose)
-        staging.append(staging_area(pose, item))
-        base = Rect(
-            (pose[0] - item.radius_m, pose[1] - item.radius_m),
-            (pose[0] + item.radius_m, pose[1] + item.radius_m),
-        )
-        for rect in (base, staging[-1]):
+        setup = next(setups)
+        starts.append(setup.pose)
+        bases.append(setup.base)
+        if setup.staging is not None:
+            staging.append(setup.staging)
+        for rect in setup.rects:
             union = Rect(
                 (min(union.min_xy[0], rect.min_xy[0]), min(union.min_xy[1], rect.min_xy[1])),
                 (max(union.max_xy[0], rect.max_xy[0]), max(union.max_xy[1], rect.max_xy[1])),
             )
     return SiteLayout(
-        building, yard, depot, union.grown(lane_m), slots, tuple(starts), aisles, tuple(staging)
+        building,
+        yard,
+        depot,
+        union.grown(lane_m),
+        slots,
+        tuple(starts),
+        aisles,
+        tuple(staging),
+        tuple(bases),
     )
 
 

@@ -60,7 +60,8 @@ class SiteLayout:
     slots: dict[str, YardSlot]
     robot_starts: tuple[tuple[float, float, float], ...]  # x, y, yaw
     aisles: tuple[Rect, ...] = ()  # between the pairs of rows, north–south across the yard
-    staging: tuple[Rect, ...] = ()  # one per tower crane (robot id order): where hand-offs put loads down
+    staging: tuple[Rect, ...] = ()  # one per hook-lifting machine (robot id order): hand-offs put loads here
+    machines: tuple[Rect, ...] = ()  # the base of each machine that stands fixed (robot id order)
 
     @property
     def bounds(self) -> Rect:
@@ -69,6 +70,12 @@ class SiteLayout:
 
 
 GRID_MARGIN_M = 0.5  # site grids (robots' map, access check) reach this far beyond the fence's outer edge
+
+
+def machine_boxes(layout: SiteLayout) -> list[tuple[float, float, float, float]]:
+    """The bases of the machines that stand fixed (cranes, pumps, block layers) as ``(x_min, y_min, x_max,
+    y_max)`` boxes: obstacles a ground robot plans around, as it does around the fence."""
+    return [(*rect.min_xy, *rect.max_xy) for rect in layout.machines]
 
 
 def fence_boxes(layout: SiteLayout) -> list[tuple[float, float, float, float]]:

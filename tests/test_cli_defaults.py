@@ -177,3 +177,17 @@ def test_bimbot_run_and_physics_share_one_definition_of_the_profile_options() ->
                 action.help is not None,
                 action.type,
             ), action.dest
+
+
+def test_robots_n_keeps_the_fleets_machines_that_stand_fixed_in_run_physics_and_fleet_check() -> None:
+    """``--robots 3``: three of the default type (carriers) and still the crane, the pump and the block
+    layer; the help says so wherever the option is."""
+    from bimbot.run_commands import run_fleet
+    from bimbot.services.physics.cli import fleet_of
+
+    expected = "3 carrier, 1 tower_crane, 1 concrete_pump, 1 block_layer"
+    assert run_fleet(RunOptions(robots=3)).summary() == expected
+    assert fleet_of(_parsed("physics", "--robots", "3")).summary() == expected
+    for command in ("run", "physics", "fleet"):
+        (robots,) = [a for a in _sub_parser(command)._actions if a.dest == "robots"]
+        assert robots.help is not None and "fixed" in robots.help, command

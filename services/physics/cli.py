@@ -1,9 +1,10 @@
 """``bimbot physics --build OUT/ [--fleet FILE] [--robots N] [--rtf X] [--lock-step]``: simulate the site in
 PyBullet.
 
-Builds the scene from a converted build (components in the yard, the fleet's robots at the depot and its
-tower cranes beside the building, fence; see :mod:`.simulation`) and serves it on the bus: sim clock,
-odometry, laser scans, ground-truth poses, velocity commands, attach and place requests (:mod:`.app`).
+Builds the scene from a converted build (components in the yard, the fleet's ground robots at the depot
+and its machines that stand fixed set up around the building, fence; see :mod:`.simulation`) and serves
+it on the bus: sim clock, odometry, laser scans, ground-truth poses, velocity commands, attach and place
+requests (:mod:`.app`).
 Runs until SIGTERM/SIGINT (or ``--steps``), then closes its Zenoh session and exits 0. Options are checked
 before anything starts (exit 2 with one line); the defaults are the fields of
 :class:`.simulation.SimConfig`, :class:`.robots.RobotConfig`, :class:`.sensors.LaserConfig` and
@@ -60,14 +61,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         metavar="FILE",
         help="the robot types on site and how many of each (TOML; default: bimbot's embedded fleet, "
-        "a Husky, a heavy carrier and a tower crane)",
+        "a Husky, a heavy carrier, a tower crane, a concrete pump and a block-laying robot)",
     )
     parser.add_argument(
         "--robots",
         type=non_negative_int,
         default=None,
         metavar="N",
-        help="N robots of the fleet's default_type instead of the fleet's robots (default: the fleet's)",
+        help="N robots of the fleet's default_type instead of its ground robots, plus every machine of the "
+        "fleet that stands fixed (default: the fleet's robots)",
     )
     add_profile_arguments(parser, FINE.name)  # bimbot run uses the rehearsal profile
     add_tolerance_arguments(parser)
@@ -175,7 +177,8 @@ def apply_profile(args: argparse.Namespace) -> argparse.Namespace:
 
 def fleet_of(args: argparse.Namespace) -> Fleet:
     """The fleet on site: ``--fleet`` (or the embedded default), with ``--robots N`` robots of its default
-    type when given; every type's URDF found. An InputError (one line) when the file or a URDF is bad."""
+    type and its machines that stand fixed when given; every type's URDF found. An InputError (one line)
+    when the file or a URDF is bad."""
     fleet = load_fleet(args.fleet)
     if args.robots is not None:
         fleet = fleet.with_robots(args.robots)

@@ -6,7 +6,9 @@ of a move_base costmap). Pure: it is fed component poses and states and answers 
 
 What occupies the grid:
 
-* the **fence** (site hoarding around everything, :mod:`bimbot.shared.site_layout`), always;
+* the **fence** (site hoarding around everything, :mod:`bimbot.shared.site_layout`), always, and the
+  set-ups of the machines that stand fixed (cranes, pumps, block layers: ``SiteLayout.machines``) for
+  driving only (the laser sees their bodies, not the rectangle they are set up on);
 * every **component that is not carried**, at its current pose (its yard slot until physics says otherwise),
   when its posed bounding box meets the robot's height band (``band_min_z_m``–``band_max_z_m`` above the
   ground): components lying in the yard and built columns block, beams at 3 m and footings whose tops are
@@ -36,7 +38,7 @@ from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, ComponentState
 from bimbot.shared.occupancy_grid import OccupancyGrid, empty_grid, from_footprints, inflate
-from bimbot.shared.site_plan import FENCE_HEIGHT_M, GRID_MARGIN_M, SiteLayout, fence_boxes
+from bimbot.shared.site_plan import FENCE_HEIGHT_M, GRID_MARGIN_M, SiteLayout, fence_boxes, machine_boxes
 
 from .fine_alignment import outline_edges
 
@@ -85,6 +87,15 @@ class SiteMap:
         self._geometry = empty_grid((*bounds.min_xy, *bounds.max_xy), config.resolution_m)
         self._fence = from_footprints(
             self._geometry.bounds_xy_m, config.resolution_m, boxes_xy_m=fence_boxes(layout)
+        )
+        # the machines that stand fixed block driving (their whole set-up), not the laser's map
+        self._standing = (
+            self._fence.occupied
+            | (
+                from_footprints(
+                    self._geometry.bounds_xy_m, config.resolution_m, boxes_xy_m=machine_boxes(layout)
+                )
+            ).occupied
         )
         self._counts = np.zeros(self._geometry.shape, np.int32)  # components covering each cell (band)
         self._laser_counts = np.zeros(self._geometry.shape, np.int32)  # components seen by the laser
@@ -194,9 +205,7 @@ class SiteMap:
 
     def static_grid(self) -> OccupancyGrid:
         """Fence + components in the robot's height band, not inflated."""
-        return self._cached(
-            "static", lambda: self._fence.with_occupied(self._fence.occupied | (self._counts > 0))
-        )
+        return self._cached("static", lambda: self._fence.with_occupied(self._standing | (self._counts > 0)))
 
     def inflated_grid(self, radius_m: float | None = None) -> OccupancyGrid:
         """:meth:`static_grid` inflated by ``radius_m`` (default: the robot radius plus margin, which is
@@ -366,7 +375,7 @@ class SiteMap:
         return True
 
     def _static_window(self, rows: slice, cols: slice) -> NDArray[np.bool_]:
-        return self._fence.occupied[rows, cols] | (self._counts[rows, cols] > 0)
+        return self._standing[rows, cols] | (self._counts[rows, cols] > 0)
 
     def _laser_outline_window(self, rows: slice, cols: slice) -> NDArray[np.bool_]:
         """The surfaces of :meth:`laser_field_grid` in a window (read with one cell around it, so the

@@ -44,9 +44,11 @@ def test_the_hook_goes_above_a_point_and_back(
 def test_joint_values_are_clamped_to_the_cranes_limits() -> None:
     inside = hook_joints(CRANE, (9.0, 3.0, 2.0), SPEC)  # 1 m from the mast
     assert inside.trolley_m == SPEC.min_radius_m == 2.5 and inside.slew_rad == pytest.approx(0.0)
-    beyond = hook_joints(CRANE, (10.0 - 55.0, 3.0, 2.0), SPEC)
-    assert beyond.trolley_m == SPEC.max_radius_m == 40.0
-    assert hook_joints(CRANE, (0.0, 3.0, 50.0), SPEC).hoist_m == 0.0  # above the jib: hook all the way up
+    beyond = hook_joints(CRANE, (10.0 - 65.0, 3.0, 2.0), SPEC)
+    assert beyond.trolley_m == SPEC.max_radius_m == 60.0
+    assert (
+        hook_joints(CRANE, (0.0, 3.0, 50.0), SPEC).hoist_m == 0.0
+    )  # above the jib (40 m): hook all the way up
     assert hook_joints(CRANE, (0.0, 3.0, -4.0), SPEC).hoist_m == SPEC.jib_height_m  # below ground
     above_mast = hook_joints(CRANE, (10.0, 3.0, 8.0), SPEC)
     assert (above_mast.slew_rad, above_mast.trolley_m) == (0.0, SPEC.min_radius_m)

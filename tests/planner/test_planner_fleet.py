@@ -110,7 +110,7 @@ def test_a_crane_gets_what_only_it_can_place_and_a_hand_off_brings_it_within_its
     core = _core(manifest, robots)
     for guid in ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c"):
         core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified"))
-    # the beam lies 70 m from the crane: beyond its 40 m jib
+    # the beam lies 70 m from the crane: beyond its 60 m jib
     core.observe_component_pose(_pose("beam", (2.0, -58.0)))
     out = _release(core, "beam")
     hand_off = _assignments(out)["beam"]
@@ -142,10 +142,10 @@ def _pose(guid: str, xy: tuple[float, float]):
 
 def test_crane_hook_radius_is_to_the_load_centre_and_limited_by_the_load_chart() -> None:
     crane = SiteRobot("r3", CRANE, (0.0, 0.0, 0.0))
-    assert crane_reaches_centre(crane, Where((30.0, 0.0), 0.0), 2000.0)  # 30 m: 2,033 kg allowed
-    assert not crane_reaches_centre(crane, Where((30.0, 0.0), 0.0), 2100.0)
+    assert crane_reaches_centre(crane, Where((30.0, 0.0), 0.0), 3900.0)  # 30 m: 3,900 kg allowed
+    assert not crane_reaches_centre(crane, Where((30.0, 0.0), 0.0), 4000.0)
     assert not crane_reaches_centre(crane, Where((1.0, 0.0), 0.0), 10.0)  # inside the trolley's minimum
-    assert not crane_reaches_centre(crane, Where((41.0, 0.0), 0.0), 10.0)  # beyond the jib
+    assert not crane_reaches_centre(crane, Where((61.0, 0.0), 0.0), 10.0)  # beyond the jib
 
 
 def test_a_component_the_crane_still_cannot_reach_after_its_hand_offs_fails_out_of_reach() -> None:
@@ -189,7 +189,7 @@ def test_an_out_of_reach_reason_measures_to_the_footprint_the_decision_used_not_
     from bimbot.services.planner.feasibility import component_feasibility
 
     beam = next(c for c in _manifest(beam=300.0).components if c.guid == "beam")
-    shift = 55.0  # the body 55 m east of its placement's origin, which lies at the crane's mast
+    shift = 75.0  # the body 75 m east of its placement's origin, which lies at the crane's mast
     local = beam.bbox_local.model_copy(
         update={
             "min_m": (beam.bbox_local.min_m[0] + shift, *beam.bbox_local.min_m[1:]),

@@ -7,6 +7,7 @@ import pytest
 from frames import convert_small_frame
 
 from bimbot.services.robot.site_map import MapConfig, SiteMap, outline
+from bimbot.shared.fleet import default_fleet
 from bimbot.shared.footprint import Footprint, convex_hull_xy
 from bimbot.shared.manifest import Component, Manifest, read_manifest
 from bimbot.shared.messages import ComponentPoseMsg, ComponentState, PoseMsg
@@ -47,6 +48,21 @@ def test_every_yard_item_blocks_its_slot_and_the_fence_encloses_the_site(site: S
     (x0, y0), (x1, y1) = site.layout.fence.min_xy, site.layout.fence.max_xy
     assert not grid.is_free(x0 - 0.1, (y0 + y1) / 2) and not grid.is_free((x0 + x1) / 2, y1 + 0.1)
     assert grid.is_free(*site.layout.robot_starts[0][:2])
+
+
+def test_the_machines_set_up_on_site_block_driving_but_are_not_in_the_lasers_map(frame: Manifest) -> None:
+    """A crane's, a pump's and a block layer's set-up rectangle is an obstacle to plan around (the laser at
+    6 cm sees only the trucks' bodies, not the rectangle their outriggers span)."""
+    fleet = default_fleet().robot_types()
+    site = SiteMap(plan_site(frame.components, fleet=fleet), frame.components)
+    assert len(site.layout.machines) == 3
+    static, laser = site.static_grid(), site.laser_grid()
+    for machine in site.layout.machines:
+        centre = np.add(machine.min_xy, machine.max_xy) / 2
+        corner = np.add(machine.min_xy, 0.2)  # inside the rectangle, beside the truck or the footing
+        assert not static.is_free(*centre) and not static.is_free(*corner)
+        assert laser.is_free(*corner)
+    assert static.is_free(*site.layout.robot_starts[0][:2])
 
 
 def test_a_picked_item_leaves_the_map_and_comes_back_where_physics_fixes_it(

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from component_boxes import box_component
 from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
@@ -17,10 +18,11 @@ from scipy.spatial.transform import Rotation
 from site_models import build_site_model
 
 from bimbot.services.converter.convert import convert_model
+from bimbot.shared.fleet import default_fleet
 from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Component, Manifest, read_manifest
 from bimbot.shared.occupancy_grid import from_footprints, inflate
-from bimbot.shared.robot_description import DEFAULT_ROBOT
+from bimbot.shared.robot_description import DEFAULT_ROBOT, Capability
 from bimbot.shared.site_layout import (
     GROUND_CLEARANCE_M,
     INFLATION_MARGIN_M,
@@ -38,23 +40,7 @@ REACH_MARGIN_M = 0.1  # the robot's approach stays this much inside its reach
 
 
 def _component(guid: str, size_m: tuple[float, float, float], at_m: tuple[float, float, float]) -> Component:
-    """A component with a box of ``size_m`` in its own frame, placed at ``at_m`` (no rotation)."""
-    low, high = np.array(at_m), np.array(at_m) + np.array(size_m)
-    box = {"min_m": (0.0, 0.0, 0.0), "max_m": tuple(size_m)}
-    return Component.model_validate(
-        {
-            "guid": guid, "key": guid, "folder": guid, "ifc_class": "IfcBuildingElementProxy",
-            "target_pose_world": {"position_m": at_m, "quat_xyzw": (0, 0, 0, 1), "rpy_rad": (0, 0, 0)},
-            "bbox_world": {"min_m": tuple(low), "max_m": tuple(high)}, "bbox_local": box,
-            "volume_m3": float(np.prod(size_m)), "watertight": True, "mass_kg": 100.0,
-            "mass_source": "IfcQuantityWeight", "com_local_m": tuple(np.array(size_m) / 2),
-            "inertia_kg_m2": {"ixx": 1, "ixy": 0, "ixz": 0, "iyy": 1, "iyz": 0, "izz": 1},
-            "inertia_source": "mesh", "collision_method": "convex_hull", "collision_parts": 1,
-            "files": {"model_dir": "m", "sdf_file": "m/model.sdf", "config_file": "m/model.config",
-                      "split_ifc": "m/x.ifc", "visual_dae": "v.dae", "visual_obj": "v.obj",
-                      "visual_glb": "v.glb", "collision": []},
-        }
-    )  # fmt: skip
+    return box_component(guid, size_m, at_m)
 
 
 def synthetic_mix(count: int = 60, seed: int = 7) -> list[Component]:
@@ -115,6 +101,7 @@ def _site_grid(site: SiteLayout):
     t = FENCE_THICKNESS_M
     boxes = [(*slot.footprint.min_xy, *slot.footprint.max_xy) for slot in site.slots.values()]
     boxes += [(*site.building.min_xy, *site.building.max_xy)]
+    boxes += [(*machine.min_xy, *machine.max_xy) for machine in site.machines]  # cranes, pumps, block layers
     boxes += [
         (x0 - t, y0 - t, x1 + t, y0),
         (x0 - t, y1, x1 + t, y1 + t),
@@ -223,17 +210,28 @@ def test_components_lie_flat_longest_along_the_rows_inside_their_footprint(
         assert extents[1] >= extents[0] - 1e-9 >= extents[2] - 2e-9  # longest along y, shortest vertical
 
 
-def test_the_robot_reaches_every_slot_by_driving_from_the_building(components: list[Component]) -> None:
-    site = plan_site(components, robots=2)
+@pytest.mark.parametrize("fleet", [None, "default"])
+def test_the_robot_reaches_every_slot_by_driving_from_the_building(
+    components: list[Component], fleet: str | None
+) -> None:
+    """Also with the default fleet's machines set up around the building (a crane, a pump, a block layer):
+    they block no slot, no staging area and not the depot."""
+    types = default_fleet().robot_types() if fleet else None
+    site = plan_site(components, robots=2, fleet=types)
     distances = driving_distances_m(site)
     unreachable = [guid for guid, distance in distances.items() if not math.isfinite(distance)]
     assert unreachable == []
-    grid, free = _site_grid(site)  # and the depot is connected to the same free region
+    grid, free = _site_grid(site)  # and the depot and the staging areas are connected to the same free region
     labels, _ = ndimage.label(free, structure=np.ones((3, 3)))
     start_xy = ((site.building.min_xy[0] + site.building.max_xy[0]) / 2, site.building.min_xy[1] - 1.5)
     region = labels[tuple(grid.world_to_cell(np.array([start_xy]))[0])]
-    for x, y, _ in site.robot_starts:
+    ground = [start for start, item in zip(site.robot_starts, types or [DEFAULT_ROBOT] * 2, strict=True)
+              if item.can(Capability.DRIVE)]  # fmt: skip
+    for x, y, _ in ground:
         assert labels[tuple(grid.world_to_cell(np.array([(x, y)]))[0])] == region
+    for area in site.staging:
+        spot = ((area.min_xy[0] + area.max_xy[0]) / 2, (area.min_xy[1] + area.max_xy[1]) / 2)
+        assert labels[tuple(grid.world_to_cell(np.array([spot]))[0])] == region
 
 
 def test_every_slot_faces_an_aisle_as_wide_as_the_robot_needs(components: list[Component]) -> None:

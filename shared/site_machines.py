@@ -1,0 +1,195 @@
+"""Where the machines that stand fixed are set up: cranes, concrete pumps, block layers (pure, part of the
+site plan).
+
+Why: a machine that never travels reaches only what its set-up position allows, so the position decides
+what it can build. The rule, for each machine in robot id order, hook-lifting machines first:
+
+* **candidates** — eight positions on a ring around the building, a lane (``lane_m``) clear of it: the
+  middle of the east, north, west and south sides, then the north-east, north-west, south-west and
+  south-east corners (a tie goes to the earlier one). A machine faces the building: a crane with its jib at
+  slew 0 (+x), a truck-mounted boom with its working side (+y), the truck parked alongside;
+* **clear of every ground-robot path** — a candidate is taken only when the machine's base (and a crane's
+  staging area) keeps a lane clear of the building, the yard (so the lanes at its edges stay), the depot,
+  the main street between the building and the yard, and every machine or staging area set up before it;
+  a candidate on the building's lane side of the yard, the depot or the main street is dropped, and one
+  that meets a machine or staging area set up before moves out along its direction (``PUSH_STEP_M`` at a
+  time) until it is clear;
+* a **hook-lifting** machine (a tower crane) takes the candidate that minimises the farthest point of the
+  building and of the yard from its mast — the largest hook radius the site asks of it, so its load chart
+  lifts the most there — and gets a staging area beside it (:mod:`.site_cranes`);
+* a **boom** machine (a pump, a block layer) takes the candidate whose boom covers (``reach_m`` from its
+  base to every corner of a component's footprint) the most components of the method it works (pour: cast
+  in place; lay: laid), then the most components of any method, then the one nearest the building's far
+  side (the smallest farthest-corner distance).
+
+Deterministic: the same components and fleet give the same positions.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .construction_methods import ConstructionMethod
+from .manifest import Component
+from .robot_description import Capability, RobotDescription
+from .site_cranes import staging_area
+from .site_plan import Rect
+
+PUSH_STEP_M = 0.5  # a candidate that is not clear moves this far out at a time…
+MAX_PUSH_M = 150.0  # …up to this far (then the direction is given up)
+WORKS = {Capability.POUR: ConstructionMethod.CAST_IN_PLACE, Capability.LAY: ConstructionMethod.LAID}
+
+# (x, y) direction from the building's centre, in candidate order: sides first, then corners
+_DIRECTIONS = ((1, 0), (0, 1), (-1, 0), (0, -1), (1, 1), (-1, 1), (-1, -1), (1, -1))
+
+
+@dataclass(frozen=True)
+class Setup:
+    """A machine's set-up: its pose (x, y, yaw), the rectangle its base covers and its staging area."""
+
+    pose: tuple[float, float, float]
+    base: Rect
+    staging: Rect | None = None
+
+    @property
+    def rects(self) -> tuple[Rect, ...]:
+        return (self.base,) if self.staging is None else (self.base, self.staging)
+
+
+def machine_yaw(machine: RobotDescription, heading_rad: float) -> float:
+    """The yaw of a machine facing ``heading_rad``: a crane's jib along it, a truck's working side (+y)."""
+    return heading_rad if machine.can(Capability.HOOK_LIFT) else heading_rad - math.pi / 2.0
+
+
+def base_rect(machine: RobotDescription, pose: tuple[float, float, float]) -> Rect:
+    """The axis-aligned rectangle around the machine's ``length_m`` × ``width_m`` footprint at ``pose``."""
+    x, y, yaw = pose
+    c, s = abs(math.cos(yaw)), abs(math.sin(yaw))
+    half_x = (machine.length_m * c + machine.width_m * s) / 2.0
+    half_y = (machine.length_m * s + machine.width_m * c) / 2.0
+    return Rect((x - half_x, y - half_y), (x + half_x, y + half_y))
+
+
+def candidate(
+    building: Rect, machine: RobotDescription, lane_m: float, direction: tuple[int, int], extra_m: float = 0.0
+) -> Setup:
+    """The machine's set-up beside ``building`` in ``direction`` (a side: ``(1, 0)`` east…, a corner:
+    ``(1, 1)`` north-east…), a lane and ``extra_m`` clear of it, facing it."""
+    (x0, y0), (x1, y1) = building.min_xy, building.max_xy
+    dx, dy = direction
+    yaw = machine_yaw(machine, math.atan2(-dy, -dx))
+    half = base_rect(machine, (0.0, 0.0, yaw)).max_xy
+    gap_x, gap_y = lane_m + half[0] + extra_m, lane_m + half[1] + extra_m
+    x = (x0 + x1) / 2.0 if dx == 0 else (x1 + gap_x if dx > 0 else x0 - gap_x)
+    y = (y0 + y1) / 2.0 if dy == 0 else (y1 + gap_y if dy > 0 else y0 - gap_y)
+    pose = (x, y, yaw)
+    staging = staging_area(pose, machine) if machine.can(Capability.HOOK_LIFT) else None
+    return Setup(pose, base_rect(machine, pose), staging)
+
+
+def clear_candidates(
+    building: Rect, machine: RobotDescription, lane_m: float, fixed: Sequence[Rect], taken: Sequence[Rect]
+) -> list[Setup]:
+    """Per direction (in candidate order) whose first set-up overlaps none of ``fixed``, the nearest one
+    out along it that overlaps none of ``fixed`` and ``taken`` either."""
+    found = []
+    blocked = [*fixed, *taken]
+    for direction in _DIRECTIONS:
+        first = candidate(building, machine, lane_m, direction)
+        if any(rect.overlaps(other) for rect in first.rects for other in fixed):
+            continue  # over the yard, the depot or the main street: not pushed across them
+        for step in range(int(MAX_PUSH_M / PUSH_STEP_M) + 1):
+            setup = candidate(building, machine, lane_m, direction, step * PUSH_STEP_M)
+            if not any(rect.overlaps(other) for rect in setup.rects for other in blocked):
+                found.append(setup)
+                break
+    return found
+
+
+def keep_clear(building: Rect, yard: Rect, depot: Rect, lane_m: float) -> list[Rect]:
+    """What no machine may stand on: the building, the yard and the depot with a lane around each, and the
+    main street between the building and the yard, from the depot's far side to the site's east end."""
+    street = Rect(
+        (depot.min_xy[0] - lane_m, yard.max_xy[1]),
+        (max(building.max_xy[0], yard.max_xy[0]) + lane_m, building.min_xy[1]),
+    )
+    return [building.grown(lane_m), yard.grown(lane_m), depot.grown(lane_m), street]
+
+
+def farthest_m(xy: tuple[float, float], *rects: Rect) -> float:
+    """The distance from ``xy`` to the farthest point of ``rects`` (one of their corners)."""
+    return max(
+        math.hypot(x - xy[0], y - xy[1])
+        for rect in rects
+        for x in (rect.min_xy[0], rect.max_xy[0])
+        for y in (rect.min_xy[1], rect.max_xy[1])
+    )
+
+
+def plan_machines(
+    machines: Sequence[RobotDescription],
+    components: Sequence[Component],
+    *,
+    building: Rect,
+    yard: Rect,
+    depot: Rect,
+    lane_m: float,
+) -> list[Setup]:
+    """The set-up of each of ``machines`` (in their order), by the rule of the module docstring."""
+    fixed = keep_clear(building, yard, depot, lane_m)
+    taken: list[Rect] = []
+    corners = _footprint_corners(components)
+    methods = [component.method for component in components]
+    order = sorted(range(len(machines)), key=lambda i: (not machines[i].can(Capability.HOOK_LIFT), i))
+    setups: dict[int, Setup] = {}
+    for index in order:
+        machine = machines[index]
+        free = clear_candidates(building, machine, lane_m, fixed, taken) or [
+            candidate(building, machine, lane_m, _DIRECTIONS[0], MAX_PUSH_M)  # never on a 150 m wide site
+        ]
+        setups[index] = min(free, key=lambda setup: _cost(machine, setup, (building, yard), corners, methods))
+        taken += [rect.grown(lane_m) for rect in setups[index].rects]
+    return [setups[index] for index in range(len(machines))]
+
+
+def _cost(
+    machine: RobotDescription,
+    setup: Setup,
+    site: tuple[Rect, Rect],
+    corners: np.ndarray,
+    methods: Sequence[ConstructionMethod],
+) -> tuple[float, ...]:
+    """Smaller is better (``min`` keeps the first of equals: candidate order breaks ties); ``site``: the
+    building and the yard."""
+    building, yard = site
+    xy = setup.pose[:2]
+    if machine.can(Capability.HOOK_LIFT):
+        return (round(farthest_m(xy, building, yard), 6),)
+    covered = covered_by_boom(machine, xy, corners)
+    own = {method for capability, method in WORKS.items() if machine.can(capability)}
+    mine = sum(1 for hit, method in zip(covered, methods, strict=True) if hit and method in own)
+    return (-float(mine), -float(covered.sum()), round(farthest_m(xy, building), 6))
+
+
+def covered_by_boom(machine: RobotDescription, base_xy: Sequence[float], corners: np.ndarray) -> np.ndarray:
+    """Per component (``corners``: ``(n, 4, 2)``), whether the boom reaches every corner from ``base_xy``."""
+    if len(corners) == 0:
+        return np.zeros(0, dtype=bool)
+    far = np.hypot(*(corners - np.asarray(base_xy, float)[:2]).transpose(2, 0, 1)).max(axis=1)
+    return far <= machine.reach_m + 1e-9
+
+
+def _footprint_corners(components: Sequence[Component]) -> np.ndarray:
+    """The four corners of each component's target box seen from above, ``(n, 4, 2)``."""
+    if not components:
+        return np.zeros((0, 4, 2))
+    low = np.array([component.bbox_world.min_m[:2] for component in components])
+    high = np.array([component.bbox_world.max_m[:2] for component in components])
+    return np.stack(
+        [low, np.stack([high[:, 0], low[:, 1]], axis=1), high, np.stack([low[:, 0], high[:, 1]], axis=1)],
+        axis=1,
+    )
