@@ -6,8 +6,10 @@ what it can build. The rule, for each machine in robot id order, hook-lifting ma
 
 * **candidates** — eight positions on a ring around the building, a lane (``lane_m``) clear of it: the
   middle of the east, north, west and south sides, then the north-east, north-west, south-west and
-  south-east corners (a tie goes to the earlier one). A machine faces the building: a crane with its jib at
-  slew 0 (+x), a truck-mounted boom with its working side (+y), the truck parked alongside;
+  south-east corners (a tie goes to the earlier one). A machine faces the building (at a corner: its east or
+  west side), a crane with its jib at slew 0 (+x), a truck-mounted boom with its working side (+y), the
+  truck parked alongside; so it stands square to the site and its set-up rectangle (``length_m`` ×
+  ``width_m``) is the one the site plan records (``SiteLayout.machines``) and its URDF fills;
 * **clear of every ground-robot path** — a candidate is taken only when the machine's base (and a crane's
   staging area) keeps a lane clear of the building, the yard (so the lanes at its edges stay), the depot,
   the main street between the building and the yard, and every machine or staging area set up before it;
@@ -66,7 +68,8 @@ def machine_yaw(machine: RobotDescription, heading_rad: float) -> float:
 
 
 def base_rect(machine: RobotDescription, pose: tuple[float, float, float]) -> Rect:
-    """The axis-aligned rectangle around the machine's ``length_m`` × ``width_m`` footprint at ``pose``."""
+    """The axis-aligned rectangle around the machine's ``length_m`` × ``width_m`` footprint at ``pose``
+    (the footprint itself at the site plan's yaws, multiples of a quarter turn)."""
     x, y, yaw = pose
     c, s = abs(math.cos(yaw)), abs(math.sin(yaw))
     half_x = (machine.length_m * c + machine.width_m * s) / 2.0
@@ -81,7 +84,7 @@ def candidate(
     ``(1, 1)`` north-east…), a lane and ``extra_m`` clear of it, facing it."""
     (x0, y0), (x1, y1) = building.min_xy, building.max_xy
     dx, dy = direction
-    yaw = machine_yaw(machine, math.atan2(-dy, -dx))
+    yaw = machine_yaw(machine, math.atan2(-dy, 0.0) if dx == 0 else math.atan2(0.0, -dx))
     half = base_rect(machine, (0.0, 0.0, yaw)).max_xy
     gap_x, gap_y = lane_m + half[0] + extra_m, lane_m + half[1] + extra_m
     x = (x0 + x1) / 2.0 if dx == 0 else (x1 + gap_x if dx > 0 else x0 - gap_x)

@@ -11,6 +11,10 @@ from dataclasses import dataclass
 
 FENCE_THICKNESS_M = 0.2
 FENCE_HEIGHT_M = 1.2
+# every machine that stands fixed fills its set-up rectangle (``SiteLayout.machines``) with a collision box
+# from the ground up to at least this height (a crane's base, a truck's outriggers and the barrier around
+# them, a crawler's tracks): what ground robots drive around and their lasers see, as they see the fence
+MACHINE_BOX_HEIGHT_M = 1.0
 
 
 @dataclass(frozen=True)

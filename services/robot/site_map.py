@@ -6,9 +6,9 @@ of a move_base costmap). Pure: it is fed component poses and states and answers 
 
 What occupies the grid:
 
-* the **fence** (site hoarding around everything, :mod:`bimbot.shared.site_layout`), always, and the
-  set-ups of the machines that stand fixed (cranes, pumps, block layers: ``SiteLayout.machines``) for
-  driving only (the laser sees their bodies, not the rectangle they are set up on);
+* the **fence** (site hoarding around everything, :mod:`bimbot.shared.site_layout`) and the set-ups of the
+  machines that stand fixed (cranes, pumps, block layers: ``SiteLayout.machines``, each filled by its
+  URDF's collision box up to ``MACHINE_BOX_HEIGHT_M``), always;
 * every **component that is not carried**, at its current pose (its yard slot until physics says otherwise),
   when its posed bounding box meets the robot's height band (``band_min_z_m``–``band_max_z_m`` above the
   ground): components lying in the yard and built columns block, beams at 3 m and footings whose tops are
@@ -38,7 +38,14 @@ from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, ComponentState
 from bimbot.shared.occupancy_grid import OccupancyGrid, empty_grid, from_footprints, inflate
-from bimbot.shared.site_plan import FENCE_HEIGHT_M, GRID_MARGIN_M, SiteLayout, fence_boxes, machine_boxes
+from bimbot.shared.site_plan import (
+    FENCE_HEIGHT_M,
+    GRID_MARGIN_M,
+    MACHINE_BOX_HEIGHT_M,
+    SiteLayout,
+    fence_boxes,
+    machine_boxes,
+)
 
 from .fine_alignment import outline_edges
 
@@ -85,18 +92,19 @@ class SiteMap:
         self._components = {component.guid: component for component in components}
         bounds = layout.bounds.grown(GRID_MARGIN_M)
         self._geometry = empty_grid((*bounds.min_xy, *bounds.max_xy), config.resolution_m)
+        # the fence and the machines set up on site (cranes, pumps, block layers): they block driving, and
+        # the laser sees those that reach its height
         self._fence = from_footprints(
-            self._geometry.bounds_xy_m, config.resolution_m, boxes_xy_m=fence_boxes(layout)
+            self._geometry.bounds_xy_m,
+            config.resolution_m,
+            boxes_xy_m=fence_boxes(layout) + machine_boxes(layout),
         )
-        # the machines that stand fixed block driving (their whole set-up), not the laser's map
-        self._standing = (
-            self._fence.occupied
-            | (
-                from_footprints(
-                    self._geometry.bounds_xy_m, config.resolution_m, boxes_xy_m=machine_boxes(layout)
-                )
-            ).occupied
+        self._walls_seen = (fence_boxes(layout) if config.laser_height_m <= FENCE_HEIGHT_M else []) + (
+            machine_boxes(layout) if config.laser_height_m <= MACHINE_BOX_HEIGHT_M else []
         )
+        self._seen_cells = from_footprints(
+            self._geometry.bounds_xy_m, config.resolution_m, boxes_xy_m=self._walls_seen
+        ).occupied
         self._counts = np.zeros(self._geometry.shape, np.int32)  # components covering each cell (band)
         self._laser_counts = np.zeros(self._geometry.shape, np.int32)  # components seen by the laser
         self._static_distance = ClippedDistanceField(
@@ -104,10 +112,8 @@ class SiteMap:
         )
         # The localiser's map, at its finer resolution: the same counts, per component its fine cells.
         self._fine = empty_grid(self._geometry.bounds_xy_m, config.laser_resolution_m)
-        self._fine_fence = (
-            from_footprints(self._fine.bounds_xy_m, config.laser_resolution_m, boxes_xy_m=fence_boxes(layout))
-            if config.laser_height_m <= FENCE_HEIGHT_M
-            else self._fine
+        self._fine_fence = from_footprints(
+            self._fine.bounds_xy_m, config.laser_resolution_m, boxes_xy_m=self._walls_seen
         ).occupied
         self._fine_counts = np.zeros(self._fine.shape, np.int16)
         self._fine_cells: dict[str, NDArray[np.int64]] = {}
@@ -204,8 +210,10 @@ class SiteMap:
         return self._geometry
 
     def static_grid(self) -> OccupancyGrid:
-        """Fence + components in the robot's height band, not inflated."""
-        return self._cached("static", lambda: self._fence.with_occupied(self._standing | (self._counts > 0)))
+        """Fence, machines' set-ups and components in the robot's height band, not inflated."""
+        return self._cached(
+            "static", lambda: self._fence.with_occupied(self._fence.occupied | (self._counts > 0))
+        )
 
     def inflated_grid(self, radius_m: float | None = None) -> OccupancyGrid:
         """:meth:`static_grid` inflated by ``radius_m`` (default: the robot radius plus margin, which is
@@ -226,13 +234,11 @@ class SiteMap:
         return self._static_distance.distance_m
 
     def laser_grid(self) -> OccupancyGrid:
-        """What the laser can see: the fence (if it reaches the laser's height) and tall enough components."""
+        """What the laser can see: the fence and the machines' set-ups (if they reach the laser's height) and
+        tall enough components."""
 
         def build() -> OccupancyGrid:
-            cells = self._laser_counts > 0
-            if self.config.laser_height_m <= FENCE_HEIGHT_M:
-                cells = cells | self._fence.occupied
-            return self._geometry.with_occupied(cells)
+            return self._geometry.with_occupied(self._seen_cells | (self._laser_counts > 0))
 
         return self._cached("laser", build)
 
@@ -257,17 +263,17 @@ class SiteMap:
         return self._fine
 
     def laser_segments(self) -> NDArray[np.float64]:
-        """The exact outlines the laser can see, as segments ``(m, 2, 2)`` (world, m): the fence and every
-        component at the laser's height (the fine alignment before a placement, :mod:`.fine_alignment`),
-        each with its outside on its right (:func:`.fine_alignment.outline_edges`)."""
+        """The exact outlines the laser can see, as segments ``(m, 2, 2)`` (world, m): the fence, the
+        machines' set-ups and every component at the laser's height (the fine alignment before a
+        placement, :mod:`.fine_alignment`), each with its outside on its right
+        (:func:`.fine_alignment.outline_edges`)."""
 
         def build() -> NDArray[np.float64]:
             outlines = [self.footprints[guid].polygon_xy_m for guid, seen in self._sees.items() if seen]
-            if self.config.laser_height_m <= FENCE_HEIGHT_M:
-                outlines += [
-                    np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
-                    for x0, y0, x1, y1 in fence_boxes(self.layout)
-                ]
+            outlines += [
+                np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
+                for x0, y0, x1, y1 in self._walls_seen
+            ]
             return outline_edges(outlines)
 
         return self._cached("laser_segments", build)
@@ -375,7 +381,7 @@ class SiteMap:
         return True
 
     def _static_window(self, rows: slice, cols: slice) -> NDArray[np.bool_]:
-        return self._standing[rows, cols] | (self._counts[rows, cols] > 0)
+        return self._fence.occupied[rows, cols] | (self._counts[rows, cols] > 0)
 
     def _laser_outline_window(self, rows: slice, cols: slice) -> NDArray[np.bool_]:
         """The surfaces of :meth:`laser_field_grid` in a window (read with one cell around it, so the

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from physics_builders import drive, wrap
 
+from bimbot.services.physics.client import p
 from bimbot.services.physics.robots import wheel_torque_nm
 from bimbot.services.physics.simulation import Simulation
 from bimbot.shared.fleet import default_fleet
@@ -122,6 +123,24 @@ def test_the_pump_and_the_block_layer_never_drive_and_have_no_laser(
     for robot_id, start in starts.items():
         assert sim.robot_pose(robot_id) == pytest.approx(start, abs=1e-9)
         assert sim.poses().robots[robot_id].joint_positions == {}
+
+
+def test_a_laser_sees_each_machine_at_the_edge_of_its_set_up_rectangle(
+    make_sim: Callable[..., Simulation],
+) -> None:
+    """The robots' map holds each machine's set-up rectangle (``SiteLayout.machines``); its URDF fills it
+    up to ``MACHINE_BOX_HEIGHT_M``, so a laser at 6 cm hits its edges, and the compiled caster can
+    represent every machine's shapes (no fallback to Bullet's slower casting)."""
+    sim = make_sim(fleet=default_fleet())
+    drive(sim, "r1", 0.0, 0.0, 0.2)  # one period: the scans are cast
+    assert sim._ray_scene is not None and sim._ray_scene.unsupported is None
+    for rect in sim.layout.machines:
+        (x0, y0), (x1, y1) = rect.min_xy, rect.max_xy
+        cx, cy = (x0 + x1) / 2.0, (y0 + y1) / 2.0
+        for (sx, sy), edge in (((x0 - 1.0, cy), (x0, cy)), ((cx, y1 + 1.0), (cx, y1))):
+            hit = p.rayTest((sx, sy, 0.06), (cx, cy, 0.06), physicsClientId=sim.client_id)[0]
+            assert hit[0] >= 0, rect
+            assert hit[3][:2] == pytest.approx(edge, abs=0.02), rect
 
 
 def test_robots_n_keeps_the_crane_the_pump_and_the_block_layer(make_sim: Callable[..., Simulation]) -> None:
