@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from fleets import ground_fleet_file
 from site_models import HEAVY_MASS_KG, ROOM_WALLS, WALLS_FIRST_ORDER, SiteModel, build_site_model
 
 from bimbot.shared.reasons import ReasonCode
@@ -48,7 +49,8 @@ def test_a_build_that_cannot_finish_ends_with_a_reason_for_every_component_not_b
     walls_first: tuple[SiteModel, Path],
 ) -> None:
     site, build = walls_first
-    result = _bimbot("run", str(build), "-q", "--robots", "1", "--timeout-s", str(RUN_TIMEOUT_S - 60))
+    fleet = str(ground_fleet_file(build.parent))  # one carrier: the 5.8 t footing is too heavy for it
+    result = _bimbot("run", str(build), "-q", "--fleet", fleet, "--timeout-s", str(RUN_TIMEOUT_S - 60))
     run = _latest(build)
     logs = "\n".join(
         f"--- {log.name}\n" + "\n".join(log.read_text().splitlines()[-12:])
@@ -83,7 +85,8 @@ def test_with_strict_a_sequence_that_walls_a_column_in_is_refused_before_the_bui
 ) -> None:
     site, build = walls_first
     earlier = _runs(build)
-    result = _bimbot("run", str(build), "-q", "--robots", "1", "--strict", "--timeout-s", "120")
+    fleet = str(ground_fleet_file(build.parent))
+    result = _bimbot("run", str(build), "-q", "--fleet", fleet, "--strict", "--timeout-s", "120")
     planner_log = (_latest(build).logs_dir / "planner.log").read_text()
     # a run of its own: the earlier runs on this build keep their folders and reports
     assert len(_runs(build)) == len(earlier) + 1 and set(earlier) < set(_runs(build))

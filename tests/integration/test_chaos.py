@@ -20,6 +20,7 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
+from fleets import ground_fleet_file
 from frames import convert_small_frame
 
 from bimbot.services.component_agents.journal import journal_path, replay
@@ -84,7 +85,7 @@ def test_every_service_killed_once_mid_build_the_build_completes_once(
     build = frame_3x2
     run = RunFolder(tmp_path / "run")
     command = [sys.executable, "-m", "bimbot.cli", "run", str(build), "-q", "--run-dir", str(run.root)]
-    command += ["--robots", "1"]  # one process per kind: the one robot is killed too
+    command += ["--fleet", str(ground_fleet_file(tmp_path))]  # one process per kind: the one robot dies too
     command += ["--timeout-s", str(RUN_TIMEOUT_S - 60)]
     with (tmp_path / "run.stdout").open("w") as out, (tmp_path / "run.stderr").open("w") as err:
         process = subprocess.Popen(command, stdout=out, stderr=err)

@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from fleets import ground_fleet_file
 
 from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan
 from bimbot.shared.manifest import read_manifest
@@ -88,8 +89,8 @@ def _assert_all_constructed_within_tolerance(build: Path, report: dict) -> None:
         assert component["placed_s"] <= component["constructed_s"]
 
 
-def test_one_robot_builds_the_whole_frame_within_tolerance(build: Path) -> None:
-    result, report = _run(build, "--robots", "1")
+def test_one_robot_builds_the_whole_frame_within_tolerance(build: Path, tmp_path: Path) -> None:
+    result, report = _run(build, "--fleet", str(ground_fleet_file(tmp_path)))  # one carrier
     assert re.search(r"constructed 5/5 components", result.stdout)
     _assert_all_constructed_within_tolerance(build, report)
     (robot,) = report["robots"].values()
@@ -108,8 +109,8 @@ def test_one_robot_builds_the_whole_frame_within_tolerance(build: Path) -> None:
     assert forked == {"bus", "physics", "agents", "planner", "robot-r1"}, forked
 
 
-def test_two_robots_share_the_work_and_keep_apart(build: Path) -> None:
-    _, report = _run(build, "--robots", "2", "--derive")
+def test_two_robots_share_the_work_and_keep_apart(build: Path, tmp_path: Path) -> None:
+    _, report = _run(build, "--fleet", str(ground_fleet_file(tmp_path, 2)), "--derive")  # two carriers
     # the report's sequence is the plan the planner built by (derived here), not the build's sequence.xml
     manifest = read_manifest(build)
     derived = load_plan(manifest, build, PlanSource(kind=SourceKind.DERIVE))

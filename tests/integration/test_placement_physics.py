@@ -19,6 +19,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from fleets import ground_fleet_file
 
 from bimbot.shared.fleet import default_fleet
 from bimbot.shared.manifest import read_manifest
@@ -82,7 +83,8 @@ def test_a_beam_set_on_a_single_column_tips_off_is_unstable_and_the_rest_goes_on
 ) -> None:
     build = _copy(two_by_one, tmp_path)
     schedule = _chain(build, ["Footing A1", "Footing A2", "Column A1", "Beam A1-A2", "Column A2"], tmp_path)
-    result = _bimbot("run", str(build), "--robots", "1", "--sequence", str(schedule), "-q")
+    fleet = str(ground_fleet_file(tmp_path))  # one carrier
+    result = _bimbot("run", str(build), "--fleet", fleet, "--sequence", str(schedule), "-q")
     assert result.returncode == 1, result.stdout + result.stderr[-2000:]
     components = _by_name(_report(build))
     beam = components["Beam A1-A2"]
@@ -107,8 +109,9 @@ def test_a_beam_set_on_a_single_column_tips_off_is_unstable_and_the_rest_goes_on
 def test_a_column_set_before_its_footing_drops_into_the_open_pit(two_by_one: Path, tmp_path: Path) -> None:
     build = _copy(two_by_one, tmp_path)
     schedule = _chain(build, ["Footing A2", "Column A1", "Footing A1", "Column A2", "Beam A1-A2"], tmp_path)
+    fleet = str(ground_fleet_file(tmp_path))  # one carrier
     result = _bimbot(
-        "run", str(build), "--robots", "1", "--sequence", str(schedule), "--max-attempts", "1", "-q"
+        "run", str(build), "--fleet", fleet, "--sequence", str(schedule), "--max-attempts", "1", "-q"
     )
     assert result.returncode == 1, result.stdout + result.stderr[-2000:]
     column = _by_name(_report(build))["Column A1"]

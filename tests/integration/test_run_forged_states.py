@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import IO
 
 import pytest
+from fleets import ground_fleet_file
 from frames import convert_small_frame
 
 from bimbot.services.component_agents.journal import journal_path, replay
@@ -109,7 +110,7 @@ def test_forged_constructed_messages_change_nothing_the_run_counts_what_the_twin
     manifest = read_manifest(small_frame)
     run = RunFolder(tmp_path / "run")
     command = [sys.executable, "-m", "bimbot.cli", "run", str(small_frame), "-q", "--run-dir", str(run.root)]
-    command += ["--robots", "1", "--rtf", str(RUN_RTF)]
+    command += ["--fleet", str(ground_fleet_file(tmp_path)), "--rtf", str(RUN_RTF)]  # one carrier
     command += ["--timeout-s", str(RUN_TIMEOUT_S - 60)]
     errors = (tmp_path / "run.stderr").open("w")
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=errors, text=True)

@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from fleets import ground_fleet_file
 
 from bimbot.shared.manifest import read_manifest
 from bimbot.shared.run_folder import RunFolder
@@ -34,7 +35,8 @@ def test_a_run_with_the_foundations_in_place_builds_the_rest_on_them(tmp_path: P
     manifest = read_manifest(build)
     assert len(manifest.components) == 3 and len(manifest.in_place) == 2
     run = RunFolder(tmp_path / "run")
-    result = _bimbot("run", str(build), "--robots", "1", "--run-dir", str(run.root), "--timeout-s", "240")
+    fleet = str(ground_fleet_file(tmp_path))  # one carrier
+    result = _bimbot("run", str(build), "--fleet", fleet, "--run-dir", str(run.root), "--timeout-s", "240")
     detail = f"{result.stdout}\n{result.stderr[-3000:]}"
     assert result.returncode == 0, detail
     assert "constructed 3/3 components" in result.stdout, detail

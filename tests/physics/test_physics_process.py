@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 import zenoh
+from fleets import ground_fleet_file
 
 from bimbot.shared.bus import BusOptions, InvalidPayloads, decode, encode, open_session
 from bimbot.shared.fleet import default_fleet
@@ -90,7 +91,8 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
     manifest = read_manifest(build)
     site = manifest.site
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    physics_args = ["physics", "--build", str(build), "--robots", "1", "--connect", endpoint]
+    fleet_file = str(ground_fleet_file(tmp_path))  # one robot of the default type
+    physics_args = ["physics", "--build", str(build), "--fleet", fleet_file, "--connect", endpoint]
     physics_args += ["--listen", "tcp/127.0.0.1:0", "--lock-step", "--rtf", "0", "--odom-noise", "0"]
     with (
         running("bus", ["bus", "--listen", endpoint], tmp_path) as bus,
@@ -105,7 +107,7 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
         assert info_bytes is not None, (tmp_path / "physics.log").read_text()
         info = SiteInfoMsg.model_validate_json(info_bytes)
         assert info.robot_ids == ["r1"] and info.lock_step
-        fleet = default_fleet()  # --robots 1: one robot of its default type, as the fleet file describes it
+        fleet = default_fleet()
         assert info.robot_type_of == {"r1": fleet.default_type}
         assert info.robot_types == {fleet.default_type: fleet.types[fleet.default_type]}
         reach_m = fleet.types[fleet.default_type].reach_m
@@ -198,7 +200,8 @@ def test_physics_holds_its_clock_at_zero_until_the_robots_are_alive(
     shutil.copytree(bundled_build, build)
     site = read_manifest(build).site
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    physics_args = ["physics", "--build", str(build), "--robots", "1", "--connect", endpoint, "--rtf", "0"]
+    fleet = str(ground_fleet_file(tmp_path))
+    physics_args = ["physics", "--build", str(build), "--fleet", fleet, "--connect", endpoint, "--rtf", "0"]
     physics_args += ["--listen", "tcp/127.0.0.1:0", "--lock-step", "--wait-for-robots-s", "60"]
     physics_args += ["--wait-for-planner"] if planner else []
     with (

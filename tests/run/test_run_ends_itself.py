@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 
 import pytest
+from fleets import ground_fleet_file
 from frames import convert_small_frame
 
 from bimbot.shared.run_folder import RunFolder, latest_run_folder
@@ -34,7 +35,19 @@ def small_frame(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _start(build: Path, *options: str) -> subprocess.Popen[str]:
-    command = [sys.executable, "-m", "bimbot.cli", "run", str(build), "--rtf", "1", "--robots", "1", *options]
+    fleet = ground_fleet_file(build.parent)  # one carrier
+    command = [
+        sys.executable,
+        "-m",
+        "bimbot.cli",
+        "run",
+        str(build),
+        "--rtf",
+        "1",
+        "--fleet",
+        str(fleet),
+        *options,
+    ]
     return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 

@@ -13,7 +13,7 @@ import zenoh
 
 import bimbot.cli
 from bimbot.run_args import RunOptions
-from bimbot.run_commands import monitor_bus_options, router_arguments, service_commands
+from bimbot.run_commands import monitor_bus_options, router_arguments, run_fleet, service_commands
 from bimbot.shared.bus import BusOptions, zenoh_config
 from bimbot.shared.bus_access import bus_users
 from bimbot.shared.bus_credentials import bus_files, parse_robot_ids, write_bus_credentials
@@ -105,10 +105,10 @@ def test_a_missing_or_broken_config_file_or_a_bad_endpoint_is_one_line(tmp_path:
 
 def test_a_secured_run_gives_every_service_its_own_file_in_client_mode(tmp_path: Path) -> None:
     run = RunFolder(tmp_path / "run")
-    files = write_bus_credentials(run.root, ("r1", "r2"))
-    options = RunOptions(robots=2, secure=True)
+    options = RunOptions(robots=2, secure=True)  # two carriers, and the crane, pump and block layer r3–r5
+    files = write_bus_credentials(run.root, tuple(run_fleet(options).type_of()))
     commands = dict(service_commands(tmp_path / "build", "tcp/127.0.0.1:7000", options, run, files))
-    assert set(commands) == {"physics", "agents", "planner", "robot-r1", "robot-r2"}
+    assert set(commands) == {"physics", "agents", "planner", *(f"robot-r{n}" for n in range(1, 6))}
     for name, arguments in commands.items():
         config = Path(arguments[arguments.index("--bus-config") + 1])
         assert config.is_file() and config.name == f"{name}.json5"
