@@ -162,5 +162,5 @@ def test_a_robot_type_with_a_poor_hand_misses_the_agents_catch_it_and_the_retrie
 
 def _toml_fields(description) -> list[tuple[str, object]]:  # type: ignore[no-untyped-def]
     """The carrier's description as TOML lines, all but its precision (set by the test)."""
-    data = description.model_dump(exclude={"placement_precision_m", "crane", "name"})
+    data = description.model_dump(mode="json", exclude={"placement_precision_m", "crane", "name"})
     return [(name, value) for name, value in data.items() if value is not None]
