@@ -114,13 +114,13 @@ def test_a_panelised_element_becomes_its_panels(build: tuple[Path, Manifest, dic
         assert all(c.method_note == entry.why for c in panels)
         assert sum(c.mass_kg for c in panels) == pytest.approx(entry.mass_kg)
         assert max(c.mass_kg for c in panels) <= default_limits().lift_capacity_kg
-        assert "over the 4,000 kg lift capacity" in entry.why
+        assert f"over the {default_limits().lift_capacity_kg:,.0f} kg lift capacity" in entry.why
 
 
 def test_wall_panels_keep_the_openings_and_the_volume(build: tuple[Path, Manifest, dict[str, str]]) -> None:
     _, manifest, guids = build
     panels = sorted(_panels(manifest, guids["front"]), key=lambda c: c.bbox_world.min_m[0])
-    assert len(panels) >= 3  # 9,420 kg of wall (no material: 1,000 kg/m³)
+    assert len(panels) >= 2  # 9,420 kg of wall (no material: 1,000 kg/m³) over the 8 t crane's chart
     length, height, thickness = WALL_M
     volume = length * height * thickness - 2 * 1.5 * 1.2 * thickness
     assert sum(c.volume_m3 for c in panels) == pytest.approx(volume, rel=0.01)
@@ -136,13 +136,14 @@ def test_wall_panels_keep_the_openings_and_the_volume(build: tuple[Path, Manifes
 def test_slab_planks_run_along_the_span(build: tuple[Path, Manifest, dict[str, str]]) -> None:
     _, manifest, guids = build
     planks = _panels(manifest, guids["slab"])
-    assert len(planks) == 10  # 37.5 t: nine planks of 1.88 m would weigh 4,169 kg each
+    # 37.5 t: five planks would be within the 8 t crane's chart, but a truck carries 2.55 m: eight of 2.11 m
+    assert len(planks) == 8
     for plank in planks:
         low, high = np.array(plank.bbox_world.min_m), np.array(plank.bbox_world.max_m)
         assert high[1] - low[1] == pytest.approx(SPAN_M)
         assert 1.2 <= high[0] - low[0] <= 2.4
     entry = next(e for e in manifest.panelised if e.guid == guids["slab"])
-    assert len(entry.joints) == 9 and {j.kind for j in entry.joints} == {"longitudinal"}
+    assert len(entry.joints) == 7 and {j.kind for j in entry.joints} == {"longitudinal"}
 
 
 def test_an_element_that_is_not_cut_stays_whole_and_says_why(
@@ -206,10 +207,10 @@ def test_the_revit_house_heavy_wall_and_roof_slab_split_sensibly(samples_dir: Pa
     decisions = {guid: PANELISED for guid in (HOUSE_HEAVY_WALL, HOUSE_WINDOW_WALL, HOUSE_ROOF_SLAB)}
     manifest = convert_model(open_model(source), source, tmp_path, ConvertOptions(decisions=decisions))
     planks = _panels(manifest, HOUSE_ROOF_SLAB)
-    assert [round(c.mass_kg) for c in planks] == [3752] * 10
+    assert [round(c.mass_kg) for c in planks] == [4690] * 8  # 2.11 m: a truck's width, not the crane's 8 t
     assert all(
         c.bbox_world.max_m[0] - c.bbox_world.min_m[0] == pytest.approx(SPAN_M, abs=0.01)
-        and c.bbox_world.max_m[1] - c.bbox_world.min_m[1] == pytest.approx(1.69, abs=0.01)
+        and c.bbox_world.max_m[1] - c.bbox_world.min_m[1] == pytest.approx(2.11, abs=0.01)
         for c in planks
     )
     assert [round(c.mass_kg) for c in _panels(manifest, HOUSE_HEAVY_WALL)] == [2266, 2266]

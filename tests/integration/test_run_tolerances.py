@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from fleets import ground_fleet_file
 
 from bimbot.services.physics.simulation import SimConfig, Simulation
 from bimbot.shared.manifest import read_manifest
@@ -42,8 +43,8 @@ def test_a_run_with_a_wider_position_tolerance_accepts_a_20_mm_placement_everywh
     result = _bimbot(
         "run",
         str(build),
-        "--robots",
-        "1",
+        "--fleet",
+        str(ground_fleet_file(tmp_path)),  # one carrier
         "--run-dir",
         str(run.root),
         "--timeout-s",
