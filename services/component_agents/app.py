@@ -61,6 +61,7 @@ _log = logging.getLogger(__name__)
 LOOP_WAIT_S = 0.05  # longest wait for input before the verification timeouts are checked
 LISTENERS_WAIT_S = 2.0  # longest wait at start for the bus to route state messages to their subscribers
 TOKENS_PER_SESSION = 1_000
+SITE_INFO_WAIT_S = 3.0  # wall seconds the agents wait for physics' site info before they judge by their own
 
 
 def main(
@@ -141,11 +142,14 @@ def serve(
         _wait_for_listeners(session, key(COMPONENT_STATE_KEY, site=site, key=next(iter(host.agents))))
     _publish(session, host.start())
     site_info: Asked[SiteInfoMsg] | None = Asked(session, PHYSICS_INFO, inbox.invalid, site=site)
+    asked_since = time.monotonic()
 
     while not stop.is_set():
         if site_info is not None and (info := site_info.poll()) is not None:
             host.use_tolerances(info.tolerances)  # the tolerances in force: physics' site info
             site_info = None
+        elif site_info is not None and time.monotonic() - asked_since > SITE_INFO_WAIT_S:
+            host.assume_own_tolerances(SITE_INFO_WAIT_S)  # still asked: physics' answer wins when it comes
         for item in inbox.drain(first_timeout_s=LOOP_WAIT_S):
             try:
                 if isinstance(item, IncomingQuery):

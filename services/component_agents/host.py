@@ -138,6 +138,22 @@ class AgentHost:
             1000.0 * tolerances.drift_m,
         )
 
+    def assume_own_tolerances(self, waited_s: float) -> None:
+        """No site info yet (no physics on this bus, or a slow one): judge with the agents' own tolerances
+        until it comes, and say so once."""
+        if self.config.tolerances_known:
+            return
+        self.config = replace(self.config, tolerances_known=True)
+        for agent in self.agents.values():
+            agent.use_config(self.config)
+        _log.warning(
+            "physics did not say the site's tolerances within %.0f s: verifying with the agents' own "
+            "(%g mm, %g°) until it does",
+            waited_s,
+            1000.0 * self.config.tolerances.position_m,
+            math.degrees(self.config.tolerances.angle_rad),
+        )
+
     # --- start ---------------------------------------------------------------------------------------------
 
     def _resume(self, replay: Replay, now: float) -> None:
