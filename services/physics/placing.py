@@ -93,6 +93,7 @@ class Placing:
         settle: SettleConfig
         connections: ConnectionConfig
         in_place: dict[int, str]
+        joints: dict[str, frozenset[str]]
         watch: dict[str, Watch]
         guid_of: dict[int, str]
         _moving: set[str]
@@ -206,7 +207,9 @@ class Placing:
         item.pose = item.motion_to or item.pose
         set_component_pose(cid, body, item.pose)
         set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)  # see what it overlaps, the carrier aside
-        cleared = clear_overlap(cid, body, item.pose, self._nearby_components(item))
+        partners = self.joints.get(guid, frozenset())
+        nearby = {other: g for other, g in self._nearby_components(item).items() if g not in partners}
+        cleared = clear_overlap(cid, body, item.pose, nearby)  # a joint partner is no overlap to clear
         item.pose = cleared.frame
         # a clash in the IFC only where both stand where the model puts them: a mullion a robot dropped
         # beside a panel's target, or a component set down 2 m off, is no fault of the model
@@ -242,8 +245,9 @@ class Placing:
         (x, y, z), quat = item.pose
         turn = np.asarray(p.getMatrixFromQuaternion(quat)).reshape(3, 3)
         bottom_z = z + float((box_corners(item.component) @ turn.T)[:, 2].min())
-        if not pits and self.ground_id >= 0 and bottom_z < 0.0:
-            # lowered onto the ground, not into it (a footing off its pit)
+        if not pits and self.ground_id >= 0 and bottom_z < 0.0 and not self._built_partners(guid):
+            # lowered onto the ground, not into it (a footing off its pit); not a column drawn into its
+            # built footing below the ground (a joint: the footing carries it)
             item.pose = ((x, y, z - bottom_z), quat)
             set_component_pose(cid, body, item.pose)
         if self.ground_id >= 0:
@@ -294,7 +298,9 @@ class Placing:
 
     def _connect(self, item: Item) -> tuple[str, ...]:
         """Connect ``item``, just let go, to the structure beside it when it lies at its target
-        (:mod:`.connections`): fixed where it is, static. The GUIDs it was connected to, or ()."""
+        (:mod:`.connections`): fixed where it is, static. The GUIDs it was connected to, or (): first the
+        built components it is jointed with (:mod:`.joints`: with no contact between the two, it would pass
+        into them), then those beside it."""
         config = self.connections
         if not config.enabled or not fits_its_target(item.component, item.pose, config.fit):
             return ()
@@ -304,12 +310,29 @@ class Placing:
         )
         if not structure:
             return ()
+        partners = self.joints.get(item.component.guid, frozenset())
+        jointed = self._built_partners(item.component.guid)
         cid, body = self.client_id, item.body
         near = self._nearby_components(item, margin_m=config.gap_m, among=structure)
-        found = side_neighbours(cid, body.body_id, near, config.gap_m)
+        beside = side_neighbours(cid, body.body_id, near, config.gap_m)
+        found = jointed + tuple(guid for guid in beside if guid not in partners)
         if found:
             self._fix(item)
         return found
+
+    def _built_partners(self, guid: str) -> tuple[str, ...]:
+        """The components ``guid`` is jointed with that are part of the structure (joined, or in place)."""
+        partners = self.joints.get(guid, frozenset())
+        if not partners:
+            return ()
+        in_place = set(self.in_place.values())
+        return tuple(
+            sorted(
+                other
+                for other in partners
+                if other in in_place or (other in self.items and self.items[other].phase is Phase.JOINED)
+            )
+        )
 
     def _fix(self, item: Item) -> None:
         """Static where it is: connected, or joined. It still passes through a former carrier it overlaps

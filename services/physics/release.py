@@ -30,13 +30,14 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bimbot.shared.joints import CLASH_DEPTH_M
 from bimbot.shared.manifest import Component
 
 from .client import p
 from .scene import ComponentBody, Frame, component_pose, set_component_pose
 
 PENETRATION_SLOP_M = 0.003  # overlaps shallower than this (collision margins) are the contact solver's
-MAX_CLEARED_M = 0.015  # a deeper overlap is no contact to stop at: released as it is
+MAX_CLEARED_M = CLASH_DEPTH_M  # a deeper overlap is no contact to stop at: released as it is (a clash)
 
 
 @dataclass(frozen=True)
