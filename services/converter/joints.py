@@ -120,7 +120,9 @@ def relations(model: ifcopenshell.file, components: Sequence[Component]) -> dict
             add(_relation(component.guid, link.other_guid, link.relation, link.role))
     for parent, children in parents.items():  # an assembly's parts share its relations (a curtain wall's)
         element = None if parent in guids else _by_guid(model, parent)
-        for link in element_connections(element) if element is not None else ():
+        if element is None:
+            continue
+        for link in element_connections(element):
             if link.relation in RELATIONS and link.relation != "IfcRelAggregates":
                 by_its = f"{link.relation} (by its {element.is_a()})"
                 for child in children:
@@ -208,9 +210,12 @@ class _ClassTree:
                 declaration = self._schema.declaration_by_name(ifc_class)
             except (RuntimeError, KeyError):
                 declaration = None
-            while declaration is not None:
-                names.add(declaration.name().lower())
-                declaration = declaration.supertype()
+            entity = None
+            if isinstance(declaration, ifcopenshell.ifcopenshell_wrapper.entity):
+                entity = declaration
+            while entity is not None:
+                names.add(entity.name().lower())
+                entity = entity.supertype()
             found = self._ancestors[ifc_class] = frozenset(names)
         return found
 
