@@ -33,7 +33,17 @@ from .client import p
 from .connections import fits_its_target, side_neighbours
 from .pits import DEEPER_M
 from .placement_error import physical_placement
-from .release import Watch, box_corners, clear_overlap, observe, supports_of, touching_robot
+from .release import (
+    MAX_CLEARED_M,
+    Watch,
+    box_corners,
+    clear_overlap,
+    deep_overlaps,
+    observe,
+    overlap_at_targets,
+    supports_of,
+    touching_robot,
+)
 from .scene import (
     ALL_GROUPS,
     DYNAMIC_GROUP,
@@ -209,12 +219,23 @@ class Placing:
         set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)  # see what it overlaps, the carrier aside
         partners = self.joints.get(guid, frozenset())
         nearby = {other: g for other, g in self._nearby_components(item).items() if g not in partners}
-        cleared = clear_overlap(cid, body, item.pose, nearby)  # a joint partner is no overlap to clear
+        # a joint partner is no overlap to clear; one the model itself puts it into is kept (a clash in
+        # the IFC); one a placement's error put it into is cleared: the robot stops at the contact
+        in_model = frozenset(
+            other
+            for other, _ in deep_overlaps(cid, body, item.pose, nearby)
+            if self._model_clash(item, other)
+        )
+        cleared = clear_overlap(cid, body, item.pose, nearby, max_cleared_m=AT_TARGET_M, kept=in_model)
         item.pose = cleared.frame
         # a clash in the IFC only where both stand where the model puts them: a mullion a robot dropped
         # beside a panel's target, or a component set down 2 m off, is no fault of the model
         clashes = (
-            tuple(clash for clash in cleared.clashes if self._at_its_target(self.items[clash[0]]))
+            tuple(
+                clash
+                for clash in cleared.clashes
+                if clash[0] in in_model and self._at_its_target(self.items[clash[0]])
+            )
             if self._at_its_target(item, released=True)
             else ()
         )
@@ -319,6 +340,19 @@ class Placing:
         if found:
             self._fix(item)
         return found
+
+    def _model_clash(self, item: Item, other_guid: str) -> bool:
+        """Whether the model itself puts ``item`` and ``other_guid`` into each other deeper than a contact
+        (at their BIM targets), rather than a placement a few millimetres off."""
+        other = self.items[other_guid]
+        depth_m = overlap_at_targets(
+            self.client_id,
+            item.body,
+            target_frame(item.component),
+            other.body,
+            target_frame(other.component),
+        )
+        return depth_m > MAX_CLEARED_M
 
     def _built_partners(self, guid: str) -> tuple[str, ...]:
         """The components ``guid`` is jointed with that are part of the structure (joined, or in place)."""
