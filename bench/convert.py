@@ -190,6 +190,15 @@ def overhead(case: Case, runs: int) -> None:
     print(f"{case.label} ({path.name}{', --only ' + ','.join(only) if only else ''}): {n} elements")
     stages = ", ".join(f"{name} {seconds * 1000:.0f} ms" for name, seconds in stats.seconds_by_stage.items())
     print(f"  stages of one conversion: {stages}")
+    whole_s = stats.seconds_by_stage.get("select", 0.0) + stats.seconds_by_stage.get("shards_wall", 0.0)
+    whole_s += stats.seconds_by_stage.get("joints", 0.0) + stats.seconds_by_stage.get(
+        "world_sequence_manifest", 0.0
+    )
+    joints_s = stats.seconds_by_stage.get("joints", 0.0)
+    print(
+        f"  joints and clashes: {joints_s * 1000:.0f} ms, "
+        f"{joints_s / max(whole_s, 1e-9):.2f} of the conversion"
+    )
     print(in_process.line("in process "))
     print(as_commands.line("as commands"))
     print(without_split.line("as commands, --no-split-ifc"))

@@ -101,6 +101,38 @@ class Connection(_Frozen):
     other_class: str
 
 
+class JointSource(StrEnum):
+    """Why an overlap the model draws is a joint."""
+
+    RELATION = "relation"  # the IFC relates the two components (``Joint.rule`` names the relationship)
+    RULE = "rule"  # the usual drawing of a joint: a member's end in what it bears on (``Joint.rule``)
+
+
+class Joint(_Frozen):
+    """Two components the model draws into each other where they are joined: not a clash.
+
+    Physics lets the pair overlap (no contact between them) and connects the one set second to the first;
+    the support graph orders the pair (``shared/support_graph.py``). ``guids`` is (part, member): the part
+    the other is drawn into (a filling's host, the part a rule's member bears on or frames into), or for a
+    relation without a direction the relating element first.
+    """
+
+    guids: tuple[str, str]
+    depth_m: float = Field(ge=0.0, description="how deep they overlap: the shortest move that parts them")
+    source: JointSource
+    rule: str = Field(
+        description="the IFC relationship, or the rule: 'IfcColumn into IfcFooting, up to 100 mm'"
+    )
+    directed: bool = Field(default=True, description="guids[0] is the part the other is set into")
+
+
+class Clash(_Frozen):
+    """Two components the model puts into each other deeper than a contact, with no joint between them."""
+
+    guids: tuple[str, str]
+    depth_m: float = Field(ge=0.0)
+
+
 class ComponentFiles(_Frozen):
     model_dir: str
     sdf_file: str
@@ -175,6 +207,9 @@ class Manifest(_Frozen):
     in_place: list[Component] = []
     # elements split into precast panels: each panel is a component with ``parent_guid`` set
     panelised: list[PanelisedElement] = []
+    # pairs of components (or in place) the model draws into each other: joints, and clashes (deepest first)
+    joints: list[Joint] = []
+    clashes: list[Clash] = []
     skipped: list[SkippedElement] = []
     warnings: list[str] = []
 

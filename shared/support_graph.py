@@ -5,8 +5,17 @@ Component ``B`` supports component ``A`` (B → A) when B's bottom is lower than
 * they are connected in the IFC model (IfcRelConnectsElements and its subtypes, in either direction), or
 * they touch under gravity: B's top is within ``tolerance_m`` of A's bottom and their footprints overlap;
 
-and, whatever the heights, a wall supports the window or door that fills one of its openings
-(IfcRelFillsElement: the filling is placed into the standing wall, never before it).
+whatever the heights, a wall supports the window or door that fills one of its openings (IfcRelFillsElement:
+the filling is placed into the standing wall, never before it); and the two components of a **joint** (the
+model draws them into each other where they are joined: ``Manifest.joints``) are ordered by one rule, the
+first that decides:
+
+1. the IFC's host first (the wall before what fills its opening; an element before the fastener that
+   realises its connection);
+2. else the lower part first (its bottom lower by more than ``tolerance_m``: a footing before the column
+   drawn into it);
+3. else the one that bears first (the part a rule's member bears on or frames into);
+4. else the larger first (bounding-box volume), then the smaller GlobalId.
 
 A component that would float (none of the above, and its bottom above the lowest bottom of the model) is
 held by what it touches at its side: every component whose bounding box meets its own (within
@@ -17,22 +26,31 @@ the centre of its footprint lies outside the rectangle around where it touches i
 hub's channel beam 692716 sits on one column at one end and is framed into the face of another at the other:
 with only the first as its support it was erected while the second was never built, and fell every time).
 
-Edges run from a strictly lower bottom to a higher one, or from a host to its filling (a host never
-depends on what fills it), so the graph has no cycle. Footprints and
-heights come from the manifest's world-frame bounding boxes. The graph gives the derived construction
-sequence (footings and lower, supporting elements first) and is the yardstick a given sequence is checked
-against.
+The graph never holds a cycle. Edges from heights run from a strictly lower bottom to a higher one; a
+host's or a joint's order overrides a height edge the other way (a door drawn lower than the wall above
+it, which rests on the door at its side, is still placed after that wall); and should a cycle remain (from
+joints and connections in both directions), its weakest edge (side contact, then contact, connection,
+joint, host) is dropped with a warning. A given predecessor map with a cycle is broken the same way by
+:func:`derive_sequence`. Footprints and heights come from the manifest's world-frame bounding boxes. The
+graph gives the derived construction sequence (footings and lower, supporting elements first) and is the
+yardstick a given sequence is checked against.
 """
 
 from __future__ import annotations
 
+import graphlib
+import itertools
+import logging
 from bisect import bisect_left, bisect_right
 from collections.abc import Mapping, Sequence
+from enum import IntEnum
 
 import numpy as np
 
-from .manifest import Component
+from .manifest import Component, Joint, JointSource
 from .sequence import ConstructionSequence, priority_topological_order, sequence_from_predecessors
+
+_log = logging.getLogger(__name__)
 
 CONTACT_TOLERANCE_M = 0.02
 HOSTING_RELATION = "IfcRelFillsElement"  # role "filling": the other element is the host
@@ -53,37 +71,113 @@ CLASS_RANK = {
 }
 
 
+class Edge(IntEnum):
+    """Why one component precedes another, weakest first: a cycle loses its weakest edge."""
+
+    SIDE = 1  # it would float or tip: held by what it touches at its side with a lower bottom
+    CONTACT = 2  # it rests on it from above
+    CONNECTION = 3  # connected in the IFC, the lower first
+    JOINT = 4  # drawn into each other where they are joined, in the joint's order
+    HOST = 5  # the wall before what fills its opening
+
+
 def support_predecessors(
-    components: Sequence[Component], tolerance_m: float = CONTACT_TOLERANCE_M
+    components: Sequence[Component], tolerance_m: float = CONTACT_TOLERANCE_M, joints: Sequence[Joint] = ()
 ) -> dict[str, set[str]]:
-    """GUID → GUIDs of the components it rests on or is connected to below it."""
+    """GUID → GUIDs of the components it rests on, is connected to below it, is set into or jointed after
+    (``joints``: the manifest's; those naming a component not in ``components`` are passed over)."""
     by_guid = {item.guid: item for item in components}
     preds: dict[str, set[str]] = {guid: set() for guid in by_guid}
+    kinds: dict[tuple[str, str], Edge] = {}  # (pred, component) → why
     bottoms = {guid: item.bbox_world.min_m[2] for guid, item in by_guid.items()}
 
     def lower(a: str, b: str) -> bool:  # b's bottom is strictly lower than a's
         return bottoms[b] < bottoms[a] - tolerance_m
 
+    def add(pred: str, guid: str, kind: Edge) -> None:
+        preds[guid].add(pred)
+        kinds[pred, guid] = max(kind, kinds.get((pred, guid), kind))
+
+    stated: list[tuple[str, str]] = []  # (first, second): orders a host or a joint states
     for item in components:
         for connection in item.connections:
             other = connection.other_guid
             if other in by_guid and connection.relation == HOSTING_RELATION:
-                if connection.role == "filling":
-                    preds[item.guid].add(other)
+                if connection.role == "filling" and other != item.guid:
+                    add(other, item.guid, Edge.HOST)
+                    stated.append((other, item.guid))
             elif other in by_guid and connection.relation in CONNECTION_RELATIONS:
                 if lower(item.guid, other):
-                    preds[item.guid].add(other)
+                    add(other, item.guid, Edge.CONNECTION)
                 elif lower(other, item.guid):
-                    preds[other].add(item.guid)
+                    add(item.guid, other, Edge.CONNECTION)
+    for joint in joints:
+        if joint.guids[0] in by_guid and joint.guids[1] in by_guid and joint.guids[0] != joint.guids[1]:
+            first, second = joint_order(joint, by_guid, tolerance_m)
+            add(first, second, Edge.JOINT)
+            stated.append((first, second))
     connected = {guid for guid, supports in preds.items() if supports}
-    resting = _add_contacts(components, preds, bottoms, tolerance_m)
+    resting = _add_contacts(components, preds, bottoms, tolerance_m, kinds)
     tipping = {
         item.guid
         for item in components
         if item.guid in resting and item.guid not in connected and not _balanced(item, resting[item.guid])
     }
-    _add_side_contacts(components, preds, bottoms, tolerance_m, tipping)
+    _add_side_contacts(components, preds, bottoms, tolerance_m, tipping, kinds=kinds)
+    for first, second in stated:  # the stated order wins over an edge of another kind the other way
+        if first in preds[second] and second in preds[first] and kinds[second, first] < kinds[first, second]:
+            preds[first].discard(second)
+            _log.debug("support graph: %s before %s (the host's or the joint's order)", first, second)
+    break_cycles(preds, kinds)
     return preds
+
+
+def joint_order(joint: Joint, by_guid: Mapping[str, Component], tolerance_m: float) -> tuple[str, str]:
+    """(first, second) of a joint's two components by the rule of the module docstring: the IFC's host,
+    else the lower, else the one that bears, else the larger, else the smaller GlobalId."""
+    a, b = joint.guids
+    if joint.source is JointSource.RELATION and joint.directed:
+        return a, b
+    bottom_a, bottom_b = by_guid[a].bbox_world.min_m[2], by_guid[b].bbox_world.min_m[2]
+    if abs(bottom_a - bottom_b) > tolerance_m:
+        return (a, b) if bottom_a < bottom_b else (b, a)
+    if joint.directed:
+        return a, b
+    size_a, size_b = _box_volume(by_guid[a]), _box_volume(by_guid[b])
+    if size_a != size_b:
+        return (a, b) if size_a > size_b else (b, a)
+    return (a, b) if a < b else (b, a)
+
+
+def _box_volume(item: Component) -> float:
+    low, high = item.bbox_world.min_m, item.bbox_world.max_m
+    return float((high[0] - low[0]) * (high[1] - low[1]) * (high[2] - low[2]))
+
+
+def break_cycles(preds: dict[str, set[str]], kinds: Mapping[tuple[str, str], Edge] | None = None) -> int:
+    """Drop, in place, the weakest edge of every cycle of ``preds`` (GUID → predecessors) until none is
+    left (``kinds``: why each edge is there; unknown edges are the weakest), each with a warning; the
+    number dropped. Deterministic: among equally weak edges of a cycle, the first in GUID order goes."""
+    kinds = kinds or {}
+    dropped = 0
+    while True:
+        sorter = graphlib.TopologicalSorter({guid: values & preds.keys() for guid, values in preds.items()})
+        try:
+            sorter.prepare()
+            return dropped
+        except graphlib.CycleError as error:
+            cycle: list[str] = error.args[1]  # each one a predecessor of the next; the last is the first
+        edges = list(itertools.pairwise(cycle))
+        pred, guid = min(edges, key=lambda edge: (kinds.get(edge, 0), edge))
+        preds[guid].discard(pred)
+        dropped += 1
+        _log.warning(
+            "support graph: %s would wait for itself (%s): it no longer waits for %s (%s, the weakest)",
+            guid,
+            " → ".join(cycle),
+            pred,
+            Edge(kinds[pred, guid]).name.lower() if (pred, guid) in kinds else "given",
+        )
 
 
 def _balanced(item: Component, rests: list[tuple[float, float, float, float]]) -> bool:
@@ -101,6 +195,8 @@ def _add_side_contacts(
     bottoms: dict[str, float],
     tolerance_m: float,
     tipping: set[str],
+    *,
+    kinds: dict[tuple[str, str], Edge],
 ) -> None:
     """Floating components, and those in ``tipping``, are held by what they touch with a lower bottom (see
     the module docstring)."""
@@ -117,11 +213,17 @@ def _add_side_contacts(
         touching = np.all((mins <= maxs[index]) & (maxs >= mins[index]), axis=1)
         lower = lows < lows[index] - tolerance_m
         for other in np.flatnonzero(touching & lower):
-            preds[item.guid].add(components[int(other)].guid)
+            guid = components[int(other)].guid
+            preds[item.guid].add(guid)
+            kinds.setdefault((guid, item.guid), Edge.SIDE)
 
 
 def _add_contacts(
-    components: Sequence[Component], preds: dict[str, set[str]], bottoms: dict[str, float], tolerance_m: float
+    components: Sequence[Component],
+    preds: dict[str, set[str]],
+    bottoms: dict[str, float],
+    tolerance_m: float,
+    kinds: dict[tuple[str, str], Edge],
 ) -> dict[str, list[tuple[float, float, float, float]]]:
     """Supports from below; GUID → where it rests on each (x0, y0, x1, y1 of the overlapping footprints)."""
     resting: dict[str, list[tuple[float, float, float, float]]] = {}
@@ -148,6 +250,7 @@ def _add_contacts(
             guid = components[int(other)].guid
             if bottoms[guid] < bottom - tolerance_m:
                 preds[item.guid].add(guid)
+                kinds.setdefault((guid, item.guid), Edge.CONTACT)
                 resting.setdefault(item.guid, []).append(
                     (
                         max(mins[other, 0], mins[index, 0]),
@@ -169,12 +272,18 @@ def derive_sequence(
     components: Sequence[Component],
     tolerance_m: float = CONTACT_TOLERANCE_M,
     support: Mapping[str, set[str]] | None = None,
+    joints: Sequence[Joint] = (),
 ) -> ConstructionSequence:
     """A construction sequence from the support graph (explicit predecessors = supports).
 
-    ``support`` is the graph when the caller has already computed it.
+    ``support`` is the graph when the caller has already computed it (a cycle in it is broken with a
+    warning, see :func:`break_cycles`; the caller's map is not changed).
     """
-    preds = support if support is not None else support_predecessors(components, tolerance_m)
+    if support is None:
+        preds = support_predecessors(components, tolerance_m, joints)
+    else:
+        preds = {guid: set(values) for guid, values in support.items()}
+        break_cycles(preds)
     by_guid = {item.guid: item for item in components}
     ordered = priority_topological_order(preds, lambda guid: erection_key(by_guid[guid]))
     names = {item.guid: f"Erect {item.name or item.ifc_class}" for item in components}

@@ -23,9 +23,12 @@ from __future__ import annotations
 import logging
 import shutil
 import time
-from collections.abc import Callable, Mapping
+import warnings
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TextIO
 
 import ifcopenshell
 import ifcopenshell.util.placement
@@ -36,11 +39,13 @@ from bimbot import __version__
 from bimbot.shared.identifiers import slugify
 from bimbot.shared.ifc_input import file_sha256
 from bimbot.shared.ifc_parse_damage import ParseDamage, damaged_elements, describe_unreadable
+from bimbot.shared.joints import JointSettings, default_joint_settings
 from bimbot.shared.manifest import Component, Manifest, SourceModel, write_manifest
 from bimbot.shared.sequence import SEQUENCE_FILE_NAME, write_sequence
 
 from .component_writer import ShardContext, skipped_entry
 from .in_place import split_in_place
+from .joints import find_joints
 from .mass import mass_unit_kg
 from .mesh_files import VISUAL_FORMATS
 from .method_seam import MethodDecision, MethodLimits, default_limits
@@ -71,6 +76,7 @@ class ConvertOptions:
     foundations_in_place: bool = False  # every component in the ground is in place too
     decisions: Mapping[str, MethodDecision] = field(default_factory=dict)  # methods by GlobalId, as given
     limits: MethodLimits = field(default_factory=default_limits)  # what a lift and a truck take (panels)
+    joints: JointSettings | None = None  # what an overlap must be to be a joint (None: the default rules)
 
 
 @dataclass
@@ -92,6 +98,45 @@ def convert_model(
 ) -> Manifest:
     """Convert ``model`` (read from ``source_path``) into ``out_dir``. ``damage``: what the parser could
     not read in the file (:func:`.ifc_input.read_model`); the elements it leaves incomplete are skipped."""
+    with numeric_warnings_logged():
+        return _convert(model, source_path, out_dir, options, progress=progress, stats=stats, damage=damage)
+
+
+@contextmanager
+def numeric_warnings_logged() -> Iterator[None]:
+    """numpy's and trimesh's RuntimeWarnings (a division by a zero volume in trimesh's oriented box of a
+    flat mesh) go to the log at DEBUG, not to the user's terminal; the workers forked meanwhile inherit
+    it. Other warnings are shown as before."""
+    with warnings.catch_warnings():
+        shown = warnings.showwarning
+
+        def show(  # noqa: PLR0917 (warnings.showwarning's signature)
+            message: Warning | str,
+            category: type[Warning],
+            filename: str,
+            lineno: int,
+            file: TextIO | None = None,
+            line: str | None = None,
+        ) -> None:
+            if issubclass(category, RuntimeWarning):
+                _log.debug("%s:%d: %s: %s", filename, lineno, category.__name__, message)
+            else:
+                shown(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = show
+        yield
+
+
+def _convert(
+    model: ifcopenshell.file,
+    source_path: Path,
+    out_dir: Path,
+    options: ConvertOptions | None,
+    *,
+    progress: ProgressCallback | None,
+    stats: ConversionStats | None,
+    damage: ParseDamage | None,
+) -> Manifest:
     out_dir = Path(out_dir)
     options = options or ConvertOptions()
     stats = stats if stats is not None else ConversionStats()
@@ -159,13 +204,17 @@ def convert_model(
     if bboxes and np.any(choose_local_origin(np.concatenate(bboxes), options.far_from_origin_m) != origin):
         warnings.append("geometry lies far from its placements: the local origin follows the placements")
 
+    joints_started = time.perf_counter()
+    found = find_joints(model, [*components, *in_place], out_dir, options.joints or default_joint_settings())
+    stats.seconds_by_stage["joints"] = time.perf_counter() - joints_started
+
     finishing = time.perf_counter()
     site_name = _site_name(model)
     site = slugify(site_name)
     world_path = out_dir / "worlds" / f"{site}.world"
     world_path.parent.mkdir(parents=True, exist_ok=True)
     world_path.write_bytes(world_sdf(site, specs, extent_m=_world_extent_m([*components, *in_place])))
-    sequence, sequence_warnings = construction_sequence(model, components)
+    sequence, sequence_warnings = construction_sequence(model, components, found.joints)
     warnings.extend(sequence_warnings)
     write_sequence(sequence, out_dir / SEQUENCE_FILE_NAME)
     manifest = Manifest(
@@ -185,6 +234,8 @@ def convert_model(
         components=components,
         in_place=in_place,
         panelised=panelised,
+        joints=found.joints,
+        clashes=found.clashes,
         skipped=sorted(skipped, key=lambda item: (item.ifc_class, item.guid)),
         warnings=warnings + [f"{_named(c)}: {w}" for c in [*components, *in_place] for w in c.warnings],
     )

@@ -10,16 +10,17 @@ from __future__ import annotations
 import ifcopenshell
 
 from bimbot.shared.ifc_schedule import schedule_from_ifc
-from bimbot.shared.manifest import Component
+from bimbot.shared.manifest import Component, Joint
 from bimbot.shared.sequence import ConstructionSequence, SequenceError, SequenceTask, check_sequence
 from bimbot.shared.support_graph import derive_sequence
 
 
 def construction_sequence(
-    model: ifcopenshell.file, components: list[Component]
+    model: ifcopenshell.file, components: list[Component], joints: list[Joint] | None = None
 ) -> tuple[ConstructionSequence, list[str]]:
-    """(sequence, warnings) for ``components``."""
-    derived = derive_sequence(components)
+    """(sequence, warnings) for ``components`` (``joints``: the pairs drawn into each other, which the
+    support graph orders)."""
+    derived = derive_sequence(components, joints=joints or ())
     try:
         schedule = schedule_from_ifc(model, [component.guid for component in components])
     except SequenceError as error:

@@ -13,7 +13,9 @@ The rule, checked at the moment a robot lets go (:meth:`.placing.Placing._releas
 * and a component that is part of the structure already (joined after its agent verified it, or in place
   from the start) lies within ``gap_m`` (0.1 m) of it **at its side**: where the two come closest, the
   normal lies within 60° of horizontal. Resting on top of something is what gravity does, not a
-  connection.
+  connection; or it is **jointed** with such a component (``Manifest.joints``, :mod:`.joints`: the model
+  draws the two into each other where they are joined, a column into its footing, a beam's end into a
+  column), on whatever side: a bolted base, a bolted or welded end, a bearing, a grouted pocket.
 
 Then it is fixed where it is (static, as a fixed constraint to the static structure would make it) and its
 robot holds it ``hold_s`` of sim time while the connection is made: the place request is answered after

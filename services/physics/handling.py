@@ -146,6 +146,7 @@ class Handling(Placing):
         settle: SettleConfig | None = None,
         connections: ConnectionConfig | None = None,
         in_place: Mapping[int, str] | None = None,
+        joints: Mapping[str, frozenset[str]] | None = None,
         seed: int = 0,
     ) -> None:
         self.client_id = client_id
@@ -164,6 +165,7 @@ class Handling(Placing):
         self.guid_of = {item.body.body_id: guid for guid, item in items.items()}
         self.connections = connections or ConnectionConfig()
         self.in_place = dict(in_place or {})  # body → GUID of the components in place from the start
+        self.joints = dict(joints or {})  # GUID → the GUIDs it is jointed with (.joints): never a clash
         self._seed = seed
         self._rngs: dict[str, np.random.Generator] = {}  # robot id → its hand's precision draws
         self._corners: dict[str, np.ndarray] = {}  # GUID → its bounding box's corners (component frame)

@@ -33,7 +33,17 @@ from .client import p
 from .connections import fits_its_target, side_neighbours
 from .pits import DEEPER_M
 from .placement_error import physical_placement
-from .release import Watch, box_corners, clear_overlap, observe, supports_of, touching_robot
+from .release import (
+    MAX_CLEARED_M,
+    Watch,
+    box_corners,
+    clear_overlap,
+    deep_overlaps,
+    observe,
+    overlap_at_targets,
+    supports_of,
+    touching_robot,
+)
 from .scene import (
     ALL_GROUPS,
     DYNAMIC_GROUP,
@@ -93,6 +103,7 @@ class Placing:
         settle: SettleConfig
         connections: ConnectionConfig
         in_place: dict[int, str]
+        joints: dict[str, frozenset[str]]
         watch: dict[str, Watch]
         guid_of: dict[int, str]
         _moving: set[str]
@@ -206,12 +217,25 @@ class Placing:
         item.pose = item.motion_to or item.pose
         set_component_pose(cid, body, item.pose)
         set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)  # see what it overlaps, the carrier aside
-        cleared = clear_overlap(cid, body, item.pose, self._nearby_components(item))
+        partners = self.joints.get(guid, frozenset())
+        nearby = {other: g for other, g in self._nearby_components(item).items() if g not in partners}
+        # a joint partner is no overlap to clear; one the model itself puts it into is kept (a clash in
+        # the IFC); one a placement's error put it into is cleared: the robot stops at the contact
+        in_model = frozenset(
+            other
+            for other, _ in deep_overlaps(cid, body, item.pose, nearby)
+            if self._model_clash(item, other)
+        )
+        cleared = clear_overlap(cid, body, item.pose, nearby, max_cleared_m=AT_TARGET_M, kept=in_model)
         item.pose = cleared.frame
         # a clash in the IFC only where both stand where the model puts them: a mullion a robot dropped
         # beside a panel's target, or a component set down 2 m off, is no fault of the model
         clashes = (
-            tuple(clash for clash in cleared.clashes if self._at_its_target(self.items[clash[0]]))
+            tuple(
+                clash
+                for clash in cleared.clashes
+                if clash[0] in in_model and self._at_its_target(self.items[clash[0]])
+            )
             if self._at_its_target(item, released=True)
             else ()
         )
@@ -242,8 +266,9 @@ class Placing:
         (x, y, z), quat = item.pose
         turn = np.asarray(p.getMatrixFromQuaternion(quat)).reshape(3, 3)
         bottom_z = z + float((box_corners(item.component) @ turn.T)[:, 2].min())
-        if not pits and self.ground_id >= 0 and bottom_z < 0.0:
-            # lowered onto the ground, not into it (a footing off its pit)
+        if not pits and self.ground_id >= 0 and bottom_z < 0.0 and not self._built_partners(guid):
+            # lowered onto the ground, not into it (a footing off its pit); not a column drawn into its
+            # built footing below the ground (a joint: the footing carries it)
             item.pose = ((x, y, z - bottom_z), quat)
             set_component_pose(cid, body, item.pose)
         if self.ground_id >= 0:
@@ -294,7 +319,9 @@ class Placing:
 
     def _connect(self, item: Item) -> tuple[str, ...]:
         """Connect ``item``, just let go, to the structure beside it when it lies at its target
-        (:mod:`.connections`): fixed where it is, static. The GUIDs it was connected to, or ()."""
+        (:mod:`.connections`): fixed where it is, static. The GUIDs it was connected to, or (): first the
+        built components it is jointed with (:mod:`.joints`: with no contact between the two, it would pass
+        into them), then those beside it."""
         config = self.connections
         if not config.enabled or not fits_its_target(item.component, item.pose, config.fit):
             return ()
@@ -304,12 +331,42 @@ class Placing:
         )
         if not structure:
             return ()
+        partners = self.joints.get(item.component.guid, frozenset())
+        jointed = self._built_partners(item.component.guid)
         cid, body = self.client_id, item.body
         near = self._nearby_components(item, margin_m=config.gap_m, among=structure)
-        found = side_neighbours(cid, body.body_id, near, config.gap_m)
+        beside = side_neighbours(cid, body.body_id, near, config.gap_m)
+        found = jointed + tuple(guid for guid in beside if guid not in partners)
         if found:
             self._fix(item)
         return found
+
+    def _model_clash(self, item: Item, other_guid: str) -> bool:
+        """Whether the model itself puts ``item`` and ``other_guid`` into each other deeper than a contact
+        (at their BIM targets), rather than a placement a few millimetres off."""
+        other = self.items[other_guid]
+        depth_m = overlap_at_targets(
+            self.client_id,
+            item.body,
+            target_frame(item.component),
+            other.body,
+            target_frame(other.component),
+        )
+        return depth_m > MAX_CLEARED_M
+
+    def _built_partners(self, guid: str) -> tuple[str, ...]:
+        """The components ``guid`` is jointed with that are part of the structure (joined, or in place)."""
+        partners = self.joints.get(guid, frozenset())
+        if not partners:
+            return ()
+        in_place = set(self.in_place.values())
+        return tuple(
+            sorted(
+                other
+                for other in partners
+                if other in in_place or (other in self.items and self.items[other].phase is Phase.JOINED)
+            )
+        )
 
     def _fix(self, item: Item) -> None:
         """Static where it is: connected, or joined. It still passes through a former carrier it overlaps

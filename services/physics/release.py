@@ -30,13 +30,14 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bimbot.shared.joints import CLASH_DEPTH_M
 from bimbot.shared.manifest import Component
 
 from .client import p
 from .scene import ComponentBody, Frame, component_pose, set_component_pose
 
 PENETRATION_SLOP_M = 0.003  # overlaps shallower than this (collision margins) are the contact solver's
-MAX_CLEARED_M = 0.015  # a deeper overlap is no contact to stop at: released as it is
+MAX_CLEARED_M = CLASH_DEPTH_M  # a deeper overlap is no contact to stop at: released as it is (a clash)
 
 
 @dataclass(frozen=True)
@@ -114,17 +115,29 @@ class Cleared:
 
 
 def clear_overlap(
-    client_id: int, body: ComponentBody, frame: Frame, others: Mapping[int, str], *, tries: int = 4
+    client_id: int,
+    body: ComponentBody,
+    frame: Frame,
+    others: Mapping[int, str],
+    *,
+    tries: int = 4,
+    max_cleared_m: float = MAX_CLEARED_M,
+    kept: frozenset[str] = frozenset(),
 ) -> Cleared:
     """``frame`` moved out of what the body would penetrate there (other components; the ground and pit
     floors are left to the contact solver): a robot setting a member down against its neighbour stops at
     the contact, it does not ram it in (Bullet would throw it out, centimetres, and call it unstable).
     Each try moves it out of the deepest overlap, along that contact's normal; overlaps of a few
-    millimetres (collision margins) are the solver's, and one deeper than ``MAX_CLEARED_M`` is a collision,
-    released as it is and reported with the frame."""
+    millimetres (collision margins) are the solver's, and one deeper than ``max_cleared_m``, or with one of
+    ``kept`` (GUIDs: the model itself puts it there), is a collision, released as it is and reported with
+    the frame (``Cleared.clashes``: every overlap left deeper than ``MAX_CLEARED_M``)."""
     for _ in range(tries):
         points = _penetrations(client_id, body, frame, others)
-        clearable = [point for point, _ in points if PENETRATION_SLOP_M < -point[8] <= MAX_CLEARED_M]
+        clearable = [
+            point
+            for point, guid in points
+            if guid not in kept and PENETRATION_SLOP_M < -point[8] <= max_cleared_m
+        ]
         if not clearable:
             return Cleared(frame, clashes_among(points))
         deepest = min(clearable, key=lambda point: point[8])
@@ -142,6 +155,30 @@ def clashes_among(points: list[tuple[tuple[Any, ...], str]]) -> tuple[tuple[str,
         if -point[8] > MAX_CLEARED_M:
             deepest[guid] = max(-point[8], deepest.get(guid, 0.0))
     return tuple(sorted(deepest.items(), key=lambda item: -item[1]))
+
+
+def deep_overlaps(
+    client_id: int, body: ComponentBody, frame: Frame, others: Mapping[int, str]
+) -> tuple[tuple[str, float], ...]:
+    """The ``others`` (body → GUID) that ``body`` at ``frame`` overlaps deeper than ``MAX_CLEARED_M``
+    (GUID, metres), deepest first."""
+    return clashes_among(_penetrations(client_id, body, frame, others))
+
+
+def overlap_at_targets(
+    client_id: int, a: ComponentBody, target_a: Frame, b: ComponentBody, target_b: Frame
+) -> float:
+    """How deep ``a`` and ``b`` overlap (m) when each stands at its BIM target: what the model itself draws,
+    whatever a placement's error adds. Both bodies are put back where they were."""
+    before_a, before_b = component_pose(client_id, a), component_pose(client_id, b)
+    try:
+        set_component_pose(client_id, a, target_a)
+        set_component_pose(client_id, b, target_b)
+        points = p.getClosestPoints(a.body_id, b.body_id, 0.0, physicsClientId=client_id) or ()
+        return max((-float(point[8]) for point in points), default=0.0)
+    finally:
+        set_component_pose(client_id, a, before_a)
+        set_component_pose(client_id, b, before_b)
 
 
 def _penetrations(

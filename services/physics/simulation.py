@@ -70,6 +70,7 @@ from .crane import HOIST, SLEW, TROLLEY, CraneJoints
 from .fleet_spawn import robot_pose_msg, robot_types, spawn_fleet, types_on_site
 from .handling import Handling, HandlingConfig, Item, Phase
 from .in_place_work import BUILT_IN_PLACE, InPlaceWork, hide
+from .joints import joint_partners, let_joints_overlap
 from .odometry import Odometry
 from .pits import Pits, collision_part_boxes
 from .positioning import TotalStation
@@ -245,6 +246,9 @@ class Simulation:
             body = create_component_body(cid, component, model, frame, visual=self.config.visuals)
             p.setCollisionFilterPair(self.ground_id, body.body_id, -1, -1, 0, physicsClientId=cid)
             self.in_place_bodies[component.guid] = body.body_id
+        partners = joint_partners(self.manifest.joints)
+        body_of = {guid: item.body.body_id for guid, item in items.items()} | self.in_place_bodies
+        joined = let_joints_overlap(cid, partners, body_of)
         build_dir = self.build_dir
         pits = Pits(
             cid,
@@ -262,6 +266,7 @@ class Simulation:
             settle=self.config.settle,
             connections=replace(self.config.connections, fit=self.config.tolerances),
             in_place={body: guid for guid, body in self.in_place_bodies.items()},
+            joints=partners,
             seed=self.config.seed,
         )
         self.in_place_work = InPlaceWork(cid, self.handling, self.build_dir, ground_id=self.ground_id)
@@ -287,9 +292,10 @@ class Simulation:
             1000.0 * tolerances.drift_m,
         )
         _log.info(
-            "scene: %d components in the yard, %d in place, robots %s, fence %s–%s",
+            "scene: %d components in the yard, %d in place, %d joint(s), robots %s, fence %s–%s",
             len(items),
             len(self.in_place_bodies),
+            joined,
             ", ".join(f"{robot_id} {robot.description.name}" for robot_id, robot in self.robots.items())
             or "none",
             self.layout.fence.min_xy,

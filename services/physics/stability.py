@@ -100,7 +100,7 @@ def check_stability(
 ) -> StabilityReport:
     """Replay ``order`` (GUIDs of ``manifest``) in physics; stop at the first step that does not stand."""
     names = {component.guid: component.name or component.ifc_class for component in manifest.components}
-    rests_on = support_predecessors(manifest.components)
+    rests_on = support_predecessors(manifest.components, joints=manifest.joints)
     placed: set[str] = set()
     config = SimConfig(
         robots=0,
@@ -118,6 +118,7 @@ def check_stability(
             sim.client_id,
             {guid: item.body for guid, item in in_order.items()},
             {guid: target_frame(item.component) for guid, item in in_order.items()},
+            handling.joints,
         )
         # the watch answers by then at the latest (a connected component once its connection is made)
         bound_s = handling.settle.max_settle_s + handling.connections.hold_s + control_period_s

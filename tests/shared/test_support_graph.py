@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import logging
+
+import pytest
+
 from bimbot.shared.manifest import (
     BoundingBox,
     CollisionMethod,
@@ -10,9 +14,12 @@ from bimbot.shared.manifest import (
     Connection,
     Inertia,
     InertiaSource,
+    Joint,
+    JointSource,
     MassSource,
     Pose,
 )
+from bimbot.shared.sequence import sequence_from_predecessors
 from bimbot.shared.support_graph import derive_sequence, support_predecessors, support_violations
 
 
@@ -45,8 +52,9 @@ def _component(guid: str, ifc_class: str, low: tuple, high: tuple, connections: 
         collision_method=CollisionMethod.CONVEX_HULL,
         collision_parts=1,
         files=files,
-        connections=[
-            Connection(relation=r, role="related", other_guid=o, other_class="") for r, o in connections
+        connections=[  # (relation, other) or (relation, other, role)
+            Connection(relation=r, role=(role or ["related"])[0], other_guid=o, other_class="")
+            for r, o, *role in connections
         ],
     )
 
@@ -152,3 +160,92 @@ def test_a_beam_resting_on_both_ends_gains_no_side_supports() -> None:
         _component("beam", "IfcBeam", (-0.05, -0.05, 3.0), (4.05, 0.05, 3.2)),
     ]
     assert support_predecessors(components)["beam"] == {"col_a", "col_b"}
+
+
+def _door_under_its_header_wall() -> list[Component]:
+    """The Janesville restaurant's storefront: a thin brick wall over a door (z 2.489–2.565 m) hosts the
+    door (IfcRelFillsElement), whose frame reaches from the floor (0.051 m) to the wall's top. The wall
+    rests on nothing from above: it would float, so it is held by what it touches at its side with a lower
+    bottom, the door, which is set into it."""
+    return [
+        _component("slab", "IfcSlab", (-1.0, -1.0, -0.2), (5.0, 1.0, 0.05)),
+        _component(
+            "door",
+            "IfcDoor",
+            (1.0, -0.1, 0.051),
+            (2.8, 0.1, 2.565),
+            (("IfcRelFillsElement", "header", "filling"),),
+        ),
+        _component(
+            "header",
+            "IfcWall",
+            (0.9, -0.1, 2.489),
+            (2.9, 0.1, 2.565),
+            (("IfcRelFillsElement", "door", "host"),),
+        ),
+    ]
+
+
+def test_a_wall_and_the_door_it_hosts_each_resting_on_the_other_make_no_cycle() -> None:
+    """Before, the wall rested on the door (at its side) and the door on its host, the wall: a precedence
+    cycle, and ``bimbot convert`` of the restaurant (and of a Revit office) ended in a traceback."""
+    components = _door_under_its_header_wall()
+    preds = support_predecessors(components)
+    assert preds["door"] == {"slab", "header"}  # the host first, whatever the heights
+    assert "door" not in preds["header"]
+    assert derive_sequence(components).guids() == ["slab", "header", "door"]
+
+
+def _joint(part: str, member: str, *, source: JointSource = JointSource.RULE, directed: bool = True) -> Joint:
+    return Joint(guids=(part, member), depth_m=0.05, source=source, rule="test", directed=directed)
+
+
+def test_joints_order_their_pair_the_lower_first_else_the_one_that_bears_else_the_larger() -> None:
+    components = [
+        _component("footing", "IfcFooting", (-0.5, -0.5, -0.5), (0.5, 0.5, 0.0)),
+        _component("column", "IfcColumn", (-0.15, -0.15, -0.05), (0.15, 0.15, 3.0)),  # 50 mm into the footing
+        _component("main", "IfcBeam", (0.0, -0.1, 3.0), (6.0, 0.1, 3.4)),
+        _component("secondary", "IfcBeam", (3.0, 0.05, 3.0), (3.1, 4.0, 3.4)),  # same bottom as the main
+        _component("wall_a", "IfcWall", (10.0, 0.0, 0.0), (14.0, 0.2, 3.0)),
+        _component("wall_b", "IfcWall", (13.8, 0.0, 0.0), (14.0, 2.0, 3.0)),  # smaller, same bottom
+    ]
+    joints = [
+        _joint("column", "footing"),  # as a rule could state it the wrong way round: the lower goes first
+        _joint("main", "secondary"),  # the secondary beam bears on the main one
+        _joint("wall_b", "wall_a", source=JointSource.RELATION, directed=False),  # no direction: the larger
+    ]
+    preds = support_predecessors(components, joints=joints)
+    assert "footing" in preds["column"] and "column" not in preds["footing"]
+    assert preds["secondary"] >= {"main"} and "secondary" not in preds["main"]
+    assert preds["wall_b"] == {"wall_a"} and preds["wall_a"] == set()
+
+
+def test_joints_and_connections_in_both_directions_make_no_cycle() -> None:
+    """Two beams at one level that the IFC connects both ways, and that two joints name each way round."""
+    components = [
+        _component(
+            "a", "IfcBeam", (0.0, 0.0, 3.0), (4.0, 0.2, 3.4), (("IfcRelConnectsElements", "b", "relating"),)
+        ),
+        _component(
+            "b", "IfcBeam", (3.9, 0.0, 3.0), (8.0, 0.2, 3.4), (("IfcRelConnectsElements", "a", "relating"),)
+        ),
+    ]
+    preds = support_predecessors(components, joints=[_joint("a", "b"), _joint("b", "a")])
+    assert len(derive_sequence(components, support=preds).guids()) == 2
+    assert preds["a"] & {"b"} == set() or preds["b"] & {"a"} == set()
+
+
+def test_a_cycle_in_a_given_support_map_is_broken_with_a_warning(caplog: pytest.LogCaptureFixture) -> None:
+    components = _portal()
+    support = {component.guid: set() for component in components}
+    support["col_a"] = {"beam"}
+    support["beam"] = {"col_a"}
+    with pytest.raises(ValueError, match="precedence cycle"):  # what derive_sequence used to raise
+        sequence_from_predecessors(
+            ["col_a", "beam"], {"col_a": {"beam"}, "beam": {"col_a"}}, source="derived"
+        )
+    with caplog.at_level(logging.WARNING, logger="bimbot.shared.support_graph"):
+        order = derive_sequence(components, support=support).guids()
+    assert sorted(order) == sorted(c.guid for c in components)
+    assert "would wait for itself" in caplog.text
+    assert support["beam"] == {"col_a"}  # the caller's map is left as it was

@@ -1,0 +1,225 @@
+"""Joints and clashes: every pair of components the model draws into each other, told apart.
+
+An overlap deeper than a contact (:mod:`.overlaps` measures them at the BIM targets) is a **joint** when
+
+* the IFC relates the two (:data:`RELATIONS`: connected, realising a connection, a filling in its host's
+  opening, an assembly and its part; the parts of an assembly that is no component share its relations,
+  such as a curtain wall's panels in the wall it fills or meets), or
+* a rule of the joint settings (:mod:`bimbot.shared.joints`) fits: one is the rule's member, the other its
+  part, the overlap is no deeper than the rule's ``max_depth_m`` and, for an ``at_end`` rule, lies at one
+  end or face of the member (within that depth of it, along an axis on which the member is longer than
+  twice that): a member's end in what it bears on, not two members crossing through each other.
+
+Any other overlap deeper than :data:`~bimbot.shared.joints.CLASH_DEPTH_M` is a **clash**: two parts that
+cannot both be where the model puts them. The manifest keeps both lists; physics lets a jointed pair overlap
+and connects them, and still reports a clash.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import ifcopenshell
+import ifcopenshell.ifcopenshell_wrapper
+import numpy as np
+
+from bimbot.shared.joints import CLASH_DEPTH_M, JointRule, JointSettings
+from bimbot.shared.manifest import Clash, Component, Joint, JointSource
+
+from .connections import element_connections
+from .overlaps import Overlap, measure_overlaps
+
+_log = logging.getLogger(__name__)
+
+END_TOLERANCE_M = 0.01  # an overlap this much past a rule's depth from the member's end still lies at it
+FILLS = "IfcRelFillsElement"
+RELATIONS = frozenset(
+    {
+        "IfcRelConnectsElements",
+        "IfcRelConnectsPathElements",
+        "IfcRelConnectsWithRealizingElements",
+        FILLS,
+        "IfcRelAggregates",
+    }
+)
+DIRECTED_ROLES = {"filling": False, "host": True, "realizing": False, "realized_by": True}
+
+
+@dataclass(frozen=True)
+class Relation:
+    """How the IFC relates two components: ``first`` is the part the other is set into when ``directed``."""
+
+    first: str
+    second: str
+    relation: str
+    directed: bool
+
+
+@dataclass(frozen=True)
+class JointsFound:
+    joints: list[Joint]
+    clashes: list[Clash]
+
+
+def find_joints(
+    model: ifcopenshell.file, components: Sequence[Component], out_dir: Path, settings: JointSettings
+) -> JointsFound:
+    """The joints and clashes among ``components`` (the built and those in place), whose collision parts
+    the converter wrote under ``out_dir``."""
+    overlaps = measure_overlaps(components, out_dir, settings.contact_m)
+    if not overlaps:
+        return JointsFound([], [])
+    by_guid = {component.guid: component for component in components}
+    related = relations(model, components)
+    classes = _ClassTree(model)
+    joints: list[Joint] = []
+    clashes: list[Clash] = []
+    for overlap in overlaps:
+        relation = related.get(frozenset((overlap.first, overlap.second)))
+        if relation is not None:
+            joints.append(
+                Joint(
+                    guids=(relation.first, relation.second),
+                    depth_m=round(overlap.depth_m, 4),
+                    source=JointSource.RELATION,
+                    rule=relation.relation,
+                    directed=relation.directed,
+                )
+            )
+            continue
+        joint = _by_rule(overlap, by_guid[overlap.first], by_guid[overlap.second], settings.rule, classes)
+        if joint is not None:
+            joints.append(joint)
+        elif overlap.depth_m > CLASH_DEPTH_M:
+            clashes.append(Clash(guids=(overlap.first, overlap.second), depth_m=round(overlap.depth_m, 4)))
+    clashes.sort(key=lambda clash: (-clash.depth_m, clash.guids))
+    return JointsFound(joints, clashes)
+
+
+def relations(model: ifcopenshell.file, components: Sequence[Component]) -> dict[frozenset[str], Relation]:
+    """Pairs of ``components`` the IFC relates (:data:`RELATIONS`), each pair once: a filling's host
+    relation wins over the others, since it says which is set into which."""
+    guids = {component.guid for component in components}
+    found: dict[frozenset[str], Relation] = {}
+
+    def add(relation: Relation) -> None:
+        key = frozenset((relation.first, relation.second))
+        if len(key) == 2 and key <= guids and (key not in found or relation.directed > found[key].directed):
+            found[key] = relation
+
+    parents: dict[str, list[str]] = {}
+    for component in components:
+        for link in component.connections:
+            if link.relation not in RELATIONS:
+                continue
+            if link.relation == "IfcRelAggregates" and link.role == "aggregate_child":
+                parents.setdefault(link.other_guid, []).append(component.guid)
+            add(_relation(component.guid, link.other_guid, link.relation, link.role))
+    for parent, children in parents.items():  # an assembly's parts share its relations (a curtain wall's)
+        element = None if parent in guids else _by_guid(model, parent)
+        if element is None:
+            continue
+        for link in element_connections(element):
+            if link.relation in RELATIONS and link.relation != "IfcRelAggregates":
+                by_its = f"{link.relation} (by its {element.is_a()})"
+                for child in children:
+                    relation = _relation(child, link.other_guid, link.relation, link.role)
+                    add(Relation(relation.first, relation.second, by_its, relation.directed))
+    return found
+
+
+def _relation(guid: str, other: str, relation: str, role: str) -> Relation:
+    """The relation seen from ``guid`` with its ``role``, the part first where the role says which."""
+    if role in DIRECTED_ROLES:
+        first_is_self = DIRECTED_ROLES[role]
+        return Relation(guid if first_is_self else other, other if first_is_self else guid, relation, True)
+    first_is_self = role in ("relating", "aggregate_parent")
+    return Relation(guid if first_is_self else other, other if first_is_self else guid, relation, False)
+
+
+def _by_guid(model: ifcopenshell.file, guid: str) -> ifcopenshell.entity_instance | None:
+    try:
+        return model.by_guid(guid)
+    except RuntimeError:
+        return None
+
+
+def _by_rule(
+    overlap: Overlap, a: Component, b: Component, rules: Iterable[JointRule], classes: _ClassTree
+) -> Joint | None:
+    """The joint the first fitting rule makes of ``overlap`` (either way round), or None."""
+    for rule in rules:
+        for member, part in ((a, b), (b, a)):
+            member_class = classes.matching(member.ifc_class, rule.member)
+            part_class = classes.matching(part.ifc_class, rule.part)
+            if member_class is None or part_class is None or overlap.depth_m > rule.max_depth_m:
+                continue
+            if rule.at_end and not at_an_end(member, overlap.region_m, rule.max_depth_m + END_TOLERANCE_M):
+                continue
+            # either may be the member of a rule that does not look for an end: no direction then
+            either_way = not rule.at_end and classes.matching(part.ifc_class, rule.member) is not None
+            either_way = either_way and classes.matching(member.ifc_class, rule.part) is not None
+            return Joint(
+                guids=(part.guid, member.guid),
+                depth_m=round(overlap.depth_m, 4),
+                source=JointSource.RULE,
+                rule=rule.describe(member_class, part_class),
+                directed=not either_way,
+            )
+    return None
+
+
+def at_an_end(member: Component, region_world_m: np.ndarray, band_m: float) -> bool:
+    """Whether the overlap (its vertices, world frame) lies within ``band_m`` of one end or face of
+    ``member``'s box, along an axis of its own frame on which it is longer than ``2 * band_m``."""
+    pose = member.target_pose_world
+    x, y, z, w = pose.quat_xyzw
+    turn = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+    local = (np.asarray(region_world_m, dtype=float) - np.asarray(pose.position_m)) @ turn
+    low, high = np.asarray(member.bbox_local.min_m), np.asarray(member.bbox_local.max_m)
+    for axis in range(3):
+        if high[axis] - low[axis] <= 2.0 * band_m:
+            continue
+        if local[:, axis].max() <= low[axis] + band_m or local[:, axis].min() >= high[axis] - band_m:
+            return True
+    return False
+
+
+class _ClassTree:
+    """Which of a rule's IFC classes a component's class is (itself or a subclass), by the model's schema."""
+
+    def __init__(self, model: ifcopenshell.file) -> None:
+        self._schema = ifcopenshell.ifcopenshell_wrapper.schema_by_name(model.schema_identifier)
+        self._ancestors: dict[str, frozenset[str]] = {}
+
+    def ancestors(self, ifc_class: str) -> frozenset[str]:
+        """``ifc_class`` and its supertypes, lower-case."""
+        found = self._ancestors.get(ifc_class)
+        if found is None:
+            names = {ifc_class.lower()}
+            try:
+                declaration = self._schema.declaration_by_name(ifc_class)
+            except (RuntimeError, KeyError):
+                declaration = None
+            entity = None
+            if isinstance(declaration, ifcopenshell.ifcopenshell_wrapper.entity):
+                entity = declaration
+            while entity is not None:
+                names.add(entity.name().lower())
+                entity = entity.supertype()
+            found = self._ancestors[ifc_class] = frozenset(names)
+        return found
+
+    def matching(self, ifc_class: str, candidates: Sequence[str]) -> str | None:
+        """The first of ``candidates`` that ``ifc_class`` is (with subclasses), or None."""
+        ancestors = self.ancestors(ifc_class)
+        return next((name for name in candidates if name.lower() in ancestors), None)

@@ -1,0 +1,219 @@
+"""Pairs of components the model draws into each other: how deep and where, measured on their collision parts.
+
+Why: real models draw joints as overlaps (a column 50 mm into its footing, a beam's end in a wall, a window
+in its wall), and physics, which pushes overlapping parts apart, must know them before a robot sets one
+down. The measure is the one physics makes: each convex collision part becomes a Bullet hull at the
+component's BIM pose (pybullet DIRECT, inset by Bullet's 1 mm hull margin as physics insets them, so the
+margin puts the surface back on the geometry), and the depth of a pair is the deepest penetration
+``getClosestPoints`` reports between any of their parts (GJK/EPA: the shortest move that separates them).
+Where the overlap lies is the intersection of the penetrating parts (manifold3d, exact for convex parts):
+its vertices tell a member's end in its support from two members crossing through each other.
+
+Cost: a broad phase on the components' world bounding boxes first (sorted along x; only boxes that overlap
+by more than ``contact_m`` on every axis can hold a penetration that deep), then on the parts' boxes; only
+the components of a candidate pair are read and built. Pure apart from reading the collision OBJs the
+converter wrote and a private pybullet client.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import manifold3d
+import numpy as np
+
+from bimbot.shared.manifest import Component
+
+from .vhacd import _pybullet
+
+_log = logging.getLogger(__name__)
+
+HULL_MARGIN_M = 0.001  # Bullet's collision margin outside a convex hull (physics insets its parts by it)
+BROAD_MARGIN_M = 0.002  # collision parts may reach a little past the mesh's box (hulls of open meshes)
+
+
+@dataclass(frozen=True, eq=False)
+class Overlap:
+    """Two components (``first < second`` by GUID) whose parts penetrate ``depth_m`` deep at their targets."""
+
+    first: str
+    second: str
+    depth_m: float
+    # the penetrating pairs of convex parts (vertices, world frame): where the overlap lies
+    part_pairs: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+
+    @cached_property
+    def region_m(self) -> np.ndarray:
+        """The vertices ``(n, 3)`` (world frame) of where the two overlap: the intersection of each
+        penetrating pair of parts (manifold3d; computed when asked, as only a rule's test needs it)."""
+        return np.concatenate([_intersection(a, b) for a, b in self.part_pairs])
+
+
+def candidate_pairs(components: Sequence[Component], contact_m: float) -> list[tuple[int, int]]:
+    """Index pairs ``(i, j)``, ``i < j``, whose world boxes overlap by more than ``contact_m`` on every axis
+    (sweep along x: each box meets only those starting before it ends)."""
+    if len(components) < 2:
+        return []
+    low = np.array([c.bbox_world.min_m for c in components], dtype=float) - BROAD_MARGIN_M
+    high = np.array([c.bbox_world.max_m for c in components], dtype=float) + BROAD_MARGIN_M
+    order = np.argsort(low[:, 0], kind="stable")
+    starts = low[order, 0]
+    pairs: list[tuple[int, int]] = []
+    for rank, index in enumerate(order):
+        end = int(np.searchsorted(starts, high[index, 0] - contact_m, side="left"))
+        others = order[rank + 1 : end]
+        if len(others) == 0:
+            continue
+        overlap = np.minimum(high[others], high[index]) - np.maximum(low[others], low[index])
+        for other in others[np.all(overlap > contact_m, axis=1)]:
+            pairs.append((min(int(index), int(other)), max(int(index), int(other))))
+    return sorted(pairs)
+
+
+def measure_overlaps(components: Sequence[Component], out_dir: Path, contact_m: float) -> list[Overlap]:
+    """Every pair of ``components`` (their collision OBJs under ``out_dir``) that penetrates deeper than
+    ``contact_m`` at their BIM targets, by GUID pair."""
+    pairs = candidate_pairs(components, contact_m)
+    if not pairs:
+        return []
+    found: list[Overlap] = []
+    with _bullet() as (p, cid):
+        parts = {
+            index: _parts(p, cid, components[index], out_dir)
+            for index in sorted({index for pair in pairs for index in pair})
+        }
+        for i, j in pairs:
+            overlap = _pair_overlap(p, cid, parts[i], parts[j], contact_m)
+            if overlap is not None:
+                depth_m, part_pairs = overlap
+                first, second = sorted((components[i].guid, components[j].guid))
+                found.append(Overlap(first, second, depth_m, part_pairs))
+    _log.debug(
+        "%d candidate pair(s) by their boxes, %d overlap deeper than a contact",
+        len(pairs),
+        len(found),
+    )
+    return sorted(found, key=lambda item: (item.first, item.second))
+
+
+@dataclass(frozen=True, eq=False)
+class _Part:
+    shape: int  # its Bullet collision shape (inset by the hull margin), in the component frame
+    position_m: tuple[float, float, float]  # the component's target pose
+    quat_xyzw: tuple[float, float, float, float]
+    vertices_world_m: np.ndarray  # (n, 3), the part's own vertices at the component's target
+    low_m: np.ndarray  # its box in the world
+    high_m: np.ndarray
+
+
+def _pair_overlap(
+    p: Any, cid: int, parts_a: list[_Part], parts_b: list[_Part], contact_m: float
+) -> tuple[float, tuple[tuple[np.ndarray, np.ndarray], ...]] | None:
+    """(depth, penetrating part pairs) of two components, or None when they only touch."""
+    deepest = 0.0
+    penetrating: list[tuple[np.ndarray, np.ndarray]] = []
+    for a in parts_a:
+        for b in parts_b:
+            if np.any(np.minimum(a.high_m, b.high_m) - np.maximum(a.low_m, b.low_m) <= contact_m):
+                continue
+            points = p.getClosestPoints(
+                -1,
+                -1,
+                0.0,
+                collisionShapeA=a.shape,
+                collisionShapeB=b.shape,
+                collisionShapePositionA=a.position_m,
+                collisionShapePositionB=b.position_m,
+                collisionShapeOrientationA=a.quat_xyzw,
+                collisionShapeOrientationB=b.quat_xyzw,
+                physicsClientId=cid,
+            )
+            depth_m = max((-float(point[8]) for point in points or ()), default=0.0)
+            if depth_m > contact_m:
+                deepest = max(deepest, depth_m)
+                penetrating.append((a.vertices_world_m, b.vertices_world_m))
+    if deepest <= contact_m:
+        return None
+    return deepest, tuple(penetrating)
+
+
+def _intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The vertices of the intersection of two convex parts (their hulls); where their boxes overlap when
+    manifold3d finds no volume (a sliver)."""
+    solid = manifold3d.Manifold.hull_points(a) ^ manifold3d.Manifold.hull_points(b)
+    if not solid.is_empty():
+        vertices = np.asarray(solid.to_mesh().vert_properties, dtype=float)[:, :3]
+        if len(vertices):
+            return vertices
+    low, high = np.maximum(a.min(axis=0), b.min(axis=0)), np.minimum(a.max(axis=0), b.max(axis=0))
+    return np.array([low, high])
+
+
+def _parts(p: Any, cid: int, component: Component, out_dir: Path) -> list[_Part]:
+    """The convex collision parts of ``component`` as Bullet shapes, at its BIM target."""
+    pose = component.target_pose_world
+    position = (float(pose.position_m[0]), float(pose.position_m[1]), float(pose.position_m[2]))
+    quat = tuple(float(q) for q in pose.quat_xyzw)
+    turn = _rotation_matrix(pose.quat_xyzw)
+    parts: list[_Part] = []
+    for name in component.files.collision:
+        try:
+            vertices = _obj_vertices(out_dir / name)
+        except (OSError, ValueError) as error:
+            _log.debug("%s: collision part %s not read (%s)", component.guid, name, error)
+            continue
+        shape = p.createCollisionShape(
+            p.GEOM_MESH, vertices=inset_by_margin(vertices).tolist(), physicsClientId=cid
+        )
+        if shape < 0:
+            continue
+        world = vertices @ turn.T + np.asarray(position)
+        parts.append(_Part(shape, position, quat, world, world.min(axis=0), world.max(axis=0)))  # type: ignore[arg-type]
+    return parts
+
+
+def _rotation_matrix(quat_xyzw: tuple[float, float, float, float]) -> np.ndarray:
+    x, y, z, w = quat_xyzw
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def inset_by_margin(vertices: np.ndarray, margin_m: float = HULL_MARGIN_M) -> np.ndarray:
+    """A part's vertices scaled about its box's centre so each face comes in by ``margin_m`` (Bullet adds
+    it back outside the hull); an axis thinner than four margins is left as it is (physics does the same)."""
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    extent, centre = high - low, (high + low) / 2.0
+    scale = np.where(extent > 4.0 * margin_m, (extent - 2.0 * margin_m) / np.maximum(extent, 1e-12), 1.0)
+    return (vertices - centre) * scale + centre
+
+
+def _obj_vertices(path: Path) -> np.ndarray:
+    lines = path.read_text(encoding="utf-8").splitlines()
+    rows = [line.split()[1:4] for line in lines if line.startswith("v ")]
+    if not rows:
+        raise ValueError("no vertices")
+    return np.asarray(rows, dtype=float)
+
+
+@contextmanager
+def _bullet() -> Iterator[tuple[Any, int]]:
+    """A private DIRECT pybullet client (no gravity, nothing stepped), disconnected afterwards."""
+    p = _pybullet()
+    cid = p.connect(p.DIRECT)
+    if cid < 0:
+        raise RuntimeError("could not connect a pybullet physics server")
+    try:
+        yield p, cid
+    finally:
+        p.disconnect(physicsClientId=cid)

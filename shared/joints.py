@@ -1,0 +1,93 @@
+"""Joint rules: when an overlap the model draws between two components is a joint, not a clash.
+
+Real models draw joints as overlaps: a column into its footing and its base plate, a beam's end into a
+column's face or a wall, channels lapped, a window into its wall. The converter lists every pair that
+overlaps deeper than a contact (``contact_m``) as a joint when the IFC relates the two or a rule here fits
+(:mod:`bimbot.services.converter.joints`), and as a clash otherwise when it is deeper than
+:data:`CLASH_DEPTH_M`. The rules live in a small TOML file (``joint_rules.toml`` beside this module is the
+default and says why each depth; ``bimbot convert --joints FILE`` reads another), loaded into the frozen
+models below; a bad file is one clear line (:class:`~bimbot.shared.errors.InputError`).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Annotated
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator
+
+from bimbot.shared.errors import InputError
+
+DEFAULT_JOINT_RULES_FILE = Path(__file__).resolve().parent / "joint_rules.toml"
+
+CLASH_DEPTH_M = 0.015
+"""An overlap deeper than this that is no joint is a clash: physics cannot take it for a contact to stop at
+(a robot setting a member against its neighbour stops there; shallower overlaps are cleared at release)."""
+
+
+def _as_tuple(value: object) -> object:
+    return (value,) if isinstance(value, str) else value
+
+
+ClassNames = Annotated[tuple[str, ...], BeforeValidator(_as_tuple), Field(min_length=1)]
+
+
+class JointRule(BaseModel):
+    """A ``member``'s end drawn inside a ``part`` it bears on or frames into, at most ``max_depth_m`` deep."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    member: ClassNames  # IFC classes (with subclasses)
+    part: ClassNames
+    max_depth_m: float = Field(gt=0.0, le=2.0)
+    # the overlap must lie within max_depth_m of one end or face of the member (not through its middle)
+    at_end: bool = True
+    why: str = ""
+
+    @field_validator("member", "part")
+    @classmethod
+    def _ifc_classes(cls, names: tuple[str, ...]) -> tuple[str, ...]:
+        for name in names:
+            if not (name.startswith("Ifc") and name[3:].isalnum()):
+                raise ValueError(f"{name!r} is not an IFC class name (IfcColumn, IfcWall, …)")
+        return names
+
+    def describe(self, member: str, part: str) -> str:
+        """``"IfcColumn into IfcFooting, up to 100 mm"``: the rule as the manifest and the log name it."""
+        return f"{member} into {part}, up to {1000.0 * self.max_depth_m:.0f} mm"
+
+
+class JointSettings(BaseModel):
+    """What the converter takes for a joint (see ``joint_rules.toml``)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    contact_m: float = Field(default=0.003, ge=0.0, lt=CLASH_DEPTH_M)
+    rule: tuple[JointRule, ...] = ()
+    source: str = ""  # the file it was read from
+
+
+def load_joint_settings(path: Path | str | None = None) -> JointSettings:
+    """The joint rules in ``path`` (TOML), or the embedded default; one clear line when the file is wrong."""
+    file = Path(path) if path is not None else DEFAULT_JOINT_RULES_FILE
+    try:
+        data = tomllib.loads(file.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"joint rules {file}: no such file") from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputError(f"joint rules {file}: {error}") from None
+    except tomllib.TOMLDecodeError as error:
+        raise InputError(f"joint rules {file}: not valid TOML: {error}") from None
+    try:
+        return JointSettings.model_validate({**data, "source": str(file)})
+    except ValidationError as error:
+        first = error.errors()[0]
+        where = ".".join(str(part) for part in first["loc"])
+        message = str(first["msg"]).removeprefix("Value error, ")
+        more = f" (and {error.error_count() - 1} more)" if error.error_count() > 1 else ""
+        raise InputError(f"joint rules {file}: {where}: {message}{more}") from None
+
+
+def default_joint_settings() -> JointSettings:
+    return load_joint_settings(None)

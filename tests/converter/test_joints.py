@@ -1,0 +1,188 @@
+"""Joints and clashes at conversion (services/converter/joints.py, overlaps.py) on tiny generated models.
+
+A column drawn 50 mm into its footing is a joint by rule; a window whose frame reaches into the jambs of
+the opening it fills is a joint by relation (IfcRelFillsElement); a beam's end framed into another's side
+is a joint by rule, but two beams crossing through each other mid-span are a clash. The joint rules file
+is the user's to change (``--joints``), and a bad one is one line.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import ifcopenshell.api.feature
+import ifcopenshell.api.geometry
+import ifcopenshell.api.root
+import numpy as np
+import pytest
+from ifc_builders import SmallModel, add_beam, add_opening, add_wall, new_model, place, translation
+
+from bimbot.services.converter.convert import ConvertOptions, convert_model
+from bimbot.shared.errors import InputError
+from bimbot.shared.ifc_input import open_model
+from bimbot.shared.joints import load_joint_settings
+from bimbot.shared.manifest import JointSource, Manifest
+from bimbot.shared.support_graph import support_predecessors
+
+
+def _convert(small: SmallModel, tmp_path: Path, options: ConvertOptions | None = None) -> Manifest:
+    source = tmp_path / "model.ifc"
+    small.file.write(str(source))
+    return convert_model(
+        open_model(source), source, tmp_path / "build", options or ConvertOptions(formats=())
+    )
+
+
+def _guids(manifest: Manifest) -> dict[str, str]:
+    return {component.name or "": component.guid for component in [*manifest.components, *manifest.in_place]}
+
+
+def _column_in_footing(drawn_into_m: float = 0.05) -> SmallModel:
+    small = new_model()
+    add_beam(
+        small,
+        "Footing",
+        length_m=0.5,
+        width_m=1.0,
+        depth_m=1.0,
+        matrix_m=translation(z_m=-0.5),
+        schema_class="IfcFooting",
+    )
+    add_beam(
+        small,
+        "Column",
+        length_m=3.0,
+        width_m=0.3,
+        depth_m=0.3,
+        matrix_m=translation(z_m=-drawn_into_m),
+        schema_class="IfcColumn",
+    )
+    return small
+
+
+def test_a_column_drawn_50_mm_into_its_footing_is_a_joint_by_rule(tmp_path: Path) -> None:
+    manifest = _convert(_column_in_footing(), tmp_path)
+    guid = _guids(manifest)
+    assert manifest.clashes == []
+    [joint] = manifest.joints
+    assert joint.guids == (guid["Footing"], guid["Column"])  # the part first, the member set into it
+    assert joint.source is JointSource.RULE
+    assert joint.rule == "IfcColumn into IfcFooting, up to 100 mm"
+    assert joint.depth_m == pytest.approx(0.05, abs=0.002)
+    assert support_predecessors(manifest.components, joints=manifest.joints)[guid["Column"]] == {
+        guid["Footing"]
+    }
+
+
+def test_joint_rules_come_from_the_settings_file(tmp_path: Path) -> None:
+    """With a rules file that takes columns only 30 mm into a footing, the same 50 mm is a clash."""
+    rules = tmp_path / "joints.toml"
+    rules.write_text('[[rule]]\nmember = "IfcColumn"\npart = "IfcFooting"\nmax_depth_m = 0.03\n')
+    options = ConvertOptions(formats=(), joints=load_joint_settings(rules))
+    manifest = _convert(_column_in_footing(), tmp_path, options)
+    assert manifest.joints == []
+    [clash] = manifest.clashes
+    assert set(clash.guids) == set(_guids(manifest).values())
+    assert clash.depth_m == pytest.approx(0.05, abs=0.002)
+
+
+def test_a_window_reaching_into_the_jambs_of_its_opening_is_a_joint_by_relation(tmp_path: Path) -> None:
+    small = new_model()
+    wall = add_wall(small, "Wall", length_m=4.0, height_m=3.0, thickness_m=0.2)
+    opening = add_opening(
+        small, wall, width_m=1.0, height_m=1.0, depth_m=0.6, matrix_m=translation(1.5, -0.2, 1.0)
+    )
+    window = ifcopenshell.api.root.create_entity(small.file, ifc_class="IfcWindow", name="Window")
+    body = ifcopenshell.api.geometry.add_wall_representation(
+        small.file, context=small.body, length=1.1, height=1.1, thickness=0.06
+    )
+    ifcopenshell.api.geometry.assign_representation(small.file, product=window, representation=body)
+    place(small, window, translation(1.45, 0.07, 0.95), small.storey)  # 50 mm into every side of the opening
+    ifcopenshell.api.feature.add_filling(small.file, opening=opening, element=window)
+    manifest = _convert(
+        small, tmp_path, ConvertOptions(formats=(), joints=load_joint_settings(_no_rules(tmp_path)))
+    )
+    guid = _guids(manifest)
+    [joint] = manifest.joints
+    assert joint.guids == (guid["Wall"], guid["Window"])  # the host first
+    assert (joint.source, joint.rule) == (JointSource.RELATION, "IfcRelFillsElement")
+    assert joint.depth_m == pytest.approx(0.05, abs=0.005)
+    assert manifest.clashes == []
+
+
+def _no_rules(tmp_path: Path) -> Path:
+    """A rules file without a rule: only what the IFC relates is a joint."""
+    path = tmp_path / "no_rules.toml"
+    path.write_text("contact_m = 0.003\n")
+    return path
+
+
+def _along(axis_xy: tuple[float, float], origin_m: tuple[float, float, float]) -> np.ndarray:
+    """A placement whose local Z (a member's length) runs horizontally along ``axis_xy``."""
+    z_axis = np.array([*axis_xy, 0.0])
+    x_axis = np.array([0.0, 0.0, 1.0])
+    matrix = np.eye(4)
+    matrix[:3, 0], matrix[:3, 1], matrix[:3, 2] = x_axis, np.cross(z_axis, x_axis), z_axis
+    matrix[:3, 3] = origin_m
+    return matrix
+
+
+def test_beams_crossing_mid_span_clash_where_one_framed_into_the_other_is_a_joint(tmp_path: Path) -> None:
+    """Three beams 100 mm wide and 120 mm deep at one level: a cross beam through the main one's middle
+    (120 mm deep, within the beam rule's 150 mm but at an end of neither) and a short beam whose end
+    reaches 50 mm into its side (a framed end)."""
+    small = new_model()
+    add_beam(
+        small, "Main", length_m=5.0, width_m=0.12, depth_m=0.1, matrix_m=_along((1.0, 0.0), (0.0, 0.0, 3.0))
+    )
+    add_beam(
+        small, "Cross", length_m=4.0, width_m=0.12, depth_m=0.1, matrix_m=_along((0.0, 1.0), (1.0, -2.0, 3.0))
+    )
+    add_beam(
+        small, "Framed", length_m=2.0, width_m=0.12, depth_m=0.1, matrix_m=_along((0.0, 1.0), (4.0, 0.0, 3.0))
+    )
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    [clash] = manifest.clashes
+    assert set(clash.guids) == {guid["Main"], guid["Cross"]}
+    assert clash.depth_m == pytest.approx(0.12, abs=0.005)  # lifted by its depth, it would be clear
+    [joint] = manifest.joints
+    assert joint.guids == (guid["Main"], guid["Framed"])
+    assert joint.rule == "IfcBeam into IfcBeam, up to 150 mm"
+    assert joint.depth_m == pytest.approx(0.05, abs=0.005)
+
+
+def test_a_bad_rules_file_is_one_line(tmp_path: Path) -> None:
+    rules = tmp_path / "joints.toml"
+    rules.write_text('[[rule]]\nmember = "Column"\npart = "IfcFooting"\nmax_depth_m = 0.1\n')
+    with pytest.raises(InputError, match=r"joint rules .*joints.toml: rule\.0\.member.*not an IFC class"):
+        load_joint_settings(rules)
+    rules.write_text("[[rule]\n")
+    with pytest.raises(InputError, match="not valid TOML"):
+        load_joint_settings(rules)
+    small = _column_in_footing()
+    source = tmp_path / "model.ifc"
+    small.file.write(str(source))
+    rules.write_text('[[rule]]\nmember = "IfcColumn"\npart = "IfcFooting"\nmax_depth_m = -1\n')
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-P",
+            "-m",
+            "bimbot.cli",
+            "convert",
+            str(source),
+            "-o",
+            str(tmp_path / "out"),
+            "--joints",
+            str(rules),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 2
+    assert done.stderr.strip().count("\n") == 0, done.stderr
+    assert "max_depth_m" in done.stderr
