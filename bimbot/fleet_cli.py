@@ -24,12 +24,13 @@ import json
 import logging
 import sys
 from collections import Counter
+from collections.abc import Sequence
 from pathlib import Path
 
 from bimbot.services.planner.capability import robots_on_plan
 from bimbot.services.planner.feasibility import Feasibility, feasibility_table
 from bimbot.shared.fleet import DEFAULT_FLEET_FILE, Fleet, check_urdfs, load_fleet
-from bimbot.shared.manifest import Component
+from bimbot.shared.manifest import Component, Joint, Manifest
 from bimbot.shared.option_types import positive_int
 from bimbot.shared.service_runner import resolve_build
 from bimbot.shared.site_layout import plan_site
@@ -51,9 +52,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="check: one JSON object per component")
 
 
-def check(build: Path, fleet: Fleet) -> list[tuple[Component, Feasibility]]:
-    """The feasibility table of ``build`` for ``fleet``, on the site plan physics would make."""
-    components = list(resolve_build(build).manifest.components)
+def check(manifest: Manifest, fleet: Fleet) -> list[tuple[Component, Feasibility]]:
+    """The feasibility table of a build for ``fleet``, on the site plan physics would make."""
+    components = list(manifest.components)
     descriptions = fleet.robot_types()
     layout = plan_site(components, fleet=descriptions)
     robots = robots_on_plan(list(fleet.type_of()), descriptions, layout)
@@ -73,7 +74,8 @@ def run(args: argparse.Namespace) -> int:
 
         raise UserError("bimbot fleet check: give the converted build folder (OUT/)")
     check_urdfs(fleet)  # as physics would: a missing model is one line here too
-    rows = check(args.build, fleet)
+    manifest = resolve_build(args.build).manifest
+    rows = check(manifest, fleet)
     code = 0 if all(row.reason is None for _, row in rows) else 1  # 1: some component has no route
     if args.json:
         for component, row in rows:
@@ -89,11 +91,11 @@ def run(args: argparse.Namespace) -> int:
             }
             sys.stdout.write(json.dumps(record) + "\n")
         return code
-    _print_table(rows, fleet)
+    _print_table(rows, fleet, manifest.joints)
     return code
 
 
-def _print_table(rows: list[tuple[Component, Feasibility]], fleet: Fleet) -> None:
+def _print_table(rows: list[tuple[Component, Feasibility]], fleet: Fleet, joints: Sequence[Joint]) -> None:
     from rich.console import Console
     from rich.table import Table
 
@@ -117,7 +119,7 @@ def _print_table(rows: list[tuple[Component, Feasibility]], fleet: Fleet) -> Non
     buildable = sum(1 for _, row in rows if row.reason is None)
     summary = ", ".join(f"{count} {code}" for code, count in failed.items()) or "none"
     blocked = resting_on_unbuildable(
-        [component for component, _ in rows], {r.guid for _, r in rows if r.reason}
+        [component for component, _ in rows], {r.guid for _, r in rows if r.reason}, joints
     )
     console.print(f"buildable: {buildable} of {len(rows)}; cannot: {summary}")
     if blocked:
@@ -131,11 +133,14 @@ def _print_table(rows: list[tuple[Component, Feasibility]], fleet: Fleet) -> Non
         )
 
 
-def resting_on_unbuildable(components: list[Component], unbuildable: set[str]) -> set[str]:
-    """The GUIDs, not in ``unbuildable``, that rest on one of them in the support graph, transitively: what
-    a run blocks (the planner's ``blocked_by``) when the model's own sequence is not given."""
+def resting_on_unbuildable(
+    components: list[Component], unbuildable: set[str], joints: Sequence[Joint] = ()
+) -> set[str]:
+    """The GUIDs, not in ``unbuildable``, that rest on one of them in the support graph (the model's joints
+    ordered as the converter orders them), transitively: what a run blocks (the planner's ``blocked_by``)
+    when the model's own sequence is not given."""
     dependents: dict[str, set[str]] = {}
-    for guid, supports in support_predecessors(components).items():
+    for guid, supports in support_predecessors(components, joints=joints).items():
         for support in supports:
             dependents.setdefault(support, set()).add(guid)
     blocked: set[str] = set()
