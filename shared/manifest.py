@@ -106,6 +106,7 @@ class JointSource(StrEnum):
 
     RELATION = "relation"  # the IFC relates the two components (``Joint.rule`` names the relationship)
     RULE = "rule"  # the usual drawing of a joint: a member's end in what it bears on (``Joint.rule``)
+    CAST = "cast"  # one of the two is cast in place: its concrete is poured around the other (a pocket)
 
 
 class Joint(_Frozen):

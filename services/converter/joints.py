@@ -10,6 +10,10 @@ An overlap deeper than a contact (:mod:`.overlaps` measures them at the BIM targ
   end or face of the member (within that depth of it, along an axis on which the member is longer than
   twice that): a member's end in what it bears on, not two members crossing through each other.
 
+* one of the two is cast in place: its concrete is poured around the other where they meet (a beam's
+  end in a pocket of a cast wall, a precast stair set on a cast landing), so the cast one is the part the
+  other is set into.
+
 Any other overlap deeper than :data:`~bimbot.shared.joints.CLASH_DEPTH_M` is a **clash**: two parts that
 cannot both be where the model puts them. The manifest keeps both lists; physics lets a jointed pair overlap
 and connects them, and still reports a clash.
@@ -26,6 +30,7 @@ import ifcopenshell
 import ifcopenshell.ifcopenshell_wrapper
 import numpy as np
 
+from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.joints import CLASH_DEPTH_M, JointRule, JointSettings
 from bimbot.shared.manifest import Clash, Component, Joint, JointSource
 
@@ -90,7 +95,9 @@ def find_joints(
                 )
             )
             continue
-        joint = _by_rule(overlap, by_guid[overlap.first], by_guid[overlap.second], settings.rule, classes)
+        first, second = by_guid[overlap.first], by_guid[overlap.second]
+        joint = _by_rule(overlap, first, second, settings.rule, classes)
+        joint = joint or _cast_around(overlap, first, second)
         if joint is not None:
             joints.append(joint)
         elif overlap.depth_m > CLASH_DEPTH_M:
@@ -145,6 +152,22 @@ def _by_guid(model: ifcopenshell.file, guid: str) -> ifcopenshell.entity_instanc
         return model.by_guid(guid)
     except RuntimeError:
         return None
+
+
+def _cast_around(overlap: Overlap, a: Component, b: Component) -> Joint | None:
+    """A joint where one of the two is cast in place (its concrete poured around the other), or None."""
+    cast = [c for c in (a, b) if c.method is ConstructionMethod.CAST_IN_PLACE]
+    if not cast:
+        return None
+    part = cast[0]
+    member = b if part is a else a
+    return Joint(
+        guids=(part.guid, member.guid),
+        depth_m=round(overlap.depth_m, 4),
+        source=JointSource.CAST,
+        rule=f"{member.ifc_class} in cast-in-place {part.ifc_class}",
+        directed=True,
+    )
 
 
 def _by_rule(
