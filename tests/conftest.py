@@ -13,6 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from wall_clock import SLOWDOWN_ENV, speed_factor
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLES_IFC = ROOT.parent / "shared" / "samples" / "ifc"
@@ -29,6 +30,11 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     integration_files = {item.path for item in items if item.get_closest_marker("integration") is not None}
     ranks = {item.path: _file_rank(item.path, item.path in integration_files) for item in items}
     items.sort(key=lambda item: ranks[item.path])
+
+
+def pytest_report_header(config: pytest.Config) -> str:
+    """The factor every wall-clock bound of this run is scaled by (tests/wall_clock.py)."""
+    return f"wall-clock bounds: x{speed_factor():.2f} (measured speed factor; {SLOWDOWN_ENV} sets a floor)"
 
 
 @pytest.fixture(scope="session")
