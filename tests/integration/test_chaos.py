@@ -21,6 +21,7 @@ from pathlib import Path
 
 import pytest
 from frames import convert_small_frame
+from wall_clock import bound_s
 
 from bimbot.services.component_agents.journal import journal_path, replay
 from bimbot.shared.messages import ComponentState
@@ -85,7 +86,8 @@ def test_every_service_killed_once_mid_build_the_build_completes_once(
     run = RunFolder(tmp_path / "run")
     command = [sys.executable, "-m", "bimbot.cli", "run", str(build), "-q", "--run-dir", str(run.root)]
     command += ["--robots", "1"]  # one process per kind: the one robot is killed too
-    command += ["--timeout-s", str(RUN_TIMEOUT_S - 60)]
+    run_timeout_s = bound_s(RUN_TIMEOUT_S)
+    command += ["--timeout-s", f"{run_timeout_s - 60:.0f}"]
     with (tmp_path / "run.stdout").open("w") as out, (tmp_path / "run.stderr").open("w") as err:
         process = subprocess.Popen(command, stdout=out, stderr=err)
         killed: dict[str, int] = {}
@@ -94,17 +96,18 @@ def test_every_service_killed_once_mid_build_the_build_completes_once(
                 due = FIRST_KILL_AT + number * KILL_EVERY
                 assert wait_until(
                     lambda due=due: sum(_constructions(run).values()) >= due or process.poll() is not None,
-                    timeout_s=RUN_TIMEOUT_S / 2,
+                    timeout_s=run_timeout_s / 2,
                 ), f"fewer than {due} constructed before killing {victim}"
                 assert process.poll() is None, f"the run ended before {victim} was killed"
                 for earlier, pid in killed.items():  # the one killed before runs again
                     assert wait_until(
-                        lambda e=earlier, p=pid: _children(process.pid).get(e, p) != p, timeout_s=60.0
+                        lambda e=earlier, p=pid: _children(process.pid).get(e, p) != p,
+                        timeout_s=bound_s(60.0),
                     ), f"{earlier} was not restarted"
                 pid = _children(process.pid)[victim]
                 os.kill(pid, signal.SIGKILL)
                 killed[victim] = pid
-            process.wait(timeout=RUN_TIMEOUT_S)
+            process.wait(timeout=run_timeout_s)
         finally:
             if process.poll() is None:
                 process.kill()

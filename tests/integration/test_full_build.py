@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from wall_clock import bound_s
 
 from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan
 from bimbot.shared.manifest import read_manifest
@@ -50,7 +51,7 @@ def _bimbot(*args: str, check: bool = True) -> subprocess.CompletedProcess[str]:
         [sys.executable, "-m", "bimbot.cli", *args],
         capture_output=True,
         text=True,
-        timeout=RUN_TIMEOUT_S,
+        timeout=bound_s(RUN_TIMEOUT_S),
         check=False,
     )
     if check and result.returncode != 0:
@@ -59,7 +60,8 @@ def _bimbot(*args: str, check: bool = True) -> subprocess.CompletedProcess[str]:
 
 
 def _run(build: Path, *options: str) -> tuple[subprocess.CompletedProcess[str], dict]:
-    result = _bimbot("run", str(build), "--timeout-s", str(RUN_TIMEOUT_S - 30), *options, check=False)
+    timeout_s = f"{bound_s(RUN_TIMEOUT_S) - 30:.0f}"
+    result = _bimbot("run", str(build), "--timeout-s", timeout_s, *options, check=False)
     run = _latest(build)
     logs = run.logs_dir
     detail = "\n".join(
