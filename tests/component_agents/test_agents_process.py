@@ -211,8 +211,9 @@ def test_agents_process_on_a_real_bus(agents_build: Path, tmp_path: Path) -> Non
         assert sorted(t.key for t in everyone) == sorted(c.key for c in manifest.components)
 
         # Garbage on every subscribed key crashes nothing and changes nothing.
+        blocking = zenoh.CongestionControl.BLOCK  # not dropped on a busy machine: the count below needs them
         for key_expr, payload in garbage_payloads(subject, site, GARBAGE):
-            session.put(key_expr, payload)
+            session.put(key_expr, payload, congestion_control=blocking)
         session.delete(key(COMPONENT_EVENT_KEY, site=site, key=subject.key))
         (twin,) = bus.twins(subject.key, timeout_s=20.0)  # answered after the garbage in the agents' queue
         assert agents.poll() is None

@@ -32,7 +32,9 @@ pytestmark = pytest.mark.integration
 
 RUN_TIMEOUT_S = 600
 KILLS = ("physics", "robot", "agents", "planner", "bus")  # the `bimbot <command>` of each victim
-FIRST_KILL_AT, KILL_EVERY = 2, 3  # constructed components before the first kill, and between kills
+# constructed components before the first kill, and between kills: the last kill (after 10 of 18) leaves
+# eight, time enough for its victim's restart even when this process sees the journal late (a busy machine)
+FIRST_KILL_AT, KILL_EVERY = 2, 2
 
 
 def _children(pid: int) -> dict[str, int]:
@@ -75,7 +77,7 @@ def _constructions(run: RunFolder) -> Counter[str]:
 
 @pytest.fixture(scope="module")
 def frame_3x2(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """18 components: the last kill (after 14) leaves four to build with every service restarted."""
+    """18 components: the last kill (after 10) leaves eight to build with every service restarted."""
     return convert_small_frame(tmp_path_factory.mktemp("chaos_frame"), (3, 2))
 
 
