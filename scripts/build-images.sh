@@ -128,11 +128,15 @@ wheelhouse_complete() { # every pin (and what it needs) resolves from the wheelh
     "${PIP[@]}" install -q --dry-run --ignore-installed --no-index --find-links "$WHEELHOUSE" \
         -r "$requirements" >/dev/null 2>&1
 }
-if [ -f "$requirements" ] && cmp -s "$requirements" "$requirements.new" && wheelhouse_complete; then
-    rm -f "$requirements.new"
+# What the last resolution found complete: the pins and the wheels' names and sizes. While both are the same,
+# the wheelhouse is not resolved again (pip takes seconds for that, more on a busy machine).
+stamp="$WHEELHOUSE.complete" # beside the wheelhouse: not in the build context (.dockerignore)
+wheelhouse_listing() { cat "$requirements.new" && find "$WHEELHOUSE" -maxdepth 1 -name '*.whl' -printf '%f %s\n' | sort; }
+if [ -f "$requirements" ] && cmp -s "$requirements" "$requirements.new" \
+    && { cmp -s "$stamp" <(wheelhouse_listing) || wheelhouse_complete; }; then
     say "wheelhouse $WHEELHOUSE is current with pyproject.toml's pins"
 else
-    mv "$requirements.new" "$requirements"
+    cp "$requirements.new" "$requirements"
     say "filling $WHEELHOUSE with wheels of the pinned dependencies ($(wc -l <"$requirements") pins + theirs)"
     "${PIP[@]}" wheel -q --wheel-dir "$WHEELHOUSE" --find-links "$WHEELHOUSE" -r "$requirements"
     wheelhouse_complete || die "the wheelhouse still misses wheels after pip wheel"
@@ -140,6 +144,8 @@ fi
 # No project wheel here: the Dockerfile installs the project from the build context in a layer of its own
 # (built offline with the wheelhouse's setuptools), so a source change does not reinstall the dependencies.
 rm -f "$WHEELHOUSE"/bimbot-*.whl
+wheelhouse_listing >"$stamp"
+rm -f "$requirements.new"
 say "wheelhouse ready in $((SECONDS - started)) s: $(find "$WHEELHOUSE" -name '*.whl' | wc -l) wheels," \
     "$(du -sh "$WHEELHOUSE" | cut -f1)"
 

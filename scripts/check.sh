@@ -13,7 +13,7 @@ echo "check: mypy" >&2
 bash scripts/typecheck.sh
 echo "check: pytest" >&2
 # two workers (pytest-xdist), a test file at a time each: the compose test overlaps the rest. xdist hands
-# out the files with the most tests first (tests/conftest.py puts compose first among equals); keeping the
+# out the compose test first (tests/conftest.py), then the files with the most tests first; keeping the
 # longest-first order instead (--no-loadscope-reorder) measured slower: 625 s and 678 s for the whole
 # .ci/run against 557 s and 605 s, the builds then sharing the cores with the compose stack.
 # BIMBOT_TEST_WORKERS=0 runs it in one process

@@ -118,18 +118,29 @@ container() { # the container id of a service (running or exited), empty when th
     docker ps -a -q --filter "label=com.docker.compose.project=$PROJECT" \
         --filter "label=com.docker.compose.service=$1" | head -n 1
 }
+STATE_FORMAT='{{.State.Status}} {{.State.ExitCode}} {{.RestartCount}} {{if .State.Health}}{{.State.Health.Status}}{{else}}-{{end}}'
 container_state() { # status exit-code restarts health
-    docker inspect -f '{{.State.Status}} {{.State.ExitCode}} {{.RestartCount}} {{if .State.Health}}{{.State.Health.Status}}{{else}}-{{end}}' "$1"
+    docker inspect -f "$STATE_FORMAT" "$1"
 }
-services() { "${COMPOSE[@]}" config --services; }
+# One line per container of the project: service status exit-code restarts health. Two docker calls for all
+# of them: the checks below run every 2 s on a machine that the stack keeps busy.
+stack_states() {
+    local ids
+    ids="$(docker ps -a -q --filter "label=com.docker.compose.project=$PROJECT")"
+    # shellcheck disable=SC2086  # one argument per id
+    [ -z "$ids" ] || docker inspect -f "{{index .Config.Labels \"com.docker.compose.service\"}} $STATE_FORMAT" $ids
+}
+# compose.yaml's services, asked once (compose v1 is a Python program: seconds a call on a busy machine)
+mapfile -t SERVICES < <("${COMPOSE[@]}" config --services)
 
 summary() {
-    local service id status code restarts health
+    local service states line
+    states="$(stack_states)"
     say "services:"
-    for service in $(services); do
-        id="$(container "$service")"
-        if [ -n "$id" ]; then
-            read -r status code restarts health <<<"$(container_state "$id")"
+    for service in "${SERVICES[@]}"; do
+        line="$(awk -v s="$service" '$1 == s { print; exit }' <<<"$states")"
+        if [ -n "$line" ]; then
+            read -r _ status code restarts health <<<"$line"
             printf '  %-10s %-9s exit %-3s restarts %-2s health %s\n' "$service" "$status" "$code" "$restarts" \
                 "$health" >&2
         else
@@ -186,14 +197,14 @@ started=$SECONDS
 planner_code=""
 next_report=30
 while [ $((SECONDS - started)) -lt "$TIMEOUT_S" ]; do
+    states="$(stack_states)"
+    read -r _ status code restarts _ <<<"$(awk '$1 == "planner" { print; exit }' <<<"$states")"
+    [ -n "${status:-}" ] || fail "no planner container"
     if [ $((SECONDS - started)) -ge "$next_report" ]; then
-        done_so_far="$("${COMPOSE[@]}" logs --no-color planner 2>/dev/null | grep -c 'scheduler: .* constructed$' || true)"
+        done_so_far="$(docker logs "$(container planner)" 2>&1 | grep -c 'scheduler: .* constructed$' || true)"
         say "… $((SECONDS - started)) s: $done_so_far component(s) constructed so far (planner's log)"
         next_report=$((next_report + 30))
     fi
-    planner="$(container planner)"
-    [ -n "$planner" ] || fail "no planner container"
-    read -r status code restarts _ <<<"$(container_state "$planner")"
     if [ "$restarts" -gt 0 ]; then
         fail "the planner failed (exit $code) and was restarted $restarts time(s)"
     fi
@@ -201,17 +212,14 @@ while [ $((SECONDS - started)) -lt "$TIMEOUT_S" ]; do
         planner_code="$code"
         break
     fi
-    for service in $(services); do
-        id="$(container "$service")"
-        [ -n "$id" ] || continue
-        read -r s_status s_code s_restarts _ <<<"$(container_state "$id")"
+    while read -r service s_status s_code s_restarts _; do
         if [ "$s_restarts" -ge "$MAX_RESTARTS" ]; then
             fail "$service is crash-looping (restarted $s_restarts times; its log is below)"
         fi
         if [ "$service" != convert ] && [ "$s_status" = exited ] && [ "$s_code" != 0 ]; then
             fail "$service stopped with exit $s_code"
         fi
-    done
+    done <<<"$states"
     sleep 2
 done
 build_wait_s=$((SECONDS - started))

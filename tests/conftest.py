@@ -5,7 +5,10 @@ the order the test files run in.
 loadfile``). The longest files go first — the compose stack, then the builds over the bus — so that they
 overlap the many short ones instead of running alone at the end (the compose test alone is about two
 minutes). Within a file the order is unchanged. xdist then hands out the files with the most tests first
-(its default reorder; keeping this order instead measured slower, see ``scripts/check.sh``).
+(its default reorder; keeping this order instead measured slower, see ``scripts/check.sh``), except the
+compose smoke test, which goes first all the same (:func:`pytest_xdist_make_scheduler`): as a one-test
+file the reorder put it among the last, and most of its time is docker's (an image build, a stack at
+work) that then ran alone at the end instead of beside the other worker's files.
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from wall_clock import SLOWDOWN_ENV, speed_factor
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLES_IFC = ROOT.parent / "shared" / "samples" / "ifc"
@@ -29,6 +33,30 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     integration_files = {item.path for item in items if item.get_closest_marker("integration") is not None}
     ranks = {item.path: _file_rank(item.path, item.path in integration_files) for item in items}
     items.sort(key=lambda item: ranks[item.path])
+
+
+COMPOSE_SMOKE = "tests/compose/test_compose_smoke.py"
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object | None:
+    """With ``--dist loadfile``: xdist's own scheduling, the compose smoke test's file handed out first."""
+    if config.getoption("dist", None) != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    class ComposeFirst(LoadFileScheduling):
+        def _assign_work_unit(self, node: object) -> None:
+            if COMPOSE_SMOKE in self.workqueue:
+                self.workqueue.move_to_end(COMPOSE_SMOKE, last=False)
+            super()._assign_work_unit(node)  # type: ignore[arg-type]
+
+    return ComposeFirst(config, log)  # type: ignore[arg-type]
+
+
+def pytest_report_header(config: pytest.Config) -> str:
+    """The factor every wall-clock bound of this run is scaled by (tests/wall_clock.py)."""
+    return f"wall-clock bounds: x{speed_factor():.2f} (measured speed factor; {SLOWDOWN_ENV} sets a floor)"
 
 
 @pytest.fixture(scope="session")

@@ -6,6 +6,8 @@ import os
 import tomllib
 from pathlib import Path
 
+from wall_clock import bound_s
+
 from bimbot.supervisor import ServiceProcess
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -49,7 +51,7 @@ def test_a_child_started_in_a_folder_with_its_own_bimbot_package_runs_ours(tmp_p
     os.chdir(tmp_path)
     try:
         child = ServiceProcess("version", ["--version"], tmp_path / "logs")
-        code = child.wait(60)
+        code = child.wait(bound_s(60))
         log = child.log()
         child.stop()
     finally:

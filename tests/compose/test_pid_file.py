@@ -13,6 +13,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from wall_clock import bound_s
 
 ROOT = Path(__file__).resolve().parents[2]
 LIBRARY = ROOT / "scripts" / "lib" / "pid-file.sh"
@@ -20,7 +21,9 @@ LIBRARY = ROOT / "scripts" / "lib" / "pid-file.sh"
 
 def _remove_stale(pid_file: Path, daemon: str) -> subprocess.CompletedProcess[str]:
     script = f'source "{LIBRARY}" && remove_stale_pid_file "{pid_file}" "{daemon}"'
-    return subprocess.run(["bash", "-c", script], capture_output=True, text=True, timeout=30, check=False)
+    return subprocess.run(
+        ["bash", "-c", script], capture_output=True, text=True, timeout=bound_s(30), check=False
+    )
 
 
 @pytest.fixture
@@ -29,10 +32,10 @@ def sleeper(tmp_path: Path, request: pytest.FixtureRequest) -> Iterator[subproce
     name = getattr(request, "param", "sleep")
     executable = tmp_path / name
     shutil.copy(shutil.which("sleep") or "/bin/sleep", executable)
-    process = subprocess.Popen([str(executable), "60"])
+    process = subprocess.Popen([str(executable), f"{bound_s(60):.0f}"])  # alive for the whole test
     yield process
     process.kill()
-    process.wait(timeout=10)
+    process.wait(timeout=bound_s(10))
 
 
 def test_a_pid_file_whose_pid_is_another_process_is_removed(
@@ -48,7 +51,7 @@ def test_a_pid_file_whose_pid_is_another_process_is_removed(
 
 def test_a_pid_file_whose_process_is_gone_is_removed(tmp_path: Path) -> None:
     gone = subprocess.Popen(["true"])
-    gone.wait(timeout=10)
+    gone.wait(timeout=bound_s(10))
     pid_file = tmp_path / "docker.pid"
     pid_file.write_text(f"{gone.pid}\n")
     assert _remove_stale(pid_file, "dockerd").returncode == 0

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 from scipy.spatial.transform import Rotation
+from wall_clock import bound_s
 
 IGN = shutil.which("ign")
 BATCH_SCRIPT = Path(__file__).with_name("sdf_batch_check.py")
@@ -51,7 +52,9 @@ def sdf_check_all(paths: list[Path], models_dir: Path) -> dict[Path, str]:
     """``Valid.`` or the reference parser's message for each of ``paths``, checked in one process."""
     results = models_dir.parent / "sdf-check.json"
     command = [sys.executable, str(BATCH_SCRIPT), str(sdformat_library()), str(results), *map(str, paths)]
-    subprocess.run(command, capture_output=True, env=_resource_env(models_dir), timeout=300, check=True)
+    subprocess.run(
+        command, capture_output=True, env=_resource_env(models_dir), timeout=bound_s(300), check=True
+    )
     codes = json.loads(results.read_text())
     assert len(codes) == len(paths), "the batch checker answered for every file"
     return {
@@ -68,7 +71,7 @@ def ign_sdf_check(path: Path, models_dir: Path) -> str:
         capture_output=True,
         text=True,
         env=_resource_env(models_dir),
-        timeout=120,
+        timeout=bound_s(120),
         check=False,
     )
     lines = (result.stdout + result.stderr).splitlines()

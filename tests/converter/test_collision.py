@@ -391,9 +391,9 @@ def test_vhacd_on_a_square_plate_is_fast_despite_the_voxeliser_axis_bug() -> Non
     ]
     cap = [(0, 1, 4), (1, 2, 4), (2, 3, 4), (0, 4, 5), (0, 5, 7), (5, 6, 7)]
     plate = prism(outline, cap, 0.02)
-    start = time.perf_counter()
+    start = time.process_time()  # CPU seconds: the bug costs work, which a busy machine does not add to
     parts = vhacd_parts(plate)
-    assert time.perf_counter() - start < 3.0
+    assert time.process_time() - start < 3.0
     assert parts
 
 

@@ -14,6 +14,7 @@ import ifcopenshell.api.unit
 import numpy as np
 import pytest
 from ifc_builders import SmallModel, add_beam, add_wall, new_model, translation
+from wall_clock import bound_s
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
 from bimbot.shared.manifest import Manifest
@@ -29,7 +30,11 @@ def _convert_small(small: SmallModel, tmp_path: Path, options: ConvertOptions | 
 
 def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "bimbot.cli", *args], capture_output=True, text=True, timeout=300, check=False
+        [sys.executable, "-m", "bimbot.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=bound_s(300),
+        check=False,
     )
 
 

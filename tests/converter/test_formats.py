@@ -12,6 +12,7 @@ import pybullet
 import pytest
 from lxml import etree
 from sdf_checks import ign_sdf_check
+from wall_clock import bound_s
 
 from bimbot.demo import bundled_model_path
 from bimbot.services.converter.convert import ConvertOptions, convert_model
@@ -147,7 +148,7 @@ def test_cli_formats_option_writes_the_formats_and_refuses_unknown_ones(tmp_path
             [sys.executable, "-m", "bimbot.cli", "convert", str(source), "--no-progress", *args],
             capture_output=True,
             text=True,
-            timeout=300,
+            timeout=bound_s(300),
             check=False,
         )
 
@@ -172,7 +173,7 @@ def test_no_split_ifc_writes_no_standalone_ifc_and_the_run_still_has_what_it_rea
         [*command, "-o", str(tmp_path / "out")],
         capture_output=True,
         text=True,
-        timeout=300,
+        timeout=bound_s(300),
         check=False,
     )
     assert done.returncode == 0, done.stderr

@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from wall_clock import bound_s
 
 from bimbot.services.converter.in_place import above_ground, in_the_ground, split_in_place
 from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame
@@ -28,7 +29,9 @@ def frame_ifc(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def _convert(source: Path, out: Path, *extra: str) -> subprocess.CompletedProcess[str]:
     command = [sys.executable, "-m", "bimbot.cli", "convert", str(source), "-o", str(out), "--no-progress"]
-    return subprocess.run([*command, *extra], capture_output=True, text=True, timeout=300, check=False)
+    return subprocess.run(
+        [*command, *extra], capture_output=True, text=True, timeout=bound_s(300), check=False
+    )
 
 
 def test_foundations_in_place_are_converted_apart_and_left_out_of_the_sequence(

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import ifcopenshell
 import pytest
+from wall_clock import bound_s
 
 from bimbot.services.converter.convert import convert_model
 from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame
@@ -21,7 +22,11 @@ from bimbot.shared.ifc_parse_damage import damaged_elements
 
 def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "bimbot.cli", *args], capture_output=True, text=True, timeout=300, check=False
+        [sys.executable, "-m", "bimbot.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=bound_s(300),
+        check=False,
     )
 
 

@@ -17,6 +17,7 @@ import ifcopenshell.util.shape
 import ifcopenshell.util.unit
 import numpy as np
 import pytest
+from wall_clock import bound_s
 
 from bimbot.services.converter.sample_light_steel_frame import (
     STEEL_DENSITY_KG_PER_M3,
@@ -321,7 +322,7 @@ def _bimbot(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
         cwd=cwd,
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=bound_s(120),
     )
 
 

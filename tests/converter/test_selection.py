@@ -14,6 +14,7 @@ import ifcopenshell.api.root
 import ifcopenshell.api.spatial
 import pytest
 from ifc_builders import SmallModel, add_assembly, add_beam, add_opening, add_wall, new_model, translation
+from wall_clock import bound_s
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
 from bimbot.services.converter.selection import check_exclusions, reason_head, select_elements
@@ -141,7 +142,11 @@ def test_reason_head_is_the_text_before_the_first_semicolon_or_colon() -> None:
 
 def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "bimbot.cli", *args], capture_output=True, text=True, timeout=300, check=False
+        [sys.executable, "-m", "bimbot.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=bound_s(300),
+        check=False,
     )
 
 

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import zenoh
+from wall_clock import bound_s
 
 from bimbot.shared.bus import BusOptions, encode, open_session
 from bimbot.shared.identifiers import guid_to_key
@@ -128,7 +129,7 @@ class RobotStandIn:
         with self._changed:
             self._changed.notify_all()
         for thread in self._threads:
-            thread.join(timeout=5)
+            thread.join(timeout=bound_s(5))
         for token in self._tokens:
             token.undeclare()
         assert self._session is not None
@@ -221,7 +222,7 @@ class RobotStandIn:
         self._pose(task.guid, placed, fixed=True)
         if not self._send(robot_id, task, ComponentEvent.PLACE):
             return
-        verdict = self._wait_for(task.guid, VERDICTS, timeout_s=60.0)
+        verdict = self._wait_for(task.guid, VERDICTS, timeout_s=bound_s(60.0))
         if verdict is not None and verdict.state == ComponentState.CONSTRUCTED:
             self.record.tasks_done.append(task.guid)
         self._robot_state(robot_id, RobotState.IDLE, None, pose)
@@ -240,7 +241,7 @@ class RobotStandIn:
             sim_time_s=self.sim_time(),
             wall_time_s=time.time(),
         )
-        deadline = time.monotonic() + 60.0
+        deadline = time.monotonic() + bound_s(60.0)
         while not self.stop.is_set() and time.monotonic() < deadline:
             self._put(key(COMPONENT_EVENT_KEY, site=self.site, key=guid_to_key(task.guid)), message)
             if self._wait_for(task.guid, EXPECTED_AFTER[event], timeout_s=self.resend_s) is not None:

@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 from fleets import ground_fleet_file
 from site_models import HEAVY_MASS_KG, ROOM_WALLS, WALLS_FIRST_ORDER, SiteModel, build_site_model
+from wall_clock import bound_s
 
 from bimbot.shared.reasons import ReasonCode
 from bimbot.shared.run_folder import RunFolder, latest_run_folder
@@ -31,7 +32,7 @@ def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
         [sys.executable, "-m", "bimbot.cli", *args],
         capture_output=True,
         text=True,
-        timeout=RUN_TIMEOUT_S,
+        timeout=bound_s(RUN_TIMEOUT_S),
         check=False,
     )
 
@@ -50,7 +51,8 @@ def test_a_build_that_cannot_finish_ends_with_a_reason_for_every_component_not_b
 ) -> None:
     site, build = walls_first
     fleet = str(ground_fleet_file(build.parent))  # one carrier: the 5.8 t footing is too heavy for it
-    result = _bimbot("run", str(build), "-q", "--fleet", fleet, "--timeout-s", str(RUN_TIMEOUT_S - 60))
+    timeout_s = f"{bound_s(RUN_TIMEOUT_S) - 60:.0f}"
+    result = _bimbot("run", str(build), "-q", "--fleet", fleet, "--timeout-s", timeout_s)
     run = _latest(build)
     logs = "\n".join(
         f"--- {log.name}\n" + "\n".join(log.read_text().splitlines()[-12:])
@@ -86,7 +88,8 @@ def test_with_strict_a_sequence_that_walls_a_column_in_is_refused_before_the_bui
     site, build = walls_first
     earlier = _runs(build)
     fleet = str(ground_fleet_file(build.parent))
-    result = _bimbot("run", str(build), "-q", "--fleet", fleet, "--strict", "--timeout-s", "120")
+    timeout_s = f"{bound_s(120):.0f}"  # refused before the build: this only stops a hang
+    result = _bimbot("run", str(build), "-q", "--fleet", fleet, "--strict", "--timeout-s", timeout_s)
     planner_log = (_latest(build).logs_dir / "planner.log").read_text()
     # a run of its own: the earlier runs on this build keep their folders and reports
     assert len(_runs(build)) == len(earlier) + 1 and set(earlier) < set(_runs(build))

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pytest
 from robot_stand_in import RobotStandIn
+from wall_clock import bound_s
 
 from bimbot.shared.bus import BusOptions, open_session
 from bimbot.shared.manifest import Manifest, read_manifest
@@ -86,9 +87,9 @@ def _all_twins(manifest: Manifest, endpoint: str) -> list[TwinMsg]:
     """Every twin, asked again until all answer (a new session needs a moment before its queries route)."""
     twins: list[TwinMsg] = []
     with open_session(BusOptions(connect=(endpoint,))) as session:
-        deadline = time.monotonic() + 15.0
+        deadline = time.monotonic() + bound_s(15.0)
         while len(twins) < len(manifest.components) and time.monotonic() < deadline:
-            replies = session.get(f"bimbot/{manifest.site}/components/*/twin", timeout=5.0)
+            replies = session.get(f"bimbot/{manifest.site}/components/*/twin", timeout=bound_s(5.0))
             twins = [TwinMsg.model_validate_json(r.ok.payload.to_bytes()) for r in replies if r.ok]
             time.sleep(0.1)
     return twins
@@ -96,10 +97,10 @@ def _all_twins(manifest: Manifest, endpoint: str) -> list[TwinMsg]:
 
 def _finish(planner: ServiceProcess, *services: ServiceProcess) -> int:
     try:
-        code = planner.wait(RUN_TIMEOUT_S)
+        code = planner.wait(timeout_s := bound_s(RUN_TIMEOUT_S))
     except Exception:
         logs = "\n".join(f"--- {s.name}\n{s.log()[-3000:]}" for s in (planner, *services))
-        pytest.fail(f"the build did not finish in {RUN_TIMEOUT_S} s\n{logs}")
+        pytest.fail(f"the build did not finish in {timeout_s:.0f} s\n{logs}")
     return code
 
 
@@ -150,9 +151,9 @@ def test_killing_the_agent_process_mid_run_and_restarting_it_loses_nothing(
         RobotStandIn(manifest, BusOptions(connect=(bus,))) as robots,
         _services(build, bus, tmp_path) as (agents, planner),
     ):
-        assert wait_until(lambda: len(_constructed_order(robots.record.states)) >= 8, 60.0), agents.log()[
-            -3000:
-        ]
+        assert wait_until(lambda: len(_constructed_order(robots.record.states)) >= 8, bound_s(60.0)), (
+            agents.log()[-3000:]
+        )
         agents.kill()
         time.sleep(1.0)
         before_kill = set(_constructed_order(robots.record.states))
@@ -205,7 +206,7 @@ def test_a_thousand_garbage_payloads_on_subscribed_keys_crash_nothing(
         RobotStandIn(manifest, BusOptions(connect=(bus,))) as robots,
         _services(build, bus, tmp_path) as (agents, planner),
     ):
-        assert wait_until(lambda: len(_constructed_order(robots.record.states)) >= 3, 60.0)
+        assert wait_until(lambda: len(_constructed_order(robots.record.states)) >= 3, bound_s(60.0))
         for index in range(1000):
             session.put(keys[index % len(keys)], payloads[index % len(payloads)]())
         assert _finish(planner, agents) == 0, planner.log()[-3000:]

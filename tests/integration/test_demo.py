@@ -18,6 +18,7 @@ import urllib.request
 from pathlib import Path
 
 import pytest
+from wall_clock import bound_s
 
 from bimbot.services.observer.app import rerun_cli_binary
 from bimbot.shared.run_folder import latest_run_folder
@@ -34,7 +35,7 @@ def small_ifc(tmp_path_factory: pytest.TempPathFactory) -> Path:
         [sys.executable, "-m", "bimbot.cli", "sample", "light-steel-frame", "-o", str(path), "--bays", "2x1"],
         check=True,
         capture_output=True,
-        timeout=120,
+        timeout=bound_s(120),
     )
     return path
 
@@ -47,7 +48,7 @@ def test_demo_writes_world_recording_and_report_and_says_how_to_open_it(
         [sys.executable, "-m", "bimbot.cli", "demo", "-o", str(out), "--model", str(small_ifc)],
         capture_output=True,
         text=True,
-        timeout=TIMEOUT_S,
+        timeout=bound_s(TIMEOUT_S),
         check=False,
     )
     assert result.returncode == 0, result.stdout + result.stderr[-3000:]
@@ -69,7 +70,7 @@ def test_demo_writes_world_recording_and_report_and_says_how_to_open_it(
         [str(rerun_cli_binary()), "rrd", "verify", str(rrd)],
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=bound_s(120),
         check=False,
         env={**os.environ, "RUST_LOG": "warn"},
     )
@@ -85,7 +86,7 @@ def test_demo_live_serves_the_viewer_at_the_printed_url_until_interrupted(
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines: list[str] = []
     try:
-        deadline = time.monotonic() + TIMEOUT_S
+        deadline = time.monotonic() + bound_s(TIMEOUT_S)
         assert process.stdout is not None
         while time.monotonic() < deadline:
             line = process.stdout.readline()
@@ -97,12 +98,12 @@ def test_demo_live_serves_the_viewer_at_the_printed_url_until_interrupted(
         url = re.search(r"stays up at (http\S+)", "".join(lines))
         assert url, "".join(lines)
         assert url.group(1).startswith(f"http://127.0.0.1:{web_port}/")
-        with urllib.request.urlopen(url.group(1), timeout=10) as page:
+        with urllib.request.urlopen(url.group(1), timeout=bound_s(10)) as page:
             assert page.status == 200 and b"<html" in page.read(4096).lower()
         assert any("constructed 5/5 components" in line for line in lines), "".join(lines)
         assert process.poll() is None  # still serving
         process.send_signal(signal.SIGINT)
-        assert process.wait(timeout=60) == 0
+        assert process.wait(timeout=bound_s(60)) == 0
     finally:
         if process.poll() is None:
             process.kill()

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pytest
 from frames import convert_small_frame
+from wall_clock import bound_s
 
 from bimbot.shared.manifest import read_manifest
 from bimbot.shared.run_folder import RunFolder
@@ -86,7 +87,7 @@ def _bimbot(*args: str, timeout_s: float = 180) -> subprocess.CompletedProcess[s
         [sys.executable, "-m", "bimbot.cli", *args],
         capture_output=True,
         text=True,
-        timeout=timeout_s,
+        timeout=bound_s(timeout_s),
         check=False,
     )
 
@@ -111,7 +112,7 @@ def test_a_mixed_fleet_builds_by_capability_with_crane_lifts_and_hand_offs(
     run = RunFolder(tmp_path / "run")
     result = _bimbot(
         "run", str(frame_2x2), "-q", "--fleet", str(fleet), "--run-dir", str(run.root),
-        "--timeout-s", str(RUN_TIMEOUT_S - 60), timeout_s=RUN_TIMEOUT_S,
+        "--timeout-s", f"{bound_s(RUN_TIMEOUT_S) - 60:.0f}", timeout_s=RUN_TIMEOUT_S,
     )  # fmt: skip
     logs = "\n".join(
         f"--- {log.name}\n" + "\n".join(log.read_text().splitlines()[-12:])

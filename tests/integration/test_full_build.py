@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pytest
 from fleets import ground_fleet_file
+from wall_clock import bound_s
 
 from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan
 from bimbot.shared.manifest import read_manifest
@@ -51,7 +52,7 @@ def _bimbot(*args: str, check: bool = True) -> subprocess.CompletedProcess[str]:
         [sys.executable, "-m", "bimbot.cli", *args],
         capture_output=True,
         text=True,
-        timeout=RUN_TIMEOUT_S,
+        timeout=bound_s(RUN_TIMEOUT_S),
         check=False,
     )
     if check and result.returncode != 0:
@@ -60,7 +61,8 @@ def _bimbot(*args: str, check: bool = True) -> subprocess.CompletedProcess[str]:
 
 
 def _run(build: Path, *options: str) -> tuple[subprocess.CompletedProcess[str], dict]:
-    result = _bimbot("run", str(build), "--timeout-s", str(RUN_TIMEOUT_S - 30), *options, check=False)
+    timeout_s = f"{bound_s(RUN_TIMEOUT_S) - 30:.0f}"
+    result = _bimbot("run", str(build), "--timeout-s", timeout_s, *options, check=False)
     run = _latest(build)
     logs = run.logs_dir
     detail = "\n".join(

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 from fleets import ground_fleet_file
+from wall_clock import bound_s
 
 from bimbot.shared.fleet import default_fleet
 from bimbot.shared.manifest import read_manifest
@@ -35,7 +36,7 @@ def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
         [sys.executable, "-m", "bimbot.cli", *args],
         capture_output=True,
         text=True,
-        timeout=RUN_TIMEOUT_S,
+        timeout=bound_s(RUN_TIMEOUT_S),
         check=False,
     )
 

@@ -26,6 +26,7 @@ from typing import IO
 import pytest
 from fleets import ground_fleet_file
 from frames import convert_small_frame
+from wall_clock import bound_s
 
 from bimbot.services.component_agents.journal import journal_path, replay
 from bimbot.shared.manifest import read_manifest
@@ -89,7 +90,7 @@ class _Lines:
             self.lines.append(line)
 
     def text(self) -> str:
-        self._thread.join(timeout=5.0)
+        self._thread.join(timeout=bound_s(5.0))
         return "".join(self.lines)
 
 
@@ -111,13 +112,14 @@ def test_forged_constructed_messages_change_nothing_the_run_counts_what_the_twin
     run = RunFolder(tmp_path / "run")
     command = [sys.executable, "-m", "bimbot.cli", "run", str(small_frame), "-q", "--run-dir", str(run.root)]
     command += ["--fleet", str(ground_fleet_file(tmp_path)), "--rtf", str(RUN_RTF)]  # one carrier
-    command += ["--timeout-s", str(RUN_TIMEOUT_S - 60)]
+    run_timeout_s = bound_s(RUN_TIMEOUT_S)
+    command += ["--timeout-s", f"{run_timeout_s - 60:.0f}"]
     errors = (tmp_path / "run.stderr").open("w")
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=errors, text=True)
     out = _Lines(process)
     forger: subprocess.Popen[str] | None = None
     try:
-        assert wait_until(lambda: any("bus: tcp/" in line for line in out.lines), timeout_s=60.0)
+        assert wait_until(lambda: any("bus: tcp/" in line for line in out.lines), timeout_s=bound_s(60.0))
         found = re.search(r"bus: (tcp/\S+)", "".join(out.lines))
         assert found is not None
         endpoint = found.group(1)
@@ -131,13 +133,13 @@ def test_forged_constructed_messages_change_nothing_the_run_counts_what_the_twin
         )
         assert forger.stdin is not None and forger.stdout is not None
         assert forger.stdout.readline().strip() == "ready"
-        assert wait_until(lambda: bool(_constructed_in_journal(run)), timeout_s=RUN_TIMEOUT_S / 2), (
+        assert wait_until(lambda: bool(_constructed_in_journal(run)), timeout_s=run_timeout_s / 2), (
             "nothing was constructed"
         )
         forger.stdin.write("go\n")
         forger.stdin.flush()
         assert forger.stdout.readline().strip() == "forging"
-        process.wait(timeout=RUN_TIMEOUT_S)
+        process.wait(timeout=run_timeout_s)
     finally:
         for child in (forger, process):
             if child is not None and child.poll() is None:

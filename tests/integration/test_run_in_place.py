@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 from fleets import ground_fleet_file
+from wall_clock import bound_s
 
 from bimbot.shared.manifest import read_manifest
 from bimbot.shared.run_folder import RunFolder
@@ -24,7 +25,9 @@ RUN_TIMEOUT_S = 300
 
 def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
     command = [sys.executable, "-m", "bimbot.cli", *args]
-    return subprocess.run(command, capture_output=True, text=True, timeout=RUN_TIMEOUT_S, check=False)
+    return subprocess.run(
+        command, capture_output=True, text=True, timeout=bound_s(RUN_TIMEOUT_S), check=False
+    )
 
 
 def test_a_run_with_the_foundations_in_place_builds_the_rest_on_them(tmp_path: Path) -> None:
@@ -36,7 +39,10 @@ def test_a_run_with_the_foundations_in_place_builds_the_rest_on_them(tmp_path: P
     assert len(manifest.components) == 3 and len(manifest.in_place) == 2
     run = RunFolder(tmp_path / "run")
     fleet = str(ground_fleet_file(tmp_path))  # one carrier
-    result = _bimbot("run", str(build), "--fleet", fleet, "--run-dir", str(run.root), "--timeout-s", "240")
+    timeout_s = f"{bound_s(RUN_TIMEOUT_S) - 60:.0f}"
+    result = _bimbot(
+        "run", str(build), "--fleet", fleet, "--run-dir", str(run.root), "--timeout-s", timeout_s
+    )
     detail = f"{result.stdout}\n{result.stderr[-3000:]}"
     assert result.returncode == 0, detail
     assert "constructed 3/3 components" in result.stdout, detail

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 from fleets import ground_fleet_file
+from wall_clock import bound_s
 
 from bimbot.services.physics.simulation import SimConfig, Simulation
 from bimbot.shared.manifest import read_manifest
@@ -24,7 +25,9 @@ RUN_TIMEOUT_S = 300
 
 def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
     command = [sys.executable, "-m", "bimbot.cli", *args]
-    return subprocess.run(command, capture_output=True, text=True, timeout=RUN_TIMEOUT_S, check=False)
+    return subprocess.run(
+        command, capture_output=True, text=True, timeout=bound_s(RUN_TIMEOUT_S), check=False
+    )
 
 
 def test_physics_connects_with_the_tolerances_it_serves(bundled_build: Path) -> None:
@@ -48,7 +51,7 @@ def test_a_run_with_a_wider_position_tolerance_accepts_a_20_mm_placement_everywh
         "--run-dir",
         str(run.root),
         "--timeout-s",
-        "240",
+        f"{bound_s(RUN_TIMEOUT_S) - 60:.0f}",
         "--inject-placement-error-m",
         "0.02",
         "--position-tolerance-m",

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from wall_clock import bound_s
 
 from bimbot.shared.construction_methods import CastWork, ConstructionMethod, MethodSource
 from bimbot.shared.manifest import read_manifest, write_manifest
@@ -58,7 +59,9 @@ count = 1
 
 def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
     command = [sys.executable, "-m", "bimbot.cli", *args]
-    return subprocess.run(command, capture_output=True, text=True, timeout=RUN_TIMEOUT_S, check=False)
+    return subprocess.run(
+        command, capture_output=True, text=True, timeout=bound_s(RUN_TIMEOUT_S), check=False
+    )
 
 
 def test_cast_footings_are_poured_by_the_machine_that_can_pour_and_cure_before_the_columns(
@@ -89,7 +92,15 @@ def test_cast_footings_are_poured_by_the_machine_that_can_pour_and_cure_before_t
     fleet.write_text(FLEET, encoding="utf-8")
     run = RunFolder(tmp_path / "run")
     result = _bimbot(
-        "run", str(build), "--fleet", str(fleet), "--derive", "--run-dir", str(run.root), "--timeout-s", "240"
+        "run",
+        str(build),
+        "--fleet",
+        str(fleet),
+        "--derive",
+        "--run-dir",
+        str(run.root),
+        "--timeout-s",
+        f"{bound_s(RUN_TIMEOUT_S) - 60:.0f}",
     )
     detail = f"{result.stdout}\n{result.stderr[-3000:]}"
     assert result.returncode == 0, detail

@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 from PIL import Image
 from pydantic import BaseModel
+from wall_clock import bound_s
 
 from bimbot.services.observer.app import (
     Observer,
@@ -103,14 +104,14 @@ def served(recording: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterato
         stderr=subprocess.STDOUT,
     )
     try:
-        assert wait_until(lambda: _answers(f"http://127.0.0.1:{web_port}/"), 30.0), (
+        assert wait_until(lambda: _answers(f"http://127.0.0.1:{web_port}/"), bound_s(30.0)), (
             "the web viewer never answered"
         )
         data = urllib.parse.quote(f"rerun+http://127.0.0.1:{grpc_port}/proxy", safe="")
         yield f"http://127.0.0.1:{web_port}/?url={data}"
     finally:
         server.terminate()
-        server.wait(10)
+        server.wait(bound_s(10))
         log.close()
 
 
@@ -158,7 +159,8 @@ def test_the_recording_draws_the_site_in_the_3d_view_of_a_real_browser(served: s
         served,
         str(shot),
     ]
-    command += ["--wait-s", str(WAIT_S), "--port", str(free_port())]
-    result = subprocess.run(command, check=False, capture_output=True, text=True, timeout=240)
+    wait_s = bound_s(WAIT_S)  # a busy machine draws slower
+    command += ["--wait-s", f"{wait_s:.0f}", "--port", str(free_port())]
+    result = subprocess.run(command, check=False, capture_output=True, text=True, timeout=bound_s(240))
     assert result.returncode == 0 and shot.is_file(), result.stdout[-2000:] + result.stderr[-2000:]
     assert drawn_fraction(shot) >= MIN_DRAWN, f"the 3D view is blank (see {shot})"

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from wall_clock import bound_s
 
 from bimbot.services.observer.app import rerun_cli_binary
 from bimbot.shared.bus import BusOptions
@@ -66,20 +67,20 @@ def observed_run(bundled_build: Path, tmp_path_factory: pytest.TempPathFactory) 
     watcher = ServiceProcess("watch", ["watch", "--build", str(build), "--connect", endpoint], tmp)
     services: list[ServiceProcess] = []
     try:
-        assert wait_until(lambda: "observing" in observer.log(), 30.0), observer.log()
+        assert wait_until(lambda: "observing" in observer.log(), bound_s(30.0)), observer.log()
         with RobotStandIn(manifest, BusOptions(connect=(endpoint,)), robot_ids=("r1", "r2")):
             agents = ServiceProcess("agents", ["agents", "--build", str(build), "--connect", endpoint], tmp)
             planner_args = ["planner", "--build", str(build), "--connect", endpoint, "--exit-when-done"]
             planner_args += ["--resend-s", "0.5", "--site-info-timeout-s", "0.5"]  # no physics: the stand-in
             planner = ServiceProcess("planner", planner_args, tmp)
             services += [planner, agents]
-            assert planner.wait(RUN_TIMEOUT_S) == 0, planner.log()[-3000:]
+            assert planner.wait(bound_s(RUN_TIMEOUT_S)) == 0, planner.log()[-3000:]
             try:
-                observer_code = observer.wait(30.0)
+                observer_code = observer.wait(bound_s(30.0))
             except subprocess.TimeoutExpired:
                 pytest.fail(f"the observer did not exit after the build\n{observer.log()[-3000:]}")
         watcher.process.send_signal(2)  # SIGINT, as Ctrl-C
-        watch_code = watcher.wait(10.0)
+        watch_code = watcher.wait(bound_s(10.0))
         return ObservedRun(
             manifest, observer_code, observer.log(), watch_code, watcher.log(), rrd, report_dir
         )
@@ -115,7 +116,7 @@ def test_the_recording_verifies(observed_run: ObservedRun) -> None:
         check=False,
         capture_output=True,
         text=True,
-        timeout=60,
+        timeout=bound_s(60),
     )
     assert result.returncode == 0, result.stderr[-3000:]
 

@@ -15,6 +15,7 @@ import pyarrow as pa
 import pytest
 from pydantic import BaseModel
 from rerun.chunk import RrdReader
+from wall_clock import bound_s
 
 from bimbot.services.observer.app import (
     Observer,
@@ -76,7 +77,7 @@ def test_the_recording_passes_rerun_rrd_verify(recorded: Recorded) -> None:
         check=False,
         capture_output=True,
         text=True,
-        timeout=60,
+        timeout=bound_s(60),
     )
     assert result.returncode == 0, result.stderr[-2000:]
 

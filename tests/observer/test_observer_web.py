@@ -13,6 +13,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from wall_clock import bound_s
 
 from bimbot.services.observer.app import rerun_cli_binary
 from bimbot.shared.run_folder import latest_run_folder
@@ -51,7 +52,7 @@ def served(bundled_build: Path, tmp_path_factory: pytest.TempPathFactory) -> Ite
         tmp,
     )
     try:
-        assert wait_until(lambda: "observing" in observer.log(), 30.0), observer.log()
+        assert wait_until(lambda: "observing" in observer.log(), bound_s(30.0)), observer.log()
         yield {"observer": observer, "web_port": web_port, "grpc_port": grpc_port, "build": build, "tmp": tmp}
     finally:
         observer.stop()
@@ -65,7 +66,7 @@ def test_the_viewer_and_its_data_are_served_on_loopback_only(served: dict) -> No
 
 def test_the_viewer_wasm_is_served(served: dict) -> None:
     with urllib.request.urlopen(
-        f"http://127.0.0.1:{served['web_port']}/re_viewer_bg.wasm", timeout=10
+        f"http://127.0.0.1:{served['web_port']}/re_viewer_bg.wasm", timeout=bound_s(10)
     ) as reply:
         assert reply.read(4) == b"\0asm"
 
@@ -83,7 +84,7 @@ def test_headless_chromium_loads_the_rerun_viewer_page(served: dict) -> None:
         "--dump-dom",
         url,
     ]
-    result = subprocess.run(command, check=False, capture_output=True, text=True, timeout=90)
+    result = subprocess.run(command, check=False, capture_output=True, text=True, timeout=bound_s(90))
     assert result.returncode == 0, result.stderr[-2000:]
     dom = result.stdout
     assert "<title>Rerun Viewer</title>" in dom
@@ -93,7 +94,7 @@ def test_headless_chromium_loads_the_rerun_viewer_page(served: dict) -> None:
 def test_sigterm_ends_the_observer_with_a_report_and_a_valid_recording(served: dict) -> None:
     observer = served["observer"]
     observer.process.send_signal(signal.SIGTERM)
-    assert observer.wait(30.0) == 0, observer.log()[-3000:]
+    assert observer.wait(bound_s(30.0)) == 0, observer.log()[-3000:]
     run = latest_run_folder(served["build"])  # no --run-dir: the build's latest run folder, made for it
     assert run is not None
     report = json.loads((run.report_dir / "report.json").read_text())
@@ -105,7 +106,7 @@ def test_sigterm_ends_the_observer_with_a_report_and_a_valid_recording(served: d
         check=False,
         capture_output=True,
         text=True,
-        timeout=60,
+        timeout=bound_s(60),
     )
     assert verify.returncode == 0, verify.stderr[-2000:]
     assert not listening_addresses(served["web_port"])  # the web viewer process is gone too

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from wall_clock import bound_s
 
 GOOD_TYPE = """
 [types.husky]
@@ -59,7 +60,7 @@ def test_a_bad_fleet_file_is_one_clear_line(
         check=False,
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=bound_s(120),
     )
     assert done.returncode == 2, done.stderr
     assert "Traceback" not in done.stderr

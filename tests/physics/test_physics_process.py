@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 import zenoh
 from fleets import ground_fleet_file
+from wall_clock import bound_s
 
 from bimbot.shared.bus import BusOptions, InvalidPayloads, decode, encode, open_session
 from bimbot.shared.fleet import default_fleet
@@ -56,7 +57,7 @@ class _Listener:
         ]
 
     def next(self, name: str, timeout_s: float = 5.0) -> bytes:
-        return self.queues[name].get(timeout=timeout_s)
+        return self.queues[name].get(timeout=bound_s(timeout_s))
 
     def drain(self, name: str) -> list[bytes]:
         items = []
@@ -68,16 +69,19 @@ class _Listener:
 def _get(
     session: zenoh.Session, key_expr: str, payload: bytes | None = None, timeout_s: float = 5.0
 ) -> bytes | None:
-    for reply in session.get(key_expr, payload=payload, timeout=timeout_s):
+    for reply in session.get(key_expr, payload=payload, timeout=bound_s(timeout_s)):
         if reply.ok is not None:
             return reply.ok.payload.to_bytes()
     return None
 
 
 def _wait_clock(listener: _Listener, step: int, timeout_s: float = 5.0) -> ClockMsg:
-    deadline = time.monotonic() + timeout_s
+    """The first clock at ``step`` or later; ``timeout_s`` is a bound on the reference machine (scaled)."""
+    deadline = time.monotonic() + bound_s(timeout_s)
     while time.monotonic() < deadline:
-        clock = ClockMsg.model_validate_json(listener.next("clock", deadline - time.monotonic()))
+        clock = ClockMsg.model_validate_json(
+            listener.queues["clock"].get(timeout=deadline - time.monotonic())
+        )
         if clock.step >= step:
             return clock
     raise AssertionError(f"no clock step {step}")
@@ -99,7 +103,7 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
         running("physics", physics_args, tmp_path) as physics,
         open_session(BusOptions(connect=(endpoint,), listen=())) as session,
     ):
-        deadline = time.monotonic() + 60.0
+        deadline = time.monotonic() + bound_s(60.0)
         info_bytes = None
         while info_bytes is None and time.monotonic() < deadline:
             assert physics.poll() is None, (tmp_path / "physics.log").read_text()
@@ -174,7 +178,7 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
         # physics says so once it has taken the stranger's command (at rtf 0 ten clock steps can pass
         # before the router has forwarded it, so wait for the line, not for a number of steps)
         stranger_logged = "robot 'zz' was not spawned by physics"
-        deadline = time.monotonic() + 10.0
+        deadline = time.monotonic() + bound_s(10.0)
         while stranger_logged not in (tmp_path / "physics.log").read_text() and time.monotonic() < deadline:
             time.sleep(0.05)
         seen = max([step, *(ClockMsg.model_validate_json(m).step for m in listener.drain("clock"))])
@@ -183,8 +187,8 @@ def test_physics_process_serves_the_site_in_lock_step_and_survives_garbage(
 
         started = time.monotonic()
         physics.send_signal(signal.SIGTERM)
-        assert physics.wait(10) == 0, (tmp_path / "physics.log").read_text()
-        assert time.monotonic() - started < 5.0
+        assert physics.wait(bound_s(10)) == 0, (tmp_path / "physics.log").read_text()
+        assert time.monotonic() - started < bound_s(5.0)
     log = (tmp_path / "physics.log").read_text()
     assert "invalid payload" in log and "Traceback" not in log
     assert log.count(stranger_logged) == 1
@@ -202,7 +206,13 @@ def test_physics_holds_its_clock_at_zero_until_the_robots_are_alive(
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     fleet = str(ground_fleet_file(tmp_path))
     physics_args = ["physics", "--build", str(build), "--fleet", fleet, "--connect", endpoint, "--rtf", "0"]
-    physics_args += ["--listen", "tcp/127.0.0.1:0", "--lock-step", "--wait-for-robots-s", "60"]
+    physics_args += [
+        "--listen",
+        "tcp/127.0.0.1:0",
+        "--lock-step",
+        "--wait-for-robots-s",
+        f"{bound_s(60):.0f}",
+    ]
     physics_args += ["--wait-for-planner"] if planner else []
     with (
         running("bus", ["bus", "--listen", endpoint], tmp_path),
@@ -210,7 +220,7 @@ def test_physics_holds_its_clock_at_zero_until_the_robots_are_alive(
         open_session(BusOptions(connect=(endpoint,), listen=())) as session,
     ):
         listener = _Listener(session, {"clock": key(CLOCK_KEY, site=site)})
-        deadline = time.monotonic() + 60.0
+        deadline = time.monotonic() + bound_s(60.0)
         while _get(session, key(PHYSICS_INFO_KEY, site=site), timeout_s=1.0) is None:
             assert physics.poll() is None and time.monotonic() < deadline, (
                 tmp_path / "physics.log"

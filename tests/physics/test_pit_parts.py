@@ -17,6 +17,7 @@ from types import SimpleNamespace
 from typing import Any
 
 import pytest
+from wall_clock import bound_s
 
 from bimbot.services.physics.client import BulletClient, p
 from bimbot.services.physics.pits import Box, Pits, subtract
@@ -94,7 +95,7 @@ def test_the_hub_s_foundations_stand_in_the_derived_order_until_a_clash(
 
     def bimbot(*args: str) -> subprocess.CompletedProcess[str]:
         command = [sys.executable, "-m", "bimbot.cli", *args]
-        return subprocess.run(command, capture_output=True, text=True, timeout=300, check=False)
+        return subprocess.run(command, capture_output=True, text=True, timeout=bound_s(300), check=False)
 
     converted = bimbot("convert", str(samples_dir / "revit2021_structural_hub.ifc"), "-o", str(build))
     assert converted.returncode == 0, converted.stderr

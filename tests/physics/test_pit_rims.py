@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 from physics_builders import idle, pose
+from wall_clock import bound_s
 
 from bimbot.services.physics.scene import footprint
 from bimbot.services.physics.simulation import SimConfig, Simulation
@@ -36,7 +37,7 @@ def hub_build(samples_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> Pa
         str(samples_dir / "revit2021_structural_hub.ifc"),
     ]
     converted = subprocess.run(
-        [*command, "-o", str(build)], check=False, capture_output=True, text=True, timeout=300
+        [*command, "-o", str(build)], check=False, capture_output=True, text=True, timeout=bound_s(300)
     )
     assert converted.returncode == 0, converted.stderr
     return build

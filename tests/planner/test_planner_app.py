@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 import zenoh
 from planner_builders import portal_manifest, robot_msg, state_msg, twin_msg
+from wall_clock import bound_s
 
 from bimbot.cli import build_parser
 from bimbot.cli import main as bimbot_main
@@ -61,7 +62,11 @@ def test_planner_builds_the_portal_over_the_bus_and_exits_0(portal_build: Path) 
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     planner_bus = BusOptions(mode="peer", connect=(), listen=(endpoint,))
     options = PlannerOptions(
-        exit_when_done=True, agents_timeout_s=10.0, resend_s=0.5, twin_timeout_s=0.5, site_info_timeout_s=0.2
+        exit_when_done=True,
+        agents_timeout_s=bound_s(10.0),
+        resend_s=0.5,
+        twin_timeout_s=0.5,
+        site_info_timeout_s=0.2,
     )
     stop = threading.Event()
     result: list[int] = []
@@ -91,7 +96,7 @@ def test_planner_builds_the_portal_over_the_bus_and_exits_0(portal_build: Path) 
         tokens.append(session.liveliness().declare_token(key(ALIVE_KEY, site=SITE, kind="robot", id="r1")))
         planner.start()
         try:
-            deadline = time.monotonic() + 20.0
+            deadline = time.monotonic() + bound_s(20.0)
             while planner.is_alive() and time.monotonic() < deadline:
                 session.put(
                     key(ROBOT_STATE_KEY, site=SITE, robot_id="r1"), encode(robot_msg("r1", (0.0, 0.0)))
@@ -122,7 +127,7 @@ def test_planner_builds_the_portal_over_the_bus_and_exits_0(portal_build: Path) 
                     progress.extend([message] if message is not None else [])
         finally:
             stop.set()
-            planner.join(timeout=10.0)
+            planner.join(timeout=bound_s(10.0))
             twin_queryable.undeclare()
             for token in tokens:
                 token.undeclare()
@@ -229,7 +234,7 @@ def test_a_skip_request_reaches_physics_skip_with_its_payload_and_the_answer_com
         queryable = physics.declare_queryable(selector, answer)
         inbox = Inbox()
         request = SkipRequest(to_sim_s=86500.0, why="curing of foot_a until 86500 s")
-        deadline = time.monotonic() + 5.0
+        deadline = time.monotonic() + bound_s(5.0)
         answers: list[SkipAnswer] = []
         while time.monotonic() < deadline:  # until the peers have met: before, no reply at all
             bus_sender(planner, SITE, inbox)(request)

@@ -17,6 +17,7 @@ import pytest
 import zenoh
 from frames import convert_small_frame
 from robot_sim import SimPhysics
+from wall_clock import bound_s
 
 from bimbot.services.component_agents.agent import ComponentAgent
 from bimbot.services.robot.app import RobotOptions, main
@@ -108,7 +109,7 @@ def test_the_robot_process_builds_a_footing_over_the_bus_in_lock_step(build: Pat
             main(
                 robot_bus,
                 resolve_build(build),
-                RobotOptions(info_timeout_s=30.0),
+                RobotOptions(info_timeout_s=bound_s(30.0)),
                 ExecutorConfig(robot_id="r1"),
                 stop,
             )
@@ -181,7 +182,7 @@ def test_the_robot_process_builds_a_footing_over_the_bus_in_lock_step(build: Pat
         odom = OdomMsg(robot_id="r1", pose_xy_yaw=start, v_mps=0.0, w_radps=0.0, sim_time_s=0.0)  # type: ignore[arg-type]
         sensors = SensorsMsg(robot_id="r1", clock=clock, odom=odom)
         last_clock_wall = 0.0
-        deadline = time.monotonic() + 120.0
+        deadline = time.monotonic() + bound_s(120.0)
         while agent.state is not ComponentState.CONSTRUCTED and time.monotonic() < deadline:
             if time.monotonic() - last_clock_wall > 0.2:  # a late subscriber picks up the open step
                 publish(sensors)
@@ -234,7 +235,7 @@ def test_the_robot_process_builds_a_footing_over_the_bus_in_lock_step(build: Pat
                 last_clock_wall = time.monotonic()
             publish_state(agent.try_verify(time.time()))
         stop.set()
-        robot.join(timeout=20.0)
+        robot.join(timeout=bound_s(20.0))
         for item in (*subscribers, *queryables, alive):
             item.undeclare()
     assert agent.state is ComponentState.CONSTRUCTED

@@ -20,6 +20,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
+from wall_clock import bound_s
 
 from bimbot.demo import bundled_model_path
 
@@ -33,7 +34,7 @@ def _bimbot(*args: str, prefix: tuple[str, ...] = ()) -> subprocess.CompletedPro
         check=False,
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=bound_s(120),
     )
 
 

@@ -19,6 +19,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from wall_clock import bound_s
 
 import bimbot.fork_server
 from bimbot.fork_server import ForkedChild, ForkServer
@@ -45,7 +46,7 @@ def test_a_forked_service_runs_its_command_in_a_session_of_its_own(
     bus = ServiceProcess("bus", ["bus", "--listen", endpoint], tmp_path, launcher=server)
     try:
         assert isinstance(bus.process, ForkedChild), "the service was not forked by the server"
-        assert wait_until(lambda: "listening" in bus.log(), timeout_s=30.0), bus.log()
+        assert wait_until(lambda: "listening" in bus.log(), timeout_s=bound_s(30.0)), bus.log()
         pid = bus.process.pid
         assert os.getpgid(pid) == pid and os.getsid(pid) == pid  # stop() signals its group
         title = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").split()
@@ -63,7 +64,7 @@ def test_a_forked_service_reports_a_user_error_in_one_line_and_exit_2(
     missing = tmp_path / "no_such_build"
     physics = ServiceProcess("physics", ["physics", "--build", str(missing)], tmp_path, launcher=server)
     assert isinstance(physics.process, ForkedChild)
-    assert physics.wait(timeout_s=60.0) == 2
+    assert physics.wait(timeout_s=bound_s(60.0)) == 2
     log = physics.log()
     assert "bimbot physics: error:" in log and str(missing) in log, log
     assert "Traceback" not in log
@@ -73,7 +74,7 @@ def test_a_killed_forked_service_reports_the_signal_as_popen_does(server: ForkSe
     bus = ServiceProcess(
         "bus", ["bus", "--listen", f"tcp/127.0.0.1:{free_port()}"], tmp_path, launcher=server
     )
-    assert wait_until(lambda: "listening" in bus.log(), timeout_s=30.0), bus.log()
+    assert wait_until(lambda: "listening" in bus.log(), timeout_s=bound_s(30.0)), bus.log()
     bus.kill()
     assert bus.process.returncode == -signal.SIGKILL
     assert not bus.alive()
@@ -86,7 +87,7 @@ def _plain_bus(name: str, tmp_path: Path, launcher: ForkServer) -> None:
     )
     try:
         assert isinstance(bus.process, subprocess.Popen)
-        assert wait_until(lambda: "listening" in bus.log(), timeout_s=30.0), bus.log()
+        assert wait_until(lambda: "listening" in bus.log(), timeout_s=bound_s(30.0)), bus.log()
     finally:
         assert bus.stop() == 0
 
@@ -104,9 +105,11 @@ def test_when_the_server_dies_its_services_stop_and_the_next_start_plainly(tmp_p
             "bus", ["bus", "--listen", f"tcp/127.0.0.1:{free_port()}"], tmp_path, launcher=launcher
         )
         assert isinstance(bus.process, ForkedChild)
-        assert wait_until(lambda: "listening" in bus.log(), timeout_s=60.0), bus.log()
+        assert wait_until(lambda: "listening" in bus.log(), timeout_s=bound_s(60.0)), bus.log()
         launcher._process.kill()  # as a user's kill -9 would
-        assert wait_until(lambda: not bus.alive(), timeout_s=15.0), "the service outlived its fork server"
+        assert wait_until(lambda: not bus.alive(), timeout_s=bound_s(15.0)), (
+            "the service outlived its fork server"
+        )
         assert bus.process.returncode is not None
         _plain_bus("bus-again", tmp_path, launcher)
     finally:
@@ -173,7 +176,7 @@ def test_a_check_the_server_never_answers_is_given_up_and_the_run_checks_itself(
 
         checking = threading.Thread(target=check, daemon=True)  # a wait without bound fails, not hangs
         checking.start()
-        checking.join(timeout=30.0)
+        checking.join(timeout=bound_s(30.0))
         assert not checking.is_alive(), "the run still waits for the stopped server's answer"
         assert len(said) == 1 and "no_such_build" in said[0]
         assert "input check did not answer in 1 s: checking here" in caplog.text
@@ -203,7 +206,7 @@ def test_with_a_server_the_run_s_process_never_imports_the_services_code(bundled
         check=True,
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=bound_s(120),
     )
     imported = done.stdout.strip()
     for heavy in ("physics.app", "physics.simulation", "planner.app", "robot.app"):

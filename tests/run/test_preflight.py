@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from wall_clock import bound_s
 
 from bimbot.run_args import RunOptions
 from bimbot.run_preflight import check_run_input
@@ -37,7 +38,7 @@ def _run(build: Path, *options: str) -> subprocess.CompletedProcess[str]:
         check=False,
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=bound_s(120),
     )
 
 

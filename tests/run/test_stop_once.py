@@ -15,6 +15,8 @@ import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from wall_clock import bound_s
+
 from bimbot.supervisor import ServiceProcess, stop_all, wait_until
 
 COUNTING_SERVICE = textwrap.dedent(
@@ -58,7 +60,7 @@ def test_stop_all_sends_each_service_one_sigterm_and_waits_for_it(tmp_path: Path
         ServiceProcess(folder.name, [str(folder)], tmp_path, launcher=launcher)  # type: ignore[arg-type]
         for folder in (first, second)
     ]
-    assert wait_until(lambda: all((f / "ready").exists() for f in (first, second)), timeout_s=20.0)
+    assert wait_until(lambda: all((f / "ready").exists() for f in (first, second)), timeout_s=bound_s(20.0))
     stop_all(services)
     for service, folder in zip(services, (first, second), strict=True):
         assert service.process.returncode == 0, service.name  # it finished its own shutdown, not killed

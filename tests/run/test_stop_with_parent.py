@@ -16,6 +16,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
+from wall_clock import bound_s
 
 from bimbot.supervisor import free_port, wait_until
 from tests.processes import alive
@@ -44,11 +45,11 @@ def test_a_service_stops_when_the_process_that_started_it_is_killed(tmp_path: Pa
     try:
         assert parent.stdout is not None
         child = int(parent.stdout.readline())
-        assert wait_until(lambda: "listening" in (tmp_path / "bus.log").read_text(), timeout_s=60.0)
+        assert wait_until(lambda: "listening" in (tmp_path / "bus.log").read_text(), timeout_s=bound_s(60.0))
         assert alive(child)
         parent.send_signal(signal.SIGKILL)
-        parent.wait(timeout=10)
-        assert wait_until(lambda: not alive(child), timeout_s=15.0), "the bus outlived its parent"
+        parent.wait(timeout=bound_s(10))
+        assert wait_until(lambda: not alive(child), timeout_s=bound_s(15.0)), "the bus outlived its parent"
     finally:
         parent.kill()
         if child and alive(child):

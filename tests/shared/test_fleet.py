@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from wall_clock import bound_s
 
 from bimbot.shared.errors import InputError
 from bimbot.shared.fleet import default_fleet, load_fleet, resolve_urdf
@@ -193,7 +194,7 @@ def test_fleet_check_prints_the_husky_only_fleet_footings_too_heavy_with_the_num
         [sys.executable, "-m", "bimbot.cli", "fleet", "check", str(bundled_build), "--fleet", str(path)],
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=bound_s(120),
         check=False,
     )
     assert done.returncode == 1, done.stderr  # 1: the fleet cannot build everything

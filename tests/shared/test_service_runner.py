@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 from pydantic import BaseModel
+from wall_clock import bound_s
 
 import bimbot.cli
 from bimbot.shared.errors import UserError
@@ -45,7 +46,7 @@ def test_sigterm_to_its_own_process_sets_the_stop_event_and_the_old_handlers_com
         """
     )
     done = subprocess.run(
-        [sys.executable, "-c", script], check=False, capture_output=True, text=True, timeout=60
+        [sys.executable, "-c", script], check=False, capture_output=True, text=True, timeout=bound_s(60)
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "ok"

@@ -16,6 +16,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+from wall_clock import bound_s
+
 from bimbot.supervisor import ServiceProcess, free_port, wait_until
 
 # A signal landing while the main thread holds the stop event's lock, made deterministic: the handler is
@@ -47,7 +49,7 @@ HELD_LOCK = textwrap.dedent(
 
 def test_a_signal_landing_while_the_stop_event_is_locked_still_stops() -> None:
     result = subprocess.run(
-        [sys.executable, "-c", HELD_LOCK], capture_output=True, text=True, timeout=30, check=False
+        [sys.executable, "-c", HELD_LOCK], capture_output=True, text=True, timeout=bound_s(30), check=False
     )
     assert result.returncode == 0 and result.stdout.strip() == "stopped", result.stderr[-2000:]
 
@@ -55,13 +57,13 @@ def test_a_signal_landing_while_the_stop_event_is_locked_still_stops() -> None:
 def test_a_burst_of_signals_stops_a_service_cleanly(tmp_path: Path) -> None:
     bus = ServiceProcess("bus", ["bus", "--listen", f"tcp/127.0.0.1:{free_port()}"], tmp_path)
     try:
-        assert wait_until(lambda: "listening" in bus.log(), timeout_s=30.0), bus.log()
+        assert wait_until(lambda: "listening" in bus.log(), timeout_s=bound_s(30.0)), bus.log()
         for number in range(300):  # SIGTERM and SIGINT as fast as they go, as a dying parent and a user might
             try:
                 os.kill(bus.process.pid, signal.SIGTERM if number % 2 else signal.SIGINT)
             except ProcessLookupError:
                 break
-        code = bus.wait(timeout_s=20.0)  # raises TimeoutExpired when it hangs
+        code = bus.wait(timeout_s=bound_s(20.0))  # raises TimeoutExpired when it hangs
         assert "bus router stopped" in bus.log(), bus.log()  # it stopped itself, session closed
         # 0; or a signal of the burst that landed after the service had finished, while the interpreter
         # exits with its default handlers back
