@@ -37,7 +37,8 @@ from bimbot.shared.errors import InputError
 from bimbot.shared.fleet import resolve_urdf
 from bimbot.shared.messages import RobotPoseMsg, RobotState, SiteInfoMsg
 
-from .twin_items import ROBOT_COLORS, LogItem, robot_path
+from .state_colors import ROBOT_COLORS
+from .twin_items import LogItem, robot_path
 from .urdf_mesh import LinkMesh, LinkMeshes
 from .urdf_model import UrdfModel, read_urdf
 

@@ -59,12 +59,11 @@ from bimbot.shared.messages import (
 from bimbot.shared.site_plan import SiteLayout
 
 from .fleet_log import FleetLog
+from .state_colors import ROBOT_COLORS, STATE_COLORS
 from .twin_items import (
     PLAN_Z_M,
-    ROBOT_COLORS,
     ROBOT_HALF_SIZE_M,
     SITE_LINE_Z_M,
-    STATE_COLORS,
     STATE_LOG_LEVELS,
     LogItem,
     component_color,
