@@ -9,7 +9,7 @@ pour, laying: :mod:`.report_methods_png`); a hand-off task (a ground robot carry
 crane's staging spot) is hatched and outlined, so it is not taken for a build. A bar is at least
 ``MIN_BAR_FRACTION`` of the axis wide, and a bar label that would lie on the one before it is left out.
 Both panels share one linear sim-time axis in the unit of its span (s, min, h, days:
-:mod:`.report_time_axis`): on a run with curing the lifted work is a sliver beside days of cure, as it was.
+:mod:`.report_time_axis`): on a run with curing the lifted work is a sliver beside days of cure, as on site.
 Its title gives each type's utilisation (busy share of its robots over the makespan).
 Right: the planned sequence, one row per component in ``sequence.xml`` order (first at the top), a thin
 bar from its release to its pick-up (or the start of its work in place) and a full bar from there to
