@@ -43,8 +43,11 @@ def format_in(unit: TimeUnit, seconds: float) -> str:
 
 
 def duration_text(seconds: float) -> str:
-    """A duration in the unit a person would say it in: ``45.0 s``, ``12.5 min``, ``81.0 h``, ``5.2 days``
-    (the seconds too when the unit is not seconds: ``81.0 h (291,652 s)``)."""
+    """A duration in the unit a person would say it in: ``45.0 s``, ``12.5 min``, ``2.0 h``, ``81.0 h``,
+    ``5.2 days`` (minutes only up to an hour; the seconds too when the unit is not seconds:
+    ``81.0 h (291,652 s)``)."""
     unit = time_unit(seconds)
+    if unit.name == "min" and seconds > 3600.0:
+        unit = next(u for u in TIME_UNITS if u.name == "h")
     text = f"{seconds / unit.seconds:.1f} {unit.name}"
     return text if unit.seconds == 1.0 else f"{text} ({seconds:,.0f} s)"

@@ -119,6 +119,7 @@ def test_times_are_said_in_the_unit_of_their_span() -> None:
     assert [time_unit(s).name for s in (45.0, 1800.0, 291652.0, 30 * 86400.0)] == ["s", "min", "h", "days"]
     assert duration_text(291651.0) == "81.0 h (291,651 s)"
     assert duration_text(45.0) == "45.0 s"
+    assert (duration_text(1800.0), duration_text(7201.0)) == ("30.0 min (1,800 s)", "2.0 h (7,201 s)")
 
 
 def _bars_x(ax: Axes, color: RGB | None = None, hatch: str | None = None) -> list[tuple[float, float]]:
