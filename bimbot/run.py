@@ -62,7 +62,9 @@ from bimbot.run_table import not_built_table
 from bimbot.run_watchdog import StallWatchdog
 from bimbot.services.observer.report import RunEnding
 from bimbot.services.observer.report_fleet import lane_label, robot_order, utilisation_line
+from bimbot.services.observer.report_methods import curing_line
 from bimbot.services.observer.report_placements import caught_on_last_attempt, placement_line
+from bimbot.services.observer.report_time import duration_text
 from bimbot.services.observer.report_totals import busy_within_s, makespan_window
 from bimbot.shared.bus import open_session
 from bimbot.shared.errors import UserError
@@ -332,7 +334,17 @@ def _makespan(totals: dict[str, Any]) -> str:
     """``; makespan 1060.6 s``: the report's and report.png's figure (first release to last construction),
     which a user otherwise cannot tell from the run's sim time."""
     makespan = totals.get("makespan_s")
-    return f"; makespan {makespan:.1f} s from the first release to the last construction" if makespan else ""
+    if not makespan:
+        return ""
+    return f"; makespan {duration_text(makespan)} from the first release to the last construction"
+
+
+def _busy(busy_s: float) -> str:
+    """``77 s``; a machine's hours of formwork as ``9.0 h (32,403 s)``."""
+    return f"{busy_s:.0f} s" if busy_s <= LONG_BUSY_S else duration_text(busy_s)
+
+
+LONG_BUSY_S = 600.0
 
 
 def _busy_outside(robot: dict[str, Any], window: tuple[float, float] | None) -> str:
@@ -382,6 +394,9 @@ def summary_text(outcome: RunOutcome) -> str:
     methods = method_line(totals)
     if methods:
         lines.append(methods)
+    curing = curing_line(outcome.report)
+    if curing is not None:
+        lines.append(curing)
     if totals.get("in_place"):
         lines.append(
             f"in place before the run (convert --in-place): {totals['in_place']} component(s), not built "
@@ -411,7 +426,7 @@ def summary_text(outcome: RunOutcome) -> str:
         lines.append(
             f"{lane_label(robot_id, robot)}: {len(robot['tasks'])} task(s)"
             + (f" ({hand_offs} hand-off(s))" if hand_offs else "")
-            + f", {robot['distance_m']:.0f} m driven, busy {robot['busy_s']:.0f} s"
+            + f", {robot['distance_m']:.0f} m driven, busy {_busy(robot['busy_s'])}"
             + _busy_outside(robot, window)
         )
     utilisation = utilisation_line(outcome.report)

@@ -13,9 +13,12 @@ import json
 import sys
 from pathlib import Path
 
+from bimbot.services.observer.report_time import time_unit
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import load_manifest
 from bimbot.shared.run_folder import RunFolder, latest_run_folder, new_run_folder, run_folders
+
+LONG_RUN_S = 2 * 3600.0  # beyond this a run's sim time is said in hours or days too
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -56,6 +59,9 @@ def run_summary(run: RunFolder) -> str:
     ending = report.get("ending") or {}
     sim_s = report.get("sim_time_s", totals.get("makespan_s"))
     sim = f", {sim_s:.0f} s sim" if isinstance(sim_s, int | float) else ""
+    if isinstance(sim_s, int | float) and sim_s > LONG_RUN_S:  # curing: say it in hours or days too
+        unit = time_unit(sim_s)
+        sim += f" ({sim_s / unit.seconds:.1f} {unit.name})"
     by_reason = totals.get("by_reason") or {}
     reasons = ", ".join(
         f"{count} {reason}"

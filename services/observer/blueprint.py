@@ -24,7 +24,8 @@ from bimbot.shared.messages import ComponentState, SiteInfoMsg
 from bimbot.shared.robot_description import Capability
 from bimbot.shared.site_plan import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect, SiteLayout
 
-from .twin_items import SITE_LINE_Z_M, STATE_COLORS, TIMELINE, LogItem
+from .state_colors import STATE_COLORS
+from .twin_items import SITE_LINE_Z_M, TIMELINE, LogItem
 
 
 def site_eye(components: Iterable[Component]) -> rrb.EyeControls3D | None:

@@ -37,7 +37,8 @@ from bimbot.shared.errors import InputError
 from bimbot.shared.fleet import resolve_urdf
 from bimbot.shared.messages import RobotPoseMsg, RobotState, SiteInfoMsg
 
-from .twin_items import ROBOT_COLORS, LogItem, robot_path
+from .state_colors import ROBOT_COLORS
+from .twin_items import LogItem, robot_path
 from .urdf_mesh import LinkMesh, LinkMeshes
 from .urdf_model import UrdfModel, read_urdf
 
@@ -166,11 +167,13 @@ class FleetLog:
             items += self._log_joints(robot_id, sim_time_s, self._early.pop(robot_id))
         return items
 
-    def robot_state(self, robot_id: str, state: RobotState) -> list[LogItem]:
-        """The state marker of a drawn robot (none for a robot without a model)."""
+    def robot_state(self, robot_id: str, state: RobotState, activity: str = "") -> list[LogItem]:
+        """The state marker of a drawn robot, labelled with what it is doing (none for a robot without a
+        model)."""
         model = self._robots.get(robot_id)
         if model is None:
             return []
+        label = self._labels[robot_id] + (f": {activity}" if activity else "")
         return [
             LogItem(
                 marker_path(robot_id),
@@ -178,7 +181,7 @@ class FleetLog:
                     [(0.0, 0.0, model.top_z_m + MARKER_ABOVE_M)],
                     colors=[ROBOT_COLORS[state]],
                     radii=MARKER_RADIUS_M,
-                    labels=[self._labels[robot_id]],
+                    labels=[label],
                 ),
             )
         ]

@@ -12,7 +12,9 @@ down at a crane's staging spot, each hand-off), ``attempts``, the robots that ha
 state, its position in the planned sequence and the placement error of its last verdict
 (``position_error_mm``, ``angle_error_deg``, as its agent measured them against the BIM pose);
 ``placements``, every verified attempt in order (robot and its type, errors, drift after release, verdict
-and cause), and ``max_drift_mm`` (:mod:`.report_placements`).
+and cause), and ``max_drift_mm`` (:mod:`.report_placements`); how it was built: ``method`` and why,
+``resources`` (the robot types that worked on it), the times of its formwork, pour or laying and a cast
+component's ``curing`` (:mod:`.report_methods`).
 
 Per robot: ``type`` (its robot type, from physics' site info, ``SiteInfoMsg``; robots on site that never
 reported are listed too), ``busy_s``, ``tasks`` (``build``, or ``hand_off``: a ground robot carried it to
@@ -27,7 +29,9 @@ Totals: components by final state, retries, makespan (first release → last con
 distance, robot utilisation (busy time within the makespan / (robots × makespan)), ``by_type`` (per robot
 type: robots, busy time, build and hand-off tasks, utilisation), the number of hand-off tasks, the largest
 placement errors of the constructed components; ``placement_error_mm_by_type`` (the distribution of every
-attempt's position error per robot type), ``retries_by_cause`` and ``max_drift_mm``.
+attempt's position error per robot type; work in place, built at its target by physics, is left out),
+``retries_by_cause`` and ``max_drift_mm``; ``by_method`` and ``work_in_place_verdicts``. The elements
+split into panels (``panelised``) and built into their hosts (``with_host``) are listed.
 
 Reasons: every component that is not constructed gets a ``reason`` object (``code``, ``message``,
 ``guid``, ``robot_id``; :class:`bimbot.shared.reasons.Reason`). A failed or blocked component has its own
@@ -65,7 +69,17 @@ from bimbot.shared.messages import (
 from bimbot.shared.reasons import Reason, ReasonCode
 
 from .report_fleet import by_type
-from .report_methods import methods_count, panelised_elements, with_host_elements
+from .report_methods import (
+    CuringSeen,
+    WorkTimes,
+    curing_entry,
+    hand_placed,
+    methods_count,
+    panelised_elements,
+    take_curing,
+    with_host_elements,
+    work_fields,
+)
 from .report_placements import (
     PLACEMENT_REASON_CODES,
     Placement,
@@ -126,6 +140,7 @@ class ComponentTimeline:
     reason: Reason | None = None  # failed/blocked: why (from its agent)
     last_give_back: Reason | None = None  # the latest reason a robot gave its task back for
     placements: list[Placement] = field(default_factory=list)  # every verdict, in order
+    work: WorkTimes = field(default_factory=WorkTimes)  # forming, pouring, laying (:mod:`.report_methods`)
 
 
 def twin_messages(twin: TwinMsg) -> list[ComponentStateMsg | ComponentPoseMsg]:
@@ -155,6 +170,7 @@ class ReportCollector:
         self.task_kinds: dict[str, TaskKind] = {}
         self.put_downs: dict[str, tuple[float, float]] = {}  # hand-off task id → where the load went down
         self.progress: ProgressMsg | None = None
+        self.curing: dict[str, CuringSeen] = {}  # cast GUID → the planner's curing holds on it, as seen
         self.last_sim_time_s = 0.0
         self.messages = 0
         self.min_separation_m = math.inf  # between two robots at one sim time (ground truth)
@@ -187,10 +203,10 @@ class ReportCollector:
             self.robot_type_of.update(message.robot_type_of)
             for robot_id in message.robot_ids:
                 self.robots.setdefault(robot_id, RobotTimeline())
-        elif isinstance(message, ProgressMsg) and (
-            self.progress is None or message.sim_time_s >= self.progress.sim_time_s
-        ):
-            self.progress = message
+        elif isinstance(message, ProgressMsg):
+            take_curing(self.curing, message)  # every hold, though the latest progress has none left
+            if self.progress is None or message.sim_time_s >= self.progress.sim_time_s:
+                self.progress = message
 
     def replace_from_twin(self, twin: TwinMsg) -> None:
         """Rebuild a component's timeline from its twin alone (its agent's own record): what the bus said
@@ -221,6 +237,7 @@ class ReportCollector:
         t = timeline.last_s = max(msg.sim_time_s, timeline.last_s)
         if msg.previous is None:  # an announcement (agent start or resume), not a transition
             return
+        timeline.work.take(msg, t)
         if msg.position_error_m is not None:
             timeline.position_error_m, timeline.angle_error_rad = msg.position_error_m, msg.angle_error_rad
         placement = placement_of(msg)
@@ -306,6 +323,10 @@ class ReportCollector:
                     "reason": dump_reason(self._reason(component.guid, timeline, ending)),
                     "placements": placements,
                     "max_drift_mm": max_or_none(p["drift_mm"] for p in placements),
+                    **work_fields(
+                        timeline.work,
+                        curing_entry(component, timeline.constructed_s, self.curing.get(component.guid)),
+                    ),
                 }
             )
         robots = {
@@ -321,7 +342,12 @@ class ReportCollector:
         totals["done"] = bool(self.progress and self.progress.done)
         totals["not_constructed"] = totals["components"] - totals["constructed"]
         totals["by_reason"] = count_reasons(components)
-        totals.update(placement_totals(components, list(totals["by_type"])))
+        # work in place is verified like a placement, but no hand set it down (:mod:`.report_methods`)
+        placed_by_hand = [component for component in components if hand_placed(component)]
+        totals.update(placement_totals(placed_by_hand, list(totals["by_type"])))
+        totals["work_in_place_verdicts"] = sum(
+            len(component["placements"]) for component in components if not hand_placed(component)
+        )
         separation = self.min_separation_m
         totals["min_robot_separation_m"] = None if math.isinf(separation) else separation
         totals["in_place"] = len(self.manifest.in_place)

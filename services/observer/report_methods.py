@@ -1,17 +1,40 @@
 """How the report tells what each component's construction method did: counts by method, the elements split
-into panels (built when all their panels are, with the joints between them) and the elements built into
-their hosts (constructed with them). Pure, over the report's component entries (:mod:`.report`)."""
+into panels (built when all their panels are, with the joints between them), the elements built into
+their hosts (constructed with them), and the work in place. Pure, over the report's component entries
+(:mod:`.report`) and the messages it is fed.
+
+Work in place: a footing cast in place takes hours of formwork and a pour, then days of curing in which
+nothing may rest on it; a wall is laid course by course. Per component:
+
+* ``forming_s``, ``pouring_s``, ``laying_s``: when its agent last entered ``forming``, ``pouring`` or
+  ``laying`` (the attempt that went on to ``verifying``), so the formwork runs from ``forming_s`` to
+  ``pouring_s``, the pour from ``pouring_s`` to ``placed_s``, the laying from ``laying_s`` to ``placed_s``;
+* ``curing``: a cast component once constructed: ``from_s`` (constructed), ``until_s`` and its
+  ``source``: the planner's curing holds when it held something on it (``holds``: what it held), else
+  ``manifest`` (constructed + ``cast.cure_s``: nothing rested on it, it cured all the same).
+
+Work in place is verified like a placement, but physics built it at its target, no hand set it down:
+:func:`hand_placed` keeps it out of the placement statistics.
+"""
 
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 from bimbot.shared.construction_methods import ConstructionMethod
-from bimbot.shared.manifest import Manifest
-from bimbot.shared.messages import ComponentState
+from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.messages import ComponentState, ComponentStateMsg, ProgressMsg
 
 CONSTRUCTED = ComponentState.CONSTRUCTED.value
+WORK_IN_PLACE = (ConstructionMethod.CAST_IN_PLACE.value, ConstructionMethod.LAID.value)
+WORK_STATES = {  # state entered → the report's field of its time
+    ComponentState.FORMING: "forming_s",
+    ComponentState.POURING: "pouring_s",
+    ComponentState.LAYING: "laying_s",
+}
 
 
 def methods_count(components: list[dict[str, Any]], manifest: Manifest) -> dict[str, dict[str, int]]:
@@ -74,3 +97,87 @@ def with_host_elements(manifest: Manifest, components: list[dict[str, Any]]) -> 
                 }
             )
     return guests
+
+
+# --- work in place -------------------------------------------------------------------------------------
+
+
+@dataclass
+class WorkTimes:
+    """A component's work in place: when its agent last entered each working state (sim s)."""
+
+    forming_s: float | None = None
+    pouring_s: float | None = None
+    laying_s: float | None = None
+
+    def take(self, msg: ComponentStateMsg, at_s: float) -> None:
+        """A state change (``at_s``: its time as the report keeps it, never going backwards)."""
+        name = WORK_STATES.get(msg.state)
+        if name is not None and msg.previous is not None:
+            setattr(self, name, at_s)
+
+
+@dataclass
+class CuringSeen:
+    """What the planner's progress said of one cast component's curing: until when, and what it held."""
+
+    until_s: float
+    holds: list[str]
+
+
+def take_curing(seen: dict[str, CuringSeen], progress: ProgressMsg) -> None:
+    """Remember every curing hold of ``progress`` (a hold leaves the progress once it has ended)."""
+    for hold in progress.curing:
+        entry = seen.setdefault(hold.cast_guid, CuringSeen(hold.until_s, []))
+        entry.until_s = max(entry.until_s, hold.until_s)
+        if hold.guid not in entry.holds:
+            entry.holds.append(hold.guid)
+
+
+def curing_entry(
+    component: Component, constructed_s: float | None, seen: CuringSeen | None
+) -> dict[str, Any] | None:
+    """A cast component's curing once constructed (see the module), else None."""
+    if component.method is not ConstructionMethod.CAST_IN_PLACE or constructed_s is None:
+        return None
+    if seen is not None:
+        return {"from_s": constructed_s, "until_s": seen.until_s, "source": "planner", "holds": seen.holds}
+    cure_s = component.cast.cure_s if component.cast is not None else 0.0
+    if cure_s <= 0.0:
+        return None
+    return {"from_s": constructed_s, "until_s": constructed_s + cure_s, "source": "manifest", "holds": []}
+
+
+def work_fields(work: WorkTimes, curing: dict[str, Any] | None) -> dict[str, Any]:
+    """A component's work in place in ``report.json`` (see the module)."""
+    return {
+        "forming_s": work.forming_s,
+        "pouring_s": work.pouring_s,
+        "laying_s": work.laying_s,
+        "curing": curing,
+    }
+
+
+def hand_placed(component: Mapping[str, Any]) -> bool:
+    """Whether a report component was set down by a hand (lifted, a panel): not built in place."""
+    return component.get("method") not in WORK_IN_PLACE
+
+
+def method_word(method: str) -> str:
+    """``cast in place`` for ``cast_in_place``: a method as a person writes it."""
+    return method.replace("_", " ")
+
+
+def curing_line(report: Mapping[str, Any]) -> str | None:
+    """``cured: 2 cast components, the longest 72 h (the planner held 1 component for it)``; None when
+    nothing was cast."""
+    cured = [c["curing"] for c in report.get("components", []) if c.get("curing")]
+    if not cured:
+        return None
+    longest_h = max(entry["until_s"] - entry["from_s"] for entry in cured) / 3600.0
+    held = sum(len(entry["holds"]) for entry in cured)
+    components = f"{len(cured)} cast component{'' if len(cured) == 1 else 's'}"
+    line = f"cured: {components}, the longest {longest_h:.0f} h"
+    if held:
+        line += f" (the planner held {held} component{'' if held == 1 else 's'} for it)"
+    return line

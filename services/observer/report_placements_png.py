@@ -24,6 +24,7 @@ from matplotlib.ticker import FuncFormatter
 
 from bimbot.shared.verification import Tolerances
 
+from .report_methods import hand_placed
 from .report_placements import MISPLACED, UNSTABLE, WITHIN_TOLERANCE, type_of
 
 TOLERANCE_MM = Tolerances().position_m * 1000.0  # the default; a report says the one in force
@@ -49,13 +50,32 @@ Point = tuple[float, str]  # (value in mm, cause)
 
 
 def rows_by_type(report: Mapping[str, Any]) -> dict[str, list[Mapping[str, Any]]]:
-    """Every placement of ``report``, grouped by robot type in the report's order (see the module)."""
+    """Every placement by a hand in ``report`` (work in place left out), grouped by robot type in the
+    report's order (see the module)."""
     order = list((report.get("totals") or {}).get("placement_error_mm_by_type") or {})
     rows: dict[str, list[Mapping[str, Any]]] = {name: [] for name in order}
     for component in report.get("components", []):
+        if not hand_placed(component):
+            continue
         for placement in component.get("placements", []):
             rows.setdefault(type_of(placement), []).append(placement)
     return rows
+
+
+def work_in_place_note(report: Mapping[str, Any]) -> str | None:
+    """What the panels leave out: the verdicts on work in place (poured or laid at its target by physics,
+    no hand set it down, so it says nothing of a robot's precision); None when there are none."""
+    count = (report.get("totals") or {}).get("work_in_place_verdicts") or 0
+    if not count:
+        return None
+    verdicts = f"{count} verdict{'' if count == 1 else 's'}"
+    return f"left out: {verdicts} on work in place (cast or laid: built at its target, not set down)"
+
+
+def _note(ax: Axes, report: Mapping[str, Any]) -> None:
+    note = work_in_place_note(report)
+    if note is not None:
+        ax.text(0.99, 0.02, note, transform=ax.transAxes, ha="right", va="bottom", fontsize=7, color="0.3")
 
 
 def _jitter(index: int) -> float:
@@ -136,6 +156,7 @@ def draw_placement_errors(ax: Axes, report: Mapping[str, Any]) -> None:
     ax.set_title("placement position error per robot type (every attempt)")
     ax.set_xlabel("position error (mm, log above 1 mm)")
     rows = rows_by_type(report)
+    _note(ax, report)
     if not any(rows.values()):
         _no_data(ax, "no placement was verified")
         return
@@ -163,6 +184,7 @@ def draw_drift(ax: Axes, report: Mapping[str, Any]) -> None:
     ax.set_title(title)
     ax.set_xlabel("moved after release (mm, log above 1 mm)")
     rows = rows_by_type(report)
+    _note(ax, report)
     points = [_points(placements, "drift_mm") for placements in rows.values()]
     if not any(points):
         _no_data(ax, "no drift was measured")

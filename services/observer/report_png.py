@@ -4,11 +4,16 @@ release).
 
 Left: one lane per robot, labelled with its type (``r2 (carrier)``), the robots of a type together
 (:func:`.report_fleet.robot_order`) with a line between types; a bar per task (the robot left ``idle`` →
-came back), coloured by the IFC class of the component it handled; a hand-off task (a ground robot
-carrying a component to a crane's staging spot) is hatched and outlined, so it is not taken for a build.
+came back), coloured by the IFC class of the component it handled, or by its work in place (formwork,
+pour, laying: :mod:`.report_methods_png`); a hand-off task (a ground robot carrying a component to a
+crane's staging spot) is hatched and outlined, so it is not taken for a build. A bar is at least
+``MIN_BAR_FRACTION`` of the axis wide, and a bar label that would lie on the one before it is left out.
+Both panels share one linear sim-time axis in the unit of its span (s, min, h, days:
+:mod:`.report_time_axis`): on a run with curing the lifted work is a sliver beside days of cure, as on site.
 Its title gives each type's utilisation (busy share of its robots over the makespan).
 Right: the planned sequence, one row per component in ``sequence.xml`` order (first at the top), a thin
-bar from its release to its pick-up and a full bar from pick-up to constructed, in the same colours;
+bar from its release to its pick-up (or the start of its work in place) and a full bar from there to
+constructed, in the same colours, a cast component's curing after it hatched grey;
 hand-offs to a crane are marked with a black triangle, misplacements with a red cross when detected,
 failures with a black one. Every component that is not constructed is marked: a red hatched span from
 where it stopped (failed, picked, released, or the start) to the end of the run, its reason code at the
@@ -27,6 +32,7 @@ size (``FIGURE_SIZE_IN`` × ``DPI``).
 from __future__ import annotations
 
 import json
+import math
 import textwrap
 from collections.abc import Collection
 from pathlib import Path
@@ -44,8 +50,21 @@ from matplotlib.patches import Patch
 from matplotlib.text import Text
 
 from .report_fleet import lane_label, robot_order, utilisation_line
+from .report_methods import WORK_IN_PLACE
+from .report_methods_png import (
+    MIN_BAR_FRACTION,
+    STEP_COLORS,
+    Segment,
+    draw_curing,
+    draw_segments,
+    method_legend,
+    row_work,
+    work_segments,
+)
 from .report_placements import MISPLACED, RETRY_CAUSES, caught_on_last_attempt
 from .report_placements_png import CAUSE_STYLES, draw_drift, draw_placement_errors, placement_handles
+from .report_time import duration_text
+from .report_time_axis import set_time_axis
 
 REPORT_JSON = "report.json"
 REPORT_PNG = "report.png"
@@ -68,12 +87,16 @@ def _palette(name: str) -> tuple[RGB, ...]:
     return tuple(to_rgb(colormap(index)) for index in range(colormap.N))
 
 
+def _far_from(color: RGB, others: Collection[RGB], distance: float = 0.35) -> bool:
+    return all(sum((a - b) ** 2 for a, b in zip(color, other, strict=True)) > distance**2 for other in others)
+
+
 # No red: red marks what was not constructed (a constructed slab in tab10's red looked like the failed
-# ones round it on the Revit hub's chart)
+# ones round it on the Revit hub's chart); nor the colours of work in place (formwork, pour, laying)
 CLASS_PALETTE = tuple(
     color
     for color in _palette("tab10") + _palette("Dark2")
-    if sum((a - b) ** 2 for a, b in zip(color, to_rgb(NOT_BUILT_COLOR), strict=True)) > 0.35**2
+    if _far_from(color, [to_rgb(NOT_BUILT_COLOR), *STEP_COLORS.values()])
 )
 
 
@@ -121,11 +144,13 @@ def marked_row(component: dict[str, Any], wrong: Collection[str]) -> bool:
     return caught or component["guid"] in wrong
 
 
+LANES_PANEL_PT = FIGURE_SIZE_IN[0] * 72.0 * 0.6 * 0.85  # the lanes panel: 3/5 of the width, less margins
+
+
 def bar_label_size_pt(width_s: float, span_s: float) -> float:
     """A task bar's label size (the label runs along the bar's height): as thick as the bar is wide on the
     lanes panel, 5–9 pt."""
-    panel_pt = FIGURE_SIZE_IN[0] * 72.0 * 0.6 * 0.85  # the lanes panel: 3/5 of the width, less margins
-    return max(5.0, min(9.0, 0.7 * panel_pt * width_s / max(span_s, 1e-9)))
+    return max(5.0, min(9.0, 0.7 * LANES_PANEL_PT * width_s / max(span_s, 1e-9)))
 
 
 HAND_OFF_PREFIX = "→ "  # a hand-off task's bar label: the load goes to a crane's staging spot
@@ -161,46 +186,75 @@ def _short(component: dict[str, Any]) -> str:
     return component.get("name") or component["guid"][:8]
 
 
-def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> list[Text]:
-    """The Gantt lanes; the task bars' labels (fitted to their bars once the figure is laid out)."""
+def chart_span_s(report: dict[str, Any]) -> float:
+    """The sim time the Gantt and sequence panels span: to the last task's end, construction, failure or
+    curing, or the run's end."""
+    times = [float(report.get("sim_time_s") or 0.0)]
+    for robot in report["robots"].values():
+        times += [task["end_s"] for task in robot["tasks"]]
+    for component in report["components"]:
+        times += [component[name] for name in ("constructed_s", "failed_s") if component.get(name)]
+        if component.get("curing"):
+            times.append(component["curing"]["until_s"])
+    return max(*times, 1.0)
+
+
+def _robot_lanes(
+    ax: Axes, report: dict[str, Any], colors: dict[str, RGB], span_s: float | None = None
+) -> list[Text]:
+    """The Gantt lanes over ``span_s`` (default :func:`chart_span_s`); the task bars' labels (fitted to
+    their bars once the figure is laid out). A label that would lie on the one before it in its lane is
+    left out (the sequence panel names every row)."""
+    span_s = span_s if span_s is not None else chart_span_s(report)
     labels: list[Text] = []
     by_guid = {c["guid"]: c for c in report["components"]}
     robots = report["robots"]
     robot_ids = robot_order(robots)
-    span_s = max((t["end_s"] for r in robot_ids for t in robots[r]["tasks"]), default=1.0)
+    min_width_s = MIN_BAR_FRACTION * span_s
     for lane, robot_id in enumerate(robot_ids):
+        last_label_s = -math.inf
         for task in robots[robot_id]["tasks"]:
             component = by_guid.get(task["guid"] or "")
             color = colors.get(component["ifc_class"], "grey") if component else "lightgrey"
             width = task["end_s"] - task["start_s"]
             hand_off = task.get("kind") == "hand_off"
-            ax.broken_barh(
-                [(task["start_s"], width)],
-                (lane - 0.4, 0.8),
-                facecolors=color,
-                edgecolors=HAND_OFF_EDGE if hand_off else "white",
-                hatch=HAND_OFF_HATCH if hand_off else None,
-                linewidth=1.0 if hand_off else 0.5,
-            )
-            if component and width > 0:
+            if hand_off:
+                ax.broken_barh(
+                    [(task["start_s"], max(width, min_width_s))],
+                    (lane - 0.4, 0.8),
+                    facecolors=color,
+                    edgecolors=HAND_OFF_EDGE,
+                    hatch=HAND_OFF_HATCH,
+                    linewidth=1.0,
+                )
+            else:
+                segments = work_segments(component, task["start_s"], task["end_s"])
+                draw_segments(
+                    ax, segments, (lane - 0.4, 0.8), component, class_color=color, min_width_s=min_width_s
+                )
+            size_pt = bar_label_size_pt(width, span_s)
+            centre_s = task["start_s"] + width / 2
+            if component and width > 0 and centre_s - last_label_s >= label_width_s(size_pt, span_s):
                 label = ax.text(
-                    task["start_s"] + width / 2,
+                    centre_s,
                     lane,
                     (HAND_OFF_PREFIX if hand_off else "") + _short(component),
                     ha="center",
                     va="center",
-                    fontsize=bar_label_size_pt(width, span_s),
+                    fontsize=size_pt,
                     rotation=90,
                     clip_on=True,
+                    color="white" if component.get("method") in WHITE_LABEL_METHODS else "black",
                 )
                 labels.append(label)
+                last_label_s = centre_s
     for lane in range(1, len(robot_ids)):  # a line where one robot type's lanes end
         if robots[robot_ids[lane]].get("type") != robots[robot_ids[lane - 1]].get("type"):
             ax.axhline(lane - 0.5, color="black", linewidth=0.8, alpha=0.6)
     ax.set_yticks(range(len(robot_ids)), [lane_label(r, robots[r]) for r in robot_ids])
     ax.set_ylim(-0.6, max(len(robot_ids), 1) - 0.4)
     ax.invert_yaxis()
-    ax.set_xlabel("sim time (s)")
+    set_time_axis(ax, span_s)
     utilisation = utilisation_line(report)
     title = "simulated construction: one lane per robot, grouped by type"
     wrapped = textwrap.fill(utilisation, TITLE_CHARS_LEFT) if utilisation else ""
@@ -211,6 +265,14 @@ def _robot_lanes(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> li
     return labels
 
 
+WHITE_LABEL_METHODS = ("cast_in_place",)  # its navy and teal bars: a black label would not read
+
+
+def label_width_s(size_pt: float, span_s: float) -> float:
+    """How much sim time a rotated label of ``size_pt`` covers on the lanes panel (its thickness)."""
+    return size_pt * span_s / LANES_PANEL_PT
+
+
 def _hand_off_legend(report: dict[str, Any]) -> list[Patch]:
     count = report["totals"].get("hand_off_tasks") or 0
     if not count:
@@ -219,7 +281,7 @@ def _hand_off_legend(report: dict[str, Any]) -> list[Patch]:
     return [Patch(facecolor="white", edgecolor=HAND_OFF_EDGE, hatch=HAND_OFF_HATCH, label=label)]
 
 
-def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> None:
+def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB], span_s: float) -> None:
     wrong = set((report.get("as_built") or {}).get("wrong", []))
     rows = sorted(
         report["components"],
@@ -232,10 +294,17 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> 
         color = colors[component["ifc_class"]]
         released, picked = component["released_s"], component["picked_s"]
         done = component["constructed_s"] if component["constructed_s"] is not None else component["failed_s"]
+        work = row_work(component)  # cast or laid: its work in place instead of pick → placed
+        if work is not None:
+            picked = work[0]
         if released is not None and picked is not None:
             ax.plot([released, picked], [row, row], color=color, linewidth=1.0, alpha=0.6)
         if picked is not None and done is not None:
-            ax.broken_barh([(picked, max(done - picked, 0.0))], (row - 0.35, 0.7), facecolors=color)
+            segments: list[Segment] = work[1] if work is not None else [(picked, done, None)]
+            min_width_s = MIN_BAR_FRACTION * span_s
+            y = (row - 0.35, 0.7)
+            draw_segments(ax, segments, y, component, class_color=color, min_width_s=min_width_s)
+        draw_curing(ax, row, component)
         for handed_off_s in component.get("handed_off_s", []):  # put down for a crane
             ax.plot([handed_off_s], [row], marker="v", color=HAND_OFF_EDGE, markersize=5)
         for misplaced_s, cause in retry_causes(component):  # each retry with its cause's marker (legend)
@@ -262,8 +331,8 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB]) -> 
         )
     ax.set_ylim(-0.6, max(len(rows), 1) - 0.4)
     ax.invert_yaxis()
-    ax.set_xlabel("sim time (s)")
-    ax.set_title("planned sequence (top = first)\nrelease ─ pick ▬ constructed")
+    set_time_axis(ax, span_s)
+    ax.set_title("planned sequence (top = first)\nrelease ─ pick or start of work ▬ constructed")
     ax.grid(axis="x", alpha=0.3)
 
 
@@ -356,12 +425,13 @@ def report_figure(report: dict[str, Any]) -> Figure:
     """The chart of ``report`` (from :meth:`.report.ReportCollector.report`): axes in the order Gantt lanes,
     planned sequence, placement errors, drift."""
     colors = class_colors([c["ifc_class"] for c in report["components"]])
+    span_s = chart_span_s(report)
     figure = Figure(figsize=FIGURE_SIZE_IN, dpi=DPI)  # no pyplot: no global state, no display needed
     grid = figure.add_gridspec(2, 2, width_ratios=(3, 2), height_ratios=HEIGHT_RATIOS)
     lanes = figure.add_subplot(grid[0, 0])
     sequence = figure.add_subplot(grid[0, 1], sharex=lanes)
-    labels = _robot_lanes(lanes, report, colors)
-    _sequence_rows(sequence, report, colors)
+    labels = _robot_lanes(lanes, report, colors, span_s)
+    _sequence_rows(sequence, report, colors, span_s)
     draw_placement_errors(figure.add_subplot(grid[1, 0]), report)
     draw_drift(figure.add_subplot(grid[1, 1]), report)
     totals = report["totals"]
@@ -372,12 +442,14 @@ def report_figure(report: dict[str, Any]) -> Figure:
         f"bimbot construction report — site {report['site']}: "
         f"{totals['constructed']}/{totals['components']} constructed, retries: {totals['retries']}"
         + caught_last_title(report)
-        + (f", makespan {makespan:.1f} s" if makespan is not None else "")
+        + (f", makespan {duration_text(makespan)}" if makespan is not None else "")
         + (f" — run {how}" if how and how != "done" else "")
         + _as_built_title(report)
     )
-    handles: list[Artist] = [Patch(color=color, label=name) for name, color in colors.items()]
-    handles += [*_hand_off_legend(report), *_not_built_legend(report)]
+    # the classes drawn in their own colour: work in place is drawn in its steps' colours
+    drawn = {c["ifc_class"] for c in report["components"] if c.get("method") not in WORK_IN_PLACE}
+    handles: list[Artist] = [Patch(color=c, label=name) for name, c in colors.items() if name in drawn]
+    handles += [*method_legend(report), *_hand_off_legend(report), *_not_built_legend(report)]
     bottom = LEGEND_ROW * fitting_legend(figure, handles)
     placements = placement_handles(report)
     if placements:  # a row of its own, just under the placement panels

@@ -1,4 +1,5 @@
-"""The observer's drawing vocabulary: colours, entity paths, the log item and small transform helpers.
+"""The observer's drawing vocabulary: entity paths, the log item, state colours as rerun updates (the
+colour table itself is :mod:`.state_colors`) and small transform helpers.
 
 Shared by the twin (:mod:`.twin_log`), the robot models (:mod:`.fleet_log`) and the static scene
 (:mod:`.blueprint`), so each draws with the same colours at the same paths without importing the other.
@@ -12,35 +13,12 @@ from dataclasses import dataclass
 
 import rerun as rr
 
-from bimbot.shared.messages import ComponentState, RobotState
+from bimbot.shared.messages import ComponentState
+
+from .state_colors import STATE_COLORS
 
 TIMELINE = "sim_time"
-Rgba = tuple[int, int, int, int]
 
-# One colour per component state; "carried" (picking/transporting) and the failure path stand out.
-STATE_COLORS: dict[ComponentState, Rgba] = {
-    ComponentState.PLANNED: (170, 170, 170, 255),  # grey: waiting in the yard
-    ComponentState.RELEASED: (33, 150, 243, 255),  # blue: ready, waiting for a robot
-    ComponentState.PICKING: (0, 229, 255, 255),  # cyan: a robot is coming for it
-    ComponentState.TRANSPORTING: (255, 152, 0, 255),  # orange: carried
-    ComponentState.ASSEMBLING: (156, 39, 176, 255),  # purple: being put in place
-    ComponentState.FORMING: (0, 0, 195, 255),  # navy: formwork going up around it
-    ComponentState.POURING: (0, 150, 136, 255),  # teal: concrete going in
-    ComponentState.LAYING: (255, 90, 255, 255),  # magenta: courses going up
-    ComponentState.VERIFYING: (255, 235, 59, 255),  # yellow: checking its own pose
-    ComponentState.CONSTRUCTED: (46, 160, 67, 255),  # green: done
-    ComponentState.MISPLACED: (244, 67, 54, 255),  # red: off target, will be retried
-    ComponentState.FAILED: (80, 0, 0, 255),  # dark red: given up
-    ComponentState.BLOCKED: (90, 60, 40, 255),  # brown: a predecessor failed, never released
-}
-ROBOT_COLORS: dict[RobotState, Rgba] = {
-    RobotState.IDLE: (120, 120, 120, 255),
-    RobotState.DETECT_COMPONENT_POSITION: (33, 150, 243, 255),
-    RobotState.PICK_UP: (0, 229, 255, 255),
-    RobotState.IDENTIFY_TARGET_LOCATION: (255, 152, 0, 255),
-    RobotState.ASSEMBLE: (156, 39, 176, 255),
-    RobotState.WORK_IN_PLACE: (0, 150, 136, 255),
-}
 STATE_LOG_LEVELS: dict[ComponentState, str] = {
     ComponentState.MISPLACED: "WARN",
     ComponentState.FAILED: "ERROR",

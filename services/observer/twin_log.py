@@ -4,7 +4,9 @@
 on the ``sim_time`` timeline at the message's sim time); the adapter (:mod:`.app`) only logs them. Kept
 cheap on purpose, since the observer runs beside the simulation:
 
-* every component's mesh (the converter's ``visual.glb``) is logged **once**, static; afterwards a
+* every component's mesh (the converter's ``visual.glb``) is logged **once**, static (one built in
+  place: once, when physics first poses it; it is never in the yard), and its text log lines name its
+  method and the robot's type; afterwards a
   component costs a transform per pose change and a colour per state change
   (``Asset3D.from_fields(albedo_factor=…)``, a partial update that leaves the mesh alone);
 * a moving body (a carried component, a robot) gets at most one transform per ``pose_min_interval_s`` of
@@ -18,11 +20,14 @@ cheap on purpose, since the observer runs beside the simulation:
 Entity paths (GUIDs escaped for rerun, ``$`` → ``\\$``; the viewer shows the plain GUID)::
 
     world, world/site/*, world/targets  the static scene, drawn by :mod:`.blueprint`
-    world/components/<guid>             mesh (static) + Transform3D per pose + colour per state
+    world/components/<guid>             mesh (static; cast or laid: with its first pose) + Transform3D per
+                                        pose + colour per state + its method as values (:mod:`.work_log`)
+    world/work/<guid>[/courses]         cast or laid: its box while formed, poured, laid (:mod:`.work_log`)
     world/robots/<id>                   Transform3D (ground truth, else the robot's own state pose)
     world/robots/<id>/body              box coloured by robot state (a robot without a model)
     world/robots/<id>/model/<link>      its type's URDF link meshes, moved by joints (:mod:`.fleet_log`)
-    world/robots/<id>/marker            labelled point coloured by robot state (a robot with a model)
+    world/robots/<id>/marker            point coloured by robot state, labelled with what it is doing (a
+                                        robot with a model: ``r2 (pump): pour``)
     world/robots/<id>/scan              laser points in the robot frame (every N-th scan)
     world/trails/<id>/<segment>         driven path, world frame
     world/plans/<id>                    global plan, world frame; world/plans/<id>/goal
@@ -59,12 +64,12 @@ from bimbot.shared.messages import (
 from bimbot.shared.site_plan import SiteLayout
 
 from .fleet_log import FleetLog
+from .report_methods import method_word
+from .state_colors import ROBOT_COLORS, STATE_COLORS
 from .twin_items import (
     PLAN_Z_M,
-    ROBOT_COLORS,
     ROBOT_HALF_SIZE_M,
     SITE_LINE_Z_M,
-    STATE_COLORS,
     STATE_LOG_LEVELS,
     LogItem,
     component_color,
@@ -76,6 +81,7 @@ from .twin_items import (
     trail_path,
     transform,
 )
+from .work_log import WorkLog, robot_label, yard_kept
 
 
 @dataclass(frozen=True)
@@ -127,7 +133,9 @@ class TwinLog:
         self._motion: dict[str, _Motion] = {}
         self._trails: dict[str, _Trail] = {}
         self._scan_counts: dict[str, int] = {}
-        self._robot_states: dict[str, RobotState] = {}
+        self._robot_states: dict[str, tuple[RobotState, str]] = {}  # robot → (state, activity) drawn
+        self.robot_type_of: dict[str, str] = {}  # robot id → type, from physics' site info
+        self.work = WorkLog(manifest.components, self.robot_type_of)  # cast and laid components
         self._ground_truth: set[str] = set()  # robots seen on robots/<id>/pose
         self._last_plan: dict[str, tuple[tuple[float, float], ...]] = {}
         self._last_counts: tuple[int, ...] = ()
@@ -158,9 +166,12 @@ class TwinLog:
         for component in self.manifest.components:
             path = component_path(component.guid)
             mesh = load_mesh(component)
-            if mesh is not None:
+            if self.work.built_in_place(component.guid):  # drawn once built (:mod:`.work_log`)
+                self.work.hold_mesh(component.guid, mesh)
+            elif mesh is not None:
                 static.append(LogItem(path, mesh_archetype(*mesh), static=True))
             initial.append(LogItem(path, component_color(ComponentState.PLANNED)))
+        initial += self.work.initial()
         for component in self.manifest.in_place:  # in place from the start (convert --in-place): built
             path = component_path(component.guid)
             mesh = load_mesh(component)
@@ -176,7 +187,7 @@ class TwinLog:
         items = []
         for component in self.manifest.components:
             slot = layout.slots.get(component.guid)
-            if slot is not None:
+            if slot is not None and yard_kept(component):  # cast or laid: never in the yard
                 # temporal, not static: a static transform would hide every later pose
                 items.append(
                     LogItem(component_path(component.guid), transform(slot.position_m, slot.quat_xyzw))
@@ -187,23 +198,26 @@ class TwinLog:
         """``(static meshes, link poses for sim time 0, items for now_s)``: every robot on site as its
         type's model; a box drawn before the site was known is cleared, its state goes on the model's
         marker, and joint values heard before pose its links."""
+        self.robot_type_of.update(info.robot_type_of)
         static, initial = self.fleet.site_known(info)
         now: list[LogItem] = self.fleet.catch_up(now_s)
-        for robot_id, state in self._robot_states.items():
+        for robot_id, (state, activity) in self._robot_states.items():
             if self.fleet.drawn(robot_id):
                 now.append(LogItem(f"{robot_path(robot_id)}/body", rr.Clear(recursive=False)))
-                now += self.fleet.robot_state(robot_id, state)
+                now += self.fleet.robot_state(robot_id, state, activity)
         return static, initial, now
 
     # --- messages ---
 
     def component_state(self, msg: ComponentStateMsg) -> list[LogItem]:
         component = self._components.get(msg.guid)
-        label = f"{component.name or msg.guid} ({component.ifc_class})" if component else msg.guid
+        label = msg.guid
+        if component is not None:
+            label = f"{component.name or msg.guid} ({component.ifc_class}, {method_word(component.method)})"
         previous = msg.previous.value if msg.previous else "start"
         details = [f"[{msg.event}]"]
         if msg.robot_id:
-            details.append(f"robot {msg.robot_id}")
+            details.append(f"robot {robot_label(msg.robot_id, self.robot_type_of)}")
         if msg.attempt:
             details.append(f"attempt {msg.attempt}")
         if msg.position_error_m is not None:
@@ -221,12 +235,13 @@ class TwinLog:
                     text, level=STATE_LOG_LEVELS.get(msg.state, "INFO"), color=STATE_COLORS[msg.state]
                 ),
             ),
+            *self.work.component_state(msg),
         ]
 
     def component_pose(self, msg: ComponentPoseMsg) -> list[LogItem]:
         item = LogItem(component_path(msg.guid), transform(msg.pose.position_m, msg.pose.quat_xyzw))
         moving = msg.attached_to is not None and not msg.fixed
-        return self._throttled(
+        return self.work.component_pose(msg) + self._throttled(
             f"component/{msg.guid}",
             msg.sim_time_s,
             msg.pose.position_m,
@@ -243,21 +258,30 @@ class TwinLog:
         items: list[LogItem] = []
         if msg.robot_id not in self._ground_truth:
             items += self._robot_motion(msg.robot_id, msg.sim_time_s, msg.pose_xy_yaw)
-        previous = self._robot_states.get(msg.robot_id)
-        if previous == msg.state:
+        drawn = self._robot_states.get(msg.robot_id)
+        if drawn == (msg.state, msg.activity):  # a repeat (robots say their state every period)
             return items
-        self._robot_states[msg.robot_id] = msg.state
+        self._robot_states[msg.robot_id] = (msg.state, msg.activity)
+        items += self.work.robot_state(msg)  # a laid wall's courses
         color = ROBOT_COLORS[msg.state]
-        items += self.fleet.robot_state(msg.robot_id, msg.state)
+        items += self.fleet.robot_state(msg.robot_id, msg.state, msg.activity)
         if not self.fleet.drawn(msg.robot_id):
+            label = msg.robot_id + (f": {msg.activity}" if msg.activity else "")
             box = rr.Boxes3D(
                 half_sizes=[ROBOT_HALF_SIZE_M],
                 centers=[(0.0, 0.0, ROBOT_HALF_SIZE_M[2])],
                 colors=[color],
-                labels=[msg.robot_id],
+                labels=[label],
                 fill_mode="solid",
             )
             items.append(LogItem(f"{robot_path(msg.robot_id)}/body", box))
+        previous = drawn[0] if drawn is not None else None
+        if previous == msg.state:  # the same state, another step of its work (a course, the pour)
+            activity = f"robot {robot_label(msg.robot_id, self.robot_type_of)}: {msg.activity}"
+            if msg.busy_until_s is not None:
+                activity += f" until sim {msg.busy_until_s:.0f} s"
+            items.append(LogItem("log/robots", rr.TextLog(activity, level="INFO", color=color)))
+            return items
         items.append(
             LogItem(
                 f"{robot_path(msg.robot_id)}/heading",
@@ -267,7 +291,11 @@ class TwinLog:
             )
         )
         task = f" task {msg.task_id} ({msg.guid})" if msg.task_id else ""
-        text = f"robot {msg.robot_id}: {previous.value if previous else 'start'} → {msg.state.value}{task}"
+        doing = f": {msg.activity}" if msg.activity else ""
+        text = (
+            f"robot {robot_label(msg.robot_id, self.robot_type_of)}: "
+            f"{previous.value if previous else 'start'} → {msg.state.value}{task}{doing}"
+        )
         items.append(LogItem("log/robots", rr.TextLog(text, level="INFO", color=color)))
         if msg.state == RobotState.IDLE:
             items += self._flush_motion(f"robot/{msg.robot_id}")

@@ -2,11 +2,12 @@
 
 Subscribes to ``bimbot/<site>/components/*/state`` and, once at start, asks every agent for its twin
 (``get bimbot/<site>/components/*/twin``) so components that changed before the watch started are
-shown too. On a terminal the table (GUID, name, class, state, robot) is redrawn in place with ANSI
-escapes at most ``REFRESH_S`` apart, problems and work in progress first, trimmed to the terminal's
-height under a count per state; when stdout is not a terminal (a pipe, a log file) it prints one line per
-state change instead. With ``--build`` names and classes come from the manifest; with only ``--site``
-from the twins. Ctrl-C (or SIGTERM) ends it with exit code 0.
+shown too. On a terminal the table (GUID, name, class, construction method, state, robot) is redrawn in
+place with ANSI escapes at most ``REFRESH_S`` apart, problems and work in progress first, trimmed to the
+terminal's height under a count per state; when stdout is not a terminal (a pipe, a log file) it prints
+one line per state change instead. With ``--build`` names, classes and methods (``lifted``, ``cast in
+place``, ``laid``, …) come from the manifest; with only ``--site`` names and classes from the twins (a
+twin does not carry the method: the column stays empty). Ctrl-C (or SIGTERM) ends it with exit code 0.
 
 Writing the table to stdout is this command's job; everything else goes through logging.
 """
@@ -38,6 +39,8 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.service_runner import resolve_build, run_service, service_bus
 
+from .report_methods import method_word
+
 REFRESH_S = 0.25
 # display order: what needs attention first, then work in progress, waiting, not started, done
 STATE_ORDER = [
@@ -68,7 +71,8 @@ ANSI_COLORS = {  # SGR codes, in the spirit of the observer's state colours
     ComponentState.MISPLACED: "31",
     ComponentState.FAILED: "1;31",
 }
-COLUMNS = (("GUID", 22), ("NAME", 24), ("CLASS", 16), ("STATE", 12), ("ROBOT", 8))
+COLUMNS = (("GUID", 22), ("NAME", 24), ("CLASS", 16), ("METHOD", 13), ("STATE", 12), ("ROBOT", 8))
+STATE_COLUMN = 4
 
 
 @dataclass
@@ -76,6 +80,7 @@ class Row:
     guid: str
     name: str = ""
     ifc_class: str = ""
+    method: str = ""  # as a person writes it (``cast in place``); empty without a manifest
     state: ComponentState | None = None
     robot_id: str | None = None
     sim_time_s: float = -1.0
@@ -88,7 +93,8 @@ class WatchTable:
     def __init__(self, manifest: Manifest | None = None) -> None:
         self.rows: dict[str, Row] = {}
         for component in manifest.components if manifest else ():
-            self.rows[component.guid] = Row(component.guid, component.name or "", component.ifc_class)
+            method = method_word(component.method)
+            self.rows[component.guid] = Row(component.guid, component.name or "", component.ifc_class, method)
 
     def apply_state(self, msg: ComponentStateMsg) -> bool:
         """Take a state change; True when the row changed."""
@@ -146,8 +152,9 @@ def change_line(msg: ComponentStateMsg, row: Row | None) -> str:
     previous = msg.previous.value if msg.previous else "-"
     name = row.name if row and row.name else "-"
     ifc_class = row.ifc_class if row and row.ifc_class else "-"
+    method = f"  ({row.method})" if row and row.method else ""
     return (
-        f"t={msg.sim_time_s:9.2f}s  {msg.guid}  {name}  {ifc_class}  {previous} -> {msg.state.value}"
+        f"t={msg.sim_time_s:9.2f}s  {msg.guid}  {name}  {ifc_class}{method}  {previous} -> {msg.state.value}"
         f"  robot={msg.robot_id or '-'}"
     )
 
@@ -170,9 +177,10 @@ def _fit(text: str, width: int) -> str:
 
 
 def _row_line(row: Row, color: bool) -> str:
-    cells = [row.guid, row.name, row.ifc_class, row.state.value if row.state else "?", row.robot_id or ""]
+    state = row.state.value if row.state else "?"
+    cells = [row.guid, row.name, row.ifc_class, row.method, state, row.robot_id or ""]
     padded = [_fit(cell, width).ljust(width) for cell, (_, width) in zip(cells, COLUMNS, strict=True)]
-    padded[3] = _paint(padded[3], row.state, color)
+    padded[STATE_COLUMN] = _paint(padded[STATE_COLUMN], row.state, color)
     return "  ".join(padded).rstrip()
 
 

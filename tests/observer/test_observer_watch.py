@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from bimbot.services.observer.watch import WatchTable, change_line
+from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState, ComponentStateMsg, PoseMsg, TwinMsg
 
@@ -37,10 +38,27 @@ def test_the_table_shows_problems_and_work_first_and_fits_the_height(frame_manif
     lines = table.render(height=10, color=False)
     assert len(lines) == 10
     assert lines[0].startswith("28 components, 28 reporting: failed 1, transporting 1, planned 26")
-    assert lines[1].split() == ["GUID", "NAME", "CLASS", "STATE", "ROBOT"]
+    assert lines[1].split() == ["GUID", "NAME", "CLASS", "METHOD", "STATE", "ROBOT"]
     assert guids[5] in lines[2] and "failed" in lines[2] and "r2" in lines[2]
     assert guids[7] in lines[3] and "transporting" in lines[3]
     assert lines[-1] == "… 21 more"
+
+
+def test_each_row_and_change_line_says_how_its_component_is_built(frame_manifest: Manifest) -> None:
+    footing = frame_manifest.components[0].model_copy(update={"method": ConstructionMethod.CAST_IN_PLACE})
+    manifest = frame_manifest.model_copy(update={"components": [footing, *frame_manifest.components[1:]]})
+    table = WatchTable(manifest)
+    column = table.render(color=False)[1].index("METHOD")
+    forming = _state(footing.guid, ComponentState.FORMING, ComponentState.RELEASED, "r2")
+    table.apply_state(forming)
+    lifted = manifest.components[1].guid
+    table.apply_state(_state(lifted, ComponentState.PICKING, ComponentState.RELEASED, "r1"))
+    lines = table.render(color=False)
+    (cast_row,) = [line for line in lines if footing.guid in line]
+    (lifted_row,) = [line for line in lines if lifted in line]
+    assert cast_row[column:].startswith("cast in place") and "forming" in cast_row
+    assert lifted_row[column:].startswith("lifted")
+    assert "(cast in place)  released -> forming" in change_line(forming, table.rows[footing.guid])
 
 
 def test_colours_are_ansi_only_when_asked(frame_manifest: Manifest) -> None:

@@ -1,0 +1,53 @@
+"""Sim time in units a person reads: seconds, minutes, hours or days by the span it covers.
+
+A run of lifted components lasts minutes; one with cast footings lasts days (formwork, pour, three days
+of curing), and "291652 s" says neither. The report's data stay in sim seconds; the chart's axis
+(:mod:`.report_time_axis`), its title and the run's summary say them in the unit chosen here. No
+matplotlib: the run's summary imports it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class TimeUnit:
+    """A unit of the time axis: its name, its length in seconds, the spans it is used up to, and the tick
+    steps (multiples within a decade, as :class:`~matplotlib.ticker.MaxNLocator` takes them) that fall on
+    round values of it."""
+
+    name: str
+    seconds: float
+    up_to_s: float
+    steps: tuple[float, ...]
+
+
+TIME_UNITS = (
+    TimeUnit("s", 1.0, 600.0, (1.0, 2.0, 2.5, 5.0, 10.0)),
+    TimeUnit("min", 60.0, 3.0 * 3600.0, (1.0, 1.5, 2.0, 3.0, 5.0, 6.0, 10.0)),  # 15, 30, 60 min
+    TimeUnit("h", 3600.0, 4.0 * 86400.0, (1.0, 1.2, 2.0, 2.4, 3.0, 6.0, 10.0)),  # 6, 12, 24 h
+    TimeUnit("days", 86400.0, float("inf"), (1.0, 2.0, 2.5, 5.0, 10.0)),
+)
+
+
+def time_unit(span_s: float) -> TimeUnit:
+    """The unit for an axis spanning ``span_s``: seconds up to 10 min, minutes up to 3 h, hours up to 4
+    days, days beyond."""
+    return next(unit for unit in TIME_UNITS if span_s <= unit.up_to_s)
+
+
+def format_in(unit: TimeUnit, seconds: float) -> str:
+    """``seconds`` in ``unit``, without trailing zeros (``12``, ``1.5``)."""
+    return f"{seconds / unit.seconds:.6g}"
+
+
+def duration_text(seconds: float) -> str:
+    """A duration in the unit a person would say it in: ``45.0 s``, ``12.5 min``, ``2.0 h``, ``81.0 h``,
+    ``5.2 days`` (minutes only up to an hour; the seconds too when the unit is not seconds:
+    ``81.0 h (291,652 s)``)."""
+    unit = time_unit(seconds)
+    if unit.name == "min" and seconds > 3600.0:
+        unit = next(u for u in TIME_UNITS if u.name == "h")
+    text = f"{seconds / unit.seconds:.1f} {unit.name}"
+    return text if unit.seconds == 1.0 else f"{text} ({seconds:,.0f} s)"

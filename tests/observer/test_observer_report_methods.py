@@ -1,0 +1,168 @@
+"""The report of a run with work in place (see method_run): each component's method and resources, the
+times of its formwork, pour and laying, its curing, the totals by method, and the placement figures
+without the work in place; report.png's legend of methods, its curing span and its time axis in hours."""
+
+from __future__ import annotations
+
+import pytest
+from matplotlib.axes import Axes
+from matplotlib.collections import PolyCollection
+from matplotlib.colors import to_rgb
+from method_run import END_S, FIRST_CURED_S, TYPES, method_manifest, method_messages
+
+from bimbot.services.observer.report import ReportCollector
+from bimbot.services.observer.report_methods import curing_line
+from bimbot.services.observer.report_methods_png import (
+    CURING_HATCH,
+    FORMWORK,
+    POUR,
+    RGB,
+    STEP_COLORS,
+    method_legend,
+)
+from bimbot.services.observer.report_png import report_figure
+from bimbot.services.observer.report_time import duration_text, time_unit
+from bimbot.shared.manifest import Manifest
+
+
+@pytest.fixture(scope="module")
+def manifest(frame_manifest: Manifest) -> Manifest:
+    return method_manifest(frame_manifest)
+
+
+@pytest.fixture(scope="module")
+def report(manifest: Manifest) -> dict:
+    collector = ReportCollector(manifest, [c.guid for c in manifest.components])
+    collector.robot_type_of.update(TYPES)  # as bimbot run gives its fleet's types
+    for message in method_messages(manifest):
+        collector.add(message)
+    return collector.report()
+
+
+def _entry(report: dict, index: int, manifest: Manifest) -> dict:
+    guid = manifest.components[index].guid
+    return next(c for c in report["components"] if c["guid"] == guid)
+
+
+def test_a_cast_component_has_its_method_its_machine_its_formwork_pour_and_curing(
+    report: dict, manifest: Manifest
+) -> None:
+    first = _entry(report, 0, manifest)
+    assert (first["method"], first["method_source"]) == ("cast_in_place", "rule")
+    assert first["resources"] == ["pump"]
+    assert (first["forming_s"], first["pouring_s"], first["placed_s"]) == (1.0, 14401.0, 16201.0)
+    assert first["laying_s"] is None
+    column = manifest.components[9].guid
+    assert first["curing"] == {
+        "from_s": pytest.approx(16201.2),
+        "until_s": pytest.approx(FIRST_CURED_S),
+        "source": "planner",
+        "holds": [column],
+    }
+    # nothing rested on the second footing in this run: its cure comes from the manifest
+    second = _entry(report, 1, manifest)
+    assert second["curing"]["source"] == "manifest" and second["curing"]["holds"] == []
+    assert second["curing"]["until_s"] == pytest.approx(second["constructed_s"] + 259200.0)
+
+
+def test_a_laid_a_lifted_and_a_panel_component_say_how_they_were_built(
+    report: dict, manifest: Manifest
+) -> None:
+    laid = _entry(report, 2, manifest)
+    assert (laid["method"], laid["method_note"]) == ("laid", "masonry pier")
+    assert laid["resources"] == ["block_layer"]
+    assert (laid["laying_s"], laid["placed_s"], laid["curing"]) == (1.0, 7201.0, None)
+    column = _entry(report, 9, manifest)
+    assert (column["method"], column["resources"], column["curing"]) == ("lifted", ["carrier"], None)
+    assert column["guests"] == ["3BasePlate0000000000A1"]
+    panel = _entry(report, 12, manifest)
+    assert (panel["method"], panel["parent_guid"]) == ("panelised", "2WallElement0000000000")
+
+
+def test_the_totals_count_by_method_and_the_report_lists_panels_and_guests(report: dict) -> None:
+    assert report["totals"]["by_method"] == {
+        "cast_in_place": {"components": 2, "constructed": 2},
+        "laid": {"components": 1, "constructed": 1},
+        "lifted": {"components": 23, "constructed": 1},
+        "panelised": {"components": 2, "constructed": 0},
+        "with_host": {"components": 1, "constructed": 1},
+    }
+    (element,) = report["panelised"]
+    assert (element["guid"], len(element["panels"]), element["panels_constructed"]) == (
+        "2WallElement0000000000",
+        2,
+        0,
+    )
+    (guest,) = report["with_host"]
+    assert (guest["guid"], guest["constructed"]) == ("3BasePlate0000000000A1", True)
+
+
+def test_work_in_place_is_no_placement_by_a_hand(report: dict) -> None:
+    """The pump's and the block layer's verdicts (0 mm: physics built them at their targets) made a 'pump'
+    row of perfect placements in the placement figures."""
+    totals = report["totals"]
+    assert list(totals["placement_error_mm_by_type"]) == ["carrier"]
+    assert totals["placement_error_mm_by_type"]["carrier"]["max"] == pytest.approx(4.0)
+    assert totals["work_in_place_verdicts"] == 3
+
+
+def test_the_run_summary_says_how_long_the_cast_components_cured(report: dict) -> None:
+    assert curing_line(report) == (
+        "cured: 2 cast components, the longest 72 h (the planner held 1 component for it)"
+    )
+    assert curing_line({"components": [{"curing": None}]}) is None
+    lifted = {"by_method": {"lifted": {"components": 3, "constructed": 3}, "with_host": {"components": 2}}}
+    assert method_legend({"totals": lifted}) == []  # all lifted (guests have no bars): no legend of methods
+
+
+def test_times_are_said_in_the_unit_of_their_span() -> None:
+    assert [time_unit(s).name for s in (45.0, 1800.0, 291652.0, 30 * 86400.0)] == ["s", "min", "h", "days"]
+    assert duration_text(291651.0) == "81.0 h (291,651 s)"
+    assert duration_text(45.0) == "45.0 s"
+    assert (duration_text(1800.0), duration_text(7201.0)) == ("30.0 min (1,800 s)", "2.0 h (7,201 s)")
+
+
+def _bars_x(ax: Axes, color: RGB | None = None, hatch: str | None = None) -> list[tuple[float, float]]:
+    """(start, end) of every bar of ``ax`` in ``color`` or with ``hatch``."""
+    spans = []
+    for collection in ax.collections:
+        if not isinstance(collection, PolyCollection):
+            continue
+        if hatch is not None and collection.get_hatch() != hatch:
+            continue
+        if color is not None and tuple(collection.get_facecolor()[0][:3]) != pytest.approx(to_rgb(color)):
+            continue
+        for path in collection.get_paths():
+            xs = path.vertices[:, 0]
+            spans.append((float(xs.min()), float(xs.max())))
+    return spans
+
+
+def test_the_chart_draws_formwork_pour_and_curing_with_a_legend_of_methods(
+    report: dict, manifest: Manifest
+) -> None:
+    figure = report_figure(report)
+    lanes, sequence, errors, drift = figure.axes[:4]
+    texts = [text.get_text() for legend in figure.legends for text in legend.get_texts()]
+    for label in (
+        "cast in place ×2: formwork",
+        "cast in place: pour",
+        "curing (what rests on it waits)",
+        "laid ×1: courses",
+        "panelised ×2",
+        "lifted ×23 (its class colour)",
+    ):
+        assert label in texts
+    # the pump's lane: each footing's formwork up to its pour, then the pour
+    assert _bars_x(lanes, STEP_COLORS[FORMWORK])[0] == (pytest.approx(0.8), pytest.approx(14401.0))
+    assert _bars_x(lanes, STEP_COLORS[POUR])[0] == (pytest.approx(14401.0), pytest.approx(16201.4))
+    # the first footing's curing, hatched on its row from the pour to the end of the planner's hold
+    cured = _bars_x(sequence, hatch=CURING_HATCH)
+    assert (pytest.approx(16201.2), pytest.approx(FIRST_CURED_S)) in cured and len(cured) == 2
+    assert lanes.get_xlabel() == sequence.get_xlabel() == "sim time (h)"
+    assert {tick.get_text() for tick in sequence.get_xticklabels()} >= {"0", "24", "48", "72"}
+    assert "makespan 76.5 h" in figure.get_suptitle() and END_S > FIRST_CURED_S
+    # the placement panels: the carrier's row only, and what they leave out
+    assert [label.get_text().split("\n")[0] for label in errors.get_yticklabels()] == ["carrier"]
+    for ax in (errors, drift):
+        assert any("left out: 3 verdicts on work in place" in text.get_text() for text in ax.texts)
