@@ -46,12 +46,14 @@ from bimbot.shared.messages import (
     PHYSICS_INFO,
     PHYSICS_PLACE,
     PHYSICS_POSES,
+    ROBOT_CMD_VEL,
     ROBOT_CMD_VEL_KEY,
     ROBOT_PLAN_KEY,
     ROBOT_POSE,
     ROBOT_SENSORS,
     ROBOT_STATE,
     ROBOT_STATE_KEY,
+    STEP_DONE,
     TASK,
     ClockMsg,
     CmdVelMsg,
@@ -69,6 +71,7 @@ from bimbot.shared.twin_query import answered_on_its_key, ask_twin, ask_twins
 
 from .executor import ExecutorConfig, executor_class
 from .protocol import Outgoing, PhysicsRequest, PhysicsResult, RobotExecutor
+from .stepped import SteppedTicks
 
 _log = logging.getLogger(__name__)
 
@@ -93,6 +96,8 @@ class RobotOptions:
     info_timeout_s: float = 120.0  # wall seconds to wait for physics to answer physics/info
     poll_s: float = 0.02  # longest wait for bus input per loop turn
     metric_log_s: float = 30.0  # wall seconds between progress lines (tasks, distance, localisation)
+    # a lock-step participant whose inputs are taken at defined steps (:mod:`.stepped`; bimbot run)
+    stepped: bool = False
 
 
 def main(
@@ -117,12 +122,20 @@ def main(
         )
         if info is None:
             return 0 if stop.is_set() else _no_physics(options.info_timeout_s)
+        if options.stepped and info.lock_step:  # the other participants' answers (.stepped)
+            subscribers += [
+                inbox.subscribe(session, ROBOT_CMD_VEL, site=site, robot_id="*"),
+                inbox.subscribe(session, STEP_DONE, site=site, participant="*"),
+            ]
         poses = query_first(session, PHYSICS_POSES, inbox.invalid, timeout_s=POSES_TIMEOUT_S, site=site)
         executor = executor_class(info, robot_id)(
             manifest, info, executor_config, start_xy_yaw=_where_physics_has(poses, robot_id)
         )
         _learn_the_site(session, inbox, site, executor, poses)
-        loop = _Loop(session, site, executor, inbox, options)
+        keys = {component.guid: component.key for component in manifest.components}
+        stepped = keys if options.stepped and info.lock_step else None
+        participants = [*info.robot_ids, *info.lock_step_participants]
+        loop = _Loop(session, site, executor, inbox, options, stepped=stepped, participants=participants)
         token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id=robot_id))
         _log.info(
             "robot %s on site %s: start %s, reach %.2f m",
@@ -174,8 +187,17 @@ class _Loop:
     """Inbox → executor → bus, one ``cmd_vel`` per clock step."""
 
     def __init__(
-        self, session: zenoh.Session, site: str, executor: RobotExecutor, inbox: Inbox, options: RobotOptions
+        self,
+        session: zenoh.Session,
+        site: str,
+        executor: RobotExecutor,
+        inbox: Inbox,
+        options: RobotOptions,
+        *,
+        stepped: dict[str, str] | None = None,
+        participants: list[str] | None = None,
     ):
+        """``stepped``: a lock-step participant (:mod:`.stepped`), with every component's bus key."""
         self.session, self.site, self.executor, self.inbox, self.options = (
             session,
             site,
@@ -195,8 +217,20 @@ class _Loop:
         self.times = PeriodTimes()  # per step: sensors to answer, work after the answer
         self.clock_guard = ClockGuard(f"robot {robot_id} clock")
         self._metrics_wall_s = time.monotonic()
+        self.stepped = (
+            SteppedTicks(executor, self.publish, self._answered, stepped, participants or [])
+            if stepped
+            else None
+        )
+
+    def _answered(self) -> None:
+        self.times.add("answer", time.monotonic() - self._sensors_wall_s)
+        self.times.period()
 
     def run(self, stop: threading.Event) -> None:
+        if self.stepped is not None:
+            self._run_stepped(stop)
+            return
         while not stop.is_set():
             for item in self.inbox.drain(first_timeout_s=self.options.poll_s):
                 self._take(item)
@@ -215,6 +249,30 @@ class _Loop:
             if now - self._metrics_wall_s >= self.options.metric_log_s:
                 self._metrics_wall_s = now
                 self.log_metrics("progress")
+
+    def _run_stepped(self, stop: threading.Event) -> None:
+        """Every clock step ticked in order, with the inputs of a defined step (:mod:`.stepped`)."""
+        stepped = self.stepped
+        assert stepped is not None
+        try:
+            while not stop.is_set():
+                for item in self.inbox.drain(
+                    first_timeout_s=self.options.poll_s if not stepped.steps else 0.0
+                ):
+                    if isinstance(item, Received) and isinstance(item.message, SensorsMsg):
+                        clock = item.message.clock
+                        if not self.clock_guard.check(clock, time.monotonic()).accepted:
+                            continue
+                        self._sensors_wall_s = time.monotonic()
+                    if not stepped.hear(item):
+                        self._take(item)
+                stepped.tick_ready()
+                now = time.monotonic()
+                if now - self._metrics_wall_s >= self.options.metric_log_s:
+                    self._metrics_wall_s = now
+                    self.log_metrics("progress")
+        finally:
+            stepped.finish()
 
     def _take(self, item: object) -> None:
         match item:
