@@ -17,6 +17,7 @@ from bimbot.shared.bus_credentials import BusFiles, write_bus_credentials
 from bimbot.shared.errors import UserError
 from bimbot.shared.fleet import Fleet, load_fleet
 from bimbot.shared.run_folder import RunFolder
+from bimbot.shared.step_gate import HOLD_S
 from bimbot.shared.tolerance_options import tolerance_flags
 
 
@@ -55,6 +56,7 @@ def physics_arguments(build: Path, options: RunOptions) -> list[str]:
     arguments += ["--seed", str(options.seed)]
     if stepped(options):  # the planner and the agents answer each step too (reproducible runs)
         arguments += ["--step-with", ",".join(STEPPED_PARTICIPANTS)]
+        arguments += ["--lock-step-timeout-s", f"{HOLD_S:g}"]  # a loaded machine is not a hang
     return [*arguments, *options.physics_extra]
 
 

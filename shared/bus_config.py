@@ -190,6 +190,10 @@ def bus_user(config: zenoh.Config) -> str | None:
 DROP_WAIT_KEY = "transport/link/tx/queue/congestion_control/drop/wait_before_drop"
 ZENOH_DROP_WAIT_US = 1_000
 DROP_WAIT_US = 1_000_000
+# A router gives up a query it routes after ``queries_default_timeout`` (10 s), whatever the querier's own
+# timeout: a placement physics answers after its settling and connection (20 s of sim time) was refused
+# "no reply" by the run's router on a loaded machine. The querier's timeout is the bound that counts.
+ROUTED_QUERY_TIMEOUT_MS = 900_000
 
 
 def zenoh_config(options: BusOptions) -> zenoh.Config:
@@ -216,6 +220,8 @@ def zenoh_config(options: BusOptions) -> zenoh.Config:
         config.insert_json5("connect/retry", json.dumps(CONNECT_RETRY))
     if json.loads(config.get_json(DROP_WAIT_KEY)) == ZENOH_DROP_WAIT_US:  # not set by the file
         config.insert_json5(DROP_WAIT_KEY, str(DROP_WAIT_US))
+    if json.loads(config.get_json("queries_default_timeout")) is None:
+        config.insert_json5("queries_default_timeout", str(ROUTED_QUERY_TIMEOUT_MS))
     return config
 
 

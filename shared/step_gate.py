@@ -26,6 +26,9 @@ from typing import Generic, TypeVar
 T = TypeVar("T")
 
 DELAY_STEPS = 2  # inputs stamped at step k - 2 or before are taken at step k (command latency 0 or 1)
+# wall seconds a step waits for a participant's answer (or a twin's) before it goes on without: a hang,
+# not a loaded machine (under a load of 36 on two cores a robot's answer took seconds)
+HOLD_S = 60.0
 
 
 @dataclass

@@ -20,13 +20,12 @@ from collections.abc import Callable, Iterable
 from bimbot.shared.bus import Received
 from bimbot.shared.clock_guard import ClockGuard
 from bimbot.shared.messages import ClockMsg, CmdVelMsg, ComponentEventMsg, ComponentPoseMsg, StepDoneMsg
-from bimbot.shared.step_gate import StepGate
+from bimbot.shared.step_gate import HOLD_S, StepGate
 
 from .host import AgentHost, Outgoing
 
 _log = logging.getLogger(__name__)
 
-HOLD_S = 5.0  # wall seconds a step waits for the other participants' answers before it goes on (counted)
 VERIFY_TIMEOUT_SIM_S = 30.0  # lock-step: sim seconds a placement waits for a fresh pose (repeats: 20 s)
 
 

@@ -39,7 +39,7 @@ from bimbot.shared.messages import (
     key,
 )
 from bimbot.shared.state_table import TERMINAL
-from bimbot.shared.step_gate import StepGate
+from bimbot.shared.step_gate import HOLD_S, StepGate
 
 from .scheduler import Outgoing, PlannerCore
 from .skip_requests import SkipAnswer, Skipper
@@ -47,7 +47,6 @@ from .skip_requests import SkipAnswer, Skipper
 _log = logging.getLogger(__name__)
 
 PARTICIPANT = "planner"
-HOLD_S = 5.0  # wall seconds a step waits for an answer or a twin before it is taken without (counted)
 SKIP_CHECK_STEPS = 5  # control periods between two looks at whether the site is quiet
 SKIP_RETRY_STEPS = 25  # control periods between two skip requests
 PROGRESS_STEPS = 5  # the progress is published when it changed and at least every this many steps

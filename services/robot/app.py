@@ -81,6 +81,7 @@ SUBSCRIPTIONS: tuple[tuple[Topic, dict[str, str]], ...] = (
     (COMPONENT_POSE, {"key": "*"}),
     (ROBOT_STATE, {"robot_id": "*"}),
 )
+STEPPED_REQUEST_TIMEOUT_S = 900.0  # wall seconds a lock-step robot waits for physics' reply (a hang)
 POSES_TIMEOUT_S = 5.0  # wall seconds to ask physics where this robot is (at start)
 TWINS_TIMEOUT_S = 5.0  # wall seconds to collect the twins' answers (at start)
 _PHYSICS_REQUESTS = {
@@ -315,8 +316,11 @@ class _Loop:
         inbox, request_id = self.inbox, request.request_id
         served = _PHYSICS_REQUESTS[request.kind]
         selector = served.key(site=self.site)
+        replied = False
 
         def on_reply(reply: zenoh.Reply) -> None:
+            nonlocal replied
+            replied = True
             if reply.ok is None:
                 error = reply.err.payload.to_string() if reply.err is not None else "error reply"
                 inbox.put(PhysicsResult(request_id, None, error))
@@ -324,13 +328,17 @@ class _Loop:
             message = decode(served.reply, selector, reply.ok.payload.to_bytes(), inbox.invalid)
             inbox.put(PhysicsResult(request_id, message, "" if message else "invalid reply"))
 
-        def on_done() -> None:
-            inbox.put(PhysicsResult(request_id, None, "no reply (timeout)"))
+        def on_done() -> None:  # the query is over: a result only when nothing came (a lock-step robot
+            if not replied:  # takes a reply at the step after physics', so "none" must not overtake it)
+                inbox.put(PhysicsResult(request_id, None, "no reply (timeout)"))
 
         handler = zenoh.handlers.Callback(on_reply, on_done)
         # stamped with the step this robot answers: physics acts on it with that step's command (latency)
         message = request.message.model_copy(update={"step": max(0, self.executor.step)})
-        self.session.get(selector, handler, payload=encode(message), timeout=request.timeout_s)
+        # lock-step: physics answers in sim time (a placement with its connection takes 20 s of it), which
+        # a loaded machine stretches; a wall-clock timeout would decide the task by the machine's load
+        timeout_s = max(request.timeout_s, STEPPED_REQUEST_TIMEOUT_S) if self.stepped else request.timeout_s
+        self.session.get(selector, handler, payload=encode(message), timeout=timeout_s)
 
     def log_metrics(self, when: str) -> None:
         executor = self.executor

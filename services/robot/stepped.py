@@ -35,13 +35,11 @@ from bimbot.shared.messages import (
     TwinMsg,
 )
 from bimbot.shared.state_table import TERMINAL
-from bimbot.shared.step_gate import StepGate
+from bimbot.shared.step_gate import HOLD_S, StepGate
 
 from .protocol import Outgoing, PhysicsResult, RobotExecutor
 
 _log = logging.getLogger(__name__)
-
-HOLD_S = 5.0  # wall seconds a step waits for answers or a twin before it is ticked without (counted)
 
 
 @dataclass
