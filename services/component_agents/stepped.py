@@ -87,7 +87,13 @@ class SteppedAgents:
         if not self.gate.put(stamp_s, sender, item, key=key):
             return  # a repeated delivery (an event sent again until its state change was seen)
         if self._last_step >= 0 and self.gate.note_late(stamp_s, self._last_step):
-            _log.debug("%s from %s came after its step", type(item.message).__name__, sender)
+            _log.info(
+                "%s from %s stamped %.1f s came after step %d",
+                type(item.message).__name__,
+                sender,
+                stamp_s,
+                self._last_step,
+            )
 
     def step_ready(self) -> None:
         """Take every clock step that is ready, in order."""

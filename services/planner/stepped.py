@@ -134,7 +134,13 @@ class SteppedLoop:
         if not self.gate.put(stamp_s, sender, message, resolved=resolved, key=key):
             return  # a repeated delivery (a message sent again until its effect was seen)
         if self._last_step >= 0 and self.gate.note_late(stamp_s, self._last_step):
-            _log.debug("%s from %s came after its step", type(message).__name__, sender)
+            _log.info(
+                "%s from %s stamped %.1f s came after step %d",
+                type(message).__name__,
+                sender,
+                stamp_s,
+                self._last_step,
+            )
 
     # --- stepping ------------------------------------------------------------------------------------
 

@@ -207,10 +207,13 @@ class _Loop:
             options,
         )
         robot_id = executor.robot_id
+        self._keys: dict[type, str] = {
+            CmdVelMsg: key(ROBOT_CMD_VEL_KEY, site=site, robot_id=robot_id),
+            RobotStateMsg: key(ROBOT_STATE_KEY, site=site, robot_id=robot_id),
+            PlanMsg: key(ROBOT_PLAN_KEY, site=site, robot_id=robot_id),
+        }
         self._publishers = {
-            CmdVelMsg: session.declare_publisher(key(ROBOT_CMD_VEL_KEY, site=site, robot_id=robot_id)),
-            RobotStateMsg: session.declare_publisher(key(ROBOT_STATE_KEY, site=site, robot_id=robot_id)),
-            PlanMsg: session.declare_publisher(key(ROBOT_PLAN_KEY, site=site, robot_id=robot_id)),
+            kind: session.declare_publisher(key_expr) for kind, key_expr in self._keys.items()
         }
         self._clock: ClockMsg | None = None
         self._sensors_wall_s = 0.0  # when this step's sensors were taken from the inbox
@@ -309,6 +312,8 @@ class _Loop:
             elif isinstance(message, ComponentEventMsg):
                 event_key = key(COMPONENT_EVENT_KEY, site=self.site, key=guid_to_key(message.guid))
                 self.session.put(event_key, encode(message))
+            elif self.stepped is not None:  # in order with everything else it puts (see physics' _publish)
+                self.session.put(self._keys[type(message)], encode(message))
             else:
                 self._publishers[type(message)].put(encode(message))
 

@@ -25,6 +25,7 @@ from bimbot.shared.bus import Answer, Received
 from bimbot.shared.component_states import TwinQuestion
 from bimbot.shared.messages import (
     CmdVelMsg,
+    ComponentEventMsg,
     ComponentPoseMsg,
     ComponentStateMsg,
     PhysicsReply,
@@ -129,7 +130,13 @@ class SteppedTicks:
         if not self.gate.put(stamp_s, sender, message, resolved=resolved, key=key):
             return  # a repeated delivery (a message sent again until its effect was seen)
         if self._last_step >= 0 and self.gate.note_late(stamp_s, self._last_step):
-            _log.debug("%s from %s came after its step", type(message).__name__, sender)
+            _log.info(
+                "%s from %s stamped %.1f s came after step %d",
+                type(message).__name__,
+                sender,
+                stamp_s,
+                self._last_step,
+            )
 
     def tick_ready(self) -> None:
         """Tick every queued step that is ready, in order."""
@@ -167,7 +174,7 @@ class SteppedTicks:
             if sensors.scan is not None:
                 executor.handle(sensors.scan)
             if clock.step > self._last_step:
-                self.publish(executor.tick(clock, clock.sim_time_s))
+                self.publish(sent_now(executor.tick(clock, clock.sim_time_s), clock.sim_time_s))
                 self._last_step = clock.step
                 self.on_answered()
                 executor.after_tick()
@@ -180,3 +187,15 @@ class SteppedTicks:
                 self.gate.late,
                 self.gate.forced,
             )
+
+
+def sent_now(messages: list[Outgoing], sim_time_s: float) -> list[Outgoing]:
+    """``messages`` with every event stamped with the step that sends it: an event queued behind another
+    goes out only once that one is confirmed, steps after it was made, and was taken then by the agents at
+    whichever step it arrived (a repeat keeps its ``event_id``; the agents take the first that comes)."""
+    return [
+        message.model_copy(update={"sim_time_s": sim_time_s})
+        if isinstance(message, ComponentEventMsg) and message.sim_time_s != sim_time_s
+        else message
+        for message in messages
+    ]
