@@ -57,10 +57,9 @@ class StepGate(Generic[T]):
     # --- what is heard ---------------------------------------------------------------------------------
 
     def clock(self, step: int, sim_time_s: float) -> None:
-        """Clock step ``step`` is at ``sim_time_s`` (kept for the last steps only)."""
+        """Clock step ``step`` is at ``sim_time_s`` (kept until the steps that need it were taken: a
+        participant that fell behind hears many clocks before it takes their steps)."""
         self._times[step] = sim_time_s
-        for old in [s for s in self._times if s < step - 4 * self.delay_steps]:
-            del self._times[old]
 
     def answered(self, participant: str, step: int) -> None:
         """``participant`` answered clock step ``step`` (its own output up to there has been sent)."""
@@ -132,6 +131,8 @@ class StepGate(Generic[T]):
             for participant in self.waiting_for(step):
                 self.leave(participant)
         gate = self.gate_s(step)
+        for old in [s for s in self._times if s < step - 2 * self.delay_steps]:
+            del self._times[old]
         if gate is None:  # the first steps heard: nothing is known to have arrived yet (taken later)
             return []
         due = [e for e in self._inputs if e.stamp_s <= gate and e.resolved]

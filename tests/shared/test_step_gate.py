@@ -67,3 +67,12 @@ def test_a_repeated_delivery_is_dropped_and_a_late_one_counted() -> None:
     assert gate.take(2) == ["event"]
     assert gate.note_late(0.0, 2) and gate.late == 1
     assert not gate.note_late(0.4, 2)
+
+
+def test_a_participant_far_behind_still_takes_each_input_at_its_own_step() -> None:
+    gate = _clocked(40)  # forty clocks heard before the first step is taken
+    gate.put(0.2, "r1", "early")
+    gate.put(6.0, "r1", "late")
+    taken = {step: gate.take(step) for step in range(40)}
+    assert taken[3] == ["early"] and taken[32] == ["late"]
+    assert sum(len(items) for items in taken.values()) == 2
