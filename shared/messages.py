@@ -290,6 +290,9 @@ class CmdVelMsg(_Message):
     w_radps: TurnRate
     sim_time_s: SimTime
     step: Step | None = None  # the clock step this command answers (lock-step mode)
+    # physics requests the robot sent before this command, answering the same step: a query travels apart
+    # from the command and may come after it, and physics must not step past it (reproducible runs)
+    requests: Count = 0
 
 
 class RobotPoseMsg(_Message):

@@ -192,6 +192,8 @@ class _Loop:
         # lock-step with participants: component states taken at defined steps (.stepped_states)
         self.stepped_states = SteppedStates(self.states) if self._participants else None
         self._states_held_since: float | None = None
+        # robot → step → physics requests its command said were sent for that step and that have not come
+        self._requests_due: dict[str, dict[int, int]] = {}
 
     def serve(self) -> None:
         site, inbox, session = self.site, self.inbox, self.session
@@ -325,9 +327,35 @@ class _Loop:
                         ", ".join(missing),
                         self.barrier.timeout_s,
                     )
-        if self._states_wait(now):
+        if self._states_wait(now) or self._requests_wait():
             return LOOP_WAIT_S
         return self.pacer.delay_s(self.sim.sim_time_s + self.sim.config.control_period_s, now)
+
+    def _count_request(self, robot_id: str, step: int, count: int) -> None:
+        """``count`` more (a command said so) or fewer (one came) requests of ``robot_id`` for ``step``."""
+        due = self._requests_due.setdefault(robot_id, {})
+        due[step] = due.get(step, 0) + count
+        if due[step] == 0:
+            del due[step]
+
+    def _requests_wait(self) -> bool:
+        """Whether a request a robot's command announced for a step now due has not come yet (its query
+        travels apart from the command); after the barrier's bound physics goes on without it."""
+        limit = self.pipeline.target(self.sim.step)
+        missing = [
+            (robot_id, step)
+            for robot_id, due in self._requests_due.items()
+            for step, n in due.items()
+            if n > 0 and step <= limit
+        ]
+        if not missing:
+            return False
+        if not self.barrier.timed_out(time.monotonic()):
+            return True
+        _log.warning("lock-step: going on without the request(s) announced by %s", missing)
+        for robot_id, step in missing:
+            del self._requests_due[robot_id][step]
+        return False
 
     def _states_wait(self, now: float) -> bool:
         """Whether the advance waits for a twin's answer to a claim due at this step (bounded)."""
@@ -396,6 +424,8 @@ class _Loop:
                 if not self.sim.known(command.robot_id):
                     return
                 self.barrier.record(command.robot_id, command.step)
+                if command.requests and command.step is not None and self.run.step_with:
+                    self._count_request(command.robot_id, command.step, command.requests)
                 if self.pipeline.command_now(command):
                     self.sim.command(command)
             case Received(message=StepDoneMsg() as answer):
@@ -432,6 +462,13 @@ class _Loop:
             case IncomingQuery():
                 self._answer(item)
 
+    def _arrived(self, request: BaseModel) -> bool:
+        """Count a robot's request in as it comes (True: go on handling it)."""
+        step, robot_id = getattr(request, "step", None), getattr(request, "robot_id", None)
+        if step is not None and robot_id is not None and self.run.step_with:
+            self._count_request(robot_id, step, -1)
+        return True
+
     def _ask_twins(self) -> None:
         """Ask the twins of the components whose state messages did not fit (non-blocking, bounded)."""
         if self.stepped_states is not None:
@@ -461,7 +498,11 @@ class _Loop:
             model = served.request
             reason = f"invalid {model.__name__} payload (expected JSON with {', '.join(model.model_fields)})"
             self._reply(query, reply_key, PhysicsReply(ok=False, reason=reason, sim_time_s=now))
-        elif not held and not self.pipeline.request_now(getattr(request, "step", None), self.sim.step, item):
+        elif (
+            not held
+            and self._arrived(request)
+            and not self.pipeline.request_now(getattr(request, "step", None), self.sim.step, item)
+        ):
             return  # held until its step is due (_advance)
         elif isinstance(request, AttachRequest):
             self._reply(query, reply_key, self.sim.attach(request))

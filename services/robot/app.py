@@ -303,8 +303,13 @@ class _Loop:
                 self.executor.handle(message)
 
     def publish(self, messages: list[Outgoing]) -> None:
-        """Physics requests first, then events, state and plan, and the step's ``cmd_vel`` last."""
-        for message in sorted(messages, key=_send_order):
+        """Physics requests first, then events, state and plan, and the step's ``cmd_vel`` last (saying how
+        many requests went before it)."""
+        requests = sum(isinstance(message, PhysicsRequest) for message in messages)
+        for item in sorted(messages, key=_send_order):
+            message: Outgoing = item
+            if requests and isinstance(item, CmdVelMsg) and item.step is not None:
+                message = item.model_copy(update={"requests": requests})
             if isinstance(message, PhysicsRequest):
                 self._request(message)
             elif isinstance(message, TwinQuestion):  # a state message that did not fit: ask the truth
