@@ -49,6 +49,7 @@ _log = logging.getLogger(__name__)
 PARTICIPANT = "planner"
 SKIP_CHECK_STEPS = 5  # control periods between two looks at whether the site is quiet
 SKIP_RETRY_STEPS = 25  # control periods between two skip requests
+CONFIRM_STEPS = 50  # steps a done planner waits for the agents to confirm every terminal state, at most
 PROGRESS_STEPS = 5  # the progress is published when it changed and at least every this many steps
 
 
@@ -86,6 +87,7 @@ class SteppedLoop:
         self._held_since: float | None = None
         self._answer_key = key(STEP_DONE.template, site=site, participant=PARTICIPANT)
         self._last_step = -1
+        self._done_step: int | None = None  # the step the planner was first done at
         self._progress = core.progress()
         self._progress_revision, self._progress_step = -1, -PROGRESS_STEPS
 
@@ -155,7 +157,7 @@ class SteppedLoop:
                     progress = self._step_if_ready(self.clocks[0])
                     if progress is None:
                         break
-                    if progress.done and exit_when_done:
+                    if progress.done and exit_when_done and self._confirmed():
                         return progress
         finally:
             self._answer(max(self._last_step, 0), 0.0, done=True)
@@ -167,6 +169,13 @@ class SteppedLoop:
                     self.gate.forced,
                 )
         return None
+
+    def _confirmed(self) -> bool:
+        """Done and the agents took it: every component terminal by its agent, or ``CONFIRM_STEPS`` steps
+        since the planner was done (the run's report, made when the planner ends, reads their states)."""
+        if self._done_step is None:
+            self._done_step = self._last_step
+        return self.core.confirmed() or self._last_step - self._done_step >= CONFIRM_STEPS
 
     def _step_if_ready(self, clock: ClockMsg) -> ProgressMsg | None:
         step = clock.step
