@@ -39,13 +39,16 @@ def _diff(a: Path, b: Path) -> int:
     return 1 if lines else 0
 
 
-def _run(build: Path, seed: int, index: int, options: list[str], runs_dir: Path) -> RunOutcome:
+def _run(build: Path, seed: int, index: int, options: list[str], runs_dir: Path) -> RunOutcome | None:
     run_dir = runs_dir / f"seed{seed}-{index}"
     command = [sys.executable, "-m", "bimbot.cli", "run", str(build), "--seed", str(seed), "-q"]
     command += ["--run-dir", str(run_dir), *options]
     started = time.monotonic()
-    subprocess.run(command, check=False, stdout=subprocess.DEVNULL)
+    done = subprocess.run(command, check=False, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     report = run_dir / "report" / "report.json"
+    if not report.is_file():
+        print(f"seed {seed} run {index}: no report (exit {done.returncode}): {done.stderr.strip()[-300:]}")
+        return None
     result = _load(report)
     print(
         f"seed {seed} run {index}: {result.constructed}/{len(result.components)} constructed, makespan "
@@ -72,8 +75,9 @@ def main() -> int:
     runs_dir = args.runs_dir or args.build / "runs"
     results: dict[int, list[RunOutcome]] = {}
     for seed in args.seeds:
-        results[seed] = [_run(args.build, seed, index, options, runs_dir) for index in range(args.repeat)]
-    firsts = [runs[0] for runs in results.values()]
+        runs = [_run(args.build, seed, index, options, runs_dir) for index in range(args.repeat)]
+        results[seed] = [run for run in runs if run is not None]
+    firsts = [runs[0] for runs in results.values() if runs]
     figure = spread(firsts)
     total = max((len(item.components) for item in firsts), default=0)
     if figure.makespan_range_s is not None and figure.makespan_median_s is not None:
