@@ -80,14 +80,14 @@ class ForkServer:
 
     def __init__(self) -> None:
         """Start the server; it preloads while the run checks its input (its log: :meth:`attach_log`)."""
-        from bimbot.supervisor import STOP_WITH_PARENT_ENV
+        from bimbot.supervisor import HASH_SEED, STOP_WITH_PARENT_ENV
 
         self._process = subprocess.Popen(
             [sys.executable, "-P", "-m", "bimbot.fork_server_process"],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
-            env={**os.environ, STOP_WITH_PARENT_ENV: str(os.getpid())},
+            env={**HASH_SEED, **os.environ, STOP_WITH_PARENT_ENV: str(os.getpid())},  # children hash alike
             start_new_session=True,  # a Ctrl-C at the terminal reaches bimbot run only
         )
         self._changed = threading.Condition()

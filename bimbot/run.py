@@ -379,6 +379,11 @@ def method_line(totals: dict) -> str | None:
     return "by method (constructed/components): " + ", ".join(parts)
 
 
+def _seed(outcome: RunOutcome) -> str:
+    seed = (outcome.report.get("settings") or {}).get("seed")
+    return f" (seed {seed})" if seed is not None else ""
+
+
 def summary_text(outcome: RunOutcome) -> str:
     totals = outcome.report.get("totals", {})
     ending = outcome.ending
@@ -389,7 +394,7 @@ def summary_text(outcome: RunOutcome) -> str:
         *early,
         f"constructed {outcome.constructed}/{outcome.total} components in "
         f"{outcome.sim_time_s:.1f} s sim time ({outcome.wall_time_s:.1f} s wall{_makespan(totals)}), "
-        f"{_caught(outcome)}, {totals.get('give_backs', 0)} give-back(s) by robots",
+        f"{_caught(outcome)}, {totals.get('give_backs', 0)} give-back(s) by robots{_seed(outcome)}",
     ]
     methods = method_line(totals)
     if methods:

@@ -20,6 +20,7 @@ from bimbot.services.observer import VIEWER_GRPC_PORT, VIEWER_WEB_PORT
 from bimbot.services.physics.profiles import RUN_PROFILE, add_profile_arguments
 from bimbot.shared.errors import UserError
 from bimbot.shared.option_types import non_negative_float, non_negative_int, positive_float, positive_int
+from bimbot.shared.seeds import DEFAULT_SEED
 from bimbot.shared.tolerance_options import add_tolerance_arguments, tolerances_from
 from bimbot.shared.verification import Tolerances
 
@@ -64,6 +65,7 @@ class RunOptions:
     secure: bool = False  # a secured bus: per-service credentials, the router's access control (RUN/bus/)
     max_attempts: int | None = None  # placements a component gets before it fails (None: the agents')
     tolerances: Tolerances = field(default_factory=Tolerances)  # in force on site: physics serves them
+    seed: int = DEFAULT_SEED  # every random draw of the run (physics, each robot's own stream)
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
@@ -93,6 +95,14 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_profile_arguments(parser, RUN_PROFILE)
     add_tolerance_arguments(parser)
+    parser.add_argument(
+        "--seed",
+        type=non_negative_int,
+        default=DEFAULT_SEED,
+        metavar="N",
+        help="seed of every random draw (odometry and placement noise in physics, each robot's "
+        f"localisation); the same build, fleet, sequence and seed give the same outcome ({DEFAULT_SEED})",
+    )
     parser.add_argument(
         "--inject-placement-error-m",
         type=non_negative_float,
@@ -258,6 +268,7 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         secure=getattr(args, "secure", False),
         max_attempts=getattr(args, "max_attempts", None),
         tolerances=tolerances_from(args),
+        seed=getattr(args, "seed", DEFAULT_SEED),
     )
 
 

@@ -10,12 +10,14 @@ from __future__ import annotations
 from pathlib import Path
 
 from bimbot.run_args import ObserverOptions, RunOptions
+from bimbot.services.physics.profiles import PROFILES
 from bimbot.shared.bus import BusOptions
 from bimbot.shared.bus_access import robot_user
 from bimbot.shared.bus_credentials import BusFiles, write_bus_credentials
 from bimbot.shared.errors import UserError
 from bimbot.shared.fleet import Fleet, load_fleet
 from bimbot.shared.run_folder import RunFolder
+from bimbot.shared.step_gate import HOLD_S
 from bimbot.shared.tolerance_options import tolerance_flags
 
 
@@ -51,7 +53,21 @@ def physics_arguments(build: Path, options: RunOptions) -> list[str]:
     if not options.connections:
         arguments.append("--no-connections")
     arguments += tolerance_flags(options.tolerances)  # physics serves them to every service
+    arguments += ["--seed", str(options.seed)]
+    if stepped(options):  # the planner and the agents answer each step too (reproducible runs)
+        arguments += ["--step-with", ",".join(STEPPED_PARTICIPANTS)]
+        arguments += ["--lock-step-timeout-s", f"{HOLD_S:g}"]  # a loaded machine is not a hang
     return [*arguments, *options.physics_extra]
+
+
+STEPPED_PARTICIPANTS = ("planner", "agents-1of1")  # a run's lock-step participants besides its robots
+
+
+def stepped(options: RunOptions) -> bool:
+    """Whether the run's services take part in physics' lock-step (every lock-step run): the planner, the
+    agents and the robots then take their inputs at defined steps, and a seed gives one outcome."""
+    lock_step = PROFILES[options.profile].lock_step if options.lock_step is None else options.lock_step
+    return bool(lock_step)
 
 
 def secure_bus(run: RunFolder, options: RunOptions, site: str) -> BusFiles | None:
@@ -87,20 +103,25 @@ def service_commands(
     def joined(user: str) -> list[str]:
         on_bus = ["--connect", endpoint]
         if bus is None:
-            return on_bus
+            # lock-step: every service a client of the run's router, one link each, so what one service
+            # sends reaches each other in the order it was sent (a peer mesh has two ways between two
+            # services, the direct link and the router, and a step's answer overtook its messages)
+            return [*on_bus, "--mode", "client"] if stepped(options) else on_bus
         return [*on_bus, "--mode", "client", "--bus-config", str(bus.service(user))]
 
-    agents = ["agents", "--build", str(build), "--run-dir", str(run.root), "--fresh"]
+    in_step = ["--stepped"] if stepped(options) else []
+    agents = ["agents", "--build", str(build), "--run-dir", str(run.root), "--fresh", *in_step]
     if options.max_attempts is not None:
         agents += ["--max-attempts", str(options.max_attempts)]
-    planner = ["planner", "--build", str(build), "--exit-when-done", *options.planner_source]
+    planner = ["planner", "--build", str(build), "--exit-when-done", *options.planner_source, *in_step]
     commands = [
         ("physics", [*physics_arguments(build, options), "--run-dir", str(run.root), *joined("physics")]),
         ("agents", [*agents, *joined("agents")]),
         ("planner", [*planner, *joined("planner")]),
     ]
     for robot_id in run_fleet(options).type_of():
-        robot = ["robot", "--build", str(build), "--id", robot_id, *joined(robot_user(robot_id))]
+        robot = ["robot", "--build", str(build), "--id", robot_id, "--seed", str(options.seed), *in_step]
+        robot += joined(robot_user(robot_id))
         if options.inject_placement_error_m:
             robot += ["--inject-placement-error-m", repr(options.inject_placement_error_m)]
         commands.append((f"robot-{robot_id}", robot))

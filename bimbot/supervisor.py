@@ -69,6 +69,10 @@ def _ephemeral_low() -> int:
 
 
 STOP_WITH_PARENT_ENV = "BIMBOT_STOP_WITH_PARENT"  # the pid of the process that started the service
+# Every service of a run hashes strings alike, run after run: Python salts ``hash`` per process, so a set
+# iterated where it decides (which of two equal choices comes first) would differ between two runs of one
+# seed. A value the user set wins.
+HASH_SEED = {"PYTHONHASHSEED": "0"}
 
 
 class ServiceProcess:
@@ -99,7 +103,7 @@ class ServiceProcess:
         self._asked_to_stop: object | None = None  # the process SIGTERM went to (one is enough)
 
     def _start(self, args: Sequence[str]) -> subprocess.Popen[bytes] | ForkedChild:
-        env = {**os.environ, **(self._env or {})}
+        env = {**HASH_SEED, **os.environ, **(self._env or {})}
         process: subprocess.Popen[bytes] | ForkedChild | None = None
         if self._launcher is not None:
             self._log.flush()

@@ -182,6 +182,20 @@ def bus_user(config: zenoh.Config) -> str | None:
     return str(user) if user is not None else None
 
 
+# Zenoh drops a message (congestion control "drop", every put's default) when its link's queue stays full
+# for 1 ms. On a loaded machine a sender's or the router's queue was full that long while its reader was
+# not scheduled: a task or an event then came only with its resend, 2 s later, and a lock-step run took it
+# at another step than its twin run (the same seed built differently). A queue that stays full for 1 s is
+# a reader that is gone, not a busy one.
+DROP_WAIT_KEY = "transport/link/tx/queue/congestion_control/drop/wait_before_drop"
+ZENOH_DROP_WAIT_US = 1_000
+DROP_WAIT_US = 1_000_000
+# A router gives up a query it routes after ``queries_default_timeout`` (10 s), whatever the querier's own
+# timeout: a placement physics answers after its settling and connection (20 s of sim time) was refused
+# "no reply" by the run's router on a loaded machine. The querier's timeout is the bound that counts.
+ROUTED_QUERY_TIMEOUT_MS = 900_000
+
+
 def zenoh_config(options: BusOptions) -> zenoh.Config:
     """A Zenoh config for ``options``: the config file (if any), then explicit endpoints, multicast
     scouting off, no scouting delay unless the file sets one. Raises :class:`InputError` for an unusable
@@ -204,6 +218,10 @@ def zenoh_config(options: BusOptions) -> zenoh.Config:
             config.insert_json5("connect/exit_on_failure", "false")
     if options.mode != "router" and options.connect and json.loads(config.get_json("connect/retry")) is None:
         config.insert_json5("connect/retry", json.dumps(CONNECT_RETRY))
+    if json.loads(config.get_json(DROP_WAIT_KEY)) == ZENOH_DROP_WAIT_US:  # not set by the file
+        config.insert_json5(DROP_WAIT_KEY, str(DROP_WAIT_US))
+    if json.loads(config.get_json("queries_default_timeout")) is None:
+        config.insert_json5("queries_default_timeout", str(ROUTED_QUERY_TIMEOUT_MS))
     return config
 
 

@@ -24,6 +24,7 @@ Key space (``<site>`` is the manifest's site slug, ``<key>`` a component's bus k
     bimbot/<site>/planner/plan                (queryable)         planner answers PlannedSequenceMsg
     bimbot/<site>/clock                       ClockMsg            physics → all
     bimbot/<site>/progress                    ProgressMsg         planner → all
+    bimbot/<site>/steps/<participant>         StepDoneMsg         planner/agent → all (lock-step answers)
     bimbot/<site>/alive/<kind>/<id>           (liveliness)        token of every running service
 
 A state change has one record, :class:`ComponentStateMsg`: the agent publishes it, keeps it in its twin's
@@ -289,6 +290,9 @@ class CmdVelMsg(_Message):
     w_radps: TurnRate
     sim_time_s: SimTime
     step: Step | None = None  # the clock step this command answers (lock-step mode)
+    # physics requests the robot sent before this command, answering the same step: a query travels apart
+    # from the command and may come after it, and physics must not step past it (reproducible runs)
+    requests: Count = 0
 
 
 class RobotPoseMsg(_Message):
@@ -370,6 +374,9 @@ class SiteInfoMsg(_Message):
     # the placement tolerances in force: the agents verify with them, physics connects with them, the
     # run's audit and report judge with them (one override: ``bimbot run --position-tolerance-m``)
     tolerances: Tolerances = Field(default_factory=Tolerances)
+    # lock-step participants besides the robots (physics --step-with): who answers every clock step, so a
+    # service that takes its inputs at defined steps knows whose answers to wait for from the first step
+    lock_step_participants: list[str] = []
 
 
 PLANNER_PLAN_KEY = "bimbot/{site}/planner/plan"
@@ -431,6 +438,7 @@ class SkipRequest(_Message):
 
     to_sim_s: SimTime
     why: str = Field(default="", max_length=500)
+    step: Step | None = None  # the clock step the planner answered as it asked (lock-step: acted on after)
 
 
 class SitePosesMsg(_Message):
@@ -503,6 +511,20 @@ class ProgressMsg(_Message):
     curing: list[CuringHold] = []  # what is ready but for the curing of a cast element it rests on
 
 
+STEP_DONE_KEY = "bimbot/{site}/steps/{participant}"
+
+
+class StepDoneMsg(_Message):
+    """A lock-step participant that is not a robot (the planner, each agents shard) answered clock step
+    ``step``: what it had to say up to that step has been sent (see :mod:`bimbot.shared.step_gate`).
+    ``done``: it stops answering (physics no longer waits for it)."""
+
+    participant: str = Field(min_length=1, max_length=64)
+    step: Step
+    sim_time_s: SimTime
+    done: bool = False
+
+
 def key(template: str, **parts: str) -> str:
     """Fill a key template (``key(COMPONENT_STATE_KEY, site=s, key=k)``)."""
     return template.format(**parts)
@@ -532,6 +554,7 @@ PHYSICS_SKIP = Queryable(PHYSICS_SKIP_KEY, SkipRequest, PhysicsReply, "physics")
 PLANNER_PLAN = Queryable(PLANNER_PLAN_KEY, None, PlannedSequenceMsg, "planner")
 CLOCK = Topic(CLOCK_KEY, ClockMsg, "physics", "all")
 PROGRESS = Topic(PROGRESS_KEY, ProgressMsg, "planner", "all")
+STEP_DONE = Topic(STEP_DONE_KEY, StepDoneMsg, "planner/agent", "all", "lock-step answers")
 # kind: component, robot, planner, physics, observer
 ALIVE = Liveliness(ALIVE_KEY, "every running service")
 
@@ -556,6 +579,7 @@ KEY_SPACE: tuple[Entry, ...] = (
     PLANNER_PLAN,
     CLOCK,
     PROGRESS,
+    STEP_DONE,
     ALIVE,
 )
 TOPICS: dict[str, Topic] = {entry.template: entry for entry in KEY_SPACE if isinstance(entry, Topic)}

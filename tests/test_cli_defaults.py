@@ -150,11 +150,13 @@ def test_physics_takes_a_named_profile_and_single_options_override_one_value() -
 def test_bimbot_run_names_its_profile_and_passes_only_what_the_user_changed() -> None:
     plain = physics_arguments(Path("OUT"), RunOptions(robots=2))
     wait = "--wait-for-planner"  # the planner's start-up is not sim time
-    assert plain == ["physics", "--build", "OUT", "--robots", "2", "--profile", RUN_PROFILE, wait]
-    changed = physics_arguments(Path("OUT"), RunOptions(physics_hz=240.0, lock_step=False))
-    assert changed[-3:] == ["--physics-hz", "240.0", "--no-lock-step"]
+    # the run's seed and its lock-step participants, who may be slow on a loaded machine
+    seeded = ["--seed", "0", "--step-with", "planner,agents-1of1", "--lock-step-timeout-s", "60"]
+    assert plain == ["physics", "--build", "OUT", "--robots", "2", "--profile", RUN_PROFILE, wait, *seeded]
+    changed = physics_arguments(Path("OUT"), RunOptions(physics_hz=240.0, lock_step=False, seed=7))
+    assert changed[-5:] == ["--physics-hz", "240.0", "--no-lock-step", "--seed", "7"]
     unconnected = physics_arguments(Path("OUT"), RunOptions(connections=False))
-    assert unconnected[-1] == "--no-connections"
+    assert unconnected[-len(seeded) - 1 :] == ["--no-connections", *seeded]
 
 
 def test_connections_are_made_unless_the_user_says_no_connections() -> None:

@@ -100,6 +100,8 @@ class AgentConfig:
     # False until the site's tolerances are known (physics' site info): a placement then waits for them,
     # up to its verification timeout, rather than be judged by another tolerance than the site's
     tolerances_known: bool = True
+    # the verification timeout in sim seconds (lock-step: the wait ends at the same step in every run)
+    sim_deadlines: bool = False
 
     def __post_init__(self) -> None:
         if self.max_attempts < 1:
@@ -261,7 +263,7 @@ class ComponentAgent:
             self.attempt += 1
             self.place_sim_time_s = msg.sim_time_s
             self.place_note = msg.note
-            self.verify_deadline_wall_s = now + self._config.verify_timeout_s
+            self.verify_deadline_wall_s = self._deadline_clock(now) + self._config.verify_timeout_s
         cause = f"{msg.event.value} from {msg.source}" + (f" (task {msg.task_id})" if msg.task_id else "")
         out = [
             self._record(
@@ -302,12 +304,13 @@ class ComponentAgent:
             return []
         now = time.time() if now_wall_s is None else now_wall_s
         fresh = self._has_placement_pose()
-        timed_out = self.verify_deadline_wall_s is not None and now >= self.verify_deadline_wall_s
+        deadline_now = self._deadline_clock(now)
+        timed_out = self.verify_deadline_wall_s is not None and deadline_now >= self.verify_deadline_wall_s
         if not self._config.tolerances_known and not timed_out:
             return []  # judged with the site's tolerances once physics says them (or after the timeout)
         if fresh:
             cause = f"pose at sim {self.pose_sim_time_s:.3f} s"
-        elif self.verify_deadline_wall_s is not None and now >= self.verify_deadline_wall_s:
+        elif timed_out:
             if self.pose is None:
                 cause = "no pose on the bus"
             else:
@@ -324,6 +327,10 @@ class ComponentAgent:
             check = verify(self.pose, target, self._config.tolerances, drift, reference_local_m=centre)
         stamp = self.pose_sim_time_s if fresh else None
         return [self._decide(check, cause, self._clock.now(stamp), now)]
+
+    def _deadline_clock(self, now_wall_s: float) -> float:
+        """The clock the verification timeout runs on: sim time with ``sim_deadlines``, else wall time."""
+        return self._clock.sim_time_s if self._config.sim_deadlines else now_wall_s
 
     def _has_placement_pose(self) -> bool:
         """A pose stamped after ``place``, or a fixed pose stamped after ``arrive``."""
@@ -360,7 +367,7 @@ class ComponentAgent:
         self.verify_deadline_wall_s = None
         if state is ComponentState.VERIFYING:
             self.place_sim_time_s = 0.0 if place_sim_time_s is None else place_sim_time_s
-            self.verify_deadline_wall_s = now + self._config.verify_timeout_s
+            self.verify_deadline_wall_s = self._deadline_clock(now) + self._config.verify_timeout_s
         self.history = list(history)
         self.event_ids = set(event_ids)
         self.reason = reason

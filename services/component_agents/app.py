@@ -47,6 +47,9 @@ from bimbot.shared.messages import (
     COMPONENT_STATE_KEY,
     COMPONENT_TWIN,
     PHYSICS_INFO,
+    ROBOT_CMD_VEL,
+    STEP_DONE,
+    STEP_DONE_KEY,
     SiteInfoMsg,
     key,
 )
@@ -55,6 +58,7 @@ from bimbot.shared.service_runner import BuildInput
 from .agent import AgentConfig
 from .host import AgentHost, Outgoing
 from .journal import Journal, journal_path
+from .stepped import VERIFY_TIMEOUT_SIM_S, SteppedAgents, participant_name
 
 _log = logging.getLogger(__name__)
 
@@ -73,11 +77,14 @@ def main(
     shard: tuple[int, int],
     state_dir: Path,
     fresh: bool = False,
+    stepped: bool = False,
 ) -> int:
     """Run shard ``shard`` (i, n) of the build's agents until ``stop`` is set; 0 on a clean stop.
     ``build.manifest`` holds that shard's components (:func:`.host.shard_manifest`)."""
     manifest, (index, n_shards) = build.manifest, shard
     path = journal_path(state_dir, index, n_shards)  # in the run folder (bimbot.shared.run_folder)
+    if stepped:  # a lock-step participant: the verification timeout in sim seconds (.stepped)
+        config = replace(config, sim_deadlines=True, verify_timeout_s=VERIFY_TIMEOUT_SIM_S)
     with Journal(path, fresh=fresh) as journal:
         waiting = replace(config, tolerances_known=False)  # until physics' site info says the site's
         host = AgentHost(manifest, index, n_shards, config=waiting, journal=journal, resume=journal.replayed)
@@ -95,7 +102,7 @@ def main(
                 extra.enter_context(open_session(options_for_tokens))
                 for options_for_tokens in token_session_options(options, len(host.agents))
             ]
-            serve(session, host, stop, token_sessions)
+            serve(session, host, stop, token_sessions, stepped=stepped)
         _log.info("agents stopped: %s", dict(host.counts))
     return 0
 
@@ -113,9 +120,11 @@ def serve(
     host: AgentHost,
     stop: threading.Event,
     token_sessions: list[zenoh.Session] | None = None,
+    *,
+    stepped: bool = False,
 ) -> None:
     """Declare everything on ``session`` (tokens spread over ``token_sessions``) and run the loop until
-    ``stop`` is set."""
+    ``stop`` is set; ``stepped``: as a lock-step participant (:mod:`.stepped`)."""
     site = host.site
     inbox = Inbox()
     # Kept referenced until the session closes (an undropped declaration stays declared anyway).
@@ -125,6 +134,18 @@ def serve(
         inbox.subscribe(session, CLOCK, site=site),
         inbox.serve(session, COMPONENT_TWIN, complete=False, site=site, key="*"),
     ]
+    steps = None
+    if stepped:  # the other participants' answers: what they sent up to a step has arrived
+        declarations += [
+            inbox.subscribe(session, ROBOT_CMD_VEL, site=site, robot_id="*"),
+            inbox.subscribe(session, STEP_DONE, site=site, participant="*"),
+        ]
+        answer_key = key(STEP_DONE_KEY, site=site, participant=participant_name(host.shard, host.n_shards))
+        steps = SteppedAgents(
+            host,
+            lambda out: _publish(session, out),
+            lambda message: session.put(answer_key, encode(message)),
+        )
     started = time.perf_counter()
     livelinesses = [token_session.liveliness() for token_session in token_sessions or [session]]
     per_session = -(-len(host.agents) // len(livelinesses)) if host.agents else 1
@@ -147,6 +168,8 @@ def serve(
     while not stop.is_set():
         if site_info is not None and (info := site_info.poll()) is not None:
             host.use_tolerances(info.tolerances)  # the tolerances in force: physics' site info
+            if steps is not None:
+                steps.expect(info.robot_ids, info.lock_step_participants)
             site_info = None
         elif site_info is not None and time.monotonic() - asked_since > SITE_INFO_WAIT_S:
             host.assume_own_tolerances(SITE_INFO_WAIT_S)  # still asked: physics' answer wins when it comes
@@ -154,7 +177,7 @@ def serve(
             try:
                 if isinstance(item, IncomingQuery):
                     _answer(item.query, host)
-                else:
+                elif steps is None or not steps.hear(item):
                     _publish(session, host.handle(item))
             except Exception:
                 host.counts["handler_errors"] += 1
@@ -162,10 +185,15 @@ def serve(
             if stop.is_set():
                 break
         try:
-            _publish(session, host.tick())
+            if steps is not None:
+                steps.step_ready()
+            else:
+                _publish(session, host.tick())
         except Exception:
             host.counts["handler_errors"] += 1
             _log.exception("checking verification timeouts failed; going on")
+    if steps is not None:
+        steps.finish()
     invalid = inbox.invalid.total
     if invalid:
         _log.info("%d invalid payloads were received and ignored", invalid)

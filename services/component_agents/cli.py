@@ -55,6 +55,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--fresh", action="store_true", help="clear this shard's journal and start every agent anew"
     )
+    parser.add_argument(
+        "--stepped",
+        action="store_true",
+        help="take part in physics' lock-step (physics --step-with agents-<i>of<n>): events and poses "
+        "taken at clock steps in a defined order, so a run reproduces (bimbot run does)",
+    )
     add_bus_arguments(parser)
 
 
@@ -95,4 +101,5 @@ def run(args: argparse.Namespace) -> int:
         shard=(shard, n_shards),
         state_dir=state_dir,
         fresh=args.fresh,
+        stepped=args.stepped,
     )

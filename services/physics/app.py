@@ -67,6 +67,7 @@ from bimbot.shared.messages import (
     PHYSICS_POSES,
     PHYSICS_SKIP,
     ROBOT_CMD_VEL,
+    STEP_DONE,
     AttachRequest,
     BuildRequest,
     CmdVelMsg,
@@ -76,6 +77,7 @@ from bimbot.shared.messages import (
     PhysicsReply,
     PlaceRequest,
     SkipRequest,
+    StepDoneMsg,
     TwinMsg,
     key,
 )
@@ -90,6 +92,7 @@ from .profiles import FINE
 from .restore import restore_site
 from .simulation import Outgoing, SimConfig, Simulation
 from .snapshot import SnapshotRecorder, load_snapshot
+from .stepped_states import SteppedStates
 
 _log = logging.getLogger(__name__)
 
@@ -112,6 +115,9 @@ class RunConfig:
     # 20 s of wall time on a 988-component site) is not sim time, and the idle site would step meanwhile
     wait_for_planner: bool = False
     state_dir: Path | None = None  # where physics keeps its record of the site (None: no record, no restart)
+    # lock-step participants besides the robots (the planner, each agents shard: StepDoneMsg), waited for
+    # like a robot until they say they are done, so what they decide happens at the same step in every run
+    step_with: tuple[str, ...] = ()
 
 
 def main(
@@ -179,8 +185,15 @@ class _Loop:
         self._robots_deadline: float | None = None  # while holding the clock for the robots to come up
         self._planner_alive = False  # (heard only with RunConfig.wait_for_planner)
         self._held = False  # the clock was held at step 0 for the robots
+        self._participants = set(run.step_with)  # lock-step participants still answering (step_with)
         # judged state messages: a forged constructed must not join a placement that is still settling
         self.states = ComponentStates({c.guid: c.key for c in sim.manifest.components})
+        self._keys = {c.guid: c.key for c in sim.manifest.components}
+        # lock-step with participants: component states taken at defined steps (.stepped_states)
+        self.stepped_states = SteppedStates(self.states) if self._participants else None
+        self._states_held_since: float | None = None
+        # robot → step → physics requests its command said were sent for that step and that have not come
+        self._requests_due: dict[str, dict[int, int]] = {}
 
     def serve(self) -> None:
         site, inbox, session = self.site, self.inbox, self.session
@@ -189,6 +202,8 @@ class _Loop:
             inbox.subscribe_liveliness(session, key(ALIVE_KEY, site=site, kind="robot", id="*")),
             inbox.subscribe(session, COMPONENT_STATE, site=site, key="*"),
         ]
+        if self._participants:
+            declarations.append(inbox.subscribe(session, STEP_DONE, site=site, participant="*"))
         if self.run.wait_for_planner:
             planner = key(ALIVE_KEY, site=site, kind="planner", id="*")
             declarations.append(inbox.subscribe_liveliness(session, planner))
@@ -206,6 +221,8 @@ class _Loop:
         )
         self._publish(self.sim.start_messages())
         self.barrier.open(self.sim.step, time.monotonic())
+        if self.stepped_states is not None:
+            self.stepped_states.clock(self.sim.step, self.sim.sim_time_s)
         _log.info(
             "physics serving site %s: robots %s, rtf %s, lock-step %s",
             site,
@@ -291,11 +308,17 @@ class _Loop:
             self._publish(self.sim.start_messages())
             self.barrier.open(self.sim.step, now)
         if self.sim.config.lock_step:
-            waited_for = self.sim.alive - self.sim.busy_robots()
+            # with participants (a reproducible run) a robot whose placement runs is waited for too: left
+            # behind, its first request after the placement was taken at whichever step physics had reached
+            busy = set() if self.run.step_with else self.sim.busy_robots()
+            waited_for = (self.sim.alive - busy) | self._participants
             missing = self.barrier.missing(waited_for)
             if missing:
                 if not self.barrier.timed_out(now):
                     return max(self.barrier.remaining_s(now), 1e-3)
+                silent = self._participants.intersection(missing)
+                if silent:  # not waited for again until they answer (a robot: until alive again)
+                    self._participants -= silent
                 if self._warned_step != self.barrier.step:
                     self._warned_step = self.barrier.step
                     _log.warning(
@@ -304,11 +327,60 @@ class _Loop:
                         ", ".join(missing),
                         self.barrier.timeout_s,
                     )
+        if self._states_wait(now) or self._requests_wait():
+            return LOOP_WAIT_S
         return self.pacer.delay_s(self.sim.sim_time_s + self.sim.config.control_period_s, now)
+
+    def _count_request(self, robot_id: str, step: int, count: int) -> None:
+        """``count`` more (a command said so) or fewer (one came) requests of ``robot_id`` for ``step``."""
+        due = self._requests_due.setdefault(robot_id, {})
+        due[step] = due.get(step, 0) + count
+        if due[step] == 0:
+            del due[step]
+
+    def _requests_wait(self) -> bool:
+        """Whether a request a robot's command announced for a step now due has not come yet (its query
+        travels apart from the command); after the barrier's bound physics goes on without it."""
+        limit = self.pipeline.target(self.sim.step)
+        missing = [
+            (robot_id, step)
+            for robot_id, due in self._requests_due.items()
+            for step, n in due.items()
+            if n > 0 and step <= limit
+        ]
+        if not missing:
+            return False
+        if not self.barrier.timed_out(time.monotonic()):
+            return True
+        _log.warning("lock-step: going on without the request(s) announced by %s", missing)
+        for robot_id, step in missing:
+            del self._requests_due[robot_id][step]
+        return False
+
+    def _states_wait(self, now: float) -> bool:
+        """Whether the advance waits for a twin's answer to a claim due at this step (bounded)."""
+        stepped = self.stepped_states
+        if stepped is None or stepped.ready(self.sim.step):
+            self._states_held_since = None
+            return False
+        if self._states_held_since is None:
+            self._states_held_since = now
+        if now - self._states_held_since < self.barrier.timeout_s:
+            return True
+        _log.warning(
+            "lock-step: step %d goes on without the twins of %s", self.sim.step, ", ".join(stepped.claims)
+        )
+        return False
 
     def _advance(self) -> None:
         started = time.monotonic()
         step = self.sim.step
+        stepped = self.stepped_states
+        if stepped is not None:
+            forced = not stepped.ready(step)
+            for guid, state in stepped.take(step, force=forced):
+                self.sim.handling.note_constructed(guid, state == ComponentState.CONSTRUCTED)
+            self._states_held_since = None
         for command in self.pipeline.due_commands(step):
             self.sim.command(command)
         for held in self.pipeline.due_requests(step):
@@ -325,6 +397,8 @@ class _Loop:
             if query is not None:
                 self._reply(query, self._place_key, reply)
         self.barrier.open(self.pipeline.target(self.sim.step), now)
+        if stepped is not None:
+            stepped.clock(self.sim.step, self.sim.sim_time_s)
 
     # --- input ---------------------------------------------------------------------------------------
 
@@ -350,8 +424,24 @@ class _Loop:
                 if not self.sim.known(command.robot_id):
                     return
                 self.barrier.record(command.robot_id, command.step)
+                if command.requests and command.step is not None and self.run.step_with:
+                    self._count_request(command.robot_id, command.step, command.requests)
                 if self.pipeline.command_now(command):
                     self.sim.command(command)
+            case Received(message=StepDoneMsg() as answer):
+                if answer.participant in self.run.step_with:
+                    self.barrier.record(answer.participant, answer.step)
+                    if answer.done:
+                        self._participants.discard(answer.participant)
+                        _log.info("lock-step: %s is done; not waited for any more", answer.participant)
+                    else:
+                        self._participants.add(answer.participant)
+            case Received(message=ComponentStateMsg() as message) if self.stepped_states is not None:
+                self.stepped_states.hear(message)
+            case Answer(message=TwinMsg() as twin) if (
+                self.stepped_states is not None and self.stepped_states.answer(twin)
+            ):
+                pass  # taken at its claim's step
             case Received(message=ComponentStateMsg() as message):
                 if (state := self.states.hear(message)) is not None:
                     self.sim.handling.note_constructed(message.guid, state == ComponentState.CONSTRUCTED)
@@ -372,8 +462,19 @@ class _Loop:
             case IncomingQuery():
                 self._answer(item)
 
+    def _arrived(self, request: BaseModel) -> bool:
+        """Count a robot's request in as it comes (True: go on handling it)."""
+        step, robot_id = getattr(request, "step", None), getattr(request, "robot_id", None)
+        if step is not None and robot_id is not None and self.run.step_with:
+            self._count_request(robot_id, step, -1)
+        return True
+
     def _ask_twins(self) -> None:
         """Ask the twins of the components whose state messages did not fit (non-blocking, bounded)."""
+        if self.stepped_states is not None:
+            asked, self.stepped_states.to_ask = self.stepped_states.to_ask, []
+            for guid in dict.fromkeys(asked):
+                ask_twin(self.inbox, self.session, self.site, self._keys[guid])
         for question in self.states.questions(time.monotonic()):
             ask_twin(self.inbox, self.session, self.site, question.key)
 
@@ -386,7 +487,10 @@ class _Loop:
             self._reply(query, reply_key, self.sim.poses())
             return
         if served.request is None:
-            self._reply(query, reply_key, self.sim.info())
+            participants = list(self.run.step_with)
+            self._reply(
+                query, reply_key, self.sim.info().model_copy(update={"lock_step_participants": participants})
+            )
             return
         payload = query.payload.to_bytes() if query.payload is not None else b""
         request = decode(served.request, reply_key, payload, self.inbox.invalid)
@@ -394,7 +498,11 @@ class _Loop:
             model = served.request
             reason = f"invalid {model.__name__} payload (expected JSON with {', '.join(model.model_fields)})"
             self._reply(query, reply_key, PhysicsReply(ok=False, reason=reason, sim_time_s=now))
-        elif not held and not self.pipeline.request_now(getattr(request, "step", None), self.sim.step, item):
+        elif (
+            not held
+            and self._arrived(request)
+            and not self.pipeline.request_now(getattr(request, "step", None), self.sim.step, item)
+        ):
             return  # held until its step is due (_advance)
         elif isinstance(request, AttachRequest):
             self._reply(query, reply_key, self.sim.attach(request))
@@ -433,7 +541,10 @@ class _Loop:
             self.recorder.write()
         for item in bundle(messages):
             payload = encode(item.message)
-            if "/components/" in item.key_expr:  # many keys, each rarely: no publisher per component
+            # many keys, each rarely: no publisher per component; in a reproducible run none at all: Zenoh
+            # keeps the order of one session's puts, not of puts through declared publishers (measured:
+            # 130 to 240 of 20,000 overtaken), and a step's sensors must not overtake its poses
+            if "/components/" in item.key_expr or self.run.step_with:
                 self.session.put(item.key_expr, payload)
                 continue
             publisher = self._publishers.get(item.key_expr)

@@ -93,10 +93,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "the planner's start-up is not sim time)",
     )
     parser.add_argument(
+        "--step-with",
+        default="",
+        metavar="NAMES",
+        help="lock-step participants besides the robots, comma-separated (bimbot run: planner and each "
+        "agents shard): physics waits for their answer to each step, so their decisions fall on the same "
+        "step in every run",
+    )
+    parser.add_argument(
         "--steps", type=positive_int, default=run.max_steps, help="stop after this many control periods"
     )
     parser.add_argument(
-        "--seed", type=int, default=sim.seed, help=f"odometry noise seed (default {sim.seed})"
+        "--seed",
+        type=int,
+        default=sim.seed,
+        help=f"seed of every random draw: odometry noise, placement precision, fixes (default {sim.seed})",
     )
     parser.add_argument(
         "--odom-noise",
@@ -255,5 +266,6 @@ def run(args: argparse.Namespace) -> int:
         wait_for_robots_s=args.wait_for_robots_s,
         wait_for_planner=args.wait_for_planner,
         state_dir=state_dir,
+        step_with=tuple(name.strip() for name in args.step_with.split(",") if name.strip()),
     )
     return run_service(app.main, options, build, config, run_config)

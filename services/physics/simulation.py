@@ -93,6 +93,9 @@ _log = logging.getLogger(__name__)
 GRAVITY_MPS2 = 9.80665
 
 
+LOCK_STEP_REFRESH_RTF = 10.0  # lock-step: pose repeats as at this real-time factor (a 20 s sim cycle)
+
+
 @dataclass(frozen=True)
 class SimConfig:
     """The simulation's settings. ``fleet``: the robots on site (each type's limits, URDF, reach and
@@ -559,7 +562,10 @@ class Simulation:
         items = self.handling.items
         changed = [guid for guid in self.handling.take_changed() if items[guid].phase is not Phase.UNBUILT]
         out.extend(self._component_pose(guid) for guid in changed)
-        out.extend(self._component_pose(guid) for guid in self._refresh_slice(set(changed), rtf))
+        # in lock-step the repeats follow sim time, not the measured pace: which poses a period repeats
+        # is then the same in every run (an agent may verify a placement on a repeated pose)
+        pace = LOCK_STEP_REFRESH_RTF if self.config.lock_step else rtf
+        out.extend(self._component_pose(guid) for guid in self._refresh_slice(set(changed), pace))
         return out
 
     def _scan(self, robot: Robot, now: float) -> Outgoing:

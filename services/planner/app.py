@@ -54,7 +54,9 @@ from bimbot.shared.messages import (
     PHYSICS_INFO,
     PLANNER_PLAN,
     PROGRESS_KEY,
+    ROBOT_CMD_VEL,
     ROBOT_STATE,
+    STEP_DONE,
     TASK_KEY,
     ClockMsg,
     ComponentEventMsg,
@@ -78,6 +80,7 @@ from .feasibility import infeasible
 from .scheduler import Outgoing, PlannerCore, PlannerLimits
 from .skip_requests import SkipAnswer, Skipper, bus_sender
 from .sources import Plan, PlanSource, load_plan
+from .stepped import SteppedLoop, stepped_skipper
 
 _log = logging.getLogger(__name__)
 
@@ -96,6 +99,9 @@ class PlannerOptions:
     site_info_timeout_s: float = 30.0  # wall seconds to wait for physics' site info (robot types, site)
     strict: bool = False  # a sequence step that cuts off later work is an error, not a warning
     skip_quiet: bool = True  # ask physics to skip its clock over a quiet site (curing, timed work)
+    # a lock-step participant (physics waits for its answer to each step: bimbot run's --step-with):
+    # decisions at clock steps from the inputs of a defined step (:mod:`.stepped`)
+    stepped: bool = False
     limits: PlannerLimits = field(default_factory=PlannerLimits)
 
 
@@ -130,6 +136,7 @@ def main(
             slots=dict(info.layout.slots) if info is not None else None,
         )
         plan_queryable = _serve_plan(session, site, plan)
+        stepped = options.stepped and info is not None and info.lock_step
         subscribers = [
             inbox.subscribe(session, COMPONENT_STATE, site=site, key="*"),
             inbox.subscribe(session, COMPONENT_POSE, site=site, key="*"),
@@ -138,7 +145,14 @@ def main(
             inbox.subscribe_liveliness(session, key(ALIVE_KEY, site=site, kind="robot", id="*")),
             inbox.subscribe_liveliness(session, key(ALIVE_KEY, site=site, kind="component", id="*")),
         ]
-        token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="planner", id="main"))
+        if stepped:  # the other participants' answers: what they sent up to a step has arrived
+            subscribers += [
+                inbox.subscribe(session, ROBOT_CMD_VEL, site=site, robot_id="*"),
+                inbox.subscribe(session, STEP_DONE, site=site, participant="*"),
+            ]
+        alive = key(ALIVE_KEY, site=site, kind="planner", id="main")
+        # stepped: alive once synced (physics holds its clock at 0 until then: the start-up is not sim time)
+        token = None if stepped else session.liveliness().declare_token(alive)
         feed = _Feeder(
             core,
             lambda guid: inbox.ask(
@@ -150,13 +164,51 @@ def main(
         _sync_twins(session, site, core, inbox, options.twin_timeout_s)
         core.finish_sync()
         core.fail_at_start(cannot)
-        skipper = Skipper(bus_sender(session, site, inbox)) if options.skip_quiet else None
-        code = _Loop(session, site, core, inbox, feed, skipper=skipper).run(options, stop)
+        if stepped:
+            token = session.liveliness().declare_token(alive)
+            assert info is not None
+            participants = [*info.robot_ids, *info.lock_step_participants]
+            code = _run_stepped(session, site, core, inbox, feed, options, stop, participants)
+        else:
+            skipper = Skipper(bus_sender(session, site, inbox)) if options.skip_quiet else None
+            code = _Loop(session, site, core, inbox, feed, skipper=skipper).run(options, stop)
+        assert token is not None
         token.undeclare()
         plan_queryable.undeclare()
         for subscriber in subscribers:
             subscriber.undeclare()
     return code
+
+
+def _run_stepped(  # noqa: PLR0917 - the planner's parts, named at the single call
+    session: zenoh.Session,
+    site: str,
+    core: PlannerCore,
+    inbox: Inbox,
+    feed: _Feeder,
+    options: PlannerOptions,
+    stop: threading.Event,
+    participants: list[str],
+) -> int:
+    """The lock-step loop (:mod:`.stepped`); the exit code as :class:`_Loop`'s."""
+    sender = bus_sender(session, site, inbox)
+    loop = SteppedLoop(
+        session,
+        site,
+        core,
+        inbox,
+        feed.ask_twin,
+        lambda message: session.put(outgoing_key(site, message), encode(message)),
+        skipper=stepped_skipper(sender) if options.skip_quiet else None,
+        robot_liveliness=core.robot_liveliness,
+        participants=participants,
+    )
+    _log.info("planner in lock-step: decisions at clock steps, from the inputs of step k - 2")
+    progress = loop.run(stop, options.poll_s, options.exit_when_done)
+    if progress is not None:
+        return _summary(progress)
+    _log.info("planner stopped (%.0f %% constructed)", core.progress().percent_constructed)
+    return 0
 
 
 def _checked_plan(

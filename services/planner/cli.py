@@ -82,6 +82,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         f"(default {limits.task_timeout_s:g} sim s)",
     )
     parser.add_argument(
+        "--stepped",
+        action="store_true",
+        help="take part in physics' lock-step (physics --step-with planner): decide at clock steps from "
+        "the inputs of a defined step, so a run reproduces (bimbot run does)",
+    )
+    parser.add_argument(
         "--no-skip",
         action="store_true",
         help="never ask physics to skip its clock over a quiet site (curing, timed work in place)",
@@ -128,6 +134,7 @@ def planner_options(args: argparse.Namespace) -> PlannerOptions:
         site_info_timeout_s=args.site_info_timeout_s,
         strict=args.strict,
         skip_quiet=not args.no_skip,
+        stepped=args.stepped,
         limits=PlannerLimits(max_give_backs=args.max_give_backs, task_timeout_s=args.task_timeout_s),
     )
 

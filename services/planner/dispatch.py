@@ -162,11 +162,12 @@ class Dispatch:
             task.assigned_sim_s = self.sim_time_s
         what = f"hand-off to {put_down_xy[0]:.1f}, {put_down_xy[1]:.1f}" if put_down_xy else "build"
         _log.info(
-            "%s (%s, %s) assigned to %s (estimate %.0f s)",
+            "%s (%s, %s) assigned to %s at %.1f s of sim time (estimate %.0f s)",
             task.active_id,
             task.guid,
             what,
             robot.robot_id,
+            self.sim_time_s,
             estimate_s,
         )
         settled = partial(self._assignment_settled, task, robot, component, robot.robot_id, task.active_id)

@@ -273,6 +273,11 @@ class PlannerCore(Dispatch, Quiet):
     def done(self) -> bool:
         return all(task.phase in FINAL for task in self._tasks.values())
 
+    def confirmed(self) -> bool:
+        """Whether every component's agent said it is terminal (constructed, failed, blocked): a planner
+        that decided everything at once must not end before the agents took what it sent."""
+        return all(component.state in TERMINAL for component in self._components.values())
+
     def phase(self, guid: str) -> Phase:
         return self._tasks[guid].phase
 

@@ -57,9 +57,12 @@ class Skipper:
         self.accepted = 0
         self.refused = 0
 
-    def tick(self, quiet_until: Callable[[], Skip | None], now_wall_s: float) -> SkipRequest | None:
+    def tick(
+        self, quiet_until: Callable[[], Skip | None], now_wall_s: float, *, step: int | None = None
+    ) -> SkipRequest | None:
         """Ask for the skip ``quiet_until`` allows, when no question is in flight and the last one is
-        ``retry_s`` old; the request sent, or None."""
+        ``retry_s`` old; the request sent, or None. ``step``: the clock step the planner answers (in
+        lock-step physics acts on the request after it, at the same step in every run)."""
         if self._asked_wall_s is not None and now_wall_s - self._asked_wall_s <= self.timeout_s + 1.0:
             return None
         if now_wall_s < self._next_wall_s or now_wall_s < self._next_check_wall_s:
@@ -68,7 +71,7 @@ class Skipper:
         skip = quiet_until()
         if skip is None:
             return None
-        request = SkipRequest(to_sim_s=skip.to_sim_s, why=skip.why[:500])
+        request = SkipRequest(to_sim_s=skip.to_sim_s, why=skip.why[:500], step=step)
         self._asked_wall_s, self._next_wall_s = now_wall_s, now_wall_s + self.retry_s
         self._send(request)
         return request

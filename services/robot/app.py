@@ -46,12 +46,14 @@ from bimbot.shared.messages import (
     PHYSICS_INFO,
     PHYSICS_PLACE,
     PHYSICS_POSES,
+    ROBOT_CMD_VEL,
     ROBOT_CMD_VEL_KEY,
     ROBOT_PLAN_KEY,
     ROBOT_POSE,
     ROBOT_SENSORS,
     ROBOT_STATE,
     ROBOT_STATE_KEY,
+    STEP_DONE,
     TASK,
     ClockMsg,
     CmdVelMsg,
@@ -69,6 +71,7 @@ from bimbot.shared.twin_query import answered_on_its_key, ask_twin, ask_twins
 
 from .executor import ExecutorConfig, executor_class
 from .protocol import Outgoing, PhysicsRequest, PhysicsResult, RobotExecutor
+from .stepped import SteppedTicks
 
 _log = logging.getLogger(__name__)
 
@@ -78,6 +81,7 @@ SUBSCRIPTIONS: tuple[tuple[Topic, dict[str, str]], ...] = (
     (COMPONENT_POSE, {"key": "*"}),
     (ROBOT_STATE, {"robot_id": "*"}),
 )
+STEPPED_REQUEST_TIMEOUT_S = 900.0  # wall seconds a lock-step robot waits for physics' reply (a hang)
 POSES_TIMEOUT_S = 5.0  # wall seconds to ask physics where this robot is (at start)
 TWINS_TIMEOUT_S = 5.0  # wall seconds to collect the twins' answers (at start)
 _PHYSICS_REQUESTS = {
@@ -93,6 +97,8 @@ class RobotOptions:
     info_timeout_s: float = 120.0  # wall seconds to wait for physics to answer physics/info
     poll_s: float = 0.02  # longest wait for bus input per loop turn
     metric_log_s: float = 30.0  # wall seconds between progress lines (tasks, distance, localisation)
+    # a lock-step participant whose inputs are taken at defined steps (:mod:`.stepped`; bimbot run)
+    stepped: bool = False
 
 
 def main(
@@ -117,12 +123,20 @@ def main(
         )
         if info is None:
             return 0 if stop.is_set() else _no_physics(options.info_timeout_s)
+        if options.stepped and info.lock_step:  # the other participants' answers (.stepped)
+            subscribers += [
+                inbox.subscribe(session, ROBOT_CMD_VEL, site=site, robot_id="*"),
+                inbox.subscribe(session, STEP_DONE, site=site, participant="*"),
+            ]
         poses = query_first(session, PHYSICS_POSES, inbox.invalid, timeout_s=POSES_TIMEOUT_S, site=site)
         executor = executor_class(info, robot_id)(
             manifest, info, executor_config, start_xy_yaw=_where_physics_has(poses, robot_id)
         )
         _learn_the_site(session, inbox, site, executor, poses)
-        loop = _Loop(session, site, executor, inbox, options)
+        keys = {component.guid: component.key for component in manifest.components}
+        stepped = keys if options.stepped and info.lock_step else None
+        participants = [*info.robot_ids, *info.lock_step_participants]
+        loop = _Loop(session, site, executor, inbox, options, stepped=stepped, participants=participants)
         token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id=robot_id))
         _log.info(
             "robot %s on site %s: start %s, reach %.2f m",
@@ -174,8 +188,17 @@ class _Loop:
     """Inbox → executor → bus, one ``cmd_vel`` per clock step."""
 
     def __init__(
-        self, session: zenoh.Session, site: str, executor: RobotExecutor, inbox: Inbox, options: RobotOptions
+        self,
+        session: zenoh.Session,
+        site: str,
+        executor: RobotExecutor,
+        inbox: Inbox,
+        options: RobotOptions,
+        *,
+        stepped: dict[str, str] | None = None,
+        participants: list[str] | None = None,
     ):
+        """``stepped``: a lock-step participant (:mod:`.stepped`), with every component's bus key."""
         self.session, self.site, self.executor, self.inbox, self.options = (
             session,
             site,
@@ -184,10 +207,13 @@ class _Loop:
             options,
         )
         robot_id = executor.robot_id
+        self._keys: dict[type, str] = {
+            CmdVelMsg: key(ROBOT_CMD_VEL_KEY, site=site, robot_id=robot_id),
+            RobotStateMsg: key(ROBOT_STATE_KEY, site=site, robot_id=robot_id),
+            PlanMsg: key(ROBOT_PLAN_KEY, site=site, robot_id=robot_id),
+        }
         self._publishers = {
-            CmdVelMsg: session.declare_publisher(key(ROBOT_CMD_VEL_KEY, site=site, robot_id=robot_id)),
-            RobotStateMsg: session.declare_publisher(key(ROBOT_STATE_KEY, site=site, robot_id=robot_id)),
-            PlanMsg: session.declare_publisher(key(ROBOT_PLAN_KEY, site=site, robot_id=robot_id)),
+            kind: session.declare_publisher(key_expr) for kind, key_expr in self._keys.items()
         }
         self._clock: ClockMsg | None = None
         self._sensors_wall_s = 0.0  # when this step's sensors were taken from the inbox
@@ -195,8 +221,20 @@ class _Loop:
         self.times = PeriodTimes()  # per step: sensors to answer, work after the answer
         self.clock_guard = ClockGuard(f"robot {robot_id} clock")
         self._metrics_wall_s = time.monotonic()
+        self.stepped = (
+            SteppedTicks(executor, self.publish, self._answered, stepped, participants or [])
+            if stepped
+            else None
+        )
+
+    def _answered(self) -> None:
+        self.times.add("answer", time.monotonic() - self._sensors_wall_s)
+        self.times.period()
 
     def run(self, stop: threading.Event) -> None:
+        if self.stepped is not None:
+            self._run_stepped(stop)
+            return
         while not stop.is_set():
             for item in self.inbox.drain(first_timeout_s=self.options.poll_s):
                 self._take(item)
@@ -215,6 +253,30 @@ class _Loop:
             if now - self._metrics_wall_s >= self.options.metric_log_s:
                 self._metrics_wall_s = now
                 self.log_metrics("progress")
+
+    def _run_stepped(self, stop: threading.Event) -> None:
+        """Every clock step ticked in order, with the inputs of a defined step (:mod:`.stepped`)."""
+        stepped = self.stepped
+        assert stepped is not None
+        try:
+            while not stop.is_set():
+                for item in self.inbox.drain(
+                    first_timeout_s=self.options.poll_s if not stepped.steps else 0.0
+                ):
+                    if isinstance(item, Received) and isinstance(item.message, SensorsMsg):
+                        clock = item.message.clock
+                        if not self.clock_guard.check(clock, time.monotonic()).accepted:
+                            continue
+                        self._sensors_wall_s = time.monotonic()
+                    if not stepped.hear(item):
+                        self._take(item)
+                stepped.tick_ready()
+                now = time.monotonic()
+                if now - self._metrics_wall_s >= self.options.metric_log_s:
+                    self._metrics_wall_s = now
+                    self.log_metrics("progress")
+        finally:
+            stepped.finish()
 
     def _take(self, item: object) -> None:
         match item:
@@ -241,8 +303,13 @@ class _Loop:
                 self.executor.handle(message)
 
     def publish(self, messages: list[Outgoing]) -> None:
-        """Physics requests first, then events, state and plan, and the step's ``cmd_vel`` last."""
-        for message in sorted(messages, key=_send_order):
+        """Physics requests first, then events, state and plan, and the step's ``cmd_vel`` last (saying how
+        many requests went before it)."""
+        requests = sum(isinstance(message, PhysicsRequest) for message in messages)
+        for item in sorted(messages, key=_send_order):
+            message: Outgoing = item
+            if requests and isinstance(item, CmdVelMsg) and item.step is not None:
+                message = item.model_copy(update={"requests": requests})
             if isinstance(message, PhysicsRequest):
                 self._request(message)
             elif isinstance(message, TwinQuestion):  # a state message that did not fit: ask the truth
@@ -250,6 +317,8 @@ class _Loop:
             elif isinstance(message, ComponentEventMsg):
                 event_key = key(COMPONENT_EVENT_KEY, site=self.site, key=guid_to_key(message.guid))
                 self.session.put(event_key, encode(message))
+            elif self.stepped is not None:  # in order with everything else it puts (see physics' _publish)
+                self.session.put(self._keys[type(message)], encode(message))
             else:
                 self._publishers[type(message)].put(encode(message))
 
@@ -257,8 +326,11 @@ class _Loop:
         inbox, request_id = self.inbox, request.request_id
         served = _PHYSICS_REQUESTS[request.kind]
         selector = served.key(site=self.site)
+        replied = False
 
         def on_reply(reply: zenoh.Reply) -> None:
+            nonlocal replied
+            replied = True
             if reply.ok is None:
                 error = reply.err.payload.to_string() if reply.err is not None else "error reply"
                 inbox.put(PhysicsResult(request_id, None, error))
@@ -266,13 +338,17 @@ class _Loop:
             message = decode(served.reply, selector, reply.ok.payload.to_bytes(), inbox.invalid)
             inbox.put(PhysicsResult(request_id, message, "" if message else "invalid reply"))
 
-        def on_done() -> None:
-            inbox.put(PhysicsResult(request_id, None, "no reply (timeout)"))
+        def on_done() -> None:  # the query is over: a result only when nothing came (a lock-step robot
+            if not replied:  # takes a reply at the step after physics', so "none" must not overtake it)
+                inbox.put(PhysicsResult(request_id, None, "no reply (timeout)"))
 
         handler = zenoh.handlers.Callback(on_reply, on_done)
         # stamped with the step this robot answers: physics acts on it with that step's command (latency)
         message = request.message.model_copy(update={"step": max(0, self.executor.step)})
-        self.session.get(selector, handler, payload=encode(message), timeout=request.timeout_s)
+        # lock-step: physics answers in sim time (a placement with its connection takes 20 s of it), which
+        # a loaded machine stretches; a wall-clock timeout would decide the task by the machine's load
+        timeout_s = max(request.timeout_s, STEPPED_REQUEST_TIMEOUT_S) if self.stepped else request.timeout_s
+        self.session.get(selector, handler, payload=encode(message), timeout=timeout_s)
 
     def log_metrics(self, when: str) -> None:
         executor = self.executor

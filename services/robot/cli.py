@@ -58,7 +58,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--seed",
         type=int,
         default=executor.seed,
-        help=f"particle filter and injection seed (default {executor.seed})",
+        help=f"the run's seed: this robot's particle filter draws from a stream of its own, derived from "
+        f"the seed and its id; injection (default {executor.seed})",
+    )
+    parser.add_argument(
+        "--stepped",
+        action="store_true",
+        help="tick every clock step in order with the inputs of a defined step (lock-step participant), "
+        "so a run reproduces (bimbot run does)",
     )
     parser.add_argument(
         "--info-timeout-s",
@@ -100,6 +107,6 @@ def run(args: argparse.Namespace) -> int:
     config = executor_config(args)
     bus = service_bus(args)
     build = resolve_build(args.build)
-    options = RobotOptions(info_timeout_s=args.info_timeout_s)
+    options = RobotOptions(info_timeout_s=args.info_timeout_s, stepped=args.stepped)
     # a robot id physics did not spawn shows only once physics answers: an InputError (exit 2) from there
     return run_service(main, bus, build, options, config)

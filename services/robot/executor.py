@@ -78,6 +78,7 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.reasons import Reason
 from bimbot.shared.robot_description import Capability
+from bimbot.shared.seeds import robot_stream
 
 from . import give_back
 from .approach import ApproachConfig, exit_point
@@ -130,7 +131,7 @@ class Executor(Driving, Handover):
             dwa=controller_limits(nav_config.dwa, self.description, info),
             command_latency_s=info.command_latency_steps * info.control_period_s,
         )
-        rng = np.random.default_rng(config.seed)
+        rng = np.random.default_rng(robot_stream(config.seed, self.robot_id))
         start = self.home_xy_yaw if start_xy_yaw is None else start_xy_yaw
         self.navigator = Navigator(self.site_map, start, nav_config, rng, robot_id=self.robot_id)
         self.approach_config = approach_config or ApproachConfig(

@@ -120,7 +120,14 @@ def test_a_secured_run_gives_every_service_its_own_file_in_client_mode(tmp_path:
 def test_an_open_run_is_as_before(tmp_path: Path) -> None:
     run = RunFolder(tmp_path / "run")
     commands = service_commands(tmp_path / "build", "tcp/127.0.0.1:7000", RunOptions(robots=1), run)
-    assert all("--bus-config" not in arguments and "--mode" not in arguments for _, arguments in commands)
+    assert all("--bus-config" not in arguments for _, arguments in commands)
+    # lock-step (the default profile): every service a client of the run's router, one link each, so the
+    # messages of one service reach another in the order they were sent (reproducible runs)
+    assert all(arguments[-2:] == ["--mode", "client"] for name, arguments in commands if name != "observer")
+    free = service_commands(
+        tmp_path / "build", "tcp/127.0.0.1:7000", RunOptions(robots=1, lock_step=False), run
+    )
+    assert all("--mode" not in arguments for _, arguments in free)
     assert router_arguments("tcp/127.0.0.1:7000") == ["bus", "--listen", "tcp/127.0.0.1:7000"]
     assert monitor_bus_options("tcp/127.0.0.1:7000") == BusOptions(connect=("tcp/127.0.0.1:7000",))
 

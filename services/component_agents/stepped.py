@@ -1,0 +1,136 @@
+"""The agents of a shard in lock-step: events and poses taken at clock steps, in a defined order.
+
+Why: an agent stamps a state change with the sim time it has heard, and changes state when an event or a
+pose arrives; both depend on the machine's load, so a component became constructed a few steps earlier or
+later from run to run, and what rests on it was released then. Here the shard is a lock-step participant
+(``agents-<i>of<n>``; physics waits for its :class:`~bimbot.shared.messages.StepDoneMsg`): at each clock
+step ``k`` it takes the events and poses stamped at or before step ``k − 2``
+(:class:`~bimbot.shared.step_gate.StepGate`, once the planner and every robot have answered that step),
+in (stamp, sender) order, at the sim time of ``k``; checks the verification timeouts in sim time; then
+answers ``k``. Twin queries are answered at once, as before.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections import deque
+from collections.abc import Callable, Iterable
+
+from bimbot.shared.bus import Received
+from bimbot.shared.clock_guard import ClockGuard
+from bimbot.shared.messages import ClockMsg, CmdVelMsg, ComponentEventMsg, ComponentPoseMsg, StepDoneMsg
+from bimbot.shared.step_gate import HOLD_S, StepGate
+
+from .host import AgentHost, Outgoing
+
+_log = logging.getLogger(__name__)
+
+VERIFY_TIMEOUT_SIM_S = 30.0  # lock-step: sim seconds a placement waits for a fresh pose (repeats: 20 s)
+
+
+def participant_name(shard: int, n_shards: int) -> str:
+    """The shard's name as a lock-step participant (``physics --step-with``)."""
+    return f"agents-{shard}of{n_shards}"
+
+
+class SteppedAgents:
+    """Inbox items → :class:`~bimbot.shared.step_gate.StepGate` → the host at each clock step."""
+
+    def __init__(
+        self,
+        host: AgentHost,
+        publish: Callable[[Iterable[Outgoing]], None],
+        answer: Callable[[StepDoneMsg], None],
+    ) -> None:
+        self.host, self.publish, self.answer = host, publish, answer
+        self.name = participant_name(host.shard, host.n_shards)
+        self.gate: StepGate[Received] = StepGate()
+        self.clocks: deque[ClockMsg] = deque()
+        self.clock_guard = ClockGuard(f"{self.name} clock")
+        self._held_since: float | None = None
+        self._last_step = -1
+        self.expecting = False  # until physics' site info says who answers each step
+
+    def expect(self, robot_ids: Iterable[str], participants: Iterable[str]) -> None:
+        """Whose answers each step waits for: every robot and the planner (not the other shards)."""
+        self.gate.expect([*robot_ids, *(name for name in participants if not name.startswith("agents-"))])
+        self.expecting = True
+
+    def hear(self, item: object) -> bool:
+        """Take one inbox item (False: not one of the stepped kinds, the caller handles it)."""
+        match item:
+            case Received(message=ClockMsg() as clock):
+                if self.clock_guard.check(clock, time.monotonic()).accepted:
+                    self.gate.clock(clock.step, clock.sim_time_s)
+                    self.clocks.append(clock)
+            case Received(message=CmdVelMsg() as command):
+                if command.step is not None:
+                    self.gate.answered(command.robot_id, command.step)
+            case Received(message=StepDoneMsg() as answer):
+                if answer.participant.startswith("agents-"):
+                    pass  # other shards: nothing of theirs is taken here
+                elif answer.done:
+                    self.gate.leave(answer.participant)
+                else:
+                    self.gate.answered(answer.participant, answer.step)
+            case Received(message=ComponentEventMsg() as event):
+                sender = f"{event.source}/{event.robot_id or ''}"
+                self._stamped(event.sim_time_s, sender, item, key=("event", event.event_id))
+            case Received(message=ComponentPoseMsg() as pose):
+                self._stamped(pose.sim_time_s, pose.guid, item)
+            case _:
+                return False
+        return True
+
+    def _stamped(self, stamp_s: float, sender: str, item: Received, key: object = None) -> None:
+        if not self.gate.put(stamp_s, sender, item, key=key):
+            return  # a repeated delivery (an event sent again until its state change was seen)
+        if self._last_step >= 0 and self.gate.note_late(stamp_s, self._last_step):
+            _log.info(
+                "%s from %s stamped %.1f s came after step %d",
+                type(item.message).__name__,
+                sender,
+                stamp_s,
+                self._last_step,
+            )
+
+    def step_ready(self) -> None:
+        """Take every clock step that is ready, in order."""
+        while self.clocks and self.expecting:
+            clock = self.clocks[0]
+            force = False
+            if not self.gate.ready(clock.step):
+                now = time.monotonic()
+                self._held_since = now if self._held_since is None else self._held_since
+                if now - self._held_since < HOLD_S:
+                    return
+                force = True
+                _log.warning(
+                    "lock-step: step %d taken without %s after %.0f s",
+                    clock.step,
+                    ", ".join(self.gate.waiting_for(clock.step)),
+                    HOLD_S,
+                )
+            self._held_since = None
+            self.clocks.popleft()
+            host = self.host
+            host.clock.observe(clock.sim_time_s)
+            for item in self.gate.take(clock.step, force=force):
+                self.publish(host.handle(item))
+            self.publish(host.tick())
+            self.answer(StepDoneMsg(participant=self.name, step=clock.step, sim_time_s=clock.sim_time_s))
+            self._last_step = clock.step
+
+    def finish(self) -> None:
+        """Say this participant stops (physics no longer waits for it); the late inputs, if any."""
+        self.answer(
+            StepDoneMsg(participant=self.name, step=max(self._last_step, 0), sim_time_s=0.0, done=True)
+        )
+        if self.gate.late or self.gate.forced:
+            _log.warning(
+                "lock-step: %d input(s) came after their step and %d step(s) were taken without every "
+                "answer: this run may not reproduce",
+                self.gate.late,
+                self.gate.forced,
+            )

@@ -1,0 +1,229 @@
+"""The planner's loop in lock-step: it decides at clock steps, from the inputs of a defined step.
+
+Why: released in the wall-time loop (:class:`.app._Loop`), a task went to whichever robot the planner had
+heard say idle when its loop came round, and a component became released, done or failed when its message
+happened to arrive: the bundled frame with three robots gave 20 of 28 components another robot from one
+run to the next. Here the planner is a lock-step participant (physics waits for its
+:class:`~bimbot.shared.messages.StepDoneMsg` as it waits for a robot's command): at each clock step ``k``
+it takes the inputs stamped at or before step ``k − 2`` (:class:`~bimbot.shared.step_gate.StepGate`: the
+component states, poses and robot states, in (stamp, sender) order, once every participant's answer to
+that step is heard), steps the core at the sim time of ``k``, publishes what it decided, then answers
+``k``. A claim that a component is constructed, failed or blocked is still taken from its twin, not from
+the message: the step that takes it waits for the twin's answer (at most ``hold_s`` wall seconds). Sim
+time comes from the clock only, and the skip requests are paced in steps and stamped with the step
+that asks (physics acts on them at the next step).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Iterable
+
+import zenoh
+
+from bimbot.shared.bus import Answer, Inbox, LivelinessChange, Received, encode
+from bimbot.shared.clock_guard import ClockGuard
+from bimbot.shared.messages import (
+    STEP_DONE,
+    ClockMsg,
+    CmdVelMsg,
+    ComponentPoseMsg,
+    ComponentStateMsg,
+    ProgressMsg,
+    RobotStateMsg,
+    StepDoneMsg,
+    TwinMsg,
+    key,
+)
+from bimbot.shared.state_table import TERMINAL
+from bimbot.shared.step_gate import HOLD_S, StepGate
+
+from .scheduler import Outgoing, PlannerCore
+from .skip_requests import SkipAnswer, Skipper
+
+_log = logging.getLogger(__name__)
+
+PARTICIPANT = "planner"
+SKIP_CHECK_STEPS = 5  # control periods between two looks at whether the site is quiet
+SKIP_RETRY_STEPS = 25  # control periods between two skip requests
+CONFIRM_STEPS = 50  # steps a done planner waits for the agents to confirm every terminal state, at most
+PROGRESS_STEPS = 5  # the progress is published when it changed and at least every this many steps
+
+
+def stepped_skipper(send: Callable) -> Skipper:
+    """A :class:`.skip_requests.Skipper` paced in clock steps (its "wall time" is the step count)."""
+    return Skipper(send, retry_s=SKIP_RETRY_STEPS, timeout_s=4 * SKIP_RETRY_STEPS, check_s=SKIP_CHECK_STEPS)
+
+
+class SteppedLoop:
+    """Inbox → :class:`~bimbot.shared.step_gate.StepGate` → core at each clock step → bus, then the
+    step's answer."""
+
+    def __init__(  # noqa: PLR0917 - the loop's parts, named at the single call
+        self,
+        session: zenoh.Session,
+        site: str,
+        core: PlannerCore,
+        inbox: Inbox,
+        ask_twin: Callable[[str], None],
+        publish: Callable[[Outgoing | ProgressMsg], None],
+        *,
+        skipper: Skipper | None = None,
+        robot_liveliness: Callable[[str, bool], None],
+        participants: Iterable[str] = (),
+    ) -> None:
+        """``participants``: whose answers each step waits for (the robots, the agents shards)."""
+        self.session, self.site, self.core, self.inbox = session, site, core, inbox
+        self.ask_twin, self.publish, self.skipper = ask_twin, publish, skipper
+        self.robot_liveliness = robot_liveliness
+        self.gate: StepGate[object] = StepGate()
+        self.gate.expect(name for name in participants if name != PARTICIPANT)
+        self.clocks: deque[ClockMsg] = deque()
+        self.clock_guard = ClockGuard("planner clock")
+        self.claims: dict[str, ComponentStateMsg] = {}  # GUID → the claim whose twin is asked
+        self._held_since: float | None = None
+        self._answer_key = key(STEP_DONE.template, site=site, participant=PARTICIPANT)
+        self._last_step = -1
+        self._done_step: int | None = None  # the step the planner was first done at
+        self._progress = core.progress()
+        self._progress_revision, self._progress_step = -1, -PROGRESS_STEPS
+
+    # --- hearing -------------------------------------------------------------------------------------
+
+    def hear(self, item: object) -> None:
+        match item:
+            case Received(message=ClockMsg() as clock):
+                if self.clock_guard.check(clock, time.monotonic()).accepted:
+                    self.gate.clock(clock.step, clock.sim_time_s)
+                    self.clocks.append(clock)
+            case Received(message=CmdVelMsg() as command) if command.step is not None:
+                self.gate.answered(command.robot_id, command.step)
+            case Received(message=StepDoneMsg() as answer) if answer.participant != PARTICIPANT:
+                if answer.done:
+                    self.gate.leave(answer.participant)
+                else:
+                    self.gate.answered(answer.participant, answer.step)
+            case Received(message=ComponentStateMsg() as message) if message.state in TERMINAL:
+                self._stamped(message.sim_time_s, message.guid, message, resolved=False)
+                self.claims[message.guid] = message
+                self.ask_twin(message.guid)
+            case Received(message=ComponentStateMsg() as message):
+                self._stamped(message.sim_time_s, message.guid, message)
+            case Received(message=ComponentPoseMsg() as message):
+                self._stamped(message.sim_time_s, message.guid, message)
+            case Received(message=RobotStateMsg() as message):
+                self._stamped(message.sim_time_s, message.robot_id, message, key=message.model_dump_json())
+            case Answer(message=TwinMsg() as twin):
+                claim = self.claims.get(twin.guid)
+                if claim is not None and twin.state is claim.state:
+                    self.gate.resolve(claim, twin)
+                    del self.claims[twin.guid]
+                elif claim is not None:  # not (yet) what the message said: ask again
+                    self.ask_twin(twin.guid)
+            case LivelinessChange() if item.kind == "robot":
+                if not item.alive:
+                    self.gate.leave(item.id)
+                self.robot_liveliness(item.id, item.alive)
+            case SkipAnswer() if self.skipper is not None:
+                self.skipper.answered(item)
+
+    def _stamped(
+        self, stamp_s: float, sender: str, message: object, *, resolved: bool = True, key: object = None
+    ) -> None:
+        if not self.gate.put(stamp_s, sender, message, resolved=resolved, key=key):
+            return  # a repeated delivery (a message sent again until its effect was seen)
+        if self._last_step >= 0 and self.gate.note_late(stamp_s, self._last_step):
+            _log.info(
+                "%s from %s stamped %.1f s came after step %d",
+                type(message).__name__,
+                sender,
+                stamp_s,
+                self._last_step,
+            )
+
+    # --- stepping ------------------------------------------------------------------------------------
+
+    def run(self, stop: threading.Event, poll_s: float, exit_when_done: bool) -> ProgressMsg | None:
+        """Step until ``stop``, or until done with ``exit_when_done`` (the last progress is returned)."""
+        _log.info("lock-step: each step waits for %s", ", ".join(self.gate.participants()) or "nobody")
+        try:
+            while not stop.is_set():
+                for item in self.inbox.drain(first_timeout_s=poll_s if not self.clocks else 0.0):
+                    self.hear(item)
+                while self.clocks and not stop.is_set():
+                    progress = self._step_if_ready(self.clocks[0])
+                    if progress is None:
+                        break
+                    if progress.done and exit_when_done and self._confirmed():
+                        return progress
+        finally:
+            self._answer(max(self._last_step, 0), 0.0, done=True)
+            if self.gate.late or self.gate.forced:
+                _log.warning(
+                    "lock-step: %d input(s) came after their step and %d step(s) were taken without every "
+                    "answer: this run may not reproduce",
+                    self.gate.late,
+                    self.gate.forced,
+                )
+        return None
+
+    def _confirmed(self) -> bool:
+        """Done and the agents took it: every component terminal by its agent, or ``CONFIRM_STEPS`` steps
+        since the planner was done (the run's report, made when the planner ends, reads their states)."""
+        if self._done_step is None:
+            self._done_step = self._last_step
+        return self.core.confirmed() or self._last_step - self._done_step >= CONFIRM_STEPS
+
+    def _step_if_ready(self, clock: ClockMsg) -> ProgressMsg | None:
+        step = clock.step
+        force = False
+        if not self.gate.ready(step):
+            now = time.monotonic()
+            if self._held_since is None:
+                self._held_since = now
+            if now - self._held_since < HOLD_S:
+                return None
+            force = True
+            _log.warning(
+                "lock-step: step %d taken without %s after %.0f s",
+                step,
+                ", ".join(self.gate.waiting_for(step)) or "the twins of " + ", ".join(sorted(self.claims)),
+                HOLD_S,
+            )
+            for guid in self.claims:
+                self.ask_twin(guid)
+        self._held_since = None
+        self.clocks.popleft()
+        self.core.observe_clock(clock.sim_time_s)  # first: what the inputs make it say is stamped with k
+        for item in self.gate.take(step, force=force):
+            self._feed(item)
+        for message in self.core.step(clock.sim_time_s):
+            self.publish(message)
+        if self.skipper is not None:  # stamped with this step: physics acts on it at the next one
+            self.skipper.tick(self.core.quiet_until, float(step), step=step)
+        if self.core.revision != self._progress_revision or step - self._progress_step >= PROGRESS_STEPS:
+            self._progress = self.core.progress()
+            self._progress_revision, self._progress_step = self.core.revision, step
+            self.publish(self._progress)
+        self._answer(step, clock.sim_time_s)
+        self._last_step = step
+        return self._progress
+
+    def _feed(self, item: object) -> None:
+        core = self.core
+        match item:
+            case TwinMsg():
+                core.observe_twin(item)
+            case ComponentStateMsg():
+                core.observe_component_state(item)
+            case ComponentPoseMsg():
+                core.observe_component_pose(item)
+            case RobotStateMsg():
+                core.observe_robot_state(item)
+
+    def _answer(self, step: int, sim_time_s: float, *, done: bool = False) -> None:
+        message = StepDoneMsg(participant=PARTICIPANT, step=step, sim_time_s=sim_time_s, done=done)
+        self.session.put(self._answer_key, encode(message))

@@ -1,0 +1,201 @@
+"""A robot in lock-step: every clock step ticked, in order, with the inputs of a defined step.
+
+Why: the robot took whatever had arrived when its loop came round — a task, a verdict, another robot's
+position — and, when it fell behind, answered only the newest of two clock steps; which step saw which
+input then depended on the machine's load, and two runs of one seed drove apart. Here each step's
+:class:`~bimbot.shared.messages.SensorsMsg` is queued; step ``k`` is ticked once every participant (the
+planner, the agents, the other robots) has answered step ``k − 2``, and it takes first the tasks, states,
+poses and robot states stamped at or before step ``k − 2``
+(:class:`~bimbot.shared.step_gate.StepGate`, in (stamp, sender) order), then physics' replies that came
+before its sensors, then its odometry, fix and scan. A claim that a component is constructed, failed or
+blocked waits for its twin's answer (asked when the claim arrives), which is taken in its place. The
+periodic state and the event resends run on sim time (the executor is ticked with the sim time as its
+"wall" clock), and nothing is published between steps: every message is stamped with the step it answers.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections import deque
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+
+from bimbot.shared.bus import Answer, Received
+from bimbot.shared.component_states import TwinQuestion
+from bimbot.shared.messages import (
+    CmdVelMsg,
+    ComponentEventMsg,
+    ComponentPoseMsg,
+    ComponentStateMsg,
+    PhysicsReply,
+    RobotStateMsg,
+    SensorsMsg,
+    StepDoneMsg,
+    TaskMsg,
+    TwinMsg,
+)
+from bimbot.shared.state_table import TERMINAL
+from bimbot.shared.step_gate import HOLD_S, StepGate
+
+from .protocol import Outgoing, PhysicsResult, RobotExecutor
+
+_log = logging.getLogger(__name__)
+
+
+@dataclass
+class _Step:
+    sensors: SensorsMsg
+    before: list[object] = field(default_factory=list)  # replies and twin answers that came before it
+
+
+class SteppedTicks:
+    """The robot's inputs held for their step (see the module docstring)."""
+
+    def __init__(
+        self,
+        executor: RobotExecutor,
+        publish: Callable[[list[Outgoing]], None],
+        on_answered: Callable[[], None],
+        keys: Mapping[str, str],
+        participants: Iterable[str] = (),
+    ) -> None:
+        """``keys``: component GUID → its bus key (the manifest's), for the twin questions;
+        ``participants``: whose answers each step waits for (every robot, the planner, the agents)."""
+        self.executor, self.publish, self.on_answered = executor, publish, on_answered
+        self.keys = dict(keys)
+        self.gate: StepGate[object] = StepGate()
+        self.gate.expect(name for name in participants if name != executor.robot_id)
+        self.steps: deque[_Step] = deque()
+        self.claims: dict[str, ComponentStateMsg] = {}
+        self._before: list[object] = []  # since the last sensors
+        self._replies: list[PhysicsResult] = []  # physics' replies, each for the first step after its own
+        self._held_since: float | None = None
+        self._last_step = -1
+
+    def hear(self, item: object) -> bool:
+        """Take one inbox item (False: not a stepped kind; the caller handles it at once)."""
+        robot_id = self.executor.robot_id
+        match item:
+            case Received(message=SensorsMsg() as sensors):
+                self.gate.clock(sensors.clock.step, sensors.clock.sim_time_s)
+                self.steps.append(_Step(sensors, self._before))
+                self._before = []
+            case Received(message=CmdVelMsg() as command):
+                if command.step is not None and command.robot_id != robot_id:
+                    self.gate.answered(command.robot_id, command.step)
+            case Received(message=StepDoneMsg() as answer):
+                if answer.done:
+                    self.gate.leave(answer.participant)
+                else:
+                    self.gate.answered(answer.participant, answer.step)
+            case Received(message=ComponentStateMsg() as message) if message.state in TERMINAL:
+                self._stamped(message.sim_time_s, message.guid, message, resolved=False)
+                self.claims[message.guid] = message
+                if message.guid in self.keys:
+                    self.publish([TwinQuestion(message.guid, self.keys[message.guid])])
+            case Received(message=ComponentStateMsg() as message):
+                self._stamped(message.sim_time_s, message.guid, message)
+            case Received(message=ComponentPoseMsg() as message):
+                self._stamped(message.sim_time_s, message.guid, message)
+            case Received(message=TaskMsg() as message):
+                self._stamped(message.sim_time_s, "planner", message, key=message.model_dump_json())
+            case Received(message=RobotStateMsg() as message):
+                if message.robot_id != robot_id:
+                    self._stamped(message.sim_time_s, message.robot_id, message)
+            case Answer(message=TwinMsg() as twin):
+                claim = self.claims.get(twin.guid)
+                if claim is not None and twin.state is claim.state:
+                    self.gate.resolve(claim, twin)
+                    del self.claims[twin.guid]
+                else:
+                    self._before.append(twin)
+            case PhysicsResult(reply=PhysicsReply() as reply):
+                # taken by the first step after the one physics answered at: a reply travels another way
+                # than the step's sensors and may come before them
+                self._replies.append(item)
+                if self._last_step >= 0 and reply.sim_time_s < self.gate.clock_s(
+                    self._last_step, reply.sim_time_s
+                ):
+                    self.gate.late += 1
+            case PhysicsResult():
+                self._before.append(item)
+            case _:
+                return False
+        return True
+
+    def _stamped(
+        self, stamp_s: float, sender: str, message: object, *, resolved: bool = True, key: object = None
+    ) -> None:
+        if not self.gate.put(stamp_s, sender, message, resolved=resolved, key=key):
+            return  # a repeated delivery (a message sent again until its effect was seen)
+        if self._last_step >= 0 and self.gate.note_late(stamp_s, self._last_step):
+            _log.info(
+                "%s from %s stamped %.1f s came after step %d",
+                type(message).__name__,
+                sender,
+                stamp_s,
+                self._last_step,
+            )
+
+    def tick_ready(self) -> None:
+        """Tick every queued step that is ready, in order."""
+        executor = self.executor
+        while self.steps:
+            entry = self.steps[0]
+            clock = entry.sensors.clock
+            force = False
+            if not self.gate.ready(clock.step):
+                now = time.monotonic()
+                self._held_since = now if self._held_since is None else self._held_since
+                if now - self._held_since < HOLD_S:
+                    return
+                force = True
+                _log.warning(
+                    "lock-step: step %d ticked without %s after %.0f s",
+                    clock.step,
+                    ", ".join(self.gate.waiting_for(clock.step)) or "the twins of " + ", ".join(self.claims),
+                    HOLD_S,
+                )
+            self._held_since = None
+            self.steps.popleft()
+            # what the step's inputs make the executor say is stamped with this step, sent before its answer
+            executor.sim_s, executor.step = clock.sim_time_s, clock.step
+            for message in self.gate.take(clock.step, force=force):
+                executor.handle(message)
+            due = [r for r in self._replies if r.reply is not None and r.reply.sim_time_s < clock.sim_time_s]
+            self._replies = [r for r in self._replies if r not in due]
+            for message in [*due, *entry.before]:
+                executor.handle(message)
+            sensors = entry.sensors
+            executor.handle(sensors.odom)
+            if sensors.fix is not None:
+                executor.handle(sensors.fix)
+            if sensors.scan is not None:
+                executor.handle(sensors.scan)
+            if clock.step > self._last_step:
+                self.publish(sent_now(executor.tick(clock, clock.sim_time_s), clock.sim_time_s))
+                self._last_step = clock.step
+                self.on_answered()
+                executor.after_tick()
+
+    def finish(self) -> None:
+        if self.gate.late or self.gate.forced:
+            _log.warning(
+                "lock-step: %d input(s) came after their step and %d step(s) were ticked without every "
+                "answer: this run may not reproduce",
+                self.gate.late,
+                self.gate.forced,
+            )
+
+
+def sent_now(messages: list[Outgoing], sim_time_s: float) -> list[Outgoing]:
+    """``messages`` with every event stamped with the step that sends it: an event queued behind another
+    goes out only once that one is confirmed, steps after it was made, and was taken then by the agents at
+    whichever step it arrived (a repeat keeps its ``event_id``; the agents take the first that comes)."""
+    return [
+        message.model_copy(update={"sim_time_s": sim_time_s})
+        if isinstance(message, ComponentEventMsg) and message.sim_time_s != sim_time_s
+        else message
+        for message in messages
+    ]

@@ -1,0 +1,159 @@
+"""Inputs taken at a defined clock step, in a defined order, whoever's message came first (pure).
+
+Why: every service runs in its own process; when a message arrives depends on the machine's load, so a
+service that acts on what it has heard *so far* acts at a step that differs from run to run (a robot idle
+at step 500 in one run and at step 503 in the next gets another task). In lock-step, each participant (a
+robot by its ``cmd_vel``, the planner and the agents by :class:`~bimbot.shared.messages.StepDoneMsg`)
+publishes its output for clock step ``j``, stamped with the sim time of ``j``, *before* it answers ``j``,
+and physics publishes step ``k`` only after every answer to ``k − 2`` (``k − 1 − latency``, latency ≤ 1)
+was in. So at step ``k`` a consumer takes exactly the inputs stamped at or before step ``k − DELAY_STEPS``:
+all of them have been sent, and once the consumer has heard each participant's own answer to that step
+(which travels the same way, after them) all of them have arrived. Inputs are taken in the order
+(stamp, sender, arrival): arrival order is kept only within one sender, whose messages keep their order.
+
+An input may need an answer before it can be taken (a claim that a component is constructed is checked
+against its twin): :meth:`StepGate.put` it unresolved and :meth:`StepGate.resolve` it when the answer
+comes; a step whose inputs are not all resolved waits. Every wait is bounded by the caller, which may
+:meth:`StepGate.force` the step (and the late ones are counted: a run that forced steps may not reproduce).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Generic, TypeVar
+
+T = TypeVar("T")
+
+DELAY_STEPS = 2  # inputs stamped at step k - 2 or before are taken at step k (command latency 0 or 1)
+# wall seconds a step waits for a participant's answer (or a twin's) before it goes on without: a hang,
+# not a loaded machine (under a load of 36 on two cores a robot's answer took seconds)
+HOLD_S = 60.0
+
+
+@dataclass
+class _Input(Generic[T]):
+    stamp_s: float
+    sender: str
+    seq: int
+    item: T
+    resolved: bool = True
+
+
+@dataclass
+class StepGate(Generic[T]):
+    """Stamped inputs held until the step that takes them (see the module docstring)."""
+
+    delay_steps: int = DELAY_STEPS
+    _inputs: list[_Input[T]] = field(default_factory=list)
+    _times: dict[int, float] = field(default_factory=dict)  # clock step → its sim time (recent ones)
+    _answered: dict[str, int] = field(default_factory=dict)  # participant → last step it answered
+    _absent: set[str] = field(default_factory=set)  # participants not waited for until heard again
+    _seq: int = 0
+    _seen: set[object] = field(default_factory=set)  # keys of inputs put (a repeated delivery is dropped)
+    late: int = 0  # inputs that came after the step that should have taken them (taken at the next)
+    forced: int = 0  # steps taken without every participant's answer or resolution (bounded waits)
+
+    # --- what is heard ---------------------------------------------------------------------------------
+
+    def clock(self, step: int, sim_time_s: float) -> None:
+        """Clock step ``step`` is at ``sim_time_s`` (kept until the steps that need it were taken: a
+        participant that fell behind hears many clocks before it takes their steps)."""
+        self._times[step] = sim_time_s
+
+    def answered(self, participant: str, step: int) -> None:
+        """``participant`` answered clock step ``step`` (its own output up to there has been sent)."""
+        if step > self._answered.get(participant, -1):
+            self._answered[participant] = step
+        self._absent.discard(participant)
+
+    def expect(self, participants: Iterable[str]) -> None:
+        """Wait for these participants' answers from the start (one not heard yet is waited for too: a
+        participant first heard late would otherwise have been skipped at the steps before)."""
+        for participant in participants:
+            self._answered.setdefault(participant, -1)
+
+    def leave(self, participant: str) -> None:
+        """``participant`` is gone (or stopped answering): not waited for until it answers again."""
+        self._absent.add(participant)
+
+    def put(self, stamp_s: float, sender: str, item: T, *, resolved: bool = True, key: object = None) -> bool:
+        """An input stamped ``stamp_s`` by ``sender`` (taken by the first step whose gate reaches it).
+        ``key``: what makes it the same input (an event id): a repeated delivery is dropped (False)."""
+        if key is not None:
+            if key in self._seen:
+                return False
+            self._seen.add(key)
+        self._seq += 1
+        self._inputs.append(_Input(stamp_s, sender, self._seq, item, resolved))
+        return True
+
+    def resolve(self, item: T, replacement: T | None = None) -> bool:
+        """The answer an unresolved input waited for came (``replacement``: take that in its place)."""
+        for entry in self._inputs:
+            if entry.item is item and not entry.resolved:
+                entry.resolved = True
+                if replacement is not None:
+                    entry.item = replacement
+                return True
+        return False
+
+    # --- what a step takes -----------------------------------------------------------------------------
+
+    def clock_s(self, step: int, default: float) -> float:
+        """The sim time of clock step ``step`` (``default`` when it is not known)."""
+        return self._times.get(step, default)
+
+    def gate_s(self, step: int) -> float | None:
+        """The latest stamp step ``step`` takes (None: the clock of ``step - delay`` is not known)."""
+        return self._times.get(step - self.delay_steps)
+
+    def waiting_for(self, step: int) -> list[str]:
+        """The participants whose answer to ``step - delay`` has not been heard (sorted)."""
+        need = step - self.delay_steps
+        return sorted(p for p, s in self._answered.items() if s < need and p not in self._absent)
+
+    def ready(self, step: int) -> bool:
+        """Whether step ``step`` can take its inputs now (every answer heard, every due input resolved)."""
+        if self.waiting_for(step):
+            return False
+        gate = self.gate_s(step)
+        return all(entry.resolved for entry in self._inputs if gate is not None and entry.stamp_s <= gate)
+
+    def take(self, step: int, *, force: bool = False) -> list[T]:
+        """The inputs step ``step`` takes, in (stamp, sender, arrival) order, and forgets them. Without
+        ``force`` the step must be :meth:`ready`; with it, unresolved inputs stay for a later step and
+        the participants not heard from are not waited for again until they answer."""
+        if not self.ready(step):
+            if not force:
+                raise RuntimeError(f"step {step} is not ready")
+            self.forced += 1
+            for participant in self.waiting_for(step):
+                self.leave(participant)
+        gate = self.gate_s(step)
+        for old in [s for s in self._times if s < step - 2 * self.delay_steps]:
+            del self._times[old]
+        if gate is None:  # the first steps heard: nothing is known to have arrived yet (taken later)
+            return []
+        due = [e for e in self._inputs if e.stamp_s <= gate and e.resolved]
+        if not due:
+            return []
+        taken = {id(e) for e in due}
+        self._inputs = [e for e in self._inputs if id(e) not in taken]
+        due.sort(key=lambda e: (e.stamp_s, e.sender, e.seq))
+        return [e.item for e in due]
+
+    def note_late(self, stamp_s: float, step: int) -> bool:
+        """Whether an input stamped ``stamp_s`` that arrives while step ``step`` is the latest taken
+        should have been taken already (counted in :attr:`late`)."""
+        gate = self.gate_s(step)
+        if gate is not None and stamp_s <= gate:
+            self.late += 1
+            return True
+        return False
+
+    def pending(self) -> int:
+        return len(self._inputs)
+
+    def participants(self) -> Iterable[str]:
+        return sorted(self._answered)

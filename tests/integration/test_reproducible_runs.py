@@ -1,0 +1,90 @@
+"""Same build, fleet, sequence and seed: the same outcome. ``bimbot run`` builds a generated 2×1 frame (2
+footings, 2 columns, a beam) with three carriers (the default fleet's types, no fixed machines: three
+robot processes) and a derived sequence twice with ``--seed 1``; both reports
+must name the same robots for every component, the same states and attempts, the same order of
+construction and the same tasks per robot, with makespans within 1 % (:mod:`bimbot.run_outcome`).
+
+A divergence must be rare and explained: when the two reports differ, a service must have logged why
+(an input that came after its step; see ``shared/step_gate.py``), else the test fails. Three robots for
+five components make the assignment a real choice (who is idle first, who bids lowest),
+which is what differed from run to run before the planner, the agents and the robots took their inputs
+at defined lock-step steps. The two runs go one after the other (about 30–60 s each on two cores, a few
+minutes under a load of 30).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import pytest
+
+from bimbot.run_outcome import differences, outcome
+
+pytestmark = pytest.mark.integration
+RUN_TIMEOUT_S = 480
+
+
+def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "bimbot.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=RUN_TIMEOUT_S,
+        check=False,
+    )
+
+
+@pytest.fixture(scope="module")
+def frame(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("reproducible")
+    ifc = folder / "frame.ifc"
+    for args in (
+        ("sample", "light-steel-frame", "-o", str(ifc), "--bays", "2x1"),
+        ("convert", str(ifc), "-o", str(folder / "build"), "--no-progress"),
+    ):
+        result = _bimbot(*args)
+        assert result.returncode == 0, result.stderr[-2000:]
+    shown = _bimbot("fleet", "show")
+    assert shown.returncode == 0, shown.stderr[-2000:]
+    types = shown.stdout.split("\n[[robots]]")[0]  # the default fleet's types, three carriers on site
+    (folder / "carriers.toml").write_text(f'{types}\n[[robots]]\ntype = "carrier"\ncount = 3\n')
+    return folder / "build"
+
+
+def _run(build: Path, run_dir: Path) -> dict:
+    fleet = build.parent / "carriers.toml"
+    options = ("--fleet", str(fleet), "--derive", "--seed", "1", "--timeout-s", str(RUN_TIMEOUT_S - 90), "-q")
+    result = _bimbot("run", str(build), "--run-dir", str(run_dir), *options)
+    assert result.returncode == 0, f"run failed:\n{result.stdout}\n{result.stderr[-2000:]}"
+    return json.loads((run_dir / "report" / "report.json").read_text())
+
+
+def _unreproducible(run_dir: Path) -> list[str]:
+    """What a run's services said may keep it from reproducing: an input that came after its step, a step
+    taken without an answer, a request physics went on without (the gate detects them, it cannot undo
+    them: Zenoh delivers one in a few thousand out of order on a loaded machine)."""
+    marks = ("may not reproduce", "going on without", "goes on without", "taken without", "ticked without")
+    return [
+        line
+        for log in sorted((run_dir / "logs").glob("*.log"))
+        for line in log.read_text(errors="replace").splitlines()
+        if any(mark in line for mark in marks)
+    ]
+
+
+def test_one_seed_builds_the_same_way_twice_or_says_why_not(frame: Path, tmp_path: Path) -> None:
+    runs = [tmp_path / f"run{index}" for index in (1, 2)]
+    first, second = (_run(frame, run) for run in runs)
+    assert first["settings"]["seed"] == second["settings"]["seed"] == 1
+    a, b = outcome(first), outcome(second)
+    assert a.constructed == len(a.components) == 5
+    assert sum(len(tasks) > 0 for tasks in a.tasks.values()) >= 2, "a real choice of robots"
+    differ = differences(a, b)
+    if differ:  # rare, and then never without a reason the services logged
+        said = [line for run in runs for line in _unreproducible(run)]
+        assert said, "the runs differ and no service said why:\n" + "\n".join(differ)
+        warnings.warn(f"two runs of one seed differ ({differ[0]} …), explained: {said[0]}", stacklevel=1)

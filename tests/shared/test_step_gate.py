@@ -1,0 +1,78 @@
+"""The step gate takes each stamped input at one defined step, in one defined order, whatever the
+order and the moment it arrived in (the determinism of lock-step runs rests on it)."""
+
+from __future__ import annotations
+
+import pytest
+
+from bimbot.shared.step_gate import StepGate
+
+
+def _clocked(steps: int, period_s: float = 0.2) -> StepGate[str]:
+    gate: StepGate[str] = StepGate()
+    for step in range(steps):
+        gate.clock(step, step * period_s)
+    return gate
+
+
+def test_a_step_takes_what_is_stamped_two_steps_before_in_stamp_then_sender_order() -> None:
+    arrivals = [(0.2, "r2", "b"), (0.0, "r3", "c"), (0.2, "r1", "a"), (0.4, "r1", "late")]
+    taken = []
+    for order in (arrivals, list(reversed(arrivals))):
+        gate = _clocked(4)
+        for stamp, sender, item in order:
+            gate.put(stamp, sender, item)
+        taken.append((gate.take(2), gate.take(3), gate.take(4)))
+    assert taken[0] == taken[1] == (["c"], ["a", "b"], ["late"])
+
+
+def test_the_first_steps_heard_take_nothing() -> None:
+    gate = _clocked(2)
+    gate.put(0.0, "planner", "task")
+    assert gate.take(0) == [] and gate.take(1) == []
+    gate.clock(2, 0.4)
+    assert gate.take(2) == ["task"]
+
+
+def test_a_step_waits_for_every_expected_participant_until_forced() -> None:
+    gate = _clocked(5)
+    gate.expect(["r1", "planner"])
+    gate.answered("r1", 2)
+    assert gate.waiting_for(4) == ["planner"] and not gate.ready(4)
+    with pytest.raises(RuntimeError):
+        gate.take(4)
+    gate.put(0.4, "r1", "state")
+    assert gate.take(4, force=True) == ["state"]
+    gate.answered("r1", 3)
+    assert gate.forced == 1 and gate.ready(5)  # the planner is not waited for again until it answers
+    gate.answered("planner", 3)
+    assert gate.waiting_for(6) == ["planner", "r1"]
+
+
+def test_an_input_waiting_for_an_answer_holds_its_step_and_is_taken_in_its_place() -> None:
+    gate = _clocked(4)
+    claim = "constructed (claim)"
+    gate.put(0.2, "0abc", claim, resolved=False)
+    gate.put(0.2, "1def", "released")
+    assert gate.ready(2) and gate.take(2) == []
+    assert not gate.ready(3)
+    assert gate.resolve(claim, "constructed (twin)")
+    assert gate.take(3) == ["constructed (twin)", "released"]
+
+
+def test_a_repeated_delivery_is_dropped_and_a_late_one_counted() -> None:
+    gate = _clocked(4)
+    assert gate.put(0.0, "r1", "event", key="e1")
+    assert not gate.put(0.0, "r1", "event", key="e1")
+    assert gate.take(2) == ["event"]
+    assert gate.note_late(0.0, 2) and gate.late == 1
+    assert not gate.note_late(0.4, 2)
+
+
+def test_a_participant_far_behind_still_takes_each_input_at_its_own_step() -> None:
+    gate = _clocked(40)  # forty clocks heard before the first step is taken
+    gate.put(0.2, "r1", "early")
+    gate.put(6.0, "r1", "late")
+    taken = {step: gate.take(step) for step in range(40)}
+    assert taken[3] == ["early"] and taken[32] == ["late"]
+    assert sum(len(items) for items in taken.values()) == 2
