@@ -132,3 +132,8 @@ class MethodLimits(BaseModel):
     transport_length_m: float = Field(gt=0)
     transport_width_m: float = Field(gt=0)
     transport_height_m: float = Field(gt=0, description="of the load itself, above the trailer's deck")
+
+    @property
+    def transport_size_m(self) -> tuple[float, float, float]:
+        """(length, width, height) of a truck's load."""
+        return (self.transport_length_m, self.transport_width_m, self.transport_height_m)

@@ -16,7 +16,7 @@ import numpy as np
 from bimbot.shared.construction_methods import ConstructionMethod, MethodDecision
 
 from .cast_work import cast_work
-from .final_method import DEFAULT_DECISION, UNLIMITED, final_method
+from .final_method import UNLIMITED, final_method
 from .in_place import lies_in_ground
 
 if TYPE_CHECKING:
@@ -34,7 +34,7 @@ def settled_method(
     item: PlacedElement, work: GeometryWork, mass_kg: float, context: ShardContext
 ) -> MethodDecision:
     """The element's decision settled with its mass and size (nothing is too heavy without limits)."""
-    decision = context.decisions.get(str(item.element.GlobalId), DEFAULT_DECISION)
+    decision = context.decisions.get(str(item.element.GlobalId))
     box = np.asarray(work.props.bbox_local_m, dtype=float)
     return final_method(
         decision,

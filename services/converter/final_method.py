@@ -24,7 +24,7 @@ from bimbot.shared.fleet import Fleet
 from bimbot.shared.methods_file import MethodsFile
 
 DEFAULT_DECISION = MethodDecision(
-    method=ConstructionMethod.LIFTED, source=MethodSource.RULE, note="the default"
+    method=ConstructionMethod.LIFTED, source=MethodSource.RULE, note="by default"
 )
 UNLIMITED = MethodLimits(  # no fleet given: nothing is too heavy or too large
     lift_capacity_kg=1e12, transport_length_m=1e6, transport_width_m=1e6, transport_height_m=1e6
@@ -48,12 +48,13 @@ def fits_truck(size_m: Sequence[float], limits: MethodLimits) -> bool:
     """Whether a part of these extents fits a truck's load: its longest side along the deck, the other two
     across it and standing up (the larger of those two in the larger of width and height)."""
     longest, middle, shortest = sorted((float(value) for value in size_m), reverse=True)
-    across = sorted((limits.transport_width_m, limits.transport_height_m), reverse=True)
-    return longest <= limits.transport_length_m and middle <= across[0] and shortest <= across[1]
+    length, width, height = limits.transport_size_m
+    across = sorted((width, height), reverse=True)
+    return longest <= length and middle <= across[0] and shortest <= across[1]
 
 
 def final_method(
-    decision: MethodDecision,
+    decision: MethodDecision | None,
     mass_kg: float,
     size_m: Sequence[float],
     ifc_class: str,
@@ -62,7 +63,9 @@ def final_method(
     in_ground: bool = False,
 ) -> MethodDecision:
     """The method ``decision`` settles into for an element of ``mass_kg`` whose own bounding box measures
-    ``size_m`` (see the module docstring); the result carries no alternatives."""
+    ``size_m`` (see the module docstring); the result carries no alternatives. No decision: lifted by the
+    default rule."""
+    decision = decision or DEFAULT_DECISION
     if in_ground and decision.if_in_ground is not None:
         decision = decision.if_in_ground.model_copy(update={"material": decision.material})
     settled = decision.model_copy(update={"if_in_ground": None, "if_too_heavy": None})

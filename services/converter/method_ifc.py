@@ -18,7 +18,8 @@ In the order tried, the first statement wins:
   (``BORED`` piles are cast, ``DRIVEN`` ones lifted);
 * a material whose name says it: cast-in-place or in situ, precast or prefabricated
   (:mod:`.material_kind`);
-* a part of a prefabricated assembly (``IfcElementAssembly``): lifted.
+* a part of a prefabricated assembly (``IfcElementAssembly``): lifted, but a fitting of it (a plate) goes
+  with the assembly's main member (``with_host``).
 """
 
 from __future__ import annotations
@@ -89,6 +90,8 @@ def ifc_statement(
     if assembly is not None and assembly.is_a("IfcElementAssembly"):
         kind = ifcopenshell.util.element.get_predefined_type(assembly)
         what = f" ({kind})" if kind and kind not in ("NOTDEFINED", "USERDEFINED") else ""
+        if is_fitting(element):  # a plate of a shop-welded assembly goes with its main member
+            return _ifc(ConstructionMethod.WITH_HOST, f"a fitting of the assembly {_named(assembly)}{what}")
         return _ifc(
             ConstructionMethod.LIFTED, f"a part of the prefabricated assembly {_named(assembly)}{what}"
         )
@@ -100,13 +103,9 @@ def relation_hosts(
 ) -> list[tuple[ifcopenshell.entity_instance, str]]:
     """The built elements the IFC relations name as ``element``'s host, with the relation: its aggregate
     or nest parent (not an assembly), the elements of the connection it realises, the element voided by
-    the opening it fills, the elements it is connected to; in that order, each once."""
-    found: list[tuple[ifcopenshell.entity_instance, str]] = []
-    for rel in [*(getattr(element, "Decomposes", ()) or ()), *(getattr(element, "Nests", ()) or ())]:
-        parent = rel.RelatingObject
-        nested = rel.is_a("IfcRelAggregates") or rel.is_a("IfcRelNests")
-        if nested and parent.is_a("IfcElement") and not parent.is_a("IfcElementAssembly"):
-            found.append((parent, rel.is_a()))
+    the opening it fills, the elements it is connected to, the main members (not fittings) of the
+    assembly it is part of; in that order, each once."""
+    found = _parents(element, built)
     for rel in getattr(element, "IsConnectionRealization", ()) or ():
         found += [(other, rel.is_a()) for other in (rel.RelatingElement, rel.RelatedElement) if other]
     for fills in getattr(element, "FillsVoids", ()) or ():
@@ -116,11 +115,30 @@ def relation_hosts(
         found.append((rel.RelatedElement, rel.is_a()))
     for rel in getattr(element, "ConnectedFrom", ()) or ():
         found.append((rel.RelatingElement, rel.is_a()))
+    assembly = ifcopenshell.util.element.get_aggregate(element)
+    if assembly is not None and assembly.is_a("IfcElementAssembly"):  # its main members, not its fittings
+        for part in ifcopenshell.util.element.get_parts(assembly) or ():
+            if part.is_a("IfcElement") and not is_fitting(part):
+                found.append((part, "IfcRelAggregates"))
     unique: dict[int, tuple[ifcopenshell.entity_instance, str]] = {}
     for other, relation in found:
         if other is not None and other.id() in built and other.id() != element.id():
             unique.setdefault(other.id(), (other, relation))
     return list(unique.values())
+
+
+def _parents(
+    element: ifcopenshell.entity_instance, built: Collection[int]
+) -> list[tuple[ifcopenshell.entity_instance, str]]:
+    """The built element (not an assembly) ``element`` is aggregated or nested into, with the relation."""
+    found = []
+    for rel in [*(getattr(element, "Decomposes", ()) or ()), *(getattr(element, "Nests", ()) or ())]:
+        parent = rel.RelatingObject
+        nested = rel.is_a("IfcRelAggregates") or rel.is_a("IfcRelNests")
+        element_parent = parent.is_a("IfcElement") and not parent.is_a("IfcElementAssembly")
+        if nested and element_parent and parent.id() in built:
+            found.append((parent, rel.is_a()))
+    return found
 
 
 def is_guest_class(element: ifcopenshell.entity_instance) -> bool:
@@ -141,7 +159,7 @@ def is_fitting(element: ifcopenshell.entity_instance) -> bool:
 
 def _guest(element: ifcopenshell.entity_instance, built: Collection[int]) -> MethodDecision | None:
     hosts = relation_hosts(element, built)
-    parented = [host for host, relation in hosts if relation in ("IfcRelAggregates", "IfcRelNests")]
+    parented = [host for host, _ in _parents(element, built)]
     if is_guest_class(element):
         what = _predefined(element) or element.is_a()
         host, relation = hosts[0] if hosts else (None, "")

@@ -47,7 +47,7 @@ def rule_decision(
     for rule in methods.rules:
         if _holds(rule, element, kind, in_ground):
             return MethodDecision(method=rule.method, source=MethodSource.RULE, note=rule.note)
-    return MethodDecision(method=methods.default, source=MethodSource.RULE, note="the default")
+    return MethodDecision(method=methods.default, source=MethodSource.RULE, note="by default")
 
 
 def _holds(

@@ -8,7 +8,7 @@ from pathlib import Path
 import ifcopenshell.api.aggregate
 import ifcopenshell.guid
 import pytest
-from ifc_builders import SmallModel, add_box, add_material, new_model
+from ifc_builders import SmallModel, add_assembly, add_box, add_material, new_model
 from lxml import etree
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
@@ -115,6 +115,29 @@ def test_a_plate_aggregated_into_its_column_is_its_guest_and_the_column_is_still
     # no relation for the anchor here: found by geometry, embedded in the footing
     footing = next(c for c in manifest.components if c.name == "Footing")
     assert [(g.name, g.relation) for g in footing.guests] == [("Anchor bolt", "embedded")]
+
+
+def test_a_plate_of_a_shop_assembly_goes_with_its_main_member_which_is_lifted(tmp_path: Path) -> None:
+    small = new_model()
+    beam = add_box(
+        small, "IfcBeam", "Beam", size_m=(4.0, 0.2, 0.3), corner_m=(0.0, 0.0, 3.0), contained=False
+    )
+    plate = add_box(
+        small, "IfcPlate", "End plate", size_m=(0.02, 0.3, 0.4), corner_m=(4.0, -0.05, 2.95), contained=False
+    )
+    add_material(small, [beam, plate], "Steel", category="steel")
+    add_assembly(small, [beam, plate], "Frame girder")
+    manifest = _convert(small, tmp_path)
+    (girder,) = manifest.components
+    assert (girder.name, girder.method, girder.method_source) == (
+        "Beam",
+        ConstructionMethod.LIFTED,
+        MethodSource.IFC,
+    )
+    assert girder.method_note.startswith(
+        "a part of the prefabricated assembly IfcElementAssembly 'Frame girder'"
+    )
+    assert [(g.name, g.relation) for g in girder.guests] == [("End plate", "IfcRelAggregates")]
 
 
 def test_a_guest_whose_host_is_not_built_stays_a_lifted_component_with_a_warning(tmp_path: Path) -> None:

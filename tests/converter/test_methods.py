@@ -3,6 +3,8 @@ file's rules against the fleet's lift, and the user's own word over both (tiny m
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -191,3 +193,32 @@ def test_the_bundled_frame_stays_all_lifted_its_footings_precast_as_its_ifc_says
     assert [(c.method_source, c.method_note) for c in footings] == [
         (MethodSource.IFC, "Pset_ConcreteElementGeneral.CastingMethod = PRECAST")
     ] * 2
+
+
+def test_convert_takes_a_preset_or_a_file_counts_by_method_and_names_a_bad_file_in_one_line(
+    tmp_path: Path,
+) -> None:
+    small = new_model()
+    brick = add_box(small, "IfcWall", "Brick wall", size_m=(1.0, 0.1, 1.0))
+    add_material(small, [brick], "Brick")
+    add_box(small, "IfcSlab", "Ground slab", size_m=(3.0, 3.0, 0.2), corner_m=(0.0, 2.0, -0.2))
+    source = tmp_path / "model.ifc"
+    small.file.write(str(source))
+
+    def convert(*extra: str) -> subprocess.CompletedProcess[str]:
+        command = [sys.executable, "-m", "bimbot.cli", "convert", str(source), "-o", str(tmp_path / "out")]
+        return subprocess.run(
+            [*command, "--no-progress", *extra], capture_output=True, text=True, check=False
+        )
+
+    done = convert("--methods", "conventional")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.rstrip().endswith("; built: 1 cast_in_place, 1 laid"), done.stdout
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[by_class]\nIfcWall = "glued"\n', encoding="utf-8")
+    refused = convert("--methods", str(bad))
+    assert refused.returncode == 2 and "Traceback" not in refused.stderr
+    assert refused.stderr.startswith(
+        f"bimbot convert: error: methods file {bad}: by_class.IfcWall: Input should be"
+    )
+    assert len(refused.stderr.strip().splitlines()) == 1
