@@ -1,13 +1,13 @@
 """An element's method once its mass and size are known: too heavy to lift or too large to carry.
 
 A prefabricated part must be lifted by the fleet and carried on a road truck. A lifted element heavier
-than the fleet's largest lift (:func:`method_limits`: the largest payload among the robot types on site,
-for a crane its load chart's largest) or larger than a truck's load is turned into what its decision
-says (``if_too_heavy``): panelised (a wall, a slab, a roof), or cast in place (a concrete column or
-beam); ``method_source`` ``rule``, the note with the numbers. Without such a fallback it stays lifted and
-the note says why it may not be (a 25 m steel beam travels under a permit; a planner finds it too heavy).
-The user's own choice is never changed. An element whose target lies in the ground first takes its
-decision's ``if_in_ground``.
+than the fleet's largest lift (:func:`method_limits`: the largest payload among the robot types on site
+that carry or hook a load and place it, for a crane its load chart's largest) or larger than a truck's
+load is turned into what its decision says (``if_too_heavy``): panelised (a wall, a slab, a roof), or
+cast in place (a concrete column or beam); ``method_source`` ``rule``, the note with the numbers. Without
+such a fallback it stays lifted and the note says why it may not be (a 25 m steel beam travels under a
+permit; a planner finds it too heavy). The user's own choice is never changed. An element whose target
+lies in the ground first takes its decision's ``if_in_ground``.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from bimbot.shared.construction_methods import (
 )
 from bimbot.shared.fleet import Fleet
 from bimbot.shared.methods_file import MethodsFile
+from bimbot.shared.robot_description import Capability
 
 DEFAULT_DECISION = MethodDecision(
     method=ConstructionMethod.LIFTED, source=MethodSource.RULE, note="by default"
@@ -32,9 +33,16 @@ UNLIMITED = MethodLimits(  # no fleet given: nothing is too heavy or too large
 
 
 def method_limits(fleet: Fleet, methods: MethodsFile) -> MethodLimits:
-    """The largest lift of the robot types on site (all types when none is) and the file's truck load."""
-    types = fleet.on_site() or fleet.types
-    strongest = max(types.values(), key=lambda description: description.payload_kg)
+    """The largest payload of the robot types on site that lift (carry or hook a load and place it; all
+    types when none is on site) and the file's truck load."""
+    types = list((fleet.on_site() or fleet.types).values())
+    lifters = [
+        description
+        for description in types
+        if description.can(Capability.PLACE)
+        and (description.can(Capability.CARRY) or description.can(Capability.HOOK_LIFT))
+    ]
+    strongest = max(lifters or types, key=lambda description: description.payload_kg)
     return MethodLimits(
         lift_capacity_kg=strongest.payload_kg,
         lifted_by=strongest.name,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from bimbot.services.converter.final_method import final_method, fits_truck, method_limits
 from bimbot.shared.construction_methods import ConstructionMethod, MethodDecision, MethodLimits, MethodSource
-from bimbot.shared.fleet import default_fleet
+from bimbot.shared.fleet import Fleet, default_fleet
 from bimbot.shared.methods_file import load_methods
 
 LIMITS = MethodLimits(
@@ -66,3 +66,26 @@ def test_the_lift_capacity_is_the_largest_payload_of_the_fleet_on_site() -> None
     husky_only = method_limits(fleet.with_robots(1, "husky"), load_methods())
     assert (husky_only.lift_capacity_kg, husky_only.lifted_by) == (fleet.types["husky"].payload_kg, "husky")
     assert limits.transport_size_m == (13.6, 2.55, 3.7)
+
+
+def test_a_machine_that_only_pours_is_no_lift_however_heavy_its_payload() -> None:
+    pump = {
+        "urdf": "carrier.urdf",
+        "payload_kg": 50_000,
+        "reach_m": 30.0,
+        "max_place_height_m": 30.0,
+        "length_m": 2.0,
+        "width_m": 2.0,
+        "max_speed_mps": 0,
+        "max_turn_radps": 0,
+        "capabilities": ["stand_fixed", "pour"],
+    }
+    carrier = {**pump, "payload_kg": 3_000, "max_speed_mps": 0.8, "max_turn_radps": 1.0, "capabilities": []}
+    fleet = Fleet.model_validate(
+        {
+            "types": {"pump": pump, "carrier": carrier},
+            "robots": [{"type": "pump", "count": 1}, {"type": "carrier", "count": 1}],
+        }
+    )
+    limits = method_limits(fleet, load_methods())
+    assert (limits.lift_capacity_kg, limits.lifted_by) == (3_000, "carrier")
