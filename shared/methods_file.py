@@ -30,6 +30,7 @@ PRESETS = ("prefab", "conventional")
 COMMON_FILE = PRESETS_DIR / "common.toml"  # what the presets share: panels, transport, cast-in-place rates
 DEFAULT_PRESET = "prefab"
 _CLASS_NAME = re.compile(r"^Ifc[A-Za-z0-9]+$")
+_CLASS_AND_TYPE = re.compile(r"^Ifc[A-Za-z0-9]+(\.[A-Z0-9_]+)?$")  # IfcSlab, or IfcSlab.BASESLAB
 
 
 class MaterialKind(StrEnum):
@@ -103,7 +104,8 @@ class CastRates(_Frozen):
 
 
 class CastInPlace(_Frozen):
-    """The general rates and, by IFC class (with subclasses, the first listed that matches), others."""
+    """The general rates and, by IFC class (with subclasses) or class and predefined type
+    (``IfcSlab.BASESLAB``, which goes before its class), others."""
 
     formwork_m2_per_h: float = Field(gt=0)
     pour_m3_per_h: float = Field(gt=0)
@@ -114,7 +116,9 @@ class CastInPlace(_Frozen):
     @field_validator("by_class")
     @classmethod
     def _class_keys(cls, value: dict[str, CastRates]) -> dict[str, CastRates]:
-        _check_classes(tuple(value))
+        for name in value:
+            if not _CLASS_AND_TYPE.match(name):
+                raise ValueError(f"{name!r} is not an IFC class name, or a class and a predefined type")
         return value
 
     def rates(self, class_key: str | None) -> tuple[float, float, float, float]:

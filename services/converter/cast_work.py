@@ -5,12 +5,13 @@ a face counts by the direction of its normal in the world frame, up within ``TOP
 being the top, down within it the soffit. An element whose target lies in the ground is cast on the soil
 (or blinding): its soffit needs no form. Times: formwork area over the crew's formwork rate, the pour's
 setup plus the volume over the pour rate, and the cure until what rests on it may be placed, at the rates
-of the first ``cast_in_place.by_class`` class the element is (else the general ones).
+of the element's ``cast_in_place.by_class`` entry (:func:`rates_class`; else the general ones).
 """
 
 from __future__ import annotations
 
 import ifcopenshell
+import ifcopenshell.util.element
 import numpy as np
 
 from bimbot.shared.construction_methods import CastWork
@@ -34,8 +35,15 @@ def formwork_area_m2(mesh: TriMesh, rotation: np.ndarray, *, in_ground: bool) ->
 
 
 def rates_class(element: ifcopenshell.entity_instance, rates: CastInPlace) -> str | None:
-    """The first ``by_class`` key ``element`` is an instance of (with subclasses), or None."""
-    return next((name for name in rates.by_class if element.is_a(name)), None)
+    """The ``by_class`` key of ``element``'s rates: the first ``Class.PREDEFINED_TYPE`` it is, else the first
+    class it is an instance of (with subclasses); None for the general rates."""
+    predefined = str(ifcopenshell.util.element.get_predefined_type(element) or "").upper()
+    typed = [name for name in rates.by_class if "." in name]
+    for name in typed:
+        ifc_class, kind = name.split(".", 1)
+        if kind == predefined and element.is_a(ifc_class):
+            return name
+    return next((name for name in rates.by_class if "." not in name and element.is_a(name)), None)
 
 
 def cast_work(

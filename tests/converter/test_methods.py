@@ -170,6 +170,14 @@ def test_a_slab_in_the_ground_is_cast_and_existing_work_is_in_place(tmp_path: Pa
     small = new_model()
     add_box(small, "IfcSlab", "Ground slab", size_m=(3.0, 3.0, 0.2), corner_m=(0.0, 0.0, -0.2))
     add_box(small, "IfcSlab", "Floor", size_m=(2.0, 2.0, 0.2), corner_m=(0.0, 0.0, 3.0))
+    add_box(
+        small,
+        "IfcSlab",
+        "Base",
+        size_m=(2.0, 2.0, 0.5),
+        corner_m=(0.0, 4.0, -0.5),
+        predefined_type="BASESLAB",
+    )
     old = add_box(small, "IfcWall", "Old wall", size_m=(2.0, 0.2, 2.0), corner_m=(5.0, 0.0, 0.0))
     add_pset(small, [old], "Pset_WallCommon", {"Status": ["EXISTING"]})
     manifest = _convert(small, tmp_path)
@@ -177,6 +185,12 @@ def test_a_slab_in_the_ground_is_cast_and_existing_work_is_in_place(tmp_path: Pa
     ground = components["Ground slab"]
     assert (ground.method, ground.method_note) == (CAST, "concrete in the ground is cast in place")
     assert components["Floor"].method is LIFTED
+    # a slab drawn as a base (a footing, a slab on grade) cures as a footing, not as a floor's decking
+    base = components["Base"]
+    assert (base.method, base.method_note) == (CAST, "a ground slab is cast in place")
+    assert base.cast is not None and ground.cast is not None
+    assert base.cast.cure_s == load_methods().cast_in_place.rates("IfcSlab.BASESLAB")[3] * 3600 == 72 * 3600
+    assert ground.cast.cure_s == 120 * 3600
     assert [c.name for c in manifest.in_place] == ["Old wall"]
     assert (manifest.in_place[0].method, manifest.in_place[0].method_source) == (
         ConstructionMethod.IN_PLACE,
