@@ -16,7 +16,7 @@ import numpy as np
 from bimbot.shared.construction_methods import ConstructionMethod, MethodDecision
 
 from .cast_work import cast_work
-from .final_method import UNLIMITED, final_method
+from .final_method import default_limits, final_method
 from .in_place import lies_in_ground
 
 if TYPE_CHECKING:
@@ -33,7 +33,8 @@ def target_in_ground(item: PlacedElement, context: ShardContext) -> bool:
 def settled_method(
     item: PlacedElement, work: GeometryWork, mass_kg: float, context: ShardContext
 ) -> MethodDecision:
-    """The element's decision settled with its mass and size (nothing is too heavy without limits)."""
+    """The element's decision settled with its mass and size, against the context's limits (none: the
+    default fleet's and methods')."""
     decision = context.decisions.get(str(item.element.GlobalId))
     box = np.asarray(work.props.bbox_local_m, dtype=float)
     return final_method(
@@ -41,7 +42,7 @@ def settled_method(
         mass_kg,
         tuple(box[1] - box[0]),
         item.element.is_a(),
-        context.limits or UNLIMITED,
+        context.limits or default_limits(),
         in_ground=target_in_ground(item, context),
     )
 

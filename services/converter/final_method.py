@@ -13,6 +13,7 @@ lies in the ground first takes its decision's ``if_in_ground``.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import cache
 
 from bimbot.shared.construction_methods import (
     ConstructionMethod,
@@ -20,15 +21,12 @@ from bimbot.shared.construction_methods import (
     MethodLimits,
     MethodSource,
 )
-from bimbot.shared.fleet import Fleet
-from bimbot.shared.methods_file import MethodsFile
+from bimbot.shared.fleet import Fleet, default_fleet
+from bimbot.shared.methods_file import MethodsFile, load_methods
 from bimbot.shared.robot_description import Capability
 
 DEFAULT_DECISION = MethodDecision(
     method=ConstructionMethod.LIFTED, source=MethodSource.RULE, note="by default"
-)
-UNLIMITED = MethodLimits(  # no fleet given: nothing is too heavy or too large
-    lift_capacity_kg=1e12, transport_length_m=1e6, transport_width_m=1e6, transport_height_m=1e6
 )
 
 
@@ -50,6 +48,12 @@ def method_limits(fleet: Fleet, methods: MethodsFile) -> MethodLimits:
         transport_width_m=methods.transport.width_m,
         transport_height_m=methods.transport.height_m,
     )
+
+
+@cache
+def default_limits() -> MethodLimits:
+    """:func:`method_limits` of the default fleet and methods (a shard context without limits)."""
+    return method_limits(default_fleet(), load_methods())
 
 
 def fits_truck(size_m: Sequence[float], limits: MethodLimits) -> bool:

@@ -101,12 +101,16 @@ def test_prefab_panelises_a_heavy_wall_and_casts_a_heavy_concrete_column_with_th
     )  # too long
     add_material(small, [wall, light, column], "Concrete")
     add_material(small, [beam], "S355 steel", category="steel")
-    components = _by_name(_convert(small, tmp_path))
+    manifest = _convert(small, tmp_path)
+    components = _by_name(manifest)
 
-    heavy = components["Heavy wall"]
-    assert (heavy.method, heavy.method_source) == (PANELISED, MethodSource.RULE)
-    assert "8,640 kg is more than the fleet lifts, 2,000 kg (lifter)" in heavy.method_note
-    assert "split into precast panels" in heavy.method_note
+    # the heavy wall is split into panels, each within the lift: it is listed once, with why
+    (heavy,) = manifest.panelised
+    assert heavy.guid == wall.GlobalId and heavy.mass_kg == pytest.approx(8640)
+    assert heavy.why.startswith("8,640 kg, over the 2,000 kg lift capacity")
+    panels = [c for c in manifest.components if c.parent_guid == wall.GlobalId]
+    assert len(panels) >= 5 and max(c.mass_kg for c in panels) <= LIFT_KG
+    assert {(c.method, c.method_source) for c in panels} == {(PANELISED, MethodSource.RULE)}
     assert (components["Light wall"].method, components["Light wall"].method_source) == (
         LIFTED,
         MethodSource.RULE,
