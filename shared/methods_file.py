@@ -5,7 +5,9 @@ material; whether what the IFC says is followed; the rules used where it says no
 split into panels when too heavy or too large; a road truck's load size; and the rates of cast-in-place
 work. Two presets are embedded (``shared/methods/``): ``prefab`` (the default: what can be lifted is lifted,
 what is too heavy is panelised, foundations and ground slabs are cast) and ``conventional`` (concrete cast,
-masonry laid; steel, timber, precast, windows and doors lifted). ``bimbot methods show`` prints one.
+masonry laid; steel, timber, precast, windows and doors lifted), and the paper's ``lifted`` (everything
+lifted whole, what the IFC says ignored: a run shows what the fleet cannot lift). ``bimbot methods show``
+prints one.
 
 A user's file names the preset it starts from (``preset = "conventional"``, default ``prefab``) and gives
 only what it changes: its tables are laid over the preset's, key by key, and a list (``rules``) replaces
@@ -26,8 +28,8 @@ from .construction_methods import ConstructionMethod
 from .errors import InputError
 
 PRESETS_DIR = Path(__file__).resolve().parent / "methods"
-PRESETS = ("prefab", "conventional")
-COMMON_FILE = PRESETS_DIR / "common.toml"  # what the presets share: panels, transport, cast-in-place rates
+PRESETS = ("prefab", "conventional", "lifted")
+COMMON_FILE = PRESETS_DIR / "common.toml"  # what the presets share: transport, cast-in-place rates
 DEFAULT_PRESET = "prefab"
 _CLASS_NAME = re.compile(r"^Ifc[A-Za-z0-9]+$")
 _CLASS_AND_TYPE = re.compile(r"^Ifc[A-Za-z0-9]+(\.[A-Z0-9_]+)?$")  # IfcSlab, or IfcSlab.BASESLAB

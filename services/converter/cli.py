@@ -69,7 +69,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         metavar="FILE|PRESET",
         help="how each component is built: a methods file (bimbot methods show > methods.toml) or a preset, "
-        "prefab or conventional (default: what the IFC says, then prefab)",
+        "prefab, conventional or lifted (the paper's: everything lifted whole); default: what the IFC says, "
+        "then prefab",
     )
     parser.add_argument(
         "--fleet",

@@ -1,1 +1,1 @@
-"""The embedded methods presets (TOML): prefab, conventional, and common.toml (see shared/methods_file.py)."""
+"""The embedded methods presets (TOML): prefab, conventional, lifted; common.toml (shared/methods_file.py)."""

@@ -14,8 +14,8 @@ from bimbot.shared.errors import InputError
 from bimbot.shared.methods_file import PRESETS, MaterialKind, load_methods, preset_text
 
 
-@pytest.mark.parametrize("name", PRESETS)
-def test_each_preset_loads_with_rules_rates_and_transport(name: str) -> None:
+@pytest.mark.parametrize("name", ["prefab", "conventional"])
+def test_each_builders_preset_loads_with_rules_rates_and_transport(name: str) -> None:
     methods = load_methods(name)
     assert methods.name == name
     assert methods.rules[0].method is ConstructionMethod.CAST_IN_PLACE  # foundations cast in both
@@ -33,6 +33,17 @@ def test_the_default_is_prefab_and_conventional_casts_concrete_and_lays_masonry(
     }
     assert conventional[(MaterialKind.CONCRETE,)] is ConstructionMethod.CAST_IN_PLACE
     assert conventional[(MaterialKind.MASONRY,)] is ConstructionMethod.LAID
+
+
+def test_the_papers_preset_lifts_everything_whatever_it_weighs_or_the_ifc_says() -> None:
+    lifted = load_methods("lifted")
+    assert (lifted.ifc, lifted.existing_in_place, lifted.rules, lifted.default) == (
+        False,
+        False,
+        (),
+        ConstructionMethod.LIFTED,
+    )
+    assert (lifted.panels.classes, lifted.panels.cast_when_too_heavy) == ((), ())
 
 
 def test_the_printed_preset_is_a_complete_file_that_loads_back_the_same(tmp_path: Path) -> None:
