@@ -3,6 +3,7 @@ file's rules against the fleet's lift, and the user's own word over both (tiny m
 
 from __future__ import annotations
 
+import itertools
 import subprocess
 import sys
 from pathlib import Path
@@ -17,6 +18,7 @@ from bimbot.shared.fleet import Fleet
 from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.methods_file import MethodsFile, load_methods
+from bimbot.shared.sequence import read_sequence
 
 LIFT_KG = 2000.0
 CAST, LIFTED, PANELISED, LAID = (
@@ -240,3 +242,27 @@ def test_convert_takes_a_preset_or_a_file_counts_by_method_and_names_a_bad_file_
         f"bimbot convert: error: methods file {bad}: by_class.IfcWall: Input should be"
     )
     assert len(refused.stderr.strip().splitlines()) == 1
+
+
+def test_the_panels_of_a_scheduled_wall_take_its_place_in_the_ifc_schedule(
+    samples_dir: Path, tmp_path: Path
+) -> None:
+    source = samples_dir / "construction_scheduling_task.ifc"  # a ground slab, then four block walls in turn
+    if not source.is_file():
+        pytest.skip(f"{source} is absent")
+    options = ConvertOptions(fleet=_fleet(), formats=(), split_ifc=False)
+    manifest = convert_model(open_model(source), source, tmp_path / "out", options)
+    sequence = read_sequence(tmp_path / "out" / manifest.sequence_file)
+    assert (manifest.sequence_source, len(manifest.panelised)) == ("ifc_schedule", 4)
+    wall_of = {c.guid: c.parent_guid for c in manifest.components}
+    slab, *panels = sequence.tasks
+    assert wall_of[slab.guid] is None and slab.name == "Slab #1"
+    walls = list(dict.fromkeys(wall_of[task.guid] for task in panels))  # in the order they come
+    tasks_of = {wall: [t for t in panels if wall_of[t.guid] == wall] for wall in walls}
+    assert [task.name for task in panels] == [
+        f"Wall #{i}" for i, w in enumerate(walls, 1) for _ in tasks_of[w]
+    ]
+    assert [t for wall in walls for t in tasks_of[wall]] == panels  # each wall's panels together
+    for earlier, later in itertools.pairwise(walls):  # a wall's panels wait for the one before
+        before = {task.task_id for task in tasks_of[earlier]}
+        assert all(before <= set(task.predecessors) for task in tasks_of[later])
