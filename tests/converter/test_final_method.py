@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from bimbot.services.converter.final_method import final_method, fits_truck, method_limits
 from bimbot.shared.construction_methods import ConstructionMethod, MethodDecision, MethodLimits, MethodSource
-from bimbot.shared.fleet import Fleet, default_fleet
+from bimbot.shared.fleet import Fleet, FleetEntry, default_fleet
 from bimbot.shared.methods_file import load_methods
 
 LIMITS = MethodLimits(
@@ -63,7 +63,8 @@ def test_the_lift_capacity_is_the_largest_payload_of_the_fleet_on_site() -> None
     limits = method_limits(fleet, load_methods())
     strongest = max(fleet.on_site().values(), key=lambda description: description.payload_kg)
     assert (limits.lift_capacity_kg, limits.lifted_by) == (strongest.payload_kg, strongest.name)
-    husky_only = method_limits(fleet.with_robots(1, "husky"), load_methods())
+    only_husky = fleet.model_copy(update={"robots": (FleetEntry(type="husky", count=1),)})
+    husky_only = method_limits(only_husky, load_methods())
     assert (husky_only.lift_capacity_kg, husky_only.lifted_by) == (fleet.types["husky"].payload_kg, "husky")
     assert limits.transport_size_m == (13.6, 2.55, 3.7)
 
