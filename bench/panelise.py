@@ -22,8 +22,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
-from bimbot.services.converter.method_seam import MethodDecision
-from bimbot.shared.construction_methods import ConstructionMethod, MethodSource
+from bimbot.shared.construction_methods import ConstructionMethod, MethodDecision, MethodSource
 from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Manifest
 

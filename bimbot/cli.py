@@ -50,6 +50,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "simulate the site in PyBullet: clock, robots, sensors, attach and place",
     ),
     "robot": ("bimbot.services.robot.cli", "run one construction robot: tasks, navigation, localisation"),
+    "methods": (
+        "bimbot.methods_cli",
+        "print the construction-method rules (a preset) as a methods file, or check one",
+    ),
     "fleet": (
         "bimbot.fleet_cli",
         "what a robot fleet can build (feasibility table, no build), or show the default fleet file",

@@ -12,9 +12,9 @@ Columns: ``built by / why not`` lists every route, the first being the one the p
 take; a crane is named with its robot id because where it stands (the site plan sets it up where its hook
 covers the building and the yard best, :mod:`bimbot.shared.site_machines`) decides what it reaches;
 ``A → crane (r3, hand-off)`` is a ground robot of type A bringing the component within the crane's hook
-first; a component cast in place or laid (column ``method``) is built where it stands by a machine that
-pours or lays, named with its robot id when it stands fixed (its boom must cover the whole footprint from
-where the site plan puts it).
+first; a component cast in place or laid (column ``method``, counted by method under the table) is built
+where it stands by a machine that pours or lays, named with its robot id when it stands fixed (its boom
+must cover the whole footprint from where the site plan puts it).
 """
 
 from __future__ import annotations
@@ -84,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
                 "name": component.name,
                 "ifc_class": component.ifc_class,
                 "method": component.method.value,
+                "method_source": component.method_source.value,
                 "mass_kg": round(component.mass_kg, 1),
                 "target_top_m": round(component.bbox_world.max_m[2], 3),
                 "routes": list(row.routes),
@@ -121,6 +122,8 @@ def _print_table(rows: list[tuple[Component, Feasibility]], fleet: Fleet, joints
     blocked = resting_on_unbuildable(
         [component for component, _ in rows], {r.guid for _, r in rows if r.reason}, joints
     )
+    methods = Counter(component.method.value for component, _ in rows)
+    console.print("by method: " + ", ".join(f"{count} {method}" for method, count in methods.most_common()))
     console.print(f"buildable: {buildable} of {len(rows)}; cannot: {summary}")
     if blocked:
         console.print(

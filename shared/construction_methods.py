@@ -28,6 +28,8 @@ from enum import StrEnum
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from .geometry import Quat, Vec3
+
 
 class ConstructionMethod(StrEnum):
     LIFTED = "lifted"
@@ -59,7 +61,11 @@ class CastWork(BaseModel):
 
 
 class GuestElement(BaseModel):
-    """An element built into its host (``with_host``): its geometry and mass are part of the host's body."""
+    """An element built into its host (``with_host``): its geometry and mass are part of the host's body.
+
+    Its own model folder stays, with its visual meshes (paths relative to the build folder, empty when not
+    written), so a viewer can draw it at the host's pose composed with ``position_in_host_m`` /
+    ``quat_in_host_xyzw`` (the guest's frame in the host's frame)."""
 
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
@@ -68,6 +74,10 @@ class GuestElement(BaseModel):
     name: str | None = None
     mass_kg: float = Field(ge=0)
     relation: str = Field(description="how the host was found: an IFC relationship or 'embedded'/'contact'")
+    visual_glb: str = ""
+    visual_obj: str = ""
+    position_in_host_m: Vec3 = (0.0, 0.0, 0.0)
+    quat_in_host_xyzw: Quat = (0.0, 0.0, 0.0, 1.0)
 
 
 class PanelJoint(BaseModel):
@@ -92,3 +102,38 @@ class PanelisedElement(BaseModel):
     panel_guids: tuple[str, ...] = Field(min_length=1)
     joints: tuple[PanelJoint, ...] = ()
     why: str = Field(description="the sentence with the numbers: why it was split")
+
+
+class MethodDecision(BaseModel):
+    """The converter's decision for one element, before its geometry is known, and what it turns into once
+    it is: ``if_in_ground`` applies when its target lies in the ground (a ground slab is cast), then
+    ``if_too_heavy`` when it is heavier than the fleet lifts or larger than a truck carries (a wall is
+    panelised, a concrete column cast); ``material`` is the kind its material was read as (concrete,
+    masonry, steel, …), for the notes."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    method: ConstructionMethod
+    source: MethodSource
+    note: str = ""
+    host_guid: str | None = Field(default=None, description="with_host: the host the IFC relations name")
+    material: str | None = None
+    if_in_ground: MethodDecision | None = None
+    if_too_heavy: ConstructionMethod | None = None
+
+
+class MethodLimits(BaseModel):
+    """What a prefabricated part may weigh and measure: the fleet's largest lift, and a road truck's load."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    lift_capacity_kg: float = Field(gt=0)
+    lifted_by: str = Field(default="", description="the robot type with that capacity (for the notes)")
+    transport_length_m: float = Field(gt=0)
+    transport_width_m: float = Field(gt=0)
+    transport_height_m: float = Field(gt=0, description="of the load itself, above the trailer's deck")
+
+    @property
+    def transport_size_m(self) -> tuple[float, float, float]:
+        """(length, width, height) of a truck's load."""
+        return (self.transport_length_m, self.transport_width_m, self.transport_height_m)

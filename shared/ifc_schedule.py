@@ -13,7 +13,7 @@ mention (see :func:`schedule_from_ifc`'s ``unscheduled``).
 
 from __future__ import annotations
 
-from collections.abc import Collection
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 
 import ifcopenshell
@@ -67,6 +67,35 @@ def _schedule_tasks(model: ifcopenshell.file) -> list[ifcopenshell.entity_instan
     current = [item for item in schedules if getattr(item, "PredefinedType", None) != "BASELINE"] or schedules
     chosen = max(current, key=lambda item: item.id())
     return list(set(ifcopenshell.util.sequence.get_work_schedule_tasks(chosen)))
+
+
+def with_stand_ins(
+    schedule: IfcSchedule, stand_ins: Mapping[str, Sequence[str]], support: Mapping[str, set[str]]
+) -> IfcSchedule:
+    """``schedule`` (computed for the elements of ``stand_ins`` among the components) with each such element
+    replaced by the components that stand in for it, e.g. the panels a wall was split into: each takes the
+    element's place and predecessors (an element predecessor is all its stand-ins), and follows those of
+    its siblings it rests on (``support``: GUID → the GUIDs it rests on). An element the schedule leaves
+    out leaves its stand-ins out."""
+    tasks = schedule.sequence.tasks
+    guid_of = {task.task_id: task.guid for task in tasks}
+    members = {task.guid: list(stand_ins.get(task.guid, [task.guid])) for task in tasks}
+    predecessors: dict[str, set[str]] = {}
+    names: dict[str, str] = {}
+    ordered: list[str] = []
+    for task in tasks:
+        before = {guid for pred in task.predecessors for guid in members[guid_of[pred]]}
+        siblings = set(members[task.guid])
+        for guid in members[task.guid]:
+            predecessors[guid] = before | (set(support.get(guid, ())) & siblings - {guid})
+            if task.name:
+                names[guid] = task.name
+            ordered.append(guid)
+    position = {guid: index for index, guid in enumerate(ordered)}
+    order = priority_topological_order(predecessors, position.__getitem__)
+    sequence = sequence_from_predecessors(order, predecessors, source=schedule.sequence.source, names=names)
+    unscheduled = [guid for element in schedule.unscheduled for guid in stand_ins.get(element, [element])]
+    return IfcSchedule(sequence, tuple(unscheduled))
 
 
 def _nested(task: ifcopenshell.entity_instance) -> list[ifcopenshell.entity_instance]:

@@ -1,7 +1,10 @@
 """``bimbot convert MODEL.ifc -o OUT/``: the command-line adapter of the converter.
 
 What is built: building elements and their parts (:mod:`.selection`); ``--include``/``--exclude``/``--only``
-change that by class. The summary line counts the elements left out by reason. ``--formats`` chooses the
+change that by class. How each is built (lifted, panelised, cast in place, laid, with its host, in place):
+what the IFC says, then the ``--methods`` file or preset (default ``prefab``), against the ``--fleet``'s
+largest lift (:mod:`.method_decisions`). The summary line counts the components by method and the elements
+left out by reason. ``--formats`` chooses the
 visual mesh files (:mod:`.mesh_files` says which reader uses which); collision meshes are always written.
 
 Exit codes: 0 when at least one component was converted, 1 when the model was read but nothing could be
@@ -26,7 +29,10 @@ from bimbot.shared.output_paths import check_writable_dir
 from bimbot.shared.reasons import CLASH_ADVICE
 
 if TYPE_CHECKING:
+    import ifcopenshell
     from tqdm import tqdm  # imported at run time only once a bar is shown (in update)
+
+    from bimbot.shared.methods_file import MethodsFile
 
 _log = logging.getLogger(__name__)
 MAX_WARNINGS_SHOWN = 10  # the converter's warnings on stderr; every one is in the manifest
@@ -57,6 +63,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "(every component whose target lies in the ground), IFC classes or GlobalIds, comma-separated. "
         "They are converted, stand at their BIM pose from the start, and are neither built nor counted; "
         "what rests on them is built at once",
+    )
+    parser.add_argument(
+        "--methods",
+        default=None,
+        metavar="FILE|PRESET",
+        help="how each component is built: a methods file (bimbot methods show > methods.toml) or a preset, "
+        "prefab, conventional or lifted (the paper's: everything lifted whole); default: what the IFC says, "
+        "then prefab",
+    )
+    parser.add_argument(
+        "--fleet",
+        type=Path,
+        default=None,
+        metavar="FLEET.toml",
+        help="the fleet that will build it: what is heavier than its largest lift is panelised or cast "
+        "(default: bimbot's fleet)",
     )
     parser.add_argument(
         "--only",
@@ -110,7 +132,14 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--formats: {error}") from None
     joints = load_joint_settings(args.joints)  # a bad file is one line before the model is read
     check_writable_dir(args.output, "--output")  # before the model is read: that may take minutes
+    from bimbot.shared.fleet import load_fleet
+    from bimbot.shared.methods_file import load_methods
+
+    methods = load_methods(args.methods)
+    fleet = load_fleet(args.fleet)
     model, damage = (read := read_model(args.model)).model, read.damage
+    for warning in methods_warnings(model, methods):
+        _log.warning("%s", warning)
     try:
         include = check_classes(model, parse_class_list(args.include))
         exclude, exclude_guids = check_exclusions(model, parse_class_list(args.exclude))
@@ -135,6 +164,8 @@ def run(args: argparse.Namespace) -> int:
         in_place_guids=in_place_guids,
         foundations_in_place=foundations,
         joints=joints,
+        methods=methods,
+        fleet=fleet,
     )
     stats = ConversionStats()
     with _ProgressBar(enabled=not args.no_progress and sys.stderr.isatty()) as bar:
@@ -173,7 +204,8 @@ def run(args: argparse.Namespace) -> int:
         f"{skipped_summary(manifest.skipped)}, "
         f"{len(manifest.joints)} joint(s), {len(manifest.clashes)} clash(es), "
         f"{len(manifest.warnings)} warning(s) in {seconds:.1f} s → {args.output}/ "
-        f"(world {manifest.world_file}, sequence {manifest.sequence_file} {origin})\n"
+        f"(world {manifest.world_file}, sequence {manifest.sequence_file} {origin})"
+        f"{methods_summary(manifest)}\n"
     )
     from bimbot.shared.run_folder import run_folders
 
@@ -258,6 +290,38 @@ def _under(filename: object, folder: Path) -> bool:
         return False
     path = Path(os.fsdecode(filename)).absolute()
     return path.is_relative_to(Path(folder).absolute())
+
+
+def methods_summary(manifest: Manifest) -> str:
+    """``; built: 12 lifted, 3 panelised, 2 cast_in_place (and 4 with their hosts)``: the components by
+    method, most first; empty for none."""
+    counts = Counter(component.method.value for component in manifest.components)
+    if not counts:
+        return ""
+    ranked = sorted(counts.items(), key=lambda pair: (-pair[1], pair[0]))
+    guests = sum(len(component.guests) for component in [*manifest.components, *manifest.in_place])
+    with_hosts = f" (and {guests} with their hosts)" if guests else ""
+    return "; built: " + ", ".join(f"{count} {method}" for method, count in ranked) + with_hosts
+
+
+def methods_warnings(model: ifcopenshell.file, methods: MethodsFile) -> list[str]:
+    """The methods file's overrides that name nothing in ``model``: a GlobalId it lacks, a class its
+    schema does not know."""
+    from .selection import check_classes
+
+    where = methods.source or "methods file"
+    warnings = []
+    for guid in methods.by_guid:
+        try:
+            model.by_guid(guid)
+        except RuntimeError:
+            warnings.append(f"{where}: by_guid {guid!r}: no element of the model has that GlobalId")
+    for name in methods.by_class:
+        try:
+            check_classes(model, [name])
+        except ValueError:
+            warnings.append(f"{where}: by_class {name}: not a class of {model.schema}; it applies to nothing")
+    return warnings
 
 
 def skipped_summary(skipped: Sequence[SkippedElement], most: int = 4) -> str:

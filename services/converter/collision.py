@@ -155,7 +155,7 @@ def collision_from_mesh(
     if not parts:
         return CollisionShape(CollisionMethod.CONVEX_HULL, (hull,), "no convex parts found: one hull")
     if len(parts) > MAX_PARTS:
-        parts = _merge_parts(parts, MAX_PARTS)
+        parts = merge_parts(parts, MAX_PARTS)
     method = CollisionMethod.VHACD if used_vhacd else CollisionMethod.MESH_SPLIT
     return CollisionShape(method, tuple(parts), "; ".join(dict.fromkeys(notes)) or None)
 
@@ -192,7 +192,7 @@ def _solid_parts(
     return (parts or [hull]), bool(parts), None
 
 
-def _merge_parts(parts: list[TriMesh], limit: int) -> list[TriMesh]:
+def merge_parts(parts: list[TriMesh], limit: int) -> list[TriMesh]:
     """At most ``limit`` hulls: parts grouped along the longest axis of their centres, one hull per group."""
     centres = np.array([part.bounds.mean(axis=0) for part in parts])
     axis = int(np.argmax(np.ptp(centres, axis=0)))

@@ -17,16 +17,18 @@ import ifcopenshell
 import ifcopenshell.util.element
 import numpy as np
 
+from bimbot.shared.construction_methods import MethodDecision, MethodLimits
 from bimbot.shared.identifiers import guid_to_folder, guid_to_key, is_valid_guid
 from bimbot.shared.manifest import BoundingBox, Component, ComponentFiles, Inertia, MassSource, SkippedElement
+from bimbot.shared.methods_file import MethodsFile
 
 from . import mass as mass_chain
 from .collision import CollisionShape, collision_shape
+from .component_methods import method_fields, settled_method
 from .connections import element_connections
 from .mass_properties import MassProperties, mass_properties, mesh_from_arrays
 from .mesh import TriMesh
 from .mesh_files import VISUAL_FORMATS, GeometryFiles, link_geometry_files, write_geometry_files
-from .method_seam import MethodDecision, MethodLimits
 from .placement import pose_from_rigid, split_rigid, vec3
 from .prism_split import SectionCache
 from .sdf_writer import ModelSpec, model_config, model_sdf
@@ -48,6 +50,7 @@ class ShardContext:
     chains: dict[int, list[ifcopenshell.entity_instance]] = field(default_factory=dict)  # split_ifc
     decisions: dict[str, MethodDecision] = field(default_factory=dict)  # by GlobalId; absent: lifted/rule
     limits: MethodLimits | None = None  # what a lifted part may weigh and measure (None: the default fleet's)
+    methods: MethodsFile | None = None  # the methods file in force: its cast-in-place rates
     storey_levels_m: tuple[float, ...] = ()  # storey elevations, IFC world z, metres (panels' rows)
 
 
@@ -111,9 +114,11 @@ def write_component(
     *,
     mass: mass_chain.MassResult | None = None,
     warnings: tuple[str, ...] = (),
+    decision: MethodDecision | None = None,
 ) -> tuple[Component, ModelSpec]:
     """Write the model folder of ``item`` (visual mesh formats of ``context``, see :mod:`.mesh_files`).
-    ``mass``: the element's, when the caller has it already; ``warnings``: more for its manifest entry."""
+    ``mass``: the element's, when the caller has it already; ``warnings``: more for its manifest entry;
+    ``decision``: its settled construction method, when the caller has it (:mod:`.component_methods`)."""
     element = item.element
     guid = str(element.GlobalId)
     folder = guid_to_folder(guid)
@@ -127,6 +132,8 @@ def write_component(
     props = work.props
     if mass is None:
         mass = mass_chain.element_mass(element, props.volume_m3, unit_kg=context.mass_unit_kg)
+    if decision is None:
+        decision = settled_method(item, work, mass.mass_kg, context)
     notes = [*mass.warnings, *warnings]
     if not props.watertight:
         notes.append(
@@ -155,6 +162,7 @@ def write_component(
             files=work.files,
             split_ifc=split_name,
             warnings=notes,
+            extra=method_fields(decision, item, work, context),
         ),
         context,
     )

@@ -36,19 +36,25 @@ import ifcopenshell.util.unit
 import numpy as np
 
 from bimbot import __version__
+from bimbot.shared.construction_methods import MethodDecision, MethodLimits
+from bimbot.shared.fleet import Fleet, default_fleet
 from bimbot.shared.identifiers import slugify
 from bimbot.shared.ifc_input import file_sha256
 from bimbot.shared.ifc_parse_damage import ParseDamage, damaged_elements, describe_unreadable
 from bimbot.shared.joints import JointSettings, default_joint_settings
 from bimbot.shared.manifest import Component, Manifest, SourceModel, write_manifest
+from bimbot.shared.methods_file import MethodsFile, load_methods
 from bimbot.shared.sequence import SEQUENCE_FILE_NAME, write_sequence
 
 from .component_writer import ShardContext, skipped_entry
+from .final_method import method_limits
+from .guest_hosts import find_hosts
+from .guest_merge import build_guests_into_hosts
 from .in_place import split_in_place
 from .joints import find_joints
 from .mass import mass_unit_kg
 from .mesh_files import VISUAL_FORMATS
-from .method_seam import MethodDecision, MethodLimits, default_limits
+from .method_decisions import decide_methods
 from .panel_links import link_panels
 from .placement import axis2placement_matrix, choose_local_origin, vec3
 from .sdf_writer import world_sdf
@@ -74,8 +80,10 @@ class ConvertOptions:
     split_ifc: bool = True  # each component's standalone <GUID>.ifc (paper §4.3.1); no run reads it
     in_place_guids: tuple[str, ...] = ()  # in place before the robots come (.in_place), by GlobalId
     foundations_in_place: bool = False  # every component in the ground is in place too
-    decisions: Mapping[str, MethodDecision] = field(default_factory=dict)  # methods by GlobalId, as given
-    limits: MethodLimits = field(default_factory=default_limits)  # what a lift and a truck take (panels)
+    methods: MethodsFile | None = None  # how each element is built (default: the prefab preset)
+    fleet: Fleet | None = None  # what lifts the parts: too heavy is decided against it (default fleet)
+    decisions: Mapping[str, MethodDecision] = field(default_factory=dict)  # by GlobalId, over the file's
+    limits: MethodLimits | None = None  # what a lift and a truck take (default: the fleet's, the file's)
     joints: JointSettings | None = None  # what an overlap must be to be a joint (None: the default rules)
 
 
@@ -162,6 +170,8 @@ def _convert(
     if np.any(origin):
         warnings.append(f"model far from the IFC origin: world shifted by local origin {origin.tolist()} m")
     _prepare_out_dir(out_dir)
+    methods = options.methods or load_methods()
+    decisions = {**decide_methods(elements, methods), **options.decisions}
     stats.seconds_by_stage["select"] = time.perf_counter() - started
 
     shards_started = time.perf_counter()
@@ -173,8 +183,9 @@ def _convert(
         mass_unit_kg=mass_unit_kg(model),
         formats=options.formats,
         split_ifc=options.split_ifc,
-        decisions=dict(options.decisions),
-        limits=options.limits,
+        decisions=decisions,
+        limits=options.limits or method_limits(options.fleet or default_fleet(), methods),
+        methods=methods,
         storey_levels_m=_storey_levels_m(model, unit_scale_m),
     )
     results = run_shards(model, elements, context, workers=workers, progress=progress)
@@ -190,12 +201,14 @@ def _convert(
         key=lambda row: (row[0], row[1]),
     )
     panelised = sorted((entry for result in results for entry in result.panelised), key=lambda e: e.guid)
-    components, in_place = split_in_place(
-        link_panels([component for _, _, component, _ in merged], panelised),
-        options.in_place_guids,
-        foundations=options.foundations_in_place,
+    converted = link_panels([component for _, _, component, _ in merged], panelised)
+    hostings, unhosted = find_hosts(model, converted)
+    converted, specs = build_guests_into_hosts(
+        converted, [spec for _, _, _, spec in merged], hostings, unhosted, out_dir
     )
-    specs = [spec for _, _, _, spec in merged]
+    components, in_place = split_in_place(
+        converted, options.in_place_guids, foundations=options.foundations_in_place
+    )
     for result in results:
         skipped.extend(result.skipped)
         for stage, seconds in result.seconds_by_stage.items():

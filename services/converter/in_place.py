@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 
+from bimbot.shared.construction_methods import ConstructionMethod, MethodSource
 from bimbot.shared.manifest import Component
 
 FOUNDATIONS = "foundations"  # the --in-place keyword
@@ -26,19 +27,39 @@ BELOW_GROUND_M = 0.02  # and its bottom more than this below it
 
 def in_the_ground(component: Component) -> bool:
     """Its BIM target lies in the ground (a footing, a ground slab, a pile cap flush with the ground)."""
-    low, high = component.bbox_world.min_m[2], component.bbox_world.max_m[2]
-    return low < -BELOW_GROUND_M and high <= IN_THE_GROUND_M
+    return lies_in_ground(component.bbox_world.min_m[2], component.bbox_world.max_m[2])
+
+
+def lies_in_ground(bottom_z_m: float, top_z_m: float) -> bool:
+    """A target from ``bottom_z_m`` to ``top_z_m`` (world frame) lies in the ground."""
+    return bottom_z_m < -BELOW_GROUND_M and top_z_m <= IN_THE_GROUND_M
 
 
 def split_in_place(
     components: Sequence[Component], guids: Iterable[str], *, foundations: bool
 ) -> tuple[list[Component], list[Component]]:
     """``(to build, in place)``: the components named by GlobalId, and with ``foundations`` every one in
-    the ground, are in place; the order of each list is the order given."""
+    the ground, are in place (``method`` ``in_place``, the user's word), as is every component whose
+    method is already ``in_place`` (existing work the IFC names); the order of each list is the order
+    given."""
     named = set(guids)
-    in_place = [c for c in components if c.guid in named or (foundations and in_the_ground(c))]
+    asked = {c.guid for c in components if c.guid in named or (foundations and in_the_ground(c))}
+    in_place = [
+        c.model_copy(update=_asked_in_place(c)) if c.guid in asked else c
+        for c in components
+        if c.guid in asked or c.method is ConstructionMethod.IN_PLACE
+    ]
     placed = {c.guid for c in in_place}
     return [c for c in components if c.guid not in placed], in_place
+
+
+def _asked_in_place(component: Component) -> dict[str, object]:
+    return {
+        "method": ConstructionMethod.IN_PLACE,
+        "method_source": MethodSource.USER,
+        "method_note": "convert --in-place",
+        "cast": None,
+    }
 
 
 def above_ground(in_place: Sequence[Component]) -> list[Component]:

@@ -136,6 +136,20 @@ def write_obj(path: Path, mesh: TriMesh) -> None:
     path.write_text(obj_text(mesh), encoding="ascii")
 
 
+def read_obj(path: Path) -> TriMesh:
+    """A mesh :func:`write_obj` wrote (``v`` and triangle ``f`` lines, 1-based)."""
+    vertices: list[list[float]] = []
+    faces: list[list[int]] = []
+    for line in path.read_text(encoding="ascii").splitlines():
+        if line.startswith("v "):
+            vertices.append([float(value) for value in line.split()[1:4]])
+        elif line.startswith("f "):
+            faces.append([int(value.split("/")[0]) - 1 for value in line.split()[1:4]])
+    return TriMesh(
+        np.array(vertices, dtype=float).reshape(-1, 3), np.array(faces, dtype=np.int64).reshape(-1, 3)
+    )
+
+
 def vertex_normals(mesh: TriMesh) -> np.ndarray:
     """Unit vertex normals: face normals weighted by the corner angle at the vertex (trimesh's rule)."""
     triangles = mesh.triangles

@@ -1,14 +1,14 @@
 """Write one element as its components: whole, or as the precast panels it is split into.
 
-Once the element's mass is known, the method decision's ``final_method`` says whether it is panelised
-(:mod:`.method_seam`). A panelised element is cut by :mod:`.panelise` and each panel becomes a component of
+Once the element's mass is known, its settled method (:func:`.component_methods.settled_method`) says
+whether it is panelised. A panelised element is cut by :mod:`.panelise` and each panel becomes a component of
 its own, written like any other (:func:`.component_writer.write_entry`): a deterministic IFC GlobalId (a
 UUID5 of the element's GlobalId and the panel's number), the name ``"<element> panel i/n"``, the element's
 class, ``parent_guid`` and method ``panelised``, its own model folder, mass (the element's, split by volume),
 collision parts (the converter's mesh decomposition of the panel) and mesh files, no split IFC. The panel's
 frame has the element's axes, its origin at the centre of the panel's bounding box. The element gets one
 :class:`PanelisedElement` entry (its panels, the joints between them, why it was split) and is no component
-itself. An element that cannot be cut within the limits stays whole, with a warning saying why.
+itself. An element that cannot be cut within the limits stays whole and is lifted, with a warning saying why.
 """
 
 from __future__ import annotations
@@ -21,12 +21,18 @@ import ifcopenshell
 import ifcopenshell.guid
 import numpy as np
 
-from bimbot.shared.construction_methods import ConstructionMethod, PanelisedElement, PanelJoint
+from bimbot.shared.construction_methods import (
+    ConstructionMethod,
+    MethodDecision,
+    PanelisedElement,
+    PanelJoint,
+)
 from bimbot.shared.identifiers import guid_to_folder
 from bimbot.shared.manifest import Component
 
 from . import mass as mass_chain
 from .collision import collision_from_mesh
+from .component_methods import settled_method
 from .component_writer import (
     EntryParts,
     GeometryWork,
@@ -35,10 +41,10 @@ from .component_writer import (
     write_component,
     write_entry,
 )
+from .final_method import default_limits
 from .mass_properties import mass_properties
 from .mesh import TriMesh
 from .mesh_files import write_geometry_files
-from .method_seam import DEFAULT_DECISION, MethodDecision, default_limits, final_method
 from .panelise import PanelisationError, PanelLimits, panel_kind, panelise
 from .sdf_writer import ModelSpec
 
@@ -69,12 +75,7 @@ def write_element(
     element = item.element
     guid = str(element.GlobalId)
     mass = mass_chain.element_mass(element, work.props.volume_m3, unit_kg=context.mass_unit_kg)
-    low, high = work.props.bbox_local_m
-    size = (float(high[0] - low[0]), float(high[1] - low[1]), float(high[2] - low[2]))
-    limits = context.limits or default_limits()
-    decision = final_method(
-        context.decisions.get(guid, DEFAULT_DECISION), mass.mass_kg, size, element.is_a(), limits
-    )
+    decision = settled_method(item, work, mass.mass_kg, context)
     warnings: tuple[str, ...] = ()
     if decision.method is ConstructionMethod.PANELISED:
         try:
@@ -82,7 +83,11 @@ def write_element(
         except PanelisationError as error:
             _log.info("%s %s not panelised: %s", element.is_a(), guid, error)
             warnings = (f"not panelised: {error}",)
-    component, spec = write_component(model, item, work, context, mass=mass, warnings=warnings)
+            note = f"{decision.note}; not panelised ({error}): lifted whole" if decision.note else ""
+            decision = decision.model_copy(update={"method": ConstructionMethod.LIFTED, "note": note})
+    component, spec = write_component(
+        model, item, work, context, mass=mass, warnings=warnings, decision=decision
+    )
     return WrittenElement([component], [spec], [item.bbox_ifc_world_m])
 
 

@@ -42,6 +42,8 @@ Semantics:
 
 * types (``IfcFootingType``, ``IfcColumnType``, one ``IfcBeamType`` per span length) hold the body
   geometry as representation maps; occurrences map them (``IfcMappedItem``);
+* the footings are precast (``Pset_ConcreteElementGeneral.CastingMethod`` = ``PRECAST`` on their type), so
+  they are lifted like the steel rather than cast in place;
 * materials "S235 Steel" (``Pset_MaterialCommon.MassDensity`` = 7850 kg/m³, with an explicit kg/m³
   density unit) and "C30/37 Concrete" (no density: the converter must fall back to its material table),
   associated with every occurrence (and its type);
@@ -426,7 +428,7 @@ def _footing_type(model: ifcopenshell.file, setup: _Setup) -> ifcopenshell.entit
         "AREA", name, _profile_position(model), FOOTING_SIZE_MM, FOOTING_SIZE_MM
     )
     representation = _extrusion(model, setup.body, profile, _axis3(model), FOOTING_DEPTH_MM)
-    return _make_type(
+    footing_type = _make_type(
         model,
         ifc_class="IfcFootingType",
         name=name,
@@ -434,6 +436,10 @@ def _footing_type(model: ifcopenshell.file, setup: _Setup) -> ifcopenshell.entit
         representation=representation,
         material=setup.concrete,
     )
+    # precast pads, set by the robots like the steel (the paper's prefabricated case study)
+    pset = ifcopenshell.api.pset.add_pset(model, product=footing_type, name="Pset_ConcreteElementGeneral")
+    ifcopenshell.api.pset.edit_pset(model, pset=pset, properties={"CastingMethod": "PRECAST"})
+    return footing_type
 
 
 def _column_type(model: ifcopenshell.file, setup: _Setup, height_mm: float) -> ifcopenshell.entity_instance:

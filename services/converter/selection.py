@@ -15,6 +15,8 @@ The rule, as in the paper (building components are what robots assemble):
   and annotations are not ``IfcElement``\\ s at all.
 * An element that aggregates parts which are built (a curtain wall of plates and members, a roof of slabs)
   is left out: its parts are the components, building it as well would put its geometry there twice.
+  Unless it has a body of its own and its parts are only fittings (fasteners, accessories, plates: a
+  column aggregating its base plate): then it is built and they go in with it (``with_host``).
 
 Every ``IfcElement`` that is not chosen comes back as a :class:`Rejection` with a reason a user can act on
 (``"not a building element (IfcFurnishingElement); --include IfcFurnishingElement to build it"``), so the
@@ -31,6 +33,8 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import ifcopenshell
+
+from .method_ifc import is_fitting
 
 BUILDABLE_ROOTS = ("IfcBuildingElement", "IfcBuiltElement", "IfcElementComponent", "IfcElementAssembly")
 NEVER_COMPONENTS = ("IfcFeatureElement", "IfcVirtualElement")
@@ -272,7 +276,11 @@ def select_elements(
     with_body = {element.id() for element in candidates if has_body_representation(element)}
     chosen: list[ifcopenshell.entity_instance] = []
     for element in candidates:
-        built_parts = sum(1 for part in _parts(element) if part.id() in with_body)
+        parts = [part for part in _parts(element) if part.id() in with_body]
+        if element.id() in with_body and parts and all(is_fitting(part) for part in parts):
+            chosen.append(element)  # a member and its fittings: they are built into it
+            continue
+        built_parts = len(parts)
         if element.id() not in with_body:
             if built_parts:
                 reason = f"no geometry of its own; its {built_parts} part(s) are built as components"

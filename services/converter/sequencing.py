@@ -2,17 +2,19 @@
 
 A schedule that leaves some components out gets them appended in derived (support-graph) order, with
 their supports as predecessors; a schedule whose precedence has a cycle is reported and replaced by the
-derived sequence. Either way every component appears exactly once.
+derived sequence. Either way every component appears exactly once. The panels of a panelised element
+take its place in the schedule (its task names the element, not its panels), in the order they rest on
+one another.
 """
 
 from __future__ import annotations
 
 import ifcopenshell
 
-from bimbot.shared.ifc_schedule import schedule_from_ifc
+from bimbot.shared.ifc_schedule import schedule_from_ifc, with_stand_ins
 from bimbot.shared.manifest import Component, Joint
 from bimbot.shared.sequence import ConstructionSequence, SequenceError, SequenceTask, check_sequence
-from bimbot.shared.support_graph import derive_sequence
+from bimbot.shared.support_graph import derive_sequence, support_predecessors
 
 
 def construction_sequence(
@@ -20,9 +22,17 @@ def construction_sequence(
 ) -> tuple[ConstructionSequence, list[str]]:
     """(sequence, warnings) for ``components`` (``joints``: the pairs drawn into each other, which the
     support graph orders)."""
-    derived = derive_sequence(components, joints=joints or ())
+    support = support_predecessors(components, joints=joints or ())
+    derived = derive_sequence(components, support=support)
+    panels: dict[str, list[str]] = {}
+    for component in components:
+        if component.parent_guid:
+            panels.setdefault(component.parent_guid, []).append(component.guid)
+    whole = [component.guid for component in components if not component.parent_guid]
     try:
-        schedule = schedule_from_ifc(model, [component.guid for component in components])
+        schedule = schedule_from_ifc(model, [*whole, *panels])
+        if schedule is not None and panels:
+            schedule = with_stand_ins(schedule, panels, support)
     except SequenceError as error:
         return derived, [f"IFC schedule not usable ({error}); construction sequence derived from supports"]
     if schedule is None:

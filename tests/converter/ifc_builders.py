@@ -204,3 +204,24 @@ def add_assembly(small: SmallModel, parts: list[Entity], name: str = "Assembly")
     place(small, assembly, translation(), small.storey)
     ifcopenshell.api.aggregate.assign_object(small.file, products=parts, relating_object=assembly)
     return assembly
+
+
+def add_box(
+    small: SmallModel,
+    ifc_class: str,
+    name: str,
+    *,
+    size_m: tuple[float, float, float],
+    corner_m: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    predefined_type: str | None = None,
+    contained: bool = True,
+) -> Entity:
+    """An element of ``ifc_class`` whose body is a box of ``size_m`` (x, y, z) from ``corner_m`` (world)."""
+    element = ifcopenshell.api.root.create_entity(
+        small.file, ifc_class=ifc_class, name=name, predefined_type=predefined_type
+    )
+    body = ifcopenshell.api.geometry.add_wall_representation(
+        small.file, context=small.body, length=size_m[0], height=size_m[2], thickness=size_m[1]
+    )
+    ifcopenshell.api.geometry.assign_representation(small.file, product=element, representation=body)
+    return place(small, element, translation(*corner_m), small.storey if contained else None)

@@ -16,6 +16,7 @@ from wall_clock import bound_s
 
 from bimbot.services.converter.in_place import above_ground, in_the_ground, split_in_place
 from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame
+from bimbot.shared.construction_methods import ConstructionMethod, MethodSource
 from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.sequence import read_sequence
 
@@ -42,6 +43,9 @@ def test_foundations_in_place_are_converted_apart_and_left_out_of_the_sequence(
     assert "converted 3 component(s) (and 2 in place before the robots come)" in result.stdout
     manifest = read_manifest(tmp_path / "out")
     assert sorted(c.name for c in manifest.in_place) == ["Footing A1", "Footing A2"]
+    assert {(c.method, c.method_source, c.method_note) for c in manifest.in_place} == {
+        (ConstructionMethod.IN_PLACE, MethodSource.USER, "convert --in-place")
+    }
     assert sorted(c.ifc_class for c in manifest.components) == ["IfcBeam", "IfcColumn", "IfcColumn"]
     sequence = read_sequence(tmp_path / "out" / manifest.sequence_file)
     assert sorted(sequence.guids()) == sorted(c.guid for c in manifest.components)

@@ -16,9 +16,9 @@ from ifc_builders import SmallModel, add_beam, add_opening, add_wall, new_model,
 from sdf_checks import sdf_check_all
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
-from bimbot.services.converter.method_seam import MethodDecision, default_limits
+from bimbot.services.converter.final_method import default_limits
 from bimbot.services.converter.panel_writer import panel_guid
-from bimbot.shared.construction_methods import ConstructionMethod, MethodSource
+from bimbot.shared.construction_methods import ConstructionMethod, MethodDecision, MethodSource
 from bimbot.shared.identifiers import guid_to_folder, is_valid_guid
 from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Component, Manifest

@@ -9,14 +9,17 @@ from pathlib import Path
 
 import pytest
 
-from bimbot.services.converter.convert import convert_model
+from bimbot.services.converter.convert import ConvertOptions, convert_model
 from bimbot.shared.ifc_input import open_model
+from bimbot.shared.methods_file import load_methods
 
 SCHEDULING_TASK_IFC = "construction_scheduling_task.ifc"
 
 
 def _convert(source: Path, out: Path) -> Path:
-    convert_model(open_model(source), source, out)
+    """Converted with the paper's ``lifted`` methods: every element one component (the planner tests
+    follow the IFC's tasks, which name the elements, not the panels a heavy wall would be split into)."""
+    convert_model(open_model(source), source, out, ConvertOptions(methods=load_methods("lifted")))
     return out
 
 

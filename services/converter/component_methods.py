@@ -1,0 +1,69 @@
+"""A component's method fields, written by the component writer once the element's mass is known.
+
+:func:`settled_method` takes the element's decision from the shard context (a GlobalId without one is
+lifted by the default rule) and settles it against the fleet's lift and a truck's load
+(:func:`.final_method.final_method`, the element's own bounding box and whether its target lies in the
+ground). :func:`method_fields` gives the :class:`Component` fields: method, source, note and, for an
+element cast in place, its :class:`CastWork`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from bimbot.shared.construction_methods import ConstructionMethod, MethodDecision
+
+from .cast_work import cast_work
+from .final_method import default_limits, final_method
+from .in_place import lies_in_ground
+
+if TYPE_CHECKING:
+    from .component_writer import GeometryWork, PlacedElement, ShardContext
+
+
+def target_in_ground(item: PlacedElement, context: ShardContext) -> bool:
+    """Whether the element's target (world frame, after the local-origin shift) lies in the ground."""
+    low = float(item.bbox_ifc_world_m[0][2] - context.origin[2])
+    high = float(item.bbox_ifc_world_m[1][2] - context.origin[2])
+    return lies_in_ground(low, high)
+
+
+def settled_method(
+    item: PlacedElement, work: GeometryWork, mass_kg: float, context: ShardContext
+) -> MethodDecision:
+    """The element's decision settled with its mass and size, against the context's limits (none: the
+    default fleet's and methods')."""
+    decision = context.decisions.get(str(item.element.GlobalId))
+    box = np.asarray(work.props.bbox_local_m, dtype=float)
+    return final_method(
+        decision,
+        mass_kg,
+        tuple(box[1] - box[0]),
+        item.element.is_a(),
+        context.limits or default_limits(),
+        in_ground=target_in_ground(item, context),
+    )
+
+
+def method_fields(
+    decision: MethodDecision, item: PlacedElement, work: GeometryWork, context: ShardContext
+) -> dict[str, Any]:
+    """The :class:`Component` fields for ``decision``: method, method_source, method_note, cast."""
+    cast = None
+    if decision.method is ConstructionMethod.CAST_IN_PLACE and context.methods is not None:
+        cast = cast_work(
+            item.element,
+            work.mesh,
+            item.rotation,
+            work.props.volume_m3,
+            context.methods.cast_in_place,
+            in_ground=target_in_ground(item, context),
+        )
+    return {
+        "method": decision.method,
+        "method_source": decision.source,
+        "method_note": decision.note,
+        "cast": cast,
+    }

@@ -1,0 +1,91 @@
+"""What an element is made of, as the construction-method rules see it: its main material's kind.
+
+The main material is the one that makes most of the element: the thickest layer of a layer set (a brick
+wall plastered both sides is masonry), the largest fraction of a constituent set, the first profile of a
+profile set, the first of a list or the material itself (the element's own association, else its type's).
+Its kind comes from its name and category (IFC4), in the languages exports keep (the Revit sample house's
+"Ladrillo de cerámica hueco doble" is masonry, its "Cristal" glass); a material whose name says nothing
+(Revit's "<Unnamed>", "Default Floor") is :attr:`MaterialKind.UNKNOWN`. A name may also say how the element
+is made: "Concrete, Cast-in-Place gray" (the Revit hub's) is cast in place, "Precast Concrete" lifted.
+"""
+
+from __future__ import annotations
+
+import re
+
+import ifcopenshell
+import ifcopenshell.util.element
+
+from bimbot.shared.methods_file import MaterialKind
+
+# (pattern on a material name or category, kind); the first match wins, so specific words come first
+KIND_PATTERNS: tuple[tuple[re.Pattern[str], MaterialKind], ...] = (
+    (re.compile(r"alumin", re.I), MaterialKind.ALUMINIUM),
+    (re.compile(r"steel|stahl|acier|acero|acciaio|\bs\d{3}\b|metal", re.I), MaterialKind.STEEL),
+    (re.compile(r"concrete|b[eé]ton|hormig[oó]n|calcestruzzo|\bc\d{2}/\d{2}\b", re.I), MaterialKind.CONCRETE),
+    (
+        re.compile(
+            r"brick|masonry|block|\bcmu\b|ladrillo|brique|mattone|ziegel|mauerwerk|stone|piedra|pierre|pietra",
+            re.I,
+        ),
+        MaterialKind.MASONRY,
+    ),
+    (re.compile(r"timber|wood|\bholz\b|glulam|\bclt\b|madera|\bbois\b|legno", re.I), MaterialKind.TIMBER),
+    (re.compile(r"glass|glazing|\bglas\b|vidrio|cristal|verre|vetro", re.I), MaterialKind.GLASS),
+    (re.compile(r"gypsum|plaster|yeso|enlucido|pl[aâ]tre|gesso|\bgips|\bputz", re.I), MaterialKind.GYPSUM),
+)
+CAST_IN_PLACE_WORDS = re.compile(r"cast[-_ ]?in[-_ ]?(place|situ)|\bin[-_ ]?situ\b|insitu|ortbeton", re.I)
+PRECAST_WORDS = re.compile(r"pre[-_ ]?cast|pre[-_ ]?fab|fertigteil|pr[eé]fabriqu|prefabricad", re.I)
+
+
+def material_texts(element: ifcopenshell.entity_instance) -> list[str]:
+    """Names and categories of the element's materials, the one that makes most of it first (see the
+    module docstring), then the name of its material set."""
+    try:
+        material = ifcopenshell.util.element.get_material(element, should_skip_usage=True)
+    except (AttributeError, RuntimeError, TypeError):  # a malformed association
+        return []
+    if material is None:
+        return []
+    texts: list[str] = []
+    for item in main_materials(material):
+        texts += [str(text) for text in (item.Name, getattr(item, "Category", None)) if text]
+    own = getattr(material, "LayerSetName", None) or (
+        None if material.is_a("IfcMaterial") else getattr(material, "Name", None)
+    )
+    if own:
+        texts.append(str(own))
+    return list(dict.fromkeys(texts))
+
+
+def main_materials(material: ifcopenshell.entity_instance) -> list[ifcopenshell.entity_instance]:
+    """The ``IfcMaterial``\\ s of a material or material set, the one that makes most of it first."""
+    if material.is_a("IfcMaterial"):
+        return [material]
+    if material.is_a("IfcMaterialLayerSet"):
+        layers = sorted(material.MaterialLayers or (), key=lambda layer: -(layer.LayerThickness or 0.0))
+        return [layer.Material for layer in layers if layer.Material is not None]
+    if material.is_a("IfcMaterialConstituentSet"):
+        parts = sorted(material.MaterialConstituents or (), key=lambda part: -(part.Fraction or 0.0))
+        return [part.Material for part in parts if part.Material is not None]
+    if material.is_a("IfcMaterialProfileSet"):
+        return [profile.Material for profile in material.MaterialProfiles or () if profile.Material]
+    if material.is_a("IfcMaterialList"):
+        return [item for item in material.Materials or () if item is not None]
+    return []
+
+
+def kind_of(text: str) -> MaterialKind:
+    for pattern, kind in KIND_PATTERNS:
+        if pattern.search(text):
+            return kind
+    return MaterialKind.UNKNOWN
+
+
+def material_kind(texts: list[str]) -> MaterialKind:
+    """The kind of the first of ``texts`` (:func:`material_texts`) that says one."""
+    for text in texts:
+        kind = kind_of(text)
+        if kind is not MaterialKind.UNKNOWN:
+            return kind
+    return MaterialKind.UNKNOWN
