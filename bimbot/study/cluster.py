@@ -67,9 +67,9 @@ def run_on_dask(
         index_of = {future.key: index for index, future in enumerate(futures)}
         for future in as_completed(futures):
             index = index_of[future.key]
-            rows[index] = _row_of(future, jobs[index])
+            row = rows[index] = _row_of(future, jobs[index])
             if progress is not None:
-                progress(rows[index])
+                progress(row)
     return [row for row in rows if row is not None]
 
 
