@@ -27,11 +27,17 @@ from bimbot.shared.support_graph import derive_sequence
 S = ComponentState
 
 
-def _core(resend_s: float = 2.0) -> PlannerCore:
+def _core(resend_s: float = 2.0, limits: PlannerLimits | None = None) -> PlannerCore:
     manifest = portal_manifest()
     plan = plan_from_sequence(derive_sequence(manifest.components), manifest.components, "test")
     counter = itertools.count(1)
-    return PlannerCore(manifest, plan, resend_s=resend_s, new_id=lambda: f"ev{next(counter)}")
+    return PlannerCore(
+        manifest,
+        plan,
+        resend_s=resend_s,
+        new_id=lambda: f"ev{next(counter)}",
+        limits=limits or PlannerLimits(),
+    )
 
 
 def _events(out: list, event: ComponentEvent | None = None) -> list[ComponentEventMsg]:
@@ -166,11 +172,12 @@ def test_failed_component_blocks_its_dependents_and_independent_work_goes_on() -
     assert progress.failed == ["foot_a"] and set(progress.blocked) == {"col_a", "beam"} and progress.done
 
 
-GRACE_S = PlannerLimits().lost_grace_wall_s
+GRACE_S = 20.0  # a site across hosts (bimbot run --routers 2 gives 30 s)
+WITH_GRACE = PlannerLimits(lost_grace_wall_s=GRACE_S)
 
 
 def test_lost_robot_task_is_abandoned_and_reassigned() -> None:
-    core = _core()
+    core = _core(limits=WITH_GRACE)
     _robots(core, r1=(0.0, 0.0), r2=(9.0, 0.0))
     core.step(0.0)
     _release(core, "foot_a")
@@ -193,14 +200,14 @@ def test_robot_lost_before_picking_has_its_task_reassigned_without_abandon() -> 
     _release(core, "foot_a")
     core.step(0.1)
     core.robot_liveliness("r1", False)
-    out = core.step(0.2 + GRACE_S)
+    out = core.step(0.2)  # no grace by default (one host: a lost robot is a dead process)
     assert _events(out, ComponentEvent.ABANDON) == []
     assert [m.robot_id for m in _tasks(out, TaskStatus.ASSIGNED)] == ["r2"]
 
 
 def test_a_robot_cut_off_for_less_than_the_grace_that_still_reports_its_task_keeps_it() -> None:
     """A router restart takes a live robot off the bus for seconds: nothing is given back or reassigned."""
-    core = _core()
+    core = _core(limits=WITH_GRACE)
     _robots(core, r1=(0.0, 0.0), r2=(9.0, 0.0))
     core.step(0.0)
     _release(core, "foot_a")
@@ -216,7 +223,7 @@ def test_a_robot_cut_off_for_less_than_the_grace_that_still_reports_its_task_kee
 
 
 def test_a_robot_back_within_the_grace_without_its_task_restarted_and_its_task_is_given_back() -> None:
-    core = _core()
+    core = _core(limits=WITH_GRACE)
     _robots(core, r1=(0.0, 0.0), r2=(9.0, 0.0))
     core.step(0.0)
     _release(core, "foot_a")
