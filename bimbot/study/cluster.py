@@ -17,10 +17,14 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
+from bimbot.shared.errors import UserError
+
 from .execute import RunJob, run_one
 from .rows import failed_row
 
 _log = logging.getLogger(__name__)
+
+SCHEDULER_TIMEOUT_S = 30.0  # wall seconds to reach a --scheduler
 
 Progress = Callable[[dict[str, Any]], None]  # called with each row as its run ends
 
@@ -32,7 +36,11 @@ def dask_client(scheduler: str | None, workers: int) -> Iterator[Any]:
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
-        with Client(scheduler, timeout="30s") as client:
+        try:
+            client = Client(scheduler, timeout=f"{SCHEDULER_TIMEOUT_S:g}s")
+        except (OSError, TimeoutError, ValueError) as error:
+            raise UserError(f"--scheduler {scheduler}: no Dask scheduler answers there ({error})") from None
+        with client:
             yield client
         return
     with (

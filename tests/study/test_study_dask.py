@@ -73,3 +73,14 @@ def test_bimbot_study_writes_the_csv_table_and_plot_of_its_runs(tmp_path: Path) 
     table = (out / "study.md").read_text()
     assert "| one_carrier | 1/1 |" in table and table.split("\n", 2)[2] in done.stdout
     assert (out / "study.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_a_scheduler_that_does_not_answer_is_one_clear_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    from bimbot.shared.errors import UserError
+    from bimbot.study import cluster
+    from bimbot.supervisor import free_port
+
+    monkeypatch.setattr(cluster, "SCHEDULER_TIMEOUT_S", 1.0)
+    address = f"tcp://127.0.0.1:{free_port()}"
+    with pytest.raises(UserError, match="no Dask scheduler answers there"), cluster.dask_client(address, 1):
+        pass
