@@ -59,6 +59,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "what a robot fleet can build (feasibility table, no build), or show the default fleet file",
     ),
     "run": ("bimbot.run", "build a converted model with every service as a process on a loopback bus"),
+    "study": (
+        "bimbot.study.cli",
+        "compare scenarios: many runs over fleets, sequences and seeds (on Dask); CSV, table and plot",
+    ),
     "runs": ("bimbot.runs_cli", "list the runs of a build (BUILD/runs/), or make a new run folder"),
     "observe": (
         "bimbot.services.observer.cli",

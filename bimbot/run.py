@@ -47,7 +47,7 @@ from bimbot.run_args import (
 from bimbot.run_commands import (
     monitor_bus_options,
     restart_arguments,
-    router_arguments,
+    router_commands,
     run_fleet,
     secure_bus,
     service_commands,
@@ -137,20 +137,27 @@ def _run_build(
     if launcher is not None:
         log_dir.mkdir(parents=True, exist_ok=True)
         launcher.attach_log(log_dir / "fork-server.log")
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    endpoints = [f"tcp/127.0.0.1:{free_port()}" for _ in range(options.routers)]
+    endpoint = endpoints[0]
     services: list[ServiceProcess] = []
     restarter = Restarter(RestartPolicy(max_restarts=options.max_restarts))
     bus = secure_bus(run, options, manifest.site)  # None unless --secure; writes RUN/bus/
     with StopSignals().installed() as stop:
-        router = ServiceProcess("bus", router_arguments(endpoint, bus), log_dir, launcher=launcher)
+        routers = [
+            ServiceProcess(name, args, log_dir, launcher=launcher)
+            for name, args in router_commands(endpoints, bus)
+        ]
         watch = f"bimbot watch --build {build} --connect {endpoint}"
         if bus is not None:
             watch += f" --mode client --bus-config {bus.monitor}"
-        announce(f"bus: {endpoint}{' (secured)' if bus else ''} (watch it: {watch})")
+        if len(endpoints) > 1:
+            watch += " --mode client"
+        linked = "".join(f" and {other}, linked router to router" for other in endpoints[1:])
+        announce(f"bus: {endpoint}{linked}{' (secured)' if bus else ''} (watch it: {watch})")
         progress: ProgressView = NoProgress()
         ended_how = "stopped: the run did not get to its end"
         try:
-            with open_session(monitor_bus_options(endpoint, bus)) as session:
+            with open_session(monitor_bus_options(endpoint, bus, options.routers)) as session:
                 monitor = RunMonitor(manifest, session, robot_types=run_fleet(options).type_of())
 
                 def report_of(ending: RunEnding) -> dict[str, Any]:
@@ -160,7 +167,9 @@ def _run_build(
                         "restarts": restarter.report(),
                     }
 
-                for name, args in service_commands(build, endpoint, options, run, bus):
+                for name, args in service_commands(
+                    build, endpoint, options, run, bus, second_endpoint=endpoints[-1]
+                ):
                     again = restart_arguments(args)
                     services.append(
                         ServiceProcess(name, args, log_dir, restart_args=again, launcher=launcher)
@@ -172,7 +181,7 @@ def _run_build(
                     progress = make_progress(monitor.names, quiet=False, say=announce)
                 result = RunWatch(
                     planner=by_name["planner"],
-                    everyone=[router, *services],
+                    everyone=[*routers, *services],
                     monitor=monitor,
                     limits=LoopLimits(timeout_s=options.timeout_s, report_every_s=options.report_every_s),
                     watchdog=StallWatchdog(options.stall_after_s, options.clock_stall_wall_s),
@@ -210,7 +219,7 @@ def _run_build(
                 return outcome
         finally:
             progress.close()
-            stop_all([router, *services])
+            stop_all([*routers, *services])
             run.mark_ended(ended_how)  # services started by hand later make a new run folder
 
 

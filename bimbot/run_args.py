@@ -66,6 +66,7 @@ class RunOptions:
     max_attempts: int | None = None  # placements a component gets before it fails (None: the agents')
     tolerances: Tolerances = field(default_factory=Tolerances)  # in force on site: physics serves them
     seed: int = DEFAULT_SEED  # every random draw of the run (physics, each robot's own stream)
+    routers: int = 1  # 2: a site across two hosts, rehearsed here (bimbot.run_commands.service_commands)
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
@@ -196,6 +197,15 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
         "right service speak (Zenoh access control; files in RUN/bus/)",
     )
     parser.add_argument(
+        "--routers",
+        type=int,
+        choices=(1, 2),
+        default=1,
+        help="2: a site across two hosts, rehearsed on this one: two routers linked router to router; "
+        "physics, the planner and half the agents behind the first, the robots and the other half behind "
+        "the second, every service a Zenoh client of its own router (default 1)",
+    )
+    parser.add_argument(
         "--live",
         action="store_true",
         help="serve the rerun web viewer on 127.0.0.1 during the build and keep it up afterwards",
@@ -226,6 +236,8 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         raise UserError("--rtf must be >= 0")
     if args.timeout_s <= 0 or min(args.stall_after_s, args.stall_wall_s, args.report_every_s) < 0:
         raise UserError("--timeout-s must be positive; --stall-after-s, --stall-wall-s, --report-every-s ≥ 0")
+    if getattr(args, "routers", 1) > 1 and getattr(args, "secure", False):
+        raise UserError("--routers 2 runs on an open bus: --secure is for one router")
     planner_source: tuple[str, ...] = ()
     if args.derive:
         planner_source = ("--derive",)
@@ -269,6 +281,7 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         max_attempts=getattr(args, "max_attempts", None),
         tolerances=tolerances_from(args),
         seed=getattr(args, "seed", DEFAULT_SEED),
+        routers=getattr(args, "routers", 1),
     )
 
 

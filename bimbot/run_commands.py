@@ -7,6 +7,7 @@ user overrode (:mod:`bimbot.services.physics.profiles`); the agents and the obse
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 from bimbot.run_args import ObserverOptions, RunOptions
@@ -19,6 +20,10 @@ from bimbot.shared.fleet import Fleet, load_fleet
 from bimbot.shared.run_folder import RunFolder
 from bimbot.shared.step_gate import HOLD_S
 from bimbot.shared.tolerance_options import tolerance_flags
+
+#: With two routers, how long physics and the planner wait for a robot whose liveliness went (a router or
+#: link down) before they drop its load and give its task back (wall s).
+LINK_GRACE_S = 30.0
 
 
 def run_fleet(options: RunOptions) -> Fleet:
@@ -55,12 +60,15 @@ def physics_arguments(build: Path, options: RunOptions) -> list[str]:
     arguments += tolerance_flags(options.tolerances)  # physics serves them to every service
     arguments += ["--seed", str(options.seed)]
     if stepped(options):  # the planner and the agents answer each step too (reproducible runs)
-        arguments += ["--step-with", ",".join(STEPPED_PARTICIPANTS)]
+        arguments += ["--step-with", ",".join(stepped_participants(options))]
         arguments += ["--lock-step-timeout-s", f"{HOLD_S:g}"]  # a loaded machine is not a hang
     return [*arguments, *options.physics_extra]
 
 
-STEPPED_PARTICIPANTS = ("planner", "agents-1of1")  # a run's lock-step participants besides its robots
+def stepped_participants(options: RunOptions) -> tuple[str, ...]:
+    """A run's lock-step participants besides its robots: the planner and each agents shard."""
+    shards = max(1, options.routers)  # two routers: an agents shard beside each
+    return ("planner", *(f"agents-{shard}of{shards}" for shard in range(1, shards + 1)))
 
 
 def stepped(options: RunOptions) -> bool:
@@ -87,41 +95,72 @@ def router_arguments(endpoint: str, bus: BusFiles | None = None) -> list[str]:
     return [*arguments, "--bus-config", str(bus.router)] if bus is not None else arguments
 
 
-def monitor_bus_options(endpoint: str, bus: BusFiles | None = None) -> BusOptions:
-    """The bus options of ``bimbot run``'s own session: read-only ``monitor`` on a secured bus."""
+def router_commands(endpoints: Sequence[str], bus: BusFiles | None = None) -> list[tuple[str, list[str]]]:
+    """(name, bimbot arguments) of the run's routers: ``bus`` on the first endpoint; with a second,
+    ``bus-2`` on it, linked router to router to the first (it connects, and reconnects after either dies)."""
+    commands = [("bus", router_arguments(endpoints[0], bus))]
+    for number, endpoint in enumerate(endpoints[1:], start=2):
+        commands.append((f"bus-{number}", [*router_arguments(endpoint, bus), "--connect", endpoints[0]]))
+    return commands
+
+
+def monitor_bus_options(endpoint: str, bus: BusFiles | None = None, routers: int = 1) -> BusOptions:
+    """The bus options of ``bimbot run``'s own session: read-only ``monitor`` on a secured bus; a client
+    of the first router when the site has two (what it hears from the other half crossed their link)."""
     if bus is None:
+        if routers > 1:
+            return BusOptions(mode="client", connect=(endpoint,), listen=())
         return BusOptions(connect=(endpoint,))
     return BusOptions(mode="client", connect=(endpoint,), listen=(), config_file=bus.monitor)
 
 
 def service_commands(
-    build: Path, endpoint: str, options: RunOptions, run: RunFolder, bus: BusFiles | None = None
+    build: Path,
+    endpoint: str,
+    options: RunOptions,
+    run: RunFolder,
+    bus: BusFiles | None = None,
+    *,
+    second_endpoint: str | None = None,
 ) -> list[tuple[str, list[str]]]:
     """(name, bimbot arguments) of every service, in start order; with ``bus`` (a secured bus) each in
-    client mode with its own credentials."""
+    client mode with its own credentials.
 
-    def joined(user: str) -> list[str]:
-        on_bus = ["--connect", endpoint]
+    With two routers (``options.routers``), a site across two hosts: physics, the planner, the observer
+    and agent shard 1/2 join the first router (``endpoint``), the robots and shard 2/2 the second
+    (``second_endpoint``), every one in client mode, so all that passes between the two halves crosses
+    the routers' link."""
+    two_hosts = options.routers > 1
+
+    def joined(user: str, where: str = endpoint) -> list[str]:
+        on_bus = ["--connect", where]
         if bus is None:
-            # lock-step: every service a client of the run's router, one link each, so what one service
-            # sends reaches each other in the order it was sent (a peer mesh has two ways between two
-            # services, the direct link and the router, and a step's answer overtook its messages)
-            return [*on_bus, "--mode", "client"] if stepped(options) else on_bus
+            # lock-step or two hosts: every service a client of a router, one link each, so what one
+            # service sends reaches each other in the order it was sent (a peer mesh has two ways between
+            # two services, the direct link and the router, and a step's answer overtook its messages)
+            return [*on_bus, "--mode", "client"] if stepped(options) or two_hosts else on_bus
         return [*on_bus, "--mode", "client", "--bus-config", str(bus.service(user))]
 
+    other = second_endpoint or endpoint
     in_step = ["--stepped"] if stepped(options) else []
     agents = ["agents", "--build", str(build), "--run-dir", str(run.root), "--fresh", *in_step]
     if options.max_attempts is not None:
         agents += ["--max-attempts", str(options.max_attempts)]
     planner = ["planner", "--build", str(build), "--exit-when-done", *options.planner_source, *in_step]
-    commands = [
-        ("physics", [*physics_arguments(build, options), "--run-dir", str(run.root), *joined("physics")]),
-        ("agents", [*agents, *joined("agents")]),
-        ("planner", [*planner, *joined("planner")]),
-    ]
+    grace = ["--lost-grace-s", repr(LINK_GRACE_S)] if two_hosts else []  # ride out a router's restart
+    physics = [*physics_arguments(build, options), "--run-dir", str(run.root), *grace]
+    commands = [("physics", [*physics, *joined("physics")])]
+    if two_hosts:
+        commands += [
+            ("agents-1", [*agents, "--shard", "1/2", *joined("agents")]),
+            ("agents-2", [*agents, "--shard", "2/2", *joined("agents", other)]),
+        ]
+    else:
+        commands.append(("agents", [*agents, *joined("agents")]))
+    commands.append(("planner", [*planner, *grace, *joined("planner")]))
     for robot_id in run_fleet(options).type_of():
         robot = ["robot", "--build", str(build), "--id", robot_id, "--seed", str(options.seed), *in_step]
-        robot += joined(robot_user(robot_id))
+        robot += joined(robot_user(robot_id), other)
         if options.inject_placement_error_m:
             robot += ["--inject-placement-error-m", repr(options.inject_placement_error_m)]
         commands.append((f"robot-{robot_id}", robot))

@@ -45,6 +45,7 @@ def run_settings(options: RunOptions) -> dict[str, Any]:
         "timeout_s": options.timeout_s,
         "inject_placement_error_m": options.inject_placement_error_m,
         "seed": options.seed,
+        "routers": options.routers,
         "tolerances": {
             "position_mm": 1000.0 * options.tolerances.position_m,
             "angle_deg": math.degrees(options.tolerances.angle_rad),

@@ -170,6 +170,12 @@ class RobotDescription(BaseModel):
     handling_s: float = Field(default=2.0, ge=0, le=3600, description="to grip or sling, and to release")
     placement_precision_m: float = Field(default=0.0, ge=0, le=1, description="1 σ, per horizontal axis")
     placement_precision_yaw_deg: float = Field(default=0.0, ge=0, le=45, description="1 σ")
+    cost_per_h: float | None = Field(
+        default=None,
+        ge=0,
+        le=1e6,
+        description="hourly rate of one robot of this type (any currency; bimbot study costs busy hours)",
+    )
     crane: CraneSpec | None = None
     laying: LayingSpec | None = None
     capabilities: frozenset[Capability] = Field(

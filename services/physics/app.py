@@ -5,7 +5,8 @@ state):
 
 * subscriber ``bimbot/<site>/robots/*/cmd_vel`` (CmdVelMsg; a command whose key names another robot than
   its ``robot_id`` is counted invalid; robots physics did not spawn are ignored, logged once);
-* liveliness subscriber ``bimbot/<site>/alive/robot/*``: a robot that disappears stops and drops its load;
+* liveliness subscriber ``bimbot/<site>/alive/robot/*``: a robot that disappears (for ``lost_grace_s``)
+  stops and drops its load;
 * subscriber ``bimbot/<site>/components/*/state`` (ComponentStateMsg): a component its agent declared
   constructed can no longer be attached (a misplaced one can, for its retry). Each message is judged as the
   robots and ``bimbot run`` judge it (:mod:`bimbot.shared.component_states`): a
@@ -118,6 +119,10 @@ class RunConfig:
     # lock-step participants besides the robots (the planner, each agents shard: StepDoneMsg), waited for
     # like a robot until they say they are done, so what they decide happens at the same step in every run
     step_with: tuple[str, ...] = ()
+    # a robot whose liveliness went stays on site this long (wall s), still waited for in lock-step and still
+    # holding its load, before it is stopped and its load dropped: a site across hosts rides out a link or
+    # router that is down for seconds; 0 (one host: a lost robot is a dead process): at once
+    lost_grace_s: float = 0.0
 
 
 def main(
@@ -171,6 +176,7 @@ class _Loop:
         self.site = sim.site
         self.inbox = Inbox(InvalidPayloads())
         self.barrier = LockStepBarrier(run.lock_step_timeout_s)
+        self._lost_since: dict[str, float] = {}  # robot → wall time its liveliness went (lost_grace_s)
         # a command or request answering step k acts from step k + latency (latency.py)
         self.pipeline: Pipeline[IncomingQuery] = Pipeline(sim.config.command_latency_steps)
         self.pacer = Pacer(run.rtf)
@@ -300,6 +306,8 @@ class _Loop:
 
     def _wait_s(self, now: float) -> float:
         """How long to wait before the next period may run (0: run it now)."""
+        if self._lost_since:
+            self._expire_lost(now)
         if self._holding_clock(now):
             self._held = True
             return LOOP_WAIT_S
@@ -454,11 +462,15 @@ class _Loop:
                 self._planner_alive = item.alive
                 _log.info("planner %s", "alive" if item.alive else "gone")
             case LivelinessChange():
-                if self.sim.known(item.id):
-                    _log.info("robot %s %s", item.id, "alive" if item.alive else "lost")
-                    if not item.alive:
-                        self.pipeline.forget([item.id])
-                self._publish(self.sim.set_alive(item.id, item.alive))
+                if item.alive:
+                    self._lost_since.pop(item.id, None)
+                elif self.sim.known(item.id) and self.run.lost_grace_s > 0.0:
+                    _log.warning(
+                        "robot %s out of reach: lost unless back within %g s", item.id, self.run.lost_grace_s
+                    )
+                    self._lost_since.setdefault(item.id, time.monotonic())
+                    return
+                self._robot_liveliness(item.id, item.alive)
             case IncomingQuery():
                 self._answer(item)
 
@@ -468,6 +480,20 @@ class _Loop:
         if step is not None and robot_id is not None and self.run.step_with:
             self._count_request(robot_id, step, -1)
         return True
+
+    def _robot_liveliness(self, robot_id: str, alive: bool) -> None:
+        if self.sim.known(robot_id):
+            _log.info("robot %s %s", robot_id, "alive" if alive else "lost")
+            if not alive:
+                self.pipeline.forget([robot_id])
+        self._publish(self.sim.set_alive(robot_id, alive))
+
+    def _expire_lost(self, now: float) -> None:
+        """Robots out of reach for ``lost_grace_s`` are lost: stopped, their loads dropped."""
+        for robot_id, since in list(self._lost_since.items()):
+            if now - since >= self.run.lost_grace_s:
+                del self._lost_since[robot_id]
+                self._robot_liveliness(robot_id, False)
 
     def _ask_twins(self) -> None:
         """Ask the twins of the components whose state messages did not fit (non-blocking, bounded)."""

@@ -80,6 +80,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"wall seconds to wait for a robot (default {run.lock_step_timeout_s:g})",
     )
     parser.add_argument(
+        "--lost-grace-s",
+        type=non_negative_float,
+        default=run.lost_grace_s,
+        help="wall seconds a robot whose liveliness went stays on site, waited for and holding its load, "
+        "before it is stopped and its load dropped (a link or router down for a while; "
+        f"default {run.lost_grace_s:g})",
+    )
+    parser.add_argument(
         "--wait-for-robots-s",
         type=non_negative_float,
         default=None,
@@ -267,5 +275,6 @@ def run(args: argparse.Namespace) -> int:
         wait_for_planner=args.wait_for_planner,
         state_dir=state_dir,
         step_with=tuple(name.strip() for name in args.step_with.split(",") if name.strip()),
+        lost_grace_s=args.lost_grace_s,
     )
     return run_service(app.main, options, build, config, run_config)

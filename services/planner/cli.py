@@ -16,6 +16,7 @@ from pathlib import Path
 
 from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
+from bimbot.shared.option_types import non_negative_float
 from bimbot.shared.service_runner import resolve_build, run_service, service_bus
 
 from .app import PlannerOptions, main
@@ -88,6 +89,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "the inputs of a defined step, so a run reproduces (bimbot run does)",
     )
     parser.add_argument(
+        "--lost-grace-s",
+        type=non_negative_float,
+        default=limits.lost_grace_wall_s,
+        help="wall seconds a robot whose liveliness went keeps its task (a link or router down for a "
+        "while; back with it, it goes on) before it is given back "
+        f"(default {limits.lost_grace_wall_s:g}: at once)",
+    )
+    parser.add_argument(
         "--no-skip",
         action="store_true",
         help="never ask physics to skip its clock over a quiet site (curing, timed work in place)",
@@ -135,7 +144,11 @@ def planner_options(args: argparse.Namespace) -> PlannerOptions:
         strict=args.strict,
         skip_quiet=not args.no_skip,
         stepped=args.stepped,
-        limits=PlannerLimits(max_give_backs=args.max_give_backs, task_timeout_s=args.task_timeout_s),
+        limits=PlannerLimits(
+            max_give_backs=args.max_give_backs,
+            task_timeout_s=args.task_timeout_s,
+            lost_grace_wall_s=args.lost_grace_s,
+        ),
     )
 
 

@@ -40,6 +40,11 @@ class PlannerLimits:
     hold_after_give_backs: int = 2
     hold_s: float = 60.0
     hold_max_s: float = 600.0
+    # A robot whose liveliness is gone while it holds a task keeps the task this many wall seconds: back
+    # within them and still reporting it, it goes on; back without it (restarted) or not back, the task is
+    # given back. 0 (one host: a lost robot is a dead process) gives it back at the next step; a site
+    # across hosts allows for a link or router that is down for seconds (bimbot run --routers 2).
+    lost_grace_wall_s: float = 0.0
 
 
 class Phase(StrEnum):
@@ -93,6 +98,8 @@ class RobotRecord:
     reported_busy_until_s: float | None = None
     give_backs_in_row: int = 0  # tasks it gave back since it last placed a component
     held_until_s: float = 0.0  # no new task before this sim time (PlannerLimits.hold_*)
+    lost_wall_s: float | None = None  # its liveliness went while it held a task (lost_grace_wall_s)
+    rejoined: bool = False  # back within the grace: its next state says whether it still has its task
 
 
 @dataclass

@@ -18,7 +18,9 @@ calls :meth:`PlannerCore.step` with the wall time; ``step`` returns the messages
    and every transitive dependent ``blocked`` (never released) while independent work goes on. A robot that
    reports ``verifying`` for its component has done its part and is free again.
 4. **Robot lost** (liveliness gone): its task is given back — event ``abandon`` when the component is being
-   carried (picking/transporting/assembling), then released and reassigned.
+   carried (picking/transporting/assembling), then released and reassigned — once the robot has been gone
+   ``lost_grace_wall_s`` (a router restart cuts a live robot off for seconds), or at once when it comes
+   back without the task (it restarted).
 5. **Bounds** (:class:`PlannerLimits`): a component given back ``max_give_backs`` times, by any robots, is
    failed with the last give-back's reason (the robot's own: ``no_approach_pose``, ``unreachable``,
    ``robot_trapped``…); a task whose component has not changed state for ``task_timeout_s`` sim seconds is
@@ -214,6 +216,11 @@ class PlannerCore(Dispatch, Quiet):
         robot = self._robots.setdefault(msg.robot_id, RobotRecord(msg.robot_id))
         robot.state = msg.state
         robot.reported_task_id = msg.task_id
+        if robot.rejoined and robot.alive:
+            robot.rejoined = False
+            task = self._tasks.get(robot.task_guid) if robot.task_guid is not None else None
+            if task is not None and task.phase is Phase.ASSIGNED and msg.task_id != task.active_id:
+                self._give_back(task.guid, f"robot {msg.robot_id} came back without its task (restarted)")
         robot.pose_xy_yaw = msg.pose_xy_yaw
         robot.reported_busy_until_s = msg.busy_until_s
         self.observe_clock(msg.sim_time_s)
@@ -225,10 +232,13 @@ class PlannerCore(Dispatch, Quiet):
             return
         robot.alive = alive
         _log.info("robot %s %s", robot_id, "alive" if alive else "lost")
-        if not alive:
-            robot.state = None  # a robot that comes back must announce itself idle again
-            if robot.task_guid is not None:
-                self._give_back(robot.task_guid, f"robot {robot_id} lost")
+        if alive:
+            if robot.lost_wall_s is not None:  # back within the grace: does it still have its task?
+                robot.lost_wall_s, robot.rejoined = None, True
+            return
+        robot.state = None  # a robot that comes back must announce itself idle again
+        if robot.task_guid is not None:
+            robot.lost_wall_s = self._wall_s  # given back after the grace (_give_back_lost)
 
     def fail_at_start(self, reasons: dict[str, Reason]) -> None:
         """Fail, before anything is released, the components no robot on site can build (and block their
@@ -255,6 +265,7 @@ class PlannerCore(Dispatch, Quiet):
     def step(self, wall_time_s: float) -> list[Outgoing]:
         """Release the ready set, assign idle robots, (re)send what is due; the messages to publish."""
         self._wall_s = wall_time_s
+        self._give_back_lost()
         self._watch_tasks()
         self._release_ready()
         self._assign()
@@ -546,6 +557,16 @@ class PlannerCore(Dispatch, Quiet):
         if task.give_backs >= limit:
             message = f"given back {task.give_backs} times; last: {reason.message}"
             self._fail(task.guid, reason.model_copy(update={"message": message[:2000]}))
+
+    def _give_back_lost(self) -> None:
+        """The tasks of robots gone for ``lost_grace_wall_s`` are given back."""
+        for robot in self._robots.values():
+            lost = robot.lost_wall_s
+            if lost is None or robot.alive or self._wall_s - lost < self.limits.lost_grace_wall_s:
+                continue
+            robot.lost_wall_s = None
+            if robot.task_guid is not None:
+                self._give_back(robot.task_guid, f"robot {robot.robot_id} lost")
 
     def _watch_tasks(self) -> None:
         """The no-progress watchdog: an assigned task whose component has not changed state for

@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 from planner_builders import PORTAL, portal_manifest, robot_msg, state_msg, twin_msg
 
+from bimbot.services.planner.records import PlannerLimits
 from bimbot.services.planner.scheduler import Phase, PlannerCore
 from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan, plan_from_sequence
 from bimbot.shared.manifest import read_manifest
@@ -26,11 +27,17 @@ from bimbot.shared.support_graph import derive_sequence
 S = ComponentState
 
 
-def _core(resend_s: float = 2.0) -> PlannerCore:
+def _core(resend_s: float = 2.0, limits: PlannerLimits | None = None) -> PlannerCore:
     manifest = portal_manifest()
     plan = plan_from_sequence(derive_sequence(manifest.components), manifest.components, "test")
     counter = itertools.count(1)
-    return PlannerCore(manifest, plan, resend_s=resend_s, new_id=lambda: f"ev{next(counter)}")
+    return PlannerCore(
+        manifest,
+        plan,
+        resend_s=resend_s,
+        new_id=lambda: f"ev{next(counter)}",
+        limits=limits or PlannerLimits(),
+    )
 
 
 def _events(out: list, event: ComponentEvent | None = None) -> list[ComponentEventMsg]:
@@ -165,15 +172,20 @@ def test_failed_component_blocks_its_dependents_and_independent_work_goes_on() -
     assert progress.failed == ["foot_a"] and set(progress.blocked) == {"col_a", "beam"} and progress.done
 
 
+GRACE_S = 20.0  # a site across hosts (bimbot run --routers 2 gives 30 s)
+WITH_GRACE = PlannerLimits(lost_grace_wall_s=GRACE_S)
+
+
 def test_lost_robot_task_is_abandoned_and_reassigned() -> None:
-    core = _core()
+    core = _core(limits=WITH_GRACE)
     _robots(core, r1=(0.0, 0.0), r2=(9.0, 0.0))
     core.step(0.0)
     _release(core, "foot_a")
     assert [m.robot_id for m in _tasks(core.step(0.1), TaskStatus.ASSIGNED)] == ["r1"]
     core.observe_component_state(state_msg("foot_a", S.PICKING, event="pick", robot_id="r1"))
     core.robot_liveliness("r1", False)
-    out = core.step(0.2)
+    assert _events(core.step(0.1 + GRACE_S / 2), ComponentEvent.ABANDON) == []  # within the grace
+    out = core.step(0.2 + GRACE_S)
     abandon = _events(out, ComponentEvent.ABANDON)
     assert [(m.guid, m.robot_id) for m in abandon] == [("foot_a", "r1")]
     assert _tasks(out, TaskStatus.ASSIGNED) == []  # not before the component is released again
@@ -188,9 +200,41 @@ def test_robot_lost_before_picking_has_its_task_reassigned_without_abandon() -> 
     _release(core, "foot_a")
     core.step(0.1)
     core.robot_liveliness("r1", False)
-    out = core.step(0.2)
+    out = core.step(0.2)  # no grace by default (one host: a lost robot is a dead process)
     assert _events(out, ComponentEvent.ABANDON) == []
     assert [m.robot_id for m in _tasks(out, TaskStatus.ASSIGNED)] == ["r2"]
+
+
+def test_a_robot_cut_off_for_less_than_the_grace_that_still_reports_its_task_keeps_it() -> None:
+    """A router restart takes a live robot off the bus for seconds: nothing is given back or reassigned."""
+    core = _core(limits=WITH_GRACE)
+    _robots(core, r1=(0.0, 0.0), r2=(9.0, 0.0))
+    core.step(0.0)
+    _release(core, "foot_a")
+    (task,) = _tasks(core.step(0.1), TaskStatus.ASSIGNED)
+    core.observe_component_state(state_msg("foot_a", S.TRANSPORTING, event="attach", robot_id="r1"))
+    core.robot_liveliness("r1", False)
+    core.step(5.0)
+    core.robot_liveliness("r1", True)
+    core.observe_robot_state(robot_msg("r1", (1.0, 0.0), RobotState.PICK_UP, task_id=task.task_id))
+    out = core.step(0.2 + 2 * GRACE_S)
+    assert _events(out, ComponentEvent.ABANDON) == [] and _tasks(out, TaskStatus.ASSIGNED) == []
+    assert core.robot_of("foot_a") == "r1" and core.phase("foot_a") is Phase.ASSIGNED
+
+
+def test_a_robot_back_within_the_grace_without_its_task_restarted_and_its_task_is_given_back() -> None:
+    core = _core(limits=WITH_GRACE)
+    _robots(core, r1=(0.0, 0.0), r2=(9.0, 0.0))
+    core.step(0.0)
+    _release(core, "foot_a")
+    core.step(0.1)
+    core.observe_component_state(state_msg("foot_a", S.PICKING, event="pick", robot_id="r1"))
+    core.robot_liveliness("r1", False)
+    core.step(2.0)
+    core.robot_liveliness("r1", True)
+    core.observe_robot_state(robot_msg("r1", (0.0, 0.0)))  # idle, no task: a new process
+    abandon = _events(core.step(3.0), ComponentEvent.ABANDON)
+    assert [(m.guid, m.robot_id) for m in abandon] == [("foot_a", "r1")]
 
 
 def test_progress_counts_percent_and_finish_estimate() -> None:
