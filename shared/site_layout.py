@@ -48,7 +48,8 @@ from scipy.spatial.transform import Rotation
 
 from .manifest import Component
 from .robot_description import DEFAULT_ROBOT, Capability, RobotDescription
-from .site_machines import plan_machines
+from .site_laydown import Crane, crane_only, lay_down
+from .site_machines import keep_clear, plan_machines
 from .site_plan import (  # the plan's data types; physics serves a plan with its site info
     Rect,
     SiteLayout,
@@ -159,17 +160,39 @@ def plan_site(
 ) -> SiteLayout:
     """The site for ``components`` (in manifest order) and ``robots`` robots of type ``robot``, or the
     robots of ``fleet`` (one description per robot, in robot id order; the machines that stand fixed set up
-    around the building, see :mod:`.site_machines`)."""
+    around the building, see :mod:`.site_machines`; the loads only a crane lifts lie beside it, see
+    :mod:`.site_laydown`, when each finds a spot there, else every component lies in the yard)."""
     if not components:
         raise ValueError("a site needs at least one component")
+    heavy = set(crane_only(components, fleet)) if fleet is not None else set()
+    for _ in range(2):  # a load without a spot beside its crane goes back to the yard, which moves the crane
+        if not heavy or len(heavy) == len(components):
+            break
+        in_yard = [component for index, component in enumerate(components) if index not in heavy]
+        site = _plan_site(components, in_yard, robots, robot, fleet)
+        laid, missing = _with_laydown(site, [components[index] for index in sorted(heavy)], fleet or ())
+        if not missing:
+            return laid
+        heavy -= {index for index in heavy if components[index].guid in missing}
+    return _plan_site(components, components, robots, robot, fleet)
+
+
+def _plan_site(
+    components: Sequence[Component],
+    in_yard: Sequence[Component],
+    robots: int,
+    robot: RobotDescription,
+    fleet: Sequence[RobotDescription] | None,
+) -> SiteLayout:
+    """The site for the building of ``components`` with ``in_yard`` (a subset) laid in the yard."""
     if fleet is not None:
         ground = [item for item in fleet if item.can(Capability.DRIVE)]
         robot = max(ground, key=lambda item: item.radius_m, default=robot)
         robots = len(ground)
     building = building_footprint(components)
-    sizes = np.array([laid_size_m(component)[:2] for component in components])
-    bottoms = [round(component.bbox_world.min_m[2], 2) for component in components]
-    priority = sorted(range(len(components)), key=lambda index: (bottoms[index], index))
+    sizes = np.array([laid_size_m(component)[:2] for component in in_yard])
+    bottoms = [round(component.bbox_world.min_m[2], 2) for component in in_yard]
+    priority = sorted(range(len(in_yard)), key=lambda index: (bottoms[index], index))
     aisle_m = aisle_width_m(robot)
     lane_m = max(LANE_M, aisle_m)
     centre_x = (building.min_xy[0] + building.max_xy[0]) / 2.0
@@ -183,7 +206,7 @@ def plan_site(
     assert best is not None
     rows = best[2]
     slots, aisles, yard = _place_rows(
-        components, rows, sizes, aisle_m=aisle_m, centre_x=centre_x, front_y=front_y
+        in_yard, rows, sizes, aisle_m=aisle_m, centre_x=centre_x, front_y=front_y
     )
     depot_width = 2.0 * ROBOT_SPACING_M
     first_y = front_y + lane_m / 2.0  # the first robot on the lane between the building and the yard
@@ -370,3 +393,32 @@ def _place_rows(
         x = right_edge + aisle_m
     slots = {placed[index].guid: placed[index] for index in range(len(components))}
     return slots, tuple(aisles), yard
+
+
+def _with_laydown(
+    site: SiteLayout, heavy: Sequence[Component], fleet: Sequence[RobotDescription]
+) -> tuple[SiteLayout, set[str]]:
+    """``site`` (planned without ``heavy`` in its yard) with ``heavy`` laid down beside the cranes
+    (:mod:`.site_laydown`) and the fence around them, and the GlobalIds of those that found no spot."""
+    fixed = [
+        (item, pose)
+        for item, pose in zip(fleet, site.robot_starts, strict=True)
+        if not item.can(Capability.DRIVE)
+    ]
+    cranes = [Crane(item, pose) for item, pose in fixed if item.can(Capability.HOOK_LIFT)]
+    ground = [item for item in fleet if item.can(Capability.DRIVE)]
+    lane_m = max(LANE_M, aisle_width_m(max(ground, key=lambda item: item.radius_m, default=DEFAULT_ROBOT)))
+    blocked = [
+        *keep_clear(site.building, site.yard, site.depot, lane_m),
+        *(rect.grown(lane_m) for rect in (*site.machines, *site.staging)),
+    ]
+    slots = lay_down(heavy, cranes, blocked)
+    fence = site.fence
+    for slot in slots.values():
+        grown = slot.footprint.grown(lane_m)
+        fence = Rect(
+            (min(fence.min_xy[0], grown.min_xy[0]), min(fence.min_xy[1], grown.min_xy[1])),
+            (max(fence.max_xy[0], grown.max_xy[0]), max(fence.max_xy[1], grown.max_xy[1])),
+        )
+    missing = {component.guid for component in heavy if component.guid not in slots}
+    return replace(site, slots={**site.slots, **slots}, fence=fence), missing
