@@ -9,7 +9,7 @@ installed names (``bimbot/`` → ``bimbot``, ``services/`` → ``bimbot.services
 * ``cross-package arrows``: arrows whose two ends lie in different packages (folders);
 * ``upward arrows``: arrows against the layers ``shared`` < ``services`` < the command-line package
   (``bimbot/``), plus arrows from a module into a module of a package that encloses its own
-  (``bimbot.study.grid`` → ``bimbot.run_args``);
+  (``bimbot.export.cli`` → ``bimbot.cli``);
 * ``service → service arrows``: arrows from one service into another;
 * ``modules in import cycles``: modules on a cycle of arrows (strongly connected, more than one module).
 

@@ -58,7 +58,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "bimbot.fleet_cli",
         "what a robot fleet can build (feasibility table, no build), or show the default fleet file",
     ),
-    "run": ("bimbot.run", "build a converted model with every service as a process on a loopback bus"),
+    "run": ("bimbot.run.main", "build a converted model with every service as a process on a loopback bus"),
     "study": (
         "bimbot.study.cli",
         "compare scenarios: many runs over fleets, sequences and seeds (on Dask); CSV, table and plot",

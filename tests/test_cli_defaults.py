@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 
 from bimbot.cli import build_parser
-from bimbot.run_args import RunOptions, run_options
-from bimbot.run_commands import physics_arguments
+from bimbot.run.commands import physics_arguments
+from bimbot.run.options import RunOptions, run_options
 from bimbot.services.physics.app import RunConfig
 from bimbot.services.physics.cli import apply_profile
 from bimbot.services.physics.profiles import PROFILES, REHEARSAL, RUN_PROFILE
@@ -184,7 +184,7 @@ def test_bimbot_run_and_physics_share_one_definition_of_the_profile_options() ->
 def test_robots_n_keeps_the_fleets_machines_that_stand_fixed_in_run_physics_and_fleet_check() -> None:
     """``--robots 3``: three of the default type (carriers) and still the crane, the pump and the block
     layer; the help says so wherever the option is."""
-    from bimbot.run_commands import run_fleet
+    from bimbot.run.commands import run_fleet
     from bimbot.services.physics.cli import fleet_of
 
     expected = "3 carrier, 1 tower_crane, 1 concrete_pump, 1 block_layer"

@@ -226,7 +226,7 @@ def test_the_staging_areas_are_drawn_beside_the_yard_and_depot_labelled_with_the
 
 
 def test_the_run_summary_lists_robots_by_type_with_hand_offs_and_utilisation_per_type(report: dict) -> None:
-    from bimbot.run import RunOutcome, summary_text
+    from bimbot.run.summary import RunOutcome, summary_text
 
     text = summary_text(RunOutcome(exit_code=0, constructed=2, total=28, report=report))
     lines = text.splitlines()

@@ -323,7 +323,7 @@ def test_percentiles_interpolate_between_order_statistics_as_numpy_does() -> Non
 def test_the_summary_has_one_line_of_placement_errors_by_type_retries_by_cause_and_drift(
     report: dict,
 ) -> None:
-    from bimbot.run import RunOutcome, summary_text
+    from bimbot.run.summary import RunOutcome, summary_text
 
     line = (
         "every placement attempt by robot type: "

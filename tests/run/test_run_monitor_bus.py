@@ -19,7 +19,7 @@ import zenoh
 from run_builders import GUIDS, manifest, poses, state, twin, walk
 from wall_clock import bound_s
 
-from bimbot.run_monitor import RunMonitor
+from bimbot.run.monitor import RunMonitor
 from bimbot.services.observer.report_fleet import lane_label
 from bimbot.shared.bus import BusOptions, encode, open_session
 from bimbot.shared.manifest import Manifest

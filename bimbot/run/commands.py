@@ -1,8 +1,9 @@
 """The command line of every service a run starts: ``bimbot run`` starts them, its preflight parses them.
 
-Kept apart from :mod:`bimbot.run` so that :mod:`bimbot.run_preflight` checks exactly the command lines the
-run will start, without importing the run itself. Physics gets its profile by name and only the values the
-user overrode (:mod:`bimbot.services.physics.profiles`); the agents and the observer get the run folder.
+Kept apart from :mod:`bimbot.run.build` so that :mod:`bimbot.run.preflight` checks exactly the command
+lines the run will start, without importing the run itself. Physics gets its profile by name and only the
+values the user overrode (:mod:`bimbot.services.physics.profiles`); the agents and the observer get the run
+folder.
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from bimbot.run_args import ObserverOptions, RunOptions
+from bimbot.run.options import ObserverOptions, RunOptions
 from bimbot.services.physics.profiles import PROFILES
 from bimbot.shared.bus import BusOptions
 from bimbot.shared.bus_access import robot_user
@@ -182,6 +183,6 @@ def observer_arguments(build: Path, observer: ObserverOptions, run: RunFolder) -
 
 
 def restart_arguments(arguments: list[str]) -> list[str]:
-    """A service's command line when ``bimbot run`` restarts it (:mod:`bimbot.run_restarts`): the same,
+    """A service's command line when ``bimbot run`` restarts it (:mod:`bimbot.run.restarts`): the same,
     without ``--fresh``, so the agents resume from their journal instead of clearing it."""
     return [argument for argument in arguments if argument != "--fresh"]

@@ -18,11 +18,11 @@ A component's timeline in the report is rebuilt from its twin whenever one answe
 At the end, before the services stop, :meth:`RunMonitor.audit` asks every twin at once
 (``components/*/twin``: the last word on each component's state) and physics for every pose
 (``physics/poses``), and compares the constructed components with their BIM targets
-(:mod:`bimbot.as_built`); :meth:`RunMonitor.report` includes the result.
+(:mod:`bimbot.run.as_built`); :meth:`RunMonitor.report` includes the result.
 
 It also keeps what the run's terminal and watchdog need: each robot's last state message, each task's
 last message, and ``changes``, a count of every change on the site (a component state change, a change
-of the planner's progress counts), which the stall watchdog (:mod:`bimbot.run_watchdog`) watches.
+of the planner's progress counts), which the stall watchdog (:mod:`bimbot.run.watchdog`) watches.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ from typing import Any
 import zenoh
 from pydantic import BaseModel
 
-from bimbot.as_built import AGENT_TOLERANCES, AsBuiltAudit, add_to_report, audit_as_built
+from bimbot.run.as_built import AGENT_TOLERANCES, AsBuiltAudit, add_to_report, audit_as_built
 from bimbot.services.observer.report import UNFINISHED, ReportCollector, RunEnding
 from bimbot.shared.asked import Asked
 from bimbot.shared.bus import Answer, Inbox, InvalidPayloads, Received, query_first
@@ -226,7 +226,7 @@ class RunMonitor:
     def audit(self, timeout_s: float = AUDIT_TIMEOUT_S) -> AsBuiltAudit:
         """The end-of-run audit, while the agents and physics still answer: every twin confirms its state
         (:meth:`confirm_twins`), then physics' poses of every component are compared with their BIM
-        targets (:func:`bimbot.as_built.audit_as_built`). Bounded: about ``timeout_s`` wall seconds at
+        targets (:func:`bimbot.run.as_built.audit_as_built`). Bounded: about ``timeout_s`` wall seconds at
         most (physics gets at least ``MIN_POSES_TIMEOUT_S``). The result is kept for :meth:`report`."""
         wall_time_s, deadline = time.time(), time.monotonic() + timeout_s
         self.confirm_twins(timeout_s)

@@ -1,6 +1,6 @@
 """The options of ``bimbot run`` and ``bimbot demo``: defaults, the shared arguments, and :class:`RunOptions`.
 
-Kept apart from :mod:`bimbot.run` (which runs a build with them) so both commands and the benches share
+Kept apart from :mod:`bimbot.run.build` (which runs a build with them) so both commands and the benches share
 one set of defaults: the named physics profile of a run (:mod:`bimbot.services.physics.profiles`; single
 values override it), the run folder, the time limit, the stall watchdog's bounds, how often the report is
 written while a run goes on, and ``-q``.
@@ -13,8 +13,8 @@ import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from bimbot.run_restarts import RestartPolicy
-from bimbot.run_watchdog import DEFAULT_CLOCK_STALL_WALL_S, DEFAULT_STALL_AFTER_S
+from bimbot.run.restarts import RestartPolicy
+from bimbot.run.watchdog import DEFAULT_CLOCK_STALL_WALL_S, DEFAULT_STALL_AFTER_S
 from bimbot.services.component_agents.agent import AgentConfig
 from bimbot.services.observer import VIEWER_GRPC_PORT, VIEWER_WEB_PORT
 from bimbot.services.physics.profiles import RUN_PROFILE, add_profile_arguments
@@ -66,7 +66,7 @@ class RunOptions:
     max_attempts: int | None = None  # placements a component gets before it fails (None: the agents')
     tolerances: Tolerances = field(default_factory=Tolerances)  # in force on site: physics serves them
     seed: int = DEFAULT_SEED  # every random draw of the run (physics, each robot's own stream)
-    routers: int = 1  # 2: a site across two hosts, rehearsed here (bimbot.run_commands.service_commands)
+    routers: int = 1  # 2: a site across two hosts, rehearsed here (bimbot.run.commands.service_commands)
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
