@@ -18,7 +18,7 @@ hand-offs to a crane are marked with a black triangle, misplacements with a red 
 failures with a black one. Every component that is not constructed is marked: a red hatched span from
 where it stopped (failed, picked, released, or the start) to the end of the run, its reason code at the
 right edge of its row, its label in red, and a legend entry counting the codes. The title gives the
-as-built audit made at the end of the run (:mod:`bimbot.as_built`: the largest final error of the
+as-built audit made at the end of the run (:mod:`bimbot.run.as_built`: the largest final error of the
 constructed components, how many physics has away from their BIM target); each of those has its final
 error at the right edge of its row. Both share the sim-time axis, so the chart shows at a glance where
 the run waited, which robot did what, whether the building went up in the planned order, and what was not
