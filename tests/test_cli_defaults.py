@@ -152,7 +152,7 @@ def test_bimbot_run_names_its_profile_and_passes_only_what_the_user_changed() ->
     wait = "--wait-for-planner"  # the planner's start-up is not sim time
     # the run's seed and its lock-step participants, who may be slow on a loaded machine
     seeded = ["--seed", "0", "--step-with", "planner,agents-1of1", "--lock-step-timeout-s", "60"]
-    assert plain == ["physics", "--build", "OUT", "--robots", "2", "--profile", RUN_PROFILE, wait, *seeded]
+    assert plain == ["physics", "--build", "OUT", wait, "--robots", "2", "--profile", RUN_PROFILE, *seeded]
     changed = physics_arguments(Path("OUT"), RunOptions(physics_hz=240.0, lock_step=False, seed=7))
     assert changed[-5:] == ["--physics-hz", "240.0", "--no-lock-step", "--seed", "7"]
     unconnected = physics_arguments(Path("OUT"), RunOptions(connections=False))

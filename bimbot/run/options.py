@@ -1,4 +1,12 @@
-"""The options of ``bimbot run`` and ``bimbot demo``: defaults, the shared arguments, and :class:`RunOptions`.
+"""The options of ``bimbot run`` and ``bimbot demo``, each declared once, and :class:`RunOptions`.
+
+:data:`SERVICE_OPTIONS` is every option a service takes from the run: its declaration (type, default,
+help), the services that get it and where :class:`RunOptions` keeps it. The run's parser
+(:func:`add_run_arguments`), :func:`run_options` and the children's command lines
+(:func:`service_flags`, used by :mod:`bimbot.run.commands`) are all built from it; the physics profile's
+options and the tolerances are physics' and shared's own declarations
+(:data:`~bimbot.services.physics.profiles.PROFILE_OPTIONS`, :data:`~bimbot.shared.tolerance_options.
+TOLERANCE_OPTIONS`). :data:`RUN_OPTIONS` are the run's own.
 
 Kept apart from :mod:`bimbot.run.build` (which runs a build with them) so both commands and the benches share
 one set of defaults: the named physics profile of a run (:mod:`bimbot.services.physics.profiles`; single
@@ -10,18 +18,27 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from bimbot.run.restarts import RestartPolicy
 from bimbot.run.watchdog import DEFAULT_CLOCK_STALL_WALL_S, DEFAULT_STALL_AFTER_S
 from bimbot.services.component_agents.agent import AgentConfig
 from bimbot.services.observer import VIEWER_GRPC_PORT, VIEWER_WEB_PORT
-from bimbot.services.physics.profiles import RUN_PROFILE, add_profile_arguments
+from bimbot.services.physics.profiles import PROFILE_OPTIONS, RUN_PROFILE, profile_option
 from bimbot.shared.errors import UserError
-from bimbot.shared.option_types import non_negative_float, non_negative_int, positive_float, positive_int
+from bimbot.shared.option_types import (
+    OptionSpec,
+    non_negative_float,
+    non_negative_int,
+    positive_float,
+    positive_int,
+)
 from bimbot.shared.seeds import DEFAULT_SEED
-from bimbot.shared.tolerance_options import add_tolerance_arguments, tolerances_from
+from bimbot.shared.tolerance_options import TOLERANCE_OPTIONS, tolerances_from
 from bimbot.shared.verification import Tolerances
 
 DEFAULT_TIMEOUT_S = 900.0
@@ -69,134 +86,211 @@ class RunOptions:
     routers: int = 1  # 2: a site across two hosts, rehearsed here (bimbot.run.commands.service_commands)
 
 
-def add_run_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options ``bimbot run`` and ``bimbot demo`` share."""
-    parser.add_argument(
-        "--fleet",
-        type=Path,
-        default=None,
-        metavar="FLEET.toml",
-        help="the robot types on site and how many of each (default: bimbot's mixed fleet: a Husky, a heavy "
-        "carrier, a tower crane, a concrete pump and a block-laying robot; see `bimbot fleet show`)",
-    )
-    parser.add_argument(
-        "--robots",
-        type=positive_int,
-        default=None,
-        help="N robots of the fleet's default type instead of its ground robots; the machines that stand "
-        "fixed (its cranes, pumps, block layers) stay",
-    )
-    parser.add_argument(
+@dataclass(frozen=True)
+class ServiceOption:
+    """An option of the run that goes on to services: its one declaration, the services that get it, and
+    where :class:`RunOptions` keeps its value (``kept``: a field, or a path into one; None: the option
+    travels as given, in ``RunOptions.planner_source``)."""
+
+    spec: OptionSpec
+    services: tuple[str, ...]
+    kept: str | None
+    shown: Callable[[Any], Any] | None = None  # the kept value in the flag's unit (radians → degrees, …)
+    always: bool = False  # passed at its default too
+    group: str | None = None  # at most one option of a group (the planner's sequence source)
+
+    def value(self, options: RunOptions) -> Any:
+        value: Any = options
+        for name in (self.kept or "").split("."):
+            value = getattr(value, name)
+        return self.shown(value) if self.shown is not None and value is not None else value
+
+    def flags(self, options: RunOptions) -> list[str]:
+        """The words that pass the option on: none when it is kept as given or left at the run's default."""
+        if self.kept is None:
+            return []
+        value = self.value(options)
+        if not self.always and value == self.value(RunOptions()):
+            return []
+        return self.spec.flags(value)
+
+
+_SOURCE = "source"
+PLANNER_ONLY = "planner"
+
+#: Every option of ``bimbot run`` that a service takes, declared once: the run's parser and every child's
+#: command line are built from it (:func:`add_run_arguments`, :func:`service_flags`); that each service's
+#: own parser takes what it is given is ``tests/run/test_run_options.py``'s.
+SERVICE_OPTIONS: tuple[ServiceOption, ...] = (
+    ServiceOption(
+        OptionSpec(
+            "--fleet",
+            type=Path,
+            metavar="FLEET.toml",
+            help="the robot types on site and how many of each (default: bimbot's mixed fleet: a Husky, a "
+            "heavy carrier, a tower crane, a concrete pump and a block-laying robot; see "
+            "`bimbot fleet show`)",
+        ),
+        ("physics",),
+        "fleet",
+        shown=Path.resolve,
+    ),
+    ServiceOption(
+        OptionSpec(
+            "--robots",
+            type=positive_int,
+            help="N robots of the fleet's default type instead of its ground robots; the machines that stand "
+            "fixed (its cranes, pumps, block layers) stay",
+        ),
+        ("physics",),
+        "robots",
+    ),
+    ServiceOption(profile_option(RUN_PROFILE), ("physics",), "profile", always=True),
+    *(ServiceOption(spec, ("physics",), spec.dest) for spec in PROFILE_OPTIONS),
+    ServiceOption(TOLERANCE_OPTIONS[0], ("physics",), "tolerances.position_m"),  # physics serves them all
+    ServiceOption(TOLERANCE_OPTIONS[1], ("physics",), "tolerances.angle_rad", shown=math.degrees),
+    ServiceOption(TOLERANCE_OPTIONS[2], ("physics",), "tolerances.drift_m"),
+    ServiceOption(
+        OptionSpec(
+            "--seed",
+            type=non_negative_int,
+            default=DEFAULT_SEED,
+            metavar="N",
+            help="seed of every random draw (odometry and placement noise in physics, each robot's "
+            f"localisation); the same build, fleet, sequence and seed give the same outcome ({DEFAULT_SEED})",
+        ),
+        ("physics", "robot"),
+        "seed",
+        always=True,
+    ),
+    ServiceOption(
+        OptionSpec(
+            "--inject-placement-error-m",
+            type=non_negative_float,
+            default=0.0,
+            metavar="M",
+            help="robots place each component's first attempt this far off (the agents must catch it)",
+        ),
+        ("robot",),
+        "inject_placement_error_m",
+    ),
+    ServiceOption(
+        OptionSpec(
+            "--max-attempts",
+            type=positive_int,
+            metavar="N",
+            help="placements a component gets before it fails "
+            f"(default {AgentConfig.max_attempts}, the agents')",
+        ),
+        ("agents",),
+        "max_attempts",
+    ),
+    ServiceOption(
+        OptionSpec("--derive", kind="switch", help="planner derives the sequence from supports"),
+        ("planner",),
+        None,
+        group=_SOURCE,
+    ),
+    ServiceOption(
+        OptionSpec(
+            "--sequence",
+            type=Path,
+            help="planner uses this sequence XML, or an MS Project XML, P6 XML or P6 XER schedule",
+        ),
+        ("planner",),
+        None,
+        group=_SOURCE,
+    ),
+    ServiceOption(
+        OptionSpec(
+            "--from-ifc",
+            const="",
+            metavar="FILE.ifc",
+            help="planner reads the 4D schedule of an IFC file (default: the model the build was converted "
+            "from)",
+        ),
+        ("planner",),
+        None,
+        group=_SOURCE,
+    ),
+    ServiceOption(
+        OptionSpec(
+            "--strict",
+            kind="switch",
+            help="a sequence step that cuts off later work is an error (exit 2), not a warning",
+        ),
+        ("planner",),
+        None,
+    ),
+)
+
+#: The options of the run itself (no service takes them).
+RUN_OPTIONS: tuple[OptionSpec, ...] = (
+    OptionSpec(
         "--run-dir",
         type=Path,
-        default=None,
         metavar="DIR",
         help="this run's output folder: journal, logs, report, recording (default BUILD/runs/<time>/, "
         "linked as BUILD/runs/latest)",
-    )
-    add_profile_arguments(parser, RUN_PROFILE)
-    add_tolerance_arguments(parser)
-    parser.add_argument(
-        "--seed",
-        type=non_negative_int,
-        default=DEFAULT_SEED,
-        metavar="N",
-        help="seed of every random draw (odometry and placement noise in physics, each robot's "
-        f"localisation); the same build, fleet, sequence and seed give the same outcome ({DEFAULT_SEED})",
-    )
-    parser.add_argument(
-        "--inject-placement-error-m",
-        type=non_negative_float,
-        default=0.0,
-        metavar="M",
-        help="robots place each component's first attempt this far off (the agents must catch it)",
-    )
-    source = parser.add_mutually_exclusive_group()
-    source.add_argument("--derive", action="store_true", help="planner derives the sequence from supports")
-    source.add_argument(
-        "--sequence",
-        type=Path,
-        default=None,
-        help="planner uses this sequence XML, or an MS Project XML, P6 XML or P6 XER schedule",
-    )
-    source.add_argument(
-        "--from-ifc",
-        nargs="?",
-        const="",
-        default=None,
-        metavar="FILE.ifc",
-        help="planner reads the 4D schedule of an IFC file (default: the model the build was converted from)",
-    )
-    parser.add_argument(
-        "--strict",
-        action="store_true",
-        help="a sequence step that cuts off later work is an error (exit 2), not a warning",
-    )
-    parser.add_argument(
-        "--max-attempts",
-        type=positive_int,
-        default=None,
-        metavar="N",
-        help=f"placements a component gets before it fails (default {AgentConfig.max_attempts}, the agents')",
-    )
-    parser.add_argument(
+    ),
+    OptionSpec(
         "--check-stability",
-        action="store_true",
+        kind="switch",
         help="no build: replay the sequence in physics without robots (every component at its BIM pose, "
         "released onto what is under it) and report the first step whose partial structure does not stand",
-    )
-    parser.add_argument(
+    ),
+    OptionSpec(
         "--timeout-s",
         type=positive_float,
         default=DEFAULT_TIMEOUT_S,
         help=f"end the run after this many wall seconds, with its report ({DEFAULT_TIMEOUT_S:g})",
-    )
-    parser.add_argument(
+    ),
+    OptionSpec(
         "--stall-after-s",
         type=non_negative_float,
         default=DEFAULT_STALL_AFTER_S,
         help="end the run when nothing on the site changed for this many sim seconds "
         f"({DEFAULT_STALL_AFTER_S:g}; 0: never)",
-    )
-    parser.add_argument(
+    ),
+    OptionSpec(
         "--stall-wall-s",
         type=non_negative_float,
         default=DEFAULT_CLOCK_STALL_WALL_S,
         help="end the run when the sim clock stood still this many wall seconds "
         f"({DEFAULT_CLOCK_STALL_WALL_S:g})",
-    )
-    parser.add_argument(
+    ),
+    OptionSpec(
         "--report-every-s",
         type=non_negative_float,
         default=DEFAULT_REPORT_EVERY_S,
         help="also write the report this often (wall seconds) while it runs "
         f"({DEFAULT_REPORT_EVERY_S:g}; 0: never)",
-    )
-    parser.add_argument(
+    ),
+    OptionSpec(
         "--max-restarts",
         type=non_negative_int,
         default=RestartPolicy.max_restarts,
         metavar="N",
         help="restart each service that dies up to N times (per service), with backoff, and go on "
         f"({RestartPolicy.max_restarts}; 0: a dead service ends the run)",
-    )
-    parser.add_argument(
-        "-q",
+    ),
+    OptionSpec(
         "--quiet",
+        short="-q",
         dest="run_quiet",
-        action="store_true",
+        kind="switch",
         help="no live progress and no info logs, only the summary",
-    )
-    parser.add_argument(
-        "--observe", action="store_true", help="also run the observer: a rerun recording (.rrd) of the build"
-    )
-    parser.add_argument(
+    ),
+    OptionSpec(
+        "--observe", kind="switch", help="also run the observer: a rerun recording (.rrd) of the build"
+    ),
+    OptionSpec(
         "--secure",
-        action="store_true",
+        kind="switch",
         help="a secured bus: each service joins with its own credentials and the router lets only the "
         "right service speak (Zenoh access control; files in RUN/bus/)",
-    )
-    parser.add_argument(
+    ),
+    OptionSpec(
         "--routers",
         type=int,
         choices=(1, 2),
@@ -204,24 +298,48 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
         help="2: a site across two hosts, rehearsed on this one: two routers linked router to router; "
         "physics, the planner and half the agents behind the first, the robots and the other half behind "
         "the second, every service a Zenoh client of its own router (default 1)",
-    )
-    parser.add_argument(
+    ),
+    OptionSpec(
         "--live",
-        action="store_true",
+        kind="switch",
         help="serve the rerun web viewer on 127.0.0.1 during the build and keep it up afterwards",
-    )
-    parser.add_argument(
+    ),
+    OptionSpec(
         "--web-port",
         type=int,
         default=ObserverOptions.web_port,
         help=f"web viewer port with --live ({ObserverOptions.web_port})",
-    )
-    parser.add_argument(
+    ),
+    OptionSpec(
         "--grpc-port",
         type=int,
         default=ObserverOptions.grpc_port,
         help=f"viewer data port with --live ({ObserverOptions.grpc_port})",
-    )
+    ),
+)
+
+
+def add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options ``bimbot run`` and ``bimbot demo`` share: :data:`SERVICE_OPTIONS`, :data:`RUN_OPTIONS`."""
+    groups: dict[str, argparse._MutuallyExclusiveGroup] = {}
+    for option in SERVICE_OPTIONS:
+        if option.group is None:
+            option.spec.declare(parser)
+        else:
+            if option.group not in groups:
+                groups[option.group] = parser.add_mutually_exclusive_group()
+            option.spec.declare(groups[option.group])
+    for spec in RUN_OPTIONS:
+        spec.declare(parser)
+
+
+def service_flags(service: str, options: RunOptions) -> list[str]:
+    """The options ``service`` gets from the run, in :data:`SERVICE_OPTIONS`' order; the planner's
+    sequence source and ``--strict`` as the user gave them (``RunOptions.planner_source``)."""
+    words = [
+        word for option in SERVICE_OPTIONS if service in option.services for word in option.flags(options)
+    ]
+    return [*words, *options.planner_source] if service == PLANNER_ONLY else words
 
 
 def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOptions:
@@ -238,15 +356,17 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         raise UserError("--timeout-s must be positive; --stall-after-s, --stall-wall-s, --report-every-s ≥ 0")
     if getattr(args, "routers", 1) > 1 and getattr(args, "secure", False):
         raise UserError("--routers 2 runs on an open bus: --secure is for one router")
-    planner_source: tuple[str, ...] = ()
-    if args.derive:
-        planner_source = ("--derive",)
-    elif args.sequence is not None:
-        planner_source = ("--sequence", str(args.sequence))
-    elif getattr(args, "from_ifc", None) is not None:
-        planner_source = ("--from-ifc", args.from_ifc) if args.from_ifc else ("--from-ifc",)
-    if args.strict:
-        planner_source = (*planner_source, "--strict")
+    kept = {
+        option.kept: getattr(args, option.spec.dest)
+        for option in SERVICE_OPTIONS
+        if option.kept is not None and "." not in option.kept
+    }
+    planner_source = tuple(
+        word
+        for option in SERVICE_OPTIONS
+        if option.kept is None
+        for word in option.spec.flags(getattr(args, option.spec.dest, None))
+    )
     observer = None
     if observe or args.observe or args.live:
         observer = ObserverOptions(
@@ -256,21 +376,11 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
             keep_serving=args.live,
         )
     return RunOptions(
-        robots=args.robots,
-        fleet=args.fleet,
-        profile=args.profile,
-        rtf=args.rtf,
-        lock_step=args.lock_step,
-        inject_placement_error_m=args.inject_placement_error_m,
+        **kept,
+        tolerances=tolerances_from(args),
         observer=observer,
         planner_source=planner_source,
         timeout_s=args.timeout_s,
-        physics_hz=args.physics_hz,
-        control_period_s=args.control_period_s,
-        laser_beams=args.laser_beams,
-        command_latency_steps=args.command_latency_steps,
-        total_station_mm=args.total_station_mm,
-        connections=args.connections,
         run_dir=args.run_dir,
         stall_after_s=args.stall_after_s,
         clock_stall_wall_s=args.stall_wall_s,
@@ -278,9 +388,6 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         max_restarts=args.max_restarts,
         show_progress=not quiet(args),
         secure=getattr(args, "secure", False),
-        max_attempts=getattr(args, "max_attempts", None),
-        tolerances=tolerances_from(args),
-        seed=getattr(args, "seed", DEFAULT_SEED),
         routers=getattr(args, "routers", 1),
     )
 
