@@ -8,8 +8,8 @@ installed names (``bimbot/`` → ``bimbot``, ``services/`` → ``bimbot.services
 * ``import arrows``: distinct (importer, imported) pairs of bimbot's own modules;
 * ``cross-package arrows``: arrows whose two ends lie in different packages (folders);
 * ``upward arrows``: arrows against the layers ``shared`` < ``services`` < the command-line package
-  (``bimbot/``), plus arrows from a module into a module of a package that encloses its own
-  (``bimbot.export.cli`` → ``bimbot.cli``);
+  (``bimbot/``): shared code that imports a service or the command line, a service that imports the
+  command line;
 * ``service → service arrows``: arrows from one service into another;
 * ``modules in import cycles``: modules on a cycle of arrows (strongly connected, more than one module).
 
@@ -95,11 +95,7 @@ def main(argv: list[str] | None = None) -> int:
     for module, path in known.items():
         graph.add_edges_from((module, target) for target in _imports(module, path, known))
     cross = [(a, b) for a, b in graph.edges if packages[a] != packages[b]]
-    upward = []
-    for a, b in graph.edges:
-        enclosing = packages[a] != packages[b] and packages[a].startswith(packages[b] + ".")
-        if _layer(a) < _layer(b) or (enclosing and known[b].name != "__init__.py"):
-            upward.append((a, b))
+    upward = [(a, b) for a, b in graph.edges if _layer(a) < _layer(b)]
     services = [(a, b) for a, b in graph.edges if _service(a) and _service(b) and _service(a) != _service(b)]
     cyclic = sum(len(c) for c in nx.strongly_connected_components(graph) if len(c) > 1)
     print(f"modules                    {len(known)}")

@@ -52,11 +52,11 @@ from bimbot.run.restarts import Restarter, RestartPolicy
 from bimbot.run.settings import run_settings
 from bimbot.run.summary import RunOutcome, summary_text
 from bimbot.run.watchdog import StallWatchdog
-from bimbot.services.observer.report import RunEnding
 from bimbot.shared.bus import open_session
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import Manifest, load_manifest
 from bimbot.shared.messages import ComponentState
+from bimbot.shared.report.collector import RunEnding
 from bimbot.shared.run_folder import RunFolder, new_run_folder
 from bimbot.supervisor import ServiceProcess, free_port, stop_all, wait_until
 
@@ -197,7 +197,7 @@ def _check_input(build: Path, options: RunOptions, launcher: ForkServer | None) 
 def _write_report(report: dict[str, Any], report_dir: Path) -> None:
     """``report.json`` and ``report.png``; matplotlib is imported here, when the first report is due, not
     before the services start (a quarter of a second of every run's start)."""
-    from bimbot.services.observer.report_png import write_report_files
+    from bimbot.shared.report.png import write_report_files
 
     write_report_files(report, report_dir)
 

@@ -1,6 +1,6 @@
 """The waiting loop of ``bimbot run``: until the planner is done, or something ends the run first.
 
-A run ends in one of these ways, each a :class:`~bimbot.services.observer.report.RunEnding` that the
+A run ends in one of these ways, each a :class:`~bimbot.shared.report.collector.RunEnding` that the
 report gives every component left unbuilt without a reason of its own:
 
 ============  =====================================================================  ==================
@@ -31,8 +31,8 @@ from bimbot.run.monitor import RunMonitor
 from bimbot.run.progress import ProgressView
 from bimbot.run.restarts import Restarter
 from bimbot.run.watchdog import StallWatchdog, stall_details
-from bimbot.services.observer.report import RunEnding
 from bimbot.shared.reasons import ReasonCode
+from bimbot.shared.report.collector import RunEnding
 from bimbot.shared.signal_event import stop_handlers
 from bimbot.supervisor import ServiceProcess
 

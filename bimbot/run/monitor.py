@@ -2,7 +2,7 @@
 
 The subscriber callbacks only validate and enqueue (:class:`bimbot.shared.bus.Inbox`);
 :meth:`RunMonitor.drain`, called from the run's waiting loop, feeds the messages to the observer's pure
-:class:`bimbot.services.observer.report.ReportCollector`, so ``report.json``/``report.png`` are written
+:class:`bimbot.shared.report.collector.ReportCollector`, so ``report.json``/``report.png`` are written
 at the end of every run, with or without the observer (laser scans and plans are not subscribed: the
 report does not use them). Physics' site info is asked once it answers: the robots' types, by which the report
 groups its lanes and gives utilisation per type.
@@ -36,7 +36,6 @@ import zenoh
 from pydantic import BaseModel
 
 from bimbot.run.as_built import AGENT_TOLERANCES, AsBuiltAudit, add_to_report, audit_as_built
-from bimbot.services.observer.report import UNFINISHED, ReportCollector, RunEnding
 from bimbot.shared.asked import Asked
 from bimbot.shared.bus import Answer, Inbox, InvalidPayloads, Received, query_first
 from bimbot.shared.manifest import Manifest
@@ -59,6 +58,7 @@ from bimbot.shared.messages import (
     TaskMsg,
     TwinMsg,
 )
+from bimbot.shared.report.collector import UNFINISHED, ReportCollector, RunEnding
 from bimbot.shared.trusted_states import Judgement, TrustedStates
 from bimbot.shared.twin_query import ask_twin, ask_twins
 from bimbot.shared.verification import Tolerances

@@ -1,7 +1,7 @@
 """The summary ``bimbot run`` prints as it ends: what was built, how well, by whom, and what was not and why.
 
 Pure: a :class:`RunOutcome` (the run's counts, its report and where its files are) in, text out. The
-figures are the report's (:mod:`bimbot.services.observer.report` and its ``report_*`` helpers), so the
+figures are the report's (:mod:`bimbot.shared.report.collector` and its ``report_*`` helpers), so the
 summary and ``report.json`` cannot disagree.
 """
 
@@ -15,12 +15,12 @@ from typing import Any
 from bimbot.run.as_built import as_built_line
 from bimbot.run.restarts import Restart
 from bimbot.run.table import not_built_table
-from bimbot.services.observer.report import RunEnding
-from bimbot.services.observer.report_fleet import lane_label, robot_order, utilisation_line
-from bimbot.services.observer.report_methods import curing_line
-from bimbot.services.observer.report_placements import caught_on_last_attempt, placement_line
-from bimbot.services.observer.report_time import duration_text
-from bimbot.services.observer.report_totals import busy_within_s, makespan_window
+from bimbot.shared.report.collector import RunEnding
+from bimbot.shared.report.durations import duration_text
+from bimbot.shared.report.fleet import lane_label, robot_order, utilisation_line
+from bimbot.shared.report.methods import curing_line
+from bimbot.shared.report.placements import caught_on_last_attempt, placement_line
+from bimbot.shared.report.totals import busy_within_s, makespan_window
 from bimbot.shared.run_folder import RunFolder
 
 MAX_PLAN_WARNINGS_SHOWN = 5

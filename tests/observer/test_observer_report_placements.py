@@ -28,14 +28,14 @@ import pytest
 from observer_site_info import site_info
 from pydantic import BaseModel
 
-from bimbot.services.observer.report import ReportCollector
-from bimbot.services.observer.report_placements import percentile, placement_line
-from bimbot.services.observer.report_placements_png import TOLERANCE_MM
-from bimbot.services.observer.report_png import DPI, FIGURE_SIZE_IN, render_report_png, report_figure
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState as S
 from bimbot.shared.messages import ComponentStateMsg, PoseMsg, TwinMsg
 from bimbot.shared.reasons import Reason, ReasonCode
+from bimbot.shared.report.collector import ReportCollector
+from bimbot.shared.report.placements import percentile, placement_line
+from bimbot.shared.report.placements_png import TOLERANCE_MM
+from bimbot.shared.report.png import DPI, FIGURE_SIZE_IN, render_report_png, report_figure
 
 TYPES = {"r1": "husky", "r2": "carrier", "r3": "carrier"}
 SLID = Reason(code=ReasonCode.UNSTABLE, message="it moved 75 mm after release", robot_id="r2")
