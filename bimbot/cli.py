@@ -27,7 +27,7 @@ from bimbot.supervisor import STOP_WITH_PARENT_ENV
 # sub-command → (module with add_arguments/run, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "sample": (
-        "bimbot.services.converter.sample_cli",
+        "bimbot.data.sample_cli",
         "write a generated sample IFC model (the bundled light steel frame)",
     ),
     "convert": (
