@@ -42,10 +42,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from bench.run_figures import placement_lines, read_figures  # noqa: E402
+from bimbot.data.light_steel_frame import build_light_steel_frame, parse_bays  # noqa: E402
 from bimbot.demo import bundled_model_path  # noqa: E402
-from bimbot.run import ObserverOptions, RunOptions, RunOutcome, run_build  # noqa: E402
+from bimbot.run.build import run_build  # noqa: E402
+from bimbot.run.options import ObserverOptions, RunOptions  # noqa: E402
+from bimbot.run.summary import RunOutcome  # noqa: E402
 from bimbot.services.converter.convert import ConvertOptions, convert_model  # noqa: E402
-from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame, parse_bays  # noqa: E402
 from bimbot.shared.ifc_input import open_model  # noqa: E402
 
 WALL_TARGET_S = 60.0  # bimbot demo, as a user runs it

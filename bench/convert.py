@@ -41,9 +41,9 @@ import ifcopenshell
 import ifcopenshell.geom
 import ifcopenshell.util.shape
 
+from bimbot.data.light_steel_frame import build_light_steel_frame
 from bimbot.demo import bundled_model_path
 from bimbot.services.converter.convert import ConversionStats, ConvertOptions, convert_model
-from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame
 from bimbot.services.converter.selection import select_elements
 from bimbot.services.converter.tessellation import default_threads, geometry_settings
 from bimbot.shared.ifc_input import open_model

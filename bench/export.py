@@ -31,10 +31,10 @@ from bimbot.export.ifc_export import IfcExport, export_ifc, validate_ifc
 from bimbot.export.run_data import load_run
 from bimbot.services.component_agents.journal import JournalRecord
 from bimbot.services.converter.convert import convert_model
-from bimbot.services.observer.report import ReportCollector, RunEnding
 from bimbot.shared.ifc_input import read_model
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState, ComponentStateMsg
+from bimbot.shared.report.collector import ReportCollector, RunEnding
 from bimbot.shared.sequence import read_sequence
 
 HOUSE = Path(__file__).resolve().parents[2] / "shared" / "samples" / "ifc" / "revit2021_sample_project.ifc"

@@ -31,8 +31,8 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
+from bimbot.data.light_steel_frame import build_light_steel_frame
 from bimbot.services.converter.convert import convert_model
-from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame
 from bimbot.services.planner.access_plan import FINE
 from bimbot.services.planner.capability import SiteRobot
 from bimbot.services.planner.scheduler import PlannerCore

@@ -24,7 +24,7 @@ import sys
 import time
 from pathlib import Path
 
-from bimbot.run_outcome import RunOutcome, differences, outcome, spread
+from bimbot.run.outcome import RunOutcome, differences, outcome, spread
 
 
 def _load(report: Path) -> RunOutcome:

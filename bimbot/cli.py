@@ -27,7 +27,7 @@ from bimbot.supervisor import STOP_WITH_PARENT_ENV
 # sub-command → (module with add_arguments/run, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "sample": (
-        "bimbot.services.converter.sample_cli",
+        "bimbot.data.sample_cli",
         "write a generated sample IFC model (the bundled light steel frame)",
     ),
     "convert": (
@@ -58,7 +58,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "bimbot.fleet_cli",
         "what a robot fleet can build (feasibility table, no build), or show the default fleet file",
     ),
-    "run": ("bimbot.run", "build a converted model with every service as a process on a loopback bus"),
+    "run": ("bimbot.run.main", "build a converted model with every service as a process on a loopback bus"),
     "study": (
         "bimbot.study.cli",
         "compare scenarios: many runs over fleets, sequences and seeds (on Dask); CSV, table and plot",

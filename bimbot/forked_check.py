@@ -1,6 +1,6 @@
 """``bimbot run``'s input check, run in a child of the fork server instead of in ``bimbot run`` itself.
 
-The check (:func:`bimbot.run_preflight.check_run_input`) parses every service's command line with that
+The check (:func:`bimbot.run.preflight.check_run_input`) parses every service's command line with that
 service's own parser and checks it with the service's own code, so it imports what the services import:
 physics, the planner, scipy and numba, 0.4–0.5 s of CPU. The fork server imports the same modules at the
 same moment to start the services from them. Done in ``bimbot run``, the two imported everything twice at
@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 from bimbot.shared.errors import UserError
 
 if TYPE_CHECKING:
-    from bimbot.run_args import RunOptions
+    from bimbot.run.options import RunOptions
 
 _log = logging.getLogger(__name__)
 
@@ -62,7 +62,7 @@ class _Collected(logging.Handler):
 
 def answer_check(request: dict[str, Any]) -> dict[str, Any]:
     """In the server's child: run the check the request asks for; the answer to send back."""
-    from bimbot.run_preflight import check_run_input
+    from bimbot.run.preflight import check_run_input
 
     token = request["check"]
     os.environ.clear()

@@ -13,9 +13,9 @@ import json
 import sys
 from pathlib import Path
 
-from bimbot.services.observer.report_time import time_unit
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import load_manifest
+from bimbot.shared.report.durations import time_unit
 from bimbot.shared.run_folder import RunFolder, latest_run_folder, new_run_folder, run_folders
 
 LONG_RUN_S = 2 * 3600.0  # beyond this a run's sim time is said in hours or days too

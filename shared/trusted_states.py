@@ -1,6 +1,6 @@
 """What a listener believes of each component's state: a state message is a hint, the twin is the truth.
 
-Used by ``bimbot run`` (:mod:`bimbot.run_monitor`) and by every robot (:mod:`bimbot.services.robot.executor`).
+Used by ``bimbot run`` (:mod:`bimbot.run.monitor`) and by every robot (:mod:`bimbot.services.robot.executor`).
 
 Anyone on the bus can put a :class:`~bimbot.shared.messages.ComponentStateMsg` on
 ``components/<key>/state``; only the component's agent keeps its twin (``components/<key>/twin``), the
@@ -22,7 +22,7 @@ for every component once made ``bimbot run`` print ``constructed 12/12`` and exi
 
 So ``constructed`` is only ever counted from a twin. A robot judges the same way: a forged ``constructed``
 for the component it is about to pick would otherwise keep it waiting for a release it already had. Pure:
-no bus; :class:`bimbot.run_monitor.RunMonitor` and the robot's adapter ask the twins and feed the answers
+no bus; :class:`bimbot.run.monitor.RunMonitor` and the robot's adapter ask the twins and feed the answers
 back.
 """
 

@@ -18,7 +18,7 @@ _CONVERTED: dict[tuple[int, int], Path] = {}
 def _converted_once(bays: tuple[int, int]) -> Path:
     """The folder with ``frame.ifc`` and ``build/`` of ``bays``, made on the first call; never handed out."""
     if bays not in _CONVERTED:
-        from bimbot.services.converter import sample_light_steel_frame as sample
+        from bimbot.data import light_steel_frame as sample
         from bimbot.services.converter.convert import convert_model
 
         folder = Path(tempfile.mkdtemp(prefix=f"bimbot-frame-{bays[0]}x{bays[1]}-"))

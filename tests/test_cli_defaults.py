@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 
 from bimbot.cli import build_parser
-from bimbot.run_args import RunOptions, run_options
-from bimbot.run_commands import physics_arguments
+from bimbot.run.commands import physics_arguments
+from bimbot.run.options import RunOptions, run_options
 from bimbot.services.physics.app import RunConfig
 from bimbot.services.physics.cli import apply_profile
 from bimbot.services.physics.profiles import PROFILES, REHEARSAL, RUN_PROFILE
@@ -152,7 +152,7 @@ def test_bimbot_run_names_its_profile_and_passes_only_what_the_user_changed() ->
     wait = "--wait-for-planner"  # the planner's start-up is not sim time
     # the run's seed and its lock-step participants, who may be slow on a loaded machine
     seeded = ["--seed", "0", "--step-with", "planner,agents-1of1", "--lock-step-timeout-s", "60"]
-    assert plain == ["physics", "--build", "OUT", "--robots", "2", "--profile", RUN_PROFILE, wait, *seeded]
+    assert plain == ["physics", "--build", "OUT", wait, "--robots", "2", "--profile", RUN_PROFILE, *seeded]
     changed = physics_arguments(Path("OUT"), RunOptions(physics_hz=240.0, lock_step=False, seed=7))
     assert changed[-5:] == ["--physics-hz", "240.0", "--no-lock-step", "--seed", "7"]
     unconnected = physics_arguments(Path("OUT"), RunOptions(connections=False))
@@ -184,7 +184,7 @@ def test_bimbot_run_and_physics_share_one_definition_of_the_profile_options() ->
 def test_robots_n_keeps_the_fleets_machines_that_stand_fixed_in_run_physics_and_fleet_check() -> None:
     """``--robots 3``: three of the default type (carriers) and still the crane, the pump and the block
     layer; the help says so wherever the option is."""
-    from bimbot.run_commands import run_fleet
+    from bimbot.run.commands import run_fleet
     from bimbot.services.physics.cli import fleet_of
 
     expected = "3 carrier, 1 tower_crane, 1 concrete_pump, 1 block_layer"

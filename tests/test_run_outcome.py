@@ -1,10 +1,10 @@
-"""Reading a run's outcome from its report and telling two runs apart (bimbot.run_outcome)."""
+"""Reading a run's outcome from its report and telling two runs apart (bimbot.run.outcome)."""
 
 from __future__ import annotations
 
 import copy
 
-from bimbot.run_outcome import differences, outcome, spread
+from bimbot.run.outcome import differences, outcome, spread
 
 
 def _report(makespan_s: float = 100.0) -> dict:

@@ -109,7 +109,7 @@ def run_arguments(
 
 def run_accepts_seed() -> bool:
     """Whether this bimbot's ``bimbot run`` takes ``--seed`` (its parser, built here as the CLI builds it)."""
-    from bimbot.run import add_arguments
+    from bimbot.run.main import add_arguments
 
     parser = argparse.ArgumentParser()
     add_arguments(parser)

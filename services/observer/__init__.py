@@ -2,7 +2,7 @@
 
 * :mod:`.twin_log` — pure: bus messages → rerun archetypes at entity paths (colours by state as a table);
 * :mod:`.blueprint` — the viewer layout (3D view, progress plots, text log);
-* :mod:`.report` / :mod:`.report_png` — the end-of-run report (``report.json``) and its Gantt chart;
+* the end-of-run report when it runs on its own: :mod:`bimbot.shared.report`;
 * :mod:`.app` / :mod:`.cli` — ``bimbot observe``: the Zenoh adapter, rerun sinks and the web viewer;
 * :mod:`.watch` — ``bimbot watch``: a live table of component states in the terminal.
 """

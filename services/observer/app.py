@@ -79,14 +79,14 @@ from bimbot.shared.messages import (
     site_root,
     topic_of,
 )
+from bimbot.shared.report.collector import ReportCollector, twin_messages
+from bimbot.shared.report.png import write_report_files
 from bimbot.shared.run_folder import RunFolder
 from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.site_plan import SiteLayout
 
 from . import VIEWER_GRPC_PORT, VIEWER_WEB_PORT
 from .blueprint import cranes_of, observer_blueprint, series_items, site_items
-from .report import ReportCollector, twin_messages
-from .report_png import write_report_files
 from .twin_items import TIMELINE, LogItem
 from .twin_log import TwinLog, TwinLogOptions
 

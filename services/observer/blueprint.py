@@ -23,8 +23,8 @@ from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentState, SiteInfoMsg
 from bimbot.shared.robot_description import Capability
 from bimbot.shared.site_plan import FENCE_HEIGHT_M, FENCE_THICKNESS_M, Rect, SiteLayout
+from bimbot.shared.state_colors import STATE_COLORS
 
-from .state_colors import STATE_COLORS
 from .twin_items import SITE_LINE_Z_M, TIMELINE, LogItem
 
 

@@ -36,8 +36,8 @@ from scipy.spatial.transform import Rotation
 from bimbot.shared.errors import InputError
 from bimbot.shared.fleet import resolve_urdf
 from bimbot.shared.messages import RobotPoseMsg, RobotState, SiteInfoMsg
+from bimbot.shared.state_colors import ROBOT_COLORS
 
-from .state_colors import ROBOT_COLORS
 from .twin_items import LogItem, robot_path
 from .urdf_mesh import LinkMesh, LinkMeshes
 from .urdf_model import UrdfModel, read_urdf

@@ -1,5 +1,5 @@
 """The observer's drawing vocabulary: entity paths, the log item, state colours as rerun updates (the
-colour table itself is :mod:`.state_colors`) and small transform helpers.
+colour table itself is :mod:`bimbot.shared.state_colors`) and small transform helpers.
 
 Shared by the twin (:mod:`.twin_log`), the robot models (:mod:`.fleet_log`) and the static scene
 (:mod:`.blueprint`), so each draws with the same colours at the same paths without importing the other.
@@ -14,8 +14,7 @@ from dataclasses import dataclass
 import rerun as rr
 
 from bimbot.shared.messages import ComponentState
-
-from .state_colors import STATE_COLORS
+from bimbot.shared.state_colors import STATE_COLORS
 
 TIMELINE = "sim_time"
 

@@ -61,11 +61,11 @@ from bimbot.shared.messages import (
     TaskMsg,
     TaskStatus,
 )
+from bimbot.shared.report.methods import method_word
 from bimbot.shared.site_plan import SiteLayout
+from bimbot.shared.state_colors import ROBOT_COLORS, STATE_COLORS
 
 from .fleet_log import FleetLog
-from .report_methods import method_word
-from .state_colors import ROBOT_COLORS, STATE_COLORS
 from .twin_items import (
     PLAN_Z_M,
     ROBOT_HALF_SIZE_M,

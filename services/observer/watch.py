@@ -37,9 +37,8 @@ from bimbot.shared.messages import (
     ComponentStateMsg,
     TwinMsg,
 )
+from bimbot.shared.report.methods import method_word
 from bimbot.shared.service_runner import resolve_build, run_service, service_bus
-
-from .report_methods import method_word
 
 REFRESH_S = 0.25
 # display order: what needs attention first, then work in progress, waiting, not started, done

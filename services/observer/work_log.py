@@ -30,8 +30,8 @@ import rerun as rr
 from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, ComponentState, ComponentStateMsg, RobotStateMsg
+from bimbot.shared.state_colors import STATE_COLORS
 
-from .state_colors import STATE_COLORS
 from .twin_items import LogItem, component_path, mesh_archetype
 
 BUILT_IN_PLACE = (ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID)

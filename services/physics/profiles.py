@@ -26,7 +26,7 @@ from __future__ import annotations
 import argparse
 from dataclasses import dataclass
 
-from bimbot.shared.option_types import non_negative_float, positive_float, positive_int
+from bimbot.shared.option_types import OptionSpec, non_negative_float, positive_float, positive_int
 
 
 @dataclass(frozen=True)
@@ -66,13 +66,12 @@ PROFILES: dict[str, SimProfile] = {profile.name: profile for profile in (REHEARS
 RUN_PROFILE = REHEARSAL.name  # bimbot run, bimbot demo, compose
 
 
-def add_profile_arguments(parser: argparse.ArgumentParser, default: str) -> None:
-    """``--profile`` and the options that override one of its values (unset: the profile's), defined once for
-    ``bimbot physics`` and ``bimbot run``/``demo``."""
+def profile_option(default: str) -> OptionSpec:
+    """``--profile``, defaulting to ``default`` (``fine`` for ``bimbot physics``, ``rehearsal`` for a run)."""
     chosen = PROFILES[default]
-    parser.add_argument(
+    return OptionSpec(
         "--profile",
-        choices=sorted(PROFILES),
+        choices=tuple(sorted(PROFILES)),
         default=default,
         help=f"named simulation settings (default {default}: {chosen.physics_hz:g} Hz physics, "
         f"{chosen.control_period_s:g} s control period, {chosen.laser_beams} laser beams, "
@@ -81,50 +80,46 @@ def add_profile_arguments(parser: argparse.ArgumentParser, default: str) -> None
         f"profiles: {', '.join(sorted(PROFILES))}, see services/physics/profiles.py); "
         "the next options override one value of it",
     )
-    parser.add_argument(
-        "--rtf",
-        type=non_negative_float,
-        default=None,
-        help="real-time factor: 1 real time, 0 as fast as possible",
-    )
-    parser.add_argument(
-        "--lock-step",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="advance a period only when every alive robot has answered the clock step (reproducible)",
-    )
-    parser.add_argument(
-        "--physics-hz", type=positive_float, default=None, help="physics steps per sim second"
-    )
-    parser.add_argument(
-        "--control-period-s",
-        type=positive_float,
-        default=None,
-        help="sim seconds per clock step (control period)",
-    )
-    parser.add_argument("--laser-beams", type=positive_int, default=None, help="beams per laser scan")
-    parser.add_argument(
+
+
+#: The options that override one value of the profile (unset: the profile's), and ``--connections``.
+PROFILE_OPTIONS: tuple[OptionSpec, ...] = (
+    OptionSpec("--rtf", type=non_negative_float, help="real-time factor: 1 real time, 0 as fast as possible"),
+    OptionSpec("--physics-hz", type=positive_float, help="physics steps per sim second"),
+    OptionSpec("--control-period-s", type=positive_float, help="sim seconds per clock step (control period)"),
+    OptionSpec("--laser-beams", type=positive_int, help="beams per laser scan"),
+    OptionSpec(
+        "--command-latency-steps",
+        type=int,
+        choices=(0, 1),
+        help="control periods between a robot's sensing and its command taking effect, in lock-step "
+        "(1: physics steps while the robots think)",
+    ),
+    OptionSpec(
         "--total-station-mm",
         type=positive_float,
-        default=None,
         metavar="STD_MM",
         help="a robotic total station on site: every ground robot gets a fix of its position each control "
         "period with this standard deviation (mm), fused by its localisation; for large sites, where the "
         "laser sees nothing in the empty footprint (default: none, laser and odometry only)",
-    )
-    parser.add_argument(
+    ),
+    OptionSpec(
+        "--lock-step",
+        kind="boolean",
+        help="advance a period only when every alive robot has answered the clock step (reproducible)",
+    ),
+    OptionSpec(
         "--connections",
-        action=argparse.BooleanOptionalAction,
+        kind="boolean",
         default=True,
         help="a component set down at its target beside a component already built is connected to it "
         "(bolted, welded, fixed) while its robot holds it, and stands; --no-connections: every component "
         "must stand by itself (default: connections are made)",
-    )
-    parser.add_argument(
-        "--command-latency-steps",
-        type=int,
-        choices=(0, 1),
-        default=None,
-        help="control periods between a robot's sensing and its command taking effect, in lock-step "
-        "(1: physics steps while the robots think)",
-    )
+    ),
+)
+
+
+def add_profile_arguments(parser: argparse.ArgumentParser, default: str) -> None:
+    """``--profile`` and the options that override one of its values, for ``bimbot physics``."""
+    for option in (profile_option(default), *PROFILE_OPTIONS):
+        option.declare(parser)

@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 from wall_clock import bound_s
 
+from bimbot.data.light_steel_frame import build_light_steel_frame
 from bimbot.services.converter.in_place import above_ground, in_the_ground, split_in_place
-from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame
 from bimbot.shared.construction_methods import ConstructionMethod, MethodSource
 from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.sequence import read_sequence

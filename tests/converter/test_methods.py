@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 from ifc_builders import SmallModel, add_box, add_material, add_pset, new_model
 
+from bimbot.data.light_steel_frame import build_light_steel_frame
 from bimbot.services.converter.convert import ConvertOptions, convert_model
-from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame
 from bimbot.shared.construction_methods import ConstructionMethod, MethodSource
 from bimbot.shared.fleet import Fleet
 from bimbot.shared.ifc_input import open_model

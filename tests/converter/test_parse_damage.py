@@ -13,8 +13,8 @@ import ifcopenshell
 import pytest
 from wall_clock import bound_s
 
+from bimbot.data.light_steel_frame import build_light_steel_frame
 from bimbot.services.converter.convert import convert_model
-from bimbot.services.converter.sample_light_steel_frame import build_light_steel_frame
 from bimbot.services.converter.selection import select_elements
 from bimbot.shared.ifc_input import read_model
 from bimbot.shared.ifc_parse_damage import damaged_elements

@@ -12,10 +12,10 @@ import json
 from pathlib import Path
 
 from bimbot.services.component_agents.journal import JournalRecord
-from bimbot.services.observer.report import ReportCollector, RunEnding
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState, ComponentStateMsg, RobotState, RobotStateMsg
 from bimbot.shared.reasons import Reason, ReasonCode
+from bimbot.shared.report.collector import ReportCollector, RunEnding
 
 S = ComponentState
 RUN_NAME = "20270301-070000"  # the run's start: 2027-03-01 07:00

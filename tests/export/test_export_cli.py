@@ -80,8 +80,8 @@ def test_bimbot_run_from_ifc_reaches_the_planner_and_the_export_reads_the_same_p
 ) -> None:
     from bimbot.cli import parse_arguments
     from bimbot.export.run_data import run_plan
-    from bimbot.run_args import run_options
-    from bimbot.run_settings import run_settings
+    from bimbot.run.options import run_options
+    from bimbot.run.settings import run_settings
     from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan
 
     build = frame_run.parent.parent

@@ -2,7 +2,7 @@
 footings, 2 columns, a beam) with three carriers (the default fleet's types, no fixed machines: three
 robot processes) and a derived sequence twice with ``--seed 1``; both reports
 must name the same robots for every component, the same states and attempts, the same order of
-construction and the same tasks per robot, with makespans within 1 % (:mod:`bimbot.run_outcome`).
+construction and the same tasks per robot, with makespans within 1 % (:mod:`bimbot.run.outcome`).
 
 A divergence must be rare and explained: when the two reports differ, a service must have logged why
 (an input that came after its step; see ``shared/step_gate.py``), else the test fails. Three robots for
@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from bimbot.run_outcome import differences, outcome
+from bimbot.run.outcome import differences, outcome
 
 pytestmark = pytest.mark.integration
 RUN_TIMEOUT_S = 480

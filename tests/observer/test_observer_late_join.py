@@ -12,7 +12,6 @@ import itertools
 import pytest
 
 from bimbot.services.component_agents.agent import ComponentAgent
-from bimbot.services.observer.report import ReportCollector, twin_messages
 from bimbot.shared.bus import encode
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import (
@@ -24,6 +23,7 @@ from bimbot.shared.messages import (
     PoseMsg,
     TwinMsg,
 )
+from bimbot.shared.report.collector import ReportCollector, twin_messages
 
 E = ComponentEvent
 NOW = 1_000.0

@@ -24,12 +24,12 @@ from bimbot.services.observer.app import (
     open_recording,
     rerun_cli_binary,
 )
-from bimbot.services.observer.report_png import REPORT_JSON, REPORT_PNG
 from bimbot.services.observer.twin_log import component_path
 from bimbot.shared.bus import encode
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState as S
 from bimbot.shared.messages import ComponentStateMsg, PlannedSequenceMsg, PoseMsg, SiteInfoMsg, TwinMsg
+from bimbot.shared.report.png import REPORT_JSON, REPORT_PNG
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.site_layout import plan_site
 

@@ -11,11 +11,11 @@ import matplotlib.image
 import pytest
 from pydantic import BaseModel
 
-from bimbot.services.observer.report import ReportCollector
-from bimbot.services.observer.report_png import DPI, FIGURE_SIZE_IN, render_report_png
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState as S
 from bimbot.shared.messages import ComponentStateMsg, RobotPoseMsg, RobotState, RobotStateMsg, SensorsMsg
+from bimbot.shared.report.collector import ReportCollector
+from bimbot.shared.report.png import DPI, FIGURE_SIZE_IN, render_report_png
 
 
 def _report(manifest: Manifest, sequence: list[str], messages: list[tuple[str, BaseModel]]) -> dict:

@@ -22,9 +22,6 @@ import rerun as rr
 from matplotlib.figure import Figure
 
 from bimbot.services.observer.blueprint import cranes_of, site_items
-from bimbot.services.observer.report import ReportCollector
-from bimbot.services.observer.report_fleet import lane_label, robot_order, task_kind, utilisation_line
-from bimbot.services.observer.report_png import HAND_OFF_HATCH, _robot_lanes, class_colors, render_report_png
 from bimbot.shared.fleet import default_fleet
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
@@ -39,6 +36,9 @@ from bimbot.shared.messages import (
     TaskStatus,
 )
 from bimbot.shared.messages import ComponentState as S
+from bimbot.shared.report.collector import ReportCollector
+from bimbot.shared.report.fleet import lane_label, robot_order, task_kind, utilisation_line
+from bimbot.shared.report.png import HAND_OFF_HATCH, _robot_lanes, class_colors, render_report_png
 from bimbot.shared.site_plan import Rect, SiteLayout
 
 TYPES = {"r1": "husky", "r2": "carrier", "r3": "tower_crane", "r4": "carrier"}
@@ -226,7 +226,7 @@ def test_the_staging_areas_are_drawn_beside_the_yard_and_depot_labelled_with_the
 
 
 def test_the_run_summary_lists_robots_by_type_with_hand_offs_and_utilisation_per_type(report: dict) -> None:
-    from bimbot.run import RunOutcome, summary_text
+    from bimbot.run.summary import RunOutcome, summary_text
 
     text = summary_text(RunOutcome(exit_code=0, constructed=2, total=28, report=report))
     lines = text.splitlines()

@@ -10,9 +10,11 @@ from matplotlib.collections import PolyCollection
 from matplotlib.colors import to_rgb
 from method_run import END_S, FIRST_CURED_S, TYPES, method_manifest, method_messages
 
-from bimbot.services.observer.report import ReportCollector
-from bimbot.services.observer.report_methods import curing_line
-from bimbot.services.observer.report_methods_png import (
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.report.collector import ReportCollector
+from bimbot.shared.report.durations import duration_text, time_unit
+from bimbot.shared.report.methods import curing_line
+from bimbot.shared.report.methods_png import (
     CURING_HATCH,
     FORMWORK,
     POUR,
@@ -20,9 +22,7 @@ from bimbot.services.observer.report_methods_png import (
     STEP_COLORS,
     method_legend,
 )
-from bimbot.services.observer.report_png import report_figure
-from bimbot.services.observer.report_time import duration_text, time_unit
-from bimbot.shared.manifest import Manifest
+from bimbot.shared.report.png import report_figure
 
 
 @pytest.fixture(scope="module")

@@ -28,14 +28,14 @@ import pytest
 from observer_site_info import site_info
 from pydantic import BaseModel
 
-from bimbot.services.observer.report import ReportCollector
-from bimbot.services.observer.report_placements import percentile, placement_line
-from bimbot.services.observer.report_placements_png import TOLERANCE_MM
-from bimbot.services.observer.report_png import DPI, FIGURE_SIZE_IN, render_report_png, report_figure
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState as S
 from bimbot.shared.messages import ComponentStateMsg, PoseMsg, TwinMsg
 from bimbot.shared.reasons import Reason, ReasonCode
+from bimbot.shared.report.collector import ReportCollector
+from bimbot.shared.report.placements import percentile, placement_line
+from bimbot.shared.report.placements_png import TOLERANCE_MM
+from bimbot.shared.report.png import DPI, FIGURE_SIZE_IN, render_report_png, report_figure
 
 TYPES = {"r1": "husky", "r2": "carrier", "r3": "carrier"}
 SLID = Reason(code=ReasonCode.UNSTABLE, message="it moved 75 mm after release", robot_id="r2")
@@ -323,7 +323,7 @@ def test_percentiles_interpolate_between_order_statistics_as_numpy_does() -> Non
 def test_the_summary_has_one_line_of_placement_errors_by_type_retries_by_cause_and_drift(
     report: dict,
 ) -> None:
-    from bimbot.run import RunOutcome, summary_text
+    from bimbot.run.summary import RunOutcome, summary_text
 
     line = (
         "every placement attempt by robot type: "

@@ -10,12 +10,12 @@ import matplotlib.image
 import numpy as np
 import pytest
 
-from bimbot.services.observer.report import ReportCollector, RunEnding
-from bimbot.services.observer.report_png import render_report_png
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState as S
 from bimbot.shared.messages import ComponentStateMsg, ProgressMsg
 from bimbot.shared.reasons import Reason, ReasonCode, blocked_by
+from bimbot.shared.report.collector import ReportCollector, RunEnding
+from bimbot.shared.report.png import render_report_png
 
 TOO_HEAVY = Reason(code=ReasonCode.TOO_HEAVY, message="5,760 kg exceed the robot's 1,000 kg payload")
 GIVEN_BACK = Reason(code=ReasonCode.NO_APPROACH_POSE, message="no free cell within 1.4 m", robot_id="r1")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from bimbot.services.observer.report_png import caught_last_title, labelled_rows, marked_row, with_marked_rows
+from bimbot.shared.report.png import caught_last_title, labelled_rows, marked_row, with_marked_rows
 
 
 def test_the_title_counts_placements_caught_on_a_last_attempt_beside_the_retries() -> None:

@@ -3,7 +3,7 @@ than a row or a bar (a new user found the 6 pt labels of the bundled frame's 28 
 
 from __future__ import annotations
 
-from bimbot.services.observer.report_png import bar_label_size_pt, labelled_rows, row_label_size_pt
+from bimbot.shared.report.png import bar_label_size_pt, labelled_rows, row_label_size_pt
 
 
 def test_row_labels_grow_with_the_room_a_row_has() -> None:
@@ -32,7 +32,7 @@ def test_a_bar_label_is_no_thicker_than_its_bar() -> None:
 
 
 def test_each_retry_in_the_sequence_panel_takes_its_cause_from_the_placement_verdict() -> None:
-    from bimbot.services.observer.report_png import retry_causes
+    from bimbot.shared.report.png import retry_causes
 
     component = {
         "misplaced_s": [301.6, 366.40000000000003, 400.0],
@@ -55,7 +55,7 @@ def test_a_bar_label_is_cut_to_the_height_of_its_bar() -> None:
     the bars apart); one that fits stays whole."""
     from matplotlib.figure import Figure
 
-    from bimbot.services.observer.report_png import DPI, FIGURE_SIZE_IN, fit_bar_labels
+    from bimbot.shared.report.png import DPI, FIGURE_SIZE_IN, fit_bar_labels
 
     figure = Figure(figsize=FIGURE_SIZE_IN, dpi=DPI)
     ax = figure.add_subplot(2, 2, 1)
@@ -81,7 +81,7 @@ def test_the_legend_keeps_within_the_figure_and_no_class_is_drawn_in_the_not_bui
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    from bimbot.services.observer.report_png import (
+    from bimbot.shared.report.png import (
         CLASS_PALETTE,
         DPI,
         FIGURE_SIZE_IN,

@@ -7,8 +7,8 @@ from typing import Any
 
 import pytest
 
-from bimbot.services.observer.report_fleet import by_type
-from bimbot.services.observer.report_totals import busy_within_s, makespan_window, totals_of
+from bimbot.shared.report.fleet import by_type
+from bimbot.shared.report.totals import busy_within_s, makespan_window, totals_of
 
 
 def _component(released_s: float | None, constructed_s: float | None, state: str) -> dict[str, Any]:

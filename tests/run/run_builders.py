@@ -10,11 +10,11 @@ from typing import cast
 from component_agents.agent_builders import GUIDS, SITE, manifest, quat_z
 from twins import twin_message
 
-from bimbot.run_loop import LoopLimits, RunWatch, StopSignals
-from bimbot.run_monitor import RunMonitor
-from bimbot.run_progress import NoProgress
-from bimbot.run_restarts import Restarter
-from bimbot.run_watchdog import StallWatchdog
+from bimbot.run.loop import LoopLimits, RunWatch, StopSignals
+from bimbot.run.monitor import RunMonitor
+from bimbot.run.progress import NoProgress
+from bimbot.run.restarts import Restarter
+from bimbot.run.watchdog import StallWatchdog
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import (
     ComponentPoseMsg,

@@ -11,10 +11,10 @@ import pytest
 from run_builders import GUIDS, manifest, poses
 from scipy.spatial.transform import Rotation
 
-from bimbot.as_built import AGENT_TOLERANCES, add_to_report, as_built_line, audit_as_built
+from bimbot.run.as_built import AGENT_TOLERANCES, add_to_report, as_built_line, audit_as_built
 from bimbot.services.component_agents.agent import AgentConfig
-from bimbot.services.observer.report import ReportCollector
-from bimbot.services.observer.report_png import _as_built_title, render_report_png
+from bimbot.shared.report.collector import ReportCollector
+from bimbot.shared.report.png import _as_built_title, render_report_png
 
 SITE_MANIFEST = manifest()
 BEAM, OTHER, THIRD, FOURTH = GUIDS

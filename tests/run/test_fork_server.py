@@ -24,9 +24,9 @@ from wall_clock import bound_s
 import bimbot.fork_server
 from bimbot.fork_server import ForkedChild, ForkServer
 from bimbot.forked_check import apply_answer, check_request
-from bimbot.run import _check_input
-from bimbot.run_args import RunOptions
-from bimbot.run_preflight import check_run_input
+from bimbot.run.build import _check_input
+from bimbot.run.options import RunOptions
+from bimbot.run.preflight import check_run_input
 from bimbot.shared.errors import UserError
 from bimbot.supervisor import ServiceProcess, free_port, wait_until
 
@@ -189,8 +189,8 @@ CHECK_IN_RUN = """
 import sys
 from pathlib import Path
 from bimbot.fork_server import ForkServer
-from bimbot.run import _check_input
-from bimbot.run_args import RunOptions
+from bimbot.run.build import _check_input
+from bimbot.run.options import RunOptions
 launcher = ForkServer()
 try:
     _check_input(Path(sys.argv[1]), RunOptions(robots=1), launcher)

@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 from wall_clock import bound_s
 
-from bimbot.run_args import RunOptions
-from bimbot.run_preflight import check_run_input
+from bimbot.run.options import RunOptions
+from bimbot.run.preflight import check_run_input
 from bimbot.shared.errors import UserError
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 from run_builders import watch_of
 
 from bimbot.cli import BUG_MARK
-from bimbot.run_loop import LOG_TAIL_LINES, RunWatch
+from bimbot.run.loop import LOG_TAIL_LINES, RunWatch
 
 TRACEBACK = [
     f"ERROR bimbot: bimbot planner {BUG_MARK} (a bug; traceback follows)",

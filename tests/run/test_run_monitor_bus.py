@@ -19,8 +19,7 @@ import zenoh
 from run_builders import GUIDS, manifest, poses, state, twin, walk
 from wall_clock import bound_s
 
-from bimbot.run_monitor import RunMonitor
-from bimbot.services.observer.report_fleet import lane_label
+from bimbot.run.monitor import RunMonitor
 from bimbot.shared.bus import BusOptions, encode, open_session
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
@@ -35,6 +34,7 @@ from bimbot.shared.messages import (
     SitePosesMsg,
     TwinMsg,
 )
+from bimbot.shared.report.fleet import lane_label
 from bimbot.supervisor import free_port
 
 S = ComponentState

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import io
 
-from bimbot.run_progress import (
+from bimbot.run.progress import (
     NoProgress,
     PlainProgress,
     RateWindow,

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from run_builders import watch_of
 
-from bimbot.run_loop import RunWatch
-from bimbot.run_restarts import Restart, Restarter, RestartPolicy
+from bimbot.run.loop import RunWatch
+from bimbot.run.restarts import Restart, Restarter, RestartPolicy
 
 
 class _Service:

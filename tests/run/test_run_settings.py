@@ -6,8 +6,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from bimbot.run_args import RunOptions
-from bimbot.run_settings import run_settings
+from bimbot.run.options import RunOptions
+from bimbot.run.settings import run_settings
 from bimbot.services.physics.profiles import FINE, REHEARSAL
 
 

@@ -3,7 +3,7 @@ caught and retried."""
 
 from __future__ import annotations
 
-from bimbot.run import RunOutcome, summary_text
+from bimbot.run.summary import RunOutcome, summary_text
 
 
 def _report(task_end_s: float) -> dict:

@@ -3,7 +3,7 @@ state, reason code and message, in planned order; nothing when all is built."""
 
 from __future__ import annotations
 
-from bimbot.run_table import not_built_table
+from bimbot.run.table import not_built_table
 
 ENDING = "stopped by SIGTERM after 11 s wall, at sim 10.0 s, with 1/4 constructed"
 

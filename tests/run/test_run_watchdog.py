@@ -3,7 +3,7 @@ and a clock that stops is caught by the wall-time bound; the stall details name 
 
 from __future__ import annotations
 
-from bimbot.run_watchdog import StallWatchdog, stall_details
+from bimbot.run.watchdog import StallWatchdog, stall_details
 from bimbot.shared.messages import ComponentState, PoseMsg, RobotState, RobotStateMsg, TaskMsg, TaskStatus
 
 

@@ -12,8 +12,8 @@ import pytest
 import zenoh
 
 import bimbot.cli
-from bimbot.run_args import RunOptions
-from bimbot.run_commands import monitor_bus_options, router_arguments, run_fleet, service_commands
+from bimbot.run.commands import monitor_bus_options, router_arguments, run_fleet, service_commands
+from bimbot.run.options import RunOptions
 from bimbot.shared.bus import BusOptions, zenoh_config
 from bimbot.shared.bus_access import bus_users
 from bimbot.shared.bus_credentials import bus_files, parse_robot_ids, write_bus_credentials

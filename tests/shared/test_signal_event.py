@@ -25,7 +25,7 @@ from bimbot.supervisor import ServiceProcess, free_port, wait_until
 HELD_LOCK = textwrap.dedent(
     """
     import signal, sys
-    from bimbot.run_loop import StopSignals
+    from bimbot.run.loop import StopSignals
     from bimbot.shared.service_runner import stop_on_signals
 
     with stop_on_signals() as stop:

@@ -1,7 +1,7 @@
 """How the report tells what each component's construction method did: counts by method, the elements split
 into panels (built when all their panels are, with the joints between them), the elements built into
 their hosts (constructed with them), and the work in place. Pure, over the report's component entries
-(:mod:`.report`) and the messages it is fed.
+(:mod:`.collector`) and the messages it is fed.
 
 Work in place: a footing cast in place takes hours of formwork and a pour, then days of curing in which
 nothing may rest on it; a wall is laid course by course. Per component:

@@ -2,7 +2,7 @@
 
 A run of lifted components lasts minutes; one with cast footings lasts days (formwork, pour, three days
 of curing), and "291652 s" says neither. The report's data stay in sim seconds; the chart's axis
-(:mod:`.report_time_axis`), its title and the run's summary say them in the unit chosen here. No
+(:mod:`.time_axis`), its title and the run's summary say them in the unit chosen here. No
 matplotlib: the run's summary imports it.
 """
 

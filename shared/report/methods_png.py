@@ -5,7 +5,7 @@
 * cast in place: the formwork in navy and the pour in teal, the colours the live viewer gives the states
   ``forming`` and ``pouring`` (:mod:`.state_colors`), split where the component's agent entered
   ``pouring``; its curing after the pour as a grey hatched span on its sequence row (until the planner's
-  hold on it ended, else constructed + ``cast.cure_s``: :mod:`.report_methods`);
+  hold on it ended, else constructed + ``cast.cure_s``: :mod:`.methods`);
 * laid: the laying in magenta (the viewer's ``laying``).
 
 A legend entry per method present, counted, joins the figure's legend (when not every component was
@@ -25,8 +25,8 @@ from matplotlib.patches import Patch
 from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.messages import ComponentState
 
-from .report_methods import method_word
-from .state_colors import STATE_COLORS, unit_rgb
+from ..state_colors import STATE_COLORS, unit_rgb
+from .methods import method_word
 
 RGB = tuple[float, float, float]
 FORMWORK, POUR, LAYING = "formwork", "pour", "laying"

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from wall_clock import bound_s
 
-from bimbot.services.converter.sample_light_steel_frame import (
+from bimbot.data.light_steel_frame import (
     STEEL_DENSITY_KG_PER_M3,
     build_light_steel_frame,
     parse_bays,

@@ -1,6 +1,6 @@
 """The waiting loop of ``bimbot run``: until the planner is done, or something ends the run first.
 
-A run ends in one of these ways, each a :class:`~bimbot.services.observer.report.RunEnding` that the
+A run ends in one of these ways, each a :class:`~bimbot.shared.report.collector.RunEnding` that the
 report gives every component left unbuilt without a reason of its own:
 
 ============  =====================================================================  ==================
@@ -27,12 +27,12 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 from bimbot.cli import BUG_MARK
-from bimbot.run_monitor import RunMonitor
-from bimbot.run_progress import ProgressView
-from bimbot.run_restarts import Restarter
-from bimbot.run_watchdog import StallWatchdog, stall_details
-from bimbot.services.observer.report import RunEnding
+from bimbot.run.monitor import RunMonitor
+from bimbot.run.progress import ProgressView
+from bimbot.run.restarts import Restarter
+from bimbot.run.watchdog import StallWatchdog, stall_details
 from bimbot.shared.reasons import ReasonCode
+from bimbot.shared.report.collector import RunEnding
 from bimbot.shared.signal_event import stop_handlers
 from bimbot.supervisor import ServiceProcess
 
@@ -162,7 +162,7 @@ class RunWatch:
         return None
 
     def _restarting(self, service: ServiceProcess, code: int | None, wall_s: float) -> bool:
-        """Whether the dead ``service`` is (or will be) started again (:mod:`bimbot.run_restarts`)."""
+        """Whether the dead ``service`` is (or will be) started again (:mod:`bimbot.run.restarts`)."""
         if self.restarter is None:
             return False
         return self.restarter.keep_going(service, code, wall_s, self.monitor.sim_time_s)

@@ -4,7 +4,7 @@ Why: two reports of the same building differ by their settings as much as by the
 site, another physics rate, fewer laser beams, a fleet file), and a report that does not say which
 settings made it cannot be compared with another. ``report.json`` therefore carries a ``settings`` object:
 the options as ``bimbot run`` resolved them, each value the profile's unless the user set it, and the
-total station's precision (``null``: none on site). Pure: from :class:`~bimbot.run_args.RunOptions` only.
+total station's precision (``null``: none on site). Pure: from :class:`~bimbot.run.options.RunOptions` only.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from bimbot.run_args import RunOptions
+from bimbot.run.options import RunOptions
 from bimbot.services.component_agents.agent import AgentConfig
 from bimbot.services.physics.profiles import PROFILES
 

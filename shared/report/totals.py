@@ -1,5 +1,5 @@
 """The report's totals and small value helpers: pure functions over the report's component and robot
-entries (:mod:`.report`), apart so the collector stays about its timelines."""
+entries (:mod:`.collector`), apart so the collector stays about its timelines."""
 
 from __future__ import annotations
 

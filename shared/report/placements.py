@@ -31,7 +31,7 @@ from typing import Any
 from bimbot.shared.messages import ComponentState, ComponentStateMsg
 from bimbot.shared.reasons import ReasonCode
 
-from .report_fleet import UNKNOWN_TYPE
+from .fleet import UNKNOWN_TYPE
 
 WITHIN_TOLERANCE = "within_tolerance"
 MISPLACED = ReasonCode.MISPLACED.value

@@ -12,13 +12,13 @@ down at a crane's staging spot, each hand-off), ``attempts``, the robots that ha
 state, its position in the planned sequence and the placement error of its last verdict
 (``position_error_mm``, ``angle_error_deg``, as its agent measured them against the BIM pose);
 ``placements``, every verified attempt in order (robot and its type, errors, drift after release, verdict
-and cause), and ``max_drift_mm`` (:mod:`.report_placements`); how it was built: ``method`` and why,
+and cause), and ``max_drift_mm`` (:mod:`.placements`); how it was built: ``method`` and why,
 ``resources`` (the robot types that worked on it), the times of its formwork, pour or laying and a cast
-component's ``curing`` (:mod:`.report_methods`).
+component's ``curing`` (:mod:`.methods`).
 
 Per robot: ``type`` (its robot type, from physics' site info, ``SiteInfoMsg``; robots on site that never
 reported are listed too), ``busy_s``, ``tasks`` (``build``, or ``hand_off``: a ground robot carried it to
-a crane's staging spot) and ``distance_m`` (:mod:`.report_robots`).
+a crane's staging spot) and ``distance_m`` (:mod:`.robots`).
 
 :func:`twin_messages` turns a component's twin (its agent's answer to ``components/<key>/twin``) back into
 the state changes it went through, for an observer that joined a run late;
@@ -68,8 +68,8 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.reasons import Reason, ReasonCode
 
-from .report_fleet import by_type
-from .report_methods import (
+from .fleet import by_type
+from .methods import (
     CuringSeen,
     WorkTimes,
     curing_entry,
@@ -80,7 +80,7 @@ from .report_methods import (
     with_host_elements,
     work_fields,
 )
-from .report_placements import (
+from .placements import (
     PLACEMENT_REASON_CODES,
     Placement,
     max_or_none,
@@ -88,8 +88,8 @@ from .report_placements import (
     placement_of,
     placement_totals,
 )
-from .report_robots import RobotTimeline, robot_entry
-from .report_totals import count_reasons, difference, dump_reason, makespan_window, scaled, totals_of
+from .robots import RobotTimeline, robot_entry
+from .totals import count_reasons, difference, dump_reason, makespan_window, scaled, totals_of
 
 REPORT_SCHEMA_VERSION = 1
 _OWN_REASON_STATES = (ComponentState.FAILED, ComponentState.BLOCKED)
@@ -140,7 +140,7 @@ class ComponentTimeline:
     reason: Reason | None = None  # failed/blocked: why (from its agent)
     last_give_back: Reason | None = None  # the latest reason a robot gave its task back for
     placements: list[Placement] = field(default_factory=list)  # every verdict, in order
-    work: WorkTimes = field(default_factory=WorkTimes)  # forming, pouring, laying (:mod:`.report_methods`)
+    work: WorkTimes = field(default_factory=WorkTimes)  # forming, pouring, laying (:mod:`.methods`)
 
 
 def twin_messages(twin: TwinMsg) -> list[ComponentStateMsg | ComponentPoseMsg]:
@@ -342,7 +342,7 @@ class ReportCollector:
         totals["done"] = bool(self.progress and self.progress.done)
         totals["not_constructed"] = totals["components"] - totals["constructed"]
         totals["by_reason"] = count_reasons(components)
-        # work in place is verified like a placement, but no hand set it down (:mod:`.report_methods`)
+        # work in place is verified like a placement, but no hand set it down (:mod:`.methods`)
         placed_by_hand = [component for component in components if hand_placed(component)]
         totals.update(placement_totals(placed_by_hand, list(totals["by_type"])))
         totals["work_in_place_verdicts"] = sum(

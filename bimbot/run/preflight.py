@@ -8,7 +8,7 @@ check, with the services' own code:
 * the build: a readable manifest (folder or ``manifest.json``) with components;
 * the run folder: ``--run-dir``, or ``BUILD/runs/`` when none is given, can be written (a read-only build
   needs ``--run-dir`` elsewhere: the one line says so);
-* each service's command line exactly as :func:`bimbot.run_commands.service_commands` builds it, parsed by
+* each service's command line exactly as :func:`bimbot.run.commands.service_commands` builds it, parsed by
   that service's parser and checked by its option checks (physics' config, the robots' execution config, the
   planner's options, the observer's ports, the agents' tolerances);
 * the planner's sequence: the ``--sequence`` file exists and is a sequence of this build's components
@@ -29,14 +29,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bimbot.run_commands import service_commands
+from bimbot.run.commands import service_commands
 from bimbot.shared.errors import UserError
 from bimbot.shared.output_paths import check_writable_dir
 from bimbot.shared.run_folder import RUN_DIR_HINT, RunFolder, runs_dir
 from bimbot.shared.service_runner import BuildInput, resolve_build
 
 if TYPE_CHECKING:
-    from bimbot.run_args import RunOptions
+    from bimbot.run.options import RunOptions
 
 
 PLACEHOLDER_ENDPOINT = "tcp/127.0.0.1:7447"  # the real port is picked when the run starts

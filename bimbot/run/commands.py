@@ -1,8 +1,9 @@
 """The command line of every service a run starts: ``bimbot run`` starts them, its preflight parses them.
 
-Kept apart from :mod:`bimbot.run` so that :mod:`bimbot.run_preflight` checks exactly the command lines the
-run will start, without importing the run itself. Physics gets its profile by name and only the values the
-user overrode (:mod:`bimbot.services.physics.profiles`); the agents and the observer get the run folder.
+Kept apart from :mod:`bimbot.run.build` so that :mod:`bimbot.run.preflight` checks exactly the command
+lines the run will start, without importing the run itself. Physics gets its profile by name and only the
+values the user overrode (:mod:`bimbot.services.physics.profiles`); the agents and the observer get the run
+folder.
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from bimbot.run_args import ObserverOptions, RunOptions
+from bimbot.run.options import ObserverOptions, RunOptions, service_flags
 from bimbot.services.physics.profiles import PROFILES
 from bimbot.shared.bus import BusOptions
 from bimbot.shared.bus_access import robot_user
@@ -19,7 +20,6 @@ from bimbot.shared.errors import UserError
 from bimbot.shared.fleet import Fleet, load_fleet
 from bimbot.shared.run_folder import RunFolder
 from bimbot.shared.step_gate import HOLD_S
-from bimbot.shared.tolerance_options import tolerance_flags
 
 #: With two routers, how long physics and the planner wait for a robot whose liveliness went (a router or
 #: link down) before they drop its load and give its task back (wall s).
@@ -34,31 +34,10 @@ def run_fleet(options: RunOptions) -> Fleet:
 
 
 def physics_arguments(build: Path, options: RunOptions) -> list[str]:
-    """``bimbot physics`` for a run: its fleet, its profile by name, and only the values the user
-    overrode."""
-    arguments = ["physics", "--build", str(build)]
-    if options.fleet is not None:
-        arguments += ["--fleet", str(options.fleet.resolve())]
-    if options.robots is not None:
-        arguments += ["--robots", str(options.robots)]
-    arguments += ["--profile", options.profile, "--wait-for-planner"]  # its start-up is not sim time
-    overrides = {
-        "--rtf": options.rtf,
-        "--physics-hz": options.physics_hz,
-        "--control-period-s": options.control_period_s,
-        "--laser-beams": options.laser_beams,
-        "--command-latency-steps": options.command_latency_steps,
-        "--total-station-mm": options.total_station_mm,
-    }
-    for flag, value in overrides.items():
-        if value is not None:
-            arguments += [flag, repr(value)]
-    if options.lock_step is not None:
-        arguments.append("--lock-step" if options.lock_step else "--no-lock-step")
-    if not options.connections:
-        arguments.append("--no-connections")
-    arguments += tolerance_flags(options.tolerances)  # physics serves them to every service
-    arguments += ["--seed", str(options.seed)]
+    """``bimbot physics`` for a run: its fleet, its profile by name, and only the values the user overrode
+    (:func:`~bimbot.run.options.service_flags`)."""
+    arguments = ["physics", "--build", str(build), "--wait-for-planner"]  # its start-up is not sim time
+    arguments += service_flags("physics", options)  # the tolerances too: physics serves them to every service
     if stepped(options):  # the planner and the agents answer each step too (reproducible runs)
         arguments += ["--step-with", ",".join(stepped_participants(options))]
         arguments += ["--lock-step-timeout-s", f"{HOLD_S:g}"]  # a loaded machine is not a hang
@@ -144,9 +123,9 @@ def service_commands(
     other = second_endpoint or endpoint
     in_step = ["--stepped"] if stepped(options) else []
     agents = ["agents", "--build", str(build), "--run-dir", str(run.root), "--fresh", *in_step]
-    if options.max_attempts is not None:
-        agents += ["--max-attempts", str(options.max_attempts)]
-    planner = ["planner", "--build", str(build), "--exit-when-done", *options.planner_source, *in_step]
+    agents += service_flags("agents", options)
+    planner = ["planner", "--build", str(build), "--exit-when-done", *service_flags("planner", options)]
+    planner += in_step
     grace = ["--lost-grace-s", repr(LINK_GRACE_S)] if two_hosts else []  # ride out a router's restart
     physics = [*physics_arguments(build, options), "--run-dir", str(run.root), *grace]
     commands = [("physics", [*physics, *joined("physics")])]
@@ -159,10 +138,8 @@ def service_commands(
         commands.append(("agents", [*agents, *joined("agents")]))
     commands.append(("planner", [*planner, *grace, *joined("planner")]))
     for robot_id in run_fleet(options).type_of():
-        robot = ["robot", "--build", str(build), "--id", robot_id, "--seed", str(options.seed), *in_step]
+        robot = ["robot", "--build", str(build), "--id", robot_id, *service_flags("robot", options), *in_step]
         robot += joined(robot_user(robot_id), other)
-        if options.inject_placement_error_m:
-            robot += ["--inject-placement-error-m", repr(options.inject_placement_error_m)]
         commands.append((f"robot-{robot_id}", robot))
     if options.observer is not None:
         observer = observer_arguments(build, options.observer, run)
@@ -182,6 +159,6 @@ def observer_arguments(build: Path, observer: ObserverOptions, run: RunFolder) -
 
 
 def restart_arguments(arguments: list[str]) -> list[str]:
-    """A service's command line when ``bimbot run`` restarts it (:mod:`bimbot.run_restarts`): the same,
+    """A service's command line when ``bimbot run`` restarts it (:mod:`bimbot.run.restarts`): the same,
     without ``--fresh``, so the agents resume from their journal instead of clearing it."""
     return [argument for argument in arguments if argument != "--fresh"]

@@ -4,7 +4,7 @@ Why: with a mixed fleet (Husky, carrier, tower crane) a single utilisation hides
 bottleneck — a crane busy 90 % of the makespan while two carriers wait says "add a crane", not "add
 robots". And a component a ground robot hands off to a crane costs two tasks (the hand-off, then the
 crane's build), which must be visible as such. Pure functions over the report dictionary
-(:mod:`.report`) and the task ids; no bus, no files.
+(:mod:`.collector`) and the task ids; no bus, no files.
 
 * Utilisation of a type: the busy time of its robots summed, over (its robots × the makespan); a robot on
   site that never left idle counts with 0 s.
@@ -22,7 +22,7 @@ from typing import Any
 
 from bimbot.shared.messages import TaskKind
 
-from .report_totals import busy_within_s
+from .totals import busy_within_s
 
 HAND_OFF_ID = re.compile(r"-h\d+$")
 UNKNOWN_TYPE = "unknown"

@@ -1,15 +1,15 @@
 """``report.png``: a Gantt chart of the simulated construction beside the planned sequence, and under them
-the placement panels (:mod:`.report_placements_png`: placement errors per robot type, drift after
+the placement panels (:mod:`.placements_png`: placement errors per robot type, drift after
 release).
 
 Left: one lane per robot, labelled with its type (``r2 (carrier)``), the robots of a type together
 (:func:`.report_fleet.robot_order`) with a line between types; a bar per task (the robot left ``idle`` →
 came back), coloured by the IFC class of the component it handled, or by its work in place (formwork,
-pour, laying: :mod:`.report_methods_png`); a hand-off task (a ground robot carrying a component to a
+pour, laying: :mod:`.methods_png`); a hand-off task (a ground robot carrying a component to a
 crane's staging spot) is hatched and outlined, so it is not taken for a build. A bar is at least
 ``MIN_BAR_FRACTION`` of the axis wide, and a bar label that would lie on the one before it is left out.
 Both panels share one linear sim-time axis in the unit of its span (s, min, h, days:
-:mod:`.report_time_axis`): on a run with curing the lifted work is a sliver beside days of cure, as on site.
+:mod:`.time_axis`): on a run with curing the lifted work is a sliver beside days of cure, as on site.
 Its title gives each type's utilisation (busy share of its robots over the makespan).
 Right: the planned sequence, one row per component in ``sequence.xml`` order (first at the top), a thin
 bar from its release to its pick-up (or the start of its work in place) and a full bar from there to
@@ -18,7 +18,7 @@ hand-offs to a crane are marked with a black triangle, misplacements with a red 
 failures with a black one. Every component that is not constructed is marked: a red hatched span from
 where it stopped (failed, picked, released, or the start) to the end of the run, its reason code at the
 right edge of its row, its label in red, and a legend entry counting the codes. The title gives the
-as-built audit made at the end of the run (:mod:`bimbot.as_built`: the largest final error of the
+as-built audit made at the end of the run (:mod:`bimbot.run.as_built`: the largest final error of the
 constructed components, how many physics has away from their BIM target); each of those has its final
 error at the right edge of its row. Both share the sim-time axis, so the chart shows at a glance where
 the run waited, which robot did what, whether the building went up in the planned order, and what was not
@@ -49,9 +49,10 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.text import Text
 
-from .report_fleet import lane_label, robot_order, utilisation_line
-from .report_methods import WORK_IN_PLACE
-from .report_methods_png import (
+from .durations import duration_text
+from .fleet import lane_label, robot_order, utilisation_line
+from .methods import WORK_IN_PLACE
+from .methods_png import (
     MIN_BAR_FRACTION,
     STEP_COLORS,
     Segment,
@@ -61,10 +62,9 @@ from .report_methods_png import (
     row_work,
     work_segments,
 )
-from .report_placements import MISPLACED, RETRY_CAUSES, caught_on_last_attempt
-from .report_placements_png import CAUSE_STYLES, draw_drift, draw_placement_errors, placement_handles
-from .report_time import duration_text
-from .report_time_axis import set_time_axis
+from .placements import MISPLACED, RETRY_CAUSES, caught_on_last_attempt
+from .placements_png import CAUSE_STYLES, draw_drift, draw_placement_errors, placement_handles
+from .time_axis import set_time_axis
 
 REPORT_JSON = "report.json"
 REPORT_PNG = "report.png"
@@ -338,7 +338,7 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB], spa
 
 def retry_causes(component: dict[str, Any]) -> list[tuple[float, str]]:
     """(sim time, cause) of each retried placement: the cause its verdict gave (``misplaced`` or
-    ``unstable``, :mod:`.report_placements`), ``misplaced`` when no placement of that time is recorded."""
+    ``unstable``, :mod:`.placements`), ``misplaced`` when no placement of that time is recorded."""
     causes = {
         round(float(p["sim_time_s"]), 3): p["cause"]
         for p in component.get("placements", [])

@@ -2,7 +2,7 @@
 
 The subscriber callbacks only validate and enqueue (:class:`bimbot.shared.bus.Inbox`);
 :meth:`RunMonitor.drain`, called from the run's waiting loop, feeds the messages to the observer's pure
-:class:`bimbot.services.observer.report.ReportCollector`, so ``report.json``/``report.png`` are written
+:class:`bimbot.shared.report.collector.ReportCollector`, so ``report.json``/``report.png`` are written
 at the end of every run, with or without the observer (laser scans and plans are not subscribed: the
 report does not use them). Physics' site info is asked once it answers: the robots' types, by which the report
 groups its lanes and gives utilisation per type.
@@ -18,11 +18,11 @@ A component's timeline in the report is rebuilt from its twin whenever one answe
 At the end, before the services stop, :meth:`RunMonitor.audit` asks every twin at once
 (``components/*/twin``: the last word on each component's state) and physics for every pose
 (``physics/poses``), and compares the constructed components with their BIM targets
-(:mod:`bimbot.as_built`); :meth:`RunMonitor.report` includes the result.
+(:mod:`bimbot.run.as_built`); :meth:`RunMonitor.report` includes the result.
 
 It also keeps what the run's terminal and watchdog need: each robot's last state message, each task's
 last message, and ``changes``, a count of every change on the site (a component state change, a change
-of the planner's progress counts), which the stall watchdog (:mod:`bimbot.run_watchdog`) watches.
+of the planner's progress counts), which the stall watchdog (:mod:`bimbot.run.watchdog`) watches.
 """
 
 from __future__ import annotations
@@ -35,8 +35,7 @@ from typing import Any
 import zenoh
 from pydantic import BaseModel
 
-from bimbot.as_built import AGENT_TOLERANCES, AsBuiltAudit, add_to_report, audit_as_built
-from bimbot.services.observer.report import UNFINISHED, ReportCollector, RunEnding
+from bimbot.run.as_built import AGENT_TOLERANCES, AsBuiltAudit, add_to_report, audit_as_built
 from bimbot.shared.asked import Asked
 from bimbot.shared.bus import Answer, Inbox, InvalidPayloads, Received, query_first
 from bimbot.shared.manifest import Manifest
@@ -59,6 +58,7 @@ from bimbot.shared.messages import (
     TaskMsg,
     TwinMsg,
 )
+from bimbot.shared.report.collector import UNFINISHED, ReportCollector, RunEnding
 from bimbot.shared.trusted_states import Judgement, TrustedStates
 from bimbot.shared.twin_query import ask_twin, ask_twins
 from bimbot.shared.verification import Tolerances
@@ -226,7 +226,7 @@ class RunMonitor:
     def audit(self, timeout_s: float = AUDIT_TIMEOUT_S) -> AsBuiltAudit:
         """The end-of-run audit, while the agents and physics still answer: every twin confirms its state
         (:meth:`confirm_twins`), then physics' poses of every component are compared with their BIM
-        targets (:func:`bimbot.as_built.audit_as_built`). Bounded: about ``timeout_s`` wall seconds at
+        targets (:func:`bimbot.run.as_built.audit_as_built`). Bounded: about ``timeout_s`` wall seconds at
         most (physics gets at least ``MIN_POSES_TIMEOUT_S``). The result is kept for :meth:`report`."""
         wall_time_s, deadline = time.time(), time.monotonic() + timeout_s
         self.confirm_twins(timeout_s)

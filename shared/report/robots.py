@@ -1,11 +1,11 @@
 """The report's robots: one timeline per robot (busy intervals, distance driven) and its ``report.json``
-entry. Pure: no bus, no files; apart from :mod:`.report` so the collector stays about components.
+entry. Pure: no bus, no files; apart from :mod:`.collector` so the collector stays about components.
 
 * ``busy_s`` — the time between leaving ``idle`` and returning to it, summed (an interval still open at
   the end of the run is closed at the last sim time seen; a new task without idle between starts a new
   interval).
 * ``tasks`` — those intervals with the component handled and the task's ``kind`` (``build``, or
-  ``hand_off`` with its ``put_down_xy_m``; :mod:`.report_fleet`).
+  ``hand_off`` with its ``put_down_xy_m``; :mod:`.fleet`).
 * ``distance_m`` — driven in the plane, from ground truth (``robots/<id>/pose``), else odometry, else the
   robot's own ``distance_m`` in its state messages, else its state poses (``distance_source`` says which).
 """
@@ -19,7 +19,7 @@ from typing import Any
 
 from bimbot.shared.messages import RobotState, RobotStateMsg, TaskKind
 
-from .report_fleet import task_kind
+from .fleet import task_kind
 
 DISTANCE_SOURCES = ("ground_truth", "odom", "robot_state", "state_poses")  # best first
 

@@ -24,8 +24,8 @@ from matplotlib.ticker import FuncFormatter
 
 from bimbot.shared.verification import Tolerances
 
-from .report_methods import hand_placed
-from .report_placements import MISPLACED, UNSTABLE, WITHIN_TOLERANCE, type_of
+from .methods import hand_placed
+from .placements import MISPLACED, UNSTABLE, WITHIN_TOLERANCE, type_of
 
 TOLERANCE_MM = Tolerances().position_m * 1000.0  # the default; a report says the one in force
 

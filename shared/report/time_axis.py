@@ -1,12 +1,12 @@
 """``report.png``'s time axis: the data in sim seconds, the ticks at round values of the unit a person
-reads for the span shown (15 min, 6 h, 12 h, half a day …; :mod:`.report_time`), labelled in it."""
+reads for the span shown (15 min, 6 h, 12 h, half a day …; :mod:`.durations`), labelled in it."""
 
 from __future__ import annotations
 
 from matplotlib.axes import Axes
 from matplotlib.ticker import FuncFormatter, Locator, MaxNLocator
 
-from .report_time import TimeUnit, format_in, time_unit
+from .durations import TimeUnit, format_in, time_unit
 
 
 class UnitLocator(Locator):

@@ -1,6 +1,6 @@
 """``bimbot sample light-steel-frame -o FILE.ifc [--bays NxM]``: write a generated sample IFC model.
 
-A thin adapter over :mod:`bimbot.services.converter.sample_light_steel_frame` (the pure builder): it
+A thin adapter over :mod:`bimbot.data.light_steel_frame` (the pure builder): it
 parses the options, builds the model, writes it and logs one summary line. ``--bays NxM`` is an N×M grid
 of columns (3x3, the paper's case, gives 9 footings, 9 columns and 10 beams). Bad options raise
 :class:`bimbot.shared.errors.UserError`, which the ``bimbot`` dispatcher reports as one line with exit code 2.
@@ -38,7 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Build the chosen sample model and write it to ``args.output``; 0 on success."""
     # Imported here so that a bad option fails fast, before ifcopenshell loads.
-    from bimbot.services.converter import sample_light_steel_frame as sample
+    from bimbot.data import light_steel_frame as sample
 
     try:
         columns_x, columns_y = sample.parse_bays(args.bays)

@@ -1,50 +1,38 @@
-"""``bimbot run OUT/``: build a converted model with every service as its own process on a loopback bus.
+"""A run: build a converted model with every service as its own process on a loopback bus.
 
 Starts ``bimbot bus`` on a free loopback port, then physics (lock-step, as fast as the robots can
 follow, unless told otherwise), the component agents, the planner and N robots, and optionally the
 observer (a rerun recording; with ``--live`` also the web viewer, kept up after the build); waits until
-the planner reports every task settled, the site stalls (:mod:`bimbot.run_watchdog`), the time limit
-passes, a service dies or a SIGTERM/SIGINT comes (:mod:`bimbot.run_loop`); stops every service (and their
-children); prints a summary with a table of every component not built and why (:mod:`bimbot.run_table`)
+the planner reports every task settled, the site stalls (:mod:`bimbot.run.watchdog`), the time limit
+passes, a service dies or a SIGTERM/SIGINT comes (:mod:`bimbot.run.loop`); stops every service (and their
+children); prints a summary with a table of every component not built and why (:mod:`bimbot.run.table`)
 and writes the construction report (``report.json`` and ``report.png``, from what the run heard on the
 bus; also every ``--report-every-s`` while it runs). Live progress on the terminal
-(:mod:`bimbot.run_progress`) unless ``-q``.
+(:mod:`bimbot.run.progress`) unless ``-q``.
 
 Everything a run writes goes to its own run folder (:mod:`bimbot.shared.run_folder`), by default a new
 ``BUILD/runs/<time>/`` linked as ``BUILD/runs/latest``: ``state/`` (the agents' journal), ``logs/`` (one
 log per service), ``report/`` and ``observer/<site>.rrd``. The build itself is only read. The report is
 written here only: the observer of a run records, the run reports.
 
-Exit codes: 0 when every component is constructed; 1 otherwise (failed, blocked, stalled, timed out, a
-service died); 130 after SIGINT and 143 after SIGTERM (128 + the signal, as shells do); 2 for unusable
-input.
+The command's entry, its summary and exit codes are :mod:`bimbot.run.main` and :mod:`bimbot.run.summary`.
 """
 
 from __future__ import annotations
 
-import argparse
 import logging
 import re
 import shutil
 import signal
-import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from bimbot.as_built import as_built_line
 from bimbot.fork_server import ForkServer
 from bimbot.fork_server import enabled as fork_server_enabled
 from bimbot.forked_check import apply_answer, check_request
-from bimbot.run_args import (
-    ObserverOptions,
-    RunOptions,
-    add_run_arguments,
-    run_options,
-)
-from bimbot.run_commands import (
+from bimbot.run.commands import (
     monitor_bus_options,
     restart_arguments,
     router_commands,
@@ -52,57 +40,30 @@ from bimbot.run_commands import (
     secure_bus,
     service_commands,
 )
-from bimbot.run_loop import LoopLimits, LoopResult, RunWatch, StopSignals
-from bimbot.run_monitor import RunMonitor
-from bimbot.run_preflight import check_run_input
-from bimbot.run_progress import NoProgress, ProgressView, make_progress
-from bimbot.run_restarts import Restart, Restarter, RestartPolicy
-from bimbot.run_settings import run_settings
-from bimbot.run_table import not_built_table
-from bimbot.run_watchdog import StallWatchdog
-from bimbot.services.observer.report import RunEnding
-from bimbot.services.observer.report_fleet import lane_label, robot_order, utilisation_line
-from bimbot.services.observer.report_methods import curing_line
-from bimbot.services.observer.report_placements import caught_on_last_attempt, placement_line
-from bimbot.services.observer.report_time import duration_text
-from bimbot.services.observer.report_totals import busy_within_s, makespan_window
+from bimbot.run.loop import LoopLimits, LoopResult, RunWatch, StopSignals
+from bimbot.run.monitor import RunMonitor
+from bimbot.run.options import (
+    ObserverOptions,
+    RunOptions,
+)
+from bimbot.run.preflight import check_run_input
+from bimbot.run.progress import NoProgress, ProgressView, make_progress
+from bimbot.run.restarts import Restarter, RestartPolicy
+from bimbot.run.settings import run_settings
+from bimbot.run.summary import RunOutcome, summary_text
+from bimbot.run.watchdog import StallWatchdog
 from bimbot.shared.bus import open_session
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import Manifest, load_manifest
 from bimbot.shared.messages import ComponentState
+from bimbot.shared.report.collector import RunEnding
 from bimbot.shared.run_folder import RunFolder, new_run_folder
 from bimbot.supervisor import ServiceProcess, free_port, stop_all, wait_until
 
 _log = logging.getLogger(__name__)
 
 OBSERVER_CLOSE_TIMEOUT_S = 120.0  # closing and compacting the recording after the build
-MAX_PLAN_WARNINGS_SHOWN = 5
 _VIEWER_LINE = re.compile(r"web viewer: (http\S+)")
-__all__ = [  # the options live in bimbot.run_args; benches and tests import them from here too
-    "ObserverOptions",
-    "RunOptions",
-    "RunOutcome",
-    "run_build",
-]
-
-
-@dataclass
-class RunOutcome:
-    exit_code: int
-    constructed: int
-    total: int
-    failed: list[str] = field(default_factory=list)
-    misplacements: int = 0
-    sim_time_s: float = 0.0
-    wall_time_s: float = 0.0
-    report: dict[str, Any] = field(default_factory=dict)
-    report_dir: Path | None = None
-    run_dir: Path | None = None
-    plan_warnings: list[str] = field(default_factory=list)  # what the planner found wrong with its input
-    rrd_path: Path | None = None
-    viewer_url: str | None = None
-    summary_announced: bool = False  # the summary went out through ``announce`` already (--live)
-    ending: RunEnding | None = None
 
 
 def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] = _log.info) -> RunOutcome:
@@ -236,7 +197,7 @@ def _check_input(build: Path, options: RunOptions, launcher: ForkServer | None) 
 def _write_report(report: dict[str, Any], report_dir: Path) -> None:
     """``report.json`` and ``report.png``; matplotlib is imported here, when the first report is due, not
     before the services start (a quarter of a second of every run's start)."""
-    from bimbot.services.observer.report_png import write_report_files
+    from bimbot.shared.report.png import write_report_files
 
     write_report_files(report, report_dir)
 
@@ -311,160 +272,3 @@ def _let_observer_finish(
         announce("stopping the viewer")
     else:
         _log.warning("the observer stopped on its own (exit %s); see %s", observer.wait(0), observer.log_path)
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("build", type=Path, help="a converted build folder (bimbot convert … -o BUILD)")
-    add_run_arguments(parser)
-
-
-def run(args: argparse.Namespace) -> int:
-    if getattr(args, "check_stability", False):
-        from bimbot.stability_cli import check_stability_command
-
-        return check_stability_command(args, say)
-    return finish(run_build(args.build, run_options(args), announce=say))
-
-
-def say(line: str) -> None:
-    """One line for the user on stdout, at once (the commands' output; logs go to stderr)."""
-    sys.stdout.write(line + "\n")
-    sys.stdout.flush()
-
-
-def finish(outcome: RunOutcome) -> int:
-    """Print the summary (unless it went out already) and return the exit code."""
-    if not outcome.summary_announced:
-        sys.stdout.write(summary_text(outcome))
-    return outcome.exit_code
-
-
-def _makespan(totals: dict[str, Any]) -> str:
-    """``; makespan 1060.6 s``: the report's and report.png's figure (first release to last construction),
-    which a user otherwise cannot tell from the run's sim time."""
-    makespan = totals.get("makespan_s")
-    if not makespan:
-        return ""
-    return f"; makespan {duration_text(makespan)} from the first release to the last construction"
-
-
-def _busy(busy_s: float) -> str:
-    """``77 s``; a machine's hours of formwork as ``9.0 h (32,403 s)``."""
-    return f"{busy_s:.0f} s" if busy_s <= LONG_BUSY_S else duration_text(busy_s)
-
-
-LONG_BUSY_S = 600.0
-
-
-def _busy_outside(robot: dict[str, Any], window: tuple[float, float] | None) -> str:
-    """`` (120 s of it after the last construction)``: the utilisation counts a robot's busy time within
-    the makespan only; without this a robot busy 360 s beside a 268 s makespan read as a contradiction."""
-    if window is None:
-        return ""
-    outside = robot["busy_s"] - busy_within_s(robot, window)
-    if outside < 1.0:
-        return ""
-    return f" ({outside:.0f} s of it after the last construction, on tasks that built nothing more)"
-
-
-def _caught(outcome: RunOutcome) -> str:
-    """The placements the agents caught off target or unstable: the retried ones, and those on a component's
-    last attempt (verdict ``failed``: not retried, the component fails with its reason)."""
-    last = caught_on_last_attempt(outcome.report)
-    if not last:
-        return f"{outcome.misplacements} placement(s) caught off target or unstable and retried"
-    return (
-        f"{outcome.misplacements + last} placement(s) caught off target or unstable: {outcome.misplacements} "
-        f"retried, {last} on its component's last attempt (failed, with its reason below)"
-    )
-
-
-def method_line(totals: dict) -> str | None:
-    """``by method: cast_in_place 9/9, lifted 33/33, …`` (constructed/components), unless all are lifted."""
-    by_method = totals.get("by_method") or {}
-    if set(by_method) <= {"lifted"}:
-        return None
-    parts = [f"{method} {entry['constructed']}/{entry['components']}" for method, entry in by_method.items()]
-    return "by method (constructed/components): " + ", ".join(parts)
-
-
-def _seed(outcome: RunOutcome) -> str:
-    seed = (outcome.report.get("settings") or {}).get("seed")
-    return f" (seed {seed})" if seed is not None else ""
-
-
-def summary_text(outcome: RunOutcome) -> str:
-    totals = outcome.report.get("totals", {})
-    ending = outcome.ending
-    early = []  # first: why the numbers below are what they are
-    if ending is not None and ending.how != "done":
-        early = [f"the run ended early: {ending.message}", *(f"  {detail}" for detail in ending.details)]
-    lines = [
-        *early,
-        f"constructed {outcome.constructed}/{outcome.total} components in "
-        f"{outcome.sim_time_s:.1f} s sim time ({outcome.wall_time_s:.1f} s wall{_makespan(totals)}), "
-        f"{_caught(outcome)}, {totals.get('give_backs', 0)} give-back(s) by robots{_seed(outcome)}",
-    ]
-    methods = method_line(totals)
-    if methods:
-        lines.append(methods)
-    curing = curing_line(outcome.report)
-    if curing is not None:
-        lines.append(curing)
-    if totals.get("in_place"):
-        lines.append(
-            f"in place before the run (convert --in-place): {totals['in_place']} component(s), not built "
-            "by the robots and not counted above"
-        )
-    if (outcome.report.get("settings") or {}).get("connections") is False:
-        lines.append(
-            "without connections (--no-connections): every component had to stand by itself, none was "
-            "connected to what was built beside it"
-        )
-    if totals.get("max_position_error_mm") is not None:
-        lines.append(
-            "placement error of the constructed components at most "
-            f"{totals['max_position_error_mm']:.2f} mm and {totals['max_angle_error_deg']:.2f}°"
-        )
-    placements = placement_line(outcome.report)
-    if placements is not None:
-        lines.append(placements)
-    as_built = as_built_line(outcome.report)
-    if as_built is not None:
-        lines.append(as_built)
-    robots = outcome.report.get("robots", {})
-    window = makespan_window(outcome.report.get("components", []))
-    for robot_id in robot_order(robots):
-        robot = robots[robot_id]
-        hand_offs = sum(1 for task in robot["tasks"] if task.get("kind") == "hand_off")
-        lines.append(
-            f"{lane_label(robot_id, robot)}: {len(robot['tasks'])} task(s)"
-            + (f" ({hand_offs} hand-off(s))" if hand_offs else "")
-            + f", {robot['distance_m']:.0f} m driven, busy {_busy(robot['busy_s'])}"
-            + _busy_outside(robot, window)
-        )
-    utilisation = utilisation_line(outcome.report)
-    if utilisation is not None:
-        lines.append(utilisation)
-    restarts = outcome.report.get("restarts", [])
-    if restarts:
-        lines.append(f"services that died during the run ({len(restarts)}):")
-        lines += [f"  {Restart(**record).line()}" for record in restarts]
-    if outcome.plan_warnings:
-        lines.append(f"the planner warned about its plan ({len(outcome.plan_warnings)}):")
-        lines += [f"  {warning}" for warning in outcome.plan_warnings[:MAX_PLAN_WARNINGS_SHOWN]]
-        if len(outcome.plan_warnings) > MAX_PLAN_WARNINGS_SHOWN:
-            lines.append(
-                f"  … and {len(outcome.plan_warnings) - MAX_PLAN_WARNINGS_SHOWN} more (logs/planner.log)"
-            )
-    table = not_built_table(outcome.report)
-    if table:
-        lines.append(table.rstrip("\n"))
-    if outcome.report_dir is not None:
-        lines.append(f"report: {outcome.report_dir / 'report.json'} and {outcome.report_dir / 'report.png'}")
-    if outcome.run_dir is not None:
-        lines.append(f"logs: {RunFolder(outcome.run_dir).logs_dir}/ (one per service)")
-    if outcome.rrd_path is not None:
-        viewer = Path(sys.executable).with_name("rerun")  # the venv's own viewer, wherever the user stands
-        lines.append(f"recording: {outcome.rrd_path} (open it with: {viewer} {outcome.rrd_path})")
-    return "\n".join(lines) + "\n"

@@ -1,0 +1,176 @@
+"""The summary ``bimbot run`` prints as it ends: what was built, how well, by whom, and what was not and why.
+
+Pure: a :class:`RunOutcome` (the run's counts, its report and where its files are) in, text out. The
+figures are the report's (:mod:`bimbot.shared.report.collector` and its ``report_*`` helpers), so the
+summary and ``report.json`` cannot disagree.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from bimbot.run.as_built import as_built_line
+from bimbot.run.restarts import Restart
+from bimbot.run.table import not_built_table
+from bimbot.shared.report.collector import RunEnding
+from bimbot.shared.report.durations import duration_text
+from bimbot.shared.report.fleet import lane_label, robot_order, utilisation_line
+from bimbot.shared.report.methods import curing_line
+from bimbot.shared.report.placements import caught_on_last_attempt, placement_line
+from bimbot.shared.report.totals import busy_within_s, makespan_window
+from bimbot.shared.run_folder import RunFolder
+
+MAX_PLAN_WARNINGS_SHOWN = 5
+
+
+@dataclass
+class RunOutcome:
+    exit_code: int
+    constructed: int
+    total: int
+    failed: list[str] = field(default_factory=list)
+    misplacements: int = 0
+    sim_time_s: float = 0.0
+    wall_time_s: float = 0.0
+    report: dict[str, Any] = field(default_factory=dict)
+    report_dir: Path | None = None
+    run_dir: Path | None = None
+    plan_warnings: list[str] = field(default_factory=list)  # what the planner found wrong with its input
+    rrd_path: Path | None = None
+    viewer_url: str | None = None
+    summary_announced: bool = False  # the summary went out through ``announce`` already (--live)
+    ending: RunEnding | None = None
+
+
+def _makespan(totals: dict[str, Any]) -> str:
+    """``; makespan 1060.6 s``: the report's and report.png's figure (first release to last construction),
+    which a user otherwise cannot tell from the run's sim time."""
+    makespan = totals.get("makespan_s")
+    if not makespan:
+        return ""
+    return f"; makespan {duration_text(makespan)} from the first release to the last construction"
+
+
+def _busy(busy_s: float) -> str:
+    """``77 s``; a machine's hours of formwork as ``9.0 h (32,403 s)``."""
+    return f"{busy_s:.0f} s" if busy_s <= LONG_BUSY_S else duration_text(busy_s)
+
+
+LONG_BUSY_S = 600.0
+
+
+def _busy_outside(robot: dict[str, Any], window: tuple[float, float] | None) -> str:
+    """`` (120 s of it after the last construction)``: the utilisation counts a robot's busy time within
+    the makespan only; without this a robot busy 360 s beside a 268 s makespan read as a contradiction."""
+    if window is None:
+        return ""
+    outside = robot["busy_s"] - busy_within_s(robot, window)
+    if outside < 1.0:
+        return ""
+    return f" ({outside:.0f} s of it after the last construction, on tasks that built nothing more)"
+
+
+def _caught(outcome: RunOutcome) -> str:
+    """The placements the agents caught off target or unstable: the retried ones, and those on a component's
+    last attempt (verdict ``failed``: not retried, the component fails with its reason)."""
+    last = caught_on_last_attempt(outcome.report)
+    if not last:
+        return f"{outcome.misplacements} placement(s) caught off target or unstable and retried"
+    return (
+        f"{outcome.misplacements + last} placement(s) caught off target or unstable: {outcome.misplacements} "
+        f"retried, {last} on its component's last attempt (failed, with its reason below)"
+    )
+
+
+def method_line(totals: dict) -> str | None:
+    """``by method: cast_in_place 9/9, lifted 33/33, …`` (constructed/components), unless all are lifted."""
+    by_method = totals.get("by_method") or {}
+    if set(by_method) <= {"lifted"}:
+        return None
+    parts = [f"{method} {entry['constructed']}/{entry['components']}" for method, entry in by_method.items()]
+    return "by method (constructed/components): " + ", ".join(parts)
+
+
+def _seed(outcome: RunOutcome) -> str:
+    seed = (outcome.report.get("settings") or {}).get("seed")
+    return f" (seed {seed})" if seed is not None else ""
+
+
+def summary_text(outcome: RunOutcome) -> str:
+    totals = outcome.report.get("totals", {})
+    ending = outcome.ending
+    early = []  # first: why the numbers below are what they are
+    if ending is not None and ending.how != "done":
+        early = [f"the run ended early: {ending.message}", *(f"  {detail}" for detail in ending.details)]
+    lines = [
+        *early,
+        f"constructed {outcome.constructed}/{outcome.total} components in "
+        f"{outcome.sim_time_s:.1f} s sim time ({outcome.wall_time_s:.1f} s wall{_makespan(totals)}), "
+        f"{_caught(outcome)}, {totals.get('give_backs', 0)} give-back(s) by robots{_seed(outcome)}",
+    ]
+    methods = method_line(totals)
+    if methods:
+        lines.append(methods)
+    curing = curing_line(outcome.report)
+    if curing is not None:
+        lines.append(curing)
+    if totals.get("in_place"):
+        lines.append(
+            f"in place before the run (convert --in-place): {totals['in_place']} component(s), not built "
+            "by the robots and not counted above"
+        )
+    if (outcome.report.get("settings") or {}).get("connections") is False:
+        lines.append(
+            "without connections (--no-connections): every component had to stand by itself, none was "
+            "connected to what was built beside it"
+        )
+    if totals.get("max_position_error_mm") is not None:
+        lines.append(
+            "placement error of the constructed components at most "
+            f"{totals['max_position_error_mm']:.2f} mm and {totals['max_angle_error_deg']:.2f}°"
+        )
+    placements = placement_line(outcome.report)
+    if placements is not None:
+        lines.append(placements)
+    as_built = as_built_line(outcome.report)
+    if as_built is not None:
+        lines.append(as_built)
+    robots = outcome.report.get("robots", {})
+    window = makespan_window(outcome.report.get("components", []))
+    for robot_id in robot_order(robots):
+        robot = robots[robot_id]
+        hand_offs = sum(1 for task in robot["tasks"] if task.get("kind") == "hand_off")
+        lines.append(
+            f"{lane_label(robot_id, robot)}: {len(robot['tasks'])} task(s)"
+            + (f" ({hand_offs} hand-off(s))" if hand_offs else "")
+            + f", {robot['distance_m']:.0f} m driven, busy {_busy(robot['busy_s'])}"
+            + _busy_outside(robot, window)
+        )
+    utilisation = utilisation_line(outcome.report)
+    if utilisation is not None:
+        lines.append(utilisation)
+    restarts = outcome.report.get("restarts", [])
+    if restarts:
+        lines.append(f"services that died during the run ({len(restarts)}):")
+        lines += [f"  {Restart(**record).line()}" for record in restarts]
+    if outcome.plan_warnings:
+        lines.append(f"the planner warned about its plan ({len(outcome.plan_warnings)}):")
+        lines += [f"  {warning}" for warning in outcome.plan_warnings[:MAX_PLAN_WARNINGS_SHOWN]]
+        if len(outcome.plan_warnings) > MAX_PLAN_WARNINGS_SHOWN:
+            lines.append(
+                f"  … and {len(outcome.plan_warnings) - MAX_PLAN_WARNINGS_SHOWN} more (logs/planner.log)"
+            )
+    table = not_built_table(outcome.report)
+    if table:
+        lines.append(table.rstrip("\n"))
+    if outcome.report_dir is not None:
+        lines.append(f"report: {outcome.report_dir / 'report.json'} and {outcome.report_dir / 'report.png'}")
+    if outcome.run_dir is not None:
+        lines.append(f"logs: {RunFolder(outcome.run_dir).logs_dir}/ (one per service)")
+    if outcome.rrd_path is not None:
+        viewer = Path(sys.executable).with_name("rerun")  # the venv's own viewer, wherever the user stands
+        lines.append(f"recording: {outcome.rrd_path} (open it with: {viewer} {outcome.rrd_path})")
+    return "\n".join(lines) + "\n"
