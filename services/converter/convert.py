@@ -51,6 +51,7 @@ from .final_method import method_limits
 from .guest_hosts import find_hosts
 from .guest_merge import build_guests_into_hosts
 from .in_place import split_in_place
+from .connection_kinds import decide_connections
 from .joints import find_joints
 from .mass import mass_unit_kg
 from .mesh_files import VISUAL_FORMATS
@@ -219,6 +220,9 @@ def _convert(
 
     joints_started = time.perf_counter()
     found = find_joints(model, [*components, *in_place], out_dir, options.joints or default_joint_settings())
+    components = decide_connections(
+        components, [*components, *in_place], found.joints, methods.connections, methods.temporary_supports
+    )
     stats.seconds_by_stage["joints"] = time.perf_counter() - joints_started
 
     finishing = time.perf_counter()
