@@ -64,7 +64,7 @@ class ConnectionLink(_Frozen):
 
 
 class TemporarySupportNeed(_Frozen):
-    """The temporary supports a member needs until its connections hold it (``Component.temporary_support``)."""
+    """What temporary supports a member needs until its connections hold it (``temporary_support``)."""
 
     kind: SupportKind
     count: int = Field(ge=1)

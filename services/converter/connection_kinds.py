@@ -14,10 +14,10 @@ For every component set by a robot (lifted or panelised) and each neighbour it m
 Temporary supports (``[temporary_supports]`` of the methods file): a precast wall panel gets props (it
 stands on grout that has not set); a member with nothing under it above the ground gets props when no
 fixing connection is made as it is set down (a stub column hung from beams not built yet); a column-like
-member with no fixing base connection that is slender
-(height over least width beyond ``brace_slenderness``) gets braces unless its connections already reach
-what stands by itself. Physics applies the condition (``TemporarySupportNeed.when``). Times come from the methods file.
-The decision uses the manifest's world bounding boxes only: cheap for any model.
+member with no fixing base connection that is slender (height over least width beyond
+``brace_slenderness``) gets braces unless its connections already reach what stands by itself. Physics
+applies the condition (``TemporarySupportNeed.when``). Times come from the methods file. The decision uses
+the manifest's world bounding boxes only: cheap for any model.
 """
 
 from __future__ import annotations
@@ -110,7 +110,7 @@ def decide_connections(
     return decided
 
 
-def _links(
+def _links(  # noqa: PLR0917 (the arrays are computed once for all components)
     component: Component,
     neighbours: Sequence[Component],
     by_guid: dict[str, Component],
@@ -141,14 +141,20 @@ def _links(
             sources.setdefault(other, "bearing face" if bears[index] else "side")
     links: list[ConnectionLink] = []
     for other_guid, source in sources.items():
-        other = by_guid[other_guid]
-        base = _under(component, other)
-        if not base and other.bbox_world.min_m[2] > low[2] + FACE_TOLERANCE_M and not column_like(component):
+        neighbour = by_guid[other_guid]
+        base = _under(component, neighbour)
+        if (
+            not base
+            and neighbour.bbox_world.min_m[2] > low[2] + FACE_TOLERANCE_M
+            and not column_like(component)
+        ):
             continue  # it sits higher: it is the one connected to this component, not a support of it
-        kind = connection_kind(component, other, base=base, welded=other_guid in welded)
+        kind = connection_kind(component, neighbour, base=base, welded=other_guid in welded)
         set_s = times.grout_set_s if kind is ConnectionKind.GROUTED else 0.0
         links.append(
-            ConnectionLink(other_guid=other_guid, kind=kind, time_s=times.time_s(kind), set_s=set_s, source=source)
+            ConnectionLink(
+                other_guid=other_guid, kind=kind, time_s=times.time_s(kind), set_s=set_s, source=source
+            )
         )
     return sorted(links, key=lambda link: link.other_guid)
 

@@ -47,11 +47,11 @@ from bimbot.shared.methods_file import MethodsFile, load_methods
 from bimbot.shared.sequence import SEQUENCE_FILE_NAME, write_sequence
 
 from .component_writer import ShardContext, skipped_entry
+from .connection_kinds import decide_connections
 from .final_method import method_limits
 from .guest_hosts import find_hosts
 from .guest_merge import build_guests_into_hosts
 from .in_place import split_in_place
-from .connection_kinds import decide_connections
 from .joints import find_joints
 from .mass import mass_unit_kg
 from .mesh_files import VISUAL_FORMATS

@@ -126,9 +126,7 @@ def plan_connections(
     return ConnectionPlan(kinds, tuple(holds_at_s), holds_at_s, connection_s)
 
 
-def within_gap(
-    client_id: int, body_id: int, structure: Mapping[int, str], gap_m: float
-) -> tuple[str, ...]:
+def within_gap(client_id: int, body_id: int, structure: Mapping[int, str], gap_m: float) -> tuple[str, ...]:
     """GUIDs of the ``structure`` bodies (body → GUID) within ``gap_m`` of ``body_id``, on any side."""
     return tuple(
         guid

@@ -58,7 +58,6 @@ from bimbot.shared.site_plan import Rect
 
 from .client import p
 from .connections import ConnectionConfig
-from .temporary_supports import SupportRecord
 from .crane import hook_joints, lift_position, load_top
 from .load_rules import carry_refusal, drop_beside, lowered, lying_corners
 from .pits import Pits
@@ -81,6 +80,7 @@ from .scene import (
     set_component_pose,
     set_filter,
 )
+from .temporary_supports import SupportRecord
 
 _log = logging.getLogger(__name__)
 

@@ -35,7 +35,6 @@ from .client import p
 from .connections import fits_its_target, plan_connections, side_neighbours, within_gap
 from .pits import DEEPER_M
 from .placement_error import physical_placement
-from .temporary_supports import SupportRecord, anchored
 from .release import (
     MAX_CLEARED_M,
     Watch,
@@ -60,6 +59,7 @@ from .scene import (
     set_component_pose,
     set_filter,
 )
+from .temporary_supports import SupportRecord, anchored
 
 if TYPE_CHECKING:
     from bimbot.shared.manifest import Component
@@ -321,7 +321,9 @@ class Placing:
                 ", ".join(f"{kind.value} to {other}" for other, kind in kinds.items()) or "no connection",
                 releaser or "nobody",
                 hold_s,
-                f" (with {self.supports.count(guid)} temporary supports set)" if self.supports.count(guid) else "",
+                f" (with {self.supports.count(guid)} temporary supports set)"
+                if self.supports.count(guid)
+                else "",
             )
         self.changed.add(guid)
 
@@ -350,7 +352,9 @@ class Placing:
             cid, body = self.client_id, item.body
             near = self._nearby_components(item, margin_m=config.gap_m, among=structure)
             beside = side_neighbours(cid, body.body_id, near, config.gap_m)
-            linked = within_gap(cid, body.body_id, {b: g for b, g in near.items() if g in links}, config.gap_m)
+            linked = within_gap(
+                cid, body.body_id, {b: g for b, g in near.items() if g in links}, config.gap_m
+            )
             found = tuple(dict.fromkeys(jointed + linked + tuple(g for g in beside if g not in partners)))
         plan = plan_connections(found, links, jointed, config.hold_s)
         self.supports.connect(guid, plan.kinds, {other: now_s + s for other, s in plan.holds_at_s.items()})

@@ -197,8 +197,8 @@ def check_stability(
             handling.note_constructed(guid, True)  # verified: joined to the structure
             placed.add(guid)
         sim_s = sim.sim_time_s
-        standing = tuple(sorted(handling.supports.standing))
-    return StabilityReport(len(order), steps, sim_s, time.monotonic() - started, clashes, standing)
+        at_end = tuple(sorted(handling.supports.standing))
+    return StabilityReport(len(order), steps, sim_s, time.monotonic() - started, clashes, at_end)
 
 
 MAX_CLASHES_SHOWN = 30  # named in the output; the rest are counted

@@ -52,7 +52,9 @@ class SupportRecord:
     history: list[StandingSupport] = field(default_factory=list)  # every support set, in order
     most_at_once: int = 0  # supports standing at once, at most
 
-    def connect(self, guid: str, kinds: Mapping[str, ConnectionKind], holds_at_s: Mapping[str, float]) -> None:
+    def connect(
+        self, guid: str, kinds: Mapping[str, ConnectionKind], holds_at_s: Mapping[str, float]
+    ) -> None:
         """``guid`` was connected to ``kinds`` (other → kind); its fixing ones hold from ``holds_at_s``."""
         self.kinds.setdefault(guid, {}).update(kinds)
         for other, at_s in holds_at_s.items():
