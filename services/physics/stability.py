@@ -332,8 +332,8 @@ def describe(
     elif derived:
         lines.append(
             "to try: everything it rests on was placed before it, and no component built beside it "
-            f"({BESIDE_IT}) could be connected to it, and it has no temporary supports (the converter gives props "
-            "and braces to precast panels, members with nothing under them and slender columns)"
+            f"({BESIDE_IT}) could be connected to it, and it has no temporary supports (the converter "
+            "gives props and braces to precast panels, members with nothing under them and slender columns)"
         )
     else:
         lines.append(
