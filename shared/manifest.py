@@ -18,6 +18,7 @@ from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from bimbot.shared.connection_kinds import ConnectionLink, TemporarySupportNeed
 from bimbot.shared.construction_methods import (
     CastWork,
     ConstructionMethod,
@@ -176,6 +177,10 @@ class Component(_Frozen):
     parent_guid: str | None = Field(default=None, description="a panel: the element it was cut from")
     cast: CastWork | None = Field(default=None, description="cast_in_place: its formwork, pour and cure")
     guests: list[GuestElement] = Field(default=[], description="elements built into it (with_host)")
+    # how it is connected to each supporting neighbour, and the temporary supports it needs until those
+    # hold it (shared/connection_kinds.py): decided at conversion, used by physics
+    connection_links: list[ConnectionLink] = []
+    temporary_support: TemporarySupportNeed | None = None
 
 
 class SkippedElement(_Frozen):

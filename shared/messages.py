@@ -193,6 +193,10 @@ class ComponentPoseMsg(_Message):
     # placed: the built components it was connected to as it was set down at its target (bolted, welded,
     # fixed at its side; physics' connections), which hold it where it was put
     connected_to: list[str] = []
+    # placed: the built neighbours it was connected to, GUID → kind (shared/connection_kinds.py: bolted_base,
+    # pinned_end, fixed_end, bearing, grouted), and the temporary supports standing on it now (props, braces)
+    connection_kinds: dict[str, str] = {}
+    temporary_supports: Count = 0
 
 
 class TwinMsg(_Message):

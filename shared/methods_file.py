@@ -24,6 +24,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from .connection_kinds import ConnectionTimes, TemporarySupportRules
 from .construction_methods import ConstructionMethod
 from .errors import InputError
 
@@ -150,6 +151,8 @@ class MethodsFile(_Frozen):
     panels: PanelRule
     transport: TransportLimits
     cast_in_place: CastInPlace
+    connections: ConnectionTimes
+    temporary_supports: TemporarySupportRules
     source: str = Field(default="", exclude=True, description="where it was read from (messages)")
 
     @field_validator("by_class")

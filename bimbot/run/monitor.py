@@ -41,6 +41,7 @@ from bimbot.shared.bus import Answer, Inbox, InvalidPayloads, Received, query_fi
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     CLOCK,
+    COMPONENT_POSE,
     COMPONENT_STATE,
     COMPONENT_TWIN,
     PHYSICS_INFO,
@@ -111,6 +112,7 @@ class RunMonitor:
         inbox = self._inbox
         self._subscribers = [
             inbox.subscribe(session, COMPONENT_STATE, site=site, key="*"),
+            inbox.subscribe(session, COMPONENT_POSE, site=site, key="*"),  # connections, temporary supports
             inbox.subscribe(session, ROBOT_STATE, site=site, robot_id="*"),
             inbox.subscribe(session, ROBOT_POSE, site=site, robot_id="*"),
             inbox.subscribe(session, PROGRESS, site=site),

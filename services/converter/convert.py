@@ -47,6 +47,7 @@ from bimbot.shared.methods_file import MethodsFile, load_methods
 from bimbot.shared.sequence import SEQUENCE_FILE_NAME, write_sequence
 
 from .component_writer import ShardContext, skipped_entry
+from .connection_kinds import decide_connections
 from .final_method import method_limits
 from .guest_hosts import find_hosts
 from .guest_merge import build_guests_into_hosts
@@ -219,6 +220,9 @@ def _convert(
 
     joints_started = time.perf_counter()
     found = find_joints(model, [*components, *in_place], out_dir, options.joints or default_joint_settings())
+    components = decide_connections(
+        components, [*components, *in_place], found.joints, methods.connections, methods.temporary_supports
+    )
     stats.seconds_by_stage["joints"] = time.perf_counter() - joints_started
 
     finishing = time.perf_counter()

@@ -27,9 +27,10 @@ must then stand by itself, the rehearsal of a sequence without connections.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+from bimbot.shared.connection_kinds import ConnectionKind, ConnectionLink
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import PoseMsg
 from bimbot.shared.reasons import CONNECTION_GAP_M
@@ -89,3 +90,53 @@ def side_neighbours(
         ):
             found.append(guid)
     return tuple(found)
+
+
+@dataclass(frozen=True)
+class ConnectionPlan:
+    """What is made as a member is let go at its target (:func:`plan_connections`)."""
+
+    kinds: dict[str, ConnectionKind]  # every neighbour it is connected to → how
+    fixed_to: tuple[str, ...]  # those that hold it where it was put (all but bearings on a contact)
+    holds_at_s: dict[str, float]  # fixing ones → after how long they hold (sim s from the release)
+    connection_s: float  # the crew time while its robot holds it (the longest of the kinds made)
+
+
+def plan_connections(
+    made: Sequence[str],
+    links: Mapping[str, ConnectionLink],
+    jointed: Sequence[str],
+    fallback_s: float,
+) -> ConnectionPlan:
+    """Kinds and times for the neighbours ``made`` (GUIDs in order): a neighbour the manifest links is
+    connected as its link says; one it does not (an older build, a contact physics found) as a bolted end
+    in ``fallback_s``. A bearing holds by friction only, except on a joint partner (no contact between
+    the two: it would pass into it), which holds it as a fixed connection would."""
+    kinds: dict[str, ConnectionKind] = {}
+    holds_at_s: dict[str, float] = {}
+    connection_s = 0.0
+    for guid in made:
+        link = links.get(guid)
+        kind = link.kind if link is not None else ConnectionKind.PINNED_END
+        time_s = link.time_s if link is not None else fallback_s
+        kinds[guid] = kind
+        connection_s = max(connection_s, time_s)
+        if kind.fixes or guid in jointed:
+            holds_at_s[guid] = time_s + (link.set_s if link is not None else 0.0)
+    return ConnectionPlan(kinds, tuple(holds_at_s), holds_at_s, connection_s)
+
+
+def within_gap(client_id: int, body_id: int, structure: Mapping[int, str], gap_m: float) -> tuple[str, ...]:
+    """GUIDs of the ``structure`` bodies (body → GUID) within ``gap_m`` of ``body_id``, on any side."""
+    return tuple(
+        guid
+        for other, guid in structure.items()
+        if p.getClosestPoints(bodyA=body_id, bodyB=other, distance=gap_m, physicsClientId=client_id)
+    )
+
+
+def longest_hold_s(component: Component, fallback_s: float) -> float:
+    """The longest its robot may hold it: its slowest connection and all its temporary supports."""
+    need = component.temporary_support
+    slowest = max((link.time_s for link in component.connection_links), default=0.0)
+    return max(slowest, fallback_s) + (need.count * need.place_s if need is not None else 0.0)

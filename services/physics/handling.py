@@ -80,6 +80,7 @@ from .scene import (
     set_component_pose,
     set_filter,
 )
+from .temporary_supports import SupportRecord
 
 _log = logging.getLogger(__name__)
 
@@ -164,6 +165,7 @@ class Handling(Placing):
         self.watch: dict[str, Watch] = {}  # settling and placed components
         self.guid_of = {item.body.body_id: guid for guid, item in items.items()}
         self.connections = connections or ConnectionConfig()
+        self.supports = SupportRecord()  # connections made and temporary supports (.temporary_supports)
         self.in_place = dict(in_place or {})  # body → GUID of the components in place from the start
         self.joints = dict(joints or {})  # GUID → the GUIDs it is jointed with (.joints): never a clash
         self._seed = seed
@@ -352,7 +354,7 @@ class Handling(Placing):
         item.separating_from = None
         self._separating.discard(item.component.guid)
         watch = self.watch.get(item.component.guid)
-        if item.phase in DYNAMIC_PHASES and not (watch is not None and watch.connected_to):
+        if item.phase in DYNAMIC_PHASES and not (watch is not None and watch.fixed):
             set_filter(self.client_id, item.body.body_id, DYNAMIC_GROUP, ALL_GROUPS)
         else:
             set_filter(self.client_id, item.body.body_id, STATIC_GROUP, STATIC_MASK)
@@ -469,6 +471,8 @@ class Handling(Placing):
             bumped_by=watch.bumped_by if watch is not None else None,
             bumped_at_s=watch.bumped_at_s if watch is not None else None,
             connected_to=list(watch.connected_to if watch is not None else item.connected_to),
+            connection_kinds={other: kind.value for other, kind in self.supports.kinds.get(guid, {}).items()},
+            temporary_supports=self.supports.count(guid),
         )
 
     def take_changed(self) -> list[str]:

@@ -25,12 +25,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from bimbot.shared.connection_kinds import SupportWhen
+from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.footprint import body_centre_m, posed_footprint
 from bimbot.shared.messages import PhysicsReply, PoseMsg
 from bimbot.shared.site_plan import Rect
 
 from .client import p
-from .connections import fits_its_target, side_neighbours
+from .connections import fits_its_target, plan_connections, side_neighbours, within_gap
 from .pits import DEEPER_M
 from .placement_error import physical_placement
 from .release import (
@@ -57,6 +59,7 @@ from .scene import (
     set_component_pose,
     set_filter,
 )
+from .temporary_supports import SupportRecord, anchored
 
 if TYPE_CHECKING:
     from bimbot.shared.manifest import Component
@@ -84,6 +87,7 @@ class Phase(StrEnum):
 
 
 DYNAMIC_PHASES = (Phase.SETTLING, Phase.PLACED)
+STANDS_WHERE_BUILT = (ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID)
 AT_TARGET_M = 0.1  # a component this close to its target stands where the model puts it (clash or not)
 
 
@@ -102,6 +106,7 @@ class Placing:
         pits: Pits | None
         settle: SettleConfig
         connections: ConnectionConfig
+        supports: SupportRecord
         in_place: dict[int, str]
         joints: dict[str, frozenset[str]]
         watch: dict[str, Watch]
@@ -297,49 +302,103 @@ class Placing:
         )
         if others:
             _log.info("%s released over the open pit of %s", guid, ", ".join(others))
-        connected_to = () if clashes or others else self._connect(item)
+        connected_to, hold_s = ((), 0.0) if clashes or others else self._connect(item, now_s)
         if carrier is not None:
             self.carrying.pop(carrier.robot_id, None)
         releaser = carrier.robot_id if carrier is not None else None
         item.phase, item.carrier, item.offset, item.tag = Phase.SETTLING, None, None, None
         self._moving.discard(guid)
         self.watch[guid] = Watch(item.pose, now_s, releaser, tag, open_pits=others, clashes=clashes)
-        if connected_to:
-            watch = self.watch[guid]
-            watch.connected_to = connected_to
-            watch.hold_until_s = now_s + self.connections.hold_s
+        watch = self.watch[guid]
+        watch.connected_to = connected_to
+        watch.fixed = bool(connected_to) or guid in self.supports.standing
+        if hold_s > 0.0:
+            watch.hold_until_s = now_s + hold_s
+            kinds = self.supports.kinds.get(guid, {})
             _log.info(
-                "%s connected to %s where it was set down (%s holds it %.0f s while the connection is made)",
+                "%s set down: %s; %s holds it %.0f s%s",
                 guid,
-                ", ".join(connected_to),
+                ", ".join(f"{kind.value} to {other}" for other, kind in kinds.items()) or "no connection",
                 releaser or "nobody",
-                self.connections.hold_s,
+                hold_s,
+                f" (with {self.supports.count(guid)} temporary supports set)"
+                if self.supports.count(guid)
+                else "",
             )
         self.changed.add(guid)
 
-    def _connect(self, item: Item) -> tuple[str, ...]:
-        """Connect ``item``, just let go, to the structure beside it when it lies at its target
-        (:mod:`.connections`): fixed where it is, static. The GUIDs it was connected to, or (): first the
-        built components it is jointed with (:mod:`.joints`: with no contact between the two, it would pass
-        into them), then those beside it."""
+    def _connect(self, item: Item, now_s: float) -> tuple[tuple[str, ...], float]:
+        """Connect ``item``, just let go at its target, to the built neighbours (:mod:`.connections`): its
+        jointed partners, the neighbours its manifest links name within the gap, and those beside it; and
+        set its temporary supports when it needs them and its connections do not yet hold it
+        (:mod:`.temporary_supports`). Fixed where it is (static) when a connection or a support holds it.
+        The GUIDs it is fixed to, and how long its robot holds it (0: it is let go at once)."""
         config = self.connections
-        if not config.enabled or not fits_its_target(item.component, item.pose, config.fit):
-            return ()
+        component = item.component
+        guid = component.guid
+        if not config.enabled or not fits_its_target(component, item.pose, config.fit):
+            return (), 0.0
         structure = dict(self.in_place)
         structure.update(
-            (other.body.body_id, guid) for guid, other in self.items.items() if other.phase is Phase.JOINED
+            (other.body.body_id, other_guid)
+            for other_guid, other in self.items.items()
+            if other.phase is Phase.JOINED
         )
-        if not structure:
-            return ()
-        partners = self.joints.get(item.component.guid, frozenset())
-        jointed = self._built_partners(item.component.guid)
-        cid, body = self.client_id, item.body
-        near = self._nearby_components(item, margin_m=config.gap_m, among=structure)
-        beside = side_neighbours(cid, body.body_id, near, config.gap_m)
-        found = jointed + tuple(guid for guid in beside if guid not in partners)
-        if found:
+        partners = self.joints.get(guid, frozenset())
+        jointed = self._built_partners(guid)
+        links = {link.other_guid: link for link in component.connection_links}
+        found = jointed
+        if structure:
+            cid, body = self.client_id, item.body
+            near = self._nearby_components(item, margin_m=config.gap_m, among=structure)
+            beside = side_neighbours(cid, body.body_id, near, config.gap_m)
+            linked = within_gap(
+                cid, body.body_id, {b: g for b, g in near.items() if g in links}, config.gap_m
+            )
+            found = tuple(dict.fromkeys(jointed + linked + tuple(g for g in beside if g not in partners)))
+        plan = plan_connections(found, links, jointed, config.hold_s)
+        self.supports.connect(guid, plan.kinds, {other: now_s + s for other, s in plan.holds_at_s.items()})
+        hold_s = plan.connection_s
+        need = component.temporary_support
+        if need is not None and (
+            need.when is SupportWhen.ALWAYS
+            or (need.when is SupportWhen.UNCONNECTED and not plan.holds_at_s)
+            or (
+                need.when is SupportWhen.UNANCHORED
+                and not anchored(guid, self.supports.holds_at_s, self._anchors())
+            )
+        ):
+            self.supports.place(guid, need, now_s)
+            hold_s += need.count * need.place_s
+            _log.info("%s: %d %s set (%s)", guid, need.count, need.kind.value, need.why)
+        if plan.fixed_to or guid in self.supports.standing:
             self._fix(item)
-        return found
+        return plan.fixed_to, hold_s
+
+    def _anchors(self) -> set[str]:
+        """What stands by itself: in place from the start, or cast or laid where it stands and joined."""
+        return set(self.in_place.values()) | {
+            guid
+            for guid, item in self.items.items()
+            if item.phase is Phase.JOINED and item.component.method in STANDS_WHERE_BUILT
+        }
+
+    def remove_supports(self, now_s: float) -> None:
+        """Take away the temporary supports of every member that now stands without them."""
+        if not self.supports.standing:
+            return
+        for guid in self.supports.removable(now_s, self._anchors()):
+            support = self.supports.remove(guid, now_s)
+            if support is not None:
+                self.changed.add(guid)
+                _log.info(
+                    "%s: its %d %s removed at t=%.0f s, after %.0f s (its connections hold it)",
+                    guid,
+                    support.count,
+                    support.kind.value,
+                    now_s,
+                    now_s - support.placed_s,
+                )
 
     def _model_clash(self, item: Item, other_guid: str) -> bool:
         """Whether the model itself puts ``item`` and ``other_guid`` into each other deeper than a contact
@@ -467,6 +526,7 @@ class Placing:
                     if watch.bumped_by
                     else "",
                 )
+        self.remove_supports(now_s)
         return answered
 
     def _fell_off(self, item: Item) -> bool:

@@ -74,6 +74,7 @@ class Watch:
     # joined components it was connected to as it was set down (connections.py): fixed where it was put
     connected_to: tuple[str, ...] = ()
     hold_until_s: float = -math.inf  # its robot holds it until the connection is made (sim s)
+    fixed: bool = False  # held where it was put (connected, or on temporary supports): static
 
 
 def box_corners(component: Component) -> np.ndarray:

@@ -28,7 +28,7 @@ from bimbot.shared.manifest import Manifest
 from bimbot.shared.reasons import BESIDE_IT, CLASH_ADVICE, clash_clause
 from bimbot.shared.support_graph import support_predecessors
 
-from .connections import ConnectionConfig
+from .connections import ConnectionConfig, longest_hold_s
 from .in_place_work import BUILT_IN_PLACE
 from .model_clashes import Clash, model_clashes
 from .placing import target_frame
@@ -62,8 +62,10 @@ class StabilityStep:
     name: str
     settle_s: float  # sim seconds until it came to rest (or the settling bound)
     drift_m: float  # how far it moved since its release
-    supports: tuple[str, ...]  # what it rested on
+    rests_on: tuple[str, ...]  # what it rested on
     moved: tuple[Moved, ...] = ()  # everything that moved beyond the tolerance in this step
+    supports: tuple[str, int] | None = None  # the temporary supports it needed (kind, count), if any
+    removed: tuple[str, ...] = ()  # members whose temporary supports came off in this step
 
     @property
     def stands(self) -> bool:
@@ -77,6 +79,7 @@ class StabilityReport:
     sim_s: float = 0.0
     wall_s: float = 0.0
     clashes: list[Clash] = field(default_factory=list)  # every pair the model puts into each other
+    supported_at_end: tuple[str, ...] = ()  # members whose temporary supports still stand at the end
 
     @property
     def first_failure(self) -> StabilityStep | None:
@@ -120,11 +123,10 @@ def check_stability(
             {guid: target_frame(item.component) for guid, item in in_order.items()},
             handling.joints,
         )
-        # the watch answers by then at the latest (a connected component once its connection is made)
-        bound_s = handling.settle.max_settle_s + handling.connections.hold_s + control_period_s
         for index, guid in enumerate(order, start=1):
             since_s = sim.sim_time_s
             item = handling.items.get(guid)
+            standing_before = set(handling.supports.standing)
             if item is not None and item.component.method in BUILT_IN_PLACE:
                 # cast in its formwork or laid in mortar: it stands where it is built, static
                 sim.in_place_work.stand_built(guid)
@@ -141,9 +143,17 @@ def check_stability(
                 continue
             handling.set_down(guid, since_s, tag=TAG)
             placed.add(guid)
+            # the watch answers by then at the latest (held while its connections and supports are made)
+            assert item is not None
+            hold_s = longest_hold_s(item.component, handling.connections.hold_s)
+            bound_s = handling.settle.max_settle_s + hold_s + control_period_s
             while not any(tag == TAG for tag, _ in sim.advance().replies):
                 if sim.sim_time_s - since_s > bound_s:
                     break
+                watch = handling.watch[guid]
+                if watch.settled and all(w.settled for w in handling.watch.values()):
+                    # at rest, held while its connections and supports are made: nothing moves until then
+                    sim.skipped_s += max(0.0, watch.hold_until_s - sim.sim_time_s)
             moved = tuple(
                 Moved(
                     other,
@@ -159,6 +169,7 @@ def check_stability(
                 if watch.drift_m > drift_tolerance_m
             )
             watch = handling.watch[guid]
+            standing = handling.supports.standing.get(guid)
             step = StabilityStep(
                 index,
                 guid,
@@ -167,6 +178,8 @@ def check_stability(
                 watch.drift_m,
                 watch.supports,
                 moved,
+                (standing.kind.value, standing.count) if standing is not None else None,
+                tuple(sorted(standing_before - set(handling.supports.standing))),
             )
             steps.append(step)
             _log.info(
@@ -177,14 +190,15 @@ def check_stability(
                 "stands" if step.stands else "does not stand",
                 1000.0 * step.drift_m,
                 step.settle_s,
-                ", ".join(step.supports) or "the ground",
+                ", ".join(step.rests_on) or "the ground",
             )
             if not step.stands:
                 break
             handling.note_constructed(guid, True)  # verified: joined to the structure
             placed.add(guid)
         sim_s = sim.sim_time_s
-    return StabilityReport(len(order), steps, sim_s, time.monotonic() - started, clashes)
+        at_end = tuple(sorted(handling.supports.standing))
+    return StabilityReport(len(order), steps, sim_s, time.monotonic() - started, clashes, at_end)
 
 
 MAX_CLASHES_SHOWN = 30  # named in the output; the rest are counted
@@ -205,6 +219,38 @@ def _clash_lines(clashes: list[Clash], named: Callable[[tuple[str, ...]], str]) 
     ]
     if len(clashes) > MAX_CLASHES_SHOWN:
         lines.append(f"  and {len(clashes) - MAX_CLASHES_SHOWN} more pair(s), less deep")
+    return lines
+
+
+MAX_SUPPORT_STEPS_SHOWN = 40  # steps needing temporary supports named in the output; the rest are counted
+
+
+def _support_lines(report: StabilityReport, named: Callable[[tuple[str, ...]], str]) -> list[str]:
+    """The steps that need temporary supports (which, how many), when each came off, what still stands."""
+    needing = [step for step in report.steps if step.supports is not None]
+    if not needing:
+        return []
+    removed_at = {guid: step.index for step in report.steps for guid in step.removed}
+    total = sum(step.supports[1] for step in needing if step.supports is not None)
+    lines = [f"{len(needing)} step(s) need temporary supports ({total} in all), set as each is placed:"]
+    for step in needing[:MAX_SUPPORT_STEPS_SHOWN]:
+        assert step.supports is not None
+        kind, count = step.supports
+        off = (
+            f", removed at step {removed_at[step.guid]} (its connections then hold it)"
+            if step.guid in removed_at
+            else ""
+        )
+        lines.append(f"  step {step.index}: {step.name} ({step.guid}) needs {count} {kind}{off}")
+    if len(needing) > MAX_SUPPORT_STEPS_SHOWN:
+        lines.append(f"  and {len(needing) - MAX_SUPPORT_STEPS_SHOWN} more step(s)")
+    if report.supported_at_end:
+        lines.append(
+            f"{len(report.supported_at_end)} member(s) still stand on temporary supports at the end (no "
+            "connection path to something that stands by itself, or grout not set yet): "
+            + named(report.supported_at_end[:MAX_SUPPORT_STEPS_SHOWN])
+            + (" …" if len(report.supported_at_end) > MAX_SUPPORT_STEPS_SHOWN else "")
+        )
     return lines
 
 
@@ -234,7 +280,7 @@ def describe(
     def named(guids: tuple[str, ...]) -> str:
         return ", ".join(named_guid(guid, names.get(guid)) for guid in guids)
 
-    clash_lines = _clash_lines(report.clashes, named)
+    clash_lines = _clash_lines(report.clashes, named) + _support_lines(report, named)
     if failure is None:
         return [
             *clash_lines,
@@ -286,8 +332,8 @@ def describe(
     elif derived:
         lines.append(
             "to try: everything it rests on was placed before it, and no component built beside it "
-            f"({BESIDE_IT}) could be connected to it: a member held only by a connection to one placed "
-            "after it stands only with temporary bracing, which is not simulated"
+            f"({BESIDE_IT}) could be connected to it, and it has no temporary supports (the converter "
+            "gives props and braces to precast panels, members with nothing under them and slender columns)"
         )
     else:
         lines.append(

@@ -14,7 +14,8 @@ state, its position in the planned sequence and the placement error of its last 
 ``placements``, every verified attempt in order (robot and its type, errors, drift after release, verdict
 and cause), and ``max_drift_mm`` (:mod:`.placements`); how it was built: ``method`` and why,
 ``resources`` (the robot types that worked on it), the times of its formwork, pour or laying and a cast
-component's ``curing`` (:mod:`.methods`).
+component's ``curing`` (:mod:`.methods`); ``connections`` (neighbour → kind) and
+``temporary_supports`` (:mod:`.connections`).
 
 Per robot: ``type`` (its robot type, from physics' site info, ``SiteInfoMsg``; robots on site that never
 reported are listed too), ``busy_s``, ``tasks`` (``build``, or ``hand_off``: a ground robot carried it to
@@ -68,6 +69,7 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.reasons import Reason, ReasonCode
 
+from .connections import SupportsSeen
 from .fleet import by_type
 from .methods import (
     CuringSeen,
@@ -171,6 +173,7 @@ class ReportCollector:
         self.put_downs: dict[str, tuple[float, float]] = {}  # hand-off task id → where the load went down
         self.progress: ProgressMsg | None = None
         self.curing: dict[str, CuringSeen] = {}  # cast GUID → the planner's curing holds on it, as seen
+        self.supports = SupportsSeen()  # connections made and temporary supports, from physics' poses
         self.last_sim_time_s = 0.0
         self.messages = 0
         self.min_separation_m = math.inf  # between two robots at one sim time (ground truth)
@@ -186,6 +189,8 @@ class ReportCollector:
             self.last_sim_time_s = max(self.last_sim_time_s, sim_time_s)
         if isinstance(message, ComponentStateMsg):
             self._component_state(message)
+        elif isinstance(message, ComponentPoseMsg):
+            self.supports.take(message)
         elif isinstance(message, RobotStateMsg):
             self._robot(message.robot_id).take_state(message)
         elif isinstance(message, RobotPoseMsg):
@@ -327,6 +332,7 @@ class ReportCollector:
                         timeline.work,
                         curing_entry(component, timeline.constructed_s, self.curing.get(component.guid)),
                     ),
+                    **self.supports.entry(component.guid, end_s),
                 }
             )
         robots = {
@@ -352,6 +358,7 @@ class ReportCollector:
         totals["min_robot_separation_m"] = None if math.isinf(separation) else separation
         totals["in_place"] = len(self.manifest.in_place)
         totals["by_method"] = methods_count(components, self.manifest)
+        totals.update(self.supports.totals(end_s))
         elements = panelised_elements(self.manifest, components)
         return {
             "schema_version": REPORT_SCHEMA_VERSION,

@@ -12,15 +12,16 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
+from pathlib import Path
 
 import pytest
 from physics_builders import angle_between, idle, pose
 
 from bimbot.services.physics.client import p
-from bimbot.services.physics.connections import ConnectionConfig, side_neighbours
+from bimbot.services.physics.connections import ConnectionConfig, longest_hold_s, side_neighbours
 from bimbot.services.physics.handling import Phase
 from bimbot.services.physics.scene import component_pose, footprint
-from bimbot.services.physics.simulation import Simulation
+from bimbot.services.physics.simulation import SimConfig, Simulation
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import AttachRequest, PhysicsReply, PlaceRequest
 
@@ -39,7 +40,7 @@ def _built(sim: Simulation, component: Component) -> None:
 
 
 def _place(
-    sim: Simulation, component: Component, *, offset_y_m: float = 0.0, within_s: float = 15.0
+    sim: Simulation, component: Component, *, offset_y_m: float = 0.0, within_s: float | None = None
 ) -> tuple[PhysicsReply, float]:
     """Pick ``component`` from the yard, stand west of its target and place it (``offset_y_m`` off its
     target); the reply and the sim seconds from the end of the motion to the reply."""
@@ -61,6 +62,8 @@ def _place(
     )
     assert sim.place(request, tag="ticket") is None
     released_s = sim.sim_time_s + 1.0
+    if within_s is None:  # settling, and the hold while its connections (from the manifest) are made
+        within_s = 15.0 + longest_hold_s(component, HOLD_S)
     for _ in range(round(within_s / sim.config.control_period_s)):
         result = sim.advance()
         for tag, reply in result.replies:
@@ -82,18 +85,21 @@ def test_a_beam_set_down_at_its_target_beside_a_built_beam_is_connected_and_stay
     assert reply.ok, reply.reason
     assert waited_s >= HOLD_S - 1e-6, "the robot holds it until the connection is made"
     message = sim.handling.pose_message(beam.guid, sim.sim_time_s)
-    assert message.connected_to == [neighbour.guid]
+    column = _named(frame_manifest, "Column A1")
+    # beside the built beam, and on the column's cap (the model links it: a bolted end on its cap plate)
+    assert sorted(message.connected_to) == sorted([neighbour.guid, column.guid])
+    assert message.connection_kinds[neighbour.guid] == "pinned_end"
     assert neighbour.guid in message.supports
     assert message.drift_m is not None and message.drift_m < 0.001
     target = beam.target_pose_world
     rest = component_pose(sim.client_id, sim.handling.items[beam.guid].body)
     assert math.dist(rest[0], target.position_m) < 0.003 and angle_between(rest[1], target.quat_xyzw) < 1e-3
-    assert f"{beam.guid} connected to {neighbour.guid}" in caplog.text
+    assert f"pinned_end to {neighbour.guid}" in caplog.text
     idle(sim, 3.0)  # connected: it does not move while it waits for its agent's verdict
     assert sim.handling.pose_message(beam.guid, sim.sim_time_s).drift_m == pytest.approx(message.drift_m)
     sim.handling.note_constructed(beam.guid, True)
     assert sim.handling.items[beam.guid].phase is Phase.JOINED
-    assert sim.handling.pose_message(beam.guid, sim.sim_time_s).connected_to == [neighbour.guid]
+    assert neighbour.guid in sim.handling.pose_message(beam.guid, sim.sim_time_s).connected_to
 
 
 def _placed_unconnected_and_tipped(
@@ -127,11 +133,21 @@ def test_a_beam_set_down_off_its_target_is_not_connected_and_tips_off(
     _placed_unconnected_and_tipped(sim, frame_manifest, ("Footing A1", "Column A1", "Beam A2-A3"), 0.03)
 
 
-def test_resting_on_top_of_a_built_column_is_not_a_connection(
-    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+def test_without_a_link_resting_on_top_of_a_built_column_is_not_a_connection(
+    frame_manifest: Manifest, bundled_build: Path
 ) -> None:
-    sim = make_sim(robots=1, connections=ConnectionConfig(hold_s=HOLD_S))
-    waited_s = _placed_unconnected_and_tipped(sim, frame_manifest, ("Footing A1", "Column A1"))
+    # an older build, without the converter's connection links: only what is beside it is connected
+    unlinked = frame_manifest.model_copy(
+        update={
+            "components": [
+                c.model_copy(update={"connection_links": [], "temporary_support": None})
+                for c in frame_manifest.components
+            ]
+        }
+    )
+    config = SimConfig(robots=1, odom_noise=0.0, connections=ConnectionConfig(hold_s=HOLD_S))
+    with Simulation(unlinked, bundled_build, config) as sim:
+        waited_s = _placed_unconnected_and_tipped(sim, unlinked, ("Footing A1", "Column A1"))
     assert waited_s < HOLD_S + 3.0
 
 

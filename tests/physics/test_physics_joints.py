@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from bimbot.services.physics.client import p
-from bimbot.services.physics.connections import ConnectionConfig
+from bimbot.services.physics.connections import ConnectionConfig, longest_hold_s
 from bimbot.services.physics.model_clashes import model_clashes
 from bimbot.services.physics.placing import target_frame
 from bimbot.services.physics.release import Watch
@@ -78,7 +78,7 @@ def _set_on_built_footing(stack: ExitStack, manifest: Manifest, build: Path) -> 
     sim.handling.restore(footing.guid, (target.position_m, target.quat_xyzw), fixed=True, carrier=None)
     sim.handling.note_constructed(footing.guid, True)
     sim.handling.set_down(column.guid, sim.sim_time_s, tag="column")
-    for _ in range(round(20.0 / config.control_period_s)):
+    for _ in range(round((20.0 + longest_hold_s(column, HOLD_S)) / config.control_period_s)):
         if any(tag == "column" for tag, _ in sim.advance().replies):
             return sim, sim.handling.watch[column.guid]
     raise AssertionError("the column's placement was never answered")
