@@ -19,6 +19,7 @@ from bimbot.services.component_agents.agent import AgentConfig
 from bimbot.services.observer import VIEWER_GRPC_PORT, VIEWER_WEB_PORT
 from bimbot.services.physics.profiles import RUN_PROFILE, add_profile_arguments
 from bimbot.shared.errors import UserError
+from bimbot.shared.fidelity import DEFAULT_FIDELITY, add_fidelity_argument
 from bimbot.shared.option_types import non_negative_float, non_negative_int, positive_float, positive_int
 from bimbot.shared.seeds import DEFAULT_SEED
 from bimbot.shared.tolerance_options import add_tolerance_arguments, tolerances_from
@@ -67,6 +68,7 @@ class RunOptions:
     tolerances: Tolerances = field(default_factory=Tolerances)  # in force on site: physics serves them
     seed: int = DEFAULT_SEED  # every random draw of the run (physics, each robot's own stream)
     routers: int = 1  # 2: a site across two hosts, rehearsed here (bimbot.run_commands.service_commands)
+    fidelity: str = DEFAULT_FIDELITY  # "plan": kinematic robots, a clock that jumps by events
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
@@ -95,6 +97,7 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
         "linked as BUILD/runs/latest)",
     )
     add_profile_arguments(parser, RUN_PROFILE)
+    add_fidelity_argument(parser)
     add_tolerance_arguments(parser)
     parser.add_argument(
         "--seed",
@@ -282,6 +285,7 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         tolerances=tolerances_from(args),
         seed=getattr(args, "seed", DEFAULT_SEED),
         routers=getattr(args, "routers", 1),
+        fidelity=getattr(args, "fidelity", DEFAULT_FIDELITY),
     )
 
 

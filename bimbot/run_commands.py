@@ -16,6 +16,7 @@ from bimbot.shared.bus import BusOptions
 from bimbot.shared.bus_access import robot_user
 from bimbot.shared.bus_credentials import BusFiles, write_bus_credentials
 from bimbot.shared.errors import UserError
+from bimbot.shared.fidelity import DEFAULT_FIDELITY
 from bimbot.shared.fleet import Fleet, load_fleet
 from bimbot.shared.run_folder import RunFolder
 from bimbot.shared.step_gate import HOLD_S
@@ -59,6 +60,8 @@ def physics_arguments(build: Path, options: RunOptions) -> list[str]:
         arguments.append("--no-connections")
     arguments += tolerance_flags(options.tolerances)  # physics serves them to every service
     arguments += ["--seed", str(options.seed)]
+    if options.fidelity != DEFAULT_FIDELITY:
+        arguments += ["--fidelity", options.fidelity]
     if stepped(options):  # the planner and the agents answer each step too (reproducible runs)
         arguments += ["--step-with", ",".join(stepped_participants(options))]
         arguments += ["--lock-step-timeout-s", f"{HOLD_S:g}"]  # a loaded machine is not a hang
@@ -160,6 +163,8 @@ def service_commands(
     commands.append(("planner", [*planner, *grace, *joined("planner")]))
     for robot_id in run_fleet(options).type_of():
         robot = ["robot", "--build", str(build), "--id", robot_id, "--seed", str(options.seed), *in_step]
+        if options.fidelity != DEFAULT_FIDELITY:
+            robot += ["--fidelity", options.fidelity]
         robot += joined(robot_user(robot_id), other)
         if options.inject_placement_error_m:
             robot += ["--inject-placement-error-m", repr(options.inject_placement_error_m)]
