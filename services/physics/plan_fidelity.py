@@ -1,4 +1,4 @@
-"""The plan fidelity's physics (``--fidelity plan``): kinematic robots, no laser, a clock that jumps by events.
+"""The plan fidelity's physics (``--fidelity plan``): kinematic robots, no laser, a clock jumping by events.
 
 Why: a scenario study needs many runs; the full simulation steps every robot's wheels, casts its laser
 and waits for its particle filter every 0.2 s of sim time. :class:`PlanSimulation` keeps the scene, the
@@ -26,6 +26,7 @@ import math
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
+from bimbot.shared.fidelity import FIDELITIES
 from bimbot.shared.messages import (
     AttachRequest,
     BuildRequest,
@@ -38,7 +39,6 @@ from bimbot.shared.messages import (
     ScanMsg,
     TaskMsg,
 )
-from bimbot.shared.fidelity import FIDELITIES
 from bimbot.shared.plan_motion import Trajectory, standing, trajectory
 
 from .client import p
@@ -202,7 +202,7 @@ class PlanSimulation(Simulation):
         self.jumped_s += gap * period
 
     def _motions_ended(self) -> None:
-        """A drive that ended by now is news: its robot acts on it (a request, an event) in a period or two."""
+        """A drive that ended by now is news: its robot acts on it (a request, an event) soon."""
         now = self.sim_time_s
         for robot_id, motion in self.motions.items():
             if robot_id not in self._ended and motion.end_s <= now:
@@ -292,4 +292,3 @@ def simulation_class(fidelity: str) -> type[Simulation]:
     if fidelity not in FIDELITIES:
         raise ValueError(f"fidelity {fidelity!r}: expected one of {', '.join(FIDELITIES)}")
     return PlanSimulation if fidelity == "plan" else Simulation
-

@@ -1,4 +1,4 @@
-"""The plan fidelity's robot: the same task cycle, driven kinematically along its A* path (``--fidelity plan``).
+"""The plan fidelity's robot (``--fidelity plan``): the same task cycle, moved along its timed A* path.
 
 Why: a scenario study needs many runs, and a ground robot's laser, particle filter and DWA are most of
 what a run costs. Here :class:`PlanExecutor` keeps everything of :class:`.executor.Executor` (the task
@@ -121,9 +121,7 @@ class PlanNavigator:
 
     def _move(self, points: list[tuple[float, float]], sim_s: float) -> None:
         yaw = self.pose_xy_yaw[2]
-        self.motion = trajectory(
-            points, yaw, sim_s, speed_mps=self.speed_mps, turn_radps=self.turn_radps
-        )
+        self.motion = trajectory(points, yaw, sim_s, speed_mps=self.speed_mps, turn_radps=self.turn_radps)
         self.published, self.path_xy_m = self.motion, points
 
     def step(self, sim_s: float) -> NavCommand:
@@ -188,7 +186,9 @@ class PlanExecutor(Executor):
         if motion is not None:
             navigator.published = None
             path = navigator.path_xy_m
-            plan = PlanMsg(robot_id=self.robot_id, path_xy_m=path, goal_xy_m=path[-1], sim_time_s=motion.start_s)
+            plan = PlanMsg(
+                robot_id=self.robot_id, path_xy_m=path, goal_xy_m=path[-1], sim_time_s=motion.start_s
+            )
             out.insert(len(out) - 1, plan)  # before the step's command
         return out
 
