@@ -52,7 +52,7 @@ if TYPE_CHECKING:
 
 _log = logging.getLogger(__name__)
 
-QUIET_PERIODS = 4  # periods without news before the clock may jump (the lock-step's answers lag 2)
+QUIET_PERIODS = 4  # periods without news before the clock may jump (answers come 2 periods later)
 
 
 class ExactOdometry(Odometry):
