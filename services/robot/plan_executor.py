@@ -29,7 +29,7 @@ from .astar import plan_path, simplify_path
 from .executor import Executor, executor_class
 from .fine_alignment import Alignment
 from .nav_types import DEFAULT_NAVIGATOR, Goal, NavCommand, NavigatorConfig, NavStatus
-from .protocol import Outgoing, RobotExecutor
+from .protocol import Outgoing
 from .recovery import diagnose, plan_start
 from .site_map import SiteMap
 from .site_work import SiteWorkExecutor
@@ -57,7 +57,7 @@ class PlanNavigator:
         self.speed_mps, self.turn_radps = speed_mps, turn_radps
         self.now_s = 0.0
         start = np.asarray(start_xy_yaw, float)
-        self.motion: Trajectory = standing(start[:3], 0.0)
+        self.motion: Trajectory = standing([float(value) for value in start[:3]], 0.0)
         self.goal: Goal | None = None
         self.failure: Reason | None = None
         self.marks = _NO_MARKS
@@ -200,9 +200,7 @@ class PlanExecutor(Executor):
         """No localisation to doubt: the robot stands where its motion put it."""
 
 
-def plan_executor_class(
-    info: SiteInfoMsg, robot_id: str
-) -> type[Executor] | type[SiteWorkExecutor] | type[RobotExecutor]:
+def plan_executor_class(info: SiteInfoMsg, robot_id: str) -> type[Executor] | type[SiteWorkExecutor]:
     """The plan fidelity's executor of a robot: :class:`PlanExecutor` for one that drives; a crane, pump or
     block layer keeps its own (it does not drive)."""
     chosen = executor_class(info, robot_id)
