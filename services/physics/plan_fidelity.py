@@ -86,7 +86,6 @@ class PlanSimulation(Simulation):
             if not robot.drives:
                 continue
             self._odometry[robot_id] = ExactOdometry(robot.start_xy_yaw, 0.0, self._odometry[robot_id]._rng)
-            self.motions[robot_id] = standing(robot.start_xy_yaw, 0.0)
             for link in range(-1, p.getNumJoints(robot.body_id, physicsClientId=cid)):
                 p.setCollisionFilterGroupMask(robot.body_id, link, 0, 0, physicsClientId=cid)
         _log.info("plan fidelity: robots move kinematically, no laser, the clock jumps by events")
@@ -127,8 +126,7 @@ class PlanSimulation(Simulation):
         robot = self.robots.get(message.robot_id)
         if robot is None or not robot.drives or not message.path_xy_m:
             return
-        before = self.motions.get(message.robot_id) or standing(robot.start_xy_yaw, 0.0)
-        yaw = before.pose_at(message.sim_time_s)[2]
+        yaw = self._motion(message.robot_id).pose_at(message.sim_time_s)[2]
         description = robot.description
         self.motions[message.robot_id] = trajectory(
             message.path_xy_m,
@@ -138,6 +136,15 @@ class PlanSimulation(Simulation):
             turn_radps=description.max_turn_radps,
         )
         self._ended.discard(message.robot_id)
+
+    def _motion(self, robot_id: str) -> Trajectory:
+        """The robot's motion; standing where its body is until its first path (a restarted physics has
+        put it where its record says)."""
+        motion = self.motions.get(robot_id)
+        if motion is None:
+            robot = self.robots[robot_id]
+            motion = self.motions[robot_id] = standing(robot.pose_xy_yaw(self.client_id), self.sim_time_s)
+        return motion
 
     # --- requests are news too -----------------------------------------------------------------------
 
@@ -211,8 +218,9 @@ class PlanSimulation(Simulation):
 
     def _pose_robots(self, sim_s: float) -> None:
         cid = self.client_id
-        for robot_id, motion in self.motions.items():
-            _set_base(cid, self.robots[robot_id], motion.pose_at(sim_s))
+        for robot_id, robot in self.robots.items():
+            if robot.drives:
+                _set_base(cid, robot, self._motion(robot_id).pose_at(sim_s))
 
     def advance(self, real_time_factor: float | None = None) -> PeriodResult:
         """One period, after a jump over a site that only waits: Bullet stepped while something settles,
