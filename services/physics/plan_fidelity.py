@@ -81,6 +81,7 @@ class PlanSimulation(Simulation):
         self._since_news = 0  # periods advanced since something was heard
         self.jumps, self.jumped_s, self.physics_periods = 0, 0.0, 0
         self.news: dict[str, int] = {}  # what held the clock, by kind (the log line at the end)
+        self.stepped_for: dict[str, int] = {}  # why a period did not jump, by cause
         cid = self.client_id
         for robot_id, robot in self.robots.items():
             if not robot.drives:
@@ -194,19 +195,24 @@ class PlanSimulation(Simulation):
 
     def _jump(self) -> None:
         """Jump the clock so that this period ends at the next event, when the site waits for one."""
-        if self._since_news < self.quiet_periods or self._late_replies or self._settling():
-            return
+        if self._since_news < self.quiet_periods:
+            return self._count("news")
+        if self._late_replies or self._settling():
+            return self._count("settling")
         event = self.next_event_s()
         if event is None:
-            return
+            return self._count("no event")
         period = self.config.control_period_s
         # whole periods, so that this period ends at the event or just after it
         gap = math.ceil((event - self.sim_time_s) / period - 1e-9) - 1
         if gap < 1:
-            return
+            return self._count("event next")
         self.skipped_s += gap * period
         self.jumps += 1
         self.jumped_s += gap * period
+
+    def _count(self, why: str) -> None:
+        self.stepped_for[why] = self.stepped_for.get(why, 0) + 1
 
     def _motions_ended(self) -> None:
         """A drive that ended by now is news: its robot acts on it (a request, an event) soon."""
@@ -250,12 +256,13 @@ class PlanSimulation(Simulation):
     def __exit__(self, *exc: object) -> None:
         _log.info(
             "plan fidelity: %d period(s), %d with Bullet stepped; %d jump(s) over %.0f s of sim time; "
-            "held by %s",
+            "periods without a jump: %s; news: %s",
             self.step,
             self.physics_periods,
             self.jumps,
             self.jumped_s,
-            ", ".join(f"{count} {why}" for why, count in sorted(self.news.items())) or "nothing",
+            ", ".join(f"{count} {why}" for why, count in sorted(self.stepped_for.items())) or "none",
+            ", ".join(f"{count} {why}" for why, count in sorted(self.news.items())) or "none",
         )
         super().__exit__(*exc)  # type: ignore[arg-type]
 
