@@ -30,6 +30,7 @@ from bimbot.shared.fidelity import FIDELITIES
 from bimbot.shared.messages import (
     AttachRequest,
     BuildRequest,
+    ComponentState,
     ComponentStateMsg,
     DropRequest,
     PhysicsReply,
@@ -112,6 +113,10 @@ class PlanSimulation(Simulation):
             self._changed("task", message.task_id, (message.status, message.robot_id, message.attempt))
         elif isinstance(message, ComponentStateMsg):
             self._changed("component", message.guid, (message.state,))
+            if message.state is ComponentState.VERIFYING and message.guid in self.handling.items:
+                # its agent verifies on a pose stamped after the placement: send one now, not at the next
+                # repeat (which a jump of the clock would put off)
+                self.handling.changed.add(message.guid)
 
     def _changed(self, kind: str, name: str, signature: tuple[object, ...]) -> None:
         if self._heard.get(f"{kind}/{name}") != signature:
