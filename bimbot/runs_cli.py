@@ -82,6 +82,8 @@ def _with(report: dict) -> str:
     robots = settings.get("robots")
     fleet = settings.get("fleet")
     parts = [f"{robots} robot(s) of the default type" if robots else f"{fleet}" if fleet else ""]
+    if settings.get("fidelity"):
+        parts.append(f"fidelity {settings['fidelity']}")
     in_place = (report.get("totals") or {}).get("in_place")
     if in_place:
         parts.append(f"{in_place} in place")

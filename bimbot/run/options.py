@@ -30,6 +30,7 @@ from bimbot.services.component_agents.agent import AgentConfig
 from bimbot.services.observer import VIEWER_GRPC_PORT, VIEWER_WEB_PORT
 from bimbot.services.physics.profiles import PROFILE_OPTIONS, RUN_PROFILE, profile_option
 from bimbot.shared.errors import UserError
+from bimbot.shared.fidelity import DEFAULT_FIDELITY, FIDELITY_OPTION
 from bimbot.shared.option_types import (
     OptionSpec,
     non_negative_float,
@@ -83,6 +84,7 @@ class RunOptions:
     max_attempts: int | None = None  # placements a component gets before it fails (None: the agents')
     tolerances: Tolerances = field(default_factory=Tolerances)  # in force on site: physics serves them
     seed: int = DEFAULT_SEED  # every random draw of the run (physics, each robot's own stream)
+    fidelity: str = DEFAULT_FIDELITY  # "plan": kinematic robots, a clock that jumps by events
     routers: int = 1  # 2: a site across two hosts, rehearsed here (bimbot.run.commands.service_commands)
 
 
@@ -163,6 +165,7 @@ SERVICE_OPTIONS: tuple[ServiceOption, ...] = (
         "seed",
         always=True,
     ),
+    ServiceOption(FIDELITY_OPTION, ("physics", "robot"), "fidelity"),
     ServiceOption(
         OptionSpec(
             "--inject-placement-error-m",

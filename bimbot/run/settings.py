@@ -29,6 +29,7 @@ def run_settings(options: RunOptions) -> dict[str, Any]:
     rtf = float(chosen(options.rtf, profile.rtf))
     return {
         "profile": profile.name,
+        "fidelity": options.fidelity,
         "robots": options.robots,  # null: the fleet's own robots
         "fleet": DEFAULT_FLEET if options.fleet is None else str(options.fleet),
         "physics_hz": float(chosen(options.physics_hz, profile.physics_hz)),

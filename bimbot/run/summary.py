@@ -95,8 +95,10 @@ def method_line(totals: dict) -> str | None:
 
 
 def _seed(outcome: RunOutcome) -> str:
-    seed = (outcome.report.get("settings") or {}).get("seed")
-    return f" (seed {seed})" if seed is not None else ""
+    settings = outcome.report.get("settings") or {}
+    seed, fidelity = settings.get("seed"), settings.get("fidelity")
+    said = [f"seed {seed}" if seed is not None else "", f"fidelity {fidelity}" if fidelity else ""]
+    return f" ({', '.join(part for part in said if part)})" if any(said) else ""
 
 
 def summary_text(outcome: RunOutcome) -> str:

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 #: What each fidelity adds to ``bimbot run``: "physics" is the full simulation (every service, PyBullet).
-FIDELITIES: dict[str, tuple[str, ...]] = {"physics": ()}
+FIDELITIES: dict[str, tuple[str, ...]] = {"physics": (), "plan": ("--fidelity", "plan")}
 DEFAULT_FIDELITY = "physics"
 DERIVE = "derive"  # ``--sequence derive``: the planner derives the sequence from the supports
 BUILD_SEQUENCE = "build"  # the label of the build's own sequence (no --sequence given)

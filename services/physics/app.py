@@ -68,7 +68,10 @@ from bimbot.shared.messages import (
     PHYSICS_POSES,
     PHYSICS_SKIP,
     ROBOT_CMD_VEL,
+    ROBOT_PLAN,
+    ROBOT_STATE,
     STEP_DONE,
+    TASK,
     AttachRequest,
     BuildRequest,
     CmdVelMsg,
@@ -89,6 +92,7 @@ from bimbot.shared.twin_query import answered_on_its_key, ask_twin, ask_twins
 from .clock import LockStepBarrier, Pacer, RtfMeter
 from .latency import Pipeline
 from .outbox import bundle
+from .plan_fidelity import PlanSimulation, simulation_class
 from .profiles import FINE
 from .restore import restore_site
 from .simulation import Outgoing, SimConfig, Simulation
@@ -123,6 +127,7 @@ class RunConfig:
     # holding its load, before it is stopped and its load dropped: a site across hosts rides out a link or
     # router that is down for seconds; 0 (one host: a lost robot is a dead process): at once
     lost_grace_s: float = 0.0
+    fidelity: str = "physics"  # or "plan": kinematic robots, a clock that jumps by events (.plan_fidelity)
 
 
 def main(
@@ -137,7 +142,7 @@ def main(
     With ``run.state_dir``, physics keeps its record of the site there (:mod:`.snapshot`) and, when it finds
     one left by an earlier physics of this run, continues from it (:mod:`.restore`)."""
     with (
-        Simulation(build.manifest, build.dir, sim_config, gui=run.gui) as sim,
+        simulation_class(run.fidelity)(build.manifest, build.dir, sim_config, gui=run.gui) as sim,
         open_session(options) as session,
     ):
         recorder, twins = None, []
@@ -210,6 +215,12 @@ class _Loop:
         ]
         if self._participants:
             declarations.append(inbox.subscribe(session, STEP_DONE, site=site, participant="*"))
+        if isinstance(self.sim, PlanSimulation):  # robots' paths, and the news that holds its clock
+            declarations += [
+                inbox.subscribe(session, ROBOT_PLAN, site=site, robot_id="*"),
+                inbox.subscribe(session, ROBOT_STATE, site=site, robot_id="*"),
+                inbox.subscribe(session, TASK, site=site, task_id="*"),
+            ]
         if self.run.wait_for_planner:
             planner = key(ALIVE_KEY, site=site, kind="planner", id="*")
             declarations.append(inbox.subscribe_liveliness(session, planner))
@@ -422,6 +433,8 @@ class _Loop:
         self._ask_twins()
 
     def _handle(self, item: object) -> None:
+        if isinstance(self.sim, PlanSimulation) and isinstance(item, Received):
+            self.sim.hear(item.message)
         match item:
             case Received(message=CmdVelMsg() as command, key=key_expr):
                 if key_expr.rsplit("/", 2)[-2] != command.robot_id:

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
+from bimbot.shared.fidelity import add_fidelity_argument
 from bimbot.shared.fleet import MAX_ROBOTS, Fleet, load_fleet
 from bimbot.shared.option_types import (
     finite_float,
@@ -79,6 +80,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=run.lock_step_timeout_s,
         help=f"wall seconds to wait for a robot (default {run.lock_step_timeout_s:g})",
     )
+    add_fidelity_argument(parser)
     parser.add_argument(
         "--lost-grace-s",
         type=non_negative_float,
@@ -276,5 +278,6 @@ def run(args: argparse.Namespace) -> int:
         state_dir=state_dir,
         step_with=tuple(name.strip() for name in args.step_with.split(",") if name.strip()),
         lost_grace_s=args.lost_grace_s,
+        fidelity=args.fidelity,
     )
     return run_service(app.main, options, build, config, run_config)

@@ -70,6 +70,7 @@ from bimbot.shared.service_runner import BuildInput
 from bimbot.shared.twin_query import answered_on_its_key, ask_twin, ask_twins
 
 from .executor import ExecutorConfig, executor_class
+from .plan_executor import plan_executor_class
 from .protocol import Outgoing, PhysicsRequest, PhysicsResult, RobotExecutor
 from .stepped import SteppedTicks
 
@@ -99,6 +100,7 @@ class RobotOptions:
     metric_log_s: float = 30.0  # wall seconds between progress lines (tasks, distance, localisation)
     # a lock-step participant whose inputs are taken at defined steps (:mod:`.stepped`; bimbot run)
     stepped: bool = False
+    fidelity: str = "physics"  # or "plan": a robot that drives moves along its timed path (.plan_executor)
 
 
 def main(
@@ -129,7 +131,8 @@ def main(
                 inbox.subscribe(session, STEP_DONE, site=site, participant="*"),
             ]
         poses = query_first(session, PHYSICS_POSES, inbox.invalid, timeout_s=POSES_TIMEOUT_S, site=site)
-        executor = executor_class(info, robot_id)(
+        chosen = plan_executor_class if options.fidelity == "plan" else executor_class
+        executor = chosen(info, robot_id)(
             manifest, info, executor_config, start_xy_yaw=_where_physics_has(poses, robot_id)
         )
         _learn_the_site(session, inbox, site, executor, poses)

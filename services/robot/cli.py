@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 
 from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
+from bimbot.shared.fidelity import add_fidelity_argument
 from bimbot.shared.service_runner import resolve_build, run_service, service_bus
 
 if TYPE_CHECKING:
@@ -67,6 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="tick every clock step in order with the inputs of a defined step (lock-step participant), "
         "so a run reproduces (bimbot run does)",
     )
+    add_fidelity_argument(parser)
     parser.add_argument(
         "--info-timeout-s",
         type=float,
@@ -107,6 +109,6 @@ def run(args: argparse.Namespace) -> int:
     config = executor_config(args)
     bus = service_bus(args)
     build = resolve_build(args.build)
-    options = RobotOptions(info_timeout_s=args.info_timeout_s, stepped=args.stepped)
+    options = RobotOptions(info_timeout_s=args.info_timeout_s, stepped=args.stepped, fidelity=args.fidelity)
     # a robot id physics did not spawn shows only once physics answers: an InputError (exit 2) from there
     return run_service(main, bus, build, options, config)

@@ -24,6 +24,7 @@ from bimbot.shared.errors import InputError
 from bimbot.shared.ifc_input import open_model
 from bimbot.shared.joints import load_joint_settings
 from bimbot.shared.manifest import JointSource, Manifest
+from bimbot.shared.methods_file import load_methods
 from bimbot.shared.support_graph import support_predecessors
 
 
@@ -77,10 +78,11 @@ def test_a_column_drawn_50_mm_into_its_footing_is_a_joint_by_rule(tmp_path: Path
 
 
 def test_joint_rules_come_from_the_settings_file(tmp_path: Path) -> None:
-    """With a rules file that takes columns only 30 mm into a footing, the same 50 mm is a clash."""
+    """With a rules file that takes columns only 30 mm into a footing, the same 50 mm is a clash (the
+    footing lifted: into a cast footing a column is cast in, a joint whatever the rules)."""
     rules = tmp_path / "joints.toml"
     rules.write_text('[[rule]]\nmember = "IfcColumn"\npart = "IfcFooting"\nmax_depth_m = 0.03\n')
-    options = ConvertOptions(formats=(), joints=load_joint_settings(rules))
+    options = ConvertOptions(formats=(), joints=load_joint_settings(rules), methods=load_methods("lifted"))
     manifest = _convert(_column_in_footing(), tmp_path, options)
     assert manifest.joints == []
     [clash] = manifest.clashes

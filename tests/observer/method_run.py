@@ -21,6 +21,7 @@ from bimbot.shared.construction_methods import (
     CastWork,
     ConstructionMethod,
     GuestElement,
+    MethodSource,
     PanelisedElement,
 )
 from bimbot.shared.manifest import Manifest
@@ -44,8 +45,9 @@ def method_manifest(frame: Manifest) -> Manifest:
     items = list(frame.components)
     first, second, third, column = items[0], items[1], items[2], items[9]
     panels = items[12:14]
-    items[0] = first.model_copy(update={"method": ConstructionMethod.CAST_IN_PLACE, "cast": CAST})
-    items[1] = second.model_copy(update={"method": ConstructionMethod.CAST_IN_PLACE, "cast": CAST})
+    cast = {"method": ConstructionMethod.CAST_IN_PLACE, "method_source": MethodSource.RULE, "cast": CAST}
+    items[0] = first.model_copy(update=cast)  # the frame's footings say PRECAST: here a rule casts them
+    items[1] = second.model_copy(update=cast)
     items[2] = third.model_copy(update={"method": ConstructionMethod.LAID, "method_note": "masonry pier"})
     plate = GuestElement(
         guid="3BasePlate0000000000A1", ifc_class="IfcPlate", mass_kg=12.0, relation="contact"

@@ -1,0 +1,314 @@
+"""The plan fidelity's physics (``--fidelity plan``): kinematic robots, no laser, a clock jumping by events.
+
+Why: a scenario study needs many runs; the full simulation steps every robot's wheels, casts its laser
+and waits for its particle filter every 0.2 s of sim time. :class:`PlanSimulation` keeps the scene, the
+handling, placing, pits, joints, connections and their reasons, and changes three things:
+
+* **Robots move kinematically.** A ground robot's path (its ``PlanMsg``, :meth:`PlanSimulation.hear`) is
+  timed by :func:`bimbot.shared.plan_motion.trajectory`, the same function its executor moves by; each
+  period its body is set where the motion has it (collisions off: it neither pushes nor is pushed). No
+  laser scans go out, and odometry is the true pose (the robot ignores it).
+* **Physics only where an answer needs it.** Bullet is stepped only while a released component settles
+  (stability at release, supports, drift); otherwise a period is kinematic: carried and assembling loads
+  are set where they are at its end, reach checks read the robots' poses as always.
+* **Time advances by events.** Once nothing was heard for ``quiet_periods`` periods (no new path, task,
+  robot or component state, request) and nothing settles, the clock jumps so that the next period ends at
+  the earliest known event: a drive's end, an assembly motion's end (a crane's lift), a connection's hold,
+  a robot's timed work (``busy_until_s``). The services see a clock that leaps, as after a skip over a
+  quiet site (:meth:`~.simulation.Simulation.skip`); the protocol's own exchanges still run period by
+  period, so a hand-off between services costs the sim time it costs in the physics fidelity.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+from bimbot.shared.fidelity import FIDELITIES
+from bimbot.shared.messages import (
+    AttachRequest,
+    BuildRequest,
+    ComponentState,
+    ComponentStateMsg,
+    DropRequest,
+    PhysicsReply,
+    PlaceRequest,
+    PlanMsg,
+    RobotStateMsg,
+    ScanMsg,
+    TaskMsg,
+)
+from bimbot.shared.plan_motion import Trajectory, standing, trajectory
+
+from .client import p
+from .handling import Phase
+from .odometry import Odometry, OdomReading
+from .scene import compose, yaw_quat
+from .simulation import Outgoing, PeriodResult, Simulation
+
+if TYPE_CHECKING:
+    from .robots import Robot
+
+_log = logging.getLogger(__name__)
+
+QUIET_PERIODS = 4  # periods without news before the clock may jump (answers come 2 periods later)
+
+
+class ExactOdometry(Odometry):
+    """Odometry that is the true pose (the plan fidelity's robot knows where it is), speeds 0: a drive's
+    motion between two periods the clock jumped over is no speed a message may carry."""
+
+    def update(
+        self, previous: tuple[float, float, float], current: tuple[float, float, float], period_s: float
+    ) -> OdomReading:
+        self.pose_xy_yaw = current
+        return OdomReading(current, 0.0, 0.0)
+
+
+class PlanSimulation(Simulation):
+    """:class:`.simulation.Simulation` in the plan fidelity (see the module doc)."""
+
+    quiet_periods = QUIET_PERIODS
+
+    def _build(self) -> None:
+        self.config = replace(self.config, compiled_laser=False)
+        super()._build()
+        self.motions: dict[str, Trajectory] = {}
+        self._ended: set[str] = set()  # robots whose motion ended and was noted as news
+        self._heard: dict[str, tuple[object, ...]] = {}  # last state of each robot, task, component
+        self._busy_until: dict[str, float] = {}  # robot → its timed work's end (its state says)
+        self._since_news = 0  # periods advanced since something was heard
+        self.jumps, self.jumped_s, self.physics_periods = 0, 0.0, 0
+        self.news: dict[str, int] = {}  # what held the clock, by kind (the log line at the end)
+        self.stepped_for: dict[str, int] = {}  # why a period did not jump, by cause
+        cid = self.client_id
+        for robot_id, robot in self.robots.items():
+            if not robot.drives:
+                continue
+            self._odometry[robot_id] = ExactOdometry(robot.start_xy_yaw, 0.0, self._odometry[robot_id]._rng)
+            for link in range(-1, p.getNumJoints(robot.body_id, physicsClientId=cid)):
+                p.setCollisionFilterGroupMask(robot.body_id, link, 0, 0, physicsClientId=cid)
+        _log.info("plan fidelity: robots move kinematically, no laser, the clock jumps by events")
+
+    # --- what is heard -------------------------------------------------------------------------------
+
+    def hear(self, message: object) -> None:
+        """A message of the site: a robot's path (its motion from then), or news that holds the clock."""
+        if isinstance(message, PlanMsg):
+            self._plan(message)
+            self._news("path")
+        elif isinstance(message, RobotStateMsg):
+            self._changed(
+                "robot",
+                message.robot_id,
+                (message.state, message.task_id, message.guid, message.busy_until_s),
+            )
+            if message.busy_until_s is not None:
+                self._busy_until[message.robot_id] = message.busy_until_s
+            else:
+                self._busy_until.pop(message.robot_id, None)
+        elif isinstance(message, TaskMsg):
+            self._changed("task", message.task_id, (message.status, message.robot_id, message.attempt))
+        elif isinstance(message, ComponentStateMsg):
+            self._changed("component", message.guid, (message.state,))
+            if message.state is ComponentState.VERIFYING and message.guid in self.handling.items:
+                # its agent verifies on a pose stamped after the placement: send one now, not at the next
+                # repeat (which a jump of the clock would put off)
+                self.handling.changed.add(message.guid)
+
+    def _changed(self, kind: str, name: str, signature: tuple[object, ...]) -> None:
+        if self._heard.get(f"{kind}/{name}") != signature:
+            self._heard[f"{kind}/{name}"] = signature
+            self._news(kind)
+
+    def _news(self, why: str = "") -> None:
+        self._since_news = 0
+        if why:
+            self.news[why] = self.news.get(why, 0) + 1
+
+    def _plan(self, message: PlanMsg) -> None:
+        robot = self.robots.get(message.robot_id)
+        if robot is None or not robot.drives or not message.path_xy_m:
+            return
+        yaw = self._motion(message.robot_id).pose_at(message.sim_time_s)[2]
+        description = robot.description
+        self.motions[message.robot_id] = trajectory(
+            message.path_xy_m,
+            yaw,
+            message.sim_time_s,
+            speed_mps=description.max_speed_mps,
+            turn_radps=description.max_turn_radps,
+        )
+        self._ended.discard(message.robot_id)
+
+    def _motion(self, robot_id: str) -> Trajectory:
+        """The robot's motion; standing where its body is until its first path (a restarted physics has
+        put it where its record says)."""
+        motion = self.motions.get(robot_id)
+        if motion is None:
+            robot = self.robots[robot_id]
+            motion = self.motions[robot_id] = standing(robot.pose_xy_yaw(self.client_id), self.sim_time_s)
+        return motion
+
+    # --- requests are news too -----------------------------------------------------------------------
+
+    def attach(self, request: AttachRequest) -> PhysicsReply:
+        self._news("request")
+        return super().attach(request)
+
+    def drop(self, request: DropRequest) -> PhysicsReply:
+        self._news("request")
+        return super().drop(request)
+
+    def place(self, request: PlaceRequest, tag: object = None) -> PhysicsReply | None:
+        self._news("request")
+        return super().place(request, tag)
+
+    def build(self, request: BuildRequest) -> PhysicsReply:
+        self._news("request")
+        return super().build(request)
+
+    def quiet(self) -> str | None:
+        """As :meth:`.simulation.Simulation.quiet`, and a robot on its way is no quiet site."""
+        now = self.sim_time_s
+        for robot_id, motion in sorted(self.motions.items()):
+            if motion.end_s > now:
+                return f"{robot_id} is driving"
+        return super().quiet()
+
+    # --- the clock -----------------------------------------------------------------------------------
+
+    def _settling(self) -> bool:
+        return any(not watch.settled for watch in self.handling.watch.values())
+
+    def next_event_s(self) -> float | None:
+        """The earliest known event after now: a drive's end, an assembly motion's end, a connection's
+        hold, a robot's timed work; None when none is known."""
+        now = self.sim_time_s
+        events = [motion.end_s for motion in self.motions.values()]
+        events += [
+            item.motion_start_s + item.motion_duration_s
+            for item in self.handling.items.values()
+            if item.phase is Phase.ASSEMBLING
+        ]
+        events += [watch.hold_until_s for watch in self.handling.watch.values() if watch.tag is not None]
+        events += list(self._busy_until.values())
+        ahead = [event for event in events if event > now + 1e-9]
+        return min(ahead) if ahead else None
+
+    def _jump(self) -> None:
+        """Jump the clock so that this period ends at the next event, when the site waits for one."""
+        if self._since_news < self.quiet_periods:
+            return self._count("news")
+        if self._late_replies or self._settling():
+            return self._count("settling")
+        event = self.next_event_s()
+        if event is None:
+            return self._count("no event")
+        period = self.config.control_period_s
+        # whole periods, so that this period ends at the event or just after it
+        gap = math.ceil((event - self.sim_time_s) / period - 1e-9) - 1
+        if gap < 1:
+            return self._count("event next")
+        self.skipped_s += gap * period
+        self.jumps += 1
+        self.jumped_s += gap * period
+
+    def _count(self, why: str) -> None:
+        self.stepped_for[why] = self.stepped_for.get(why, 0) + 1
+
+    def _motions_ended(self) -> None:
+        """A drive that ended by now is news: its robot acts on it (a request, an event) soon."""
+        now = self.sim_time_s
+        for robot_id, motion in self.motions.items():
+            if robot_id not in self._ended and motion.end_s <= now:
+                self._ended.add(robot_id)
+                self._news("arrival")
+
+    def _pose_robots(self, sim_s: float) -> None:
+        cid = self.client_id
+        for robot_id, robot in self.robots.items():
+            if robot.drives:
+                _set_base(cid, robot, self._motion(robot_id).pose_at(sim_s))
+
+    def advance(self, real_time_factor: float | None = None) -> PeriodResult:
+        """One period, after a jump over a site that only waits: Bullet stepped while something settles,
+        otherwise the loads set where they are at its end."""
+        self._jump()
+        end_s = self.sim_time_s + self.config.control_period_s
+        self._pose_robots(end_s)
+        if self._settling() or self._assembly_ends_by(end_s):
+            self.physics_periods += 1
+            result = super().advance(real_time_factor)
+            self._pose_robots(self.sim_time_s)
+        else:
+            replies, self._late_replies = self._late_replies, []
+            self.step += 1
+            if self.handling.carrying:
+                replies.extend(self.handling.follow(self.robots, self.sim_time_s))
+            replies.extend(self.handling.watch_placed(self.sim_time_s, self.robots))
+            self.handling.pose_hooks(self.robots)
+            self.handling.settle_separated()
+            result = PeriodResult(self._period_messages(real_time_factor, odometry=True), replies)
+        self._since_news += 1
+        self._motions_ended()
+        if result.replies:
+            self._news("placed")
+        return result
+
+    def __exit__(self, *exc: object) -> None:
+        _log.info(
+            "plan fidelity: %d period(s), %d with Bullet stepped; %d jump(s) over %.0f s of sim time; "
+            "periods without a jump: %s; news: %s",
+            self.step,
+            self.physics_periods,
+            self.jumps,
+            self.jumped_s,
+            ", ".join(f"{count} {why}" for why, count in sorted(self.stepped_for.items())) or "none",
+            ", ".join(f"{count} {why}" for why, count in sorted(self.news.items())) or "none",
+        )
+        super().__exit__(*exc)  # type: ignore[arg-type]
+
+    def _assembly_ends_by(self, end_s: float) -> bool:
+        """A placement's motion ends within the period: its release is stepped (it settles from there)."""
+        return any(
+            item.motion_start_s + item.motion_duration_s <= end_s
+            for item in self.handling.items.values()
+            if item.phase is Phase.ASSEMBLING
+        )
+
+    # --- no laser ------------------------------------------------------------------------------------
+
+    def _scan(self, robot: Robot, now: float) -> Outgoing:
+        return Outgoing(
+            "",
+            ScanMsg(
+                robot_id=robot.robot_id,
+                angle_min_rad=0.0,
+                angle_increment_rad=0.0,
+                range_max_m=1.0,
+                ranges_m=[],
+                sim_time_s=now,
+            ),
+        )
+
+    def _period_messages(self, real_time_factor: float | None, *, odometry: bool) -> list[Outgoing]:
+        messages = super()._period_messages(real_time_factor, odometry=odometry)
+        return [item for item in messages if not isinstance(item.message, ScanMsg)]
+
+
+def _set_base(client_id: int, robot: Robot, pose: tuple[float, float, float]) -> None:
+    """Put a robot's base at ``pose`` on the ground, at rest."""
+    base = ((pose[0], pose[1], robot.base_height_m), yaw_quat(pose[2]))
+    com = compose(base, robot.base_inertial)
+    p.resetBasePositionAndOrientation(robot.body_id, com[0], com[1], physicsClientId=client_id)
+    p.resetBaseVelocity(robot.body_id, [0, 0, 0], [0, 0, 0], physicsClientId=client_id)
+
+
+def simulation_class(fidelity: str) -> type[Simulation]:
+    """The simulation of a fidelity: ``physics`` (the full simulation) or ``plan``."""
+    if fidelity not in FIDELITIES:
+        raise ValueError(f"fidelity {fidelity!r}: expected one of {', '.join(FIDELITIES)}")
+    return PlanSimulation if fidelity == "plan" else Simulation

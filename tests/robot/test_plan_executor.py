@@ -1,0 +1,65 @@
+"""The plan fidelity's executor on the fake site: the same task cycle and protocol, its drives a timed A*
+path published on its plan key (no velocity commands), arriving when the motion says, placing with no
+belief of its own (physics draws the type's precision)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from fake_site import DT, make_site, run_task
+from frames import convert_small_frame
+
+from bimbot.services.robot.executor import ExecutorConfig
+from bimbot.services.robot.plan_executor import PlanExecutor, plan_executor_class
+from bimbot.services.robot.task_machine import PAPER_ORDER
+from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.messages import ComponentEvent, ComponentState, PlaceRequest, PlanMsg, SiteInfoMsg
+from bimbot.shared.robot_description import DEFAULT_ROBOT
+from bimbot.shared.site_layout import plan_site
+
+
+@pytest.fixture(scope="module")
+def frame(tmp_path_factory: pytest.TempPathFactory) -> Manifest:
+    return read_manifest(convert_small_frame(tmp_path_factory.mktemp("frame")))
+
+
+def test_a_task_runs_the_protocol_along_timed_paths(frame: Manifest) -> None:
+    site, released, task = make_site(frame)
+    layout = plan_site(frame.components, robots=1)
+    info = SiteInfoMsg(
+        robot_ids=["r1"],
+        robot_starts_xy_yaw=list(layout.robot_starts),
+        step_s=1 / 240,
+        control_period_s=DT,
+        lock_step=True,
+        robot_type_of={"r1": DEFAULT_ROBOT.name},
+        robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
+        layout=layout,
+    )
+    assert plan_executor_class(info, "r1") is PlanExecutor
+    site.executor = PlanExecutor(frame, info, ExecutorConfig(robot_id="r1"))
+    plans: list[PlanMsg] = []
+    route = site.route
+    site.route = lambda message: plans.append(message) if isinstance(message, PlanMsg) else route(message)  # type: ignore[method-assign]
+    run_task(site, released, task)
+    assert site.executor.done == [(task.guid, ComponentState.CONSTRUCTED)]
+    assert site.applied == [
+        ComponentEvent.PICK,
+        ComponentEvent.ATTACH,
+        ComponentEvent.ARRIVE,
+        ComponentEvent.PLACE,
+    ]
+    assert tuple(site.robot_states) == PAPER_ORDER
+    assert all(c.v_mps == 0.0 and c.w_radps == 0.0 for c in site.commands)  # it moves by its paths
+    start = layout.robot_starts[0]
+    assert plans and plans[0].path_xy_m[0] == pytest.approx(start[:2])
+    driven_m = sum(
+        math.dist(a, b)
+        for plan in plans[:2]
+        for a, b in zip(plan.path_xy_m, plan.path_xy_m[1:], strict=False)
+    )
+    assert site.step * DT >= driven_m / DEFAULT_ROBOT.max_speed_mps  # the drives took their time
+    assert site.executor.distance_m == pytest.approx(driven_m, rel=0.05)
+    place = site.requests[-1].message
+    assert isinstance(place, PlaceRequest) and place.believed_xy_yaw is None
