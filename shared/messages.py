@@ -20,6 +20,7 @@ Key space (``<site>`` is the manifest's site slug, ``<key>`` a component's bus k
     bimbot/<site>/physics/drop                (queryable)         physics answers DropRequest → PhysicsReply
     bimbot/<site>/physics/build               (queryable)         physics answers BuildRequest → PhysicsReply
     bimbot/<site>/physics/skip                (queryable)         physics answers SkipRequest → PhysicsReply
+    bimbot/<site>/physics/relocate            (queryable)         physics answers SetUpRequest → PhysicsReply
     bimbot/<site>/physics/poses               (queryable)         physics answers SitePosesMsg
     bimbot/<site>/planner/plan                (queryable)         planner answers PlannedSequenceMsg
     bimbot/<site>/clock                       ClockMsg            physics → all
@@ -286,6 +287,7 @@ class RobotStateMsg(_Message):
     # timed work in place (formwork, pour, a course): nothing of this robot changes before this sim time,
     # so a site where nothing else moves may skip to it (``physics/skip``)
     busy_until_s: SimTime | None = None
+    relocations: Count = 0  # a machine that relocates: how often it moved to another set-up so far
 
 
 class CmdVelMsg(_Message):
@@ -359,6 +361,7 @@ PHYSICS_DROP_KEY = "bimbot/{site}/physics/drop"
 PHYSICS_POSES_KEY = "bimbot/{site}/physics/poses"
 PHYSICS_BUILD_KEY = "bimbot/{site}/physics/build"
 PHYSICS_SKIP_KEY = "bimbot/{site}/physics/skip"
+PHYSICS_RELOCATE_KEY = "bimbot/{site}/physics/relocate"
 
 
 class SiteInfoMsg(_Message):
@@ -432,6 +435,16 @@ class BuildRequest(_Message):
     robot_id: str
     guid: str
     height_fraction: float = Field(default=1.0, gt=0.0, le=1.0)
+    step: Step | None = None  # the clock step the robot answered as it asked (physics acts on it in turn)
+
+
+class SetUpRequest(_Message):
+    """A truck-mounted machine that stands fixed has stowed, driven to another of its set-up positions
+    (the site plan's ``SiteLayout.setups``) and set up again: physics moves its body there (the time it
+    took is the robot's, spent before it asks)."""
+
+    robot_id: str
+    pose_xy_yaw: PoseXYYaw
     step: Step | None = None  # the clock step the robot answered as it asked (physics acts on it in turn)
 
 
@@ -555,6 +568,7 @@ PHYSICS_DROP = Queryable(PHYSICS_DROP_KEY, DropRequest, PhysicsReply, "physics")
 PHYSICS_POSES = Queryable(PHYSICS_POSES_KEY, None, SitePosesMsg, "physics")
 PHYSICS_BUILD = Queryable(PHYSICS_BUILD_KEY, BuildRequest, PhysicsReply, "physics")
 PHYSICS_SKIP = Queryable(PHYSICS_SKIP_KEY, SkipRequest, PhysicsReply, "physics")
+PHYSICS_RELOCATE = Queryable(PHYSICS_RELOCATE_KEY, SetUpRequest, PhysicsReply, "physics")
 PLANNER_PLAN = Queryable(PLANNER_PLAN_KEY, None, PlannedSequenceMsg, "planner")
 CLOCK = Topic(CLOCK_KEY, ClockMsg, "physics", "all")
 PROGRESS = Topic(PROGRESS_KEY, ProgressMsg, "planner", "all")
@@ -579,6 +593,7 @@ KEY_SPACE: tuple[Entry, ...] = (
     PHYSICS_DROP,
     PHYSICS_BUILD,
     PHYSICS_SKIP,
+    PHYSICS_RELOCATE,
     PHYSICS_POSES,
     PLANNER_PLAN,
     CLOCK,

@@ -20,7 +20,9 @@ place they are applied:
   the largest radius at which the load chart lifts its mass (linear between the chart's points, nothing
   beyond the last);
 * a boom machine that stands fixed and works in place (``pour``, ``lay``) reaches a component when its
-  whole footprint lies within ``reach_m`` of its base (the boom covers every part of it).
+  whole footprint lies within ``reach_m`` of its base (the boom covers every part of it); a truck-mounted
+  one that may ``relocate`` reaches it from any of the set-up positions the site plan gives it
+  (``SiteLayout.setups``), at the cost of a relocation (:meth:`RobotDescription.relocation_s`).
 
 Feasibility (before a task is ever assigned): a component heavier than ``payload_kg`` (for a crane: the
 chart's largest payload) is ``too_heavy``; one whose target reaches higher than ``max_place_height_m`` (the
@@ -30,6 +32,7 @@ top of its posed bounding box) is ``out_of_reach``. Both are reasons a user can 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from enum import StrEnum
 from typing import TYPE_CHECKING
 
@@ -52,6 +55,10 @@ class Capability(StrEnum):
     HAND_OFF = "hand_off"  # puts a load down in a crane's staging area for the crane to lift
     POUR = "pour"  # forms and pours cast-in-place concrete within its boom's reach (``reach_m``)
     LAY = "lay"  # lays masonry course by course within its boom's reach (``laying``)
+    # a truck-mounted machine that stands fixed but drives to another of its set-up positions (the site
+    # plan's) for work its boom cannot reach from where it stands: stow, drive, set up (``setup_s``,
+    # ``relocation_speed_mps``)
+    RELOCATE = "relocate"
 
 
 GROUND_CAPABILITIES = frozenset({Capability.DRIVE, Capability.CARRY, Capability.PLACE, Capability.HAND_OFF})
@@ -176,6 +183,12 @@ class RobotDescription(BaseModel):
         le=1e6,
         description="hourly rate of one robot of this type (any currency; bimbot study costs busy hours)",
     )
+    relocation_speed_mps: float = Field(
+        default=0.0, ge=0, le=20, description="a machine that relocates: its driving speed on site"
+    )
+    setup_s: float = Field(
+        default=0.0, ge=0, le=86400, description="a machine that relocates: to stow and to set up again"
+    )
     crane: CraneSpec | None = None
     laying: LayingSpec | None = None
     capabilities: frozenset[Capability] = Field(
@@ -210,6 +223,13 @@ class RobotDescription(BaseModel):
             raise ValueError(f"robot type {self.name!r}: hook_lift and a [crane] spec go together")
         if (Capability.LAY in has) != (self.laying is not None):
             raise ValueError(f"robot type {self.name!r}: lay and a [laying] spec go together")
+        if Capability.RELOCATE in has and (
+            Capability.STAND_FIXED not in has or Capability.HOOK_LIFT in has or self.relocation_speed_mps <= 0
+        ):
+            raise ValueError(
+                f"robot type {self.name!r}: relocate is for a boom machine that stands fixed (not a crane), "
+                "with relocation_speed_mps > 0"
+            )
         if Capability.HAND_OFF in has and Capability.CARRY not in has:
             raise ValueError(f"robot type {self.name!r}: hand_off needs carry")
         if self.crane is not None:
@@ -261,6 +281,39 @@ class RobotDescription(BaseModel):
             return self.boom_covers(robot_xy_m, footprint_xy_m)
         nearest = float(footprint_distance_m(footprint_xy_m, robot_xy_m)[0])
         return nearest <= self.reach_m + 1e-9
+
+    @property
+    def relocates(self) -> bool:
+        """A machine that stands fixed but may drive to another set-up position (``relocate``)."""
+        return Capability.RELOCATE in self.capabilities
+
+    def relocation_s(self, from_xy_m: ArrayLike, to_xy_m: ArrayLike) -> float:
+        """Sim seconds to move between two set-up positions: stow and set up again (``setup_s``) and drive
+        the grid distance between them (|dx| + |dy|: the site's lanes run along its axes) at
+        ``relocation_speed_mps``; 0 when they are the same place."""
+        import numpy as np  # not loaded by processes that only decode messages
+
+        delta = np.asarray(to_xy_m, float)[:2] - np.asarray(from_xy_m, float)[:2]
+        drive_m = float(np.abs(delta).sum())
+        if drive_m < 1e-3:
+            return 0.0
+        speed = self.relocation_speed_mps if self.relocation_speed_mps > 0 else math.inf
+        return self.setup_s + drive_m / speed
+
+    def setup_for(
+        self,
+        setups: Sequence[tuple[float, float, float]],
+        from_xy_m: ArrayLike,
+        footprint_xy_m: ArrayLike,
+    ) -> tuple[float, float, float] | None:
+        """Of ``setups`` (a machine that stands fixed: where it may set up), the one it works on a footprint
+        from, standing at ``from_xy_m``: among those whose boom covers it, the one it relocates to soonest
+        (where it stands, when that covers it; then the earlier one); None when none covers it. The planner
+        estimates by it and the machine relocates by it."""
+        covering = [pose for pose in setups if self.boom_covers(pose[:2], footprint_xy_m)]
+        if not covering:
+            return None
+        return min(covering, key=lambda pose: self.relocation_s(from_xy_m, pose[:2]))
 
     def boom_covers(self, base_xy_m: ArrayLike, footprint_xy_m: ArrayLike) -> bool:
         """A fixed boom machine reaches every corner of the footprint from ``base_xy_m``."""

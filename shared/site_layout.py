@@ -55,6 +55,7 @@ from .site_plan import (  # the plan's data types; physics serves a plan with it
     SiteLayout,
     YardSlot,
 )
+from .site_setups import plan_setups
 
 GROUND_CLEARANCE_M = 0.001  # yard components rest this far above the ground plane
 LANE_M = 3.0  # driving lane between the building footprint and the yard, beside the depot, inside the fence
@@ -226,9 +227,9 @@ def _plan_site(
     )
     types = list(fleet) if fleet is not None else [robot] * robots
     machines = [item for item in types if not item.can(Capability.DRIVE)]
-    setups = iter(
-        plan_machines(machines, components, building=building, yard=yard, depot=depot, lane_m=lane_m)
-    )
+    mains = plan_machines(machines, components, building=building, yard=yard, depot=depot, lane_m=lane_m)
+    every = plan_setups(machines, mains, components, building=building, yard=yard, depot=depot, lane_m=lane_m)
+    setups = iter(mains)
     starts: list[tuple[float, float, float]] = []
     staging: list[Rect] = []
     bases: list[Rect] = []
@@ -241,7 +242,7 @@ def _plan_site(
         bases.append(setup.base)
         if setup.staging is not None:
             staging.append(setup.staging)
-        for rect in setup.rects:
+        for rect in (*setup.rects, *(extra.base for extra in every[len(bases) - 1][1:])):
             union = Rect(
                 (min(union.min_xy[0], rect.min_xy[0]), min(union.min_xy[1], rect.min_xy[1])),
                 (max(union.max_xy[0], rect.max_xy[0]), max(union.max_xy[1], rect.max_xy[1])),
@@ -256,6 +257,7 @@ def _plan_site(
         aisles,
         tuple(staging),
         tuple(bases),
+        setups=tuple(tuple(setup.pose for setup in machine_setups) for machine_setups in every),
     )
 
 

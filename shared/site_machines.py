@@ -145,7 +145,7 @@ def plan_machines(
     """The set-up of each of ``machines`` (in their order), by the rule of the module docstring."""
     fixed = keep_clear(building, yard, depot, lane_m)
     taken: list[Rect] = []
-    corners = _footprint_corners(components)
+    corners = footprint_corners(components)
     methods = [component.method for component in components]
     order = sorted(range(len(machines)), key=lambda i: (not machines[i].can(Capability.HOOK_LIFT), i))
     setups: dict[int, Setup] = {}
@@ -186,7 +186,7 @@ def covered_by_boom(machine: RobotDescription, base_xy: Sequence[float], corners
     return far <= machine.reach_m + 1e-9
 
 
-def _footprint_corners(components: Sequence[Component]) -> np.ndarray:
+def footprint_corners(components: Sequence[Component]) -> np.ndarray:
     """The four corners of each component's target box seen from above, ``(n, 4, 2)``."""
     if not components:
         return np.zeros((0, 4, 2))

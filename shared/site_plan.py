@@ -66,6 +66,9 @@ class SiteLayout:
     aisles: tuple[Rect, ...] = ()  # between the pairs of rows, north–south across the yard
     staging: tuple[Rect, ...] = ()  # one per hook-lifting machine (robot id order): hand-offs put loads here
     machines: tuple[Rect, ...] = ()  # the base of each machine that stands fixed (robot id order)
+    # the set-up positions (x, y, yaw) of each machine that stands fixed (robot id order, as ``machines``):
+    # its main one first (its start), then those a truck-mounted machine that relocates may drive to
+    setups: tuple[tuple[tuple[float, float, float], ...], ...] = ()
 
     @property
     def bounds(self) -> Rect:
@@ -74,6 +77,16 @@ class SiteLayout:
 
 
 GRID_MARGIN_M = 0.5  # site grids (robots' map, access check) reach this far beyond the fence's outer edge
+
+
+def machine_setups(
+    layout: SiteLayout, machine_index: int, start: tuple[float, float, float]
+) -> tuple[tuple[float, float, float], ...]:
+    """The set-up positions of the ``machine_index``-th machine that stands fixed (robot id order) whose
+    start is ``start``: the plan's (its start first), or its start alone when the plan has none for it."""
+    if machine_index < len(layout.setups):
+        return tuple((float(x), float(y), float(yaw)) for x, y, yaw in layout.setups[machine_index])
+    return (start,)
 
 
 def machine_boxes(layout: SiteLayout) -> list[tuple[float, float, float, float]]:

@@ -15,8 +15,9 @@ state):
 * queryables ``physics/info`` (SiteInfoMsg), ``physics/attach`` (AttachRequest → PhysicsReply),
   ``physics/drop`` (DropRequest → PhysicsReply: a robot that cannot deliver its load puts it down) and
   ``physics/place`` (PlaceRequest → PhysicsReply), ``physics/build`` (BuildRequest → PhysicsReply: a
-  component built where it stands) and ``physics/skip`` (SkipRequest → PhysicsReply: the clock jumps over
-  a quiet site). The loop answers them; a place reply is held back
+  component built where it stands), ``physics/relocate`` (SetUpRequest → PhysicsReply: a truck-mounted
+  machine set up at another of its set-up positions) and ``physics/skip`` (SkipRequest → PhysicsReply:
+  the clock jumps over a quiet site). The loop answers them; a place reply is held back
   until the assembly motion ends (a querier's timeout must exceed ``duration_s`` / rtf). An invalid
   payload is counted and answered ``ok=False`` with the reason;
 * liveliness token ``bimbot/<site>/alive/physics/main``.
@@ -66,6 +67,7 @@ from bimbot.shared.messages import (
     PHYSICS_INFO,
     PHYSICS_PLACE,
     PHYSICS_POSES,
+    PHYSICS_RELOCATE,
     PHYSICS_SKIP,
     ROBOT_CMD_VEL,
     ROBOT_PLAN,
@@ -80,6 +82,7 @@ from bimbot.shared.messages import (
     DropRequest,
     PhysicsReply,
     PlaceRequest,
+    SetUpRequest,
     SkipRequest,
     StepDoneMsg,
     TwinMsg,
@@ -231,6 +234,7 @@ class _Loop:
             inbox.serve(session, PHYSICS_DROP, complete=True, site=site),
             inbox.serve(session, PHYSICS_BUILD, complete=True, site=site),
             inbox.serve(session, PHYSICS_SKIP, complete=True, site=site),
+            inbox.serve(session, PHYSICS_RELOCATE, complete=True, site=site),
             inbox.serve(session, PHYSICS_POSES, complete=True, site=site),
         ]
         declarations.append(
@@ -549,6 +553,8 @@ class _Loop:
             self._reply(query, reply_key, self.sim.drop(request))
         elif isinstance(request, BuildRequest):
             self._reply(query, reply_key, self.sim.build(request))
+        elif isinstance(request, SetUpRequest):
+            self._reply(query, reply_key, self.sim.relocate(request))
         elif isinstance(request, SkipRequest):
             skipped = self.sim.skip(request)
             if skipped.ok:

@@ -55,6 +55,7 @@ from bimbot.shared.messages import (
     PhysicsReply,
     PlaceRequest,
     ScanMsg,
+    SetUpRequest,
     SiteInfoMsg,
     SitePosesMsg,
     SkipRequest,
@@ -77,6 +78,7 @@ from .positioning import TotalStation
 from .profiles import FINE
 from .ray_scene import RayScene
 from .release import SettleConfig
+from .relocation import is_setup, move_base, relocate, robot_setups
 from .robots import Robot, RobotConfig
 from .scene import (
     component_model,
@@ -437,6 +439,12 @@ class Simulation:
         robot = self.robots.get(request.robot_id)
         return self.in_place_work.build(robot, request.guid, request.height_fraction, self.sim_time_s)
 
+    def relocate(self, request: SetUpRequest) -> PhysicsReply:
+        """Move a truck-mounted machine to another of its set-up positions (:mod:`.relocation`)."""
+        robot = self.robots.get(request.robot_id)
+        setups = robot_setups(self.layout, list(self.robots.values()), request.robot_id) if robot else ()
+        return relocate(self.client_id, robot, setups, request.pose_xy_yaw, self.sim_time_s)
+
     def quiet(self) -> str | None:
         """None when nothing moves on the site (no load carried or being placed, nothing settling or held
         while it is connected, no robot commanded to move); else what moves, in words."""
@@ -629,6 +637,12 @@ class Simulation:
         """Put a robot somewhere (tests, benches): wheels on the ground, at rest; odometry follows. A crane
         stays where it was built (its base is fixed): asked to move, it is left in place (logged)."""
         robot = self.robots[robot_id]
+        setups = (
+            robot_setups(self.layout, list(self.robots.values()), robot_id) if robot.drive is None else ()
+        )
+        if robot.description.relocates and is_setup(xy_yaw, setups):  # a truck that relocates: at a set-up
+            move_base(self.client_id, robot, xy_yaw)
+            return
         if robot.drive is None:
             if max(abs(a - b) for a, b in zip(xy_yaw, robot.start_xy_yaw, strict=True)) > 1e-6:
                 _log.warning("crane %s stands at %s: not moved to %s", robot_id, robot.start_xy_yaw, xy_yaw)

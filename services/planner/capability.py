@@ -33,7 +33,7 @@ from dataclasses import dataclass
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import SiteInfoMsg
 from bimbot.shared.robot_description import Capability, RobotDescription
-from bimbot.shared.site_plan import Rect, SiteLayout
+from bimbot.shared.site_plan import Rect, SiteLayout, machine_setups
 
 from .work_in_place import can_work_on, lifts, target_footprint, work_s, works_in_place
 
@@ -50,11 +50,19 @@ class SiteRobot:
     description: RobotDescription
     home_xy_yaw: tuple[float, float, float]
     staging: Rect | None = None
+    # a machine that stands fixed: where it may set up (its start first; more for one that relocates)
+    setups: tuple[tuple[float, float, float], ...] = ()
 
     @property
     def stands_fixed(self) -> bool:
-        """It stands where the site plan put it (``home_xy_yaw``) for the whole build."""
+        """It stands where the site plan put it (``home_xy_yaw``, or one of its ``setups`` when it
+        relocates)."""
         return self.description.can(Capability.STAND_FIXED)
+
+    @property
+    def set_up_at(self) -> tuple[tuple[float, float, float], ...]:
+        """Where it may stand to work: its set-ups (its start alone when the plan gives none)."""
+        return self.setups or (self.home_xy_yaw,)
 
     @property
     def lifts_by_hook(self) -> bool:
@@ -73,9 +81,15 @@ def robots_on_plan(
     """The robots where the site plan puts them; cranes get their staging areas in robot id order."""
     robots: list[SiteRobot] = []
     staging = list(layout.staging)
+    machine = 0
     for robot_id, description, start in zip(robot_ids, descriptions, layout.robot_starts, strict=True):
         area = staging.pop(0) if description.can(Capability.HOOK_LIFT) and staging else None
-        robots.append(SiteRobot(robot_id, description, tuple(start), area))  # type: ignore[arg-type]
+        home = (float(start[0]), float(start[1]), float(start[2]))
+        setups: tuple[tuple[float, float, float], ...] = ()
+        if description.can(Capability.STAND_FIXED):
+            setups = machine_setups(layout, machine, home)
+            machine += 1
+        robots.append(SiteRobot(robot_id, description, home, area, setups))
     return robots
 
 
@@ -119,7 +133,7 @@ def can_place(robot: SiteRobot, component: Component) -> bool:
     """Payload and placement height allow it, and a crane's hook reaches the target with its mass; for work
     in place: the robot can do the work and its boom covers the target (:mod:`.work_in_place`)."""
     if works_in_place(component):
-        return can_work_on(robot.description, robot.home_xy_yaw[:2], component)
+        return any(can_work_on(robot.description, pose[:2], component) for pose in robot.set_up_at)
     if not lifts(robot.description):
         return False
     top_z_m = component.bbox_world.max_m[2]
@@ -175,6 +189,8 @@ def task_estimate_s(
         drive_s = 0.0
         if description.can(Capability.DRIVE):
             drive_s = DETOUR * math.dist(robot_xy_m[:2], target) / description.max_speed_mps
+        elif description.relocates:
+            drive_s = relocation_to_s(robot, robot_xy_m, component)
         return drive_s + handling_s + work_s(component, description)
     if robot.lifts_by_hook and description.crane is not None:
         start = (*where.xy_m, where.top_z_m)
@@ -184,3 +200,21 @@ def task_estimate_s(
     drive_m = math.dist(robot_xy_m[:2], where.xy_m) + math.dist(where.xy_m, goal[:2])
     place_s = 0.0 if to_xy_m is not None else GROUND_PLACE_S
     return DETOUR * drive_m / description.max_speed_mps + handling_s + place_s
+
+
+def setup_for(
+    robot: SiteRobot, robot_xy_m: Sequence[float], component: Component
+) -> tuple[float, float, float] | None:
+    """Where a machine that stands fixed (now at ``robot_xy_m``) works on ``component`` from: where it
+    stands when that covers it, else the set-up that covers it nearest to it (the shortest relocation);
+    None when none covers it (the rule of
+    :meth:`~bimbot.shared.robot_description.RobotDescription.setup_for`, which the machine itself follows)."""
+    polygon = target_footprint(component).polygon_xy_m
+    return robot.description.setup_for(robot.set_up_at, robot_xy_m, polygon)
+
+
+def relocation_to_s(robot: SiteRobot, robot_xy_m: Sequence[float], component: Component) -> float:
+    """Sim seconds a machine at ``robot_xy_m`` spends relocating before it can work on ``component`` (0
+    when its boom covers it from there, or when no set-up does: feasibility says so)."""
+    pose = setup_for(robot, robot_xy_m, component)
+    return 0.0 if pose is None else robot.description.relocation_s(robot_xy_m[:2], pose[:2])

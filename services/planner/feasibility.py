@@ -15,8 +15,9 @@ count for this; a site with none says so (``no_capable_robot``).
 A component cast in place or laid is built where it stands by a machine that can ``pour`` or ``lay``
 (:mod:`.work_in_place`; its mass never matters). When none can: ``no_capable_robot`` when no robot on site
 has the capability (add a concrete pump or a block layer); ``out_of_reach`` when every such machine's
-boom is too low for its top, or too short to cover its footprint from where it stands (the numbers of the
-nearest one: the footprint's span from its base against its boom's reach).
+boom is too low for its top, or too short to cover its footprint from where it stands, or from any set-up
+position of a machine that relocates (the numbers of the nearest one: the footprint's span from its nearest
+set-up against its boom's reach).
 """
 
 from __future__ import annotations
@@ -107,7 +108,11 @@ def component_feasibility(
 
 def _in_place_feasibility(component: Component, robots: Sequence[SiteRobot]) -> Feasibility:
     """A component built where it stands: the machines that can do its work from where they stand."""
-    able = [robot for robot in robots if can_work_on(robot.description, robot.home_xy_yaw[:2], component)]
+    able = [
+        robot
+        for robot in robots
+        if any(can_work_on(robot.description, pose[:2], component) for pose in robot.set_up_at)
+    ]
     if able or not robots:
         routes = [
             f"{robot.description.name} ({robot.robot_id})" if robot.stands_fixed else robot.description.name
@@ -149,21 +154,30 @@ def _why_no_worker(component: Component, robots: Sequence[SiteRobot]) -> Reason:
             ),
             robot_id=best.robot_id,
         )
-    spans = {robot.robot_id: boom_span_m(robot.home_xy_yaw[:2], component) for robot in high}
+    spans = {robot.robot_id: _nearest_setup_span(robot, component) for robot in high}
     nearest = min(
         high, key=lambda robot: (spans[robot.robot_id][1] - robot.description.reach_m, robot.robot_id)
     )
-    near, far = spans[nearest.robot_id]
+    near, far, count = spans[nearest.robot_id]
     others = f" (the nearest of {len(high)} robots that can {words})" if len(high) > 1 else ""
+    where = f" at the nearest of its {count} set-up positions" if count > 1 else ""
     return Reason(
         code=ReasonCode.OUT_OF_REACH,
         message=(
-            f"its footprint spans {near:.1f}–{far:.1f} m from {nearest.description.name} {nearest.robot_id}, "
-            f"whose boom reaches {nearest.description.reach_m:.1f} m{others}: a longer boom (reach_m in the "
-            "fleet file) would cover it"
+            f"its footprint spans {near:.1f}–{far:.1f} m from {nearest.description.name} {nearest.robot_id}"
+            f"{where}, whose boom reaches {nearest.description.reach_m:.1f} m{others}: a longer boom "
+            "(reach_m in the fleet file) would cover it"
         ),
         robot_id=nearest.robot_id,
     )
+
+
+def _nearest_setup_span(robot: SiteRobot, component: Component) -> tuple[float, float, int]:
+    """(nearest, farthest) distance from the robot's set-up whose boom comes nearest to covering the
+    component (the smallest farthest distance) to its footprint, and how many set-ups it has."""
+    spans = [boom_span_m(pose[:2], component) for pose in robot.set_up_at]
+    near, far = min(spans, key=lambda span: span[1])
+    return near, far, len(spans)
 
 
 def _no_lifter(component: Component, robots: Sequence[SiteRobot]) -> Reason:

@@ -70,7 +70,7 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.reasons import Reason, ReasonCode, blocked_by
 
-from .capability import SiteRobot
+from .capability import SiteRobot, relocation_to_s
 from .curing import CuringHolds, Hold, constructed_time_s
 from .dispatch import Dispatch
 from .quiet import WORKING, Quiet, Skip
@@ -595,11 +595,15 @@ class PlannerCore(Dispatch, Quiet):
 
     def _task_bound_s(self, task: TaskRecord) -> float:
         """How long an assigned task may go without a state change of its component (sim s): the fixed
-        bound, plus the expected duration of its work while it is worked on in place."""
+        bound, plus the expected duration of its work while it is worked on in place (and for a machine
+        that relocates before it works, its longest relocation to where it works on it)."""
         bound = self.limits.task_timeout_s
         if self._components[task.guid].state in WORKING:
             robot = self._site.get(task.robot_id or "") if self._site is not None else None
             bound += work_s(self._manifest[task.guid], robot.description if robot is not None else None)
+            if robot is not None and robot.description.relocates:  # it may relocate first: from anywhere
+                component = self._manifest[task.guid]
+                bound += max(relocation_to_s(robot, pose[:2], component) for pose in robot.set_up_at)
         return bound
 
     def _fail(self, guid: str, reason: Reason, *, block: bool = True) -> None:

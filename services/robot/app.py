@@ -46,6 +46,7 @@ from bimbot.shared.messages import (
     PHYSICS_INFO,
     PHYSICS_PLACE,
     PHYSICS_POSES,
+    PHYSICS_RELOCATE,
     ROBOT_CMD_VEL,
     ROBOT_CMD_VEL_KEY,
     ROBOT_PLAN_KEY,
@@ -90,6 +91,7 @@ _PHYSICS_REQUESTS = {
     "place": PHYSICS_PLACE,
     "drop": PHYSICS_DROP,
     "build": PHYSICS_BUILD,
+    "relocate": PHYSICS_RELOCATE,
 }
 
 

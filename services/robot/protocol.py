@@ -31,6 +31,7 @@ from bimbot.shared.messages import (
     PlaceRequest,
     PlanMsg,
     RobotStateMsg,
+    SetUpRequest,
 )
 
 _E, _C = ComponentEvent, ComponentState
@@ -95,9 +96,9 @@ class EventQueue:
 class PhysicsRequest:
     """A request for the adapter to send to ``physics/<kind>`` with a callback (never blocking)."""
 
-    kind: str  # "attach", "place", "drop" or "build"
+    kind: str  # "attach", "place", "drop", "build" or "relocate"
     request_id: int
-    message: AttachRequest | PlaceRequest | DropRequest | BuildRequest
+    message: AttachRequest | PlaceRequest | DropRequest | BuildRequest | SetUpRequest
     timeout_s: float
 
 

@@ -1,8 +1,13 @@
 """A machine that builds components where they stand: a pump and its crew cast concrete, a block layer lays
 masonry. The executor of a robot type that can ``pour`` or ``lay`` (no bus; the adapter is the robot's).
 
-It never drives: it stands where the site plan set it up and works within its boom's reach. A task is
-timed work in sim time, through the construction protocol:
+It never drives under its own control: it stands where the site plan set it up and works within its boom's
+reach. A truck-mounted one that may ``relocate`` moves first when its boom does not cover the component from
+where it stands: to the set-up position of the site plan's that covers it and is reached soonest
+(:meth:`~bimbot.shared.robot_description.RobotDescription.setup_for`), busy for the relocation's time
+(stow, drive, set up: ``relocation_s``) once its first event has started the component's work, then
+physics moves its base there (``physics/relocate``). A task is timed work in sim time, through the
+construction protocol:
 
 * cast in place — ``form`` (formwork and reinforcement, ``cast.formwork_s``), ``pour`` (``cast.pour_s``),
   then physics builds it whole (``physics/build``) and ``place`` hands it to its agent's verification;
@@ -22,7 +27,9 @@ from __future__ import annotations
 import logging
 import math
 import uuid
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+
+import numpy as np
 
 from bimbot.shared.component_states import ComponentStates
 from bimbot.shared.construction_methods import ConstructionMethod
@@ -39,6 +46,7 @@ from bimbot.shared.messages import (
     ComponentStateMsg,
     RobotState,
     RobotStateMsg,
+    SetUpRequest,
     SiteInfoMsg,
     TaskMsg,
     TaskStatus,
@@ -46,6 +54,7 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import Capability, RobotDescription
+from bimbot.shared.site_plan import machine_setups
 
 from .protocol import VERDICTS, EventQueue, Outgoing, PhysicsRequest, PhysicsResult
 from .task_machine import TaskMachine, Trigger
@@ -66,6 +75,7 @@ class Step:
     duration_s: float
     height_fraction: float | None
     what: str
+    relocate_to: tuple[float, float, float] | None = None  # at its end physics sets the machine up here
 
 
 def work_steps(component: Component, description: RobotDescription) -> list[Step]:
@@ -126,8 +136,15 @@ class SiteWorkExecutor:
         self.config, self.robot_id = config, config.robot_id
         self.description = info.robot_types[info.robot_type_of[self.robot_id]]
         self.home_xy_yaw = info.robot_starts_xy_yaw[info.robot_ids.index(self.robot_id)]
+        machines = [
+            robot_id
+            for robot_id in info.robot_ids
+            if info.robot_types[info.robot_type_of[robot_id]].can(Capability.STAND_FIXED)
+        ]
+        self.setups = machine_setups(info.layout, machines.index(self.robot_id), self.home_xy_yaw)
         if start_xy_yaw is not None:
             self.home_xy_yaw = start_xy_yaw
+        self.relocations = 0  # moves to another set-up so far
         self.components = {component.guid: component for component in manifest.components}
         self.component_states = ComponentStates({c.guid: c.key for c in manifest.components})
         self.tasks: dict[str, TaskMsg] = {}
@@ -206,6 +223,7 @@ class SiteWorkExecutor:
             wall_time_s=wall_s,
             activity=step.what if step is not None and job is not None and job.started_s is not None else "",
             busy_until_s=self._busy_until(),
+            relocations=self.relocations,
         )
 
     # --- the job -----------------------------------------------------------------------------------------
@@ -258,6 +276,11 @@ class SiteWorkExecutor:
             return
         if self.sim_s < job.started_s + step.duration_s - 1e-9:
             return
+        if step.relocate_to is not None:
+            move = SetUpRequest(robot_id=self.robot_id, pose_xy_yaw=step.relocate_to)
+            job.request = PhysicsRequest("relocate", self._request_id(), move, self.config.request_timeout_s)
+            job.request_sent = False
+            return
         if step.height_fraction is not None:
             build = BuildRequest(
                 robot_id=self.robot_id, guid=job.message.guid, height_fraction=step.height_fraction
@@ -296,6 +319,7 @@ class SiteWorkExecutor:
             if why is not None:
                 self._give_back(job, why)
                 return
+            self._relocation_first(job)
             first = job.steps[0].event
             if first is not None:
                 self._queue_event(job, first)
@@ -311,17 +335,38 @@ class SiteWorkExecutor:
                 message=f"{self.robot_id} ({self.description.name}) cannot build {name}, which is "
                 f"{component.method.value}",
             )
-        target = component.target_pose_world
-        polygon = posed_footprint(component, target.position_m, target.quat_xyzw).polygon_xy_m
-        if not self.description.reaches(self.home_xy_yaw[:2], polygon):
-            far_m = max(math.dist(corner, self.home_xy_yaw[:2]) for corner in polygon.tolist())
+        polygon = _target_polygon(component)
+        if self.description.setup_for(self.setups, self.home_xy_yaw[:2], polygon) is None:
+            far_m = min(
+                max(math.dist(corner, pose[:2]) for corner in polygon.tolist()) for pose in self.setups
+            )
+            where = (
+                f" (the nearest of its {len(self.setups)} set-up positions)" if len(self.setups) > 1 else ""
+            )
             return Reason(
                 code=ReasonCode.OUT_OF_REACH,
                 robot_id=self.robot_id,
-                message=f"{name} reaches {far_m:.1f} m from {self.robot_id} ({self.description.name}), whose "
-                f"boom reaches {self.description.reach_m:g} m",
+                message=f"{name} reaches {far_m:.1f} m from {self.robot_id} ({self.description.name})"
+                f"{where}, whose boom reaches {self.description.reach_m:g} m",
             )
         return None
+
+    def _relocation_first(self, job: Job) -> None:
+        """When its boom does not cover the component from where it stands: a relocation to the set-up that
+        does first, started by the work's first event (the component's work has begun: the machine is on
+        its way to it)."""
+        polygon = _target_polygon(job.component)
+        pose = self.description.setup_for(self.setups, self.home_xy_yaw[:2], polygon)
+        if pose is None or not job.steps:
+            return
+        duration_s = self.description.relocation_s(self.home_xy_yaw[:2], pose[:2])
+        if duration_s <= 0.0:
+            return
+        first = job.steps[0]
+        drive_m = abs(pose[0] - self.home_xy_yaw[0]) + abs(pose[1] - self.home_xy_yaw[1])
+        what = f"relocating to ({pose[0]:.1f}, {pose[1]:.1f}): stow, drive {drive_m:.0f} m, set up"
+        job.steps[0] = replace(first, event=None)
+        job.steps.insert(0, Step(first.event, duration_s, None, what, relocate_to=pose))
 
     def _withdrawn(self, job: Job) -> bool:
         latest = self.tasks.get(job.message.task_id)
@@ -337,21 +382,26 @@ class SiteWorkExecutor:
         job = self.job
         if job is None or job.request is None or job.request.request_id != result.request_id:
             return
-        job.request = None
+        kind, job.request = job.request.kind, None
         reply = result.reply
         if reply is not None and reply.ok:
+            moved_to = job.steps[job.index].relocate_to if job.index < len(job.steps) else None
+            if moved_to is not None:
+                self.home_xy_yaw = moved_to
+                self.relocations += 1
+                _log.info("%s: set up at (%.1f, %.1f)", self.robot_id, moved_to[0], moved_to[1])
             self._next_step(job)
             return
         job.tries += 1
         why = reply.reason if reply is not None else result.error
-        _log.warning("%s: physics refused building %s: %s", self.robot_id, job.message.guid, why)
+        _log.warning("%s: physics refused %s for %s: %s", self.robot_id, kind, job.message.guid, why)
         if job.tries >= self.config.max_tries:
             self._give_back(
                 job,
                 Reason(
                     code=ReasonCode.PHYSICS_REFUSED,
                     robot_id=self.robot_id,
-                    message=f"physics refused building it {job.tries} times; last: {why}",
+                    message=f"physics refused the {kind} {job.tries} times; last: {why}",
                 ),
             )
 
@@ -389,3 +439,9 @@ class SiteWorkExecutor:
     def _request_id(self) -> int:
         self._next_request += 1
         return self._next_request - 1
+
+
+def _target_polygon(component: Component) -> np.ndarray:
+    """The component's footprint at its target, seen from above (its corners, world xy)."""
+    target = component.target_pose_world
+    return posed_footprint(component, target.position_m, target.quat_xyzw).polygon_xy_m

@@ -8,6 +8,8 @@ entry. Pure: no bus, no files; apart from :mod:`.collector` so the collector sta
   ``hand_off`` with its ``put_down_xy_m``; :mod:`.fleet`).
 * ``distance_m`` — driven in the plane, from ground truth (``robots/<id>/pose``), else odometry, else the
   robot's own ``distance_m`` in its state messages, else its state poses (``distance_source`` says which).
+* ``relocations`` — how often a truck-mounted machine moved to another set-up position (its own count in
+  its state messages; 0 for every other robot).
 """
 
 from __future__ import annotations
@@ -41,10 +43,12 @@ class RobotTimeline:
     distances_m: dict[str, float] = field(default_factory=lambda: dict.fromkeys(DISTANCE_SOURCES, 0.0))
     last_xy: dict[str, tuple[float, float]] = field(default_factory=dict)
     reported_distance_m: float = 0.0
+    relocations: int = 0
 
     def take_state(self, msg: RobotStateMsg) -> None:
         """A state message of this robot: opens, names or closes its busy interval."""
         self.reported_distance_m = max(self.reported_distance_m, msg.distance_m)
+        self.relocations = max(self.relocations, msg.relocations)
         self.travel("state_poses", msg.pose_xy_yaw)
         busy = msg.state != RobotState.IDLE
         open_interval = self.intervals[-1] if self.intervals and self.intervals[-1].end_s is None else None
@@ -108,6 +112,7 @@ def robot_entry(
         "busy_s": sum(task["end_s"] - task["start_s"] for task in tasks),
         "distance_m": distance,
         "distance_source": source,
+        "relocations": robot.relocations,
         "tasks": tasks,
         "state": robot.state.value if robot.state else None,
     }

@@ -40,8 +40,14 @@ def test_each_machine_type_says_what_it_can_do_with_the_spec_that_goes_with_it()
     assert types["husky"].capabilities == types["carrier"].capabilities == ground  # implied: no crane spec
     crane = {Capability.STAND_FIXED, Capability.HOOK_LIFT, Capability.PLACE}
     assert types["tower_crane"].capabilities == types["crawler_crane"].capabilities == crane  # implied
-    assert types["concrete_pump"].capabilities == {Capability.STAND_FIXED, Capability.POUR}
-    assert types["block_layer"].capabilities == {Capability.STAND_FIXED, Capability.LAY}
+    relocate = Capability.RELOCATE  # truck-mounted: they drive to another set-up for what they cannot reach
+    assert types["concrete_pump"].capabilities == {Capability.STAND_FIXED, Capability.POUR, relocate}
+    assert types["block_layer"].capabilities == {Capability.STAND_FIXED, Capability.LAY, relocate}
+    assert all(
+        types[name].relocation_speed_mps > 0 and types[name].setup_s > 0
+        for name in ("concrete_pump", "block_layer")
+    )
+    assert not types["tower_crane"].relocates
     pump, layer = types["concrete_pump"], types["block_layer"]
     assert pump.reach_m == 28.0 and pump.crane is None and pump.laying is None  # a 32 m class boom
     laying = layer.laying

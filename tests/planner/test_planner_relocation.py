@@ -1,0 +1,60 @@
+"""A truck-mounted pump that relocates, in the planner: a footing beyond its boom from where it stands but
+covered from another of its set-up positions is buildable; the bid adds the relocation, so a pump already
+set up nearby costs less; none of its set-ups covering it is out_of_reach from the nearest set-up."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+from component_boxes import box_component
+
+from bimbot.services.planner.capability import SiteRobot, Where, robots_on_plan, task_estimate_s
+from bimbot.services.planner.feasibility import component_feasibility
+from bimbot.shared.construction_methods import ConstructionMethod
+from bimbot.shared.fleet import default_fleet
+from bimbot.shared.reasons import ReasonCode
+from bimbot.shared.site_layout import plan_site
+
+PUMP = default_fleet().types["concrete_pump"]
+HOME, NEAR = (0.0, 0.0, 0.0), (60.0, 0.0, 0.0)
+FOOTING = box_component("foot", (1.0, 1.0, 0.5), (70.0, 0.0, -0.5), ConstructionMethod.CAST_IN_PLACE, 2000.0)
+
+
+def test_a_footing_covered_from_another_set_up_is_buildable_and_not_from_where_it_stands_alone() -> None:
+    relocating = SiteRobot("r4", PUMP, HOME, setups=(HOME, NEAR))
+    assert component_feasibility(FOOTING, [relocating]).routes == ("concrete_pump (r4)",)
+    fixed = SiteRobot("r4", PUMP, HOME)
+    row = component_feasibility(FOOTING, [fixed])
+    assert row.reason is not None and row.reason.code is ReasonCode.OUT_OF_REACH
+    assert "spans 70.0–71.0 m from concrete_pump r4, whose boom reaches 28.0 m" in row.reason.message
+
+
+def test_out_of_reach_from_every_set_up_names_the_nearest_one() -> None:
+    pump = SiteRobot("r4", PUMP, HOME, setups=(HOME, (35.0, 0.0, 0.0)))
+    row = component_feasibility(FOOTING, [pump])
+    assert row.reason is not None and row.reason.code is ReasonCode.OUT_OF_REACH
+    assert (
+        "spans 35.0–36.0 m from concrete_pump r4 at the nearest of its 2 set-up positions"
+        in row.reason.message
+    )
+
+
+def test_the_bid_adds_the_relocation_so_a_pump_set_up_nearby_costs_less() -> None:
+    pump = SiteRobot("r4", PUMP, HOME, setups=(HOME, NEAR))
+    where = Where((70.5, 0.5), 0.0)
+    from_home = task_estimate_s(pump, HOME[:2], FOOTING, where)
+    from_near = task_estimate_s(pump, NEAR[:2], FOOTING, where)
+    assert from_home - from_near == pytest.approx(PUMP.setup_s + 60.0 / PUMP.relocation_speed_mps)
+
+
+def test_the_planner_takes_each_machines_set_ups_from_the_site_plan() -> None:
+    components = [FOOTING, box_component("col", (0.3, 0.3, 3.0), (0.0, 0.0, 0.0))]
+    fleet = default_fleet()
+    layout = plan_site(components, fleet=fleet.robot_types())
+    pump_setups = (layout.robot_starts[3], NEAR)
+    layout = dataclasses.replace(layout, setups=(layout.setups[0], pump_setups, layout.setups[2]))
+    ids = [f"r{number + 1}" for number in range(len(layout.robot_starts))]
+    robots = {robot.robot_id: robot for robot in robots_on_plan(ids, fleet.robot_types(), layout)}
+    assert robots["r4"].description.name == "concrete_pump" and robots["r4"].setups == pump_setups
+    assert robots["r1"].setups == ()  # a ground robot drives
