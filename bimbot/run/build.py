@@ -26,6 +26,7 @@ import shutil
 import signal
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -42,10 +43,7 @@ from bimbot.run.commands import (
 )
 from bimbot.run.loop import LoopLimits, LoopResult, RunWatch, StopSignals
 from bimbot.run.monitor import RunMonitor
-from bimbot.run.options import (
-    ObserverOptions,
-    RunOptions,
-)
+from bimbot.run.options import ObserverOptions, RunOptions, default_timeout_s
 from bimbot.run.preflight import check_run_input
 from bimbot.run.progress import NoProgress, ProgressView, make_progress
 from bimbot.run.restarts import Restarter, RestartPolicy
@@ -89,6 +87,8 @@ def _run_build(
 ) -> RunOutcome:
     _check_input(build, options, launcher)  # bad input: one line and exit 2, before any service starts
     manifest = load_manifest(build)
+    if options.timeout_s is None:
+        options = replace(options, timeout_s=default_timeout_s(len(manifest.components)))
     run = RunFolder(options.run_dir) if options.run_dir is not None else new_run_folder(build)
     log_dir = run.logs_dir
     if log_dir.exists():
@@ -144,7 +144,9 @@ def _run_build(
                     planner=by_name["planner"],
                     everyone=[*routers, *services],
                     monitor=monitor,
-                    limits=LoopLimits(timeout_s=options.timeout_s, report_every_s=options.report_every_s),
+                    limits=LoopLimits(
+                        timeout_s=options.timeout_s or 0.0, report_every_s=options.report_every_s
+                    ),
                     watchdog=StallWatchdog(options.stall_after_s, options.clock_stall_wall_s),
                     progress=progress,
                     stop=stop,

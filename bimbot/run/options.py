@@ -42,7 +42,18 @@ from bimbot.shared.seeds import DEFAULT_SEED
 from bimbot.shared.tolerance_options import TOLERANCE_OPTIONS, tolerances_from
 from bimbot.shared.verification import Tolerances
 
-DEFAULT_TIMEOUT_S = 900.0
+DEFAULT_TIMEOUT_S = 900.0  # a run's wall-clock bound, at least…
+TIMEOUT_PER_COMPONENT_S = (
+    60.0  # …plus this per component: a real building's run is not cut off while it builds
+)
+
+
+def default_timeout_s(components: int) -> float:
+    """The wall-clock bound of a run without ``--timeout-s``: 900 s plus 60 s per component (the stall
+    watchdogs end a run that stopped changing long before)."""
+    return DEFAULT_TIMEOUT_S + TIMEOUT_PER_COMPONENT_S * components
+
+
 DEFAULT_REPORT_EVERY_S = 30.0  # wall seconds between two reports written while the run goes on
 
 
@@ -72,7 +83,7 @@ class RunOptions:
     inject_placement_error_m: float = 0.0
     observer: ObserverOptions | None = None
     planner_source: tuple[str, ...] = ()  # extra planner arguments: ("--derive",) etc.
-    timeout_s: float = DEFAULT_TIMEOUT_S
+    timeout_s: float | None = None  # None: default_timeout_s of the build's components
     physics_extra: tuple[str, ...] = ()  # more physics arguments (benches, experiments)
     run_dir: Path | None = None  # default: a new folder under BUILD/runs/ (bimbot.shared.run_folder)
     stall_after_s: float = DEFAULT_STALL_AFTER_S  # sim seconds without a change on the site (0: never)
@@ -245,8 +256,9 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
     OptionSpec(
         "--timeout-s",
         type=positive_float,
-        default=DEFAULT_TIMEOUT_S,
-        help=f"end the run after this many wall seconds, with its report ({DEFAULT_TIMEOUT_S:g})",
+        help=f"end the run after this many wall seconds, with its report (default {DEFAULT_TIMEOUT_S:g} s "
+        f"plus {TIMEOUT_PER_COMPONENT_S:g} s per component; a run whose site stops changing ends sooner, "
+        "see --stall-after-s and --stall-wall-s)",
     ),
     OptionSpec(
         "--stall-after-s",
@@ -355,7 +367,9 @@ def run_options(args: argparse.Namespace, *, observe: bool = False) -> RunOption
         raise UserError("--physics-hz, --control-period-s and --laser-beams must be positive")
     if args.rtf is not None and args.rtf < 0:
         raise UserError("--rtf must be >= 0")
-    if args.timeout_s <= 0 or min(args.stall_after_s, args.stall_wall_s, args.report_every_s) < 0:
+    if (args.timeout_s is not None and args.timeout_s <= 0) or min(
+        args.stall_after_s, args.stall_wall_s, args.report_every_s
+    ) < 0:
         raise UserError("--timeout-s must be positive; --stall-after-s, --stall-wall-s, --report-every-s ≥ 0")
     if getattr(args, "routers", 1) > 1 and getattr(args, "secure", False):
         raise UserError("--routers 2 runs on an open bus: --secure is for one router")
