@@ -29,6 +29,7 @@ DELAY_STEPS = 2  # inputs stamped at step k - 2 or before are taken at step k (c
 # wall seconds a step waits for a participant's answer (or a twin's) before it goes on without: a hang,
 # not a loaded machine (under a load of 36 on two cores a robot's answer took seconds)
 HOLD_S = 60.0
+LATE_LOGGED = 20  # late inputs a participant logs one by one; a flood of them is counted in its closing line
 
 
 @dataclass

@@ -391,7 +391,9 @@ class _Loop:
         if now - self._states_held_since < self.barrier.timeout_s:
             return True
         _log.warning(
-            "lock-step: step %d goes on without the twins of %s", self.sim.step, ", ".join(stepped.claims)
+            "lock-step: step %d goes on without the twins of %s",
+            self.sim.step,
+            ", ".join(stepped.claims.guids()),
         )
         return False
 

@@ -15,6 +15,7 @@ from bimbot.shared.component_states import ComponentStates
 from bimbot.shared.messages import ComponentState, ComponentStateMsg, TwinMsg
 from bimbot.shared.state_table import TERMINAL
 from bimbot.shared.step_gate import StepGate
+from bimbot.shared.twin_claims import TwinClaims
 
 DELAY_STEPS = 1  # before advancing from k: the states stamped at k - 1 or before (agents answered k - 1)
 
@@ -25,7 +26,7 @@ class SteppedStates:
     def __init__(self, states: ComponentStates) -> None:
         self.states = states
         self.gate: StepGate[ComponentStateMsg | TwinMsg] = StepGate(delay_steps=DELAY_STEPS)
-        self.claims: dict[str, ComponentStateMsg] = {}  # GUID → the claim whose twin is to be asked/came
+        self.claims = TwinClaims()  # terminal claims awaiting their twin's answer
         self.to_ask: list[str] = []  # GUIDs whose twin the adapter asks now
 
     def clock(self, step: int, sim_time_s: float) -> None:
@@ -34,20 +35,16 @@ class SteppedStates:
     def hear(self, message: ComponentStateMsg) -> None:
         """A state message as it arrives (a terminal claim: its twin is asked at once)."""
         terminal = message.state in TERMINAL
-        self.gate.put(message.sim_time_s, message.guid, message, resolved=not terminal)
-        if terminal:
-            self.claims[message.guid] = message
+        put = self.gate.put(message.sim_time_s, message.guid, message, resolved=not terminal)
+        if put and terminal and self.claims.claim(message):
             self.to_ask.append(message.guid)
 
     def answer(self, twin: TwinMsg) -> bool:
-        """A twin's answer: True when it settled a claim (taken at the claim's step)."""
-        claim = self.claims.get(twin.guid)
-        if claim is None or twin.state is not claim.state:
-            if claim is not None:
-                self.to_ask.append(twin.guid)  # not (yet) what the message said: ask again
-            return False
-        del self.claims[twin.guid]
-        return self.gate.resolve(claim, twin)
+        """A twin's answer: True when it settled a claim (taken, as the twin says, at the claim's step)."""
+        settled, ask_again = self.claims.answer(twin)
+        if ask_again:
+            self.to_ask.append(twin.guid)  # not (yet) what the message said
+        return any([self.gate.resolve(claim, twin) for claim in settled])
 
     def ready(self, step: int) -> bool:
         return self.gate.ready(step)
@@ -60,5 +57,5 @@ class SteppedStates:
             if state is not None:
                 out.append((item.guid, state))
         if force:
-            self.to_ask.extend(self.claims)
+            self.to_ask.extend(self.claims.guids())
         return out

@@ -39,7 +39,8 @@ from bimbot.shared.messages import (
     key,
 )
 from bimbot.shared.state_table import TERMINAL
-from bimbot.shared.step_gate import HOLD_S, StepGate
+from bimbot.shared.step_gate import HOLD_S, LATE_LOGGED, StepGate
+from bimbot.shared.twin_claims import TwinClaims
 
 from .scheduler import Outgoing, PlannerCore
 from .skip_requests import SkipAnswer, Skipper
@@ -83,7 +84,7 @@ class SteppedLoop:
         self.gate.expect(name for name in participants if name != PARTICIPANT)
         self.clocks: deque[ClockMsg] = deque()
         self.clock_guard = ClockGuard("planner clock")
-        self.claims: dict[str, ComponentStateMsg] = {}  # GUID → the claim whose twin is asked
+        self.claims = TwinClaims()  # terminal claims awaiting their twin's answer
         self._held_since: float | None = None
         self._answer_key = key(STEP_DONE.template, site=site, participant=PARTICIPANT)
         self._last_step = -1
@@ -107,9 +108,9 @@ class SteppedLoop:
                 else:
                     self.gate.answered(answer.participant, answer.step)
             case Received(message=ComponentStateMsg() as message) if message.state in TERMINAL:
-                self._stamped(message.sim_time_s, message.guid, message, resolved=False)
-                self.claims[message.guid] = message
-                self.ask_twin(message.guid)
+                stamped = self._stamped(message.sim_time_s, message.guid, message, resolved=False)
+                if stamped and self.claims.claim(message):
+                    self.ask_twin(message.guid)
             case Received(message=ComponentStateMsg() as message):
                 self._stamped(message.sim_time_s, message.guid, message)
             case Received(message=ComponentPoseMsg() as message):
@@ -117,11 +118,10 @@ class SteppedLoop:
             case Received(message=RobotStateMsg() as message):
                 self._stamped(message.sim_time_s, message.robot_id, message, key=message.model_dump_json())
             case Answer(message=TwinMsg() as twin):
-                claim = self.claims.get(twin.guid)
-                if claim is not None and twin.state is claim.state:
+                settled, ask_again = self.claims.answer(twin)
+                for claim in settled:  # taken as the twin says
                     self.gate.resolve(claim, twin)
-                    del self.claims[twin.guid]
-                elif claim is not None:  # not (yet) what the message said: ask again
+                if ask_again:  # not (yet) what the message said
                     self.ask_twin(twin.guid)
             case LivelinessChange() if item.kind == "robot":
                 if not item.alive:
@@ -132,17 +132,23 @@ class SteppedLoop:
 
     def _stamped(
         self, stamp_s: float, sender: str, message: object, *, resolved: bool = True, key: object = None
-    ) -> None:
+    ) -> bool:
+        """Hold a message for its step; False for a repeated delivery (sent again until its effect was
+        seen)."""
         if not self.gate.put(stamp_s, sender, message, resolved=resolved, key=key):
-            return  # a repeated delivery (a message sent again until its effect was seen)
+            return False
         if self._last_step >= 0 and self.gate.note_late(stamp_s, self._last_step):
-            _log.info(
+            _log.log(
+                logging.INFO
+                if self.gate.late <= LATE_LOGGED
+                else logging.DEBUG,  # a flood: counted at the end
                 "%s from %s stamped %.1f s came after step %d",
                 type(message).__name__,
                 sender,
                 stamp_s,
                 self._last_step,
             )
+        return True
 
     # --- stepping ------------------------------------------------------------------------------------
 
@@ -190,10 +196,10 @@ class SteppedLoop:
             _log.warning(
                 "lock-step: step %d taken without %s after %.0f s",
                 step,
-                ", ".join(self.gate.waiting_for(step)) or "the twins of " + ", ".join(sorted(self.claims)),
+                ", ".join(self.gate.waiting_for(step)) or "the twins of " + ", ".join(self.claims.guids()),
                 HOLD_S,
             )
-            for guid in self.claims:
+            for guid in self.claims.guids():
                 self.ask_twin(guid)
         self._held_since = None
         self.clocks.popleft()

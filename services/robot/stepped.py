@@ -36,7 +36,8 @@ from bimbot.shared.messages import (
     TwinMsg,
 )
 from bimbot.shared.state_table import TERMINAL
-from bimbot.shared.step_gate import HOLD_S, StepGate
+from bimbot.shared.step_gate import HOLD_S, LATE_LOGGED, StepGate
+from bimbot.shared.twin_claims import TwinClaims
 
 from .protocol import Outgoing, PhysicsResult, RobotExecutor
 
@@ -67,7 +68,7 @@ class SteppedTicks:
         self.gate: StepGate[object] = StepGate()
         self.gate.expect(name for name in participants if name != executor.robot_id)
         self.steps: deque[_Step] = deque()
-        self.claims: dict[str, ComponentStateMsg] = {}
+        self.claims = TwinClaims()  # terminal claims awaiting their twin's answer
         self._before: list[object] = []  # since the last sensors
         self._replies: list[PhysicsResult] = []  # physics' replies, each for the first step after its own
         self._held_since: float | None = None
@@ -90,10 +91,9 @@ class SteppedTicks:
                 else:
                     self.gate.answered(answer.participant, answer.step)
             case Received(message=ComponentStateMsg() as message) if message.state in TERMINAL:
-                self._stamped(message.sim_time_s, message.guid, message, resolved=False)
-                self.claims[message.guid] = message
-                if message.guid in self.keys:
-                    self.publish([TwinQuestion(message.guid, self.keys[message.guid])])
+                stamped = self._stamped(message.sim_time_s, message.guid, message, resolved=False)
+                if stamped and self.claims.claim(message):
+                    self._ask(message.guid)
             case Received(message=ComponentStateMsg() as message):
                 self._stamped(message.sim_time_s, message.guid, message)
             case Received(message=ComponentPoseMsg() as message):
@@ -104,11 +104,12 @@ class SteppedTicks:
                 if message.robot_id != robot_id:
                     self._stamped(message.sim_time_s, message.robot_id, message)
             case Answer(message=TwinMsg() as twin):
-                claim = self.claims.get(twin.guid)
-                if claim is not None and twin.state is claim.state:
+                settled, ask_again = self.claims.answer(twin)
+                for claim in settled:  # taken as the twin says
                     self.gate.resolve(claim, twin)
-                    del self.claims[twin.guid]
-                else:
+                if ask_again:  # not (yet) what the message said
+                    self._ask(twin.guid)
+                if not settled:
                     self._before.append(twin)
             case PhysicsResult(reply=PhysicsReply() as reply):
                 # taken by the first step after the one physics answered at: a reply travels another way
@@ -126,17 +127,25 @@ class SteppedTicks:
 
     def _stamped(
         self, stamp_s: float, sender: str, message: object, *, resolved: bool = True, key: object = None
-    ) -> None:
+    ) -> bool:
+        """Hold a message for its step; False for a repeated delivery (sent again until its effect was
+        seen)."""
         if not self.gate.put(stamp_s, sender, message, resolved=resolved, key=key):
-            return  # a repeated delivery (a message sent again until its effect was seen)
+            return False
         if self._last_step >= 0 and self.gate.note_late(stamp_s, self._last_step):
-            _log.info(
+            _log.log(
+                logging.INFO if self.gate.late <= LATE_LOGGED else logging.DEBUG,  # a flood: counted below
                 "%s from %s stamped %.1f s came after step %d",
                 type(message).__name__,
                 sender,
                 stamp_s,
                 self._last_step,
             )
+        return True
+
+    def _ask(self, guid: str) -> None:
+        if guid in self.keys:
+            self.publish([TwinQuestion(guid, self.keys[guid])])
 
     def tick_ready(self) -> None:
         """Tick every queued step that is ready, in order."""
@@ -154,7 +163,8 @@ class SteppedTicks:
                 _log.warning(
                     "lock-step: step %d ticked without %s after %.0f s",
                     clock.step,
-                    ", ".join(self.gate.waiting_for(clock.step)) or "the twins of " + ", ".join(self.claims),
+                    ", ".join(self.gate.waiting_for(clock.step))
+                    or "the twins of " + ", ".join(self.claims.guids()),
                     HOLD_S,
                 )
             self._held_since = None
