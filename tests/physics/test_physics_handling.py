@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,7 +23,7 @@ from bimbot.services.physics.scene import (
     set_component_pose,
 )
 from bimbot.services.physics.simulation import Simulation
-from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.manifest import Component, Manifest, read_manifest
 from bimbot.shared.messages import (
     AttachRequest,
     ComponentPoseMsg,
@@ -33,6 +34,18 @@ from bimbot.shared.messages import (
     RobotPoseMsg,
 )
 from bimbot.shared.site_layout import GROUND_CLEARANCE_M
+
+
+@pytest.fixture(scope="module")
+def frame_manifest(bundled_build: Path) -> Manifest:
+    """The frame without the converter's connection links and temporary supports: what is under test here
+    is release itself (resting, tipping, what a robot pushes), with connections made only beside what is
+    built (links and supports: tests/physics/test_connections.py)."""
+    manifest = read_manifest(bundled_build)
+    unlinked = [
+        c.model_copy(update={"connection_links": [], "temporary_support": None}) for c in manifest.components
+    ]
+    return manifest.model_copy(update={"components": unlinked})
 
 
 def _first_in_row(sim: Simulation, manifest: Manifest, ifc_class: str) -> Component:
@@ -152,9 +165,14 @@ def _named(manifest: Manifest, name: str) -> Component:
 
 
 def _placed_and_answered(
-    sim: Simulation, component: Component, request: PlaceRequest | None = None, within_s: float = 12.0
+    sim: Simulation, component: Component, request: PlaceRequest | None = None, within_s: float | None = None
 ) -> tuple[PhysicsReply, list]:
-    """Pick ``component``, stand beside its target, place it; the reply and the periods until it came."""
+    """Pick ``component``, stand beside its target, place it; the reply and the periods until it came
+    (within 12 s plus the longest hold its connections and temporary supports may ask of the robot)."""
+    if within_s is None:
+        need = component.temporary_support
+        within_s = 12.0 + max((link.time_s for link in component.connection_links), default=0.0)
+        within_s += need.count * need.place_s if need is not None else 0.0
     _picked(sim, component)
     _beside_target(sim, component)
     assert sim.place(request or _place(sim, component, duration_s=1.0), tag="ticket") is None
