@@ -51,8 +51,9 @@ _log = logging.getLogger(__name__)
 UNSTABLE_HINT = (
     "no connection held it: a component is connected to the structure only when set down within the "
     f"tolerances of its target with a component already built beside it ({BESIDE_IT}), and "
-    "never in a run with --no-connections; else it stands only on supports placed first (temporary "
-    "bracing is not simulated): `bimbot run BUILD --check-stability` shows which steps of the sequence stand"
+    "never in a run with --no-connections; props or braces hold it only where its build says it needs them "
+    "(the manifest's temporary_support), set wherever it was put; else it stands only on what was placed "
+    "before it: `bimbot run BUILD --check-stability` shows which steps of the sequence stand"
 )
 
 BUMPED_HINT = (

@@ -19,9 +19,11 @@ The rule, checked at the moment a robot lets go (:meth:`.placing.Placing._releas
 
 Then it is fixed where it is (static, as a fixed constraint to the static structure would make it) and its
 robot holds it ``hold_s`` of sim time while the connection is made: the place request is answered after
-that. What rests on nothing at its side, or lies off its target, is released as before and must stand
-by itself. ``--no-connections`` (``bimbot run``, ``--check-stability``) turns this off: every component
-must then stand by itself, the rehearsal of a sequence without connections.
+that. What rests on nothing at its side, or lies off its target, is not connected: it stands on its
+temporary supports if its manifest gives it some (:mod:`.temporary_supports`, set wherever it was put),
+else it is released and must stand by itself. ``--no-connections`` (``bimbot run``,
+``--check-stability``) turns this off: every component must then stand by itself, the rehearsal of a
+sequence without connections.
 """
 
 from __future__ import annotations

@@ -254,6 +254,15 @@ class Handling(Placing):
             self.watch.pop(guid, None)
             item.pose = component_pose(self.client_id, item.body)
             make_static(self.client_id, item.body)
+            support = self.supports.take_up(guid, now_s)  # unbolted, and its props or braces taken away
+            if support is not None:
+                _log.info(
+                    "%s: its %d %s removed as %s takes it up",
+                    guid,
+                    support.count,
+                    support.kind.value,
+                    robot.robot_id,
+                )
         item.phase = Phase.CARRIED
         item.carrier = robot.robot_id
         item.dropped_by = None

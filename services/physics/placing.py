@@ -328,35 +328,24 @@ class Placing:
         self.changed.add(guid)
 
     def _connect(self, item: Item, now_s: float) -> tuple[tuple[str, ...], float]:
-        """Connect ``item``, just let go at its target, to the built neighbours (:mod:`.connections`): its
-        jointed partners, the neighbours its manifest links name within the gap, and those beside it; and
-        set its temporary supports when it needs them and its connections do not yet hold it
-        (:mod:`.temporary_supports`). Fixed where it is (static) when a connection or a support holds it.
-        The GUIDs it is fixed to, and how long its robot holds it (0: it is let go at once)."""
+        """Connect ``item``, just let go, to the built neighbours (:mod:`.connections`) if it lies at its
+        target; and set its temporary supports when it needs them and no connection holds it yet
+        (:mod:`.temporary_supports`), at its target or off it: the crew props a member wherever the robot
+        set it before the robot lets go, so one set off target stands propped until a robot takes it up
+        again for its retry. Fixed where it is (static) when a connection or a support holds it. The GUIDs
+        it is fixed to, and how long its robot holds it (0: it is let go at once)."""
         config = self.connections
         component = item.component
         guid = component.guid
-        if not config.enabled or not fits_its_target(component, item.pose, config.fit):
+        if not config.enabled:
             return (), 0.0
-        structure = dict(self.in_place)
-        structure.update(
-            (other.body.body_id, other_guid)
-            for other_guid, other in self.items.items()
-            if other.phase is Phase.JOINED
-        )
-        partners = self.joints.get(guid, frozenset())
-        jointed = self._built_partners(guid)
+        found: tuple[str, ...] = ()
+        if fits_its_target(component, item.pose, config.fit):
+            found = self._connected_neighbours(item)
+        else:
+            _log.info("%s set down off its target: no connection is made (the holes miss)", guid)
         links = {link.other_guid: link for link in component.connection_links}
-        found = jointed
-        if structure:
-            cid, body = self.client_id, item.body
-            near = self._nearby_components(item, margin_m=config.gap_m, among=structure)
-            beside = side_neighbours(cid, body.body_id, near, config.gap_m)
-            linked = within_gap(
-                cid, body.body_id, {b: g for b, g in near.items() if g in links}, config.gap_m
-            )
-            found = tuple(dict.fromkeys(jointed + linked + tuple(g for g in beside if g not in partners)))
-        plan = plan_connections(found, links, jointed, config.hold_s)
+        plan = plan_connections(found, links, self._built_partners(guid), config.hold_s)
         self.supports.connect(guid, plan.kinds, {other: now_s + s for other, s in plan.holds_at_s.items()})
         hold_s = plan.connection_s
         need = component.temporary_support
@@ -374,6 +363,28 @@ class Placing:
         if plan.fixed_to or guid in self.supports.standing:
             self._fix(item)
         return plan.fixed_to, hold_s
+
+    def _connected_neighbours(self, item: Item) -> tuple[str, ...]:
+        """The built neighbours ``item`` (at its target) is connected to: its jointed partners, the
+        neighbours its manifest links name within the gap, and those beside it."""
+        config = self.connections
+        guid = item.component.guid
+        jointed = self._built_partners(guid)
+        structure = dict(self.in_place)
+        structure.update(
+            (other.body.body_id, other_guid)
+            for other_guid, other in self.items.items()
+            if other.phase is Phase.JOINED
+        )
+        if not structure:
+            return jointed
+        partners = self.joints.get(guid, frozenset())
+        links = {link.other_guid for link in item.component.connection_links}
+        cid, body = self.client_id, item.body
+        near = self._nearby_components(item, margin_m=config.gap_m, among=structure)
+        beside = side_neighbours(cid, body.body_id, near, config.gap_m)
+        linked = within_gap(cid, body.body_id, {b: g for b, g in near.items() if g in links}, config.gap_m)
+        return tuple(dict.fromkeys(jointed + linked + tuple(g for g in beside if g not in partners)))
 
     def _anchors(self) -> set[str]:
         """What stands by itself: in place from the start, or cast or laid where it stands and joined."""

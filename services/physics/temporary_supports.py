@@ -7,7 +7,9 @@ chooses what is made). A fixing connection holds from ``ready_at_s`` on (made af
 grouted one once its grout has set). A member that cannot stand until its frame closes
 (``Component.temporary_support``: props on a precast wall panel, braces on a slender column with no
 fixed base) is supported by them from its release: in physics it is held where it was set (static, as a
-fixed constraint to the ground makes it), and its robot's task includes setting them.
+fixed constraint to the ground makes it), and its robot's task includes setting them. That holds for a
+member set down off its target too (no connection is made: the holes miss): it stands propped where it
+was set until a robot takes it up again for its retry (:meth:`SupportRecord.take_up`).
 
 A support is removed once the member stands without it: its fixing connections that hold reach, through
 other members' fixing connections that hold, something that stands by itself (in place from the start,
@@ -76,6 +78,15 @@ class SupportRecord:
         """The supported members that now stand without their supports (in GUID order)."""
         anchor_set = set(anchors)
         return [guid for guid in sorted(self.standing) if anchored(guid, self.holds_at_s, anchor_set, now_s)]
+
+    def take_up(self, guid: str, now_s: float) -> StandingSupport | None:
+        """A robot takes ``guid`` up again (its retry): its connections are undone, both ways round, and
+        its supports come away; the supports it stood on, if any."""
+        for other in self.holds_at_s.pop(guid, {}):
+            self.holds_at_s.get(other, {}).pop(guid, None)
+        for other in self.kinds.pop(guid, {}):
+            self.kinds.get(other, {}).pop(guid, None)
+        return self.remove(guid, now_s)
 
     def remove(self, guid: str, now_s: float) -> StandingSupport | None:
         support = self.standing.pop(guid, None)

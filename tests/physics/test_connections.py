@@ -3,8 +3,9 @@
 Beam A1-A2 lies on Column A1 and Column A2 and meets Beam A2-A3 end to end over Column A2. With only
 Column A1 under it, it tips off its free end (test_physics_handling.py). With Beam A2-A3 built beside it,
 its crew connects it to that beam while the robot holds it: it stays where it was set down. Resting on
-top of something is not a connection, a placement off its target is never connected, and with
-connections off every component must stand by itself.
+top of something is not a connection, a placement off its target is never connected (but stands on the
+props its manifest gives it until a robot takes it up again), and with connections off every component
+must stand by itself.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from bimbot.services.physics.connections import ConnectionConfig, longest_hold_s
 from bimbot.services.physics.handling import Phase
 from bimbot.services.physics.scene import component_pose, footprint
 from bimbot.services.physics.simulation import SimConfig, Simulation
+from bimbot.shared.connection_kinds import SupportKind, SupportWhen, TemporarySupportNeed
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import AttachRequest, PhysicsReply, PlaceRequest
 
@@ -125,12 +127,57 @@ def test_without_connections_the_same_beam_tips_off(
     _placed_unconnected_and_tipped(sim, frame_manifest, ("Footing A1", "Column A1", "Beam A2-A3"))
 
 
-def test_a_beam_set_down_off_its_target_is_not_connected_and_tips_off(
-    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+def _with_beam_support(manifest: Manifest, need: TemporarySupportNeed | None) -> Manifest:
+    """``manifest`` with Beam A1-A2's ``temporary_support`` replaced by ``need``."""
+    return manifest.model_copy(
+        update={
+            "components": [
+                c.model_copy(update={"temporary_support": need}) if c.name == "Beam A1-A2" else c
+                for c in manifest.components
+            ]
+        }
+    )
+
+
+def test_a_beam_set_down_off_its_target_is_not_connected_and_without_props_tips_off(
+    frame_manifest: Manifest, bundled_build: Path
 ) -> None:
-    sim = make_sim(robots=1, connections=ConnectionConfig(hold_s=HOLD_S))
-    # 30 mm: beyond the agents' 10 mm, the holes miss
-    _placed_unconnected_and_tipped(sim, frame_manifest, ("Footing A1", "Column A1", "Beam A2-A3"), 0.03)
+    unpropped = _with_beam_support(frame_manifest, None)
+    config = SimConfig(robots=1, odom_noise=0.0, connections=ConnectionConfig(hold_s=HOLD_S))
+    with Simulation(unpropped, bundled_build, config) as sim:
+        # 30 mm: beyond the agents' 10 mm, the holes miss
+        _placed_unconnected_and_tipped(sim, unpropped, ("Footing A1", "Column A1", "Beam A2-A3"), 0.03)
+
+
+def test_a_member_set_down_off_its_target_stands_on_its_props_until_it_is_taken_up_again(
+    frame_manifest: Manifest, bundled_build: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # the bundled Beam A1-A2's own props (when unconnected), set in 1 s each so that the test stays fast
+    props = TemporarySupportNeed(
+        kind=SupportKind.PROPS, count=2, place_s=1.0, when=SupportWhen.UNCONNECTED, why="test"
+    )
+    propped = _with_beam_support(frame_manifest, props)
+    caplog.set_level(logging.INFO, logger="bimbot.services.physics")
+    config = SimConfig(robots=1, odom_noise=0.0, connections=ConnectionConfig(hold_s=HOLD_S))
+    with Simulation(propped, bundled_build, config) as sim:
+        for name in ("Footing A1", "Column A1", "Beam A2-A3"):
+            _built(sim, _named(propped, name))
+        beam = _named(propped, "Beam A1-A2")
+        reply, waited_s = _place(sim, beam, offset_y_m=0.03)  # beyond the agents' 10 mm: the holes miss
+        assert reply.ok, reply.reason
+        assert waited_s >= 2 * props.place_s - 1e-6, "its robot holds it while its props are set"
+        message = sim.handling.pose_message(beam.guid, sim.sim_time_s)
+        assert message.connected_to == [] and message.connection_kinds == {}
+        assert message.temporary_supports == 2
+        assert message.drift_m is not None and message.drift_m < 0.001  # propped where it was set
+        assert f"{beam.guid} set down off its target: no connection" in caplog.text
+        idle(sim, 3.0)
+        assert sim.handling.pose_message(beam.guid, sim.sim_time_s).drift_m == pytest.approx(message.drift_m)
+        # misplaced: a robot takes it up again for its retry, and its props come away
+        assert sim.attach(AttachRequest(robot_id="r1", guid=beam.guid)).ok
+        assert sim.handling.pose_message(beam.guid, sim.sim_time_s).temporary_supports == 0
+        (support,) = [s for s in sim.handling.supports.history if s.guid == beam.guid]
+        assert support.removed_s is not None and beam.guid not in sim.handling.supports.standing
 
 
 def test_without_a_link_resting_on_top_of_a_built_column_is_not_a_connection(
