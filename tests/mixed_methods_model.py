@@ -7,7 +7,7 @@ What each element's method comes from, with the default ``prefab`` preset and fl
 * ``Ground slab`` (5.0 × 3.0 × 0.15 m, concrete): ``Pset_ConcreteElementGeneral.CastingMethod = INSITU``,
   so ``cast_in_place`` from the IFC;
 * ``Block wall`` (3.0 × 0.2 × 1.2 m, a masonry material): ``prefab`` lifts masonry, so the test's methods
-  file (:data:`MASONRY_LAID`, ``[by_material] masonry = "laid"``) lays it (``method_source`` "user");
+  file (:data:`MASONRY_LAID`: ``[by_material] masonry = "laid"``) lays it (``method_source`` "user");
 * ``Concrete wall`` (5.0 × 0.25 × 3.0 m, concrete, 9 t): heavier than the default fleet's largest lift (the
   tower crane's 8 t), so ``prefab`` panelises it into storey-high panels;
 * ``Pad footing`` (1.0 × 1.0 × 0.5 m, top at z = 0, concrete): a foundation, so ``cast_in_place`` by rule;
@@ -26,7 +26,20 @@ from pathlib import Path
 
 from converter.ifc_builders import add_box, add_material, add_pset, new_model
 
-MASONRY_LAID = '[by_material]\nmasonry = "laid"\n'
+# The test's methods file: masonry is laid (``prefab`` lifts it); a robot or crane lets a part go 10 s
+# after it is set (the default holds, 60-240 s of stepped physics each, are test_connections_run's)
+MASONRY_LAID = """
+[by_material]
+masonry = "laid"
+
+[connections]
+bolted_base_s = 10.0
+pinned_end_s = 10.0
+grouted_s = 10.0
+
+[temporary_supports]
+prop_place_s = 0.0
+"""
 SLAB_TOP_M = 0.15
 PLATE_M = 0.02
 

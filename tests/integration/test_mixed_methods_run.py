@@ -4,11 +4,13 @@ default fleet cannot lift whole (so ``prefab`` panelises it), a pad footing cast
 bolt embedded in it (``with_host``: a guest of the footing) and a steel column on a base plate over it.
 
 The methods come from the IFC and the default ``prefab`` rules, but for the block wall: ``prefab`` lifts
-masonry, so a methods file of one line (``[by_material] masonry = "laid"``) passed to ``bimbot convert
---methods`` lays it. ``bimbot convert`` then ``bimbot run`` as processes on a loopback bus, real pybullet,
-with the default fleet's carrier and its fixed machines (``--robots 1``: a carrier, the tower crane, the
-concrete pump and the block layer). The elements are small, so the formwork, pours and cures are most of the
-sim time, and the planner's quiet clock skips them."""
+masonry, so the methods file passed to ``bimbot convert --methods`` lays it (``[by_material] masonry =
+"laid"``). The same file lets a crane or robot go of a part 10 s after setting it: the connection holds are
+test_connections_run's, and at their defaults they would be most of the stepped physics here.
+``bimbot convert`` then ``bimbot run`` as processes on a loopback bus, real pybullet, with the default
+fleet's carrier and its fixed machines (``--robots 1``: a carrier, the tower crane, the concrete pump and
+the block layer). The elements are small, so the formwork, pours and cures are most of the sim time, and
+the planner's quiet clock skips them."""
 
 from __future__ import annotations
 
