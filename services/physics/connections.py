@@ -125,7 +125,18 @@ def plan_connections(
         connection_s = max(connection_s, time_s)
         if kind.fixes or guid in jointed:
             holds_at_s[guid] = time_s + (link.set_s if link is not None else 0.0)
+    if hinged_only(holds_at_s, kinds, jointed):
+        holds_at_s = {}  # one pinned end is a hinge: the member turns about it unless something else holds it
     return ConnectionPlan(kinds, tuple(holds_at_s), holds_at_s, connection_s)
+
+
+def hinged_only(
+    holds: Mapping[str, float], kinds: Mapping[str, ConnectionKind], jointed: Sequence[str]
+) -> bool:
+    """Whether the member is held by a single pinned end and nothing else: a bolted shear end lets it turn,
+    so it stands only with a second end (or a fixed connection, a joint, a support) holding it."""
+    pinned = [guid for guid in holds if kinds[guid] is ConnectionKind.PINNED_END and guid not in jointed]
+    return len(holds) == 1 and len(pinned) == 1
 
 
 def within_gap(client_id: int, body_id: int, structure: Mapping[int, str], gap_m: float) -> tuple[str, ...]:

@@ -4,6 +4,7 @@ down on and what it rests on that was not there; in seconds, without robots."""
 
 from __future__ import annotations
 
+import shutil
 import subprocess
 import sys
 import time
@@ -12,7 +13,7 @@ from pathlib import Path
 import pytest
 from wall_clock import bound_s
 
-from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.manifest import Manifest, read_manifest, write_manifest
 from bimbot.shared.sequence import read_sequence, sequence_from_predecessors, write_sequence
 
 
@@ -54,13 +55,33 @@ def test_without_connections_the_bundled_frame_still_stands_and_the_check_says_s
     assert "every partial structure stands: 28 step(s)" in result.stdout
 
 
-def test_a_beam_on_a_single_column_is_the_step_that_does_not_stand(
+def test_a_beam_on_a_single_column_stands_on_props_and_the_check_names_them(
     bundled_build: Path, tmp_path: Path
 ) -> None:
+    """Set before its second column, a beam is bolted at one end only (a hinge): its build says it is
+    propped until connected, so the step stands on two props and the check names them."""
     manifest = read_manifest(bundled_build)
-    names = {c.name: c.guid for c in manifest.components}
     bad = _reordered(bundled_build, manifest, tmp_path, "Beam A1-A2", after="Column A1")
     result = _check(bundled_build, "--sequence", str(bad))
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "1 step(s) need temporary supports (2 in all)" in result.stdout
+    assert "step 11: Beam A1-A2" in result.stdout and "needs 2 props" in result.stdout
+
+
+def test_without_props_a_beam_on_a_single_column_is_the_step_that_does_not_stand(
+    bundled_build: Path, tmp_path: Path
+) -> None:
+    """The same order in a build that gives the beam no temporary support: one pinned end does not hold
+    it, it tips off Column A1, and the check stops there and says what to place first."""
+    build = tmp_path / "build"
+    shutil.copytree(bundled_build, build)
+    manifest = read_manifest(build)
+    bare = [c.model_copy(update={"temporary_support": None}) for c in manifest.components]
+    manifest = manifest.model_copy(update={"components": bare})
+    write_manifest(manifest, build)
+    names = {c.name: c.guid for c in manifest.components}
+    bad = _reordered(build, manifest, tmp_path, "Beam A1-A2", after="Column A1")
+    result = _check(build, "--sequence", str(bad))
     assert result.returncode == 1, result.stdout + result.stderr
     assert "step 11 of 28 does not stand" in result.stdout  # 9 footings, Column A1, then the beam
     line = next(line for line in result.stdout.splitlines() if "Beam A1-A2" in line and "moved" in line)
