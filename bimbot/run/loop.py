@@ -139,7 +139,16 @@ class RunWatch:
                     RunEnding("service_stopped", ReasonCode.INTERRUPTED, message, _tail_details(planner)),
                     planner_code=code,
                 )
-            ending = RunEnding("done", None, f"the planner ended (exit {code}) {at}")
+            # the count is the audit's, made after this (the twins confirm every state): not said here
+            verdict = (
+                "every component constructed"
+                if code == 0
+                else "every component constructed, failed or blocked"
+            )
+            when = f"after {wall_s:.0f} s wall, at sim {monitor.sim_time_s:.1f} s"
+            ending = RunEnding(
+                "done", None, f"the planner finished the build ({verdict}, exit {code}) {when}"
+            )
             return LoopResult(ending, planner_code=code)
         for service in self.everyone:
             if service is not planner and service.name != "observer" and not service.alive():
