@@ -35,6 +35,8 @@ def hub_build(samples_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> Pa
         "bimbot.cli",
         "convert",
         str(samples_dir / "revit2021_structural_hub.ifc"),
+        "--methods",
+        "lifted",  # the paper's one method: the thickened slab a precast part a carrier sets down
     ]
     converted = subprocess.run(
         [*command, "-o", str(build)], check=False, capture_output=True, text=True, timeout=bound_s(300)
