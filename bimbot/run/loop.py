@@ -140,14 +140,14 @@ class RunWatch:
                     planner_code=code,
                 )
             # the count is the audit's, made after this (the twins confirm every state): not said here
-            verdict = (
+            outcome = (
                 "every component constructed"
                 if code == 0
                 else "every component constructed, failed or blocked"
             )
             when = f"after {wall_s:.0f} s wall, at sim {monitor.sim_time_s:.1f} s"
             ending = RunEnding(
-                "done", None, f"the planner finished the build ({verdict}, exit {code}) {when}"
+                "done", None, f"the planner finished the build ({outcome}, exit {code}) {when}"
             )
             return LoopResult(ending, planner_code=code)
         for service in self.everyone:
