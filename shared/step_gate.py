@@ -19,6 +19,7 @@ comes; a step whose inputs are not all resolved waits. Every wait is bounded by 
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Generic, TypeVar
@@ -28,6 +29,8 @@ T = TypeVar("T")
 DELAY_STEPS = 2  # inputs stamped at step k - 2 or before are taken at step k (command latency 0 or 1)
 # wall seconds a step waits for a participant's answer (or a twin's) before it goes on without: a hang,
 # not a loaded machine (under a load of 36 on two cores a robot's answer took seconds)
+_log = logging.getLogger(__name__)
+
 HOLD_S = 60.0
 LATE_LOGGED = 20  # late inputs a participant logs one by one; a flood of them is counted in its closing line
 
@@ -87,6 +90,33 @@ class StepGate(Generic[T]):
             self._seen.add(key)
         self._seq += 1
         self._inputs.append(_Input(stamp_s, sender, self._seq, item, resolved))
+        return True
+
+    def hold(
+        self,
+        stamp_s: float,
+        sender: str,
+        item: T,
+        last_step: int,
+        *,
+        resolved: bool = True,
+        key: object = None,
+        kind: str = "",
+    ) -> bool:
+        """:meth:`put`, and a late input (one ``last_step`` should have taken) counted and logged, one by one
+        up to ``LATE_LOGGED`` (a flood: counted in the participant's closing line); False for a repeated
+        delivery. ``kind``: what the input is, for the log (default: its type's name)."""
+        if not self.put(stamp_s, sender, item, resolved=resolved, key=key):
+            return False
+        if last_step >= 0 and self.note_late(stamp_s, last_step):
+            _log.log(
+                logging.INFO if self.late <= LATE_LOGGED else logging.DEBUG,
+                "%s from %s stamped %.1f s came after step %d",
+                kind or type(item).__name__,
+                sender,
+                stamp_s,
+                last_step,
+            )
         return True
 
     def resolve(self, item: T, replacement: T | None = None) -> bool:

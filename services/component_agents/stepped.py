@@ -84,16 +84,8 @@ class SteppedAgents:
         return True
 
     def _stamped(self, stamp_s: float, sender: str, item: Received, key: object = None) -> None:
-        if not self.gate.put(stamp_s, sender, item, key=key):
-            return  # a repeated delivery (an event sent again until its state change was seen)
-        if self._last_step >= 0 and self.gate.note_late(stamp_s, self._last_step):
-            _log.info(
-                "%s from %s stamped %.1f s came after step %d",
-                type(item.message).__name__,
-                sender,
-                stamp_s,
-                self._last_step,
-            )
+        """Hold an input for its step (:meth:`StepGate.hold`; an event sent again is dropped)."""
+        self.gate.hold(stamp_s, sender, item, self._last_step, key=key, kind=type(item.message).__name__)
 
     def step_ready(self) -> None:
         """Take every clock step that is ready, in order."""

@@ -36,7 +36,7 @@ from bimbot.shared.messages import (
     TwinMsg,
 )
 from bimbot.shared.state_table import TERMINAL
-from bimbot.shared.step_gate import HOLD_S, LATE_LOGGED, StepGate
+from bimbot.shared.step_gate import HOLD_S, StepGate
 from bimbot.shared.twin_claims import TwinClaims
 
 from .protocol import Outgoing, PhysicsResult, RobotExecutor
@@ -128,20 +128,8 @@ class SteppedTicks:
     def _stamped(
         self, stamp_s: float, sender: str, message: object, *, resolved: bool = True, key: object = None
     ) -> bool:
-        """Hold a message for its step; False for a repeated delivery (sent again until its effect was
-        seen)."""
-        if not self.gate.put(stamp_s, sender, message, resolved=resolved, key=key):
-            return False
-        if self._last_step >= 0 and self.gate.note_late(stamp_s, self._last_step):
-            _log.log(
-                logging.INFO if self.gate.late <= LATE_LOGGED else logging.DEBUG,  # a flood: counted below
-                "%s from %s stamped %.1f s came after step %d",
-                type(message).__name__,
-                sender,
-                stamp_s,
-                self._last_step,
-            )
-        return True
+        """Hold a message for its step (:meth:`StepGate.hold`); False for a repeated delivery."""
+        return self.gate.hold(stamp_s, sender, message, self._last_step, resolved=resolved, key=key)
 
     def _ask(self, guid: str) -> None:
         if guid in self.keys:
