@@ -177,6 +177,11 @@ class RobotDescription(BaseModel):
     handling_s: float = Field(default=2.0, ge=0, le=3600, description="to grip or sling, and to release")
     placement_precision_m: float = Field(default=0.0, ge=0, le=1, description="1 σ, per horizontal axis")
     placement_precision_yaw_deg: float = Field(default=0.0, ge=0, le=45, description="1 σ")
+    placement_guided_ends: bool = Field(
+        default=False,
+        description="a load is landed with each end guided onto its seat (tag lines, then a connector's "
+        "drift pin at each end): the turn is no larger than what sets an end placement_precision_m off",
+    )
     cost_per_h: float | None = Field(
         default=None,
         ge=0,

@@ -21,6 +21,15 @@ import numpy as np
 from .scene import Frame, compose, invert, quat_multiply, rotate, yaw_quat
 
 
+def guided_yaw_std_rad(yaw_std_rad: float, precision_m: float, half_span_m: float) -> float:
+    """The 1σ turn of a load landed with each end guided onto its seat (tag lines, then a connector at
+    each end): no larger than what sets an end ``precision_m`` off, ``half_span_m`` from its centre. A
+    crane's free turn (0.2°) would swing the ends of a 30 m beam 52 mm; a crew sets each end."""
+    if half_span_m <= 0.0 or precision_m <= 0.0:
+        return yaw_std_rad
+    return min(yaw_std_rad, math.atan2(precision_m, half_span_m))
+
+
 def ground_frame(xy_yaw: tuple[float, float, float]) -> Frame:
     """A robot's pose on the ground as a frame (z 0: robots stand on flat ground)."""
     x, y, yaw = xy_yaw

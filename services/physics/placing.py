@@ -34,7 +34,7 @@ from bimbot.shared.site_plan import Rect
 from .client import p
 from .connections import fits_its_target, plan_connections, side_neighbours, within_gap
 from .pits import DEEPER_M
-from .placement_error import physical_placement
+from .placement_error import guided_yaw_std_rad, physical_placement
 from .release import (
     MAX_CLEARED_M,
     Watch,
@@ -162,7 +162,7 @@ class Placing:
             )
         frame: Frame | None = None
         if refusal is None and commanded is not None and item is not None:
-            frame = self._where_it_goes(robot, commanded, believed_xy_yaw, item.component.com_local_m)
+            frame = self._where_it_goes(robot, commanded, believed_xy_yaw, item.component)
             # the footprint, not the frame's origin: a Revit element may keep an identity placement with its
             # geometry in world coordinates, so its frame lies at (0, 0) while it stands on the site
             centre = posed_footprint(item.component, frame[0], frame[1]).centre_xy_m
@@ -197,22 +197,27 @@ class Placing:
         robot: Robot,
         commanded: Frame,
         believed_xy_yaw: tuple[float, float, float] | None,
-        centre_local_m: tuple[float, float, float],
+        component: Component,
     ) -> Frame:
         """Where the robot's placement really puts the component (:mod:`.placement_error`); the hand's
-        turn is about the component's centre."""
+        turn is about the component's centre, and a type that guides a load's ends turns it less."""
         rng = self._rngs.get(robot.robot_id)
         if rng is None:
             rng = self._rngs[robot.robot_id] = np.random.default_rng([self._seed, 7, robot.index])
         description = robot.description
+        yaw_std_rad = math.radians(description.placement_precision_yaw_deg)
+        if description.placement_guided_ends:
+            low, high = component.bbox_world.min_m, component.bbox_world.max_m
+            half_span_m = 0.5 * math.hypot(high[0] - low[0], high[1] - low[1])
+            yaw_std_rad = guided_yaw_std_rad(yaw_std_rad, description.placement_precision_m, half_span_m)
         return physical_placement(
             commanded,
             believed_xy_yaw if robot.drives else None,
             robot.pose_xy_yaw(self.client_id),
             precision_m=description.placement_precision_m,
-            precision_yaw_rad=math.radians(description.placement_precision_yaw_deg),
+            precision_yaw_rad=yaw_std_rad,
             rng=rng,
-            centre_local_m=centre_local_m,
+            centre_local_m=component.com_local_m,
         )
 
     def _release(self, item: Item, carrier: Robot | None, now_s: float, tag: object) -> None:

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from bimbot.services.physics.placement_error import physical_placement
+from bimbot.services.physics.placement_error import guided_yaw_std_rad, physical_placement
 from bimbot.services.physics.scene import Frame, rotate
 
 REVIT_CENTRE = (-17.1, 101.3, 1.6)  # a Revit column's centre in its frame: the frame sits at the model origin
@@ -54,3 +54,29 @@ def test_a_robot_that_believes_itself_3_cm_east_places_3_cm_west() -> None:
     )
     assert placed[0] == pytest.approx((19.97, 5.0, 0.5))
     assert _yaw(placed) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_a_guided_long_loads_ends_land_within_the_precision_a_free_turn_swings_them_cm() -> None:
+    # a 30 m beam hung from a crane (0.2° free turn, 4 mm precision): each end is guided onto its seat
+    half_span_m, precision_m, free_rad = 15.0, 0.004, math.radians(0.2)
+    guided_rad = guided_yaw_std_rad(free_rad, precision_m, half_span_m)
+    assert half_span_m * math.tan(free_rad) > 0.05, "free, an end swings 52 mm (1σ)"
+    assert half_span_m * math.tan(guided_rad) == pytest.approx(precision_m), "guided, it lands within 4 mm"
+    assert guided_yaw_std_rad(free_rad, precision_m, 0.5) == free_rad, "a short load keeps the hook's turn"
+    ends = [
+        half_span_m
+        * abs(
+            _yaw(
+                physical_placement(
+                    ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)),
+                    None,
+                    (0.0, 0.0, 0.0),
+                    precision_m=0.0,
+                    precision_yaw_rad=guided_rad,
+                    rng=np.random.default_rng(seed),
+                )
+            )
+        )
+        for seed in range(200)
+    ]
+    assert float(np.percentile(ends, 95)) < 3 * precision_m
