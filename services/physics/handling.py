@@ -71,6 +71,7 @@ from .scene import (
     STATIC_MASK,
     ComponentBody,
     Frame,
+    Quat,
     component_pose,
     compose,
     footprint,
@@ -106,7 +107,8 @@ class Item:
     carrier: str | None = None
     offset: Frame | None = None  # carried: component frame in the carrier's base frame
     motion_from: Frame | None = None
-    motion_to: Frame | None = None  # assembling: the requested pose
+    motion_to: Frame | None = None  # assembling: where the placement really puts it
+    meant_quat_xyzw: Quat | None = None  # assembling: the orientation the robot meant (its target's)
     motion_start_s: float = 0.0
     motion_duration_s: float = 0.0
     tag: object = None  # assembling: handed back with the reply

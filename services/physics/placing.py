@@ -176,6 +176,7 @@ class Placing:
         item.phase = Phase.ASSEMBLING
         item.motion_from = item.pose
         item.motion_to = frame
+        item.meant_quat_xyzw = commanded[1]
         item.motion_start_s = now_s
         item.motion_duration_s = duration_s
         item.tag = tag
@@ -236,7 +237,23 @@ class Placing:
             for other, _ in deep_overlaps(cid, body, item.pose, nearby)
             if self._model_clash(item, other)
         )
-        cleared = clear_overlap(cid, body, item.pose, nearby, max_cleared_m=AT_TARGET_M, kept=in_model)
+        cleared = clear_overlap(
+            cid,
+            body,
+            item.pose,
+            nearby,
+            max_cleared_m=AT_TARGET_M,
+            kept=in_model,
+            meant_quat_xyzw=item.meant_quat_xyzw,
+            centre_local_m=item.component.com_local_m,
+        )
+        if math.dist(cleared.frame[0], item.pose[0]) > 0.001 or cleared.frame[1] != item.pose[1]:
+            _log.info(
+                "%s set down against what stands there: %s, its origin moved %.1f mm",
+                guid,
+                "seated flush" if cleared.frame[1] != item.pose[1] else "stopped at the contact",
+                1000.0 * math.dist(cleared.frame[0], item.pose[0]),
+            )
         item.pose = cleared.frame
         # a clash in the IFC only where both stand where the model puts them: a mullion a robot dropped
         # beside a panel's target, or a component set down 2 m off, is no fault of the model
@@ -567,6 +584,7 @@ class Placing:
         :mod:`.stability`); ``tag`` comes back with the reply once it rests."""
         item = self.items[guid]
         item.motion_to = target_frame(item.component)
+        item.meant_quat_xyzw = item.motion_to[1]
         self._release(item, None, now_s, tag)
 
     def join(self, guid: str) -> None:
