@@ -78,7 +78,7 @@ class RunOptions:
     control_period_s: float | None = None
     laser_beams: int | None = None
     command_latency_steps: int | None = None
-    total_station_mm: float | None = None  # a positioning sensor on site (None: none)
+    total_station_mm: float | None = None  # a positioning sensor on site (None: the profile's; 0: none)
     connections: bool = True  # components set down at their target are connected to what is built
     inject_placement_error_m: float = 0.0
     observer: ObserverOptions | None = None

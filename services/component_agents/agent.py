@@ -66,8 +66,8 @@ CLASH_HINT = f"{CLASH_ADVICE}: bimbot convert MODEL.ifc -o OUT/ --exclude GLOBAL
 MISPLACED_HINT = (
     "every attempt landed out of tolerance: the robot type's placement precision is too coarse for it "
     "(placement_precision_m and placement_precision_yaw_deg in a fleet file, `bimbot fleet show`; a long "
-    "member turns a small turn into centimetres at its ends), or its localisation was off (a total station: "
-    "`bimbot run BUILD --total-station-mm 3`)"
+    "member turns a small turn into centimetres at its ends), or its localisation was off (the site's total "
+    "station, on in the rehearsal profile: `bimbot run BUILD --total-station-mm 1` for a finer one)"
 )
 
 PLANNER_SOURCE = "planner"  # ComponentEventMsg.source of the planner's events; a robot's is its id

@@ -190,6 +190,7 @@ def apply_profile(args: argparse.Namespace) -> argparse.Namespace:
         ("control_period_s", profile.control_period_s),
         ("laser_beams", profile.laser_beams),
         ("command_latency_steps", profile.command_latency_steps),
+        ("total_station_mm", profile.total_station_mm),
     ):
         if getattr(args, name) is None:
             setattr(args, name, value)
@@ -234,7 +235,7 @@ def sim_config(args: argparse.Namespace) -> SimConfig:
             pose_refresh_s=args.pose_refresh_s,
             pose_refresh_max=args.pose_refresh_max,
             visuals=args.gui,
-            total_station_std_m=None if args.total_station_mm is None else args.total_station_mm / 1000.0,
+            total_station_std_m=args.total_station_mm / 1000.0 if args.total_station_mm > 0 else None,
             connections=ConnectionConfig(enabled=args.connections),
             tolerances=tolerances_from(args),
             robot=RobotConfig(wheel_joints=wheels),

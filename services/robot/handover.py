@@ -43,7 +43,8 @@ _log = logging.getLogger(__name__)
 _S, _E = RobotState, ComponentEvent
 #: What a user can do when a robot cannot tell where it is from what its laser sees.
 TOTAL_STATION_HINT = (
-    "a total station gives every ground robot position fixes, bimbot run BUILD --total-station-mm 3"
+    "a total station gives every ground robot position fixes: the rehearsal profile has one (3 mm); "
+    "check the run's settings.total_station_mm, or bimbot run BUILD --total-station-mm 3"
 )
 LOCALISATION_DOUBT_M = 0.5  # physics measured the robot this much farther than it believed: re-localise
 MAX_SPREAD_M = 3.0  # the widest particle cloud a re-localisation draws (m, one standard deviation)

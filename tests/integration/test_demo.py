@@ -60,9 +60,9 @@ def test_demo_writes_world_recording_and_report_and_says_how_to_open_it(
     assert f"rerun {rrd}" in result.stdout
     report = json.loads((run.report_dir / "report.json").read_text())
     assert report["totals"]["constructed"] == report["totals"]["components"] == 5
-    settings = report["settings"]  # what made this report: the demo's profile, no total station
+    settings = report["settings"]  # what made this report: the demo's profile, with its total station
     assert settings["profile"] == "rehearsal" and settings["physics_hz"] == 120.0
-    assert settings["total_station_mm"] is None and settings["sequence"] == "the build's sequence.xml"
+    assert settings["total_station_mm"] == 3.0 and settings["sequence"] == "the build's sequence.xml"
     assert (run.report_dir / "report.png").stat().st_size > 10_000
     assert sorted(p.name for p in run.root.rglob("report.json")) == ["report.json"]  # one report, not two
     assert (run.logs_dir / "planner.log").is_file() and list(run.state_dir.glob("agents-*.jsonl"))
