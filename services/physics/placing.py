@@ -247,12 +247,15 @@ class Placing:
             meant_quat_xyzw=item.meant_quat_xyzw,
             centre_local_m=item.component.com_local_m,
         )
-        if math.dist(cleared.frame[0], item.pose[0]) > 0.001 or cleared.frame[1] != item.pose[1]:
+        centre_moved_m = math.dist(
+            *(compose(f, (item.component.com_local_m, IDENTITY[1]))[0] for f in (cleared.frame, item.pose))
+        )
+        if centre_moved_m > 0.001 or cleared.frame[1] != item.pose[1]:
             _log.info(
-                "%s set down against what stands there: %s, its origin moved %.1f mm",
+                "%s set down against what stands there: %s, its centre moved %.1f mm",
                 guid,
                 "seated flush" if cleared.frame[1] != item.pose[1] else "stopped at the contact",
-                1000.0 * math.dist(cleared.frame[0], item.pose[0]),
+                1000.0 * centre_moved_m,
             )
         item.pose = cleared.frame
         # a clash in the IFC only where both stand where the model puts them: a mullion a robot dropped

@@ -70,6 +70,9 @@ PLACE_FIXES = 10
 PLACE_FIXES_WAIT_STEPS = 25
 FIX_AGREEMENT_SIGMAS = 3.0
 FIX_AGREEMENT_MARGIN_M = 0.003
+# a laser hit is never trusted closer than this in a fused position: the map's outlines are the BIM's, and
+# what stands there stands a few millimetres off them
+LASER_FLOOR_M = 0.005
 
 REST_MPS = 0.002  # odometry speed below which the robot stands still (noise: ~2 % of the increment)
 REST_RADPS = 0.005
@@ -205,6 +208,8 @@ class Navigator(Traffic):
                     1000.0 * gate_m,
                 )
                 result = replace(result, pose_xy_yaw=self.localiser.pose, trusted=False, disagrees_m=apart_m)
+        if result.trusted and fixed and still is not None:  # both agree: each weighed by its spread
+            result = replace(result, pose_xy_yaw=self._fused(result, still[0]), fixes=still[1])
         if result.trusted:
             self.localiser.set_pose(result.pose_xy_yaw)
             return result
@@ -219,6 +224,19 @@ class Navigator(Traffic):
             self.localiser.set_pose(pose)
             return replace(result, fixes=count)
         return result
+
+    def _fused(self, alignment: Alignment, fixes_pose: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The position of a laser alignment and of the still fixes' mean, each weighed by the inverse of
+        its variance (the alignment's: its residual, never below :data:`LASER_FLOOR_M`, over √hits; the
+        fixes': their mean's); the heading is the alignment's (a wide scan turns less than two prisms a
+        metre apart). A fit of 11 mm rms on 32 hits weighs a fifth against ten 3 mm fixes."""
+        hits = max(alignment.hits, 1)
+        laser_var = max(alignment.rms_m, LASER_FLOOR_M) ** 2 / hits
+        fixes_var = self.localiser.still_fix_std_m() ** 2
+        laser_weight = fixes_var / (fixes_var + laser_var) if fixes_var + laser_var > 0 else 1.0
+        pose = np.array(alignment.pose_xy_yaw, dtype=float)
+        pose[:2] = laser_weight * pose[:2] + (1.0 - laser_weight) * np.asarray(fixes_pose[:2], float)
+        return pose
 
     def localise(self) -> bool:
         """Run the localisation update on a deferred scan (True if the filter ran)."""

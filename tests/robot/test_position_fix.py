@@ -235,3 +235,29 @@ def test_with_a_positioning_sensor_a_placement_waits_for_ten_fixes_standing_stil
             assert sensed.localiser.still_fix_pose()[1] >= PLACE_FIXES
         assert sensed.at_rest or not sensed.ready_to_place
     assert blind.at_rest and ready_after == PLACE_FIXES
+
+
+def test_a_laser_alignment_that_agrees_with_the_fixes_is_fused_with_them_by_their_spreads(
+    frame: Manifest,
+) -> None:
+    """A scan that fits the map from 4 mm east of the truth (within the agreement gate of ten 3 mm fixes):
+    the placement pose is neither the fit's nor the fixes' alone, but between them, each weighed by the
+    inverse of its variance; the heading is the fit's."""
+    site = SiteMap(plan_site(frame.components, robots=1), frame.components)
+    corner = site.layout.fence.min_xy
+    truth = (corner[0] + 3.0, corner[1] + 3.0, 0.3)
+    fitted = (truth[0] + 0.004, truth[1], truth[2])
+    navigator = Navigator(site, truth, NavigatorConfig(), np.random.default_rng(0), robot_id="r1")
+    rng = np.random.default_rng(2)
+    odom = OdomMsg(robot_id="r1", pose_xy_yaw=(0.0, 0.0, 0.0), v_mps=0.0, w_radps=0.0, sim_time_s=1.0)
+    scan = _scan_msg(_ranges_from(site.laser_segments(), fitted))
+    for _ in range(10):
+        navigator.observe_odom(odom)
+        navigator.observe_fix(_fix_msg(truth[:2], truth[2], rng))
+        navigator.observe_scan(scan)
+    fixes_x = navigator.localiser.still_fix_pose()[0][0]
+    alignment = navigator.align()
+    assert alignment.trusted and alignment.fixes == 10
+    fused_x = float(alignment.pose_xy_yaw[0])
+    assert min(fixes_x, fitted[0]) + 1e-4 < fused_x < max(fixes_x, fitted[0]) - 1e-4
+    assert float(navigator.localiser.pose[0]) == pytest.approx(fused_x)
