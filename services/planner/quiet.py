@@ -33,13 +33,11 @@ from bimbot.shared.site_plan import YardSlot
 
 from .capability import SiteRobot, Where, can_build_from, can_carry
 from .curing import Hold
-from .records import FINAL, ComponentRecord, Pending, Phase, RobotRecord, TaskRecord
+from .records import FINAL, WORKING, ComponentRecord, Pending, Phase, RobotRecord, TaskRecord
 from .sources import Plan
 
 MIN_SKIP_S = 1.0  # a skip shorter than this is not worth a question to physics
 
-#: Components worked on in place by a robot in timed work.
-WORKING = frozenset({ComponentState.FORMING, ComponentState.POURING, ComponentState.LAYING})
 #: Components something happens to soon: carried, placed, verified, or about to be retried.
 MOVING = frozenset(
     {

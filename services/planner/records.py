@@ -25,6 +25,8 @@ CARRYING = frozenset(
     }
 )
 TERMINAL = frozenset({ComponentState.CONSTRUCTED, ComponentState.FAILED, ComponentState.BLOCKED})
+#: Components worked on in place by a robot in timed work (forming, pouring, laying).
+WORKING = frozenset({ComponentState.FORMING, ComponentState.POURING, ComponentState.LAYING})
 Outgoing = ComponentEventMsg | TaskMsg
 
 

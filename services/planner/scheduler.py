@@ -73,12 +73,13 @@ from bimbot.shared.reasons import Reason, ReasonCode, blocked_by
 from .capability import SiteRobot, relocation_to_s
 from .curing import CuringHolds, Hold, constructed_time_s
 from .dispatch import Dispatch
-from .quiet import WORKING, Quiet, Skip
+from .quiet import Quiet, Skip
 from .records import (
     CARRYING,
     FINAL,
     SOURCE,
     TERMINAL,
+    WORKING,
     ComponentRecord,
     Outgoing,
     Pending,
