@@ -1,29 +1,27 @@
-"""Giving released tasks to robots: nearest idle robot, or the capable robot with the best bid (a mixin).
+"""Giving released tasks to robots: nearest idle robot, or the capable robot with the best bid (step 2).
 
-Why apart from :mod:`.scheduler`: the scheduler follows the construction protocol (release, follow-up,
-give-backs, bounds); this part only decides which robot gets which released task, and sends the
-assignment. Without the site's robots (unit tests, a planner that got no site info) a task goes to the
-nearest idle robot; with them, to the capable robot whose bid (estimated finish time) is lowest, or as a
-hand-off to a crane's staging spot (:mod:`.assignment`).
+Why apart from the rest of the protocol (release, follow-up, give-backs, bounds): this part only decides
+which robot gets which released task, and sends the assignment. Without the site's robots (unit tests, a
+planner that got no site info) a task goes to the nearest idle robot; with them, to the capable robot
+whose bid (estimated finish time) is lowest, or as a hand-off to a crane's staging spot
+(:mod:`.assignment`).
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
 from functools import partial
-from typing import TYPE_CHECKING
 
 from bimbot.shared.manifest import Component
-from bimbot.shared.messages import ComponentState, RobotState, TaskKind, TaskMsg, TaskStatus
+from bimbot.shared.messages import ComponentState, RobotState, TaskKind
 from bimbot.shared.reasons import Reason, ReasonCode
-from bimbot.shared.site_plan import YardSlot
 
-from .assignment import choose, staged_where
-from .capability import SiteRobot, Where, target_centre_xy
-from .feasibility import slot_where
-from .records import FINAL, ComponentRecord, Pending, Phase, RobotRecord, TaskRecord, distance
-from .sources import Plan
+from .assignment import choose
+from .capability import target_centre_xy
+from .failures import Failures
+from .outbox import Outbox
+from .planner_state import PlannerState
+from .records import FINAL, ComponentRecord, Phase, RobotRecord, TaskRecord, distance
 
 _log = logging.getLogger(__name__)
 
@@ -31,69 +29,61 @@ MAX_HAND_OFFS = 2  # hand-off tasks per component; a third would be a loop: fail
 
 
 class Dispatch:
-    """Assignment of released tasks, for :class:`.scheduler.PlannerCore`."""
+    """Assigns released tasks to idle robots (in the records of ``state``); sends each assignment through
+    ``outbox``, and fails through ``failures`` a component handed off too often."""
 
-    _plan: Plan
-    _tasks: dict[str, TaskRecord]
-    _components: dict[str, ComponentRecord]
-    _robots: dict[str, RobotRecord]
-    _manifest: dict[str, Component]
-    _site: Mapping[str, SiteRobot] | None
-    _slots: Mapping[str, YardSlot]
-    _pending: dict[tuple[str, str], Pending]
-    sim_time_s: float
-    revision: int
+    def __init__(self, state: PlannerState, outbox: Outbox, failures: Failures) -> None:
+        self._state = state
+        self._outbox = outbox
+        self._failures = failures
 
-    if TYPE_CHECKING:  # defined by :class:`.scheduler.PlannerCore`
-
-        def _task_msg(self, task: TaskRecord, status: TaskStatus) -> TaskMsg: ...
-
-        def _fail(self, guid: str, reason: Reason, *, block: bool = True) -> None: ...
-
-    def _assign(self) -> None:
-        if self._site is not None:
+    def assign(self) -> None:
+        """Give every released task whose component reports released to a robot, if one can take it."""
+        state = self._state
+        if state.site is not None:
             return self._assign_by_bids()
-        for guid in self._plan.order:
-            task = self._tasks[guid]
-            component = self._components[guid]
+        for guid in state.plan.order:
+            task = state.tasks[guid]
+            component = state.components[guid]
             if task.phase is not Phase.RELEASED or component.state is not ComponentState.RELEASED:
                 continue
-            idle = [robot for robot in self._robots.values() if self._is_idle(robot)]
+            idle = [robot for robot in state.robots.values() if self._is_idle(robot)]
             if not idle:
                 return
             # a robot that gave this task back gets it again only when no other alive robot could take it
             others_alive = any(
-                r.alive and r.robot_id not in task.given_back_by for r in self._robots.values()
+                r.alive and r.robot_id not in task.given_back_by for r in state.robots.values()
             )
             fresh = [robot for robot in idle if robot.robot_id not in task.given_back_by]
             if not fresh and others_alive:
                 continue
             idle = fresh or idle
-            where = component.position_xy or target_centre_xy(self._manifest[guid])
+            where = component.position_xy or target_centre_xy(state.manifest[guid])
             robot = min(idle, key=lambda item: (distance(item.pose_xy_yaw, where), item.robot_id))
             self._give_to(task, robot, TaskKind.BUILD, None, estimate_s=0.0)
 
     def _assign_by_bids(self) -> None:
         """Every released task to the capable robot with the best bid (:mod:`.assignment`)."""
-        assert self._site is not None
-        if not any(self._is_idle(robot) for robot in self._robots.values()):
+        state = self._state
+        assert state.site is not None
+        if not any(self._is_idle(robot) for robot in state.robots.values()):
             return  # (before the staging spots in use: a pass over every component)
         promised: dict[str, float] = {}
         taken = self._taken_spots()
-        for guid in self._plan.order:
-            task = self._tasks[guid]
-            component = self._components[guid]
+        for guid in state.plan.order:
+            task = state.tasks[guid]
+            component = state.components[guid]
             if task.phase is not Phase.RELEASED or component.state is not ComponentState.RELEASED:
                 continue
-            if not any(self._is_idle(robot) for robot in self._robots.values()):
+            if not any(self._is_idle(robot) for robot in state.robots.values()):
                 return
-            item = self._manifest[guid]
+            item = state.manifest[guid]
             choice = choose(
                 item,
-                self._lies(guid),
-                [robot for robot in self._robots.values() if self.sim_time_s >= robot.held_until_s],
-                self._site,
-                now_s=self.sim_time_s,
+                state.lies(guid),
+                [robot for robot in state.robots.values() if state.sim_time_s >= robot.held_until_s],
+                state.site,
+                now_s=state.sim_time_s,
                 promised_s=promised,
                 avoid=task.given_back_by,
                 taken_spots=taken,
@@ -101,20 +91,15 @@ class Dispatch:
             if choice is None:
                 continue
             if choice.kind is TaskKind.HAND_OFF and task.hand_offs >= MAX_HAND_OFFS:
-                self._fail(guid, self._hand_offs_exhausted(task, item))
+                self._failures.fail(guid, self._hand_offs_exhausted(task, item))
                 continue
-            robot = self._robots[choice.robot_id]
+            robot = state.robots[choice.robot_id]
             if not choice.idle or not self._is_idle(robot):
                 promised[choice.robot_id] = promised.get(choice.robot_id, 0.0) + choice.estimate_s
                 continue
             if choice.put_down_xy_m is not None:
                 taken.append(choice.put_down_xy_m)
             self._give_to(task, robot, choice.kind, choice.put_down_xy_m, estimate_s=choice.estimate_s)
-
-    def _lies(self, guid: str) -> Where:
-        """Where ``guid`` lies now: its last pose, else its yard slot (else its target)."""
-        item, xy = self._manifest[guid], self._components[guid].position_xy
-        return staged_where(item, xy) if xy is not None else slot_where(item, self._slots.get(guid))
 
     @staticmethod
     def _hand_offs_exhausted(task: TaskRecord, item: Component) -> Reason:
@@ -128,11 +113,12 @@ class Dispatch:
 
     def _taken_spots(self) -> list[tuple[float, float]]:
         """Staging spots in use: a hand-off on its way there, or a component lying in a staging area."""
-        spots = [task.put_down_xy for task in self._tasks.values() if task.put_down_xy is not None]
-        areas = [robot.staging for robot in (self._site or {}).values() if robot.staging is not None]
-        for guid, component in self._components.items():
+        state = self._state
+        spots = [task.put_down_xy for task in state.tasks.values() if task.put_down_xy is not None]
+        areas = [robot.staging for robot in (state.site or {}).values() if robot.staging is not None]
+        for guid, component in state.components.items():
             xy = component.position_xy
-            if xy is None or self._tasks[guid].phase in FINAL:
+            if xy is None or state.tasks[guid].phase in FINAL:
                 continue
             if any(
                 a.min_xy[0] <= xy[0] <= a.max_xy[0] and a.min_xy[1] <= xy[1] <= a.max_xy[1] for a in areas
@@ -149,17 +135,18 @@ class Dispatch:
         *,
         estimate_s: float,
     ) -> None:
-        component = self._components[task.guid]
+        state = self._state
+        component = state.components[task.guid]
         task.kind, task.put_down_xy = kind, put_down_xy
         if kind is TaskKind.HAND_OFF:
             task.hand_offs += 1
         task.robot_id, robot.task_guid = robot.robot_id, task.guid
-        robot.busy_until_s = self.sim_time_s + estimate_s
+        robot.busy_until_s = state.sim_time_s + estimate_s
         task.phase = Phase.ASSIGNED
-        self.revision += 1
-        task.changed_sim_s = self.sim_time_s
+        state.revision += 1
+        task.changed_sim_s = state.sim_time_s
         if task.assigned_sim_s is None:
-            task.assigned_sim_s = self.sim_time_s
+            task.assigned_sim_s = state.sim_time_s
         what = f"hand-off to {put_down_xy[0]:.1f}, {put_down_xy[1]:.1f}" if put_down_xy else "build"
         _log.info(
             "%s (%s, %s) assigned to %s at %.1f s of sim time (estimate %.0f s)",
@@ -167,11 +154,11 @@ class Dispatch:
             task.guid,
             what,
             robot.robot_id,
-            self.sim_time_s,
+            state.sim_time_s,
             estimate_s,
         )
         settled = partial(self._assignment_settled, task, robot, component, robot.robot_id, task.active_id)
-        self._pending[(task.guid, "task")] = Pending(self._task_msg(task, TaskStatus.ASSIGNED), settled)
+        self._outbox.send_assignment(task, settled)
 
     @staticmethod
     def _assignment_settled(
@@ -186,9 +173,10 @@ class Dispatch:
         )
 
     def _is_idle(self, robot: RobotRecord) -> bool:
+        """Alive, reported idle, holding no task of the planner's and not held after give-backs."""
         return (
             robot.alive
             and robot.state is RobotState.IDLE
             and robot.task_guid is None
-            and self.sim_time_s >= robot.held_until_s
+            and self._state.sim_time_s >= robot.held_until_s
         )

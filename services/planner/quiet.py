@@ -1,4 +1,4 @@
-"""Quiet-site skips: when nothing on site can happen before a known sim time, say until when (pure mixin).
+"""Quiet-site skips: when nothing on site can happen before a known sim time, say until when (pure).
 
 Why: a cast slab cures for days and a crew pours for hours; stepped at the physics rate, a real building
 would take weeks of wall time waiting. When the planner sees that nothing can happen before a known sim
@@ -23,18 +23,16 @@ least ``min_skip_s`` ahead; else None (not quiet, or nothing known to wait for).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
-from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentState, RobotState
-from bimbot.shared.site_plan import YardSlot
 
-from .capability import SiteRobot, Where, can_build_from, can_carry
-from .curing import Hold
-from .records import FINAL, WORKING, ComponentRecord, Pending, Phase, RobotRecord, TaskRecord
-from .sources import Plan
+from .capability import can_build_from, can_carry
+from .outbox import Outbox
+from .planner_state import PlannerState
+from .records import FINAL, WORKING, Phase, RobotRecord
+from .release import Release
+from .watchdog import Watchdog
 
 MIN_SKIP_S = 1.0  # a skip shorter than this is not worth a question to physics
 
@@ -59,98 +57,79 @@ class Skip:
 
 
 class Quiet:
-    """The quiet-site decision, for :class:`.scheduler.PlannerCore`."""
+    """The quiet-site decision over the records of ``state``: asks ``outbox`` what is on its way,
+    ``release`` what cures until when, and ``watchdog`` the no-progress bound of timed work."""
 
-    _plan: Plan
-    _tasks: dict[str, TaskRecord]
-    _components: dict[str, ComponentRecord]
-    _robots: dict[str, RobotRecord]
-    _manifest: dict[str, Component]
-    _site: Mapping[str, SiteRobot] | None
-    _slots: Mapping[str, YardSlot]
-    _pending: dict[tuple[str, str], Pending]
-    sim_time_s: float
-
-    if TYPE_CHECKING:  # defined by :class:`.scheduler.PlannerCore` and :class:`.dispatch.Dispatch`
-
-        @property
-        def done(self) -> bool: ...
-
-        def curing_holds(self) -> list[Hold]: ...
-
-        def _task_bound_s(self, task: TaskRecord) -> float: ...
-
-        def _describe(self, guid: str) -> str: ...
-
-        def _lies(self, guid: str) -> Where: ...
+    def __init__(self, state: PlannerState, outbox: Outbox, release: Release, watchdog: Watchdog) -> None:
+        self._state = state
+        self._outbox = outbox
+        self._release = release
+        self._watchdog = watchdog
 
     def quiet_until(self, min_skip_s: float = MIN_SKIP_S) -> Skip | None:
         """The skip the site allows now (see the module docstring), or None."""
-        if (
-            self._site is None
-            or self.done
-            or any(not pending.settled() for pending in self._pending.values())
-        ):
+        state = self._state
+        if state.site is None or state.done or self._outbox.unsettled():
             return None
         events: list[tuple[float, str]] = []
-        for robot in self._robots.values():
+        for robot in state.robots.values():
             if not robot.alive:
                 continue
             if self._in_timed_work(robot):
                 assert robot.reported_busy_until_s is not None
-                what = self._describe(robot.task_guid) if robot.task_guid else "its work"
+                what = state.describe(robot.task_guid) if robot.task_guid else "its work"
                 events.append((robot.reported_busy_until_s, f"{robot.robot_id} at work on {what}"))
             elif robot.state is not RobotState.IDLE or robot.task_guid is not None:
                 return None  # driving, lifting, not heard from, or about to take up a task
-        for guid in self._plan.order:
+        for guid in state.plan.order:
             found = self._task_events(guid)
             if found is None:
                 return None
             events.extend(found)
         events.extend(
-            (hold.until_s, f"curing of {self._describe(hold.cast_guid)} (holds {self._describe(hold.guid)})")
-            for hold in self.curing_holds()
+            (hold.until_s, f"curing of {state.describe(hold.cast_guid)} (holds {state.describe(hold.guid)})")
+            for hold in self._release.curing_holds()
         )
         if not events:
             return None
         to_sim_s, why = min(events)
-        if to_sim_s - self.sim_time_s < min_skip_s:
+        if to_sim_s - state.sim_time_s < min_skip_s:
             return None
         return Skip(to_sim_s, f"{why} until {to_sim_s:.0f} s")
 
     def _task_events(self, guid: str) -> list[tuple[float, str]] | None:
         """What ``guid``'s task waits for (events), or None when something can happen to it now."""
-        task, state = self._tasks[guid], self._components[guid].state
+        task, component_state = self._state.tasks[guid], self._state.components[guid].state
         if task.phase in FINAL or task.phase is Phase.WAITING:
             return []
-        if state in MOVING:
+        if component_state in MOVING:
             return None
         if task.phase is Phase.ASSIGNED:
-            robot = self._robots.get(task.robot_id or "")
-            if state not in WORKING or robot is None or not self._in_timed_work(robot):
+            robot = self._state.robots.get(task.robot_id or "")
+            if component_state not in WORKING or robot is None or not self._in_timed_work(robot):
                 return None  # not started yet, or worked on without a known end
-            return [
-                (task.changed_sim_s + self._task_bound_s(task), f"the no-progress bound of {task.active_id}")
-            ]
-        if state is not ComponentState.RELEASED:
+            bound_s = self._watchdog.task_bound_s(task)
+            return [(task.changed_sim_s + bound_s, f"the no-progress bound of {task.active_id}")]
+        if component_state is not ComponentState.RELEASED:
             return None  # its release is on its way
         return self._held_takers(guid)
 
     def _held_takers(self, guid: str) -> list[tuple[float, str]] | None:
         """A released task: None when an idle robot could take it now; else the ends of the holds of the
         idle robots that could once held (none: it waits for a busy robot, or for none at all)."""
-        assert self._site is not None
-        item, where = self._manifest[guid], self._lies(guid)
+        state = self._state
+        assert state.site is not None
+        item, where = state.manifest[guid], state.lies(guid)
         events: list[tuple[float, str]] = []
-        for robot in self._robots.values():
-            site_robot = self._site.get(robot.robot_id)
+        for robot in state.robots.values():
+            site_robot = state.site.get(robot.robot_id)
             if not robot.alive or site_robot is None or robot.state is not RobotState.IDLE:
                 continue
             if robot.task_guid is not None:
                 continue
             if not (can_build_from(site_robot, item, where) or can_carry(site_robot, item)):
                 continue
-            if self.sim_time_s >= robot.held_until_s:
+            if state.sim_time_s >= robot.held_until_s:
                 return None
             events.append((robot.held_until_s, f"the hold of {robot.robot_id} after its give-backs"))
         return events
@@ -160,5 +139,5 @@ class Quiet:
         return (
             robot.state is RobotState.WORK_IN_PLACE
             and robot.reported_busy_until_s is not None
-            and robot.reported_busy_until_s > self.sim_time_s
+            and robot.reported_busy_until_s > self._state.sim_time_s
         )
