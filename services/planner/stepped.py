@@ -24,7 +24,7 @@ from collections.abc import Callable, Iterable
 
 import zenoh
 
-from bimbot.shared.bus import Answer, Inbox, LivelinessChange, Received, encode
+from bimbot.shared.bus import LOCK_STEP_PUT, Answer, Inbox, LivelinessChange, Received, encode
 from bimbot.shared.clock_guard import ClockGuard
 from bimbot.shared.messages import (
     STEP_DONE,
@@ -218,4 +218,4 @@ class SteppedLoop:
 
     def _answer(self, step: int, sim_time_s: float, *, done: bool = False) -> None:
         message = StepDoneMsg(participant=PARTICIPANT, step=step, sim_time_s=sim_time_s, done=done)
-        self.session.put(self._answer_key, encode(message))
+        self.session.put(self._answer_key, encode(message), **LOCK_STEP_PUT)

@@ -30,7 +30,17 @@ from dataclasses import dataclass
 
 import zenoh
 
-from bimbot.shared.bus import Answer, BusOptions, Inbox, Received, decode, encode, open_session, query_first
+from bimbot.shared.bus import (
+    LOCK_STEP_PUT,
+    Answer,
+    BusOptions,
+    Inbox,
+    Received,
+    decode,
+    encode,
+    open_session,
+    query_first,
+)
 from bimbot.shared.clock_guard import ClockGuard, Verdict
 from bimbot.shared.component_states import TwinQuestion
 from bimbot.shared.identifiers import guid_to_key
@@ -321,9 +331,9 @@ class _Loop:
                 ask_twin(self.inbox, self.session, self.site, message.key)
             elif isinstance(message, ComponentEventMsg):
                 event_key = key(COMPONENT_EVENT_KEY, site=self.site, key=guid_to_key(message.guid))
-                self.session.put(event_key, encode(message))
+                self.session.put(event_key, encode(message), **(LOCK_STEP_PUT if self.stepped else {}))
             elif self.stepped is not None:  # in order with everything else it puts (see physics' _publish)
-                self.session.put(self._keys[type(message)], encode(message))
+                self.session.put(self._keys[type(message)], encode(message), **LOCK_STEP_PUT)
             else:
                 self._publishers[type(message)].put(encode(message))
 
