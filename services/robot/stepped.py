@@ -29,6 +29,7 @@ from bimbot.shared.messages import (
     ComponentPoseMsg,
     ComponentStateMsg,
     PhysicsReply,
+    PlanMsg,
     RobotStateMsg,
     SensorsMsg,
     StepDoneMsg,
@@ -188,12 +189,15 @@ class SteppedTicks:
 
 
 def sent_now(messages: list[Outgoing], sim_time_s: float) -> list[Outgoing]:
-    """``messages`` with every event stamped with the step that sends it: an event queued behind another
-    goes out only once that one is confirmed, steps after it was made, and was taken then by the agents at
-    whichever step it arrived (a repeat keeps its ``event_id``; the agents take the first that comes)."""
+    """``messages`` with every event, state and plan stamped with the step that sends it. An event queued
+    behind another goes out only once that one is confirmed, steps after it was made (a repeat keeps its
+    ``event_id``; the agents take the first that comes); a state made between two steps (a physics reply
+    handled as it came) went out at the next step with the last one's stamp. Either was taken by the others
+    at whichever step it arrived: a message stamped before the answer that follows it may come after."""
+    stamped = ComponentEventMsg | RobotStateMsg | PlanMsg
     return [
         message.model_copy(update={"sim_time_s": sim_time_s})
-        if isinstance(message, ComponentEventMsg) and message.sim_time_s != sim_time_s
+        if isinstance(message, stamped) and message.sim_time_s != sim_time_s
         else message
         for message in messages
     ]
