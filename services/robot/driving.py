@@ -1,11 +1,12 @@
-"""Getting there: the executor's drive to an approach pose, re-chosen after failures, bounded (a mixin).
+"""Getting there: a ground robot's drive to an approach pose, re-chosen after failures, bounded.
 
 Why apart from :mod:`.executor`: the part of a task that decides *where* to stand and what to do when the
 navigator fails. A navigation failure (after the navigator's own recovery chain, :mod:`.recovery`) is
 answered by re-choosing the approach pose away from the stand-points that failed (every side of the
 component), at most ``max_tries`` times; a search that finds no stand-point is repeated at most
-``max_approach_misses`` times; then the task is given back (:mod:`.handover`) with the reason. Before the
-pick-up the target is checked on the static map, so nothing is carried to a target cut off already.
+``max_approach_misses`` times; then the task is given back (:class:`.handover.Handover`) with the reason.
+Before the pick-up the target is checked on the static map, so nothing is carried to a target cut off
+already.
 
 Traffic: when the static map has a stand-point the robot can drive to and only its laser marks (what it
 sees and the site plan does not: other robots and their loads) cut every one off, the blockage passes as
@@ -18,160 +19,152 @@ component (a ten-robot yard failed five components so in 1,300 s).
 from __future__ import annotations
 
 import logging
-from typing import TYPE_CHECKING
 
 from bimbot.shared.footprint import Footprint
 from bimbot.shared.messages import RobotState
 from bimbot.shared.occupancy_grid import OccupancyGrid
 from bimbot.shared.reasons import Reason
 
-from .task_state import ExecutorConfig, Task
-
-if TYPE_CHECKING:
-    from .navigator import Navigator
-    from .site_map import SiteMap
-    from .task_machine import TaskMachine
-
 from . import give_back
-from .approach import ApproachConfig, approach_pose, no_approach_reason, within_reach
+from .approach import approach_pose, no_approach_reason, within_reach
+from .handover import Handover
 from .navigator import NavStatus
+from .robot_context import RobotContext
+from .task_cycle import TaskCycle
+from .task_state import Task, component_name
 
 _log = logging.getLogger(__name__)
 _S = RobotState
 
 
 class Driving:
-    """Approach poses and the drive to them, for :class:`.executor.Executor`."""
+    """Approach poses and the drive to them (a :class:`.robot_context.GettingThere` for a ground robot).
 
-    config: ExecutorConfig
-    robot_id: str
-    sim_s: float
-    site_map: SiteMap
-    navigator: Navigator
-    machine: TaskMachine
-    approach_config: ApproachConfig
-    home_xy_yaw: tuple[float, float, float]
+    Reads the task's state from ``cycle`` (what it carries decides how a failure is named) and gives a task
+    back through ``handover``; keeps no state of its own (the tries are the task's)."""
 
-    if TYPE_CHECKING:  # defined by :class:`.handover.Handover`, the executor's other mixin
+    def __init__(self, context: RobotContext, cycle: TaskCycle, handover: Handover) -> None:
+        self.context, self.cycle, self.handover = context, cycle, handover
 
-        def _give_back(self, task: Task, reason: Reason) -> None: ...
-
-        def _name(self, task: Task) -> str: ...
-
-    def _target_cut_off(self, task: Task) -> Reason | None:
+    def target_cut_off(self, task: Task) -> Reason | None:
         """Why the target has no approach the robot could drive to on the static map (walls, built parts,
         stacks; laser marks left out, they pass), or None: checked before the pick-up, so that a component
         is never carried to a target cut off already."""
-        grid = self.site_map.inflated_grid()
-        xy = self.navigator.pose_xy_yaw[:2]
-        blocks = self.site_map.blocks(task.target)
-        if approach_pose(grid, task.target, xy, blocks_band=blocks, config=self.approach_config) is not None:
+        site_map = self.context.site_map
+        grid = site_map.inflated_grid()
+        xy = self.context.navigator.pose_xy_yaw[:2]
+        blocks = site_map.blocks(task.target)
+        config = self.context.approach_config
+        if approach_pose(grid, task.target, xy, blocks_band=blocks, config=config) is not None:
             return None
-        return self._no_approach(task, grid, task.target, f"the target of {self._name(task)}")
+        return self._no_approach(grid, task.target, f"the target of {component_name(task)}")
 
-    def _no_approach(self, task: Task, grid: OccupancyGrid, footprint: Footprint, what: str) -> Reason:
+    def _no_approach(self, grid: OccupancyGrid, footprint: Footprint, what: str) -> Reason:
+        context = self.context
         return no_approach_reason(
             grid,
             footprint,
-            self.navigator.pose_xy_yaw[:2],
-            blocks_band=self.site_map.blocks(footprint),
-            config=self.approach_config,
+            context.navigator.pose_xy_yaw[:2],
+            blocks_band=context.site_map.blocks(footprint),
+            config=context.approach_config,
             what=what,
-            robot=self.robot_id,
-            radius_m=self.site_map.config.inflation_m,
-            home_xy_m=self.home_xy_yaw[:2],
-        ).model_copy(update={"robot_id": self.robot_id})
+            robot=context.robot_id,
+            radius_m=context.site_map.config.inflation_m,
+            home_xy_m=context.home_xy_yaw[:2],
+        ).model_copy(update={"robot_id": context.robot_id})
 
-    def _drive(self, task: Task, footprint: Footprint | None) -> bool:
+    def drive(self, task: Task, footprint: Footprint | None) -> bool:
         """Drive to an approach pose beside ``footprint`` (found again after a failure); True once there."""
-        status = self.navigator.status
+        context = self.context
+        navigator, config = context.navigator, context.config
+        status = navigator.status
         if task.approach is not None and status is NavStatus.REACHED:
             return True
         if (
             task.approach is not None
-            and self.navigator.goal_blocked
+            and navigator.goal_blocked
             and footprint is not None
-            and task.reselections < self.config.max_reselections
+            and task.reselections < config.max_reselections
         ):
             # Laser marks (another robot, a load) now cover the chosen cell: pick another at once, which is
             # no navigation failure (counting it as one gave tasks up that a step aside would have done).
             task.reselections += 1
-            self.navigator.cancel()
+            navigator.cancel()
             task.approach = None
-            self._approach(task, footprint)
+            self.approach(task, footprint)
             return False
         if task.approach is not None and status is NavStatus.FAILED and footprint is not None:
-            here = self.navigator.pose_xy_yaw[:2]
-            blocks = self.site_map.blocks(footprint)
-            if within_reach(footprint, here, blocks_band=blocks, config=self.approach_config):
+            here = navigator.pose_xy_yaw[:2]
+            blocks = context.site_map.blocks(footprint)
+            if within_reach(footprint, here, blocks_band=blocks, config=context.approach_config):
                 return True  # not on the stand-point, but the reach rule holds here: close enough
         if task.approach is not None and status is NavStatus.FAILED:
             # The navigator ran its recovery chain: re-choose the approach pose (any side, not this one).
             task.tries += 1
             task.failed_xy_m.append(task.approach.xy_m)
-            if task.tries >= self.config.max_tries:
-                what = (
-                    self._name(task)
-                    if self.machine.state is _S.PICK_UP
-                    else f"the target of {self._name(task)}"
-                )
-                self._give_back(
-                    task, give_back.navigation_failed(self.robot_id, what, task.tries, self.navigator.failure)
-                )
+            if task.tries >= config.max_tries:
+                name = component_name(task)
+                what = name if self.cycle.state is _S.PICK_UP else f"the target of {name}"
+                failed = give_back.navigation_failed(context.robot_id, what, task.tries, navigator.failure)
+                self.handover.give_back(task, failed)
                 return False
             task.approach, task.retry_at_s = (
                 None,
-                self.sim_s + self.config.retry_delay_s * min(task.tries, 10),
+                context.sim_s + config.retry_delay_s * min(task.tries, 10),
             )
-            self.navigator.cancel()
-        if task.approach is None and self.sim_s >= task.retry_at_s and footprint is not None:
-            self._approach(task, footprint)
+            navigator.cancel()
+        if task.approach is None and context.sim_s >= task.retry_at_s and footprint is not None:
+            self.approach(task, footprint)
         return False
 
-    def _approach(self, task: Task, footprint: Footprint) -> bool:
+    def approach(self, task: Task, footprint: Footprint) -> bool:
+        """Choose an approach pose beside ``footprint`` and set off for it (True); none free: wait for
+        traffic, or count a miss, and give the task back after the bound (False)."""
+        context = self.context
+        navigator, site_map, bounds = context.navigator, context.site_map, context.config
         # The navigator's own planning grid (laser marks inflated by its dynamic margin): an approach pose
         # free only in a less inflated grid is a goal A* can never reach, chosen again on every retry.
-        self.navigator.see()
-        grid = self.site_map.planning_grid(self.navigator.marks, self.navigator.config.dynamic_margin_m)
-        xy = self.navigator.pose_xy_yaw[:2]
-        blocks = self.site_map.blocks(footprint)
-        config = self.approach_config
+        navigator.see()
+        grid = site_map.planning_grid(navigator.marks, navigator.config.dynamic_margin_m)
+        xy = navigator.pose_xy_yaw[:2]
+        blocks = site_map.blocks(footprint)
+        config = context.approach_config
         found = approach_pose(
             grid, footprint, xy, blocks_band=blocks, config=config, avoid_xy_m=task.failed_xy_m
         )
         if found is None and task.failed_xy_m:  # every other side tried: the failed ones again
             found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=config)
         if found is None:
-            task.retry_at_s = self.sim_s + self.config.retry_delay_s
+            task.retry_at_s = context.sim_s + bounds.retry_delay_s
             traffic = approach_pose(
-                self.site_map.inflated_grid(), footprint, xy, blocks_band=blocks, config=config
+                site_map.inflated_grid(), footprint, xy, blocks_band=blocks, config=config
             )
             if traffic is not None:  # free on the static map: only what the laser sees blocks it
                 if task.traffic_since_s is None:
-                    task.traffic_since_s = self.sim_s
+                    task.traffic_since_s = context.sim_s
                     _log.info(
                         "%s: every stand-point of %s is blocked by traffic: waiting",
-                        self.robot_id,
-                        self._name(task),
+                        context.robot_id,
+                        component_name(task),
                     )
-                waited_s = self.sim_s - task.traffic_since_s
-                if waited_s < self.config.traffic_wait_s:
+                waited_s = context.sim_s - task.traffic_since_s
+                if waited_s < bounds.traffic_wait_s:
                     return False
             else:
                 task.misses += 1
-                if task.misses < self.config.max_approach_misses:
+                if task.misses < bounds.max_approach_misses:
                     return False
-            carrying = self.machine.state not in (_S.DETECT_COMPONENT_POSITION, _S.PICK_UP)
-            what = f"the target of {self._name(task)}" if carrying else self._name(task)
-            reason = self._no_approach(task, grid, footprint, what)
+            carrying = self.cycle.state not in (_S.DETECT_COMPONENT_POSITION, _S.PICK_UP)
+            what = f"the target of {component_name(task)}" if carrying else component_name(task)
+            reason = self._no_approach(grid, footprint, what)
             if traffic is not None:
                 why = (
                     f"; for {waited_s:.0f} s, by what the laser saw and the site plan does not have (other "
                     "robots, their loads): on the site plan there is a way"
                 )
                 reason = reason.model_copy(update={"message": reason.message + why})
-            self._give_back(task, reason)
+            self.handover.give_back(task, reason)
             return False
         task.approach, task.traffic_since_s = found, None
-        self.navigator.set_goal(found.xy_m, found.yaw_rad, self.sim_s)
+        navigator.set_goal(found.xy_m, found.yaw_rad, context.sim_s)
         return True

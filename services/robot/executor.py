@@ -44,21 +44,18 @@ from __future__ import annotations
 
 import logging
 import math
-import uuid
-from dataclasses import replace
 
 import numpy as np
 
 from bimbot.shared.component_states import ComponentStates
 from bimbot.shared.errors import InputError
-from bimbot.shared.footprint import Footprint, posed_footprint
+from bimbot.shared.footprint import posed_footprint
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     AttachRequest,
     ClockMsg,
     CmdVelMsg,
     ComponentEvent,
-    ComponentEventMsg,
     ComponentPoseMsg,
     ComponentState,
     ComponentStateMsg,
@@ -77,22 +74,23 @@ from bimbot.shared.messages import (
     TwinMsg,
 )
 from bimbot.shared.reasons import Reason
-from bimbot.shared.robot_description import Capability
-from bimbot.shared.seeds import robot_stream
+from bimbot.shared.robot_description import Capability, RobotDescription
 
 from . import give_back
-from .approach import ApproachConfig, exit_point
+from .approach import ApproachConfig
 from .compiled_kernels import warm_up_kernels
-from .crane_work import CraneWork
+from .crane_work import CraneHandover, CraneReach
 from .driving import Driving
 from .handover import Handover
-from .nav_types import controller_limits
-from .navigator import Navigator, NavigatorConfig, NavStatus
+from .navigator import Navigator, NavigatorConfig
+from .parking import Parking
 from .protocol import VERDICTS, EventQueue, Outgoing, PhysicsResult
+from .robot_context import GettingThere, robot_context
 from .site_map import MapConfig, SiteMap
 from .site_work import SiteWorkExecutor
+from .task_cycle import TaskCycle
 from .task_machine import TaskMachine, Trigger
-from .task_state import ExecutorConfig, Task
+from .task_state import ExecutorConfig, Task, component_name, put_down_footprint
 
 _log = logging.getLogger(__name__)
 
@@ -100,8 +98,13 @@ _S, _E, _C = RobotState, ComponentEvent, ComponentState
 DEFAULT_MAP = MapConfig()
 
 
-class Executor(Driving, Handover):
-    """The robot's task execution and navigation, fed messages, answering one command per clock step."""
+class Executor:
+    """The robot's task execution and navigation, fed messages, answering one command per clock step.
+
+    Owns what it hears (the tasks, the component states, odometry, ground truth) and the task steps; the
+    parts it builds share the robot through one :class:`.robot_context.RobotContext`: the task cycle
+    (:class:`.task_cycle.TaskCycle`), physics requests and give-backs (:class:`.handover.Handover`), getting
+    to the work (:class:`.driving.Driving`, a crane's :class:`.crane_work.CraneReach`) and parking."""
 
     def __init__(
         self,
@@ -121,49 +124,91 @@ class Executor(Driving, Handover):
         warm_up_kernels()  # a tick never waits for a kernel to compile or load
         self.config, self.robot_id = config, config.robot_id
         self.components = {component.guid: component for component in manifest.components}
-        self.description = info.robot_types[info.robot_type_of[self.robot_id]]
-        map_config = replace(map_config, robot_radius_m=self.description.radius_m)
-        self.site_map = SiteMap(info.layout, manifest.components, map_config)
-        self.home_xy_yaw = info.robot_starts_xy_yaw[info.robot_ids.index(self.robot_id)]
-        nav_config = nav_config or NavigatorConfig()
-        nav_config = replace(
-            nav_config,
-            dwa=controller_limits(nav_config.dwa, self.description, info),
-            command_latency_s=info.command_latency_steps * info.control_period_s,
+        self.context = robot_context(
+            manifest,
+            info,
+            config,
+            map_config=map_config,
+            nav_config=nav_config,
+            approach_config=approach_config,
+            start_xy_yaw=start_xy_yaw,
         )
-        rng = np.random.default_rng(robot_stream(config.seed, self.robot_id))
-        start = self.home_xy_yaw if start_xy_yaw is None else start_xy_yaw
-        self.navigator = Navigator(self.site_map, start, nav_config, rng, robot_id=self.robot_id)
-        self.approach_config = approach_config or ApproachConfig(
-            reach_m=self.description.reach_m,
-            body_clearance_m=map_config.inflation_m,
-        )
-        self.machine = TaskMachine()
-        self.task: Task | None = None
+        self.cycle = TaskCycle(self.context)
+        self.handover = self._handover()
+        self.getting_there = self._getting_there()
+        self.parking = self._parking()
         self.tasks: dict[str, TaskMsg] = {}  # latest message per task id (assigned to this robot once)
         # judged state messages, twins asked when one does not fit (a forged state must not stall a task)
         self.component_states = ComponentStates({c.guid: c.key for c in manifest.components})
         # assignments taken on: (task id, attempt, assignment stamp); a task given back and assigned again
         # (same attempt) is a new assignment with a new stamp, while a repeated delivery is not
         self.performed: set[tuple[str, int, float]] = set()
-        self.done: list[tuple[str, ComponentState]] = []  # (GUID, verdict) of finished tasks
-        self.sim_s, self.step, self.distance_m = 0.0, -1, 0.0
+        self.step = -1
         # localisation error against ground truth: a metric for the logs, never used for control
         self.localisation_error_m = 0.0
         self.max_localisation_error_m = 0.0
         self._last_odom: np.ndarray | None = None
-        self._last_state: tuple[RobotState, str | None] | None = None
-        self._last_state_wall_s = -math.inf
-        self._out: list[Outgoing] = []
-        self._next_request = 1
-        self._wall_s = 0.0
-        self._idle_since_s: float | None = None
-        self._state_since_s = 0.0  # sim time of the last task state change (the task watchdog)
-        self._left_structure = True  # after a task: out of the building footprint (or tried)
-        self._parking = False  # the navigator's goal is the depot
-        self._park_again_s = 0.0  # not before this sim time (a parking drive failed)
-        self.activity = ""  # what an idle robot is up to, in words, when it matters (its state message)
-        self.given_back: list[tuple[str, Reason]] = []  # (GUID, reason) of every task given back
+
+    # --- the parts of a robot type (a crane's and a plan-fidelity robot's replace some) -----------------
+
+    def _handover(self) -> Handover:
+        return Handover(self.context, self.cycle)
+
+    def _getting_there(self) -> GettingThere:
+        return Driving(self.context, self.cycle, self.handover)
+
+    def _parking(self) -> Parking | None:
+        return Parking(self.context, self.cycle)
+
+    # --- what the adapter, the tests and the parts read -------------------------------------------------
+
+    @property
+    def navigator(self) -> Navigator:
+        return self.context.navigator
+
+    @property
+    def site_map(self) -> SiteMap:
+        return self.context.site_map
+
+    @property
+    def description(self) -> RobotDescription:
+        return self.context.description
+
+    @property
+    def home_xy_yaw(self) -> tuple[float, float, float]:
+        return self.context.home_xy_yaw
+
+    @property
+    def sim_s(self) -> float:
+        return self.context.sim_s
+
+    @sim_s.setter
+    def sim_s(self, sim_s: float) -> None:
+        self.context.sim_s = sim_s
+
+    @property
+    def distance_m(self) -> float:
+        return self.context.distance_m
+
+    @distance_m.setter
+    def distance_m(self, distance_m: float) -> None:
+        self.context.distance_m = distance_m
+
+    @property
+    def machine(self) -> TaskMachine:
+        return self.cycle.machine
+
+    @property
+    def task(self) -> Task | None:
+        return self.cycle.task
+
+    @property
+    def done(self) -> list[tuple[str, ComponentState]]:
+        return self.cycle.done
+
+    @property
+    def given_back(self) -> list[tuple[str, Reason]]:
+        return self.handover.given_back
 
     # --- inputs and outputs ------------------------------------------------------------------------------
 
@@ -193,9 +238,9 @@ class Executor(Driving, Handover):
             if message.status is TaskStatus.RELEASED and self.task is None:
                 # The planner assigns a released task to a robot it has heard say idle: say it now, not at
                 # the next periodic state (1 s of wall time is a minute of sim time on an idle site).
-                self._last_state_wall_s = -math.inf
+                self.cycle.say_state_soon()
         elif isinstance(message, PhysicsResult):
-            self._physics_result(message)
+            self.handover.take_result(message)
         elif isinstance(message, RobotPoseMsg):
             self._ground_truth(message)
         elif isinstance(message, RobotStateMsg) and message.robot_id != self.robot_id:
@@ -203,14 +248,14 @@ class Executor(Driving, Handover):
 
     def tick(self, clock: ClockMsg, wall_s: float) -> list[Outgoing]:
         """One control step: task progress, navigation, and the ``cmd_vel`` answering ``clock.step``."""
-        self.sim_s, self.step, self._wall_s = clock.sim_time_s, clock.step, wall_s
+        self.sim_s, self.step, self.context.wall_s = clock.sim_time_s, clock.step, wall_s
         self._progress()
         command = self.navigator.step(self.sim_s)
         goal = self.navigator.goal
         if command.new_path_xy_m is not None and goal is not None:
             path = [(float(x), float(y)) for x, y in command.new_path_xy_m]
             goal_xy = (float(goal.xy[0]), float(goal.xy[1]))
-            self._out.append(
+            self.cycle.outbox.append(
                 PlanMsg(robot_id=self.robot_id, path_xy_m=path, goal_xy_m=goal_xy, sim_time_s=self.sim_s)
             )
         cmd = CmdVelMsg(
@@ -229,36 +274,21 @@ class Executor(Driving, Handover):
 
     def poll(self, wall_s: float) -> list[Outgoing]:
         """What is due regardless of the clock: a physics request, event (re)sends, the robot's state."""
-        self._wall_s = wall_s
-        task = self.task
+        self.context.wall_s = wall_s
+        cycle, task = self.cycle, self.task
         if task is not None:
             if task.request is not None and not task.request_sent:
                 task.request_sent = True
-                self._out.insert(0, task.request)  # before the step's command (physics contract)
+                cycle.outbox.insert(0, task.request)  # before the step's command (physics contract)
             event = task.events.due(wall_s)
             if event is not None:
-                self._out.append(event)
-        signature = (self.machine.state, task.message.task_id if task else None)
-        if signature != self._last_state or wall_s - self._last_state_wall_s >= self.config.state_period_s:
-            self._out.append(self.state_message(wall_s))
-            self._last_state, self._last_state_wall_s = signature, wall_s
-        self._out.extend(self.component_states.questions(wall_s))
-        out, self._out = self._out, []
-        return out
+                cycle.outbox.append(event)
+        cycle.say_state_if_due(wall_s)
+        cycle.outbox.extend(self.component_states.questions(wall_s))
+        return cycle.take_outbox()
 
     def state_message(self, wall_s: float) -> RobotStateMsg:
-        task = self.task
-        return RobotStateMsg(
-            robot_id=self.robot_id,
-            state=self.machine.state,
-            task_id=task.message.task_id if task else None,
-            guid=task.message.guid if task else None,
-            pose_xy_yaw=self.navigator.pose_xy_yaw,
-            sim_time_s=self.sim_s,
-            wall_time_s=wall_s,
-            distance_m=self.distance_m,
-            activity="" if task else self.activity,
-        )
+        return self.cycle.state_message(wall_s)
 
     # --- the task ----------------------------------------------------------------------------------------
 
@@ -266,7 +296,8 @@ class Executor(Driving, Handover):
         if self.task is None:
             self._maybe_start()
             if self.task is None:
-                self._park()
+                if self.parking is not None:
+                    self.parking.step()
                 return
         task = self.task
         latest = self.component_states.state(task.message.guid)
@@ -275,25 +306,25 @@ class Executor(Driving, Handover):
             return
         if task.abandoning:
             if not task.events:
-                self._finish(None)
+                self.cycle.finish(None)
             elif self.sim_s - task.abandon_at_s > self.config.give_back_timeout_s:
                 _log.error("%s: %s never confirmed the abandon; going idle", self.robot_id, task.message.guid)
-                self._finish(None)
+                self.cycle.finish(None)
             return
         if task.dropping is not None:
-            return self._drop(task, task.dropping)
+            return self.handover.drop(task, task.dropping)
         if task.handed_off:
             if _E.HAND_OFF not in task.events.unconfirmed:
                 _log.info("%s: handed %s off", self.robot_id, task.message.guid)
-                self._finish(_C.RELEASED)
+                self.cycle.finish(_C.RELEASED)
             return None
-        stalled_s = self.sim_s - self._state_since_s
+        stalled_s = self.sim_s - self.cycle.state_since_s
         if stalled_s > self.config.task_timeout_s and task.request is None:
             why = give_back.stalled(self.robot_id, self.machine.state, stalled_s, self.config.task_timeout_s)
             if task.placed:  # nothing to give back: the agent verifies it (its own bound)
                 _log.error("%s: no verdict on %s: %s", self.robot_id, task.message.guid, why.message)
-                return self._finish(None)
-            return self._give_back(task, why)
+                return self.cycle.finish(None)
+            return self.handover.give_back(task, why)
         step = {
             _S.DETECT_COMPONENT_POSITION: self._detect,
             _S.PICK_UP: self._pick_up,
@@ -319,59 +350,15 @@ class Executor(Driving, Handover):
             footprint = posed_footprint(component, target.position_m, target.quat_xyzw)
             if message.kind is TaskKind.HAND_OFF and message.put_down_xy_m is not None:
                 footprint = put_down_footprint(message.put_down_xy_m)
-            self.task = Task(message, component, footprint, EventQueue(self.config.resend_s))
-            self._idle_since_s = None
-            self._parking, self._park_again_s, self.activity = False, 0.0, ""
+            self.cycle.task = Task(message, component, footprint, EventQueue(self.config.resend_s))
+            if self.parking is not None:
+                self.parking.task_started()
             self.navigator.cancel()
-            self._fire(Trigger.ASSIGNED)
+            self.cycle.fire(Trigger.ASSIGNED)
             _log.info(
                 "%s: task %s (%s, attempt %d)", self.robot_id, message.task_id, message.guid, message.attempt
             )
             return
-
-    def _park(self) -> None:
-        """Idle: first out of the structure's footprint (at once), then after a while back to the start pose,
-        out of the way of the structure and the yard."""
-        if self._idle_since_s is None:
-            self._idle_since_s = self.sim_s
-        if not self._left_structure and self.navigator.goal is None:
-            self._left_structure = True
-            building = self.site_map.layout.building.grown(self.config.leave_margin_m)
-            grid = self.site_map.inflated_grid()
-            spot = exit_point(grid, building, self.navigator.pose_xy_yaw[:2])
-            if spot is not None:
-                _log.info("%s: leaving the structure to %s", self.robot_id, np.round(spot, 2).tolist())
-                self.navigator.set_goal(spot, None, self.sim_s, tolerance_m=0.4)
-                return
-        status = self.navigator.status
-        if self.navigator.goal is not None and status in (NavStatus.REACHED, NavStatus.FAILED):
-            # out of the structure, parked, or failed (its recoveries spent): idle until parking time. Not
-            # while WAITING for a path: a robot parked in an inflated cell was sent to the depot, cancelled
-            # while it waited, sent again, every period, so its recoveries never ran (14,000 log lines)
-            if status is NavStatus.FAILED and self._parking:
-                self._park_again_s = self.sim_s + self.config.park_retry_s
-                failure = self.navigator.failure
-                why = failure.message if failure is not None else "no path"
-                self.activity = (
-                    f"cannot drive to the depot (trying again at sim {self._park_again_s:.0f} s): {why}"
-                )
-                _log.warning("%s: %s", self.robot_id, self.activity)
-            elif status is NavStatus.REACHED and self._parking:
-                self.activity = ""
-            self._parking = False
-            self.navigator.cancel()
-        if (
-            self.navigator.goal is not None
-            or self.sim_s - self._idle_since_s < self.config.park_after_s
-            or self.sim_s < self._park_again_s
-        ):
-            return
-        x, y, yaw = self.home_xy_yaw
-        pose = self.navigator.pose_xy_yaw
-        if math.hypot(pose[0] - x, pose[1] - y) > 0.5:
-            _log.info("%s: idle, parking at the depot", self.robot_id)
-            self.navigator.set_goal((x, y), yaw, self.sim_s, tolerance_m=0.3)
-            self._parking = True
 
     def _withdrawn(self, task: Task) -> bool:
         """The planner took the task back (given to another robot, released): stop and go idle."""
@@ -386,10 +373,10 @@ class Executor(Driving, Handover):
         carrying = self.machine.state in (_S.IDENTIFY_TARGET_LOCATION, _S.ASSEMBLE) and not task.abandoning
         if carrying and task.dropping is None:
             task.withdrawn = True  # never walk off with a load: put it down first, then go idle
-            self._give_back(task, give_back.withdrawn(self.robot_id, self._name(task)))
+            self.handover.give_back(task, give_back.withdrawn(self.robot_id, component_name(task)))
             return True
         if task.dropping is None:
-            self._finish(None)
+            self.cycle.finish(None)
         else:
             task.withdrawn = True
         return True
@@ -403,61 +390,59 @@ class Executor(Driving, Handover):
                 task.carried_seen_s = self.sim_s
             if self.sim_s - task.carried_seen_s < self.config.carried_wait_s:
                 return None
-            return self._give_up(task, give_back.carried_by(self.robot_id, self._name(task), carrier))
+            return self.handover.give_up(
+                task, give_back.carried_by(self.robot_id, component_name(task), carrier)
+            )
         if self.sim_s < task.retry_at_s:
             return None
         footprint = self.site_map.footprints.get(guid)
         if carrier is None and footprint is None:
-            return self._give_up(task, give_back.position_unknown(self.robot_id, self._name(task)))
-        unreachable = self._target_cut_off(task)
+            return self.handover.give_up(
+                task, give_back.position_unknown(self.robot_id, component_name(task))
+            )
+        unreachable = self.getting_there.target_cut_off(task)
         if unreachable is not None:
-            return self._give_up(task, unreachable)
-        if carrier is None and footprint is not None and not self._approach(task, footprint):
+            return self.handover.give_up(task, unreachable)
+        if carrier is None and footprint is not None and not self.getting_there.approach(task, footprint):
             return None
-        self._queue_event(task, _E.PICK)
-        self._fire(Trigger.LOCATED)
+        self.context.queue_event(task, _E.PICK)
+        self.cycle.fire(Trigger.LOCATED)
         return None
 
     def _pick_up(self, task: Task) -> None:
         if self.site_map.carried.get(task.message.guid) == self.robot_id and task.request is None:
-            return self._attached(task)  # physics has it on this robot already (a reply got lost)
-        if not self._drive(task, self.site_map.footprints.get(task.message.guid)):
+            return self.handover.attached(task)  # physics has it on this robot already (a reply got lost)
+        if not self.getting_there.drive(task, self.site_map.footprints.get(task.message.guid)):
             return None
         if _E.PICK in task.events.unconfirmed or task.request is not None:
             return None
-        return self._request(task, "attach", AttachRequest(robot_id=self.robot_id, guid=task.message.guid))
-
-    def _attached(self, task: Task) -> None:
-        self._queue_event(task, _E.ATTACH)
-        self._fire(Trigger.ATTACHED)
-        task.tries, task.reselections, task.approach, task.retry_at_s = 0, 0, None, -math.inf
-        task.failed_xy_m, task.misses = [], 0
-        self.navigator.cancel()
+        attach = AttachRequest(robot_id=self.robot_id, guid=task.message.guid)
+        return self.handover.request(task, "attach", attach)
 
     def _to_target(self, task: Task) -> None:
-        if not self._drive(task, task.target):
+        if not self.getting_there.drive(task, task.target):
             return
         if task.message.kind is TaskKind.HAND_OFF:  # at the staging spot: put it down there
             if task.request is None and not task.events.unconfirmed & {_E.ATTACH}:
                 drop = DropRequest(
                     robot_id=self.robot_id, guid=task.message.guid, near_xy_m=task.message.put_down_xy_m
                 )
-                self._request(task, "drop", drop)
+                self.handover.request(task, "drop", drop)
             return
-        self._fire(Trigger.ARRIVED)
-        self._queue_event(task, _E.ARRIVE)
+        self.cycle.fire(Trigger.ARRIVED)
+        self.context.queue_event(task, _E.ARRIVE)
 
     def _assemble(self, task: Task) -> None:
         if not task.placed:
-            if not self._drive(task, task.target):
+            if not self.getting_there.drive(task, task.target):
                 return  # a refused placement sent the robot to another approach pose
             waiting = task.events.unconfirmed & {_E.ATTACH, _E.ARRIVE}
             if task.request is None and not waiting and self.navigator.ready_to_place:  # standing still
-                self._request(task, "place", self._place_request(task))
+                self.handover.request(task, "place", self.handover.place_request(task))
             return
         if task.verdict is not None and _E.PLACE not in task.events.unconfirmed:
             _log.info("%s: %s %s", self.robot_id, task.message.guid, task.verdict.value)
-            self._finish(task.verdict)
+            self.cycle.finish(task.verdict)
 
     # --- helpers -----------------------------------------------------------------------------------------
 
@@ -467,56 +452,6 @@ class Executor(Driving, Handover):
         task = self.task
         if task is not None and task.placed and guid == task.message.guid and state in VERDICTS:
             task.verdict = state  # kept: a retry may move the state on before the next tick
-
-    def _fire(self, trigger: Trigger) -> None:
-        """Change state and publish it at once: every state of the cycle shows on the bus, even those that
-        last less than a control step (detecting a position known already)."""
-        if not self.machine.fire(trigger):
-            raise RuntimeError(
-                f"{self.robot_id}: {trigger.value} is not allowed in {self.machine.state.value}"
-            )
-        task = self.task
-        self._state_since_s = self.sim_s
-        self._out.append(self.state_message(self._wall_s))
-        self._last_state = (self.machine.state, task.message.task_id if task else None)
-        self._last_state_wall_s = self._wall_s
-
-    def _queue_event(
-        self,
-        task: Task,
-        event: ComponentEvent,
-        sim_s: float | None = None,
-        reason: Reason | None = None,
-        note: str = "",
-    ) -> None:
-        task.events.push(
-            ComponentEventMsg(
-                guid=task.message.guid,
-                event=event,
-                source=self.robot_id,
-                event_id=uuid.uuid4().hex,
-                task_id=task.message.task_id,
-                robot_id=self.robot_id,
-                sim_time_s=self.sim_s if sim_s is None else sim_s,
-                wall_time_s=self._wall_s,
-                reason=reason,
-                note=note,
-            )
-        )
-
-    def _finish(self, verdict: ComponentState | None) -> None:
-        """The task is over: a verdict (constructed, misplaced, failed), ``released`` after a hand-off, or
-        None (given back or withdrawn)."""
-        task = self.task
-        if task is not None and verdict is not None:
-            self.done.append((task.message.guid, verdict))
-        self.navigator.cancel()
-        self.task = None
-        self._left_structure = False
-        if verdict is _C.RELEASED:
-            self._fire(Trigger.HANDED_OFF)
-        else:
-            self._fire(Trigger.FINISHED if verdict is not None else Trigger.ABORTED)
 
     def _ground_truth(self, message: RobotPoseMsg) -> None:
         """Physics' ground truth of this robot: its localisation error, a metric for the logs and the
@@ -529,21 +464,18 @@ class Executor(Driving, Handover):
         self.max_localisation_error_m = max(self.max_localisation_error_m, self.localisation_error_m)
 
 
-class CraneExecutor(CraneWork, Executor):
-    """The executor of a tower crane: the same task cycle, with reach checks instead of driving."""
+class CraneExecutor(Executor):
+    """The executor of a tower crane: the same task cycle, with reach checks instead of driving, a lift
+    that lasts what the crane's motion takes, and no parking (it stays where it stands)."""
 
+    def _handover(self) -> Handover:
+        return CraneHandover(self.context, self.cycle)
 
-PUT_DOWN_SIDE_M = 1.0  # the square a hand-off drives to (its centre: the staging spot)
+    def _getting_there(self) -> GettingThere:
+        return CraneReach(self.context, self.handover)
 
-
-def put_down_footprint(xy_m: tuple[float, float]) -> Footprint:
-    """The target of a hand-off task: a small square on the ground at the staging spot."""
-    half = PUT_DOWN_SIDE_M / 2.0
-    x, y = xy_m
-    polygon = np.array(
-        [[x - half, y - half], [x + half, y - half], [x + half, y + half], [x - half, y + half]]
-    )
-    return Footprint(polygon, 0.0, 0.5)
+    def _parking(self) -> Parking | None:
+        return None
 
 
 def executor_class(info: SiteInfoMsg, robot_id: str) -> type[Executor] | type[SiteWorkExecutor]:

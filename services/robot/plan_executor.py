@@ -28,6 +28,7 @@ from bimbot.shared.reasons import Reason
 from .astar import plan_path, simplify_path
 from .executor import Executor, executor_class
 from .fine_alignment import Alignment
+from .handover import Handover
 from .nav_types import DEFAULT_NAVIGATOR, Goal, NavCommand, NavigatorConfig, NavStatus
 from .protocol import Outgoing
 from .recovery import diagnose, plan_start
@@ -148,20 +149,35 @@ class PlanNavigator:
         return Alignment(np.asarray(self.pose_xy_yaw, float), True, 0, 0.0, 0.0)
 
 
+class PlanHandover(Handover):
+    """Physics requests of a robot that knows its pose: no belief to place from, none to doubt."""
+
+    def _believed_pose(self, task: Task) -> tuple[float, float, float] | None:
+        """It knows its pose: the placement's error is the type's precision alone (physics draws it)."""
+        return None
+
+    def _check_localisation(self, task: Task, kind: str, measured_m: float) -> None:
+        """No localisation to doubt: the robot stands where its motion put it."""
+
+
 class PlanExecutor(Executor):
     """:class:`.executor.Executor` with a :class:`PlanNavigator` (see the module doc)."""
 
     def __init__(self, manifest: Any, info: SiteInfoMsg, config: Any, **kwargs: Any) -> None:
         super().__init__(manifest, info, config, **kwargs)
         start = self.navigator.pose_xy_yaw
-        self.navigator = PlanNavigator(  # type: ignore[assignment]
+        description = self.description
+        self.context.navigator = PlanNavigator(  # type: ignore[assignment]
             self.site_map,
             start,
-            speed_mps=self.description.max_speed_mps,
-            turn_radps=self.description.max_turn_radps,
+            speed_mps=description.max_speed_mps,
+            turn_radps=description.max_turn_radps,
             robot_id=self.robot_id,
         )
         self._driven_m = 0.0  # metres of the motions before the current one
+
+    def _handover(self) -> Handover:
+        return PlanHandover(self.context, self.cycle)
 
     @property
     def plan_navigator(self) -> PlanNavigator:
@@ -195,13 +211,6 @@ class PlanExecutor(Executor):
     def _ground_truth(self, message: RobotPoseMsg) -> None:
         """No localisation error to measure: physics poses it by the same motion (a pose message stamped
         before a jump of the clock is no error)."""
-
-    def _believed_pose(self, task: Task) -> tuple[float, float, float] | None:
-        """It knows its pose: the placement's error is the type's precision alone (physics draws it)."""
-        return None
-
-    def _check_localisation(self, task: Task, kind: str, measured_m: float) -> None:
-        """No localisation to doubt: the robot stands where its motion put it."""
 
 
 def plan_executor_class(info: SiteInfoMsg, robot_id: str) -> type[Executor] | type[SiteWorkExecutor]:

@@ -120,13 +120,19 @@ class RobotExecutor(Protocol):
     lift, :class:`.site_work.SiteWorkExecutor` for those that work in place)."""
 
     robot_id: str
-    home_xy_yaw: tuple[float, float, float]
-    sim_s: float
+    sim_s: float  # set by the lock-step loop before a step's inputs (:mod:`.stepped`)
     step: int
-    distance_m: float
     localisation_error_m: float
     max_localisation_error_m: float
-    done: list[tuple[str, ComponentState]]
+
+    @property
+    def home_xy_yaw(self) -> tuple[float, float, float]: ...
+
+    @property
+    def distance_m(self) -> float: ...
+
+    @property
+    def done(self) -> list[tuple[str, ComponentState]]: ...
 
     def handle(self, message: object) -> None: ...
 

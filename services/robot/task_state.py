@@ -1,13 +1,16 @@
-"""What one task of the robot carries along, and the executor's bounds (data only).
+"""What one task of the robot carries along, and the executor's bounds (data, and how a task is named).
 
-Why apart from :mod:`.executor`: the executor, :mod:`.driving` and :mod:`.handover` share them. Every wait
-of a task is bounded in sim time and every retry counted here (see the executor's module doc).
+Why apart from :mod:`.executor`: the executor and its parts (:mod:`.driving`, :mod:`.handover`,
+:mod:`.crane_work`) share them. Every wait of a task is bounded in sim time and every retry counted here
+(see the executor's module doc).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+
+import numpy as np
 
 from bimbot.shared.footprint import Footprint
 from bimbot.shared.manifest import Component
@@ -70,3 +73,22 @@ class Task:
     drop_tries: int = 0
     carried_seen_s: float | None = None  # sim time it was first seen on another robot
     handed_off: bool = False  # a hand-off task: physics put the load down at the staging spot
+
+
+def component_name(task: Task) -> str:
+    """The task's component as a user knows it: ``Column R1 (2O2Fr$t4X7Zf8NOew3FLOH)``."""
+    name = task.component.name
+    return f"{name} ({task.message.guid})" if name else task.message.guid
+
+
+PUT_DOWN_SIDE_M = 1.0  # the square a hand-off drives to (its centre: the staging spot)
+
+
+def put_down_footprint(xy_m: tuple[float, float]) -> Footprint:
+    """The target of a hand-off task: a small square on the ground at the staging spot."""
+    half = PUT_DOWN_SIDE_M / 2.0
+    x, y = xy_m
+    polygon = np.array(
+        [[x - half, y - half], [x + half, y - half], [x + half, y + half], [x - half, y + half]]
+    )
+    return Footprint(polygon, 0.0, 0.5)

@@ -1,0 +1,89 @@
+"""Where an idle robot goes: out of the structure's footprint at once, then back to its start pose.
+
+Why: a robot that has finished a task must not wall itself in or stand where the next component goes, and
+an idle one parked at the depot is out of the way of the structure and the yard. A parking drive that fails
+(its recoveries spent) is tried again after ``park_retry_s``, and the robot's state says why meanwhile.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+
+from .approach import exit_point
+from .nav_types import NavStatus
+from .robot_context import RobotContext
+from .task_cycle import TaskCycle
+
+_log = logging.getLogger(__name__)
+
+
+class Parking:
+    """Where an idle robot goes: first out of the structure's footprint (at once), then after a while back
+    to its start pose, out of the way of the structure and the yard. Owns the idle bookkeeping; says what it
+    is up to through the task cycle's ``activity``."""
+
+    def __init__(self, context: RobotContext, cycle: TaskCycle) -> None:
+        self.context, self.cycle = context, cycle
+        self._idle_since_s: float | None = None
+        self._left_structure = True  # after a task: out of the building footprint (or tried)
+        self._parking = False  # the navigator's goal is the depot
+        self._park_again_s = 0.0  # not before this sim time (a parking drive failed)
+
+    def task_started(self) -> None:
+        """A task took the robot on: once idle again it leaves the structure first, then parks."""
+        self._idle_since_s = None
+        self._parking, self._park_again_s, self.cycle.activity = False, 0.0, ""
+        self._left_structure = False
+
+    def step(self) -> None:
+        """One control step of an idle robot."""
+        context, cycle = self.context, self.cycle
+        navigator, config, robot_id, sim_s = (
+            context.navigator,
+            context.config,
+            context.robot_id,
+            context.sim_s,
+        )
+        if self._idle_since_s is None:
+            self._idle_since_s = sim_s
+        if not self._left_structure and navigator.goal is None:
+            self._left_structure = True
+            building = context.site_map.layout.building.grown(config.leave_margin_m)
+            grid = context.site_map.inflated_grid()
+            spot = exit_point(grid, building, navigator.pose_xy_yaw[:2])
+            if spot is not None:
+                _log.info("%s: leaving the structure to %s", robot_id, np.round(spot, 2).tolist())
+                navigator.set_goal(spot, None, sim_s, tolerance_m=0.4)
+                return
+        status = navigator.status
+        if navigator.goal is not None and status in (NavStatus.REACHED, NavStatus.FAILED):
+            # out of the structure, parked, or failed (its recoveries spent): idle until parking time. Not
+            # while WAITING for a path: a robot parked in an inflated cell was sent to the depot, cancelled
+            # while it waited, sent again, every period, so its recoveries never ran (14,000 log lines)
+            if status is NavStatus.FAILED and self._parking:
+                self._park_again_s = sim_s + config.park_retry_s
+                failure = navigator.failure
+                why = failure.message if failure is not None else "no path"
+                cycle.activity = (
+                    f"cannot drive to the depot (trying again at sim {self._park_again_s:.0f} s): {why}"
+                )
+                _log.warning("%s: %s", robot_id, cycle.activity)
+            elif status is NavStatus.REACHED and self._parking:
+                cycle.activity = ""
+            self._parking = False
+            navigator.cancel()
+        if (
+            navigator.goal is not None
+            or sim_s - self._idle_since_s < config.park_after_s
+            or sim_s < self._park_again_s
+        ):
+            return
+        x, y, yaw = context.home_xy_yaw
+        pose = navigator.pose_xy_yaw
+        if math.hypot(pose[0] - x, pose[1] - y) > 0.5:
+            _log.info("%s: idle, parking at the depot", robot_id)
+            navigator.set_goal((x, y), yaw, sim_s, tolerance_m=0.3)
+            self._parking = True

@@ -1,0 +1,125 @@
+"""What the parts of one robot's executor share: the robot, its bounds, its map and navigator, and the time.
+
+Why one object: the executor (:mod:`.executor`), its physics requests and give-backs (:mod:`.handover`),
+its drives (:mod:`.driving`), a crane's reach checks (:mod:`.crane_work`) and the task cycle
+(:mod:`.task_cycle`) read the same facts and the clock the executor advances. Each receives this object
+instead of declaring the executor's attributes. Only the executor sets the time (``sim_s``, ``wall_s``)
+and the distance driven; a plan-fidelity robot swaps the navigator once, when it is built.
+"""
+
+from __future__ import annotations
+
+import uuid
+from dataclasses import dataclass, replace
+from typing import Protocol
+
+import numpy as np
+
+from bimbot.shared.footprint import Footprint
+from bimbot.shared.manifest import Manifest
+from bimbot.shared.messages import ComponentEvent, ComponentEventMsg, SiteInfoMsg
+from bimbot.shared.reasons import Reason
+from bimbot.shared.robot_description import RobotDescription
+from bimbot.shared.seeds import robot_stream
+
+from .approach import ApproachConfig
+from .nav_types import controller_limits
+from .navigator import Navigator, NavigatorConfig
+from .site_map import MapConfig, SiteMap
+from .task_state import ExecutorConfig, Task
+
+
+@dataclass
+class RobotContext:
+    """One robot as its executor's parts see it (see the module doc)."""
+
+    config: ExecutorConfig
+    description: RobotDescription
+    site_map: SiteMap
+    navigator: Navigator
+    home_xy_yaw: tuple[float, float, float]  # its start pose: where it parks, where a crane stands
+    approach_config: ApproachConfig
+    sim_s: float = 0.0  # the sim time of the step being worked on
+    wall_s: float = 0.0  # the wall time of the last tick or poll (event stamps, resends)
+    distance_m: float = 0.0  # driven so far (its state message says it)
+
+    @property
+    def robot_id(self) -> str:
+        return self.config.robot_id
+
+    def queue_event(
+        self,
+        task: Task,
+        event: ComponentEvent,
+        sim_s: float | None = None,
+        reason: Reason | None = None,
+        note: str = "",
+    ) -> None:
+        """Queue ``event`` for the task's component, stamped now (``sim_s`` when the event happened earlier
+        or later than this step, e.g. physics fixed a placement): sent in order, at least once."""
+        task.events.push(
+            ComponentEventMsg(
+                guid=task.message.guid,
+                event=event,
+                source=self.robot_id,
+                event_id=uuid.uuid4().hex,
+                task_id=task.message.task_id,
+                robot_id=self.robot_id,
+                sim_time_s=self.sim_s if sim_s is None else sim_s,
+                wall_time_s=self.wall_s,
+                reason=reason,
+                note=note,
+            )
+        )
+
+
+def robot_context(
+    manifest: Manifest,
+    info: SiteInfoMsg,
+    config: ExecutorConfig,
+    *,
+    map_config: MapConfig,
+    nav_config: NavigatorConfig | None,
+    approach_config: ApproachConfig | None,
+    start_xy_yaw: tuple[float, float, float] | None,
+) -> RobotContext:
+    """The context of robot ``config.robot_id`` on the site ``info`` describes: its type, its map (inflated
+    by its radius), a navigator limited to its type and to physics' command latency (localised from
+    ``start_xy_yaw``, else its start pose, with the robot's own seeded random stream) and its reach."""
+    robot_id = config.robot_id
+    description = info.robot_types[info.robot_type_of[robot_id]]
+    map_config = replace(map_config, robot_radius_m=description.radius_m)
+    site_map = SiteMap(info.layout, manifest.components, map_config)
+    home_xy_yaw = info.robot_starts_xy_yaw[info.robot_ids.index(robot_id)]
+    nav_config = nav_config or NavigatorConfig()
+    nav_config = replace(
+        nav_config,
+        dwa=controller_limits(nav_config.dwa, description, info),
+        command_latency_s=info.command_latency_steps * info.control_period_s,
+    )
+    rng = np.random.default_rng(robot_stream(config.seed, robot_id))
+    start = home_xy_yaw if start_xy_yaw is None else start_xy_yaw
+    navigator = Navigator(site_map, start, nav_config, rng, robot_id=robot_id)
+    approach_config = approach_config or ApproachConfig(
+        reach_m=description.reach_m,
+        body_clearance_m=map_config.inflation_m,
+    )
+    return RobotContext(config, description, site_map, navigator, home_xy_yaw, approach_config)
+
+
+class GettingThere(Protocol):
+    """How a robot gets to where it works on a component: a ground robot drives to a stand-point beside it
+    (:class:`.driving.Driving`), a crane checks that its hook reaches (:class:`.crane_work.CraneReach`).
+    A task that cannot get there is given back through :class:`.handover.Handover` with the reason."""
+
+    def target_cut_off(self, task: Task) -> Reason | None:
+        """Why the task's target cannot be got to, checked before the pick-up; None when it can."""
+        ...
+
+    def approach(self, task: Task, footprint: Footprint) -> bool:
+        """Set off for ``footprint`` (choose where to stand); False when not now (waits, or gave it back)."""
+        ...
+
+    def drive(self, task: Task, footprint: Footprint | None) -> bool:
+        """One step of getting to ``footprint``; True once there."""
+        ...

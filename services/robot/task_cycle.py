@@ -1,0 +1,97 @@
+"""The robot's task in hand and its state machine, each state change said on the bus at once.
+
+Why one object: the executor's steps (:mod:`.executor`) and its physics replies and give-backs
+(:mod:`.handover`) move the same task through the paper's states (:mod:`.task_machine`). Every change must
+reach the bus in order, even a state that lasts less than a control step, and the periodic state must say
+the same. It owns the machine, the task in hand, the finished tasks, the messages due out, and when the
+state last changed (the executor's task watchdog).
+"""
+
+from __future__ import annotations
+
+import math
+
+from bimbot.shared.messages import ComponentState, RobotState, RobotStateMsg
+
+from .protocol import Outgoing
+from .robot_context import RobotContext
+from .task_machine import TaskMachine, Trigger
+from .task_state import Task
+
+_C = ComponentState
+
+
+class TaskCycle:
+    """The task in hand, its state, and the messages due out (see the module doc)."""
+
+    def __init__(self, context: RobotContext) -> None:
+        self.context = context
+        self.machine = TaskMachine()
+        self.task: Task | None = None
+        self.done: list[tuple[str, ComponentState]] = []  # (GUID, verdict) of finished tasks
+        self.outbox: list[Outgoing] = []
+        self.activity = ""  # what an idle robot is up to, in words, when it matters (its state message)
+        self.state_since_s = 0.0  # sim time of the last task state change (the task watchdog)
+        self._last_state: tuple[RobotState, str | None] | None = None
+        self._last_state_wall_s = -math.inf
+
+    @property
+    def state(self) -> RobotState:
+        return self.machine.state
+
+    def state_message(self, wall_s: float) -> RobotStateMsg:
+        task, context = self.task, self.context
+        return RobotStateMsg(
+            robot_id=context.robot_id,
+            state=self.machine.state,
+            task_id=task.message.task_id if task else None,
+            guid=task.message.guid if task else None,
+            pose_xy_yaw=context.navigator.pose_xy_yaw,
+            sim_time_s=context.sim_s,
+            wall_time_s=wall_s,
+            distance_m=context.distance_m,
+            activity="" if task else self.activity,
+        )
+
+    def fire(self, trigger: Trigger) -> None:
+        """Change state and publish it at once: every state of the cycle shows on the bus, even those that
+        last less than a control step (detecting a position known already)."""
+        if not self.machine.fire(trigger):
+            raise RuntimeError(
+                f"{self.context.robot_id}: {trigger.value} is not allowed in {self.machine.state.value}"
+            )
+        task, wall_s = self.task, self.context.wall_s
+        self.state_since_s = self.context.sim_s
+        self.outbox.append(self.state_message(wall_s))
+        self._last_state = (self.machine.state, task.message.task_id if task else None)
+        self._last_state_wall_s = wall_s
+
+    def finish(self, verdict: ComponentState | None) -> None:
+        """The task is over: a verdict (constructed, misplaced, failed), ``released`` after a hand-off, or
+        None (given back or withdrawn)."""
+        task = self.task
+        if task is not None and verdict is not None:
+            self.done.append((task.message.guid, verdict))
+        self.context.navigator.cancel()
+        self.task = None
+        if verdict is _C.RELEASED:
+            self.fire(Trigger.HANDED_OFF)
+        else:
+            self.fire(Trigger.FINISHED if verdict is not None else Trigger.ABORTED)
+
+    def say_state_soon(self) -> None:
+        """Send the state at the next poll, not at the next period."""
+        self._last_state_wall_s = -math.inf
+
+    def say_state_if_due(self, wall_s: float) -> None:
+        """The state when it changed since last said, or every ``state_period_s`` of wall time."""
+        task = self.task
+        signature = (self.machine.state, task.message.task_id if task else None)
+        period_s = self.context.config.state_period_s
+        if signature != self._last_state or wall_s - self._last_state_wall_s >= period_s:
+            self.outbox.append(self.state_message(wall_s))
+            self._last_state, self._last_state_wall_s = signature, wall_s
+
+    def take_outbox(self) -> list[Outgoing]:
+        out, self.outbox = self.outbox, []
+        return out
