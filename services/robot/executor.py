@@ -22,22 +22,16 @@ A task (states from :mod:`.task_machine`, events through :class:`~.protocol.Even
    planner and may come back: it is then picked up from where it lies.
 
 Every wait is bounded in sim time and every retry counted (:class:`ExecutorConfig`), and a task the robot
-cannot finish is **given back** with ``abandon`` carrying a :class:`~bimbot.shared.reasons.Reason` (the
-planner counts give-backs per component and fails it after its bound with the last reason):
+cannot finish is **given back** with ``abandon`` carrying a :class:`~bimbot.shared.reasons.Reason`
+(:mod:`.give_back` lists them; the planner fails a component after its bound of give-backs): no stand-point
+or none it can get to (:mod:`.driving`; a crane's reach, :mod:`.crane_work`), navigation failed, physics
+refused, or the **task watchdog** (no state change for ``task_timeout_s``). A robot that carries the
+component puts it down first (:mod:`.handover`). An idle robot leaves the structure and parks
+(:mod:`.parking`). Wall time drives resends and the ~1 Hz state; sim time drives everything else.
 
-* ``no_approach_pose`` / ``unreachable`` — no stand-point beside the component or its target, or none the
-  robot can get to (:func:`.approach.no_approach_reason`, a flood fill of the planning grid). The target is
-  checked before the pick-up on the static map, so a component is not carried to a target cut off already;
-* ``robot_trapped`` / ``unreachable`` / ``no_progress`` — navigation failed ``max_tries`` times, each after
-  the navigator's recovery chain and a re-chosen approach pose on any side (:mod:`.recovery`);
-* ``physics_refused`` — physics refused the attach or the placement ``max_tries`` times (its reason quoted);
-* ``no_progress`` — the **task watchdog**: the robot's task state did not change for ``task_timeout_s``.
-
-A robot that carries the component puts it down first (a physics ``drop`` request: it rests beside the
-robot and any robot may pick it up again), then gives the task back. After a task the robot leaves the
-structure's footprint at once (it must not wall itself in or stand where the next component goes); an
-idle robot parks at its start pose after ``park_after_s``. Wall time drives resends and the ~1 Hz state;
-sim time drives everything else.
+The parts share the robot through one :class:`~.robot_context.RobotContext` and the task through one
+:class:`~.task_cycle.TaskCycle`; a robot type's executor chooses its parts (:class:`CraneExecutor`,
+:class:`~.plan_executor.PlanExecutor`).
 """
 
 from __future__ import annotations
@@ -74,7 +68,7 @@ from bimbot.shared.messages import (
     TwinMsg,
 )
 from bimbot.shared.reasons import Reason
-from bimbot.shared.robot_description import Capability, RobotDescription
+from bimbot.shared.robot_description import Capability
 
 from . import give_back
 from .approach import ApproachConfig
@@ -86,7 +80,7 @@ from .navigator import Navigator, NavigatorConfig
 from .parking import Parking
 from .protocol import VERDICTS, EventQueue, Outgoing, PhysicsResult
 from .robot_context import GettingThere, robot_context
-from .site_map import MapConfig, SiteMap
+from .site_map import MapConfig
 from .site_work import SiteWorkExecutor
 from .task_cycle import TaskCycle
 from .task_machine import TaskMachine, Trigger
@@ -101,10 +95,10 @@ DEFAULT_MAP = MapConfig()
 class Executor:
     """The robot's task execution and navigation, fed messages, answering one command per clock step.
 
-    Owns what it hears (the tasks, the component states, odometry, ground truth) and the task steps; the
-    parts it builds share the robot through one :class:`.robot_context.RobotContext`: the task cycle
-    (:class:`.task_cycle.TaskCycle`), physics requests and give-backs (:class:`.handover.Handover`), getting
-    to the work (:class:`.driving.Driving`, a crane's :class:`.crane_work.CraneReach`) and parking."""
+    Owns what it hears (the tasks, the component states, odometry, ground truth) and the task's steps; its
+    parts (built by the three methods a robot type's executor overrides) own the rest: the task cycle, the
+    physics requests and give-backs (:class:`.handover.Handover`), getting to the work
+    (:class:`.driving.Driving`) and parking (:class:`.parking.Parking`)."""
 
     def __init__(
         self,
@@ -133,6 +127,9 @@ class Executor:
             approach_config=approach_config,
             start_xy_yaw=start_xy_yaw,
         )
+        # fixed for the robot's life: read here, owned by the context
+        self.site_map, self.description = self.context.site_map, self.context.description
+        self.home_xy_yaw = self.context.home_xy_yaw
         self.cycle = TaskCycle(self.context)
         self.handover = self._handover()
         self.getting_there = self._getting_there()
@@ -165,18 +162,6 @@ class Executor:
     @property
     def navigator(self) -> Navigator:
         return self.context.navigator
-
-    @property
-    def site_map(self) -> SiteMap:
-        return self.context.site_map
-
-    @property
-    def description(self) -> RobotDescription:
-        return self.context.description
-
-    @property
-    def home_xy_yaw(self) -> tuple[float, float, float]:
-        return self.context.home_xy_yaw
 
     @property
     def sim_s(self) -> float:
@@ -302,22 +287,8 @@ class Executor:
         task = self.task
         latest = self.component_states.state(task.message.guid)
         task.events.confirm(latest, verdict_seen=task.verdict is not None)
-        if self._withdrawn(task):
+        if self.handover.ending(task, self.tasks.get(task.message.task_id)):
             return
-        if task.abandoning:
-            if not task.events:
-                self.cycle.finish(None)
-            elif self.sim_s - task.abandon_at_s > self.config.give_back_timeout_s:
-                _log.error("%s: %s never confirmed the abandon; going idle", self.robot_id, task.message.guid)
-                self.cycle.finish(None)
-            return
-        if task.dropping is not None:
-            return self.handover.drop(task, task.dropping)
-        if task.handed_off:
-            if _E.HAND_OFF not in task.events.unconfirmed:
-                _log.info("%s: handed %s off", self.robot_id, task.message.guid)
-                self.cycle.finish(_C.RELEASED)
-            return None
         stalled_s = self.sim_s - self.cycle.state_since_s
         if stalled_s > self.config.task_timeout_s and task.request is None:
             why = give_back.stalled(self.robot_id, self.machine.state, stalled_s, self.config.task_timeout_s)
@@ -359,27 +330,6 @@ class Executor:
                 "%s: task %s (%s, attempt %d)", self.robot_id, message.task_id, message.guid, message.attempt
             )
             return
-
-    def _withdrawn(self, task: Task) -> bool:
-        """The planner took the task back (given to another robot, released): stop and go idle."""
-        latest = self.tasks.get(task.message.task_id)
-        if latest is None or task.placed or latest.status is TaskStatus.DONE:
-            return False
-        if latest.status is TaskStatus.ASSIGNED and latest.robot_id == self.robot_id:
-            return False
-        if task.withdrawn:
-            return False  # putting the load down (below)
-        _log.warning("%s: task %s withdrawn (%s)", self.robot_id, task.message.task_id, latest.status.value)
-        carrying = self.machine.state in (_S.IDENTIFY_TARGET_LOCATION, _S.ASSEMBLE) and not task.abandoning
-        if carrying and task.dropping is None:
-            task.withdrawn = True  # never walk off with a load: put it down first, then go idle
-            self.handover.give_back(task, give_back.withdrawn(self.robot_id, component_name(task)))
-            return True
-        if task.dropping is None:
-            self.cycle.finish(None)
-        else:
-            task.withdrawn = True
-        return True
 
     def _detect(self, task: Task) -> None:
         guid = task.message.guid

@@ -1,6 +1,7 @@
-"""Physics requests and giving a task back: attach, place, drop, abandon with a reason.
+"""Physics requests and ending a task early: attach, place, drop, abandon with a reason, withdrawals.
 
-Why apart from :mod:`.executor`: the part of a task that talks to physics and ends it early. Requests go
+Why apart from :mod:`.executor`: the part of a task that talks to physics and ends it early
+(:meth:`Handover.ending`: withdrawn by the planner, given back, handed off). Requests go
 out without blocking (:class:`~.protocol.PhysicsRequest`; replies come back to
 :meth:`Handover.take_result`). A refusal sends the robot to another approach pose; ``max_tries`` refusals
 give the task back (``physics_refused``, physics' reason quoted). Giving back
@@ -19,11 +20,14 @@ import numpy as np
 from bimbot.shared.messages import (
     AttachRequest,
     ComponentEvent,
+    ComponentState,
     DropRequest,
     PlaceRequest,
     PoseMsg,
     RobotState,
     TaskKind,
+    TaskMsg,
+    TaskStatus,
 )
 from bimbot.shared.reasons import Reason
 from bimbot.shared.robot_description import Capability
@@ -36,7 +40,7 @@ from .task_machine import Trigger
 from .task_state import Task, component_name
 
 _log = logging.getLogger(__name__)
-_S, _E = RobotState, ComponentEvent
+_S, _E, _C = RobotState, ComponentEvent, ComponentState
 #: What a user can do when a robot cannot tell where it is from what its laser sees.
 TOTAL_STATION_HINT = (
     "a total station gives every ground robot position fixes: the rehearsal profile has one (3 mm); "
@@ -57,6 +61,53 @@ class Handover:
         self.context, self.cycle = context, cycle
         self.given_back: list[tuple[str, Reason]] = []  # (GUID, reason) of every task given back
         self._next_request = 1
+
+    def ending(self, task: Task, latest: TaskMsg | None) -> bool:
+        """Work on a task that is ending early or handed off: withdrawn by the planner (``latest``, its last
+        task message), given back (until the agent confirms ``abandon``), its load being put down, or put
+        down at the staging spot. True while it is: the task takes no other step."""
+        context, cycle = self.context, self.cycle
+        if self._withdrawn(task, latest):
+            return True
+        if task.abandoning:
+            if not task.events:
+                cycle.finish(None)
+            elif context.sim_s - task.abandon_at_s > context.config.give_back_timeout_s:
+                _log.error(
+                    "%s: %s never confirmed the abandon; going idle", context.robot_id, task.message.guid
+                )
+                cycle.finish(None)
+            return True
+        if task.dropping is not None:
+            self.drop(task, task.dropping)
+            return True
+        if task.handed_off:
+            if _E.HAND_OFF not in task.events.unconfirmed:
+                _log.info("%s: handed %s off", context.robot_id, task.message.guid)
+                cycle.finish(_C.RELEASED)
+            return True
+        return False
+
+    def _withdrawn(self, task: Task, latest: TaskMsg | None) -> bool:
+        """The planner took the task back (given to another robot, released): stop and go idle."""
+        robot_id = self.context.robot_id
+        if latest is None or task.placed or latest.status is TaskStatus.DONE:
+            return False
+        if latest.status is TaskStatus.ASSIGNED and latest.robot_id == robot_id:
+            return False
+        if task.withdrawn:
+            return False  # putting the load down (below)
+        _log.warning("%s: task %s withdrawn (%s)", robot_id, task.message.task_id, latest.status.value)
+        carrying = self.cycle.state in (_S.IDENTIFY_TARGET_LOCATION, _S.ASSEMBLE) and not task.abandoning
+        if carrying and task.dropping is None:
+            task.withdrawn = True  # never walk off with a load: put it down first, then go idle
+            self.give_back(task, give_back.withdrawn(robot_id, component_name(task)))
+            return True
+        if task.dropping is None:
+            self.cycle.finish(None)
+        else:
+            task.withdrawn = True
+        return True
 
     def place_request(self, task: Task) -> PlaceRequest:
         """Where physics is to place the task's component (offset on a first attempt when errors are
