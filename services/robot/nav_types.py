@@ -1,4 +1,4 @@
-"""The navigator's configuration, status, command and goal (data only).
+"""The navigator's configuration, status, command, goal and course (data, and how a goal is set).
 
 Why apart from :mod:`.navigator`: plain data the navigator, its recovery chain (:mod:`.recovery`) and the
 executor share, so the navigator module keeps to its behaviour. Units: metres, radians, sim seconds.
@@ -127,3 +127,27 @@ class Goal:
     arrived: bool = False  # within tolerance once: only turning onto the yaw now (unless pushed far off)
     aside_until_s: float = math.inf  # a step-aside goal: when to go back to the real goal at the latest
     trail: deque = field(default_factory=deque)  # (sim_s, x, y), one sample per 0.5 s
+
+
+def new_goal(
+    config: NavigatorConfig,
+    xy: NDArray[np.float64],
+    yaw: float | None,
+    tolerance_m: float,
+    sim_s: float,
+    **more: float,
+) -> Goal:
+    """A goal set at ``sim_s``, watched for progress (``more``: e.g. ``aside_until_s`` of a step aside)."""
+    watchdog = ProgressWatchdog(config.progress_window_s, config.progress_min_m, sim_s)
+    return Goal(xy, yaw, tolerance_m, sim_s, watchdog=watchdog, **more)  # type: ignore[arg-type]
+
+
+@dataclass
+class Course:
+    """Where the navigator is going: its goal and the goal's status, and the real goal while it steps aside
+    for another robot. Shared by the navigator and its traffic rules (:mod:`.traffic`), which set a step
+    aside and come back from it."""
+
+    goal: Goal | None = None
+    status: NavStatus = NavStatus.IDLE
+    resume: Goal | None = None  # the real goal while stepping aside

@@ -39,11 +39,9 @@ from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial import cKDTree
 
 from bimbot.shared.geometry import wrap_angle
 from bimbot.shared.messages import OdomMsg, PositionFixMsg, ScanMsg
-from bimbot.shared.occupancy_grid import scan_endpoints_xy_m
 from bimbot.shared.reasons import Reason
 
 from .astar import plan_path, simplify_path
@@ -51,10 +49,11 @@ from .dwa import RobotState, dwa_step
 from .fine_alignment import Alignment, align
 from .localisation import Localiser
 from .motion import Path, carrot, straight_line_clear, turn_command, unicycle
-from .nav_types import DEFAULT_NAVIGATOR, Goal, NavCommand, NavigatorConfig, NavStatus
+from .nav_types import DEFAULT_NAVIGATOR, Course, Goal, NavCommand, NavigatorConfig, NavStatus, new_goal
 from .particle_filter import PositionFix
-from .recovery import ProgressWatchdog, Recovery, diagnose, next_recovery, plan_start
+from .recovery import Recovery, diagnose, next_recovery, plan_start
 from .site_map import SiteMap
+from .surroundings import Surroundings
 from .traffic import Traffic
 
 _log = logging.getLogger(__name__)
@@ -78,8 +77,12 @@ REST_MPS = 0.002  # odometry speed below which the robot stands still (noise: ~2
 REST_RADPS = 0.005
 
 
-class Navigator(Traffic):
-    """Localisation + global plan + local planner for one robot (see the module doc)."""
+class Navigator:
+    """Localisation + global plan + local planner for one robot (see the module doc).
+
+    Owns its localiser, its course (:class:`.nav_types.Course`: goal, status, a goal set aside), what its
+    last scan shows (:class:`.surroundings.Surroundings`) and its traffic rules (:class:`.traffic.Traffic`,
+    which share the course and the surroundings)."""
 
     def __init__(
         self,
@@ -91,34 +94,36 @@ class Navigator(Traffic):
     ) -> None:
         self.site_map, self.config, self.robot_id = site_map, config, robot_id
         self.localiser = Localiser(site_map, start_xy_yaw, config.localiser, rng)
-        self.goal: Goal | None = None
-        self._status = NavStatus.IDLE
+        self.course = Course()
+        self.surroundings = Surroundings(site_map, config, start_xy_yaw)
+        self.traffic = Traffic(config, robot_id, site_map, self.course, self.surroundings)
         self.v_mps = self.w_radps = 0.0
         self._acting = (0.0, 0.0)  # the command acting until the one being computed does (latency)
         self.still_steps = 0  # consecutive commands to stand still
         self.odom_speed = (0.0, 0.0)  # the last odometry's (v, w)
-        self.local_points = np.empty((0, 2))
-        self.scan_hits_robot_m = np.empty((0, 2))  # the last scan's hits, robot frame (fine alignment)
-        self._scan: tuple[NDArray[np.float64], NDArray[np.float64], float] | None = None  # not seen yet
-        self._scan_pose = np.asarray(start_xy_yaw, float)[:3].copy()
-        self.marks = np.empty((0, 2))
-        self.nearest_mark_m = math.inf
         self.replans = 0
         self.failure: Reason | None = None  # why the last goal FAILED
         self.recoveries: list[tuple[float, Recovery]] = []  # (sim s, recovery) run, for logs and tests
-        self._mark_tree: cKDTree | None = None
-        self._resume: Goal | None = None  # the real goal while stepping aside for another robot
-        self._others: dict[str, tuple[NDArray[np.float64], float]] = {}  # robot id → (xy, sim s)
 
     @property
     def status(self) -> NavStatus:
         """The status of the caller's goal (stepping aside for another robot counts as driving)."""
-        return NavStatus.ACTIVE if self._resume is not None else self._status
+        course = self.course
+        return NavStatus.ACTIVE if course.resume is not None else course.status
+
+    @property
+    def goal(self) -> Goal | None:
+        """The goal it drives to now (a spot beside the way while stepping aside)."""
+        return self.course.goal
+
+    @property
+    def marks(self) -> NDArray[np.float64]:
+        """The last scan's laser marks (:mod:`.surroundings`), once a goal or :meth:`see` needed them."""
+        return self.surroundings.marks
 
     def observe_robot(self, robot_id: str, xy_m: ArrayLike, sim_s: float) -> None:
         """Another robot's pose estimate (its published state): who is who when robots block each other."""
-        if robot_id != self.robot_id:
-            self._others[robot_id] = (np.asarray(xy_m, float)[:2], sim_s)
+        self.traffic.observe_robot(robot_id, xy_m, sim_s)
 
     @property
     def pose_xy_yaw(self) -> tuple[float, float, float]:
@@ -153,46 +158,19 @@ class Navigator(Traffic):
         beams = np.arange(len(ranges), dtype=np.float64)
         angles = message.angle_min_rad + message.angle_increment_rad * beams
         self.localiser.observe_scan(ranges, angles, message.range_max_m, defer=defer_localisation)
-        self._scan_pose = self.localiser.pose.copy()
-        hit = np.isfinite(ranges) & (ranges < message.range_max_m) & (ranges > 0)
-        self.scan_hits_robot_m = np.column_stack(
-            [ranges[hit] * np.cos(angles[hit]), ranges[hit] * np.sin(angles[hit])]
-        )
-        self._scan = (ranges, angles, message.range_max_m)  # its marks when a goal needs them (_see)
+        self.surroundings.take_scan(ranges, angles, message.range_max_m, self.localiser.pose)
 
     def see(self) -> None:
         """Take the latest scan's marks now, goal or not: the executor looks for a stand-point (no goal yet)
         with what the robot sees, not with the marks of the last step it drove."""
-        self._see()
-
-    def _see(self) -> None:
-        """The last scan's local obstacles and marks, at the estimate it was taken from; computed once per
-        scan and only while the robot has somewhere to go (an idle robot waits for tasks without them)."""
-        if self._scan is None:
-            return
-        ranges, angles, range_max_m = self._scan
-        self._scan = None
-        hits = scan_endpoints_xy_m(self._scan_pose, ranges, angles, range_max_m)
-        pose = self._scan_pose
-        r = self.config.local_obstacle_radius_m
-        local = hits[(np.abs(hits[:, 0] - pose[0]) < r) & (np.abs(hits[:, 1] - pose[1]) < r)]
-        self.marks = self.site_map.unexplained(hits, self.config.mark_beyond_m)
-        self._mark_tree = cKDTree(self.marks) if len(self.marks) else None
-        # Marks may move (other robots): the DWA sees them ``dynamic_margin_m`` nearer than they are, so two
-        # robots closing on each other, each planning as if the other stood still, keep their distance.
-        moving = self.site_map.unexplained_mask(local, self.config.mark_beyond_m)
-        towards = pose[:2] - local[moving]
-        distance = np.maximum(np.hypot(*towards.T), 1e-9)
-        shift = np.minimum(self.config.dynamic_margin_m, np.maximum(distance - 0.05, 0.0))
-        local[moving] += towards * (shift / distance)[:, None]
-        self.local_points = local
-        self.nearest_mark_m = float(distance.min()) if len(distance) else math.inf
+        self.surroundings.see()
 
     def align(self) -> Alignment:
         """Fine-align the pose estimate to the last scan (:mod:`.fine_alignment`; standing still, before a
         placement); a trusted alignment becomes the estimate."""
         self.localiser.update()  # a deferred scan first: the alignment starts from the filter's best
-        result = align(self.localiser.pose, self.scan_hits_robot_m, self.site_map.laser_segments())
+        hits = self.surroundings.scan_hits_robot_m
+        result = align(self.localiser.pose, hits, self.site_map.laser_segments())
         still = self.localiser.still_fix_pose()  # the positioning sensor's fixes standing here, if any
         fixed = still is not None and still[1] >= MIN_STILL_FIXES
         if result.trusted and fixed and still is not None:
@@ -246,18 +224,14 @@ class Navigator(Traffic):
         self, xy_m: ArrayLike, yaw_rad: float | None, sim_s: float, tolerance_m: float | None = None
     ) -> None:
         tolerance = tolerance_m if tolerance_m is not None else self.config.goal_tolerance_m
-        self.goal = self._new_goal(np.asarray(xy_m, float), yaw_rad, tolerance, sim_s)
-        self._status, self._resume, self.failure = NavStatus.ACTIVE, None, None
-
-    def _new_goal(
-        self, xy: NDArray[np.float64], yaw: float | None, tolerance_m: float, sim_s: float, **more: float
-    ) -> Goal:
-        watchdog = ProgressWatchdog(self.config.progress_window_s, self.config.progress_min_m, sim_s)
-        return Goal(xy, yaw, tolerance_m, sim_s, watchdog=watchdog, **more)  # type: ignore[arg-type]
+        course = self.course
+        course.goal = new_goal(self.config, np.asarray(xy_m, float), yaw_rad, tolerance, sim_s)
+        course.status, course.resume, self.failure = NavStatus.ACTIVE, None, None
 
     def waiting_s(self, sim_s: float) -> float:
         """How long the robot has been without a path to its goal (0 when it has one)."""
-        since = self.goal.no_path_since_s if self.goal is not None and self._resume is None else None
+        goal = self.course.goal
+        since = goal.no_path_since_s if goal is not None and self.course.resume is None else None
         return 0.0 if since is None else sim_s - since
 
     @property
@@ -266,18 +240,20 @@ class Navigator(Traffic):
         return self.goal is not None and self.goal.blocked
 
     def cancel(self) -> None:
-        self.goal, self._status, self._resume = None, NavStatus.IDLE, None
+        course = self.course
+        course.goal, course.status, course.resume = None, NavStatus.IDLE, None
 
     # --- the control step ----------------------------------------------------------------------------
 
     def step(self, sim_s: float) -> NavCommand:
         self._acting = (self.v_mps, self.w_radps)  # the last command: it acts until this one does
-        if self.goal is not None:
-            self._see()
-        if self._resume is not None and self._stepped_aside(sim_s):
+        course = self.course
+        if course.goal is not None:
+            self.surroundings.see()
+        if course.resume is not None and self.traffic.stepped_aside(sim_s):
             return self._command(0.0, 0.0)
-        goal = self.goal
-        if goal is None or self._status in (NavStatus.REACHED, NavStatus.FAILED, NavStatus.IDLE):
+        goal = course.goal
+        if goal is None or course.status in (NavStatus.REACHED, NavStatus.FAILED, NavStatus.IDLE):
             return self._command(0.0, 0.0)
         pose = self._acting_pose()
         watchdog = goal.watchdog
@@ -307,16 +283,19 @@ class Navigator(Traffic):
                     return self._fail(f"found no path in {waited_s:.0f} s")
                 if waited_s > (len(goal.tried) + 1) * self.config.no_path_recover_s:
                     return self._recover(goal, pose, sim_s, f"found no path in {waited_s:.0f} s")
-                self._status = NavStatus.WAITING
+                course.status = NavStatus.WAITING
                 return self._command(0.0, 0.0)
             _, ahead = self._ahead(goal, pose)
         if goal.path is None or goal.grid is None:
-            self._status = NavStatus.WAITING
+            course.status = NavStatus.WAITING
             return self._command(0.0, 0.0)
-        self._status = NavStatus.ACTIVE
+        course.status = NavStatus.ACTIVE
         if self._stuck(goal, pose, sim_s):
+            way = self.traffic.give_way(goal, pose, sim_s, self.v_mps)
+            if way is not None:
+                return self._command(*way)
             window = self.config.stuck_window_s
-            return self._traffic(goal, pose, sim_s) or self._recover(
+            return self._recover(
                 goal, pose, sim_s, f"moved less than {self.config.stuck_move_m:.2f} m in {window:.0f} s"
             )
         path_left_m = float(goal.path.arc_m[-1] - goal.path.project(pose[:2])[0])
@@ -331,7 +310,7 @@ class Navigator(Traffic):
         sight = self.site_map.inflated_grid(self.config.sight_inflation_m)
         target, local_path = carrot(ahead, pose[:2], self.config.lookahead_m, sight)
         dwa_config = self.config.dwa
-        obstacles = self._obstacles(pose)
+        obstacles = self.surroundings.obstacles(pose)
         cap = max(0.15, math.sqrt(1.4 * dwa_config.max_accel_mps2 * max(0.0, to_goal - goal.tolerance_m / 2)))
         heading_error = float(wrap_angle(math.atan2(target[1] - pose[1], target[0] - pose[0]) - pose[2]))
         if abs(heading_error) > self.config.rotate_in_place_rad:  # facing away: turn first (safe for a disc)
@@ -339,7 +318,8 @@ class Navigator(Traffic):
         if to_goal < self.config.final_approach_m and self._clear_line(pose, goal):
             return self._approach_goal(goal, pose, cap, new_path)
         # Slow down near what may move (other robots): full speed beyond ~2.5 m, 0.3 m/s at 1 m.
-        cap = min(cap, 0.3 + 0.7 * min(1.0, max(0.0, (self.nearest_mark_m - 1.0) / 1.5)))
+        nearest_mark_m = self.surroundings.nearest_mark_m
+        cap = min(cap, 0.3 + 0.7 * min(1.0, max(0.0, (nearest_mark_m - 1.0) / 1.5)))
         if cap < dwa_config.max_speed_mps:
             dwa_config = replace(dwa_config, max_speed_mps=cap)
         if len(obstacles):
@@ -362,7 +342,7 @@ class Navigator(Traffic):
         """A straight drive to the goal stays in free cells and clear of every local obstacle point."""
         clearance = self.config.dwa.robot_radius_m + self.config.dwa.safety_margin_m
         return goal.grid is not None and straight_line_clear(
-            goal.grid, pose[:2], goal.xy, self.local_points, clearance
+            goal.grid, pose[:2], goal.xy, self.surroundings.local_points, clearance
         )
 
     def _approach_goal(
@@ -419,7 +399,7 @@ class Navigator(Traffic):
             beside=self.site_map.components_near(pose[:2], self.config.beside_m),
         )
         _log.warning("navigation to %s failed: %s", np.round(goal_xy, 2).tolist(), self.failure.line())
-        self._status = NavStatus.FAILED
+        self.course.status = NavStatus.FAILED
         return self._command(0.0, 0.0)
 
     def _turn_to_goal(self, goal: Goal, pose: NDArray[np.float64]) -> NavCommand:
@@ -435,9 +415,9 @@ class Navigator(Traffic):
                 w = float(np.clip(w, self.w_radps - step, self.w_radps + step))
                 if abs(w) < 0.15:
                     w = math.copysign(0.15, error)
-                self._status = NavStatus.ACTIVE
+                self.course.status = NavStatus.ACTIVE
                 return self._command(0.0, w)
-        self._status = NavStatus.REACHED
+        self.course.status = NavStatus.REACHED
         return self._command(0.0, 0.0)
 
     def _ahead(self, goal: Goal, pose: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
@@ -456,11 +436,8 @@ class Navigator(Traffic):
             return True
         if float(np.hypot(*(ahead[0] - pose[:2]))) > self.config.deviation_m:
             return True
-        if self._mark_tree is not None:
-            reach = self.site_map.config.inflation_m + self.config.dynamic_margin_m
-            distance, _ = self._mark_tree.query(ahead, k=1, distance_upper_bound=reach)
-            return bool(np.isfinite(distance).any())
-        return False
+        reach = self.site_map.config.inflation_m + self.config.dynamic_margin_m
+        return self.surroundings.marks_near(ahead, reach)
 
     def _plan(self, goal: Goal, pose: NDArray[np.float64], sim_s: float) -> NDArray[np.float64] | None:
         goal.planned_s, goal.map_version = sim_s, self.site_map.version
@@ -503,7 +480,7 @@ class Navigator(Traffic):
 
     def _recover(self, goal: Goal, pose: NDArray[np.float64], sim_s: float, why: str) -> NavCommand:
         """The next step of the recovery chain (:mod:`.recovery`), or FAILED when it is exhausted."""
-        kind, goal.level = next_recovery(goal.level, clear_behind=self._clear_behind(pose))
+        kind, goal.level = next_recovery(goal.level, clear_behind=self.surroundings.clear_behind(pose))
         if kind is None:
             return self._fail(why)
         goal.tried += (kind,)
@@ -524,21 +501,3 @@ class Navigator(Traffic):
         else:
             goal.plan_out = True
         return self._command(0.0, 0.0)
-
-    def _obstacles(self, pose: NDArray[np.float64]) -> NDArray[np.float64]:
-        static = self.site_map.obstacle_points_xy_m()
-        r = self.config.local_obstacle_radius_m
-        near = (np.abs(static[:, 0] - pose[0]) < r) & (np.abs(static[:, 1] - pose[1]) < r)
-        return np.vstack([static[near], self.local_points])
-
-    def _clear_behind(self, pose: NDArray[np.float64]) -> bool:
-        """Whether backing up ``backup_s`` keeps the robot as clear of obstacles as it is now."""
-        points = self._obstacles(pose)
-        if len(points) == 0:
-            return True
-        distance = self.config.backup_speed_mps * self.config.backup_s
-        behind = pose[:2] - distance * np.array([math.cos(pose[2]), math.sin(pose[2])])
-        samples = pose[:2] + np.linspace(0.0, 1.0, 5)[1:, None] * (behind - pose[:2])
-        gap = np.hypot(points[None, :, 0] - samples[:, None, 0], points[None, :, 1] - samples[:, None, 1])
-        now = np.hypot(points[:, 0] - pose[0], points[:, 1] - pose[1]).min()
-        return bool(gap.min() > min(self.config.dwa.robot_radius_m + 0.05, now - 1e-6))

@@ -197,9 +197,9 @@ def test_the_robot_with_the_greater_id_steps_aside_and_the_other_holds(site: Sit
             world.sim_s += DT
         outcomes[me] = navigator
     aside, holding = outcomes["r2"], outcomes["r1"]
-    assert aside._resume is not None and aside.status is NavStatus.ACTIVE
+    assert aside.course.resume is not None and aside.status is NavStatus.ACTIVE
     assert math.hypot(*(aside.goal.xy - other_xy)) > math.hypot(*(start[:2] - other_xy)), "steps away"
-    assert holding._resume is None and holding.goal.give_ways >= 1
+    assert holding.course.resume is None and holding.goal.give_ways >= 1
 
 
 def test_path_projection_samples_and_carrot_do_not_cut_a_corner() -> None:
