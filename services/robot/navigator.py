@@ -4,9 +4,8 @@ Why: the robot's navigation stack (paper §5.2) assembled from the pure cores of
 step (:meth:`Navigator.step`), after :meth:`Navigator.observe_odom` / :meth:`Navigator.observe_scan` fed the
 :class:`.localisation.Localiser`:
 
-1. the scan becomes world points: the **local obstacles** of the DWA (with the static map's obstacle
-   outlines nearby, for what the laser misses) and **laser marks** (hits the static map does not explain:
-   other robots, surprises) that are added to the grid for planning;
+1. the scan becomes the **local obstacles** of the DWA and **laser marks** (hits the static map does not
+   explain: other robots, surprises) added to the grid for planning (:mod:`.surroundings`);
 2. **plan** with A* on the inflated grid (+ marks) when the goal is new, the map changed, a mark lies on the
    path within ``blocked_check_m`` ahead, or the robot strayed more than ``deviation_m`` from it (at most
    once per ``replan_interval_s``); the path is line-of-sight pruned. No path → the robot waits and
@@ -14,19 +13,17 @@ step (:meth:`Navigator.step`), after :meth:`Navigator.observe_odom` / :meth:`Nav
    the next recovery, and it fails after ``max_wait_s`` at the latest;
 3. **follow** the path with the DWA towards a carrot (:func:`.motion.carrot`: far along the path, but only
    as far as the robot sees along a free line, so it never cuts a corner into an obstacle), under a speed
-   cap that lets it brake onto the goal and slows it near marks; marks count ``dynamic_margin_m`` nearer
-   than they are (another robot may be closing in while each plans as if the other stood still). Facing
-   away from the carrot it first turns on the spot; the last metre, when free, is a straight drive; at the
-   goal it turns gently onto the goal's yaw;
-4. **stuck** (moved less than ``stuck_move_m`` in ``stuck_window_s``): facing another robot (a mark where
-   that robot's published pose estimate is), the robot with the greater id steps aside to a free spot
-   and waits there while the other holds still, then both carry on (traffic rules, no negotiation);
-   otherwise, and when the **progress watchdog** expires (neither the distance to the goal nor the path
-   left shrank by ``progress_min_m`` within ``progress_window_s``), the next step of the **recovery
-   chain** (:mod:`.recovery`: clear laser marks, rotate in place, back up, plan out of an inflated start
-   cell). With the chain exhausted (or after ``timeout_s``) it reports FAILED with a
-   :attr:`Navigator.failure` reason (``robot_trapped``, ``unreachable`` or ``no_progress``, with the
-   numbers) and the executor re-chooses the approach pose, and after its own bound gives the task back.
+   cap that lets it brake onto the goal and slows it near marks. Facing away from the carrot it first
+   turns on the spot; the last metre, when free, is a straight drive; at the goal it turns gently onto the
+   goal's yaw;
+4. **stuck** (moved less than ``stuck_move_m`` in ``stuck_window_s``): facing another robot, the traffic
+   rules say who steps aside and who holds (:mod:`.traffic`); otherwise, and when the **progress watchdog**
+   expires (neither the distance to the goal nor the path left shrank by ``progress_min_m`` within
+   ``progress_window_s``), the next step of the **recovery chain** (:mod:`.recovery`: clear laser marks,
+   rotate in place, back up, plan out of an inflated start cell). With the chain exhausted (or after
+   ``timeout_s``) it reports FAILED with a :attr:`Navigator.failure` reason (``robot_trapped``,
+   ``unreachable`` or ``no_progress``, with the numbers) and the executor re-chooses the approach pose, and
+   after its own bound gives the task back.
 
 Units: metres, radians, simulated seconds; world (map) frame.
 """
