@@ -1,10 +1,11 @@
 """What the parts of one robot's executor share: the robot, its bounds, its map and navigator, and the time.
 
 Why one object: the executor (:mod:`.executor`), its physics requests and give-backs (:mod:`.handover`),
-its drives (:mod:`.driving`), a crane's reach checks (:mod:`.crane_work`) and the task cycle
-(:mod:`.task_cycle`) read the same facts and the clock the executor advances. Each receives this object
-instead of declaring the executor's attributes. Only the executor sets the time (``sim_s``, ``wall_s``)
-and the distance driven; a plan-fidelity robot swaps the navigator once, when it is built.
+its drives (:mod:`.driving`), a crane's reach checks (:mod:`.crane_work`), parking (:mod:`.parking`) and
+the task cycle (:mod:`.task_cycle`) read the same facts and the clock the executor advances. Each
+receives this object instead of declaring the executor's attributes. Only the executor sets the time
+(``sim_s``, ``wall_s``) and the distance driven; a plan-fidelity robot swaps the navigator once, when it is
+built.
 """
 
 from __future__ import annotations
