@@ -139,7 +139,7 @@ def test_a_robot_type_with_a_poor_hand_misses_the_agents_catch_it_and_the_retrie
             [
                 'default_type = "carrier"',
                 "[types.carrier]",
-                *(f"{name} = {value!r}" for name, value in _toml_fields(carrier)),
+                *(f"{name} = {json.dumps(value)}" for name, value in _toml_fields(carrier)),
                 "placement_precision_m = 0.006  # a poor hand: 6 mm, 1 sigma per axis",
                 "[[robots]]",
                 'type = "carrier"',
