@@ -7,7 +7,7 @@ from pathlib import Path
 import ifcopenshell.api.pset
 import ifcopenshell.api.unit
 import pytest
-from ifc_builders import add_beam, add_material, add_pset, add_qto, add_type, new_model
+from ifc_builders import add_beam, add_layers, add_material, add_pset, add_qto, add_type, add_wall, new_model
 
 from bimbot.services.converter.mass import DEFAULT_DENSITY_KG_M3, element_mass, material_label
 from bimbot.shared.manifest import MassSource
@@ -147,3 +147,52 @@ def test_a_conversion_warning_names_the_element_not_only_its_guid(tmp_path: Path
     manifest = convert_model(small.file, source, tmp_path / "out")
     expected = f"IfcBeam 'Beam B7' ({beam.GlobalId}): material 'Unobtainium': density unknown"
     assert any(warning.startswith(expected) for warning in manifest.warnings), manifest.warnings
+
+
+GYP_M, STUD_M = 0.0159, 0.0921  # 5/8 in. gypsum board, 3-5/8 in. studs
+
+
+def test_a_stud_partition_weighs_its_layers_not_solid_steel() -> None:
+    """Revit's partitions are gypsum board on a "Metal - Stud Layer": the first named density found, steel's,
+    used to weigh the whole wall (the Revit restaurant's 4 7/8 in. partitions: 7.5 t panels out of the crane's
+    reach); the layers' mean by thickness, the stud layer a framed cavity, is 283 kg/m³."""
+    small = new_model()
+    wall = add_wall(small, length_m=4.0, height_m=3.0, thickness_m=2 * GYP_M + STUD_M)
+    add_layers(small, [wall], [("J_Wall_Gyp", GYP_M), ("Metal - Stud Layer", STUD_M), ("J_Wall_Gyp", GYP_M)])
+    volume_m3 = 4.0 * 3.0 * (2 * GYP_M + STUD_M)
+    result = element_mass(wall, volume_m3)
+    expected_kg_m3 = (2 * GYP_M * 900.0 + STUD_M * 70.0) / (2 * GYP_M + STUD_M)
+    assert result.source == MassSource.MATERIAL_DENSITY_TABLE
+    assert result.density_kg_m3 == pytest.approx(expected_kg_m3)
+    assert result.mass_kg == pytest.approx(volume_m3 * expected_kg_m3)  # 420 kg, not 11.7 t
+    assert not result.warnings
+
+
+def test_a_layer_of_unknown_material_counts_at_the_default_density_and_is_named() -> None:
+    """The restaurant's compound ceilings: studs and a finish "J_Ceiling_Dark" the table does not know."""
+    small = new_model()
+    ceiling = add_wall(small, thickness_m=0.054)
+    add_layers(small, [ceiling], [("Metal - Stud Layer", 0.038), ("J_Ceiling_Dark", 0.016)])
+    result = element_mass(ceiling, 1.0)
+    assert result.density_kg_m3 == pytest.approx((0.038 * 70.0 + 0.016 * DEFAULT_DENSITY_KG_M3) / 0.054)
+    assert result.source == MassSource.MATERIAL_DENSITY_TABLE  # the studs make most of it
+    assert result.warnings and "'J_Ceiling_Dark'" in result.warnings[0]
+
+
+def test_layers_with_a_density_property_and_an_air_gap() -> None:
+    small = new_model()
+    wall = add_wall(small, thickness_m=0.35)
+    layers = add_layers(small, [wall], [("Brick", 0.1), ("Air gap", 0.05), ("Concrete", 0.2)])
+    concrete = layers.MaterialLayers[2].Material
+    pset = ifcopenshell.api.pset.add_pset(small.file, product=concrete, name="Pset_MaterialCommon")
+    ifcopenshell.api.pset.edit_pset(small.file, pset=pset, properties={"MassDensity": 2300.0})
+    result = element_mass(wall, 1.0)
+    assert result.density_kg_m3 == pytest.approx((0.1 * 1900.0 + 0.05 * 1.2 + 0.2 * 2300.0) / 0.35)
+    assert result.source == MassSource.MATERIAL_DENSITY_PROPERTY  # the concrete makes most of it
+
+
+def test_a_poured_gypsum_underlayment_has_its_own_density() -> None:
+    small = new_model()
+    slab = add_wall(small)
+    add_layers(small, [slab], [("J_Floor_Gyp_Crete", 0.05)], name="Floor:J_Floor_Concrete_PouredUnderlayment")
+    assert element_mass(slab, 1.0).density_kg_m3 == pytest.approx(1650.0)
