@@ -243,13 +243,12 @@ def _weighted_parts(
         return [(layer.Material, layer, float(layer.LayerThickness) / total) for layer in layers]
     if material.is_a("IfcMaterialConstituentSet"):
         parts = list(material.MaterialConstituents or ())
-        fractions = [getattr(part, "Fraction", None) for part in parts]
-        if not parts or any(not isinstance(value, int | float) or value <= 0 for value in fractions):
+        given = [getattr(part, "Fraction", None) for part in parts]
+        fractions = [float(value) for value in given if isinstance(value, int | float) and value > 0]
+        if not parts or len(fractions) != len(parts):
             return []
-        total = float(sum(fractions))  # type: ignore[arg-type]
-        return [
-            (part.Material, None, float(value) / total) for part, value in zip(parts, fractions, strict=True)
-        ]
+        total = sum(fractions)
+        return [(part.Material, None, value / total) for part, value in zip(parts, fractions, strict=True)]
     return []
 
 

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import ifcopenshell
 import ifcopenshell.guid
+import ifcopenshell.util.element
 import numpy as np
 
 from bimbot.shared.construction_methods import (
@@ -102,9 +103,12 @@ def write_panels(
     cannot be cut within ``context.limits``."""
     element = item.element
     parent_guid = str(element.GlobalId)
-    kind = panel_kind(element.is_a(), mass_chain.material_label(element))
+    predefined = ifcopenshell.util.element.get_predefined_type(element)
+    kind = panel_kind(element.is_a(), mass_chain.material_label(element), predefined)
     if kind is None:
-        raise PanelisationError(f"an {element.is_a()} is not cut into panels (only walls and slabs are)")
+        raise PanelisationError(
+            f"an {element.is_a()} is not cut into panels (walls, slabs, ceilings and claddings are)"
+        )
     given = context.limits or default_limits()
     truck = (given.transport_length_m, given.transport_width_m, given.transport_height_m)
     limits = PanelLimits(given.lift_capacity_kg, truck)
