@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import logging
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import ifcopenshell
@@ -68,6 +69,15 @@ DENSITY_TABLE_KG_M3: tuple[tuple[re.Pattern[str], float], ...] = (
     (re.compile(r"timber|wood|\bholz\b|\bglulam\b|\bclt\b|madera|\bbois\b|legno", re.I), 500.0),
     (re.compile(r"glass|glazing|\bglas\b|vidrio|cristal|verre|vetro", re.I), 2500.0),
     (re.compile(r"brick|masonry|block|ladrillo|brique|mattone|ziegel|mauerwerk", re.I), 1900.0),
+    # loose fill (gravel, crushed stone) about 1,600 kg/m³, natural stone 2,300–2,800: assumptions
+    (re.compile(r"loose|gravel|grava|gravier|ghiaia|\bkies|crushed", re.I), 1600.0),
+    (
+        re.compile(
+            r"stone|piedra|pierre|pietra|granit|marble|m[aá]rmol|marmo|limestone|sandstone|slate|pizarra",
+            re.I,
+        ),
+        2600.0,
+    ),
     (
         re.compile(
             r"gypsum|(?<![a-z])gyp(?![a-z])|plaster|yeso|enlucido|pl[aâ]tre|gesso|\bgips|\bputz", re.I
@@ -108,9 +118,12 @@ def element_mass(
     material_name_hint: str | None = None,
     *,
     unit_kg: float | None = None,
+    material_volumes: Sequence[tuple[ifcopenshell.entity_instance | None, float]] = (),
 ) -> MassResult:
     """Mass of ``element`` whose mesh encloses ``volume_m3`` (> 0), following the module's chain.
-    ``unit_kg``: :func:`mass_unit_kg` of the model, when the caller has it already (it is per model)."""
+    ``unit_kg``: :func:`mass_unit_kg` of the model, when the caller has it already (it is per model);
+    ``material_volumes``: how much of the mesh each material makes, from its faces' styles
+    (:mod:`.face_materials`; None: unknown material), for an element whose materials come without shares."""
     if volume_m3 <= 0:
         raise ValueError(f"volume must be positive, got {volume_m3}")
     warnings: list[str] = []
@@ -131,18 +144,21 @@ def element_mass(
             f"{label} = {value:g} gives {mass_kg:g} kg, an implausible density of {density:.3g} kg/m³ "
             "for the mesh volume; ignored"
         )
-    density, source, note = material_density(element, material_name_hint)
+    density, source, note = material_density(element, material_name_hint, material_volumes)
     if note:
         warnings.append(note)
     return MassResult(volume_m3 * density, source, density, tuple(warnings))
 
 
 def material_density(
-    element: ifcopenshell.entity_instance, material_name_hint: str | None = None
+    element: ifcopenshell.entity_instance,
+    material_name_hint: str | None = None,
+    material_volumes: Sequence[tuple[ifcopenshell.entity_instance | None, float]] = (),
 ) -> tuple[float, MassSource, str | None]:
-    """(density kg/m³, its source, a warning or None) for the element's material: of layers or constituents,
-    their weighted mean (:func:`layered_density`) when any of them is known."""
-    layered = layered_density(element)
+    """(density kg/m³, its source, a warning or None) for the element's material: of layers, constituents
+    or materials whose volumes are known, their weighted mean (:func:`layered_density`) when any of them
+    is known."""
+    layered = layered_density(element, material_volumes)
     if layered is not None:
         return layered
     materials = _materials(element)
@@ -167,12 +183,16 @@ def material_density(
     return DEFAULT_DENSITY_KG_M3, MassSource.DEFAULT_DENSITY, note
 
 
-def layered_density(element: ifcopenshell.entity_instance) -> tuple[float, MassSource, str | None] | None:
+def layered_density(
+    element: ifcopenshell.entity_instance,
+    material_volumes: Sequence[tuple[ifcopenshell.entity_instance | None, float]] = (),
+) -> tuple[float, MassSource, str | None] | None:
     """The mean density of the element's layers weighted by their thicknesses (or of its constituents by
-    their fractions), each one's by :func:`part_density`, a part of unknown material at
-    :data:`DEFAULT_DENSITY_KG_M3` with a warning naming it; None when the element is not made of such parts
-    or none of them is known. Its source is that of the part that makes most of the element."""
-    parts = _weighted_parts(element)
+    their fractions, or of its materials by ``material_volumes``), each one's by :func:`part_density`, a
+    part of unknown material at :data:`DEFAULT_DENSITY_KG_M3` with a warning naming it; None when the
+    element is not made of such parts or none of them is known. Its source is that of the part that makes
+    most of the element."""
+    parts = _weighted_parts(element) or _volume_parts(material_volumes)
     if not parts:
         return None
     known = [(part_density(material, layer), fraction, material) for material, layer, fraction in parts]
@@ -184,15 +204,25 @@ def layered_density(element: ifcopenshell.entity_instance) -> tuple[float, MassS
     for found, fraction, material in known:
         density, source = found or (DEFAULT_DENSITY_KG_M3, MassSource.DEFAULT_DENSITY)
         if found is None:
-            unknown.append(str(getattr(material, "Name", None) or "unnamed"))
+            unknown.append(repr(str(getattr(material, "Name", None) or "unnamed")) if material else "none")
         mean += fraction * density
         if fraction > main[0]:
             main = (fraction, source)
     note = None
     if unknown:
-        names = ", ".join(repr(name) for name in dict.fromkeys(unknown))
-        note = f"layer material {names}: density unknown, using {DEFAULT_DENSITY_KG_M3:g} kg/m³ for it"
+        names = ", ".join(dict.fromkeys(unknown))
+        note = f"material {names} of a part: density unknown, using {DEFAULT_DENSITY_KG_M3:g} kg/m³ for it"
     return mean, main[1], note
+
+
+def _volume_parts(
+    material_volumes: Sequence[tuple[ifcopenshell.entity_instance | None, float]],
+) -> list[tuple[ifcopenshell.entity_instance | None, ifcopenshell.entity_instance | None, float]]:
+    """(material, no layer, share of the volume) of ``material_volumes``; empty when they hold nothing."""
+    total = sum(volume for _, volume in material_volumes)
+    if not total > 0:
+        return []
+    return [(material, None, volume / total) for material, volume in material_volumes]
 
 
 def part_density(

@@ -85,20 +85,21 @@ def mass_properties(mesh_like: MeshLike) -> MassProperties:
 
 
 def piecewise_volume_m3(mesh: TriMesh) -> float:
-    """The volume of a mesh that is not watertight as a whole, piece by piece: a closed, consistently wound
-    piece's own; any other piece with its holes filled and its winding made consistent (:func:`repaired`),
-    its own when it is then closed, at most its convex hull's, else its convex hull's (0 when flat)."""
-    total = 0.0
-    for piece in mesh.split():
-        if _solid(piece):
-            total += abs(piece.volume)
-            continue
-        hull = convex_hull(piece.vertices)
-        if hull is None:  # flat: no volume, nothing to repair
-            continue
-        closed = repaired(piece, fill_holes=True)
-        total += min(abs(closed.volume), hull.volume) if _solid(closed) else hull.volume
-    return total
+    """The volume of a mesh that is not watertight as a whole, piece by piece (:func:`piece_volume_m3`)."""
+    return float(sum(piece_volume_m3(piece) for piece in mesh.split()))
+
+
+def piece_volume_m3(piece: TriMesh) -> float:
+    """A piece's volume: its own when it is closed and consistently wound; else, with its holes filled and
+    its winding made consistent (:func:`repaired`), its own when it is then closed, at most its convex
+    hull's, else its convex hull's (0 when flat)."""
+    if _solid(piece):
+        return abs(piece.volume)
+    hull = convex_hull(piece.vertices)
+    if hull is None:  # flat: no volume, nothing to repair
+        return 0.0
+    closed = repaired(piece, fill_holes=True)
+    return min(abs(closed.volume), hull.volume) if _solid(closed) else hull.volume
 
 
 def _solid(piece: TriMesh) -> bool:

@@ -72,6 +72,7 @@ class PanelLimits:
 
     max_mass_kg: float
     transport_m: tuple[float, float, float]  # length, width, height of the load, metres
+    lifted_by: str = ""  # who lifts that, when the notes should say (a crane at a radius)
 
     def fits(self, extents_m: Sequence[float] | np.ndarray) -> bool:
         """Whether a box of ``extents_m`` fits the truck's load in some orientation (axes kept parallel)."""
@@ -200,7 +201,8 @@ def _panel_counts(kind: PanelKind, length_m: float, row_mass_kg: float, limits: 
 def _why_split(mass_kg: float, size: np.ndarray, limits: PanelLimits, reason: str, fits_whole: bool) -> str:
     reasons = []
     if mass_kg > limits.max_mass_kg:
-        reasons.append(f"{mass_kg:,.0f} kg, over the {limits.max_mass_kg:,.0f} kg lift capacity")
+        who = f" ({limits.lifted_by})" if limits.lifted_by else ""
+        reasons.append(f"{mass_kg:,.0f} kg, over the {limits.max_mass_kg:,.0f} kg lift capacity{who}")
     if not limits.fits(size):
         length, width, height = limits.transport_m
         reasons.append(
