@@ -87,7 +87,10 @@ class PanelJoint(BaseModel):
 
     guids: tuple[str, str]
     length_m: float = Field(ge=0)
-    kind: str = Field(description="vertical (wall panels side by side) or longitudinal (slab planks)")
+    kind: str = Field(
+        description="vertical (wall panels side by side), horizontal (stacked at a storey), longitudinal "
+        "(slab planks side by side) or transverse (rows of planks end to end)"
+    )
 
 
 class PanelisedElement(BaseModel):

@@ -3,7 +3,8 @@
 Formwork is needed on the sides and the soffit, never on the top (the concrete's free surface, screeded):
 a face counts by the direction of its normal in the world frame, up within ``TOP_FACE_COS`` of vertical
 being the top, down within it the soffit. An element whose target lies in the ground is cast on the soil
-(or blinding): its soffit needs no form. Times: formwork area over the crew's formwork rate, the pour's
+(or blinding), and a poured topping, underlayment or screed (:func:`.material_kind.is_poured`) on the floor
+beneath it: their soffits need no form. Times: formwork area over the crew's formwork rate, the pour's
 setup plus the volume over the pour rate, and the cure until what rests on it may be placed, at the rates
 of the element's ``cast_in_place.by_class`` entry (:func:`rates_class`; else the general ones).
 """
@@ -17,19 +18,21 @@ import numpy as np
 from bimbot.shared.construction_methods import CastWork
 from bimbot.shared.methods_file import CastInPlace
 
+from .material_kind import is_poured, material_texts
 from .mesh import TriMesh
 
 TOP_FACE_COS = 0.7  # a face whose normal is within ~45° of vertical is a top (up) or a soffit (down)
 HOUR_S = 3600.0
 
 
-def formwork_area_m2(mesh: TriMesh, rotation: np.ndarray, *, in_ground: bool) -> float:
-    """Area of the faces of ``mesh`` (element frame; ``rotation`` to the world) that need formwork."""
+def formwork_area_m2(mesh: TriMesh, rotation: np.ndarray, *, on_base: bool) -> float:
+    """Area of the faces of ``mesh`` (element frame; ``rotation`` to the world) that need formwork;
+    ``on_base``: cast on the soil or a floor, so its soffit needs none."""
     if len(mesh.faces) == 0:
         return 0.0
     up = (mesh.face_normals @ np.asarray(rotation, dtype=float).T)[:, 2]
     formed = up < TOP_FACE_COS
-    if in_ground:
+    if on_base:
         formed &= up > -TOP_FACE_COS
     return float(mesh.area_faces[formed].sum())
 
@@ -56,7 +59,8 @@ def cast_work(
     in_ground: bool,
 ) -> CastWork:
     """The :class:`CastWork` of ``element`` (its welded mesh in its own frame, ``rotation`` to the world)."""
-    area = formwork_area_m2(mesh, rotation, in_ground=in_ground)
+    on_base = in_ground or is_poured(material_texts(element))
+    area = formwork_area_m2(mesh, rotation, on_base=on_base)
     formwork_rate, pour_rate, setup_h, cure_h = rates.rates(rates_class(element, rates))
     return CastWork(
         formwork_area_m2=area,

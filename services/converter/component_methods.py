@@ -3,8 +3,9 @@
 :func:`settled_method` takes the element's decision from the shard context (a GlobalId without one is
 lifted by the default rule) and settles it against the fleet's lift and a truck's load
 (:func:`.final_method.final_method`, the element's own bounding box and whether its target lies in the
-ground). :func:`method_fields` gives the :class:`Component` fields: method, source, note and, for an
-element cast in place, its :class:`CastWork`.
+ground), with a smaller lift where the converter found that a crane lifts less where the element goes
+(:mod:`.crane_reach`). :func:`method_fields` gives the :class:`Component` fields: method, source, note
+and, for an element cast in place, its :class:`CastWork`.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from bimbot.shared.construction_methods import ConstructionMethod, MethodDecision
+from bimbot.shared.construction_methods import ConstructionMethod, MethodDecision, MethodLimits
 
 from .cast_work import cast_work
 from .final_method import default_limits, final_method
@@ -30,19 +31,27 @@ def target_in_ground(item: PlacedElement, context: ShardContext) -> bool:
     return lies_in_ground(low, high)
 
 
+def element_limits(guid: str, context: ShardContext) -> MethodLimits:
+    """What a part of the element ``guid`` may weigh and measure: the context's limits (none: the default
+    fleet's and methods'), with the lift a crane has where the element goes when the converter found it
+    smaller (:mod:`.crane_reach`)."""
+    limits = context.limits or default_limits()
+    reach = context.lift_limits.get(guid)
+    return reach.applied(limits) if reach is not None else limits
+
+
 def settled_method(
     item: PlacedElement, work: GeometryWork, mass_kg: float, context: ShardContext
 ) -> MethodDecision:
-    """The element's decision settled with its mass and size, against the context's limits (none: the
-    default fleet's and methods')."""
-    decision = context.decisions.get(str(item.element.GlobalId))
+    """The element's decision settled with its mass and size, against :func:`element_limits`."""
+    guid = str(item.element.GlobalId)
     box = np.asarray(work.props.bbox_local_m, dtype=float)
     return final_method(
-        decision,
+        context.decisions.get(guid),
         mass_kg,
         tuple(box[1] - box[0]),
         item.element.is_a(),
-        context.limits or default_limits(),
+        element_limits(guid, context),
         in_ground=target_in_ground(item, context),
     )
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import ifcopenshell
 import ifcopenshell.util.element
@@ -26,6 +27,7 @@ from . import mass as mass_chain
 from .collision import CollisionShape, collision_shape
 from .component_methods import method_fields, settled_method
 from .connections import element_connections
+from .face_materials import material_volumes, volumes_by_style
 from .mass_properties import MassProperties, mass_properties, mesh_from_arrays
 from .mesh import TriMesh
 from .mesh_files import VISUAL_FORMATS, GeometryFiles, link_geometry_files, write_geometry_files
@@ -34,6 +36,9 @@ from .prism_split import SectionCache
 from .sdf_writer import ModelSpec, model_config, model_sdf
 from .split_ifc import split_element
 from .tessellation import ElementShape
+
+if TYPE_CHECKING:
+    from .crane_reach import LiftLimit
 
 
 @dataclass
@@ -50,8 +55,10 @@ class ShardContext:
     chains: dict[int, list[ifcopenshell.entity_instance]] = field(default_factory=dict)  # split_ifc
     decisions: dict[str, MethodDecision] = field(default_factory=dict)  # by GlobalId; absent: lifted/rule
     limits: MethodLimits | None = None  # what a lifted part may weigh and measure (None: the default fleet's)
+    lift_limits: dict[str, LiftLimit] = field(default_factory=dict)  # by GlobalId: the crane's where it goes
     methods: MethodsFile | None = None  # the methods file in force: its cast-in-place rates
     storey_levels_m: tuple[float, ...] = ()  # storey elevations, IFC world z, metres (panels' rows)
+    style_materials: dict[int, ifcopenshell.entity_instance] = field(default_factory=dict)  # face_materials
 
 
 @dataclass
@@ -61,6 +68,7 @@ class GeometryWork:
     mesh: TriMesh  # welded, outward: the visual mesh and the input of every computation
     props: MassProperties
     collision: CollisionShape
+    volumes_by_style: dict[int, float] = field(default_factory=dict)  # m³ by face style (face_materials)
     files: GeometryFiles | None = None
     files_dir: Path | None = None
 
@@ -98,11 +106,25 @@ def place_element(element: ifcopenshell.entity_instance, shape: ElementShape) ->
 
 
 def geometry_work(item: PlacedElement, context: ShardContext) -> GeometryWork:
-    mesh = mesh_from_arrays(item.vertices_local_m, item.shape.geometry.faces)
+    geometry = item.shape.geometry
+    mesh = mesh_from_arrays(item.vertices_local_m, geometry.faces)
     return GeometryWork(
         mesh=mesh,
         props=mass_properties(mesh),
         collision=collision_shape(item.element, mesh, context.unit_scale_m, sections=context.sections),
+        volumes_by_style=volumes_by_style(mesh, geometry.face_style_ids)
+        if len(geometry.face_style_ids)
+        else {},
+    )
+
+
+def element_mass(item: PlacedElement, work: GeometryWork, context: ShardContext) -> mass_chain.MassResult:
+    """The element's mass (:mod:`.mass`), its materials weighed by the volumes its faces style with each
+    (:mod:`.face_materials`) where it has several without shares."""
+    element = item.element
+    parts = material_volumes(element, work.volumes_by_style, context.style_materials)
+    return mass_chain.element_mass(
+        element, work.props.volume_m3, unit_kg=context.mass_unit_kg, material_volumes=parts
     )
 
 
@@ -131,7 +153,7 @@ def write_component(
         link_geometry_files(work.files_dir, model_dir, work.files)
     props = work.props
     if mass is None:
-        mass = mass_chain.element_mass(element, props.volume_m3, unit_kg=context.mass_unit_kg)
+        mass = element_mass(item, work, context)
     if decision is None:
         decision = settled_method(item, work, mass.mass_kg, context)
     notes = [*mass.warnings, *warnings]

@@ -48,6 +48,8 @@ from bimbot.shared.sequence import SEQUENCE_FILE_NAME, write_sequence
 
 from .component_writer import ShardContext, skipped_entry
 from .connection_kinds import decide_connections
+from .crane_reach import crane_lift_limits, tightened
+from .face_materials import style_materials
 from .final_method import method_limits
 from .guest_hosts import find_hosts
 from .guest_merge import build_guests_into_hosts
@@ -61,10 +63,12 @@ from .placement import axis2placement_matrix, choose_local_origin, vec3
 from .sdf_writer import world_sdf
 from .selection import left_out_by_selection, select_elements
 from .sequencing import construction_sequence
-from .shards import run_shards
+from .shards import ShardResult, run_shards, without_elements
 from .tessellation import default_threads
 
 _log = logging.getLogger(__name__)
+
+REACH_ROUNDS = 2  # cut again for the crane's reach, then once more if the finer parts moved the crane
 
 ProgressCallback = Callable[[str, int, int], None]  # (stage, done, total)
 
@@ -188,9 +192,21 @@ def _convert(
         limits=options.limits or method_limits(options.fleet or default_fleet(), methods),
         methods=methods,
         storey_levels_m=_storey_levels_m(model, unit_scale_m),
+        style_materials=style_materials(model),
     )
     results = run_shards(model, elements, context, workers=workers, progress=progress)
     stats.seconds_by_stage["shards_wall"] = time.perf_counter() - shards_started
+    reach_started = time.perf_counter()
+    results = _cut_within_crane_reach(
+        model,
+        elements,
+        results,
+        context,
+        options=options,
+        fleet=options.fleet or default_fleet(),
+        workers=workers,
+    )
+    stats.seconds_by_stage["crane_reach"] = time.perf_counter() - reach_started
     merged = sorted(  # element order; an element's panels in their order
         (
             (step_id, index, component, spec)
@@ -259,6 +275,45 @@ def _convert(
     write_manifest(manifest, out_dir)
     stats.seconds_by_stage["world_sequence_manifest"] = time.perf_counter() - finishing
     return manifest
+
+
+def _cut_within_crane_reach(
+    model: ifcopenshell.file,
+    elements: list[ifcopenshell.entity_instance],
+    results: list[ShardResult],
+    context: ShardContext,
+    *,
+    options: ConvertOptions,
+    fleet: Fleet,
+    workers: int,
+) -> list[ShardResult]:
+    """``results`` with the elements some part of which no crane lifts where it goes converted again with
+    the lift a crane has there (:mod:`.crane_reach`), their first model folders removed; checked again after
+    each round (finer parts fill the yard differently, which may move the crane), :data:`REACH_ROUNDS`
+    rounds at most."""
+    by_guid = {str(element.GlobalId): element for element in elements}
+    for _ in range(REACH_ROUNDS):
+        built = [component for result in results for component in result.components]
+        to_build, _ = split_in_place(built, options.in_place_guids, foundations=options.foundations_in_place)
+        found = {
+            guid: limit
+            for guid, limit in crane_lift_limits(to_build, fleet.robot_types()).items()
+            if guid in by_guid
+            and (guid not in context.lift_limits or limit.lift_kg < context.lift_limits[guid].lift_kg)
+        }
+        if not found:
+            break
+        _log.info("%d element(s) cut again for the crane's lift where they go", len(found))
+        context.lift_limits = tightened(context.lift_limits, found)
+        again = [by_guid[guid] for guid in found]
+        step_ids = {element.id() for element in again}
+        for result in results:
+            for step_id, component in zip(result.step_ids, result.components, strict=True):
+                if step_id in step_ids:
+                    shutil.rmtree(context.out_dir / component.files.model_dir, ignore_errors=True)
+        results = [without_elements(result, step_ids, set(found)) for result in results]
+        results += run_shards(model, again, context, workers=workers)
+    return results
 
 
 def _placement_origin(

@@ -8,7 +8,11 @@ The chain, first hit wins (the manifest records which one gave each mass):
    (see :data:`VENDOR_WEIGHT_NAMES`);
 3. the **mesh** volume × the material's density: ``Pset_MaterialCommon.MassDensity`` (IFC2X3:
    ``IfcGeneralMaterialProperties.MassDensity``), else :data:`DENSITY_TABLE_KG_M3` by material name or
-   category, else 1000 kg/m³ with a warning.
+   category, else 1000 kg/m³ with a warning. An element of layers (``IfcMaterialLayerSet``) or of
+   constituents with fractions (``IfcMaterialConstituentSet``) takes the mean of its materials' densities
+   weighted by thickness or fraction, each layer by the same chain; a layer that is mostly air is weighed as
+   what it is (:data:`LAYER_DENSITY_KG_M3`): Revit's "Metal - Stud Layer" is light-gauge studs in a cavity,
+   not solid steel.
 
 The mesh volume is used rather than IFC volume quantities because Revit exports can mis-scale those.
 A weight that implies an implausible density (outside :data:`PLAUSIBLE_DENSITY_KG_M3`, e.g. a concrete
@@ -19,6 +23,7 @@ from __future__ import annotations
 
 import logging
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import ifcopenshell
@@ -35,14 +40,58 @@ PLAUSIBLE_DENSITY_KG_M3 = (10.0, 25_000.0)
 # Names in English, German, French, Spanish and Italian: exports keep the authoring tool's language (the
 # Revit sample house names its glass "Vidrio" and "Cristal", its timber "Madera").
 DENSITY_TABLE_KG_M3: tuple[tuple[re.Pattern[str], float], ...] = (
+    # mineral wool, EPS, PUR/PIR boards: 15–200 kg/m³; 40 is an assumption for a typical batt or board
+    (
+        re.compile(
+            r"insulat|mineral[-_ ]?wool|rock[-_ ]?wool|glass[-_ ]?wool|\beps\b|\bxps\b|polystyren|"
+            r"polyurethan|\bpir\b|d[äa]mmung|d[äa]mmstoff|isolant|aislante",
+            re.I,
+        ),
+        40.0,
+    ),
+    # gypsum concrete poured as a floor underlayment: 1.5 in. weighs 13 lb/ft² (Wikipedia, "Gypsum
+    # concrete"), 104 lb/ft³
+    (re.compile(r"gyp[-_ ]?cret|gypsum[-_ ]?concrete|levelrock", re.I), 1650.0),
+    # hollow clay bricks and blocks (the Revit house's "Ladrillo de cerámica hueco doble"): about half
+    # voids, 1000 kg/m³ gross (an assumption: a 7 cm double-hollow brick partition weighs about 70 kg/m²
+    # before its plaster)
+    (
+        re.compile(
+            r"(?=.*(?:brick|ladrillo|ziegel|brique|mattone|block|bloque))"
+            r"(?=.*(?:hollow|hueco|perforat|hohl|lochziegel|creux|forat|alveol))",
+            re.I,
+        ),
+        1000.0,
+    ),
     (re.compile(r"alumin", re.I), 2700.0),
     (re.compile(r"steel|stahl|acier|acero|acciaio|\bs\d{3}\b|\bmetal", re.I), 7850.0),
     (re.compile(r"concrete|b[eé]ton|hormig[oó]n|calcestruzzo|\bc\d{2}/\d{2}\b", re.I), 2400.0),
     (re.compile(r"timber|wood|\bholz\b|\bglulam\b|\bclt\b|madera|\bbois\b|legno", re.I), 500.0),
     (re.compile(r"glass|glazing|\bglas\b|vidrio|cristal|verre|vetro", re.I), 2500.0),
     (re.compile(r"brick|masonry|block|ladrillo|brique|mattone|ziegel|mauerwerk", re.I), 1900.0),
-    (re.compile(r"gypsum|plaster|yeso|enlucido|pl[aâ]tre|gesso|\bgips|\bputz", re.I), 900.0),
+    # loose fill (gravel, crushed stone) about 1,600 kg/m³, natural stone 2,300–2,800: assumptions
+    (re.compile(r"loose|gravel|grava|gravier|ghiaia|\bkies|crushed", re.I), 1600.0),
+    (
+        re.compile(
+            r"stone|piedra|pierre|pietra|granit|marble|m[aá]rmol|marmo|limestone|sandstone|slate|pizarra",
+            re.I,
+        ),
+        2600.0,
+    ),
+    (
+        re.compile(
+            r"gypsum|(?<![a-z])gyp(?![a-z])|plaster|yeso|enlucido|pl[aâ]tre|gesso|\bgips|\bputz", re.I
+        ),
+        900.0,
+    ),
 )
+# Layers of a layer set that are mostly air, by name or flag: their own density, before the table (which
+# would weigh a "Metal - Stud Layer" as 7,850 kg/m³ of steel). A framed layer: 3-5/8 in. steel studs at
+# 16 in. centres weigh 1.31 lb/ft² of wall (1.75 lb/ft a stud), 2x4 timber studs at 16 in. 1.3 lb/ft²:
+# about 70 kg/m³ of the layer's depth. An air gap (IfcMaterialLayer.IsVentilated, or so named): air.
+FRAMED_LAYER = re.compile(r"\bstuds?\b|framing|furring|\bjoists?\b|\bbattens?\b|\brafters?\b", re.I)
+AIR_LAYER = re.compile(r"\bair\b|cavity|\bvoid\b|luftschicht|lame d'air|c[aá]mara de aire", re.I)
+LAYER_DENSITY_KG_M3 = ((FRAMED_LAYER, 70.0), (AIR_LAYER, 1.2))
 WEIGHT_QUANTITY_PREFERENCE = ("netweight", "grossweight", "weight")
 # Property names (lower-case, without spaces) that vendors use for an element's weight.
 VENDOR_WEIGHT_NAMES = ("exactweight", "weight", "netweight", "grossweight", "mass")
@@ -69,9 +118,12 @@ def element_mass(
     material_name_hint: str | None = None,
     *,
     unit_kg: float | None = None,
+    material_volumes: Sequence[tuple[ifcopenshell.entity_instance | None, float]] = (),
 ) -> MassResult:
     """Mass of ``element`` whose mesh encloses ``volume_m3`` (> 0), following the module's chain.
-    ``unit_kg``: :func:`mass_unit_kg` of the model, when the caller has it already (it is per model)."""
+    ``unit_kg``: :func:`mass_unit_kg` of the model, when the caller has it already (it is per model);
+    ``material_volumes``: how much of the mesh each material makes, from its faces' styles
+    (:mod:`.face_materials`; None: unknown material), for an element whose materials come without shares."""
     if volume_m3 <= 0:
         raise ValueError(f"volume must be positive, got {volume_m3}")
     warnings: list[str] = []
@@ -92,16 +144,23 @@ def element_mass(
             f"{label} = {value:g} gives {mass_kg:g} kg, an implausible density of {density:.3g} kg/m³ "
             "for the mesh volume; ignored"
         )
-    density, source, note = material_density(element, material_name_hint)
+    density, source, note = material_density(element, material_name_hint, material_volumes)
     if note:
         warnings.append(note)
     return MassResult(volume_m3 * density, source, density, tuple(warnings))
 
 
 def material_density(
-    element: ifcopenshell.entity_instance, material_name_hint: str | None = None
+    element: ifcopenshell.entity_instance,
+    material_name_hint: str | None = None,
+    material_volumes: Sequence[tuple[ifcopenshell.entity_instance | None, float]] = (),
 ) -> tuple[float, MassSource, str | None]:
-    """(density kg/m³, its source, a warning or None) for the element's material."""
+    """(density kg/m³, its source, a warning or None) for the element's material: of layers, constituents
+    or materials whose volumes are known, their weighted mean (:func:`layered_density`) when any of them
+    is known."""
+    layered = layered_density(element, material_volumes)
+    if layered is not None:
+        return layered
     materials = _materials(element)
     for material in materials:
         density = _density_property(material)
@@ -122,6 +181,105 @@ def material_density(
     what = f"material {names[0]!r}" if names else "no material"
     note = f"{what}: density unknown, using {DEFAULT_DENSITY_KG_M3:g} kg/m³"
     return DEFAULT_DENSITY_KG_M3, MassSource.DEFAULT_DENSITY, note
+
+
+def layered_density(
+    element: ifcopenshell.entity_instance,
+    material_volumes: Sequence[tuple[ifcopenshell.entity_instance | None, float]] = (),
+) -> tuple[float, MassSource, str | None] | None:
+    """The mean density of the element's layers weighted by their thicknesses (or of its constituents by
+    their fractions, or of its materials by ``material_volumes``), each one's by :func:`part_density`, a
+    part of unknown material at :data:`DEFAULT_DENSITY_KG_M3` with a warning naming it; None when the
+    element is not made of such parts or none of them is known. Its source is that of the part that makes
+    most of the element."""
+    parts = _weighted_parts(element) or _volume_parts(material_volumes)
+    if not parts:
+        return None
+    known = [(part_density(material, layer), fraction, material) for material, layer, fraction in parts]
+    if all(density is None for density, _, _ in known):
+        return None
+    mean = 0.0
+    main = (0.0, MassSource.DEFAULT_DENSITY)  # (fraction, source) of the largest part
+    unknown: list[str] = []
+    for found, fraction, material in known:
+        density, source = found or (DEFAULT_DENSITY_KG_M3, MassSource.DEFAULT_DENSITY)
+        if found is None:
+            unknown.append(repr(str(getattr(material, "Name", None) or "unnamed")) if material else "none")
+        mean += fraction * density
+        if fraction > main[0]:
+            main = (fraction, source)
+    note = None
+    if unknown:
+        names = ", ".join(dict.fromkeys(unknown))
+        note = f"material {names} of a part: density unknown, using {DEFAULT_DENSITY_KG_M3:g} kg/m³ for it"
+    return mean, main[1], note
+
+
+def _volume_parts(
+    material_volumes: Sequence[tuple[ifcopenshell.entity_instance | None, float]],
+) -> list[tuple[ifcopenshell.entity_instance | None, ifcopenshell.entity_instance | None, float]]:
+    """(material, no layer, share of the volume) of ``material_volumes``; empty when they hold nothing."""
+    total = sum(volume for _, volume in material_volumes)
+    if not total > 0:
+        return []
+    return [(material, None, volume / total) for material, volume in material_volumes]
+
+
+def part_density(
+    material: ifcopenshell.entity_instance | None, layer: ifcopenshell.entity_instance | None = None
+) -> tuple[float, MassSource] | None:
+    """The density of one layer or constituent's material: its MassDensity, a layer that is mostly air by
+    its flag or name (:data:`LAYER_DENSITY_KG_M3`), the table by name or category; None when unknown."""
+    if material is not None:
+        density = _density_property(material)
+        if density is not None:
+            return density, MassSource.MATERIAL_DENSITY_PROPERTY
+    names = [
+        str(text)
+        for text in (
+            getattr(material, "Name", None),
+            getattr(material, "Category", None),
+            getattr(layer, "Name", None),
+        )
+        if text
+    ]
+    if layer is not None:
+        if getattr(layer, "IsVentilated", None) is True:
+            return LAYER_DENSITY_KG_M3[1][1], MassSource.MATERIAL_DENSITY_TABLE
+        for pattern, density in LAYER_DENSITY_KG_M3:
+            if any(pattern.search(name) for name in names):
+                return density, MassSource.MATERIAL_DENSITY_TABLE
+    for name in names:
+        for pattern, density in DENSITY_TABLE_KG_M3:
+            if pattern.search(name):
+                return density, MassSource.MATERIAL_DENSITY_TABLE
+    return None
+
+
+def _weighted_parts(
+    element: ifcopenshell.entity_instance,
+) -> list[tuple[ifcopenshell.entity_instance | None, ifcopenshell.entity_instance | None, float]]:
+    """(material, its layer or None, fraction of the element) of a layer set with thicknesses or a
+    constituent set with fractions; empty for anything else."""
+    try:
+        material = ifcopenshell.util.element.get_material(element, should_skip_usage=True)
+    except (AttributeError, RuntimeError, TypeError):  # malformed material associations
+        return []
+    if material is None:
+        return []
+    if material.is_a("IfcMaterialLayerSet"):
+        layers = [layer for layer in material.MaterialLayers or () if (layer.LayerThickness or 0.0) > 0]
+        total = sum(float(layer.LayerThickness) for layer in layers)
+        return [(layer.Material, layer, float(layer.LayerThickness) / total) for layer in layers]
+    if material.is_a("IfcMaterialConstituentSet"):
+        parts = list(material.MaterialConstituents or ())
+        given = [getattr(part, "Fraction", None) for part in parts]
+        fractions = [float(value) for value in given if isinstance(value, int | float) and value > 0]
+        if not parts or len(fractions) != len(parts):
+            return []
+        total = sum(fractions)
+        return [(part.Material, None, value / total) for part, value in zip(parts, fractions, strict=True)]
+    return []
 
 
 def material_label(element: ifcopenshell.entity_instance) -> str | None:

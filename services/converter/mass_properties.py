@@ -1,14 +1,17 @@
 """Volume, centre of mass and inertia of a component mesh, per kilogram so any mass can be applied later.
 
-Computed once per distinct geometry (elements that share a tessellation share these numbers) with the
-exact polyhedral integrals of :mod:`.mesh` (the ones trimesh uses). A mesh that is not watertight has no
-meaningful enclosed volume as a whole: then it is taken piece by piece (faces connected through shared
-edges), each closed piece with its exact volume and each open one with its convex hull's, and the inertia
-is that of a solid box filling the mesh's bounding box, centred on it; the result says so, and the manifest
-reports it. One convex hull over the whole mesh had filled what lies between the pieces: acad2010's roof
-of 33 open planes weighed 3,167 t (its hull 3,167 m³, its pieces' 202 m³), the Revit hub's strip footing
-(two closed rings that only touch, so not watertight together) 69.6 m³ against its own 10.6 m³.
-Where the pieces give nothing (a flat open mesh), the whole hull's volume, then the bounding box's.
+Computed once per distinct geometry (elements that share a tessellation share these numbers) with the exact
+polyhedral integrals of :mod:`.mesh` (the ones trimesh uses). A closed mesh whose faces are wound
+inconsistently (exports flip some of a solid's faces) is rewound first, by trimesh, and is then a solid like
+any other. A mesh that is not watertight has no meaningful enclosed volume as a whole: then it is taken
+piece by piece (faces connected through edges that two faces share): each piece that is closed, or closed
+once trimesh has filled its holes and made its winding consistent, counts with its exact volume (at most its
+convex hull's), each still open one with its convex hull's, and the inertia is that of a solid box filling
+the mesh's bounding box, centred on it; the result says so, and the manifest reports it. One convex hull
+over the whole mesh had filled what lies between the pieces: acad2010's roof of 33 open planes weighed
+3,167 t (its hull 3,167 m³, its pieces' 202 m³), the Revit hub's strip footing (two closed rings that
+only touch, so not watertight together) 69.6 m³ against its own 10.6 m³. Where the pieces give nothing (a
+flat open mesh), the whole hull's volume, then the bounding box's.
 
 Inertia tensors follow SDF: about the centre of mass, in the element frame's axes, with off-diagonal
 entries equal to the tensor's entries (``ixy = -∫xy dm``), which is trimesh's convention as well.
@@ -41,11 +44,28 @@ class MassProperties:
 
 
 def mesh_from_arrays(vertices_m: np.ndarray, faces: np.ndarray) -> TriMesh:
-    """A mesh with merged vertices and consistent outward winding where the topology allows it."""
+    """A mesh with merged vertices and consistent outward winding where the topology allows it (a closed
+    mesh wound inconsistently is rewound, each closed body outward)."""
     mesh = welded(vertices_m, faces)
+    if mesh.is_watertight and not mesh.is_winding_consistent:
+        mesh = repaired(mesh, fill_holes=False)
     if mesh.is_watertight and mesh.volume < 0:
         mesh = mesh.inverted()
     return mesh
+
+
+def repaired(mesh: TriMesh, *, fill_holes: bool) -> TriMesh:
+    """``mesh`` with its holes filled (``fill_holes``: trimesh's fans, any polygon) and its winding made
+    consistent, each closed body outward (trimesh's ``fix_normals``). Imports trimesh: the rare path of
+    meshes that are not already closed, consistent solids (see :mod:`.mesh`)."""
+    import trimesh
+
+    surface = mesh.to_trimesh()
+    with np.errstate(divide="ignore", invalid="ignore"):  # trimesh weighs open bodies of zero volume too
+        if fill_holes:
+            trimesh.repair.fill_holes(surface, use_fan=True)
+        trimesh.repair.fix_normals(surface, multibody=True)
+    return TriMesh(np.asarray(surface.vertices, dtype=np.float64), np.asarray(surface.faces, dtype=np.int64))
 
 
 def mass_properties(mesh_like: MeshLike) -> MassProperties:
@@ -65,16 +85,25 @@ def mass_properties(mesh_like: MeshLike) -> MassProperties:
 
 
 def piecewise_volume_m3(mesh: TriMesh) -> float:
-    """The volume of a mesh that is not watertight as a whole: each closed piece's own, each open piece's
-    convex hull's (0 when flat)."""
-    total = 0.0
-    for piece in mesh.split():
-        if piece.is_watertight and piece.is_winding_consistent:
-            total += abs(piece.volume)
-        else:
-            hull = convex_hull(piece.vertices)
-            total += hull.volume if hull is not None else 0.0
-    return total
+    """The volume of a mesh that is not watertight as a whole, piece by piece (:func:`piece_volume_m3`)."""
+    return float(sum(piece_volume_m3(piece) for piece in mesh.split()))
+
+
+def piece_volume_m3(piece: TriMesh) -> float:
+    """A piece's volume: its own when it is closed and consistently wound; else, with its holes filled and
+    its winding made consistent (:func:`repaired`), its own when it is then closed, at most its convex
+    hull's, else its convex hull's (0 when flat)."""
+    if _solid(piece):
+        return abs(piece.volume)
+    hull = convex_hull(piece.vertices)
+    if hull is None:  # flat: no volume, nothing to repair
+        return 0.0
+    closed = repaired(piece, fill_holes=True)
+    return min(abs(closed.volume), hull.volume) if _solid(closed) else hull.volume
+
+
+def _solid(piece: TriMesh) -> bool:
+    return piece.is_watertight and piece.is_winding_consistent
 
 
 def _bounding_box_fallback(mesh: TriMesh, bbox: np.ndarray) -> MassProperties:

@@ -6,7 +6,9 @@ profile set, the first of a list or the material itself (the element's own assoc
 Its kind comes from its name and category (IFC4), in the languages exports keep (the Revit sample house's
 "Ladrillo de cerámica hueco doble" is masonry, its "Cristal" glass); a material whose name says nothing
 (Revit's "<Unnamed>", "Default Floor") is :attr:`MaterialKind.UNKNOWN`. A name may also say how the element
-is made: "Concrete, Cast-in-Place gray" (the Revit hub's) is cast in place, "Precast Concrete" lifted.
+is made: "Concrete, Cast-in-Place gray" (the Revit hub's) is cast in place, "Precast Concrete" lifted, and a
+poured floor ("Floor:J_Floor_Concrete_PouredUnderlayment" of gypsum concrete, "J_Floor_Gyp_Crete", in the
+Revit restaurant; a screed) is cast in place on the floor beneath it (:data:`POURED_WORDS`).
 """
 
 from __future__ import annotations
@@ -35,6 +37,12 @@ KIND_PATTERNS: tuple[tuple[re.Pattern[str], MaterialKind], ...] = (
     (re.compile(r"gypsum|plaster|yeso|enlucido|pl[aâ]tre|gesso|\bgips|\bputz", re.I), MaterialKind.GYPSUM),
 )
 CAST_IN_PLACE_WORDS = re.compile(r"cast[-_ ]?in[-_ ]?(place|situ)|\bin[-_ ]?situ\b|insitu|ortbeton", re.I)
+# poured onto what lies beneath (a topping, an underlayment, a screed): cast in place with no soffit form
+POURED_WORDS = re.compile(
+    r"(?<![a-z])poured(?![a-z])|gyp[-_ ]?cret|gypsum[-_ ]?concrete|levelrock|(?<![a-z])screed|"
+    r"self[-_ ]?level|estrich|(?<![a-z])chape(?![a-z])|massetto|solado",
+    re.I,
+)
 PRECAST_WORDS = re.compile(r"pre[-_ ]?cast|pre[-_ ]?fab|fertigteil|pr[eé]fabriqu|prefabricad", re.I)
 
 
@@ -73,6 +81,12 @@ def main_materials(material: ifcopenshell.entity_instance) -> list[ifcopenshell.
     if material.is_a("IfcMaterialList"):
         return [item for item in material.Materials or () if item is not None]
     return []
+
+
+def is_poured(texts: list[str]) -> bool:
+    """Whether a material or material set's name (:func:`material_texts`) says the element is poured onto
+    what lies beneath it (:data:`POURED_WORDS`)."""
+    return any(POURED_WORDS.search(text) for text in texts)
 
 
 def kind_of(text: str) -> MaterialKind:

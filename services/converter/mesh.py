@@ -169,11 +169,12 @@ class TriMesh:
 
     def split(self) -> list[TriMesh]:
         """The separate pieces, faces connected through shared edges (no repair, open pieces kept)."""
+        return [submesh(self.vertices, self.faces[faces]) for faces in self.piece_faces()]
+
+    def piece_faces(self) -> list[np.ndarray]:
+        """The face indices of each piece :meth:`split` gives, in the same order."""
         labels = _edge_connected_labels(self.faces)
-        pieces = []
-        for label in np.unique(labels):
-            pieces.append(submesh(self.vertices, self.faces[labels == label]))
-        return pieces
+        return [np.flatnonzero(labels == label) for label in np.unique(labels)]
 
     def to_trimesh(self) -> trimesh.Trimesh:
         """The same mesh as a ``trimesh.Trimesh`` (imports trimesh: for rare paths only)."""

@@ -16,8 +16,8 @@ In the order tried, the first statement wins:
   ``Pset_PrecastConcreteElementGeneral`` (any property) lifted;
 * a pile's ``ConstructionType`` (``CAST_IN_PLACE``; ``PRECAST_CONCRETE``, ``PREFAB_STEEL``) or type
   (``BORED`` piles are cast, ``DRIVEN`` ones lifted);
-* a material whose name says it: cast-in-place or in situ, precast or prefabricated
-  (:mod:`.material_kind`);
+* a material whose name says it: cast-in-place or in situ, poured (a floor's topping, underlayment or
+  screed: cast in place), precast or prefabricated (:mod:`.material_kind`);
 * a part of a prefabricated assembly (``IfcElementAssembly``): lifted, but a fitting of it (a plate) goes
   with the assembly's main member (``with_host``).
 """
@@ -32,7 +32,7 @@ import ifcopenshell.util.element
 from bimbot.shared.construction_methods import ConstructionMethod, MethodDecision, MethodSource
 from bimbot.shared.methods_file import MethodsFile
 
-from .material_kind import CAST_IN_PLACE_WORDS, PRECAST_WORDS
+from .material_kind import CAST_IN_PLACE_WORDS, POURED_WORDS, PRECAST_WORDS
 
 GUEST_CLASSES = ("IfcFastener", "IfcMechanicalFastener", "IfcDiscreteAccessory", "IfcReinforcingElement")
 CONNECTION_PLATE_TYPES = frozenset(
@@ -84,6 +84,8 @@ def ifc_statement(
     for text in texts:
         if CAST_IN_PLACE_WORDS.search(text):
             return _ifc(ConstructionMethod.CAST_IN_PLACE, f"material {text!r}")
+        if POURED_WORDS.search(text):
+            return _ifc(ConstructionMethod.CAST_IN_PLACE, f"material {text!r}: poured on the floor beneath")
         if PRECAST_WORDS.search(text):
             return _ifc(ConstructionMethod.LIFTED, f"material {text!r}")
     assembly = ifcopenshell.util.element.get_aggregate(element)

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import ifcopenshell
 import ifcopenshell.guid
+import ifcopenshell.util.element
 import numpy as np
 
 from bimbot.shared.construction_methods import (
@@ -32,16 +33,16 @@ from bimbot.shared.manifest import Component
 
 from . import mass as mass_chain
 from .collision import collision_from_mesh
-from .component_methods import settled_method
+from .component_methods import element_limits, settled_method
 from .component_writer import (
     EntryParts,
     GeometryWork,
     PlacedElement,
     ShardContext,
+    element_mass,
     write_component,
     write_entry,
 )
-from .final_method import default_limits
 from .mass_properties import mass_properties
 from .mesh import TriMesh
 from .mesh_files import write_geometry_files
@@ -74,7 +75,7 @@ def write_element(
     """Write ``item`` whole or, when its final method is panelised, as its panels."""
     element = item.element
     guid = str(element.GlobalId)
-    mass = mass_chain.element_mass(element, work.props.volume_m3, unit_kg=context.mass_unit_kg)
+    mass = element_mass(item, work, context)
     decision = settled_method(item, work, mass.mass_kg, context)
     warnings: tuple[str, ...] = ()
     if decision.method is ConstructionMethod.PANELISED:
@@ -102,12 +103,16 @@ def write_panels(
     cannot be cut within ``context.limits``."""
     element = item.element
     parent_guid = str(element.GlobalId)
-    kind = panel_kind(element.is_a(), mass_chain.material_label(element))
+    predefined = ifcopenshell.util.element.get_predefined_type(element)
+    kind = panel_kind(element.is_a(), mass_chain.material_label(element), predefined)
     if kind is None:
-        raise PanelisationError(f"an {element.is_a()} is not cut into panels (only walls and slabs are)")
-    given = context.limits or default_limits()
+        raise PanelisationError(
+            f"an {element.is_a()} is not cut into panels (walls, slabs, ceilings and claddings are)"
+        )
+    given = element_limits(parent_guid, context)
     truck = (given.transport_length_m, given.transport_width_m, given.transport_height_m)
-    limits = PanelLimits(given.lift_capacity_kg, truck)
+    reach = parent_guid in context.lift_limits  # the crane's lift where it goes: the notes name it
+    limits = PanelLimits(given.lift_capacity_kg, truck, given.lifted_by if reach else "")
     levels = [level - float(item.translation_m[2]) for level in context.storey_levels_m]
     cut = panelise(
         work.mesh, kind, mass.mass_kg, limits, rotation=item.rotation, levels_m=levels, reason=decision.note

@@ -5,9 +5,12 @@ Where a precaster cuts:
 * a **wall** (``IfcWall`` and its subtypes; a curtain wall is not one) into storey-high panels side by side:
   vertical cuts across its length axis, equal widths where the openings allow, and horizontal cuts at the
   storey levels it spans (when given; else its height is kept);
-* a **slab** (``IfcSlab``, a roof's slabs, ``IfcRoof`` with a body of its own, a concrete ``IfcPlate``) into
-  planks 1.2–2.4 m wide running along its span: cuts parallel to the span. The span is taken as the slab's
-  shorter horizontal extent (its supports are not looked up), so the planks are as long as the slab is wide.
+* a **slab** (``IfcSlab``, a roof's slabs, ``IfcRoof`` with a body of its own, a concrete ``IfcPlate``, a
+  ceiling or floor covering) into planks 1.2–2.4 m wide running along its span: cuts parallel to the span.
+  The span is taken as the slab's shorter horizontal extent (its supports are not looked up), so the planks
+  are as long as the slab is wide; a span longer than a truck's load is cut across into equal rows that fit
+  one (the planks of a row bear on a support line at each end, which the cut assumes);
+* a **cladding** (an ``IfcCovering`` of that type) as a wall.
 
 The axes come from the mesh: vertical is the world's (the element's rotation is given), the length axis is
 the long side of the smallest rectangle around the mesh's plan (its 2D oriented bounding box). Openings are
@@ -46,6 +49,12 @@ COVER_TOL_M = 0.005  # gaps in a section smaller than this are no opening
 _CONCRETE = re.compile(r"concrete|b[eé]ton|hormig[oó]n|calcestruzzo|precast|\bc\d{2}/\d{2}\b", re.I)
 # maps (x, y, z) to (y, z, x): a section across x becomes manifold3d's slice at height x
 _X_TO_Z = np.array([[0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [1.0, 0.0, 0.0, 0.0]])
+# maps (x, y, z) to (x, -z, y), a rotation: a section across y becomes manifold3d's slice at height y, x kept
+_Y_TO_Z = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.0], [0.0, 1.0, 0.0, 0.0]])
+
+
+SLAB_COVERINGS = frozenset({"CEILING", "FLOORING", "ROOFING"})  # IfcCovering types cut as slabs
+WALL_COVERINGS = frozenset({"CLADDING"})  # and as walls
 
 
 class PanelKind(StrEnum):
@@ -63,6 +72,7 @@ class PanelLimits:
 
     max_mass_kg: float
     transport_m: tuple[float, float, float]  # length, width, height of the load, metres
+    lifted_by: str = ""  # who lifts that, when the notes should say (a crane at a radius)
 
     def fits(self, extents_m: Sequence[float] | np.ndarray) -> bool:
         """Whether a box of ``extents_m`` fits the truck's load in some orientation (axes kept parallel)."""
@@ -96,8 +106,20 @@ class Panelisation:
     why: str
 
 
-def panel_kind(ifc_class: str, material: str | None = None) -> PanelKind | None:
-    """How an element of ``ifc_class`` (and material label) is panelised; None: it is not cut."""
+def panel_kind(
+    ifc_class: str, material: str | None = None, predefined_type: str | None = None
+) -> PanelKind | None:
+    """How an element of ``ifc_class`` (and material label, predefined type) is panelised; None: it is not
+    cut."""
+    if ifc_class.startswith("IfcCovering"):
+        covering = (predefined_type or "").upper()
+        return (
+            PanelKind.SLAB
+            if covering in SLAB_COVERINGS
+            else PanelKind.WALL
+            if covering in WALL_COVERINGS
+            else None
+        )
     if ifc_class.startswith("IfcWall"):
         return PanelKind.WALL
     if ifc_class.startswith(("IfcSlab", "IfcRoof")):
@@ -137,8 +159,10 @@ def panelise(
     fits_whole = mass_kg <= limits.max_mass_kg and limits.fits(size)
     why = _why_split(mass_kg, size, limits, reason, fits_whole)
     planner = _CutPlanner(solid, vertices, kind, low, high)
-    rows = planner.row_levels(levels_m) if kind is PanelKind.WALL else []
-    row_volumes = [piece.volume() for piece in _split(solid, (0.0, 0.0, 1.0), rows)]
+    rows = (
+        planner.row_levels(levels_m) if kind is PanelKind.WALL else planner.span_rows(max(limits.transport_m))
+    )
+    row_volumes = [piece.volume() for piece in _split(solid, planner.row_normal, rows)]
     heaviest_row_kg = mass_kg * max(row_volumes) / sum(row_volumes)
     counts = _panel_counts(kind, float(size[0]), heaviest_row_kg, limits)
     best: tuple[float, str] | None = None
@@ -146,7 +170,7 @@ def panelise(
         cuts = planner.cuts(count)
         if cuts is None:
             continue
-        grid = _cut_grid(solid, cuts, rows)
+        grid = _cut_grid(solid, cuts, rows, planner.row_normal)
         volumes = [piece.volume() for row in grid for piece in row]
         total = sum(volumes)
         masses = [mass_kg * volume / total for volume in volumes]
@@ -177,7 +201,8 @@ def _panel_counts(kind: PanelKind, length_m: float, row_mass_kg: float, limits: 
 def _why_split(mass_kg: float, size: np.ndarray, limits: PanelLimits, reason: str, fits_whole: bool) -> str:
     reasons = []
     if mass_kg > limits.max_mass_kg:
-        reasons.append(f"{mass_kg:,.0f} kg, over the {limits.max_mass_kg:,.0f} kg lift capacity")
+        who = f" ({limits.lifted_by})" if limits.lifted_by else ""
+        reasons.append(f"{mass_kg:,.0f} kg, over the {limits.max_mass_kg:,.0f} kg lift capacity{who}")
     if not limits.fits(size):
         length, width, height = limits.transport_m
         reasons.append(
@@ -250,6 +275,10 @@ class _CutPlanner:
         self.across = solid.transform(_X_TO_Z)  # slice(x) gives the section across x in (y, z)
         self.cover_axis = 1 if kind is PanelKind.WALL else 0  # walls: whole height; slabs: whole span
         self.allowed = self._allowed(np.unique(np.round(vertices[:, 0], BREAK_DIGITS)))
+        # rows: a wall's at storey levels (cut across z), a slab's across its span (cut across y)
+        self.row_axis = 2 if kind is PanelKind.WALL else 1
+        self.row_normal = (0.0, 0.0, 1.0) if kind is PanelKind.WALL else (0.0, 1.0, 0.0)
+        self.along_rows = solid if kind is PanelKind.WALL else solid.transform(_Y_TO_Z)
 
     def coverage(self, x: float) -> list[tuple[float, float]]:
         """The section across x, as covered intervals along the wall's height or the slab's span."""
@@ -297,6 +326,17 @@ class _CutPlanner:
             return None
         return cuts
 
+    def row_coverage(self, at: float) -> list[tuple[float, float]]:
+        """The section at a row boundary (a wall's height, a slab's place along its span) as covered
+        intervals along x."""
+        return _covered(self.along_rows.slice(at), 0)
+
+    def span_rows(self, length_m: float) -> list[float]:
+        """Cuts across a slab's span (y) into the fewest equal rows no longer than ``length_m``."""
+        span = float(self.high[1] - self.low[1])
+        count = max(1, math.ceil(span / length_m - 1e-9))
+        return [float(self.low[1]) + span * index / count for index in range(1, count)]
+
     def row_levels(self, levels_m: Sequence[float]) -> list[float]:
         """Storey levels inside the wall's height where its plan section is whole."""
         rows = []
@@ -334,9 +374,12 @@ def _split(solid: manifold3d.Manifold, normal: Sequence[float], cuts: Sequence[f
     return pieces
 
 
-def _cut_grid(solid: manifold3d.Manifold, cuts: Sequence[float], rows: Sequence[float]) -> list[list]:
-    """Rows (bottom up, cut at ``rows``) of pieces (along x, cut at ``cuts``)."""
-    return [_split(row, (1.0, 0.0, 0.0), cuts) for row in _split(solid, (0.0, 0.0, 1.0), rows)]
+def _cut_grid(
+    solid: manifold3d.Manifold, cuts: Sequence[float], rows: Sequence[float], row_normal: Sequence[float]
+) -> list[list]:
+    """Rows (cut at ``rows`` across ``row_normal``: a wall's bottom up, a slab's along its span) of pieces
+    (along x, cut at ``cuts``)."""
+    return [_split(row, (1.0, 0.0, 0.0), cuts) for row in _split(solid, row_normal, rows)]
 
 
 def _extents(piece: manifold3d.Manifold) -> tuple[float, float, float]:
@@ -370,33 +413,32 @@ def _result(
         panels.append(TriMesh(np.ascontiguousarray(vertices), np.asarray(mesh.tri_verts, dtype=np.int64)))
         volumes.append(float(piece.volume()))
         kept_masses.append(float(mass))
-    bottoms = [planner.low[2], *rows, planner.high[2]]
+    axis = planner.row_axis
+    bounds = [planner.low[axis], *rows, planner.high[axis]]  # of the rows, along the row axis
     sides = [planner.low[0], *cuts, planner.high[0]]
     joints = []
-    side_kind = "vertical" if kind is PanelKind.WALL else "longitudinal"
+    side_kind, row_kind = (
+        ("vertical", "horizontal") if kind is PanelKind.WALL else ("longitudinal", "transverse")
+    )
     for c, x in enumerate(cuts):
         covered = planner.coverage(x)
         for r in range(len(grid)):
             if (r, c) in index and (r, c + 1) in index:
-                length = (
-                    _clipped(covered, bottoms[r], bottoms[r + 1])
-                    if kind is PanelKind.WALL
-                    else _total(covered)
-                )
+                length = _clipped(covered, bounds[r], bounds[r + 1])
                 joints.append(PanelJointSpec(index[(r, c)], index[(r, c + 1)], round(length, 3), side_kind))
-    for r, z in enumerate(rows):
-        covered = _covered(planner.solid.slice(z), 0)
+    for r, at in enumerate(rows):
+        covered = planner.row_coverage(at)
         for c in range(len(cuts) + 1):
             if (r, c) in index and (r + 1, c) in index:
                 length = _clipped(covered, sides[c], sides[c + 1])
-                joints.append(
-                    PanelJointSpec(index[(r, c)], index[(r + 1, c)], round(length, 3), "horizontal")
-                )
+                joints.append(PanelJointSpec(index[(r, c)], index[(r + 1, c)], round(length, 3), row_kind))
     widths = np.diff(sides)
     count = f"{len(panels)} storey-high panel{'s' if len(panels) > 1 else ''}"
     if kind is PanelKind.SLAB:
         span_m = planner.high[1] - planner.low[1]
         count = f"{len(panels)} plank{'s' if len(panels) > 1 else ''} along the {span_m:.2f} m span"
+        if rows:
+            count += f" in {len(rows) + 1} rows of {span_m / (len(rows) + 1):.2f} m"
     wide = f"{widths[0]:.2f} m" if np.ptp(widths) < 0.01 else f"{widths.min():.2f}–{widths.max():.2f} m"
     sentence = f"{why}: cut into {count}, {wide} wide, {max(kept_masses):,.0f} kg at most"
     return Panelisation(tuple(panels), tuple(volumes), tuple(kept_masses), tuple(joints), sentence)
@@ -404,7 +446,3 @@ def _result(
 
 def _clipped(covered: Sequence[tuple[float, float]], low: float, high: float) -> float:
     return float(sum(max(0.0, min(b, high) - max(a, low)) for a, b in covered))
-
-
-def _total(covered: Sequence[tuple[float, float]]) -> float:
-    return float(sum(b - a for a, b in covered))

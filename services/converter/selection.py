@@ -11,6 +11,10 @@ The rule, as in the paper (building components are what robots assemble):
   elements. ``include`` adds classes back, ``exclude`` takes classes away, ``only`` replaces the default
   rule by a list of classes; all three take subclasses (``IfcWall`` takes ``IfcWallStandardCase``).
   ``exclude`` also takes GlobalIds: single elements left out (one of two that clash in the model).
+* **Left out as well:** a proxy (``IfcBuildingElementProxy``) whose UniFormat classification names it
+  equipment, furnishings, services or planting, which exports with classes of their own would class as
+  above (:mod:`.classified_proxies`: Revit's kitchen equipment and trees); ``--include
+  IfcBuildingElementProxy`` builds them.
 * **Never built:** feature elements (openings, projections, surface features) and virtual elements; spaces
   and annotations are not ``IfcElement``\\ s at all.
 * An element that aggregates parts which are built (a curtain wall of plates and members, a roof of slabs)
@@ -34,6 +38,7 @@ from dataclasses import dataclass
 
 import ifcopenshell
 
+from .classified_proxies import proxy_trade
 from .method_ifc import is_fitting
 
 BUILDABLE_ROOTS = ("IfcBuildingElement", "IfcBuiltElement", "IfcElementComponent", "IfcElementAssembly")
@@ -240,7 +245,7 @@ def class_rejection(
             return None
         return f"not in --only {','.join(rule.only)}; --include {element.is_a()} to build it"
     if any(element.is_a(name) for name in roots):
-        return None
+        return proxy_trade(element)
     category = element_category(model, element.is_a())
     return f"not a building element ({category}); --include {category} to build it"
 

@@ -134,6 +134,21 @@ def plan_shards(
     return [sorted(ids) for _, ids in sorted(shards, key=lambda item: item[0], reverse=True) if ids]
 
 
+def without_elements(result: ShardResult, step_ids: set[int], guids: set[str]) -> ShardResult:
+    """``result`` without what the elements ``step_ids`` (GlobalIds ``guids``) became: their components,
+    panelised entries and skipped entries."""
+    kept = [index for index, step_id in enumerate(result.step_ids) if step_id not in step_ids]
+    return ShardResult(
+        step_ids=[result.step_ids[index] for index in kept],
+        components=[result.components[index] for index in kept],
+        specs=[result.specs[index] for index in kept],
+        skipped=[entry for entry in result.skipped if entry.guid not in guids],
+        bboxes_ifc_world_m=[result.bboxes_ifc_world_m[index] for index in kept],
+        panelised=[entry for entry in result.panelised if entry.guid not in guids],
+        seconds_by_stage=result.seconds_by_stage,
+    )
+
+
 def convert_shard(
     model: ifcopenshell.file,
     step_ids: Sequence[int],

@@ -35,6 +35,8 @@ class Geometry:
     geometry_id: str
     vertices_local_m: np.ndarray
     faces: np.ndarray
+    # per face, the STEP id of its surface style (-1: none); empty when the geometry has one style or none
+    face_style_ids: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
 
 @dataclass(frozen=True)
@@ -107,11 +109,27 @@ def _element_shape(
             return None
         vertices = ifcopenshell.util.shape.get_vertices(shape.geometry)
         geometry = Geometry(
-            geometry_id, np.ascontiguousarray(vertices, float), np.ascontiguousarray(faces, np.int64)
+            geometry_id,
+            np.ascontiguousarray(vertices, float),
+            np.ascontiguousarray(faces, np.int64),
+            _face_style_ids(shape.geometry, len(faces)),
         )
         cache[geometry_id] = geometry
     matrix = np.asarray(ifcopenshell.util.shape.get_shape_matrix(shape), dtype=np.float64)
     return ElementShape(int(shape.id), matrix, geometry)
+
+
+def _face_style_ids(geometry: ifcopenshell_wrapper.triangulation, face_count: int) -> np.ndarray:
+    """Per face, the STEP id of its surface style (-1: none), when the faces have two styles or more (a
+    window of glass, wood and stone: :mod:`.face_materials` weighs each with its material); else empty."""
+    styles = list(geometry.materials)
+    if len(styles) < 2:
+        return np.zeros(0, dtype=np.int64)
+    indices = np.asarray(ifcopenshell.util.shape.get_faces_material_style_ids(geometry), dtype=np.int64)
+    if len(indices) != face_count:
+        return np.zeros(0, dtype=np.int64)
+    ids = np.array([int(style.instance_id()) for style in styles] + [-1], dtype=np.int64)
+    return ids[indices]  # index -1 (no style) picks the trailing -1
 
 
 def _failure_reason(settings: ifcopenshell.geom.settings, element: ifcopenshell.entity_instance) -> str:

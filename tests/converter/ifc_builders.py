@@ -191,6 +191,48 @@ def add_material(small: SmallModel, products: list[Entity], name: str, category:
     return material
 
 
+def add_layers(
+    small: SmallModel, products: list[Entity], layers: list[tuple[str, float]], name: str = "Layers"
+) -> Entity:
+    """An IfcMaterialLayerSet of ``layers`` (material name, thickness in metres; one IfcMaterial per distinct
+    name), associated with all ``products`` through a layer set usage, as Revit exports walls."""
+    file = small.file
+    layer_set = ifcopenshell.api.material.add_material_set(file, name=name, set_type="IfcMaterialLayerSet")
+    scale = 1.0 / ifcopenshell.util.unit.calculate_unit_scale(file)  # thicknesses are in file units
+    materials: dict[str, Entity] = {}
+    for material_name, thickness_m in layers:
+        if material_name not in materials:
+            materials[material_name] = ifcopenshell.api.material.add_material(file, name=material_name)
+        layer = ifcopenshell.api.material.add_layer(
+            file, layer_set=layer_set, material=materials[material_name]
+        )
+        ifcopenshell.api.material.edit_layer(
+            file, layer=layer, attributes={"LayerThickness": thickness_m * scale}
+        )
+    ifcopenshell.api.material.assign_material(
+        file, products=products, type="IfcMaterialLayerSetUsage", material=layer_set
+    )
+    return layer_set
+
+
+def add_faceted(
+    small: SmallModel,
+    ifc_class: str,
+    name: str,
+    *,
+    vertices_m: list[tuple[float, float, float]],
+    faces: list[tuple[int, ...]],
+) -> Entity:
+    """An element of ``ifc_class`` whose body is the polygons ``faces`` (vertex indices, wound as given, so
+    a test can flip or leave out faces as exports do) over ``vertices_m`` (world metres), in the storey."""
+    element = ifcopenshell.api.root.create_entity(small.file, ifc_class=ifc_class, name=name)
+    body = ifcopenshell.api.geometry.add_mesh_representation(
+        small.file, context=small.body, vertices=[vertices_m], faces=[faces]
+    )
+    ifcopenshell.api.geometry.assign_representation(small.file, product=element, representation=body)
+    return place(small, element, translation(), small.storey)
+
+
 def add_type(small: SmallModel, products: list[Entity], ifc_class: str, name: str) -> Entity:
     """One type object of ``ifc_class`` typing all ``products`` (one IfcRelDefinesByType)."""
     element_type = ifcopenshell.api.root.create_entity(small.file, ifc_class=ifc_class, name=name)

@@ -4,12 +4,28 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import ifcopenshell.api.geometry
+import ifcopenshell.api.material
 import ifcopenshell.api.pset
+import ifcopenshell.api.root
+import ifcopenshell.api.style
 import ifcopenshell.api.unit
 import pytest
-from ifc_builders import add_beam, add_material, add_pset, add_qto, add_type, new_model
+from ifc_builders import (
+    add_beam,
+    add_layers,
+    add_material,
+    add_pset,
+    add_qto,
+    add_type,
+    add_wall,
+    new_model,
+    place,
+    translation,
+)
 
 from bimbot.services.converter.mass import DEFAULT_DENSITY_KG_M3, element_mass, material_label
+from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import MassSource
 
 VOLUME_M3 = 0.4  # a 5 m × 0.2 m × 0.4 m beam
@@ -147,3 +163,112 @@ def test_a_conversion_warning_names_the_element_not_only_its_guid(tmp_path: Path
     manifest = convert_model(small.file, source, tmp_path / "out")
     expected = f"IfcBeam 'Beam B7' ({beam.GlobalId}): material 'Unobtainium': density unknown"
     assert any(warning.startswith(expected) for warning in manifest.warnings), manifest.warnings
+
+
+GYP_M, STUD_M = 0.0159, 0.0921  # 5/8 in. gypsum board, 3-5/8 in. studs
+
+
+def test_a_stud_partition_weighs_its_layers_not_solid_steel() -> None:
+    """Revit's partitions are gypsum board on a "Metal - Stud Layer": the first named density found, steel's,
+    used to weigh the whole wall (the Revit restaurant's 4 7/8 in. partitions: 7.5 t panels out of the crane's
+    reach); the layers' mean by thickness, the stud layer a framed cavity, is 283 kg/m³."""
+    small = new_model()
+    wall = add_wall(small, length_m=4.0, height_m=3.0, thickness_m=2 * GYP_M + STUD_M)
+    add_layers(small, [wall], [("J_Wall_Gyp", GYP_M), ("Metal - Stud Layer", STUD_M), ("J_Wall_Gyp", GYP_M)])
+    volume_m3 = 4.0 * 3.0 * (2 * GYP_M + STUD_M)
+    result = element_mass(wall, volume_m3)
+    expected_kg_m3 = (2 * GYP_M * 900.0 + STUD_M * 70.0) / (2 * GYP_M + STUD_M)
+    assert result.source == MassSource.MATERIAL_DENSITY_TABLE
+    assert result.density_kg_m3 == pytest.approx(expected_kg_m3)
+    assert result.mass_kg == pytest.approx(volume_m3 * expected_kg_m3)  # 420 kg, not 11.7 t
+    assert not result.warnings
+
+
+def test_a_layer_of_unknown_material_counts_at_the_default_density_and_is_named() -> None:
+    """The restaurant's compound ceilings: studs and a finish "J_Ceiling_Dark" the table does not know."""
+    small = new_model()
+    ceiling = add_wall(small, thickness_m=0.054)
+    add_layers(small, [ceiling], [("Metal - Stud Layer", 0.038), ("J_Ceiling_Dark", 0.016)])
+    result = element_mass(ceiling, 1.0)
+    assert result.density_kg_m3 == pytest.approx((0.038 * 70.0 + 0.016 * DEFAULT_DENSITY_KG_M3) / 0.054)
+    assert result.source == MassSource.MATERIAL_DENSITY_TABLE  # the studs make most of it
+    assert result.warnings and "'J_Ceiling_Dark'" in result.warnings[0]
+
+
+def test_layers_with_a_density_property_and_an_air_gap() -> None:
+    small = new_model()
+    wall = add_wall(small, thickness_m=0.35)
+    layers = add_layers(small, [wall], [("Brick", 0.1), ("Air gap", 0.05), ("Concrete", 0.2)])
+    concrete = layers.MaterialLayers[2].Material
+    pset = ifcopenshell.api.pset.add_pset(small.file, product=concrete, name="Pset_MaterialCommon")
+    ifcopenshell.api.pset.edit_pset(small.file, pset=pset, properties={"MassDensity": 2300.0})
+    result = element_mass(wall, 1.0)
+    assert result.density_kg_m3 == pytest.approx((0.1 * 1900.0 + 0.05 * 1.2 + 0.2 * 2300.0) / 0.35)
+    assert result.source == MassSource.MATERIAL_DENSITY_PROPERTY  # the concrete makes most of it
+
+
+def test_a_poured_gypsum_underlayment_has_its_own_density() -> None:
+    small = new_model()
+    slab = add_wall(small)
+    add_layers(small, [slab], [("J_Floor_Gyp_Crete", 0.05)], name="Floor:J_Floor_Concrete_PouredUnderlayment")
+    assert element_mass(slab, 1.0).density_kg_m3 == pytest.approx(1650.0)
+
+
+def _box_faces(low: tuple[float, float, float], high: tuple[float, float, float]) -> tuple[list, list]:
+    (x0, y0, z0), (x1, y1, z1) = low, high
+    vertices = [(x, y, z) for z in (z0, z1) for (x, y) in ((x0, y0), (x1, y0), (x1, y1), (x0, y1))]
+    faces = [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)]
+    return vertices, faces
+
+
+@pytest.mark.parametrize("schema", ["IFC2X3", "IFC4"])
+def test_a_window_of_listed_materials_weighs_each_body_with_the_material_its_faces_are_styled_as(
+    schema: str, tmp_path: Path
+) -> None:
+    """The Revit house's windows list glass, wood and stone with no shares: all was weighed as glass, the
+    first, 2,500 kg/m³ (535 kg a window of mostly wood); each body now weighs with the material whose style
+    its faces carry: a 0.02 m³ pane of glass and a 0.02 m³ wooden rail, 50 + 10 kg, not 100."""
+    from bimbot.services.converter.convert import ConvertOptions, convert_model
+
+    small = new_model(schema)
+    file = small.file
+    pane, rail = _box_faces((0.0, 0.0, 0.2), (1.0, 0.02, 1.2)), _box_faces((0.0, 0.0, 0.0), (1.0, 0.1, 0.2))
+    window = ifcopenshell.api.root.create_entity(file, ifc_class="IfcWindow", name="Window")
+    body = ifcopenshell.api.geometry.add_mesh_representation(
+        file, context=small.body, vertices=[pane[0], rail[0]], faces=[pane[1], rail[1]]
+    )
+    ifcopenshell.api.geometry.assign_representation(file, product=window, representation=body)
+    place(small, window, translation(), small.storey)
+    listed = ifcopenshell.api.material.add_material_set(file, name="Window", set_type="IfcMaterialList")
+    styles = []
+    for name in ("Float glass", "Oak wood"):
+        material = ifcopenshell.api.material.add_material(file, name=name)
+        ifcopenshell.api.material.add_list_item(file, material_list=listed, material=material)
+        style = ifcopenshell.api.style.add_style(file, name=name)
+        grey = {"SurfaceColour": {"Name": None, "Red": 0.5, "Green": 0.5, "Blue": 0.5}}
+        ifcopenshell.api.style.add_surface_style(file, style=style, attributes=grey)
+        ifcopenshell.api.style.assign_material_style(
+            file,
+            material=material,
+            style=style,
+            context=small.body,
+            should_use_presentation_style_assignment=schema == "IFC2X3",
+        )
+        styles.append(style)
+    ifcopenshell.api.material.assign_material(
+        file, products=[window], type="IfcMaterialList", material=listed
+    )
+    ifcopenshell.api.style.assign_representation_styles(
+        file,
+        shape_representation=body,
+        styles=styles,
+        should_use_presentation_style_assignment=schema == "IFC2X3",
+    )
+    source = tmp_path / "window.ifc"
+    file.write(str(source))
+    manifest = convert_model(
+        open_model(source), source, tmp_path / "out", ConvertOptions(formats=(), split_ifc=False)
+    )
+    (converted,) = manifest.components
+    assert converted.volume_m3 == pytest.approx(0.04)
+    assert converted.mass_kg == pytest.approx(0.02 * 2500.0 + 0.02 * 500.0)

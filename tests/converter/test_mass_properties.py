@@ -5,9 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
+from ifc_builders import add_faceted, new_model
 from scipy.spatial.transform import Rotation
 
-from bimbot.services.converter.mass_properties import box_inertia_per_kg, mass_properties
+from bimbot.services.converter.mass_properties import (
+    MassProperties,
+    box_inertia_per_kg,
+    mass_properties,
+    mesh_from_arrays,
+)
+from bimbot.services.converter.tessellation import tessellate
 from bimbot.shared.manifest import InertiaSource
 
 
@@ -78,3 +85,58 @@ def test_a_mesh_not_watertight_as_a_whole_is_weighed_piece_by_piece() -> None:
     assert not props.watertight and props.source == InertiaSource.BOUNDING_BOX_FALLBACK
     assert props.volume_m3 == pytest.approx(2.0)
     assert trimesh.convex.convex_hull(mesh).volume > 10.0  # what it weighed before
+
+
+def _frame(*, flip: tuple[int, ...] = (), leave_out: tuple[int, ...] = ()) -> tuple[list, list]:
+    """A window frame as exports draw it: a 1 m square ring 0.1 m wide and 0.1 m deep (0.036 m³; its convex
+    hull, the whole 1 m × 1 m × 0.1 m, is 0.1 m³), as 16 quads wound outward; ``flip``: faces wound the
+    other way, ``leave_out``: faces not drawn."""
+    outer, inner = (0.0, 1.0), (0.1, 0.9)
+    vertices = [
+        (x, y, z)
+        for z in (0.0, 0.1)
+        for (low, high) in (outer, inner)
+        for (x, y) in ((low, low), (high, low), (high, high), (low, high))
+    ]  # 0-3 outer bottom, 4-7 inner bottom, 8-11 outer top, 12-15 inner top (counter-clockwise seen from +z)
+    faces = []
+    for i in range(4):
+        j = (i + 1) % 4
+        faces.append((i, 4 + i, 4 + j, j))  # bottom ring, facing down
+        faces.append((8 + i, 8 + j, 12 + j, 12 + i))  # top ring, facing up
+        faces.append((i, j, 8 + j, 8 + i))  # outer side, facing out
+        faces.append((4 + i, 12 + i, 12 + j, 4 + j))  # inner side, facing the opening
+    faces = [face[::-1] if index in flip else face for index, face in enumerate(faces)]
+    return vertices, [face for index, face in enumerate(faces) if index not in leave_out]
+
+
+def _converted_props(vertices: list, faces: list) -> MassProperties:
+    """The mass properties the converter computes for an IfcWindow with this body (tessellated by
+    ifcopenshell, welded, rewound)."""
+    small = new_model()
+    window = add_faceted(small, "IfcWindow", "Frame", vertices_m=vertices, faces=faces)
+    shape = tessellate(small.file, [window], threads=1).shapes[window.id()]
+    return mass_properties(mesh_from_arrays(shape.geometry.vertices_local_m, shape.geometry.faces))
+
+
+def test_frame_checks_its_own_volume() -> None:
+    props = _converted_props(*_frame())
+    assert props.watertight and props.source == InertiaSource.MESH
+    assert props.volume_m3 == pytest.approx(0.036)
+
+
+def test_a_closed_frame_with_faces_wound_the_wrong_way_is_rewound_into_a_solid() -> None:
+    """The Revit restaurant's windows: closed frames with some faces wound inward used to be weighed as
+    their convex hulls (a 1.1 m × 2.4 m window 954 kg at 1000 kg/m³, its frames 78 kg); trimesh rewinds
+    them and they are solids of their own volume, with their own inertia."""
+    props = _converted_props(*_frame(flip=(0, 3, 6, 13)))
+    assert props.watertight and props.source == InertiaSource.MESH
+    assert props.volume_m3 == pytest.approx(0.036)
+
+
+def test_an_open_frame_is_weighed_with_its_hole_filled_not_as_its_convex_hull() -> None:
+    """An inner side left out (and a face wound the wrong way): the mesh is open, and its convex hull (0.1 m³)
+    fills the opening the frame surrounds (the restaurant's walk-in refrigerator, a box of 4 in. panels,
+    weighed its whole 17 m³ hull); trimesh fills the hole and the frame weighs its own 0.036 m³."""
+    props = _converted_props(*_frame(flip=(1,), leave_out=(7,)))
+    assert not props.watertight and props.source == InertiaSource.BOUNDING_BOX_FALLBACK
+    assert props.volume_m3 == pytest.approx(0.036)

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from ifc_builders import SmallModel, add_box, add_material, add_pset, new_model
+from ifc_builders import SmallModel, add_box, add_layers, add_material, add_pset, new_model
 
 from bimbot.data.light_steel_frame import build_light_steel_frame
 from bimbot.services.converter.convert import ConvertOptions, convert_model
@@ -87,6 +87,23 @@ def test_a_slab_the_ifc_says_is_cast_insitu_is_cast_with_its_formwork_pour_and_c
     assert pad.cast is not None and pad.cast.formwork_area_m2 == pytest.approx(4 * 1.0 * 0.5)
     assert pad.cast.cure_s == pytest.approx(rates.rates("IfcFooting")[3] * 3600)
     assert components["Slab"].cast != pad.cast
+
+
+def test_a_poured_underlayment_is_cast_on_the_floor_beneath_it_not_lifted(tmp_path: Path) -> None:
+    """The Revit restaurant's "Floor:J_Floor_Concrete_PouredUnderlayment" of "J_Floor_Gyp_Crete", 32 m × 29 m
+    and 5 cm thick, was lifted whole (28 t, too heavy for every machine); its material says it is poured:
+    cast in place, on the floor beneath it (no soffit form: only its edges)."""
+    small = new_model()
+    topping = add_box(small, "IfcSlab", "Underlayment", size_m=(8.0, 6.0, 0.05), corner_m=(0.0, 0.0, 3.2))
+    add_layers(
+        small, [topping], [("J_Floor_Gyp_Crete", 0.05)], name="Floor:J_Floor_Concrete_PouredUnderlayment"
+    )
+    cast = _by_name(_convert(small, tmp_path))["Underlayment"]
+    assert (cast.method, cast.method_source) == (CAST, MethodSource.IFC)
+    assert cast.method_note == "material 'J_Floor_Gyp_Crete': poured on the floor beneath"
+    assert cast.cast is not None
+    assert cast.cast.formwork_area_m2 == pytest.approx(2 * (8.0 + 6.0) * 0.05)  # edges, no soffit
+    assert cast.mass_kg == pytest.approx(8.0 * 6.0 * 0.05 * 1650.0)  # gypsum concrete
 
 
 def test_prefab_panelises_a_heavy_wall_and_casts_a_heavy_concrete_column_with_the_numbers(

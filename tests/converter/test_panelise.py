@@ -101,6 +101,28 @@ def test_a_slab_is_cut_into_planks_along_its_span() -> None:
     assert "10 planks along the 7.40 m span" in cut.why
 
 
+def test_a_ceiling_wider_than_a_truck_is_long_is_cut_into_rows_of_planks_that_fit_one() -> None:
+    """The Revit restaurant's acoustical ceiling, 31.1 m × 28.7 m: planks as long as its span (28.7 m) fit no
+    truck, so it was lifted whole (5.9 t, out of the crane's reach); its span is cut across into rows that
+    fit a truck, each row cut into planks."""
+    ceiling = manifold_to_mesh(_box((0, 0, 0), (31.1, 28.7, 0.054)))
+    mass_kg = 18.6 * 31.1 * 28.7  # 18.6 kg/m²: gypsum board on a stud layer
+    cut = panelise(ceiling, PanelKind.SLAB, mass_kg, LIMITS)
+
+    spans = {round(float(p.extents[1]), 3) for p in cut.panels}  # planks side by side along x (31.1 m)
+    assert spans == {round(28.7 / 3, 3)}  # three rows of 9.57 m
+    for plank in cut.panels:
+        assert 1.2 <= plank.extents[0] <= 2.4
+        assert LIMITS.fits(plank.extents)
+    assert len(cut.panels) == 3 * 13  # 31.1 m in 13 planks of 2.39 m
+    assert sum(cut.volumes_m3) == pytest.approx(31.1 * 28.7 * 0.054, rel=1e-6)
+    kinds = [j.kind for j in cut.joints]
+    assert kinds.count("longitudinal") == 3 * 12 and kinds.count("transverse") == 2 * 13
+    transverse = [j.length_m for j in cut.joints if j.kind == "transverse"]
+    assert sum(transverse) == pytest.approx(2 * 31.1, abs=0.02)  # each row joint runs the whole width
+    assert "39 planks along the 28.70 m span in 3 rows of 9.57 m" in cut.why
+
+
 def test_a_slab_whose_narrowest_plank_is_too_heavy_is_not_cut_and_says_why() -> None:
     slab = manifold_to_mesh(_box((0, 0, 0), (7.4, 16.9, 0.3)))
     mass_kg = CONCRETE_KG_M3 * 7.4 * 16.9 * 0.3  # 90 t: a 1.2 m plank weighs 6.4 t
@@ -132,6 +154,9 @@ def test_what_is_cut_into_panels() -> None:
     assert panel_kind("IfcPlate", "Precast concrete") is PanelKind.SLAB
     assert panel_kind("IfcPlate", "Glass") is None
     assert panel_kind("IfcColumn", "Concrete") is None
+    assert panel_kind("IfcCovering", "Gypsum", "CEILING") is PanelKind.SLAB
+    assert panel_kind("IfcCovering", None, "CLADDING") is PanelKind.WALL
+    assert panel_kind("IfcCovering", None, "INSULATION") is None
 
 
 def test_a_panel_fits_a_truck_in_any_orientation() -> None:

@@ -9,11 +9,21 @@ from pathlib import Path
 
 import ifcopenshell
 import ifcopenshell.api.aggregate
+import ifcopenshell.api.classification
 import ifcopenshell.api.geometry
 import ifcopenshell.api.root
 import ifcopenshell.api.spatial
 import pytest
-from ifc_builders import SmallModel, add_assembly, add_beam, add_opening, add_wall, new_model, translation
+from ifc_builders import (
+    SmallModel,
+    add_assembly,
+    add_beam,
+    add_opening,
+    add_pset,
+    add_wall,
+    new_model,
+    translation,
+)
 from wall_clock import bound_s
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
@@ -101,6 +111,52 @@ def test_include_adds_a_class_back_exclude_takes_one_away_only_replaces_the_rule
     for selection in (with_furniture, without_walls, only):  # nothing is dropped silently
         listed = [e.id() for e in selection.elements] + [r.element.id() for r in selection.rejected]
         assert sorted(listed) == sorted(every)
+
+
+@pytest.mark.parametrize("schema", ["IFC2X3", "IFC4"])
+def test_a_proxy_classified_as_equipment_or_planting_is_left_out_as_its_own_class_would_be(
+    schema: str,
+) -> None:
+    """Revit exports the restaurant's walk-in refrigerator (17 t as its open mesh's hull, too heavy for any
+    crane), its ranges and its trees as proxies; their UniFormat codes say what IFC classes would: equipment,
+    services and planting, installed by their trades and left out like furniture. A proxy coded as a
+    building element (C1010: partitions) or not coded at all is built; --include builds them all."""
+    small = new_model(schema)
+    fridge = _element(small, "IfcBuildingElementProxy", "Refrigerator-Walk-In")
+    add_pset(
+        small,
+        [fridge],
+        "PSet_Revit_Type_Identity Data",
+        {"Assembly Code": "E1090330", "Assembly Description": "Food Service - Walk-in Refrigerators"},
+    )
+    sink = _element(small, "IfcBuildingElementProxy", "Sink", x_m=2.0)
+    add_pset(small, [sink], "PSet_Revit_Type_Identity Data", {"Assembly Code": "D2010440"})
+    shrub = _element(small, "IfcBuildingElementProxy", "Shrub", x_m=4.0)
+    reference = ifcopenshell.api.classification.add_reference(
+        small.file,
+        products=[shrub],
+        identification="G2050500",
+        name="Planting",
+        classification=ifcopenshell.api.classification.add_classification(
+            small.file, classification="UniFormat"
+        ),
+    )
+    assert reference is not None
+    stalls = _element(small, "IfcBuildingElementProxy", "Toilet partitions", x_m=6.0)
+    add_pset(small, [stalls], "PSet_Revit_Type_Identity Data", {"Assembly Code": "C1010400"})
+    _element(small, "IfcBuildingElementProxy", "Generic model", x_m=8.0)
+    selection = select_elements(small.file)
+    assert {element.Name for element in selection.elements} == {"Toilet partitions", "Generic model"}
+    reasons = {rejection.element.Name: rejection.reason for rejection in selection.rejected}
+    assert reasons["Refrigerator-Walk-In"] == (
+        "not a building element (a proxy classified as equipment); UniFormat E1090330 'Food Service - "
+        "Walk-in Refrigerators', installed by its vendor or trade, not built by the robots; --include "
+        "IfcBuildingElementProxy to build it"
+    )
+    assert reason_head(reasons["Sink"]) == "not a building element (a proxy classified as services)"
+    assert reason_head(reasons["Shrub"]) == "not a building element (a proxy classified as landscaping)"
+    included = select_elements(small.file, include=("IfcBuildingElementProxy",))
+    assert len(included.elements) == 5
 
 
 @pytest.mark.parametrize("schema", SCHEMAS)

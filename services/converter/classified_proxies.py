@@ -1,0 +1,101 @@
+"""Proxies whose classification names them as what IFC leaves out of a building: equipment, services, plants.
+
+Why: an authoring tool exports a family with no IFC class of its own as ``IfcBuildingElementProxy``. Revit
+does so with kitchen equipment, sinks and urinals, and trees; it keeps their UniFormat code in the type's
+"Assembly Code" (the Revit restaurant's walk-in refrigerator: ``E1090330`` "Food Service - Walk-in
+Refrigerators"). The same objects exported with their own classes are furniture, distribution elements or
+geographic elements, which the converter leaves out by default (:mod:`.selection`): they are installed by
+their vendor or trade once the building stands, not built by its robots. A proxy whose UniFormat code
+says so is left out the same way. Read: ``IfcClassificationReference``\\ s of a UniFormat classification
+(the element's, then its type's), then an "Assembly Code" property (Revit's).
+"""
+
+from __future__ import annotations
+
+import re
+
+import ifcopenshell
+import ifcopenshell.util.classification
+import ifcopenshell.util.element
+
+# UniFormat II groups whose elements IFC does not class as building elements, and what they are
+LEFT_OUT_GROUPS: tuple[tuple[str, str], ...] = (
+    ("D", "services"),  # conveying, plumbing, HVAC, fire protection, electrical
+    ("E10", "equipment"),
+    ("E20", "furnishings"),
+    ("G2050", "landscaping"),
+)
+UNIFORMAT_CODE = re.compile(r"^[A-G]\d{0,8}$")
+CODE_PROPERTY = "Assembly Code"  # Revit's UniFormat code of a type
+DESCRIPTION_PROPERTY = "Assembly Description"
+
+
+def proxy_trade(element: ifcopenshell.entity_instance) -> str | None:
+    """For a proxy classified in a group of :data:`LEFT_OUT_GROUPS`, the reason it is left out (a
+    :mod:`.selection` reason: its head is "not a building element (…)"); None for anything else."""
+    if not element.is_a("IfcBuildingElementProxy"):
+        return None
+    found = uniformat_code(element)
+    if found is None:
+        return None
+    code, description = found
+    what = next((kind for group, kind in LEFT_OUT_GROUPS if code.startswith(group)), None)
+    if what is None:
+        return None
+    named = f" {description!r}" if description else ""
+    return (
+        f"not a building element (a proxy classified as {what}); UniFormat {code}{named}, installed by "
+        "its vendor or trade, not built by the robots; --include IfcBuildingElementProxy to build it"
+    )
+
+
+def uniformat_code(element: ifcopenshell.entity_instance) -> tuple[str, str] | None:
+    """(code, description) of the element's UniFormat classification, or None."""
+    for reference in _references(element):
+        source = _source_name(reference)
+        code = getattr(reference, "Identification", None) or getattr(reference, "ItemReference", None)
+        code = str(code or "").strip().upper()
+        if "uniformat" in source.lower() and UNIFORMAT_CODE.match(code):
+            return code, str(reference.Name or "")
+    code, description = _assembly_code(element)
+    if code and UNIFORMAT_CODE.match(code):
+        return code, description
+    return None
+
+
+def _references(element: ifcopenshell.entity_instance) -> list[ifcopenshell.entity_instance]:
+    found = list(ifcopenshell.util.classification.get_references(element))
+    element_type = ifcopenshell.util.element.get_type(element)
+    if element_type is not None:
+        found += ifcopenshell.util.classification.get_references(element_type)
+    return found
+
+
+def _source_name(reference: ifcopenshell.entity_instance) -> str:
+    source = getattr(reference, "ReferencedSource", None)
+    if source is None:
+        return ""
+    return str(getattr(source, "Name", None) or "")
+
+
+def _assembly_code(element: ifcopenshell.entity_instance) -> tuple[str, str]:
+    """Revit's "Assembly Code" and "Assembly Description" from any property set of the element or its
+    type (upper-cased code; empty strings when absent)."""
+    definitions = [
+        rel.RelatingPropertyDefinition
+        for rel in getattr(element, "IsDefinedBy", ()) or ()
+        if rel.is_a("IfcRelDefinesByProperties")
+    ]
+    element_type = ifcopenshell.util.element.get_type(element)
+    if element_type is not None:
+        definitions += list(getattr(element_type, "HasPropertySets", None) or ())
+    values: dict[str, str] = {}
+    for definition in definitions:
+        if definition is None or not definition.is_a("IfcPropertySet"):
+            continue
+        for prop in definition.HasProperties or ():
+            if prop.is_a("IfcPropertySingleValue") and prop.Name in (CODE_PROPERTY, DESCRIPTION_PROPERTY):
+                value = prop.NominalValue.wrappedValue if prop.NominalValue is not None else ""
+                if value and prop.Name not in values:
+                    values[prop.Name] = str(value).strip()
+    return values.get(CODE_PROPERTY, "").upper(), values.get(DESCRIPTION_PROPERTY, "")
