@@ -5,8 +5,9 @@ the test SIGKILLs each service once, in turn — physics, the robot, the agents,
 router — each when a few more components are constructed and the one killed before is running again.
 Then: the run ends by itself with every component constructed and exit 0; its report lists the five
 deaths, each restarted; the agents' journal holds exactly one ``constructed`` transition per component
-(nothing was built twice); and the as-built audit finds every component at its BIM target in physics
-(the restarted physics put the built ones back where they were placed).
+(nothing was built twice); the as-built audit finds every component at its BIM target in physics
+(the restarted physics put the built ones back where they were placed); and no lock-step wait ran out its
+bound (each restart cost its own start-up, not a minute of every participant waiting for it).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from pathlib import Path
 import pytest
 from fleets import ground_fleet_file
 from frames import convert_small_frame
+from lock_step_logs import waits_that_ran_out
 from wall_clock import bound_s
 
 from bimbot.services.component_agents.journal import journal_path, replay
@@ -130,3 +132,4 @@ def test_every_service_killed_once_mid_build_the_build_completes_once(
     audit = report["as_built"]
     assert audit["errors"] == [] and audit["checked"] == total, detail
     assert report["totals"]["max_final_position_error_mm"] <= 10.0, detail
+    assert waits_that_ran_out(run.logs_dir) == []
