@@ -15,6 +15,10 @@ An input may need an answer before it can be taken (a claim that a component is 
 against its twin): :meth:`StepGate.put` it unresolved and :meth:`StepGate.resolve` it when the answer
 comes; a step whose inputs are not all resolved waits. Every wait is bounded by the caller, which may
 :meth:`StepGate.force` the step (and the late ones are counted: a run that forced steps may not reproduce).
+
+A participant (re)started mid-run joins at the first clock step it hears, ``j``: the answers the others
+gave before it listened can never reach it, so their answers up to ``j − DELAY_STEPS`` count as heard
+(physics published ``j`` only after them). Waiting for them would hold every restart for the whole bound.
 """
 
 from __future__ import annotations
@@ -53,6 +57,7 @@ class StepGate(Generic[T]):
     _times: dict[int, float] = field(default_factory=dict)  # clock step → its sim time (recent ones)
     _answered: dict[str, int] = field(default_factory=dict)  # participant → last step it answered
     _absent: set[str] = field(default_factory=set)  # participants not waited for until heard again
+    _joined_at: int | None = None  # the first clock step heard (see the module docstring)
     _seq: int = 0
     _seen: set[object] = field(default_factory=set)  # keys of inputs put (a repeated delivery is dropped)
     late: int = 0  # inputs that came after the step that should have taken them (taken at the next)
@@ -62,8 +67,17 @@ class StepGate(Generic[T]):
 
     def clock(self, step: int, sim_time_s: float) -> None:
         """Clock step ``step`` is at ``sim_time_s`` (kept until the steps that need it were taken: a
-        participant that fell behind hears many clocks before it takes their steps)."""
+        participant that fell behind hears many clocks before it takes their steps). The first one heard
+        is where this participant joined: the others' answers before it count as heard."""
+        if self._joined_at is None:
+            self._joined_at = step
+            for participant, answered in self._answered.items():
+                self._answered[participant] = max(answered, self._heard_floor())
         self._times[step] = sim_time_s
+
+    def _heard_floor(self) -> int:
+        """The step every participant counts as answered: the one before the first this gate takes."""
+        return -1 if self._joined_at is None else max(-1, self._joined_at - self.delay_steps)
 
     def answered(self, participant: str, step: int) -> None:
         """``participant`` answered clock step ``step`` (its own output up to there has been sent)."""
@@ -73,9 +87,10 @@ class StepGate(Generic[T]):
 
     def expect(self, participants: Iterable[str]) -> None:
         """Wait for these participants' answers from the start (one not heard yet is waited for too: a
-        participant first heard late would otherwise have been skipped at the steps before)."""
+        participant first heard late would otherwise have been skipped at the steps before; but not for
+        the answers before the first clock this gate heard)."""
         for participant in participants:
-            self._answered.setdefault(participant, -1)
+            self._answered.setdefault(participant, self._heard_floor())
 
     def leave(self, participant: str) -> None:
         """``participant`` is gone (or stopped answering): not waited for until it answers again."""

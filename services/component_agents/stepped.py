@@ -7,7 +7,8 @@ later from run to run, and what rests on it was released then. Here the shard is
 step ``k`` it takes the events and poses stamped at or before step ``k − 2``
 (:class:`~bimbot.shared.step_gate.StepGate`, once the planner and every robot have answered that step),
 in (stamp, sender) order, at the sim time of ``k``; checks the verification timeouts in sim time; then
-answers ``k``. Twin queries are answered at once, as before.
+answers ``k``. A clock step heard again (physics says it again while it waits: an answer may have been
+lost with a router) is answered with the last answer again. Twin queries are answered at once, as before.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from collections import deque
 from collections.abc import Callable, Iterable
 
 from bimbot.shared.bus import Received
-from bimbot.shared.clock_guard import ClockGuard
+from bimbot.shared.clock_guard import ClockGuard, Verdict
 from bimbot.shared.messages import ClockMsg, CmdVelMsg, ComponentEventMsg, ComponentPoseMsg, StepDoneMsg
 from bimbot.shared.step_gate import HOLD_S, StepGate
 
@@ -50,6 +51,7 @@ class SteppedAgents:
         self.clock_guard = ClockGuard(f"{self.name} clock")
         self._held_since: float | None = None
         self._last_step = -1
+        self._last_answer: StepDoneMsg | None = None
         self.expecting = False  # until physics' site info says who answers each step
 
     def expect(self, robot_ids: Iterable[str], participants: Iterable[str]) -> None:
@@ -61,9 +63,12 @@ class SteppedAgents:
         """Take one inbox item (False: not one of the stepped kinds, the caller handles it)."""
         match item:
             case Received(message=ClockMsg() as clock):
-                if self.clock_guard.check(clock, time.monotonic()).accepted:
+                verdict = self.clock_guard.check(clock, time.monotonic())
+                if verdict.accepted:
                     self.gate.clock(clock.step, clock.sim_time_s)
                     self.clocks.append(clock)
+                elif verdict is Verdict.OLD and self._last_answer is not None:
+                    self.answer(self._last_answer)
             case Received(message=CmdVelMsg() as command):
                 if command.step is not None:
                     self.gate.answered(command.robot_id, command.step)
@@ -111,7 +116,9 @@ class SteppedAgents:
             for item in self.gate.take(clock.step, force=force):
                 self.publish(host.handle(item))
             self.publish(host.tick())
-            self.answer(StepDoneMsg(participant=self.name, step=clock.step, sim_time_s=clock.sim_time_s))
+            answer = StepDoneMsg(participant=self.name, step=clock.step, sim_time_s=clock.sim_time_s)
+            self.answer(answer)
+            self._last_answer = answer
             self._last_step = clock.step
 
     def finish(self) -> None:

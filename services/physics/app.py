@@ -28,7 +28,10 @@ wait until every alive robot that is not busy placing has answered the open cloc
 real-time factor's due time (``rtf`` 0: no wait); advance one control period; publish; reply to finished
 placements. For reproducible lock-step runs, a robot sends its attach/place request *before* its command
 for that step (the request is then handled before the step advances). A robot waiting for a place reply
-need not answer clock steps meanwhile: it holds still and is not waited for.
+need not answer clock steps meanwhile: it holds still and is not waited for. While the lock-step waits,
+the open step's clock and sensors go out again every ``REANNOUNCE_S``: a participant that (re)started, or
+that a router restart cut off, missed them and answers only a step it hears (the others ignore a step
+heard twice and say their last answer again), so a restart costs its own start-up, not the wait's bound.
 """
 
 from __future__ import annotations
@@ -77,12 +80,14 @@ from bimbot.shared.messages import (
     TASK,
     AttachRequest,
     BuildRequest,
+    ClockMsg,
     CmdVelMsg,
     ComponentState,
     ComponentStateMsg,
     DropRequest,
     PhysicsReply,
     PlaceRequest,
+    SensorsMsg,
     SetUpRequest,
     SkipRequest,
     StepDoneMsg,
@@ -108,6 +113,7 @@ _log = logging.getLogger(__name__)
 TWINS_TIMEOUT_S = 10.0  # a restarted physics asks the agents what is constructed, this long at most
 LOOP_WAIT_S = 0.05  # longest blocking wait, so a stop request is seen quickly
 STATUS_EVERY_S = 30.0
+REANNOUNCE_S = 1.0  # wall s a lock-step wait lasts before the open step's clock and sensors go out again
 
 
 @dataclass(frozen=True)
@@ -209,6 +215,8 @@ class _Loop:
         self._states_held_since: float | None = None
         # robot → step → physics requests its command said were sent for that step and that have not come
         self._requests_due: dict[str, dict[int, int]] = {}
+        self._announced: list[Outgoing] = []  # the open step's clock and sensors, as they went out
+        self._reannounced_wall_s = -math.inf
 
     def serve(self) -> None:
         site, inbox, session = self.site, self.inbox, self.session
@@ -339,6 +347,7 @@ class _Loop:
             missing = self.barrier.missing(waited_for)
             if missing:
                 if not self.barrier.timed_out(now):
+                    self._reannounce(now)
                     return max(self.barrier.remaining_s(now), 1e-3)
                 silent = self._participants.intersection(missing)
                 if silent:  # not waited for again until they answer (a robot: until alive again)
@@ -354,6 +363,15 @@ class _Loop:
         if self._states_wait(now) or self._requests_wait():
             return LOOP_WAIT_S
         return self.pacer.delay_s(self.sim.sim_time_s + self.sim.config.control_period_s, now)
+
+    def _reannounce(self, now: float) -> None:
+        """The open step's clock and sensors again, once the wait for its answers has lasted
+        ``REANNOUNCE_S`` and every ``REANNOUNCE_S`` after (not recorded: they are the same messages)."""
+        if self.barrier.waited_s(now) < REANNOUNCE_S or now - self._reannounced_wall_s < REANNOUNCE_S:
+            return
+        self._reannounced_wall_s = now
+        for item in self._announced:
+            self._put(item)
 
     def _count_request(self, robot_id: str, step: int, count: int) -> None:
         """``count`` more (a command said so) or fewer (one came) requests of ``robot_id`` for ``step``."""
@@ -390,6 +408,7 @@ class _Loop:
         if self._states_held_since is None:
             self._states_held_since = now
         if now - self._states_held_since < self.barrier.timeout_s:
+            stepped.to_ask.extend(stepped.claims.ask_again(self._states_held_since, now))
             return True
         _log.warning(
             "lock-step: step %d goes on without the twins of %s",
@@ -587,21 +606,28 @@ class _Loop:
         if self.recorder is not None and messages:
             self.recorder.record(item.message for item in messages)
             self.recorder.write()
-        for item in bundle(messages):
-            payload = encode(item.message)
-            # many keys, each rarely: no publisher per component; in a reproducible run none at all: Zenoh
-            # keeps the order of one session's puts, not of puts through declared publishers (measured:
-            # 130 to 240 of 20,000 overtaken), and a step's sensors must not overtake its poses
-            if self.run.step_with:  # lock-step: block rather than drop (bimbot.shared.bus.LOCK_STEP_PUT)
-                self.session.put(item.key_expr, payload, **LOCK_STEP_PUT)
-                continue
-            if "/components/" in item.key_expr:
-                self.session.put(item.key_expr, payload)
-                continue
-            publisher = self._publishers.get(item.key_expr)
-            if publisher is None:
-                publisher = self._publishers[item.key_expr] = self.session.declare_publisher(item.key_expr)
-            publisher.put(payload)
+        bundled = bundle(messages)
+        if any(isinstance(item.message, ClockMsg) for item in bundled):  # a new step: what _reannounce says
+            self._announced = [item for item in bundled if isinstance(item.message, ClockMsg | SensorsMsg)]
+            self._reannounced_wall_s = -math.inf
+        for item in bundled:
+            self._put(item)
+
+    def _put(self, item: Outgoing) -> None:
+        payload = encode(item.message)
+        # many keys, each rarely: no publisher per component; in a reproducible run none at all: Zenoh
+        # keeps the order of one session's puts, not of puts through declared publishers (measured:
+        # 130 to 240 of 20,000 overtaken), and a step's sensors must not overtake its poses
+        if self.run.step_with:  # lock-step: block rather than drop (bimbot.shared.bus.LOCK_STEP_PUT)
+            self.session.put(item.key_expr, payload, **LOCK_STEP_PUT)
+            return
+        if "/components/" in item.key_expr:
+            self.session.put(item.key_expr, payload)
+            return
+        publisher = self._publishers.get(item.key_expr)
+        if publisher is None:
+            publisher = self._publishers[item.key_expr] = self.session.declare_publisher(item.key_expr)
+        publisher.put(payload)
 
     def _status(self) -> None:
         _log.info(

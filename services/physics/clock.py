@@ -82,6 +82,10 @@ class LockStepBarrier:
     def timed_out(self, now_wall_s: float) -> bool:
         return self._opened_wall_s is not None and now_wall_s - self._opened_wall_s >= self.timeout_s
 
+    def waited_s(self, now_wall_s: float) -> float:
+        """Wall seconds since the open step was published (0 before the first)."""
+        return 0.0 if self._opened_wall_s is None else max(0.0, now_wall_s - self._opened_wall_s)
+
     def remaining_s(self, now_wall_s: float) -> float:
         if self._opened_wall_s is None:
             return self.timeout_s

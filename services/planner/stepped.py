@@ -11,7 +11,8 @@ that step is heard), steps the core at the sim time of ``k``, publishes what it 
 ``k``. A claim that a component is constructed, failed or blocked is still taken from its twin, not from
 the message: the step that takes it waits for the twin's answer (at most ``hold_s`` wall seconds). Sim
 time comes from the clock only, and the skip requests are paced in steps and stamped with the step
-that asks (physics acts on them at the next step).
+that asks (physics acts on them at the next step). A clock step heard again (physics says it again while
+it waits: an answer may have been lost with a router) is answered with the last answer again.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from collections.abc import Callable, Iterable
 import zenoh
 
 from bimbot.shared.bus import LOCK_STEP_PUT, Answer, Inbox, LivelinessChange, Received, encode
-from bimbot.shared.clock_guard import ClockGuard
+from bimbot.shared.clock_guard import ClockGuard, Verdict
 from bimbot.shared.messages import (
     STEP_DONE,
     ClockMsg,
@@ -88,6 +89,7 @@ class SteppedLoop:
         self._held_since: float | None = None
         self._answer_key = key(STEP_DONE.template, site=site, participant=PARTICIPANT)
         self._last_step = -1
+        self._last_answer: StepDoneMsg | None = None
         self._done_step: int | None = None  # the step the planner was first done at
         self._progress = core.progress()
         self._progress_revision, self._progress_step = -1, -PROGRESS_STEPS
@@ -97,9 +99,12 @@ class SteppedLoop:
     def hear(self, item: object) -> None:
         match item:
             case Received(message=ClockMsg() as clock):
-                if self.clock_guard.check(clock, time.monotonic()).accepted:
+                verdict = self.clock_guard.check(clock, time.monotonic())
+                if verdict.accepted:
                     self.gate.clock(clock.step, clock.sim_time_s)
                     self.clocks.append(clock)
+                elif verdict is Verdict.OLD and self._last_answer is not None:
+                    self.session.put(self._answer_key, encode(self._last_answer), **LOCK_STEP_PUT)
             case Received(message=CmdVelMsg() as command) if command.step is not None:
                 self.gate.answered(command.robot_id, command.step)
             case Received(message=StepDoneMsg() as answer) if answer.participant != PARTICIPANT:
@@ -177,6 +182,8 @@ class SteppedLoop:
             if self._held_since is None:
                 self._held_since = now
             if now - self._held_since < HOLD_S:
+                for guid in self.claims.ask_again(self._held_since, now):
+                    self.ask_twin(guid)
                 return None
             force = True
             _log.warning(
@@ -219,3 +226,4 @@ class SteppedLoop:
     def _answer(self, step: int, sim_time_s: float, *, done: bool = False) -> None:
         message = StepDoneMsg(participant=PARTICIPANT, step=step, sim_time_s=sim_time_s, done=done)
         self.session.put(self._answer_key, encode(message), **LOCK_STEP_PUT)
+        self._last_answer = None if done else message

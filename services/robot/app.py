@@ -280,7 +280,10 @@ class _Loop:
                 ):
                     if isinstance(item, Received) and isinstance(item.message, SensorsMsg):
                         clock = item.message.clock
-                        if not self.clock_guard.check(clock, time.monotonic()).accepted:
+                        verdict = self.clock_guard.check(clock, time.monotonic())
+                        if verdict is Verdict.OLD:  # physics says a step again: say the last answer again
+                            stepped.answer_again()
+                        if not verdict.accepted:
                             continue
                         self._sensors_wall_s = time.monotonic()
                     if not stepped.hear(item):

@@ -11,6 +11,8 @@ before its sensors, then its odometry, fix and scan. A claim that a component is
 blocked waits for its twin's answer (asked when the claim arrives), which is taken in its place. The
 periodic state and the event resends run on sim time (the executor is ticked with the sim time as its
 "wall" clock), and nothing is published between steps: every message is stamped with the step it answers.
+A step's sensors heard again (physics says them again while it waits: an answer may have been lost with a
+router) are answered with the last command again (:meth:`SteppedTicks.answer_again`).
 """
 
 from __future__ import annotations
@@ -74,6 +76,7 @@ class SteppedTicks:
         self._replies: list[PhysicsResult] = []  # physics' replies, each for the first step after its own
         self._held_since: float | None = None
         self._last_step = -1
+        self._last_answer: CmdVelMsg | None = None
 
     def hear(self, item: object) -> bool:
         """Take one inbox item (False: not a stepped kind; the caller handles it at once)."""
@@ -147,6 +150,8 @@ class SteppedTicks:
                 now = time.monotonic()
                 self._held_since = now if self._held_since is None else self._held_since
                 if now - self._held_since < HOLD_S:
+                    for guid in self.claims.ask_again(self._held_since, now):
+                        self._ask(guid)
                     return
                 force = True
                 _log.warning(
@@ -173,10 +178,18 @@ class SteppedTicks:
             if sensors.scan is not None:
                 executor.handle(sensors.scan)
             if clock.step > self._last_step:
-                self.publish(sent_now(executor.tick(clock, clock.sim_time_s), clock.sim_time_s))
+                said = sent_now(executor.tick(clock, clock.sim_time_s), clock.sim_time_s)
+                self.publish(said)
+                answers = [message for message in said if isinstance(message, CmdVelMsg)]
+                self._last_answer = answers[-1].model_copy(update={"requests": 0}) if answers else None
                 self._last_step = clock.step
                 self.on_answered()
                 executor.after_tick()
+
+    def answer_again(self) -> None:
+        """Send the last answer again (without its count of requests: those went with the first)."""
+        if self._last_answer is not None:
+            self.publish([self._last_answer])
 
     def finish(self) -> None:
         if self.gate.late or self.gate.forced:

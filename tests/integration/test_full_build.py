@@ -126,8 +126,9 @@ def test_two_robots_share_the_work_and_keep_apart(build: Path, tmp_path: Path) -
     assert separation is not None and separation > 0.6  # base-frame distance; a Husky is ~0.67 m wide
 
 
-def test_an_injected_placement_error_is_caught_and_the_retry_fixes_it(build: Path) -> None:
-    result, report = _run(build, "--inject-placement-error-m", "0.05")
+def test_an_injected_placement_error_is_caught_and_the_retry_fixes_it(build: Path, tmp_path: Path) -> None:
+    one_carrier = ground_fleet_file(tmp_path)  # no idle crane, pump or block layer answering every step
+    result, report = _run(build, "--fleet", str(one_carrier), "--inject-placement-error-m", "0.05")
     _assert_all_constructed_within_tolerance(build, report)
     assert report["totals"]["retries"] >= 1
     retried = [c for c in report["components"] if c["retries"]]

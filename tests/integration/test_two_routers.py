@@ -6,7 +6,8 @@ clients of the first, the robot and shard 2/2 clients of the second, so every me
 halves crosses the routers' link (a client talks to its router only). While a generated 2×2 frame builds,
 the test SIGKILLs the second router (the robot's and half the agents' only way to the site), then, once
 ``bimbot run`` has restarted it and more components are built, the first. The run ends by itself with
-every component constructed, exit 0, both deaths restarted in its report, and each component built once.
+every component constructed, exit 0, both deaths restarted in its report, each component built once, and
+no lock-step wait ran out its bound (a router's restart cost its own start-up and the reconnections).
 """
 
 from __future__ import annotations
@@ -20,7 +21,9 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
+from fleets import ground_fleet_file
 from frames import convert_small_frame
+from lock_step_logs import waits_that_ran_out
 
 from bimbot.services.component_agents.journal import journal_path, replay
 from bimbot.shared.messages import ComponentState
@@ -77,7 +80,8 @@ def test_two_routers_each_killed_mid_build_the_site_still_builds(tmp_path: Path)
     build = convert_small_frame(tmp_path / "frame", (2, 2))
     run = RunFolder(tmp_path / "run")
     command = [sys.executable, "-m", "bimbot.cli", "run", str(build), "-q", "--run-dir", str(run.root)]
-    command += ["--robots", "1", "--routers", "2", "--timeout-s", str(RUN_TIMEOUT_S - 60)]
+    command += ["--fleet", str(ground_fleet_file(tmp_path))]  # the one robot: no idle crane, pump or layer
+    command += ["--routers", "2", "--timeout-s", str(RUN_TIMEOUT_S - 60)]
     with (tmp_path / "run.stdout").open("w") as out, (tmp_path / "run.stderr").open("w") as err:
         process = subprocess.Popen(command, stdout=out, stderr=err)
         killed: dict[str, int] = {}
@@ -116,3 +120,4 @@ def test_two_routers_each_killed_mid_build_the_site_still_builds(tmp_path: Path)
     assert all(record["restarted_wall_s"] is not None for record in deaths.values()), detail
     constructions = _constructions(run)
     assert len(constructions) == total and set(constructions.values()) == {1}, constructions
+    assert waits_that_ran_out(run.logs_dir) == []

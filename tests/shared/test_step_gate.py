@@ -76,3 +76,28 @@ def test_a_participant_far_behind_still_takes_each_input_at_its_own_step() -> No
     taken = {step: gate.take(step) for step in range(40)}
     assert taken[3] == ["early"] and taken[32] == ["late"]
     assert sum(len(items) for items in taken.values()) == 2
+
+
+def test_a_participant_joining_mid_run_takes_its_first_step_without_the_answers_it_could_not_hear() -> None:
+    """A restarted participant hears clock 40 first: the others answered 38 to physics before it listened,
+    and waiting for those answers would hold every restart for the whole bound."""
+    gate: StepGate[str] = StepGate()
+    gate.expect(["r1"])
+    gate.clock(40, 8.0)
+    gate.expect(["planner"])  # who answers may be known only after the first clock (physics' site info)
+    assert gate.ready(40) and gate.take(40) == [] and gate.forced == 0
+    gate.clock(41, 8.2)
+    assert gate.waiting_for(41) == ["planner", "r1"]  # from there on every answer is waited for
+    gate.answered("r1", 39)
+    gate.answered("planner", 41)
+    assert gate.ready(41)
+
+
+def test_a_participant_starting_with_the_run_waits_for_every_answer_from_step_zero() -> None:
+    gate: StepGate[str] = StepGate()
+    gate.expect(["r1"])
+    for step in range(3):
+        gate.clock(step, step * 0.2)
+    assert gate.ready(1) and not gate.ready(2)  # step 2 takes what r1 said at step 0: its answer first
+    gate.answered("r1", 0)
+    assert gate.ready(2)
