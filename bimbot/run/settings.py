@@ -39,7 +39,7 @@ def run_settings(options: RunOptions) -> dict[str, Any]:
         "command_latency_steps": int(chosen(options.command_latency_steps, profile.command_latency_steps)),
         "real_time_factor": rtf,
         "pace": "as fast as it can" if rtf == 0.0 else f"{rtf:g}× real time",
-        "total_station_mm": float(chosen(options.total_station_mm, profile.total_station_mm)) or None,
+        "total_station_mm": float(chosen(options.total_station_mm, profile.total_station_mm)),  # 0: none
         "connections": options.connections,
         "sequence": sequence_source(options.planner_source),
         "max_attempts": int(chosen(options.max_attempts, AgentConfig.max_attempts)),

@@ -21,7 +21,7 @@ def test_the_profile_fills_what_the_user_left_open() -> None:
     assert settings["lock_step"] is REHEARSAL.lock_step
     assert settings["total_station_mm"] == REHEARSAL.total_station_mm == 3.0  # a site sets out with one
     assert settings["fleet"] == "the default fleet"
-    assert run_settings(RunOptions(total_station_mm=0.0))["total_station_mm"] is None
+    assert run_settings(RunOptions(total_station_mm=0.0))["total_station_mm"] == 0.0  # none, said as 0
     assert settings["real_time_factor"] == 0.0 and settings["pace"] == "as fast as it can"
     assert settings["max_attempts"] == 3
     assert json.loads(json.dumps(settings)) == settings
