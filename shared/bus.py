@@ -18,7 +18,7 @@ import time
 from collections import Counter
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Any, Generic, TypeVar
+from typing import Generic, TypeVar
 
 import zenoh
 from pydantic import BaseModel, ValidationError
@@ -40,7 +40,6 @@ from .wire import encode_sensors, is_binary, sensors_fields
 __all__ = [  # the bus_config names are re-exported: services import everything bus-related from here
     "DEFAULT_ENDPOINT",
     "DEFAULT_LISTEN",
-    "LOCK_STEP_PUT",
     "MODES",
     "Answer",
     "BusOptions",
@@ -62,12 +61,6 @@ __all__ = [  # the bus_config names are re-exported: services import everything 
 ]
 
 _log = logging.getLogger(__name__)
-
-#: How a lock-step service puts: Zenoh drops a put whose transmission queue stays full (its default, at
-#: the router too), which a loaded machine makes happen; a message dropped there and sent again later (a
-#: task resent, a pose repeated with its stamp) is taken at another step, and two runs of one seed part.
-#: Blocking instead holds the sender until the queue drains (Zenoh closes a link that stays blocked).
-LOCK_STEP_PUT: dict[str, Any] = {"congestion_control": zenoh.CongestionControl.BLOCK}
 
 M = TypeVar("M", bound=BaseModel)
 R = TypeVar("R", bound=BaseModel)

@@ -30,15 +30,15 @@ import contextlib
 import logging
 import threading
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, cast
+from typing import cast
 
 import zenoh
 
 from bimbot.shared.asked import Asked
-from bimbot.shared.bus import LOCK_STEP_PUT, BusOptions, Inbox, IncomingQuery, encode, open_session
+from bimbot.shared.bus import BusOptions, Inbox, IncomingQuery, encode, open_session
 from bimbot.shared.messages import (
     ALIVE_KEY,
     CLOCK,
@@ -143,8 +143,8 @@ def serve(
         answer_key = key(STEP_DONE_KEY, site=site, participant=participant_name(host.shard, host.n_shards))
         steps = SteppedAgents(
             host,
-            lambda out: _publish(session, out, LOCK_STEP_PUT),
-            lambda message: session.put(answer_key, encode(message), **LOCK_STEP_PUT),
+            lambda out: _publish(session, out),
+            lambda message: session.put(answer_key, encode(message)),
         )
     started = time.perf_counter()
     livelinesses = [token_session.liveliness() for token_session in token_sessions or [session]]
@@ -223,12 +223,9 @@ def _matching(publisher: zenoh.Publisher) -> bool:
     return status.matching
 
 
-def _publish(
-    session: zenoh.Session, outgoing: Iterable[Outgoing], options: Mapping[str, Any] | None = None
-) -> None:
-    """Put each message (``options``: how, :data:`~bimbot.shared.bus.LOCK_STEP_PUT` in lock-step)."""
+def _publish(session: zenoh.Session, outgoing: Iterable[Outgoing]) -> None:
     for item in outgoing:
-        session.put(item.key_expr, encode(item.message), **(options or {}))
+        session.put(item.key_expr, encode(item.message))
 
 
 def _answer(query: zenoh.Query, host: AgentHost) -> None:

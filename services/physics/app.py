@@ -49,7 +49,6 @@ import zenoh
 from pydantic import BaseModel
 
 from bimbot.shared.bus import (
-    LOCK_STEP_PUT,
     Answer,
     BusOptions,
     Inbox,
@@ -618,8 +617,8 @@ class _Loop:
         # many keys, each rarely: no publisher per component; in a reproducible run none at all: Zenoh
         # keeps the order of one session's puts, not of puts through declared publishers (measured:
         # 130 to 240 of 20,000 overtaken), and a step's sensors must not overtake its poses
-        if self.run.step_with:  # lock-step: block rather than drop (bimbot.shared.bus.LOCK_STEP_PUT)
-            self.session.put(item.key_expr, payload, **LOCK_STEP_PUT)
+        if self.run.step_with:  # lock-step: one session, in order
+            self.session.put(item.key_expr, payload)
             return
         if "/components/" in item.key_expr:
             self.session.put(item.key_expr, payload)

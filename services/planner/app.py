@@ -32,7 +32,6 @@ from dataclasses import dataclass, field, replace
 import zenoh
 
 from bimbot.shared.bus import (
-    LOCK_STEP_PUT,
     Answer,
     BusOptions,
     Inbox,
@@ -199,7 +198,7 @@ def _run_stepped(  # noqa: PLR0917 - the planner's parts, named at the single ca
         core,
         inbox,
         feed.ask_twin,
-        lambda message: session.put(outgoing_key(site, message), encode(message), **LOCK_STEP_PUT),
+        lambda message: session.put(outgoing_key(site, message), encode(message)),
         skipper=stepped_skipper(sender) if options.skip_quiet else None,
         robot_liveliness=core.robot_liveliness,
         participants=participants,

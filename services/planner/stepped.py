@@ -25,7 +25,7 @@ from collections.abc import Callable, Iterable
 
 import zenoh
 
-from bimbot.shared.bus import LOCK_STEP_PUT, Answer, Inbox, LivelinessChange, Received, encode
+from bimbot.shared.bus import Answer, Inbox, LivelinessChange, Received, encode
 from bimbot.shared.clock_guard import ClockGuard, Verdict
 from bimbot.shared.messages import (
     STEP_DONE,
@@ -104,7 +104,7 @@ class SteppedLoop:
                     self.gate.clock(clock.step, clock.sim_time_s)
                     self.clocks.append(clock)
                 elif verdict is Verdict.OLD and self._last_answer is not None:
-                    self.session.put(self._answer_key, encode(self._last_answer), **LOCK_STEP_PUT)
+                    self.session.put(self._answer_key, encode(self._last_answer))
             case Received(message=CmdVelMsg() as command) if command.step is not None:
                 self.gate.answered(command.robot_id, command.step)
             case Received(message=StepDoneMsg() as answer) if answer.participant != PARTICIPANT:
@@ -225,5 +225,5 @@ class SteppedLoop:
 
     def _answer(self, step: int, sim_time_s: float, *, done: bool = False) -> None:
         message = StepDoneMsg(participant=PARTICIPANT, step=step, sim_time_s=sim_time_s, done=done)
-        self.session.put(self._answer_key, encode(message), **LOCK_STEP_PUT)
+        self.session.put(self._answer_key, encode(message))
         self._last_answer = None if done else message

@@ -31,7 +31,6 @@ from dataclasses import dataclass
 import zenoh
 
 from bimbot.shared.bus import (
-    LOCK_STEP_PUT,
     Answer,
     BusOptions,
     Inbox,
@@ -334,9 +333,9 @@ class _Loop:
                 ask_twin(self.inbox, self.session, self.site, message.key)
             elif isinstance(message, ComponentEventMsg):
                 event_key = key(COMPONENT_EVENT_KEY, site=self.site, key=guid_to_key(message.guid))
-                self.session.put(event_key, encode(message), **(LOCK_STEP_PUT if self.stepped else {}))
+                self.session.put(event_key, encode(message))
             elif self.stepped is not None:  # in order with everything else it puts (see physics' _publish)
-                self.session.put(self._keys[type(message)], encode(message), **LOCK_STEP_PUT)
+                self.session.put(self._keys[type(message)], encode(message))
             else:
                 self._publishers[type(message)].put(encode(message))
 
