@@ -97,6 +97,7 @@ class ForkServer:
         self._gone = False  # the server's stdout closed: it is dead, no more answers come
         self._lock = threading.Lock()  # one spawn request at a time
         self._log: IO[bytes] | None = None
+        self._asked = False  # a request was sent: the server has preloaded, or answers once it has
         self._said: list[bytes] = []  # its stderr before the run's log folder exists
         self._threads = [
             threading.Thread(target=target, name=f"fork-server-{name}", daemon=True)
@@ -160,6 +161,7 @@ class ForkServer:
         if not self.usable:
             return False
         assert self._process.stdin is not None
+        self._asked = True
         try:
             self._process.stdin.write(json.dumps(request).encode() + b"\n")
             self._process.stdin.flush()
@@ -188,12 +190,14 @@ class ForkServer:
             return self._exits[pid]
 
     def close(self, timeout_s: float = 5.0) -> None:
-        """End the server (its children are stopped by then): EOF on its stdin, SIGKILL if it lingers."""
+        """End the server (its children are stopped by then): EOF on its stdin, SIGKILL if it lingers. A
+        server never asked for anything (the run stopped at a bad input it checked itself) is only
+        preloading: it is killed at once rather than waited for until it reads its stdin."""
         with contextlib.suppress(OSError):
             if self._process.stdin is not None:
                 self._process.stdin.close()
         try:
-            self._process.wait(timeout=timeout_s)
+            self._process.wait(timeout=timeout_s if self._asked else 0.0)
         except subprocess.TimeoutExpired:
             self._process.kill()
             self._process.wait(timeout=5)

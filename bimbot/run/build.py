@@ -44,7 +44,7 @@ from bimbot.run.commands import (
 from bimbot.run.loop import LoopLimits, LoopResult, RunWatch, StopSignals
 from bimbot.run.monitor import RunMonitor
 from bimbot.run.options import ObserverOptions, RunOptions, default_timeout_s
-from bimbot.run.preflight import check_run_input
+from bimbot.run.preflight import check_build_and_run_folder, check_run_input
 from bimbot.run.progress import NoProgress, ProgressView, make_progress
 from bimbot.run.restarts import Restarter, RestartPolicy
 from bimbot.run.settings import run_settings
@@ -52,7 +52,7 @@ from bimbot.run.summary import RunOutcome, summary_text
 from bimbot.run.watchdog import StallWatchdog
 from bimbot.shared.bus import open_session
 from bimbot.shared.errors import UserError
-from bimbot.shared.manifest import Manifest, load_manifest
+from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState
 from bimbot.shared.report.collector import RunEnding
 from bimbot.shared.run_folder import RunFolder, new_run_folder
@@ -85,8 +85,7 @@ def _run_build(
     launcher: ForkServer | None,
     started: float,
 ) -> RunOutcome:
-    _check_input(build, options, launcher)  # bad input: one line and exit 2, before any service starts
-    manifest = load_manifest(build)
+    manifest = _check_input(build, options, launcher)  # bad input: one line and exit 2, before any service
     if options.timeout_s is None:
         options = replace(options, timeout_s=default_timeout_s(len(manifest.components)))
     run = RunFolder(options.run_dir) if options.run_dir is not None else new_run_folder(build)
@@ -186,14 +185,17 @@ def _run_build(
             run.mark_ended(ended_how)  # services started by hand later make a new run folder
 
 
-def _check_input(build: Path, options: RunOptions, launcher: ForkServer | None) -> None:
+def _check_input(build: Path, options: RunOptions, launcher: ForkServer | None) -> Manifest:
     """:func:`check_run_input`, in a child of the fork server when there is one (:mod:`bimbot.forked_check`:
-    this process then never imports the services' code), else here."""
+    this process then never imports the services' code), else here; the build's manifest. The build and
+    the run folder are checked here first, at once: the server answers once it has loaded that code."""
+    manifest = check_build_and_run_folder(build, options).manifest
     if launcher is not None:
         answer = launcher.check(check_request(build, options))
         if answer is not None and apply_answer(answer):
-            return
+            return manifest
     check_run_input(build, options)
+    return manifest
 
 
 def _write_report(report: dict[str, Any], report_dir: Path) -> None:

@@ -16,7 +16,9 @@ check, with the services' own code:
   PlanError`), or the build's own ``sequence.xml``, or the support graph for ``--derive``.
 
 Nothing here starts a process, opens the bus or leaves a file behind (the run folder's check makes and
-removes an empty folder: :mod:`bimbot.shared.output_paths`).
+removes an empty folder: :mod:`bimbot.shared.output_paths`). The first two need none of the services' code
+(:func:`check_build_and_run_folder`): ``bimbot run`` makes them at once, before it waits for the fork
+server that has that code loaded (:mod:`bimbot.forked_check`), so a wrong folder is said in a blink.
 """
 
 from __future__ import annotations
@@ -45,10 +47,7 @@ PLACEHOLDER_RUN = RunFolder(Path("runs") / "preflight")  # the run folder is mad
 
 def check_run_input(build: Path, options: RunOptions) -> BuildInput:
     """Raise a :class:`UserError` (one line) for any input a service of the run would reject; the build."""
-    checked = resolve_build(build)
-    if not checked.manifest.components:
-        raise UserError(f"{build}: the build has no components to construct")
-    check_run_folder(checked.dir, options.run_dir)
+    checked = check_build_and_run_folder(build, options)
     commands = service_commands(build, PLACEHOLDER_ENDPOINT, options, PLACEHOLDER_RUN)
     # the planner's sequence first: the input a user gets wrong most
     for name, arguments in sorted(commands, key=lambda command: command[1][0] != "planner"):
@@ -57,6 +56,16 @@ def check_run_input(build: Path, options: RunOptions) -> BuildInput:
         check = SERVICE_CHECKS.get(kind)
         if check is not None:
             check(args, checked)
+    return checked
+
+
+def check_build_and_run_folder(build: Path, options: RunOptions) -> BuildInput:
+    """The checks that need none of the services' code: a build with components, a run folder that can be
+    made (a :class:`UserError`, one line); the build."""
+    checked = resolve_build(build)
+    if not checked.manifest.components:
+        raise UserError(f"{build}: the build has no components to construct")
+    check_run_folder(checked.dir, options.run_dir)
     return checked
 
 

@@ -157,7 +157,7 @@ def test_the_run_s_input_check_answers_in_a_child_of_the_server_as_it_does_in_th
 
 
 def test_a_check_the_server_never_answers_is_given_up_and_the_run_checks_itself(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+    bundled_build: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
 ) -> None:
     """A server that takes the request and never answers (stopped here; a child hung on a lock would do the
     same) must not hold the run: after the bound the run checks in its own process, which answers."""
@@ -168,9 +168,10 @@ def test_a_check_the_server_never_answers_is_given_up_and_the_run_checks_itself(
         os.kill(pid, signal.SIGSTOP)
         said: list[str] = []
 
-        def check() -> None:
+        def check() -> None:  # an option only the services' code rejects: the server is asked
             try:
-                _check_input(tmp_path / "no_such_build", RunOptions(), launcher)
+                options = RunOptions(inject_placement_error_m=-1.0, run_dir=tmp_path / "run")
+                _check_input(bundled_build, options, launcher)
             except UserError as error:
                 said.append(str(error))
 
@@ -178,11 +179,36 @@ def test_a_check_the_server_never_answers_is_given_up_and_the_run_checks_itself(
         checking.start()
         checking.join(timeout=bound_s(30.0))
         assert not checking.is_alive(), "the run still waits for the stopped server's answer"
-        assert len(said) == 1 and "no_such_build" in said[0]
+        assert len(said) == 1 and "inject-placement-error" in said[0]
         assert "input check did not answer in 1 s: checking here" in caplog.text
     finally:
         os.kill(pid, signal.SIGCONT)
         launcher.close()
+
+
+def test_a_wrong_build_folder_is_said_at_once_and_the_server_is_not_waited_for(tmp_path: Path) -> None:
+    """The build and the run folder need none of the services' code: the run checks them itself before it
+    asks the server (which answers only once it has loaded that code), and a server it never asked is
+    ended at once, not waited for until it reads its stdin (stopped here: preloading for ever)."""
+    launcher = ForkServer()
+    os.kill(launcher._process.pid, signal.SIGSTOP)
+    said: list[str] = []
+
+    def check_and_close() -> None:
+        try:
+            _check_input(tmp_path / "no_such_build", RunOptions(), launcher)
+        except UserError as error:
+            said.append(str(error))
+        finally:
+            launcher.close(timeout_s=600.0)
+
+    checking = threading.Thread(target=check_and_close, daemon=True)
+    checking.start()
+    checking.join(timeout=bound_s(10.0))
+    if checking.is_alive():  # the run waits for the stopped server: let it go, then fail
+        os.kill(launcher._process.pid, signal.SIGKILL)
+    assert not checking.is_alive(), "the run waited for the server before saying the folder is wrong"
+    assert len(said) == 1 and "no_such_build" in said[0]
 
 
 CHECK_IN_RUN = """
