@@ -84,6 +84,11 @@ class ComponentStates:
         self._asked_at.pop(twin.guid, None)  # answered: the next question about it goes out at once
         return twin.state
 
+    def ask(self, guid: str) -> None:
+        """Want ``guid``'s twin (what the listener heard may be out of date: a message lost on the way)."""
+        if guid in self._keys:
+            self._to_ask.add(guid)
+
     def questions(self, wall_s: float) -> list[TwinQuestion]:
         """The twins to ask now: each wanted one not asked within ``retry_s``. A component stays wanted
         until its twin answers (a lost question is asked again)."""

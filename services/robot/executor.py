@@ -268,6 +268,8 @@ class Executor:
             event = task.events.due(wall_s)
             if event is not None:
                 cycle.outbox.append(event)
+            if task.events.unconfirmed_for_s(wall_s) >= self.config.confirm_ask_s:
+                self.component_states.ask(task.message.guid)
         cycle.say_state_if_due(wall_s)
         cycle.outbox.extend(self.component_states.questions(wall_s))
         return cycle.take_outbox()

@@ -3,7 +3,10 @@
 * :class:`EventQueue` — events to one component, delivered **at least once and in order**: only the oldest
   unconfirmed event is (re)sent, every ``resend_s`` wall seconds with the same ``event_id``, until the
   component's state shows it applied (:data:`CONFIRMS`); then the next goes out at once. An agent that is
-  down for a while loses nothing, and never sees ``attach`` before ``pick``.
+  down for a while loses nothing, and never sees ``attach`` before ``pick``. The agent ignores a repeat of
+  an event it applied, so when the state message that confirmed it was lost (a router that restarted),
+  only the twin can say: the robot asks it once the event has gone unconfirmed for a while
+  (:meth:`EventQueue.unconfirmed_for_s`).
 * :class:`PhysicsRequest` / :class:`PhysicsResult` — an attach, place, drop or build request for the adapter
   to send without blocking (``session.get`` with a callback), and what came back (or a timeout).
 * :func:`injected` — which first placements are deliberately offset (tests, demos), deterministically.
@@ -60,6 +63,7 @@ class EventQueue:
         self.resend_s = resend_s
         self._pending: deque[ComponentEventMsg] = deque()
         self._last_send_wall_s = -math.inf
+        self._head_sent_wall_s: float | None = None  # when the oldest unconfirmed event first went out
         self.queued: set[ComponentEvent] = set()  # every event ever queued here
 
     def push(self, message: ComponentEventMsg) -> None:
@@ -83,13 +87,22 @@ class EventQueue:
                 return
             self._pending.popleft()
             self._last_send_wall_s = -math.inf  # the next one goes out at once
+            self._head_sent_wall_s = None
 
     def due(self, wall_s: float) -> ComponentEventMsg | None:
         """The event to (re)send now, if any."""
         if not self._pending or wall_s - self._last_send_wall_s < self.resend_s:
             return None
         self._last_send_wall_s = wall_s
+        if self._head_sent_wall_s is None:
+            self._head_sent_wall_s = wall_s
         return self._pending[0]
+
+    def unconfirmed_for_s(self, wall_s: float) -> float:
+        """Wall seconds since the oldest unconfirmed event first went out (0 when none is out)."""
+        if not self._pending or self._head_sent_wall_s is None:
+            return 0.0
+        return wall_s - self._head_sent_wall_s
 
 
 @dataclass(frozen=True)

@@ -201,6 +201,8 @@ class SiteWorkExecutor:
             event = job.events.due(wall_s)
             if event is not None:
                 self._out.append(event)
+            if job.events.unconfirmed_for_s(wall_s) >= self.config.confirm_ask_s:
+                self.component_states.ask(job.message.guid)
         busy_until = self._busy_until()
         signature = (self.state, job.message.task_id if job else None, busy_until)
         if signature != self._last_state or wall_s - self._last_state_wall_s >= self.config.state_period_s:

@@ -25,6 +25,9 @@ from .protocol import EventQueue, PhysicsRequest
 class ExecutorConfig:
     robot_id: str
     resend_s: float = 0.5  # wall seconds between repeats of an unconfirmed event
+    # wall seconds an event goes unconfirmed before the component's twin is asked (its confirmation may have
+    # been lost); an agent confirms within a control period or two
+    confirm_ask_s: float = 10.0
     state_period_s: float = 1.0  # wall seconds between periodic state messages
     request_timeout_s: float = 60.0  # wall seconds for a physics reply (the adapter reports a timeout)
     place_duration_s: float = 2.0  # sim seconds of the assembly motion

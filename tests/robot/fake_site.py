@@ -56,6 +56,7 @@ class FakeSite:
     pose: np.ndarray
     latency: int = 3
     drop_first: set[ComponentEvent] = field(default_factory=set)  # the agent misses the first delivery
+    lose_state: set[ComponentState] = field(default_factory=set)  # the first message of it is lost on the way
     refuse_attach: int = 0  # physics refuses this many attach requests
     refuse_distance_m: float | None = None  # the distance physics measured, on those refusals
     frozen: bool = False  # the robot does not move whatever it is told (stuck wheels)
@@ -88,6 +89,9 @@ class FakeSite:
             guid=guid, state=state, previous=previous, event=event, sim_time_s=now, wall_time_s=0.0
         )
         self.history.setdefault(guid, []).append(message)
+        if state in self.lose_state:  # the agent applied it (its twin says so), the message never came
+            self.lose_state.discard(state)
+            return
         self.send(message)
 
     def laser_grid(self) -> OccupancyGrid:

@@ -72,6 +72,20 @@ def test_events_are_repeated_with_the_same_id_until_the_component_applies_them(f
     ]
 
 
+def test_an_event_whose_confirmation_was_lost_is_confirmed_by_the_twin(frame: Manifest) -> None:
+    """The agent applied ``pick`` and its state message was lost (a router restarted): the agent ignores
+    the repeats, so only the twin can tell the robot, which asks it once the event has gone unconfirmed for
+    ``confirm_ask_s``, and goes on with the task instead of waiting for its no-progress bound."""
+    site, released, task = make_site(frame, confirm_ask_s=5.0)
+    site.lose_state = {ComponentState.PICKING}
+    run_task(site, released, task)
+    assert site.executor.done == [(task.guid, ComponentState.CONSTRUCTED)]
+    # the twin asked twice: about the lost confirmation, and about the verdict (a terminal claim, as always)
+    assert site.applied.count(ComponentEvent.PICK) == 1 and site.twin_questions == [task.guid] * 2
+    picks = [e for e in site.events if e.event is ComponentEvent.PICK]
+    assert picks[-1].sim_time_s - picks[0].sim_time_s < 5.0 + 2.0  # asked at 5 s, answered a step later
+
+
 def test_a_refused_attach_sends_the_robot_to_another_approach_and_tries_again(frame: Manifest) -> None:
     site, released, task = make_site(frame)
     site.refuse_attach = 1
