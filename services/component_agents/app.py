@@ -4,7 +4,8 @@ Declared, in this order, so that a component seen alive can already be driven an
 
 * subscribers (through :class:`bimbot.shared.bus.Inbox`, which validates and only enqueues) on
   ``bimbot/<site>/components/*/event``, ``bimbot/<site>/components/*/pose`` and ``bimbot/<site>/clock``;
-  messages for components of other shards are dropped by the host;
+  messages for components of other shards are dropped by the host; and on physics' liveliness: when it
+  comes back after it went (the bus was cut), every agent says its state again (:mod:`.reconnect`);
 * one queryable on ``bimbot/<site>/components/*/twin`` whose callback only enqueues the query. The loop
   replies once per owned component whose twin key matches the query (so ``components/*/twin`` gets one
   reply per component from each shard) and then drops the query, which finalises it. It is declared
@@ -38,7 +39,7 @@ from typing import cast
 import zenoh
 
 from bimbot.shared.asked import Asked
-from bimbot.shared.bus import BusOptions, Inbox, IncomingQuery, encode, open_session
+from bimbot.shared.bus import BusOptions, Inbox, IncomingQuery, LivelinessChange, encode, open_session
 from bimbot.shared.messages import (
     ALIVE_KEY,
     CLOCK,
@@ -58,6 +59,7 @@ from bimbot.shared.service_runner import BuildInput
 from .agent import AgentConfig
 from .host import AgentHost, Outgoing
 from .journal import Journal, journal_path
+from .reconnect import PhysicsReach
 from .stepped import VERIFY_TIMEOUT_SIM_S, SteppedAgents, participant_name
 
 _log = logging.getLogger(__name__)
@@ -133,7 +135,9 @@ def serve(
         inbox.subscribe(session, COMPONENT_POSE, site=site, key="*"),
         inbox.subscribe(session, CLOCK, site=site),
         inbox.serve(session, COMPONENT_TWIN, complete=False, site=site, key="*"),
+        inbox.subscribe_liveliness(session, key(ALIVE_KEY, site=site, kind="physics", id="*")),
     ]
+    physics = PhysicsReach()
     steps = None
     if stepped:  # the other participants' answers: what they sent up to a step has arrived
         declarations += [
@@ -177,6 +181,13 @@ def serve(
             try:
                 if isinstance(item, IncomingQuery):
                     _answer(item.query, host)
+                elif isinstance(item, LivelinessChange):
+                    if physics.back(item):  # the bus was cut: what was said meanwhile may be lost
+                        _log.info("physics is back in reach: every agent's state again")
+                        if steps is not None:
+                            steps.restate()
+                        else:
+                            _publish(session, host.restate())
                 elif steps is None or not steps.hear(item):
                     _publish(session, host.handle(item))
             except Exception:

@@ -199,6 +199,16 @@ class AgentHost:
             out.append(Outgoing(self._state_keys[k], message))
         return out
 
+    def restate(self, now_wall_s: float | None = None) -> list[Outgoing]:
+        """Every agent's current state again (``restate``), as at start-up: the bus was cut and a state
+        message sent meanwhile may never have arrived (:mod:`.reconnect`)."""
+        now = time.time() if now_wall_s is None else now_wall_s
+        cause = "the bus was cut: the state again, in case its message was lost"
+        return [
+            Outgoing(self._state_keys[k], agent.announce("restate", cause, now))
+            for k, agent in self.agents.items()
+        ]
+
     # --- input ---------------------------------------------------------------------------------------------
 
     def handle(self, item: object, now_wall_s: float | None = None) -> list[Outgoing]:

@@ -52,6 +52,7 @@ class SteppedAgents:
         self._held_since: float | None = None
         self._last_step = -1
         self._last_answer: StepDoneMsg | None = None
+        self._restate = False  # say every agent's state again at the next step (:mod:`.reconnect`)
         self.expecting = False  # until physics' site info says who answers each step
 
     def expect(self, robot_ids: Iterable[str], participants: Iterable[str]) -> None:
@@ -92,6 +93,10 @@ class SteppedAgents:
         """Hold an input for its step (:meth:`StepGate.hold`; an event sent again is dropped)."""
         self.gate.hold(stamp_s, sender, item, self._last_step, key=key, kind=type(item.message).__name__)
 
+    def restate(self) -> None:
+        """Say every agent's state again at the next step taken (stamped with it, like all it says)."""
+        self._restate = True
+
     def step_ready(self) -> None:
         """Take every clock step that is ready, in order."""
         while self.clocks and self.expecting:
@@ -116,6 +121,9 @@ class SteppedAgents:
             for item in self.gate.take(clock.step, force=force):
                 self.publish(host.handle(item))
             self.publish(host.tick())
+            if self._restate:
+                self._restate = False
+                self.publish(host.restate())
             answer = StepDoneMsg(participant=self.name, step=clock.step, sim_time_s=clock.sim_time_s)
             self.answer(answer)
             self._last_answer = answer

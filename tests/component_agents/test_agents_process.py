@@ -1,4 +1,5 @@
-"""`bimbot agents` as a process on a real Zenoh bus: liveliness, protocol, twins, garbage, stop, restart."""
+"""`bimbot agents` as a process on a real Zenoh bus: liveliness, protocol, twins, garbage, a cut bus, stop,
+restart."""
 
 from __future__ import annotations
 
@@ -219,6 +220,15 @@ def test_agents_process_on_a_real_bus(agents_build: Path, tmp_path: Path) -> Non
         assert agents.poll() is None
         assert (twin.state, len(twin.history)) == (S.CONSTRUCTED, 6)
         bus.send(other, E.RELEASE, S.RELEASED)
+
+        # The bus cut: physics' token goes and comes back; every agent says its state again (a state message
+        # sent meanwhile may never have arrived), the constructed one and the released one too.
+        physics_alive = key(ALIVE_KEY, site=site, kind="physics", id="main")
+        session.liveliness().declare_token(physics_alive).undeclare()
+        token = session.liveliness().declare_token(physics_alive)
+        bus.wait_for(lambda: bus.seen(subject.guid, S.CONSTRUCTED, "restate"), 10.0, "the state again")
+        bus.wait_for(lambda: bus.seen(other.guid, S.RELEASED, "restate"), 5.0, "the second state again")
+        token.undeclare()
 
         # SIGTERM: a clean, quick exit.
         started = time.monotonic()

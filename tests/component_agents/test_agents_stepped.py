@@ -1,16 +1,17 @@
-"""The agents as a lock-step participant rejoin a running site at once: a restarted shard answers the
-first step it hears without the answers given before it listened, and a step heard again is answered
-again (physics says the open step again while it waits; the first answer may have been lost with a
-router)."""
+"""The agents as a lock-step participant ride out restarts: a restarted shard answers the first step it
+hears without the answers given before it listened, a step heard again is answered again (physics says
+the open step again while it waits; the first answer may have been lost with a router), and once the bus
+was cut every agent says its state again (a state message sent meanwhile may be lost)."""
 
 from __future__ import annotations
 
 from agent_builders import SITE, manifest
 
 from bimbot.services.component_agents.host import AgentHost
+from bimbot.services.component_agents.reconnect import PhysicsReach
 from bimbot.services.component_agents.stepped import SteppedAgents
-from bimbot.shared.bus import Received
-from bimbot.shared.messages import CLOCK, CLOCK_KEY, ClockMsg, StepDoneMsg, key
+from bimbot.shared.bus import LivelinessChange, Received
+from bimbot.shared.messages import ALIVE_KEY, CLOCK, CLOCK_KEY, ClockMsg, StepDoneMsg, key
 
 
 def _clock(step: int) -> Received[ClockMsg]:
@@ -44,3 +45,29 @@ def test_a_step_heard_again_is_answered_again() -> None:
     assert [answer.step for answer in answers] == [0]
     shard.hear(_clock(0))
     assert [answer.step for answer in answers] == [0, 0] and answers[1] == answers[0]
+
+
+def test_physics_back_after_it_went_is_a_cut_bus_and_its_first_token_is_not() -> None:
+    reach = PhysicsReach()
+    alive = key(ALIVE_KEY, site=SITE, kind="physics", id="main")
+    robot = key(ALIVE_KEY, site=SITE, kind="robot", id="r1")
+    assert not reach.back(LivelinessChange(alive, True))  # reported at start: nothing was missed
+    assert not reach.back(LivelinessChange(robot, False)) and not reach.back(LivelinessChange(robot, True))
+    assert not reach.back(LivelinessChange(alive, False))
+    assert reach.back(LivelinessChange(alive, True))  # back: say every state again
+    assert not reach.back(LivelinessChange(alive, True))
+
+
+def test_a_shard_says_every_state_again_at_its_next_step_stamped_with_it() -> None:
+    said: list[object] = []
+    shard = SteppedAgents(AgentHost(manifest()), said.extend, lambda _answer: None)
+    shard.expect([], [])
+    shard.hear(_clock(7))
+    shard.restate()
+    shard.step_ready()
+    restated = [item.message for item in said if item.message.event == "restate"]
+    assert len(restated) == len(manifest().components)
+    assert {m.sim_time_s for m in restated} == {_clock(7).message.sim_time_s}
+    shard.hear(_clock(8))
+    shard.step_ready()  # once
+    assert len([item for item in said if item.message.event == "restate"]) == len(restated)
