@@ -81,21 +81,10 @@ def _source_name(reference: ifcopenshell.entity_instance) -> str:
 def _assembly_code(element: ifcopenshell.entity_instance) -> tuple[str, str]:
     """Revit's "Assembly Code" and "Assembly Description" from any property set of the element or its
     type (upper-cased code; empty strings when absent)."""
-    definitions = [
-        rel.RelatingPropertyDefinition
-        for rel in getattr(element, "IsDefinedBy", ()) or ()
-        if rel.is_a("IfcRelDefinesByProperties")
-    ]
-    element_type = ifcopenshell.util.element.get_type(element)
-    if element_type is not None:
-        definitions += list(getattr(element_type, "HasPropertySets", None) or ())
     values: dict[str, str] = {}
-    for definition in definitions:
-        if definition is None or not definition.is_a("IfcPropertySet"):
-            continue
-        for prop in definition.HasProperties or ():
-            if prop.is_a("IfcPropertySingleValue") and prop.Name in (CODE_PROPERTY, DESCRIPTION_PROPERTY):
-                value = prop.NominalValue.wrappedValue if prop.NominalValue is not None else ""
-                if value and prop.Name not in values:
-                    values[prop.Name] = str(value).strip()
+    for properties in ifcopenshell.util.element.get_psets(element, psets_only=True).values():
+        for name in (CODE_PROPERTY, DESCRIPTION_PROPERTY):
+            value = properties.get(name)
+            if value and name not in values:
+                values[name] = str(value).strip()
     return values.get(CODE_PROPERTY, "").upper(), values.get(DESCRIPTION_PROPERTY, "")
