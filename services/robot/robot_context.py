@@ -10,7 +10,6 @@ built.
 
 from __future__ import annotations
 
-import uuid
 from dataclasses import dataclass, replace
 from typing import Protocol
 
@@ -18,7 +17,7 @@ import numpy as np
 
 from bimbot.shared.footprint import Footprint
 from bimbot.shared.manifest import Manifest
-from bimbot.shared.messages import ComponentEvent, ComponentEventMsg, SiteInfoMsg
+from bimbot.shared.messages import ComponentEvent, SiteInfoMsg
 from bimbot.shared.reasons import Reason
 from bimbot.shared.robot_description import RobotDescription
 from bimbot.shared.seeds import robot_stream
@@ -27,7 +26,7 @@ from .approach import ApproachConfig
 from .nav_types import controller_limits
 from .navigator import Navigator, NavigatorConfig
 from .site_map import MapConfig, SiteMap
-from .task_state import ExecutorConfig, Task
+from .task_state import ExecutorConfig, Task, task_event
 
 
 @dataclass
@@ -59,15 +58,12 @@ class RobotContext:
         """Queue ``event`` for the task's component, stamped now (``sim_s`` when the event happened earlier
         or later than this step, e.g. physics fixed a placement): sent in order, at least once."""
         task.events.push(
-            ComponentEventMsg(
-                guid=task.message.guid,
-                event=event,
-                source=self.robot_id,
-                event_id=uuid.uuid4().hex,
-                task_id=task.message.task_id,
-                robot_id=self.robot_id,
-                sim_time_s=self.sim_s if sim_s is None else sim_s,
-                wall_time_s=self.wall_s,
+            task_event(
+                task.message,
+                event,
+                self.robot_id,
+                sim_s=self.sim_s if sim_s is None else sim_s,
+                wall_s=self.wall_s,
                 reason=reason,
                 note=note,
             )

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import logging
 import math
-import uuid
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -41,7 +40,6 @@ from bimbot.shared.messages import (
     ClockMsg,
     CmdVelMsg,
     ComponentEvent,
-    ComponentEventMsg,
     ComponentState,
     ComponentStateMsg,
     RobotState,
@@ -58,7 +56,7 @@ from bimbot.shared.site_plan import machine_setups
 
 from .protocol import VERDICTS, EventQueue, Outgoing, PhysicsRequest, PhysicsResult
 from .task_machine import TaskMachine, Trigger
-from .task_state import ExecutorConfig
+from .task_state import ExecutorConfig, task_event
 
 _log = logging.getLogger(__name__)
 _E, _C = ComponentEvent, ComponentState
@@ -418,16 +416,8 @@ class SiteWorkExecutor:
 
     def _queue_event(self, job: Job, event: ComponentEvent, reason: Reason | None = None) -> None:
         job.events.push(
-            ComponentEventMsg(
-                guid=job.message.guid,
-                event=event,
-                source=self.robot_id,
-                event_id=uuid.uuid4().hex,
-                task_id=job.message.task_id,
-                robot_id=self.robot_id,
-                sim_time_s=self.sim_s,
-                wall_time_s=self._wall_s,
-                reason=reason,
+            task_event(
+                job.message, event, self.robot_id, sim_s=self.sim_s, wall_s=self._wall_s, reason=reason
             )
         )
 

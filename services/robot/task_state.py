@@ -8,13 +8,14 @@ Why apart from :mod:`.executor`: the executor and its parts (:mod:`.driving`, :m
 from __future__ import annotations
 
 import math
+import uuid
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from bimbot.shared.footprint import Footprint
 from bimbot.shared.manifest import Component
-from bimbot.shared.messages import ComponentState, TaskMsg
+from bimbot.shared.messages import ComponentEvent, ComponentEventMsg, ComponentState, TaskMsg
 from bimbot.shared.reasons import Reason
 
 from .approach import Approach
@@ -95,3 +96,29 @@ def put_down_footprint(xy_m: tuple[float, float]) -> Footprint:
         [[x - half, y - half], [x + half, y - half], [x + half, y + half], [x - half, y + half]]
     )
     return Footprint(polygon, 0.0, 0.5)
+
+
+def task_event(
+    message: TaskMsg,
+    event: ComponentEvent,
+    robot_id: str,
+    *,
+    sim_s: float,
+    wall_s: float,
+    reason: Reason | None = None,
+    note: str = "",
+) -> ComponentEventMsg:
+    """``event`` on the component of the task ``message``, by ``robot_id``, with a fresh ``event_id`` (a
+    resend keeps it: the agents take the first copy that comes)."""
+    return ComponentEventMsg(
+        guid=message.guid,
+        event=event,
+        source=robot_id,
+        event_id=uuid.uuid4().hex,
+        task_id=message.task_id,
+        robot_id=robot_id,
+        sim_time_s=sim_s,
+        wall_time_s=wall_s,
+        reason=reason,
+        note=note,
+    )
