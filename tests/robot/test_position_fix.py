@@ -192,18 +192,7 @@ def test_a_laser_alignment_that_disagrees_with_the_fixes_is_not_trusted(frame: M
     estimate 8–13 mm the wrong way and set footings 11–19 mm off although the total station knew better.
     Here the scan fits the map perfectly from 15 mm east of where the fixes (3 mm) put the robot: the fixes
     stand, the laser's fit is not trusted and the placement pose is the fixes' mean."""
-    site = SiteMap(plan_site(frame.components, robots=1), frame.components)
-    corner = site.layout.fence.min_xy
-    truth = (corner[0] + 3.0, corner[1] + 3.0, 0.3)
-    fitted = (truth[0] + 0.015, truth[1], truth[2])  # where the scan says the robot stands
-    navigator = Navigator(site, truth, NavigatorConfig(), np.random.default_rng(0), robot_id="r1")
-    rng = np.random.default_rng(2)
-    odom = OdomMsg(robot_id="r1", pose_xy_yaw=(0.0, 0.0, 0.0), v_mps=0.0, w_radps=0.0, sim_time_s=1.0)
-    scan = _scan_msg(_ranges_from(site.laser_segments(), fitted))
-    for _ in range(10):
-        navigator.observe_odom(odom)
-        navigator.observe_fix(_fix_msg(truth[:2], truth[2], rng))
-        navigator.observe_scan(scan)
+    navigator, truth, _ = _standing_with_fixes_and_a_fit(frame, 0.015)  # the scan: 15 mm east
     alignment = navigator.align()
     assert alignment.hits >= 20 and alignment.rms_m < 0.002  # a fit as good as a fit gets
     assert not alignment.trusted and alignment.disagrees_m > 0.01 and alignment.fixes == 10
@@ -243,10 +232,24 @@ def test_a_laser_alignment_that_agrees_with_the_fixes_is_fused_with_them_by_thei
     """A scan that fits the map from 4 mm east of the truth (within the agreement gate of ten 3 mm fixes):
     the placement pose is neither the fit's nor the fixes' alone, but between them, each weighed by the
     inverse of its variance; the heading is the fit's."""
+    navigator, _, fitted = _standing_with_fixes_and_a_fit(frame, 0.004)
+    fixes_x = navigator.localiser.still_fix_pose()[0][0]
+    alignment = navigator.align()
+    assert alignment.trusted and alignment.fixes == 10
+    fused_x = float(alignment.pose_xy_yaw[0])
+    assert min(fixes_x, fitted[0]) + 1e-4 < fused_x < max(fixes_x, fitted[0]) - 1e-4
+    assert float(navigator.localiser.pose[0]) == pytest.approx(fused_x)
+
+
+def _standing_with_fixes_and_a_fit(
+    frame: Manifest, east_m: float
+) -> tuple[Navigator, tuple[float, float, float], tuple[float, float, float]]:
+    """A robot standing still near the fence corner, given ten 3 mm fixes of where it truly stands and a
+    scan that fits the map from ``east_m`` east of it: the navigator, the truth and where the scan says."""
     site = SiteMap(plan_site(frame.components, robots=1), frame.components)
     corner = site.layout.fence.min_xy
     truth = (corner[0] + 3.0, corner[1] + 3.0, 0.3)
-    fitted = (truth[0] + 0.004, truth[1], truth[2])
+    fitted = (truth[0] + east_m, truth[1], truth[2])
     navigator = Navigator(site, truth, NavigatorConfig(), np.random.default_rng(0), robot_id="r1")
     rng = np.random.default_rng(2)
     odom = OdomMsg(robot_id="r1", pose_xy_yaw=(0.0, 0.0, 0.0), v_mps=0.0, w_radps=0.0, sim_time_s=1.0)
@@ -255,9 +258,4 @@ def test_a_laser_alignment_that_agrees_with_the_fixes_is_fused_with_them_by_thei
         navigator.observe_odom(odom)
         navigator.observe_fix(_fix_msg(truth[:2], truth[2], rng))
         navigator.observe_scan(scan)
-    fixes_x = navigator.localiser.still_fix_pose()[0][0]
-    alignment = navigator.align()
-    assert alignment.trusted and alignment.fixes == 10
-    fused_x = float(alignment.pose_xy_yaw[0])
-    assert min(fixes_x, fitted[0]) + 1e-4 < fused_x < max(fixes_x, fitted[0]) - 1e-4
-    assert float(navigator.localiser.pose[0]) == pytest.approx(fused_x)
+    return navigator, truth, fitted
