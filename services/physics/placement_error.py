@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from .scene import Frame, compose, invert, quat_multiply, rotate, yaw_quat
+from .scene import Frame, compose, invert, quat_multiply, turned_about, yaw_quat
 
 
 def guided_yaw_std_rad(yaw_std_rad: float, precision_m: float, half_span_m: float) -> float:
@@ -55,11 +55,9 @@ def physical_placement(
         frame = compose(ground_frame(true_xy_yaw), relative)
     dx, dy = (float(v) for v in rng.normal(0.0, precision_m, 2)) if precision_m > 0 else (0.0, 0.0)
     dyaw = float(rng.normal(0.0, precision_yaw_rad)) if precision_yaw_rad > 0 else 0.0
-    (x, y, z), quat = frame
-    turned = quat_multiply(yaw_quat(dyaw), quat)
     # the turn is about the vertical through the component's centre: the centre stays, the frame moves
-    before, after = rotate(quat, centre_local_m), rotate(turned, centre_local_m)
-    return (x + dx + before[0] - after[0], y + dy + before[1] - after[1], z + before[2] - after[2]), turned
+    (x, y, z), turned = turned_about(frame, quat_multiply(yaw_quat(dyaw), frame[1]), centre_local_m)
+    return (x + dx, y + dy, z), turned
 
 
 def offset_m(a: Frame, b: Frame) -> float:

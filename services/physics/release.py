@@ -34,7 +34,7 @@ from bimbot.shared.joints import CLASH_DEPTH_M
 from bimbot.shared.manifest import Component
 
 from .client import p
-from .scene import ComponentBody, Frame, component_pose, rotate, set_component_pose
+from .scene import ComponentBody, Frame, component_pose, set_component_pose, turned_about
 
 PENETRATION_SLOP_M = 0.003  # overlaps shallower than this (collision margins) are the contact solver's
 MAX_CLEARED_M = CLASH_DEPTH_M  # a deeper overlap is no contact to stop at: released as it is (a clash)
@@ -139,22 +139,24 @@ def clear_overlap(
     seats flush first (the contact turns it about its centre, ``centre_local_m``, as a robot's compliant
     wrist or a crew's bar does): only what is left is cleared by moving it. Moved instead, a 7 m wall
     turned 0.2° into the wall it abuts was shoved 12 mm off its target."""
-    if meant_quat_xyzw is not None:
-        before = _deepest_m(client_id, body, frame, others, kept=kept, max_cleared_m=max_cleared_m)
-        if before > 0.0:
-            flush = turned_about(frame, meant_quat_xyzw, centre_local_m)
-            if _deepest_m(client_id, body, flush, others, kept=kept, max_cleared_m=max_cleared_m) < before:
-                frame = flush
+    points = _penetrations(client_id, body, frame, others)
+    clearable = _clearable(points, kept, max_cleared_m)
+    if meant_quat_xyzw is not None and clearable:
+        flush = turned_about(frame, meant_quat_xyzw, centre_local_m)
+        flush_points = _penetrations(client_id, body, flush, others)
+        if _deepest_m(_clearable(flush_points, kept, max_cleared_m)) < _deepest_m(clearable):
+            frame, points = flush, flush_points
+            clearable = _clearable(points, kept, max_cleared_m)
     for _ in range(tries):
-        points = _penetrations(client_id, body, frame, others)
-        clearable = _clearable(points, kept, max_cleared_m)
         if not clearable:
             return Cleared(frame, clashes_among(points))
         deepest = min(clearable, key=lambda point: point[8])
         normal = np.asarray(deepest[7])  # on B, pointing from B to A: out of the other body
         shift = -deepest[8] * normal
         frame = ((frame[0][0] + shift[0], frame[0][1] + shift[1], frame[0][2] + shift[2]), frame[1])
-    return Cleared(frame, clashes_among(_penetrations(client_id, body, frame, others)))
+        points = _penetrations(client_id, body, frame, others)
+        clearable = _clearable(points, kept, max_cleared_m)
+    return Cleared(frame, clashes_among(points))
 
 
 def _clearable(
@@ -169,28 +171,9 @@ def _clearable(
     ]
 
 
-def _deepest_m(
-    client_id: int,
-    body: ComponentBody,
-    frame: Frame,
-    others: Mapping[int, str],
-    *,
-    kept: frozenset[str],
-    max_cleared_m: float,
-) -> float:
-    """The deepest clearable overlap of ``body`` at ``frame`` (m; 0 when none)."""
-    points = _clearable(_penetrations(client_id, body, frame, others), kept, max_cleared_m)
+def _deepest_m(points: list[tuple[Any, ...]]) -> float:
+    """The deepest of clearable contact points (m; 0 when none)."""
     return max((-point[8] for point in points), default=0.0)
-
-
-def turned_about(
-    frame: Frame, quat_xyzw: tuple[float, float, float, float], centre_local_m: tuple[float, float, float]
-) -> Frame:
-    """``frame`` turned to ``quat_xyzw`` about its centre (``centre_local_m`` in its own frame): the centre
-    stays where it is in the world, the origin moves."""
-    before, after = rotate(frame[1], centre_local_m), rotate(quat_xyzw, centre_local_m)
-    x, y, z = frame[0]
-    return (x + before[0] - after[0], y + before[1] - after[1], z + before[2] - after[2]), quat_xyzw
 
 
 def clashes_among(points: list[tuple[tuple[Any, ...], str]]) -> tuple[tuple[str, float], ...]:

@@ -107,6 +107,14 @@ def rotate(quat_xyzw: Quat, v: Vec3) -> Vec3:
     )
 
 
+def turned_about(frame: Frame, quat_xyzw: Quat, centre_local_m: Vec3) -> Frame:
+    """``frame`` turned to ``quat_xyzw`` about its centre (``centre_local_m`` in its own frame): the centre
+    stays where it is in the world, the origin moves (by metres, for a Revit origin far from its part)."""
+    before, after = rotate(frame[1], centre_local_m), rotate(quat_xyzw, centre_local_m)
+    x, y, z = frame[0]
+    return (x + before[0] - after[0], y + before[1] - after[1], z + before[2] - after[2]), quat_xyzw
+
+
 def compose(a: Frame, b: Frame) -> Frame:
     """``a ∘ b``: frame ``b`` given in frame ``a``, expressed in ``a``'s parent (double precision: pybullet's
     own ``multiplyTransforms`` works in single precision)."""
