@@ -161,6 +161,12 @@ def decode(model: type[M], key: str, payload: bytes, invalid: InvalidPayloads) -
     return None
 
 
+def in_arrival_order(callback: Callable[..., object]) -> zenoh.handlers.Callback:
+    """``callback`` run on the thread that receives the data, so every subscriber of one session hears one
+    sender's messages in the order they were put. It must be quick and never block (it only enqueues)."""
+    return zenoh.handlers.Callback(callback, indirect=False)
+
+
 class Inbox:
     """A thread-safe queue of typed items fed by Zenoh callbacks and drained by the service's loop.
 
@@ -187,7 +193,7 @@ class Inbox:
             if message is not None:
                 self._queue.put(Received(topic, key, message))
 
-        return session.declare_subscriber(topic.key(**parts), on_sample)
+        return session.declare_subscriber(topic.key(**parts), in_arrival_order(on_sample))
 
     def subscribe_raw(self, session: zenoh.Session, key_expr: str) -> zenoh.Subscriber:
         """Every payload put under ``key_expr``, as :class:`RawSample` (decoded later, by the loop)."""
@@ -196,7 +202,7 @@ class Inbox:
             if sample.kind == zenoh.SampleKind.PUT:
                 self._queue.put(RawSample(str(sample.key_expr), sample.payload.to_bytes()))
 
-        return session.declare_subscriber(key_expr, on_sample)
+        return session.declare_subscriber(key_expr, in_arrival_order(on_sample))
 
     def subscribe_liveliness(self, session: zenoh.Session, key_expr: str) -> zenoh.Subscriber:
         """Liveliness changes as :class:`LivelinessChange`; existing tokens are reported first."""
@@ -204,7 +210,7 @@ class Inbox:
         def on_sample(sample: zenoh.Sample) -> None:
             self._queue.put(LivelinessChange(str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT))
 
-        return session.liveliness().declare_subscriber(key_expr, on_sample, history=True)
+        return session.liveliness().declare_subscriber(key_expr, in_arrival_order(on_sample), history=True)
 
     def serve(
         self, session: zenoh.Session, queryable: Queryable[R], *, complete: bool, **parts: str
@@ -212,7 +218,7 @@ class Inbox:
         """Declare ``queryable`` (parts filled); each query is enqueued as an :class:`IncomingQuery`."""
         return session.declare_queryable(
             queryable.key(**parts),
-            lambda query: self._queue.put(IncomingQuery(queryable, query)),
+            in_arrival_order(lambda query: self._queue.put(IncomingQuery(queryable, query))),
             complete=complete,
         )
 
@@ -228,7 +234,7 @@ class Inbox:
             if message is not None:
                 self._queue.put(Answer(queryable, key, message))
 
-        session.get(queryable.key(**parts), on_reply, timeout=timeout_s)
+        session.get(queryable.key(**parts), in_arrival_order(on_reply), timeout=timeout_s)
 
     def put(self, item: object) -> None:
         """Enqueue a service's own item from any thread (timers, other adapters)."""
