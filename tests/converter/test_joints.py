@@ -188,3 +188,27 @@ def test_a_bad_rules_file_is_one_line(tmp_path: Path) -> None:
     assert done.returncode == 2
     assert done.stderr.strip().count("\n") == 0, done.stderr
     assert "max_depth_m" in done.stderr
+
+
+def test_a_partition_through_a_suspended_ceiling_is_a_joint_and_the_wall_comes_first(tmp_path: Path) -> None:
+    """A 54 mm ceiling, 3 m square, hung 2.7 m up, and a partition running up through its middle to 2.78 m
+    (the ceiling's tiles are cut round it on site): a joint by rule, not a clash, with the wall first."""
+    small = new_model()
+    add_wall(small, "Partition", length_m=4.0, height_m=2.78, thickness_m=0.1)
+    add_beam(
+        small,
+        "Ceiling",
+        length_m=0.054,
+        width_m=3.0,
+        depth_m=3.0,
+        matrix_m=translation(x_m=2.0, z_m=2.7),
+        schema_class="IfcCovering",
+    )
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    assert not manifest.clashes
+    [joint] = manifest.joints
+    assert joint.guids == (guid["Partition"], guid["Ceiling"])
+    assert joint.rule == "IfcCovering into IfcWall, up to 150 mm"
+    assert joint.depth_m == pytest.approx(0.08, abs=0.005)
+    assert joint.directed
