@@ -178,9 +178,14 @@ class Inbox:
     Callbacks never touch service state.
     """
 
-    def __init__(self, invalid: InvalidPayloads | None = None) -> None:
+    def __init__(self, invalid: InvalidPayloads | None = None, *, in_order: bool = False) -> None:
+        """``in_order``: fed on the receiving thread, one sender's messages in the order they were put."""
         self._queue: queue.Queue[object] = queue.Queue()
         self.invalid = invalid or InvalidPayloads()
+        self._in_order = in_order
+
+    def _handler(self, callback: Callable[..., object]) -> Callable[..., object] | zenoh.handlers.Callback:
+        return in_arrival_order(callback) if self._in_order else callback
 
     def subscribe(self, session: zenoh.Session, topic: Topic[M], **parts: str) -> zenoh.Subscriber:
         """Subscribe to ``topic`` with its key ``parts`` filled (``*`` for any)."""
@@ -193,7 +198,7 @@ class Inbox:
             if message is not None:
                 self._queue.put(Received(topic, key, message))
 
-        return session.declare_subscriber(topic.key(**parts), in_arrival_order(on_sample))
+        return session.declare_subscriber(topic.key(**parts), self._handler(on_sample))
 
     def subscribe_raw(self, session: zenoh.Session, key_expr: str) -> zenoh.Subscriber:
         """Every payload put under ``key_expr``, as :class:`RawSample` (decoded later, by the loop)."""
@@ -202,7 +207,7 @@ class Inbox:
             if sample.kind == zenoh.SampleKind.PUT:
                 self._queue.put(RawSample(str(sample.key_expr), sample.payload.to_bytes()))
 
-        return session.declare_subscriber(key_expr, in_arrival_order(on_sample))
+        return session.declare_subscriber(key_expr, self._handler(on_sample))
 
     def subscribe_liveliness(self, session: zenoh.Session, key_expr: str) -> zenoh.Subscriber:
         """Liveliness changes as :class:`LivelinessChange`; existing tokens are reported first."""
@@ -210,7 +215,7 @@ class Inbox:
         def on_sample(sample: zenoh.Sample) -> None:
             self._queue.put(LivelinessChange(str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT))
 
-        return session.liveliness().declare_subscriber(key_expr, in_arrival_order(on_sample), history=True)
+        return session.liveliness().declare_subscriber(key_expr, self._handler(on_sample), history=True)
 
     def serve(
         self, session: zenoh.Session, queryable: Queryable[R], *, complete: bool, **parts: str
@@ -218,7 +223,7 @@ class Inbox:
         """Declare ``queryable`` (parts filled); each query is enqueued as an :class:`IncomingQuery`."""
         return session.declare_queryable(
             queryable.key(**parts),
-            in_arrival_order(lambda query: self._queue.put(IncomingQuery(queryable, query))),
+            self._handler(lambda query: self._queue.put(IncomingQuery(queryable, query))),
             complete=complete,
         )
 
@@ -234,7 +239,7 @@ class Inbox:
             if message is not None:
                 self._queue.put(Answer(queryable, key, message))
 
-        session.get(queryable.key(**parts), in_arrival_order(on_reply), timeout=timeout_s)
+        session.get(queryable.key(**parts), self._handler(on_reply), timeout=timeout_s)
 
     def put(self, item: object) -> None:
         """Enqueue a service's own item from any thread (timers, other adapters)."""

@@ -128,7 +128,7 @@ def serve(
     """Declare everything on ``session`` (tokens spread over ``token_sessions``) and run the loop until
     ``stop`` is set; ``stepped``: as a lock-step participant (:mod:`.stepped`)."""
     site = host.site
-    inbox = Inbox()
+    inbox = Inbox(in_order=True)
     # Kept referenced until the session closes (an undropped declaration stays declared anyway).
     declarations: list[object] = [
         inbox.subscribe(session, COMPONENT_EVENT, site=site, key="*"),

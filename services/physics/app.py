@@ -188,7 +188,7 @@ class _Loop:
         self.run = run
         self.stop = stop
         self.site = sim.site
-        self.inbox = Inbox(InvalidPayloads())
+        self.inbox = Inbox(InvalidPayloads(), in_order=True)
         self.barrier = LockStepBarrier(run.lock_step_timeout_s)
         self._lost_since: dict[str, float] = {}  # robot → wall time its liveliness went (lost_grace_s)
         # a command or request answering step k acts from step k + latency (latency.py)

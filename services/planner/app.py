@@ -121,7 +121,7 @@ def main(
     manifest = build.manifest
     plan = load_plan(manifest, build.dir, source)
     site = manifest.site
-    inbox = Inbox()
+    inbox = Inbox(in_order=True)
     with open_session(bus) as session:
         info = query_first(
             session, PHYSICS_INFO, inbox.invalid, timeout_s=options.site_info_timeout_s, stop=stop, site=site

@@ -109,7 +109,7 @@ def bus_sender(session: zenoh.Session, site: str, inbox: Inbox) -> Callable[[Ski
             if not replied:
                 inbox.put(SkipAnswer(request, None, "no reply (timeout)"))
 
-        handler = zenoh.handlers.Callback(on_reply, on_done)
+        handler = zenoh.handlers.Callback(on_reply, on_done, indirect=False)  # in order with the clock
         session.get(selector, handler, payload=encode(request), timeout=TIMEOUT_S)
 
     return send

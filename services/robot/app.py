@@ -124,7 +124,7 @@ def main(
     """Run one robot on the bus until ``stop``; 0 on a clean stop, 2 when physics never answered."""
     manifest = build.manifest
     site, robot_id = manifest.site, executor_config.robot_id
-    inbox = Inbox()
+    inbox = Inbox(in_order=True)
     with open_session(bus) as session:
         subscribers = [inbox.subscribe(session, topic, site=site, **parts) for topic, parts in SUBSCRIPTIONS]
         subscribers += [
@@ -359,7 +359,7 @@ class _Loop:
             if not replied:  # takes a reply at the step after physics', so "none" must not overtake it)
                 inbox.put(PhysicsResult(request_id, None, "no reply (timeout)"))
 
-        handler = zenoh.handlers.Callback(on_reply, on_done)
+        handler = zenoh.handlers.Callback(on_reply, on_done, indirect=False)  # in order with the sensors
         # stamped with the step this robot answers: physics acts on it with that step's command (latency)
         message = request.message.model_copy(update={"step": max(0, self.executor.step)})
         # lock-step: physics answers in sim time (a placement with its connection takes 20 s of it), which

@@ -1,4 +1,4 @@
-"""One sender's messages on several keys reach a service's inbox in the order they were put.
+"""One sender's messages on several keys reach a lock-step participant's inbox in the order they were put.
 
 Lock-step runs take a participant's outputs once its answer to the step is heard; an answer that
 overtook the messages before it (each subscriber on a Python thread of its own) let them be taken a
@@ -23,7 +23,7 @@ def test_messages_put_on_two_keys_are_drained_in_the_order_they_were_put() -> No
         open_session(BusOptions(mode="peer", connect=(), listen=(endpoint,))) as receiver,
         open_session(BusOptions(mode="peer", connect=(endpoint,), listen=())) as sender,
     ):
-        inbox = Inbox()
+        inbox = Inbox(in_order=True)
         subscribers = [inbox.subscribe_raw(receiver, key) for key in ("order/state", "order/answer")]
         publishers = [sender.declare_publisher(key) for key in ("order/state", "order/answer")]
         time.sleep(0.3)  # the subscriptions have reached the sender
