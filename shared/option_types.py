@@ -50,6 +50,20 @@ def non_negative_float(text: str) -> float:
     return value
 
 
+def non_negative_float_up_to(limit: float, unit: str) -> Callable[[str], float]:
+    """A check for a finite float in ``[0, limit]``, given and bounded in ``unit`` (the unit the user typed:
+    ``--total-station-mm 2000`` is answered in mm, not in the metres a config holds)."""
+
+    def check(text: str) -> float:
+        value = non_negative_float(text)
+        if value > limit:
+            raise argparse.ArgumentTypeError(f"{text} {unit} is more than {limit:g} {unit}, the most allowed")
+        return value
+
+    check.__name__ = f"number of {unit} up to {limit:g}"
+    return check
+
+
 def _integer(text: str) -> int:
     try:
         return int(text)

@@ -28,7 +28,13 @@ from __future__ import annotations
 import argparse
 from dataclasses import dataclass
 
-from bimbot.shared.option_types import OptionSpec, non_negative_float, positive_float, positive_int
+from bimbot.shared.option_types import (
+    OptionSpec,
+    non_negative_float,
+    non_negative_float_up_to,
+    positive_float,
+    positive_int,
+)
 
 
 @dataclass(frozen=True)
@@ -50,6 +56,8 @@ class SimProfile:
 # A robotic total station in tracking mode: about 3 mm + 1.5 ppm on a moving prism (a typical instrument's
 # data sheet; check your own). Sites set out with one; a run without it is the paper's laser-only robots.
 SITE_TOTAL_STATION_MM = 3.0
+# the coarsest a run takes (1 m): coarser fixes are no positioning sensor (SimConfig checks it in m)
+MAX_TOTAL_STATION_MM = 1000.0
 
 REHEARSAL = SimProfile(
     name="rehearsal",
@@ -106,7 +114,7 @@ PROFILE_OPTIONS: tuple[OptionSpec, ...] = (
     ),
     OptionSpec(
         "--total-station-mm",
-        type=non_negative_float,
+        type=non_negative_float_up_to(MAX_TOTAL_STATION_MM, "mm"),
         metavar="STD_MM",
         help="a robotic total station on site: every ground robot gets a fix of its position each control "
         "period with this standard deviation (mm), fused by its localisation; 0: none, the robots localise "

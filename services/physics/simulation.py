@@ -75,7 +75,7 @@ from .joints import joint_partners, let_joints_overlap
 from .odometry import Odometry
 from .pits import Pits, collision_part_boxes
 from .positioning import TotalStation
-from .profiles import FINE
+from .profiles import FINE, MAX_TOTAL_STATION_MM
 from .ray_scene import RayScene
 from .release import SettleConfig
 from .relocation import is_setup, move_base, relocate, robot_setups
@@ -145,8 +145,9 @@ class SimConfig:
             )
         if self.command_latency_steps not in (0, 1):
             raise ValueError("command latency must be 0 or 1 control period")
-        if self.total_station_std_m is not None and not 0.0 < self.total_station_std_m <= 1.0:
-            raise ValueError("a total station's standard deviation must be within (0, 1] m")
+        top_m = MAX_TOTAL_STATION_MM / 1000.0
+        if self.total_station_std_m is not None and not 0.0 < self.total_station_std_m <= top_m:
+            raise ValueError(f"a total station's standard deviation must be within (0, {top_m:g}] m")
         if self.odom_noise < 0.0 or self.pose_refresh_s <= 0.0 or self.pose_refresh_max < 1:
             raise ValueError("odom noise must be >= 0, pose refresh > 0 and at least one pose a period")
 

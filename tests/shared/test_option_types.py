@@ -69,3 +69,17 @@ def test_a_bad_number_is_one_line_naming_the_option_and_exit_2(
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1, lines  # argparse's usage text is left out: it buried the error
     assert option in lines[0] and lines[0].startswith(f"bimbot {argv[0]}: error:")
+
+
+def test_a_total_station_too_coarse_is_answered_in_the_mm_the_user_typed(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    argv = ["run", "OUT", "--total-station-mm", "2000"]
+    with pytest.raises(SystemExit) as ended:
+        build_parser(argv).parse_args(argv)
+    assert ended.value.code == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert "--total-station-mm: 2000 mm is more than 1000 mm" in line, line
+    assert "] m" not in line, line  # not physics' bound in metres
+    top = ["run", "OUT", "--total-station-mm", "1000"]
+    assert build_parser(top).parse_args(top).total_station_mm == 1000.0
