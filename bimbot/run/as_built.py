@@ -53,7 +53,7 @@ class AsBuiltAudit:
     sim_time_s: float | None = None  # physics' answer: when
     step: int | None = None
     epoch: int | None = None
-    wall_time_s: float | None = None  # Unix time the audit asked (the twins and physics)
+    asked_at_unix_s: float | None = None  # when the audit asked the twins and physics (Unix time, s)
 
     def max_errors(self, guids: Collection[str]) -> tuple[float | None, float | None]:
         """The largest position (m) and angle (rad) errors among ``guids`` (None: none measured)."""
@@ -68,13 +68,13 @@ def audit_as_built(
     poses: SitePosesMsg | None,
     constructed: Collection[str],
     tolerances: Tolerances = AGENT_TOLERANCES,
-    wall_time_s: float | None = None,
+    asked_at_unix_s: float | None = None,
 ) -> AsBuiltAudit:
     """Compare physics' ``poses`` (None: physics did not answer) with every component's BIM target;
     ``constructed`` are the GUIDs the agents' twins say are constructed."""
     built = set(constructed)
     if poses is None:
-        return AsBuiltAudit(False, tolerances, len(built), 0, {}, wall_time_s=wall_time_s)
+        return AsBuiltAudit(False, tolerances, len(built), 0, {}, asked_at_unix_s=asked_at_unix_s)
     final: dict[str, PlacementCheck] = {}
     errors: list[str] = []
     wrong: list[str] = []
@@ -108,7 +108,7 @@ def audit_as_built(
         sim_time_s=poses.sim_time_s,
         step=poses.step,
         epoch=poses.epoch,
-        wall_time_s=wall_time_s,
+        asked_at_unix_s=asked_at_unix_s,
     )
 
 
@@ -145,7 +145,7 @@ def _as_dict(audit: AsBuiltAudit | None) -> dict[str, Any]:
         "sim_time_s": audit.sim_time_s,
         "step": audit.step,
         "epoch": audit.epoch,
-        "wall_time_s": audit.wall_time_s,
+        "asked_at_unix_s": audit.asked_at_unix_s,
     }
 
 

@@ -230,14 +230,14 @@ class RunMonitor:
         (:meth:`confirm_twins`), then physics' poses of every component are compared with their BIM
         targets (:func:`bimbot.run.as_built.audit_as_built`). Bounded: about ``timeout_s`` wall seconds at
         most (physics gets at least ``MIN_POSES_TIMEOUT_S``). The result is kept for :meth:`report`."""
-        wall_time_s, deadline = time.time(), time.monotonic() + timeout_s
+        asked_at_unix_s, deadline = time.time(), time.monotonic() + timeout_s
         self.confirm_twins(timeout_s)
         left_s = max(MIN_POSES_TIMEOUT_S, deadline - time.monotonic())
         poses = query_first(self._session, PHYSICS_POSES, self.invalid, timeout_s=left_s, site=self._site)
         if poses is None:
             _log.warning("physics did not answer physics/poses within %.1f s: no as-built audit", left_s)
         self.as_built = audit_as_built(
-            self.manifest, poses, self.trusted.constructed(), self.tolerances, wall_time_s=wall_time_s
+            self.manifest, poses, self.trusted.constructed(), self.tolerances, asked_at_unix_s=asked_at_unix_s
         )
         if self.as_built.errors:  # the run's summary lists them (once: not here as well)
             _log.info("as-built audit: %d error(s), listed in the summary", len(self.as_built.errors))

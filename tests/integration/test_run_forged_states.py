@@ -156,7 +156,7 @@ def test_forged_constructed_messages_change_nothing_the_run_counts_what_the_twin
     # from before that moment is in the report, and nothing the journal does not have
     audit = report.get("as_built") or {}
     assert audit.get("audited"), "bimbot run must call RunMonitor.audit() before it stops the services"
-    before = {guid for guid, at in journal.items() if at < audit["wall_time_s"]}
+    before = {guid for guid, at in journal.items() if at < audit["asked_at_unix_s"]}
     assert before <= reported <= set(journal), detail
     assert report["totals"]["constructed"] == len(reported), detail
     assert f"constructed {len(reported)}/{len(manifest.components)} components" in stdout, detail

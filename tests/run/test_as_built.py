@@ -117,3 +117,11 @@ def test_the_chart_carries_the_audit_in_its_title_and_marks_the_wrong_component(
     report["components"][0]["reason"] = None  # as if constructed: the row shows its as-built error
     assert _as_built_title(report) == " — as-built: max 20.00 mm / 0.00°, 1 error"
     assert render_report_png(report, tmp_path / "report.png").stat().st_size > 10_000
+
+
+def test_the_audit_says_when_it_asked_as_a_unix_time_not_as_a_duration() -> None:
+    report = ReportCollector(SITE_MANIFEST).report()
+    audit = audit_as_built(SITE_MANIFEST, poses(SITE_MANIFEST), constructed={BEAM}, asked_at_unix_s=1.7e9)
+    add_to_report(report, audit, {BEAM})
+    assert report["as_built"]["asked_at_unix_s"] == 1.7e9
+    assert "wall_time_s" not in report["as_built"]  # it was a time stamp under a duration's name
