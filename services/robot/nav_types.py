@@ -125,6 +125,7 @@ class Goal:
     hold_until_s: float = -math.inf  # standing still while another robot steps aside
     give_ways: int = 0
     arrived: bool = False  # within tolerance once: only turning onto the yaw now (unless pushed far off)
+    quiet: bool = False  # its owner says why it failed: waits, recoveries and the failure log at debug
     aside_until_s: float = math.inf  # a step-aside goal: when to go back to the real goal at the latest
     trail: deque = field(default_factory=deque)  # (sim_s, x, y), one sample per 0.5 s
 

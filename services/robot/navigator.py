@@ -218,11 +218,20 @@ class Navigator:
         return self.localiser.update()
 
     def set_goal(
-        self, xy_m: ArrayLike, yaw_rad: float | None, sim_s: float, tolerance_m: float | None = None
+        self,
+        xy_m: ArrayLike,
+        yaw_rad: float | None,
+        sim_s: float,
+        tolerance_m: float | None = None,
+        *,
+        quiet: bool = False,
     ) -> None:
+        """Drive to ``xy_m`` (facing ``yaw_rad`` unless None). ``quiet``: the caller says why it failed
+        (a retry of a drive that failed alike): its waits, recoveries and failure are logged at debug."""
         tolerance = tolerance_m if tolerance_m is not None else self.config.goal_tolerance_m
         course = self.course
         course.goal = new_goal(self.config, np.asarray(xy_m, float), yaw_rad, tolerance, sim_s)
+        course.goal.quiet = quiet
         course.status, course.resume, self.failure = NavStatus.ACTIVE, None, None
 
     def waiting_s(self, sim_s: float) -> float:
@@ -395,7 +404,12 @@ class Navigator:
             tried=goal.tried if goal is not None else (),
             beside=self.site_map.components_near(pose[:2], self.config.beside_m),
         )
-        _log.warning("navigation to %s failed: %s", np.round(goal_xy, 2).tolist(), self.failure.line())
+        _log.log(
+            logging.DEBUG if goal is not None and goal.quiet else logging.WARNING,
+            "navigation to %s failed: %s",
+            np.round(goal_xy, 2).tolist(),
+            self.failure.line(),
+        )
         self.course.status = NavStatus.FAILED
         return self._command(0.0, 0.0)
 
@@ -450,7 +464,12 @@ class Navigator:
         goal.blocked = not result.found and not grid.is_free(*goal.xy)
         if not result.found:
             if goal.no_path_since_s is None:
-                _log.info("no path to %s yet (%s): waiting", np.round(goal.xy, 2).tolist(), result.reason)
+                _log.log(
+                    _said(goal),
+                    "no path to %s yet (%s): waiting",
+                    np.round(goal.xy, 2).tolist(),
+                    result.reason,
+                )
                 goal.no_path_since_s = sim_s
             goal.path = None
             return None
@@ -482,7 +501,14 @@ class Navigator:
             return self._fail(why)
         goal.tried += (kind,)
         self.recoveries.append((sim_s, kind))
-        _log.info("%s at %s %s: recovery %s", self.robot_id, np.round(pose, 2).tolist(), why, kind.value)
+        _log.log(
+            _said(goal),
+            "%s at %s %s: recovery %s",
+            self.robot_id,
+            np.round(pose, 2).tolist(),
+            why,
+            kind.value,
+        )
         goal.trail.clear()
         assert goal.watchdog is not None
         goal.watchdog.reset(sim_s)
@@ -498,3 +524,8 @@ class Navigator:
         else:
             goal.plan_out = True
         return self._command(0.0, 0.0)
+
+
+def _said(goal: Goal) -> int:
+    """The log level of what happens on the way to ``goal``: info, or debug for a quiet one."""
+    return logging.DEBUG if goal.quiet else logging.INFO

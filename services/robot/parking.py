@@ -2,7 +2,9 @@
 
 Why: a robot that has finished a task must not wall itself in or stand where the next component goes, and
 an idle one parked at the depot is out of the way of the structure and the yard. A parking drive that fails
-(its recoveries spent) is tried again after ``park_retry_s``, and the robot's state says why meanwhile.
+(its recoveries spent) is tried again after ``park_retry_s``, and the robot's state says why meanwhile. A
+robot walled in fails every try alike: the first failure is logged with why and where it stays, later ones
+only at the 2nd, 4th, 8th, … in a row, with the count.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ class Parking:
         self._left_structure = True  # after a task: out of the building footprint (or tried)
         self._parking = False  # the navigator's goal is the depot
         self._park_again_s = 0.0  # not before this sim time (a parking drive failed)
+        self._park_failures = 0  # parking drives failed in a row (a robot walled in fails every one)
 
     def task_started(self) -> None:
         """A task took the robot on: once idle again it leaves the structure first, then parks."""
@@ -65,14 +68,11 @@ class Parking:
             # while it waited, sent again, every period, so its recoveries never ran (14,000 log lines)
             if status is NavStatus.FAILED and self._parking:
                 self._park_again_s = sim_s + config.park_retry_s
+                self._park_failures += 1
                 failure = navigator.failure
-                why = failure.message if failure is not None else "no path"
-                cycle.activity = (
-                    f"cannot drive to the depot (trying again at sim {self._park_again_s:.0f} s): {why}"
-                )
-                _log.warning("%s: %s", robot_id, cycle.activity)
+                self._say_cannot_park(failure.message if failure is not None else "no path")
             elif status is NavStatus.REACHED and self._parking:
-                cycle.activity = ""
+                cycle.activity, self._park_failures = "", 0
             self._parking = False
             navigator.cancel()
         if (
@@ -84,6 +84,30 @@ class Parking:
         x, y, yaw = context.home_xy_yaw
         pose = navigator.pose_xy_yaw
         if math.hypot(pose[0] - x, pose[1] - y) > 0.5:
-            _log.info("%s: idle, parking at the depot", robot_id)
-            navigator.set_goal((x, y), yaw, sim_s, tolerance_m=0.3)
+            retry = self._park_failures > 0  # a drive that failed alike: said by _say_cannot_park, not here
+            _log.log(logging.DEBUG if retry else logging.INFO, "%s: idle, parking at the depot", robot_id)
+            navigator.set_goal((x, y), yaw, sim_s, tolerance_m=0.3, quiet=retry)
             self._parking = True
+
+    def _say_cannot_park(self, why: str) -> None:
+        """The robot's state says where it stays and why; the log says it at the first failure in a row,
+        then at the 2nd, 4th, 8th, … with the count (a power of two: a handful of lines for a whole run)."""
+        context, failures = self.context, self._park_failures
+        x, y = context.navigator.pose_xy_yaw[:2]
+        where = f"stays at ({x:.1f}, {y:.1f})"
+        self.cycle.activity = f"cannot drive to the depot, {where}: {why}"
+        if failures == 1:
+            _log.warning(
+                "%s: cannot drive to the depot, %s, idle, and tries again every %.0f s: %s",
+                context.robot_id,
+                where,
+                context.config.park_retry_s,
+                why,
+            )
+        elif failures & (failures - 1) == 0:
+            _log.warning(
+                "%s: still cannot drive to the depot (%d tries in a row), %s",
+                context.robot_id,
+                failures,
+                where,
+            )

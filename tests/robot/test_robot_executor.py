@@ -237,21 +237,33 @@ def test_an_idle_robot_says_so_at_once_when_a_task_is_released_not_at_its_next_p
     assert again and again[0].state is RobotState.IDLE
 
 
-def test_an_idle_robot_that_cannot_reach_its_depot_says_so_and_tries_again_later_not_every_period(
+def test_an_idle_robot_that_cannot_reach_its_depot_says_once_why_and_where_it_stays_and_tries_again_later(
     frame: Manifest, caplog: pytest.LogCaptureFixture
 ) -> None:
     """On the Revit hub a carrier idle inside the structure could not drive to its depot: it was sent there,
-    the goal cancelled, and sent again every period (14,000 log lines), and the run's stall report said
-    only "idle". Now a failed parking drive (its recoveries spent) is tried again after park_retry_s, with
-    one warning, and the robot's state message says why it stands where it is."""
-    site, released, task = make_site(frame, park_after_s=2.0, park_retry_s=120.0)
+    the goal cancelled, and sent again every period (14,000 log lines). A failed parking drive (its
+    recoveries spent) is tried again after park_retry_s; in the house a robot walled in failed every try
+    alike, and each logged the same lines (parking, recoveries, the navigator's failure, a warning). The
+    first failure says why and where it stays; after it only the 2nd, 4th, 8th, … in a row, with the count;
+    the tries themselves go to debug. The robot's state message says why it stands where it is."""
+    site, released, task = make_site(frame, park_after_s=2.0, park_retry_s=1.0)
     run_task(site, released, task)
     assert site.executor.done == [(task.guid, ComponentState.CONSTRUCTED)]
     site.frozen = True  # its wheels turn no more: wherever it goes, it stays
-    with caplog.at_level("INFO"):
+    with caplog.at_level("DEBUG", logger="bimbot.services.robot"):
         site.run(int(150.0 / DT))
-    parking = caplog.text.count("idle, parking at the depot")
-    failed = [r for r in caplog.records if "cannot drive to the depot" in r.getMessage()]
-    assert parking == 1 and len(failed) == 1, caplog.text[-3000:]  # once, not every period
+    records = caplog.records
+    tries = [r for r in records if "idle, parking at the depot" in r.getMessage()]
+    said = [r.getMessage() for r in records if r.levelname == "WARNING" and "to the depot" in r.getMessage()]
+    assert 3 <= len(tries) <= 10, caplog.text[-3000:]  # again and again, not every period
+    assert [r.levelname for r in tries].count("INFO") == 1  # the first try; the others at debug
+    assert "stays at (" in said[0] and "tries again every 1 s: " in said[0], said[0]
+    assert said[1:] and all("tries in a row" in line for line in said[1:]), said
+    counts = [int(line.split("(")[1].split(" tries")[0]) for line in said[1:]]
+    assert counts == [2, 4, 8][: len(counts)] and len(said) < len(tries), said  # not one per failure
+    parking = records[records.index(tries[0]) :]  # (leaving the structure failed too, before)
+    failed = [r for r in parking if r.levelname == "WARNING" and "navigation to" in r.getMessage()]
+    assert len(failed) == 1, [r.getMessage() for r in failed]  # the navigator said the first failure only
     state = site.executor.state_message(0.0)
-    assert state.state is RobotState.IDLE and state.activity.startswith("cannot drive to the depot"), state
+    assert state.state is RobotState.IDLE, state
+    assert state.activity.startswith("cannot drive to the depot, stays at ("), state
