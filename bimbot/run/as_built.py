@@ -115,13 +115,22 @@ def audit_as_built(
 def add_to_report(report: dict[str, Any], audit: AsBuiltAudit | None, constructed: Collection[str]) -> None:
     """Write the audit into ``report`` (from :meth:`ReportCollector.report`): per component
     ``final_position_error_mm``/``final_angle_error_deg`` (None when physics did not answer or has no pose
-    of it), the totals' ``max_final_*`` over the constructed ones and ``report["as_built"]``. Without an
-    audit (a report written while the run goes on) the same keys hold None."""
+    of it), and a failed one's reason says where it lies at the end (:func:`where_it_lies`: it may have
+    been pushed or dragged since its last verdict); the totals' ``max_final_*`` over the constructed ones
+    and ``report["as_built"]``. Without an audit (a report written while the run goes on) the same keys
+    hold None, and ``as_built.note`` says why."""
     final = audit.final if audit is not None else {}
     for component in report["components"]:
         check = final.get(component["guid"])
         component["final_position_error_mm"] = check.position_error_m * 1000.0 if check else None
         component["final_angle_error_deg"] = math.degrees(check.angle_error_rad) if check else None
+        if check is not None and component["state"] == "failed" and component.get("reason"):
+            assert audit is not None  # a check comes from an audit
+            where = where_it_lies(check, component.get("position_error_mm"), audit.tolerances.position_m)
+            component["reason"] = {
+                **component["reason"],
+                "message": f"{component['reason']['message']}; {where}",
+            }
     position_m, angle_rad = audit.max_errors(constructed) if audit is not None else (None, None)
     totals = report["totals"]
     totals["max_final_position_error_mm"] = position_m * 1000.0 if position_m is not None else None
@@ -130,9 +139,29 @@ def add_to_report(report: dict[str, Any], audit: AsBuiltAudit | None, constructe
     report["as_built"] = _as_dict(audit)
 
 
+def where_it_lies(check: PlacementCheck, verdict_mm: float | None, tolerance_m: float) -> str:
+    """Where a failed component lies at the end, against its BIM target: ``at the end it lies 212.3 mm and
+    3.10° from its BIM target``, and when that is further than its last verdict said (by more than the
+    position tolerance ``tolerance_m``), that it moved since."""
+    position_mm = check.position_error_m * 1000.0
+    line = (
+        f"at the end it lies {position_mm:.1f} mm and {math.degrees(check.angle_error_rad):.2f}° from its "
+        "BIM target"
+    )
+    if verdict_mm is not None and position_mm - verdict_mm > tolerance_m * 1000.0:
+        line += f" ({verdict_mm:.1f} mm at its last verdict: it moved since)"
+    return line
+
+
 def _as_dict(audit: AsBuiltAudit | None) -> dict[str, Any]:
     if audit is None:
-        return {"audited": False, "answered": False, "errors": [], "wrong": []}
+        return {
+            "audited": False,
+            "answered": False,
+            "errors": [],
+            "wrong": [],
+            "note": "written while the run went on: the audit (and every final_* error) comes at its end",
+        }
     return {
         "audited": True,
         "answered": audit.answered,

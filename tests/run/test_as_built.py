@@ -8,11 +8,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from run_builders import GUIDS, manifest, poses
+from run_builders import GUIDS, manifest, poses, state, walk
 from scipy.spatial.transform import Rotation
 
 from bimbot.run.as_built import AGENT_TOLERANCES, add_to_report, as_built_line, audit_as_built
 from bimbot.services.component_agents.agent import AgentConfig
+from bimbot.shared.messages import ComponentState
+from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.report.collector import ReportCollector
 from bimbot.shared.report.png import _as_built_title, render_report_png
 
@@ -125,3 +127,34 @@ def test_the_audit_says_when_it_asked_as_a_unix_time_not_as_a_duration() -> None
     add_to_report(report, audit, {BEAM})
     assert report["as_built"]["asked_at_unix_s"] == 1.7e9
     assert "wall_time_s" not in report["as_built"]  # it was a time stamp under a duration's name
+
+
+def test_a_failed_component_moved_after_its_last_verdict_says_where_it_lies_at_the_end() -> None:
+    """A component failed 14 mm off (out of attempts); a robot then dragged it 0.2 m: the run's report
+    said only the 14 mm of its verdict. Its reason now ends with where physics has it at the end."""
+    collector = ReportCollector(SITE_MANIFEST)
+    for message in walk(BEAM, ComponentState.VERIFYING):
+        collector.add(message)
+    miss = Reason(code=ReasonCode.MISPLACED, message="out of tolerance (10 mm, 1°), attempt 3 of 3: 14.0 mm")
+    failed = state(BEAM, ComponentState.FAILED, ComponentState.VERIFYING, "failed", sim_time_s=6.0)
+    collector.add(
+        failed.model_copy(update={"position_error_m": 0.014, "angle_error_rad": 0.0, "reason": miss})
+    )
+    report = collector.report()
+    answer = poses(SITE_MANIFEST, moved={BEAM: ((0.2, 0.0, 0.0), 0.0), OTHER: ((0.003, 0.0, 0.0), 0.0)})
+    add_to_report(report, audit_as_built(SITE_MANIFEST, answer, constructed=set()), set())
+    by_guid = {c["guid"]: c for c in report["components"]}
+    beam = by_guid[BEAM]
+    assert beam["state"] == "failed" and beam["final_position_error_mm"] == pytest.approx(200.0)
+    assert beam["reason"]["message"] == (
+        f"{miss.message}; at the end it lies 200.0 mm and 0.00° from its BIM target (14.0 mm at its last "
+        "verdict: it moved since)"
+    )
+    assert "at the end" not in by_guid[OTHER]["reason"]["message"]  # not failed: its reason stays as it was
+
+
+def test_a_report_written_while_the_run_goes_on_says_why_it_has_no_final_errors() -> None:
+    report = ReportCollector(SITE_MANIFEST).report()
+    add_to_report(report, None, set())
+    assert report["totals"]["max_final_position_error_mm"] is None
+    assert "comes at its end" in report["as_built"]["note"]
