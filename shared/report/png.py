@@ -8,8 +8,9 @@ came back), coloured by the IFC class of the component it handled, or by its wor
 pour, laying: :mod:`.methods_png`); a hand-off task (a ground robot carrying a component to a
 crane's staging spot) is hatched and outlined, so it is not taken for a build. A bar is at least
 ``MIN_BAR_FRACTION`` of the axis wide, and a bar label that would lie on the one before it is left out.
-Both panels share one linear sim-time axis in the unit of its span (s, min, h, days:
-:mod:`.time_axis`): on a run with curing the lifted work is a sliver beside days of cure, as on site.
+Both panels share one sim-time axis in the unit of its span (s, min, h, days: :mod:`.time_axis`), on
+which a long wait with no robot at work (a slab's cure) is a narrow grey band (:mod:`.time_breaks`), so
+the lifted work after days of cure still reads.
 Its title gives each type's utilisation (busy share of its robots over the makespan).
 Right: the planned sequence, one row per component in ``sequence.xml`` order (first at the top), a thin
 bar from its release to its pick-up (or the start of its work in place) and a full bar from there to
@@ -64,7 +65,7 @@ from .methods_png import (
 )
 from .placements import MISPLACED, RETRY_CAUSES, caught_on_last_attempt
 from .placements_png import CAUSE_STYLES, draw_drift, draw_placement_errors, placement_handles
-from .time_axis import set_time_axis
+from .time_breaks import TimeBreaks, find_breaks, set_broken_time_axis, task_intervals
 
 REPORT_JSON = "report.json"
 REPORT_PNG = "report.png"
@@ -200,23 +201,24 @@ def chart_span_s(report: dict[str, Any]) -> float:
 
 
 def _robot_lanes(
-    ax: Axes, report: dict[str, Any], colors: dict[str, RGB], span_s: float | None = None
+    ax: Axes, report: dict[str, Any], colors: dict[str, RGB], breaks: TimeBreaks | None = None
 ) -> list[Text]:
-    """The Gantt lanes over ``span_s`` (default :func:`chart_span_s`); the task bars' labels (fitted to
-    their bars once the figure is laid out). A label that would lie on the one before it in its lane is
-    left out (the sequence panel names every row)."""
-    span_s = span_s if span_s is not None else chart_span_s(report)
+    """The Gantt lanes over the time axis ``breaks`` (default: :func:`chart_span_s`, linear); the task
+    bars' labels (fitted to their bars once the figure is laid out). A label that would lie on the one
+    before it in its lane is left out (the sequence panel names every row)."""
+    breaks = breaks or TimeBreaks(chart_span_s(report))
+    span_s = breaks.shown_s  # bar widths and labels are sized in axis units (a break's scale differs)
     labels: list[Text] = []
     by_guid = {c["guid"]: c for c in report["components"]}
     robots = report["robots"]
     robot_ids = robot_order(robots)
-    min_width_s = MIN_BAR_FRACTION * span_s
     for lane, robot_id in enumerate(robot_ids):
         last_label_s = -math.inf
         for task in robots[robot_id]["tasks"]:
             component = by_guid.get(task["guid"] or "")
             color = colors.get(component["ifc_class"], "grey") if component else "lightgrey"
             width = task["end_s"] - task["start_s"]
+            min_width_s = MIN_BAR_FRACTION * span_s / breaks.scale_at(task["start_s"])
             hand_off = task.get("kind") == "hand_off"
             if hand_off:
                 ax.broken_barh(
@@ -232,9 +234,11 @@ def _robot_lanes(
                 draw_segments(
                     ax, segments, (lane - 0.4, 0.8), component, class_color=color, min_width_s=min_width_s
                 )
-            size_pt = bar_label_size_pt(width, span_s)
+            width_shown = width * breaks.scale_at(task["start_s"])
+            size_pt = bar_label_size_pt(width_shown, span_s)
             centre_s = task["start_s"] + width / 2
-            if component and width > 0 and centre_s - last_label_s >= label_width_s(size_pt, span_s):
+            centre_shown = float(breaks.forward(centre_s))
+            if component and width > 0 and centre_shown - last_label_s >= label_width_s(size_pt, span_s):
                 label = ax.text(
                     centre_s,
                     lane,
@@ -247,14 +251,14 @@ def _robot_lanes(
                     color="white" if component.get("method") in WHITE_LABEL_METHODS else "black",
                 )
                 labels.append(label)
-                last_label_s = centre_s
+                last_label_s = centre_shown
     for lane in range(1, len(robot_ids)):  # a line where one robot type's lanes end
         if robots[robot_ids[lane]].get("type") != robots[robot_ids[lane - 1]].get("type"):
             ax.axhline(lane - 0.5, color="black", linewidth=0.8, alpha=0.6)
     ax.set_yticks(range(len(robot_ids)), [lane_label(r, robots[r]) for r in robot_ids])
     ax.set_ylim(-0.6, max(len(robot_ids), 1) - 0.4)
     ax.invert_yaxis()
-    set_time_axis(ax, span_s)
+    set_broken_time_axis(ax, breaks)
     utilisation = utilisation_line(report)
     title = "simulated construction: one lane per robot, grouped by type"
     wrapped = textwrap.fill(utilisation, TITLE_CHARS_LEFT) if utilisation else ""
@@ -281,7 +285,8 @@ def _hand_off_legend(report: dict[str, Any]) -> list[Patch]:
     return [Patch(facecolor="white", edgecolor=HAND_OFF_EDGE, hatch=HAND_OFF_HATCH, label=label)]
 
 
-def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB], span_s: float) -> None:
+def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB], breaks: TimeBreaks) -> None:
+    span_s = breaks.shown_s
     wrong = set((report.get("as_built") or {}).get("wrong", []))
     rows = sorted(
         report["components"],
@@ -301,7 +306,7 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB], spa
             ax.plot([released, picked], [row, row], color=color, linewidth=1.0, alpha=0.6)
         if picked is not None and done is not None:
             segments: list[Segment] = work[1] if work is not None else [(picked, done, None)]
-            min_width_s = MIN_BAR_FRACTION * span_s
+            min_width_s = MIN_BAR_FRACTION * span_s / breaks.scale_at(picked)
             y = (row - 0.35, 0.7)
             draw_segments(ax, segments, y, component, class_color=color, min_width_s=min_width_s)
         draw_curing(ax, row, component)
@@ -331,7 +336,7 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB], spa
         )
     ax.set_ylim(-0.6, max(len(rows), 1) - 0.4)
     ax.invert_yaxis()
-    set_time_axis(ax, span_s)
+    set_broken_time_axis(ax, breaks)
     ax.set_title("planned sequence (top = first)\nrelease ─ pick or start of work ▬ constructed")
     ax.grid(axis="x", alpha=0.3)
 
@@ -425,13 +430,13 @@ def report_figure(report: dict[str, Any]) -> Figure:
     """The chart of ``report`` (from :meth:`.report.ReportCollector.report`): axes in the order Gantt lanes,
     planned sequence, placement errors, drift."""
     colors = class_colors([c["ifc_class"] for c in report["components"]])
-    span_s = chart_span_s(report)
+    breaks = find_breaks(task_intervals(report), chart_span_s(report))
     figure = Figure(figsize=FIGURE_SIZE_IN, dpi=DPI)  # no pyplot: no global state, no display needed
     grid = figure.add_gridspec(2, 2, width_ratios=(3, 2), height_ratios=HEIGHT_RATIOS)
     lanes = figure.add_subplot(grid[0, 0])
     sequence = figure.add_subplot(grid[0, 1], sharex=lanes)
-    labels = _robot_lanes(lanes, report, colors, span_s)
-    _sequence_rows(sequence, report, colors, span_s)
+    labels = _robot_lanes(lanes, report, colors, breaks)
+    _sequence_rows(sequence, report, colors, breaks)
     draw_placement_errors(figure.add_subplot(grid[1, 0]), report)
     draw_drift(figure.add_subplot(grid[1, 1]), report)
     totals = report["totals"]

@@ -22,7 +22,8 @@ from bimbot.shared.report.methods_png import (
     STEP_COLORS,
     method_legend,
 )
-from bimbot.shared.report.png import report_figure
+from bimbot.shared.report.png import chart_span_s, report_figure
+from bimbot.shared.report.time_breaks import BREAK_WIDTH, find_breaks, task_intervals
 
 
 @pytest.fixture(scope="module")
@@ -159,10 +160,29 @@ def test_the_chart_draws_formwork_pour_and_curing_with_a_legend_of_methods(
     # the first footing's curing, hatched on its row from the pour to the end of the planner's hold
     cured = _bars_x(sequence, hatch=CURING_HATCH)
     assert (pytest.approx(16201.2), pytest.approx(FIRST_CURED_S)) in cured and len(cured) == 2
-    assert lanes.get_xlabel() == sequence.get_xlabel() == "sim time (h)"
-    assert {tick.get_text() for tick in sequence.get_xticklabels()} >= {"0", "24", "48", "72"}
+    assert lanes.get_xlabel() == sequence.get_xlabel() == "sim time (h); grey: long waits, narrowed"
+    assert {tick.get_text() for tick in sequence.get_xticklabels()} >= {"0", "2", "4", "6", "8"}
     assert "makespan 76.5 h" in figure.get_suptitle() and END_S > FIRST_CURED_S
     # the placement panels: the carrier's row only, and what they leave out
     assert [label.get_text().split("\n")[0] for label in errors.get_yticklabels()] == ["carrier"]
     for ax in (errors, drift):
         assert any("left out: 3 verdicts on work in place" in text.get_text() for text in ax.texts)
+
+
+def test_the_wait_for_a_cure_is_drawn_narrow_so_the_work_after_it_reads(report: dict) -> None:
+    """On a linear axis the first footing's 67.5 h of curing, in a span of 81 h, left the work after it 6 %
+    of the axis; the wait is now a labelled grey band of BREAK_WIDTH, and the work after it a quarter."""
+    figure = report_figure(report)
+    lanes, sequence = figure.axes[:2]
+    span_s = chart_span_s(report)
+    ((start_s, end_s),) = find_breaks(task_intervals(report), span_s).breaks
+
+    def at(sim_s: float) -> float:  # where a sim time is drawn, as a fraction of the axis' width
+        return float(lanes.transAxes.inverted().transform(lanes.transData.transform((sim_s, 0.0)))[0])
+
+    assert (end_s - start_s) / span_s > 0.8 and (span_s - end_s) / span_s < 0.06
+    assert at(end_s) - at(start_s) == pytest.approx(BREAK_WIDTH, rel=0.15)
+    assert at(span_s) - at(end_s) > 0.2
+    assert any(text.get_text() == "67.5 h wait" for text in lanes.texts)
+    ticks = [tick.get_position()[0] for tick in sequence.get_xticklabels()]
+    assert ticks and not [t for t in ticks if start_s < t < end_s]  # no tick crammed into the wait
