@@ -194,6 +194,11 @@ class ComponentPoseMsg(_Message):
     # placed: the built components it was connected to as it was set down at its target (bolted, welded,
     # fixed at its side; physics' connections), which hold it where it was put
     connected_to: list[str] = []
+    # placed and not joined yet: the components its robot set it into, which the release moved it out of
+    # (a robot stops at the contact), and how far that moved its centre from where the robot set it (m): a
+    # neighbour standing off its own target, within tolerance, pushes it off by as much (tolerance stack-up)
+    set_against: list[str] = []
+    set_against_shift_m: NonNegative | None = None
     # placed: the built neighbours it was connected to, GUID → kind (shared/connection_kinds.py: bolted_base,
     # pinned_end, fixed_end, bearing, grouted), and the temporary supports standing on it now (props, braces)
     connection_kinds: dict[str, str] = {}

@@ -29,7 +29,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
 from bimbot.shared.manifest import Component
@@ -43,8 +43,11 @@ from bimbot.shared.messages import (
     TwinMsg,
 )
 from bimbot.shared.reasons import BESIDE_IT, CLASH_ADVICE, Reason, ReasonCode, clash_clause
+from bimbot.shared.robot_description import RobotDescription
 from bimbot.shared.state_table import INITIAL, ComponentMachine, Verdict
 from bimbot.shared.verification import PlacementCheck, Tolerances, is_valid_pose, verify
+
+from .advice import SetAgainst, misplaced_hint
 
 _log = logging.getLogger(__name__)
 # What a user can do about a component that would not stand: its failed reason ends with this.
@@ -62,13 +65,6 @@ BUMPED_HINT = (
 )
 
 CLASH_HINT = f"{CLASH_ADVICE}: bimbot convert MODEL.ifc -o OUT/ --exclude GLOBALID"
-
-MISPLACED_HINT = (
-    "every attempt landed out of tolerance: the robot type's placement precision is too coarse for it "
-    "(placement_precision_m and placement_precision_yaw_deg in a fleet file, `bimbot fleet show`; a long "
-    "member turns a small turn into centimetres at its ends), or its localisation was off (the site's total "
-    "station, on in the rehearsal profile: `bimbot run BUILD --total-station-mm 1` for a finer one)"
-)
 
 PLANNER_SOURCE = "planner"  # ComponentEventMsg.source of the planner's events; a robot's is its id
 PLANNER_EVENTS = frozenset(
@@ -103,6 +99,9 @@ class AgentConfig:
     tolerances_known: bool = True
     # the verification timeout in sim seconds (lock-step: the wait ends at the same step in every run)
     sim_deadlines: bool = False
+    # robot id → its type's description (physics' site info): a failed placement's advice names what
+    # placed it (a crane's hook, a ground robot's localisation) and its type's precision
+    robots: Mapping[str, RobotDescription] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.max_attempts < 1:
@@ -164,6 +163,7 @@ class ComponentAgent:
         "pose_sim_time_s",
         "reason",
         "robot_id",
+        "set_against",
         "state",
         "supports",
         "verify_deadline_wall_s",
@@ -190,6 +190,7 @@ class ComponentAgent:
         self.pose_fixed = False
         self.drift_m: float | None = None  # how far it moved since physics released it (its latest pose)
         self.supports: tuple[str, ...] = ()  # what it rested on then
+        self.set_against: SetAgainst | None = None  # the neighbours its release moved it out of, how far
         self.open_pits: tuple[str, ...] = ()  # released over the open pit of these foundations
         self.clash_depth_m: dict[str, float] = {}  # the model put it into these components (GUID → m)
         self.bumped: tuple[str, float] | None = None  # the robot that touched it since its release, when
@@ -291,6 +292,8 @@ class ComponentAgent:
         self.pose_fixed = msg.fixed
         self.drift_m, self.supports, self.open_pits = msg.drift_m, tuple(msg.supports), tuple(msg.open_pits)
         self.clash_depth_m = dict(msg.clash_depth_m)
+        shift = msg.set_against_shift_m
+        self.set_against = SetAgainst(tuple(msg.set_against), shift) if msg.set_against and shift else None
         bumped_at_s = msg.bumped_at_s if msg.bumped_at_s is not None else msg.sim_time_s
         self.bumped = (msg.bumped_by, bumped_at_s) if msg.bumped_by else None
         return self.try_verify(now_wall_s)
@@ -458,7 +461,14 @@ class ComponentAgent:
             miss = miss.model_copy(update={"message": f"{miss.message}; {hint}"})
         elif verdict is Verdict.FAILED and miss is not None and not self.place_note:
             # (a place note already says why: the robot could not align before placing)
-            miss = miss.model_copy(update={"message": f"{miss.message}; {MISPLACED_HINT}"})
+            hint = misplaced_hint(
+                self.robot_id,
+                self._config.robots.get(self.robot_id or ""),
+                position_error_m=check.position_error_m if check is not None else None,
+                tolerance_m=tol.position_m,
+                set_against=self.set_against if self._has_placement_pose() else None,
+            )
+            miss = miss.model_copy(update={"message": f"{miss.message}; {hint}"})
         if verdict is Verdict.FAILED:
             self.reason = miss
         return self._record(

@@ -172,6 +172,7 @@ def serve(
     while not stop.is_set():
         if site_info is not None and (info := site_info.poll()) is not None:
             host.use_tolerances(info.tolerances)  # the tolerances in force: physics' site info
+            host.use_fleet(info.robot_type_of, info.robot_types)
             if steps is not None:
                 steps.expect(info.robot_ids, info.lock_step_participants)
             site_info = None

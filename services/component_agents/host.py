@@ -25,7 +25,7 @@ import math
 import time
 import zlib
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from typing import Protocol
 
@@ -43,6 +43,7 @@ from bimbot.shared.messages import (
     TwinMsg,
     key,
 )
+from bimbot.shared.robot_description import RobotDescription
 from bimbot.shared.state_table import ComponentMachine
 from bimbot.shared.verification import Tolerances
 
@@ -137,6 +138,15 @@ class AgentHost:
             math.degrees(tolerances.angle_rad),
             1000.0 * tolerances.drift_m,
         )
+
+    def use_fleet(
+        self, robot_type_of: Mapping[str, str], robot_types: Mapping[str, RobotDescription]
+    ) -> None:
+        """Who is on site, of which type (physics' site info): a failed placement's advice names them."""
+        robots = {rid: robot_types[name] for rid, name in robot_type_of.items() if name in robot_types}
+        self.config = replace(self.config, robots=robots)
+        for agent in self.agents.values():
+            agent.use_config(self.config)
 
     def assume_own_tolerances(self, waited_s: float) -> None:
         """No site info yet (no physics on this bus, or a slow one): judge with the agents' own tolerances

@@ -482,6 +482,10 @@ class Handling(Placing):
             bumped_by=watch.bumped_by if watch is not None else None,
             bumped_at_s=watch.bumped_at_s if watch is not None else None,
             connected_to=list(watch.connected_to if watch is not None else item.connected_to),
+            set_against=list(watch.set_against if watch is not None else ()),
+            set_against_shift_m=watch.set_against_shift_m
+            if watch is not None and watch.set_against
+            else None,
             connection_kinds={other: kind.value for other, kind in self.supports.kinds.get(guid, {}).items()},
             temporary_supports=self.supports.count(guid),
         )

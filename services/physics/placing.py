@@ -258,6 +258,7 @@ class Placing:
                 1000.0 * centre_moved_m,
             )
         item.pose = cleared.frame
+        against = cleared.against if centre_moved_m > 0.001 else ()
         # a clash in the IFC only where both stand where the model puts them: a mullion a robot dropped
         # beside a panel's target, or a component set down 2 m off, is no fault of the model
         clashes = (
@@ -336,6 +337,7 @@ class Placing:
         self.watch[guid] = Watch(item.pose, now_s, releaser, tag, open_pits=others, clashes=clashes)
         watch = self.watch[guid]
         watch.connected_to = connected_to
+        watch.set_against, watch.set_against_shift_m = against, centre_moved_m if against else 0.0
         watch.fixed = bool(connected_to) or guid in self.supports.standing
         if hold_s > 0.0:
             watch.hold_until_s = now_s + hold_s

@@ -73,6 +73,10 @@ class Watch:
     bumped_at_s: float | None = None  # when (sim s)
     # joined components it was connected to as it was set down (connections.py): fixed where it was put
     connected_to: tuple[str, ...] = ()
+    # the components it was set into, which the release moved it out of (a robot stops at the contact),
+    # and how far that moved its centre from where its robot set it (m)
+    set_against: tuple[str, ...] = ()
+    set_against_shift_m: float = 0.0
     hold_until_s: float = -math.inf  # its robot holds it until the connection is made (sim s)
     fixed: bool = False  # held where it was put (connected, or on temporary supports): static
 
@@ -113,6 +117,7 @@ class Cleared:
     # the components it overlaps deeper than ``MAX_CLEARED_M`` (GUID, metres), deepest first: no contact
     # to stop at, the model puts the two in one place (a clash in the IFC)
     clashes: tuple[tuple[str, float], ...] = ()
+    against: tuple[str, ...] = ()  # the components it was set into and moved out of (GUIDs, sorted)
 
 
 def clear_overlap(
@@ -141,6 +146,7 @@ def clear_overlap(
     turned 0.2° into the wall it abuts was shoved 12 mm off its target."""
     points = _penetrations(client_id, body, frame, others)
     clearable = _clearable(points, kept, max_cleared_m)
+    against = tuple(sorted({g for point, g in points if _clearable([(point, g)], kept, max_cleared_m)}))
     if meant_quat_xyzw is not None and clearable:
         flush = turned_about(frame, meant_quat_xyzw, centre_local_m)
         flush_points = _penetrations(client_id, body, flush, others)
@@ -149,14 +155,14 @@ def clear_overlap(
             clearable = _clearable(points, kept, max_cleared_m)
     for _ in range(tries):
         if not clearable:
-            return Cleared(frame, clashes_among(points))
+            return Cleared(frame, clashes_among(points), against)
         deepest = min(clearable, key=lambda point: point[8])
         normal = np.asarray(deepest[7])  # on B, pointing from B to A: out of the other body
         shift = -deepest[8] * normal
         frame = ((frame[0][0] + shift[0], frame[0][1] + shift[1], frame[0][2] + shift[2]), frame[1])
         points = _penetrations(client_id, body, frame, others)
         clearable = _clearable(points, kept, max_cleared_m)
-    return Cleared(frame, clashes_among(points))
+    return Cleared(frame, clashes_among(points), against)
 
 
 def _clearable(

@@ -155,3 +155,5 @@ def test_a_placement_off_its_target_into_a_neighbour_is_no_clash_in_the_ifc(
     assert watch.clashes == ()
     assert sim.handling.pose_message(second.guid, sim.sim_time_s).clash_depth_m == {}
     assert watch.released[0][0] == pytest.approx(x + 0.6, abs=0.003)  # moved back out to the contact
+    pose = sim.handling.pose_message(second.guid, sim.sim_time_s)  # its agent's stack-up advice reads this
+    assert pose.set_against == [first.guid] and pose.set_against_shift_m == pytest.approx(0.025, abs=0.003)

@@ -55,6 +55,7 @@ def test_a_wall_turned_into_the_wall_it_abuts_seats_flush_and_its_centre_stays_o
     seated = clear_overlap(client, new, turned, others, max_cleared_m=0.1, meant_quat_xyzw=IDENTITY)
 
     assert math.dist(shoved.frame[0], turned[0]) > 0.005, "moved out only, it is shoved centimetres off"
+    assert shoved.against == ("standing",), "what it was moved out of (its agent's stack-up advice)"
     assert _yaw(shoved.frame) == pytest.approx(math.radians(0.4))
     assert _yaw(seated.frame) == pytest.approx(0.0, abs=1e-9), "the contact turned it flush"
     assert math.dist(seated.frame[0], turned[0]) < 0.002, "its centre stays where the hand set it"
@@ -66,3 +67,4 @@ def test_a_turned_wall_with_nothing_beside_it_keeps_the_hands_turn(client: int) 
     turned = _turned_frame(0.4)
     kept = clear_overlap(client, new, turned, {}, max_cleared_m=0.1, meant_quat_xyzw=IDENTITY)
     assert kept.frame == turned, "no contact turns it: the hand's error stands"
+    assert kept.against == ()
