@@ -4,9 +4,10 @@ robot processes) and a derived sequence twice with ``--seed 1``; both reports
 must name the same robots for every component, the same states and attempts, the same order of
 construction and the same tasks per robot, with makespans within 1 % (:mod:`bimbot.run.outcome`).
 
-A divergence must be rare and explained: when the two reports differ, a service must have logged why
-(an input that came after its step; see ``shared/step_gate.py``), else the test fails. Three robots for
-five components make the assignment a real choice (who is idle first, who bids lowest),
+No input may come after the step that should take it (each participant is fed in the order the bus
+delivered, ``shared/bus.py``), and a divergence must be explained: when the two reports differ, a service
+must have logged a bounded wait that ran out (a step taken without an answer), else the test fails.
+Three robots for five components make the assignment a real choice (who is idle first, who bids lowest),
 which is what differed from run to run before the planner, the agents and the robots took their inputs
 at defined lock-step steps. The two runs go one after the other (about 30–60 s each on two cores, a few
 minutes under a load of 30).
@@ -15,6 +16,7 @@ minutes under a load of 30).
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 import warnings
@@ -63,11 +65,7 @@ def _run(build: Path, run_dir: Path) -> dict:
     return json.loads((run_dir / "report" / "report.json").read_text())
 
 
-def _unreproducible(run_dir: Path) -> list[str]:
-    """What a run's services said may keep it from reproducing: an input that came after its step, a step
-    taken without an answer, a request physics went on without (the gate detects them, it cannot undo
-    them: Zenoh delivers one in a few thousand out of order on a loaded machine)."""
-    marks = ("may not reproduce", "going on without", "goes on without", "taken without", "ticked without")
+def _said(run_dir: Path, marks: tuple[str, ...]) -> list[str]:
     return [
         line
         for log in sorted((run_dir / "logs").glob("*.log"))
@@ -76,15 +74,28 @@ def _unreproducible(run_dir: Path) -> list[str]:
     ]
 
 
-def test_one_seed_builds_the_same_way_twice_or_says_why_not(frame: Path, tmp_path: Path) -> None:
+def _late_inputs(run_dir: Path) -> list[str]:
+    """The services' closing lines that count inputs taken a step late (none may be)."""
+    counted = _said(run_dir, ("came after their step",))
+    return [line for line in counted if not re.search(r"\b0 input\(s\) came after their step", line)]
+
+
+def _waits_run_out(run_dir: Path) -> list[str]:
+    """A step taken without an answer, a request physics went on without: a bounded wait that ran out."""
+    return _said(run_dir, ("going on without", "goes on without", "taken without", "ticked without"))
+
+
+def test_one_seed_builds_the_same_way_twice_with_no_input_late(frame: Path, tmp_path: Path) -> None:
     runs = [tmp_path / f"run{index}" for index in (1, 2)]
     first, second = (_run(frame, run) for run in runs)
     assert first["settings"]["seed"] == second["settings"]["seed"] == 1
     a, b = outcome(first), outcome(second)
     assert a.constructed == len(a.components) == 5
     assert sum(len(tasks) > 0 for tasks in a.tasks.values()) >= 2, "a real choice of robots"
+    late = [line for run in runs for line in _late_inputs(run)]
+    assert not late, "inputs came after their step:\n" + "\n".join(late)
     differ = differences(a, b)
-    if differ:  # rare, and then never without a reason the services logged
-        said = [line for run in runs for line in _unreproducible(run)]
+    if differ:  # only when a bounded wait ran out (a hung participant), and then said
+        said = [line for run in runs for line in _waits_run_out(run)]
         assert said, "the runs differ and no service said why:\n" + "\n".join(differ)
         warnings.warn(f"two runs of one seed differ ({differ[0]} …), explained: {said[0]}", stacklevel=1)
