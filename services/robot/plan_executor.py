@@ -81,14 +81,20 @@ class PlanNavigator:
         return NavStatus.REACHED if self.now_s >= self.motion.end_s else NavStatus.ACTIVE
 
     def set_goal(
-        self, xy_m: ArrayLike, yaw_rad: float | None, sim_s: float, tolerance_m: float | None = None
+        self,
+        xy_m: ArrayLike,
+        yaw_rad: float | None,
+        sim_s: float,
+        tolerance_m: float | None = None,
+        *,
+        quiet: bool = False,
     ) -> None:
         """Plan to ``xy_m`` now (A* on the inflated grid) and move along the path from ``sim_s``; no path:
-        FAILED with the diagnosis of the static map."""
+        FAILED with the diagnosis of the static map. ``quiet``: as :meth:`.navigator.Navigator.set_goal`."""
         self.now_s = sim_s
         here = self.pose_xy_yaw
         goal_xy = np.asarray(xy_m, float)[:2]
-        self.goal = Goal(goal_xy, yaw_rad, tolerance_m or self.config.goal_tolerance_m, sim_s)
+        self.goal = Goal(goal_xy, yaw_rad, tolerance_m or self.config.goal_tolerance_m, sim_s, quiet=quiet)
         self.failure, self._failed = None, False
         grid = self.site_map.inflated_grid()
         body = self.site_map.inflated_grid(self.config.body_half_width_m)
