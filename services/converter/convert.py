@@ -27,6 +27,7 @@ import warnings
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from importlib.metadata import version
 from pathlib import Path
 from typing import TextIO
 
@@ -35,7 +36,6 @@ import ifcopenshell.util.placement
 import ifcopenshell.util.unit
 import numpy as np
 
-from bimbot import __version__
 from bimbot.shared.construction_methods import MethodDecision, MethodLimits
 from bimbot.shared.fleet import Fleet, default_fleet
 from bimbot.shared.identifiers import slugify
@@ -251,7 +251,7 @@ def _convert(
     warnings.extend(sequence_warnings)
     write_sequence(sequence, out_dir / SEQUENCE_FILE_NAME)
     manifest = Manifest(
-        generator=f"bimbot {__version__} (ifcopenshell {ifcopenshell.version})",
+        generator=f"bimbot {version('bimbot')} (ifcopenshell {ifcopenshell.version})",
         site=site,
         site_name=site_name,
         source=SourceModel(
