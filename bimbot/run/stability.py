@@ -36,7 +36,7 @@ def check_stability_command(args: argparse.Namespace, say: Callable[[str], None]
     """Replay the plan's order in physics; print the verdict; 0 when every partial structure stands."""
     logging.getLogger("bimbot.services").setLevel(logging.WARNING)  # the verdict is the output
     # physics' own warning of a component that moved says, in GUIDs, what the verdict says with names
-    logging.getLogger("bimbot.services.physics.placing").setLevel(logging.ERROR)
+    logging.getLogger("bimbot.services.physics.watching").setLevel(logging.ERROR)
     build = resolve_build(args.build)
     plan = load_plan(build.manifest, build.dir, plan_source(args))
     steps = len(plan.order)

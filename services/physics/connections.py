@@ -6,7 +6,7 @@ it to what is already built, and lets go once the connection is made. Until this
 released every component into free dynamics, so such members tipped and failed ``unstable`` ("it stands
 only with temporary bracing, which is not simulated"), and everything resting on them ``blocked_by``.
 
-The rule, checked at the moment a robot lets go (:meth:`.placing.Placing._release`):
+The rule, checked at the moment a robot lets go (:meth:`.releasing.Releasing.release`):
 
 * it lies where its agent would accept it (the agents' position and angle tolerances: the holes line up;
   a connection is never made to a component set down off its target),

@@ -32,8 +32,7 @@ from bimbot.shared.robot_description import Capability
 
 from .client import p
 from .collision_margin import obj_vertices
-from .handling import Handling, Item
-from .placing import Phase, pose_msg, target_frame
+from .handling_state import HandlingState, Item, Phase, pose_msg, target_frame
 from .ray_scene import register_hulls, unregister
 from .robots import Robot
 from .scene import (
@@ -103,7 +102,7 @@ class InPlaceWork:
     """The built-in-place components of one simulation: unbuilt, partly laid (course bodies), or built."""
 
     client_id: int
-    handling: Handling
+    state: HandlingState  # the handling's items and records (:mod:`.handling_state`)
     build_dir: Path
     ground_id: int = -1
     fraction: dict[str, float] = field(default_factory=dict)  # GUID → height built so far (0..1)
@@ -112,7 +111,7 @@ class InPlaceWork:
 
     def build(self, robot: Robot | None, guid: str, height_fraction: float, now_s: float) -> PhysicsReply:
         """Build ``guid`` up to ``height_fraction`` of its height (see the module docstring)."""
-        item = self.handling.items.get(guid)
+        item = self.state.items.get(guid)
         refusal = self._refusal(robot, guid, item)
         if refusal is not None or item is None:
             return PhysicsReply(ok=False, reason=refusal or f"unknown component {guid}", sim_time_s=now_s)
@@ -128,7 +127,7 @@ class InPlaceWork:
 
     def stand_built(self, guid: str, frame: Frame | None = None) -> None:
         """``guid`` stands built at ``frame`` (its target by default): a restart of a built component."""
-        item = self.handling.items[guid]
+        item = self.state.items[guid]
         self.fraction[guid] = 1.0
         self._stand(item, frame)
 
@@ -206,7 +205,7 @@ class InPlaceWork:
             p.setCollisionFilterPair(self.ground_id, item.body.body_id, -1, -1, 0, physicsClientId=cid)
         item.phase = Phase.PLACED
         item.supports = ()
-        self.handling.changed.add(item.component.guid)
+        self.state.changed.add(item.component.guid)
         centre = compose(item.pose, (item.component.com_local_m, (0.0, 0.0, 0.0, 1.0)))[0]
         _log.info(
             "%s built in place (%s), standing at its target, its centre at (%.2f, %.2f, %.2f)",

@@ -8,7 +8,7 @@ release would call the overlap a clash in the IFC. The converter tells joints fr
 * turns off the contacts between the two bodies of every joint (``setCollisionFilterPair``), so the pair
   never fights in Bullet, whatever either does;
 * leaves a joint partner out of what a released component is moved out of and out of its clashes
-  (:mod:`.placing`, :mod:`.model_clashes`): only a real clash is reported;
+  (:mod:`.releasing`, :mod:`.model_clashes`): only a real clash is reported;
 * counts a joint as a connection (:mod:`.connections`): a component set down at its target with a joint to a
   component of the structure is fixed where it was set and held while the connection is made, since with
   no contact between them it would otherwise pass into its partner.

@@ -10,7 +10,7 @@ the whole building). Where pits overlap, the excavation goes down to the deepest
 floor leaves out what a deeper pit covers (the hub's 125 mm ground slab had set its floor over the 559 mm
 thickened slab's pit, so the thickened slab, released at its target, was pushed up out of that floor).
 
-A component released into dynamics (:mod:`.handling`) with its centre of mass over an open pit does not
+A component released into dynamics (:mod:`.releasing`) with its centre of mass over an open pit does not
 touch the ground plane: it drops into the pit and rests on the pit floor (a column 0.3 m lower than its
 target, which its agent sees); beside a pit it is lowered onto the ground, overhanging the pit. The pit is
 filled once its foundation is placed: from then on the foundation itself carries what stands on it.

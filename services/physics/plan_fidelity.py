@@ -43,7 +43,7 @@ from bimbot.shared.messages import (
 from bimbot.shared.plan_motion import Trajectory, standing, trajectory
 
 from .client import p
-from .handling import Phase
+from .handling_state import Phase
 from .odometry import Odometry, OdomReading
 from .scene import compose, yaw_quat
 from .simulation import Outgoing, PeriodResult, Simulation

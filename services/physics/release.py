@@ -1,7 +1,7 @@
 """A placed component released into dynamics: how far it moved, whether it came to rest, what carries it.
 
 Why: a placement is only a placement if the component stays where it was put. Once a robot's assembly
-motion ends, :mod:`.handling` releases the component as a dynamic body (its real mass and inertia, its
+motion ends, :mod:`.releasing` releases the component as a dynamic body (its real mass and inertia, its
 convex collision parts, friction) onto what is under it, and watches it here every control period:
 
 * **drift** — how far it moved since its release: the largest displacement of its bounding box's corners
@@ -17,7 +17,7 @@ convex collision parts, friction) onto what is under it, and watches it here eve
 
 The component's agent judges the placement from that pose and drift (a drift beyond its bound is
 ``unstable``); physics logs every drift beyond ``report_drift_m`` with the supports. Pure bookkeeping over
-pybullet reads: no state machine here (that is :mod:`.handling`'s).
+pybullet reads: no state machine here (that is :mod:`.handling`'s, :mod:`.watching` calls it).
 """
 
 from __future__ import annotations

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 from bimbot.shared.messages import ComponentState, PoseMsg, TwinMsg
 
-from .placing import Phase
+from .handling_state import Phase
 from .scene import Frame
 from .simulation import Simulation
 from .snapshot import PhysicsSnapshot

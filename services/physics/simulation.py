@@ -69,7 +69,8 @@ from .client import BulletClient, p
 from .connections import ConnectionConfig
 from .crane import HOIST, SLEW, TROLLEY, CraneJoints
 from .fleet_spawn import robot_pose_msg, robot_types, spawn_fleet, types_on_site
-from .handling import Handling, HandlingConfig, Item, Phase
+from .handling import Handling
+from .handling_state import HandlingConfig, Item, Phase
 from .in_place_work import BUILT_IN_PLACE, InPlaceWork, hide
 from .joints import joint_partners, let_joints_overlap
 from .odometry import Odometry
@@ -275,7 +276,7 @@ class Simulation:
             joints=partners,
             seed=self.config.seed,
         )
-        self.in_place_work = InPlaceWork(cid, self.handling, self.build_dir, ground_id=self.ground_id)
+        self.in_place_work = InPlaceWork(cid, self.handling.state, self.build_dir, ground_id=self.ground_id)
         for item in items.values():
             if item.component.method in BUILT_IN_PLACE:  # built where it stands, never in the yard
                 hide(cid, item)

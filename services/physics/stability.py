@@ -3,7 +3,7 @@
 Why: a builder wants to know whether a schedule leaves the structure unstable before rehearsing it with
 robots (``bimbot run OUT/ --check-stability``: seconds instead of a build). The replay puts every component
 of the sequence, in order, exactly at its BIM pose, releases it into dynamics as a robot's placement does
-(:mod:`.placing`: onto what is under it, into the open pit of a foundation not placed yet), lets it come to
+(:mod:`.releasing`: onto what is under it, into the open pit of a foundation not placed yet), lets it come to
 rest (:mod:`.release`), and checks every component placed so far and not yet joined: one that moved more
 than ``drift_tolerance_m`` since its release means the partial structure does not stand. Each component
 that stood is joined to the structure, as its agent's verification would. The first step that does not
@@ -29,9 +29,9 @@ from bimbot.shared.reasons import BESIDE_IT, CLASH_ADVICE, clash_clause
 from bimbot.shared.support_graph import support_predecessors
 
 from .connections import ConnectionConfig, longest_hold_s
+from .handling_state import target_frame
 from .in_place_work import BUILT_IN_PLACE
 from .model_clashes import Clash, model_clashes
-from .placing import target_frame
 from .profiles import REHEARSAL
 from .release import SettleConfig
 from .simulation import SimConfig, Simulation

@@ -20,7 +20,7 @@ from physics_builders import angle_between, idle, pose
 
 from bimbot.services.physics.client import p
 from bimbot.services.physics.connections import ConnectionConfig, longest_hold_s, side_neighbours
-from bimbot.services.physics.handling import Phase
+from bimbot.services.physics.handling_state import Phase
 from bimbot.services.physics.scene import component_pose, footprint
 from bimbot.services.physics.simulation import SimConfig, Simulation
 from bimbot.shared.connection_kinds import SupportKind, SupportWhen, TemporarySupportNeed
@@ -77,7 +77,7 @@ def _place(
 def test_a_beam_set_down_at_its_target_beside_a_built_beam_is_connected_and_stays(
     make_sim: Callable[..., Simulation], frame_manifest: Manifest, caplog: pytest.LogCaptureFixture
 ) -> None:
-    caplog.set_level(logging.INFO, logger="bimbot.services.physics.placing")
+    caplog.set_level(logging.INFO, logger="bimbot.services.physics.releasing")
     sim = make_sim(robots=1, connections=ConnectionConfig(hold_s=HOLD_S))
     beam, neighbour = _named(frame_manifest, "Beam A1-A2"), _named(frame_manifest, "Beam A2-A3")
     for name in ("Footing A1", "Column A1"):  # Column A2 is not there: alone, the beam would tip off

@@ -11,7 +11,7 @@ import pytest
 from physics_builders import drive
 
 from bimbot.services.physics.client import p
-from bimbot.services.physics.placing import Phase
+from bimbot.services.physics.handling_state import Phase
 from bimbot.services.physics.simulation import SimConfig, Simulation
 from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.fleet import Fleet

@@ -6,8 +6,8 @@ from collections.abc import Callable
 
 import pytest
 
+from bimbot.services.physics.handling_state import target_frame
 from bimbot.services.physics.model_clashes import model_clashes
-from bimbot.services.physics.placing import target_frame
 from bimbot.services.physics.scene import Frame, component_pose
 from bimbot.services.physics.simulation import Simulation
 from bimbot.services.physics.stability import StabilityReport, describe

@@ -16,7 +16,7 @@ from physics_builders import bottom_z, idle, pose, west_of
 from bimbot.services.physics.client import p
 from bimbot.services.physics.connections import longest_hold_s
 from bimbot.services.physics.crane import hook_position, load_top
-from bimbot.services.physics.handling import Phase
+from bimbot.services.physics.handling_state import Phase
 from bimbot.services.physics.restore import restore_site
 from bimbot.services.physics.scene import Frame, footprint
 from bimbot.services.physics.simulation import Simulation

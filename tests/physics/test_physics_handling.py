@@ -14,7 +14,7 @@ import pytest
 from physics_builders import angle_between, bottom_z, distance_to_footprint, drive, idle, pose, west_of
 
 from bimbot.services.physics.client import p
-from bimbot.services.physics.handling import Phase
+from bimbot.services.physics.handling_state import Phase
 from bimbot.services.physics.scene import (
     component_pose,
     compose,
@@ -479,9 +479,9 @@ def test_falling_off_the_site_is_judged_by_the_centre_of_mass_not_the_frame_orig
     item = sim.handling.items[footing.guid]
     (x, y, z), quat = item.pose
     item.pose = ((x - 1000.0, y, z), quat)  # its frame far off the site, its body where it rests
-    assert not sim.handling._fell_off(item)
+    assert not sim.handling.watching.fell_off(item)
     p.resetBasePositionAndOrientation(item.body.body_id, [x, y, -50.0], quat, physicsClientId=sim.client_id)
-    assert sim.handling._fell_off(item)  # its centre of mass 50 m below the ground: stopped
+    assert sim.handling.watching.fell_off(item)  # its centre of mass 50 m below the ground: stopped
 
 
 def test_a_component_that_falls_off_the_site_is_stopped_and_reported_not_a_crash(

@@ -17,8 +17,8 @@ import pytest
 
 from bimbot.services.physics.client import p
 from bimbot.services.physics.connections import ConnectionConfig, longest_hold_s
+from bimbot.services.physics.handling_state import target_frame
 from bimbot.services.physics.model_clashes import model_clashes
-from bimbot.services.physics.placing import target_frame
 from bimbot.services.physics.release import Watch
 from bimbot.services.physics.scene import component_pose, set_component_pose
 from bimbot.services.physics.simulation import SimConfig, Simulation
@@ -150,7 +150,7 @@ def test_a_placement_off_its_target_into_a_neighbour_is_no_clash_in_the_ifc(
     item.motion_to = ((x + 0.575, y, z), quat)  # as a robot 25 mm off
     set_component_pose(sim.client_id, item.body, item.motion_to)  # where its assembly motion brought it
     p.performCollisionDetection(physicsClientId=sim.client_id)  # its box there, as the steps leave it
-    sim.handling._release(item, None, sim.sim_time_s, tag=None)
+    sim.handling.releasing.release(item, None, sim.sim_time_s, tag=None)
     watch = sim.handling.watch[second.guid]
     assert watch.clashes == ()
     assert sim.handling.pose_message(second.guid, sim.sim_time_s).clash_depth_m == {}

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from physics_builders import drive, idle, pose, west_of
 
-from bimbot.services.physics.handling import Phase
+from bimbot.services.physics.handling_state import Phase
 from bimbot.services.physics.restore import restore_site
 from bimbot.services.physics.scene import footprint
 from bimbot.services.physics.simulation import Simulation
