@@ -51,7 +51,7 @@ import logging
 import math
 from collections.abc import Mapping
 
-from bimbot.shared.messages import ComponentPoseMsg, PhysicsReply, PoseMsg
+from bimbot.shared.messages import ComponentPoseMsg
 from bimbot.shared.site_plan import Rect
 
 from .connections import ConnectionConfig
@@ -105,6 +105,16 @@ class Handling:
         self.watching = Watching(self.state, self.releasing)
         self.placing = Placing(self.state, self.releasing, seed)
         self.transport = Transport(self.state, self.releasing)
+        # requests and steps, answered by the parts' own methods (one signature each)
+        self.attach, self.drop_request, self.drop = (
+            self.transport.attach,
+            self.transport.drop_request,
+            self.transport.drop,
+        )
+        self.follow, self.pose_hooks = self.transport.follow, self.transport.pose_hooks
+        self.settle_separated = self.transport.settle_separated
+        self.place, self.set_down = self.placing.place, self.placing.set_down
+        self.watch_placed = self.watching.watch_placed
 
     # --- the shared records, for the simulation and its adapters -----------------------------------
 
@@ -143,55 +153,6 @@ class Handling:
     @property
     def settle(self) -> SettleConfig:
         return self.state.settle
-
-    # --- requests and steps, answered by the parts -------------------------------------------------
-
-    def attach(self, robot: Robot, guid: str, now_s: float) -> PhysicsReply:
-        return self.transport.attach(robot, guid, now_s)
-
-    def drop_request(
-        self, robot: Robot | None, guid: str, now_s: float, near_xy_m: tuple[float, float] | None = None
-    ) -> PhysicsReply:
-        return self.transport.drop_request(robot, guid, now_s, near_xy_m)
-
-    def drop(
-        self,
-        robot: Robot,
-        now_s: float,
-        why: str = "robot lost",
-        near_xy_m: tuple[float, float] | None = None,
-    ) -> str | None:
-        return self.transport.drop(robot, now_s, why, near_xy_m)
-
-    def place(
-        self,
-        robot: Robot,
-        guid: str,
-        target: PoseMsg,
-        *,
-        duration_s: float,
-        now_s: float,
-        tag: object,
-        believed_xy_yaw: tuple[float, float, float] | None = None,
-    ) -> PhysicsReply | None:
-        return self.placing.place(
-            robot, guid, target, duration_s=duration_s, now_s=now_s, tag=tag, believed_xy_yaw=believed_xy_yaw
-        )
-
-    def set_down(self, guid: str, now_s: float, tag: object = None) -> None:
-        self.placing.set_down(guid, now_s, tag)
-
-    def follow(self, robots: dict[str, Robot], now_s: float) -> list[tuple[object, PhysicsReply]]:
-        return self.transport.follow(robots, now_s)
-
-    def pose_hooks(self, robots: dict[str, Robot]) -> None:
-        self.transport.pose_hooks(robots)
-
-    def settle_separated(self) -> None:
-        self.transport.settle_separated()
-
-    def watch_placed(self, now_s: float, robots: Mapping[str, Robot]) -> list[tuple[object, PhysicsReply]]:
-        return self.watching.watch_placed(now_s, robots)
 
     # --- what the agents say, a restart, messages ----------------------------------------------------
 
