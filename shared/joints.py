@@ -43,6 +43,11 @@ class JointRule(BaseModel):
     max_depth_m: float = Field(gt=0.0, le=2.0)
     # the overlap must lie within max_depth_m of one end or face of the member (not through its middle)
     at_end: bool = True
+    # erection clearance at a framed end: a member's end drawn butting the part (no deeper than a contact) or
+    # up to this far short of it is a framed joint too. The member is fabricated short of the drawn butt by
+    # the clearance (a bolted end's gap to the web it frames into), so the part's erection error is taken in
+    # the gap instead of pushing the member out of place. 0: contacts are not joints under this rule.
+    clearance_m: float = Field(default=0.0, ge=0.0, le=0.05)
     why: str = ""
 
     @field_validator("member", "part")
@@ -57,6 +62,10 @@ class JointRule(BaseModel):
         """``"IfcColumn into IfcFooting, up to 100 mm"``: the rule as the manifest and the log name it."""
         return f"{member} into {part}, up to {1000.0 * self.max_depth_m:.0f} mm"
 
+    def describe_framed(self, member: str, part: str) -> str:
+        """``"IfcBeam framed to IfcBeam, 10 mm erection clearance"``: a butt or gap taken by this rule."""
+        return f"{member} framed to {part}, {1000.0 * self.clearance_m:.0f} mm erection clearance"
+
 
 class JointSettings(BaseModel):
     """What the converter takes for a joint (see ``joint_rules.toml``)."""
@@ -66,6 +75,11 @@ class JointSettings(BaseModel):
     contact_m: float = Field(default=0.003, ge=0.0, lt=CLASH_DEPTH_M)
     rule: tuple[JointRule, ...] = ()
     source: str = ""  # the file it was read from
+
+    @property
+    def framed_reach_m(self) -> float:
+        """The widest erection clearance of any rule: how far apart a framed end may be drawn (0: none)."""
+        return max((rule.clearance_m for rule in self.rule), default=0.0)
 
 
 def load_joint_settings(path: Path | str | None = None) -> JointSettings:

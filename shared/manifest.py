@@ -108,6 +108,9 @@ class JointSource(StrEnum):
     RELATION = "relation"  # the IFC relates the two components (``Joint.rule`` names the relationship)
     RULE = "rule"  # the usual drawing of a joint: a member's end in what it bears on (``Joint.rule``)
     CAST = "cast"  # one of the two is cast in place: its concrete is poured around the other (a pocket)
+    # a member's end drawn butting the part it frames into, or just short of it: fabricated short of the
+    # butt and bolted through clearance holes, it is erected with a gap (``Joint.clearance_m``)
+    FRAMED = "framed"
 
 
 class Joint(_Frozen):
@@ -126,6 +129,11 @@ class Joint(_Frozen):
         description="the IFC relationship, or the rule: 'IfcColumn into IfcFooting, up to 100 mm'"
     )
     directed: bool = Field(default=True, description="guids[0] is the part the other is set into")
+    clearance_m: float = Field(
+        default=0.0,
+        ge=0.0,
+        description="a framed end's erection gap: how far the part may stand off without moving the member",
+    )
 
 
 class Clash(_Frozen):

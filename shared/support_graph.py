@@ -7,8 +7,8 @@ Component ``B`` supports component ``A`` (B → A) when B's bottom is lower than
 
 whatever the heights, a wall supports the window or door that fills one of its openings (IfcRelFillsElement:
 the filling is placed into the standing wall, never before it); and the two components of a **joint** (the
-model draws them into each other where they are joined: ``Manifest.joints``) are ordered by one rule, the
-first that decides:
+model draws them into each other where they are joined: ``Manifest.joints``; a framed end drawn butting
+its part is ordered as any side contact) are ordered by one rule, the first that decides:
 
 1. the IFC's host first (the wall before what fills its opening; an element before the fastener that
    realises its connection);
@@ -112,6 +112,8 @@ def support_predecessors(
                 elif lower(other, item.guid):
                     add(item.guid, other, Edge.CONNECTION)
     for joint in joints:
+        if joint.source is JointSource.FRAMED:
+            continue  # a member's end butting the part it frames into: ordered as it touches it, at its side
         if joint.guids[0] in by_guid and joint.guids[1] in by_guid and joint.guids[0] != joint.guids[1]:
             first, second = joint_order(joint, by_guid, tolerance_m)
             add(first, second, Edge.JOINT)

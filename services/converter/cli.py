@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Never
 
 from bimbot.shared.errors import UserError
-from bimbot.shared.manifest import Component, Manifest, SkippedElement
+from bimbot.shared.manifest import Component, JointSource, Manifest, SkippedElement
 from bimbot.shared.output_paths import check_writable_dir
 from bimbot.shared.reasons import CLASH_ADVICE
 
@@ -202,7 +202,7 @@ def run(args: argparse.Namespace) -> int:
     sys.stdout.write(
         f"converted {len(manifest.components)} component(s){placed}, skipped {len(manifest.skipped)}"
         f"{skipped_summary(manifest.skipped)}, "
-        f"{len(manifest.joints)} joint(s), {len(manifest.clashes)} clash(es), "
+        f"{len(manifest.joints)} joint(s){framed_summary(manifest)}, {len(manifest.clashes)} clash(es), "
         f"{len(manifest.warnings)} warning(s) in {seconds:.1f} s → {args.output}/ "
         f"(world {manifest.world_file}, sequence {manifest.sequence_file} {origin})"
         f"{methods_summary(manifest)}\n"
@@ -243,6 +243,12 @@ def run(args: argparse.Namespace) -> int:
         )
         return 1
     return 0
+
+
+def framed_summary(manifest: Manifest) -> str:
+    """`` (12 of them framed ends)`` when some joints are framed ends drawn butting their part."""
+    framed = sum(1 for joint in manifest.joints if joint.source is JointSource.FRAMED)
+    return f" ({framed} of them framed ends)" if framed else ""
 
 
 def report_joints(manifest: Manifest, output: Path) -> None:

@@ -36,7 +36,7 @@ from bimbot.shared.connection_kinds import (
     TemporarySupportRules,
 )
 from bimbot.shared.construction_methods import ConstructionMethod
-from bimbot.shared.manifest import Component, Joint
+from bimbot.shared.manifest import Component, Joint, JointSource
 from bimbot.shared.reasons import CONNECTION_GAP_M
 
 FACE_TOLERANCE_M = 0.02  # an underside this close to a top face bears on it (the support graph's contact)
@@ -93,6 +93,8 @@ def decide_connections(
     by_guid = {item.guid: item for item in neighbours}
     jointed: dict[str, set[str]] = {}
     for joint in joints:
+        if joint.source is JointSource.FRAMED:
+            continue  # a framed end touches its part: linked as the side contact it is
         a, b = joint.guids
         jointed.setdefault(a, set()).add(b)
         jointed.setdefault(b, set()).add(a)

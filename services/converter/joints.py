@@ -14,6 +14,11 @@ An overlap deeper than a contact (:mod:`.overlaps` measures them at the BIM targ
   end in a pocket of a cast wall, a precast stair set on a cast landing), so the cast one is the part the
   other is set into.
 
+A member's end drawn butting the part it frames into (no deeper than a contact) or a little short of it is a
+**framed joint** when a rule gives an erection clearance (``clearance_m``) and the contact or gap lies at
+the member's end within it: steel is fabricated short of a drawn butt and bolted through clearance holes,
+so the part's own erection error is taken in that gap, not by pushing the member off its target.
+
 Any other overlap deeper than :data:`~bimbot.shared.joints.CLASH_DEPTH_M` is a **clash**: two parts that
 cannot both be where the model puts them. The manifest keeps both lists; physics lets a jointed pair overlap
 and connects them, and still reports a clash.
@@ -74,13 +79,13 @@ def find_joints(
 ) -> JointsFound:
     """The joints and clashes among ``components`` (the built and those in place), whose collision parts
     the converter wrote under ``out_dir``."""
+    classes = _ClassTree(model)
     overlaps = measure_overlaps(components, out_dir, settings.contact_m)
+    joints = _framed_ends(components, out_dir, settings, classes, {(o.first, o.second) for o in overlaps})
     if not overlaps:
-        return JointsFound([], [])
+        return JointsFound(joints, [])
     by_guid = {component.guid: component for component in components}
     related = relations(model, components)
-    classes = _ClassTree(model)
-    joints: list[Joint] = []
     clashes: list[Clash] = []
     for overlap in overlaps:
         relation = related.get(frozenset((overlap.first, overlap.second)))
@@ -104,6 +109,57 @@ def find_joints(
             clashes.append(Clash(guids=(overlap.first, overlap.second), depth_m=round(overlap.depth_m, 4)))
     clashes.sort(key=lambda clash: (-clash.depth_m, clash.guids))
     return JointsFound(joints, clashes)
+
+
+def _framed_ends(
+    components: Sequence[Component],
+    out_dir: Path,
+    settings: JointSettings,
+    classes: _ClassTree,
+    overlapping: set[tuple[str, str]],
+) -> list[Joint]:
+    """The framed joints among ``components``: pairs drawn butting (no deeper than a contact) or apart by no
+    more than the erection clearance of a rule whose member and part they are, at the member's end.
+    ``overlapping`` (GUID pairs, sorted) are the deeper overlaps, judged by the other rules."""
+    reach_m = settings.framed_reach_m
+    framed_rules = [rule for rule in settings.rule if rule.clearance_m > 0.0]
+    if reach_m <= 0.0:
+        return []
+    classes_named = {name for rule in framed_rules for name in (*rule.member, *rule.part)}
+    steel = [c for c in components if classes.matching(c.ifc_class, tuple(classes_named)) is not None]
+    by_guid = {component.guid: component for component in steel}
+    joints: list[Joint] = []
+    for contact in measure_overlaps(steel, out_dir, -reach_m):
+        if (contact.first, contact.second) in overlapping or contact.depth_m > settings.contact_m:
+            continue
+        a, b = by_guid[contact.first], by_guid[contact.second]
+        joint = _framed_by_rule(contact, a, b, framed_rules, classes)
+        if joint is not None:
+            joints.append(joint)
+    _log.debug("%d framed end(s) drawn butting or within the erection clearance", len(joints))
+    return joints
+
+
+def _framed_by_rule(
+    contact: Overlap, a: Component, b: Component, rules: Iterable[JointRule], classes: _ClassTree
+) -> Joint | None:
+    """The framed joint the first fitting rule makes of a butt or gap (either way round), or None."""
+    for rule in rules:
+        for member, part in ((a, b), (b, a)):
+            member_class = classes.matching(member.ifc_class, rule.member)
+            part_class = classes.matching(part.ifc_class, rule.part)
+            if member_class is None or part_class is None or -contact.depth_m > rule.clearance_m:
+                continue
+            if not at_an_end(member, contact.region_m, rule.clearance_m + END_TOLERANCE_M, length_only=True):
+                continue
+            return Joint(
+                guids=(part.guid, member.guid),
+                depth_m=round(max(0.0, contact.depth_m), 4),
+                source=JointSource.FRAMED,
+                rule=rule.describe_framed(member_class, part_class),
+                clearance_m=rule.clearance_m,
+            )
+    return None
 
 
 def relations(model: ifcopenshell.file, components: Sequence[Component]) -> dict[frozenset[str], Relation]:
@@ -195,9 +251,12 @@ def _by_rule(
     return None
 
 
-def at_an_end(member: Component, region_world_m: np.ndarray, band_m: float) -> bool:
+def at_an_end(
+    member: Component, region_world_m: np.ndarray, band_m: float, *, length_only: bool = False
+) -> bool:
     """Whether the overlap (its vertices, world frame) lies within ``band_m`` of one end or face of
-    ``member``'s box, along an axis of its own frame on which it is longer than ``2 * band_m``."""
+    ``member``'s box, along an axis of its own frame on which it is longer than ``2 * band_m``; with
+    ``length_only``, of one of its two ends along its longest axis (a framed end, not a side it touches)."""
     pose = member.target_pose_world
     x, y, z, w = pose.quat_xyzw
     turn = np.array(
@@ -209,7 +268,8 @@ def at_an_end(member: Component, region_world_m: np.ndarray, band_m: float) -> b
     )
     local = (np.asarray(region_world_m, dtype=float) - np.asarray(pose.position_m)) @ turn
     low, high = np.asarray(member.bbox_local.min_m), np.asarray(member.bbox_local.max_m)
-    for axis in range(3):
+    axes = [int(np.argmax(high - low))] if length_only else range(3)
+    for axis in axes:
         if high[axis] - low[axis] <= 2.0 * band_m:
             continue
         if local[:, axis].max() <= low[axis] + band_m or local[:, axis].min() >= high[axis] - band_m:

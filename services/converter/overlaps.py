@@ -18,6 +18,7 @@ converter wrote and a private pybullet client.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -78,7 +79,8 @@ def candidate_pairs(components: Sequence[Component], contact_m: float) -> list[t
 
 def measure_overlaps(components: Sequence[Component], out_dir: Path, contact_m: float) -> list[Overlap]:
     """Every pair of ``components`` (their collision OBJs under ``out_dir``) that penetrates deeper than
-    ``contact_m`` at their BIM targets, by GUID pair."""
+    ``contact_m`` at their BIM targets, by GUID pair. A negative ``contact_m`` takes pairs drawn up to that
+    far apart too (a gap: ``depth_m`` is then minus the gap), as a framed end's erection clearance asks."""
     pairs = candidate_pairs(components, contact_m)
     if not pairs:
         return []
@@ -116,8 +118,9 @@ def _pair_overlap(
     p: Any, cid: int, parts_a: list[_Part], parts_b: list[_Part], contact_m: float
 ) -> tuple[float, tuple[tuple[np.ndarray, np.ndarray], ...]] | None:
     """(depth, penetrating part pairs) of two components, or None when they only touch."""
-    deepest = 0.0
+    deepest = -math.inf
     penetrating: list[tuple[np.ndarray, np.ndarray]] = []
+    reach_m = max(0.0, -contact_m)  # how far apart parts may be and still count (a gap within a clearance)
     for a in parts_a:
         for b in parts_b:
             if np.any(np.minimum(a.high_m, b.high_m) - np.maximum(a.low_m, b.low_m) <= contact_m):
@@ -125,7 +128,7 @@ def _pair_overlap(
             points = p.getClosestPoints(
                 -1,
                 -1,
-                0.0,
+                reach_m,
                 collisionShapeA=a.shape,
                 collisionShapeB=b.shape,
                 collisionShapePositionA=a.position_m,
@@ -134,7 +137,7 @@ def _pair_overlap(
                 collisionShapeOrientationB=b.quat_xyzw,
                 physicsClientId=cid,
             )
-            depth_m = max((-float(point[8]) for point in points or ()), default=0.0)
+            depth_m = max((-float(point[8]) for point in points or ()), default=-math.inf)
             if depth_m > contact_m:
                 deepest = max(deepest, depth_m)
                 penetrating.append((a.vertices_world_m, b.vertices_world_m))

@@ -86,6 +86,7 @@ class Handling:
         connections: ConnectionConfig | None = None,
         in_place: Mapping[int, str] | None = None,
         joints: Mapping[str, frozenset[str]] | None = None,
+        framed: Mapping[str, dict[str, float]] | None = None,
         seed: int = 0,
     ) -> None:
         self.state = HandlingState(
@@ -99,6 +100,7 @@ class Handling:
             connections=connections or ConnectionConfig(),
             in_place=dict(in_place or {}),
             joints=dict(joints or {}),
+            framed=dict(framed or {}),
             guid_of={item.body.body_id: guid for guid, item in items.items()},
         )
         self.releasing = Releasing(self.state)

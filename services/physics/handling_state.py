@@ -88,6 +88,8 @@ class HandlingState:
     in_place: dict[int, str]  # body → GUID of the components in place from the start
     joints: dict[str, frozenset[str]]  # GUID → the GUIDs it is jointed with (.joints): never a clash
     guid_of: dict[int, str]  # body → GUID of every item
+    # GUID → {GUID it is framed to at an end: how deep they may overlap at release, m} (.joints.framed_ends)
+    framed: dict[str, dict[str, float]] = field(default_factory=dict)
     carrying: dict[str, str] = field(default_factory=dict)  # robot id → GUID (carried or assembling)
     changed: set[str] = field(default_factory=set)  # GUIDs whose pose changed since the last take_changed()
     constructed: set[str] = field(

@@ -58,7 +58,7 @@ class Releasing:
         item.pose = item.motion_to or item.pose
         set_component_pose(cid, body, item.pose)
         set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)  # see what it overlaps, the carrier aside
-        partners = state.joints.get(guid, frozenset())
+        partners = state.joints.get(guid, frozenset()) | self._framed_within_clearance(item)
         nearby = {other: g for other, g in self._nearby_components(item).items() if g not in partners}
         # a joint partner is no overlap to clear; one the model itself puts it into is kept (a clash in
         # the IFC); one a placement's error put it into is cleared: the robot stops at the contact
@@ -183,6 +183,26 @@ class Releasing:
                 else "",
             )
         state.changed.add(guid)
+
+    def _framed_within_clearance(self, item: Item) -> frozenset[str]:
+        """The parts ``item`` is framed to at an end (:func:`.joints.framed_ends`) that it overlaps, as let
+        go, no deeper than the model draws plus the erection clearance: it is not moved out of those. A
+        member framed into the web of a beam set a few mm off stays on its target: the gap takes the error."""
+        state = self._state
+        allowed = state.framed.get(item.component.guid)
+        if not allowed:
+            return frozenset()
+        within: set[str] = set()
+        for other_guid, depth_m in allowed.items():
+            other = state.items.get(other_guid)
+            if other is None or other.phase is not Phase.JOINED:
+                continue
+            points = p.getClosestPoints(
+                item.body.body_id, other.body.body_id, 0.0, physicsClientId=state.client_id
+            )
+            if max((-float(point[8]) for point in points or ()), default=0.0) <= depth_m:
+                within.add(other_guid)
+        return frozenset(within)
 
     def _connect(self, item: Item, now_s: float) -> tuple[tuple[str, ...], float]:
         """Connect ``item``, just let go, to the built neighbours (:mod:`.connections`) if it lies at its

@@ -72,7 +72,7 @@ from .fleet_spawn import robot_pose_msg, robot_types, spawn_fleet, types_on_site
 from .handling import Handling
 from .handling_state import HandlingConfig, Item, Phase
 from .in_place_work import BUILT_IN_PLACE, InPlaceWork, hide
-from .joints import joint_partners, let_joints_overlap
+from .joints import framed_ends, joint_partners, let_joints_overlap
 from .odometry import Odometry
 from .pits import Pits, collision_part_boxes
 from .positioning import TotalStation
@@ -274,6 +274,7 @@ class Simulation:
             connections=replace(self.config.connections, fit=self.config.tolerances),
             in_place={body: guid for guid, body in self.in_place_bodies.items()},
             joints=partners,
+            framed=framed_ends(self.manifest.joints),
             seed=self.config.seed,
         )
         self.in_place_work = InPlaceWork(cid, self.handling.state, self.build_dir, ground_id=self.ground_id)

@@ -212,3 +212,37 @@ def test_a_partition_through_a_suspended_ceiling_is_a_joint_and_the_wall_comes_f
     assert joint.rule == "IfcCovering into IfcWall, up to 150 mm"
     assert joint.depth_m == pytest.approx(0.08, abs=0.005)
     assert joint.directed
+
+
+@pytest.mark.parametrize(("gap_m", "framed"), [(0.0, True), (0.006, True), (0.02, False)])
+def test_a_beam_drawn_butting_or_just_short_of_another_is_a_framed_end_with_its_clearance(
+    tmp_path: Path, gap_m: float, framed: bool
+) -> None:
+    """A beam's end drawn touching the side of a main beam, or 6 mm short of it, is framed to it with the
+    beam rule's 10 mm erection clearance: physics lets the main beam's erection error into that gap. 20 mm
+    short is no joint. A framed end adds no order of its own (both beams stand at one level here)."""
+    small = new_model()
+    add_beam(
+        small, "Main", length_m=5.0, width_m=0.12, depth_m=0.1, matrix_m=_along((1.0, 0.0), (0.0, 0.0, 3.0))
+    )
+    add_beam(
+        small,
+        "Framed",
+        length_m=2.0,
+        width_m=0.12,
+        depth_m=0.1,
+        matrix_m=_along((0.0, 1.0), (4.0, 0.05 + gap_m, 3.0)),
+    )
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    assert manifest.clashes == []
+    if not framed:
+        assert manifest.joints == []
+        return
+    [joint] = manifest.joints
+    assert joint.guids == (guid["Main"], guid["Framed"])
+    assert joint.source is JointSource.FRAMED
+    assert joint.clearance_m == pytest.approx(0.010)
+    assert joint.rule == "IfcBeam framed to IfcBeam, 10 mm erection clearance"
+    preds = support_predecessors(manifest.components, joints=manifest.joints)
+    assert preds[guid["Framed"]] == preds[guid["Main"]] == set()

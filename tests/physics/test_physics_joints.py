@@ -157,3 +157,72 @@ def test_a_placement_off_its_target_into_a_neighbour_is_no_clash_in_the_ifc(
     assert watch.released[0][0] == pytest.approx(x + 0.6, abs=0.003)  # moved back out to the contact
     pose = sim.handling.pose_message(second.guid, sim.sim_time_s)  # its agent's stack-up advice reads this
     assert pose.set_against == [first.guid] and pose.set_against_shift_m == pytest.approx(0.025, abs=0.003)
+
+
+def _released_beside_a_part_built_off_its_target(
+    stack: ExitStack, frame_manifest: Manifest, bundled_build: Path, *, built_off_m: float, framed: bool
+) -> tuple[Simulation, Component, Component, float]:
+    """Footing A2 framed to Footing A1 at an end, drawn touching it (0.6 m footings side by side). A1 is
+    built ``built_off_m`` off its target towards A2; A2 is let go at its own target. Its released x, with
+    A1's target x."""
+    first, second = _named(frame_manifest, "Footing A1"), _named(frame_manifest, "Footing A2")
+    (x, y, z), quat = target_frame(first)
+    beside = second.target_pose_world.model_copy(update={"position_m": (x + 0.6, y, z)})
+    moved = second.model_copy(update={"target_pose_world": beside})
+    joints = (
+        [
+            Joint(
+                guids=(first.guid, second.guid),
+                depth_m=0.0,
+                source=JointSource.FRAMED,
+                rule="IfcBeam framed to IfcBeam, 10 mm erection clearance",
+                clearance_m=0.010,
+            )
+        ]
+        if framed
+        else []
+    )
+    components = [moved if c.guid == second.guid else c for c in frame_manifest.components]
+    manifest = frame_manifest.model_copy(update={"components": components, "joints": joints})
+    sim = stack.enter_context(Simulation(manifest, bundled_build, SimConfig(robots=0)))
+    sim.handling.restore(first.guid, ((x + built_off_m, y, z), quat), fixed=True, carrier=None)
+    sim.handling.note_constructed(first.guid, True)
+    item = sim.handling.items[second.guid]
+    item.motion_to = ((x + 0.6, y, z), quat)  # a robot that placed it exactly at its target
+    set_component_pose(sim.client_id, item.body, item.motion_to)
+    p.performCollisionDetection(physicsClientId=sim.client_id)
+    sim.handling.releasing.release(item, None, sim.sim_time_s, tag=None)
+    return sim, first, moved, x
+
+
+def test_a_framed_end_takes_its_part_s_erection_error_in_its_clearance(
+    stack: ExitStack, frame_manifest: Manifest, bundled_build: Path
+) -> None:
+    """The part stands 8 mm off towards the member (within the 10 mm tolerance): the member framed to it
+    with a 10 mm erection clearance stays on its own target; without the framed joint it is moved 8 mm out
+    of the part, as the hub's 150PFC was pushed off its target by the 300PFC it frames into."""
+    sim, first, second, x = _released_beside_a_part_built_off_its_target(
+        stack, frame_manifest, bundled_build, built_off_m=0.008, framed=True
+    )
+    watch = sim.handling.watch[second.guid]
+    assert watch.released[0][0] == pytest.approx(x + 0.6, abs=0.0005)
+    assert sim.handling.pose_message(second.guid, sim.sim_time_s).set_against == []
+    sim, first, second, x = _released_beside_a_part_built_off_its_target(
+        stack, frame_manifest, bundled_build, built_off_m=0.008, framed=False
+    )
+    watch = sim.handling.watch[second.guid]
+    assert watch.released[0][0] == pytest.approx(x + 0.608, abs=0.002)
+    assert sim.handling.pose_message(second.guid, sim.sim_time_s).set_against == [first.guid]
+
+
+def test_a_part_off_by_more_than_the_clearance_still_moves_the_framed_member_out(
+    stack: ExitStack, frame_manifest: Manifest, bundled_build: Path
+) -> None:
+    """15 mm into the member is deeper than its 10 mm clearance: the gap is closed, it is set against the
+    part as any neighbour."""
+    sim, first, second, x = _released_beside_a_part_built_off_its_target(
+        stack, frame_manifest, bundled_build, built_off_m=0.015, framed=True
+    )
+    watch = sim.handling.watch[second.guid]
+    assert watch.released[0][0] == pytest.approx(x + 0.615, abs=0.002)
+    assert sim.handling.pose_message(second.guid, sim.sim_time_s).set_against == [first.guid]
