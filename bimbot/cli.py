@@ -64,6 +64,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "compare scenarios: many runs over fleets, sequences and seeds (on Dask); CSV, table and plot",
     ),
     "runs": ("bimbot.runs_cli", "list the runs of a build (BUILD/runs/), or make a new run folder"),
+    "compare": (
+        "bimbot.compare_cli",
+        "runs side by side by construction method",
+    ),
     "observe": (
         "bimbot.services.observer.cli",
         "log the live twin to rerun: web viewer on 127.0.0.1 and an .rrd recording",

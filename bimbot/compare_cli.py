@@ -1,0 +1,92 @@
+"""``bimbot compare RUN_A RUN_B …``: runs side by side by construction method, as a markdown table.
+
+A run is named by its run folder, its ``report.json`` or a build folder (its latest run). For each run:
+constructed of all, makespan, and for each method the components it built, the time its work took and
+its longest cure (:mod:`bimbot.shared.report.compare`); then each run's makespan against the first's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from bimbot.shared.errors import UserError
+from bimbot.shared.report.compare import MethodFigures, RunColumn, methods_in, run_column
+from bimbot.shared.report.durations import duration_text
+from bimbot.shared.run_folder import RunFolder, latest_run_folder
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "runs",
+        type=Path,
+        nargs="+",
+        help="run folders, report.json files, build folders (latest run)",
+    )
+
+
+def report_path(path: Path) -> Path:
+    """The ``report.json`` a path names; one clear line when it names none."""
+    if path.is_file():
+        return path
+    if (path / "manifest.json").is_file():
+        latest = latest_run_folder(path)
+        if latest is None:
+            raise UserError(f"{path}: a build with no runs yet (bimbot run {path})")
+        path = latest.root
+    report = RunFolder(path).report_dir / "report.json"
+    if not report.is_file():
+        raise UserError(f"{path}: no report.json there (a run folder, its report.json or a build folder)")
+    return report
+
+
+def _read(path: Path) -> dict[str, Any]:
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as error:
+        raise UserError(f"{path}: not a readable report ({error})") from None
+    if not isinstance(data, dict):
+        raise UserError(f"{path}: not a report (no JSON object)")
+    return data
+
+
+def _cell(figures: MethodFigures | None) -> str:
+    if figures is None or not figures.components:
+        return "–"
+    text = f"{figures.constructed}/{figures.components} built, work {duration_text(figures.work_s)}"
+    return text + (f", cure up to {duration_text(figures.cure_s)}" if figures.cure_s else "")
+
+
+def table(columns: list[RunColumn]) -> list[str]:
+    """The comparison as markdown lines."""
+    lines = ["| | " + " | ".join(column.label for column in columns) + " |"]
+    lines.append("|---|" + "---|" * len(columns))
+    lines.append("| constructed | " + " | ".join(f"{c.constructed}/{c.components}" for c in columns) + " |")
+    lines.append(
+        "| makespan | "
+        + " | ".join(duration_text(c.makespan_s) if c.makespan_s is not None else "–" for c in columns)
+        + " |"
+    )
+    for method in methods_in(columns):
+        lines.append(f"| {method} | " + " | ".join(_cell(c.methods.get(method)) for c in columns) + " |")
+    first = columns[0].makespan_s
+    for column in columns[1:]:
+        if first and column.makespan_s is not None:
+            change = column.makespan_s - first
+            lines.append(
+                f"\n{column.label}: makespan {'+' if change >= 0 else '−'}{duration_text(abs(change))} "
+                f"({100.0 * change / first:+.1f} %) against {columns[0].label}"
+            )
+    return lines
+
+
+def run(args: argparse.Namespace) -> int:
+    columns = []
+    for path in args.runs:
+        report = report_path(path)
+        columns.append(run_column(str(path), _read(report)))
+    sys.stdout.write("\n".join(table(columns)) + "\n")
+    return 0

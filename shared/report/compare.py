@@ -1,0 +1,96 @@
+"""Two runs side by side, by construction method: what each method built and what its work took.
+
+Why: a builder choosing between ways to build (``--methods prefab`` against ``--methods conventional``,
+or two fleets) asks where the time goes. Each run's ``report.json`` lists its components with their
+method and when each step happened (:mod:`.methods`); this sums them per method:
+
+* ``components`` and ``constructed``;
+* ``work_s``: the time the work itself took, summed over what was built: a lift from pick to placement
+  (``lifted``, ``panelised``), formwork and pour (``cast_in_place``: from ``forming_s`` to ``placed_s``),
+  laying (``laid``: from ``laying_s``); a part installed with its host (``with_host``) has none of its own;
+* ``cure_s``: the longest cure of its components (concrete that must cure before what rests on it);
+* ``span_s``: from the first start of that method's work to its last component built.
+
+Pure: report dicts in, rows out (``bimbot compare`` prints them).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+WORK_START = {  # the report field where a method's own work starts (placed_s ends it)
+    "lifted": "picked_s",
+    "panelised": "picked_s",
+    "cast_in_place": "forming_s",
+    "laid": "laying_s",
+}
+
+
+@dataclass(frozen=True)
+class MethodFigures:
+    """One method's figures in one run."""
+
+    components: int = 0
+    constructed: int = 0
+    work_s: float = 0.0
+    cure_s: float = 0.0
+    span_s: float = 0.0
+
+
+def _number(value: Any) -> float | None:
+    return float(value) if isinstance(value, int | float) else None
+
+
+def by_method(report: Mapping[str, Any]) -> dict[str, MethodFigures]:
+    """Method → its figures in ``report`` (a parsed ``report.json``)."""
+    grouped: dict[str, list[Mapping[str, Any]]] = {}
+    for component in report.get("components") or ():
+        grouped.setdefault(str(component.get("method") or "lifted"), []).append(component)
+    figures: dict[str, MethodFigures] = {}
+    for method, components in sorted(grouped.items()):
+        built = [c for c in components if c.get("state") == "constructed"]
+        work_s, starts, ends, cures = 0.0, [], [], [0.0]
+        for component in built:
+            start = _number(component.get(WORK_START.get(method, ""), None))
+            end = _number(component.get("placed_s")) or _number(component.get("constructed_s"))
+            if start is not None and end is not None and end >= start:
+                work_s += end - start
+                starts.append(start)
+            if end is not None:
+                ends.append(end)
+            curing = component.get("curing") or {}
+            cure_from, cure_until = _number(curing.get("from_s")), _number(curing.get("until_s"))
+            if cure_from is not None and cure_until is not None:
+                cures.append(cure_until - cure_from)
+        span_s = max(ends) - min(starts) if starts and ends else 0.0
+        figures[method] = MethodFigures(len(components), len(built), work_s, max(cures), span_s)
+    return figures
+
+
+@dataclass(frozen=True)
+class RunColumn:
+    """A run as ``bimbot compare`` shows it: a label, its makespan and its figures by method."""
+
+    label: str
+    makespan_s: float | None
+    constructed: int
+    components: int
+    methods: dict[str, MethodFigures]
+
+
+def run_column(label: str, report: Mapping[str, Any]) -> RunColumn:
+    totals = report.get("totals") or {}
+    return RunColumn(
+        label=label,
+        makespan_s=_number(totals.get("makespan_s")),
+        constructed=int(totals.get("constructed") or 0),
+        components=int(totals.get("components") or 0),
+        methods=by_method(report),
+    )
+
+
+def methods_in(columns: Sequence[RunColumn]) -> list[str]:
+    """Every method any of the runs used, in a stable order."""
+    return sorted({method for column in columns for method in column.methods})
