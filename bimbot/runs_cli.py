@@ -1,9 +1,10 @@
 """``bimbot runs BUILD [--new]``: the runs of a build, newest last, or a new run folder.
 
-Lists ``BUILD/runs/*`` (see :mod:`bimbot.shared.run_folder`) with what each run's report says: components
-constructed, how the run ended, sim time. ``--new`` makes a new run folder, points ``BUILD/runs/latest``
-at it and prints its path: services started without ``--run-dir`` (by hand, or ``docker compose``) then
-write there, so a new ``up`` never resumes the journal of the last one.
+Lists ``BUILD/runs/*`` (see :mod:`bimbot.shared.run_folder`), then the runs given a ``--run-dir``
+elsewhere, with what each run's report says: components constructed, how the run ended, sim time.
+``--new`` makes a new run folder, points ``BUILD/runs/latest`` at it and prints its path: services started
+without ``--run-dir`` (by hand, or ``docker compose``) then write there, so a new ``up`` never resumes the
+journal of the last one.
 """
 
 from __future__ import annotations
@@ -16,7 +17,13 @@ from pathlib import Path
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import load_manifest
 from bimbot.shared.report.durations import time_unit
-from bimbot.shared.run_folder import RunFolder, latest_run_folder, new_run_folder, run_folders
+from bimbot.shared.run_folder import (
+    RunFolder,
+    latest_run_folder,
+    new_run_folder,
+    run_folders,
+    runs_elsewhere,
+)
 
 LONG_RUN_S = 2 * 3600.0  # beyond this a run's sim time is said in hours or days too
 
@@ -35,12 +42,15 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.write(f"{new_run_folder(build).root}\n")
         return 0
     folders = run_folders(build)
-    if not folders:
+    elsewhere = runs_elsewhere(build)
+    if not folders and not elsewhere:
         raise UserError(f"{build}: no runs yet (bimbot run {build})")
     latest = latest_run_folder(build)
     for folder in folders:
         mark = " (latest)" if latest is not None and latest.root == folder.resolve() else ""
         sys.stdout.write(f"{folder.name}{mark}  {run_summary(RunFolder(folder))}\n")
+    for folder in elsewhere:  # given with --run-dir
+        sys.stdout.write(f"{folder}  {run_summary(RunFolder(folder))}\n")
     return 0
 
 

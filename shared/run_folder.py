@@ -39,6 +39,7 @@ _log = logging.getLogger(__name__)
 
 RUNS_DIR_NAME = "runs"
 LATEST_NAME = "latest"
+ELSEWHERE_NAME = "elsewhere"  # run folders given outside runs/ (--run-dir), one path a line
 ENDED_NAME = "ENDED"  # in a run folder: the run is over (its first line says how)
 _LOCK_NAME = ".lock"
 RUN_DIR_HINT = "a build is input: give the run a folder of its own elsewhere with --run-dir DIR"
@@ -89,6 +90,30 @@ def run_folders(build_dir: Path) -> list[Path]:
     if not folder.is_dir():
         return []
     return sorted(path for path in folder.glob("*") if path.is_dir() and not path.is_symlink())
+
+
+def remember_run_dir(build_dir: Path, run_dir: Path) -> None:
+    """Note a run folder given outside ``BUILD/runs/`` (``--run-dir``) in ``BUILD/runs/elsewhere``, so
+    ``bimbot runs BUILD`` lists it too. Best effort: a build a user may not write to still runs."""
+    run_dir = Path(run_dir).resolve()
+    folder = runs_dir(build_dir)
+    if run_dir.is_relative_to(folder.resolve()) or run_dir in runs_elsewhere(build_dir):
+        return
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with open(folder / ELSEWHERE_NAME, "a", encoding="utf-8") as listing:
+            listing.write(f"{run_dir}\n")
+    except OSError as error:
+        _log.debug("%s: run folder %s not noted (%s)", build_dir, run_dir, error)
+
+
+def runs_elsewhere(build_dir: Path) -> list[Path]:
+    """The run folders given outside ``BUILD/runs/`` that still exist, in the order they were run."""
+    try:
+        lines = (runs_dir(build_dir) / ELSEWHERE_NAME).read_text(encoding="utf-8").splitlines()
+    except OSError:
+        return []
+    return [Path(line) for line in dict.fromkeys(lines) if line and Path(line).is_dir()]
 
 
 @contextlib.contextmanager

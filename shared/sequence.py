@@ -108,6 +108,11 @@ def sequence_to_xml(sequence: ConstructionSequence) -> bytes:
 
 def sequence_from_xml(data: bytes, *, origin: str = "sequence") -> ConstructionSequence:
     """Parse and check a sequence document; :class:`SequenceError` names what is wrong."""
+    if data.lstrip()[:12] == b"ISO-10303-21":  # a STEP file: an IFC model with its own schedule, maybe
+        raise SequenceError(
+            f"{origin}: an IFC model, not a sequence: to build by its 4D schedule (IfcTask), give it "
+            f"as --from-ifc {origin}"
+        )
     try:
         root = etree.fromstring(data, parser=etree.XMLParser(resolve_entities=False, no_network=True))
     except etree.XMLSyntaxError as error:

@@ -55,7 +55,7 @@ from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState
 from bimbot.shared.report.collector import RunEnding
-from bimbot.shared.run_folder import RunFolder, new_run_folder
+from bimbot.shared.run_folder import RunFolder, new_run_folder, remember_run_dir
 from bimbot.supervisor import ServiceProcess, free_port, stop_all, wait_until
 
 _log = logging.getLogger(__name__)
@@ -89,6 +89,8 @@ def _run_build(
     if options.timeout_s is None:
         options = replace(options, timeout_s=default_timeout_s(len(manifest.components)))
     run = RunFolder(options.run_dir) if options.run_dir is not None else new_run_folder(build)
+    if options.run_dir is not None:
+        remember_run_dir(build, options.run_dir)  # bimbot runs BUILD lists it
     log_dir = run.logs_dir
     if log_dir.exists():
         shutil.rmtree(log_dir)  # a --run-dir given again: this run's logs only

@@ -9,7 +9,15 @@ from pathlib import Path
 import pytest
 
 from bimbot.cli import main
-from bimbot.shared.run_folder import LATEST_NAME, latest_run_folder, new_run_folder, open_run_folder, runs_dir
+from bimbot.shared.run_folder import (
+    LATEST_NAME,
+    latest_run_folder,
+    new_run_folder,
+    open_run_folder,
+    remember_run_dir,
+    runs_dir,
+    runs_elsewhere,
+)
 
 NOON_S = 1_795_000_000.0
 
@@ -104,3 +112,25 @@ def test_bimbot_runs_lists_runs_with_their_reports_and_makes_new_ones(
     assert main(["runs", str(tmp_path / "nothing")]) == 2
     # the folder asked for, not its parent's missing manifest (a new-user trial was told of tmp/manifest.json)
     assert f"{tmp_path / 'nothing'}: no such folder" in capsys.readouterr().err
+
+
+def test_a_run_dir_given_outside_the_build_is_listed_by_bimbot_runs(
+    bundled_build: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    build = tmp_path / "build"
+    build.mkdir()
+    (build / "manifest.json").write_bytes((bundled_build / "manifest.json").read_bytes())
+    outside, inside = tmp_path / "mine" / "run1", runs_dir(build) / "by-hand"
+    for folder in (outside, inside):
+        (folder / "report").mkdir(parents=True)
+        remember_run_dir(build, folder)
+    remember_run_dir(build, outside)  # given again: listed once
+    assert runs_elsewhere(build) == [outside.resolve()]
+    assert main(["runs", str(build)]) == 0
+    out = capsys.readouterr().out
+    assert f"{outside.resolve()}  no report" in out
+    assert out.count(str(outside.resolve())) == 1
+    assert "by-hand  no report" in out
+    (outside / "report").rmdir()
+    outside.rmdir()
+    assert runs_elsewhere(build) == []  # a folder since removed is not listed

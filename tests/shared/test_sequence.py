@@ -74,3 +74,8 @@ def test_task_model_is_frozen() -> None:
     with pytest.raises(ValueError, match="frozen"):
         task.guid = "b"  # type: ignore[misc]
     assert ConstructionSequence(source="x", tasks=(task,)).guids() == ["a"]
+
+
+def test_an_ifc_given_as_a_sequence_says_to_give_it_as_from_ifc() -> None:
+    with pytest.raises(SequenceError, match=r"an IFC model, not a sequence: .* give it as --from-ifc m\.ifc"):
+        sequence_from_xml(b"ISO-10303-21;\nHEADER;\n", origin="m.ifc")
