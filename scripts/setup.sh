@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Set up bimbot on a fresh Debian/Ubuntu machine: system packages, a virtual environment, the project.
 # Idempotent: a second run only checks. Usage: bash scripts/setup.sh [--tests]
-#   --tests  also what the test suite needs beyond the demo: the Docker engine (dockerd), compose and
+#   --tests  also what the test suite needs beyond the demo: the SDFormat reference parser and chromium,
+#            the Docker engine (dockerd), compose and
 #            debootstrap for the compose smoke test (tests/compose; scripts/compose-smoke.sh starts dockerd),
 #            and Xvfb (xvfb-run, xauth) for the dashboard test's real browser window
 #            (tests/observer/test_dashboard_browser.py)
@@ -19,14 +20,13 @@ for argument in "$@"; do
     esac
 done
 
-# System packages: the SDFormat reference parser (`ign sdf -k`, used by tests to validate every SDF) and
-# Debian's chromium (headless, to test that the observer's rerun web viewer page loads).
-SYSTEM_PACKAGES=(ignition-tools libsdformat-dev chromium)
 missing=()
-for package in "${SYSTEM_PACKAGES[@]}"; do
-    dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" || missing+=("$package")
-done
 if [ "$TESTS" -eq 1 ]; then
+    # For the tests only (the demo needs none of them): the SDFormat reference parser (`ign sdf -k`, to
+    # validate every SDF) and Debian's chromium (headless, to test that the rerun web viewer page loads).
+    for package in ignition-tools libsdformat-dev chromium; do
+        dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" || missing+=("$package")
+    done
     # Checked by the binary each step of the compose test runs, not by package name: a Docker client alone
     # (a static /usr/local/bin/docker, say) runs no daemon, and scripts/compose-smoke.sh starts `dockerd`.
     # The engine comes from Docker's own packages where they are installed or their repository is

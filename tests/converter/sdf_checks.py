@@ -1,6 +1,6 @@
 """Checks shared by conversion tests: the SDFormat reference parser and PyBullet loading.
 
-``ign sdf -k`` (Debian's ignition-tools + libsdformat-dev, installed by ``scripts/setup.sh``) is the
+``ign sdf -k`` (Debian's ignition-tools + libsdformat-dev, installed by ``scripts/setup.sh --tests``) is the
 reference parser; it prints ``Valid.`` for a valid file. Model URIs (``model://…``) resolve through
 ``SDF_PATH``/``GZ_SIM_RESOURCE_PATH``, set to the conversion's ``models/`` folder.
 
@@ -45,7 +45,7 @@ def sdformat_library() -> Path:
         found = re.search(r"^LIBRARY_NAME = '([^']+)'", commands.read_text(), re.MULTILINE)
         if found:
             return (commands.parent / found.group(1)).resolve()
-    raise AssertionError(f"no cmdsdformat*.rb in {RUBY_COMMANDS}: run scripts/setup.sh")
+    raise AssertionError(f"no cmdsdformat*.rb in {RUBY_COMMANDS}: run scripts/setup.sh --tests")
 
 
 def sdf_check_all(paths: list[Path], models_dir: Path) -> dict[Path, str]:
@@ -65,7 +65,7 @@ def sdf_check_all(paths: list[Path], models_dir: Path) -> dict[Path, str]:
 
 def ign_sdf_check(path: Path, models_dir: Path) -> str:
     """Run ``ign sdf -k`` on ``path``; return its combined output (``Valid.`` on success)."""
-    assert IGN is not None, "ign (ignition-tools) is not installed: run scripts/setup.sh"
+    assert IGN is not None, "ign (ignition-tools) is not installed: run scripts/setup.sh --tests"
     result = subprocess.run(
         [IGN, "sdf", "-k", str(path)],
         capture_output=True,
