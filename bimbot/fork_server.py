@@ -43,6 +43,7 @@ _log = logging.getLogger(__name__)
 
 FORK_SERVER_ENV = "BIMBOT_FORK_SERVER"  # "0": start every service as a plain process
 SPAWN_TIMEOUT_S = 120.0  # a fresh clone compiles the kernels first (numba has no cache yet)
+SLOW_START_S = 10.0  # a check not answered by then: the user is told why the run has not started yet
 CHECK_TIMEOUT_S = SPAWN_TIMEOUT_S  # the same preload, then a check of under a second
 
 
@@ -144,15 +145,21 @@ class ForkServer:
         with self._lock:
             if not self._send(request):
                 return None
-            deadline = time.monotonic() + timeout_s
+            asked = time.monotonic()
+            deadline, said = asked + timeout_s, False
             with self._changed:
                 while token not in self._checks and not self._gone:
-                    left = deadline - time.monotonic()
+                    now = time.monotonic()
+                    left = deadline - now
                     if left <= 0:
                         _log.warning(
-                            "the fork server's input check did not answer in %.0f s: checking here", timeout_s
+                            "loading the services' libraries took over %.0f s: the run checks its input",
+                            timeout_s,
                         )
                         return None
+                    if not said and now - asked >= SLOW_START_S:
+                        said = True  # a first start after setup compiles the kernels (numba): minutes
+                        _log.info("loading the simulation libraries (the first start after setup: 1-2 min)")
                     self._changed.wait(timeout=min(left, 0.5))
                 return self._checks.pop(token, None) or None
 
