@@ -7,7 +7,8 @@ crane's build), which must be visible as such. Pure functions over the report di
 (:mod:`.collector`) and the task ids; no bus, no files.
 
 * Utilisation of a type: the busy time of its robots summed, over (its robots × the makespan); a robot on
-  site that never left idle counts with 0 s.
+  site that never left idle counts with 0 s. Where long waits fill the makespan (a 5-day cure), also over
+  (its robots × the time some robot was at work): how busy it was while work went on.
 * A task's kind: what its ``TaskMsg.kind`` said; a task never heard of is a hand-off when its id ends in
   ``-h<n>`` (the planner's ids for hand-offs: ``<build task id>-h<n>``), else a build.
 * Lanes: robot types in the order of their first robot (natural id order: r2 before r10), the robots of a
@@ -22,10 +23,12 @@ from typing import Any
 
 from bimbot.shared.messages import TaskKind
 
+from .durations import duration_text
 from .totals import busy_within_s
 
 HAND_OFF_ID = re.compile(r"-h\d+$")
 UNKNOWN_TYPE = "unknown"
+AT_WORK_SHARE = 0.5  # robots at work for less of the makespan than this: utilisation while at work too
 _DIGITS = re.compile(r"(\d+)")
 
 
@@ -79,9 +82,31 @@ def by_type(
         entry["hand_off_tasks"] += _count(robot["tasks"], TaskKind.HAND_OFF.value)
         in_window[name] = in_window.get(name, 0.0) + busy_within_s(robot, window)
     if window is not None and window[1] > window[0]:
+        working_s = working_within_s(robots.values(), window)
         for name, entry in out.items():
             entry["utilisation"] = in_window[name] / (len(entry["robots"]) * (window[1] - window[0]))
+            entry["working_s"] = working_s
+            entry["utilisation_at_work"] = (
+                in_window[name] / (len(entry["robots"]) * working_s) if working_s > 0.0 else None
+            )
     return out
+
+
+def working_within_s(robots: Iterable[Mapping[str, Any]], window: tuple[float, float]) -> float:
+    """How long inside ``window`` some robot was at work (the union of every robot's tasks): the makespan
+    less the waits when nothing could go on, such as a slab's cure before anything may rest on it."""
+    spans = sorted(
+        (max(window[0], task["start_s"]), min(window[1], task["end_s"]))
+        for robot in robots
+        for task in robot["tasks"]
+        if min(window[1], task["end_s"]) > max(window[0], task["start_s"])
+    )
+    total_s, reach_s = 0.0, window[0]
+    for start_s, end_s in spans:
+        if end_s > reach_s:
+            total_s += end_s - max(start_s, reach_s)
+            reach_s = end_s
+    return total_s
 
 
 def utilisation_line(report: Mapping[str, Any]) -> str | None:
@@ -95,7 +120,14 @@ def utilisation_line(report: Mapping[str, Any]) -> str | None:
     ]
     if not parts:
         return None
-    return f"utilisation by type (busy within the makespan / robots × makespan): {', '.join(parts)}"
+    line = f"utilisation by type (busy within the makespan / robots × makespan): {', '.join(parts)}"
+    at_work = [(name, entry) for name, entry in types.items() if entry.get("utilisation_at_work") is not None]
+    working_s = at_work[0][1].get("working_s", 0.0) if at_work else 0.0
+    makespan_s = (report.get("totals") or {}).get("makespan_s") or 0.0
+    if at_work and makespan_s and working_s < AT_WORK_SHARE * makespan_s:  # long waits (a cure) in it
+        shares = ", ".join(f"{name} {entry['utilisation_at_work'] * 100:.0f} %" for name, entry in at_work)
+        line += f"; while some robot was at work ({duration_text(working_s)} of it): {shares}"
+    return line
 
 
 def _count(tasks: Iterable[Mapping[str, Any]], kind: str) -> int:

@@ -57,3 +57,31 @@ def test_utilisation_never_exceeds_one_and_is_none_before_anything_is_built() ->
     nothing_built = [_component(10.0, None, "failed")]
     assert totals_of(nothing_built, robots)["utilisation"] is None
     assert by_type(robots, makespan_window(nothing_built))["husky"]["utilisation"] is None
+
+
+def test_a_long_cure_in_the_makespan_gives_the_utilisation_while_some_robot_was_at_work_too() -> None:
+    """A crane busy 2 h of a 100 h makespan, 90 h of it a cure with nothing at work: 2 % of the makespan,
+    and 20 % of the 10 h some robot was at work (overlapping tasks count once)."""
+    from bimbot.shared.report.fleet import utilisation_line, working_within_s
+
+    hour = 3600.0
+    robots = {
+        "r1": _robot((0.0, 2 * hour), robot_type="tower_crane"),
+        "r2": _robot((1 * hour, 6 * hour), (96 * hour, 100 * hour), robot_type="concrete_pump"),
+    }
+    window = (0.0, 100 * hour)
+    assert working_within_s(robots.values(), window) == pytest.approx(10 * hour)
+    types = by_type(robots, window)
+    assert types["tower_crane"]["utilisation"] == pytest.approx(0.02)
+    assert types["tower_crane"]["utilisation_at_work"] == pytest.approx(0.2)
+    assert types["concrete_pump"]["utilisation_at_work"] == pytest.approx(0.9)
+    line = utilisation_line({"totals": {"by_type": types, "makespan_s": 100 * hour}})
+    assert line is not None
+    assert "tower_crane 2 % (1 robot)" in line
+    assert (
+        "while some robot was at work (10.0 h (36,000 s) of it): tower_crane 20 %, concrete_pump 90 %" in line
+    )
+    busy = by_type({"r1": _robot((0.0, 90 * hour))}, window)  # at work most of the makespan: no second part
+    assert "while some robot" not in (
+        utilisation_line({"totals": {"by_type": busy, "makespan_s": 100 * hour}}) or ""
+    )
