@@ -541,3 +541,25 @@ def test_an_element_of_many_separate_solids_keeps_at_most_the_parts_pybullet_kee
             and np.all(part.vertices.max(axis=0) >= high - 1e-9)
             for part in shape.parts
         )
+
+
+def test_convex_parts_do_not_depend_on_how_busy_the_machine_is(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A U-shaped solid (a wall with a door opening) is cut into three boxes whether the clock runs or
+    jumps 10 s at every reading, as on a machine loaded 25 deep: the budget is counted in work, not time
+    (a 0.3 s wall-clock budget had cut the hub's footings short under load and drawn them 0.33 m into their
+    neighbours, which changed its joints and its order of pours)."""
+    from bimbot.services.converter.plane_split import split_into_convex_parts
+
+    wall = manifold3d.Manifold.cube((4.0, 0.2, 3.0)) - manifold3d.Manifold.cube((1.0, 1.0, 2.0)).translate(
+        (1.5, -0.4, -0.5)
+    )
+    mesh = wall.to_mesh()
+    solid = trimesh.Trimesh(np.asarray(mesh.vert_properties)[:, :3], np.asarray(mesh.tri_verts))
+    quiet = split_into_convex_parts(solid)
+    clock = iter(range(0, 10**9, 10))
+    monkeypatch.setattr(time, "perf_counter", lambda: float(next(clock)))
+    monkeypatch.setattr(time, "monotonic", lambda: float(next(clock)))
+    busy = split_into_convex_parts(solid)
+    assert quiet is not None and busy is not None
+    assert len(quiet.parts) == len(busy.parts) == 3
+    assert busy.hull_volume_ratio == pytest.approx(1.0, abs=1e-6)
