@@ -82,6 +82,14 @@ def reachable_region(grid: OccupancyGrid, from_xy_m: ArrayLike) -> NDArray[np.bo
     return labels == labels[rc[0], rc[1]]
 
 
+def cut_off(grid: OccupancyGrid, from_xy_m: ArrayLike, to_xy_m: ArrayLike) -> bool:
+    """Whether no way on ``grid`` leads from ``from_xy_m`` to ``to_xy_m`` (each from the free cell nearest
+    it, as :func:`reachable_region`): a robot walled in, when ``to_xy_m`` is its depot start."""
+    region = reachable_region(grid, from_xy_m)
+    goal = reachable_region(grid, to_xy_m)
+    return region is None or goal is None or not (region & goal).any()
+
+
 def stand_points(
     grid: OccupancyGrid, footprint: Footprint, *, blocks_band: bool, config: ApproachConfig
 ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
