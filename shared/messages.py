@@ -293,6 +293,9 @@ class RobotStateMsg(_Message):
     # so a site where nothing else moves may skip to it (``physics/skip``)
     busy_until_s: SimTime | None = None
     relocations: Count = 0  # a machine that relocates: how often it moved to another set-up so far
+    # a ground robot walled in (no way to its depot start, where ``pose_xy_yaw`` says): since this sim time;
+    # None again once it drove out. The planner gives it no new task meanwhile.
+    walled_in_since_s: SimTime | None = None
 
 
 class CmdVelMsg(_Message):

@@ -51,6 +51,7 @@ from .robot_description import DEFAULT_ROBOT, Capability, RobotDescription
 from .site_laydown import Crane, crane_only, lay_down
 from .site_machines import keep_clear, plan_machines
 from .site_plan import (  # the plan's data types; physics serves a plan with its site info
+    BUILDING_MARGIN_M,
     Rect,
     SiteLayout,
     YardSlot,
@@ -62,7 +63,6 @@ LANE_M = 3.0  # driving lane between the building footprint and the yard, beside
 INFLATION_MARGIN_M = 0.15  # the robots' map inflates obstacles by their radius plus this
 AISLE_CORRIDOR_M = 0.6  # free corridor left in an aisle between the two inflated rows
 GAP_M = 0.4  # between components in a row, and between the two rows of a pair
-BUILDING_MARGIN_M = 1.0
 MIN_ROW_DEPTH_M = 4.0
 MIN_YARD_WIDTH_M = 12.0  # a small model's site keeps lanes long enough for robots to pass and localise
 MAX_DEPTH_CANDIDATES = 12

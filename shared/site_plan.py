@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+BUILDING_MARGIN_M = 1.0  # the building rectangle is its components' bounding boxes grown by this
 FENCE_THICKNESS_M = 0.2
 FENCE_HEIGHT_M = 1.2
 # every machine that stands fixed fills its set-up rectangle (``SiteLayout.machines``) with a collision box
@@ -74,6 +75,11 @@ class SiteLayout:
     def bounds(self) -> Rect:
         """Everything, the fence included."""
         return self.fence.grown(FENCE_THICKNESS_M)
+
+    @property
+    def structure(self) -> Rect:
+        """The structure's own footprint (its components' bounding boxes): ``building`` less its margin."""
+        return self.building.grown(-BUILDING_MARGIN_M)
 
 
 GRID_MARGIN_M = 0.5  # site grids (robots' map, access check) reach this far beyond the fence's outer edge

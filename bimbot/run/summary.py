@@ -101,6 +101,39 @@ def _seed(outcome: RunOutcome) -> str:
     return f" ({', '.join(part for part in said if part)})" if any(said) else ""
 
 
+def _give_backs(totals: dict[str, Any], robots: dict[str, Any]) -> str:
+    """``20 give-back(s) by robots (r1 10, r3 10)``: how many, and which robots gave them back."""
+    by_robot = [
+        f"{robot_id} {robots[robot_id]['given_back']}"
+        for robot_id in robot_order(robots)
+        if robots[robot_id].get("given_back")
+    ]
+    return f"{totals.get('give_backs', 0)} give-back(s) by robots" + (
+        f" ({', '.join(by_robot)})" if by_robot else ""
+    )
+
+
+def _tasks(robot: dict[str, Any]) -> str:
+    """``11 task(s): 1 built, 10 given back``; a report without the counts: ``11 task(s)``."""
+    tasks = f"{len(robot['tasks'])} task(s)"
+    if "built" not in robot:
+        return tasks
+    return f"{tasks}: {robot['built']} built, {robot.get('given_back', 0)} given back"
+
+
+def walled_in_lines(robots: dict[str, Any]) -> list[str]:
+    """``r1 at (1.43, -6.35) from 470130 s of sim time to the end of the run``: each time a robot said it
+    had no way to its depot, where it stood and since when (and until when, if it got out)."""
+    lines = []
+    for robot_id in robot_order(robots):
+        for spell in robots[robot_id].get("walled_in") or []:
+            x, y = spell["xy_m"]
+            until = spell.get("until_s")
+            to = "to the end of the run" if until is None else f"to {until:.0f} s"
+            lines.append(f"{robot_id} at ({x:.2f}, {y:.2f}) from {spell['since_s']:.0f} s of sim time {to}")
+    return lines
+
+
 def summary_text(outcome: RunOutcome) -> str:
     totals = outcome.report.get("totals", {})
     ending = outcome.ending
@@ -111,8 +144,11 @@ def summary_text(outcome: RunOutcome) -> str:
         *early,
         f"constructed {outcome.constructed}/{outcome.total} components in "
         f"{outcome.sim_time_s:.1f} s sim time ({outcome.wall_time_s:.1f} s wall{_makespan(totals)}), "
-        f"{_caught(outcome)}, {totals.get('give_backs', 0)} give-back(s) by robots{_seed(outcome)}",
+        f"{_caught(outcome)}, {_give_backs(totals, outcome.report.get('robots', {}))}{_seed(outcome)}",
     ]
+    walled_in = walled_in_lines(outcome.report.get("robots", {}))
+    if walled_in:
+        lines.append("walled in (no way to its depot start): " + "; ".join(walled_in))
     methods = method_line(totals)
     if methods:
         lines.append(methods)
@@ -146,7 +182,7 @@ def summary_text(outcome: RunOutcome) -> str:
         robot = robots[robot_id]
         hand_offs = sum(1 for task in robot["tasks"] if task.get("kind") == "hand_off")
         lines.append(
-            f"{lane_label(robot_id, robot)}: {len(robot['tasks'])} task(s)"
+            f"{lane_label(robot_id, robot)}: {_tasks(robot)}"
             + (f" ({hand_offs} hand-off(s))" if hand_offs else "")
             + f", {robot['distance_m']:.0f} m driven, busy {_busy(robot['busy_s'])}"
             + _busy_outside(robot, window)

@@ -4,7 +4,8 @@ Why apart from the rest of the protocol (release, follow-up, give-backs, bounds)
 which robot gets which released task, and sends the assignment. Without the site's robots (unit tests, a
 planner that got no site info) a task goes to the nearest idle robot; with them, to the capable robot
 whose bid (estimated finish time) is lowest, or as a hand-off to a crane's staging spot
-(:mod:`.assignment`).
+(:mod:`.assignment`). A robot that gave the task back, or says it is walled in (no way to its depot), gets
+it only when no other robot can take it.
 """
 
 from __future__ import annotations
@@ -50,11 +51,10 @@ class Dispatch:
             idle = [robot for robot in state.robots.values() if self._is_idle(robot)]
             if not idle:
                 return
-            # a robot that gave this task back gets it again only when no other alive robot could take it
-            others_alive = any(
-                r.alive and r.robot_id not in task.given_back_by for r in state.robots.values()
-            )
-            fresh = [robot for robot in idle if robot.robot_id not in task.given_back_by]
+            # a robot that gave this task back, or is walled in, gets it only when no other alive robot could
+            avoid = self._avoid(task)
+            others_alive = any(r.alive and r.robot_id not in avoid for r in state.robots.values())
+            fresh = [robot for robot in idle if robot.robot_id not in avoid]
             if not fresh and others_alive:
                 continue
             idle = fresh or idle
@@ -85,7 +85,7 @@ class Dispatch:
                 state.site,
                 now_s=state.sim_time_s,
                 promised_s=promised,
-                avoid=task.given_back_by,
+                avoid=self._avoid(task),
                 taken_spots=taken,
             )
             if choice is None:
@@ -100,6 +100,12 @@ class Dispatch:
             if choice.put_down_xy_m is not None:
                 taken.append(choice.put_down_xy_m)
             self._give_to(task, robot, choice.kind, choice.put_down_xy_m, estimate_s=choice.estimate_s)
+
+    def _avoid(self, task: TaskRecord) -> set[str]:
+        """The robots that bid for ``task`` only when no other can take it: those that gave it back, and
+        those that say they are walled in (they would give it back too)."""
+        walled_in = {r.robot_id for r in self._state.robots.values() if r.walled_in_since_s is not None}
+        return task.given_back_by | walled_in
 
     @staticmethod
     def _hand_offs_exhausted(task: TaskRecord, item: Component) -> Reason:

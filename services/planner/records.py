@@ -100,6 +100,9 @@ class RobotRecord:
     reported_busy_until_s: float | None = None
     give_backs_in_row: int = 0  # tasks it gave back since it last placed a component
     held_until_s: float = 0.0  # no new task before this sim time (PlannerLimits.hold_*)
+    # it says it is walled in (no way to its depot) since this sim time: no new task while it is, unless no
+    # other robot can take it (then it gives it back, and the give-backs bound fails the component)
+    walled_in_since_s: float | None = None
     lost_wall_s: float | None = None  # its liveliness went while it held a task (lost_grace_wall_s)
     rejoined: bool = False  # back within the grace: its next state says whether it still has its task
 

@@ -223,6 +223,20 @@ class PlannerCore:
                 )
         robot.pose_xy_yaw = msg.pose_xy_yaw
         robot.reported_busy_until_s = msg.busy_until_s
+        if (robot.walled_in_since_s is None) != (msg.walled_in_since_s is None):
+            x, y, _ = msg.pose_xy_yaw
+            if msg.walled_in_since_s is not None:
+                _log.warning(
+                    "%s is walled in at (%.2f, %.2f) since %.1f s of sim time: no new task for it until it "
+                    "can move again (unless no other robot can take one)",
+                    msg.robot_id,
+                    x,
+                    y,
+                    msg.walled_in_since_s,
+                )
+            else:
+                _log.info("%s can move again (at (%.2f, %.2f)): it takes tasks again", msg.robot_id, x, y)
+        robot.walled_in_since_s = msg.walled_in_since_s
         self.observe_clock(msg.sim_time_s)
 
     def robot_liveliness(self, robot_id: str, alive: bool) -> None:

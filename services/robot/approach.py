@@ -17,9 +17,14 @@ component's footprint, on **every side** of it; a candidate is kept when
   being placed), the robot's body stays outside it: distance to the footprint ≥ ``body_clearance_m``. A
   component above the band (a beam at 3 m) may be approached from under its footprint.
 
-The best candidate is the one nearest the footprint (most reach to spare), then nearest the footprint's
-centre (the middle of a long side), then nearest the robot (a short drive): one weighted score. Its yaw
-faces the footprint's centre (None when it stands on the centre). When there is none,
+A ground robot works from **outside the structure's footprint** where it can, as machines do on a site: a
+wall on the building's edge is set from outside, so the robot is not closed in by the walls and the curtain
+wall that follow. Only a component with no free stand-point outside (a column, a partition in the middle)
+is approached from inside.
+
+Among the candidates left, the best is the one nearest the footprint (most reach to spare), then nearest the
+footprint's centre (the middle of a long side), then nearest the robot (a short drive): one weighted score.
+Its yaw faces the footprint's centre (None when it stands on the centre). When there is none,
 :func:`no_approach_reason` says why, with the numbers: ``unreachable`` when free stand-points exist but
 the flood fill from the robot does not get there, else ``no_approach_pose``. Cost: one connected-component
 labelling of the free grid and a vectorised filter of the window (~1–3 ms on a site grid at 0.1 m).
@@ -82,6 +87,14 @@ def reachable_region(grid: OccupancyGrid, from_xy_m: ArrayLike) -> NDArray[np.bo
     return labels == labels[rc[0], rc[1]]
 
 
+def cut_off(grid: OccupancyGrid, from_xy_m: ArrayLike, to_xy_m: ArrayLike) -> bool:
+    """Whether no way on ``grid`` leads from ``from_xy_m`` to ``to_xy_m`` (each from the free cell nearest
+    it, as :func:`reachable_region`): a robot walled in, when ``to_xy_m`` is its depot start."""
+    region = reachable_region(grid, from_xy_m)
+    goal = reachable_region(grid, to_xy_m)
+    return region is None or goal is None or not (region & goal).any()
+
+
 def stand_points(
     grid: OccupancyGrid, footprint: Footprint, *, blocks_band: bool, config: ApproachConfig
 ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
@@ -126,12 +139,14 @@ def approach_pose(
     region: NDArray[np.bool_] | None = None,
     avoid_xy_m: ArrayLike = (),
     avoid_radius_m: float = 1.0,
+    outside_of: Rect | None = None,
 ) -> Approach | None:
     """The best approach pose beside ``footprint`` (see the module doc), or None when there is none.
 
     ``grid`` is the inflated planning grid; ``region`` the robot's reachable free cells (computed from
     ``robot_xy_m`` when not given). Candidates within ``avoid_radius_m`` of a point of ``avoid_xy_m``
-    (stand-points that failed already) are left out, so a re-chosen approach tries another side.
+    (stand-points that failed already) are left out, so a re-chosen approach tries another side. With
+    ``outside_of`` (the structure's footprint), only the candidates outside it count while there are any.
     """
     if region is None:
         region = reachable_region(grid, robot_xy_m)
@@ -146,6 +161,11 @@ def approach_pose(
     if len(avoid) and len(xy):
         far = np.hypot(xy[:, None, 0] - avoid[None, :, 0], xy[:, None, 1] - avoid[None, :, 1]).min(axis=1)
         xy, distance = xy[far > avoid_radius_m], distance[far > avoid_radius_m]
+    if outside_of is not None and len(xy):
+        (x0, y0), (x1, y1) = outside_of.min_xy, outside_of.max_xy
+        out = (xy[:, 0] <= x0) | (xy[:, 0] >= x1) | (xy[:, 1] <= y0) | (xy[:, 1] >= y1)
+        if out.any():
+            xy, distance = xy[out], distance[out]
     if len(xy) == 0:
         _log.info("no free approach within %.2f m of %s", config.reach_m, _where(footprint))
         return None

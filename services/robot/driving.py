@@ -129,11 +129,18 @@ class Driving:
         xy = navigator.pose_xy_yaw[:2]
         blocks = site_map.blocks(footprint)
         config = context.approach_config
+        outside = site_map.layout.structure  # work from outside the structure where it can (module doc)
         found = approach_pose(
-            grid, footprint, xy, blocks_band=blocks, config=config, avoid_xy_m=task.failed_xy_m
+            grid,
+            footprint,
+            xy,
+            blocks_band=blocks,
+            config=config,
+            avoid_xy_m=task.failed_xy_m,
+            outside_of=outside,
         )
         if found is None and task.failed_xy_m:  # every other side tried: the failed ones again
-            found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=config)
+            found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=config, outside_of=outside)
         if found is None:
             task.retry_at_s = context.sim_s + bounds.retry_delay_s
             traffic = approach_pose(

@@ -29,7 +29,7 @@ from bimbot.shared.messages import (
     TaskMsg,
     TaskStatus,
 )
-from bimbot.shared.reasons import Reason
+from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import Capability
 
 from . import give_back
@@ -300,6 +300,8 @@ class Handover:
         task.request, task.dropping = None, None
         reason = reason if reason.robot_id else reason.model_copy(update={"robot_id": context.robot_id})
         self.given_back.append((task.message.guid, reason))
+        if reason.code is ReasonCode.ROBOT_TRAPPED and context.cut_off_from_depot():
+            self.cycle.walled_in(reason.message)
         if _E.PICK not in task.events.queued:
             context.queue_event(task, _E.PICK)  # abandon is only legal once the component is picking
         context.queue_event(task, _E.ABANDON, reason=reason)

@@ -4,7 +4,9 @@ Why: a robot that has finished a task must not wall itself in or stand where the
 an idle one parked at the depot is out of the way of the structure and the yard. A parking drive that fails
 (its recoveries spent) is tried again after ``park_retry_s``, and the robot's state says why meanwhile. A
 robot walled in fails every try alike: the first failure is logged with why and where it stays, later ones
-only at the 2nd, 4th, 8th, … in a row, with the count.
+only at the 2nd, 4th, 8th, … in a row, with the count. A failed drive that leaves the robot cut off from its
+depot on the static map says it is walled in (:meth:`.task_cycle.TaskCycle.walled_in`); a drive that gets
+there says it is out again.
 """
 
 from __future__ import annotations
@@ -70,9 +72,13 @@ class Parking:
                 self._park_again_s = sim_s + config.park_retry_s
                 self._park_failures += 1
                 failure = navigator.failure
-                self._say_cannot_park(failure.message if failure is not None else "no path")
+                why = failure.message if failure is not None else "no path"
+                self._say_cannot_park(why)
+                if context.cut_off_from_depot():
+                    cycle.walled_in(f"it cannot drive to its depot: {why}")
             elif status is NavStatus.REACHED and self._parking:
                 cycle.activity, self._park_failures = "", 0
+                cycle.moved_out("it drove to its depot")
             self._parking = False
             navigator.cancel()
         if (
@@ -83,7 +89,9 @@ class Parking:
             return
         x, y, yaw = context.home_xy_yaw
         pose = navigator.pose_xy_yaw
-        if math.hypot(pose[0] - x, pose[1] - y) > 0.5:
+        if math.hypot(pose[0] - x, pose[1] - y) <= 0.5:
+            cycle.moved_out("it stands at its depot")
+        else:
             retry = self._park_failures > 0  # a drive that failed alike: said by _say_cannot_park, not here
             _log.log(logging.DEBUG if retry else logging.INFO, "%s: idle, parking at the depot", robot_id)
             navigator.set_goal((x, y), yaw, sim_s, tolerance_m=0.3, quiet=retry)

@@ -22,7 +22,7 @@ from bimbot.shared.reasons import Reason
 from bimbot.shared.robot_description import RobotDescription
 from bimbot.shared.seeds import robot_stream
 
-from .approach import ApproachConfig
+from .approach import ApproachConfig, cut_off
 from .nav_types import controller_limits
 from .navigator import Navigator, NavigatorConfig
 from .site_map import MapConfig, SiteMap
@@ -46,6 +46,12 @@ class RobotContext:
     @property
     def robot_id(self) -> str:
         return self.config.robot_id
+
+    def cut_off_from_depot(self) -> bool:
+        """Whether the robot is walled in: no way on its static map (the site plan and what is built; laser
+        marks left out, they pass) leads from where it believes it stands to its depot start."""
+        grid = self.site_map.inflated_grid()
+        return cut_off(grid, self.navigator.pose_xy_yaw[:2], self.home_xy_yaw[:2])
 
     def queue_event(
         self,

@@ -4,11 +4,13 @@ Why one object: the executor's steps (:mod:`.executor`) and its physics replies 
 (:mod:`.handover`) move the same task through the paper's states (:mod:`.task_machine`). Every change must
 reach the bus in order, even a state that lasts less than a control step, and the periodic state must say
 the same. It owns the machine, the task in hand, the finished tasks, the messages due out, and when the
-state last changed (the executor's task watchdog).
+state last changed (the executor's task watchdog). It also says whether the robot is walled in (no way to
+its depot start): from the first give-back or parking drive that found so until it drives out again.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 
 from bimbot.shared.messages import ComponentState, RobotState, RobotStateMsg
@@ -19,6 +21,7 @@ from .task_machine import TaskMachine, Trigger
 from .task_state import Task
 
 _C = ComponentState
+_log = logging.getLogger(__name__)
 
 
 class TaskCycle:
@@ -32,7 +35,8 @@ class TaskCycle:
         self.outbox: list[Outgoing] = []
         self.activity = ""  # what an idle robot is up to, in words, when it matters (its state message)
         self.state_since_s = 0.0  # sim time of the last task state change (the task watchdog)
-        self._last_state: tuple[RobotState, str | None] | None = None
+        self.walled_in_since_s: float | None = None  # no way to the depot start since (its state says so)
+        self._last_state: tuple[RobotState, str | None, float | None] | None = None
         self._last_state_wall_s = -math.inf
 
     @property
@@ -51,7 +55,39 @@ class TaskCycle:
             wall_time_s=wall_s,
             distance_m=context.distance_m,
             activity="" if task else self.activity,
+            walled_in_since_s=self.walled_in_since_s,
         )
+
+    def walled_in(self, why: str) -> None:
+        """The robot found no way to its depot start (``why``): its state says since when and where it
+        stands, so the planner gives it no new task, until :meth:`moved_out`."""
+        if self.walled_in_since_s is not None:
+            return
+        context = self.context
+        self.walled_in_since_s = context.sim_s
+        x, y = context.navigator.pose_xy_yaw[:2]
+        _log.warning(
+            "%s: walled in at (%.2f, %.2f) since %.1f s of sim time; it takes no new task until it drives "
+            "out: %s",
+            context.robot_id,
+            x,
+            y,
+            context.sim_s,
+            why,
+        )
+        self.say_state_soon()
+
+    def moved_out(self, how: str) -> None:
+        """The robot walled in got out (``how``: it reached its depot, it built a component): its state
+        says so, and it takes tasks again."""
+        since_s = self.walled_in_since_s
+        if since_s is None:
+            return
+        self.walled_in_since_s = None
+        _log.info(
+            "%s: no longer walled in (since %.1f s of sim time): %s", self.context.robot_id, since_s, how
+        )
+        self.say_state_soon()
 
     def fire(self, trigger: Trigger) -> None:
         """Change state and publish it at once: every state of the cycle shows on the bus, even those that
@@ -60,10 +96,10 @@ class TaskCycle:
             raise RuntimeError(
                 f"{self.context.robot_id}: {trigger.value} is not allowed in {self.machine.state.value}"
             )
-        task, wall_s = self.task, self.context.wall_s
+        wall_s = self.context.wall_s
         self.state_since_s = self.context.sim_s
         self.outbox.append(self.state_message(wall_s))
-        self._last_state = (self.machine.state, task.message.task_id if task else None)
+        self._last_state = self._signature()
         self._last_state_wall_s = wall_s
 
     def finish(self, verdict: ComponentState | None) -> None:
@@ -72,6 +108,7 @@ class TaskCycle:
         task = self.task
         if task is not None and verdict is not None:
             self.done.append((task.message.guid, verdict))
+            self.moved_out(f"it carried {task.message.guid} to its end")
         self.context.navigator.cancel()
         self.task = None
         if verdict is _C.RELEASED:
@@ -85,12 +122,16 @@ class TaskCycle:
 
     def say_state_if_due(self, wall_s: float) -> None:
         """The state when it changed since last said, or every ``state_period_s`` of wall time."""
-        task = self.task
-        signature = (self.machine.state, task.message.task_id if task else None)
+        signature = self._signature()
         period_s = self.context.config.state_period_s
         if signature != self._last_state or wall_s - self._last_state_wall_s >= period_s:
             self.outbox.append(self.state_message(wall_s))
             self._last_state, self._last_state_wall_s = signature, wall_s
+
+    def _signature(self) -> tuple[RobotState, str | None, float | None]:
+        """What a state message says that, changed, is said at once."""
+        task = self.task
+        return (self.machine.state, task.message.task_id if task else None, self.walled_in_since_s)
 
     def take_outbox(self) -> list[Outgoing]:
         out, self.outbox = self.outbox, []

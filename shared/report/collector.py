@@ -19,7 +19,9 @@ component's ``curing`` (:mod:`.methods`); ``connections`` (neighbour → kind) a
 
 Per robot: ``type`` (its robot type, from physics' site info, ``SiteInfoMsg``; robots on site that never
 reported are listed too), ``busy_s``, ``tasks`` (``build``, or ``hand_off``: a ground robot carried it to
-a crane's staging spot) and ``distance_m`` (:mod:`.robots`).
+a crane's staging spot), ``distance_m``, ``built`` (its placements judged constructed), ``given_back`` (the
+give-backs that name it) and ``walled_in`` (:mod:`.robots`). ``totals.walled_in`` lists the robots that
+were walled in at some time.
 
 :func:`twin_messages` turns a component's twin (its agent's answer to ``components/<key>/twin``) back into
 the state changes it went through, for an observer that joined a run late;
@@ -90,7 +92,7 @@ from .placements import (
     placement_of,
     placement_totals,
 )
-from .robots import RobotTimeline, robot_entry
+from .robots import RobotTimeline, robot_entry, tasks_by_end
 from .totals import count_reasons, difference, dump_reason, makespan_window, scaled, totals_of
 
 REPORT_SCHEMA_VERSION = 1
@@ -133,6 +135,7 @@ class ComponentTimeline:
     misplaced_s: list[float] = field(default_factory=list)
     handed_off_s: list[float] = field(default_factory=list)  # put down at a crane's staging spot, each time
     give_backs: list[str] = field(default_factory=list)  # why a robot gave it back, each time
+    given_back_by: list[str | None] = field(default_factory=list)  # which robot, each time (None: unknown)
     attempts: int = 0
     state: ComponentState = ComponentState.PLANNED
     position_error_m: float | None = None  # of the last verdict (constructed or misplaced)
@@ -250,6 +253,7 @@ class ReportCollector:
             timeline.placements.append(placement)
         if msg.state == ComponentState.RELEASED and msg.event == ComponentEvent.ABANDON:
             timeline.give_backs.append(msg.reason.line() if msg.reason is not None else "given back")
+            timeline.given_back_by.append(msg.robot_id or (msg.reason.robot_id if msg.reason else None))
         if msg.state == ComponentState.RELEASED and msg.event == ComponentEvent.HAND_OFF:
             timeline.handed_off_s.append(t)
         if msg.state == ComponentState.RELEASED and timeline.released_s is None:
@@ -319,6 +323,7 @@ class ReportCollector:
                     "cycle_time_s": cycle,
                     "retries": timeline.retries,
                     "give_backs": list(timeline.give_backs),
+                    "given_back_by": list(timeline.given_back_by),
                     "misplaced_s": list(timeline.misplaced_s),
                     "handed_off_s": list(timeline.handed_off_s),
                     "attempts": timeline.attempts,
@@ -335,13 +340,21 @@ class ReportCollector:
                     **self.supports.entry(component.guid, end_s),
                 }
             )
+        built, given_back = tasks_by_end(components)
         robots = {
             robot_id: robot_entry(
-                robot, self.robot_type_of.get(robot_id), self.task_kinds, self.put_downs, end_s
+                robot,
+                self.robot_type_of.get(robot_id),
+                self.task_kinds,
+                self.put_downs,
+                end_s,
+                built=built.get(robot_id, 0),
+                given_back=given_back.get(robot_id, 0),
             )
             for robot_id, robot in sorted(self.robots.items())
         }
         totals = totals_of(components, robots)
+        totals["walled_in"] = [robot_id for robot_id, robot in robots.items() if robot["walled_in"]]
         totals["by_type"] = by_type(robots, makespan_window(components))
         totals["hand_off_tasks"] = sum(entry["hand_off_tasks"] for entry in totals["by_type"].values())
         totals["blocked"] = len(self.progress.blocked) if self.progress else 0

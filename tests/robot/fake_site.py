@@ -239,9 +239,13 @@ class FakeSite:
 
 
 def make_site(
-    manifest: Manifest, name: str | None = None, **config: object
+    manifest: Manifest,
+    name: str | None = None,
+    start_xy_yaw: tuple[float, float, float] | None = None,
+    **config: object,
 ) -> tuple[FakeSite, ComponentStateMsg, TaskMsg]:
-    """A site with one task for r1: the component called ``name`` (default: the first footing)."""
+    """A site with one task for r1: the component called ``name`` (default: the first footing); r1 stands
+    at ``start_xy_yaw`` (default: its depot start)."""
     layout = plan_site(manifest.components, robots=1)
     info = SiteInfoMsg(
         robot_ids=["r1"],
@@ -253,8 +257,9 @@ def make_site(
         robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
         layout=layout,
     )
-    executor = Executor(manifest, info, ExecutorConfig(robot_id="r1", **config))  # type: ignore[arg-type]
-    site = FakeSite(manifest, executor, np.array(layout.robot_starts[0], float))
+    config_ = ExecutorConfig(robot_id="r1", **config)  # type: ignore[arg-type]
+    executor = Executor(manifest, info, config_, start_xy_yaw=start_xy_yaw)
+    site = FakeSite(manifest, executor, np.array(start_xy_yaw or layout.robot_starts[0], float))
     component = next(
         c for c in manifest.components if (c.name == name if name else c.ifc_class == "IfcFooting")
     )

@@ -22,6 +22,7 @@ from bimbot.shared.occupancy_grid import from_footprints, inflate
 from bimbot.shared.reasons import ReasonCode
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.site_layout import plan_site
+from bimbot.shared.site_plan import Rect
 
 CONFIG = ApproachConfig(reach_m=1.5, body_clearance_m=0.75)
 
@@ -208,3 +209,22 @@ def test_within_reach_is_the_reach_rule_with_the_body_clear() -> None:
     assert not within_reach(wall, (10.0, 8.4), blocks_band=True, config=config), "1.5 m: beyond the margin"
     assert not within_reach(wall, (10.0, 9.5), blocks_band=True, config=config), "0.4 m: the body hits it"
     assert within_reach(wall, (10.0, 10.0), blocks_band=False, config=config), "under a beam is fine"
+
+
+def test_a_wall_on_the_structures_edge_is_set_from_outside_it_and_a_partition_inside_from_inside() -> None:
+    """A structure 10 m × 10 m (its floor flush, no obstacle) with a robot inside it: the wall on its east
+    edge is approached from outside the structure's footprint, though a stand-point inside is nearer the
+    robot; a partition in the middle, with no stand-point outside in reach, from inside."""
+    grid = from_footprints((-10.0, -10.0, 30.0, 30.0), 0.1, boxes_xy_m=[])
+    structure = Rect((0.0, 0.0), (10.0, 10.0))
+    edge_wall = _rect(9.82, 2.0, 9.92, 8.0, 3.0)
+    robot_xy = (5.0, 5.0)
+    kwargs = {"blocks_band": True, "config": CONFIG}
+    nearest = approach_pose(grid, edge_wall, robot_xy, **kwargs)
+    assert nearest is not None and nearest.x_m < 10.0, "without the rule: the side nearer the robot, inside"
+    outside = approach_pose(grid, edge_wall, robot_xy, outside_of=structure, **kwargs)
+    assert outside is not None and outside.x_m > 10.0, outside
+    assert outside.reach_distance_m <= CONFIG.reach_m - CONFIG.reach_margin_m + 1e-9
+    partition = _rect(4.95, 2.0, 5.05, 8.0, 3.0)
+    inside = approach_pose(grid, partition, robot_xy, outside_of=structure, **kwargs)
+    assert inside is not None and 0.0 < inside.x_m < 10.0, "no stand-point outside: one inside"

@@ -1,0 +1,73 @@
+"""A robot that says it is walled in (no way to its depot) gets no new task while another robot can take
+it, and tasks again once it says it can move; when no other robot can take a task, it still gets it (its
+give-backs are bounded, so the run still ends)."""
+
+from __future__ import annotations
+
+import itertools
+
+from planner_builders import portal_manifest, robot_msg, state_msg
+
+from bimbot.services.planner.capability import SiteRobot
+from bimbot.services.planner.scheduler import PlannerCore
+from bimbot.services.planner.sources import plan_from_sequence
+from bimbot.shared.fleet import default_fleet
+from bimbot.shared.messages import ComponentState, RobotState, RobotStateMsg
+from bimbot.shared.support_graph import derive_sequence
+
+S = ComponentState
+CARRIER = default_fleet().types["carrier"]
+FOOTINGS = ("foot_a", "foot_b", "foot_c")
+
+
+def _core(*robot_ids: str) -> PlannerCore:
+    """Carriers ``robot_ids``, the first beside the footings, the others far away (its bid would win)."""
+    manifest = portal_manifest()
+    plan = plan_from_sequence(derive_sequence(manifest.components), manifest.components, "test")
+    robots = [
+        SiteRobot(robot_id, CARRIER, (-40.0 * index, -5.0, 0.0)) for index, robot_id in enumerate(robot_ids)
+    ]
+    counter = itertools.count(1)
+    core = PlannerCore(manifest, plan, new_id=lambda: f"ev{next(counter)}", robots=robots, slots={})
+    for robot in robots:
+        core.robot_liveliness(robot.robot_id, True)
+        core.observe_robot_state(robot_msg(robot.robot_id, robot.home_xy_yaw[:2]))
+    return core
+
+
+def _walled_in(robot_id: str, since_s: float | None, sim_time_s: float) -> RobotStateMsg:
+    message = robot_msg(robot_id, (0.0, -5.0), sim_time_s=sim_time_s)
+    return message.model_copy(update={"walled_in_since_s": since_s})
+
+
+def _tasks_of(core: PlannerCore, robot_id: str) -> list[str]:
+    return [guid for guid in FOOTINGS if core.robot_of(guid) == robot_id]
+
+
+def _release(core: PlannerCore, *guids: str) -> None:
+    core.step(0.0)
+    for guid in guids:
+        core.observe_component_state(state_msg(guid, S.RELEASED, event="release"))
+
+
+def test_a_walled_in_robot_gets_no_task_another_can_take_and_gets_one_once_it_can_move() -> None:
+    core = _core("r1", "r2")
+    core.observe_robot_state(_walled_in("r1", since_s=5.0, sim_time_s=5.0))
+    _release(core, *FOOTINGS)
+    core.step(0.1)
+    assert _tasks_of(core, "r1") == [], "r1 is nearest, but walled in"
+    assert len(_tasks_of(core, "r2")) == 1  # the others wait for r2, busy now
+    core.observe_robot_state(robot_msg("r2", (0.0, -4.0), state=RobotState.PICK_UP, task_id="T"))
+    core.step(0.2)
+    assert _tasks_of(core, "r1") == [], "r2 can take them once free: r1 still gets none"
+    core.observe_robot_state(_walled_in("r1", since_s=None, sim_time_s=60.0))  # it drove out
+    core.step(0.3)
+    assert len(_tasks_of(core, "r1")) == 1
+
+
+def test_a_walled_in_robot_still_gets_a_task_no_other_robot_can_take() -> None:
+    core = _core("r1")
+    core.observe_robot_state(_walled_in("r1", since_s=5.0, sim_time_s=5.0))
+    _release(core, *FOOTINGS)
+    core.step(0.1)
+    assert len(_tasks_of(core, "r1")) == 1, "the only robot: its give-backs fail the component, bounded"

@@ -1,0 +1,89 @@
+"""A robot walled in says so in its state (since when, where it stands) from the give-back that found it, and
+says it no more once it has driven out to its depot; a robot that merely cannot drive is not walled in."""
+
+from __future__ import annotations
+
+import pytest
+from fake_site import DT, FakeSite, make_site
+from site_models import ROOM_CENTRE_M, ROOM_WALLS, build_site_model
+
+from bimbot.services.converter.convert import convert_model
+from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.messages import (
+    ComponentEvent,
+    ComponentPoseMsg,
+    ComponentState,
+    ComponentStateMsg,
+    PoseMsg,
+    RobotStateMsg,
+)
+from bimbot.shared.reasons import ReasonCode
+
+
+@pytest.fixture(scope="module")
+def room(tmp_path_factory: pytest.TempPathFactory) -> Manifest:
+    """The site model's frame and a room of four walls (no heavy footing)."""
+    folder = tmp_path_factory.mktemp("room")
+    model = build_site_model(heavy=None, room=True, furniture=False)
+    source = model.write(folder / "site.ifc")
+    convert_model(model.file, source, folder / "build")
+    return read_manifest(folder / "build")
+
+
+def _state(site: FakeSite) -> RobotStateMsg:
+    return site.executor.state_message(0.0)
+
+
+def _close_the_room(site: FakeSite, manifest: Manifest) -> None:
+    """The room's walls are constructed around the robot (their agents announce it)."""
+    for component in manifest.components:
+        if component.name in ROOM_WALLS:
+            site.states[component.guid] = ComponentState.CONSTRUCTED
+            site.executor.handle(
+                ComponentStateMsg(
+                    guid=component.guid,
+                    state=ComponentState.CONSTRUCTED,
+                    event="resume",
+                    sim_time_s=site.step * DT,
+                    wall_time_s=0.0,
+                )
+            )
+
+
+def _open_the_room(site: FakeSite, manifest: Manifest) -> None:
+    """Physics says the south wall now lies 30 m south of where it stood: the way out is open."""
+    wall = next(c for c in manifest.components if c.name == "Wall R-S")
+    x, y, z = wall.target_pose_world.position_m
+    pose = PoseMsg(position_m=(x, y - 30.0, z), quat_xyzw=wall.target_pose_world.quat_xyzw)
+    site.executor.handle(
+        ComponentPoseMsg(guid=wall.guid, pose=pose, sim_time_s=site.step * DT, fixed=True, joined=True)
+    )
+
+
+def test_a_robot_closed_in_by_walls_says_where_and_since_when_until_it_drives_out_to_its_depot(
+    room: Manifest,
+) -> None:
+    centre = (ROOM_CENTRE_M[0], ROOM_CENTRE_M[1], 0.0)
+    site, released, task = make_site(
+        room, "Column A1", start_xy_yaw=centre, park_after_s=2.0, park_retry_s=5.0
+    )
+    _close_the_room(site, room)
+    site.run(3)
+    assert _state(site).walled_in_since_s is None, "walled in, but it has not found out yet"
+    site.executor.handle(released)
+    site.executor.handle(task)
+    site.run(600, until=lambda s: ComponentEvent.ABANDON in s.applied and s.executor.task is None)
+    abandon = next(e for e in site.events if e.event is ComponentEvent.ABANDON)
+    assert abandon.reason is not None and abandon.reason.code is ReasonCode.ROBOT_TRAPPED, abandon.reason
+    state = _state(site)
+    assert state.walled_in_since_s == pytest.approx(abandon.sim_time_s, abs=DT)
+    x, y, _ = state.pose_xy_yaw
+    assert abs(x - ROOM_CENTRE_M[0]) < 1.5 and abs(y - ROOM_CENTRE_M[1]) < 1.5, state.pose_xy_yaw
+    site.run(200)  # its parking drives fail: still walled in, since the same time
+    assert _state(site).walled_in_since_s == state.walled_in_since_s
+    _open_the_room(site, room)
+    home = site.executor.home_xy_yaw
+    site.run(4000, until=lambda s: _state(s).walled_in_since_s is None)
+    out = _state(site)
+    assert out.walled_in_since_s is None, f"still walled in at {out.pose_xy_yaw} after {site.step * DT:.0f} s"
+    assert abs(out.pose_xy_yaw[0] - home[0]) < 0.5 and abs(out.pose_xy_yaw[1] - home[1]) < 0.5, "at its depot"
