@@ -96,7 +96,9 @@ class PlannerOptions:
     progress_interval_s: float = 1.0  # progress is published at least this often (wall seconds)
     twin_timeout_s: float = 5.0  # wall seconds for the start-up twin query
     poll_s: float = 0.05  # longest wait for bus input per loop turn
-    site_info_timeout_s: float = 30.0  # wall seconds to wait for physics' site info (robot types, site)
+    # wall seconds to wait for physics' site info (robot types, site): loading a large model on a busy machine
+    # takes physics minutes, and without it the planner cannot tell what each robot can build
+    site_info_timeout_s: float = 300.0
     strict: bool = False  # a sequence step that cuts off later work is an error, not a warning
     skip_quiet: bool = True  # ask physics to skip its clock over a quiet site (curing, timed work)
     # a lock-step participant (physics waits for its answer to each step: bimbot run's --step-with):
