@@ -1,8 +1,9 @@
 """Any service may die mid-build: ``bimbot run`` restarts it and the build completes, nothing done twice.
 
-A generated 2×2 frame (12 components, one robot) is built by ``bimbot run`` as a process; while it builds,
+A generated 3×1 frame (8 components, one robot) is built by ``bimbot run`` as a process; while it builds,
 the test SIGKILLs each service once, in turn — physics, the robot, the agents, the planner and the bus
-router — each when a few more components are constructed and the one killed before is running again.
+router — each when one more component is constructed and the one killed before is running again (three
+components are left to build with every service restarted).
 Then: the run ends by itself with every component constructed and exit 0; its report lists the five
 deaths, each restarted; the agents' journal holds exactly one ``constructed`` transition per component
 (nothing was built twice); the as-built audit finds every component at its BIM target in physics
@@ -35,9 +36,10 @@ pytestmark = pytest.mark.integration
 
 RUN_TIMEOUT_S = 600
 KILLS = ("physics", "robot", "agents", "planner", "bus")  # the `bimbot <command>` of each victim
-# constructed components before the first kill, and between kills: the last kill (after 9 of 12) leaves
-# three beams, minutes of sim time (a restart takes seconds; this process reads the journal every 50 ms)
-FIRST_KILL_AT, KILL_EVERY = 1, 2
+# constructed components before the first kill, and between kills: the last kill (after 5 of 8) leaves a
+# column and two beams, minutes of sim time (a restart takes seconds; this process reads the journal every
+# 50 ms)
+FIRST_KILL_AT, KILL_EVERY = 1, 1
 
 
 def _children(pid: int) -> dict[str, int]:
@@ -79,15 +81,15 @@ def _constructions(run: RunFolder) -> Counter[str]:
 
 
 @pytest.fixture(scope="module")
-def frame_2x2(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """12 components: the last kill (after 9) leaves three to build with every service restarted."""
-    return convert_small_frame(tmp_path_factory.mktemp("chaos_frame"), (2, 2))
+def frame_3x1(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """8 components: the last kill (after 5) leaves three to build with every service restarted."""
+    return convert_small_frame(tmp_path_factory.mktemp("chaos_frame"), (3, 1))
 
 
 def test_every_service_killed_once_mid_build_the_build_completes_once(
-    frame_2x2: Path, tmp_path: Path
+    frame_3x1: Path, tmp_path: Path
 ) -> None:
-    build = frame_2x2
+    build = frame_3x1
     run = RunFolder(tmp_path / "run")
     command = [sys.executable, "-m", "bimbot.cli", "run", str(build), "-q", "--run-dir", str(run.root)]
     command += ["--fleet", str(ground_fleet_file(tmp_path))]  # one process per kind: the one robot dies too

@@ -3,11 +3,13 @@ killed mid-build.
 
 Two routers on loopback, the second connected to the first; physics, the planner and agent shard 1/2 are
 clients of the first, the robot and shard 2/2 clients of the second, so every message between the two
-halves crosses the routers' link (a client talks to its router only). While a generated 2×2 frame builds,
-the test SIGKILLs the second router (the robot's and half the agents' only way to the site), then, once
+halves crosses the routers' link (a client talks to its router only). While a generated 3×1 frame builds
+(8 components; shard 2/2 owns Footing A3, built between the two kills, and Beam A2-A3, built last), the
+test SIGKILLs the second router (the robot's and half the agents' only way to the site), then, once
 ``bimbot run`` has restarted it and more components are built, the first. The run ends by itself with
-every component constructed, exit 0, both deaths restarted in its report, each component built once, and
-no lock-step wait ran out its bound (a router's restart cost its own start-up and the reconnections).
+every component constructed, exit 0, both deaths restarted in its report, each component built once (in
+both shards' journals), and no lock-step wait ran out its bound (a router's restart cost its own start-up
+and the reconnections).
 """
 
 from __future__ import annotations
@@ -34,7 +36,8 @@ pytestmark = pytest.mark.integration
 
 RUN_TIMEOUT_S = 600
 KILLS = ("bus-2", "bus")  # the second router first: the robot and shard 2/2 lose the site
-FIRST_KILL_AT, KILL_EVERY = 2, 3  # constructed components before the first kill, and between kills
+# constructed components before the first kill, and between kills: the last (after 5 of 8) leaves three
+FIRST_KILL_AT, KILL_EVERY = 2, 3
 
 
 def _routers(pid: int) -> dict[str, tuple[int, list[str]]]:
@@ -61,10 +64,10 @@ def _routers(pid: int) -> dict[str, tuple[int, list[str]]]:
     return found
 
 
-def _constructions(run: RunFolder) -> Counter[str]:
-    """How often each component went to ``constructed``, over both shards' journals."""
+def _constructions(run: RunFolder, shards: tuple[int, ...] = (1, 2)) -> Counter[str]:
+    """How often each component went to ``constructed``, over these shards' journals (default both)."""
     counts: Counter[str] = Counter()
-    for shard in (1, 2):
+    for shard in shards:
         path = journal_path(run.state_dir, shard, 2)
         if path.exists():
             counts.update(
@@ -77,7 +80,7 @@ def _constructions(run: RunFolder) -> Counter[str]:
 
 
 def test_two_routers_each_killed_mid_build_the_site_still_builds(tmp_path: Path) -> None:
-    build = convert_small_frame(tmp_path / "frame", (2, 2))
+    build = convert_small_frame(tmp_path / "frame", (3, 1))
     run = RunFolder(tmp_path / "run")
     command = [sys.executable, "-m", "bimbot.cli", "run", str(build), "-q", "--run-dir", str(run.root)]
     command += ["--fleet", str(ground_fleet_file(tmp_path))]  # the one robot: no idle crane, pump or layer
@@ -120,4 +123,5 @@ def test_two_routers_each_killed_mid_build_the_site_still_builds(tmp_path: Path)
     assert all(record["restarted_wall_s"] is not None for record in deaths.values()), detail
     constructions = _constructions(run)
     assert len(constructions) == total and set(constructions.values()) == {1}, constructions
+    assert all(_constructions(run, (shard,)) for shard in (1, 2)), "both shards' agents built"
     assert waits_that_ran_out(run.logs_dir) == []
