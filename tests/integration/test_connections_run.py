@@ -1,7 +1,9 @@
 """Connections as on site and temporary supports, over the bus: columns on base plates and anchor bolts over
 cast pads (bolted bases), a beam framed between their tops (pinned ends), a precast wall panel on a strip
 footing in place (grouted, on two props until its grout has set) and a plank bearing on the beam and the
-panel (friction only). Real processes on a loopback bus, real pybullet; the clock skips the pads' cure."""
+panel (friction only). Real processes on a loopback bus, real pybullet; the clock skips the pads' cure.
+The fleet is the default fleet's carrier, tower crane and concrete pump, the machines this site needs
+(its Husky and block layer, idle here, would each be a process answering every lock-step step)."""
 
 from __future__ import annotations
 
@@ -12,6 +14,7 @@ from pathlib import Path
 
 import pytest
 from connections_model import write_connections_model
+from fleets import fleet_file
 from wall_clock import bound_s
 
 from bimbot.shared.methods_file import load_methods
@@ -35,9 +38,11 @@ def test_members_are_connected_as_on_site_and_the_panel_stands_on_props_until_it
     converted = _bimbot("convert", str(ifc), "-o", str(build), "--in-place", "foundations", "--no-progress")
     assert converted.returncode == 0, converted.stderr[-3000:]
     run = RunFolder(tmp_path / "run")
+    fleet = fleet_file(tmp_path, {"carrier": 1, "tower_crane": 1, "concrete_pump": 1})
     result = _bimbot(
-        "run", str(build), "--run-dir", str(run.root), "--timeout-s", f"{bound_s(RUN_TIMEOUT_S) - 60:.0f}"
-    )
+        "run", str(build), "--run-dir", str(run.root), "--fleet", str(fleet),
+        "--timeout-s", f"{bound_s(RUN_TIMEOUT_S) - 60:.0f}",
+    )  # fmt: skip
     detail = f"{result.stdout}\n{result.stderr[-3000:]}"
     assert result.returncode == 0, detail
     assert "constructed 7/7 components" in result.stdout, detail
