@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 from fleets import ground_fleet_file
+from frames import convert_small_frame
 from wall_clock import bound_s
 
 from bimbot.shared.fleet import default_fleet
@@ -41,20 +42,9 @@ def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
     )
 
 
-def _frame(folder: Path, bays: str) -> Path:
-    ifc = folder / "frame.ifc"
-    for args in (
-        ("sample", "light-steel-frame", "-o", str(ifc), "--bays", bays),
-        ("convert", str(ifc), "-o", str(folder / "build"), "--no-progress"),
-    ):
-        result = _bimbot(*args)
-        assert result.returncode == 0, result.stderr[-2000:]
-    return folder / "build"
-
-
 @pytest.fixture(scope="module")
 def two_by_one(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return _frame(tmp_path_factory.mktemp("frame_2x1"), "2x1")
+    return convert_small_frame(tmp_path_factory.mktemp("frame_2x1"), (2, 1))
 
 
 def _copy(build: Path, tmp_path: Path) -> Path:
@@ -128,9 +118,9 @@ def test_a_column_set_before_its_footing_drops_into_the_open_pit(two_by_one: Pat
 
 
 def test_a_robot_type_with_a_poor_hand_misses_the_agents_catch_it_and_the_retries_fix_it(
-    tmp_path_factory: pytest.TempPathFactory, tmp_path: Path
+    tmp_path: Path,
 ) -> None:
-    build = _copy(_frame(tmp_path_factory.mktemp("frame_2x2"), "2x2"), tmp_path)
+    build = convert_small_frame(tmp_path / "frame_2x2", (2, 2))
     fleet_file = tmp_path / "poor_hands.toml"
     fleet = default_fleet()
     carrier = fleet.types["carrier"]

@@ -23,6 +23,8 @@ import warnings
 from pathlib import Path
 
 import pytest
+from fleets import ground_fleet_file
+from frames import convert_small_frame
 
 from bimbot.run.outcome import differences, outcome
 
@@ -43,22 +45,12 @@ def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
 @pytest.fixture(scope="module")
 def frame(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("reproducible")
-    ifc = folder / "frame.ifc"
-    for args in (
-        ("sample", "light-steel-frame", "-o", str(ifc), "--bays", "2x1"),
-        ("convert", str(ifc), "-o", str(folder / "build"), "--no-progress"),
-    ):
-        result = _bimbot(*args)
-        assert result.returncode == 0, result.stderr[-2000:]
-    shown = _bimbot("fleet", "show")
-    assert shown.returncode == 0, shown.stderr[-2000:]
-    types = shown.stdout.split("\n[[robots]]")[0]  # the default fleet's types, three carriers on site
-    (folder / "carriers.toml").write_text(f'{types}\n[[robots]]\ntype = "carrier"\ncount = 3\n')
-    return folder / "build"
+    ground_fleet_file(folder, count=3)  # the default fleet's types, three carriers on site
+    return convert_small_frame(folder, (2, 1))
 
 
 def _run(build: Path, run_dir: Path) -> dict:
-    fleet = build.parent / "carriers.toml"
+    fleet = build.parent / "ground_fleet.toml"
     options = ("--fleet", str(fleet), "--derive", "--seed", "1", "--timeout-s", str(RUN_TIMEOUT_S - 90), "-q")
     result = _bimbot("run", str(build), "--run-dir", str(run_dir), *options)
     assert result.returncode == 0, f"run failed:\n{result.stdout}\n{result.stderr[-2000:]}"

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from frames import convert_small_frame
 from wall_clock import bound_s
 
 from bimbot.shared.construction_methods import CastWork, ConstructionMethod, MethodSource
@@ -67,9 +68,7 @@ def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
 def test_cast_footings_are_poured_by_the_machine_that_can_pour_and_cure_before_the_columns(
     tmp_path: Path,
 ) -> None:
-    ifc, build = tmp_path / "frame.ifc", tmp_path / "build"
-    assert _bimbot("sample", "light-steel-frame", "-o", str(ifc), "--bays", "2x1").returncode == 0
-    assert _bimbot("convert", str(ifc), "-o", str(build), "--no-progress").returncode == 0
+    build = convert_small_frame(tmp_path, (2, 1))
     manifest = read_manifest(build)
     cast = CastWork(formwork_area_m2=4.0, volume_m3=1.0, formwork_s=FORMWORK_S, pour_s=POUR_S, cure_s=CURE_S)
     footings = {c.guid for c in manifest.components if c.ifc_class == "IfcFooting"}
