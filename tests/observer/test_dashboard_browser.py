@@ -178,15 +178,18 @@ def _answers(url: str) -> bool:
 
 def drawn_fraction(png: Path, box: tuple[float, float, float, float] = VIEW_BOX) -> float:
     """The share of the box's pixels that differ from its most common colour (its background) by more
-    than 40 in the sum of their RGB channels."""
+    than 40 in the sum of their RGB channels. The colours are counted as one integer each (0xRRGGBB, in
+    the same order as the RGB rows): a tenth of the time of counting rows, on a 1600×1000 screenshot."""
     pixels = np.asarray(Image.open(png).convert("RGB"), dtype=np.int32)
     height, width, _ = pixels.shape
     left, top, right, bottom = box
     region = pixels[int(top * height) : int(bottom * height), int(left * width) : int(right * width)].reshape(
         -1, 3
     )
-    colours, counts = np.unique(region, axis=0, return_counts=True)
-    background = colours[counts.argmax()]
+    packed = (region[:, 0] << 16) | (region[:, 1] << 8) | region[:, 2]
+    colours, counts = np.unique(packed, return_counts=True)
+    top_colour = int(colours[counts.argmax()])
+    background = np.array([top_colour >> 16, (top_colour >> 8) & 0xFF, top_colour & 0xFF], dtype=np.int32)
     return float((np.abs(region - background).sum(axis=1) > 40).mean())
 
 
@@ -209,8 +212,8 @@ def test_a_blank_page_counts_as_blank(tmp_path: Path) -> None:
 def test_the_recording_draws_the_site_in_the_3d_view_of_a_real_browser(served: str, tmp_path: Path) -> None:
     assert missing_programs() == [], "not installed (scripts/setup.sh --tests installs them)"
 
-    def drawn(png: Path) -> bool:
-        return drawn_fraction(png) >= MIN_DRAWN and laying_pixels(png) >= MIN_LAYING_PIXELS
+    def drawn(png: Path) -> bool:  # the cheap check first: until the viewer draws, it alone decides
+        return laying_pixels(png) >= MIN_LAYING_PIXELS and drawn_fraction(png) >= MIN_DRAWN
 
     shot = shoot_until(
         served, tmp_path / "dashboard.png", drawn, port=free_port(), timeout_s=bound_s(DRAW_BOUND_S)
