@@ -1,4 +1,5 @@
-"""Proxies whose classification names them as what IFC leaves out of a building: equipment, services, plants.
+"""Proxies whose classification names them as what IFC leaves out of a building: equipment, services, plants,
+and entourage.
 
 Why: an authoring tool exports a family with no IFC class of its own as ``IfcBuildingElementProxy``. Revit
 does so with kitchen equipment, sinks and urinals, and trees; it keeps their UniFormat code in the type's
@@ -8,6 +9,11 @@ geographic elements, which the converter leaves out by default (:mod:`.selection
 their vendor or trade once the building stands, not built by its robots. A proxy whose UniFormat code
 says so is left out the same way. Read: ``IfcClassificationReference``\\ s of a UniFormat classification
 (the element's, then its type's), then an "Assembly Code" property (Revit's).
+
+Entourage too: the people, cars and plants an architect places for renderings are no part of the building.
+Revit draws them with ArchVision's RPC content and exports them as proxies whose "Render Appearance"
+property names the RPC item (``RPC-8-…``; the restaurant's "RPC Male" and "RPC Female" figures, flat
+billboards of no volume). A proxy with such an appearance and no UniFormat code is left out as entourage.
 """
 
 from __future__ import annotations
@@ -28,16 +34,26 @@ LEFT_OUT_GROUPS: tuple[tuple[str, str], ...] = (
 UNIFORMAT_CODE = re.compile(r"^[A-G]\d{0,8}$")
 CODE_PROPERTY = "Assembly Code"  # Revit's UniFormat code of a type
 DESCRIPTION_PROPERTY = "Assembly Description"
+RENDER_PROPERTY = "Render Appearance"  # Revit's render appearance of a type: an RPC item's id for entourage
+RPC_ITEM = re.compile(r"^RPC-[0-9A-Z]+(-[0-9A-Z]+)*$", re.IGNORECASE)
 
 
 def proxy_trade(element: ifcopenshell.entity_instance) -> str | None:
-    """For a proxy classified in a group of :data:`LEFT_OUT_GROUPS`, the reason it is left out (a
-    :mod:`.selection` reason: its head is "not a building element (…)"); None for anything else."""
+    """For a proxy classified in a group of :data:`LEFT_OUT_GROUPS`, or unclassified and rendered as RPC
+    entourage, the reason it is left out (a :mod:`.selection` reason: its head is "not a building element
+    (…)"); None for anything else."""
     if not element.is_a("IfcBuildingElementProxy"):
         return None
     found = uniformat_code(element)
     if found is None:
-        return None
+        rpc = rpc_item(element)
+        if rpc is None:
+            return None
+        return (
+            f"not a building element (entourage); rendered as {rpc} of ArchVision's RPC content, a person, "
+            "vehicle or plant drawn for renderings, not built by the robots; --include "
+            "IfcBuildingElementProxy to build it"
+        )
     code, description = found
     what = next((kind for group, kind in LEFT_OUT_GROUPS if code.startswith(group)), None)
     if what is None:
@@ -60,6 +76,16 @@ def uniformat_code(element: ifcopenshell.entity_instance) -> tuple[str, str] | N
     code, description = _assembly_code(element)
     if code and UNIFORMAT_CODE.match(code):
         return code, description
+    return None
+
+
+def rpc_item(element: ifcopenshell.entity_instance) -> str | None:
+    """The RPC item an entourage proxy is rendered as (its "Render Appearance", element's or type's), or
+    None."""
+    for properties in ifcopenshell.util.element.get_psets(element, psets_only=True).values():
+        value = str(properties.get(RENDER_PROPERTY) or "").strip()
+        if RPC_ITEM.match(value):
+            return value
     return None
 
 

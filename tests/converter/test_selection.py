@@ -159,6 +159,32 @@ def test_a_proxy_classified_as_equipment_or_planting_is_left_out_as_its_own_clas
     assert len(included.elements) == 5
 
 
+def test_an_rpc_person_is_entourage_left_out_and_a_proxy_with_another_appearance_is_built() -> None:
+    """The Revit restaurant's "RPC Male" and "RPC Female" figures are proxies with no classification whose
+    render appearance is an ArchVision RPC item: people drawn for renderings, not building elements."""
+    small = new_model("IFC2X3")
+    person = _element(small, "IfcBuildingElementProxy", "RPC Male:Alex:Alex:447066")
+    add_pset(
+        small,
+        [person],
+        "PSet_Revit_Type_Identity Data",
+        {"Render Appearance": "RPC-8-X9C2-NGU9-LXF5-4", "Assembly Code": ""},
+    )
+    bench = _element(small, "IfcBuildingElementProxy", "Bench", x_m=2.0)
+    appearance = {"Render Appearance": "Concrete - Cast-in-Place"}
+    add_pset(small, [bench], "PSet_Revit_Type_Identity Data", appearance)
+    selection = select_elements(small.file)
+    assert [element.Name for element in selection.elements] == ["Bench"]
+    (rejected,) = selection.rejected
+    assert rejected.reason == (
+        "not a building element (entourage); rendered as RPC-8-X9C2-NGU9-LXF5-4 of ArchVision's RPC content, "
+        "a person, vehicle or plant drawn for renderings, not built by the robots; --include "
+        "IfcBuildingElementProxy to build it"
+    )
+    assert reason_head(rejected.reason) == "not a building element (entourage)"
+    assert len(select_elements(small.file, include=("IfcBuildingElementProxy",)).elements) == 2
+
+
 @pytest.mark.parametrize("schema", SCHEMAS)
 def test_an_aggregate_whose_parts_are_built_is_left_out_once_with_the_count(schema: str) -> None:
     small = new_model(schema)
