@@ -14,7 +14,8 @@ Methods:
 ``panelised``     a panel cut from an element too heavy or too large to lift or transport whole; each
                   panel is lifted; the element counts as built when all its panels are
 ``cast_in_place`` formwork, pour and cure: a timed task of a concrete crew; it appears at its BIM pose when
-                  poured, and what rests on it waits for its curing
+                  poured, and what rests on it waits for its curing; an element larger than one day's
+                  pour is poured in bays, each a component, built when all its bays are
 ``laid``          masonry built course by course by a block-laying robot standing within its boom's reach
 ``with_host``     a fastener, anchor, embed or shop-welded plate: built into its host (cast into the
                   footing, carried with the column), never a task of its own
@@ -89,12 +90,14 @@ class PanelJoint(BaseModel):
     length_m: float = Field(ge=0)
     kind: str = Field(
         description="vertical (wall panels side by side), horizontal (stacked at a storey), longitudinal "
-        "(slab planks side by side) or transverse (rows of planks end to end)"
+        "(slab planks side by side), transverse (rows of planks end to end) or construction (between two "
+        "bays of a pour)"
     )
 
 
 class PanelisedElement(BaseModel):
-    """An element split into precast panels: the element itself and the components cut from it."""
+    """An element split into parts, each a component: precast panels (``panelised``), or bays poured one a
+    day (``cast_in_place``: a slab too large for one day's pour). The element is built when all are."""
 
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
@@ -102,7 +105,10 @@ class PanelisedElement(BaseModel):
     ifc_class: str
     name: str | None = None
     mass_kg: float = Field(gt=0)
-    panel_guids: tuple[str, ...] = Field(min_length=1)
+    method: ConstructionMethod = Field(
+        default=ConstructionMethod.PANELISED, description="its parts': panelised or cast_in_place (bays)"
+    )
+    panel_guids: tuple[str, ...] = Field(min_length=1, description="its parts, panels or bays")
     joints: tuple[PanelJoint, ...] = ()
     why: str = Field(description="the sentence with the numbers: why it was split")
 

@@ -22,7 +22,7 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from .connection_kinds import ConnectionTimes, TemporarySupportRules
 from .construction_methods import ConstructionMethod
@@ -114,6 +114,9 @@ class CastInPlace(_Frozen):
     pour_m3_per_h: float = Field(gt=0)
     pour_setup_h: float = Field(ge=0)
     cure_h: float = Field(ge=0)
+    pour_day_h: float = Field(
+        default=8.0, gt=0, le=24, description="one day's pour: a larger element is poured in bays"
+    )
     by_class: dict[str, CastRates] = {}
 
     @field_validator("by_class")
@@ -123,6 +126,19 @@ class CastInPlace(_Frozen):
             if not _CLASS_AND_TYPE.match(name):
                 raise ValueError(f"{name!r} is not an IFC class name, or a class and a predefined type")
         return value
+
+    @model_validator(mode="after")
+    def _day_longer_than_setup(self) -> CastInPlace:
+        setups = [self.pour_setup_h, *(r.pour_setup_h for r in self.by_class.values() if r.pour_setup_h)]
+        if max(setups) >= self.pour_day_h:
+            raise ValueError(f"pour_day_h ({self.pour_day_h:g} h) must be longer than every pour_setup_h")
+        return self
+
+    def day_pour_m3(self, class_key: str | None) -> float:
+        """What one day's pour places for the ``by_class`` key an element matched: the day less the pour's
+        setup, at the pour rate (a larger element is poured in bays)."""
+        _, pour_m3_per_h, setup_h, _ = self.rates(class_key)
+        return (self.pour_day_h - setup_h) * pour_m3_per_h
 
     def rates(self, class_key: str | None) -> tuple[float, float, float, float]:
         """(formwork m²/h, pour m³/h, pour setup h, cure h) for the ``by_class`` key an element matched."""

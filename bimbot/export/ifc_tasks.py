@@ -29,6 +29,7 @@ import ifcopenshell.api.sequence
 
 from bimbot.export.sim_schedule import ComponentWork, SimSchedule, Step
 from bimbot.export.work_time import WorkWeek
+from bimbot.shared.construction_methods import ConstructionMethod
 
 Clock = Callable[[float], dt.datetime]  # sim seconds → the site's date and time
 EVERY_DAY = WorkWeek(frozenset(range(7)), ((dt.time(0, 0), dt.time(23, 59, 59)),))
@@ -181,7 +182,9 @@ def _element_task(
     task = written.element_tasks.get(work.parent_guid)
     if task is None:
         name = element_names.get(work.parent_guid, work.parent_guid)
-        task = _task(model, written, f"Erect {name} (precast panels)", work.parent_guid, None)
+        bays = work.method is ConstructionMethod.CAST_IN_PLACE
+        title = f"Cast {name} (in bays)" if bays else f"Erect {name} (precast panels)"
+        task = _task(model, written, title, work.parent_guid, None)
         written.element_tasks[work.parent_guid] = task
         if work.parent_guid in products:
             ifcopenshell.api.sequence.assign_product(

@@ -1,4 +1,4 @@
-"""Write one element as its components: whole, or as the precast panels it is split into.
+"""Write one element as its components: whole, as the precast panels it is split into, or as its bays.
 
 Once the element's mass is known, its settled method (:func:`.component_methods.settled_method`) says
 whether it is panelised. A panelised element is cut by :mod:`.panelise` and each panel becomes a component of
@@ -9,13 +9,20 @@ collision parts (the converter's mesh decomposition of the panel) and mesh files
 frame has the element's axes, its origin at the centre of the panel's bounding box. The element gets one
 :class:`PanelisedElement` entry (its panels, the joints between them, why it was split) and is no component
 itself. An element that cannot be cut within the limits stays whole and is lifted, with a warning saying why.
+
+An element cast in place whose volume is more than one day's pour (the methods file's
+``CastInPlace.day_pour_m3`` for its rates class) is poured in bays (:mod:`.bays`), written the same way:
+``"<element> bay i/n"``, method ``cast_in_place``, each with its own :class:`CastWork` (its formwork
+includes the stop ends at its construction joints). One that cannot be cut so is poured whole, with a
+warning.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import uuid
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import ifcopenshell
 import ifcopenshell.guid
@@ -32,8 +39,10 @@ from bimbot.shared.identifiers import guid_to_folder
 from bimbot.shared.manifest import Component
 
 from . import mass as mass_chain
+from .bays import split_into_bays
+from .cast_work import cast_work, rates_class
 from .collision import collision_from_mesh
-from .component_methods import element_limits, settled_method
+from .component_methods import element_limits, settled_method, target_in_ground
 from .component_writer import (
     EntryParts,
     GeometryWork,
@@ -46,7 +55,7 @@ from .component_writer import (
 from .mass_properties import mass_properties
 from .mesh import TriMesh
 from .mesh_files import write_geometry_files
-from .panelise import PanelisationError, PanelLimits, panel_kind, panelise
+from .panelise import Panelisation, PanelisationError, PanelLimits, panel_kind, panelise
 from .sdf_writer import ModelSpec
 
 _log = logging.getLogger(__name__)
@@ -78,6 +87,13 @@ def write_element(
     mass = element_mass(item, work, context)
     decision = settled_method(item, work, mass.mass_kg, context)
     warnings: tuple[str, ...] = ()
+    day_m3 = day_pour_m3(item, context)
+    if decision.method is ConstructionMethod.CAST_IN_PLACE and work.props.volume_m3 > day_m3:
+        try:
+            return write_bays(item, work, context, mass, decision)
+        except PanelisationError as error:
+            _log.info("%s %s not poured in bays: %s", element.is_a(), guid, error)
+            warnings = (f"poured whole, not in bays: {error}",)
     if decision.method is ConstructionMethod.PANELISED:
         try:
             return write_panels(item, work, context, mass, decision)
@@ -117,9 +133,66 @@ def write_panels(
     cut = panelise(
         work.mesh, kind, mass.mass_kg, limits, rotation=item.rotation, levels_m=levels, reason=decision.note
     )
+    return _write_parts(item, context, mass, cut, decision, method=ConstructionMethod.PANELISED)
+
+
+def day_pour_m3(item: PlacedElement, context: ShardContext) -> float:
+    """What one day's pour places for ``item`` (its rates class's; infinite without a methods file)."""
+    if context.methods is None:
+        return math.inf
+    rates = context.methods.cast_in_place
+    return rates.day_pour_m3(rates_class(item.element, rates))
+
+
+def write_bays(
+    item: PlacedElement,
+    work: GeometryWork,
+    context: ShardContext,
+    mass: mass_chain.MassResult,
+    decision: MethodDecision,
+) -> WrittenElement:
+    """Cut ``item``, cast in place, into bays of one day's pour and write each as a component (see the
+    module); PanelisationError when it cannot be cut so."""
+    day_m3 = day_pour_m3(item, context)
+    cut = split_into_bays(work.mesh, mass.mass_kg, day_m3, rotation=item.rotation)
+    assert context.methods is not None  # day_pour_m3 is finite
+    rates = context.methods.cast_in_place
+    hours = rates.pour_day_h - rates.rates(rates_class(item.element, rates))[2]
+    why = (
+        f"{work.props.volume_m3:,.1f} m³, more than one day's pour of {day_m3:,.0f} m³ ({hours:g} h of "
+        f"pouring): {cut.why}"
+    )
+    cut = replace(cut, why=why)
+    note = f"{decision.note}; {why}" if decision.note else why
+    return _write_parts(
+        item,
+        context,
+        mass,
+        cut,
+        decision.model_copy(update={"note": note}),
+        method=ConstructionMethod.CAST_IN_PLACE,
+        in_ground=target_in_ground(item, context),
+    )
+
+
+def _write_parts(
+    item: PlacedElement,
+    context: ShardContext,
+    mass: mass_chain.MassResult,
+    cut: Panelisation,
+    decision: MethodDecision,
+    *,
+    method: ConstructionMethod,
+    in_ground: bool = False,
+) -> WrittenElement:
+    """Each part of ``cut`` (panels, or bays when ``method`` is cast in place) as a component of its own,
+    and the element's :class:`PanelisedElement` entry."""
+    element = item.element
+    parent_guid = str(element.GlobalId)
     count = len(cut.panels)
     guids = [panel_guid(parent_guid, index) for index in range(count)]
     label = element.Name or element.is_a()
+    part = "bay" if method is ConstructionMethod.CAST_IN_PLACE else "panel"
     written = WrittenElement()
     for index, (mesh, mass_kg) in enumerate(zip(cut.panels, cut.masses_kg, strict=True)):
         centre = mesh.bounds.mean(axis=0)
@@ -133,11 +206,17 @@ def write_panels(
         notes = list(mass.warnings) if index == 0 else []  # the element's mass notes, once
         if collision.note:
             notes.append(collision.note)
+        cast = None
+        if method is ConstructionMethod.CAST_IN_PLACE and context.methods is not None:
+            volume_m3 = cut.volumes_m3[index]
+            cast = cast_work(
+                element, local, item.rotation, volume_m3, context.methods.cast_in_place, in_ground=in_ground
+            )
         component, spec = write_entry(
             element,
             EntryParts(
                 guid=guids[index],
-                name=f"{label} panel {index + 1}/{count}",
+                name=f"{label} {part} {index + 1}/{count}",
                 rotation=item.rotation,
                 translation_m=translation,
                 bbox_ifc_world_m=bbox,
@@ -148,10 +227,11 @@ def write_panels(
                 files=files,
                 warnings=notes,
                 extra={
-                    "method": ConstructionMethod.PANELISED,
+                    "method": method,
                     "method_source": decision.source,
-                    "method_note": cut.why,
+                    "method_note": decision.note if cast is not None else cut.why,
                     "parent_guid": parent_guid,
+                    "cast": cast,
                 },
             ),
             context,
@@ -164,6 +244,7 @@ def write_panels(
         ifc_class=element.is_a(),
         name=element.Name,
         mass_kg=mass.mass_kg,
+        method=method,
         panel_guids=tuple(guids),
         joints=tuple(
             PanelJoint(

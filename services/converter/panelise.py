@@ -145,15 +145,9 @@ def panelise(
     limits alone do not ask for it (a decision's note)."""
     rotation = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
     local = as_trimesh_lite(mesh)
-    frame = _cut_frame(local.vertices, rotation)
+    frame = cut_frame(local.vertices, rotation)
     vertices = local.vertices @ frame.T  # x: length (walls) or across the span (slabs), z: up
-    solid = manifold3d.Manifold(
-        manifold3d.Mesh64(
-            vert_properties=np.ascontiguousarray(vertices), tri_verts=local.faces.astype(np.uint64)
-        )
-    )
-    if solid.status() != manifold3d.Error.NoError or solid.is_empty() or not solid.volume() > 0:
-        raise PanelisationError("its mesh is not a closed solid, so it cannot be cut into panels")
+    solid = closed_solid(vertices, local.faces, "panels")
     low, high = vertices.min(axis=0), vertices.max(axis=0)
     size = high - low
     fits_whole = mass_kg <= limits.max_mass_kg and limits.fits(size)
@@ -162,7 +156,7 @@ def panelise(
     rows = (
         planner.row_levels(levels_m) if kind is PanelKind.WALL else planner.span_rows(max(limits.transport_m))
     )
-    row_volumes = [piece.volume() for piece in _split(solid, planner.row_normal, rows)]
+    row_volumes = [piece.volume() for piece in split_by_planes(solid, planner.row_normal, rows)]
     heaviest_row_kg = mass_kg * max(row_volumes) / sum(row_volumes)
     counts = _panel_counts(kind, float(size[0]), heaviest_row_kg, limits)
     best: tuple[float, str] | None = None
@@ -235,7 +229,17 @@ def _no_cut(
     return f"{what}: no cutting into {kind.value} panels keeps each within {limits.describe()}{tried}"
 
 
-def _cut_frame(vertices_local: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+def closed_solid(vertices: np.ndarray, faces: np.ndarray, what: str) -> manifold3d.Manifold:
+    """The mesh as a manifold3d solid; PanelisationError when it is not closed (``what``: it is cut into)."""
+    solid = manifold3d.Manifold(
+        manifold3d.Mesh64(vert_properties=np.ascontiguousarray(vertices), tri_verts=faces.astype(np.uint64))
+    )
+    if solid.status() != manifold3d.Error.NoError or solid.is_empty() or not solid.volume() > 0:
+        raise PanelisationError(f"its mesh is not a closed solid, so it cannot be cut into {what}")
+    return solid
+
+
+def cut_frame(vertices_local: np.ndarray, rotation: np.ndarray) -> np.ndarray:
     """Rotation element frame → cut frame: z world up, x along the long side of the plan's smallest
     enclosing rectangle (2D oriented bounding box over the plan's convex hull edges)."""
     plan = (vertices_local @ rotation.T)[:, :2]
@@ -362,7 +366,7 @@ def _covered(section: manifold3d.CrossSection, axis: int) -> list[tuple[float, f
     return [(a, b) for a, b in merged]
 
 
-def _split(solid: manifold3d.Manifold, normal: Sequence[float], cuts: Sequence[float]) -> list:
+def split_by_planes(solid: manifold3d.Manifold, normal: Sequence[float], cuts: Sequence[float]) -> list:
     """The pieces of ``solid`` between consecutive planes ``normal · p = cut``, in order."""
     pieces = []
     rest = solid
@@ -379,7 +383,7 @@ def _cut_grid(
 ) -> list[list]:
     """Rows (cut at ``rows`` across ``row_normal``: a wall's bottom up, a slab's along its span) of pieces
     (along x, cut at ``cuts``)."""
-    return [_split(row, (1.0, 0.0, 0.0), cuts) for row in _split(solid, row_normal, rows)]
+    return [split_by_planes(row, (1.0, 0.0, 0.0), cuts) for row in split_by_planes(solid, row_normal, rows)]
 
 
 def _extents(piece: manifold3d.Manifold) -> tuple[float, float, float]:

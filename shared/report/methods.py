@@ -54,7 +54,7 @@ def methods_count(components: list[dict[str, Any]], manifest: Manifest) -> dict[
 
 
 def panelised_elements(manifest: Manifest, components: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Each element split into panels: constructed once every panel is, when the last one was."""
+    """Each element split into panels or bays: constructed once every part is, when the last one was."""
     by_guid = {c["guid"]: c for c in components}
     elements = []
     for element in manifest.panelised:
@@ -65,6 +65,7 @@ def panelised_elements(manifest: Manifest, components: list[dict[str, Any]]) -> 
                 "guid": element.guid,
                 "name": element.name,
                 "ifc_class": element.ifc_class,
+                "method": element.method.value,
                 "mass_kg": element.mass_kg,
                 "panels": list(element.panel_guids),
                 "panels_constructed": sum(p["state"] == CONSTRUCTED for p in panels),
