@@ -20,7 +20,7 @@ DEFAULT = default_fleet()
 
 def test_the_default_fleet_has_its_types_each_with_a_urdf_physics_can_load() -> None:
     assert set(DEFAULT.types) == {
-        "husky", "carrier", "tower_crane", "concrete_pump", "block_layer", "crawler_crane"
+        "husky", "carrier", "tower_crane", "concrete_pump", "block_layer", "line_pump", "crawler_crane"
     }  # fmt: skip
     assert DEFAULT.type_of() == {
         "r1": "husky",
@@ -28,6 +28,7 @@ def test_the_default_fleet_has_its_types_each_with_a_urdf_physics_can_load() -> 
         "r3": "tower_crane",
         "r4": "concrete_pump",
         "r5": "block_layer",
+        "r6": "line_pump",
     }  # fmt: skip  (the crawler crane is in the catalogue only: its relocation is not simulated)
     assert DEFAULT.types["husky"].payload_kg == 75  # Clearpath's published maximum
     for description in DEFAULT.types.values():
@@ -43,6 +44,10 @@ def test_each_machine_type_says_what_it_can_do_with_the_spec_that_goes_with_it()
     relocate = Capability.RELOCATE  # truck-mounted: they drive to another set-up for what they cannot reach
     assert types["concrete_pump"].capabilities == {Capability.STAND_FIXED, Capability.POUR, relocate}
     assert types["block_layer"].capabilities == {Capability.STAND_FIXED, Capability.LAY, relocate}
+    # a line pump's placing line reaches pours in the middle of a large footprint: it is extended, not moved
+    assert types["line_pump"].capabilities == {Capability.STAND_FIXED, Capability.POUR}
+    assert types["line_pump"].reach_m == 120.0 and not types["line_pump"].relocates
+    assert types["line_pump"].handling_s > types["concrete_pump"].handling_s  # the boom is taken first
     assert all(
         types[name].relocation_speed_mps > 0 and types[name].setup_s > 0
         for name in ("concrete_pump", "block_layer")
@@ -54,7 +59,7 @@ def test_each_machine_type_says_what_it_can_do_with_the_spec_that_goes_with_it()
     assert laying is not None and layer.reach_m == 32.0  # Hadrian X: 32 m boom
     assert (laying.block_length_m, laying.block_height_m, laying.block_width_m) == (0.6, 0.4, 0.3)
     assert laying.block_mass_kg == layer.payload_kg == 45 and laying.blocks_per_h == 300
-    for name in ("tower_crane", "concrete_pump", "block_layer", "crawler_crane"):
+    for name in ("tower_crane", "concrete_pump", "block_layer", "line_pump", "crawler_crane"):
         assert types[name].max_speed_mps == 0 and not types[name].can(Capability.DRIVE)
 
 
@@ -73,15 +78,18 @@ def test_robots_n_means_n_of_the_default_type_plus_every_machine_that_stands_fix
     three = DEFAULT.with_robots(3)
     assert three.type_of() == {
         "r1": "carrier", "r2": "carrier", "r3": "carrier",
-        "r4": "tower_crane", "r5": "concrete_pump", "r6": "block_layer",
+        "r4": "tower_crane", "r5": "concrete_pump", "r6": "block_layer", "r7": "line_pump",
     }  # fmt: skip
-    assert three.summary() == "3 carrier, 1 tower_crane, 1 concrete_pump, 1 block_layer"
+    assert three.summary() == "3 carrier, 1 tower_crane, 1 concrete_pump, 1 block_layer, 1 line_pump"
     assert DEFAULT.with_robots(1, "husky").type_of() == {
-        "r1": "husky", "r2": "tower_crane", "r3": "concrete_pump", "r4": "block_layer"
+        "r1": "husky", "r2": "tower_crane", "r3": "concrete_pump", "r4": "block_layer", "r5": "line_pump"
     }  # fmt: skip
     # asked for machines of a type that stands fixed: that count replaces the file's, the others stay
-    assert DEFAULT.with_robots(2, "tower_crane").summary() == "2 tower_crane, 1 concrete_pump, 1 block_layer"
-    assert DEFAULT.with_robots(0).summary() == "1 tower_crane, 1 concrete_pump, 1 block_layer"
+    assert (
+        DEFAULT.with_robots(2, "tower_crane").summary()
+        == "2 tower_crane, 1 concrete_pump, 1 block_layer, 1 line_pump"
+    )
+    assert DEFAULT.with_robots(0).summary() == "1 tower_crane, 1 concrete_pump, 1 block_layer, 1 line_pump"
     with pytest.raises(InputError, match="no robot type 'digger'"):
         DEFAULT.with_robots(1, "digger")
 
@@ -182,12 +190,13 @@ def test_the_site_plan_puts_ground_robots_at_the_depot_and_the_machines_around_t
 ) -> None:
     frame: Manifest = read_manifest(bundled_build)
     layout = plan_site(frame.components, fleet=DEFAULT.robot_types())
-    (husky, carrier, crane, pump, layer) = layout.robot_starts
+    (husky, carrier, crane, pump, layer, _line) = layout.robot_starts
     assert layout.depot.min_xy[0] <= husky[0] <= layout.depot.max_xy[0]
     assert layout.depot.min_xy[0] <= carrier[0] <= layout.depot.max_xy[0]
     assert crane[0] > layout.building.max_xy[0]  # east of the building: its hook nearest the yard
     assert pump[1] > layout.building.max_xy[1] and layer[1] > pump[1]  # north, one behind the other
-    assert len(layout.machines) == 3 and len(layout.staging) == 1  # only the crane has a staging area
+    assert not layout.building.overlaps(layout.machines[3])  # the line pump stands outside, too
+    assert len(layout.machines) == 4 and len(layout.staging) == 1  # only the crane has a staging area
     area = layout.staging[0]
     assert layout.fence.min_xy[0] < area.min_xy[0] and area.max_xy[0] < layout.fence.max_xy[0]
 
