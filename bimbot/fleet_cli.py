@@ -10,7 +10,7 @@ some (the table says which and why), 2 for unusable input.
 
 Columns: ``built by / why not`` lists every route, the first being the one the planner's bids usually
 take; a crane is named with its robot id because where it stands (the site plan sets it up where its hook
-covers the building and the yard best, :mod:`bimbot.shared.site_machines`) decides what it reaches;
+covers the building best, then the yard, :mod:`bimbot.shared.site_machines`) decides what it reaches;
 ``A → crane (r3, hand-off)`` is a ground robot of type A bringing the component within the crane's hook
 first; a component cast in place or laid (column ``method``, counted by method under the table) is built
 where it stands by a machine that pours or lays, named with its robot id when it stands fixed (its boom

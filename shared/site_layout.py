@@ -25,7 +25,7 @@ observer (which draws it) ask for it instead of planning a copy. The plan's data
 * **depot** — west of the yard (−x), beyond a lane: the robots' start poses one behind the other, facing
   +x, the first on the line of the lane between the building and the yard (the site's main street).
 * **machines that stand fixed** — cranes, concrete pumps, block layers set up around the building, clear of
-  every lane, the yard and the depot (a crane where its hook covers the building and the yard, with a
+  every lane, the yard and the depot (a crane where its hook covers the building, then the yard, with a
   staging area beside it; a boom machine where its boom covers the most of its work): :mod:`.site_machines`.
 * **fence** — a rectangle around all of it with a driving lane inside (site hoarding), which also gives
   the robots' lasers something to localise against on an otherwise empty site.

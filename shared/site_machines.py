@@ -17,8 +17,10 @@ what it can build. The rule, for each machine in robot id order, hook-lifting ma
   that meets a machine or staging area set up before moves out along its direction (``PUSH_STEP_M`` at a
   time) until it is clear;
 * a **hook-lifting** machine (a tower crane) takes the candidate that minimises the farthest point of the
-  building and of the yard from its mast — the largest hook radius the site asks of it, so its load chart
-  lifts the most there — and gets a staging area beside it (:mod:`.site_cranes`);
+  building from its mast — the largest hook radius a placement asks of it, so its load chart lifts the
+  most there — then the farthest point of the building and of the yard (a yard larger than its chart's
+  radius is served through its staging area, where ground robots hand loads off); it gets a staging area
+  beside it (:mod:`.site_cranes`);
 * a **boom** machine (a pump, a block layer) takes the candidate whose boom covers (``reach_m`` from its
   base to every corner of a component's footprint) the most components of the method it works (pour: cast
   in place; lay: laid), then the most components of any method, then the one nearest the building's far
@@ -171,7 +173,7 @@ def _cost(
     building, yard = site
     xy = setup.pose[:2]
     if machine.can(Capability.HOOK_LIFT):
-        return (round(farthest_m(xy, building, yard), 6),)
+        return (round(farthest_m(xy, building), 6), round(farthest_m(xy, building, yard), 6))
     covered = covered_by_boom(machine, xy, corners)
     own = {method for capability, method in WORKS.items() if machine.can(capability)}
     mine = sum(1 for hit, method in zip(covered, methods, strict=True) if hit and method in own)
