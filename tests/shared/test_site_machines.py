@@ -1,5 +1,5 @@
 """Where the machines that stand fixed are set up (shared/site_machines.py): the tower crane where its hook
-covers the building and the yard, the pump and the block layer where their booms cover their work, none on
+covers the building (then the yard), the pump and the block layer where their booms cover their work, none on
 a lane, the yard or the depot; the ground robots' site stays as it was."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from bimbot.shared.fleet import default_fleet
 from bimbot.shared.manifest import Component, read_manifest
 from bimbot.shared.robot_description import Capability
 from bimbot.shared.site_layout import LANE_M, plan_site
-from bimbot.shared.site_machines import covered_by_boom, farthest_m, keep_clear
+from bimbot.shared.site_machines import covered_by_boom, farthest_m, keep_clear, plan_machines
 from bimbot.shared.site_plan import Rect, SiteLayout
 
 FLEET = default_fleet()
@@ -153,3 +153,19 @@ def test_the_boom_rule_covers_a_component_only_when_every_corner_is_within_reach
 def test_the_site_plan_is_deterministic_with_machines(frame: list[Component]) -> None:
     fleet = FLEET.robot_types()
     assert plan_site(frame, fleet=fleet) == plan_site([c.model_copy() for c in frame], fleet=fleet)
+
+
+def test_the_crane_covers_the_whole_building_first_and_the_yard_only_between_equal_sides() -> None:
+    """The restaurant's plan: a 70 m × 64 m building and a 138 m × 72 m yard south of it (its cast bays lie
+    there too). Beside the east side the crane is nearer the yard's far corner, but 82 m from the
+    building's; beside the north side every placement is within 77 m: it stands there."""
+    building = Rect((66.7, -35.3), (136.7, 28.4))
+    yard = Rect((33.9, -110.2), (172.0, -38.3))
+    depot = Rect((-36.8, -39.2), (-33.6, -36.0))
+    corner = [box_component("slab", (1.0, 1.0, 0.2), (100.0, 0.0, 0.0))]
+    (crane,) = plan_machines([CRANE], corner, building=building, yard=yard, depot=depot, lane_m=LANE_M)
+    assert crane.pose[1] > building.max_xy[1]  # north, across the building from the yard
+    assert farthest_m(crane.pose[:2], building) == pytest.approx(77.2, abs=0.5)
+    east = (building.max_xy[0] + LANE_M + 4.5 / 2.0, (building.min_xy[1] + building.max_xy[1]) / 2.0)
+    assert farthest_m(east, building) > farthest_m(crane.pose[:2], building) + 4.0
+    assert farthest_m(east, building, yard) < farthest_m(crane.pose[:2], building, yard)  # the yard's pick
