@@ -1,6 +1,7 @@
 """A truck-mounted pump that relocates, in the planner: a footing beyond its boom from where it stands but
 covered from another of its set-up positions is buildable; the bid adds the relocation, so a pump already
-set up nearby costs less; none of its set-ups covering it is out_of_reach from the nearest set-up."""
+set up nearby costs less; none of its set-ups covering it is out_of_reach from the nearest set-up; a pour
+no boom reaches goes to the line pump, whose line does."""
 
 from __future__ import annotations
 
@@ -58,3 +59,27 @@ def test_the_planner_takes_each_machines_set_ups_from_the_site_plan() -> None:
     robots = {robot.robot_id: robot for robot in robots_on_plan(ids, fleet.robot_types(), layout)}
     assert robots["r4"].description.name == "concrete_pump" and robots["r4"].setups == pump_setups
     assert robots["r1"].setups == ()  # a ground robot drives
+
+
+LINE = default_fleet().types["line_pump"]
+
+
+def test_a_pour_no_boom_set_up_reaches_goes_to_the_line_pump_and_the_boom_bids_lower_where_it_reaches() -> (
+    None
+):
+    """The restaurant's courtyard floor lies 27-52 m inside the building from every set-up of the boom
+    pump; the line pump's placing line reaches it from where it stands outside."""
+    courtyard = box_component(
+        "courtyard", (18.0, 18.0, 0.3), (100.0, 0.0, -0.3), ConstructionMethod.CAST_IN_PLACE, 47600.0
+    )
+    pump = SiteRobot("r4", PUMP, HOME, setups=(HOME, NEAR))
+    line = SiteRobot("r6", LINE, (10.0, 0.0, 0.0))
+    alone = component_feasibility(courtyard, [pump])
+    assert alone.reason is not None and alone.reason.code is ReasonCode.OUT_OF_REACH
+    assert component_feasibility(courtyard, [pump, line]).routes == ("line_pump (r6)",)
+    # a footing both reach: the boom pump, set up beside it, finishes first (laying a line takes longer)
+    near = SiteRobot("r4", PUMP, NEAR, setups=(HOME, NEAR))
+    where = Where((70.5, 0.5), 0.0)
+    assert component_feasibility(FOOTING, [near, line]).routes[0] == "concrete_pump (r4)"
+    by_boom = task_estimate_s(near, NEAR[:2], FOOTING, where)
+    assert by_boom < task_estimate_s(line, (10.0, 0.0), FOOTING, where)
