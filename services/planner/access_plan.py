@@ -55,9 +55,12 @@ class AccessOutcome:
 
 def site_robot(info: SiteInfoMsg) -> RobotDescription:
     """The robot type the access check plans for: the widest ground type on site (what fits it fits the
-    others; a machine that stands fixed never drives)."""
+    others; a machine that stands fixed never drives), with the lowest step of them (a floor every one
+    drives on)."""
     ground = [robot for robot in info.robot_types.values() if robot.can(Capability.DRIVE)]
-    return max(ground or info.robot_types.values(), key=lambda robot: (robot.radius_m, robot.name))
+    widest = max(ground or info.robot_types.values(), key=lambda robot: (robot.radius_m, robot.name))
+    step_m = min((robot.max_step_m for robot in ground), default=0.0)
+    return widest.model_copy(update={"max_step_m": step_m})
 
 
 def access_plan(
