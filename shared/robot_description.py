@@ -174,6 +174,13 @@ class RobotDescription(BaseModel):
     width_m: float = Field(gt=0, le=50)
     max_speed_mps: float = Field(ge=0, le=20, description="0 for a crane: it never drives")
     max_turn_radps: float = Field(ge=0, le=20)
+    max_step_m: float = Field(
+        default=0.0,
+        ge=0,
+        le=1,
+        description="a ground robot: the highest edge of a built floor it drives up onto (a ground slab, "
+        "its flooring); a floor no higher than this is driven on once built, not driven round",
+    )
     handling_s: float = Field(default=2.0, ge=0, le=3600, description="to grip or sling, and to release")
     placement_precision_m: float = Field(default=0.0, ge=0, le=1, description="1 σ, per horizontal axis")
     placement_precision_yaw_deg: float = Field(default=0.0, ge=0, le=45, description="1 σ")

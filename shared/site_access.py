@@ -8,8 +8,10 @@ The model is the robots' own: the site grid (fence, yard stacks in their slots, 
 far), where a component occupies the grid when it meets the robot's height band (``band_min_z_m`` ..
 ``band_max_z_m``: a beam at 3 m does not, a footing flush with the ground does not), inflated by the robot's
 radius plus the map margin (:data:`bimbot.shared.site_layout.INFLATION_MARGIN_M`), as the robots plan.
-The robot's free region is the 8-connected free cells around its depot start. A component is *accessible*
-when some cell of that region lies within the robot's reach of its footprint (the one reach rule,
+A component placed at its target whose top is within the robot's step (``max_step_m``: a ground slab,
+its flooring) is a floor driven on, not an obstacle, as in the robots' map once it is constructed (and
+cured). The robot's free region is the 8-connected free cells around its depot start. A component is
+*accessible* when some cell of that region lies within the robot's reach of its footprint (the one reach rule,
 :mod:`bimbot.shared.robot_description`: nearest point of the footprint, ``reach_m`` less a margin), and,
 for a component in the band, at least the inflation radius outside it (the body stays clear): at its BIM
 target for the assembly and at its yard slot for the pick-up.
@@ -74,6 +76,7 @@ class SiteAccess:
         self.config, self.layout = config, layout
         self.inflation_m = robot.radius_m + INFLATION_MARGIN_M
         self._reach_m = robot.reach_m - config.reach_margin_m
+        self._step_m = robot.max_step_m
         bounds = layout.bounds.grown(GRID_MARGIN_M)
         self.grid = empty_grid((*bounds.min_xy, *bounds.max_xy), config.resolution_m)
         boxes = fence_boxes(layout) + machine_boxes(layout)  # the fence and the machines set up on site
@@ -113,7 +116,9 @@ class SiteAccess:
         component = self._components[guid]
         self._release(guid)
         target = component.target_pose_world
-        self._occupy(guid, posed_footprint(component, target.position_m, target.quat_xyzw))
+        footprint = posed_footprint(component, target.position_m, target.quat_xyzw)
+        if footprint.z_max_m > self._step_m:  # else a floor driven on
+            self._occupy(guid, footprint)
         self.placed.add(guid)
 
     def remove(self, guid: str) -> None:

@@ -24,7 +24,7 @@ reordered or failed for it.
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from bimbot.shared.identifiers import named_guid
@@ -55,9 +55,12 @@ class AccessOutcome:
 
 def site_robot(info: SiteInfoMsg) -> RobotDescription:
     """The robot type the access check plans for: the widest ground type on site (what fits it fits the
-    others; a machine that stands fixed never drives)."""
+    others; a machine that stands fixed never drives), with the lowest step of them (a floor every one
+    drives on)."""
     ground = [robot for robot in info.robot_types.values() if robot.can(Capability.DRIVE)]
-    return max(ground or info.robot_types.values(), key=lambda robot: (robot.radius_m, robot.name))
+    widest = max(ground or info.robot_types.values(), key=lambda robot: (robot.radius_m, robot.name))
+    step_m = min((robot.max_step_m for robot in ground), default=0.0)
+    return widest.model_copy(update={"max_step_m": step_m})
 
 
 def access_plan(
@@ -89,14 +92,13 @@ def access_plan(
         for placed, cut in _driven_to(check.cut_offs, in_place)
     ]
     unreachable: dict[str, Reason] = {}
+    fine: SiteAccess | None = None  # one fine grid for every doubt, changed only where ancestors differ
     for guid in check.inaccessible:
         if guid in in_place:
             continue
         ancestors = _ancestors(plan.predecessors, guid)
-        fine = SiteAccess(components, layout, robot, FINE)
-        for other in plan.order:
-            if other in ancestors:
-                fine.place(other)
+        fine = fine or SiteAccess(components, layout, robot, FINE)
+        _stand_only(fine, ancestors, plan.order)
         if fine.slot_accessible(guid) and fine.target_accessible(guid):
             continue
         where = "target" if not fine.target_accessible(guid) else "yard slot"
@@ -120,6 +122,17 @@ def access_plan(
     if strict and warnings:
         raise PlanError(f"{len(warnings)} step(s) of the sequence cut off later work; first: {warnings[0]}")
     return AccessOutcome(plan, unreachable, tuple(warnings), added)
+
+
+def _stand_only(access: SiteAccess, guids: set[str], order: Sequence[str]) -> None:
+    """Change ``access`` so exactly ``guids`` stand at their targets (the rest back in their slots): only
+    the difference from what stands now is moved (the restaurant's 245 doubts each built a 0.1 m grid of
+    a 220 m site afresh and placed every ancestor on it: the planner never finished starting)."""
+    for other in [guid for guid in access.placed if guid not in guids]:
+        access.remove(other)
+    for other in order:
+        if other in guids and other not in access.placed:
+            access.place(other)
 
 
 def _driven_to(cut_offs: tuple[tuple[str, str], ...], in_place: set[str]) -> list[tuple[str, str]]:

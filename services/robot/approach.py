@@ -17,10 +17,13 @@ component's footprint, on **every side** of it; a candidate is kept when
   being placed), the robot's body stays outside it: distance to the footprint ≥ ``body_clearance_m``. A
   component above the band (a beam at 3 m) may be approached from under its footprint.
 
-A ground robot works from **outside the structure's footprint** where it can, as machines do on a site: a
-wall on the building's edge is set from outside, so the robot is not closed in by the walls and the curtain
-wall that follow. Only a component with no free stand-point outside (a column, a partition in the middle)
-is approached from inside.
+A ground robot sets an **enclosing element** (a wall, a curtain wall and its panels, a window, a door, a
+railing: :func:`sets_from_outside`) from **outside the structure's footprint** where it can, as machines do
+on a site: a wall on the building's edge is set from outside, so the robot is not closed in by the walls and
+the curtain wall that follow. A partition in the middle, with no free stand-point outside, is approached
+from inside; so is every frame member (a column, a beam), which closes nothing in: its nearest side is the
+short drive, and an outside stand-point across the frame was one the navigator could not reach (the demo's
+edge columns went back twice so). After a failed drive the robot tries any side (the caller's choice).
 
 Among the candidates left, the best is the one nearest the footprint (most reach to spare), then nearest the
 footprint's centre (the middle of a long side), then nearest the robot (a short drive): one weighted score.
@@ -127,6 +130,26 @@ def within_reach(
     if distance > config.reach_m - config.reach_margin_m + 1e-9:
         return False
     return not blocks_band or distance >= config.body_clearance_m
+
+
+ENCLOSING_CLASSES = frozenset(
+    {
+        "IfcWall",
+        "IfcWallStandardCase",
+        "IfcWallElementedCase",
+        "IfcCurtainWall",
+        "IfcPlate",
+        "IfcWindow",
+        "IfcDoor",
+        "IfcRailing",
+    }
+)
+
+
+def sets_from_outside(ifc_class: str) -> bool:
+    """Whether a ground robot sets a component of ``ifc_class`` from outside the structure where it can:
+    the elements that close the building in (see the module doc)."""
+    return ifc_class in ENCLOSING_CLASSES
 
 
 def approach_pose(

@@ -26,7 +26,7 @@ from bimbot.shared.occupancy_grid import OccupancyGrid
 from bimbot.shared.reasons import Reason
 
 from . import give_back
-from .approach import approach_pose, no_approach_reason, within_reach
+from .approach import approach_pose, no_approach_reason, sets_from_outside, within_reach
 from .handover import Handover
 from .navigator import NavStatus
 from .robot_context import RobotContext
@@ -129,7 +129,9 @@ class Driving:
         xy = navigator.pose_xy_yaw[:2]
         blocks = site_map.blocks(footprint)
         config = context.approach_config
-        outside = site_map.layout.structure  # work from outside the structure where it can (module doc)
+        # An enclosing element is set from outside the structure where it can; after a failed drive, any side.
+        enclosing = sets_from_outside(task.component.ifc_class) and not task.failed_xy_m
+        outside = site_map.layout.structure if enclosing else None
         found = approach_pose(
             grid,
             footprint,
@@ -140,7 +142,7 @@ class Driving:
             outside_of=outside,
         )
         if found is None and task.failed_xy_m:  # every other side tried: the failed ones again
-            found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=config, outside_of=outside)
+            found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=config)
         if found is None:
             task.retry_at_s = context.sim_s + bounds.retry_delay_s
             traffic = approach_pose(

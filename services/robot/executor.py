@@ -234,6 +234,7 @@ class Executor:
     def tick(self, clock: ClockMsg, wall_s: float) -> list[Outgoing]:
         """One control step: task progress, navigation, and the ``cmd_vel`` answering ``clock.step``."""
         self.sim_s, self.step, self.context.wall_s = clock.sim_time_s, clock.step, wall_s
+        self.site_map.advance(self.sim_s)
         self._progress()
         command = self.navigator.step(self.sim_s)
         goal = self.navigator.goal
@@ -400,7 +401,7 @@ class Executor:
 
     def _component_state(self, guid: str, state: ComponentState) -> None:
         """A trusted state change (a judged message, or a twin's answer)."""
-        self.site_map.observe_state(guid, state)
+        self.site_map.observe_state(guid, state, self.sim_s)
         task = self.task
         if task is not None and task.placed and guid == task.message.guid and state in VERDICTS:
             task.verdict = state  # kept: a retry may move the state on before the next tick

@@ -13,7 +13,13 @@ What occupies the grid:
   when its posed bounding box meets the robot's height band (``band_min_z_m``–``band_max_z_m`` above the
   ground): components lying in the yard and built columns block, beams at 3 m and footings whose tops are
   at z ≈ 0 do not. A component carried by a robot (``attached_to``) leaves the map; when physics fixes it
-  into the structure (``fixed``) it comes back at its placed pose.
+  into the structure (``fixed``) it comes back at its placed pose;
+* except a **floor driven on**: a component constructed at its place whose top is no higher than the
+  robot's step (``step_m``, its type's ``max_step_m``: a ground slab, its flooring) is driven onto, as the
+  trades drive onto a slab on site, not round (the restaurant's 5 cm floors cut 245 of its 470 components
+  off). While it is being built or settling it blocks like anything else, and a cast floor until it has
+  cured (its ``cast.cure_s`` after it was constructed: :meth:`SiteMap.advance` lets it in). The laser sees
+  its edge where it reaches the laser's height, so its edge is in the localiser's map and is no surprise.
 
 Laser hits are not stored here (they are transient); :meth:`SiteMap.planning_grid` adds the current ones.
 The localiser's map is :meth:`SiteMap.laser_grid`: only what reaches up to the laser's height.
@@ -67,6 +73,7 @@ class MapConfig:
     inflation_margin_m: float = 0.15  # beyond the radius: room for localisation error and the local planner
     band_min_z_m: float = 0.02  # things entirely below this (footings flush with the ground) don't block
     band_max_z_m: float = 1.0  # things entirely above this (beams) don't block
+    step_m: float = 0.0  # a constructed floor no higher than this is driven on (the robot's max_step_m)
     laser_height_m: float = 0.06  # physics' laser: things whose z range contains this height (yard items)
     laser_resolution_m: float = 0.05  # the localiser's map (see SiteMap.laser_field_grid)
     # The localiser's map may leave out what is flatter than this. 0: it keeps every item the laser can see.
@@ -121,6 +128,19 @@ class SiteMap:
             self._fine.shape, config.laser_resolution_m, LASER_FIELD_MAX_M, self._laser_outline_window
         )
         self._cells: dict[str, NDArray[np.int64]] = {}  # guid → (n, 2) cells it covers now
+        self._in_band: set[str] = set()  # of those, the ones that block
+        self._floors_seen: set[str] = set()  # the others: floors driven on whose edge the laser sees
+        self._driven_from_s: dict[str, float] = {}  # constructed: from when it may be driven on (cured)
+        self._curing: set[str] = set()  # constructed, driven on only once cured (sim time not reached)
+        self._now_s = 0.0
+        # floors driven on whose edge the laser sees: laser hits near them are no surprise
+        self._floor_counts = np.zeros(self._geometry.shape, np.int32)
+        self._floor_distance = ClippedDistanceField(
+            self._geometry.shape,
+            config.resolution_m,
+            STATIC_DISTANCE_MAX_M,
+            lambda rows, cols: self._floor_counts[rows, cols] > 0,
+        )
         self._sees: dict[str, bool] = {}
         self.footprints: dict[str, Footprint] = {}  # not carried, wherever they are (any height)
         self.carried: dict[str, str] = {}  # guid → robot id
@@ -170,16 +190,43 @@ class SiteMap:
             return False
         return self._set_footprint(guid, footprint)
 
-    def observe_state(self, guid: str, state: ComponentState) -> bool:
-        """A constructed component never placed on the bus so far is assumed at its BIM target."""
-        if state is not ComponentState.CONSTRUCTED or guid in self._placed or guid not in self._components:
+    def observe_state(self, guid: str, state: ComponentState, sim_s: float = 0.0) -> bool:
+        """A constructed component never placed on the bus so far is assumed at its BIM target; a floor
+        constructed (or no longer) is driven on (or no longer), a cast one once it has cured."""
+        if guid not in self._components:
             return False
+        constructed = state is ComponentState.CONSTRUCTED
+        if constructed == (guid in self._driven_from_s) and (not constructed or guid in self._placed):
+            return False
+        if constructed:
+            cast = self._components[guid].cast
+            self._driven_from_s[guid] = sim_s + (cast.cure_s if cast is not None else 0.0)
+            if self._driven_from_s[guid] > self._now_s:
+                self._curing.add(guid)
+        else:
+            self._driven_from_s.pop(guid, None)
+            self._curing.discard(guid)
+        if guid in self._placed or not constructed:
+            footprint = self.footprints.get(guid)
+            return footprint is not None and self._set_footprint(guid, footprint)
         component = self._components[guid]
         self._placed.add(guid)
         self.carried.pop(guid, None)
         self._applied.pop(guid, None)
         pose = component.target_pose_world
         return self._set_footprint(guid, posed_footprint(component, pose.position_m, pose.quat_xyzw))
+
+    def advance(self, sim_s: float) -> bool:
+        """Sim time is ``sim_s``: a cast floor cured by now is driven on (True when the map changed)."""
+        self._now_s = sim_s
+        cured = [guid for guid in self._curing if self._driven_from_s[guid] <= sim_s]
+        changed = False
+        for guid in cured:
+            self._curing.discard(guid)
+            footprint = self.footprints.get(guid)
+            if footprint is not None and guid in self._placed:
+                changed |= self._set_footprint(guid, footprint)
+        return changed
 
     def component_xy(self, guid: str) -> NDArray[np.float64] | None:
         """Centre of the component's footprint, None while carried."""
@@ -293,7 +340,10 @@ class SiteMap:
         inside = self._geometry.in_bounds(rc)
         far = np.zeros(len(pts), bool)
         if len(pts):
-            far[inside] = self.static_distance_m()[rc[inside, 0], rc[inside, 1]] > beyond_m
+            rows, cols = rc[inside, 0], rc[inside, 1]
+            far[inside] = self.static_distance_m()[rows, cols] > beyond_m
+            if self._floors_seen:
+                far[inside] &= self._floor_distance.distance_m[rows, cols] > beyond_m
         return far
 
     def unexplained(self, points_xy_m: ArrayLike, beyond_m: float = 0.3) -> NDArray[np.float64]:
@@ -339,7 +389,19 @@ class SiteMap:
         driven over)."""
         if guid is not None and guid in self._settling:
             return True
+        if guid is not None and self.driven_on(guid, footprint):
+            return False
         return footprint.z_max_m >= self.config.band_min_z_m and footprint.z_min_m <= self.config.band_max_z_m
+
+    def driven_on(self, guid: str, footprint: Footprint) -> bool:
+        """A floor the robot drives on: constructed at its place (cured), its top within the robot's step."""
+        return (
+            self._driven_from_s.get(guid, math.inf) <= self._now_s
+            and guid in self._placed
+            and guid not in self._settling
+            and guid not in self.carried
+            and footprint.z_max_m <= self.config.step_m
+        )
 
     def _seen(self, footprint: Footprint) -> bool:
         return footprint.z_min_m <= self.config.laser_height_m <= footprint.z_max_m
@@ -349,8 +411,14 @@ class SiteMap:
         cells = self._cells.pop(guid, None)
         if cells is None:
             return False
-        self._counts[cells[:, 0], cells[:, 1]] -= 1
-        self._static_distance.touch(cells)
+        if guid in self._in_band:
+            self._in_band.discard(guid)
+            self._counts[cells[:, 0], cells[:, 1]] -= 1
+            self._static_distance.touch(cells)
+        else:
+            self._floors_seen.discard(guid)
+            self._floor_counts[cells[:, 0], cells[:, 1]] -= 1
+            self._floor_distance.touch(cells)
         if self._sees.pop(guid, False):
             self._laser_counts[cells[:, 0], cells[:, 1]] -= 1
         fine = self._fine_cells.pop(guid, None)
@@ -363,13 +431,21 @@ class SiteMap:
     def _set_footprint(self, guid: str, footprint: Footprint) -> bool:
         changed = self._clear(guid)
         self.footprints[guid] = footprint
-        if not self.blocks(footprint, guid) or len(footprint.polygon_xy_m) < 3:
+        band = self.blocks(footprint, guid)
+        seen = self._seen(footprint)
+        if not (band or seen) or len(footprint.polygon_xy_m) < 3:
             return changed
         cells = _polygon_cells(self._geometry, footprint.polygon_xy_m)
         self._cells[guid] = cells
-        self._counts[cells[:, 0], cells[:, 1]] += 1
-        self._static_distance.touch(cells)
-        if self._seen(footprint):
+        if band:
+            self._in_band.add(guid)
+            self._counts[cells[:, 0], cells[:, 1]] += 1
+            self._static_distance.touch(cells)
+        else:  # a floor driven on that the laser sees
+            self._floors_seen.add(guid)
+            self._floor_counts[cells[:, 0], cells[:, 1]] += 1
+            self._floor_distance.touch(cells)
+        if seen:
             self._sees[guid] = True
             self._laser_counts[cells[:, 0], cells[:, 1]] += 1
             if footprint.z_max_m >= self.config.localise_min_top_m:

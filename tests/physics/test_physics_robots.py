@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 from physics_builders import drive, wrap
 
+from bimbot.services.physics.client import p
 from bimbot.services.physics.odometry import Odometry
 from bimbot.services.physics.simulation import Simulation
+from bimbot.shared.fleet import default_fleet
 from bimbot.shared.messages import OdomMsg, RobotPoseMsg
 
 
@@ -122,3 +124,33 @@ def test_a_robot_told_to_stand_still_falls_asleep_and_a_command_wakes_it(
     drive(sim, "r1", 0.5, 0.0, 2.0)
     x, y, _ = sim.robot_pose("r1")
     assert math.hypot(x - x0, y - y0) == pytest.approx(1.0, abs=0.1)
+
+
+@pytest.mark.parametrize("kind", ["husky", "carrier"])
+def test_each_ground_type_drives_up_onto_a_floor_of_its_step_and_not_one_3_cm_higher(
+    make_sim: Callable[..., Simulation], kind: str
+) -> None:
+    """The fleet's ``max_step_m`` is what the robot's wheels really climb: the site map lets it drive on a
+    built floor that high, so physics must carry it over the edge (and stop it at a higher one)."""
+    step_m = default_fleet().types[kind].max_step_m
+    assert step_m > 0.0
+    travelled = {}
+    for height_m in (step_m, step_m + 0.03):
+        sim = make_sim(fleet=default_fleet().with_robots(1, kind))
+        robot_id = sim.robot_ids[0]
+        x0, y0, yaw = sim.robot_pose(robot_id)
+        cid = sim.client_id
+        slab = p.createCollisionShape(p.GEOM_BOX, halfExtents=[1.0, 1.5, height_m / 2], physicsClientId=cid)
+        ahead = (x0 + 2.5 * math.cos(yaw), y0 + 2.5 * math.sin(yaw), height_m / 2)
+        p.createMultiBody(
+            0,
+            slab,
+            basePosition=ahead,
+            baseOrientation=p.getQuaternionFromEuler([0, 0, yaw]),
+            physicsClientId=cid,
+        )
+        drive(sim, robot_id, 0.5, 0.0, 8.0)
+        x, y, _ = sim.robot_pose(robot_id)
+        travelled[height_m] = math.hypot(x - x0, y - y0)
+    assert travelled[step_m] > 3.8, "over the floor (1.5-3.5 m ahead) and down its far edge"
+    assert travelled[step_m + 0.03] < 2.0, "stopped at the higher edge"

@@ -12,7 +12,7 @@ from planner_builders import portal_manifest, robot_msg, state_msg
 from site_models import ROOM_WALLS, WALLS_FIRST_ORDER, build_site_model
 
 from bimbot.services.converter.convert import convert_model
-from bimbot.services.planner.access_plan import access_plan
+from bimbot.services.planner.access_plan import _stand_only, access_plan
 from bimbot.services.planner.capability import SiteRobot
 from bimbot.services.planner.feasibility import component_feasibility, infeasible
 from bimbot.services.planner.scheduler import Phase, PlannerCore, PlannerLimits
@@ -31,6 +31,7 @@ from bimbot.shared.messages import (
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.sequence import sequence_from_predecessors
+from bimbot.shared.site_access import AccessConfig, SiteAccess
 from bimbot.shared.site_layout import plan_site
 from bimbot.shared.support_graph import derive_sequence, support_predecessors
 
@@ -365,3 +366,21 @@ def test_a_robot_that_gives_back_task_after_task_is_held_and_the_others_build() 
     assert "r2" in {core.robot_of(g) for g in footings if core.phase(g) is Phase.ASSIGNED}
     at(183.0)  # 62 + 120: r1 may work again
     assert r1_task() is not None
+
+
+def test_one_fine_grid_serves_every_doubt_standing_exactly_each_components_ancestors(
+    walls_first_build: Path,
+) -> None:
+    """The fine check keeps one grid and moves only what differs: after the four walls stood for one doubt,
+    the next doubt, with one wall as its only ancestor, sees the column's target open again."""
+    manifest = read_manifest(walls_first_build)
+    guid = {c.name: c.guid for c in manifest.components}
+    info = _info(manifest)
+    fine = SiteAccess(list(manifest.components), info.layout, DEFAULT_ROBOT, AccessConfig(resolution_m=0.1))
+    order = [c.guid for c in manifest.components]
+    walls = {guid[w] for w in ROOM_WALLS}
+    _stand_only(fine, walls, order)
+    assert fine.placed == walls and not fine.target_accessible(guid["Column R1"])
+    one = {guid[ROOM_WALLS[0]]}
+    _stand_only(fine, one, order)
+    assert fine.placed == one and fine.target_accessible(guid["Column R1"])

@@ -13,6 +13,7 @@ from bimbot.services.robot.approach import (
     approach_pose,
     no_approach_reason,
     reachable_region,
+    sets_from_outside,
     within_reach,
 )
 from bimbot.services.robot.site_map import SiteMap
@@ -228,3 +229,12 @@ def test_a_wall_on_the_structures_edge_is_set_from_outside_it_and_a_partition_in
     partition = _rect(4.95, 2.0, 5.05, 8.0, 3.0)
     inside = approach_pose(grid, partition, robot_xy, outside_of=structure, **kwargs)
     assert inside is not None and 0.0 < inside.x_m < 10.0, "no stand-point outside: one inside"
+
+
+def test_only_enclosing_elements_are_set_from_outside() -> None:
+    """Walls, curtain walls and their panels close the building in; a column or a beam closes nothing in
+    and is approached from its nearest side (the demo's edge columns failed from across the frame)."""
+    for enclosing in ("IfcWall", "IfcWallStandardCase", "IfcCurtainWall", "IfcPlate", "IfcWindow"):
+        assert sets_from_outside(enclosing), enclosing
+    for frame in ("IfcColumn", "IfcBeam", "IfcSlab", "IfcFooting", "IfcMember"):
+        assert not sets_from_outside(frame), frame

@@ -7,8 +7,9 @@ import pytest
 from frames import convert_small_frame
 
 from bimbot.services.robot.site_map import MapConfig, SiteMap, outline
+from bimbot.shared.construction_methods import CastWork, ConstructionMethod
 from bimbot.shared.fleet import default_fleet
-from bimbot.shared.footprint import Footprint, convex_hull_xy
+from bimbot.shared.footprint import Footprint, convex_hull_xy, posed_footprint
 from bimbot.shared.manifest import Component, Manifest, read_manifest
 from bimbot.shared.messages import ComponentPoseMsg, ComponentState, PoseMsg
 from bimbot.shared.occupancy_grid import OccupancyGrid, inflate
@@ -199,3 +200,61 @@ def test_the_distance_fields_follow_every_change_as_if_computed_whole(frame: Man
     laser = outline(site.laser_field_grid())
     assert np.array_equal(site.laser_distance_m(), whole(laser, LASER_FIELD_MAX_M))
     assert site.laser_distance_m().shape == site.laser_field_geometry.shape
+
+
+def _floor(frame: Manifest, top_z_m: float) -> Component:
+    """The frame's first footing raised so its top stands ``top_z_m`` above the ground: a floor's edge."""
+    footing = of_class(frame, "IfcFooting")
+    target = footing.target_pose_world
+    lift_m = top_z_m - footing.bbox_world.max_m[2]
+    position = (target.position_m[0], target.position_m[1], target.position_m[2] + lift_m)
+    return footing.model_copy(
+        update={"target_pose_world": target.model_copy(update={"position_m": position}), "name": "Floor F"}
+    )
+
+
+def test_a_constructed_floor_within_the_robots_step_is_driven_on_and_its_edge_is_no_surprise(
+    frame: Manifest,
+) -> None:
+    """A 6 cm floor blocks while it settles and until it is constructed; then a robot whose step is 7 cm
+    drives on it (the restaurant's floors cut 245 components off), while its edge, at the laser's height,
+    stays in the localiser's map and laser hits on it are no surprise. A robot of 5 cm step drives round."""
+    floor = _floor(frame, 0.06)
+    components = [floor if c.guid == floor.guid else c for c in frame.components]
+    layout = plan_site(components, robots=1)
+    centre = np.add(posed(floor).polygon_xy_m.min(axis=0), posed(floor).polygon_xy_m.max(axis=0)) / 2
+    edge = posed(floor).polygon_xy_m[0]
+    climber = SiteMap(layout, components, MapConfig(step_m=0.07))
+    low = SiteMap(layout, components, MapConfig(step_m=0.05))
+    for site in (climber, low):
+        site.observe_pose(at_target(floor, fixed=True))
+        assert not site.static_grid().is_free(*centre), "settling: keep off it"
+        site.observe_pose(at_target(floor, fixed=True, joined=True))
+        assert not site.static_grid().is_free(*centre), "joined, not yet constructed"
+        site.observe_state(floor.guid, ComponentState.CONSTRUCTED, sim_s=10.0)
+        site.advance(10.0)
+    assert climber.static_grid().is_free(*centre) and climber.inflated_grid().is_free(*centre)
+    assert not low.static_grid().is_free(*centre), "a 6 cm edge is beyond a 5 cm step"
+    assert not climber.laser_grid().is_free(*centre), "the laser still sees its edge"
+    assert len(climber.unexplained([edge])) == 0 and len(low.unexplained([edge])) == 0
+    assert len(climber.unexplained([edge + 2.0])) == 1, "far from anything: a surprise"
+    climber.observe_state(floor.guid, ComponentState.MISPLACED, sim_s=20.0)
+    assert not climber.static_grid().is_free(*centre), "no longer constructed: round it again"
+
+
+def test_a_cast_floor_is_driven_on_only_once_it_has_cured(frame: Manifest) -> None:
+    floor = _floor(frame, 0.05)
+    cast = CastWork(formwork_area_m2=4.0, volume_m3=0.5, formwork_s=3600.0, pour_s=600.0, cure_s=86_400.0)
+    floor = floor.model_copy(update={"method": ConstructionMethod.CAST_IN_PLACE, "cast": cast})
+    components = [floor if c.guid == floor.guid else c for c in frame.components]
+    site = SiteMap(plan_site(components, robots=1), components, MapConfig(step_m=0.07))
+    centre = np.add(posed(floor).polygon_xy_m.min(axis=0), posed(floor).polygon_xy_m.max(axis=0)) / 2
+    site.observe_pose(at_target(floor, fixed=True, joined=True))
+    site.observe_state(floor.guid, ComponentState.CONSTRUCTED, sim_s=100.0)
+    assert not site.advance(86_000.0) and not site.static_grid().is_free(*centre), "green concrete"
+    assert site.advance(86_500.0) and site.static_grid().is_free(*centre)
+
+
+def posed(component: Component) -> Footprint:
+    target = component.target_pose_world
+    return posed_footprint(component, target.position_m, target.quat_xyzw)
