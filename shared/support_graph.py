@@ -5,6 +5,8 @@ Component ``B`` supports component ``A`` (B → A) when B's bottom is lower than
 * they are connected in the IFC model (IfcRelConnectsElements and its subtypes, in either direction), or
 * they touch under gravity: B's top is within ``tolerance_m`` of A's bottom and their footprints overlap;
 
+a foundation in the ground comes before what is set down near the ground over its excavation, touching
+or not (:mod:`.excavation`: the model leaves the fill between out);
 whatever the heights, a wall supports the window or door that fills one of its openings (IfcRelFillsElement:
 the filling is placed into the standing wall, never before it); and the two components of a **joint** (the
 model draws them into each other where they are joined: ``Manifest.joints``; a framed end drawn butting
@@ -47,6 +49,7 @@ from enum import IntEnum
 
 import numpy as np
 
+from .excavation import over_open_pits
 from .manifest import Component, Joint, JointSource
 from .sequence import ConstructionSequence, priority_topological_order, sequence_from_predecessors
 
@@ -75,10 +78,11 @@ class Edge(IntEnum):
     """Why one component precedes another, weakest first: a cycle loses its weakest edge."""
 
     SIDE = 1  # it would float or tip: held by what it touches at its side with a lower bottom
-    CONTACT = 2  # it rests on it from above
-    CONNECTION = 3  # connected in the IFC, the lower first
-    JOINT = 4  # drawn into each other where they are joined, in the joint's order
-    HOST = 5  # the wall before what fills its opening
+    PIT = 2  # set down near the ground over its open excavation (:mod:`.excavation`)
+    CONTACT = 3  # it rests on it from above
+    CONNECTION = 4  # connected in the IFC, the lower first
+    JOINT = 5  # drawn into each other where they are joined, in the joint's order
+    HOST = 6  # the wall before what fills its opening
 
 
 def support_predecessors(
@@ -126,6 +130,8 @@ def support_predecessors(
         if item.guid in resting and item.guid not in connected and not _balanced(item, resting[item.guid])
     }
     _add_side_contacts(components, preds, bottoms, tolerance_m, tipping, kinds=kinds)
+    for foundation, guid in over_open_pits(components, tolerance_m):
+        add(foundation, guid, Edge.PIT)
     for first, second in stated:  # the stated order wins over an edge of another kind the other way
         if first in preds[second] and second in preds[first] and kinds[second, first] < kinds[first, second]:
             preds[first].discard(second)

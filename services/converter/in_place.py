@@ -18,11 +18,11 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 
 from bimbot.shared.construction_methods import ConstructionMethod, MethodSource
+from bimbot.shared.excavation import BELOW_GROUND_M  # its bottom more than this below the ground
 from bimbot.shared.manifest import Component
 
 FOUNDATIONS = "foundations"  # the --in-place keyword
 IN_THE_GROUND_M = 0.02  # a foundation's top is at most this above the ground
-BELOW_GROUND_M = 0.02  # and its bottom more than this below it
 
 
 def in_the_ground(component: Component) -> bool:

@@ -27,7 +27,7 @@ and connects them, and still reports a clash.
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -144,21 +144,18 @@ def _framed_by_rule(
     contact: Overlap, a: Component, b: Component, rules: Iterable[JointRule], classes: _ClassTree
 ) -> Joint | None:
     """The framed joint the first fitting rule makes of a butt or gap (either way round), or None."""
-    for rule in rules:
-        for member, part in ((a, b), (b, a)):
-            member_class = classes.matching(member.ifc_class, rule.member)
-            part_class = classes.matching(part.ifc_class, rule.part)
-            if member_class is None or part_class is None or -contact.depth_m > rule.clearance_m:
-                continue
-            if not at_an_end(member, contact.region_m, rule.clearance_m + END_TOLERANCE_M, length_only=True):
-                continue
-            return Joint(
-                guids=(part.guid, member.guid),
-                depth_m=round(max(0.0, contact.depth_m), 4),
-                source=JointSource.FRAMED,
-                rule=rule.describe_framed(member_class, part_class),
-                clearance_m=rule.clearance_m,
-            )
+    for rule, member, part, member_class, part_class in _fitting(rules, a, b, classes):
+        if -contact.depth_m > rule.clearance_m:
+            continue
+        if not at_an_end(member, contact.region_m, rule.clearance_m + END_TOLERANCE_M, length_only=True):
+            continue
+        return Joint(
+            guids=(part.guid, member.guid),
+            depth_m=round(max(0.0, contact.depth_m), 4),
+            source=JointSource.FRAMED,
+            rule=rule.describe_framed(member_class, part_class),
+            clearance_m=rule.clearance_m,
+        )
     return None
 
 
@@ -230,25 +227,35 @@ def _by_rule(
     overlap: Overlap, a: Component, b: Component, rules: Iterable[JointRule], classes: _ClassTree
 ) -> Joint | None:
     """The joint the first fitting rule makes of ``overlap`` (either way round), or None."""
+    for rule, member, part, member_class, part_class in _fitting(rules, a, b, classes):
+        if overlap.depth_m > rule.max_depth_m:
+            continue
+        if rule.at_end and not at_an_end(member, overlap.region_m, rule.max_depth_m + END_TOLERANCE_M):
+            continue
+        # either may be the member of a rule that does not look for an end: no direction then
+        either_way = not rule.at_end and classes.matching(part.ifc_class, rule.member) is not None
+        either_way = either_way and classes.matching(member.ifc_class, rule.part) is not None
+        return Joint(
+            guids=(part.guid, member.guid),
+            depth_m=round(overlap.depth_m, 4),
+            source=JointSource.RULE,
+            rule=rule.describe(member_class, part_class),
+            directed=not either_way,
+        )
+    return None
+
+
+def _fitting(
+    rules: Iterable[JointRule], a: Component, b: Component, classes: _ClassTree
+) -> Iterator[tuple[JointRule, Component, Component, str, str]]:
+    """Each rule, in order, with each way round ``a`` and ``b`` fit it: (rule, member, part, the member's
+    and the part's class as the rule names them)."""
     for rule in rules:
         for member, part in ((a, b), (b, a)):
             member_class = classes.matching(member.ifc_class, rule.member)
             part_class = classes.matching(part.ifc_class, rule.part)
-            if member_class is None or part_class is None or overlap.depth_m > rule.max_depth_m:
-                continue
-            if rule.at_end and not at_an_end(member, overlap.region_m, rule.max_depth_m + END_TOLERANCE_M):
-                continue
-            # either may be the member of a rule that does not look for an end: no direction then
-            either_way = not rule.at_end and classes.matching(part.ifc_class, rule.member) is not None
-            either_way = either_way and classes.matching(member.ifc_class, rule.part) is not None
-            return Joint(
-                guids=(part.guid, member.guid),
-                depth_m=round(overlap.depth_m, 4),
-                source=JointSource.RULE,
-                rule=rule.describe(member_class, part_class),
-                directed=not either_way,
-            )
-    return None
+            if member_class is not None and part_class is not None:
+                yield rule, member, part, member_class, part_class
 
 
 def at_an_end(

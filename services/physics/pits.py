@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bimbot.shared.excavation import BELOW_GROUND_M, WORKING_SPACE_M
 from bimbot.shared.manifest import MAX_COLLISION_PARTS, Component
 from bimbot.shared.site_plan import Rect
 
@@ -47,11 +48,9 @@ from .collision_margin import obj_vertices
 from .ray_scene import register_boxes
 from .scene import DYNAMIC_GROUP, PIT_EDGE_GROUP, STATIC_GROUP, STATIC_MASK, put_to_sleep, set_filter
 
-BELOW_GROUND_M = 0.02  # a target bottom deeper than this below ground makes a pit
 FLOOR_THICKNESS_M = 0.2
 DEEPER_M = 0.01  # a pit this much deeper than another takes its footprint out of the other's floor
 MIN_FLOOR_M = 0.01  # narrower floor strips (left between deeper pits) are left out
-WORKING_SPACE_M = 0.1  # an excavation is this much wider than its foundation on every side
 RIM_M = 2.0  # the ground round a pit kept as boxes, for what is released over it (the plane is off for it)
 LIFT_SLOP_M = 0.005  # a released body overlapping the rim or a floor less than this is the solver's
 

@@ -72,7 +72,7 @@ from bimbot.shared.messages import (
 from bimbot.shared.reasons import Reason, ReasonCode
 
 from .connections import SupportsSeen
-from .fleet import by_type
+from .fleet import by_type, working_within_s
 from .methods import (
     CuringSeen,
     WorkTimes,
@@ -355,7 +355,9 @@ class ReportCollector:
         }
         totals = totals_of(components, robots)
         totals["walled_in"] = [robot_id for robot_id, robot in robots.items() if robot["walled_in"]]
-        totals["by_type"] = by_type(robots, makespan_window(components))
+        window = makespan_window(components)
+        totals["by_type"] = by_type(robots, window)
+        totals["working_s"] = working_within_s(robots.values(), window) if window is not None else None
         totals["hand_off_tasks"] = sum(entry["hand_off_tasks"] for entry in totals["by_type"].values())
         totals["blocked"] = len(self.progress.blocked) if self.progress else 0
         totals["done"] = bool(self.progress and self.progress.done)

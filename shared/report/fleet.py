@@ -85,7 +85,6 @@ def by_type(
         working_s = working_within_s(robots.values(), window)
         for name, entry in out.items():
             entry["utilisation"] = in_window[name] / (len(entry["robots"]) * (window[1] - window[0]))
-            entry["working_s"] = working_s
             entry["utilisation_at_work"] = (
                 in_window[name] / (len(entry["robots"]) * working_s) if working_s > 0.0 else None
             )
@@ -122,9 +121,11 @@ def utilisation_line(report: Mapping[str, Any]) -> str | None:
         return None
     line = f"utilisation by type (busy within the makespan / robots × makespan): {', '.join(parts)}"
     at_work = [(name, entry) for name, entry in types.items() if entry.get("utilisation_at_work") is not None]
-    working_s = at_work[0][1].get("working_s", 0.0) if at_work else 0.0
-    makespan_s = (report.get("totals") or {}).get("makespan_s") or 0.0
-    if at_work and makespan_s and working_s < AT_WORK_SHARE * makespan_s:  # long waits (a cure) in it
+    working_s = report["totals"].get("working_s")
+    makespan_s = report["totals"].get("makespan_s") or 0.0
+    if (
+        at_work and working_s is not None and makespan_s and working_s < AT_WORK_SHARE * makespan_s
+    ):  # long waits (a cure) in it
         shares = ", ".join(f"{name} {entry['utilisation_at_work'] * 100:.0f} %" for name, entry in at_work)
         line += f"; while some robot was at work ({duration_text(working_s)} of it): {shares}"
     return line

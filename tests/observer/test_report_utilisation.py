@@ -75,7 +75,7 @@ def test_a_long_cure_in_the_makespan_gives_the_utilisation_while_some_robot_was_
     assert types["tower_crane"]["utilisation"] == pytest.approx(0.02)
     assert types["tower_crane"]["utilisation_at_work"] == pytest.approx(0.2)
     assert types["concrete_pump"]["utilisation_at_work"] == pytest.approx(0.9)
-    line = utilisation_line({"totals": {"by_type": types, "makespan_s": 100 * hour}})
+    line = utilisation_line({"totals": {"by_type": types, "makespan_s": 100 * hour, "working_s": 10 * hour}})
     assert line is not None
     assert "tower_crane 2 % (1 robot)" in line
     assert (
@@ -83,5 +83,6 @@ def test_a_long_cure_in_the_makespan_gives_the_utilisation_while_some_robot_was_
     )
     busy = by_type({"r1": _robot((0.0, 90 * hour))}, window)  # at work most of the makespan: no second part
     assert "while some robot" not in (
-        utilisation_line({"totals": {"by_type": busy, "makespan_s": 100 * hour}}) or ""
+        utilisation_line({"totals": {"by_type": busy, "makespan_s": 100 * hour, "working_s": 90 * hour}})
+        or ""
     )

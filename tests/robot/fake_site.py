@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -298,3 +299,21 @@ def run_task(site: FakeSite, released: ComponentStateMsg, task: TaskMsg, max_ste
         return bool(s.executor.done) and s.executor.machine.state is RobotState.IDLE
 
     site.run(max_steps, until=finished)
+
+
+def construct_named(site: FakeSite, manifest: Manifest, names: Iterable[str]) -> None:
+    """The components called ``names`` are constructed (their agents announce it; the robot's question to
+    their twins confirms it): the robot's map has them at their targets from now on."""
+    wanted = set(names)
+    for component in manifest.components:
+        if component.name in wanted:
+            site.states[component.guid] = ComponentState.CONSTRUCTED
+            site.executor.handle(
+                ComponentStateMsg(
+                    guid=component.guid,
+                    state=ComponentState.CONSTRUCTED,
+                    event="resume",
+                    sim_time_s=site.step * DT,
+                    wall_time_s=0.0,
+                )
+            )

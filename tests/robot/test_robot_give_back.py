@@ -5,18 +5,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from fake_site import DT, FakeSite, make_site, run_task
+from fake_site import DT, FakeSite, construct_named, make_site, run_task
 from frames import convert_small_frame
-from site_models import ROOM_WALLS, build_site_model
+from site_models import ROOM_WALLS
 
-from bimbot.services.converter.convert import convert_model
 from bimbot.services.robot import give_back
 from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.messages import (
     ComponentEvent,
     ComponentEventMsg,
     ComponentState,
-    ComponentStateMsg,
     DropRequest,
     RobotState,
 )
@@ -24,35 +22,8 @@ from bimbot.shared.reasons import ReasonCode
 
 
 @pytest.fixture(scope="module")
-def room(tmp_path_factory: pytest.TempPathFactory) -> Manifest:
-    """The site model's frame and a room of four walls around ``Column R1`` (no heavy footing)."""
-    folder = tmp_path_factory.mktemp("room")
-    model = build_site_model(heavy=None, room=True, furniture=False)
-    source = model.write(folder / "site.ifc")
-    convert_model(model.file, source, folder / "build")
-    return read_manifest(folder / "build")
-
-
-@pytest.fixture(scope="module")
 def frame(tmp_path_factory: pytest.TempPathFactory) -> Manifest:
     return read_manifest(convert_small_frame(tmp_path_factory.mktemp("frame")))
-
-
-def _build_walls(site: FakeSite, manifest: Manifest) -> None:
-    """The room's walls are constructed (their agents announce it; the robot's question to their twins
-    confirms it): the robot's map has them at their targets from now on."""
-    for component in manifest.components:
-        if component.name in ROOM_WALLS:
-            site.states[component.guid] = ComponentState.CONSTRUCTED
-            site.executor.handle(
-                ComponentStateMsg(
-                    guid=component.guid,
-                    state=ComponentState.CONSTRUCTED,
-                    event="resume",
-                    sim_time_s=site.step * DT,
-                    wall_time_s=0.0,
-                )
-            )
 
 
 def _abandon(site: FakeSite) -> ComponentEventMsg:
@@ -68,7 +39,7 @@ def _given_back(site: FakeSite) -> bool:
 
 def test_a_column_walled_in_by_its_room_is_given_back_unreachable_before_it_is_picked(room: Manifest) -> None:
     site, released, task = make_site(room, "Column R1")
-    _build_walls(site, room)
+    construct_named(site, room, ROOM_WALLS)
     site.run(3)  # the walls' twins answer
     assert set(site.twin_questions) == {c.guid for c in room.components if c.name in ROOM_WALLS}
     site.executor.handle(released)
@@ -93,7 +64,7 @@ def test_a_carrying_robot_that_cannot_reach_its_target_puts_the_load_down_and_gi
     site.run(3000, until=lambda s: s.executor.machine.state is RobotState.IDENTIFY_TARGET_LOCATION)
     assert site.carried == task.guid
     closed_s = site.step * DT
-    _build_walls(site, room)  # the room closes while the column rides on the robot
+    construct_named(site, room, ROOM_WALLS)  # the room closes while the column rides on the robot
     site.run(3000, until=_given_back)
     assert [r.kind for r in site.requests] == ["attach", "drop"]
     drop = site.requests[-1].message

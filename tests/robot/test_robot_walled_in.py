@@ -4,50 +4,21 @@ says it no more once it has driven out to its depot; a robot that merely cannot 
 from __future__ import annotations
 
 import pytest
-from fake_site import DT, FakeSite, make_site
-from site_models import ROOM_CENTRE_M, ROOM_WALLS, build_site_model
+from fake_site import DT, FakeSite, construct_named, make_site
+from site_models import ROOM_CENTRE_M, ROOM_WALLS
 
-from bimbot.services.converter.convert import convert_model
-from bimbot.shared.manifest import Manifest, read_manifest
+from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     ComponentEvent,
     ComponentPoseMsg,
-    ComponentState,
-    ComponentStateMsg,
     PoseMsg,
     RobotStateMsg,
 )
 from bimbot.shared.reasons import ReasonCode
 
 
-@pytest.fixture(scope="module")
-def room(tmp_path_factory: pytest.TempPathFactory) -> Manifest:
-    """The site model's frame and a room of four walls (no heavy footing)."""
-    folder = tmp_path_factory.mktemp("room")
-    model = build_site_model(heavy=None, room=True, furniture=False)
-    source = model.write(folder / "site.ifc")
-    convert_model(model.file, source, folder / "build")
-    return read_manifest(folder / "build")
-
-
 def _state(site: FakeSite) -> RobotStateMsg:
     return site.executor.state_message(0.0)
-
-
-def _close_the_room(site: FakeSite, manifest: Manifest) -> None:
-    """The room's walls are constructed around the robot (their agents announce it)."""
-    for component in manifest.components:
-        if component.name in ROOM_WALLS:
-            site.states[component.guid] = ComponentState.CONSTRUCTED
-            site.executor.handle(
-                ComponentStateMsg(
-                    guid=component.guid,
-                    state=ComponentState.CONSTRUCTED,
-                    event="resume",
-                    sim_time_s=site.step * DT,
-                    wall_time_s=0.0,
-                )
-            )
 
 
 def _open_the_room(site: FakeSite, manifest: Manifest) -> None:
@@ -67,7 +38,7 @@ def test_a_robot_closed_in_by_walls_says_where_and_since_when_until_it_drives_ou
     site, released, task = make_site(
         room, "Column A1", start_xy_yaw=centre, park_after_s=2.0, park_retry_s=5.0
     )
-    _close_the_room(site, room)
+    construct_named(site, room, ROOM_WALLS)
     site.run(3)
     assert _state(site).walled_in_since_s is None, "walled in, but it has not found out yet"
     site.executor.handle(released)
