@@ -8,7 +8,8 @@ class, ``parent_guid`` and method ``panelised``, its own model folder, mass (the
 collision parts (the converter's mesh decomposition of the panel) and mesh files, no split IFC. The panel's
 frame has the element's axes, its origin at the centre of the panel's bounding box. The element gets one
 :class:`PanelisedElement` entry (its panels, the joints between them, why it was split) and is no component
-itself. An element that cannot be cut within the limits stays whole and is lifted, with a warning saying why.
+itself. An element that cannot be cut within the limits stays whole, with a warning saying why: cast in
+place when its material is cast when too heavy (concrete), else lifted.
 
 An element cast in place whose volume is more than one day's pour (the methods file's
 ``CastInPlace.day_pour_m3`` for its rates class) is poured in bays (:mod:`.bays`), written the same way:
@@ -37,6 +38,7 @@ from bimbot.shared.construction_methods import (
 )
 from bimbot.shared.identifiers import guid_to_folder
 from bimbot.shared.manifest import Component
+from bimbot.shared.methods_file import MethodsFile
 
 from . import mass as mass_chain
 from .bays import split_into_bays
@@ -87,25 +89,38 @@ def write_element(
     mass = element_mass(item, work, context)
     decision = settled_method(item, work, mass.mass_kg, context)
     warnings: tuple[str, ...] = ()
-    day_m3 = day_pour_m3(item, context)
-    if decision.method is ConstructionMethod.CAST_IN_PLACE and work.props.volume_m3 > day_m3:
-        try:
-            return write_bays(item, work, context, mass, decision)
-        except PanelisationError as error:
-            _log.info("%s %s not poured in bays: %s", element.is_a(), guid, error)
-            warnings = (f"poured whole, not in bays: {error}",)
     if decision.method is ConstructionMethod.PANELISED:
         try:
             return write_panels(item, work, context, mass, decision)
         except PanelisationError as error:
             _log.info("%s %s not panelised: %s", element.is_a(), guid, error)
             warnings = (f"not panelised: {error}",)
-            note = f"{decision.note}; not panelised ({error}): lifted whole" if decision.note else ""
-            decision = decision.model_copy(update={"method": ConstructionMethod.LIFTED, "note": note})
+            decision = not_panelised(decision, str(error), context.methods)
+    day_m3 = day_pour_m3(item, context)
+    if decision.method is ConstructionMethod.CAST_IN_PLACE and work.props.volume_m3 > day_m3:
+        try:
+            return write_bays(item, work, context, mass, decision)
+        except PanelisationError as error:
+            _log.info("%s %s not poured in bays: %s", element.is_a(), guid, error)
+            warnings = (*warnings, f"poured whole, not in bays: {error}")
     component, spec = write_component(
         model, item, work, context, mass=mass, warnings=warnings, decision=decision
     )
     return WrittenElement([component], [spec], [item.bbox_ifc_world_m])
+
+
+def not_panelised(decision: MethodDecision, error: str, methods: MethodsFile | None) -> MethodDecision:
+    """What an element that cannot be cut into panels becomes: cast in place when its material is one the
+    methods file casts when too heavy (concrete: a slab with a stair opening no cut avoids is formed and
+    poured where it stands, as a site would), else lifted whole (and the fleet check says if no machine
+    can lift it)."""
+    castable = methods is not None and decision.material in {
+        kind.value for kind in methods.panels.cast_when_too_heavy
+    }
+    method = ConstructionMethod.CAST_IN_PLACE if castable else ConstructionMethod.LIFTED
+    then = "cast in place" if castable else "lifted whole"
+    note = f"{decision.note}; not panelised ({error}): {then}" if decision.note else f"not panelised: {then}"
+    return decision.model_copy(update={"method": method, "note": note})
 
 
 def write_panels(

@@ -17,11 +17,12 @@ from sdf_checks import sdf_check_all
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
 from bimbot.services.converter.final_method import default_limits
-from bimbot.services.converter.panel_writer import panel_guid
+from bimbot.services.converter.panel_writer import not_panelised, panel_guid
 from bimbot.shared.construction_methods import ConstructionMethod, MethodDecision, MethodSource
 from bimbot.shared.identifiers import guid_to_folder, is_valid_guid
 from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.methods_file import load_methods
 from bimbot.shared.sequence import check_sequence, read_sequence
 from bimbot.shared.site_layout import plan_site
 from bimbot.shared.support_graph import support_predecessors, support_violations
@@ -230,3 +231,19 @@ def test_the_revit_house_heavy_wall_and_roof_slab_split_sensibly(samples_dir: Pa
     preds = support_predecessors(manifest.components)
     assert all(preds[c.guid] & {p.guid for p in wall_panels} for c in planks[:1] + planks[-1:])
     check_sequence(read_sequence(tmp_path / manifest.sequence_file))
+
+
+def test_a_concrete_element_no_cut_keeps_within_the_limits_is_cast_in_place_not_lifted_whole() -> None:
+    """FZK-Haus's 20 t concrete floor with a stair opening that no cut avoids was lifted whole, beyond
+    every machine, and 58 components waited on it for ever; a site forms and pours such a slab where it
+    stands. An element of another material stays lifted whole (the fleet check then says if none can)."""
+    methods = load_methods("prefab")
+    slab = MethodDecision(
+        method=ConstructionMethod.PANELISED, source=MethodSource.RULE, note="too heavy", material="concrete"
+    )
+    cast = not_panelised(slab, "no cut avoids its openings", methods)
+    assert cast.method is ConstructionMethod.CAST_IN_PLACE
+    assert cast.note == "too heavy; not panelised (no cut avoids its openings): cast in place"
+    timber = slab.model_copy(update={"material": "timber"})
+    assert not_panelised(timber, "no cut", methods).method is ConstructionMethod.LIFTED
+    assert not_panelised(slab, "no cut", None).method is ConstructionMethod.LIFTED
