@@ -8,9 +8,9 @@ The model is the robots' own: the site grid (fence, yard stacks in their slots, 
 far), where a component occupies the grid when it meets the robot's height band (``band_min_z_m`` ..
 ``band_max_z_m``: a beam at 3 m does not, a footing flush with the ground does not), inflated by the robot's
 radius plus the map margin (:data:`bimbot.shared.site_layout.INFLATION_MARGIN_M`), as the robots plan.
-A component placed at its target whose top is within the robot's step (``max_step_m``: a ground slab,
-its flooring) is a floor driven on, not an obstacle, as in the robots' map once it is constructed (and
-cured). The robot's free region is the 8-connected free cells around its depot start. A component is
+A floor placed at its target whose top is within the robot's step (``max_step_m``: a ground slab, its
+flooring, :mod:`.floors`) is driven on, not an obstacle, as in the robots' map once it is constructed
+(and cured). The robot's free region is the 8-connected free cells around its depot start. A component is
 *accessible* when some cell of that region lies within the robot's reach of its footprint (the one reach rule,
 :mod:`bimbot.shared.robot_description`: nearest point of the footprint, ``reach_m`` less a margin), and,
 for a component in the band, at least the inflation radius outside it (the body stays clear): at its BIM
@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from .clipped_distance import ClippedDistanceField
+from .floors import drives_onto
 from .footprint import Footprint, posed_footprint
 from .manifest import Component
 from .occupancy_grid import OccupancyGrid, empty_grid, from_footprints, nearest_free_cell
@@ -117,7 +118,7 @@ class SiteAccess:
         self._release(guid)
         target = component.target_pose_world
         footprint = posed_footprint(component, target.position_m, target.quat_xyzw)
-        if footprint.z_max_m > self._step_m:  # else a floor driven on
+        if not drives_onto(component, footprint.z_max_m, self._step_m):
             self._occupy(guid, footprint)
         self.placed.add(guid)
 

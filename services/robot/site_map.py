@@ -14,12 +14,12 @@ What occupies the grid:
   ground): components lying in the yard and built columns block, beams at 3 m and footings whose tops are
   at z ≈ 0 do not. A component carried by a robot (``attached_to``) leaves the map; when physics fixes it
   into the structure (``fixed``) it comes back at its placed pose;
-* except a **floor driven on**: a component constructed at its place whose top is no higher than the
-  robot's step (``step_m``, its type's ``max_step_m``: a ground slab, its flooring) is driven onto, as the
-  trades drive onto a slab on site, not round (the restaurant's 5 cm floors cut 245 of its 470 components
-  off). While it is being built or settling it blocks like anything else, and a cast floor until it has
-  cured (its ``cast.cure_s`` after it was constructed: :meth:`SiteMap.advance` lets it in). The laser sees
-  its edge where it reaches the laser's height, so its edge is in the localiser's map and is no surprise.
+* except a **floor driven on** (:mod:`bimbot.shared.floors`): a slab, covering or ramp constructed at its
+  place whose top is no higher than the robot's step (``step_m``, its type's ``max_step_m``) is driven
+  onto, as the trades drive onto a slab on site, not round. While it is being built or settling it
+  blocks like anything else, and a cast floor until it has cured (its ``cast.cure_s`` after it was
+  constructed: :meth:`SiteMap.advance` lets it in). The laser sees its edge where it reaches the laser's
+  height, so its edge is in the localiser's map and is no surprise.
 
 Laser hits are not stored here (they are transient); :meth:`SiteMap.planning_grid` adds the current ones.
 The localiser's map is :meth:`SiteMap.laser_grid`: only what reaches up to the laser's height.
@@ -40,6 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from bimbot.shared.clipped_distance import ClippedDistanceField
+from bimbot.shared.floors import drives_onto
 from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, ComponentState
@@ -400,7 +401,7 @@ class SiteMap:
             and guid in self._placed
             and guid not in self._settling
             and guid not in self.carried
-            and footprint.z_max_m <= self.config.step_m
+            and drives_onto(self._components[guid], footprint.z_max_m, self.config.step_m)
         )
 
     def _seen(self, footprint: Footprint) -> bool:

@@ -208,15 +208,14 @@ def _floor(frame: Manifest, top_z_m: float) -> Component:
     target = footing.target_pose_world
     lift_m = top_z_m - footing.bbox_world.max_m[2]
     position = (target.position_m[0], target.position_m[1], target.position_m[2] + lift_m)
-    return footing.model_copy(
-        update={"target_pose_world": target.model_copy(update={"position_m": position}), "name": "Floor F"}
-    )
+    at = target.model_copy(update={"position_m": position})
+    return footing.model_copy(update={"target_pose_world": at, "name": "Floor F", "ifc_class": "IfcSlab"})
 
 
 def test_a_constructed_floor_within_the_robots_step_is_driven_on_and_its_edge_is_no_surprise(
     frame: Manifest,
 ) -> None:
-    """A 6 cm floor blocks while it settles and until it is constructed; then a robot whose step is 7 cm
+    """A 6 cm slab blocks while it settles and until it is constructed; then a robot whose step is 7 cm
     drives on it (the restaurant's floors cut 245 components off), while its edge, at the laser's height,
     stays in the localiser's map and laser hits on it are no surprise. A robot of 5 cm step drives round."""
     floor = _floor(frame, 0.06)
@@ -240,6 +239,13 @@ def test_a_constructed_floor_within_the_robots_step_is_driven_on_and_its_edge_is
     assert len(climber.unexplained([edge + 2.0])) == 1, "far from anything: a surprise"
     climber.observe_state(floor.guid, ComponentState.MISPLACED, sim_s=20.0)
     assert not climber.static_grid().is_free(*centre), "no longer constructed: round it again"
+    sill = floor.model_copy(update={"ifc_class": "IfcMember", "name": "Sill"})
+    components = [sill if c.guid == floor.guid else c for c in frame.components]
+    site = SiteMap(layout, components, MapConfig(step_m=0.07))
+    site.observe_pose(at_target(sill, fixed=True, joined=True))
+    site.observe_state(sill.guid, ComponentState.CONSTRUCTED, sim_s=10.0)
+    site.advance(10.0)
+    assert not site.static_grid().is_free(*centre), "a curtain wall's sill member is no floor"
 
 
 def test_a_cast_floor_is_driven_on_only_once_it_has_cured(frame: Manifest) -> None:

@@ -55,7 +55,9 @@ def test_a_floor_within_the_robots_step_is_driven_on_not_round(bundled_build: Pa
     floor_box = box.model_copy(update={"min_m": (-4.0, -4.0, -depth_m / 2), "max_m": (4.0, 4.0, depth_m / 2)})
     cx, cy, _ = column.target_pose_world.position_m
     at = footing.target_pose_world.model_copy(update={"position_m": (cx, cy, 0.06 - depth_m / 2)})
-    floor = footing.model_copy(update={"bbox_local": floor_box, "target_pose_world": at, "name": "Floor"})
+    floor = footing.model_copy(
+        update={"bbox_local": floor_box, "target_pose_world": at, "name": "Floor", "ifc_class": "IfcSlab"}
+    )
     components = [floor if c.guid == footing.guid else c for c in components]
     layout = plan_site(components, robots=1)
     for step_m, reaches in ((0.07, True), (0.05, False)):
