@@ -2,12 +2,12 @@
 
 Why shared: physics digs a pit under every component whose target reaches more than ``BELOW_GROUND_M``
 below ground (:mod:`bimbot.services.physics.pits`), ``WORKING_SPACE_M`` wider than it, and what is released
-with its centre over an open pit drops in. So the sequence must place that foundation before anything set
-down over it near the ground, whether or not the model draws the two touching: the restaurant's courtyard
+with its centre over an open pit drops in. So the sequence places that foundation before anything
+above it over its excavation, whether or not the model draws the two touching: the restaurant's courtyard
 floor panels and curbs are drawn 0.1-0.4 m above the 0.7 m exterior floor slab under them (the fill
-between is not modelled), and released before the slab's bays were cast they fell into its pits, three
-times each, and failed. A site builds bottom-up: the slab at the bottom of the excavation is cast, the fill
-laid and compacted, then what stands on it.
+between is not modelled), its handrails 0.9 m above it, and released before the slab's bays were cast
+they fell into its pits, three times each, and failed. A site builds bottom-up: the excavation's
+foundations are cast, the fill laid and compacted, then what stands over them.
 """
 
 from __future__ import annotations
@@ -23,22 +23,20 @@ WORKING_SPACE_M = 0.1  # an excavation is this much wider than its foundation on
 
 
 def over_open_pits(components: Sequence[Component], tolerance_m: float) -> list[tuple[str, str]]:
-    """(foundation, component) pairs: ``component`` is set down near the ground (its bottom no higher than
-    ``BELOW_GROUND_M``) over the pit of ``foundation`` (the centre of its footprint within the excavation,
-    its bottom no lower than the foundation's top less ``tolerance_m``), so the foundation comes first."""
+    """(foundation, component) pairs: ``component`` stands over the pit of ``foundation`` (the centre of
+    its footprint within the excavation, its bottom no lower than the foundation's top less
+    ``tolerance_m``), so the foundation comes first."""
     if not components:
         return []
     low = np.array([item.bbox_world.min_m for item in components])
     high = np.array([item.bbox_world.max_m for item in components])
     centre = (low[:, :2] + high[:, :2]) / 2.0
-    near_ground = low[:, 2] <= BELOW_GROUND_M
     pairs: list[tuple[str, str]] = []
     for index in np.flatnonzero(low[:, 2] < -BELOW_GROUND_M):
         x0, y0 = low[index, :2] - WORKING_SPACE_M
         x1, y1 = high[index, :2] + WORKING_SPACE_M
         over = (
-            near_ground
-            & (low[:, 2] >= high[index, 2] - tolerance_m)
+            (low[:, 2] >= high[index, 2] - tolerance_m)
             & (centre[:, 0] >= x0)
             & (centre[:, 0] <= x1)
             & (centre[:, 1] >= y0)

@@ -158,7 +158,9 @@ class Releasing:
         )
         if others:
             _log.info("%s released over the open pit of %s", guid, ", ".join(others))
-        connected_to, hold_s = ((), 0.0) if clashes or others else self._connect(item, now_s)
+        # over an open pit it is connected to what stands (a handrail bolted to a standing wall stands over
+        # an excavation), but no crew props it there: what would rest on the pit's foundation falls in
+        connected_to, hold_s = ((), 0.0) if clashes else self._connect(item, now_s, supports=not others)
         if carrier is not None:
             state.carrying.pop(carrier.robot_id, None)
         releaser = carrier.robot_id if carrier is not None else None
@@ -204,7 +206,7 @@ class Releasing:
                 within.add(other_guid)
         return frozenset(within)
 
-    def _connect(self, item: Item, now_s: float) -> tuple[tuple[str, ...], float]:
+    def _connect(self, item: Item, now_s: float, *, supports: bool = True) -> tuple[tuple[str, ...], float]:
         """Connect ``item``, just let go, to the built neighbours (:mod:`.connections`) if it lies at its
         target; and set its temporary supports when it needs them and no connection holds it yet
         (:mod:`.temporary_supports`), at its target or off it: the crew props a member wherever the robot
@@ -226,7 +228,7 @@ class Releasing:
         plan = plan_connections(found, links, self._built_partners(guid), config.hold_s)
         state.supports.connect(guid, plan.kinds, {other: now_s + s for other, s in plan.holds_at_s.items()})
         hold_s = plan.connection_s
-        need = component.temporary_support
+        need = component.temporary_support if supports else None
         if need is not None and (
             need.when is SupportWhen.ALWAYS
             or (need.when is SupportWhen.UNCONNECTED and not plan.holds_at_s)

@@ -19,11 +19,12 @@ def frame_manifest(bundled_build: Path) -> Manifest:
 
 @pytest.fixture
 def make_sim(bundled_build: Path, frame_manifest: Manifest) -> Iterator[Callable[..., Simulation]]:
-    """``make_sim(robots=1, odom_noise=0.0, …)``: a fresh DIRECT simulation, closed after the test."""
+    """``make_sim(robots=1, odom_noise=0.0, …)``: a fresh DIRECT simulation (of ``manifest=``, a variant of
+    the frame, when given), closed after the test."""
     with ExitStack() as stack:
 
-        def make(**overrides: object) -> Simulation:
+        def make(manifest: Manifest | None = None, **overrides: object) -> Simulation:
             config = SimConfig(**{"odom_noise": 0.0, **overrides})  # type: ignore[arg-type]
-            return stack.enter_context(Simulation(frame_manifest, bundled_build, config))
+            return stack.enter_context(Simulation(manifest or frame_manifest, bundled_build, config))
 
         yield make

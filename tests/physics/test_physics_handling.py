@@ -15,6 +15,7 @@ from physics_builders import angle_between, bottom_z, distance_to_footprint, dri
 
 from bimbot.services.physics.client import p
 from bimbot.services.physics.handling_state import Phase
+from bimbot.services.physics.pits import Pit
 from bimbot.services.physics.scene import (
     component_pose,
     compose,
@@ -23,6 +24,13 @@ from bimbot.services.physics.scene import (
     set_component_pose,
 )
 from bimbot.services.physics.simulation import Simulation
+from bimbot.shared.connection_kinds import (
+    ConnectionKind,
+    ConnectionLink,
+    SupportKind,
+    SupportWhen,
+    TemporarySupportNeed,
+)
 from bimbot.shared.manifest import Component, Manifest, read_manifest
 from bimbot.shared.messages import (
     AttachRequest,
@@ -34,6 +42,7 @@ from bimbot.shared.messages import (
     RobotPoseMsg,
 )
 from bimbot.shared.site_layout import GROUND_CLEARANCE_M
+from bimbot.shared.site_plan import Rect
 
 
 @pytest.fixture(scope="module")
@@ -671,3 +680,40 @@ def test_a_component_released_into_another_names_the_clash_in_its_pose(
     assert list(clashes) == [first.guid]
     assert clashes[first.guid] == pytest.approx(0.3, abs=0.01)
     assert sim.handling.pose_message(first.guid, sim.sim_time_s).clash_depth_m == {}
+
+
+def test_a_beam_bolted_to_standing_columns_over_an_open_excavation_stands_and_is_not_propped(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """The restaurant's handrails, bolted to standing walls, hang over the pit of a floor slab not yet cast
+    under them: they are connected to what stands and stay. No crew props anything there, though: what
+    would rest on the pit's foundation still falls in (a column placed before its footing, above)."""
+    columns = [_named(frame_manifest, name) for name in ("Column A1", "Column A2")]
+    bolts = [
+        ConnectionLink(other_guid=c.guid, kind=ConnectionKind.PINNED_END, time_s=5.0, source="joint")
+        for c in columns
+    ]
+    props = TemporarySupportNeed(kind=SupportKind.PROPS, count=2, place_s=1.0, when=SupportWhen.ALWAYS)
+    beam = _named(frame_manifest, "Beam A1-A2").model_copy(
+        update={"connection_links": bolts, "temporary_support": props}
+    )
+    manifest = frame_manifest.model_copy(
+        update={"components": [beam if c.guid == beam.guid else c for c in frame_manifest.components]}
+    )
+    sim = make_sim(robots=1, manifest=manifest)
+    for name in ("Footing A1", "Column A1", "Footing A2", "Column A2"):
+        _joined(sim, _named(manifest, name))
+    low, high = beam.bbox_world.min_m, beam.bbox_world.max_m
+    x, y = (low[0] + high[0]) / 2, (low[1] + high[1]) / 2
+    under = _named(manifest, "Footing B3")  # not placed: its excavation stands open
+    pits = sim.handling.state.pits
+    assert pits is not None
+    pits.pits.append(Pit(under.guid, Rect((x - 1.0, y - 1.0), (x + 1.0, y + 1.0)), -1.0, -1))
+    reply, _ = _placed_and_answered(sim, beam)
+    assert reply.ok
+    message = sim.handling.pose_message(beam.guid, sim.sim_time_s)
+    assert message.open_pits == [under.guid]
+    assert message.fixed and (message.drift_m or 0.0) < 0.003
+    made = sim.handling.state.supports.kinds.get(beam.guid, {})
+    assert made == {c.guid: ConnectionKind.PINNED_END for c in columns}, "bolted to both columns"
+    assert beam.guid not in sim.handling.state.supports.standing, "no props over an open pit"

@@ -252,15 +252,15 @@ def test_a_cycle_in_a_given_support_map_is_broken_with_a_warning(caplog: pytest.
 
 
 def test_what_is_set_down_over_a_foundations_open_pit_waits_for_it_though_they_do_not_touch() -> None:
-    """The restaurant's courtyard: a 0.7 m slab at -1.52..-0.81 m, a floor panel drawn 0.4 m above it and a
-    curb 0.1 m above it (the fill between is not modelled). Released first, each fell into the slab's pit.
-    A roof 3 m up over the same footprint, and a panel beside the excavation, do not wait for it."""
+    """The restaurant's courtyard: a 0.7 m slab at -1.52..-0.81 m, a floor panel drawn 0.4 m above it, a
+    curb 0.1 m above it and a handrail 0.9 m above it (the fill between is not modelled). Released first,
+    each fell into the slab's pit. A panel beside the excavation does not wait for it."""
     slab = _component("slab", "IfcSlab", (0, 0, -1.52), (10, 10, -0.81))
     panel = _component("panel", "IfcSlab", (2, 2, -0.41), (4, 4, -0.1))
     curb = _component("curb", "IfcWall", (9.5, 0, -0.71), (10.2, 10, 0.08))
-    roof = _component("roof", "IfcSlab", (0, 0, 3.0), (10, 10, 3.3))
+    rail = _component("rail", "IfcRailing", (5, 5, 0.08), (5.2, 9, 0.99))
     beside = _component("beside", "IfcSlab", (10.3, 0, -0.41), (12, 10, -0.1))
-    preds = support_predecessors([slab, panel, curb, roof, beside])
-    assert "slab" in preds["panel"] and "slab" in preds["curb"]
-    assert "slab" not in preds["roof"] and "slab" not in preds["beside"]
+    preds = support_predecessors([slab, panel, curb, rail, beside])
+    assert "slab" in preds["panel"] and "slab" in preds["curb"] and "slab" in preds["rail"]
+    assert "slab" not in preds["beside"]
     assert preds["slab"] == set()
