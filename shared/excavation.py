@@ -2,8 +2,9 @@
 
 Why shared: physics digs a pit under every component whose target reaches more than ``BELOW_GROUND_M``
 below ground (:mod:`bimbot.services.physics.pits`), ``WORKING_SPACE_M`` wider than it, and what is released
-with its centre over an open pit drops in. So the sequence places that foundation before anything
-above it over its excavation, whether or not the model draws the two touching: the restaurant's courtyard
+with its centre over an open pit drops in. So the sequence places that foundation before what stands
+over its excavation with nothing else to hold it (:mod:`.support_graph`), whether or not the model draws
+the two touching: the restaurant's courtyard
 floor panels and curbs are drawn 0.1-0.4 m above the 0.7 m exterior floor slab under them (the fill
 between is not modelled), its handrails 0.9 m above it, and released before the slab's bays were cast
 they fell into its pits, three times each, and failed. A site builds bottom-up: the excavation's

@@ -5,8 +5,9 @@ Component ``B`` supports component ``A`` (B → A) when B's bottom is lower than
 * they are connected in the IFC model (IfcRelConnectsElements and its subtypes, in either direction), or
 * they touch under gravity: B's top is within ``tolerance_m`` of A's bottom and their footprints overlap;
 
-a foundation in the ground comes before what is set down near the ground over its excavation, touching
-or not (:mod:`.excavation`: the model leaves the fill between out);
+a foundation in the ground comes before what stands over its excavation with nothing else under or beside
+it, touching or not (:mod:`.excavation`: the model leaves the fill between out; a column on its own footing
+inside a ground slab's excavation may still go before the slab);
 whatever the heights, a wall supports the window or door that fills one of its openings (IfcRelFillsElement:
 the filling is placed into the standing wall, never before it); and the two components of a **joint** (the
 model draws them into each other where they are joined: ``Manifest.joints``; a framed end drawn butting
@@ -130,8 +131,10 @@ def support_predecessors(
         if item.guid in resting and item.guid not in connected and not _balanced(item, resting[item.guid])
     }
     _add_side_contacts(components, preds, bottoms, tolerance_m, tipping, kinds=kinds)
+    unsupported = {guid for guid, supports in preds.items() if not supports}
     for foundation, guid in over_open_pits(components, tolerance_m):
-        add(foundation, guid, Edge.PIT)
+        if guid in unsupported:  # nothing else under it or beside it: it would fall into the pit
+            add(foundation, guid, Edge.PIT)
     for first, second in stated:  # the stated order wins over an edge of another kind the other way
         if first in preds[second] and second in preds[first] and kinds[second, first] < kinds[first, second]:
             preds[first].discard(second)

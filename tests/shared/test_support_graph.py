@@ -254,13 +254,16 @@ def test_a_cycle_in_a_given_support_map_is_broken_with_a_warning(caplog: pytest.
 def test_what_is_set_down_over_a_foundations_open_pit_waits_for_it_though_they_do_not_touch() -> None:
     """The restaurant's courtyard: a 0.7 m slab at -1.52..-0.81 m, a floor panel drawn 0.4 m above it, a
     curb 0.1 m above it and a handrail 0.9 m above it (the fill between is not modelled). Released first,
-    each fell into the slab's pit. A panel beside the excavation does not wait for it."""
+    each fell into the slab's pit. A panel beside the excavation does not wait for it, nor a column on its
+    own footing inside the excavation (the steel may go up before the slab on grade is poured)."""
     slab = _component("slab", "IfcSlab", (0, 0, -1.52), (10, 10, -0.81))
     panel = _component("panel", "IfcSlab", (2, 2, -0.41), (4, 4, -0.1))
     curb = _component("curb", "IfcWall", (9.5, 0, -0.71), (10.2, 10, 0.08))
     rail = _component("rail", "IfcRailing", (5, 5, 0.08), (5.2, 9, 0.99))
     beside = _component("beside", "IfcSlab", (10.3, 0, -0.41), (12, 10, -0.1))
-    preds = support_predecessors([slab, panel, curb, rail, beside])
+    footing = _component("footing", "IfcFooting", (6, 6, -2.0), (7, 7, -1.52))
+    column = _component("column", "IfcColumn", (6.4, 6.4, -1.52), (6.6, 6.6, 3.0))
+    preds = support_predecessors([slab, panel, curb, rail, beside, footing, column])
     assert "slab" in preds["panel"] and "slab" in preds["curb"] and "slab" in preds["rail"]
-    assert "slab" not in preds["beside"]
-    assert preds["slab"] == set()
+    assert "slab" not in preds["beside"] and preds["column"] == {"footing"}
+    assert preds["slab"] == {"footing"} and preds["footing"] == set()
