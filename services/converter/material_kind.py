@@ -2,13 +2,15 @@
 
 The main material is the one that makes most of the element: the thickest layer of a layer set (a brick
 wall plastered both sides is masonry), the largest fraction of a constituent set, the first profile of a
-profile set, the first of a list or the material itself (the element's own association, else its type's).
-Its kind comes from its name and category (IFC4), in the languages exports keep (the Revit sample house's
-"Ladrillo de cerámica hueco doble" is masonry, its "Cristal" glass); a material whose name says nothing
-(Revit's "<Unnamed>", "Default Floor") is :attr:`MaterialKind.UNKNOWN`. A name may also say how the element
-is made: "Concrete, Cast-in-Place gray" (the Revit hub's) is cast in place, "Precast Concrete" lifted, and a
-poured floor ("Floor:J_Floor_Concrete_PouredUnderlayment" of gypsum concrete, "J_Floor_Gyp_Crete", in the
-Revit restaurant; a screed) is cast in place on the floor beneath it (:data:`POURED_WORDS`).
+profile set, the first of a list or the material itself (the element's own association, else its
+type's). Its kind comes from its name and category (IFC4), in the languages exports keep (the Revit
+sample house's "Ladrillo de cerámica hueco doble" is masonry, its "Cristal" glass; a Chinese Revit
+model's "混凝土 - 现场浇注混凝土", concrete - cast-in-place concrete, is concrete cast in place); a
+material whose name says nothing (Revit's "<Unnamed>", "Default Floor") is :attr:`MaterialKind.UNKNOWN`.
+A name may also say how the element is made: "Concrete, Cast-in-Place gray" (the Revit hub's) is cast
+in place, "Precast Concrete" lifted, and a poured floor ("Floor:J_Floor_Concrete_PouredUnderlayment" of gypsum
+concrete, "J_Floor_Gyp_Crete", in the Revit restaurant; a screed) is cast in place on the floor beneath
+it (:data:`POURED_WORDS`).
 """
 
 from __future__ import annotations
@@ -23,27 +25,46 @@ from bimbot.shared.methods_file import MaterialKind
 # (pattern on a material name or category, kind); the first match wins, so specific words come first
 KIND_PATTERNS: tuple[tuple[re.Pattern[str], MaterialKind], ...] = (
     (re.compile(r"alumin", re.I), MaterialKind.ALUMINIUM),
-    (re.compile(r"steel|stahl|acier|acero|acciaio|\bs\d{3}\b|metal", re.I), MaterialKind.STEEL),
-    (re.compile(r"concrete|b[eé]ton|hormig[oó]n|calcestruzzo|\bc\d{2}/\d{2}\b", re.I), MaterialKind.CONCRETE),
+    # 钢 is steel, 钢筋 its rebar (钢筋混凝土: reinforced concrete)
+    (
+        re.compile(r"steel|stahl|acier|acero|acciaio|\bs\d{3}\b|metal|钢(?!筋)|鋼(?!筋)|сталь", re.I),
+        MaterialKind.STEEL,
+    ),
     (
         re.compile(
-            r"brick|masonry|block|\bcmu\b|ladrillo|brique|mattone|ziegel|mauerwerk|stone|piedra|pierre|pietra",
+            r"concrete|b[eé]ton|hormig[oó]n|calcestruzzo|\bc\d{2}/\d{2}\b|混凝土|砼|コンクリート|бетон", re.I
+        ),
+        MaterialKind.CONCRETE,
+    ),
+    (
+        re.compile(
+            r"brick|masonry|block|\bcmu\b|ladrillo|brique|mattone|ziegel|mauerwerk|stone|piedra|pierre|pietra|"
+            r"砖|砌块|砌体|煉瓦|レンガ|кирпич",
             re.I,
         ),
         MaterialKind.MASONRY,
     ),
     (re.compile(r"timber|wood|\bholz\b|glulam|\bclt\b|madera|\bbois\b|legno", re.I), MaterialKind.TIMBER),
-    (re.compile(r"glass|glazing|\bglas\b|vidrio|cristal|verre|vetro", re.I), MaterialKind.GLASS),
+    (
+        re.compile(r"glass|glazing|\bglas\b|vidrio|cristal|verre|vetro|玻璃|ガラス|стекло", re.I),
+        MaterialKind.GLASS,
+    ),
     (re.compile(r"gypsum|plaster|yeso|enlucido|pl[aâ]tre|gesso|\bgips|\bputz", re.I), MaterialKind.GYPSUM),
 )
-CAST_IN_PLACE_WORDS = re.compile(r"cast[-_ ]?in[-_ ]?(place|situ)|\bin[-_ ]?situ\b|insitu|ortbeton", re.I)
+CAST_IN_PLACE_WORDS = re.compile(
+    r"cast[-_ ]?in[-_ ]?(place|situ)|\bin[-_ ]?situ\b|insitu|ortbeton|coul[ée] en place|in opera|in loco|"
+    r"现场浇|現場打|现浇|монолит",
+    re.I,
+)
 # poured onto what lies beneath (a topping, an underlayment, a screed): cast in place with no soffit form
 POURED_WORDS = re.compile(
     r"(?<![a-z])poured(?![a-z])|gyp[-_ ]?cret|gypsum[-_ ]?concrete|levelrock|(?<![a-z])screed|"
     r"self[-_ ]?level|estrich|(?<![a-z])chape(?![a-z])|massetto|solado",
     re.I,
 )
-PRECAST_WORDS = re.compile(r"pre[-_ ]?cast|pre[-_ ]?fab|fertigteil|pr[eé]fabriqu|prefabricad", re.I)
+PRECAST_WORDS = re.compile(
+    r"pre[-_ ]?cast|pre[-_ ]?fab|fertigteil|pr[eé]fabriqu|prefabricad|预制|プレキャスト", re.I
+)
 
 
 def material_texts(element: ifcopenshell.entity_instance) -> list[str]:

@@ -13,11 +13,12 @@ from ifc_builders import SmallModel, add_box, add_layers, add_material, add_pset
 
 from bimbot.data.light_steel_frame import build_light_steel_frame
 from bimbot.services.converter.convert import ConvertOptions, convert_model
+from bimbot.services.converter.material_kind import CAST_IN_PLACE_WORDS, PRECAST_WORDS, kind_of
 from bimbot.shared.construction_methods import ConstructionMethod, MethodSource
 from bimbot.shared.fleet import Fleet
 from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Component, Manifest
-from bimbot.shared.methods_file import MethodsFile, load_methods
+from bimbot.shared.methods_file import MaterialKind, MethodsFile, load_methods
 from bimbot.shared.sequence import read_sequence
 
 LIFT_KG = 2000.0
@@ -283,3 +284,16 @@ def test_the_panels_of_a_scheduled_wall_take_its_place_in_the_ifc_schedule(
     for earlier, later in itertools.pairwise(walls):  # a wall's panels wait for the one before
         before = {task.task_id for task in tasks_of[earlier]}
         assert all(before <= set(task.predecessors) for task in tasks_of[later])
+
+
+def test_material_names_in_chinese_and_other_languages_say_the_kind_and_how_it_is_made() -> None:
+    """A Chinese Revit model's columns are "混凝土 - 现场浇注混凝土" (concrete - cast-in-place
+    concrete): read as lifted concrete, 9 columns and 9 beams went to the machines, not the concrete crew."""
+    assert kind_of("混凝土 - 现场浇注混凝土") is MaterialKind.CONCRETE
+    assert CAST_IN_PLACE_WORDS.search("混凝土 - 现场浇注混凝土")
+    assert kind_of("钢筋混凝土") is MaterialKind.CONCRETE, "rebar (钢筋) in concrete is no steel member"
+    assert kind_of("型钢 Q345") is MaterialKind.STEEL
+    assert kind_of("玻璃") is MaterialKind.GLASS and kind_of("粘土砖") is MaterialKind.MASONRY
+    assert kind_of("Бетон B25") is MaterialKind.CONCRETE and CAST_IN_PLACE_WORDS.search("монолитный")
+    assert PRECAST_WORDS.search("预制混凝土") and not CAST_IN_PLACE_WORDS.search("预制混凝土")
+    assert kind_of("默认墙") is MaterialKind.UNKNOWN
