@@ -131,14 +131,15 @@ def support_predecessors(
         if item.guid in resting and item.guid not in connected and not _balanced(item, resting[item.guid])
     }
     _add_side_contacts(components, preds, bottoms, tolerance_m, tipping, kinds=kinds)
-    unsupported = {guid for guid, supports in preds.items() if not supports}
-    for foundation, guid in over_open_pits(components, tolerance_m):
-        if guid in unsupported:  # nothing else under it or beside it: it would fall into the pit
-            add(foundation, guid, Edge.PIT)
     for first, second in stated:  # the stated order wins over an edge of another kind the other way
         if first in preds[second] and second in preds[first] and kinds[second, first] < kinds[first, second]:
             preds[first].discard(second)
             _log.debug("support graph: %s before %s (the host's or the joint's order)", first, second)
+    # what nothing holds, the stated orders applied: over an excavation it would fall into the pit
+    unsupported = {guid for guid, supports in preds.items() if not supports}
+    for foundation, guid in over_open_pits(components, tolerance_m):
+        if guid in unsupported:  # nothing else under it or beside it: it would fall into the pit
+            add(foundation, guid, Edge.PIT)
     break_cycles(preds, kinds)
     return preds
 
