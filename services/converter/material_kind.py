@@ -25,9 +25,11 @@ from bimbot.shared.methods_file import MaterialKind
 # (pattern on a material name or category, kind); the first match wins, so specific words come first
 KIND_PATTERNS: tuple[tuple[re.Pattern[str], MaterialKind], ...] = (
     (re.compile(r"alumin", re.I), MaterialKind.ALUMINIUM),
-    # 钢 is steel, 钢筋 its rebar (钢筋混凝土: reinforced concrete)
+    # 钢 is steel, 钢筋 its rebar (钢筋混凝土: reinforced concrete), as Stahlbeton is concrete
     (
-        re.compile(r"steel|stahl|acier|acero|acciaio|\bs\d{3}\b|metal|钢(?!筋)|鋼(?!筋)|сталь", re.I),
+        re.compile(
+            r"steel|stahl(?!beton)|acier|acero|acciaio|\bs\d{3}\b|metal|钢(?!筋)|鋼(?!筋)|сталь", re.I
+        ),
         MaterialKind.STEEL,
     ),
     (

@@ -33,8 +33,10 @@ size (``FIGURE_SIZE_IN`` × ``DPI``).
 from __future__ import annotations
 
 import json
+import logging
 import math
 import textwrap
+import warnings
 from collections.abc import Collection
 from pathlib import Path
 from typing import Any
@@ -67,6 +69,7 @@ from .placements import MISPLACED, RETRY_CAUSES, caught_on_last_attempt
 from .placements_png import CAUSE_STYLES, draw_drift, draw_placement_errors, placement_handles
 from .time_breaks import TimeBreaks, find_breaks, set_broken_time_axis, task_intervals
 
+_log = logging.getLogger(__name__)
 REPORT_JSON = "report.json"
 REPORT_PNG = "report.png"
 FIGURE_SIZE_IN = (16.0, 12.0)
@@ -500,5 +503,18 @@ def write_report_files(report: dict[str, Any], report_dir: Path) -> None:
     json_tmp.write_text(json.dumps(report, indent=2), encoding="utf-8")
     json_tmp.replace(report_dir / REPORT_JSON)
     png_tmp = report_dir / f".{REPORT_PNG}.tmp.png"
-    render_report_png(report, png_tmp)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        render_report_png(report, png_tmp)
+    missing = sorted({str(w.message).split(" (")[0] for w in caught if "missing from font" in str(w.message)})
+    if missing:  # a Chinese model's names: one line, not a warning per glyph per draw
+        _log.info(
+            "report.png: the plot's font has no glyph for %d character(s) of the names (%s); they show as "
+            "boxes (a CJK font such as fonts-noto-cjk draws them)",
+            len(missing),
+            ", ".join(m.replace("Glyph ", "") for m in missing[:3]),
+        )
+    for other in caught:
+        if "missing from font" not in str(other.message):
+            warnings.warn_explicit(other.message, other.category, other.filename, other.lineno)
     png_tmp.replace(report_dir / REPORT_PNG)

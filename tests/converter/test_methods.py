@@ -292,7 +292,8 @@ def test_material_names_in_chinese_and_other_languages_say_the_kind_and_how_it_i
     assert kind_of("混凝土 - 现场浇注混凝土") is MaterialKind.CONCRETE
     assert CAST_IN_PLACE_WORDS.search("混凝土 - 现场浇注混凝土")
     assert kind_of("钢筋混凝土") is MaterialKind.CONCRETE, "rebar (钢筋) in concrete is no steel member"
-    assert kind_of("型钢 Q345") is MaterialKind.STEEL
+    assert kind_of("型钢 Q345") is MaterialKind.STEEL and kind_of("Stahl") is MaterialKind.STEEL
+    assert kind_of("Stahlbeton") is MaterialKind.CONCRETE, "FZK-Haus: reinforced concrete, not steel"
     assert kind_of("玻璃") is MaterialKind.GLASS and kind_of("粘土砖") is MaterialKind.MASONRY
     assert kind_of("Бетон B25") is MaterialKind.CONCRETE and CAST_IN_PLACE_WORDS.search("монолитный")
     assert PRECAST_WORDS.search("预制混凝土") and not CAST_IN_PLACE_WORDS.search("预制混凝土")

@@ -4,6 +4,8 @@ ended (interrupted, stalled) with its state — and report.png marks them."""
 
 from __future__ import annotations
 
+import logging
+import warnings
 from pathlib import Path
 
 import matplotlib.image
@@ -15,7 +17,7 @@ from bimbot.shared.messages import ComponentState as S
 from bimbot.shared.messages import ComponentStateMsg, ProgressMsg
 from bimbot.shared.reasons import Reason, ReasonCode, blocked_by
 from bimbot.shared.report.collector import ReportCollector, RunEnding
-from bimbot.shared.report.png import render_report_png
+from bimbot.shared.report.png import render_report_png, write_report_files
 
 TOO_HEAVY = Reason(code=ReasonCode.TOO_HEAVY, message="5,760 kg exceed the robot's 1,000 kg payload")
 GIVEN_BACK = Reason(code=ReasonCode.NO_APPROACH_POSE, message="no free cell within 1.4 m", robot_id="r1")
@@ -132,3 +134,19 @@ def test_every_give_back_is_in_the_report_with_its_reason(
     assert by_guid[frame_sequence[3]]["give_backs"] == [GIVEN_BACK.line()]
     assert by_guid[frame_sequence[0]]["give_backs"] == []
     assert report["totals"]["give_backs"] == 1
+
+
+def test_names_the_plot_font_cannot_draw_are_one_log_line_not_a_warning_per_glyph(
+    collector: ReportCollector, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A Chinese Revit model's names ("混凝土 - 矩形 - 柱") printed a warning per glyph and draw."""
+    report = collector.report(STALLED)
+    for component in report["components"]:
+        component["name"] = "混凝土 - 矩形 - 柱:200 x 200mm"
+    with warnings.catch_warnings(record=True) as caught, caplog.at_level(logging.INFO):
+        warnings.simplefilter("always")
+        write_report_files(report, tmp_path)
+    assert not [w for w in caught if "missing from font" in str(w.message)]
+    assert (tmp_path / "report.png").is_file()
+    lines = [r.getMessage() for r in caplog.records if "has no glyph" in r.getMessage()]
+    assert len(lines) == 1 and "fonts-noto-cjk" in lines[0], lines
