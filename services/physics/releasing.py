@@ -127,14 +127,23 @@ class Releasing:
         (x, y, z), quat = item.pose
         turn = np.asarray(p.getMatrixFromQuaternion(quat)).reshape(3, 3)
         bottom_z = z + float((box_corners(item.component) @ turn.T)[:, 2].min())
-        if not pits and state.ground_id >= 0 and bottom_z < 0.0 and not self._built_partners(guid):
+        # at its target, a foundation goes into its own excavation even where its centre of mass is over none
+        # of its pit's parts (a ring of strips; a planter whose legs reach 8 cm into the ground)
+        in_own_pit = self._in_own_excavation(item)
+        if (
+            not pits
+            and not in_own_pit
+            and state.ground_id >= 0
+            and bottom_z < 0.0
+            and not self._built_partners(guid)
+        ):
             # lowered onto the ground, not into it (a footing off its pit); not a column drawn into its
             # built footing below the ground (a joint: the footing carries it)
             item.pose = ((x, y, z - bottom_z), quat)
             set_component_pose(cid, body, item.pose)
         if state.ground_id >= 0:
             p.setCollisionFilterPair(
-                state.ground_id, body.body_id, -1, -1, 0 if pits else 1, physicsClientId=cid
+                state.ground_id, body.body_id, -1, -1, 0 if pits or in_own_pit else 1, physicsClientId=cid
             )
         if pits and state.pits is not None:
             # over the pit but hanging over its edge (or over a shallower pit's floor): it rests on what
@@ -333,6 +342,14 @@ class Releasing:
             set_filter(cid, item.body.body_id, carrier.group, STATIC_MASK ^ carrier.group)
         if state.ground_id >= 0:
             p.setCollisionFilterPair(state.ground_id, item.body.body_id, -1, -1, 0, physicsClientId=cid)
+
+    def _in_own_excavation(self, item: Item) -> bool:
+        """Released at its target with a pit of its own: its excavation (pit floors and rims) carries it."""
+        pits = self._state.pits
+        guid = item.component.guid
+        if pits is None or not any(pit.owner == guid for pit in pits.pits):
+            return False
+        return self._at_its_target(item, released=True)
 
     def _at_its_target(self, item: Item, *, released: bool = False) -> bool:
         """Whether ``item`` lies where the model puts it (its box's centre within ``AT_TARGET_M`` of its
