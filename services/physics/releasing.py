@@ -128,7 +128,7 @@ class Releasing:
         turn = np.asarray(p.getMatrixFromQuaternion(quat)).reshape(3, 3)
         bottom_z = z + float((box_corners(item.component) @ turn.T)[:, 2].min())
         # at its target, a foundation goes into its own excavation even where its centre of mass is over none
-        # of its pit's parts (a ring of strips; a planter whose legs reach 8 cm into the ground)
+        # of its pit's parts (a ring of strip footings)
         in_own_pit = self._in_own_excavation(item)
         if (
             not pits

@@ -723,9 +723,8 @@ def test_a_beam_bolted_to_standing_columns_over_an_open_excavation_stands_and_is
 def test_a_foundation_at_its_target_goes_into_its_own_excavation_where_its_centre_is_over_none_of_it(
     make_sim: Callable[..., Simulation], frame_manifest: Manifest
 ) -> None:
-    """A ring of strip footings, or the restaurant's planter whose legs reach 8 cm into the ground: its
-    centre of mass is over none of its pit's parts. It was lifted onto the ground as if set down off its
-    pit (76 mm off its target, three times, failed, and the floor poured round it never came)."""
+    """A ring of strip footings: its centre of mass is over none of its pit's parts. It was lifted onto the
+    ground as if set down off its pit, as far above its target as it reaches below the ground."""
     sim = make_sim(robots=1)
     footing = _named(frame_manifest, "Footing A1")
     pits = sim.handling.state.pits
