@@ -111,6 +111,9 @@ class JointSource(StrEnum):
     # a member's end drawn butting the part it frames into, or just short of it: fabricated short of the
     # butt and bolted through clearance holes, it is erected with a gap (``Joint.clearance_m``)
     FRAMED = "framed"
+    # a new component drawn into existing work (in place before the robots come) no deeper than a site cuts a
+    # notch or scribes the new part to fit it: fitted to it, not a clash
+    FITTED = "fitted"
 
 
 class Joint(_Frozen):

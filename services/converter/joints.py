@@ -19,6 +19,10 @@ A member's end drawn butting the part it frames into (no deeper than a contact) 
 the member's end within it: steel is fabricated short of a drawn butt and bolted through clearance holes,
 so the part's own erection error is taken in that gap, not by pushing the member off its target.
 
+A new component drawn into **existing work** (in place before the robots come) no deeper than
+:data:`FITTED_MAX_DEPTH_M` is fitted to it on site (a notch cut, the new part scribed): a joint, the existing
+part first (a Revit renovation draws its new fittings into the existing slabs and walls by a few cm).
+
 Any other overlap deeper than :data:`~bimbot.shared.joints.CLASH_DEPTH_M` is a **clash**: two parts that
 cannot both be where the model puts them. The manifest keeps both lists; physics lets a jointed pair overlap
 and connects them, and still reports a clash.
@@ -45,6 +49,7 @@ from .overlaps import Overlap, measure_overlaps
 _log = logging.getLogger(__name__)
 
 END_TOLERANCE_M = 0.01  # an overlap this much past a rule's depth from the member's end still lies at it
+FITTED_MAX_DEPTH_M = 0.15  # a new part drawn this deep into existing work is fitted on site (notched)
 FILLS = "IfcRelFillsElement"
 RELATIONS = frozenset(
     {
@@ -102,7 +107,7 @@ def find_joints(
             continue
         first, second = by_guid[overlap.first], by_guid[overlap.second]
         joint = _by_rule(overlap, first, second, settings.rule, classes)
-        joint = joint or _cast_around(overlap, first, second)
+        joint = joint or _cast_around(overlap, first, second) or _fitted_to_existing(overlap, first, second)
         if joint is not None:
             joints.append(joint)
         elif overlap.depth_m > CLASH_DEPTH_M:
@@ -219,6 +224,23 @@ def _cast_around(overlap: Overlap, a: Component, b: Component) -> Joint | None:
         depth_m=round(overlap.depth_m, 4),
         source=JointSource.CAST,
         rule=f"{member.ifc_class} in cast-in-place {part.ifc_class}",
+        directed=True,
+    )
+
+
+def _fitted_to_existing(overlap: Overlap, a: Component, b: Component) -> Joint | None:
+    """A joint where a new component is drawn into existing work (in place before the robots come) no
+    deeper than :data:`FITTED_MAX_DEPTH_M`, the existing part first, or None."""
+    existing = [c for c in (a, b) if c.method is ConstructionMethod.IN_PLACE]
+    if len(existing) != 1 or overlap.depth_m > FITTED_MAX_DEPTH_M:
+        return None
+    part = existing[0]
+    member = b if part is a else a
+    return Joint(
+        guids=(part.guid, member.guid),
+        depth_m=round(overlap.depth_m, 4),
+        source=JointSource.FITTED,
+        rule=f"{member.ifc_class} fitted to existing {part.ifc_class}",
         directed=True,
     )
 

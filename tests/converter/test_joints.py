@@ -246,3 +246,26 @@ def test_a_beam_drawn_butting_or_just_short_of_another_is_a_framed_end_with_its_
     assert joint.rule == "IfcBeam framed to IfcBeam, 10 mm erection clearance"
     preds = support_predecessors(manifest.components, joints=manifest.joints)
     assert preds[guid["Framed"]] == preds[guid["Main"]] == set()
+
+
+@pytest.mark.parametrize(("width_m", "fitted"), [(0.12, True), (0.2, False)])
+def test_a_new_beam_drawn_into_existing_work_is_fitted_to_it_up_to_150_mm(
+    tmp_path: Path, width_m: float, fitted: bool
+) -> None:
+    """A renovation's new part drawn a few cm into an existing one (the restaurant's 76 mm): a site notches
+    or scribes it to fit, so it is a joint, the existing part first, not a clash that pushes it off its
+    target. Drawn 200 mm in, it is still a clash."""
+    small = new_model()
+    beams = (("Main", (1.0, 0.0), (0.0, 0.0, 3.0)), ("Cross", (0.0, 1.0), (1.0, -2.0, 3.0)))
+    for name, axis, origin in beams:
+        add_beam(small, name, length_m=4.0, width_m=width_m, depth_m=0.1, matrix_m=_along(axis, origin))
+    existing = next(str(e.GlobalId) for e in small.file.by_type("IfcBeam") if e.Name == "Main")
+    manifest = _convert(small, tmp_path, ConvertOptions(formats=(), in_place_guids=(existing,)))
+    guid = _guids(manifest)
+    if fitted:
+        assert manifest.clashes == []
+        [joint] = manifest.joints
+        assert joint.source is JointSource.FITTED and joint.guids == (existing, guid["Cross"])
+        assert joint.rule == "IfcBeam fitted to existing IfcBeam"
+    else:
+        assert manifest.joints == [] and len(manifest.clashes) == 1
