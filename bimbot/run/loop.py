@@ -182,7 +182,9 @@ class RunWatch:
 
     def _details(self) -> tuple[str, ...]:
         monitor = self.monitor
-        return tuple(stall_details(monitor.robots, monitor.tasks, monitor.states, monitor.names))
+        robots = [s.name.removeprefix("robot-") for s in self.everyone if s.name.startswith("robot-")]
+        details = stall_details(monitor.robots, monitor.tasks, monitor.states, monitor.names, expected=robots)
+        return tuple(details)
 
 
 def _so_far(monitor: RunMonitor, wall_s: float) -> str:

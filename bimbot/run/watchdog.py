@@ -17,7 +17,7 @@ the run ended (from the run monitor's last messages), the lines a user needs to 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from bimbot.shared.identifiers import named_guid
@@ -87,10 +87,17 @@ def stall_details(
     tasks: Mapping[str, TaskMsg],
     states: Mapping[str, ComponentState],
     names: Mapping[str, str | None],
+    expected: Sequence[str] = (),
 ) -> list[str]:
-    """One line per robot (its last state message: state, task, component, activity) and per open task
-    or component in progress (assigned to whom, in which state)."""
-    lines = []
+    """One line per robot (its last state message: state, task, component, activity; a robot of
+    ``expected`` that never said a word: that, and where its log is) and per open task or component in
+    progress (assigned to whom, in which state)."""
+    lines = [
+        f"robot {robot_id}: never said it was up (no state on the bus): its process hung or failed while "
+        f"starting; see logs/robot-{robot_id}.log"
+        for robot_id in expected
+        if robot_id not in robots
+    ]
     for robot_id, msg in sorted(robots.items()):
         on_task = f" task {msg.task_id}" if msg.task_id else ""
         guid = f" on {_label(msg.guid, names)}" if msg.guid else ""

@@ -120,3 +120,19 @@ def test_timed_work_and_curing_scheduled_ahead_are_not_a_stall() -> None:
     dog.observe(5, cure_ends_s + 101.0, 3.0)
     verdict = dog.verdict()
     assert verdict is not None and "for 101 s of sim time" in verdict
+
+
+def test_a_robot_that_never_came_up_is_named_in_the_stall_details() -> None:
+    """The restaurant's carrier r2 hung while starting (an empty log): the run stalled at sim 0 after its
+    wall bound, and its details listed the five robots that were up, not the one that was not."""
+    robots = {
+        "r1": RobotStateMsg(
+            robot_id="r1", state=RobotState.IDLE, pose_xy_yaw=(0, 0, 0), sim_time_s=0, wall_time_s=0
+        )
+    }
+    lines = stall_details(robots, {}, {}, {}, expected=["r1", "r2"])
+    assert lines[0] == (
+        "robot r2: never said it was up (no state on the bus): its process hung or failed while starting; "
+        "see logs/robot-r2.log"
+    )
+    assert lines[1].startswith("robot r1: idle") and len(lines) == 2
