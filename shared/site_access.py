@@ -4,14 +4,15 @@ Why: a structure closes around what is still to be built. Four walls put up befo
 them leave the column's target cut off; a row of columns can wall off a yard aisle. The robots find that
 out late (after driving, after picking). This check finds it before the build, from the plan alone.
 
-The model is the robots' own: the site grid (fence, yard stacks in their slots, the structure built so
-far), where a component occupies the grid when it meets the robot's height band (``band_min_z_m`` ..
-``band_max_z_m``: a beam at 3 m does not, a footing flush with the ground does not), inflated by the robot's
-radius plus the map margin (:data:`bimbot.shared.site_layout.INFLATION_MARGIN_M`), as the robots plan.
-A floor placed at its target whose top is within the robot's step (``max_step_m``: a ground slab, its
-flooring, :mod:`.floors`) is driven on, not an obstacle, as in the robots' map once it is constructed
-(and cured). The robot's free region is the 8-connected free cells around its depot start. A component is
-*accessible* when some cell of that region lies within the robot's reach of its footprint (the one reach rule,
+The model is the robots' own: the site grid (fence, yard stacks in their slots, what is in place before
+the robots come, the structure built so far), where a component occupies the grid when it meets the
+robot's height band (``band_min_z_m`` .. ``band_max_z_m``: a beam at 3 m does not, a footing flush with
+the ground does not), inflated by the robot's radius plus the map margin
+(:data:`bimbot.shared.site_layout.INFLATION_MARGIN_M`), as the robots plan. A floor placed at its target
+whose top is within the robot's step (``max_step_m``: a ground slab, its flooring, :mod:`.floors`) is
+driven on, not an obstacle, as in the robots' map once it is constructed (and cured). The robot's free
+region is the 8-connected free cells around its depot start. A component is *accessible* when some cell of
+that region lies within the robot's reach of its footprint (the one reach rule,
 :mod:`bimbot.shared.robot_description`: nearest point of the footprint, ``reach_m`` less a margin), and,
 for a component in the band, at least the inflation radius outside it (the body stays clear): at its BIM
 target for the assembly and at its yard slot for the pick-up.
@@ -73,6 +74,7 @@ class SiteAccess:
         layout: SiteLayout,
         robot: RobotDescription,
         config: AccessConfig = AccessConfig(),
+        in_place: Sequence[Component] = (),
     ) -> None:
         self.config, self.layout = config, layout
         self.inflation_m = robot.radius_m + INFLATION_MARGIN_M
@@ -107,6 +109,11 @@ class SiteAccess:
                 footprint = posed_footprint(component, slot.position_m, slot.quat_xyzw)
                 self._slot_candidates[guid] = self._candidates(footprint)
                 self._occupy(guid, footprint)
+        for component in in_place:  # built before the robots came: it stands where the model puts it
+            target = component.target_pose_world
+            footprint = posed_footprint(component, target.position_m, target.quat_xyzw)
+            if not drives_onto(component, footprint.z_max_m, self._step_m):
+                self._occupy(f"in place {component.guid}", footprint)
         self._start = layout.robot_starts[0][:2]
         self._region: NDArray[np.bool_] | None = None
 

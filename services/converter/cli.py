@@ -226,9 +226,9 @@ def run(args: argparse.Namespace) -> int:
         )
     standing = above_ground(manifest.in_place)
     if standing:
-        _log.warning(
-            "%d component(s) in place reach above the ground (%s): physics has them, but the robots' maps "
-            "and the planner's access checks do not, so a robot may plan a path through them",
+        _log.info(
+            "%d component(s) in place reach above the ground (%s): physics, the robots' maps and the "
+            "planner's access check have them where the model puts them",
             len(standing),
             ", ".join(c.name or c.guid for c in standing[:3]) + (" …" if len(standing) > 3 else ""),
         )

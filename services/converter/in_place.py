@@ -63,6 +63,6 @@ def _asked_in_place(component: Component) -> dict[str, object]:
 
 
 def above_ground(in_place: Sequence[Component]) -> list[Component]:
-    """The in-place components that reach above the ground: a robot's laser would see them and they would
-    stand in its way, which its map (built from the components to build) does not know."""
+    """The in-place components that reach above the ground: a robot's laser sees them and they stand in
+    its way (its map has them, from the manifest's ``in_place``)."""
     return [c for c in in_place if not in_the_ground(c)]

@@ -73,7 +73,7 @@ def access_plan(
     by_guid = {component.guid: component for component in components}
     in_place = {component.guid for component in components if works_in_place(component)}
     added = 0
-    check = check_order(SiteAccess(components, layout, robot), plan.order)
+    check = check_order(SiteAccess(components, layout, robot, in_place=manifest.in_place), plan.order)
     for _ in range(MAX_ROUNDS if adjust else 0):
         preds = {guid: set(plan.predecessors.get(guid, ())) for guid in plan.order}
         new = 0
@@ -86,7 +86,7 @@ def access_plan(
         added += new
         frozen = {guid: frozenset(values) for guid, values in preds.items()}
         plan = replace(plan, predecessors=frozen, order=_priority_order(plan.order, frozen))
-        check = check_order(SiteAccess(components, layout, robot), plan.order)
+        check = check_order(SiteAccess(components, layout, robot, in_place=manifest.in_place), plan.order)
     warnings = [
         f"access check: placing {_describe(placed, by_guid)} cuts off {_describe(cut, by_guid)}"
         for placed, cut in _driven_to(check.cut_offs, in_place)
@@ -97,7 +97,7 @@ def access_plan(
         if guid in in_place:
             continue
         ancestors = _ancestors(plan.predecessors, guid)
-        fine = fine or SiteAccess(components, layout, robot, FINE)
+        fine = fine or SiteAccess(components, layout, robot, FINE, in_place=manifest.in_place)
         _stand_only(fine, ancestors, plan.order)
         if fine.slot_accessible(guid) and fine.target_accessible(guid):
             continue

@@ -92,7 +92,7 @@ def robot_context(
     robot_id = config.robot_id
     description = info.robot_types[info.robot_type_of[robot_id]]
     map_config = replace(map_config, robot_radius_m=description.radius_m, step_m=description.max_step_m)
-    site_map = SiteMap(info.layout, manifest.components, map_config)
+    site_map = SiteMap(info.layout, manifest.components, map_config, in_place=manifest.in_place)
     home_xy_yaw = info.robot_starts_xy_yaw[info.robot_ids.index(robot_id)]
     nav_config = nav_config or NavigatorConfig()
     nav_config = replace(

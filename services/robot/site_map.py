@@ -6,6 +6,7 @@ of a move_base costmap). Pure: it is fed component poses and states and answers 
 
 What occupies the grid:
 
+* what is **in place before the robots come** (``Manifest.in_place``: existing work), where the model puts it;
 * the **fence** (site hoarding around everything, :mod:`bimbot.shared.site_layout`) and the set-ups of the
   machines that stand fixed (cranes, pumps, block layers: ``SiteLayout.machines``, each filled by its
   URDF's collision box up to ``MACHINE_BOX_HEIGHT_M``), always;
@@ -94,7 +95,13 @@ class MapConfig:
 class SiteMap:
     """Occupancy of the site from the layout and what is known about every component (see module doc)."""
 
-    def __init__(self, layout: SiteLayout, components: Sequence[Component], config: MapConfig = MapConfig()):
+    def __init__(
+        self,
+        layout: SiteLayout,
+        components: Sequence[Component],
+        config: MapConfig = MapConfig(),
+        in_place: Sequence[Component] = (),
+    ):
         self.layout = layout
         self.config = config
         self._components = {component.guid: component for component in components}
@@ -155,6 +162,13 @@ class SiteMap:
                 self._set_footprint(
                     guid, posed_footprint(self._components[guid], slot.position_m, slot.quat_xyzw)
                 )
+        for component in in_place:  # built before the robots came: where the model puts it, from the start
+            guid = component.guid
+            self._components[guid] = component
+            self._placed.add(guid)
+            self._driven_from_s[guid] = -math.inf
+            target = component.target_pose_world
+            self._set_footprint(guid, posed_footprint(component, target.position_m, target.quat_xyzw))
 
     # --- updates ------------------------------------------------------------------------------------------
 

@@ -264,3 +264,22 @@ def test_a_cast_floor_is_driven_on_only_once_it_has_cured(frame: Manifest) -> No
 def posed(component: Component) -> Footprint:
     target = component.target_pose_world
     return posed_footprint(component, target.position_m, target.quat_xyzw)
+
+
+def test_what_is_in_place_before_the_robots_come_stands_in_the_map_from_the_start(frame: Manifest) -> None:
+    """The restaurant's 404 existing walls and slabs were in physics but not in the robots' maps: a carrier
+    planned through them and was walled in. Existing work now stands where the model puts it (a low
+    existing floor is driven on)."""
+    floor = _floor(frame, 0.05)
+    column = next(  # one not standing on that footing
+        c
+        for c in frame.components
+        if c.ifc_class == "IfcColumn" and posed(floor).distance_m([posed(c).centre_xy_m])[0] > 2.0
+    )
+    components = [c for c in frame.components if c.guid not in (column.guid, floor.guid)]
+    layout = plan_site(components, robots=1)
+    site = SiteMap(layout, components, MapConfig(step_m=0.07), in_place=[column, floor])
+    assert not site.static_grid().is_free(*posed(column).centre_xy_m), "an existing column blocks"
+    assert site.laser_grid().occupied.any() and not site.laser_grid().is_free(*posed(column).centre_xy_m)
+    assert site.static_grid().is_free(*posed(floor).centre_xy_m), "an existing 5 cm floor is driven on"
+    assert column.guid not in site.carried and not site.in_yard(column.guid)

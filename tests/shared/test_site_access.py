@@ -66,3 +66,21 @@ def test_a_floor_within_the_robots_step_is_driven_on_not_round(bundled_build: Pa
         assert access.target_accessible(column.guid)
         access.place(floor.guid)
         assert access.target_accessible(column.guid) is reaches, step_m
+
+
+def test_what_is_in_place_before_the_robots_come_stands_in_the_access_check(bundled_build: Path) -> None:
+    """Existing work occupies the site grid where the model puts it: an existing 8 m × 8 m plinth round a
+    column leaves no stand-point for it."""
+    components = list(read_manifest(bundled_build).components)
+    column = next(c for c in components if c.ifc_class == "IfcColumn")
+    footing = next(c for c in components if c.ifc_class == "IfcFooting")
+    box = footing.bbox_local
+    plinth_box = box.model_copy(update={"min_m": (-4.0, -4.0, -0.25), "max_m": (4.0, 4.0, 0.25)})
+    cx, cy, _ = column.target_pose_world.position_m
+    at = footing.target_pose_world.model_copy(update={"position_m": (cx, cy, 0.25)})
+    plinth = footing.model_copy(update={"bbox_local": plinth_box, "target_pose_world": at, "name": "Plinth"})
+    built = [c for c in components if c.guid != footing.guid]
+    layout = plan_site(built, robots=1)
+    assert SiteAccess(built, layout, DEFAULT_ROBOT, AccessConfig(0.1)).target_accessible(column.guid)
+    walled = SiteAccess(built, layout, DEFAULT_ROBOT, AccessConfig(0.1), in_place=[plinth])
+    assert not walled.target_accessible(column.guid)
