@@ -102,11 +102,15 @@ def access_plan(
         if fine.slot_accessible(guid) and fine.target_accessible(guid):
             continue
         where = "target" if not fine.target_accessible(guid) else "yard slot"
-        cutters = [other for other in check.inaccessible[guid] if other in ancestors] or sorted(ancestors)
+        if manifest.in_place and not check.inaccessible[guid] and _cut_off_alone(fine, guid, plan.order):
+            cutters = []  # nothing built by the plan is needed to cut it off: the existing work does
+        else:
+            cutters = [other for other in check.inaccessible[guid] if other in ancestors] or sorted(ancestors)
         named = ", ".join(_describe(other, by_guid) for other in cutters[:MAX_NAMED])
         more = f" and {len(cutters) - MAX_NAMED} more" if len(cutters) > MAX_NAMED else ""
         verb = "stand" if len(cutters) > 1 else "stands"
-        cause = f"once {named}{more} {verb} (built before it by the plan)" if cutters else "on the empty site"
+        empty = "with the work in place before the robots come" if manifest.in_place else "on the empty site"
+        cause = f"once {named}{more} {verb} (built before it by the plan)" if cutters else empty
         unreachable[guid] = Reason(
             code=ReasonCode.UNREACHABLE,
             message=(
@@ -122,6 +126,13 @@ def access_plan(
     if strict and warnings:
         raise PlanError(f"{len(warnings)} step(s) of the sequence cut off later work; first: {warnings[0]}")
     return AccessOutcome(plan, unreachable, tuple(warnings), added)
+
+
+def _cut_off_alone(access: SiteAccess, guid: str, order: Sequence[str]) -> bool:
+    """Whether ``guid`` is cut off with nothing the plan builds standing (by the site and what is in place
+    before the robots come alone); ``access`` is left so."""
+    _stand_only(access, set(), order)
+    return not (access.slot_accessible(guid) and access.target_accessible(guid))
 
 
 def _stand_only(access: SiteAccess, guids: set[str], order: Sequence[str]) -> None:

@@ -384,3 +384,24 @@ def test_one_fine_grid_serves_every_doubt_standing_exactly_each_components_ances
     one = {guid[ROOM_WALLS[0]]}
     _stand_only(fine, one, order)
     assert fine.placed == one and fine.target_accessible(guid["Column R1"])
+
+
+def test_a_component_walled_in_by_existing_work_says_so_not_what_the_plan_built_before_it(
+    walls_first_build: Path,
+) -> None:
+    """The room's four walls in place before the robots come (existing work): the column inside is
+    unreachable because of them, and the reason says so instead of naming what the plan builds first."""
+    manifest = read_manifest(walls_first_build)
+    walls = [c for c in manifest.components if c.name in ROOM_WALLS]
+    existing = manifest.model_copy(
+        update={
+            "components": [c for c in manifest.components if c.name not in ROOM_WALLS],
+            "in_place": [w.model_copy(update={"method": ConstructionMethod.IN_PLACE}) for w in walls],
+        }
+    )
+    column = next(c.guid for c in existing.components if c.name == "Column R1")
+    plan = plan_from_sequence(derive_sequence(existing.components), existing.components, "test")
+    outcome = access_plan(plan, existing, _info(existing), adjust=True)
+    reason = outcome.unreachable[column]
+    assert reason.message.endswith("with the work in place before the robots come"), reason.message
+    assert reason.guid is None
