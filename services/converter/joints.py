@@ -217,15 +217,9 @@ def _cast_around(overlap: Overlap, a: Component, b: Component) -> Joint | None:
     cast = [c for c in (a, b) if c.method is ConstructionMethod.CAST_IN_PLACE]
     if not cast:
         return None
-    part = cast[0]
-    member = b if part is a else a
-    return Joint(
-        guids=(part.guid, member.guid),
-        depth_m=round(overlap.depth_m, 4),
-        source=JointSource.CAST,
-        rule=f"{member.ifc_class} in cast-in-place {part.ifc_class}",
-        directed=True,
-    )
+    member = b if cast[0] is a else a
+    rule = f"{member.ifc_class} in cast-in-place {cast[0].ifc_class}"
+    return _part_first(overlap, cast[0], member, JointSource.CAST, rule)
 
 
 def _fitted_to_existing(overlap: Overlap, a: Component, b: Component) -> Joint | None:
@@ -234,13 +228,20 @@ def _fitted_to_existing(overlap: Overlap, a: Component, b: Component) -> Joint |
     existing = [c for c in (a, b) if c.method is ConstructionMethod.IN_PLACE]
     if len(existing) != 1 or overlap.depth_m > FITTED_MAX_DEPTH_M:
         return None
-    part = existing[0]
-    member = b if part is a else a
+    member = b if existing[0] is a else a
+    rule = f"{member.ifc_class} fitted to existing {existing[0].ifc_class}"
+    return _part_first(overlap, existing[0], member, JointSource.FITTED, rule)
+
+
+def _part_first(
+    overlap: Overlap, part: Component, member: Component, source: JointSource, rule: str
+) -> Joint:
+    """The directed joint of ``overlap``: ``part`` first, ``member`` set into it."""
     return Joint(
         guids=(part.guid, member.guid),
         depth_m=round(overlap.depth_m, 4),
-        source=JointSource.FITTED,
-        rule=f"{member.ifc_class} fitted to existing {part.ifc_class}",
+        source=source,
+        rule=rule,
         directed=True,
     )
 
