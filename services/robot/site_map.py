@@ -141,14 +141,10 @@ class SiteMap:
         self._driven_from_s: dict[str, float] = {}  # constructed: from when it may be driven on (cured)
         self._curing: set[str] = set()  # constructed, driven on only once cured (sim time not reached)
         self._now_s = 0.0
-        # floors driven on whose edge the laser sees: laser hits near them are no surprise
-        self._floor_counts = np.zeros(self._geometry.shape, np.int32)
-        self._floor_distance = ClippedDistanceField(
-            self._geometry.shape,
-            config.resolution_m,
-            STATIC_DISTANCE_MAX_M,
-            lambda rows, cols: self._floor_counts[rows, cols] > 0,
-        )
+        # floors driven on whose edge the laser sees (laser hits near them are no surprise): made at the
+        # first such floor, so a site without one keeps no grid-sized count or field for them
+        self._floor_counts: NDArray[np.int32] | None = None
+        self._floor_distance: ClippedDistanceField | None = None
         self._sees: dict[str, bool] = {}
         self.footprints: dict[str, Footprint] = {}  # not carried, wherever they are (any height)
         self.carried: dict[str, str] = {}  # guid → robot id
@@ -358,7 +354,7 @@ class SiteMap:
             rows, cols = rc[inside, 0], rc[inside, 1]
             far[inside] = self.static_distance_m()[rows, cols] > beyond_m
             if self._floors_seen:
-                far[inside] &= self._floor_distance.distance_m[rows, cols] > beyond_m
+                far[inside] &= self._floor_layer()[1].distance_m[rows, cols] > beyond_m
         return far
 
     def unexplained(self, points_xy_m: ArrayLike, beyond_m: float = 0.3) -> NDArray[np.float64]:
@@ -432,8 +428,9 @@ class SiteMap:
             self._static_distance.touch(cells)
         else:
             self._floors_seen.discard(guid)
-            self._floor_counts[cells[:, 0], cells[:, 1]] -= 1
-            self._floor_distance.touch(cells)
+            counts, field = self._floor_layer()
+            counts[cells[:, 0], cells[:, 1]] -= 1
+            field.touch(cells)
         if self._sees.pop(guid, False):
             self._laser_counts[cells[:, 0], cells[:, 1]] -= 1
         fine = self._fine_cells.pop(guid, None)
@@ -458,8 +455,9 @@ class SiteMap:
             self._static_distance.touch(cells)
         else:  # a floor driven on that the laser sees
             self._floors_seen.add(guid)
-            self._floor_counts[cells[:, 0], cells[:, 1]] += 1
-            self._floor_distance.touch(cells)
+            counts, field = self._floor_layer()
+            counts[cells[:, 0], cells[:, 1]] += 1
+            field.touch(cells)
         if seen:
             self._sees[guid] = True
             self._laser_counts[cells[:, 0], cells[:, 1]] += 1
@@ -470,6 +468,19 @@ class SiteMap:
                 self._laser_distance.touch(fine)
         self.version += 1
         return True
+
+    def _floor_layer(self) -> tuple[NDArray[np.int32], ClippedDistanceField]:
+        """The counts and distance field of the floors driven on that the laser sees."""
+        if self._floor_counts is None or self._floor_distance is None:
+            counts = np.zeros(self._geometry.shape, np.int32)
+            self._floor_counts = counts
+            self._floor_distance = ClippedDistanceField(
+                self._geometry.shape,
+                self.config.resolution_m,
+                STATIC_DISTANCE_MAX_M,
+                lambda rows, cols: counts[rows, cols] > 0,
+            )
+        return self._floor_counts, self._floor_distance
 
     def _static_window(self, rows: slice, cols: slice) -> NDArray[np.bool_]:
         return self._fence.occupied[rows, cols] | (self._counts[rows, cols] > 0)
