@@ -84,8 +84,15 @@ class PanelRule(_Frozen):
     cast_when_too_heavy: tuple[MaterialKind, ...] = Field(
         default=(), description="the others, of these materials, are cast in place instead"
     )
+    cast_unknown_classes: tuple[str, ...] = Field(
+        default=(),
+        description=(
+            "elements of these classes whose material is unknown are cast in place when no machine lifts "
+            "them whole and no panel cut fits (a solid floor slab of that size is concrete on a site)"
+        ),
+    )
 
-    _classes = field_validator("classes")(_check_classes)
+    _classes = field_validator("classes", "cast_unknown_classes")(_check_classes)
 
 
 class TransportLimits(_Frozen):

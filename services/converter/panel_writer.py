@@ -38,7 +38,7 @@ from bimbot.shared.construction_methods import (
 )
 from bimbot.shared.identifiers import guid_to_folder
 from bimbot.shared.manifest import Component
-from bimbot.shared.methods_file import MethodsFile
+from bimbot.shared.methods_file import MaterialKind, MethodsFile
 
 from . import mass as mass_chain
 from .bays import split_into_bays
@@ -95,7 +95,7 @@ def write_element(
         except PanelisationError as error:
             _log.info("%s %s not panelised: %s", element.is_a(), guid, error)
             warnings = (f"not panelised: {error}",)
-            decision = not_panelised(decision, str(error), context.methods)
+            decision = not_panelised(decision, str(error), context.methods, element)
     day_m3 = day_pour_m3(item, context)
     if decision.method is ConstructionMethod.CAST_IN_PLACE and work.props.volume_m3 > day_m3:
         try:
@@ -109,16 +109,30 @@ def write_element(
     return WrittenElement([component], [spec], [item.bbox_ifc_world_m])
 
 
-def not_panelised(decision: MethodDecision, error: str, methods: MethodsFile | None) -> MethodDecision:
+def not_panelised(
+    decision: MethodDecision,
+    error: str,
+    methods: MethodsFile | None,
+    element: ifcopenshell.entity_instance | None = None,
+) -> MethodDecision:
     """What an element that cannot be cut into panels becomes: cast in place when its material is one the
     methods file casts when too heavy (concrete: a slab with a stair opening no cut avoids is formed and
-    poured where it stands, as a site would), else lifted whole (and the fleet check says if no machine
-    can lift it)."""
+    poured where it stands, as a site would), or when its material is unknown and its class one the file
+    casts then (a solid floor slab too heavy for any machine is concrete on a site); else lifted whole (and
+    the fleet check says if no machine can lift it)."""
     castable = methods is not None and decision.material in {
         kind.value for kind in methods.panels.cast_when_too_heavy
     }
-    method = ConstructionMethod.CAST_IN_PLACE if castable else ConstructionMethod.LIFTED
-    then = "cast in place" if castable else "lifted whole"
+    unknown = (
+        methods is not None
+        and element is not None
+        and decision.material == MaterialKind.UNKNOWN.value
+        and any(element.is_a(name) for name in methods.panels.cast_unknown_classes)
+    )
+    method = ConstructionMethod.CAST_IN_PLACE if castable or unknown else ConstructionMethod.LIFTED
+    then = "cast in place" if castable else "cast in place as concrete" if unknown else "lifted whole"
+    if unknown:
+        then = f"material unknown, {then}"
     note = f"{decision.note}; not panelised ({error}): {then}" if decision.note else f"not panelised: {then}"
     return decision.model_copy(update={"method": method, "note": note})
 

@@ -247,3 +247,30 @@ def test_a_concrete_element_no_cut_keeps_within_the_limits_is_cast_in_place_not_
     timber = slab.model_copy(update={"material": "timber"})
     assert not_panelised(timber, "no cut", methods).method is ConstructionMethod.LIFTED
     assert not_panelised(slab, "no cut", None).method is ConstructionMethod.LIFTED
+
+
+def test_a_slab_of_unknown_material_no_cut_fits_is_cast_in_place_as_concrete_other_classes_stay_lifted() -> (
+    None
+):
+    """FZK-Haus's upper floor (material "Solid", 11.8 × 9.8 × 0.2 m, 20 t, a stair opening no plank cut
+    avoids) was lifted whole, beyond every machine, and the storey above waited on it; a site casts such a
+    slab. The methods file names the classes so cast (``cast_unknown_classes``): a column of unknown
+    material stays lifted whole, and the lifted-only file casts nothing."""
+    model = ifcopenshell.file(schema="IFC4")
+    slab_element = ifcopenshell.api.root.create_entity(model, ifc_class="IfcSlab")
+    column = ifcopenshell.api.root.create_entity(model, ifc_class="IfcColumn")
+    unknown = MethodDecision(
+        method=ConstructionMethod.PANELISED, source=MethodSource.RULE, note="too heavy", material="unknown"
+    )
+    cast = not_panelised(unknown, "no cut avoids its openings", load_methods("prefab"), slab_element)
+    assert cast.method is ConstructionMethod.CAST_IN_PLACE
+    assert cast.note.endswith("material unknown, cast in place as concrete")
+    assert not_panelised(unknown, "no cut", load_methods("conventional"), slab_element).method is (
+        ConstructionMethod.CAST_IN_PLACE
+    )
+    assert (
+        not_panelised(unknown, "no cut", load_methods("prefab"), column).method is ConstructionMethod.LIFTED
+    )
+    assert not_panelised(unknown, "no cut", load_methods("lifted"), slab_element).method is (
+        ConstructionMethod.LIFTED
+    )
