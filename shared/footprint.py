@@ -16,11 +16,28 @@ from .manifest import Component
 
 @dataclass(frozen=True)
 class Footprint:
-    """Where a component stands: the xy outline of its posed bounding box and its z range."""
+    """Where a component stands: the xy outline of its posed bounding box and its z range; for a component
+    of several collision parts, each part's own footprint too (what occupies a height band)."""
 
     polygon_xy_m: NDArray[np.float64]  # (k, 2), convex, counter-clockwise
     z_min_m: float
     z_max_m: float
+    parts: tuple[Footprint, ...] = ()
+
+    def meets(self, z_low_m: float, z_high_m: float) -> bool:
+        """Whether it reaches into the heights ``z_low_m``..``z_high_m``."""
+        return self.z_max_m >= z_low_m and self.z_min_m <= z_high_m
+
+    def outlines_meeting(self, z_low_m: float, z_high_m: float) -> list[NDArray[np.float64]]:
+        """The outlines of what occupies the heights ``z_low_m``..``z_high_m``: the parts that reach into
+        them (a wall's piers, not the lintel over its door: the opening under it is free), or its whole
+        outline when it has no parts."""
+        pieces = self.parts or (self,)
+        return [
+            piece.polygon_xy_m
+            for piece in pieces
+            if piece.meets(z_low_m, z_high_m) and len(piece.polygon_xy_m) >= 3
+        ]
 
     @property
     def centre_xy_m(self) -> NDArray[np.float64]:
@@ -55,12 +72,26 @@ def convex_hull_xy(points_xy: ArrayLike) -> NDArray[np.float64]:
 def posed_footprint(
     component: Component, position_m: Sequence[float], quat_xyzw: Sequence[float]
 ) -> Footprint:
-    """The footprint of ``component``'s local bounding box placed at a pose (component frame, world)."""
-    low, high = np.array(component.bbox_local.min_m), np.array(component.bbox_local.max_m)
+    """The footprint of ``component``'s local bounding box placed at a pose (component frame, world), with
+    its collision parts' boxes placed the same way (:attr:`Footprint.parts`)."""
+    rotation = Rotation.from_quat(np.asarray(quat_xyzw, float))
+    position = np.asarray(position_m, float)
+    whole = _box_footprint(component.bbox_local.min_m, component.bbox_local.max_m, rotation, position)
+    if not component.part_boxes_local:
+        return whole
+    parts = tuple(
+        _box_footprint(box.min_m, box.max_m, rotation, position) for box in component.part_boxes_local
+    )
+    return Footprint(whole.polygon_xy_m, whole.z_min_m, whole.z_max_m, parts)
+
+
+def _box_footprint(
+    low: Sequence[float], high: Sequence[float], rotation: Rotation, position: NDArray[np.float64]
+) -> Footprint:
     corners = np.array(
         [[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]
     )
-    world = Rotation.from_quat(np.asarray(quat_xyzw, float)).apply(corners) + np.asarray(position_m, float)
+    world = rotation.apply(corners) + position
     return Footprint(convex_hull_xy(world[:, :2]), float(world[:, 2].min()), float(world[:, 2].max()))
 
 

@@ -178,6 +178,13 @@ class Component(_Frozen):
     inertia_source: InertiaSource
     collision_method: CollisionMethod
     collision_parts: int
+    part_boxes_local: list[BoundingBox] = Field(
+        default=[],
+        description=(
+            "the box of each collision part, component frame, when it has more than one: the gaps between "
+            "them (a door's opening under its lintel) are driven through"
+        ),
+    )
     files: ComponentFiles
     connections: list[Connection] = []
     warnings: list[str] = []

@@ -188,6 +188,27 @@ def from_footprints(
     return grid.with_occupied(cells)
 
 
+def covered_cells(grid: OccupancyGrid, polygons_xy_m: Sequence[NDArray[np.float64]]) -> NDArray[np.int64]:
+    """Cells ``[row, col]`` ``(n, 2)`` of ``grid`` the polygons cover together (each cell once), rasterised
+    on a window around them, not the whole grid (a component's outline, or its parts' outlines)."""
+    if not polygons_xy_m:
+        return np.zeros((0, 2), np.int64)
+    points = np.concatenate(polygons_xy_m)
+    low = grid.world_to_cell(points.min(axis=0)) - 1
+    high = grid.world_to_cell(points.max(axis=0)) + 2
+    rows, cols = grid.shape
+    r0, c0 = max(0, int(low[0])), max(0, int(low[1]))
+    r1, c1 = min(rows, int(high[0])), min(cols, int(high[1]))
+    if r0 >= r1 or c0 >= c1:
+        return np.zeros((0, 2), np.int64)
+    res = grid.resolution_m
+    x0, y0 = grid.origin_xy_m[0] + c0 * res, grid.origin_xy_m[1] + r0 * res
+    window = from_footprints(
+        (x0, y0, x0 + (c1 - c0) * res, y0 + (r1 - r0) * res), res, polygons_xy_m=polygons_xy_m
+    )
+    return np.argwhere(window.occupied[: r1 - r0, : c1 - c0]) + np.array([r0, c0])
+
+
 def scan_endpoints_xy_m(
     pose_xy_yaw: ArrayLike, ranges_m: ArrayLike, angles_rad: ArrayLike, max_range_m: float
 ) -> NDArray[np.float64]:

@@ -37,7 +37,7 @@ from .clipped_distance import ClippedDistanceField
 from .floors import drives_onto
 from .footprint import Footprint, posed_footprint
 from .manifest import Component
-from .occupancy_grid import OccupancyGrid, empty_grid, from_footprints, nearest_free_cell
+from .occupancy_grid import OccupancyGrid, covered_cells, empty_grid, from_footprints, nearest_free_cell
 from .robot_description import RobotDescription
 from .site_layout import INFLATION_MARGIN_M
 from .site_plan import GRID_MARGIN_M, SiteLayout, fence_boxes, machine_boxes
@@ -195,9 +195,10 @@ class SiteAccess:
         return footprint.z_max_m >= self.config.band_min_z_m and footprint.z_min_m <= self.config.band_max_z_m
 
     def _occupy(self, guid: str, footprint: Footprint) -> None:
-        if not self._blocks(footprint) or len(footprint.polygon_xy_m) < 3:
+        outlines = footprint.outlines_meeting(self.config.band_min_z_m, self.config.band_max_z_m)
+        if not outlines:
             return
-        cells = _polygon_cells(self.grid, footprint.polygon_xy_m)
+        cells = covered_cells(self.grid, outlines)
         if len(cells) == 0:
             return
         self._cells[guid] = cells
@@ -240,21 +241,3 @@ def check_order(access: SiteAccess, order: Iterable[str]) -> AccessCheck:
 
 def _open(access: SiteAccess, guid: str) -> bool:
     return access.slot_accessible(guid) and access.target_accessible(guid)
-
-
-def _polygon_cells(grid: OccupancyGrid, polygon_xy_m: NDArray[np.float64]) -> NDArray[np.int64]:
-    """Grid cells a polygon covers, rasterised on a window of the grid (not the whole site)."""
-    res = grid.resolution_m
-    low = grid.world_to_cell(polygon_xy_m.min(axis=0)) - 1
-    high = grid.world_to_cell(polygon_xy_m.max(axis=0)) + 2
-    rows, cols = grid.shape
-    r0, c0 = max(0, int(low[0])), max(0, int(low[1]))
-    r1, c1 = min(rows, int(high[0])), min(cols, int(high[1]))
-    if r0 >= r1 or c0 >= c1:
-        return np.zeros((0, 2), np.int64)
-    x0, y0 = grid.origin_xy_m[0] + c0 * res, grid.origin_xy_m[1] + r0 * res
-    window = from_footprints(
-        (x0, y0, x0 + (c1 - c0) * res, y0 + (r1 - r0) * res), res, polygons_xy_m=[polygon_xy_m]
-    )
-    cells = np.argwhere(window.occupied[: r1 - r0, : c1 - c0]) + np.array([r0, c0])
-    return cells

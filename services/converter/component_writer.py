@@ -10,6 +10,7 @@ one model folder per panel, through :func:`write_entry`.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -270,6 +271,7 @@ def write_entry(
         inertia_source=props.source,
         collision_method=parts.collision.method,
         collision_parts=len(parts.collision.parts),
+        part_boxes_local=_part_boxes(parts.collision.parts),
         files=ComponentFiles(
             model_dir=rel_dir,
             sdf_file=f"{rel_dir}/model.sdf",
@@ -285,6 +287,16 @@ def write_entry(
         **parts.extra,  # type: ignore[arg-type]
     )
     return component, spec
+
+
+def _part_boxes(parts: Sequence[TriMesh]) -> list[BoundingBox]:
+    """The box of each collision part (component frame), when there is more than one."""
+    if len(parts) < 2:
+        return []
+    return [
+        BoundingBox(min_m=vec3(part.vertices.min(axis=0)), max_m=vec3(part.vertices.max(axis=0)))
+        for part in parts
+    ]
 
 
 def _in_folder(rel_dir: str, name: str) -> str:

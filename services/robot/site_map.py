@@ -45,7 +45,7 @@ from bimbot.shared.floors import drives_onto
 from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, ComponentState
-from bimbot.shared.occupancy_grid import OccupancyGrid, empty_grid, from_footprints, inflate
+from bimbot.shared.occupancy_grid import OccupancyGrid, covered_cells, empty_grid, from_footprints, inflate
 from bimbot.shared.site_plan import (
     FENCE_HEIGHT_M,
     GRID_MARGIN_M,
@@ -327,7 +327,13 @@ class SiteMap:
         (:func:`.fine_alignment.outline_edges`)."""
 
         def build() -> NDArray[np.float64]:
-            outlines = [self.footprints[guid].polygon_xy_m for guid, seen in self._sees.items() if seen]
+            height = self.config.laser_height_m
+            outlines = [
+                outline
+                for guid, seen in self._sees.items()
+                if seen
+                for outline in self.footprints[guid].outlines_meeting(height, height)
+            ]
             outlines += [
                 np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
                 for x0, y0, x1, y1 in self._walls_seen
@@ -415,7 +421,8 @@ class SiteMap:
         )
 
     def _seen(self, footprint: Footprint) -> bool:
-        return footprint.z_min_m <= self.config.laser_height_m <= footprint.z_max_m
+        height = self.config.laser_height_m
+        return bool(footprint.outlines_meeting(height, height))
 
     def _clear(self, guid: str) -> bool:
         self.footprints.pop(guid, None)
@@ -447,7 +454,8 @@ class SiteMap:
         seen = self._seen(footprint)
         if not (band or seen) or len(footprint.polygon_xy_m) < 3:
             return changed
-        cells = _polygon_cells(self._geometry, footprint.polygon_xy_m)
+        outlines = self._outlines(footprint, band)
+        cells = covered_cells(self._geometry, outlines)
         self._cells[guid] = cells
         if band:
             self._in_band.add(guid)
@@ -462,12 +470,22 @@ class SiteMap:
             self._sees[guid] = True
             self._laser_counts[cells[:, 0], cells[:, 1]] += 1
             if footprint.z_max_m >= self.config.localise_min_top_m:
-                fine = _polygon_cells(self._fine, footprint.polygon_xy_m)
+                fine = covered_cells(self._fine, outlines)
                 self._fine_cells[guid] = fine
                 self._fine_counts[fine[:, 0], fine[:, 1]] += 1
                 self._laser_distance.touch(fine)
         self.version += 1
         return True
+
+    def _outlines(self, footprint: Footprint, band: bool) -> list[NDArray[np.float64]]:
+        """What a footprint occupies on the grid: in the band, its parts that meet the band (a doorway under
+        its lintel stays free), or its whole outline when none does (a part still settling blocks whatever
+        its height); a floor driven on that the laser sees, its whole outline."""
+        if not band:
+            return [footprint.polygon_xy_m]
+        return footprint.outlines_meeting(self.config.band_min_z_m, self.config.band_max_z_m) or [
+            footprint.polygon_xy_m
+        ]
 
     def _floor_layer(self) -> tuple[NDArray[np.int32], ClippedDistanceField]:
         """The counts and distance field of the floors driven on that the laser sees."""
@@ -514,19 +532,6 @@ def _same_footprint(a: Footprint, b: Footprint, tolerance_m: float = 0.01) -> bo
         and abs(a.z_min_m - b.z_min_m) < tolerance_m
         and abs(a.z_max_m - b.z_max_m) < tolerance_m
     )
-
-
-def _polygon_cells(geometry: OccupancyGrid, polygon_xy_m: NDArray[np.float64]) -> NDArray[np.int64]:
-    """Cells ``(n, 2)`` of ``geometry`` a polygon covers, rasterised on a small aligned window only."""
-    res = geometry.resolution_m
-    x0, y0 = geometry.origin_xy_m
-    low = np.floor((polygon_xy_m.min(axis=0) - (x0, y0)) / res).astype(int) - 1
-    high = np.ceil((polygon_xy_m.max(axis=0) - (x0, y0)) / res).astype(int) + 1
-    window_origin = (x0 + low[0] * res, y0 + low[1] * res)
-    bounds = (*window_origin, x0 + high[0] * res, y0 + high[1] * res)
-    window = from_footprints(bounds, res, polygons_xy_m=[polygon_xy_m])
-    rc = np.argwhere(window.occupied) + np.array([low[1], low[0]])
-    return rc[geometry.in_bounds(rc)]
 
 
 def heading_to(from_xy_m: ArrayLike, to_xy_m: ArrayLike) -> float:

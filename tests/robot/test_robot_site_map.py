@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from doorway_room import room_round
 from frames import convert_small_frame
 
 from bimbot.services.robot.site_map import MapConfig, SiteMap, outline
@@ -283,3 +284,26 @@ def test_what_is_in_place_before_the_robots_come_stands_in_the_map_from_the_star
     assert site.laser_grid().occupied.any() and not site.laser_grid().is_free(*posed(column).centre_xy_m)
     assert site.static_grid().is_free(*posed(floor).centre_xy_m), "an existing 5 cm floor is driven on"
     assert column.guid not in site.carried and not site.in_yard(column.guid)
+
+
+def test_a_doorway_under_its_lintel_is_free_in_the_map_and_the_laser_sees_through_it(frame: Manifest) -> None:
+    """A wall occupies the map by its collision parts, not its bounding box: the doorway of an existing
+    room round a column is free for planning and for the laser, its piers are not; a room known only by
+    its bounding box fills the doorway."""
+    footing = next(c for c in frame.components if c.ifc_class == "IfcFooting")
+    column = next(c for c in frame.components if c.ifc_class == "IfcColumn")
+    components = [c for c in frame.components if c.guid != footing.guid]
+    layout = plan_site(components, robots=1)
+    room = room_round(column, footing, doorway_to_m=2.2)
+    cx, cy, _ = column.target_pose_world.position_m
+    doorway, pier = (cx - 2.85, cy), (cx - 2.85, cy - 2.0)
+    site = SiteMap(layout, components, MapConfig(step_m=0.07), in_place=[room])
+    assert site.static_grid().is_free(*doorway) and not site.static_grid().is_free(*pier)
+    assert site.laser_grid().is_free(*doorway) and not site.laser_grid().is_free(*pier)
+    boxed = SiteMap(
+        layout,
+        components,
+        MapConfig(step_m=0.07),
+        in_place=[room.model_copy(update={"part_boxes_local": []})],
+    )
+    assert not boxed.static_grid().is_free(*doorway)

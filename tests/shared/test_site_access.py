@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from doorway_room import room_round
 from scipy import ndimage
 
 from bimbot.shared.manifest import read_manifest
@@ -84,3 +85,22 @@ def test_what_is_in_place_before_the_robots_come_stands_in_the_access_check(bund
     assert SiteAccess(built, layout, DEFAULT_ROBOT, AccessConfig(0.1)).target_accessible(column.guid)
     walled = SiteAccess(built, layout, DEFAULT_ROBOT, AccessConfig(0.1), in_place=[plinth])
     assert not walled.target_accessible(column.guid)
+
+
+def test_a_doorway_under_its_lintel_is_driven_through_a_wall_closed_to_the_floor_is_not(
+    bundled_build: Path,
+) -> None:
+    """A wall's collision parts occupy the grid, not its bounding box: the opening under a door's lintel is
+    free (the restaurant's existing walls, each one box, closed all 470 new components in). Closed to the
+    floor, or known only by its bounding box, the room round the column shuts it off."""
+    components = list(read_manifest(bundled_build).components)
+    column = next(c for c in components if c.ifc_class == "IfcColumn")
+    footing = next(c for c in components if c.ifc_class == "IfcFooting")
+    built = [c for c in components if c.guid != footing.guid]
+    layout = plan_site(built, robots=1)
+    with_door = room_round(column, footing, doorway_to_m=2.2)
+    closed = room_round(column, footing, doorway_to_m=0.0)
+    one_box = with_door.model_copy(update={"part_boxes_local": []})
+    for ring, reaches in ((with_door, True), (closed, False), (one_box, False)):
+        access = SiteAccess(built, layout, DEFAULT_ROBOT, AccessConfig(0.1), in_place=[ring])
+        assert access.target_accessible(column.guid) is reaches, ring.part_boxes_local[-1:] or "one box"
