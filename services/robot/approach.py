@@ -25,6 +25,11 @@ from inside; so is every frame member (a column, a beam), which closes nothing i
 short drive, and an outside stand-point across the frame was one the navigator could not reach (the demo's
 edge columns went back twice so). After a failed drive the robot tries any side (the caller's choice).
 
+A robot setting a component that blocks its band keeps **its way out**: among the stand-points, those from
+which a way to its depot remains once the component stands (:func:`way_out_after`) come first. A partition
+that closes a room is set from the side joined to the depot, not from inside the room it closes (the Revit
+house's carrier set the last partition of a room from inside and was walled in there).
+
 Among the candidates left, the best is the one nearest the footprint (most reach to spare), then nearest the
 footprint's centre (the middle of a long side), then nearest the robot (a short drive): one weighted score.
 Its yaw faces the footprint's centre (None when it stands on the centre). When there is none,
@@ -37,14 +42,15 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from bimbot.shared.footprint import Footprint
-from bimbot.shared.occupancy_grid import OccupancyGrid, nearest_free_cell
+from bimbot.shared.footprint import Footprint, convex_hull_xy
+from bimbot.shared.occupancy_grid import OccupancyGrid, covered_cells, nearest_free_cell
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.site_plan import Rect
@@ -163,13 +169,15 @@ def approach_pose(
     avoid_xy_m: ArrayLike = (),
     avoid_radius_m: float = 1.0,
     outside_of: Rect | None = None,
+    way_out: NDArray[np.bool_] | None = None,
 ) -> Approach | None:
     """The best approach pose beside ``footprint`` (see the module doc), or None when there is none.
 
     ``grid`` is the inflated planning grid; ``region`` the robot's reachable free cells (computed from
     ``robot_xy_m`` when not given). Candidates within ``avoid_radius_m`` of a point of ``avoid_xy_m``
     (stand-points that failed already) are left out, so a re-chosen approach tries another side. With
-    ``outside_of`` (the structure's footprint), only the candidates outside it count while there are any.
+    ``outside_of`` (the structure's footprint), only the candidates outside it count while there are any;
+    so with ``way_out`` (cells from which the robot can still leave, :func:`way_out_after`).
     """
     if region is None:
         region = reachable_region(grid, robot_xy_m)
@@ -179,6 +187,10 @@ def approach_pose(
     cells, distance = stand_points(grid, footprint, blocks_band=blocks_band, config=config)
     inside = region[cells[:, 0], cells[:, 1]] if len(cells) else np.zeros(0, bool)
     cells, distance = cells[inside], distance[inside]
+    if way_out is not None and len(cells):
+        leaves = way_out[cells[:, 0], cells[:, 1]]
+        if leaves.any():
+            cells, distance = cells[leaves], distance[leaves]
     xy = grid.cell_to_world(cells) if len(cells) else np.empty((0, 2))
     avoid = np.asarray(avoid_xy_m, float).reshape(-1, 2)
     if len(avoid) and len(xy):
@@ -203,6 +215,25 @@ def approach_pose(
     x, y = float(xy[best, 0]), float(xy[best, 1])
     yaw = math.atan2(centre[1] - y, centre[0] - x) if to_centre[best] > 0.2 else None
     return Approach(x, y, yaw, float(distance[best]))
+
+
+def way_out_after(
+    grid: OccupancyGrid, outlines_xy_m: Sequence[NDArray[np.float64]], home_xy_m: ArrayLike, body_m: float
+) -> NDArray[np.bool_] | None:
+    """The free cells of ``grid`` (the inflated planning grid) still joined to ``home_xy_m`` once a
+    component of these outlines stands, each grown by ``body_m`` less two cells (the robot's inflation,
+    so that a stand-point at its body's clearance from the component lies just outside it); None when the
+    home has no free cell."""
+    grown_m = max(0.0, body_m - 2.0 * grid.resolution_m)
+    turns = np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False)
+    circle = grown_m * np.column_stack((np.cos(turns), np.sin(turns)))
+    grown = [
+        convex_hull_xy((outline[:, None, :] + circle[None, :, :]).reshape(-1, 2)) for outline in outlines_xy_m
+    ]
+    cells = covered_cells(grid, grown)
+    occupied = grid.occupied.copy()
+    occupied[cells[:, 0], cells[:, 1]] = True
+    return reachable_region(grid.with_occupied(occupied), home_xy_m)
 
 
 def no_approach_reason(

@@ -20,13 +20,16 @@ from __future__ import annotations
 
 import logging
 
+import numpy as np
+from numpy.typing import NDArray
+
 from bimbot.shared.footprint import Footprint
 from bimbot.shared.messages import RobotState
 from bimbot.shared.occupancy_grid import OccupancyGrid
 from bimbot.shared.reasons import Reason
 
 from . import give_back
-from .approach import approach_pose, no_approach_reason, sets_from_outside, within_reach
+from .approach import approach_pose, no_approach_reason, sets_from_outside, way_out_after, within_reach
 from .handover import Handover
 from .navigator import NavStatus
 from .robot_context import RobotContext
@@ -58,6 +61,14 @@ class Driving:
         if approach_pose(grid, task.target, xy, blocks_band=blocks, config=config) is not None:
             return None
         return self._no_approach(grid, task.target, f"the target of {component_name(task)}")
+
+    def _way_out(self, grid: OccupancyGrid, footprint: Footprint) -> NDArray[np.bool_] | None:
+        """Where the robot can still leave for its depot from once ``footprint`` stands (its band parts)."""
+        site_map = self.context.site_map
+        outlines = footprint.outlines_meeting(site_map.config.band_min_z_m, site_map.config.band_max_z_m)
+        if not outlines:
+            return None
+        return way_out_after(grid, outlines, self.context.home_xy_yaw[:2], site_map.config.inflation_m)
 
     def _no_approach(self, grid: OccupancyGrid, footprint: Footprint, what: str) -> Reason:
         context = self.context
@@ -132,6 +143,7 @@ class Driving:
         # An enclosing element is set from outside the structure where it can; after a failed drive, any side.
         enclosing = sets_from_outside(task.component.ifc_class) and not task.failed_xy_m
         outside = site_map.layout.structure if enclosing else None
+        placing = self.cycle.state not in (_S.DETECT_COMPONENT_POSITION, _S.PICK_UP)
         found = approach_pose(
             grid,
             footprint,
@@ -140,6 +152,7 @@ class Driving:
             config=config,
             avoid_xy_m=task.failed_xy_m,
             outside_of=outside,
+            way_out=self._way_out(grid, footprint) if placing and blocks else None,
         )
         if found is None and task.failed_xy_m:  # every other side tried: the failed ones again
             found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=config)

@@ -14,6 +14,7 @@ from bimbot.services.robot.approach import (
     no_approach_reason,
     reachable_region,
     sets_from_outside,
+    way_out_after,
     within_reach,
 )
 from bimbot.services.robot.site_map import SiteMap
@@ -238,3 +239,25 @@ def test_only_enclosing_elements_are_set_from_outside() -> None:
         assert sets_from_outside(enclosing), enclosing
     for frame in ("IfcColumn", "IfcBeam", "IfcSlab", "IfcFooting", "IfcMember"):
         assert not sets_from_outside(frame), frame
+
+
+def test_the_partition_that_closes_a_room_is_set_from_the_side_with_the_way_out() -> None:
+    """A room open on its west side (a 4 m gap), the robot inside it, its depot outside: the partition
+    that closes the gap is set from outside, though the inside is nearer the robot (the Revit house's
+    carrier set such a partition from inside and was walled in). A partition that closes nothing may be set
+    from either side: the nearer one."""
+    room = [(8.0, 8.0, 14.0, 8.2), (8.0, 13.8, 14.0, 14.0), (13.8, 8.0, 14.0, 14.0)]  # no west wall
+    grid = inflate(from_footprints((0.0, 0.0, 20.0, 20.0), 0.1, boxes_xy_m=room), 0.75)
+    home, robot = (1.0, 1.0), (9.5, 11.0)
+    gap = _rect(8.0, 8.2, 8.1, 13.8, 3.0)
+    kwargs = {"blocks_band": True, "config": ApproachConfig(reach_m=1.5, body_clearance_m=0.75)}
+    nearest = approach_pose(grid, gap, robot, **kwargs)
+    assert nearest is not None and nearest.x_m > 8.1, "without a way out: the side nearer the robot, inside"
+    way_out = way_out_after(grid, gap.outlines_meeting(0.02, 1.0), home, 0.75)
+    assert way_out is not None
+    kept = approach_pose(grid, gap, robot, way_out=way_out, **kwargs)
+    assert kept is not None and kept.x_m < 8.0, kept
+    free_standing = _rect(11.0, 9.5, 11.1, 12.5, 3.0)  # a partition inside the room that closes nothing
+    way_out = way_out_after(grid, free_standing.outlines_meeting(0.02, 1.0), home, 0.75)
+    near = approach_pose(grid, free_standing, robot, way_out=way_out, **kwargs)
+    assert near is not None and near.x_m < 11.0, "both sides leave a way out: the nearer one"
