@@ -137,6 +137,13 @@ class Joint(_Frozen):
         ge=0.0,
         description="a framed end's erection gap: how far the part may stand off without moving the member",
     )
+    bottoms_at_joint_m: tuple[float, float] | None = Field(
+        default=None,
+        description=(
+            "how low each of ``guids`` reaches right under where they overlap (world z): the lower one bears "
+            "(a rafter's box reaches below its purlin at the eaves, its section over the purlin does not)"
+        ),
+    )
 
 
 class Clash(_Frozen):

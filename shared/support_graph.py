@@ -16,7 +16,9 @@ its part is ordered as any side contact) are ordered by one rule, the first that
 1. the IFC's host first (the wall before what fills its opening; an element before the fastener that
    realises its connection);
 2. else the lower part first (its bottom lower by more than ``tolerance_m``: a footing before the column
-   drawn into it);
+   drawn into it), its bottom right under the joint where the converter measured it
+   (``Joint.bottoms_at_joint_m``: a purlin before the sloped rafter notched over it, whose box reaches
+   lower at the eaves), else its box's;
 3. else the one that bears first (the part a rule's member bears on or frames into);
 4. else the larger first (bounding-box volume), then the smaller GlobalId.
 
@@ -150,7 +152,10 @@ def joint_order(joint: Joint, by_guid: Mapping[str, Component], tolerance_m: flo
     a, b = joint.guids
     if joint.source is JointSource.RELATION and joint.directed:
         return a, b
-    bottom_a, bottom_b = by_guid[a].bbox_world.min_m[2], by_guid[b].bbox_world.min_m[2]
+    bottom_a, bottom_b = joint.bottoms_at_joint_m or (
+        by_guid[a].bbox_world.min_m[2],
+        by_guid[b].bbox_world.min_m[2],
+    )
     if abs(bottom_a - bottom_b) > tolerance_m:
         return (a, b) if bottom_a < bottom_b else (b, a)
     if joint.directed:

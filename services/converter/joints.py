@@ -95,21 +95,20 @@ def find_joints(
     for overlap in overlaps:
         relation = related.get(frozenset((overlap.first, overlap.second)))
         if relation is not None:
-            joints.append(
-                Joint(
-                    guids=(relation.first, relation.second),
-                    depth_m=round(overlap.depth_m, 4),
-                    source=JointSource.RELATION,
-                    rule=relation.relation,
-                    directed=relation.directed,
-                )
+            joint = Joint(
+                guids=(relation.first, relation.second),
+                depth_m=round(overlap.depth_m, 4),
+                source=JointSource.RELATION,
+                rule=relation.relation,
+                directed=relation.directed,
             )
+            joints.append(_with_bottoms(joint, overlap))
             continue
         first, second = by_guid[overlap.first], by_guid[overlap.second]
         joint = _by_rule(overlap, first, second, settings.rule, classes)
         joint = joint or _cast_around(overlap, first, second) or _fitted_to_existing(overlap, first, second)
         if joint is not None:
-            joints.append(joint)
+            joints.append(_with_bottoms(joint, overlap))
         elif overlap.depth_m > CLASH_DEPTH_M:
             clashes.append(Clash(guids=(overlap.first, overlap.second), depth_m=round(overlap.depth_m, 4)))
     clashes.sort(key=lambda clash: (-clash.depth_m, clash.guids))
@@ -194,6 +193,13 @@ def relations(model: ifcopenshell.file, components: Sequence[Component]) -> dict
                     relation = _relation(child, link.other_guid, link.relation, link.role)
                     add(Relation(relation.first, relation.second, by_its, relation.directed))
     return found
+
+
+def _with_bottoms(joint: Joint, overlap: Overlap) -> Joint:
+    """``joint`` with how low each of its components reaches right under the overlap (its order's height)."""
+    first, second = overlap.bottoms_under_m()
+    bottoms = (first, second) if joint.guids[0] == overlap.first else (second, first)
+    return joint.model_copy(update={"bottoms_at_joint_m": bottoms})
 
 
 def _relation(guid: str, other: str, relation: str, role: str) -> Relation:

@@ -46,7 +46,7 @@ class Overlap:
     first: str
     second: str
     depth_m: float
-    # the penetrating pairs of convex parts (vertices, world frame): where the overlap lies
+    # the penetrating pairs of convex parts (vertices, world frame; ``first``'s part, then ``second``'s)
     part_pairs: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
 
     @cached_property
@@ -54,6 +54,29 @@ class Overlap:
         """The vertices ``(n, 3)`` (world frame) of where the two overlap: the intersection of each
         penetrating pair of parts (manifold3d; computed when asked, as only a rule's test needs it)."""
         return np.concatenate([_intersection(a, b) for a, b in self.part_pairs])
+
+    def bottoms_under_m(self) -> tuple[float, float]:
+        """How low ``first`` and ``second`` reach right under where they overlap: the lowest point of each
+        one's penetrating parts within the region's plan box (a sloped rafter's section over its purlin,
+        not its end at the eaves)."""
+        region = self.region_m
+        low, high = region[:, :2].min(axis=0), region[:, :2].max(axis=0)
+        first = min(_bottom_within(a, low, high) for a, _ in self.part_pairs)
+        second = min(_bottom_within(b, low, high) for _, b in self.part_pairs)
+        return round(first, 4), round(second, 4)
+
+
+def _bottom_within(vertices: np.ndarray, low_xy: np.ndarray, high_xy: np.ndarray) -> float:
+    """The lowest point of the convex part ``vertices`` within the vertical prism over a plan box."""
+    size = np.maximum(high_xy - low_xy, 1e-3)
+    z0, z1 = float(vertices[:, 2].min()) - 1.0, float(vertices[:, 2].max()) + 1.0
+    prism = manifold3d.Manifold.cube([float(size[0]), float(size[1]), z1 - z0]).translate(
+        [float(low_xy[0]), float(low_xy[1]), z0]
+    )
+    solid = manifold3d.Manifold.hull_points(vertices) ^ prism
+    if solid.is_empty():
+        return float(vertices[:, 2].min())
+    return float(np.asarray(solid.to_mesh().vert_properties)[:, 2].min())
 
 
 def candidate_pairs(components: Sequence[Component], contact_m: float) -> list[tuple[int, int]]:
@@ -95,6 +118,8 @@ def measure_overlaps(components: Sequence[Component], out_dir: Path, contact_m: 
             if overlap is not None:
                 depth_m, part_pairs = overlap
                 first, second = sorted((components[i].guid, components[j].guid))
+                if first != components[i].guid:  # each pair of parts: the first component's part first
+                    part_pairs = tuple((b, a) for a, b in part_pairs)
                 found.append(Overlap(first, second, depth_m, part_pairs))
     _log.debug(
         "%d candidate pair(s) by their boxes, %d overlap deeper than a contact",

@@ -269,3 +269,49 @@ def test_a_new_beam_drawn_into_existing_work_is_fitted_to_it_up_to_150_mm(
         assert joint.rule == "IfcBeam fitted to existing IfcBeam"
     else:
         assert manifest.joints == [] and len(manifest.clashes) == 1
+
+
+def _sloped(angle_rad: float, origin_m: tuple[float, float, float]) -> np.ndarray:
+    """A placement whose local Z (a member's length) rises along +y at ``angle_rad``, local X square to it
+    in the vertical plane (a rafter's depth)."""
+    z_axis = np.array([0.0, np.cos(angle_rad), np.sin(angle_rad)])
+    x_axis = np.array([0.0, -np.sin(angle_rad), np.cos(angle_rad)])
+    matrix = np.eye(4)
+    matrix[:3, 0], matrix[:3, 1], matrix[:3, 2] = x_axis, np.cross(z_axis, x_axis), z_axis
+    matrix[:3, 3] = origin_m
+    return matrix
+
+
+def test_a_rafter_notched_over_its_purlin_is_a_joint_and_the_purlin_under_it_comes_first(
+    tmp_path: Path,
+) -> None:
+    """A sloped rafter (30°, 200 mm deep) drawn 44 mm down into the top of a purlin it crosses, as
+    FZK-Haus draws its birdsmouths: a joint by the crossing rule, not a clash. The rafter's box reaches
+    far below the purlin (it runs on down to the eaves), but right under the notch the purlin is the lower:
+    it bears, and comes first (by the boxes' bottoms the rafter went first and the purlin fell)."""
+    small = new_model()
+    add_beam(
+        small,
+        "Purlin",
+        length_m=4.0,
+        width_m=0.16,
+        depth_m=0.08,
+        matrix_m=_along((1.0, 0.0), (0.0, 0.0, 3.28)),
+    )
+    angle = np.radians(30.0)
+    underside_over_purlin_m = 3.36 - 0.044  # over the purlin's downhill edge (y = -0.04): the notch's deepest
+    centre_z = underside_over_purlin_m + 0.1 / np.cos(angle)  # at y = -0.04
+    start = (2.0, -1.5, centre_z - 1.46 * np.tan(angle))
+    add_beam(small, "Rafter", length_m=4.0, width_m=0.2, depth_m=0.08, matrix_m=_sloped(angle, start))
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    assert manifest.clashes == []
+    [joint] = manifest.joints
+    assert joint.rule == "IfcBeam into IfcBeam, up to 50 mm"
+    bottoms = dict(zip(joint.guids, joint.bottoms_at_joint_m or (), strict=True))
+    assert bottoms[guid["Purlin"]] == pytest.approx(3.2, abs=0.005)
+    assert bottoms[guid["Rafter"]] == pytest.approx(underside_over_purlin_m, abs=0.01)
+    rafter = next(c for c in manifest.components if c.name == "Rafter")
+    assert rafter.bbox_world.min_m[2] < 3.0  # its box: lower than the purlin
+    preds = support_predecessors(manifest.components, joints=manifest.joints)
+    assert guid["Purlin"] in preds[guid["Rafter"]] and guid["Rafter"] not in preds[guid["Purlin"]]
