@@ -40,6 +40,9 @@ import numpy as np
 from .mesh import MeshLike, TriMesh, as_trimesh_lite
 
 PLANK_WIDTH_M = (1.2, 2.4)  # hollow-core and solid planks
+# the joint between two panels or planks side by side (grouted or sealed on site; 10-20 mm is usual): each
+# panel is made that much short of the cut, so a neighbour set within its tolerance does not push it
+PANEL_JOINT_M = 0.015
 MIN_WALL_PANEL_M = 0.6  # narrower wall panels are not made
 MIN_PLANK_M = 0.6  # a narrower closure plank beside an opening is not made either
 JAMB_MARGIN_M = 0.1  # a cut stays this far from an opening where the pier is wide enough
@@ -166,7 +169,7 @@ def panelise(
             continue
         grid = _cut_grid(solid, cuts, rows, planner.row_normal)
         volumes = [piece.volume() for row in grid for piece in row]
-        total = sum(volumes)
+        total = solid.volume()  # each panel its own share of the element's: the joints' grout is no panel's
         masses = [mass_kg * volume / total for volume in volumes]
         extents = [_extents(piece) for row in grid for piece in row if not piece.is_empty()]
         worst_mass = max(masses)
@@ -382,8 +385,12 @@ def _cut_grid(
     solid: manifold3d.Manifold, cuts: Sequence[float], rows: Sequence[float], row_normal: Sequence[float]
 ) -> list[list]:
     """Rows (cut at ``rows`` across ``row_normal``: a wall's bottom up, a slab's along its span) of pieces
-    (along x, cut at ``cuts``)."""
-    return [split_by_planes(row, (1.0, 0.0, 0.0), cuts) for row in split_by_planes(solid, row_normal, rows)]
+    (along x, cut at ``cuts``), each side-by-side cut a joint ``PANEL_JOINT_M`` wide (the sliver between
+    two panels is dropped)."""
+    planes = [position for cut in cuts for position in (cut - PANEL_JOINT_M / 2.0, cut + PANEL_JOINT_M / 2.0)]
+    return [
+        split_by_planes(row, (1.0, 0.0, 0.0), planes)[::2] for row in split_by_planes(solid, row_normal, rows)
+    ]
 
 
 def _extents(piece: manifold3d.Manifold) -> tuple[float, float, float]:

@@ -113,7 +113,8 @@ def test_a_panelised_element_becomes_its_panels(build: tuple[Path, Manifest, dic
             (entry.ifc_class, ConstructionMethod.PANELISED, MethodSource.USER, "")
         }
         assert all(c.method_note == entry.why for c in panels)
-        assert sum(c.mass_kg for c in panels) == pytest.approx(entry.mass_kg)
+        assert sum(c.mass_kg for c in panels) == pytest.approx(entry.mass_kg, rel=0.01)  # less the joints
+        assert sum(c.mass_kg for c in panels) < entry.mass_kg
         assert max(c.mass_kg for c in panels) <= default_limits().lift_capacity_kg
         assert f"over the {default_limits().lift_capacity_kg:,.0f} kg lift capacity" in entry.why
 
@@ -208,15 +209,22 @@ def test_the_revit_house_heavy_wall_and_roof_slab_split_sensibly(samples_dir: Pa
     decisions = {guid: PANELISED for guid in (HOUSE_HEAVY_WALL, HOUSE_WINDOW_WALL, HOUSE_ROOF_SLAB)}
     manifest = convert_model(open_model(source), source, tmp_path, ConvertOptions(decisions=decisions))
     planks = _panels(manifest, HOUSE_ROOF_SLAB)
-    assert [round(c.mass_kg) for c in planks] == [4690] * 8  # 2.11 m: a truck's width, not the crane's 8 t
+    # 2.11 m between cuts: a truck's width, not the crane's 8 t; each plank 15 mm short of its cuts (joints)
+    assert [round(c.mass_kg) for c in planks] == [4673, *[4656] * 6, 4673]
     assert all(
         c.bbox_world.max_m[0] - c.bbox_world.min_m[0] == pytest.approx(SPAN_M, abs=0.01)
-        and c.bbox_world.max_m[1] - c.bbox_world.min_m[1] == pytest.approx(2.11, abs=0.01)
+        and c.bbox_world.max_m[1] - c.bbox_world.min_m[1]
+        == pytest.approx(2.10, abs=0.006)  # 2.11 less joints
         for c in planks
     )
-    assert [round(c.mass_kg) for c in _panels(manifest, HOUSE_HEAVY_WALL)] == [2442, 2442]
+    assert [round(c.mass_kg) for c in _panels(manifest, HOUSE_HEAVY_WALL)] == [
+        2440,
+        2440,
+    ]  # 2,442 less a joint
     wall_panels = _panels(manifest, HOUSE_WINDOW_WALL)
-    assert len(wall_panels) == 2 and sum(c.mass_kg for c in wall_panels) == pytest.approx(2906, abs=1)
+    assert len(wall_panels) == 2 and sum(c.mass_kg for c in wall_panels) == pytest.approx(
+        2901, abs=1
+    )  # 2,906 less a joint
     panel_guids = {c.guid for c in wall_panels}
     windows = [
         c
