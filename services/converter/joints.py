@@ -95,14 +95,14 @@ def find_joints(
     for overlap in overlaps:
         relation = related.get(frozenset((overlap.first, overlap.second)))
         if relation is not None:
-            joint = Joint(
+            related_joint = Joint(
                 guids=(relation.first, relation.second),
                 depth_m=round(overlap.depth_m, 4),
                 source=JointSource.RELATION,
                 rule=relation.relation,
                 directed=relation.directed,
             )
-            joints.append(_with_bottoms(joint, overlap))
+            joints.append(_with_bottoms(related_joint, overlap))
             continue
         first, second = by_guid[overlap.first], by_guid[overlap.second]
         joint = _by_rule(overlap, first, second, settings.rule, classes)
