@@ -63,6 +63,7 @@ from bimbot.shared.bus import (
 from bimbot.shared.component_states import ComponentStates
 from bimbot.shared.messages import (
     ALIVE_KEY,
+    COMPONENT_EVENT,
     COMPONENT_STATE,
     PHYSICS_ATTACH,
     PHYSICS_BUILD,
@@ -231,6 +232,7 @@ class _Loop:
                 inbox.subscribe(session, ROBOT_PLAN, site=site, robot_id="*"),
                 inbox.subscribe(session, ROBOT_STATE, site=site, robot_id="*"),
                 inbox.subscribe(session, TASK, site=site, task_id="*"),
+                inbox.subscribe(session, COMPONENT_EVENT, site=site, key="*"),
             ]
         if self.run.wait_for_planner:
             planner = key(ALIVE_KEY, site=site, kind="planner", id="*")

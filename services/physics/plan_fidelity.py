@@ -12,8 +12,10 @@ handling, placing, pits, joints, connections and their reasons, and changes thre
   (stability at release, supports, drift); otherwise a period is kinematic: carried and assembling loads
   are set where they are at its end, reach checks read the robots' poses as always.
 * **Time advances by events.** Once nothing was heard for ``quiet_periods`` periods (no new path, task,
-  robot or component state, request) and nothing settles, the clock jumps so that the next period ends at
-  the earliest known event: a drive's end, an assembly motion's end (a crane's lift), a connection's hold,
+  robot or component state, request), no component event waits for its agent's answer (a state of that
+  component, for at most ``EVENT_WAIT_PERIODS`` periods: agents answer in wall time, and a robot waiting
+  for one must not see the clock leap) and nothing settles, the clock jumps so that the next period ends
+  at the earliest known event: a drive's end, an assembly motion's end (a crane's lift), a connection's hold,
   a robot's timed work (``busy_until_s``). The services see a clock that leaps, as after a skip over a
   quiet site (:meth:`~.simulation.Simulation.skip`); the protocol's own exchanges still run period by
   period, so a hand-off between services costs the sim time it costs in the physics fidelity.
@@ -30,6 +32,7 @@ from bimbot.shared.fidelity import FIDELITIES
 from bimbot.shared.messages import (
     AttachRequest,
     BuildRequest,
+    ComponentEventMsg,
     ComponentState,
     ComponentStateMsg,
     DropRequest,
@@ -54,6 +57,7 @@ if TYPE_CHECKING:
 _log = logging.getLogger(__name__)
 
 QUIET_PERIODS = 4  # periods without news before the clock may jump (answers come 2 periods later)
+EVENT_WAIT_PERIODS = 50  # at most this long a component event unanswered by its agent holds the clock
 
 
 class ExactOdometry(Odometry):
@@ -80,6 +84,8 @@ class PlanSimulation(Simulation):
         self._heard: dict[str, tuple[object, ...]] = {}  # last state of each robot, task, component
         self._busy_until: dict[str, float] = {}  # robot → its timed work's end (its state says)
         self._since_news = 0  # periods advanced since something was heard
+        self._unanswered: dict[str, tuple[str, int]] = {}  # guid → (event id, period heard): no state yet
+        self._answered: set[str] = set()  # event ids a state answered (a late repeat holds nothing)
         self.jumps, self.jumped_s, self.physics_periods = 0, 0.0, 0
         self.news: dict[str, int] = {}  # what held the clock, by kind (the log line at the end)
         self.stepped_for: dict[str, int] = {}  # why a period did not jump, by cause
@@ -111,7 +117,13 @@ class PlanSimulation(Simulation):
                 self._busy_until.pop(message.robot_id, None)
         elif isinstance(message, TaskMsg):
             self._changed("task", message.task_id, (message.status, message.robot_id, message.attempt))
+        elif isinstance(message, ComponentEventMsg):
+            if message.event_id not in self._answered:
+                self._unanswered[message.guid] = (message.event_id, self.step)
         elif isinstance(message, ComponentStateMsg):
+            answered = self._unanswered.pop(message.guid, None)
+            if answered is not None:
+                self._answered.add(answered[0])
             self._changed("component", message.guid, (message.state,))
             if message.state is ComponentState.VERIFYING and message.guid in self.handling.items:
                 # its agent verifies on a pose stamped after the placement: send one now, not at the next
@@ -204,6 +216,8 @@ class PlanSimulation(Simulation):
             return self._count("news")
         if self._late_replies or self._settling():
             return self._count("settling")
+        if any(self.step - heard < EVENT_WAIT_PERIODS for _, heard in self._unanswered.values()):
+            return self._count("event unanswered")
         event = self.next_event_s()
         if event is None:
             return self._count("no event")

@@ -9,10 +9,25 @@ from pathlib import Path
 
 import pytest
 
-from bimbot.services.physics.plan_fidelity import PlanSimulation, simulation_class
+from bimbot.services.physics.plan_fidelity import (
+    EVENT_WAIT_PERIODS,
+    QUIET_PERIODS,
+    PlanSimulation,
+    simulation_class,
+)
 from bimbot.services.physics.simulation import SimConfig, Simulation
 from bimbot.shared.manifest import Manifest
-from bimbot.shared.messages import PlanMsg, ScanMsg, SensorsMsg
+from bimbot.shared.messages import (
+    ComponentEvent,
+    ComponentEventMsg,
+    ComponentState,
+    ComponentStateMsg,
+    PlanMsg,
+    ScanMsg,
+    SensorsMsg,
+)
+
+GUID = "0Component000000000000a"
 
 
 @pytest.fixture
@@ -24,7 +39,8 @@ def sim(bundled_build: Path, frame_manifest: Manifest) -> Iterator[PlanSimulatio
 
 def _drive(sim: PlanSimulation, x_m: float) -> PlanMsg:
     x, y, _ = sim.robots["r1"].pose_xy_yaw(sim.client_id)
-    return PlanMsg(robot_id="r1", path_xy_m=[(x, y), (x + x_m, y)], goal_xy_m=(x + x_m, y), sim_time_s=0.0)
+    path = [(x, y), (x + x_m, y)]
+    return PlanMsg(robot_id="r1", path_xy_m=path, goal_xy_m=path[-1], sim_time_s=sim.sim_time_s)
 
 
 def test_the_fidelity_names_its_simulation() -> None:
@@ -57,3 +73,42 @@ def test_a_robot_on_its_way_is_no_quiet_site(sim: PlanSimulation) -> None:
     sim.hear(_drive(sim, 5.0))
     sim.advance()
     assert sim.quiet() == "r1 is driving"
+
+
+def _event(event_id: str) -> ComponentEventMsg:
+    return ComponentEventMsg(
+        guid=GUID,
+        event=ComponentEvent.ARRIVE,
+        source="r1",
+        event_id=event_id,
+        sim_time_s=0.0,
+        wall_time_s=0.0,
+    )
+
+
+def test_a_component_event_its_agent_has_not_answered_holds_the_clock(sim: PlanSimulation) -> None:
+    """A robot waits for its agent's answer to an event (a crane's arrive, before it lifts). Agents answer
+    in wall time, so until a state of that component comes the clock goes period by period, not to the
+    next known event (a drive's end far ahead); a late repeat of an answered event holds nothing, and one
+    never answered holds the clock ``EVENT_WAIT_PERIODS`` periods at most."""
+    sim.hear(_drive(sim, 100.0))  # a known event far ahead: a drive's end
+    sim.hear(_event("e1"))
+    for _ in range(3 * QUIET_PERIODS):
+        sim.advance()
+    assert sim.jumps == 0 and sim.sim_time_s == pytest.approx(3 * QUIET_PERIODS * 0.2)  # period by period
+    state = ComponentStateMsg(
+        guid=GUID, state=ComponentState.ASSEMBLING, event="arrive", sim_time_s=0.0, wall_time_s=0.0
+    )
+    sim.hear(state)  # answered
+    sim.hear(_event("e1"))  # a late repeat
+    for _ in range(QUIET_PERIODS + 1):
+        sim.advance()
+    assert sim.jumps == 1  # the answer is news for a few periods, then the clock jumps to the drive's end
+    sim.hear(_drive(sim, 100.0))
+    sim.hear(_event("e2"))  # never answered
+    periods = 0
+    while sim.jumps == 1 and periods < 2 * EVENT_WAIT_PERIODS:
+        sim.advance()
+        periods += 1
+    assert sim.jumps == 2, sim.stepped_for
+    assert EVENT_WAIT_PERIODS <= periods <= EVENT_WAIT_PERIODS + 1
