@@ -211,4 +211,23 @@ def summary_text(outcome: RunOutcome) -> str:
     if outcome.rrd_path is not None:
         viewer = Path(sys.executable).with_name("rerun")  # the venv's own viewer, wherever the user stands
         lines.append(f"recording: {outcome.rrd_path} (open it with: {viewer} {outcome.rrd_path})")
+    exit_why = exit_line(outcome)
+    if exit_why is not None:
+        lines.append(exit_why)
     return "\n".join(lines) + "\n"
+
+
+def exit_line(outcome: RunOutcome) -> str | None:
+    """``exit 1: 3 component(s) not built (the table above says why)``: why the command's exit code is not
+    0, as its last line (a script or a user sees a failure without reading the report); None for 0."""
+    code = outcome.exit_code
+    if code == 0:
+        return None
+    if code >= 128:
+        return f"exit {code}: stopped by a signal; the report covers the run up to then"
+    why = []
+    if outcome.constructed < outcome.total:
+        why.append(f"{outcome.total - outcome.constructed} component(s) not built (the table above says why)")
+    if (outcome.report.get("as_built") or {}).get("errors"):
+        why.append("the as-built audit found components away from their BIM targets (the as-built line)")
+    return f"exit {code}: " + (" and ".join(why) or "the planner did not finish (logs/planner.log)")

@@ -55,3 +55,17 @@ def test_a_run_without_connections_says_so_in_its_summary() -> None:
     report["settings"] = {"connections": False}
     unconnected = summary_text(RunOutcome(exit_code=1, constructed=1, total=2, report=report))
     assert "without connections (--no-connections): every component had to stand by itself" in unconnected
+
+
+def test_the_last_line_says_why_the_exit_code_is_not_0() -> None:
+    """The new-user trial saw ``bimbot run`` exit 1 with no line saying why."""
+    report = _report(100.0)
+    failed = summary_text(RunOutcome(exit_code=1, constructed=1, total=2, report=report)).splitlines()
+    assert failed[-1] == "exit 1: 1 component(s) not built (the table above says why)"
+    report["as_built"] = {"errors": 1}
+    audited = summary_text(RunOutcome(exit_code=1, constructed=2, total=2, report=report)).splitlines()
+    assert audited[-1].startswith("exit 1: the as-built audit found components away from their BIM targets")
+    stopped = summary_text(RunOutcome(exit_code=130, constructed=1, total=2, report=_report(100.0)))
+    assert stopped.splitlines()[-1].startswith("exit 130: stopped by a signal")
+    done = summary_text(RunOutcome(exit_code=0, constructed=2, total=2, report=_report(100.0)))
+    assert not any(line.startswith("exit") for line in done.splitlines())
