@@ -67,10 +67,7 @@ MIN_ROW_DEPTH_M = 4.0
 MIN_YARD_WIDTH_M = 12.0  # a small model's site keeps lanes long enough for robots to pass and localise
 MAX_DEPTH_CANDIDATES = 12
 WIDTH_CLASS_BASE_M = 0.5  # width classes: ≤ 0.5 m, ≤ 1 m, ≤ 2 m, ≤ 4 m, …
-ROBOT_SPACING_M = 1.6  # the least spacing of the robots' start poses in the depot
-# between two parked robots' bodies: the map's margin (0.15 m) and the local planner's margin from what the
-# laser sees (0.3 m), and a little; closer, a robot parking beside another never reaches its own spot
-DEPOT_CLEARANCE_M = 0.5
+ROBOT_SPACING_M = 1.6
 SPREAD_MIN_ROW_M = 8.0  # a kind is spread over more rows (one aisle per robot) only while rows stay this deep
 
 
@@ -212,18 +209,17 @@ def _plan_site(
     slots, aisles, yard = _place_rows(
         in_yard, rows, sizes, aisle_m=aisle_m, centre_x=centre_x, front_y=front_y
     )
-    spacing_m = max(ROBOT_SPACING_M, 2.0 * robot.radius_m + DEPOT_CLEARANCE_M)  # the widest ground type's
-    depot_width = 2.0 * spacing_m
+    depot_width = 2.0 * ROBOT_SPACING_M
     first_y = front_y + lane_m / 2.0  # the first robot on the lane between the building and the yard
     depot = Rect(
         (
             yard.min_xy[0] - lane_m - depot_width,
-            first_y + spacing_m / 2.0 - max(1, robots) * spacing_m,
+            first_y + ROBOT_SPACING_M / 2.0 - max(1, robots) * ROBOT_SPACING_M,
         ),
-        (yard.min_xy[0] - lane_m, first_y + spacing_m / 2.0),
+        (yard.min_xy[0] - lane_m, first_y + ROBOT_SPACING_M / 2.0),
     )
     depot_starts = [
-        (depot.min_xy[0] + depot_width / 2.0, first_y - i * spacing_m, 0.0) for i in range(robots)
+        (depot.min_xy[0] + depot_width / 2.0, first_y - i * ROBOT_SPACING_M, 0.0) for i in range(robots)
     ]
     union = Rect(
         (min(building.min_xy[0], depot.min_xy[0]), min(yard.min_xy[1], depot.min_xy[1])),

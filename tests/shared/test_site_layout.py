@@ -24,7 +24,6 @@ from bimbot.shared.manifest import Component, Manifest, read_manifest
 from bimbot.shared.occupancy_grid import from_footprints, inflate
 from bimbot.shared.robot_description import DEFAULT_ROBOT, Capability
 from bimbot.shared.site_layout import (
-    DEPOT_CLEARANCE_M,
     GROUND_CLEARANCE_M,
     INFLATION_MARGIN_M,
     aisle_width_m,
@@ -380,21 +379,3 @@ def test_one_robot_keeps_the_rows_as_deep_as_driving_asks() -> None:
     footings = _grid_of("footing", (0.6, 0.6, 0.3), 0.0)
     one, ten = plan_site(footings, robots=1), plan_site(footings, robots=10)
     assert len(one.aisles) < len(ten.aisles)
-
-
-def test_the_default_fleets_ground_robots_park_with_room_for_both_bodies_and_their_margins(
-    frame: list[Component],
-) -> None:
-    """The carrier (0.83 m radius) parked 1.6 m from the Husky's start: the Husky stopped 0.6 m short of its
-    own spot, "cannot drive to the depot", on every run of the demo and the Revit house. The spots are now
-    apart by the widest ground type's body twice and the margins both robots keep."""
-    fleet = default_fleet().robot_types()
-    site = plan_site(frame, fleet=fleet)
-    ground = [
-        (pose, item)
-        for pose, item in zip(site.robot_starts, fleet, strict=True)
-        if item.can(Capability.DRIVE)
-    ]
-    assert len(ground) == 2
-    (a, first), (b, second) = ground
-    assert math.dist(a[:2], b[:2]) >= first.radius_m + second.radius_m + DEPOT_CLEARANCE_M
