@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import pytest
 from ifc_builders import add_box, add_material, new_model
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
@@ -77,7 +76,7 @@ def test_a_slab_far_from_the_crane_is_cut_into_planks_the_chart_lifts_there(tmp_
     planks = [c for c in manifest.components if c.parent_guid == far.GlobalId]
     assert len(whole) == 1 and whole[0].method is ConstructionMethod.LIFTED
     assert len(planks) >= 2 and {c.method for c in planks} == {ConstructionMethod.PANELISED}
-    assert sum(c.mass_kg for c in planks) == pytest.approx(3000.0)
+    assert 0.99 * 3000.0 < sum(c.mass_kg for c in planks) < 3000.0  # the slab's, less its joints' grout
     assert "tower_crane r2 at" in (planks[0].method_note or "")
     layout = plan_site(manifest.components, fleet=fleet.robot_types())
     mast = layout.robot_starts[1][:2]
