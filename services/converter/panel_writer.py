@@ -130,9 +130,13 @@ def not_panelised(
         and any(element.is_a(name) for name in methods.panels.cast_unknown_classes)
     )
     method = ConstructionMethod.CAST_IN_PLACE if castable or unknown else ConstructionMethod.LIFTED
-    then = "cast in place" if castable else "cast in place as concrete" if unknown else "lifted whole"
-    if unknown:
-        then = f"material unknown, {then}"
+    then = (
+        "cast in place"
+        if castable
+        else "material unknown, cast in place as concrete"
+        if unknown
+        else "lifted whole"
+    )
     note = f"{decision.note}; not panelised ({error}): {then}" if decision.note else f"not panelised: {then}"
     return decision.model_copy(update={"method": method, "note": note})
 

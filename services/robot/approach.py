@@ -26,9 +26,8 @@ short drive, and an outside stand-point across the frame was one the navigator c
 edge columns went back twice so). After a failed drive the robot tries any side (the caller's choice).
 
 A robot setting a component that blocks its band keeps **its way out**: among the stand-points, those from
-which a way to its depot remains once the component stands (:func:`way_out_after`) come first. A partition
-that closes a room is set from the side joined to the depot, not from inside the room it closes (the Revit
-house's carrier set the last partition of a room from inside and was walled in there).
+which a way to its depot remains once the component stands (:func:`way_out_after`) come first: a partition
+that closes a room is set from the side joined to the depot, not from inside the room it closes.
 
 Among the candidates left, the best is the one nearest the footprint (most reach to spare), then nearest the
 footprint's centre (the middle of a long side), then nearest the robot (a short drive): one weighted score.
