@@ -63,6 +63,7 @@ __all__ = [
 ]
 
 CONVEX_VOLUME_TOL = 0.01  # a watertight mesh whose hull is ≤ 1 % larger than itself counts as convex
+OPEN_SHELL_GAP_FRACTION = 0.05  # an open convex shell may miss this much of its hull's surface (a gap)
 BOUNDS_REL_TOL = 1e-4  # pieces' bounds vs mesh bounds, × the mesh's bbox diagonal (+ outline tolerance)
 MIN_VOLUME_RATIO = 0.90  # pieces may miss fillet material ...
 MAX_VOLUME_RATIO = 1.05  # ... or add rounded edges and filled small holes, but not more
@@ -372,11 +373,15 @@ def _winding_numbers(mesh: TriMesh, points: np.ndarray) -> np.ndarray:
 
 def _is_convex(mesh: TriMesh, hull: TriMesh) -> bool:
     """A closed mesh: its hull is at most 1 % larger. An open one (a brep item with a gap, which encloses no
-    volume to compare): every vertex and face centre lies on the hull's surface, as on any convex shell."""
+    volume to compare): it covers nearly all of the hull's surface, and every vertex and face centre lies on
+    that surface, as on any convex shell. (Three sides of a box lie on its hull too, and are no box.)"""
     if mesh.is_volume:
         return bool(hull.volume <= mesh.volume * (1.0 + CONVEX_VOLUME_TOL))
-    normals = hull.face_normals
-    offsets = -np.einsum("ij,ij->i", normals, hull.triangles[:, 0, :])
+    if mesh.area < hull.area * (1.0 - OPEN_SHELL_GAP_FRACTION):
+        return False
+    faces = hull.valid_faces  # a degenerate hull face has no plane; its zero normal would pass every point
+    normals = hull.face_normals[faces]
+    offsets = -np.einsum("ij,ij->i", normals, hull.triangles[faces, 0, :])
     tolerance = 1e-6 * float(np.linalg.norm(hull.extents)) + 1e-9
     points = np.vstack([mesh.vertices, mesh.triangles_center])
     distance_to_nearest_plane = np.max(points @ normals.T + offsets, axis=1)
@@ -384,13 +389,26 @@ def _is_convex(mesh: TriMesh, hull: TriMesh) -> bool:
 
 
 def _thick_box(mesh: TriMesh) -> TriMesh:
-    """Oriented bounding box of a flat mesh, thickened to MIN_THICKNESS_M (trimesh, imported for this rare
-    case: its oriented box needs scipy)."""
+    """Oriented bounding box of a flat mesh, thickened to MIN_THICKNESS_M: the plane from the vertices'
+    principal axes, the least rectangle in it from trimesh (imported for this rare case: it needs scipy),
+    as trimesh's own 3D oriented box fails on exactly coplanar points."""
+    import trimesh.bounds
     import trimesh.creation
 
-    box = mesh.to_trimesh().bounding_box_oriented
-    extents = np.maximum(box.primitive.extents, MIN_THICKNESS_M)
-    solid = trimesh.creation.box(extents=extents, transform=box.primitive.transform)
+    points = np.asarray(mesh.vertices, dtype=float)
+    centre = points.mean(axis=0)
+    axes = np.linalg.svd(points - centre, full_matrices=True)[2]  # rows: in-plane, in-plane, normal
+    planar = (points - centre) @ axes[:2].T
+    to_box_2d, size_2d = trimesh.bounds.oriented_bounds_2D(planar)
+    box_to_plane_2d = np.linalg.inv(to_box_2d)
+    in_plane = box_to_plane_2d[:2, :2].T @ axes[:2]  # the rectangle's axes in the mesh frame
+    transform = np.eye(4)
+    transform[:3, 0], transform[:3, 1] = in_plane[0], in_plane[1]
+    transform[:3, 2] = np.cross(in_plane[0], in_plane[1])
+    height = float(np.ptp((points - centre) @ transform[:3, 2]))
+    transform[:3, 3] = centre + box_to_plane_2d[:2, 2] @ axes[:2]
+    extents = np.maximum([*size_2d, height], MIN_THICKNESS_M)
+    solid = trimesh.creation.box(extents=extents, transform=transform)
     return TriMesh(np.asarray(solid.vertices, dtype=float), np.asarray(solid.faces, dtype=np.int64))
 
 

@@ -26,6 +26,7 @@ import pybullet as p
 import pytest
 import trimesh
 
+import bimbot.services.converter.collision as collision_module
 from bimbot.services.converter.collision import (
     CollisionShape,
     collision_from_mesh,
@@ -33,6 +34,7 @@ from bimbot.services.converter.collision import (
     collision_shape,
     vhacd_parts,
 )
+from bimbot.services.converter.mesh import TriMesh
 from bimbot.shared.manifest import MAX_COLLISION_PARTS, CollisionMethod
 
 MM = 0.001
@@ -427,6 +429,54 @@ def test_flat_mesh_collides_as_a_thin_box() -> None:
     shape = collision_from_mesh(square)
     assert shape.method is CollisionMethod.CONVEX_HULL and len(shape.parts) == 1
     assert shape.parts[0].volume == pytest.approx(1e-3)
+
+
+def _panel(origin_m: tuple[float, ...], u_m: tuple[float, ...], v_m: tuple[float, ...]) -> trimesh.Trimesh:
+    """A single-sided rectangle as a 3 × 3 grid of quads (coplanar vertices on its edges and inside)."""
+    steps = np.linspace(0.0, 1.0, 4)
+    vertices = [np.add(origin_m, np.multiply(u_m, i) + np.multiply(v_m, j)) for i in steps for j in steps]
+    faces = []
+    for i in range(3):
+        for j in range(3):
+            a = i * 4 + j
+            faces += [[a, a + 4, a + 1], [a + 1, a + 4, a + 5]]
+    return trimesh.Trimesh(vertices, faces, process=False)
+
+
+def _stall() -> trimesh.Trimesh:
+    """Three single-sided panels round a 1.6 m × 2.8 m toilet stall: every vertex lies on their hull."""
+    return trimesh.util.concatenate(
+        [
+            _panel((0, 0, 0), (0, 2.8, 0), (0, 0, 2.8)),
+            _panel((1.6, 0, 0), (0, 2.8, 0), (0, 0, 2.8)),
+            _panel((0, 2.8, 0), (1.6, 0, 0), (0, 0, 2.8)),
+        ]
+    )
+
+
+def test_three_sides_of_a_box_are_three_thin_panels_not_the_box() -> None:
+    shape = collision_from_mesh(_stall())
+    assert len(shape.parts) == 3  # one hull would fill the stall, 12.5 m³
+    panels_m3 = (2 * 2.8 + 1.6) * 2.8 * 1e-3  # 1 mm thick
+    assert sum(part.volume for part in shape.parts) == pytest.approx(panels_m3, rel=1e-3)
+    np.testing.assert_allclose(union_bounds(shape.parts), _stall().bounds, atol=1e-3)
+
+
+def test_a_sliver_face_on_the_hull_does_not_make_an_open_mesh_convex(monkeypatch: pytest.MonkeyPatch) -> None:
+    """manifold3d's hull may hold a zero-area triangle; its zero normal must not pass every point."""
+    open_ring = _open_ring()
+    without_sliver = collision_from_mesh(open_ring)
+    real_hull = collision_module._mesh_hull
+
+    def hull_with_a_sliver(mesh: TriMesh) -> TriMesh | None:
+        hull = real_hull(mesh)
+        assert hull is not None
+        return TriMesh(hull.vertices, np.vstack([hull.faces, [[0, 0, 1]]]))
+
+    monkeypatch.setattr(collision_module, "_mesh_hull", hull_with_a_sliver)
+    shape = collision_from_mesh(open_ring)
+    assert len(without_sliver.parts) >= 2
+    assert (shape.method, len(shape.parts)) == (without_sliver.method, len(without_sliver.parts))
 
 
 # --- sample files -----------------------------------------------------------------------------------------
