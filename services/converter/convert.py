@@ -49,6 +49,7 @@ from bimbot.shared.sequence import SEQUENCE_FILE_NAME, write_sequence
 from .component_writer import ShardContext, skipped_entry
 from .connection_kinds import decide_connections
 from .crane_reach import crane_lift_limits, tightened
+from .duplicates import drop_duplicates
 from .face_materials import style_materials
 from .final_method import method_limits
 from .guest_hosts import find_hosts
@@ -218,11 +219,19 @@ def _convert(
         key=lambda row: (row[0], row[1]),
     )
     panelised = sorted((entry for result in results for entry in result.panelised), key=lambda e: e.guid)
-    converted = link_panels([component for _, _, component, _ in merged], panelised)
+    merged_components = [component for _, _, component, _ in merged]
+    converted = link_panels(merged_components, panelised)
     hostings, unhosted = find_hosts(model, converted)
     converted, specs = build_guests_into_hosts(
         converted, [spec for _, _, _, spec in merged], hostings, unhosted, out_dir
     )
+    converted, repeated = drop_duplicates(converted)
+    if repeated:
+        copies = {entry.guid for entry in repeated}
+        for copy in (component for component in merged_components if component.guid in copies):
+            shutil.rmtree(out_dir / copy.files.model_dir, ignore_errors=True)  # its files may be hard links
+        specs = [spec for spec in specs if spec.guid not in copies]
+        skipped.extend(repeated)
     components, in_place = split_in_place(
         converted, options.in_place_guids, foundations=options.foundations_in_place
     )
