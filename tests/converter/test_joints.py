@@ -17,7 +17,7 @@ import ifcopenshell.api.geometry
 import ifcopenshell.api.root
 import numpy as np
 import pytest
-from ifc_builders import SmallModel, add_beam, add_opening, add_wall, new_model, place, translation
+from ifc_builders import SmallModel, add_beam, add_box, add_opening, add_wall, new_model, place, translation
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
 from bimbot.shared.errors import InputError
@@ -315,3 +315,25 @@ def test_a_rafter_notched_over_its_purlin_is_a_joint_and_the_purlin_under_it_com
     assert rafter.bbox_world.min_m[2] < 3.0  # its box: lower than the purlin
     preds = support_predecessors(manifest.components, joints=manifest.joints)
     assert guid["Purlin"] in preds[guid["Rafter"]] and guid["Rafter"] not in preds[guid["Purlin"]]
+
+
+def test_a_trim_board_drawn_into_the_wall_it_is_fixed_to_is_a_joint_and_a_deep_one_a_clash(
+    tmp_path: Path,
+) -> None:
+    """A 23 mm board drawn into the face of its wall, as the Janesville restaurant draws its trim: a joint
+    by rule, the wall first. A fitting drawn 60 mm into a wall is still a clash."""
+    small = new_model()
+    add_wall(small, "Wall", length_m=4.0, height_m=3.0, thickness_m=0.2)
+    add_box(small, "IfcBuildingElementProxy", "Trim", size_m=(3.0, 0.023, 0.377), corner_m=(0.5, 0.0, 2.0))
+    add_wall(small, "Other wall", length_m=4.0, height_m=3.0, thickness_m=0.2, matrix_m=translation(y_m=3.0))
+    add_box(small, "IfcBuildingElementProxy", "Cabinet", size_m=(1.0, 0.1, 0.6), corner_m=(1.0, 2.96, 1.0))
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    [joint] = manifest.joints
+    assert joint.guids == (guid["Wall"], guid["Trim"])
+    assert joint.rule == "IfcBuildingElementProxy into IfcWall, up to 40 mm"
+    assert joint.depth_m == pytest.approx(0.023, abs=0.002)
+    [clash] = manifest.clashes
+    assert set(clash.guids) == {guid["Other wall"], guid["Cabinet"]}
+    preds = support_predecessors(manifest.components, joints=manifest.joints)
+    assert guid["Wall"] in preds[guid["Trim"]]
