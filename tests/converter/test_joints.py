@@ -337,3 +337,17 @@ def test_a_trim_board_drawn_into_the_wall_it_is_fixed_to_is_a_joint_and_a_deep_o
     assert set(clash.guids) == {guid["Other wall"], guid["Cabinet"]}
     preds = support_predecessors(manifest.components, joints=manifest.joints)
     assert guid["Wall"] in preds[guid["Trim"]]
+
+
+def test_an_edge_mullion_drawn_into_the_jamb_along_its_side_is_a_joint(tmp_path: Path) -> None:
+    """A curtain wall's edge mullion (64 × 127 mm, 2.5 m tall) drawn 48 mm into the wall it is fixed to,
+    along its whole side: a joint by rule, the wall first."""
+    small = new_model()
+    add_wall(small, "Jamb", length_m=1.0, height_m=3.0, thickness_m=0.2)
+    add_box(small, "IfcMember", "Mullion", size_m=(0.064, 0.127, 2.5), corner_m=(0.952, 0.03, 0.0))
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    assert manifest.clashes == []
+    [joint] = manifest.joints
+    assert joint.guids == (guid["Jamb"], guid["Mullion"])
+    assert joint.rule == "IfcMember into IfcWall, up to 50 mm"
