@@ -351,3 +351,17 @@ def test_an_edge_mullion_drawn_into_the_jamb_along_its_side_is_a_joint(tmp_path:
     [joint] = manifest.joints
     assert joint.guids == (guid["Jamb"], guid["Mullion"])
     assert joint.rule == "IfcMember into IfcWall, up to 50 mm"
+
+
+def test_a_railing_drawn_into_its_stair_half_way_up_is_a_joint(tmp_path: Path) -> None:
+    """A railing running up a stair (3 m high) drawn 80 mm into the side of a flight that meets it half way
+    up, as FZK-Haus draws its spiral stair's railing: its posts are set all along it, not only at its ends."""
+    small = new_model()
+    add_box(small, "IfcStair", "Flight", size_m=(2.0, 1.0, 0.3), corner_m=(0.0, 0.0, 1.4))
+    add_box(small, "IfcRailing", "Railing", size_m=(2.0, 0.05, 3.0), corner_m=(0.0, 0.95, 0.0))
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    assert manifest.clashes == []
+    [joint] = manifest.joints
+    assert set(joint.guids) == {guid["Flight"], guid["Railing"]}
+    assert joint.rule == "IfcRailing into IfcStair, up to 100 mm"
