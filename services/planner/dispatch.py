@@ -109,6 +109,14 @@ class Dispatch:
 
     @staticmethod
     def _hand_offs_exhausted(task: TaskRecord, item: Component) -> Reason:
+        """Why the hand-offs ran out: the last give-back when none was put down, else the crane's reach."""
+        last = task.last_give_back
+        if last is not None and task.hand_offs_given_back >= task.hand_offs:
+            message = (
+                f"every hand-off of it to a crane ({task.hand_offs}) was given back by the robot carrying "
+                f"it; last: {last.message}"
+            )
+            return last.model_copy(update={"message": message[:2000]})
         return Reason(
             code=ReasonCode.OUT_OF_REACH,
             message=(

@@ -18,7 +18,7 @@ from bimbot.shared.reasons import Reason
 from .failures import Failures
 from .outbox import Outbox
 from .planner_state import PlannerState
-from .records import CARRYING, Phase, TaskRecord, left
+from .records import CARRYING, Phase, TaskKind, TaskRecord, left
 
 _log = logging.getLogger(__name__)
 
@@ -76,6 +76,8 @@ class GiveBacks:
         """One more give-back of ``task``'s component; at the bound it fails with the last reason."""
         task.give_backs += 1
         task.last_give_back = reason
+        if task.kind is TaskKind.HAND_OFF:
+            task.hand_offs_given_back += 1
         limit = self._state.limits.max_give_backs
         _log.warning("%s given back (%d of %d): %s", task.guid, task.give_backs, limit, reason.line())
         if task.give_backs >= limit:

@@ -79,6 +79,7 @@ class TaskRecord:
     reason: Reason | None = None  # failed/blocked: why
     kind: TaskKind = TaskKind.BUILD  # HAND_OFF while a ground robot carries it to a crane's staging spot
     hand_offs: int = 0  # hand-off tasks started for it (each its own task id)
+    hand_offs_given_back: int = 0  # of those, given back by the robot carrying it (never put down)
     put_down_xy: tuple[float, float] | None = None  # the staging spot of the current hand-off
 
     @property

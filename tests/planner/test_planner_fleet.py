@@ -181,6 +181,47 @@ def test_a_component_the_crane_still_cannot_reach_after_its_hand_offs_fails_out_
     )
 
 
+def test_hand_offs_the_carrier_gave_back_fail_with_its_reason_not_the_crane_s_reach() -> None:
+    """A carrier walled in gives back each hand-off it is given before it picks the beam up: the beam was
+    never put down beside the crane, so the reason is the carrier's, not "still beyond the hook"."""
+    manifest = _manifest(beam=300.0)
+    staging = Rect((-2.0, 16.0), (6.0, 24.0))
+    robots = [
+        SiteRobot("r1", CARRIER.model_copy(update={"max_place_height_m": 1.0}), (-10.0, -10.0, 0.0)),
+        SiteRobot("r2", CRANE, (2.0, 12.0, -1.5708), staging),
+    ]
+    core = _core(manifest, robots)
+    for guid in ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c"):
+        core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified"))
+    core.observe_component_pose(_pose("beam", (2.0, -58.0)))
+    _release(core, "beam")
+    trapped = Reason(code=ReasonCode.ROBOT_TRAPPED, message="r1 at (0, -50) is walled in", robot_id="r1")
+    for number in (1, 2):
+        assert core.phase("beam") is Phase.ASSIGNED
+        core.observe_component_state(
+            state_msg("beam", S.PICKING, event="pick", robot_id="r1", sim_time_s=10.0 * number)
+        )
+        core.observe_component_state(
+            state_msg(
+                "beam",
+                S.RELEASED,
+                event="abandon",
+                robot_id="r1",
+                sim_time_s=10.0 * number + 5,
+                reason=trapped,
+            )
+        )
+        core.observe_robot_state(robot_msg("r1", (0.0, -50.0), sim_time_s=10.0 * number + 5))
+        core.step(float(number))
+    core.observe_robot_state(robot_msg("r1", (0.0, -50.0), sim_time_s=10_000.0))  # past any hold
+    core.step(3.0)
+    assert core.phase("beam") is Phase.FAILED
+    reason = core.reason_of("beam")
+    assert reason is not None and reason.code is ReasonCode.ROBOT_TRAPPED
+    assert "every hand-off of it to a crane (2) was given back" in reason.message
+    assert "walled in" in reason.message and "beyond the hook" not in reason.message
+
+
 def test_an_out_of_reach_reason_measures_to_the_footprint_the_decision_used_not_the_placement_origin() -> (
     None
 ):
