@@ -147,7 +147,7 @@ def support_predecessors(
             preds[first].discard(second)
             _log.debug("support graph: %s before %s (the host's or the joint's order)", first, second)
     # what nothing holds, the stated orders applied: over an excavation it would fall into the pit
-    unsupported = {guid for guid, supports in preds.items() if not supports - in_place}  # by new work
+    unsupported = {guid for guid, supports in preds.items() if not supports}
     for foundation, guid in over_open_pits(components, tolerance_m):
         if guid in unsupported:  # nothing else under it or beside it: it would fall into the pit
             add(foundation, guid, Edge.PIT)

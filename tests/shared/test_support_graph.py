@@ -282,12 +282,3 @@ def test_a_floor_laid_on_an_existing_slab_does_not_wait_for_what_reaches_below_i
     assert "slab" not in preds and not any("slab" in supports for supports in preds.values())
     # without what stands, the tile floats over the lowest bottom and waits for the partition at its side
     assert support_predecessors([tile, partition, wall])["tile"] == {"stall"}
-
-
-def test_what_rests_on_work_in_place_over_a_new_foundations_pit_still_waits_for_it() -> None:
-    """The restaurant's flooring panel over a new cast bay, whose box also touches the top of an existing
-    slab round the bay: the existing slab does not hold it over the open pit."""
-    existing = _component("existing", "IfcSlab", (0, 0, -1.42), (20, 20, -0.41))
-    bay = _component("bay", "IfcSlab", (5, 5, -1.52), (10, 10, -0.81))
-    panel = _component("panel", "IfcSlab", (6, 6, -0.41), (8, 8, -0.1))
-    assert support_predecessors([bay, panel], standing=[existing])["panel"] == {"bay"}
