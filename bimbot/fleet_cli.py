@@ -92,16 +92,11 @@ def run(args: argparse.Namespace) -> int:
             }
             sys.stdout.write(json.dumps(record) + "\n")
         return code
-    _print_table(rows, fleet, manifest.joints, manifest.in_place)
+    _print_table(rows, fleet, manifest.joints)
     return code
 
 
-def _print_table(
-    rows: list[tuple[Component, Feasibility]],
-    fleet: Fleet,
-    joints: Sequence[Joint],
-    standing: Sequence[Component],
-) -> None:
+def _print_table(rows: list[tuple[Component, Feasibility]], fleet: Fleet, joints: Sequence[Joint]) -> None:
     from rich.console import Console
     from rich.table import Table
 
@@ -125,7 +120,7 @@ def _print_table(
     buildable = sum(1 for _, row in rows if row.reason is None)
     summary = ", ".join(f"{count} {code}" for code, count in failed.items()) or "none"
     blocked = resting_on_unbuildable(
-        [component for component, _ in rows], {r.guid for _, r in rows if r.reason}, joints, standing
+        [component for component, _ in rows], {r.guid for _, r in rows if r.reason}, joints
     )
     methods = Counter(component.method.value for component, _ in rows)
     console.print("by method: " + ", ".join(f"{count} {method}" for method, count in methods.most_common()))
@@ -142,16 +137,13 @@ def _print_table(
 
 
 def resting_on_unbuildable(
-    components: list[Component],
-    unbuildable: set[str],
-    joints: Sequence[Joint] = (),
-    standing: Sequence[Component] = (),
+    components: list[Component], unbuildable: set[str], joints: Sequence[Joint] = ()
 ) -> set[str]:
     """The GUIDs, not in ``unbuildable``, that rest on one of them in the support graph (the model's joints
     ordered as the converter orders them), transitively: what a run blocks (the planner's ``blocked_by``)
     when the model's own sequence is not given."""
     dependents: dict[str, set[str]] = {}
-    for guid, supports in support_predecessors(components, joints=joints, standing=standing).items():
+    for guid, supports in support_predecessors(components, joints=joints).items():
         for support in supports:
             dependents.setdefault(support, set()).add(guid)
     blocked: set[str] = set()

@@ -89,19 +89,10 @@ class Edge(IntEnum):
 
 
 def support_predecessors(
-    components: Sequence[Component],
-    tolerance_m: float = CONTACT_TOLERANCE_M,
-    joints: Sequence[Joint] = (),
-    *,
-    standing: Sequence[Component] = (),
+    components: Sequence[Component], tolerance_m: float = CONTACT_TOLERANCE_M, joints: Sequence[Joint] = ()
 ) -> dict[str, set[str]]:
     """GUID → GUIDs of the components it rests on, is connected to below it, is set into or jointed after
-    (``joints``: the manifest's; those naming a component not in ``components`` are passed over).
-
-    ``standing``: what is in place before the robots come (``Manifest.in_place``). A component resting on
-    it is held, not floating; it precedes nothing, as it stands already."""
-    in_place = {item.guid for item in standing} - {item.guid for item in components}
-    components = [*components, *(item for item in standing if item.guid in in_place)]
+    (``joints``: the manifest's; those naming a component not in ``components`` are passed over)."""
     by_guid = {item.guid: item for item in components}
     preds: dict[str, set[str]] = {guid: set() for guid in by_guid}
     kinds: dict[tuple[str, str], Edge] = {}  # (pred, component) → why
@@ -151,10 +142,6 @@ def support_predecessors(
     for foundation, guid in over_open_pits(components, tolerance_m):
         if guid in unsupported:  # nothing else under it or beside it: it would fall into the pit
             add(foundation, guid, Edge.PIT)
-    for guid in in_place:
-        del preds[guid]
-    for guid in preds:
-        preds[guid] -= in_place
     break_cycles(preds, kinds)
     return preds
 

@@ -256,7 +256,7 @@ def _convert(
     world_path = out_dir / "worlds" / f"{site}.world"
     world_path.parent.mkdir(parents=True, exist_ok=True)
     world_path.write_bytes(world_sdf(site, specs, extent_m=_world_extent_m([*components, *in_place])))
-    sequence, sequence_warnings = construction_sequence(model, components, found.joints, in_place)
+    sequence, sequence_warnings = construction_sequence(model, components, found.joints)
     warnings.extend(sequence_warnings)
     write_sequence(sequence, out_dir / SEQUENCE_FILE_NAME)
     manifest = Manifest(

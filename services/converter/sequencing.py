@@ -18,14 +18,11 @@ from bimbot.shared.support_graph import derive_sequence, support_predecessors
 
 
 def construction_sequence(
-    model: ifcopenshell.file,
-    components: list[Component],
-    joints: list[Joint] | None = None,
-    standing: list[Component] | None = None,
+    model: ifcopenshell.file, components: list[Component], joints: list[Joint] | None = None
 ) -> tuple[ConstructionSequence, list[str]]:
     """(sequence, warnings) for ``components`` (``joints``: the pairs drawn into each other, which the
-    support graph orders; ``standing``: what is in place before the robots come)."""
-    support = support_predecessors(components, joints=joints or (), standing=standing or ())
+    support graph orders)."""
+    support = support_predecessors(components, joints=joints or ())
     derived = derive_sequence(components, support=support)
     panels: dict[str, list[str]] = {}
     for component in components:

@@ -107,7 +107,7 @@ def load_plan(manifest: Manifest, build_dir: Path, source: PlanSource) -> Plan:
         raise PlanError(f"{build_dir}: the build has no components to construct")
     build_dir = Path(build_dir)
     extra_warnings: list[str] = []
-    support = support_predecessors(components, joints=manifest.joints, standing=manifest.in_place)
+    support = support_predecessors(components, joints=manifest.joints)
     if source.kind is SourceKind.DERIVE:
         sequence, label = derive_sequence(components, support=support), "derived from the support graph"
     elif source.kind is SourceKind.BUILD:

@@ -267,18 +267,3 @@ def test_what_is_set_down_over_a_foundations_open_pit_waits_for_it_though_they_d
     assert "slab" in preds["panel"] and "slab" in preds["curb"] and "slab" in preds["rail"]
     assert "slab" not in preds["beside"] and preds["column"] == {"footing"}
     assert preds["slab"] == {"footing"} and preds["footing"] == set()
-
-
-def test_a_floor_laid_on_an_existing_slab_does_not_wait_for_what_reaches_below_it_at_its_side() -> None:
-    """A tile floor on the existing slab, and a partition the model sinks through both: the floor rests on
-    what stands already, so it is not taken to float and held by the partition it touches."""
-    existing = _component("slab", "IfcSlab", (0.0, 0.0, -0.3), (6.0, 6.0, 0.0))
-    tile = _component("tile", "IfcSlab", (0.0, 0.0, 0.0), (3.0, 6.0, 0.05))
-    partition = _component("stall", "IfcBuildingElementProxy", (0.0, 1.0, -0.96), (2.8, 2.6, 1.9))
-    wall = _component("wall", "IfcWall", (0.0, 0.0, 0.05), (0.2, 6.0, 3.0))
-    preds = support_predecessors([tile, partition, wall], standing=[existing])
-    assert preds["tile"] == set()
-    assert preds["wall"] == {"tile"}
-    assert "slab" not in preds and not any("slab" in supports for supports in preds.values())
-    # without what stands, the tile floats over the lowest bottom and waits for the partition at its side
-    assert support_predecessors([tile, partition, wall])["tile"] == {"stall"}
