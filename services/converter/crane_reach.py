@@ -9,10 +9,13 @@ they are set at. So once every element is converted, the site is planned as phys
 component that no ground robot can set (too heavy or too high) and no crane on site lifts at its target's
 hook radius gives its element a **lift limit**: the most a crane on site lifts at the radius of the
 element's farthest target corner (so every part cut from it, wherever it lies in the element, is within the
-chart). The converter converts those elements again with that limit (:func:`.final_method.final_method`,
-:mod:`.panelise`): a lifted wall, slab or ceiling becomes panelised, a panelised one is cut finer. An
-element no crane reaches at all (beyond every chart's last radius) gets no limit; nor does one whose parts
-could not be cut: a run gives their reason.
+chart). A part must also be picked where it starts: from its yard slot, or from the crane's staging area
+after a ground robot carried it there; so the limit is no more than the larger of the crane's lift at the
+part's yard slot and the largest ground payload that hands a part off. The converter converts those
+elements again with that limit (:func:`.final_method.final_method`, :mod:`.panelise`): a lifted wall, slab
+or ceiling becomes panelised, a panelised one is cut finer. An element no crane reaches at all (beyond
+every chart's last radius) gets no limit; nor does one whose parts could not be cut: a run gives their
+reason.
 
 Pure: components and robot descriptions in, limits out.
 """
@@ -26,6 +29,7 @@ from dataclasses import dataclass
 from bimbot.shared.construction_methods import ConstructionMethod, MethodLimits
 from bimbot.shared.manifest import Component
 from bimbot.shared.robot_description import Capability, RobotDescription
+from bimbot.shared.site_plan import Rect
 
 LIFTED_PARTS = frozenset({ConstructionMethod.LIFTED, ConstructionMethod.PANELISED})
 
@@ -63,14 +67,27 @@ def crane_lift_limits(
         if item.crane is not None and item.can(Capability.HOOK_LIFT)
     ]
     boxes = element_boxes(components)
+    carried_kg = max(
+        (item.payload_kg for item in fleet if item.can(Capability.CARRY) and item.can(Capability.HAND_OFF)),
+        default=0.0,
+    )
     limits: dict[str, LiftLimit] = {}
     for component in needing:
         centre = _centre(component)
-        if any(_lifts_at(item, math.dist(mast, centre), component.mass_kg) for _, item, mast in cranes):
-            continue
+        slot = layout.slots.get(component.guid)
+        pick = _rect_centre(slot.footprint) if slot is not None else None
+        mass_kg = component.mass_kg
+        if any(
+            _lifts_at(item, math.dist(mast, centre), mass_kg)
+            and (pick is None or mass_kg <= carried_kg or _lifts_at(item, math.dist(mast, pick), mass_kg))
+            for _, item, mast in cranes
+        ):
+            continue  # a crane sets it, picked from its yard slot or from a hand-off beside the crane
         element = component.parent_guid or component.guid
         best = _best_lift(cranes, boxes[element])
-        if best is None or best.lift_kg >= component.mass_kg:
+        if best is not None and pick is not None and best.lift_kg > carried_kg:
+            best = _picked_limit(cranes, pick, best, carried_kg)
+        if best is None or best.lift_kg >= mass_kg:
             continue
         if element not in limits or best.lift_kg < limits[element].lift_kg:
             limits[element] = best
@@ -120,6 +137,28 @@ def _best_lift(
         if lift_kg > 0 and (best is None or lift_kg > best.lift_kg):
             best = LiftLimit(lift_kg, f"{label} at {far_m:.1f} m, where the site plan sets it up")
     return best
+
+
+def _picked_limit(
+    cranes: Sequence[tuple[str, RobotDescription, Sequence[float]]],
+    pick_xy_m: tuple[float, float],
+    at_target: LiftLimit,
+    carried_kg: float,
+) -> LiftLimit:
+    """``at_target`` no more than a part can be picked at: what a crane lifts at ``pick_xy_m`` (its yard
+    slot) or, where that is less, what a ground robot carries to a crane's staging area."""
+    lift_kg, label = carried_kg, "the largest ground payload that hands a part off to a crane"
+    for name, item, mast in cranes:
+        assert item.crane is not None
+        radius_m = math.dist(mast, pick_xy_m)
+        at_pick_kg = min(item.crane.payload_at(radius_m), item.payload_kg)
+        if at_pick_kg > lift_kg:
+            lift_kg, label = at_pick_kg, f"{name} at its yard slot, {radius_m:.1f} m from where it stands"
+    return at_target if at_target.lift_kg <= lift_kg else LiftLimit(lift_kg, label)
+
+
+def _rect_centre(rect: Rect) -> tuple[float, float]:
+    return ((rect.min_xy[0] + rect.max_xy[0]) / 2.0, (rect.min_xy[1] + rect.max_xy[1]) / 2.0)
 
 
 def _lifts_at(item: RobotDescription, radius_m: float, mass_kg: float) -> bool:
