@@ -48,7 +48,7 @@ from .localisation import Localiser
 from .motion import Path, carrot, straight_line_clear, turn_command, unicycle
 from .nav_types import DEFAULT_NAVIGATOR, Course, Goal, NavCommand, NavigatorConfig, NavStatus, new_goal
 from .particle_filter import PositionFix
-from .recovery import Recovery, diagnose, next_recovery, plan_start
+from .recovery import Recovery, diagnose, escape_path, next_recovery, plan_start
 from .site_map import SiteMap
 from .surroundings import Surroundings
 from .traffic import Traffic
@@ -459,6 +459,9 @@ class Navigator:
         snap_m = self.config.plan_out_max_m if goal.plan_out else self.config.start_snap_m
         body = self.site_map.inflated_grid(self.config.body_half_width_m)
         free_start = plan_start(grid, pose[:2], snap_m, body)
+        lead_in = escape_path(grid, pose[:2], body) if free_start is None and goal.plan_out else None
+        if lead_in:  # what was built beside it narrowed its space: out through cells its body fits
+            free_start = lead_in[-1]
         start = np.asarray(free_start if free_start is not None else pose[:2], float)
         result = plan_path(grid, start, goal.xy, snap_goal_to_free=True, max_snap_m=0.3)
         goal.blocked = not result.found and not grid.is_free(*goal.xy)
@@ -477,7 +480,9 @@ class Navigator:
         if result.goal_snapped:
             goal.xy = result.path_xy_m[-1].copy()
         points = simplify_path(grid, result.path_xy_m)
-        if not np.allclose(start, pose[:2]):
+        if lead_in:
+            points = np.vstack([np.asarray(lead_in[:-1], float), points])
+        elif not np.allclose(start, pose[:2]):
             points = np.vstack([pose[:2], points])
         goal.path, goal.grid = Path(points), grid
         self.replans += 1

@@ -31,7 +31,7 @@ from .fine_alignment import Alignment
 from .handover import Handover
 from .nav_types import DEFAULT_NAVIGATOR, Goal, NavCommand, NavigatorConfig, NavStatus
 from .protocol import Outgoing
-from .recovery import diagnose, plan_start
+from .recovery import diagnose, escape_path, plan_start
 from .site_map import SiteMap
 from .site_work import SiteWorkExecutor
 from .task_state import Task
@@ -99,6 +99,9 @@ class PlanNavigator:
         grid = self.site_map.inflated_grid()
         body = self.site_map.inflated_grid(self.config.body_half_width_m)
         start = plan_start(grid, here[:2], self.config.plan_out_max_m, body)
+        lead_in = escape_path(grid, here[:2], body) if start is None else None
+        if lead_in:
+            start = lead_in[-1]
         result = plan_path(grid, start if start is not None else here[:2], goal_xy, snap_goal_to_free=True)
         if not result.found:
             self.failure = diagnose(
@@ -115,6 +118,8 @@ class PlanNavigator:
             self._move([(here[0], here[1])], sim_s)
             return
         points = [(float(x), float(y)) for x, y in simplify_path(grid, result.path_xy_m)]
+        if lead_in:  # out of the narrowed space first, through cells its body fits
+            points = [*lead_in[:-1], *points]
         if math.hypot(points[0][0] - here[0], points[0][1] - here[1]) > 0.0:
             points.insert(0, (here[0], here[1]))
         self._move(points, sim_s)

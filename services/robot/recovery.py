@@ -17,7 +17,8 @@ The chain, as data (:data:`RECOVERY_CHAIN`):
 ``rotate``         turn on the spot for ``rotate_s`` (fresh laser views, the localiser re-converges)
 ``back_up``        reverse ``backup_s`` at ``backup_speed_mps`` when the way behind is clear (else skipped)
 ``plan_out``       plan from the nearest free cell of the planning grid within ``plan_out_max_m`` (a
-                   growing search) when the robot's own cell lies in an inflated or occupied zone
+                   growing search) when the robot's own cell lies in an inflated or occupied zone; when
+                   none is in a straight line, along the cells its body fits (:func:`escape_path`)
 =================  =====================================================================================
 
 :func:`diagnose` names the failure on the static inflated grid (laser marks left out, so another robot in
@@ -30,6 +31,7 @@ robot, nearest first (what may hold it up: a beam that fell beside it).
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
@@ -42,6 +44,9 @@ from bimbot.shared.reasons import Reason, ReasonCode
 
 from .approach import reachable_region
 from .astar import segment_is_free
+
+ESCAPE_MAX_M = 10.0  # a way out through cells the robot's body fits is searched this far around it
+_EIGHT_STEPS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
 
 class Recovery(StrEnum):
@@ -123,6 +128,47 @@ def plan_start(
         if body_grid is None or segment_is_free(body_grid, xy, points[i]):
             return float(points[i, 0]), float(points[i, 1])
     return None
+
+
+def escape_path(
+    grid: OccupancyGrid, xy_m: ArrayLike, body_grid: OccupancyGrid, max_m: float = ESCAPE_MAX_M
+) -> list[tuple[float, float]] | None:
+    """Waypoints from the robot, through cells clear of ``body_grid`` (its body fits), to the nearest free
+    cell of ``grid`` they join within ``max_m``: the way out of a space that what was built beside the
+    robot has narrowed below its inflated width (a Husky in a 1.4 m lane between new walls). None when
+    there is none (the robot is walled in)."""
+    xy = np.asarray(xy_m, float)
+    rc = grid.world_to_cell(xy)
+    reach = math.ceil(max_m / grid.resolution_m)
+    rows, cols = grid.shape
+    r0, r1 = max(0, int(rc[0]) - reach), min(rows, int(rc[0]) + reach + 1)
+    c0, c1 = max(0, int(rc[1]) - reach), min(cols, int(rc[1]) + reach + 1)
+    body_free = ~body_grid.occupied[r0:r1, c0:c1]
+    free = ~grid.occupied[r0:r1, c0:c1]
+    start = (int(rc[0]) - r0, int(rc[1]) - c0)
+    shape = body_free.shape
+    if not (0 <= start[0] < shape[0] and 0 <= start[1] < shape[1]) or not body_free[start]:
+        return None
+    parent = {start: start}
+    frontier = deque([start])  # breadth first: the free cell fewest steps away, not the nearest in a line
+    end = None
+    while frontier:
+        cell = frontier.popleft()
+        if free[cell]:
+            end = cell
+            break
+        for d_row, d_col in _EIGHT_STEPS:
+            nxt = (cell[0] + d_row, cell[1] + d_col)
+            if 0 <= nxt[0] < shape[0] and 0 <= nxt[1] < shape[1] and body_free[nxt] and nxt not in parent:
+                parent[nxt] = cell
+                frontier.append(nxt)
+    if end is None:
+        return None
+    cells = [end]
+    while cells[-1] != start:
+        cells.append(parent[cells[-1]])
+    points = grid.cell_to_world(np.array(cells[::-1][1:], dtype=np.int64).reshape(-1, 2) + np.array([r0, c0]))
+    return [(float(xy[0]), float(xy[1])), *((float(x), float(y)) for x, y in points)]
 
 
 def diagnose(
