@@ -148,18 +148,24 @@ def test_crane_hook_radius_is_to_the_load_centre_and_limited_by_the_load_chart()
     assert not crane_reaches_centre(crane, Where((61.0, 0.0), 0.0), 10.0)  # beyond the jib
 
 
-def test_a_component_the_crane_still_cannot_reach_after_its_hand_offs_fails_out_of_reach() -> None:
-    manifest = _manifest(beam=300.0)
+def _beam_for_the_crane_only() -> PlannerCore:
+    """A beam released 58 m south of the crane's mast: beyond its hook, set too high for the carrier (r1),
+    which must hand it off to the crane (r2)."""
     staging = Rect((-2.0, 16.0), (6.0, 24.0))
     robots = [
         SiteRobot("r1", CARRIER.model_copy(update={"max_place_height_m": 1.0}), (-10.0, -10.0, 0.0)),
         SiteRobot("r2", CRANE, (2.0, 12.0, -1.5708), staging),
     ]
-    core = _core(manifest, robots)
+    core = _core(_manifest(beam=300.0), robots)
     for guid in ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c"):
         core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified"))
     core.observe_component_pose(_pose("beam", (2.0, -58.0)))
     _release(core, "beam")
+    return core
+
+
+def test_a_component_the_crane_still_cannot_reach_after_its_hand_offs_fails_out_of_reach() -> None:
+    core = _beam_for_the_crane_only()
     for number in (1, 2):  # each hand-off puts it down again out of the hook's reach
         assert core.phase("beam") is Phase.ASSIGNED
         for state, event in ((S.PICKING, "pick"), (S.TRANSPORTING, "attach")):
@@ -184,17 +190,7 @@ def test_a_component_the_crane_still_cannot_reach_after_its_hand_offs_fails_out_
 def test_hand_offs_the_carrier_gave_back_fail_with_its_reason_not_the_crane_s_reach() -> None:
     """A carrier walled in gives back each hand-off it is given before it picks the beam up: the beam was
     never put down beside the crane, so the reason is the carrier's, not "still beyond the hook"."""
-    manifest = _manifest(beam=300.0)
-    staging = Rect((-2.0, 16.0), (6.0, 24.0))
-    robots = [
-        SiteRobot("r1", CARRIER.model_copy(update={"max_place_height_m": 1.0}), (-10.0, -10.0, 0.0)),
-        SiteRobot("r2", CRANE, (2.0, 12.0, -1.5708), staging),
-    ]
-    core = _core(manifest, robots)
-    for guid in ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c"):
-        core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified"))
-    core.observe_component_pose(_pose("beam", (2.0, -58.0)))
-    _release(core, "beam")
+    core = _beam_for_the_crane_only()
     trapped = Reason(code=ReasonCode.ROBOT_TRAPPED, message="r1 at (0, -50) is walled in", robot_id="r1")
     for number in (1, 2):
         assert core.phase("beam") is Phase.ASSIGNED
