@@ -141,8 +141,8 @@ SERVICE_OPTIONS: tuple[ServiceOption, ...] = (
             type=Path,
             metavar="FLEET.toml",
             help="the robot types on site and how many of each (default: bimbot's mixed fleet: a Husky, a "
-            "heavy carrier, a tower crane, a concrete pump and a block-laying robot; see "
-            "`bimbot fleet show`)",
+            "heavy carrier, a tower crane, a concrete pump, a block-laying robot and a trailer line pump; "
+            "see `bimbot fleet show`)",
         ),
         ("physics",),
         "fleet",
@@ -152,8 +152,10 @@ SERVICE_OPTIONS: tuple[ServiceOption, ...] = (
         OptionSpec(
             "--robots",
             type=positive_int,
-            help="N robots of the fleet's default type instead of its ground robots; the machines that stand "
-            "fixed (its cranes, pumps, block layers) stay",
+            metavar="N",
+            help="N robots of the fleet's default type (its `default_type`: the carrier in bimbot's fleet) "
+            "instead of its ground robots; the machines that stand fixed (its cranes, pumps, block layers) "
+            "stay",
         ),
         ("physics",),
         "robots",

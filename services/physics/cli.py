@@ -62,7 +62,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         metavar="FILE",
         help="the robot types on site and how many of each (TOML; default: bimbot's embedded fleet, "
-        "a Husky, a heavy carrier, a tower crane, a concrete pump and a block-laying robot)",
+        "a Husky, a heavy carrier, a tower crane, a concrete pump, a block-laying robot and a trailer line "
+        "pump)",
     )
     parser.add_argument(
         "--robots",

@@ -16,10 +16,10 @@ import textwrap
 from pathlib import Path
 
 import pytest
+from processes import alive
 from wall_clock import bound_s
 
 from bimbot.supervisor import free_port, wait_until
-from tests.processes import alive
 
 PARENT = textwrap.dedent(
     """
