@@ -109,6 +109,7 @@ class Job:
     events: EventQueue
     index: int = 0  # the step under way
     started_s: float | None = None  # sim time the step's timer started (its event confirmed)
+    ready_s: float | None = None  # sim time the step became the one under way (its timer cannot start before)
     request: PhysicsRequest | None = None
     request_sent: bool = False
     tries: int = 0
@@ -229,10 +230,14 @@ class SiteWorkExecutor:
     # --- the job -----------------------------------------------------------------------------------------
 
     def _busy_until(self) -> float | None:
+        """When the step under way ends; before its timer starts (its event's answer awaited), the earliest
+        it can end, so that a clock jumping over a quiet site never leaps past it. None while physics is
+        asked something (its answer is news that holds the clock) or when no timed step is under way."""
         job = self.job
-        if job is None or job.started_s is None or job.index >= len(job.steps) or job.request is not None:
+        if job is None or job.index >= len(job.steps) or job.request is not None:
             return None
-        return job.started_s + job.steps[job.index].duration_s
+        start_s = job.started_s if job.started_s is not None else job.ready_s
+        return None if start_s is None else start_s + job.steps[job.index].duration_s
 
     def _progress(self) -> None:
         if self.job is None:
@@ -292,7 +297,7 @@ class SiteWorkExecutor:
 
     def _next_step(self, job: Job) -> None:
         job.index += 1
-        job.started_s = None
+        job.started_s, job.ready_s = None, self.sim_s
         if job.index < len(job.steps) and (event := job.steps[job.index].event) is not None:
             self._queue_event(job, event)
 
@@ -308,7 +313,11 @@ class SiteWorkExecutor:
             self.performed.add(assignment)
             component = self.components[message.guid]
             job = Job(
-                message, component, work_steps(component, self.description), EventQueue(self.config.resend_s)
+                message,
+                component,
+                work_steps(component, self.description),
+                EventQueue(self.config.resend_s),
+                ready_s=self.sim_s,
             )
             self.job = job
             self.machine.fire(Trigger.WORK_ASSIGNED)

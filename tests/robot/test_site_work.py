@@ -212,3 +212,21 @@ def test_a_task_beyond_the_boom_is_given_back_at_once_with_the_numbers(frame_man
     assert executor.given_back and "whose boom reaches 1 m" in executor.given_back[0][1].message
     assert [event for _, event in site.events] == [ComponentEvent.FORM, ComponentEvent.ABANDON]
     assert site.state is ComponentState.RELEASED and executor.state is RobotState.IDLE and not site.builds
+
+
+def test_from_its_assignment_to_its_build_the_crew_always_says_until_when_it_is_busy(
+    frame_manifest: Manifest,
+) -> None:
+    """Before a step's timer starts (its event's answer awaited) the state already says the earliest the
+    step can end: a plan-fidelity clock jumping over a quiet site to another machine's end leapt past this
+    crew's work, and the planner's watchdog took its footing back (the Duplex: 183 components blocked)."""
+    manifest, info, component = _site(frame_manifest, PUMP, ConstructionMethod.CAST_IN_PLACE)
+    executor = SiteWorkExecutor(manifest, info, ExecutorConfig(robot_id="r1"))
+    site = FakeAgentAndPhysics(executor, component)
+    site.assign()
+    site.run(1000.0)
+    build_s = site.builds[0][0]
+    working = [m for m in site.robot_states if m.task_id is not None and m.sim_time_s < build_s]
+    assert working and all(m.busy_until_s is not None for m in working)
+    pour_s = dict((event, when) for when, event in site.events)[ComponentEvent.POUR]
+    assert all(m.busy_until_s <= pour_s + 1e-9 for m in working if m.sim_time_s < pour_s)  # never past it
