@@ -31,7 +31,7 @@ def drop_duplicates(components: list[Component]) -> tuple[list[Component], list[
             groups[component.ifc_class, tuple(np.round(np.asarray(box) / SAME_PLACE_M).astype(int))].append(
                 component
             )
-    dropped: dict[str, Component] = {}
+    dropped: dict[str, tuple[Component, Component]] = {}  # copy's GlobalId → (the copy, the one kept)
     for members in groups.values():
         if len(members) < 2:
             continue
@@ -39,18 +39,18 @@ def drop_duplicates(components: list[Component]) -> tuple[list[Component], list[
         for copy in members[1:]:
             kept = next((item for item in members if item.guid not in dropped and _same(item, copy)), None)
             if kept is not None and kept is not copy:
-                dropped[copy.guid] = kept
+                dropped[copy.guid] = (copy, kept)
     skipped = [
         SkippedElement(
-            guid=guid,
-            ifc_class=kept.ifc_class,
-            name=next(item.name for item in components if item.guid == guid),
+            guid=copy.guid,
+            ifc_class=copy.ifc_class,
+            name=copy.name,
             reason=(
                 "the model draws it twice: same class, place and shape as "
                 f"{named_guid(kept.guid, kept.name)}, which is built (a site builds it once)"
             ),
         )
-        for guid, kept in dropped.items()
+        for copy, kept in dropped.values()
     ]
     return [item for item in components if item.guid not in dropped], skipped
 
