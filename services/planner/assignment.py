@@ -16,7 +16,7 @@ is in reach, the same auction runs among ground robots that can carry it to a fr
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 
 from bimbot.shared.manifest import Component
@@ -69,19 +69,19 @@ def choose(
     promised_s: Mapping[str, float],
     avoid: set[str],
     taken_spots: list[tuple[float, float]],
+    able_to_build: Callable[[SiteRobot, Component, Where], bool] = can_build_from,
 ) -> Choice | None:
     """The winning bid for ``component`` lying at ``where`` (None: no alive robot can take it now).
     ``promised_s``: extra busy time promised to robots earlier in this round; ``avoid``: robots that gave
-    the task back (bidding only when nobody else can)."""
+    the task back (bidding only when nobody else can); ``able_to_build``: :func:`can_build_from`, or a
+    memo of it (what a robot can build does not change while the component lies where it lies)."""
     alive = [record for record in records if record.alive and record.robot_id in site]
     fresh = [record for record in alive if record.robot_id not in avoid]
 
     def bids(
         kind: TaskKind, spot: tuple[float, float] | None, pool: list[RobotRecord]
     ) -> list[tuple[float, str, Choice]]:
-        able = (
-            can_build_from if kind is TaskKind.BUILD else lambda robot, item, _where: can_carry(robot, item)
-        )
+        able = able_to_build if kind is TaskKind.BUILD else lambda robot, item, _where: can_carry(robot, item)
         return [
             _bid(record, site[record.robot_id], component, where, now_s, promised_s, kind, spot)
             for record in pool

@@ -18,7 +18,7 @@ from bimbot.shared.messages import ComponentState, RobotState, TaskKind
 from bimbot.shared.reasons import Reason, ReasonCode
 
 from .assignment import choose
-from .capability import target_centre_xy
+from .capability import SiteRobot, Where, can_build_from, target_centre_xy
 from .failures import Failures
 from .outbox import Outbox
 from .planner_state import PlannerState
@@ -27,6 +27,11 @@ from .records import FINAL, ComponentRecord, Phase, RobotRecord, TaskRecord, dis
 _log = logging.getLogger(__name__)
 
 MAX_HAND_OFFS = 2  # hand-off tasks per component; a third would be a loop: failed out_of_reach
+# while no component or task changed and the same robots are idle, the bids are asked again only this often
+# (sim s): they still move with time and the robots' poses (a busy robot's bid can come to lose to an idle
+# one's), but a pass over every released task and robot at every 0.2 s period was most of the planner's
+# time on a 988-component site
+REBID_S = 2.0
 
 
 class Dispatch:
@@ -37,6 +42,22 @@ class Dispatch:
         self._state = state
         self._outbox = outbox
         self._failures = failures
+        # (robot, component, where it lies) → whether the robot can build it from there: asked for every
+        # released task and robot at every step, and unchanged while the site's robots are the same
+        self._able: dict[tuple[str, str, Where], bool] = {}
+        self._able_site: object = None
+        self._last_bids: tuple[int, frozenset[str], float] | None = None  # revision, idle robots, sim s
+
+    def _can_build(self, robot: SiteRobot, component: Component, where: Where) -> bool:
+        """:func:`.capability.can_build_from`, remembered for the site's robots in force."""
+        if self._able_site is not self._state.site:
+            self._able.clear()
+            self._able_site = self._state.site
+        key = (robot.robot_id, component.guid, where)
+        able = self._able.get(key)
+        if able is None:
+            able = self._able[key] = can_build_from(robot, component, where)
+        return able
 
     def assign(self) -> None:
         """Give every released task whose component reports released to a robot, if one can take it."""
@@ -66,8 +87,13 @@ class Dispatch:
         """Every released task to the capable robot with the best bid (:mod:`.assignment`)."""
         state = self._state
         assert state.site is not None
-        if not any(self._is_idle(robot) for robot in state.robots.values()):
+        idle = frozenset(robot.robot_id for robot in state.robots.values() if self._is_idle(robot))
+        if not idle:
             return  # (before the staging spots in use: a pass over every component)
+        last = self._last_bids
+        if last is not None and last[:2] == (state.revision, idle) and state.sim_time_s - last[2] < REBID_S:
+            return  # nothing changed since the last pass but the clock, by less than REBID_S
+        self._last_bids = (state.revision, idle, state.sim_time_s)
         promised: dict[str, float] = {}
         taken = self._taken_spots()
         for guid in state.plan.order:
@@ -87,6 +113,7 @@ class Dispatch:
                 promised_s=promised,
                 avoid=self._avoid(task),
                 taken_spots=taken,
+                able_to_build=self._can_build,
             )
             if choice is None:
                 continue

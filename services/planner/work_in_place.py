@@ -59,9 +59,23 @@ def lifts(description: RobotDescription) -> bool:
     )
 
 
+_FOOTPRINTS: dict[int, tuple[Component, Footprint]] = {}  # id → (the component, kept alive; its footprint)
+_FOOTPRINTS_MAX = 50_000
+
+
 def target_footprint(component: Component) -> Footprint:
+    """``component``'s footprint at its BIM target, computed once per component (a component is frozen):
+    the planner asks for it for every released task and robot at every step. The footprint is shared:
+    callers must not change its arrays."""
+    entry = _FOOTPRINTS.get(id(component))
+    if entry is not None and entry[0] is component:
+        return entry[1]
     pose = component.target_pose_world
-    return posed_footprint(component, pose.position_m, pose.quat_xyzw)
+    footprint = posed_footprint(component, pose.position_m, pose.quat_xyzw)
+    if len(_FOOTPRINTS) >= _FOOTPRINTS_MAX:
+        _FOOTPRINTS.clear()
+    _FOOTPRINTS[id(component)] = (component, footprint)
+    return footprint
 
 
 def boom_span_m(base_xy_m: Sequence[float], component: Component) -> tuple[float, float]:

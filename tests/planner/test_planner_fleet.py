@@ -6,6 +6,7 @@ from __future__ import annotations
 import itertools
 import math
 
+import pytest
 from planner_builders import portal_manifest, robot_msg, state_msg
 
 from bimbot.services.planner.capability import SiteRobot, Where, crane_reaches_centre
@@ -341,3 +342,76 @@ def test_a_robot_that_gave_a_task_back_gets_it_again_when_no_other_robot_can_tak
     core.observe_clock(3.0)
     out = core.step(3.0)
     assert _assignments(out)["foot_a"].robot_id == "r2"  # the Husky, idle beside it, cannot carry 259 kg
+
+
+def test_what_a_robot_can_build_is_worked_out_once_per_place_a_component_lies_not_at_every_step(
+    monkeypatch,
+) -> None:
+    """The planner asks, at every step, which robot can build each released task; on a 988-component site
+    that question (footprints, load charts) took half the planner's time. It is asked once per robot,
+    component and place the component lies, and a footprint at its target is computed once."""
+    from bimbot.services.planner import dispatch
+    from bimbot.services.planner.work_in_place import target_footprint
+
+    asked: list[tuple[str, str]] = []
+
+    def counting(robot: SiteRobot, component: Component, where: Where) -> bool:
+        asked.append((robot.robot_id, component.guid))
+        return dispatch.can_build_from.__wrapped__(robot, component, where)
+
+    counting.__wrapped__ = dispatch.can_build_from  # type: ignore[attr-defined]
+    monkeypatch.setattr(dispatch, "can_build_from", counting)
+    manifest = _manifest(foot_a=259.0, foot_b=259.0, foot_c=259.0)
+    robots = [SiteRobot("r1", HUSKY, (0.0, -5.0, 0.0)), SiteRobot("r2", CARRIER, (-30.0, -5.0, 0.0))]
+    core = _core(manifest, robots)
+    _release(core, "foot_a", "foot_b", "foot_c")  # r2 takes one; the two others wait for it
+    first = len(asked)
+    assert first > 0
+    for step in range(2, 30):
+        core.step(0.1 * step)
+    assert len(asked) == first, "asked again while nothing moved"
+    assert set(asked) <= {(r.robot_id, g) for r in robots for g in ("foot_a", "foot_b", "foot_c")}
+    component = manifest.component("foot_a")
+    assert target_footprint(component) is target_footprint(component)
+    pose = component.target_pose_world.model_copy(update={"position_m": (9.0, 9.0, 0.0)})
+    moved = component.model_copy(update={"target_pose_world": pose})
+    assert target_footprint(moved).polygon_xy_m.mean(axis=0) == pytest.approx((9.0, 9.0), abs=0.5)
+
+
+def test_bids_are_asked_again_when_something_changed_or_every_rebid_period_not_at_every_step(
+    monkeypatch,
+) -> None:
+    """With tasks waiting for a busy robot and an idle one that cannot take them, the pass over the bids
+    runs once per REBID_S of sim time while nothing changes, and at once when a robot comes free."""
+    from bimbot.services.planner import dispatch
+
+    passes: list[float] = []
+    real_choose = dispatch.choose
+
+    def counting(*args, **kwargs):
+        passes.append(kwargs["now_s"])
+        return real_choose(*args, **kwargs)
+
+    monkeypatch.setattr(dispatch, "choose", counting)
+    manifest = _manifest(foot_a=259.0, foot_b=259.0, foot_c=259.0)
+    robots = [SiteRobot("r1", HUSKY, (0.0, -5.0, 0.0)), SiteRobot("r2", CARRIER, (-30.0, -5.0, 0.0))]
+    core = _core(manifest, robots)
+    assigned = _assignments(_release(core, "foot_a", "foot_b", "foot_c"))
+    assert [m.robot_id for m in assigned.values()] == ["r2"]
+    core.observe_clock(0.2)
+    core.step(0.2)  # the assignment itself changed the records: one more pass
+    passes.clear()
+    for step in range(3, 20):  # 0.3 .. 1.9 s: the idle Husky cannot lift any of them, r2 is busy
+        core.observe_clock(0.1 * step)
+        core.step(0.1 * step)
+    assert passes == [], "no pass while nothing changed for less than REBID_S"
+    core.observe_clock(0.2 + dispatch.REBID_S)
+    core.step(0.2 + dispatch.REBID_S)
+    assert passes, "a pass once REBID_S went by"
+    passes.clear()
+    (guid,) = assigned
+    core.observe_clock(2.3)
+    core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified", sim_time_s=2.3))
+    core.observe_robot_state(robot_msg("r2", (0.0, -4.0)))
+    core.step(2.3)
+    assert passes, "a pass at once when a component was built and its robot came free"
