@@ -245,16 +245,18 @@ class SiteMap:
         return None if footprint is None else footprint.centre_xy_m
 
     def components_near(self, xy_m: ArrayLike, within_m: float) -> list[tuple[str, float]]:
-        """(name, distance) of the components on the ground or standing (not carried) within ``within_m`` of
-        ``xy_m``, nearest first: what a robot that cannot get on has beside it (a fallen beam, a column)."""
+        """(name, distance) of the components that occupy the grid (in the robot's height band, or placed
+        and not yet joined) within ``within_m`` of ``xy_m``, nearest first: what a robot that cannot get on
+        has beside it (a fallen beam, a column), not a floor it drives on nor a slab a storey above it."""
         point = np.asarray(xy_m, float).reshape(1, 2)
         near = []
-        for guid, footprint in self.footprints.items():
+        for guid in self._in_band:
+            footprint = self.footprints[guid]
             distance = float(footprint.distance_m(point)[0])
             if distance <= within_m:
                 component = self._components[guid]
                 near.append((component.name or guid, distance))
-        return sorted(near, key=lambda item: item[1])
+        return sorted(near, key=lambda item: (item[1], item[0]))
 
     def in_yard(self, guid: str) -> bool:
         """Still at its yard slot (not carried, never placed)."""
