@@ -157,9 +157,10 @@ class PlanNavigator:
         version = self.site_map.version
         if version == watched.version:
             return
-        grid = self.site_map.inflated_grid()
         ahead = watched.arc_m >= self.motion.distance_at(sim_s)
-        covered = ahead & watched.free & ~grid.is_free_xy(watched.points_xy_m)
+        covered = ahead & watched.free
+        if covered.any():
+            covered[covered] = ~self.site_map.free_at(watched.points_xy_m[covered])
         if not covered.any():
             self._watched = _Watched(version, watched.points_xy_m, watched.arc_m, watched.free)
             return
@@ -168,7 +169,7 @@ class PlanNavigator:
             self._move([(x, y)], sim_s)
             self.goal_blocked, self._failed, self._watched = True, True, None
             self.failure = diagnose(
-                grid,
+                self.site_map.inflated_grid(),
                 (x, y),
                 goal.xy,
                 robot_id=self.robot_id,

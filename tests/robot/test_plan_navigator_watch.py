@@ -35,6 +35,9 @@ class _Site:
         walls = from_footprints(BOUNDS, 0.1, boxes_xy_m=self.boxes)
         return inflate(walls, INFLATION_M if radius_m is None else radius_m)
 
+    def free_at(self, xy_m: np.ndarray) -> np.ndarray:
+        return self.inflated_grid().is_free_xy(xy_m)
+
     def components_near(self, xy_m: object, within_m: float) -> list[tuple[str, float]]:
         return [("Roof panel", 0.0)] if self.boxes else []
 

@@ -328,3 +328,17 @@ def test_what_a_robot_has_beside_it_is_what_occupies_its_map_not_the_floors_abov
     site.observe_pose(pose(fallen.guid, (offset[0], offset[1], 0.0), fixed=True))  # placed, never joined
     assert not site.static_grid().is_free(*centre)
     assert [name for name, _ in site.components_near(centre, 1.0)] == [fallen.name or fallen.guid]
+
+
+def test_free_at_answers_as_the_inflated_grid_does_without_building_it(
+    frame: Manifest, site: SiteMap
+) -> None:
+    grid = site.inflated_grid()
+    rng = np.random.default_rng(3)
+    (x0, y0, x1, y1) = grid.bounds_xy_m
+    points = rng.uniform((x0 - 1.0, y0 - 1.0), (x1 + 1.0, y1 + 1.0), size=(4000, 2))
+    points = np.vstack([points, grid.cell_to_world(np.argwhere(grid.occupied)[:2000])])
+    assert np.array_equal(site.free_at(points), grid.is_free_xy(points))
+    assert np.array_equal(site.free_at(points, 0.35), site.inflated_grid(0.35).is_free_xy(points))
+    site.observe_pose(at_target(of_class(frame, "IfcColumn"), fixed=True))
+    assert np.array_equal(site.free_at(points), site.inflated_grid().is_free_xy(points))
