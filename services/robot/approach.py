@@ -48,8 +48,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from bimbot.shared.footprint import Footprint, convex_hull_xy
-from bimbot.shared.occupancy_grid import OccupancyGrid, covered_cells, nearest_free_cell
+from bimbot.shared.footprint import Footprint
+from bimbot.shared.occupancy_grid import OccupancyGrid, covered_cells, inflate, nearest_free_cell
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.site_plan import Rect
@@ -217,21 +217,26 @@ def approach_pose(
 
 
 def way_out_after(
-    grid: OccupancyGrid, outlines_xy_m: Sequence[NDArray[np.float64]], home_xy_m: ArrayLike, body_m: float
+    grid: OccupancyGrid,
+    outlines_xy_m: Sequence[NDArray[np.float64]],
+    home_xy_m: ArrayLike,
+    inflation_m: float,
 ) -> NDArray[np.bool_] | None:
     """The free cells of ``grid`` (the inflated planning grid) still joined to ``home_xy_m`` once a
-    component of these outlines stands, each grown by ``body_m`` less two cells (the robot's inflation,
-    so that a stand-point at its body's clearance from the component lies just outside it); None when the
-    home has no free cell."""
-    grown_m = max(0.0, body_m - 2.0 * grid.resolution_m)
-    turns = np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False)
-    circle = grown_m * np.column_stack((np.cos(turns), np.sin(turns)))
-    grown = [
-        convex_hull_xy((outline[:, None, :] + circle[None, :, :]).reshape(-1, 2)) for outline in outlines_xy_m
-    ]
-    cells = covered_cells(grid, grown)
+    component of these outlines stands, as the robot's map will have it: the outlines rasterised on the
+    same grid and inflated by the robot's ``inflation_m``, as the navigator plans. A stand-point in the
+    component's inflation, or in a pocket whose way out it narrows below the robot's inflated width, keeps
+    none. None when the home has no free cell."""
+    cells = covered_cells(grid, list(outlines_xy_m))
     occupied = grid.occupied.copy()
-    occupied[cells[:, 0], cells[:, 1]] = True
+    if len(cells):
+        pad = math.ceil(inflation_m / grid.resolution_m) + 1
+        r0, c0 = (max(0, int(v) - pad) for v in cells.min(axis=0))
+        r1, c1 = (min(n, int(v) + pad + 1) for v, n in zip(cells.max(axis=0), grid.shape, strict=True))
+        window = np.zeros((r1 - r0, c1 - c0), bool)
+        window[cells[:, 0] - r0, cells[:, 1] - c0] = True
+        grown = inflate(OccupancyGrid(window, grid.resolution_m, (0.0, 0.0)), inflation_m)
+        occupied[r0:r1, c0:c1] |= grown.occupied
     return reachable_region(grid.with_occupied(occupied), home_xy_m)
 
 

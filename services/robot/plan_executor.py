@@ -10,18 +10,26 @@ knows when the drive ends, so its clock can jump there. The robot knows where it
 error: a placement's error is the type's precision model, drawn by physics), so it places with no belief
 of its own (``believed_xy_yaw`` None). Cranes, pumps and block layers keep their executors: they do not
 drive.
+
+The site changes while the robot drives (a part placed, one that slid or fell): like the full navigator,
+which plans again when its map changes, :meth:`PlanNavigator.watch` checks the rest of the path against the
+site map each time the map changed. A cell of it that was free when planned and is occupied now: the robot
+stops where it is and plans again from there; when the goal itself is covered, it stops and says so
+(``goal_blocked``), so that its owner chooses another stand-point instead of driving into what lies there.
 """
 
 from __future__ import annotations
 
 import logging
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from bimbot.shared.messages import ClockMsg, OdomMsg, PlanMsg, RobotPoseMsg, SiteInfoMsg
+from bimbot.shared.occupancy_grid import OccupancyGrid
 from bimbot.shared.plan_motion import Trajectory, standing, trajectory
 from bimbot.shared.reasons import Reason
 
@@ -29,6 +37,7 @@ from .astar import plan_path, simplify_path
 from .executor import Executor, executor_class
 from .fine_alignment import Alignment
 from .handover import Handover
+from .motion import Path
 from .nav_types import DEFAULT_NAVIGATOR, Goal, NavCommand, NavigatorConfig, NavStatus
 from .protocol import Outgoing
 from .recovery import diagnose, escape_path, plan_start
@@ -39,6 +48,18 @@ from .task_state import Task
 _log = logging.getLogger(__name__)
 
 _NO_MARKS = np.empty((0, 2))
+WATCH_STEP_M = 0.1  # the rest of a path is checked at points this far apart (the site map's cells)
+
+
+@dataclass(frozen=True)
+class _Watched:
+    """A planned path as the site map stood then: points along it, their arc lengths (m from the start of
+    the motion) and which were free on the inflated grid; the map's version."""
+
+    version: int
+    points_xy_m: NDArray[np.float64]
+    arc_m: NDArray[np.float64]
+    free: NDArray[np.bool_]
 
 
 class PlanNavigator:
@@ -67,6 +88,7 @@ class PlanNavigator:
         self._failed = False
         self.published: Trajectory | None = None  # a new motion for the plan key (taken by the executor)
         self.path_xy_m: list[tuple[float, float]] = []
+        self._watched: _Watched | None = None  # the motion's path as the map stood when it was planned
 
     @property
     def pose_xy_yaw(self) -> tuple[float, float, float]:
@@ -95,7 +117,7 @@ class PlanNavigator:
         here = self.pose_xy_yaw
         goal_xy = np.asarray(xy_m, float)[:2]
         self.goal = Goal(goal_xy, yaw_rad, tolerance_m or self.config.goal_tolerance_m, sim_s, quiet=quiet)
-        self.failure, self._failed = None, False
+        self.failure, self._failed, self.goal_blocked, self._watched = None, False, False, None
         grid = self.site_map.inflated_grid()
         body = self.site_map.inflated_grid(self.config.body_half_width_m)
         start = plan_start(grid, here[:2], self.config.plan_out_max_m, body)
@@ -123,6 +145,52 @@ class PlanNavigator:
         if math.hypot(points[0][0] - here[0], points[0][1] - here[1]) > 0.0:
             points.insert(0, (here[0], here[1]))
         self._move(points, sim_s)
+        self._watched = _watched(grid, points, self.site_map.version)
+
+    def watch(self, sim_s: float) -> None:
+        """Check the rest of the motion against the site map when the map changed since it was planned (see
+        the module doc): plan again from here, or stop with ``goal_blocked`` when the goal is covered."""
+        self.now_s = sim_s
+        watched, goal = self._watched, self.goal
+        if watched is None or goal is None or self._failed or sim_s >= self.motion.end_s:
+            return
+        version = self.site_map.version
+        if version == watched.version:
+            return
+        ahead = watched.arc_m >= self.motion.distance_at(sim_s)
+        covered = ahead & watched.free
+        if covered.any():
+            covered[covered] = ~self.site_map.free_at(watched.points_xy_m[covered])
+        if not covered.any():
+            self._watched = _Watched(version, watched.points_xy_m, watched.arc_m, watched.free)
+            return
+        x, y, _ = self.pose_xy_yaw
+        if covered[-1]:  # the goal itself: another stand-point, not the nearest free cell beside it
+            self._move([(x, y)], sim_s)
+            self.goal_blocked, self._failed, self._watched = True, True, None
+            self.failure = diagnose(
+                self.site_map.inflated_grid(),
+                (x, y),
+                goal.xy,
+                robot_id=self.robot_id,
+                why="found its goal covered by what came onto the site map while it drove there",
+                trapped_area_m2=self.config.trapped_area_m2,
+                tried=(),
+                beside=self.site_map.components_near(goal.xy, self.config.beside_m),
+            )
+            _log.log(_level(goal), "%s: %s", self.robot_id, self.failure.message)
+            return
+        first = watched.points_xy_m[int(np.argmax(covered))]
+        _log.log(
+            _level(goal),
+            "%s: its path is covered at (%.2f, %.2f) since it set off: plans again from (%.2f, %.2f)",
+            self.robot_id,
+            first[0],
+            first[1],
+            x,
+            y,
+        )
+        self.set_goal(goal.xy, goal.yaw, sim_s, goal.tolerance_m, quiet=goal.quiet)
 
     def cancel(self) -> None:
         """Stop where it is now (a motion still running is cut short: physics hears it)."""
@@ -130,6 +198,7 @@ class PlanNavigator:
             x, y, _ = self.pose_xy_yaw
             self._move([(x, y)], self.now_s)
         self.goal, self.failure, self._failed = None, None, False
+        self.goal_blocked, self._watched = False, None
 
     def _move(self, points: list[tuple[float, float]], sim_s: float) -> None:
         yaw = self.pose_xy_yaw[2]
@@ -203,8 +272,8 @@ class PlanExecutor(Executor):
 
     def tick(self, clock: ClockMsg, wall_s: float) -> list[Outgoing]:
         navigator = self.plan_navigator
-        navigator.now_s = clock.sim_time_s
         before = navigator.motion
+        navigator.watch(clock.sim_time_s)
         out = super().tick(clock, wall_s)
         if navigator.motion is not before:
             self._driven_m += before.distance_at(navigator.motion.start_s)
@@ -222,6 +291,20 @@ class PlanExecutor(Executor):
     def _ground_truth(self, message: RobotPoseMsg) -> None:
         """No localisation error to measure: physics poses it by the same motion (a pose message stamped
         before a jump of the clock is no error)."""
+
+
+def _watched(grid: OccupancyGrid, points: list[tuple[float, float]], version: int) -> _Watched:
+    """Points every :data:`WATCH_STEP_M` along a path and which of them are free on ``grid``."""
+    path = Path(points)
+    length = float(path.arc_m[-1])
+    arc = np.append(np.arange(0.0, length, WATCH_STEP_M), length)
+    xy = path.samples(0.0, length, WATCH_STEP_M)
+    return _Watched(version, xy, arc, grid.is_free_xy(xy))
+
+
+def _level(goal: Goal) -> int:
+    """The log level of what happens on the way to ``goal``: info, or debug for a quiet one."""
+    return logging.DEBUG if goal.quiet else logging.INFO
 
 
 def plan_executor_class(info: SiteInfoMsg, robot_id: str) -> type[Executor] | type[SiteWorkExecutor]:

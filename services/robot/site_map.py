@@ -245,16 +245,18 @@ class SiteMap:
         return None if footprint is None else footprint.centre_xy_m
 
     def components_near(self, xy_m: ArrayLike, within_m: float) -> list[tuple[str, float]]:
-        """(name, distance) of the components on the ground or standing (not carried) within ``within_m`` of
-        ``xy_m``, nearest first: what a robot that cannot get on has beside it (a fallen beam, a column)."""
+        """(name, distance) of the components that occupy the grid (in the robot's height band, or placed
+        and not yet joined) within ``within_m`` of ``xy_m``, nearest first: what a robot that cannot get on
+        has beside it (a fallen beam, a column), not a floor it drives on nor a slab a storey above it."""
         point = np.asarray(xy_m, float).reshape(1, 2)
         near = []
-        for guid, footprint in self.footprints.items():
+        for guid in self._in_band:
+            footprint = self.footprints[guid]
             distance = float(footprint.distance_m(point)[0])
             if distance <= within_m:
                 component = self._components[guid]
                 near.append((component.name or guid, distance))
-        return sorted(near, key=lambda item: item[1])
+        return sorted(near, key=lambda item: (item[1], item[0]))
 
     def in_yard(self, guid: str) -> bool:
         """Still at its yard slot (not carried, never placed)."""
@@ -277,14 +279,30 @@ class SiteMap:
         """:meth:`static_grid` inflated by ``radius_m`` (default: the robot radius plus margin, which is
         where the robot's centre may go), from the distance field."""
         radius = self.config.inflation_m if radius_m is None else radius_m
-        if radius >= STATIC_DISTANCE_MAX_M:
-            raise ValueError(f"inflation {radius} m reaches the distance bound {STATIC_DISTANCE_MAX_M} m")
+        self._inflated_within(radius)  # a radius beyond the distance bound is refused before the cache
         return self._cached(
             f"inflated:{radius:.4f}",
-            lambda: self._geometry.with_occupied(
-                self.static_distance_m() <= radius + 1e-9 * self.config.resolution_m
-            ),
+            lambda: self._geometry.with_occupied(self.static_distance_m() <= self._inflated_within(radius)),
         )
+
+    def free_at(self, xy_m: ArrayLike, radius_m: float | None = None) -> NDArray[np.bool_]:
+        """Whether each point ``(n, 2)`` lies in a free cell of :meth:`inflated_grid` (outside the grid: not
+        free), read from the distance field at those cells only: a robot on its way asks it of the rest of
+        its path whenever the map changed, which must not cost a whole grid each time."""
+        radius = self.config.inflation_m if radius_m is None else radius_m
+        rc = self._geometry.world_to_cell(np.asarray(xy_m, float).reshape(-1, 2))
+        inside = self._geometry.in_bounds(rc)
+        free = np.zeros(len(rc), bool)
+        distance = self.static_distance_m()[rc[inside, 0], rc[inside, 1]]
+        free[inside] = distance > self._inflated_within(radius)
+        return free
+
+    def _inflated_within(self, radius_m: float) -> float:
+        """The distance (m) up to which a cell lies in the inflation of ``radius_m`` (a hair more: cell
+        centres exactly at the radius are in it)."""
+        if radius_m >= STATIC_DISTANCE_MAX_M:
+            raise ValueError(f"inflation {radius_m} m reaches the distance bound {STATIC_DISTANCE_MAX_M} m")
+        return radius_m + 1e-9 * self.config.resolution_m
 
     def static_distance_m(self) -> NDArray[np.float64]:
         """Distance from every cell centre to the nearest cell of :meth:`static_grid` (m), up to

@@ -49,6 +49,8 @@ def _lane_boxes() -> list[tuple[float, float, float, float]]:
 class _Grids:
     """The two grids a plan-fidelity navigator asks its site map for: the robot's inflation and its body."""
 
+    version = 0  # the map never changes here
+
     def __init__(self, walls: OccupancyGrid) -> None:
         self.walls = walls
 

@@ -11,6 +11,7 @@ from frames import convert_small_frame
 from bimbot.services.robot.approach import (
     ApproachConfig,
     approach_pose,
+    cut_off,
     no_approach_reason,
     reachable_region,
     sets_from_outside,
@@ -261,3 +262,26 @@ def test_the_partition_that_closes_a_room_is_set_from_the_side_with_the_way_out(
     way_out = way_out_after(grid, free_standing.outlines_meeting(0.02, 1.0), home, 0.75)
     near = approach_pose(grid, free_standing, robot, way_out=way_out, **kwargs)
     assert near is not None and near.x_m < 11.0, "both sides leave a way out: the nearer one"
+
+
+def test_a_stand_point_in_a_pocket_the_component_closes_at_the_robots_inflation_keeps_no_way_out() -> None:
+    """A room whose west wall has a 3 m opening; a post set in its middle leaves 1.45 m either side, less
+    than the inflated robot's 1.5 m, so on the robot's map the room is closed once the post stands (the
+    restaurant's carrier set a curtain-wall door from such a pocket and was walled in). The way out is
+    judged at the inflation the robot plans with: the post is set from outside the room."""
+    bounds, inflation = (0.0, 0.0, 20.0, 20.0), 0.75
+    walls = [(8.0, 2.0, 8.2, 10.0), (8.0, 13.0, 8.2, 18.0), (8.0, 2.0, 16.0, 2.2), (8.0, 17.8, 16.0, 18.0)]
+    walls.append((15.8, 2.0, 16.0, 18.0))
+    grid = inflate(from_footprints(bounds, 0.1, boxes_xy_m=walls), inflation)
+    home, robot = (1.0, 1.0), (10.0, 11.5)
+    post = _rect(8.05, 11.45, 8.15, 11.55, 3.0)
+    after = inflate(from_footprints(bounds, 0.1, boxes_xy_m=[*walls, (8.05, 11.45, 8.15, 11.55)]), inflation)
+    assert cut_off(after, robot, home), "once the post stands, the room is closed on the robot's map"
+    kwargs = {"blocks_band": True, "config": ApproachConfig(reach_m=1.5, body_clearance_m=inflation)}
+    nearest = approach_pose(grid, post, robot, **kwargs)
+    assert nearest is not None and nearest.x_m > 8.2, "without a way out: the side nearer the robot, inside"
+    way_out = way_out_after(grid, post.outlines_meeting(0.02, 1.0), home, inflation)
+    assert way_out is not None
+    kept = approach_pose(grid, post, robot, way_out=way_out, **kwargs)
+    assert kept is not None and kept.x_m < 8.0, kept
+    assert not cut_off(after, kept.xy_m, home), "from there it drives home once the post stands"

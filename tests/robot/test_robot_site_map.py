@@ -307,3 +307,38 @@ def test_a_doorway_under_its_lintel_is_free_in_the_map_and_the_laser_sees_throug
         in_place=[room.model_copy(update={"part_boxes_local": []})],
     )
     assert not boxed.static_grid().is_free(*doorway)
+
+
+def test_what_a_robot_has_beside_it_is_what_occupies_its_map_not_the_floors_above_or_below_it(
+    frame: Manifest,
+) -> None:
+    """A robot that could not get on named, as what lay beside it, three slabs 7.5 m above, 11.3 m above and
+    under the ground, at 0.0 m each; the roof panel that had fallen over it, at 0.0 m too, went unnamed.
+    What it names is what occupies its map."""
+    upper = _floor(frame, 7.62)  # an upper storey's slab, over where the robot stands
+    components = [c for c in frame.components if c.guid != upper.guid]
+    layout = plan_site(components, robots=1)
+    site = SiteMap(layout, components, MapConfig(step_m=0.07), in_place=[upper])
+    centre = posed(upper).centre_xy_m
+    assert site.static_grid().is_free(*centre)
+    assert site.components_near(centre, 1.0) == []
+    fallen = next(c for c in components if c.guid in layout.slots)
+    laid = posed_footprint(fallen, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    offset = centre - laid.centre_xy_m
+    site.observe_pose(pose(fallen.guid, (offset[0], offset[1], 0.0), fixed=True))  # placed, never joined
+    assert not site.static_grid().is_free(*centre)
+    assert [name for name, _ in site.components_near(centre, 1.0)] == [fallen.name or fallen.guid]
+
+
+def test_free_at_answers_as_the_inflated_grid_does_without_building_it(
+    frame: Manifest, site: SiteMap
+) -> None:
+    grid = site.inflated_grid()
+    rng = np.random.default_rng(3)
+    (x0, y0, x1, y1) = grid.bounds_xy_m
+    points = rng.uniform((x0 - 1.0, y0 - 1.0), (x1 + 1.0, y1 + 1.0), size=(4000, 2))
+    points = np.vstack([points, grid.cell_to_world(np.argwhere(grid.occupied)[:2000])])
+    assert np.array_equal(site.free_at(points), grid.is_free_xy(points))
+    assert np.array_equal(site.free_at(points, 0.35), site.inflated_grid(0.35).is_free_xy(points))
+    site.observe_pose(at_target(of_class(frame, "IfcColumn"), fixed=True))
+    assert np.array_equal(site.free_at(points), site.inflated_grid().is_free_xy(points))
