@@ -48,7 +48,7 @@ from .localisation import Localiser
 from .motion import Path, carrot, straight_line_clear, turn_command, unicycle
 from .nav_types import DEFAULT_NAVIGATOR, Course, Goal, NavCommand, NavigatorConfig, NavStatus, new_goal
 from .particle_filter import PositionFix
-from .recovery import Recovery, diagnose, escape_path, next_recovery, plan_start
+from .recovery import Recovery, diagnose, escape_path, held_where_it_stands, next_recovery, plan_start
 from .site_map import SiteMap
 from .surroundings import Surroundings
 from .traffic import Traffic
@@ -394,8 +394,10 @@ class Navigator:
         goal = self.goal
         pose = self.localiser.pose
         goal_xy = goal.xy if goal is not None else pose[:2]
+        grid = self.site_map.inflated_grid()
+        body = self.site_map.inflated_grid(self.config.body_half_width_m)
         self.failure = diagnose(
-            self.site_map.inflated_grid(),
+            grid,
             pose[:2],
             goal_xy,
             robot_id=self.robot_id,
@@ -403,6 +405,7 @@ class Navigator:
             trapped_area_m2=self.config.trapped_area_m2,
             tried=goal.tried if goal is not None else (),
             beside=self.site_map.components_near(pose[:2], self.config.beside_m),
+            held=held_where_it_stands(grid, body, pose[:2], self.config.plan_out_max_m),
         )
         _log.log(
             logging.DEBUG if goal is not None and goal.quiet else logging.WARNING,

@@ -135,6 +135,7 @@ class PlanNavigator:
                 trapped_area_m2=self.config.trapped_area_m2,
                 tried=(),
                 beside=self.site_map.components_near(here[:2], self.config.beside_m),
+                held=start is None and not lead_in,
             )
             self._failed = True
             self._move([(here[0], here[1])], sim_s)

@@ -171,6 +171,18 @@ def escape_path(
     return [(float(xy[0]), float(xy[1])), *((float(x), float(y)) for x, y in points)]
 
 
+def held_where_it_stands(
+    grid: OccupancyGrid, body_grid: OccupancyGrid, xy_m: ArrayLike, max_snap_m: float
+) -> bool:
+    """Whether a robot at ``xy_m`` cannot leave where it stands: its cell is not free on ``grid`` (the
+    inflated planning grid), no free cell lies within a straight drive of ``max_snap_m`` clear of
+    ``body_grid`` (:func:`plan_start`), and no way its body fits leads out (:func:`escape_path`): what came
+    to stand over or round it (a part that slid onto its place) holds it, whatever free space lies beyond."""
+    if plan_start(grid, xy_m, max_snap_m, body_grid) is not None:
+        return False
+    return escape_path(grid, xy_m, body_grid) is None
+
+
 def diagnose(
     grid: OccupancyGrid,
     robot_xy_m: ArrayLike,
@@ -181,9 +193,12 @@ def diagnose(
     trapped_area_m2: float,
     tried: tuple[Recovery, ...],
     beside: Sequence[tuple[str, float]] = (),
+    held: bool = False,
 ) -> Reason:
     """The reason a navigation failed (see the module doc): a sentence with positions and numbers, ending
-    with the components ``beside`` the robot (name, distance), nearest first: what may hold it up."""
+    with the components ``beside`` the robot (name, distance), nearest first: what may hold it up.
+    ``held``: the robot cannot leave where it stands (:func:`held_where_it_stands`), trapped whatever free
+    space lies beyond."""
     here = np.asarray(robot_xy_m, float)
     goal = np.asarray(goal_xy_m, float)
     robot = robot_id or "the robot"
@@ -193,6 +208,16 @@ def diagnose(
     at = f"({here[0]:.2f}, {here[1]:.2f})"
     to = f"({goal[0]:.2f}, {goal[1]:.2f})"
     done = ", ".join(r.value for r in tried) or "none"
+    if held:
+        return Reason(
+            code=ReasonCode.ROBOT_TRAPPED,
+            robot_id=robot_id or None,
+            message=(
+                f"{robot} at {at} is held where it stands: what stands on its map covers its place and no "
+                f"way its body fits leads out within {ESCAPE_MAX_M:.0f} m, after the recoveries ({done}); "
+                f"it {why}{beside_text}"
+            ),
+        )
     region = reachable_region(grid, here)
     area_m2 = 0.0 if region is None else float(region.sum()) * grid.resolution_m**2
     if area_m2 < trapped_area_m2:

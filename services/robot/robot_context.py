@@ -25,6 +25,7 @@ from bimbot.shared.seeds import robot_stream
 from .approach import ApproachConfig, cut_off
 from .nav_types import controller_limits
 from .navigator import Navigator, NavigatorConfig
+from .recovery import held_where_it_stands
 from .site_map import MapConfig, SiteMap
 from .task_state import ExecutorConfig, Task, task_event
 
@@ -49,9 +50,15 @@ class RobotContext:
 
     def cut_off_from_depot(self) -> bool:
         """Whether the robot is walled in: no way on its static map (the site plan and what is built; laser
-        marks left out, they pass) leads from where it believes it stands to its depot start."""
+        marks left out, they pass) leads from where it believes it stands to its depot start, or it cannot
+        leave where it stands (:func:`.recovery.held_where_it_stands`: a part came to stand over it)."""
         grid = self.site_map.inflated_grid()
-        return cut_off(grid, self.navigator.pose_xy_yaw[:2], self.home_xy_yaw[:2])
+        here = self.navigator.pose_xy_yaw[:2]
+        if cut_off(grid, here, self.home_xy_yaw[:2]):
+            return True
+        config = self.navigator.config
+        body = self.site_map.inflated_grid(config.body_half_width_m)
+        return held_where_it_stands(grid, body, here, config.plan_out_max_m)
 
     def queue_event(
         self,

@@ -11,8 +11,9 @@ import numpy as np
 
 from bimbot.services.robot.nav_types import NavStatus
 from bimbot.services.robot.plan_executor import PlanNavigator
-from bimbot.services.robot.recovery import escape_path, plan_start
+from bimbot.services.robot.recovery import escape_path, held_where_it_stands, plan_start
 from bimbot.shared.occupancy_grid import OccupancyGrid, from_footprints, inflate
+from bimbot.shared.reasons import ReasonCode
 
 INFLATION_M, HALF_WIDTH_M = 0.75, 0.35
 BOUNDS = (-12.0, -12.0, 12.0, 12.0)
@@ -69,3 +70,19 @@ def test_a_plan_fidelity_robot_in_the_lane_drives_out_and_on_to_its_goal() -> No
     assert tuple(path[0]) == ROBOT_XY and np.allclose(path[-1], (6.0, 5.0), atol=0.1)
     inside = path[path[:, 1] < -0.5]
     assert np.all(np.abs(inside[:, 0]) < 0.7 - HALF_WIDTH_M + 0.05)  # along the lane, clear of its walls
+
+
+def test_a_robot_a_part_came_to_lie_over_is_trapped_whatever_free_space_lies_beyond() -> None:
+    """A roof panel slid off its target and came to rest over a plan-fidelity robot (collisions off): its
+    own cell is occupied even for its body, though open ground lies 2 m away. Every drive fails; the
+    reason says it is trapped (so its task goes to another robot and it is held as walled in), not that it
+    made no progress (which failed 20 components in turn on it)."""
+    panel = from_footprints(BOUNDS, 0.1, boxes_xy_m=[(-1.2, -1.5, 1.2, 1.5)])
+    grid, body = inflate(panel, INFLATION_M), inflate(panel, HALF_WIDTH_M)
+    assert held_where_it_stands(grid, body, (0.0, 0.0), 2.0)
+    assert not held_where_it_stands(grid, body, (0.0, 2.0), 2.0)  # beside it, not under it: drives out
+    navigator = PlanNavigator(_Grids(panel), (0.0, 0.0, 0.0), speed_mps=1.0, turn_radps=1.5)
+    navigator.set_goal((8.0, 8.0), None, 0.0)
+    assert navigator.status is NavStatus.FAILED
+    assert navigator.failure is not None and navigator.failure.code is ReasonCode.ROBOT_TRAPPED
+    assert "held where it stands" in navigator.failure.message
