@@ -114,6 +114,8 @@ class JointSource(StrEnum):
     # a new component drawn into existing work (in place before the robots come) no deeper than a site cuts a
     # notch or scribes the new part to fit it: fitted to it, not a clash
     FITTED = "fitted"
+    # a deck drawn through an upright that passes through it (a post through a roof plank): cut round it
+    NOTCHED = "notched"
 
 
 class Joint(_Frozen):

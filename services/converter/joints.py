@@ -23,6 +23,9 @@ A new component drawn into **existing work** (in place before the robots come) n
 :data:`FITTED_MAX_DEPTH_M` is fitted to it on site (a notch cut, the new part scribed): a joint, the existing
 part first (a Revit renovation draws its new fittings into the existing slabs and walls by a few cm).
 
+A thin **deck drawn through an upright** that passes through it (a post through a roof plank) is cut round
+it on site (:mod:`.notches`): a joint, the upright first.
+
 Any other overlap deeper than :data:`~bimbot.shared.joints.CLASH_DEPTH_M` is a **clash**: two parts that
 cannot both be where the model puts them. The manifest keeps both lists; physics lets a jointed pair overlap
 and connects them, and still reports a clash.
@@ -44,6 +47,7 @@ from bimbot.shared.joints import CLASH_DEPTH_M, JointRule, JointSettings
 from bimbot.shared.manifest import Clash, Component, Joint, JointSource
 
 from .connections import element_connections
+from .notches import notched_round
 from .overlaps import Overlap, measure_overlaps
 
 _log = logging.getLogger(__name__)
@@ -107,6 +111,7 @@ def find_joints(
         first, second = by_guid[overlap.first], by_guid[overlap.second]
         joint = _by_rule(overlap, first, second, settings.rule, classes)
         joint = joint or _cast_around(overlap, first, second) or _fitted_to_existing(overlap, first, second)
+        joint = joint or notched_round(overlap, first, second)
         if joint is not None:
             joints.append(_with_bottoms(joint, overlap))
         elif overlap.depth_m > CLASH_DEPTH_M:

@@ -365,3 +365,45 @@ def test_a_railing_drawn_into_its_stair_half_way_up_is_a_joint(tmp_path: Path) -
     [joint] = manifest.joints
     assert set(joint.guids) == {guid["Flight"], guid["Railing"]}
     assert joint.rule == "IfcRailing into IfcStair, up to 100 mm"
+
+
+@pytest.mark.parametrize(("post_top_m", "notched"), [(3.45, True), (2.72, False)])
+def test_a_roof_plank_drawn_through_a_post_that_rises_past_it_is_cut_round_it_and_the_post_comes_first(
+    tmp_path: Path, post_top_m: float, notched: bool
+) -> None:
+    """A 38 mm roof plank (2.4 × 3 m, 2.7 m up) drawn whole through a 1.17 × 0.26 m post: the shortest move
+    that parts them lifts the plank over the post's top (729 mm in the Janesville restaurant), so no depth
+    rule takes it, and physics pushed the plank off. Rising past the plank, the post passes through it: the
+    plank is cut round it on site, a joint, the post first. A post that ends inside the plank does not pass
+    through it: that stays a clash."""
+    small = new_model()
+    add_beam(
+        small,
+        "Post",
+        length_m=post_top_m,
+        width_m=0.26,
+        depth_m=1.17,
+        matrix_m=translation(x_m=2.0),
+        schema_class="IfcBuildingElementProxy",
+    )
+    add_beam(
+        small,
+        "Roof plank",
+        length_m=0.038,
+        width_m=3.0,
+        depth_m=2.4,
+        matrix_m=translation(x_m=2.0, z_m=2.7),
+        schema_class="IfcSlab",
+    )
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    if not notched:
+        assert not [joint for joint in manifest.joints if joint.source is JointSource.NOTCHED]
+        return
+    assert not manifest.clashes
+    [joint] = manifest.joints
+    assert joint.source is JointSource.NOTCHED
+    assert joint.guids == (guid["Post"], guid["Roof plank"])
+    assert joint.depth_m > 0.5  # the lift over the post's top: no depth rule would take it
+    order = support_predecessors(manifest.components, joints=manifest.joints)
+    assert guid["Post"] in order[guid["Roof plank"]]
