@@ -34,6 +34,7 @@ from .mesh import TriMesh
 from .mesh_files import VISUAL_FORMATS, GeometryFiles, link_geometry_files, write_geometry_files
 from .placement import pose_from_rigid, split_rigid, vec3
 from .prism_split import SectionCache
+from .room_contents import RoomFloor
 from .sdf_writer import ModelSpec, model_config, model_sdf
 from .split_ifc import split_element
 from .tessellation import ElementShape
@@ -60,6 +61,7 @@ class ShardContext:
     methods: MethodsFile | None = None  # the methods file in force: its cast-in-place rates
     storey_levels_m: tuple[float, ...] = ()  # storey elevations, IFC world z, metres (panels' rows)
     style_materials: dict[int, ifcopenshell.entity_instance] = field(default_factory=dict)  # face_materials
+    room_floors: dict[int, RoomFloor] = field(default_factory=dict)  # by step id: a room's content's floor
 
 
 @dataclass
@@ -83,6 +85,7 @@ class PlacedElement:
     translation_m: np.ndarray
     vertices_local_m: np.ndarray
     bbox_ifc_world_m: np.ndarray  # (2, 3) in IFC world coordinates (before the local-origin shift)
+    notes: tuple[str, ...] = ()  # what was done to its geometry (a room's content cut at its floor)
 
 
 def skipped_entry(element: ifcopenshell.entity_instance, reason: str) -> SkippedElement:
@@ -157,7 +160,7 @@ def write_component(
         mass = element_mass(item, work, context)
     if decision is None:
         decision = settled_method(item, work, mass.mass_kg, context)
-    notes = [*mass.warnings, *warnings]
+    notes = [*mass.warnings, *item.notes, *warnings]
     if not props.watertight:
         notes.append(
             "mesh is not watertight: inertia from its bounding box, volume from its closed pieces and the "

@@ -61,6 +61,7 @@ from .mesh_files import VISUAL_FORMATS
 from .method_decisions import decide_methods
 from .panel_links import link_panels
 from .placement import axis2placement_matrix, choose_local_origin, vec3
+from .room_contents import room_floors
 from .sdf_writer import world_sdf
 from .selection import left_out_by_selection, select_elements
 from .sequencing import construction_sequence
@@ -194,6 +195,7 @@ def _convert(
         methods=methods,
         storey_levels_m=_storey_levels_m(model, unit_scale_m),
         style_materials=style_materials(model),
+        room_floors=room_floors(model, elements),
     )
     results = run_shards(model, elements, context, workers=workers, progress=progress)
     stats.seconds_by_stage["shards_wall"] = time.perf_counter() - shards_started

@@ -36,6 +36,7 @@ from bimbot.shared.manifest import Component, SkippedElement
 
 from .component_writer import GeometryWork, ShardContext, geometry_work, place_element, skipped_entry
 from .panel_writer import write_element
+from .room_contents import cut_at_room_floor
 from .sdf_writer import ModelSpec
 from .tessellation import tessellate
 
@@ -169,7 +170,11 @@ def convert_shard(
     for step_id, shape in sorted(tessellation.shapes.items()):
         element = by_id[step_id]
         try:
-            item = place_element(element, shape)
+            built, cut = cut_at_room_floor(shape, context.room_floors.get(step_id))
+            item = place_element(element, built)
+            if cut is not None:
+                item.notes = (cut,)
+                _log.info("%s %s: %s", element.is_a(), element.GlobalId, cut)
             work = works.get(item.geometry_key)
             if work is None:
                 work = works[item.geometry_key] = geometry_work(item, context)

@@ -407,3 +407,29 @@ def test_a_roof_plank_drawn_through_a_post_that_rises_past_it_is_cut_round_it_an
     assert joint.depth_m > 0.5  # the lift over the post's top: no depth rule would take it
     order = support_predecessors(manifest.components, joints=manifest.joints)
     assert guid["Post"] in order[guid["Roof plank"]]
+
+
+def test_a_fitting_drawn_a_few_mm_into_the_floor_finish_it_stands_on_is_a_joint_and_a_deep_one_a_clash(
+    tmp_path: Path,
+) -> None:
+    """A stall drawn at its level, 6 mm under the top of the tile floor it stands on, as the Janesville
+    restaurant draws its toilet partitions: a joint by rule, the floor first. A cabinet drawn 40 mm into
+    another floor is still a clash."""
+    small = new_model()
+    add_box(
+        small, "IfcSlab", "Tile", size_m=(1.5, 1.0, 0.05), corner_m=(0.0, 0.0, 0.5), predefined_type="FLOOR"
+    )
+    add_box(small, "IfcBuildingElementProxy", "Stall", size_m=(1.0, 0.05, 1.8), corner_m=(0.2, 0.5, 0.5437))
+    add_box(
+        small, "IfcSlab", "Other", size_m=(1.5, 1.0, 0.05), corner_m=(3.0, 0.0, 0.5), predefined_type="FLOOR"
+    )
+    add_box(small, "IfcBuildingElementProxy", "Cabinet", size_m=(1.0, 0.5, 0.8), corner_m=(3.2, 0.2, 0.51))
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    [joint] = manifest.joints
+    assert joint.guids == (guid["Tile"], guid["Stall"])
+    assert joint.rule == "IfcBuildingElementProxy into IfcSlab, up to 20 mm"
+    assert joint.depth_m == pytest.approx(0.0063, abs=0.001)
+    [clash] = manifest.clashes
+    assert set(clash.guids) == {guid["Other"], guid["Cabinet"]}
+    assert support_predecessors(manifest.components, joints=manifest.joints)[guid["Stall"]] == {guid["Tile"]}
