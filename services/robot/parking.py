@@ -103,7 +103,7 @@ class Parking:
         context, failures = self.context, self._park_failures
         x, y = context.navigator.pose_xy_yaw[:2]
         where = f"stays at ({x:.1f}, {y:.1f})"
-        self.cycle.activity = f"cannot drive to the depot, {where}; see its log"
+        self.cycle.activity = f"not parked: no way to its depot, {where}"  # why: its log
         if failures == 1:
             _log.warning(
                 "%s: cannot drive to the depot, %s, idle, and tries again every %.0f s: %s",
