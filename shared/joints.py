@@ -48,6 +48,9 @@ class JointRule(BaseModel):
     # the clearance (a bolted end's gap to the web it frames into), so the part's erection error is taken in
     # the gap instead of pushing the member out of place. 0: contacts are not joints under this rule.
     clearance_m: float = Field(default=0.0, ge=0.0, le=0.05)
+    # the part goes first whatever the heights: what the rule's member is fitted to stands before it (a
+    # storefront is fitted under the ledger over it, not the ledger set on the storefront)
+    part_first: bool = False
     why: str = ""
 
     @field_validator("member", "part")

@@ -139,6 +139,10 @@ class Joint(_Frozen):
         ge=0.0,
         description="a framed end's erection gap: how far the part may stand off without moving the member",
     )
+    part_first: bool = Field(
+        default=False,
+        description="guids[0] goes first whatever the heights: the member is fitted to it (rule part_first)",
+    )
     bottoms_at_joint_m: tuple[float, float] | None = Field(
         default=None,
         description=(

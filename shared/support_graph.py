@@ -14,7 +14,8 @@ model draws them into each other where they are joined: ``Manifest.joints``; a f
 its part is ordered as any side contact) are ordered by one rule, the first that decides:
 
 1. the IFC's host first (the wall before what fills its opening; an element before the fastener that
-   realises its connection);
+   realises its connection), or the part a joint rule puts first (``part_first``: the ledger before the
+   storefront fitted under it);
 2. else the lower part first (its bottom lower by more than ``tolerance_m``: a footing before the column
    drawn into it), its bottom right under the joint where the converter measured it
    (``Joint.bottoms_at_joint_m``: a purlin before the sloped rafter notched over it, whose box reaches
@@ -150,7 +151,7 @@ def joint_order(joint: Joint, by_guid: Mapping[str, Component], tolerance_m: flo
     """(first, second) of a joint's two components by the rule of the module docstring: the IFC's host,
     else the lower, else the one that bears, else the larger, else the smaller GlobalId."""
     a, b = joint.guids
-    if joint.source is JointSource.RELATION and joint.directed:
+    if (joint.source is JointSource.RELATION or joint.part_first) and joint.directed:
         return a, b
     bottom_a, bottom_b = joint.bottoms_at_joint_m or (
         by_guid[a].bbox_world.min_m[2],

@@ -275,6 +275,7 @@ def _by_rule(
             source=JointSource.RULE,
             rule=rule.describe(member_class, part_class),
             directed=not either_way,
+            part_first=rule.part_first and not either_way,
         )
     return None
 

@@ -433,3 +433,44 @@ def test_a_fitting_drawn_a_few_mm_into_the_floor_finish_it_stands_on_is_a_joint_
     [clash] = manifest.clashes
     assert set(clash.guids) == {guid["Other"], guid["Cabinet"]}
     assert support_predecessors(manifest.components, joints=manifest.joints)[guid["Stall"]] == {guid["Tile"]}
+
+
+def test_a_storefront_drawn_into_the_ledger_over_it_is_fitted_under_it_and_the_ledger_comes_first(
+    tmp_path: Path,
+) -> None:
+    """A steel ledger 4 m long (250 × 380 mm) over a storefront, as the Janesville restaurant draws it: a
+    mullion 43 mm into its side and a garage door's head 30 mm into it are joints by rule, the ledger first
+    (the storefront is fitted under it). A mullion drawn through the ledger's middle is still a clash."""
+    small = new_model()
+    add_box(small, "IfcBeam", "Ledger", size_m=(4.0, 0.25, 0.38), corner_m=(0.0, 0.0, 2.74))
+    add_box(small, "IfcMember", "Mullion", size_m=(0.064, 0.127, 1.07), corner_m=(0.5, -0.084, 2.18))
+    add_box(small, "IfcDoor", "Garage door", size_m=(2.5, 0.05, 3.0), corner_m=(1.0, 0.22, 0.05))
+    add_box(small, "IfcMember", "Through", size_m=(0.064, 0.127, 1.07), corner_m=(3.7, 0.06, 2.18))
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    joints = {joint.guids: joint for joint in manifest.joints}
+    side = joints[(guid["Ledger"], guid["Mullion"])]
+    assert side.rule == "IfcMember into IfcBeam, up to 50 mm"
+    assert side.depth_m == pytest.approx(0.043, abs=0.002)
+    head = joints[(guid["Ledger"], guid["Garage door"])]
+    assert head.rule == "IfcDoor into IfcBeam, up to 100 mm"
+    assert head.depth_m == pytest.approx(0.03, abs=0.002)
+    assert [set(clash.guids) for clash in manifest.clashes] == [{guid["Ledger"], guid["Through"]}]
+    preds = support_predecessors(manifest.components, joints=manifest.joints)
+    assert guid["Ledger"] in preds[guid["Garage door"]]
+    assert guid["Ledger"] in preds[guid["Mullion"]]
+
+
+def test_a_ceiling_run_into_a_transom_window_that_rises_above_it_is_cut_round_it(tmp_path: Path) -> None:
+    """A 54 mm ceiling hung 2.7 m up whose edge runs 24 mm into a transom window rising from 2.55 m to
+    3.85 m, as the Janesville restaurant draws it: a joint by rule, the window first."""
+    small = new_model()
+    add_box(small, "IfcWindow", "Transom", size_m=(1.0, 0.15, 1.3), corner_m=(0.0, 0.0, 2.55))
+    add_box(small, "IfcCovering", "Ceiling", size_m=(3.0, 3.0, 0.054), corner_m=(-1.0, -2.976, 2.7))
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    assert manifest.clashes == []
+    [joint] = manifest.joints
+    assert joint.guids == (guid["Transom"], guid["Ceiling"])
+    assert joint.rule == "IfcCovering into IfcWindow, up to 50 mm"
+    assert joint.depth_m == pytest.approx(0.024, abs=0.002)
