@@ -51,6 +51,9 @@ class JointRule(BaseModel):
     # the part goes first whatever the heights: what the rule's member is fitted to stands before it (a
     # storefront is fitted under the ledger over it, not the ledger set on the storefront)
     part_first: bool = False
+    # only a member shaped as a bar (a rod, strut or hanger: its oriented box at least ten times longer than
+    # wide), whatever class it was exported as; not a cabinet or a fitting of the same class
+    slender: bool = False
     why: str = ""
 
     @field_validator("member", "part")

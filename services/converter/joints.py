@@ -46,6 +46,7 @@ from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.joints import CLASH_DEPTH_M, JointRule, JointSettings
 from bimbot.shared.manifest import Clash, Component, Joint, JointSource
 
+from .bars import BarShapes
 from .connections import element_connections
 from .notches import notched_round
 from .overlaps import Overlap, measure_overlaps
@@ -95,6 +96,7 @@ def find_joints(
         return JointsFound(joints, [])
     by_guid = {component.guid: component for component in components}
     related = relations(model, components)
+    bars = BarShapes(out_dir)
     clashes: list[Clash] = []
     for overlap in overlaps:
         relation = related.get(frozenset((overlap.first, overlap.second)))
@@ -109,7 +111,7 @@ def find_joints(
             joints.append(_with_bottoms(related_joint, overlap))
             continue
         first, second = by_guid[overlap.first], by_guid[overlap.second]
-        joint = _by_rule(overlap, first, second, settings.rule, classes)
+        joint = _by_rule(overlap, first, second, settings.rule, classes, bars=bars)
         joint = joint or _cast_around(overlap, first, second) or _fitted_to_existing(overlap, first, second)
         joint = joint or notched_round(overlap, first, second)
         if joint is not None:
@@ -258,11 +260,19 @@ def _part_first(
 
 
 def _by_rule(
-    overlap: Overlap, a: Component, b: Component, rules: Iterable[JointRule], classes: _ClassTree
+    overlap: Overlap,
+    a: Component,
+    b: Component,
+    rules: Iterable[JointRule],
+    classes: _ClassTree,
+    *,
+    bars: BarShapes,
 ) -> Joint | None:
     """The joint the first fitting rule makes of ``overlap`` (either way round), or None."""
     for rule, member, part, member_class, part_class in _fitting(rules, a, b, classes):
         if overlap.depth_m > rule.max_depth_m:
+            continue
+        if rule.slender and not bars.is_bar(member):
             continue
         if rule.at_end and not at_an_end(member, overlap.region_m, rule.max_depth_m + END_TOLERANCE_M):
             continue

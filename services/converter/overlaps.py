@@ -192,7 +192,7 @@ def _parts(p: Any, cid: int, component: Component, out_dir: Path) -> list[_Part]
     parts: list[_Part] = []
     for name in component.files.collision:
         try:
-            vertices = _obj_vertices(out_dir / name)
+            vertices = obj_vertices(out_dir / name)
         except (OSError, ValueError) as error:
             _log.debug("%s: collision part %s not read (%s)", component.guid, name, error)
             continue
@@ -226,7 +226,8 @@ def inset_by_margin(vertices: np.ndarray, margin_m: float = HULL_MARGIN_M) -> np
     return (vertices - centre) * scale + centre
 
 
-def _obj_vertices(path: Path) -> np.ndarray:
+def obj_vertices(path: Path) -> np.ndarray:
+    """The vertices of a Wavefront OBJ mesh (its ``v`` lines), in its own frame."""
     lines = path.read_text(encoding="utf-8").splitlines()
     rows = [line.split()[1:4] for line in lines if line.startswith("v ")]
     if not rows:

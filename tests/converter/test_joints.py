@@ -474,3 +474,39 @@ def test_a_ceiling_run_into_a_transom_window_that_rises_above_it_is_cut_round_it
     assert joint.guids == (guid["Transom"], guid["Ceiling"])
     assert joint.rule == "IfcCovering into IfcWindow, up to 50 mm"
     assert joint.depth_m == pytest.approx(0.024, abs=0.002)
+
+
+def _slanted_rod(
+    small: SmallModel, name: str, *, length_m: float, foot_m: tuple[float, float, float]
+) -> None:
+    """A proxy 30 mm square and ``length_m`` long from ``foot_m``, leaning 45° towards +y."""
+    rod = ifcopenshell.api.root.create_entity(small.file, ifc_class="IfcBuildingElementProxy", name=name)
+    body = ifcopenshell.api.geometry.add_wall_representation(
+        small.file, context=small.body, length=0.03, height=length_m, thickness=0.03
+    )
+    ifcopenshell.api.geometry.assign_representation(small.file, product=rod, representation=body)
+    turn = np.radians(-45.0)
+    matrix = np.eye(4)
+    matrix[1:3, 1:3] = [[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]]
+    matrix[:3, 3] = foot_m
+    place(small, rod, matrix, small.storey)
+
+
+def test_a_hanger_rod_drawn_through_the_deck_it_carries_is_a_joint_and_a_block_a_clash(
+    tmp_path: Path,
+) -> None:
+    """A canopy's hanger, exported as a proxy and shaped as a bar (30 mm square, 3.7 m long on the slant),
+    its foot drawn 70 mm down into a 180 mm deck, as the Janesville restaurant draws it: a joint by the
+    rule for bars, the deck first. A block of the same class drawn as deep into the deck is still a clash."""
+    small = new_model()
+    add_box(small, "IfcSlab", "Deck", size_m=(3.0, 3.0, 0.18), corner_m=(0.0, 0.0, 2.77))
+    _slanted_rod(small, "Hanger", length_m=3.7, foot_m=(1.0, 0.2, 2.88))
+    add_box(small, "IfcBuildingElementProxy", "Block", size_m=(0.3, 0.3, 0.5), corner_m=(2.2, 1.5, 2.84))
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    [joint] = manifest.joints
+    assert joint.guids == (guid["Deck"], guid["Hanger"])
+    assert joint.rule == "IfcBuildingElementProxy into IfcSlab, up to 150 mm"
+    [clash] = manifest.clashes
+    assert set(clash.guids) == {guid["Deck"], guid["Block"]}
+    assert support_predecessors(manifest.components, joints=manifest.joints)[guid["Hanger"]] == {guid["Deck"]}
