@@ -157,6 +157,9 @@ def test_bimbot_run_names_its_profile_and_passes_only_what_the_user_changed() ->
     assert changed[-5:] == ["--physics-hz", "240.0", "--no-lock-step", "--seed", "7"]
     unconnected = physics_arguments(Path("OUT"), RunOptions(connections=False))
     assert unconnected[-len(seeded) - 1 :] == ["--no-connections", *seeded]
+    patient = physics_arguments(Path("OUT"), RunOptions(clock_stall_wall_s=900.0))
+    at = patient.index("--wait-for-robots-s")  # the clock waits for the planner as long as the run does
+    assert patient[at + 1] == "900" and "--wait-for-robots-s" not in plain
 
 
 def test_connections_are_made_unless_the_user_says_no_connections() -> None:

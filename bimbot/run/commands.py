@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from bimbot.run.options import ObserverOptions, RunOptions, service_flags
+from bimbot.run.watchdog import DEFAULT_CLOCK_STALL_WALL_S
 from bimbot.services.physics.profiles import PROFILES
 from bimbot.shared.bus import BusOptions
 from bimbot.shared.bus_access import robot_user
@@ -38,6 +39,8 @@ def physics_arguments(build: Path, options: RunOptions) -> list[str]:
     (:func:`~bimbot.run.options.service_flags`)."""
     arguments = ["physics", "--build", str(build), "--wait-for-planner"]  # its start-up is not sim time
     arguments += service_flags("physics", options)  # the tolerances too: physics serves them to every service
+    if 0.0 < options.clock_stall_wall_s != DEFAULT_CLOCK_STALL_WALL_S:  # the clock waits as long as the run
+        arguments += ["--wait-for-robots-s", f"{options.clock_stall_wall_s:g}"]
     if stepped(options):  # the planner and the agents answer each step too (reproducible runs)
         arguments += ["--step-with", ",".join(stepped_participants(options))]
         arguments += ["--lock-step-timeout-s", f"{HOLD_S:g}"]  # a loaded machine is not a hang

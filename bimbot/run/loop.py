@@ -183,7 +183,14 @@ class RunWatch:
     def _details(self) -> tuple[str, ...]:
         monitor = self.monitor
         robots = [s.name.removeprefix("robot-") for s in self.everyone if s.name.startswith("robot-")]
-        details = stall_details(monitor.robots, monitor.tasks, monitor.states, monitor.names, expected=robots)
+        details = stall_details(
+            monitor.robots,
+            monitor.tasks,
+            monitor.states,
+            monitor.names,
+            expected=robots,
+            planner_ready=monitor.progress is not None,
+        )
         return tuple(details)
 
 

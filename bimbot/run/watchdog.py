@@ -25,6 +25,10 @@ from bimbot.shared.messages import ComponentState, RobotStateMsg, TaskMsg, TaskS
 
 DEFAULT_STALL_AFTER_S = 1500.0  # sim seconds without a change on the site (above every lower watchdog)
 DEFAULT_CLOCK_STALL_WALL_S = 300.0  # wall seconds without the clock advancing (covers start-up: ≤ 120 s)
+PLANNER_NOT_READY = (
+    "the planner never said it was ready (no progress on the bus): it was still preparing its plan (a large "
+    "build or a busy machine: give it longer with --stall-wall-s) or it hung; see logs/planner.log"
+)
 _SETTLED = (ComponentState.PLANNED, ComponentState.CONSTRUCTED, ComponentState.FAILED, ComponentState.BLOCKED)
 
 
@@ -88,11 +92,15 @@ def stall_details(
     states: Mapping[str, ComponentState],
     names: Mapping[str, str | None],
     expected: Sequence[str] = (),
+    *,
+    planner_ready: bool = True,
 ) -> list[str]:
     """One line per robot (its last state message: state, task, component, activity; a robot of
     ``expected`` that never said a word: that, and where its log is) and per open task or component in
-    progress (assigned to whom, in which state)."""
-    lines = [
+    progress (assigned to whom, in which state); first, unless ``planner_ready``, that the planner never
+    said it was ready."""
+    lines = [] if planner_ready else [PLANNER_NOT_READY]
+    lines += [
         f"robot {robot_id}: never said it was up (no state on the bus): its process hung or failed while "
         f"starting; see logs/robot-{robot_id}.log"
         for robot_id in expected

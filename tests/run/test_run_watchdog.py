@@ -3,7 +3,7 @@ and a clock that stops is caught by the wall-time bound; the stall details name 
 
 from __future__ import annotations
 
-from bimbot.run.watchdog import StallWatchdog, stall_details
+from bimbot.run.watchdog import PLANNER_NOT_READY, StallWatchdog, stall_details
 from bimbot.shared.messages import ComponentState, PoseMsg, RobotState, RobotStateMsg, TaskMsg, TaskStatus
 
 
@@ -136,3 +136,17 @@ def test_a_robot_that_never_came_up_is_named_in_the_stall_details() -> None:
         "see logs/robot-r2.log"
     )
     assert lines[1].startswith("robot r1: idle") and len(lines) == 2
+
+
+def test_a_planner_still_preparing_at_the_stall_is_named_first_with_what_to_do() -> None:
+    """The restaurant on a loaded machine: the planner's plan-time access check ran past the wall bound, the
+    robots idled at sim 0, and the details named only the robots."""
+    robots = {
+        "r1": RobotStateMsg(
+            robot_id="r1", state=RobotState.IDLE, pose_xy_yaw=(0, 0, 0), sim_time_s=0, wall_time_s=0
+        )
+    }
+    lines = stall_details(robots, {}, {}, {}, planner_ready=False)
+    assert lines[0] == PLANNER_NOT_READY and "--stall-wall-s" in lines[0]
+    assert lines[1].startswith("robot r1: idle")
+    assert PLANNER_NOT_READY not in stall_details(robots, {}, {}, {})
