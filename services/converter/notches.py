@@ -5,11 +5,15 @@ partition that rises through it; on site the deck is delivered or laid with a bl
 is no end in a support, and its depth is no measure of anything (the shortest move that parts them lifts
 the deck over the upright's top: the Janesville restaurant's 38 mm roof plank through a post reads 729 mm
 deep), so no depth rule can tell it from a clash. The shape does: the overlap spans the deck's whole
-thickness, the upright rises past the deck, and the overlap is a small part of the deck's plan. The upright
-stands first; the deck is set round it.
+thickness, the upright rises past the deck, and the overlap is a small part of the deck's plan (the area it
+covers seen from above, for a wall crossing on the slant as much as square). The upright stands first; the
+deck is set round it.
 """
 
 from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 from bimbot.shared.manifest import Component, Joint, JointSource
 
@@ -19,7 +23,7 @@ DECK_CLASSES = ("IfcSlab", "IfcRoof", "IfcCovering", "IfcPlate")
 DECK_MAX_THICKNESS_M = 0.5  # a deck: a plank, a finish, a slab (its box's height, so level ones only)
 THROUGH_TOLERANCE_M = 0.005  # the overlap reaches the deck's faces within this
 PAST_THE_DECK_M = 0.05  # the upright rises (or reaches down) at least this far past the deck's faces
-MAX_PLAN_SHARE = 0.25  # the overlap's plan box is at most this share of the deck's plan box
+MAX_PLAN_SHARE = 0.25  # the overlap's plan (its hull) is at most this share of the deck's plan box
 
 
 def notched_round(overlap: Overlap, a: Component, b: Component) -> Joint | None:
@@ -54,6 +58,17 @@ def _passes_through(overlap: Overlap, deck: Component, upright: Component) -> bo
     spans = spans and region[:, 2].max() >= deck_high[2] - THROUGH_TOLERANCE_M
     if not spans:
         return False
-    plan = region[:, :2].max(axis=0) - region[:, :2].min(axis=0)
     deck_plan = (deck_high[0] - deck_low[0]) * (deck_high[1] - deck_low[1])
-    return float(plan[0] * plan[1]) <= MAX_PLAN_SHARE * deck_plan
+    return plan_area_m2(region) <= MAX_PLAN_SHARE * deck_plan
+
+
+def plan_area_m2(region_world_m: np.ndarray) -> float:
+    """The plan area the overlap covers: its vertices' convex hull seen from above (a wall crossing a deck
+    on the slant covers a strip, not the box around it); a region flat in plan covers none."""
+    points = np.unique(region_world_m[:, :2].round(6), axis=0)
+    if len(points) < 3:
+        return 0.0
+    try:
+        return float(ConvexHull(points).volume)  # a 2-D hull's "volume" is its area
+    except QhullError:  # all on one line
+        return 0.0

@@ -510,3 +510,22 @@ def test_a_hanger_rod_drawn_through_the_deck_it_carries_is_a_joint_and_a_block_a
     [clash] = manifest.clashes
     assert set(clash.guids) == {guid["Deck"], guid["Block"]}
     assert support_predecessors(manifest.components, joints=manifest.joints)[guid["Hanger"]] == {guid["Deck"]}
+
+
+def test_a_deck_crossed_on_the_slant_by_a_wall_rising_through_it_is_cut_round_it(tmp_path: Path) -> None:
+    """A 200 mm deck (4 × 2 m) crossed at 30° by a 300 mm wall rising from under it to 300 mm above it, as
+    the Janesville restaurant's bridge crosses its courtyard wall: the strip the wall covers is about a
+    sixth of the deck's plan, though the box round it is most of it. The deck is cut round the wall."""
+    small = new_model()
+    add_box(small, "IfcSlab", "Deck", size_m=(4.0, 2.0, 0.2), corner_m=(0.0, 0.0, 3.7))
+    slant = np.radians(30.0)
+    turn = np.eye(4)  # the wall's length along (cos 30°, sin 30°), its middle over the deck's
+    turn[:2, :2] = [[np.cos(slant), -np.sin(slant)], [np.sin(slant), np.cos(slant)]]
+    turn[:3, 3] = (2.0 - 3.0 * np.cos(slant), 1.0 - 3.0 * np.sin(slant), 3.2)
+    add_wall(small, "Wall", length_m=6.0, height_m=1.0, thickness_m=0.3, matrix_m=turn)
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    assert manifest.clashes == []
+    [joint] = manifest.joints
+    assert joint.source is JointSource.NOTCHED
+    assert joint.guids == (guid["Wall"], guid["Deck"])
