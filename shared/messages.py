@@ -241,6 +241,9 @@ class TaskStatus(StrEnum):
 class TaskKind(StrEnum):
     BUILD = "build"  # pick the component up and place it at its BIM target
     HAND_OFF = "hand_off"  # carry it to ``put_down_xy_m`` (a crane's staging spot) and put it down there
+    # a failed component's body lies in the robots' way: carry it from where it lies to ``put_down_xy_m``
+    # (its yard slot) and put it down there; its state and reason stay failed (it is still not built)
+    CLEAR = "clear"
 
 
 class TaskMsg(_Message):
@@ -279,6 +282,18 @@ class RobotState(StrEnum):
     WORK_IN_PLACE = "work_in_place"  # cast in place or laid: timed work at the component's target
 
 
+class ClearOutcome(_Message):
+    """How a robot's clear-away task ended (``TaskKind.CLEAR``): the load put down where it was to go
+    (``ok``), or given back with ``reason``. Repeated on the robot's state messages until its next task
+    starts: the planner applies each ``task_id`` once."""
+
+    task_id: str
+    guid: str
+    ok: bool
+    sim_time_s: SimTime  # when it ended (put down, or given up)
+    reason: Reason | None = None  # not ok: why
+
+
 class RobotStateMsg(_Message):
     robot_id: str
     state: RobotState
@@ -296,6 +311,7 @@ class RobotStateMsg(_Message):
     # a ground robot walled in (no way to its depot start, where ``pose_xy_yaw`` says): since this sim time;
     # None again once it drove out. The planner gives it no new task meanwhile.
     walled_in_since_s: SimTime | None = None
+    cleared: ClearOutcome | None = None  # the last clear-away task's end, until the next task starts
 
 
 class CmdVelMsg(_Message):

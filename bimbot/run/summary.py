@@ -134,6 +134,25 @@ def walled_in_lines(robots: dict[str, Any]) -> list[str]:
     return lines
 
 
+def clear_away_line(components: list[dict[str, Any]]) -> str | None:
+    """``cleared out of the robots' way: Ledger L1 by r2 at 3157400 s (took 412 s); …``: the failed bodies
+    carried to the yard, and those left in the way with why (None: no failed body lay in the way)."""
+    parts = []
+    for component in components:
+        entry = component.get("cleared_away")
+        if not entry:
+            continue
+        name = component.get("name") or component["guid"]
+        if entry.get("cleared"):
+            parts.append(
+                f"{name} by {entry['robot_id']} at {entry['cleared_s']:.0f} s (took {entry['took_s']:.0f} s)"
+            )
+        elif entry.get("cleared") is False:
+            why = (entry.get("reason") or {}).get("message", "")
+            parts.append(f"{name} NOT cleared: {why}")
+    return "failed bodies cleared out of the robots' way: " + "; ".join(parts) if parts else None
+
+
 def summary_text(outcome: RunOutcome) -> str:
     totals = outcome.report.get("totals", {})
     ending = outcome.ending
@@ -149,6 +168,9 @@ def summary_text(outcome: RunOutcome) -> str:
     walled_in = walled_in_lines(outcome.report.get("robots", {}))
     if walled_in:
         lines.append("walled in (no way to its depot start): " + "; ".join(walled_in))
+    cleared = clear_away_line(outcome.report.get("components", []))
+    if cleared is not None:
+        lines.append(cleared)
     methods = method_line(totals)
     if methods:
         lines.append(methods)

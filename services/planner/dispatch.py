@@ -11,6 +11,7 @@ it only when no other robot can take it.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from functools import partial
 
 from bimbot.shared.manifest import Component
@@ -38,10 +39,19 @@ class Dispatch:
     """Assigns released tasks to idle robots (in the records of ``state``); sends each assignment through
     ``outbox``, and fails through ``failures`` a component handed off too often."""
 
-    def __init__(self, state: PlannerState, outbox: Outbox, failures: Failures) -> None:
+    def __init__(
+        self,
+        state: PlannerState,
+        outbox: Outbox,
+        failures: Failures,
+        *,
+        holds: Callable[[TaskRecord], bool] = lambda _task: False,
+    ) -> None:
+        """``holds``: whether a released task waits for a failed body to be cleared out of the way."""
         self._state = state
         self._outbox = outbox
         self._failures = failures
+        self._holds = holds
         # (robot, component, where it lies) → whether the robot can build it from there: asked for every
         # released task and robot at every step, and unchanged while the site's robots are the same
         self._able: dict[tuple[str, str, Where], bool] = {}
@@ -68,6 +78,8 @@ class Dispatch:
             task = state.tasks[guid]
             component = state.components[guid]
             if task.phase is not Phase.RELEASED or component.state is not ComponentState.RELEASED:
+                continue
+            if self._holds(task):
                 continue
             idle = [robot for robot in state.robots.values() if self._is_idle(robot)]
             if not idle:
@@ -100,6 +112,8 @@ class Dispatch:
             task = state.tasks[guid]
             component = state.components[guid]
             if task.phase is not Phase.RELEASED or component.state is not ComponentState.RELEASED:
+                continue
+            if self._holds(task):
                 continue
             if not any(self._is_idle(robot) for robot in state.robots.values()):
                 return

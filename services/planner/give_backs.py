@@ -10,6 +10,7 @@ so what it gave back goes to the others.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from functools import partial
 
 from bimbot.shared.messages import ComponentEvent, ComponentState, TaskStatus
@@ -26,10 +27,20 @@ _log = logging.getLogger(__name__)
 class GiveBacks:
     """Gives tasks back and counts give-backs per component and per robot (in the records of ``state``)."""
 
-    def __init__(self, state: PlannerState, outbox: Outbox, failures: Failures) -> None:
+    def __init__(
+        self,
+        state: PlannerState,
+        outbox: Outbox,
+        failures: Failures,
+        *,
+        holds: Callable[[TaskRecord], bool] = lambda _task: False,
+    ) -> None:
+        """``holds``: whether a task waits for a failed body to be cleared out of the way
+        (:meth:`.clear_away.ClearAways.holds`): it does not fail at the bound meanwhile."""
         self._state = state
         self._outbox = outbox
         self._failures = failures
+        self._holds = holds
 
     def give_back(self, guid: str, why: str, reason: Reason | None = None) -> None:
         """Take a task back from its robot (lost, or no progress); ``reason`` counts it as a give-back."""
@@ -80,7 +91,9 @@ class GiveBacks:
             task.hand_offs_given_back += 1
         limit = self._state.limits.max_give_backs
         _log.warning("%s given back (%d of %d): %s", task.guid, task.give_backs, limit, reason.line())
-        if task.give_backs >= limit:
+        if task.give_backs >= limit and self._holds(task):
+            _log.warning("%s waits for a failed body to be cleared out of the way before it fails", task.guid)
+        elif task.give_backs >= limit:
             message = f"given back {task.give_backs} times; last: {reason.message}"
             self._failures.fail(task.guid, reason.model_copy(update={"message": message[:2000]}))
 

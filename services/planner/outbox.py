@@ -24,7 +24,8 @@ _log = logging.getLogger(__name__)
 
 class Outbox:
     """The messages of the next step (owns the queued task messages and the pending events/assignments,
-    keyed ``(guid, "event")`` and ``(guid, "task")``); reads the records and clocks of ``state``."""
+    keyed ``(guid, "event")``, ``(guid, "task")`` and ``(guid, "clear")``); reads the records and clocks
+    of ``state``."""
 
     def __init__(
         self,
@@ -87,6 +88,15 @@ class Outbox:
     def send_assignment(self, task: TaskRecord, settled: Callable[[], bool]) -> None:
         """Send ``task`` as assigned to its robot until ``settled()``."""
         self._pending[(task.guid, "task")] = Pending(self.task_msg(task, TaskStatus.ASSIGNED), settled)
+
+    def send_until(self, guid: str, key: str, message: TaskMsg, settled: Callable[[], bool]) -> None:
+        """Send ``message`` (a task of another kind than ``guid``'s own, keyed ``key``) until
+        ``settled()``."""
+        self._pending[(guid, key)] = Pending(message, settled)
+
+    def queue(self, message: TaskMsg) -> None:
+        """Send ``message`` once, at the next step."""
+        self._queued.append(message)
 
     def withdraw(self, guid: str, key: str) -> None:
         """Stop sending ``guid``'s pending ``key`` ("event" or "task"), if any."""

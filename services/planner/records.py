@@ -120,6 +120,8 @@ class ComponentRecord:
     state: ComponentState = ComponentState.PLANNED
     attempt: int = 0
     position_xy: tuple[float, float] | None = None  # last pose, world frame (m)
+    # the last pose of its frame, world frame (position m, quaternion xyzw): where a failed body lies
+    pose: tuple[tuple[float, float, float], tuple[float, float, float, float]] | None = None
     last: tuple[object, ...] | None = field(default=None, repr=False)  # last state message applied
     # agent's wall clock of the newest transition applied: older news (a late twin answer) is not applied
     changed_wall_s: float = float("-inf")

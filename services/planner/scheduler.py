@@ -69,6 +69,7 @@ from bimbot.shared.messages import (
 from bimbot.shared.reasons import Reason
 
 from .capability import SiteRobot
+from .clear_away import ClearAways
 from .curing import CuringHolds, Hold, constructed_time_s
 from .dispatch import Dispatch
 from .failures import Failures
@@ -111,7 +112,8 @@ class PlannerCore:
         self._state = state
         self._outbox = Outbox(state, resend_s=resend_s, new_id=new_id)
         self._failures = Failures(state, self._outbox)
-        self._give_backs = GiveBacks(state, self._outbox, self._failures)
+        self._clear_aways = ClearAways(state, self._outbox)
+        self._give_backs = GiveBacks(state, self._outbox, self._failures, holds=self._clear_aways.holds)
         self._watchdog = Watchdog(state, self._give_backs)
         # when each cast component was constructed: the follow-up records it, the release waits for it
         self._curing = CuringHolds(
@@ -119,7 +121,7 @@ class PlannerCore:
         )
         self._release = Release(state, self._outbox, self._curing)
         self._follow_up = FollowUp(state, self._outbox, self._curing, self._failures, self._give_backs)
-        self._dispatch = Dispatch(state, self._outbox, self._failures)
+        self._dispatch = Dispatch(state, self._outbox, self._failures, holds=self._clear_aways.holds)
         self._quiet = Quiet(state, self._outbox, self._release, self._watchdog)
 
     @property
@@ -191,6 +193,7 @@ class PlannerCore:
             pose = twin.current_pose
             item = self._state.manifest[twin.guid]
             component.position_xy = body_centre_xy(item, pose.position_m, pose.quat_xyzw)
+            component.pose = (pose.position_m, pose.quat_xyzw)
         event = twin.history[-1].event if twin.history else "sync"
         self._follow_up.apply(
             twin.guid,
@@ -208,6 +211,7 @@ class PlannerCore:
             pose = msg.pose
             item = self._state.manifest[msg.guid]
             component.position_xy = body_centre_xy(item, pose.position_m, pose.quat_xyzw)
+            component.pose = (pose.position_m, pose.quat_xyzw)
             self.observe_clock(msg.sim_time_s)
 
     def observe_robot_state(self, msg: RobotStateMsg) -> None:
@@ -238,6 +242,7 @@ class PlannerCore:
                 _log.info("%s can move again (at (%.2f, %.2f)): it takes tasks again", msg.robot_id, x, y)
         robot.walled_in_since_s = msg.walled_in_since_s
         self.observe_clock(msg.sim_time_s)
+        self._clear_aways.observe_robot(msg)
 
     def robot_liveliness(self, robot_id: str, alive: bool) -> None:
         """A robot's liveliness token appeared (``alive``) or disappeared (its task is given back)."""
@@ -283,6 +288,7 @@ class PlannerCore:
         self._give_backs.give_back_lost()
         self._watchdog.watch()
         self._release.release_ready()
+        self._clear_aways.step()  # before the build tasks: a body in the way first
         self._dispatch.assign()
         return self._outbox.due(wall_time_s)
 
@@ -294,7 +300,13 @@ class PlannerCore:
 
     @property
     def done(self) -> bool:
-        return self._state.done
+        """Every task final, and no failed body being carried out of the way."""
+        return self._state.done and not self._clear_aways.in_flight()
+
+    @property
+    def clear_aways(self) -> ClearAways:
+        """The clear-aways of failed bodies in the robots' way (:mod:`.clear_away`)."""
+        return self._clear_aways
 
     def confirmed(self) -> bool:
         """Whether every component's agent said it is terminal (constructed, failed, blocked): a planner

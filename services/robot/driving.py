@@ -106,7 +106,9 @@ class Driving:
             return False
         if task.approach is not None and status is NavStatus.FAILED and footprint is not None:
             here = navigator.pose_xy_yaw[:2]
-            blocks = context.site_map.blocks(footprint)
+            # a load to be taken up need not be kept clear of: a robot held where it stands by the very
+            # body it is to pick up (it fell beside it) takes it from there
+            blocks = context.site_map.blocks(footprint) and self.cycle.state is not _S.PICK_UP
             if within_reach(footprint, here, blocks_band=blocks, config=context.approach_config):
                 return True  # not on the stand-point, but the reach rule holds here: close enough
         if task.approach is not None and status is NavStatus.FAILED:

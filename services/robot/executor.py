@@ -84,7 +84,7 @@ from .site_map import MapConfig
 from .site_work import SiteWorkExecutor
 from .task_cycle import TaskCycle
 from .task_machine import TaskMachine, Trigger
-from .task_state import ExecutorConfig, Task, component_name, put_down_footprint
+from .task_state import ExecutorConfig, Task, component_name, put_down_target
 
 _log = logging.getLogger(__name__)
 
@@ -316,15 +316,16 @@ class Executor:
             if assignment in self.performed or message.guid not in self.components:
                 continue
             known = self.component_states.state(message.guid)
-            if known is not None and known is not _C.RELEASED:
+            expected = _C.FAILED if message.kind is TaskKind.CLEAR else _C.RELEASED
+            if known is not None and known is not expected:
                 continue  # the assignment is ahead of the component's release: wait for it
             self.performed.add(assignment)
             component = self.components[message.guid]
             target = component.target_pose_world
             footprint = posed_footprint(component, target.position_m, target.quat_xyzw)
-            if message.kind is TaskKind.HAND_OFF and message.put_down_xy_m is not None:
-                footprint = put_down_footprint(message.put_down_xy_m)
-            self.cycle.task = Task(message, component, footprint, EventQueue(self.config.resend_s))
+            if message.kind is not TaskKind.BUILD and message.put_down_xy_m is not None:
+                footprint = put_down_target(self.site_map.layout, message)
+            self.cycle.start(Task(message, component, footprint, EventQueue(self.config.resend_s)))
             if self.parking is not None:
                 self.parking.task_started()
             self.navigator.cancel()
@@ -358,7 +359,8 @@ class Executor:
             return self.handover.give_up(task, unreachable)
         if carrier is None and footprint is not None and not self.getting_there.approach(task, footprint):
             return None
-        self.context.queue_event(task, _E.PICK)
+        if task.message.kind is not TaskKind.CLEAR:  # a failed component hears of no clear-away
+            self.context.queue_event(task, _E.PICK)
         self.cycle.fire(Trigger.LOCATED)
         return None
 
@@ -375,7 +377,7 @@ class Executor:
     def _to_target(self, task: Task) -> None:
         if not self.getting_there.drive(task, task.target):
             return
-        if task.message.kind is TaskKind.HAND_OFF:  # at the staging spot: put it down there
+        if task.message.kind is not TaskKind.BUILD:  # at the staging spot or yard slot: put it down there
             if task.request is None and not task.events.unconfirmed & {_E.ATTACH}:
                 drop = DropRequest(
                     robot_id=self.robot_id, guid=task.message.guid, near_xy_m=task.message.put_down_xy_m

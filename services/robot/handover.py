@@ -7,7 +7,8 @@ out without blocking (:class:`~.protocol.PhysicsRequest`; replies come back to
 give the task back (``physics_refused``, physics' reason quoted). Giving back
 (:meth:`Handover.give_back`): a robot that carries the component first asks physics to put it down
 (``drop``: it rests beside the robot, free for any robot), then sends ``abandon`` with the reason
-(:meth:`Handover.give_up`), which the agent applies (back to released).
+(:meth:`Handover.give_up`), which the agent applies (back to released). A clear-away (a failed component
+carried out of the way) sends no component event: how it ended goes on the robot's state.
 """
 
 from __future__ import annotations
@@ -173,8 +174,10 @@ class Handover:
         return navigator.pose_xy_yaw
 
     def attached(self, task: Task) -> None:
-        """The component is on the robot: ``attach``, and on to its target (a fresh count of tries)."""
-        self.context.queue_event(task, _E.ATTACH)
+        """The component is on the robot: ``attach``, and on to its target (a fresh count of tries); a
+        clear-away tells the failed component nothing."""
+        if task.message.kind is not TaskKind.CLEAR:
+            self.context.queue_event(task, _E.ATTACH)
         self.cycle.fire(Trigger.ATTACHED)
         task.tries, task.reselections, task.approach, task.retry_at_s = 0, 0, None, -math.inf
         task.failed_xy_m, task.misses = [], 0
@@ -190,7 +193,10 @@ class Handover:
             return
         kind, task.request = task.request.kind, None
         if result.reply is not None and result.reply.ok:
-            if kind == "drop" and task.dropping is None and task.message.kind is TaskKind.HAND_OFF:
+            if kind == "drop" and task.dropping is None and task.message.kind is TaskKind.CLEAR:
+                _log.info("%s: put %s down at its yard slot, out of the way", robot_id, task.message.guid)
+                cycle.clear_ended(ok=True)
+            elif kind == "drop" and task.dropping is None and task.message.kind is TaskKind.HAND_OFF:
                 _log.info("%s: put %s down at the staging spot", robot_id, task.message.guid)
                 task.handed_off = True
                 context.queue_event(task, _E.HAND_OFF)
@@ -302,6 +308,10 @@ class Handover:
         self.given_back.append((task.message.guid, reason))
         if reason.code is ReasonCode.ROBOT_TRAPPED and context.cut_off_from_depot():
             self.cycle.walled_in(reason.message)
+        if (
+            task.message.kind is TaskKind.CLEAR
+        ):  # its component is failed: the planner hears it from the robot
+            return self.cycle.clear_ended(ok=False, reason=reason)
         if _E.PICK not in task.events.queued:
             context.queue_event(task, _E.PICK)  # abandon is only legal once the component is picking
         context.queue_event(task, _E.ABANDON, reason=reason)

@@ -13,7 +13,8 @@ from __future__ import annotations
 import logging
 import math
 
-from bimbot.shared.messages import ComponentState, RobotState, RobotStateMsg
+from bimbot.shared.messages import ClearOutcome, ComponentState, RobotState, RobotStateMsg
+from bimbot.shared.reasons import Reason
 
 from .protocol import Outgoing
 from .robot_context import RobotContext
@@ -36,7 +37,8 @@ class TaskCycle:
         self.activity = ""  # what an idle robot is up to, in words, when it matters (its state message)
         self.state_since_s = 0.0  # sim time of the last task state change (the task watchdog)
         self.walled_in_since_s: float | None = None  # no way to the depot start since (its state says so)
-        self._last_state: tuple[RobotState, str | None, float | None] | None = None
+        self.cleared: ClearOutcome | None = None  # how the last clear-away ended, said until the next task
+        self._last_state: tuple[RobotState, str | None, float | None, str | None] | None = None
         self._last_state_wall_s = -math.inf
 
     @property
@@ -56,7 +58,30 @@ class TaskCycle:
             distance_m=context.distance_m,
             activity="" if task else self.activity,
             walled_in_since_s=self.walled_in_since_s,
+            cleared=self.cleared,
         )
+
+    def start(self, task: Task) -> None:
+        """``task`` is the task in hand now (the last clear-away's end has been said long enough)."""
+        self.task, self.cleared = task, None
+
+    def clear_ended(self, ok: bool, reason: Reason | None = None) -> None:
+        """The clear-away in hand is over: its load lies at its yard slot (``ok``), or it is given back
+        with ``reason``; the state messages say so until the next task starts, and the robot is idle."""
+        task, context = self.task, self.context
+        assert task is not None
+        self.cleared = ClearOutcome(
+            task_id=task.message.task_id,
+            guid=task.message.guid,
+            ok=ok,
+            sim_time_s=context.sim_s,
+            reason=reason,
+        )
+        if ok:
+            self.moved_out(f"it carried {task.message.guid} out of the way")
+        context.navigator.cancel()
+        self.task = None
+        self.fire(Trigger.HANDED_OFF if ok else Trigger.ABORTED)
 
     def walled_in(self, why: str) -> None:
         """The robot found no way to its depot start (``why``): its state says since when and where it
@@ -128,10 +153,11 @@ class TaskCycle:
             self.outbox.append(self.state_message(wall_s))
             self._last_state, self._last_state_wall_s = signature, wall_s
 
-    def _signature(self) -> tuple[RobotState, str | None, float | None]:
+    def _signature(self) -> tuple[RobotState, str | None, float | None, str | None]:
         """What a state message says that, changed, is said at once."""
         task = self.task
-        return (self.machine.state, task.message.task_id if task else None, self.walled_in_since_s)
+        cleared = self.cleared.task_id if self.cleared is not None else None
+        return (self.machine.state, task.message.task_id if task else None, self.walled_in_since_s, cleared)
 
     def take_outbox(self) -> list[Outgoing]:
         out, self.outbox = self.outbox, []

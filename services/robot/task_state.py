@@ -15,8 +15,9 @@ import numpy as np
 
 from bimbot.shared.footprint import Footprint
 from bimbot.shared.manifest import Component
-from bimbot.shared.messages import ComponentEvent, ComponentEventMsg, ComponentState, TaskMsg
+from bimbot.shared.messages import ComponentEvent, ComponentEventMsg, ComponentState, TaskKind, TaskMsg
 from bimbot.shared.reasons import Reason
+from bimbot.shared.site_plan import SiteLayout
 
 from .approach import Approach
 from .protocol import EventQueue, PhysicsRequest
@@ -96,6 +97,19 @@ def put_down_footprint(xy_m: tuple[float, float]) -> Footprint:
         [[x - half, y - half], [x + half, y - half], [x + half, y + half], [x - half, y + half]]
     )
     return Footprint(polygon, 0.0, 0.5)
+
+
+def put_down_target(layout: SiteLayout, message: TaskMsg) -> Footprint:
+    """Where a task that puts its load down drives to: a clear-away's yard slot (the component's own, as
+    at its pick-up from the yard), else the square at its put-down spot."""
+    assert message.put_down_xy_m is not None
+    slot = layout.slots.get(message.guid)
+    if message.kind is TaskKind.CLEAR and slot is not None:
+        area = slot.footprint
+        (x0, y0), (x1, y1) = area.min_xy, area.max_xy
+        polygon = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
+        return Footprint(polygon, 0.0, slot.height_m)
+    return put_down_footprint(message.put_down_xy_m)
 
 
 def task_event(

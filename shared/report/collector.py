@@ -15,7 +15,8 @@ state, its position in the planned sequence and the placement error of its last 
 and cause), and ``max_drift_mm`` (:mod:`.placements`); how it was built: ``method`` and why,
 ``resources`` (the robot types that worked on it), the times of its formwork, pour or laying and a cast
 component's ``curing`` (:mod:`.methods`); ``connections`` (neighbour → kind) and
-``temporary_supports`` (:mod:`.connections`).
+``temporary_supports`` (:mod:`.connections`); ``cleared_away``, a failed body carried out of the
+robots' way (who, when, how long) or why it was not (:mod:`.clear_aways`).
 
 Per robot: ``type`` (its robot type, from physics' site info, ``SiteInfoMsg``; robots on site that never
 reported are listed too), ``busy_s``, ``tasks`` (``build``, or ``hand_off``: a ground robot carried it to
@@ -71,6 +72,7 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.reasons import Reason, ReasonCode
 
+from .clear_aways import ClearSeen, clear_entry, clear_totals, take_clear, with_clear_note
 from .connections import SupportsSeen
 from .fleet import by_type, working_within_s
 from .methods import (
@@ -174,6 +176,7 @@ class ReportCollector:
         self.robot_type_of: dict[str, str] = {}  # robot id → type name (physics' site info)
         self.task_kinds: dict[str, TaskKind] = {}
         self.put_downs: dict[str, tuple[float, float]] = {}  # hand-off task id → where the load went down
+        self.clears: dict[str, ClearSeen] = {}  # failed GUID → its clear-away out of the robots' way
         self.progress: ProgressMsg | None = None
         self.curing: dict[str, CuringSeen] = {}  # cast GUID → the planner's curing holds on it, as seen
         self.supports = SupportsSeen()  # connections made and temporary supports, from physics' poses
@@ -207,6 +210,7 @@ class ReportCollector:
             self.task_kinds[message.task_id] = message.kind
             if message.put_down_xy_m is not None:
                 self.put_downs[message.task_id] = (message.put_down_xy_m[0], message.put_down_xy_m[1])
+            take_clear(self.clears, message)
         elif isinstance(message, SiteInfoMsg):
             self.robot_type_of.update(message.robot_type_of)
             for robot_id in message.robot_ids:
@@ -331,6 +335,7 @@ class ReportCollector:
                     "position_error_mm": scaled(timeline.position_error_m, 1000.0),
                     "angle_error_deg": scaled(timeline.angle_error_rad, 180.0 / math.pi),
                     "reason": dump_reason(self._reason(component.guid, timeline, ending)),
+                    "cleared_away": clear_entry(self.clears.get(component.guid)),
                     "placements": placements,
                     "max_drift_mm": max_or_none(p["drift_mm"] for p in placements),
                     **work_fields(
@@ -374,6 +379,7 @@ class ReportCollector:
         totals["in_place"] = len(self.manifest.in_place)
         totals["by_method"] = methods_count(components, self.manifest)
         totals.update(self.supports.totals(end_s))
+        totals.update(clear_totals(self.clears))
         elements = panelised_elements(self.manifest, components)
         return {
             "schema_version": REPORT_SCHEMA_VERSION,
@@ -404,7 +410,7 @@ class ReportCollector:
         if timeline.state in _OWN_REASON_STATES:
             own = timeline.reason or planner_reason
             if own is not None:
-                return own
+                return with_clear_note(own, self.clears.get(guid), MAX_REASON_CHARS)
             if timeline.state == ComponentState.FAILED and timeline.retries:
                 return Reason(
                     code=ReasonCode.MISPLACED,

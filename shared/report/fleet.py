@@ -27,6 +27,7 @@ from .durations import duration_text
 from .totals import busy_within_s
 
 HAND_OFF_ID = re.compile(r"-h\d+$")
+CLEAR_ID = re.compile(r"-c$")
 UNKNOWN_TYPE = "unknown"
 AT_WORK_SHARE = 0.5  # robots at work for less of the makespan than this: utilisation while at work too
 _DIGITS = re.compile(r"(\d+)")
@@ -39,6 +40,7 @@ def task_kind(task_id: str | None, kinds: Mapping[str, TaskKind]) -> str | None:
     kind = kinds.get(task_id)
     if kind is None:
         kind = TaskKind.HAND_OFF if HAND_OFF_ID.search(task_id) else TaskKind.BUILD
+        kind = TaskKind.CLEAR if CLEAR_ID.search(task_id) else kind
     return kind.value
 
 
@@ -74,12 +76,21 @@ def by_type(
         robot = robots[robot_id]
         name = robot.get("type") or UNKNOWN_TYPE
         entry = out.setdefault(
-            name, {"robots": [], "busy_s": 0.0, "build_tasks": 0, "hand_off_tasks": 0, "utilisation": None}
+            name,
+            {
+                "robots": [],
+                "busy_s": 0.0,
+                "build_tasks": 0,
+                "hand_off_tasks": 0,
+                "clear_tasks": 0,
+                "utilisation": None,
+            },
         )
         entry["robots"].append(robot_id)
         entry["busy_s"] += robot["busy_s"]
         entry["build_tasks"] += _count(robot["tasks"], TaskKind.BUILD.value)
         entry["hand_off_tasks"] += _count(robot["tasks"], TaskKind.HAND_OFF.value)
+        entry["clear_tasks"] += _count(robot["tasks"], TaskKind.CLEAR.value)
         in_window[name] = in_window.get(name, 0.0) + busy_within_s(robot, window)
     if window is not None and window[1] > window[0]:
         working_s = working_within_s(robots.values(), window)

@@ -142,7 +142,7 @@ def robot_entry(
         for interval in robot.intervals
     ]
     for task in tasks:
-        if task["kind"] == TaskKind.HAND_OFF.value:
+        if task["kind"] in (TaskKind.HAND_OFF.value, TaskKind.CLEAR.value):
             task["put_down_xy_m"] = put_downs.get(task["task_id"])
     distance, source = robot.reported_distance_m, "robot_state"
     for candidate in ("ground_truth", "odom"):
