@@ -51,7 +51,6 @@ from bimbot.shared.messages import (
     ROBOT_POSE,
     ROBOT_STATE,
     TASK,
-    ClockMsg,
     ComponentState,
     ComponentStateMsg,
     ProgressMsg,
@@ -161,14 +160,16 @@ class RunMonitor:
 
     def apply(self, message: BaseModel) -> None:
         """A message heard on the bus (a state message is judged first, see
-        :mod:`bimbot.shared.trusted_states`)."""
+        :mod:`bimbot.shared.trusted_states`). The run's sim time is the latest any message was said at: in
+        plan fidelity the clock jumps, and its own messages may lag the work they let happen."""
+        said_at_s = getattr(message, "sim_time_s", None)  # the clock as far as anyone on the bus has seen it
+        if isinstance(said_at_s, float | int):
+            self.sim_time_s = max(self.sim_time_s, float(said_at_s))
         if isinstance(message, ComponentStateMsg):
             self._component_state(message)
             return
         self.collector.add(message)
-        if isinstance(message, ClockMsg):
-            self.sim_time_s = max(self.sim_time_s, message.sim_time_s)
-        elif isinstance(message, ProgressMsg):
+        if isinstance(message, ProgressMsg):
             if self.progress is None or _progress_facts(message) != _progress_facts(self.progress):
                 self.changes += 1
             self.progress = message

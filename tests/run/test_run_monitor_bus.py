@@ -179,3 +179,20 @@ def test_a_robot_heard_before_physics_site_info_has_the_type_the_run_started_it_
         assert robot["type"] is None and lane_label("r1", robot) == "robot r1"
     else:
         assert robot["type"] == "carrier" and lane_label("r1", robot) == "r1 (carrier)"
+
+
+def test_the_run_sim_time_is_the_latest_any_message_was_said_at() -> None:
+    """In plan fidelity the clock jumps and its own messages lag the work they let happen: the Revit hub's
+    summary said 1,633,498 s of sim time for a makespan of 1,953,578 s. A robot heard at a later time than
+    any clock moves the run's sim time on."""
+    with _bus() as (_site, forger, monitor):
+        message = RobotStateMsg(
+            robot_id="r1",
+            state=RobotState.IDLE,
+            pose_xy_yaw=(0.0, 0.0, 0.0),
+            sim_time_s=500.0,
+            wall_time_s=0.0,
+        )
+        forger.put(ROBOT_STATE.key(site=SITE_MANIFEST.site, robot_id="r1"), encode(message))
+        assert _drain_until(monitor, lambda: monitor.sim_time_s >= 500.0)
+        assert monitor.sim_time_s == 500.0
