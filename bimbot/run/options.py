@@ -273,8 +273,10 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
         "--stall-wall-s",
         type=non_negative_float,
         default=DEFAULT_CLOCK_STALL_WALL_S,
-        help="end the run when the sim clock stood still this many wall seconds "
-        f"({DEFAULT_CLOCK_STALL_WALL_S:g})",
+        help="end the run when the sim clock stood still this many wall seconds, a guard against a hung "
+        "service; physics also holds the clock at the start this long for the planner to prepare its plan. "
+        "Raise it on a slow or busy machine or a very large build, whose start can take longer "
+        f"({DEFAULT_CLOCK_STALL_WALL_S:g}; 0: never, physics then waits its own 300 s)",
     ),
     OptionSpec(
         "--report-every-s",
