@@ -10,7 +10,8 @@
 #   5. check: the planner exited 0 and said "all N component(s) constructed", every component of the
 #      build's manifest answers "constructed" to a digital-twin query over the bus, and the observer still
 #      serves its web viewer;
-#   6. a summary with timings, then `down -v` (always, also on failure or interrupt).
+#   6. a summary with timings, then the logs and `down -v` (always, also on failure or interrupt; nothing is
+#      checked after the logs, so the stack is stopped with a 1 s grace, not compose's 10 s).
 #
 # Usage: bash scripts/compose-smoke.sh
 # Environment: BIMBOT_SMOKE_TIMEOUT_S (wait for the build, default 360), BIMBOT_SMOKE_BUDGET_S (the whole
@@ -28,6 +29,8 @@ BUDGET_S="${BIMBOT_SMOKE_BUDGET_S:-540}"
 KEEP="${BIMBOT_SMOKE_KEEP:-0}"
 LOG_DIR=build/compose-smoke
 MAX_RESTARTS=3 # a service restarted this often is crash-looping: fail now rather than at the timeout
+CHECK_S=10     # how often the stack is looked at for a crash while the build runs (the planner's end: at once)
+STOP_S=1       # grace for a container to stop at the teardown (see 6.)
 
 say() { echo "compose-smoke: $*" >&2; }
 fail() {
@@ -149,10 +152,26 @@ summary() {
     done
 }
 
+# Every container's log with its service's name, in time order, into compose.log: one `docker logs` per
+# container, all at once (compose v1's `logs`, a Python program, took 9 s for this on a busy machine).
+save_logs() {
+    local parts id service pids=()
+    parts="$(mktemp -d)"
+    while read -r id service; do
+        { docker logs --timestamps "$id" 2>&1 | sed "s/^/$service | /" >"$parts/$service"; } &
+        pids+=($!)
+    done < <(docker ps -a --filter "label=com.docker.compose.project=$PROJECT" \
+        --format '{{.ID}} {{.Label "com.docker.compose.service"}}')
+    ((${#pids[@]} == 0)) || wait "${pids[@]}"
+    find "$parts" -type f -exec cat {} + | sort -s -k3,3 >"$LOG_DIR/compose.log"
+    rm -rf "$parts"
+}
+
 cleanup() {
     local exit_code=$?
     trap - EXIT INT TERM
-    "${COMPOSE[@]}" logs --no-color --timestamps >"$LOG_DIR/compose.log" 2>&1 || true
+    [ -z "${waiter:-}" ] || kill "$waiter" 2>/dev/null || true
+    save_logs || true
     if [ "$exit_code" -ne 0 ]; then
         summary || true
         say "last lines of every service (all of it: $LOG_DIR/compose.log):"
@@ -162,7 +181,8 @@ cleanup() {
         say "stack left up (BIMBOT_SMOKE_KEEP=1): ${COMPOSE[*]} down -v"
     else
         say "tearing down"
-        "${COMPOSE[@]}" down -v --remove-orphans >/dev/null 2>&1 || say "warning: down -v failed"
+        "${COMPOSE[@]}" down -v --remove-orphans --timeout "$STOP_S" >/dev/null 2>&1 \
+            || say "warning: down -v failed"
     fi
     say "total $((SECONDS - started_all)) s"
     exit "$exit_code"
@@ -170,13 +190,13 @@ cleanup() {
 trap cleanup EXIT
 trap 'exit 130' INT TERM
 
-"${COMPOSE[@]}" down -v --remove-orphans >/dev/null 2>&1 || true
+"${COMPOSE[@]}" down -v --remove-orphans --timeout "$STOP_S" >/dev/null 2>&1 || true
 # Stacks of earlier runs that were killed before their teardown (their script's process is gone).
 for stale in $(docker ps -a --format '{{.Label "com.docker.compose.project"}}' | grep -E '^bimbot-smoke-[0-9]+$' | sort -u); do
     if [ "$stale" != "$PROJECT" ] && ! kill -0 "${stale#bimbot-smoke-}" 2>/dev/null; then
         say "removing $stale, left by an earlier run that did not finish"
-        "${COMPOSE_TOOL[@]}" --project-name "$stale" --file compose.yaml down -v --remove-orphans >/dev/null 2>&1 \
-            || true
+        "${COMPOSE_TOOL[@]}" --project-name "$stale" --file compose.yaml down -v --remove-orphans \
+            --timeout "$STOP_S" >/dev/null 2>&1 || true
     fi
 done
 started=$SECONDS
@@ -196,12 +216,25 @@ say "stack up in $up_s s; waiting up to $TIMEOUT_S s for the planner to finish"
 started=$SECONDS
 planner_code=""
 next_report=30
+next_check=0
+planner="$(container planner)"
+[ -n "$planner" ] || fail "no planner container"
+# `docker wait` returns once the planner's container stops (it exits, or crashes before a restart): its end
+# is seen at once without asking docker every second; the whole stack is looked at every CHECK_S.
+docker wait "$planner" >/dev/null 2>&1 &
+waiter=$!
 while [ $((SECONDS - started)) -lt "$TIMEOUT_S" ]; do
+    if kill -0 "$waiter" 2>/dev/null && [ $((SECONDS - started)) -lt "$next_check" ]; then
+        sleep 1
+        continue
+    fi
+    next_check=$((SECONDS - started + CHECK_S))
     states="$(stack_states)"
     read -r _ status code restarts _ <<<"$(awk '$1 == "planner" { print; exit }' <<<"$states")"
     [ -n "${status:-}" ] || fail "no planner container"
     if [ $((SECONDS - started)) -ge "$next_report" ]; then
-        done_so_far="$(docker logs "$(container planner)" 2>&1 | grep -c 'scheduler: .* constructed$' || true)"
+        # the planner logs "<GlobalId> constructed" once for each component (its follow-up)
+        done_so_far="$(docker logs "$planner" 2>&1 | grep -cE ' [0-9A-Za-z_$]{22} constructed$' || true)"
         say "… $((SECONDS - started)) s: $done_so_far component(s) constructed so far (planner's log)"
         next_report=$((next_report + 30))
     fi
@@ -220,14 +253,14 @@ while [ $((SECONDS - started)) -lt "$TIMEOUT_S" ]; do
             fail "$service stopped with exit $s_code"
         fi
     done <<<"$states"
-    sleep 2
+    sleep 1
 done
 build_wait_s=$((SECONDS - started))
 [ -n "$planner_code" ] || fail "the build did not finish within $TIMEOUT_S s"
 say "planner exited $planner_code after $build_wait_s s"
 
 # ------------------------------------------------------------------------------ 5. checks
-"${COMPOSE[@]}" logs --no-color planner >"$LOG_DIR/planner.log" 2>&1 || true
+docker logs "$planner" >"$LOG_DIR/planner.log" 2>&1 || true
 [ "$planner_code" = 0 ] || fail "the planner reports failed or blocked components (exit $planner_code)"
 grep -Eq "construction done: all [0-9]+ component\(s\) constructed" "$LOG_DIR/planner.log" \
     || fail "the planner exited 0 without reporting the construction done"

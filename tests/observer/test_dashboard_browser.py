@@ -12,14 +12,12 @@ test dependency).
 
 from __future__ import annotations
 
-import subprocess
-import urllib.parse
-import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
+import rerun as rr
 from page_shots import missing_programs, shoot_until
 from PIL import Image
 from pydantic import BaseModel
@@ -30,7 +28,7 @@ from bimbot.services.observer.app import (
     ObserverConfig,
     _close_recording,
     open_recording,
-    rerun_cli_binary,
+    web_viewer,
 )
 from bimbot.shared.bus import encode
 from bimbot.shared.construction_methods import ConstructionMethod
@@ -45,7 +43,7 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.robot_description import DEFAULT_ROBOT, Capability, LayingSpec, RobotDescription
 from bimbot.shared.site_layout import plan_site
-from bimbot.supervisor import free_port, wait_until
+from bimbot.supervisor import free_port
 
 pytestmark = pytest.mark.integration
 
@@ -143,37 +141,20 @@ def recording(
 
 
 @pytest.fixture(scope="module")
-def served(recording: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    """The recording served by rerun's web viewer on loopback; the viewer's URL."""
-    grpc_port, web_port = free_port(), free_port()
-    log = (tmp_path_factory.mktemp("rerun") / "rerun.log").open("w")
-    server = subprocess.Popen(
-        [
-            str(rerun_cli_binary()),
-            *("--serve-web", "--bind", "127.0.0.1", "--port", str(grpc_port)),
-            *("--web-viewer-port", str(web_port), str(recording)),
-        ],
-        stdout=log,
-        stderr=subprocess.STDOUT,
-    )
+def served(recording: Path) -> Iterator[str]:
+    """The recording served as ``bimbot observe`` serves its own: a gRPC server sink of the rerun SDK (here
+    in the test's process, fed the recording's file) and the page from the observer's :func:`web_viewer`;
+    the viewer's URL. Not ``rerun --serve-web FILE``: serving a file, the CLI keeps a core busy for as
+    long as it runs, which the browser's software rendering then waits for."""
+    stream = rr.RecordingStream("bimbot")
+    server = rr.GrpcServerSink(bind_ip="127.0.0.1", port=free_port())
+    stream.set_sinks(server)
     try:
-        assert wait_until(lambda: _answers(f"http://127.0.0.1:{web_port}/"), bound_s(30.0)), (
-            "the web viewer never answered"
-        )
-        data = urllib.parse.quote(f"rerun+http://127.0.0.1:{grpc_port}/proxy", safe="")
-        yield f"http://127.0.0.1:{web_port}/?url={data}"
+        stream.log_file_from_path(recording)
+        with web_viewer("127.0.0.1", free_port(), server.uri) as page:
+            yield page
     finally:
-        server.terminate()
-        server.wait(bound_s(10))
-        log.close()
-
-
-def _answers(url: str) -> bool:
-    try:
-        with urllib.request.urlopen(url, timeout=2) as reply:
-            return bool(reply.status == 200)
-    except OSError:
-        return False
+        stream.disconnect()
 
 
 def drawn_fraction(png: Path, box: tuple[float, float, float, float] = VIEW_BOX) -> float:
