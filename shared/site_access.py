@@ -45,6 +45,9 @@ from .site_plan import GRID_MARGIN_M, SiteLayout, fence_boxes, machine_boxes
 _log = logging.getLogger(__name__)
 
 _EIGHT = np.ones((3, 3), bool)
+# how far round a placed part its window reaches beyond the robot's body: room for the free region to go
+# round the part inside the window, so a placement that splits nothing is seen to split nothing
+WINDOW_MARGIN_M = 3.0
 
 
 @dataclass(frozen=True)
@@ -137,6 +140,60 @@ class SiteAccess:
         if slot is not None:
             component = self._components[guid]
             self._occupy(guid, posed_footprint(component, slot.position_m, slot.quat_xyzw))
+
+    def clear(self, guid: str) -> None:
+        """``guid`` is neither in its yard slot nor at its target (a failed part carried or cleared away)."""
+        self._release(guid)
+        self.placed.discard(guid)
+
+    def cut_off_by(self, guid: str, others: Iterable[str]) -> list[str]:
+        """Which of ``others`` (accessible now) placing ``guid`` at its target would cut off; the grid is
+        left as it was, and so is its free region.
+
+        Most placements split nothing: the free region loses the cells round the new part and stays one
+        piece. That is decided in a window round the part (:func:`_splits_nothing`), without labelling the
+        whole grid (55 ms on the restaurant's 0.1 m grid of 4.3 M cells); only a split, or a cut-off found
+        that way, is checked on the whole grid."""
+        others = [other for other in others if other != guid]
+        before = [other for other in others if _open(self, other)]
+        if not before:
+            return []
+        region, cells, was_placed = self.region(), self._cells.get(guid), guid in self.placed
+        self.place(guid)
+        window = self._window_round(guid)
+        cut: list[str] | None = None
+        if window is not None:
+            free = ~(self._distance.distance_m[window] <= self.inflation_m + 1e-9)
+            if _splits_nothing(region[window], free):
+                after = region.copy()
+                after[window] &= free
+                # a cut-off found so is checked on the whole grid (the yard slot left may open a way)
+                cut = None if any(not _open(self, other, after) for other in before) else []
+        if cut is None:
+            self._region = None
+            cut = [other for other in before if not _open(self, other)]
+        self._release(guid)
+        if cells is not None:  # back where it was (its yard slot, or its target)
+            self._cells[guid] = cells
+            self._counts[cells[:, 0], cells[:, 1]] += 1
+            self._distance.touch(cells)
+        if not was_placed:
+            self.placed.discard(guid)
+        self._region = region
+        return cut
+
+    def _window_round(self, guid: str) -> tuple[slice, slice] | None:
+        """The grid window round ``guid``'s cells at its target, wide enough for the free region to go
+        round it (None: it occupies no cell, or the window meets the grid's edge)."""
+        cells = self._cells.get(guid)
+        if cells is None or guid not in self.placed:
+            return None
+        pad = int(np.ceil((self.inflation_m + WINDOW_MARGIN_M) / self.config.resolution_m))
+        (r0, c0), (r1, c1) = cells.min(axis=0) - pad, cells.max(axis=0) + pad + 1
+        rows, cols = self.grid.shape
+        if r0 < 0 or c0 < 0 or r1 > rows or c1 > cols:
+            return None
+        return slice(int(r0), int(r1)), slice(int(c0), int(c1))
 
     # --- questions --------------------------------------------------------------------------------------
 
@@ -239,5 +296,27 @@ def check_order(access: SiteAccess, order: Iterable[str]) -> AccessCheck:
     return AccessCheck(cut_offs=tuple(pairs), inaccessible=inaccessible)
 
 
-def _open(access: SiteAccess, guid: str) -> bool:
-    return access.slot_accessible(guid) and access.target_accessible(guid)
+def _open(access: SiteAccess, guid: str, region: NDArray[np.bool_] | None = None) -> bool:
+    """Accessible at its yard slot and at its target (in ``region``, else the access's free region)."""
+    if region is None:
+        return access.slot_accessible(guid) and access.target_accessible(guid)
+    slot = access._slot_candidates.get(guid)
+    target = access._target_candidates[guid]
+    reached = (slot is None or bool(region[slot[:, 0], slot[:, 1]].any())) and len(target) > 0
+    return reached and bool(region[target[:, 0], target[:, 1]].any())
+
+
+def _splits_nothing(before: NDArray[np.bool_], free: NDArray[np.bool_]) -> bool:
+    """In a window, ``before``: the free region before a placement; ``free``: the cells free after it.
+    True when every piece of the region in the window survives the placement as one piece, and the
+    placement's cells keep off the window's edge: the region outside the window is then joined as it was,
+    and the region after is the region before less the cells taken."""
+    taken = before & ~free
+    if taken[0].any() or taken[-1].any() or taken[:, 0].any() or taken[:, -1].any():
+        return False
+    labels_before, count = ndimage.label(before, structure=_EIGHT)
+    labels_after, _ = ndimage.label(before & free, structure=_EIGHT)
+    kept = labels_after > 0
+    pairs = np.unique(np.stack([labels_before[kept], labels_after[kept]]), axis=1)
+    # each piece before goes on as exactly one piece after (none lost, none split)
+    return pairs.shape[1] == count and len(np.unique(pairs[0])) == count

@@ -28,6 +28,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import zenoh
 
@@ -81,6 +82,9 @@ from .scheduler import Outgoing, PlannerCore, PlannerLimits
 from .skip_requests import SkipAnswer, Skipper, bus_sender
 from .sources import Plan, PlanSource, load_plan
 from .stepped import SteppedLoop, stepped_skipper
+
+if TYPE_CHECKING:
+    from .access_hold import AccessGuard
 
 _log = logging.getLogger(__name__)
 
@@ -136,6 +140,7 @@ def main(
             limits=options.limits,
             robots=site_robots(info) if info is not None else None,
             slots=dict(info.layout.slots) if info is not None else None,
+            access=_access_guard(manifest, info, plan),
         )
         plan_queryable = _serve_plan(session, site, plan)
         stepped = options.stepped and info is not None and info.lock_step
@@ -236,6 +241,15 @@ def _checked_plan(
         )
     checked = replace(outcome.plan, warnings=(*outcome.plan.warnings, *outcome.warnings))
     return checked, cannot
+
+
+def _access_guard(manifest: Manifest, info: SiteInfoMsg | None, plan: Plan) -> AccessGuard | None:
+    """What holds a ready task that would cut off work still to be built (needs the site: physics')."""
+    if info is None:
+        return None
+    from .access_hold import AccessGuard  # scipy.ndimage: not for `bimbot run`'s argument check
+
+    return AccessGuard.for_site(manifest, info, plan.predecessors)
 
 
 def planned_sequence(plan: Plan) -> PlannedSequenceMsg:

@@ -54,6 +54,7 @@ from __future__ import annotations
 import logging
 import uuid
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from bimbot.shared.footprint import body_centre_xy
 from bimbot.shared.manifest import Manifest
@@ -84,6 +85,9 @@ from .sources import Plan
 from .watchdog import Watchdog
 from .work_in_place import cure_s
 
+if TYPE_CHECKING:
+    from .access_hold import AccessGuard
+
 __all__ = ["Outgoing", "Phase", "PlannerCore", "PlannerLimits", "Skip"]
 
 _log = logging.getLogger(__name__)
@@ -104,10 +108,13 @@ class PlannerCore:
         limits: PlannerLimits | None = None,
         robots: list[SiteRobot] | None = None,
         slots: dict | None = None,
+        access: AccessGuard | None = None,
     ) -> None:
         """``robots``: the robots on site with their types (:func:`.capability.site_robots`); with them a
         task goes to the capable robot with the best bid (:mod:`.assignment`), without them to the nearest
-        idle robot. ``slots``: the yard slots of the site plan (where a component lies before any pose)."""
+        idle robot. ``slots``: the yard slots of the site plan (where a component lies before any pose).
+        ``access``: with it, a ready task waits while placing it would cut off work still to be built
+        (:mod:`.access_hold`)."""
         state = PlannerState.start(manifest, plan, limits or PlannerLimits(), robots, slots or {})
         self._state = state
         self._outbox = Outbox(state, resend_s=resend_s, new_id=new_id)
@@ -119,7 +126,7 @@ class PlannerCore:
         self._curing = CuringHolds(
             {guid: cure_s(item) for guid, item in state.manifest.items() if cure_s(item) > 0}
         )
-        self._release = Release(state, self._outbox, self._curing)
+        self._release = Release(state, self._outbox, self._curing, access)
         self._follow_up = FollowUp(state, self._outbox, self._curing, self._failures, self._give_backs)
         self._dispatch = Dispatch(state, self._outbox, self._failures, holds=self._clear_aways.holds)
         self._quiet = Quiet(state, self._outbox, self._release, self._watchdog)

@@ -36,3 +36,16 @@ def scheduling_build(tmp_path_factory: pytest.TempPathFactory, samples_dir: Path
     if not source.is_file():
         pytest.skip(f"{source} not present")
     return _convert(source, tmp_path_factory.mktemp("scheduling_build")), source
+
+
+@pytest.fixture(scope="session")
+def walls_first_build(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The generated site with a room of four walls round Column R1, its IFC schedule putting the walls
+    first (``site_models.WALLS_FIRST_ORDER``), converted."""
+    from site_models import WALLS_FIRST_ORDER, build_site_model
+
+    folder = tmp_path_factory.mktemp("walls_first_plan")
+    site = build_site_model(heavy="footing", room=True, schedule=WALLS_FIRST_ORDER)
+    source = site.write(folder / "site.ifc")
+    convert_model(open_model(source), source, folder / "build")
+    return folder / "build"

@@ -9,16 +9,14 @@ from pathlib import Path
 
 import pytest
 from planner_builders import portal_manifest, robot_msg, state_msg
-from site_models import ROOM_WALLS, WALLS_FIRST_ORDER, build_site_model
+from site_models import ROOM_WALLS
 
-from bimbot.services.converter.convert import convert_model
 from bimbot.services.planner.access_plan import _stand_only, access_plan
 from bimbot.services.planner.capability import SiteRobot
 from bimbot.services.planner.feasibility import component_feasibility, infeasible
 from bimbot.services.planner.scheduler import Phase, PlannerCore, PlannerLimits
 from bimbot.services.planner.sources import PlanError, PlanSource, SourceKind, load_plan, plan_from_sequence
 from bimbot.shared.construction_methods import ConstructionMethod
-from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Manifest, MassSource, read_manifest
 from bimbot.shared.messages import (
     ComponentEvent,
@@ -191,15 +189,6 @@ def test_feasibility_names_the_mass_and_the_height_against_the_robot_limits() ->
     assert verdict.reason is not None and verdict.reason.code is ReasonCode.OUT_OF_REACH
     assert component_feasibility(beam, ground).capable_types == ("default",)
     assert infeasible(manifest.components, ground, {}) == {}
-
-
-@pytest.fixture(scope="module")
-def walls_first_build(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    folder = tmp_path_factory.mktemp("walls_first_plan")
-    site = build_site_model(heavy="footing", room=True, schedule=WALLS_FIRST_ORDER)
-    source = site.write(folder / "site.ifc")
-    convert_model(open_model(source), source, folder / "build")
-    return folder / "build"
 
 
 def _info(manifest: Manifest) -> SiteInfoMsg:

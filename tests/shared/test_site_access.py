@@ -10,7 +10,7 @@ import numpy as np
 from doorway_room import room_round
 from scipy import ndimage
 
-from bimbot.shared.manifest import read_manifest
+from bimbot.shared.manifest import Component, read_manifest
 from bimbot.shared.occupancy_grid import distance_field_m, nearest_free_cell
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.site_access import AccessConfig, SiteAccess, check_order
@@ -104,3 +104,63 @@ def test_a_doorway_under_its_lintel_is_driven_through_a_wall_closed_to_the_floor
     for ring, reaches in ((with_door, True), (closed, False), (one_box, False)):
         access = SiteAccess(built, layout, DEFAULT_ROBOT, AccessConfig(0.1), in_place=[ring])
         assert access.target_accessible(column.guid) is reaches, ring.part_boxes_local[-1:] or "one box"
+
+
+def _room_with_gate(bundled_build: Path) -> tuple[list[Component], Component, Component, Component]:
+    """The bundled frame, a room of walls (a component) round one of its columns, and a gate: a part
+    standing in the room's doorway, to the floor."""
+    components = list(read_manifest(bundled_build).components)
+    column = next(c for c in components if c.ifc_class == "IfcColumn")
+    footing = next(c for c in components if c.ifc_class == "IfcFooting")
+    ring = room_round(column, footing, doorway_to_m=2.2)
+    cx, cy, _ = column.target_pose_world.position_m
+    gate_box = footing.bbox_local.model_copy(
+        update={"min_m": (-0.15, -1.25, 0.0), "max_m": (0.15, 1.25, 2.2)}
+    )
+    at = footing.target_pose_world.model_copy(update={"position_m": (cx - 2.85, cy, 0.0)})
+    gate = footing.model_copy(
+        update={
+            "guid": "0GateInTheDoorway000000",
+            "name": "Gate",
+            "bbox_local": gate_box,
+            "target_pose_world": at,
+        }
+    )
+    built = [c for c in components if c.guid != footing.guid] + [ring, gate]
+    return built, column, ring, gate
+
+
+def test_what_a_placement_would_cut_off_is_answered_without_changing_the_grid(bundled_build: Path) -> None:
+    """The gate in the room's doorway cuts the column off; asked, the grid and its free region stay as
+    they were. Answered in a window round the part, and on the whole grid when that cannot tell: the same
+    answers along a whole build order."""
+    from bimbot.shared import site_access
+
+    built, column, ring, gate = _room_with_gate(bundled_build)
+    layout = plan_site(built, robots=1)
+    access = SiteAccess(built, layout, DEFAULT_ROBOT, AccessConfig(0.1))
+    access.place(ring.guid)
+    others = [c.guid for c in built if c.guid not in (ring.guid, gate.guid)]
+    region, occupied = access.region().copy(), access.occupancy().occupied.copy()
+    assert access.cut_off_by(gate.guid, others) == [column.guid]
+    assert np.array_equal(access.region(), region) and np.array_equal(access.occupancy().occupied, occupied)
+    assert np.array_equal(_region_from_scratch(access), region)
+    access.place(column.guid)
+    assert access.cut_off_by(gate.guid, [g for g in others if g != column.guid]) == []
+    access.remove(column.guid)
+
+    order = [g for g in others if g != column.guid] + [column.guid, gate.guid]
+    answers = []
+    for guid in order:
+        answers.append(access.cut_off_by(guid, order))
+        access.place(guid)
+    whole = SiteAccess(built, layout, DEFAULT_ROBOT, AccessConfig(0.1))
+    whole.place(ring.guid)
+    local, site_access._splits_nothing = site_access._splits_nothing, lambda before, free: False
+    try:
+        for guid, answer in zip(order, answers, strict=True):
+            assert whole.cut_off_by(guid, order) == answer, guid
+            whole.place(guid)
+    finally:
+        site_access._splits_nothing = local
+    assert any(answers), "some placement in the order cuts something off"
