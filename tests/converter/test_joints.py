@@ -476,6 +476,23 @@ def test_a_ceiling_run_into_a_transom_window_that_rises_above_it_is_cut_round_it
     assert joint.depth_m == pytest.approx(0.024, abs=0.002)
 
 
+def test_a_transom_window_drawn_into_the_head_of_the_door_below_it_is_fixed_to_it(tmp_path: Path) -> None:
+    """A transom window 1.78 m wide whose sill is drawn 12 mm into the head of the double door below it, as
+    the Janesville restaurant draws it: a joint by rule (as a clash-free contact, physics moved the window
+    12 mm off its target to clear it, beyond the placement tolerance, and it fell), the door first."""
+    small = new_model()
+    add_box(small, "IfcDoor", "Door", size_m=(1.98, 0.17, 2.515), corner_m=(0.0, 0.0, 0.05))
+    add_box(small, "IfcWindow", "Transom", size_m=(1.78, 0.16, 1.29), corner_m=(0.1, 0.005, 2.553))
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    assert manifest.clashes == []
+    [joint] = manifest.joints
+    assert joint.guids == (guid["Door"], guid["Transom"])
+    assert joint.rule == "IfcWindow into IfcDoor, up to 50 mm"
+    assert joint.depth_m == pytest.approx(0.012, abs=0.002)
+    assert guid["Door"] in support_predecessors(manifest.components, joints=manifest.joints)[guid["Transom"]]
+
+
 def _slanted_rod(
     small: SmallModel, name: str, *, length_m: float, foot_m: tuple[float, float, float]
 ) -> None:
