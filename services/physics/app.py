@@ -427,6 +427,8 @@ class _Loop:
             for guid, state in stepped.take(step, force=forced):
                 self.sim.handling.note_constructed(guid, state == ComponentState.CONSTRUCTED)
             self._states_held_since = None
+        if isinstance(self.sim, PlanSimulation):  # what it heard, taken before the step's requests
+            self.sim.take_heard()
         for command in self.pipeline.due_commands(step):
             self.sim.command(command)
         for held in self.pipeline.due_requests(step):
