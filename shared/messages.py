@@ -480,6 +480,8 @@ class SkipRequest(_Message):
     to_sim_s: SimTime
     why: str = Field(default="", max_length=500)
     step: Step | None = None  # the clock step the planner answered as it asked (lock-step: acted on after)
+    # lock-step: the participant that asked, whose StepDoneMsg for ``step`` counted this request
+    participant: str | None = Field(default=None, max_length=64)
 
 
 class SitePosesMsg(_Message):
@@ -564,6 +566,9 @@ class StepDoneMsg(_Message):
     step: Step
     sim_time_s: SimTime
     done: bool = False
+    # physics requests (a skip) the participant sent before this answer: a query travels apart from the
+    # answer and may come after it, and physics must not step past it (as ``CmdVelMsg.requests``)
+    requests: Count = 0
 
 
 def key(template: str, **parts: str) -> str:

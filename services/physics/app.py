@@ -27,11 +27,13 @@ wait until every alive robot that is not busy placing has answered the open cloc
 ``step >= k``) or ``lock_step_timeout_s`` passed (warn, go on with the last commands); wait for the
 real-time factor's due time (``rtf`` 0: no wait); advance one control period; publish; reply to finished
 placements. For reproducible lock-step runs, a robot sends its attach/place request *before* its command
-for that step (the request is then handled before the step advances). A robot waiting for a place reply
-need not answer clock steps meanwhile: it holds still and is not waited for. While the lock-step waits,
-the open step's clock and sensors go out again every ``REANNOUNCE_S``: a participant that (re)started, or
-that a router restart cut off, missed them and answers only a step it hears (the others ignore a step
-heard twice and say their last answer again), so a restart costs its own start-up, not the wait's bound.
+for that step and counts it there (``CmdVelMsg.requests``), the planner its skip request before its answer
+(``StepDoneMsg.requests``); physics does not advance past the request's turn before it came. A robot
+waiting for a place reply need not answer clock steps meanwhile: it holds still and is not waited for.
+While the lock-step waits, the open step's clock and sensors go out again every ``REANNOUNCE_S``: a
+participant that (re)started, or that a router restart cut off, missed them and answers only a step it
+hears (the others ignore a step heard twice and say their last answer again), so a restart costs its own
+start-up, not the wait's bound.
 """
 
 from __future__ import annotations
@@ -213,7 +215,8 @@ class _Loop:
         # lock-step with participants: component states taken at defined steps (.stepped_states)
         self.stepped_states = SteppedStates(self.states) if self._participants else None
         self._states_held_since: float | None = None
-        # robot → step → physics requests its command said were sent for that step and that have not come
+        # sender (a robot, a participant) → step → physics requests its answer said were sent for that step
+        # and that have not come
         self._requests_due: dict[str, dict[int, int]] = {}
         self._announced: list[Outgoing] = []  # the open step's clock and sensors, as they went out
         self._reannounced_wall_s = -math.inf
@@ -374,16 +377,17 @@ class _Loop:
         for item in self._announced:
             self._put(item)
 
-    def _count_request(self, robot_id: str, step: int, count: int) -> None:
-        """``count`` more (a command said so) or fewer (one came) requests of ``robot_id`` for ``step``."""
-        due = self._requests_due.setdefault(robot_id, {})
+    def _count_request(self, sender: str, step: int, count: int) -> None:
+        """``count`` more (an answer said so) or fewer (one came) requests of ``sender`` for ``step``."""
+        due = self._requests_due.setdefault(sender, {})
         due[step] = due.get(step, 0) + count
         if due[step] == 0:
             del due[step]
 
     def _requests_wait(self) -> bool:
-        """Whether a request a robot's command announced for a step now due has not come yet (its query
-        travels apart from the command); after the barrier's bound physics goes on without it."""
+        """Whether a request a robot's command or a participant's answer announced for a step now due has not
+        come yet (its query travels apart from the answer); after the barrier's bound physics goes on
+        without it."""
         limit = self.pipeline.target(self.sim.step)
         missing = [
             (robot_id, step)
@@ -427,6 +431,8 @@ class _Loop:
             for guid, state in stepped.take(step, force=forced):
                 self.sim.handling.note_constructed(guid, state == ComponentState.CONSTRUCTED)
             self._states_held_since = None
+        if isinstance(self.sim, PlanSimulation):  # what it heard, taken before the step's requests
+            self.sim.take_heard()
         for command in self.pipeline.due_commands(step):
             self.sim.command(command)
         for held in self.pipeline.due_requests(step):
@@ -479,6 +485,8 @@ class _Loop:
             case Received(message=StepDoneMsg() as answer):
                 if answer.participant in self.run.step_with:
                     self.barrier.record(answer.participant, answer.step)
+                    if answer.requests:  # a skip it asked: not stepped past before it came
+                        self._count_request(answer.participant, answer.step, answer.requests)
                     if answer.done:
                         self._participants.discard(answer.participant)
                         _log.info("lock-step: %s is done; not waited for any more", answer.participant)
@@ -515,10 +523,11 @@ class _Loop:
                 self._answer(item)
 
     def _arrived(self, request: BaseModel) -> bool:
-        """Count a robot's request in as it comes (True: go on handling it)."""
-        step, robot_id = getattr(request, "step", None), getattr(request, "robot_id", None)
-        if step is not None and robot_id is not None and self.run.step_with:
-            self._count_request(robot_id, step, -1)
+        """Count a robot's or a participant's request in as it comes (True: go on handling it)."""
+        step = getattr(request, "step", None)
+        sender = getattr(request, "robot_id", None) or getattr(request, "participant", None)
+        if step is not None and sender is not None and self.run.step_with:
+            self._count_request(sender, step, -1)
         return True
 
     def _robot_liveliness(self, robot_id: str, alive: bool) -> None:

@@ -60,8 +60,10 @@ class Pipeline(Generic[T]):
         return due
 
     def request_now(self, step: int | None, current_step: int, item: T) -> bool:
-        """Whether a request stamped ``step`` is handled at once at ``current_step``; else it is held."""
-        if self.latency_steps == 0 or step is None or step <= self.target(current_step):
+        """Whether a request stamped ``step`` is handled at once at ``current_step`` (only one that came too
+        late for its advance); else it is held, also when its turn is the coming advance: it is then
+        handled there after the step's inputs, as one that came earlier is, not before them."""
+        if self.latency_steps == 0 or step is None or step < self.target(current_step):
             return True
         self._requests.append(Held(step, item))
         return False

@@ -13,12 +13,18 @@ handling, placing, pits, joints, connections and their reasons, and changes thre
   are set where they are at its end, reach checks read the robots' poses as always.
 * **Time advances by events.** Once nothing was heard for ``quiet_periods`` periods (no new path, task,
   robot or component state, request), no component event waits for its agent's answer (a state of that
-  component, for at most ``EVENT_WAIT_PERIODS`` periods: agents answer in wall time, and a robot waiting
-  for one must not see the clock leap) and nothing settles, the clock jumps so that the next period ends
-  at the earliest known event: a drive's end, an assembly motion's end (a crane's lift), a connection's hold,
-  a robot's timed work (``busy_until_s``). The services see a clock that leaps, as after a skip over a
-  quiet site (:meth:`~.simulation.Simulation.skip`); the protocol's own exchanges still run period by
-  period, so a hand-off between services costs the sim time it costs in the physics fidelity.
+  component, for at most ``EVENT_WAIT_PERIODS`` periods: a robot waiting for one must not see the clock
+  leap) and nothing settles, the clock jumps so that the next period ends at the earliest known event: a
+  drive's end, an assembly motion's end (a crane's lift), a connection's hold, a robot's timed work
+  (``busy_until_s``). The services see a clock that leaps, as after a skip over a quiet site
+  (:meth:`~.simulation.Simulation.skip`); the protocol's own exchanges still run period by period, so a
+  hand-off between services costs the sim time it costs in the physics fidelity.
+* **Same seed, same jumps.** What is heard is taken at a defined step (:mod:`.stepped_news`: before
+  advancing from ``k``, what was stamped at ``k − 1`` or before), never as it happens to arrive. What the
+  services say at step ``k`` is therefore not known when physics advances from ``k``: the clock never
+  jumps from a step at which a known event fell (its robot acts on it at that step), nor from a step a
+  skip landed on or the one after it (what the planner skipped to, a curing's end, is no event physics
+  knows).
 """
 
 from __future__ import annotations
@@ -41,6 +47,7 @@ from bimbot.shared.messages import (
     PlanMsg,
     RobotStateMsg,
     ScanMsg,
+    SkipRequest,
     TaskMsg,
 )
 from bimbot.shared.plan_motion import Trajectory, standing, trajectory
@@ -50,6 +57,7 @@ from .handling_state import Phase
 from .odometry import Odometry, OdomReading
 from .scene import compose, yaw_quat
 from .simulation import Outgoing, PeriodResult, Simulation
+from .stepped_news import SteppedNews
 
 if TYPE_CHECKING:
     from .robots import Robot
@@ -89,6 +97,9 @@ class PlanSimulation(Simulation):
         self.jumps, self.jumped_s, self.physics_periods = 0, 0.0, 0
         self.news: dict[str, int] = {}  # what held the clock, by kind (the log line at the end)
         self.stepped_for: dict[str, int] = {}  # why a period did not jump, by cause
+        self.heard = SteppedNews()  # what is heard, until the advance that takes it
+        self._step_start_s: float | None = None  # the sim time the previous step went out at
+        self._skipped_at = -2  # the step a skip landed on (no jump from it nor from the next)
         cid = self.client_id
         for robot_id, robot in self.robots.items():
             if not robot.drives:
@@ -101,6 +112,17 @@ class PlanSimulation(Simulation):
     # --- what is heard -------------------------------------------------------------------------------
 
     def hear(self, message: object) -> None:
+        """A message of the site as it arrives: held until the advance that takes it (:meth:`take_heard`)."""
+        self.heard.put(message)
+
+    def take_heard(self) -> None:
+        """Take what is due before advancing from this step (see :mod:`.stepped_news`); the adapter calls it
+        before physics' requests of the step are answered, :meth:`advance` again (nothing new then)."""
+        self.heard.clock(self.step, self.sim_time_s)
+        for message in self.heard.take(self.step):
+            self._take(message)
+
+    def _take(self, message: object) -> None:
         """A message of the site: a robot's path (its motion from then), or news that holds the clock."""
         if isinstance(message, PlanMsg):
             self._plan(message)
@@ -182,6 +204,15 @@ class PlanSimulation(Simulation):
         self._news("request")
         return super().build(request)
 
+    def skip(self, request: SkipRequest) -> PhysicsReply:
+        """As :meth:`.simulation.Simulation.skip`; where it lands, the clock goes on period by period until
+        what the services say there is heard (:meth:`_jump`)."""
+        before = self.sim_time_s
+        reply = super().skip(request)
+        if self.sim_time_s > before:
+            self._skipped_at = self.step
+        return reply
+
     def quiet(self) -> str | None:
         """As :meth:`.simulation.Simulation.quiet`, and a robot on its way is no quiet site."""
         now = self.sim_time_s
@@ -195,10 +226,8 @@ class PlanSimulation(Simulation):
     def _settling(self) -> bool:
         return any(not watch.settled for watch in self.handling.watch.values())
 
-    def next_event_s(self) -> float | None:
-        """The earliest known event after now: a drive's end, an assembly motion's end, a connection's
-        hold, a robot's timed work; None when none is known."""
-        now = self.sim_time_s
+    def _known_events(self) -> list[float]:
+        """A drive's end, an assembly motion's end, a connection's hold, a robot's timed work (sim s)."""
         events = [motion.end_s for motion in self.motions.values()]
         events += [
             item.motion_start_s + item.motion_duration_s
@@ -206,14 +235,30 @@ class PlanSimulation(Simulation):
             if item.phase is Phase.ASSEMBLING
         ]
         events += [watch.hold_until_s for watch in self.handling.watch.values() if watch.tag is not None]
-        events += list(self._busy_until.values())
-        ahead = [event for event in events if event > now + 1e-9]
+        return events + list(self._busy_until.values())
+
+    def next_event_s(self) -> float | None:
+        """The earliest known event after now; None when none is known."""
+        now = self.sim_time_s
+        ahead = [event for event in self._known_events() if event > now + 1e-9]
         return min(ahead) if ahead else None
 
-    def _jump(self) -> None:
-        """Jump the clock so that this period ends at the next event, when the site waits for one."""
+    def _event_fell_now(self, start_s: float | None) -> bool:
+        """Whether a known event fell in the period that ended at this step (after ``start_s``, the previous
+        step's time): its robot acts on it at this step, which physics hears only at the next."""
+        now = self.sim_time_s
+        since = now - self.config.control_period_s if start_s is None else start_s
+        return any(since < event <= now + 1e-9 for event in self._known_events())
+
+    def _jump(self, start_s: float | None = None) -> None:
+        """Jump the clock so that this period ends at the next event, when the site waits for one.
+        ``start_s``: the sim time of the previous step."""
         if self._since_news < self.quiet_periods:
             return self._count("news")
+        if self.step - self._skipped_at <= 1:
+            return self._count("skip landed")
+        if self._event_fell_now(start_s):
+            return self._count("event now")
         if self._late_replies or self._settling():
             return self._count("settling")
         if any(self.step - heard < EVENT_WAIT_PERIODS for _, heard in self._unanswered.values()):
@@ -250,7 +295,9 @@ class PlanSimulation(Simulation):
     def advance(self, real_time_factor: float | None = None) -> PeriodResult:
         """One period, after a jump over a site that only waits: Bullet stepped while something settles,
         otherwise the loads set where they are at its end."""
-        self._jump()
+        self.take_heard()
+        start_s, self._step_start_s = self._step_start_s, self.sim_time_s
+        self._jump(start_s)
         end_s = self.sim_time_s + self.config.control_period_s
         self._pose_robots(end_s)
         if self._settling() or self._assembly_ends_by(end_s):

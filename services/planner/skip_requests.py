@@ -48,8 +48,11 @@ class Skipper:
         retry_s: float = RETRY_S,
         timeout_s: float = TIMEOUT_S,
         check_s: float = CHECK_S,
+        participant: str | None = None,
     ) -> None:
+        """``participant``: the lock-step participant the requests say asked (its answer counts them)."""
         self._send = send
+        self.participant = participant
         self.retry_s, self.timeout_s, self.check_s = retry_s, timeout_s, check_s
         self._asked_wall_s: float | None = None  # a question in flight since then
         self._next_wall_s = 0.0  # no question before then
@@ -71,7 +74,9 @@ class Skipper:
         skip = quiet_until()
         if skip is None:
             return None
-        request = SkipRequest(to_sim_s=skip.to_sim_s, why=skip.why[:500], step=step)
+        request = SkipRequest(
+            to_sim_s=skip.to_sim_s, why=skip.why[:500], step=step, participant=self.participant
+        )
         self._asked_wall_s, self._next_wall_s = now_wall_s, now_wall_s + self.retry_s
         self._send(request)
         return request

@@ -57,7 +57,13 @@ PROGRESS_STEPS = 5  # the progress is published when it changed and at least eve
 
 def stepped_skipper(send: Callable) -> Skipper:
     """A :class:`.skip_requests.Skipper` paced in clock steps (its "wall time" is the step count)."""
-    return Skipper(send, retry_s=SKIP_RETRY_STEPS, timeout_s=4 * SKIP_RETRY_STEPS, check_s=SKIP_CHECK_STEPS)
+    return Skipper(
+        send,
+        retry_s=SKIP_RETRY_STEPS,
+        timeout_s=4 * SKIP_RETRY_STEPS,
+        check_s=SKIP_CHECK_STEPS,
+        participant=PARTICIPANT,
+    )
 
 
 class SteppedLoop:
@@ -201,13 +207,14 @@ class SteppedLoop:
             self._feed(item)
         for message in self.core.step(clock.sim_time_s):
             self.publish(message)
+        asked = None
         if self.skipper is not None:  # stamped with this step: physics acts on it at the next one
-            self.skipper.tick(self.core.quiet_until, float(step), step=step)
+            asked = self.skipper.tick(self.core.quiet_until, float(step), step=step)
         if self.core.revision != self._progress_revision or step - self._progress_step >= PROGRESS_STEPS:
             self._progress = self.core.progress()
             self._progress_revision, self._progress_step = self.core.revision, step
             self.publish(self._progress)
-        self._answer(step, clock.sim_time_s)
+        self._answer(step, clock.sim_time_s, requests=int(asked is not None))
         self._last_step = step
         return self._progress
 
@@ -223,7 +230,11 @@ class SteppedLoop:
             case RobotStateMsg():
                 core.observe_robot_state(item)
 
-    def _answer(self, step: int, sim_time_s: float, *, done: bool = False) -> None:
-        message = StepDoneMsg(participant=PARTICIPANT, step=step, sim_time_s=sim_time_s, done=done)
+    def _answer(self, step: int, sim_time_s: float, *, done: bool = False, requests: int = 0) -> None:
+        """Answer ``step``; ``requests``: the skip requests sent for it (physics waits for them)."""
+        message = StepDoneMsg(
+            participant=PARTICIPANT, step=step, sim_time_s=sim_time_s, done=done, requests=requests
+        )
         self.session.put(self._answer_key, encode(message))
-        self._last_answer = None if done else message
+        # said again when the step is heard again, without its requests: those went with the first
+        self._last_answer = None if done else message.model_copy(update={"requests": 0})

@@ -35,10 +35,19 @@ def test_a_request_stamped_k_is_handled_with_that_steps_command_in_the_order_req
     pipeline: Pipeline[str] = Pipeline(1)
     assert not pipeline.request_now(7, 7, "attach r1")  # physics is at 7: it acts from 8
     assert not pipeline.request_now(7, 7, "place r2")
-    assert pipeline.request_now(6, 7, "late drop")  # answered 6: its turn is now
+    assert pipeline.request_now(5, 7, "late drop")  # answered 5: its turn (advancing from 6) is past
     assert pipeline.request_now(None, 7, "unstamped")
     assert pipeline.due_requests(7) == []
     assert pipeline.due_requests(8) == ["attach r1", "place r2"] and pipeline.due_requests(9) == []
+
+
+def test_a_request_whose_turn_is_the_coming_advance_waits_for_it_however_late_it_came() -> None:
+    """Stamped 6 and come while physics is at 7 (before advancing from 7), or while it was still at 6:
+    either way it is handled when physics advances from 7, after that step's inputs, not before them."""
+    pipeline: Pipeline[str] = Pipeline(1)
+    assert not pipeline.request_now(6, 6, "attach r1")  # came early
+    assert not pipeline.request_now(6, 7, "attach r2")  # came once physics was at 7
+    assert pipeline.due_requests(7) == ["attach r1", "attach r2"]
 
 
 def test_a_lost_robots_held_commands_go() -> None:

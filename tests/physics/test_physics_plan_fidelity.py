@@ -1,6 +1,8 @@
 """The plan fidelity's physics (DIRECT pybullet, the bundled frame): a robot's path moves its body by the
 timed motion, no scan goes out, and once nothing was heard for a few periods the clock jumps so that a
-period ends where the drive does — not before news held it."""
+period ends where the drive does — not before news held it. What is heard is taken by the advance after
+the step it is stamped with, whenever it came, and the clock never jumps past what a robot says at the
+step an event of its fell on, nor past where a skip landed."""
 
 from __future__ import annotations
 
@@ -23,8 +25,11 @@ from bimbot.shared.messages import (
     ComponentState,
     ComponentStateMsg,
     PlanMsg,
+    RobotState,
+    RobotStateMsg,
     ScanMsg,
     SensorsMsg,
+    SkipRequest,
 )
 
 GUID = "0Component000000000000a"
@@ -54,6 +59,8 @@ def test_a_path_moves_the_robot_and_the_clock_jumps_to_its_end(sim: PlanSimulati
     speed = sim.robots["r1"].description.max_speed_mps
     start_x = sim.robots["r1"].pose_xy_yaw(sim.client_id)[0]
     sim.hear(_drive(sim, 10.0 * speed))  # ten seconds of driving along +x (it faces +x: no turn)
+    sim.advance()  # stamped at step 0: taken before advancing from step 1
+    assert sim.robots["r1"].pose_xy_yaw(sim.client_id)[0] == pytest.approx(start_x, abs=1e-6)
     result = sim.advance()
     assert not any(isinstance(item.message, ScanMsg | SensorsMsg) for item in result.messages)
     x, _, _ = sim.robots["r1"].pose_xy_yaw(sim.client_id)
@@ -62,7 +69,7 @@ def test_a_path_moves_the_robot_and_the_clock_jumps_to_its_end(sim: PlanSimulati
     while sim.sim_time_s < 10.0 - 1e-9:
         sim.advance()
         times.append(sim.sim_time_s)
-    assert times[1:4] == pytest.approx([0.4, 0.6, 0.8])  # news (a path) holds the clock for a few periods
+    assert times[1:4] == pytest.approx([0.6, 0.8, 1.0])  # news (a path) holds the clock for a few periods
     assert sim.jumps == 1 and times[-1] == pytest.approx(10.0)  # then one jump: the period ends at arrival
     x, _, _ = sim.robots["r1"].pose_xy_yaw(sim.client_id)
     assert x - start_x == pytest.approx(10.0 * speed, abs=1e-3)
@@ -71,6 +78,7 @@ def test_a_path_moves_the_robot_and_the_clock_jumps_to_its_end(sim: PlanSimulati
 
 def test_a_robot_on_its_way_is_no_quiet_site(sim: PlanSimulation) -> None:
     sim.hear(_drive(sim, 5.0))
+    sim.advance()
     sim.advance()
     assert sim.quiet() == "r1 is driving"
 
@@ -112,3 +120,72 @@ def test_a_component_event_its_agent_has_not_answered_holds_the_clock(sim: PlanS
         periods += 1
     assert sim.jumps == 2, sim.stepped_for
     assert EVENT_WAIT_PERIODS <= periods <= EVENT_WAIT_PERIODS + 1
+
+
+def _busy(robot_id: str, until_s: float, stamp_s: float) -> RobotStateMsg:
+    return RobotStateMsg(
+        robot_id=robot_id,
+        state=RobotState.WORK_IN_PLACE,
+        pose_xy_yaw=(0.0, 0.0, 0.0),
+        sim_time_s=stamp_s,
+        wall_time_s=0.0,
+        busy_until_s=until_s,
+    )
+
+
+def _times_with_a_reply_heard(sim: PlanSimulation, *, early: bool) -> list[float]:
+    """r1 works until 5 s, r9 until 100 s; at the step the clock reaches 5 s r1 says it works on until
+    50 s, heard before physics advances from that step (``early``) or after it: the step's sim times."""
+    sim.hear(_busy("r1", 5.0, 0.0))
+    sim.hear(_busy("r9", 100.0, 0.0))
+    times: list[float] = []
+    while sim.sim_time_s < 5.0 - 1e-9:
+        sim.advance()
+        times.append(sim.sim_time_s)
+    reply = _busy("r1", 50.0, sim.sim_time_s)  # stamped with the step r1 answers
+    if early:
+        sim.hear(reply)
+    sim.advance()
+    times.append(sim.sim_time_s)
+    if not early:
+        sim.hear(reply)
+    while sim.sim_time_s < 100.0 - 1e-9:
+        sim.advance()
+        times.append(sim.sim_time_s)
+    return times
+
+
+def test_a_reply_heard_at_its_own_step_or_after_it_gives_the_same_clock(
+    sim: PlanSimulation, bundled_build: Path, frame_manifest: Manifest
+) -> None:
+    """In lock-step, what a robot says at step k may come before physics advances from k or after it (it
+    need only come before k + 1): the clock must not depend on which. Its work ends where the clock jumped
+    to: it says so at that step, so the clock goes on period by period there, then to r1's new end (50 s),
+    not past it to r9's (100 s)."""
+    config = SimConfig(robots=1, control_period_s=0.2, step_s=1 / 120)
+    with PlanSimulation(frame_manifest, bundled_build, config) as other:
+        late = _times_with_a_reply_heard(other, early=False)
+    early = _times_with_a_reply_heard(sim, early=True)
+    assert early == late
+    assert any(time == pytest.approx(50.0) for time in early)  # a period ended where r1's new work did
+    landed = next(index for index, time in enumerate(early) if time >= 5.0 - 1e-9)
+    assert early[landed + 1] == pytest.approx(early[landed] + 0.2)  # no jump from where r1 answers
+
+
+def test_the_clock_does_not_jump_from_where_a_skip_landed(sim: PlanSimulation) -> None:
+    """The planner skips to a time physics knows no event at (a curing's end: the planner releases what
+    waited for it there); what it says at the first step there is heard one step later, so the clock goes
+    period by period until then, however quiet the site is, and only then to the next known event."""
+    sim.hear(_busy("r8", 10.0, 0.0))
+    sim.hear(_busy("r9", 1000.0, 0.0))
+    while sim.sim_time_s < 10.0 - 1e-9:  # nothing else heard: the clock jumps to r8's end
+        sim.advance()
+    sim.advance()  # from where r8's work ended: period by period (what r8 says there comes next)
+    assert sim.sim_time_s == pytest.approx(10.2)
+    reply = sim.skip(SkipRequest(to_sim_s=300.0, why="curing", step=sim.step))
+    assert reply.ok and sim.sim_time_s == pytest.approx(300.0)
+    times = []
+    for _ in range(3):
+        sim.advance()
+        times.append(sim.sim_time_s)
+    assert times == pytest.approx([300.2, 300.4, 1000.0])

@@ -158,3 +158,13 @@ def test_skip_requests_go_one_at_a_time_and_a_refused_one_is_asked_again_only_af
     assert (skipper.accepted, skipper.refused) == (1, 2)
     assert skipper.tick(lambda: skip, 20.0) is not None  # a lost answer does not stop it for good
     assert skipper.tick(lambda: skip, 27.0) is not None
+
+
+def test_a_lock_step_skip_request_names_the_participant_whose_answer_counts_it() -> None:
+    """Physics waits for a request the planner's answer to a step announced (``StepDoneMsg.requests``):
+    the request says who asked, so physics can count it in when it comes."""
+    sent: list[SkipRequest] = []
+    skipper = Skipper(sent.append, retry_s=25, timeout_s=100, check_s=5, participant="planner")
+    asked = skipper.tick(lambda: Skip(500.0, "curing"), 40.0, step=40)
+    assert asked == SkipRequest(to_sim_s=500.0, why="curing", step=40, participant="planner")
+    assert sent == [asked]
