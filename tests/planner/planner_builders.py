@@ -28,10 +28,12 @@ from bimbot.shared.messages import (
     PoseMsg,
     RobotState,
     RobotStateMsg,
+    SiteInfoMsg,
     TwinMsg,
 )
 from bimbot.shared.reasons import Reason
-from bimbot.shared.robot_description import Capability, LayingSpec, RobotDescription
+from bimbot.shared.robot_description import DEFAULT_ROBOT, Capability, LayingSpec, RobotDescription
+from bimbot.shared.site_layout import plan_site
 
 PORTAL = ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c", "beam")
 
@@ -207,3 +209,18 @@ def with_methods(manifest: Manifest, **methods: ConstructionMethod) -> Manifest:
         cast = FOOTING_CAST if method is ConstructionMethod.CAST_IN_PLACE else None
         components.append(item.model_copy(update={"method": method, "cast": cast}))
     return manifest.model_copy(update={"components": components})
+
+
+def one_robot_site_info(manifest: Manifest) -> SiteInfoMsg:
+    """The site info physics would serve for ``manifest`` with one default robot (lock-step)."""
+    layout = plan_site(manifest.components, robots=1)
+    return SiteInfoMsg(
+        robot_ids=["r1"],
+        robot_starts_xy_yaw=list(layout.robot_starts),
+        layout=layout,
+        robot_type_of={"r1": DEFAULT_ROBOT.name},
+        robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
+        step_s=1 / 120,
+        control_period_s=0.2,
+        lock_step=True,
+    )

@@ -7,33 +7,17 @@ import itertools
 from dataclasses import replace
 from pathlib import Path
 
-from planner_builders import portal_manifest, state_msg
+from planner_builders import one_robot_site_info, portal_manifest, state_msg
 from site_models import ROOM_WALLS
 
 from bimbot.services.planner.access_hold import AccessGuard
 from bimbot.services.planner.scheduler import Phase, PlannerCore
 from bimbot.services.planner.sources import PlanSource, SourceKind, load_plan, plan_from_sequence
 from bimbot.shared.manifest import read_manifest
-from bimbot.shared.messages import ComponentState, SiteInfoMsg
-from bimbot.shared.robot_description import DEFAULT_ROBOT
-from bimbot.shared.site_layout import plan_site
+from bimbot.shared.messages import ComponentState
 from bimbot.shared.support_graph import derive_sequence, support_predecessors
 
 S = ComponentState
-
-
-def _info(manifest) -> SiteInfoMsg:
-    layout = plan_site(manifest.components, robots=1)
-    return SiteInfoMsg(
-        robot_ids=["r1"],
-        robot_starts_xy_yaw=list(layout.robot_starts),
-        layout=layout,
-        robot_type_of={"r1": DEFAULT_ROBOT.name},
-        robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
-        step_s=1 / 120,
-        control_period_s=0.2,
-        lock_step=True,
-    )
 
 
 def _construct_released(core: PlannerCore, order: tuple[str, ...], keep: set[str]) -> None:
@@ -63,7 +47,7 @@ def test_the_wall_that_would_close_the_room_waits_for_the_column_inside_it(walls
     unguarded.step(0.0)
     assert unguarded.phase(guid[closing]) is Phase.RELEASED
 
-    core = core_with(AccessGuard.for_site(manifest, _info(manifest), plan.predecessors))
+    core = core_with(AccessGuard.for_site(manifest, one_robot_site_info(manifest), plan.predecessors))
     for _ in range(len(plan.order)):  # whatever is released is built, the column last
         core.step(0.0)
         _construct_released(core, plan.order, keep={column})

@@ -8,7 +8,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from planner_builders import portal_manifest, robot_msg, state_msg
+from planner_builders import one_robot_site_info, portal_manifest, robot_msg, state_msg
 from site_models import ROOM_WALLS
 
 from bimbot.services.planner.access_plan import _stand_only, access_plan
@@ -17,20 +17,18 @@ from bimbot.services.planner.feasibility import component_feasibility, infeasibl
 from bimbot.services.planner.scheduler import Phase, PlannerCore, PlannerLimits
 from bimbot.services.planner.sources import PlanError, PlanSource, SourceKind, load_plan, plan_from_sequence
 from bimbot.shared.construction_methods import ConstructionMethod
-from bimbot.shared.manifest import Manifest, MassSource, read_manifest
+from bimbot.shared.manifest import MassSource, read_manifest
 from bimbot.shared.messages import (
     ComponentEvent,
     ComponentEventMsg,
     ComponentState,
     RobotState,
-    SiteInfoMsg,
     TaskMsg,
 )
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.sequence import sequence_from_predecessors
 from bimbot.shared.site_access import AccessConfig, SiteAccess
-from bimbot.shared.site_layout import plan_site
 from bimbot.shared.support_graph import derive_sequence, support_predecessors
 
 S = ComponentState
@@ -191,20 +189,6 @@ def test_feasibility_names_the_mass_and_the_height_against_the_robot_limits() ->
     assert infeasible(manifest.components, ground, {}) == {}
 
 
-def _info(manifest: Manifest) -> SiteInfoMsg:
-    layout = plan_site(manifest.components, robots=1)
-    return SiteInfoMsg(
-        robot_ids=["r1"],
-        robot_starts_xy_yaw=list(layout.robot_starts),
-        layout=layout,
-        robot_type_of={"r1": DEFAULT_ROBOT.name},
-        robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
-        step_s=1 / 120,
-        control_period_s=0.2,
-        lock_step=True,
-    )
-
-
 def test_a_given_sequence_that_walls_in_a_column_fails_it_before_the_build_naming_the_wall(
     walls_first_build: Path,
 ) -> None:
@@ -212,14 +196,14 @@ def test_a_given_sequence_that_walls_in_a_column_fails_it_before_the_build_namin
     names = {c.guid: c.name for c in manifest.components}
     guid = {name: g for g, name in names.items()}
     plan = load_plan(manifest, walls_first_build, PlanSource(SourceKind.BUILD))
-    outcome = access_plan(plan, manifest, _info(manifest), adjust=plan.derived)
+    outcome = access_plan(plan, manifest, one_robot_site_info(manifest), adjust=plan.derived)
     assert outcome.plan.order == plan.order  # a given sequence is checked, never changed
     assert set(outcome.unreachable) == {guid["Column R1"]}
     reason = outcome.unreachable[guid["Column R1"]]
     assert reason.code is ReasonCode.UNREACHABLE and reason.guid in {guid[w] for w in ROOM_WALLS}
     assert any(guid["Column R1"] in w and "cuts off" in w for w in outcome.warnings)
     with pytest.raises(PlanError, match="cut off"):
-        access_plan(plan, manifest, _info(manifest), adjust=False, strict=True)
+        access_plan(plan, manifest, one_robot_site_info(manifest), adjust=False, strict=True)
 
 
 def test_a_column_cast_in_place_inside_the_walls_is_reached_by_a_boom_not_failed_unreachable(
@@ -236,7 +220,7 @@ def test_a_column_cast_in_place_inside_the_walls_is_reached_by_a_boom_not_failed
         }
     )
     plan = load_plan(cast, walls_first_build, PlanSource(SourceKind.BUILD))
-    outcome = access_plan(plan, cast, _info(cast), adjust=plan.derived)
+    outcome = access_plan(plan, cast, one_robot_site_info(cast), adjust=plan.derived)
     assert outcome.unreachable == {}
     assert not any(column in warning for warning in outcome.warnings)
 
@@ -252,7 +236,7 @@ def test_a_derived_sequence_builds_the_column_before_the_wall_that_would_close_t
     support = support_predecessors(manifest.components)
     plan = replace(given, predecessors={g: frozenset(support[g]) for g in given.order}, derived=True)
     assert plan.order.index(guid["Column R1"]) > max(plan.order.index(guid[w]) for w in ROOM_WALLS)
-    outcome = access_plan(plan, manifest, _info(manifest), adjust=True)
+    outcome = access_plan(plan, manifest, one_robot_site_info(manifest), adjust=True)
     assert outcome.unreachable == {} and outcome.warnings == () and outcome.added >= 1
     order = outcome.plan.order
     last_wall = max(ROOM_WALLS, key=lambda w: order.index(guid[w]))
@@ -364,7 +348,7 @@ def test_one_fine_grid_serves_every_doubt_standing_exactly_each_components_ances
     the next doubt, with one wall as its only ancestor, sees the column's target open again."""
     manifest = read_manifest(walls_first_build)
     guid = {c.name: c.guid for c in manifest.components}
-    info = _info(manifest)
+    info = one_robot_site_info(manifest)
     fine = SiteAccess(list(manifest.components), info.layout, DEFAULT_ROBOT, AccessConfig(resolution_m=0.1))
     order = [c.guid for c in manifest.components]
     walls = {guid[w] for w in ROOM_WALLS}
@@ -390,7 +374,7 @@ def test_a_component_walled_in_by_existing_work_says_so_not_what_the_plan_built_
     )
     column = next(c.guid for c in existing.components if c.name == "Column R1")
     plan = plan_from_sequence(derive_sequence(existing.components), existing.components, "test")
-    outcome = access_plan(plan, existing, _info(existing), adjust=True)
+    outcome = access_plan(plan, existing, one_robot_site_info(existing), adjust=True)
     reason = outcome.unreachable[column]
     assert reason.message.endswith("with the work in place before the robots come"), reason.message
     assert reason.guid is None
