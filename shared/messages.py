@@ -482,6 +482,9 @@ class SkipRequest(_Message):
     step: Step | None = None  # the clock step the planner answered as it asked (lock-step: acted on after)
     # lock-step: the participant that asked, whose StepDoneMsg for ``step`` counted this request
     participant: str | None = Field(default=None, max_length=64)
+    # robots the planner sees placing a load: physics skips only while each holds one at rest until its
+    # connection is made, and no further than the earliest such hold's end
+    holding: list[str] = Field(default_factory=list, max_length=256)
 
 
 class SitePosesMsg(_Message):

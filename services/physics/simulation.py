@@ -449,8 +449,9 @@ class Simulation:
         return relocate(self.client_id, robot, setups, request.pose_xy_yaw, self.sim_time_s)
 
     def quiet(self) -> str | None:
-        """None when nothing moves on the site (no load carried or being placed, nothing settling or held
-        while it is connected, no robot commanded to move); else what moves, in words."""
+        """None when nothing moves on the site (no load carried or being placed, nothing settling, no
+        robot commanded to move); else what moves, in words. A load at rest that its robot holds while
+        its connection is made moves no more: it limits a skip (:meth:`held_until_s`) instead."""
         now = self.sim_time_s
         handling = self.handling
         for robot_id, guid in sorted(handling.carrying.items()):
@@ -458,7 +459,7 @@ class Simulation:
         for guid, watch in sorted(handling.watch.items()):
             if not watch.settled:
                 return f"{guid} is settling"
-            if watch.tag is not None or now < watch.hold_until_s:
+            if watch.tag is not None and now >= watch.hold_until_s:
                 return f"{guid} is being set down"
         if self._late_replies:
             return "a placement is being answered"
@@ -467,21 +468,48 @@ class Simulation:
                 return f"{robot_id} is driving"
         return None
 
+    def held_until_s(self, robot_id: str | None = None) -> float | None:
+        """The earliest end still ahead of a connection's hold (a robot holds a load at rest, set down, until
+        its crew has made the connection): of ``robot_id``'s load, or of any; None when none is held."""
+        now = self.sim_time_s
+        ends = [
+            watch.hold_until_s
+            for watch in self.handling.watch.values()
+            if watch.hold_until_s > now
+            and (robot_id is None or (watch.tag is not None and watch.releaser == robot_id))
+        ]
+        return min(ends) if ends else None
+
     def skip(self, request: SkipRequest) -> PhysicsReply:
-        """Jump the clock to ``request.to_sim_s`` over a quiet site (:meth:`quiet`), or say what moves."""
+        """Jump the clock to ``request.to_sim_s`` over a quiet site (:meth:`quiet`), or say what moves. A
+        connection's hold ends the jump early: its robot is answered there (:meth:`held_until_s`). Each
+        robot of ``request.holding`` must hold a load so: one answered already acts on its answer next."""
         now = self.sim_time_s
         if request.to_sim_s <= now:
             return PhysicsReply(ok=True, sim_time_s=now)
         moving = self.quiet()
+        if moving is None:
+            moving = next(
+                (
+                    f"{robot_id} holds no load"
+                    for robot_id in request.holding
+                    if self.held_until_s(robot_id) is None
+                ),
+                None,
+            )
         if moving is not None:
             return PhysicsReply(ok=False, reason=f"not quiet: {moving}", sim_time_s=now)
-        self.skipped_s += request.to_sim_s - now
+        to_sim_s, why = request.to_sim_s, request.why
+        held_s = self.held_until_s()
+        if held_s is not None and held_s < to_sim_s:
+            to_sim_s, why = held_s, "to the end of a connection's hold"
+        self.skipped_s += to_sim_s - now
         self.skips += 1
         _log.info(
             "skipped %.0f s of sim time over a quiet site, to t=%.0f s%s",
-            request.to_sim_s - now,
-            request.to_sim_s,
-            f" ({request.why})" if request.why else "",
+            to_sim_s - now,
+            to_sim_s,
+            f" ({why})" if why else "",
         )
         return PhysicsReply(ok=True, sim_time_s=self.sim_time_s)
 

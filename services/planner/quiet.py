@@ -9,7 +9,12 @@ The site is **quiet** (:meth:`Quiet.quiet_until`) when, with the robots' types k
 
 * no event or assignment of the planner is still on its way (each one is waiting for its effect);
 * every alive robot is idle (holding no task of the planner's), or in timed work: state
-  ``work_in_place`` with a ``busy_until_s`` after now (its own word: nothing of it changes before);
+  ``work_in_place`` with a ``busy_until_s`` after now (its own word: nothing of it changes before), or
+  placing a component (state ``assemble``, the component ``assembling``): once set down at its target
+  the robot holds it while its connection is made, for as long as the connection's kind takes. Only
+  physics knows whether the load is still on its way or already held, and until when: the skip names
+  those robots (:attr:`Skip.holding`) and physics refuses it unless each holds its load, and ends it at
+  the earliest hold's end;
 * no component is being carried, placed, verified or retried (picking, transporting, assembling,
   verifying, misplaced); a component worked on in place (forming, pouring, laying) is worked on by a
   robot in timed work; no assigned task waits for its robot to start;
@@ -17,8 +22,8 @@ The site is **quiet** (:meth:`Quiet.quiet_until`) when, with the robots' types k
   hand-off); an idle robot that could but is held after give-backs makes its hold's end an event.
 
 Then the next event is the earliest of: a curing hold's end, a robot's ``busy_until_s``, a held robot's
-release, and the no-progress bound of a task worked on in place. A skip to it is returned when it lies at
-least ``min_skip_s`` ahead; else None (not quiet, or nothing known to wait for).
+release, and the no-progress bound of a task worked on in place or being placed. A skip to it is
+returned when it lies at least ``min_skip_s`` ahead; else None (not quiet, or nothing known to wait for).
 """
 
 from __future__ import annotations
@@ -54,6 +59,7 @@ class Skip:
 
     to_sim_s: float
     why: str
+    holding: tuple[str, ...] = ()  # robots placing a load: physics skips only while each holds it
 
 
 class Quiet:
@@ -72,6 +78,7 @@ class Quiet:
         if state.site is None or state.done or self._outbox.unsettled():
             return None
         events: list[tuple[float, str]] = []
+        holding: list[str] = []
         for robot in state.robots.values():
             if not robot.alive:
                 continue
@@ -79,6 +86,8 @@ class Quiet:
                 assert robot.reported_busy_until_s is not None
                 what = state.describe(robot.task_guid) if robot.task_guid else "its work"
                 events.append((robot.reported_busy_until_s, f"{robot.robot_id} at work on {what}"))
+            elif self._placing(robot):
+                holding.append(robot.robot_id)
             elif robot.state is not RobotState.IDLE or robot.task_guid is not None:
                 return None  # driving, lifting, not heard from, or about to take up a task
         for guid in state.plan.order:
@@ -95,17 +104,21 @@ class Quiet:
         to_sim_s, why = min(events)
         if to_sim_s - state.sim_time_s < min_skip_s:
             return None
-        return Skip(to_sim_s, f"{why} until {to_sim_s:.0f} s")
+        return Skip(to_sim_s, f"{why} until {to_sim_s:.0f} s", tuple(holding))
 
     def _task_events(self, guid: str) -> list[tuple[float, str]] | None:
         """What ``guid``'s task waits for (events), or None when something can happen to it now."""
         task, component_state = self._state.tasks[guid], self._state.components[guid].state
         if task.phase in FINAL or task.phase is Phase.WAITING:
             return []
+        robot = self._state.robots.get(task.robot_id or "")
+        placer = robot is not None and robot.task_guid == guid and self._placing(robot)
+        if component_state is ComponentState.ASSEMBLING and placer:
+            bound_s = self._watchdog.task_bound_s(task)
+            return [(task.changed_sim_s + bound_s, f"the no-progress bound of {task.active_id}")]
         if component_state in MOVING:
             return None
         if task.phase is Phase.ASSIGNED:
-            robot = self._state.robots.get(task.robot_id or "")
             if component_state not in WORKING or robot is None or not self._in_timed_work(robot):
                 return None  # not started yet, or worked on without a known end
             bound_s = self._watchdog.task_bound_s(task)
@@ -133,6 +146,16 @@ class Quiet:
                 return None
             events.append((robot.held_until_s, f"the hold of {robot.robot_id} after its give-backs"))
         return events
+
+    def _placing(self, robot: RobotRecord) -> bool:
+        """The robot places the component of its task (which it may hold while its connection is made)."""
+        guid = robot.task_guid
+        return (
+            robot.state is RobotState.ASSEMBLE
+            and guid is not None
+            and guid in self._state.components
+            and self._state.components[guid].state is ComponentState.ASSEMBLING
+        )
 
     def _in_timed_work(self, robot: RobotRecord) -> bool:
         """The robot says it works in place until a sim time still ahead."""

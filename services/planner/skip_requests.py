@@ -75,7 +75,11 @@ class Skipper:
         if skip is None:
             return None
         request = SkipRequest(
-            to_sim_s=skip.to_sim_s, why=skip.why[:500], step=step, participant=self.participant
+            to_sim_s=skip.to_sim_s,
+            why=skip.why[:500],
+            step=step,
+            participant=self.participant,
+            holding=list(skip.holding),
         )
         self._asked_wall_s, self._next_wall_s = now_wall_s, now_wall_s + self.retry_s
         self._send(request)
@@ -86,7 +90,14 @@ class Skipper:
         reply = answer.reply
         if reply is not None and reply.ok:
             self.accepted += 1
-            _log.info("physics skipped its clock to %.0f s: %s", answer.request.to_sim_s, answer.request.why)
+            request = answer.request
+            if reply.sim_time_s < request.to_sim_s - 1e-6:
+                held = ", ".join(request.holding)
+                _log.info(
+                    "physics skipped its clock to %.0f s, where a hold of %s ends", reply.sim_time_s, held
+                )
+            else:
+                _log.info("physics skipped its clock to %.0f s: %s", request.to_sim_s, request.why)
             return
         self.refused += 1
         why = reply.reason if reply is not None else answer.error

@@ -25,7 +25,7 @@ from bimbot.services.physics.scene import component_pose, footprint
 from bimbot.services.physics.simulation import SimConfig, Simulation
 from bimbot.shared.connection_kinds import SupportKind, SupportWhen, TemporarySupportNeed
 from bimbot.shared.manifest import Component, Manifest
-from bimbot.shared.messages import AttachRequest, PhysicsReply, PlaceRequest
+from bimbot.shared.messages import AttachRequest, PhysicsReply, PlaceRequest, SkipRequest
 
 HOLD_S = 3.0  # short, so that the tests stay fast; the default is 20 s
 
@@ -224,3 +224,46 @@ def test_connection_settings_are_checked() -> None:
         ConnectionConfig(gap_m=-0.1)
     with pytest.raises(ValueError, match="hold_s"):
         ConnectionConfig(hold_s=math.nan)
+
+
+def test_the_clock_skips_to_the_end_of_a_hold_only_while_the_robot_named_holds_its_load(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """A robot that holds a member at rest while its crew bolts it moves nothing: a quiet site's skip goes
+    on to the end of the hold (where the robot is answered), no further, and only while it holds."""
+    sim = make_sim(robots=1, connections=ConnectionConfig(hold_s=HOLD_S))
+    beam, neighbour = _named(frame_manifest, "Beam A1-A2"), _named(frame_manifest, "Beam A2-A3")
+    for name in ("Footing A1", "Column A1"):
+        _built(sim, _named(frame_manifest, name))
+    _built(sim, neighbour)
+    far_s = sim.sim_time_s + 3600.0
+    slot = sim.layout.slots[beam.guid]
+    spot = slot.footprint
+    x = spot.min_xy[0] - 0.8 if slot.aisle_side < 0 else spot.max_xy[0] + 0.8
+    sim.teleport_robot("r1", (x, (spot.min_xy[1] + spot.max_xy[1]) / 2.0, math.pi / 2))
+    assert sim.attach(AttachRequest(robot_id="r1", guid=beam.guid)).ok
+    idle(sim, 1.2)
+    carried = sim.skip(SkipRequest(to_sim_s=far_s, holding=["r1"]))
+    assert not carried.ok and "r1 carries" in (carried.reason or "")
+    target = beam.target_pose_world
+    rect = footprint(beam, (target.position_m, target.quat_xyzw))
+    sim.teleport_robot("r1", (rect.min_xy[0] - 0.8, (rect.min_xy[1] + rect.max_xy[1]) / 2.0, 0.0))
+    request = PlaceRequest(
+        robot_id="r1", guid=beam.guid, pose=pose(target.position_m, target.quat_xyzw), duration_s=1.0
+    )
+    assert sim.place(request, tag="t") is None
+    watch = None
+    for _ in range(round(15.0 / sim.config.control_period_s)):
+        assert not sim.advance().replies, "answered before its hold ended"
+        watch = sim.handling.watch.get(beam.guid)
+        if watch is not None and watch.settled:
+            break
+    assert watch is not None and watch.settled and watch.tag == "t"
+    hold_end_s = watch.hold_until_s
+    assert hold_end_s - sim.sim_time_s > 30.0, "the beam's pinned ends take longer than its settling"
+    skipped = sim.skip(SkipRequest(to_sim_s=far_s, why="curing", holding=["r1"]))
+    assert skipped.ok and skipped.sim_time_s == pytest.approx(hold_end_s), "to the hold's end, not beyond"
+    replies = sim.advance().replies
+    assert [tag for tag, reply in replies if reply.ok] == ["t"], "answered at the first step after the skip"
+    after = sim.skip(SkipRequest(to_sim_s=far_s, holding=["r1"]))
+    assert not after.ok and "r1 holds no load" in (after.reason or ""), "answered: it acts next, no skip"

@@ -95,6 +95,34 @@ def test_a_released_task_whose_only_robot_is_held_makes_the_hold_end_the_next_ev
     assert core.quiet_until() == Skip(600.0, "the hold of r1 after its give-backs until 600 s")
 
 
+def test_a_robot_placing_its_component_may_be_holding_it_so_physics_is_asked_naming_it() -> None:
+    """Set down, a member is held while its crew connects it: only physics knows whether it is held and
+    until when, so the skip names the robot (physics refuses unless it holds its load) and goes as far as
+    the task's no-progress bound (physics stops it at the hold's end)."""
+    core = _curing_site(except_for=("post_c",))
+    core.observe_component_state(state_msg("post_c", S.RELEASED, event="release", sim_time_s=100.0))
+    core.step(2.0)
+    assert core.robot_of("post_c") == "r1"
+    placing = robot_msg("r1", (3.0, -5.0), RobotState.ASSEMBLE, task_id="T0005", sim_time_s=120.0)
+    core.observe_robot_state(placing.model_copy(update={"guid": "post_c"}))
+    for state in (S.PICKING, S.TRANSPORTING):  # on its way: no skip
+        core.observe_component_state(state_msg("post_c", state, event="e", robot_id="r1", sim_time_s=110.0))
+        core.step(3.0)
+        assert core.quiet_until() is None, state
+    core.observe_component_state(
+        state_msg("post_c", S.ASSEMBLING, event="assemble", robot_id="r1", sim_time_s=120.0)
+    )
+    core.step(4.0)
+    skip = core.quiet_until()
+    assert skip is not None and skip.holding == ("r1",)
+    assert skip.to_sim_s == min(CURED_AT_S, 120.0 + 1200.0) and "no-progress bound" in skip.why
+    core.observe_component_state(
+        state_msg("post_c", S.VERIFYING, event="verify", robot_id="r1", sim_time_s=125.0)
+    )
+    core.step(5.0)
+    assert core.quiet_until() is None, "verifying: the agents are about to answer"
+
+
 def _pouring_site(busy_until_s: float | None) -> PlannerCore:
     """foot_a being formed by the pump r4 (since 10 s), which says it is busy until ``busy_until_s``."""
     core = _core()
@@ -168,3 +196,6 @@ def test_a_lock_step_skip_request_names_the_participant_whose_answer_counts_it()
     asked = skipper.tick(lambda: Skip(500.0, "curing"), 40.0, step=40)
     assert asked == SkipRequest(to_sim_s=500.0, why="curing", step=40, participant="planner")
     assert sent == [asked]
+    held = Skipper(sent.append, retry_s=25, timeout_s=100, check_s=5, participant="planner")
+    asked = held.tick(lambda: Skip(500.0, "bound", ("r1", "r2")), 40.0, step=40)
+    assert asked is not None and asked.holding == ["r1", "r2"], "the robots physics must see holding"
