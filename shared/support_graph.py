@@ -3,7 +3,8 @@
 Component ``B`` supports component ``A`` (B → A) when B's bottom is lower than A's bottom and either
 
 * they are connected in the IFC model (IfcRelConnectsElements and its subtypes, in either direction), or
-* they touch under gravity: B's top is within ``tolerance_m`` of A's bottom and their footprints overlap;
+* they touch under gravity: B's top is within ``tolerance_m`` of A's bottom and their footprints overlap
+  (a ceiling carries no wall: :func:`carries`);
 
 a foundation in the ground comes before what stands over its excavation with nothing else under or beside
 it, touching or not (:mod:`.excavation`: the model leaves the fill between out; a column on its own footing
@@ -266,7 +267,7 @@ def _add_contacts(
         )
         for other in candidates[(overlap_x > 0) & (overlap_y > 0)]:
             guid = components[int(other)].guid
-            if bottoms[guid] < bottom - tolerance_m:
+            if bottoms[guid] < bottom - tolerance_m and carries(components[int(other)], item):
                 preds[item.guid].add(guid)
                 kinds.setdefault((guid, item.guid), Edge.CONTACT)
                 resting.setdefault(item.guid, []).append(
@@ -278,6 +279,15 @@ def _add_contacts(
                     )
                 )
     return resting
+
+
+def carries(support: Component, item: Component) -> bool:
+    """Whether ``item`` set on ``support`` is carried by it. A ceiling (``IfcCovering`` CEILING) is hung from
+    the structure or fixed to the walls round it: it carries no wall. A wall's part drawn above the ceiling
+    line (Revit splits a wall at a level) stands on the wall below it, where the ceiling's edge is drawn
+    into that wall."""
+    hung = support.ifc_class.startswith("IfcCovering") and support.predefined_type == "CEILING"
+    return not (hung and item.ifc_class.startswith("IfcWall"))
 
 
 def erection_key(component: Component) -> tuple[float, int, str]:

@@ -267,3 +267,23 @@ def test_what_is_set_down_over_a_foundations_open_pit_waits_for_it_though_they_d
     assert "slab" in preds["panel"] and "slab" in preds["curb"] and "slab" in preds["rail"]
     assert "slab" not in preds["beside"] and preds["column"] == {"footing"}
     assert preds["slab"] == {"footing"} and preds["footing"] == set()
+
+
+def test_a_wall_part_over_the_ceiling_line_rests_on_the_wall_below_not_on_the_ceiling() -> None:
+    """Revit splits a wall at a level: its part above the ceiling line stands on the wall below, where the
+    ceiling's edge is drawn into that wall. A ceiling is hung: it carries no wall (the restaurant's kitchen
+    strips waited for the ceiling, which waits for the walls that close the kitchen). A lamp set in the
+    ceiling still rests on it."""
+    ceiling = _component("ceiling", "IfcCovering", (0.0, 0.0, 3.69), (3.0, 3.0, 3.746))
+    ceiling = ceiling.model_copy(update={"predefined_type": "CEILING"})
+    floor = _component("floor", "IfcSlab", (-1.0, -1.0, -0.2), (4.0, 4.0, 0.0))
+    wall = _component("wall", "IfcWallStandardCase", (2.95, 0.0, 0.0), (3.05, 3.0, 3.75))
+    strip = _component("strip", "IfcWallStandardCase", (2.95, 0.0, 3.75), (3.05, 3.0, 3.87))
+    lamp = _component("lamp", "IfcLightFixture", (1.0, 1.0, 3.746), (1.3, 1.3, 3.8))
+    preds = support_predecessors([ceiling, floor, wall, strip, lamp])
+    assert preds["strip"] == {"wall"}
+    assert preds["lamp"] == {"ceiling"}
+    flooring = ceiling.model_copy(
+        update={"predefined_type": "FLOORING", "guid": "flooring", "key": "flooring"}
+    )
+    assert support_predecessors([flooring, floor, wall, strip])["strip"] == {"wall", "flooring"}
