@@ -572,6 +572,9 @@ class StepDoneMsg(_Message):
     # physics requests (a skip) the participant sent before this answer: a query travels apart from the
     # answer and may come after it, and physics must not step past it (as ``CmdVelMsg.requests``)
     requests: Count = 0
+    # the earliest sim time after this step at which the participant acts of its own accord, with nothing
+    # heard (the planner: a curing's end releases a task): the plan fidelity's clock jumps no further
+    next_event_s: SimTime | None = None
 
 
 def key(template: str, **parts: str) -> str:

@@ -16,9 +16,12 @@ handling, placing, pits, joints, connections and their reasons, and changes thre
   component, for at most ``EVENT_WAIT_PERIODS`` periods: a robot waiting for one must not see the clock
   leap) and nothing settles, the clock jumps so that the next period ends at the earliest known event: a
   drive's end, an assembly motion's end (a crane's lift), a connection's hold, a robot's timed work
-  (``busy_until_s``). The services see a clock that leaps, as after a skip over a quiet site
-  (:meth:`~.simulation.Simulation.skip`); the protocol's own exchanges still run period by period, so a
-  hand-off between services costs the sim time it costs in the physics fidelity.
+  (``busy_until_s``), and the planner's next own event, which its answer to each step says
+  (``StepDoneMsg.next_event_s``: a curing's end releases a task; while a robot drives or holds a member
+  the planner asks no skip, and a jump past that end would release the task late). The services see a
+  clock that leaps, as after a skip over a quiet site (:meth:`~.simulation.Simulation.skip`); the
+  protocol's own exchanges still run period by period, so a hand-off between services costs the sim time
+  it costs in the physics fidelity.
 * **Same seed, same jumps.** What is heard is taken at a defined step (:mod:`.stepped_news`: before
   advancing from ``k``, what was stamped at ``k − 1`` or before), never as it happens to arrive. What the
   services say at step ``k`` is therefore not known when physics advances from ``k``: the clock never
@@ -48,6 +51,7 @@ from bimbot.shared.messages import (
     RobotStateMsg,
     ScanMsg,
     SkipRequest,
+    StepDoneMsg,
     TaskMsg,
 )
 from bimbot.shared.plan_motion import Trajectory, standing, trajectory
@@ -91,6 +95,8 @@ class PlanSimulation(Simulation):
         self._ended: set[str] = set()  # robots whose motion ended and was noted as news
         self._heard: dict[str, tuple[object, ...]] = {}  # last state of each robot, task, component
         self._busy_until: dict[str, float] = {}  # robot → its timed work's end (its state says)
+        # participant → (the step it answered last, when it acts next of its own accord: a curing's end)
+        self._own_events: dict[str, tuple[int, float | None]] = {}
         self._since_news = 0  # periods advanced since something was heard
         self._unanswered: dict[str, tuple[str, int]] = {}  # guid → (event id, period heard): no state yet
         self._answered: set[str] = set()  # event ids a state answered (a late repeat holds nothing)
@@ -139,6 +145,8 @@ class PlanSimulation(Simulation):
                 self._busy_until.pop(message.robot_id, None)
         elif isinstance(message, TaskMsg):
             self._changed("task", message.task_id, (message.status, message.robot_id, message.attempt))
+        elif isinstance(message, StepDoneMsg):
+            self._answered_step(message)
         elif isinstance(message, ComponentEventMsg):
             if message.event_id not in self._answered:
                 self._unanswered[message.guid] = (message.event_id, self.step)
@@ -151,6 +159,15 @@ class PlanSimulation(Simulation):
                 # its agent verifies on a pose stamped after the placement: send one now, not at the next
                 # repeat (which a jump of the clock would put off)
                 self.handling.changed.add(message.guid)
+
+    def _answered_step(self, answer: StepDoneMsg) -> None:
+        """A participant's answer to a step: when it acts next of its own accord (no news: it comes every
+        step). An answer said again for an older step (physics repeated that step's clock) changes nothing;
+        one that is done has no event ahead."""
+        last = self._own_events.get(answer.participant)
+        if last is not None and answer.step < last[0]:
+            return
+        self._own_events[answer.participant] = (answer.step, None if answer.done else answer.next_event_s)
 
     def _changed(self, kind: str, name: str, signature: tuple[object, ...]) -> None:
         if self._heard.get(f"{kind}/{name}") != signature:
@@ -227,7 +244,8 @@ class PlanSimulation(Simulation):
         return any(not watch.settled for watch in self.handling.watch.values())
 
     def _known_events(self) -> list[float]:
-        """A drive's end, an assembly motion's end, a connection's hold, a robot's timed work (sim s)."""
+        """A drive's end, an assembly motion's end, a connection's hold, a robot's timed work, and what a
+        participant said it does next of its own accord (the planner: a curing's end) (sim s)."""
         events = [motion.end_s for motion in self.motions.values()]
         events += [
             item.motion_start_s + item.motion_duration_s
@@ -235,6 +253,7 @@ class PlanSimulation(Simulation):
             if item.phase is Phase.ASSEMBLING
         ]
         events += [watch.hold_until_s for watch in self.handling.watch.values() if watch.tag is not None]
+        events += [at_s for _, at_s in self._own_events.values() if at_s is not None]
         return events + list(self._busy_until.values())
 
     def next_event_s(self) -> float | None:

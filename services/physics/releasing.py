@@ -16,11 +16,11 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from bimbot.shared.connection_kinds import SupportWhen
+from bimbot.shared.connection_hold import plan_connections, sets_supports, supports_s
 from bimbot.shared.footprint import body_centre_m
 
 from .client import p
-from .connections import fits_its_target, plan_connections, side_neighbours, within_gap
+from .connections import fits_its_target, side_neighbours, within_gap
 from .handling_state import BUILT_WHERE_IT_STANDS, HandlingState, Item, Phase, target_frame
 from .pits import DEEPER_M
 from .release import MAX_CLEARED_M, Watch, box_corners, clear_overlap, deep_overlaps, overlap_at_targets
@@ -238,16 +238,11 @@ class Releasing:
         state.supports.connect(guid, plan.kinds, {other: now_s + s for other, s in plan.holds_at_s.items()})
         hold_s = plan.connection_s
         need = component.temporary_support if supports else None
-        if need is not None and (
-            need.when is SupportWhen.ALWAYS
-            or (need.when is SupportWhen.UNCONNECTED and not plan.holds_at_s)
-            or (
-                need.when is SupportWhen.UNANCHORED
-                and not anchored(guid, state.supports.holds_at_s, self._anchors())
-            )
+        if need is not None and sets_supports(
+            need, plan, anchored=lambda: anchored(guid, state.supports.holds_at_s, self._anchors())
         ):
             state.supports.place(guid, need, now_s)
-            hold_s += need.count * need.place_s
+            hold_s += supports_s(need)
             _log.info("%s: %d %s set (%s)", guid, need.count, need.kind.value, need.why)
         if plan.fixed_to or guid in state.supports.standing:
             self.fix(item)

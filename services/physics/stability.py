@@ -23,12 +23,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from bimbot.shared.connection_hold import longest_hold_s
 from bimbot.shared.identifiers import named_guid
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.reasons import BESIDE_IT, CLASH_ADVICE, clash_clause
 from bimbot.shared.support_graph import support_predecessors
 
-from .connections import ConnectionConfig, longest_hold_s
+from .connections import ConnectionConfig
 from .handling_state import target_frame
 from .in_place_work import BUILT_IN_PLACE
 from .model_clashes import Clash, model_clashes

@@ -9,7 +9,9 @@ had just said, and two runs of one seed drifted apart. In
 lock-step, physics advances from ``k`` only once every participant has answered ``k − 1``, and each
 participant's messages come before its answer (:mod:`bimbot.shared.step_gate`): what is stamped at or
 before ``k − 1`` has all arrived by then. That, and only that, is taken before advancing from ``k``, in
-(stamp, sender, arrival) order; what is stamped ``k`` waits for the next advance.
+(stamp, sender, arrival) order; what is stamped ``k`` waits for the next advance. A participant's answer
+to a step (:class:`~bimbot.shared.messages.StepDoneMsg`) is taken the same way: it says when the
+participant acts next of its own accord (the planner: a curing's end), which the clock must not jump past.
 """
 
 from __future__ import annotations
@@ -19,13 +21,14 @@ from bimbot.shared.messages import (
     ComponentStateMsg,
     PlanMsg,
     RobotStateMsg,
+    StepDoneMsg,
     TaskMsg,
 )
 from bimbot.shared.step_gate import StepGate
 
 DELAY_STEPS = 1  # before advancing from k: what was stamped at k - 1 or before (everyone answered k - 1)
 
-News = PlanMsg | RobotStateMsg | TaskMsg | ComponentEventMsg | ComponentStateMsg
+News = PlanMsg | RobotStateMsg | TaskMsg | ComponentEventMsg | ComponentStateMsg | StepDoneMsg
 
 
 def sender(message: News) -> str:
@@ -40,6 +43,8 @@ def sender(message: News) -> str:
             return message.source
         case ComponentStateMsg():
             return message.guid
+        case StepDoneMsg():
+            return message.participant
 
 
 class SteppedNews:

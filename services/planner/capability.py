@@ -19,8 +19,10 @@ and where it stands); this module applies them to a component where it lies now 
 A component where it lies is its centre (the planner follows positions, not orientations); a crane's hook
 radius is the distance to that centre. Its target is its posed footprint.
 Bids (:func:`task_estimate_s`) are sim seconds: driving at the type's speed along ``DETOUR`` times the
-straight line, a crane's slew/trolley/hoist motion, and the type's handling time to grip and to release;
-for work in place, the work itself (formwork + pour, or the blocks at the machine's rate), its handling
+straight line, a crane's slew/trolley/hoist motion, the type's handling time to grip and to release, and
+for a component set at its target the time its robot holds it there until its connections are made and its
+temporary supports set (:func:`bimbot.shared.connection_hold.expected_hold_s`, physics' rule); for work in
+place, the work itself (formwork + pour, or the blocks at the machine's rate), its handling
 time to set up and to clear, and the drive of a machine that drives.
 """
 
@@ -30,6 +32,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from bimbot.shared.connection_hold import expected_hold_s
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import SiteInfoMsg
 from bimbot.shared.robot_description import Capability, RobotDescription
@@ -180,8 +183,8 @@ def task_estimate_s(
     to_xy_m: Sequence[float] | None = None,
 ) -> float:
     """Sim seconds for ``robot`` (at ``robot_xy_m``) to pick ``component`` up where it lies and place it
-    at its target, or put it down at ``to_xy_m`` (a hand-off); for work in place, to go there (a machine
-    that drives), set up, do the work and clear."""
+    at its target, holding it there until it is connected, or put it down at ``to_xy_m`` (a hand-off); for
+    work in place, to go there (a machine that drives), set up, do the work and clear."""
     description = robot.description
     target = target_centre_xy(component)
     handling_s = 2.0 * description.handling_s
@@ -192,14 +195,16 @@ def task_estimate_s(
         elif description.relocates:
             drive_s = relocation_to_s(robot, robot_xy_m, component)
         return drive_s + handling_s + work_s(component, description)
+    # set at its target, it is held until its connections are made (and its temporary supports set)
+    hold_s = expected_hold_s(component) if to_xy_m is None else 0.0
     if robot.lifts_by_hook and description.crane is not None:
         start = (*where.xy_m, where.top_z_m)
         end = (target[0], target[1], component.bbox_world.max_m[2])
-        return description.crane.motion_s(robot.home_xy_yaw[:2], start, end) + handling_s
+        return description.crane.motion_s(robot.home_xy_yaw[:2], start, end) + handling_s + hold_s
     goal = to_xy_m if to_xy_m is not None else target
     drive_m = math.dist(robot_xy_m[:2], where.xy_m) + math.dist(where.xy_m, goal[:2])
     place_s = 0.0 if to_xy_m is not None else GROUND_PLACE_S
-    return DETOUR * drive_m / description.max_speed_mps + handling_s + place_s
+    return DETOUR * drive_m / description.max_speed_mps + handling_s + place_s + hold_s
 
 
 def setup_for(

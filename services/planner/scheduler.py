@@ -378,6 +378,16 @@ class PlannerCore:
         """What is ready but for the curing of a cast predecessor, soonest first."""
         return self._release.curing_holds()
 
+    def next_own_event_s(self) -> float | None:
+        """The earliest sim time after now at which the planner acts with nothing heard: a curing hold ends
+        (its task is released) or a robot's hold after its give-backs does (it may take a task again); None
+        when none is ahead. Physics' plan fidelity jumps its clock no further (``StepDoneMsg.next_event_s``):
+        it knows the robots' timed work, not these."""
+        state = self._state
+        ends = [hold.until_s for hold in self.curing_holds()]
+        ends += [robot.held_until_s for robot in state.robots.values() if robot.alive]
+        return min((end for end in ends if end > state.sim_time_s), default=None)
+
     def reasons(self) -> dict[str, Reason]:
         """GUID → why, for every failed and blocked component."""
         return {

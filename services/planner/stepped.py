@@ -231,9 +231,16 @@ class SteppedLoop:
                 core.observe_robot_state(item)
 
     def _answer(self, step: int, sim_time_s: float, *, done: bool = False, requests: int = 0) -> None:
-        """Answer ``step``; ``requests``: the skip requests sent for it (physics waits for them)."""
+        """Answer ``step``; ``requests``: the skip requests sent for it (physics waits for them). The answer
+        says when the planner acts next of its own accord (a curing's end): the plan fidelity's physics
+        does not jump its clock past that."""
         message = StepDoneMsg(
-            participant=PARTICIPANT, step=step, sim_time_s=sim_time_s, done=done, requests=requests
+            participant=PARTICIPANT,
+            step=step,
+            sim_time_s=sim_time_s,
+            done=done,
+            requests=requests,
+            next_event_s=None if done else self.core.next_own_event_s(),
         )
         self.session.put(self._answer_key, encode(message))
         # said again when the step is heard again, without its requests: those went with the first

@@ -19,10 +19,11 @@ import pytest
 from physics_builders import angle_between, idle, pose
 
 from bimbot.services.physics.client import p
-from bimbot.services.physics.connections import ConnectionConfig, longest_hold_s, side_neighbours
+from bimbot.services.physics.connections import ConnectionConfig, side_neighbours
 from bimbot.services.physics.handling_state import Phase
 from bimbot.services.physics.scene import component_pose, footprint
 from bimbot.services.physics.simulation import SimConfig, Simulation
+from bimbot.shared.connection_hold import longest_hold_s
 from bimbot.shared.connection_kinds import SupportKind, SupportWhen, TemporarySupportNeed
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import AttachRequest, PhysicsReply, PlaceRequest, SkipRequest

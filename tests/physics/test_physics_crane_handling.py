@@ -14,13 +14,13 @@ import pytest
 from physics_builders import bottom_z, idle, pose, west_of
 
 from bimbot.services.physics.client import p
-from bimbot.services.physics.connections import longest_hold_s
 from bimbot.services.physics.crane import hook_position, load_top
 from bimbot.services.physics.handling_state import Phase
 from bimbot.services.physics.restore import restore_site
 from bimbot.services.physics.scene import Frame, footprint
 from bimbot.services.physics.simulation import Simulation
 from bimbot.services.physics.snapshot import SnapshotRecorder, load_snapshot
+from bimbot.shared.connection_hold import longest_hold_s
 from bimbot.shared.fleet import Fleet, default_fleet
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import AttachRequest, PlaceRequest

@@ -16,12 +16,13 @@ from pathlib import Path
 import pytest
 
 from bimbot.services.physics.client import p
-from bimbot.services.physics.connections import ConnectionConfig, longest_hold_s
+from bimbot.services.physics.connections import ConnectionConfig
 from bimbot.services.physics.handling_state import target_frame
 from bimbot.services.physics.model_clashes import model_clashes
 from bimbot.services.physics.release import Watch
 from bimbot.services.physics.scene import component_pose, set_component_pose
 from bimbot.services.physics.simulation import SimConfig, Simulation
+from bimbot.shared.connection_hold import longest_hold_s
 from bimbot.shared.manifest import Component, Joint, JointSource, Manifest
 from bimbot.shared.verification import Tolerances
 

@@ -30,6 +30,7 @@ from bimbot.shared.messages import (
     ScanMsg,
     SensorsMsg,
     SkipRequest,
+    StepDoneMsg,
 )
 
 GUID = "0Component000000000000a"
@@ -189,3 +190,43 @@ def test_the_clock_does_not_jump_from_where_a_skip_landed(sim: PlanSimulation) -
         sim.advance()
         times.append(sim.sim_time_s)
     assert times == pytest.approx([300.2, 300.4, 1000.0])
+
+
+def _answer(step: int, stamp_s: float, next_event_s: float | None, *, done: bool = False) -> StepDoneMsg:
+    return StepDoneMsg(
+        participant="planner", step=step, sim_time_s=stamp_s, next_event_s=next_event_s, done=done
+    )
+
+
+def test_the_clock_stops_where_the_planner_said_it_acts_next_not_at_a_robot_s_later_end(
+    sim: PlanSimulation,
+) -> None:
+    """r9 works until 1000 s; the planner holds a task until a curing ends at 300 s, which it says in its
+    answer to each step: the clock jumps so that a period ends there (the planner releases the task at that
+    step), not on to 1000 s. An answer said again for an older step changes nothing, and a done planner
+    holds the clock nowhere."""
+    sim.hear(_busy("r9", 1000.0, 0.0))
+    sim.hear(_answer(0, 0.0, 300.0))
+    before = (0, 0.0)
+    while sim.sim_time_s < 300.0 - 1e-9:
+        before = (sim.step, sim.sim_time_s)
+        sim.advance()
+    assert sim.sim_time_s == pytest.approx(300.0) and sim.jumps == 1
+    assert sim.next_event_s() == pytest.approx(1000.0)  # 300 s has passed: it holds nothing ahead
+    sim.hear(_answer(sim.step, sim.sim_time_s, 600.0))  # at 300 s: the next curing ends at 600 s
+    sim.hear(_busy("r8", 700.0, sim.sim_time_s))  # news: r8 works until 700 s
+    sim.advance()
+    sim.advance()  # both taken: the news holds the clock a few periods
+    sim.hear(_answer(*before, 450.0))  # the answer to the step before the jump, said again (a repeat)
+    times = []
+    while sim.sim_time_s < 600.0 - 1e-9:
+        sim.advance()
+        times.append(sim.sim_time_s)
+    assert sim.sim_time_s == pytest.approx(600.0)
+    assert not any(450.0 - 1e-6 <= time < 450.2 for time in times)
+    sim.hear(_answer(sim.step, sim.sim_time_s, 900.0, done=True))
+    while sim.sim_time_s < 1000.0 - 1e-9:
+        sim.advance()
+        times.append(sim.sim_time_s)
+    assert sim.sim_time_s == pytest.approx(1000.0)
+    assert not any(900.0 - 1e-6 <= time < 900.2 for time in times)

@@ -74,3 +74,18 @@ def test_a_cast_footing_cured_long_ago_holds_nothing_after_a_restart() -> None:
     core.observe_twin(twin_msg("foot_a", S.CONSTRUCTED, history=[constructed]))
     assert "col_a" in _released(core.step(0.0))
     assert core.progress().curing == []
+
+
+def test_the_planner_s_next_own_event_is_the_end_of_the_curing_it_holds_a_task_for() -> None:
+    """Physics' plan fidelity knows the robots' timed work, not the curing: the planner says its end in
+    its answer to each step (``StepDoneMsg.next_event_s``), and nothing once it has passed."""
+    core = _core()
+    core.step(0.0)
+    assert core.next_own_event_s() is None  # nothing cures yet
+    core.observe_component_state(state_msg("foot_a", S.CONSTRUCTED, event="verified", sim_time_s=100.0))
+    core.observe_clock(101.0)
+    core.step(1.0)
+    assert core.next_own_event_s() == 100.0 + CURE_S
+    core.observe_clock(100.0 + CURE_S)
+    core.step(2.0)
+    assert core.next_own_event_s() is None
