@@ -17,8 +17,8 @@ handling, placing, pits, joints, connections and their reasons, and changes thre
   leap) and nothing settles, the clock jumps so that the next period ends at the earliest known event: a
   drive's end, an assembly motion's end (a crane's lift), a connection's hold, a robot's timed work
   (``busy_until_s``), and the planner's next own event, which its answer to each step says
-  (``StepDoneMsg.next_event_s``: a curing's end releases a task; while a robot drives or holds a member
-  the planner asks no skip, and a jump past that end would release the task late). The services see a
+  (``StepDoneMsg.next_event_s``: a curing's end releases a task; while a robot drives the planner asks
+  no skip, and a jump past that end would release the task late). The services see a
   clock that leaps, as after a skip over a quiet site (:meth:`~.simulation.Simulation.skip`); the
   protocol's own exchanges still run period by period, so a hand-off between services costs the sim time
   it costs in the physics fidelity.
