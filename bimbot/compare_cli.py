@@ -1,6 +1,7 @@
 """``bimbot compare RUN_A RUN_B …``: runs side by side by construction method, as a markdown table.
 
-A run is named by its run folder, its ``report.json`` or a build folder (its latest run). For each run:
+A run is named by its run folder, its ``report.json`` or a build folder: its latest run with a report,
+under ``BUILD/runs/`` or given elsewhere with ``--run-dir`` (``BUILD/runs/elsewhere``). For each run:
 constructed of all, makespan, and for each method the components it built, the time its work took and
 its longest cure (:mod:`bimbot.shared.report.compare`); then each run's makespan against the first's.
 """
@@ -16,7 +17,7 @@ from typing import Any
 from bimbot.shared.errors import UserError
 from bimbot.shared.report.compare import MethodFigures, RunColumn, methods_in, run_column
 from bimbot.shared.report.durations import duration_text
-from bimbot.shared.run_folder import RunFolder, latest_run_folder
+from bimbot.shared.run_folder import RunFolder, latest_run_folder, runs_elsewhere
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -33,14 +34,29 @@ def report_path(path: Path) -> Path:
     if path.is_file():
         return path
     if (path / "manifest.json").is_file():
-        latest = latest_run_folder(path)
+        latest = latest_report(path)
         if latest is None:
             raise UserError(f"{path}: a build with no runs yet (bimbot run {path})")
-        path = latest.root
+        return latest
     report = RunFolder(path).report_dir / "report.json"
     if not report.is_file():
         raise UserError(f"{path}: no report.json there (a run folder, its report.json or a build folder)")
     return report
+
+
+def latest_report(build: Path) -> Path | None:
+    """The newest ``report.json`` of a build's runs (its ``runs/latest`` and the run folders given
+    elsewhere with ``--run-dir``) by when it was written, of a run that has ended when one has: a run
+    still going writes a report too, and is not the one to compare; None when no run has a report."""
+    latest = latest_run_folder(build)
+    runs = [RunFolder(folder) for folder in ([latest.root] if latest is not None else [])]
+    runs += [RunFolder(folder) for folder in runs_elsewhere(build)]
+    written = [run for run in runs if (run.report_dir / "report.json").is_file()]
+    candidates = [run for run in written if run.ended] or written
+    newest = max(
+        candidates, key=lambda run: (run.report_dir / "report.json").stat().st_mtime_ns, default=None
+    )
+    return None if newest is None else newest.report_dir / "report.json"
 
 
 def _read(path: Path) -> dict[str, Any]:
@@ -87,6 +103,8 @@ def run(args: argparse.Namespace) -> int:
     columns = []
     for path in args.runs:
         report = report_path(path)
-        columns.append(run_column(str(path), _read(report)))
+        data = _read(report)
+        going = (data.get("ending") or {}).get("how") == "running"
+        columns.append(run_column(f"{path} (still running)" if going else str(path), data))
     sys.stdout.write("\n".join(table(columns)) + "\n")
     return 0

@@ -91,6 +91,13 @@ class PanelRule(_Frozen):
             "them whole and no panel cut fits (a solid floor slab of that size is concrete on a site)"
         ),
     )
+    cast_unknown_when_too_heavy: bool = Field(
+        default=False,
+        description=(
+            "cast those elements in place as soon as no machine lifts them whole or no truck carries them, "
+            "before any panel cut: taken for concrete, as the file casts its concrete (conventional)"
+        ),
+    )
 
     _classes = field_validator("classes", "cast_unknown_classes")(_check_classes)
 

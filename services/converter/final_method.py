@@ -22,7 +22,7 @@ from bimbot.shared.construction_methods import (
     MethodSource,
 )
 from bimbot.shared.fleet import Fleet, default_fleet
-from bimbot.shared.methods_file import MethodsFile, load_methods
+from bimbot.shared.methods_file import MaterialKind, MethodsFile, load_methods
 from bimbot.shared.robot_description import Capability
 
 DEFAULT_DECISION = MethodDecision(
@@ -102,9 +102,13 @@ def final_method(
     if fallback is ConstructionMethod.PANELISED:
         return _rule(fallback, f"{why}: split into precast panels", decision)
     if fallback is ConstructionMethod.CAST_IN_PLACE:
-        return _rule(
-            fallback, f"{why}: a {decision.material or ''} {ifc_class} cast in place instead", decision
+        unknown = decision.material in (None, MaterialKind.UNKNOWN.value)
+        what = (
+            f"an {ifc_class} of unknown material, cast in place as concrete instead"
+            if unknown
+            else f"a {decision.material} {ifc_class} cast in place instead"
         )
+        return _rule(fallback, f"{why}: {what}", decision)
     note = f"{decision.note}; " if decision.note else ""
     return settled.model_copy(update={"note": f"{note}{why}, and no other method is known for it"})
 

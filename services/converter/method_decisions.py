@@ -5,7 +5,8 @@ Per element, the first answer of: the user's word (the methods file's ``by_guid`
 ``ifc = false``), the file's rules. Rules about the ground are answered both ways (the decision keeps the
 answer for an element in the ground as ``if_in_ground``), and a lifted element that is not the user's
 choice carries what it becomes when it proves too heavy or too large (``if_too_heavy``: panelised for the
-file's panel classes, cast in place for its cast materials); :func:`.final_method.final_method` settles
+file's panel classes, cast in place for its cast materials, and for its ``cast_unknown_classes`` of unknown
+material when it casts those first); :func:`.final_method.final_method` settles
 both once the mass and size are known.
 """
 
@@ -60,6 +61,12 @@ def _too_heavy(
     """What a lifted element becomes when too heavy or too large: None for the user's word."""
     if decision.method is not ConstructionMethod.LIFTED or decision.source is MethodSource.USER:
         return None
+    if (
+        kind is MaterialKind.UNKNOWN
+        and methods.panels.cast_unknown_when_too_heavy
+        and any(element.is_a(name) for name in methods.panels.cast_unknown_classes)
+    ):
+        return ConstructionMethod.CAST_IN_PLACE
     if any(element.is_a(name) for name in methods.panels.classes):
         return ConstructionMethod.PANELISED
     if kind in methods.panels.cast_when_too_heavy:

@@ -16,7 +16,8 @@ construction protocol:
   last course ``place``.
 
 What cures is the planner's business (it holds what rests on a cast component). While a timer runs the
-robot's state says until when (``busy_until_s``), so a site where nothing else moves can skip to it. Every
+robot's state says until when (``busy_until_s``), so a site where nothing else moves can skip to it; a step's
+timer runs from when the step became the one under way, not from its event's answer. Every
 wait is bounded: a physics request by ``request_timeout_s`` of wall time and ``max_tries`` refusals, an
 event by the agent's confirmation (resent at least once), the verdict by the agent's own bound; a task it
 cannot do (out of its boom's reach, another method) is given back at once with the reason.
@@ -270,7 +271,10 @@ class SiteWorkExecutor:
             return
         step = job.steps[job.index]
         if job.started_s is None:
-            job.started_s = self.sim_s
+            # the work began when the step became the one under way (its event bears that time): the
+            # state said it ends by then plus its duration, and a quiet site's clock may have jumped there
+            # while the event's answer was awaited
+            job.started_s = job.ready_s if job.ready_s is not None else self.sim_s
             _log.info(
                 "%s: %s of %s, %.0f s of sim time",
                 self.robot_id,

@@ -90,3 +90,16 @@ def test_a_machine_that_only_pours_is_no_lift_however_heavy_its_payload() -> Non
     )
     limits = method_limits(fleet, load_methods())
     assert (limits.lift_capacity_kg, limits.lifted_by) == (3_000, "carrier")
+
+
+def test_a_slab_of_unknown_material_cast_when_too_heavy_says_it_is_taken_for_concrete() -> None:
+    unknown = WALL.model_copy(
+        update={"material": "unknown", "if_too_heavy": ConstructionMethod.CAST_IN_PLACE}
+    )
+    cast = final_method(unknown, 37_518, (16.9, 7.4, 0.3), "IfcSlab", LIMITS)
+    assert (cast.method, cast.source) == (ConstructionMethod.CAST_IN_PLACE, MethodSource.RULE)
+    assert cast.note.endswith("an IfcSlab of unknown material, cast in place as concrete instead")
+    concrete = unknown.model_copy(update={"material": "concrete"})
+    assert final_method(concrete, 37_518, (16.9, 7.4, 0.3), "IfcSlab", LIMITS).note.endswith(
+        "a concrete IfcSlab cast in place instead"
+    )

@@ -96,6 +96,9 @@ class FakeAgentAndPhysics:
         self.robot_states: list[RobotStateMsg] = []
         self.history: list[ComponentStateMsg] = []
         self.step = 0
+        self.now_s = 0.0
+        self.hold: ComponentEvent | None = None  # an event left unanswered until release_held
+        self.held: tuple[float, ComponentEventMsg] | None = None
 
     def assign(self) -> None:
         """The planner's release (heard by the robot, as on the bus), then its task for r1."""
@@ -118,15 +121,26 @@ class FakeAgentAndPhysics:
 
     def run(self, seconds: float) -> None:
         for _ in range(round(seconds / PERIOD_S)):
-            self.step += 1
-            now = self.step * PERIOD_S
-            clock = ClockMsg(sim_time_s=now, step=self.step, real_time_factor=0.0, lock_step=True)
-            for message in self.executor.tick(clock, wall_s=1000.0 + now):
-                self._take(message, now)
+            self.jump_to(self.now_s + PERIOD_S)
+
+    def jump_to(self, now: float) -> None:
+        """One clock step, to ``now`` (a period on, or a skip over a quiet site)."""
+        self.step, self.now_s = self.step + 1, now
+        clock = ClockMsg(sim_time_s=now, step=self.step, real_time_factor=0.0, lock_step=True)
+        for message in self.executor.tick(clock, wall_s=1000.0 + now):
+            self._take(message, now)
+
+    def release_held(self) -> None:
+        assert self.held is not None
+        (_, message), self.held, self.hold = self.held, None, None
+        self._take(message, self.now_s)
 
     def _take(self, message: object, now: float) -> None:
         if isinstance(message, RobotStateMsg):
             self.robot_states.append(message)
+        elif isinstance(message, ComponentEventMsg) and message.event is self.hold:
+            if self.held is None:
+                self.held = (now, message)
         elif isinstance(message, ComponentEventMsg):
             after = next_state(self.state, message.event.value)
             if after is None:
@@ -152,7 +166,7 @@ class FakeAgentAndPhysics:
             state=state,
             previous=previous,
             event=event,
-            sim_time_s=self.step * PERIOD_S,
+            sim_time_s=self.now_s,
             wall_time_s=1000.0,
         )
         self.history.append(record)
@@ -230,3 +244,24 @@ def test_from_its_assignment_to_its_build_the_crew_always_says_until_when_it_is_
     assert working and all(m.busy_until_s is not None for m in working)
     pour_s = dict((event, when) for when, event in site.events)[ComponentEvent.POUR]
     assert all(m.busy_until_s <= pour_s + 1e-9 for m in working if m.sim_time_s < pour_s)  # never past it
+
+
+def test_a_clock_that_jumps_to_the_promised_end_while_the_pour_is_unanswered_ends_the_pour_there(
+    frame_manifest: Manifest,
+) -> None:
+    """The crew says it is busy until the pour's start plus its duration while the pour's event awaits the
+    agent's answer; a quiet site's clock jumped there (the Revit house's upper slab: 8,553 s), and the pour's
+    timer then started at the answer and ran its 8,553 s again. The pour ends where the state said."""
+    manifest, info, component = _site(frame_manifest, PUMP, ConstructionMethod.CAST_IN_PLACE)
+    executor = SiteWorkExecutor(manifest, info, ExecutorConfig(robot_id="r1"))
+    site = FakeAgentAndPhysics(executor, component)
+    site.hold = ComponentEvent.POUR
+    site.assign()
+    site.run(700.0)  # the formwork's 600 s: the pour's event is sent and held
+    assert site.held is not None and not site.builds
+    promised = executor.state_message(wall_s=2000.0).busy_until_s
+    assert promised == pytest.approx(site.held[0] + 120.0, abs=PERIOD_S)
+    site.jump_to(promised)  # nothing else moves: the clock skips to the crew's end
+    site.release_held()
+    site.run(300.0)
+    assert site.builds and site.builds[0][0] <= promised + 2 * PERIOD_S

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -12,6 +13,7 @@ import pytest
 from bimbot import compare_cli
 from bimbot.shared.errors import UserError
 from bimbot.shared.report.compare import by_method
+from bimbot.shared.run_folder import RunFolder, new_run_folder, remember_run_dir
 
 
 def _component(method: str, state: str = "constructed", **times: object) -> dict[str, object]:
@@ -79,3 +81,34 @@ def test_the_table_has_a_row_per_method_and_the_makespan_against_the_first(
 def test_a_path_with_no_report_is_one_clear_error(tmp_path: Path) -> None:
     with pytest.raises(UserError, match=r"no report\.json there"):
         compare_cli.report_path(tmp_path)
+
+
+def test_a_build_names_its_newest_report_also_of_a_run_given_elsewhere(tmp_path: Path) -> None:
+    """``bimbot run BUILD --run-dir DIR`` keeps the run outside ``BUILD/runs/``; ``bimbot compare BUILD``
+    still finds it (``BUILD/runs/elsewhere``), and takes the newest report of the build's runs."""
+    build = tmp_path / "build"
+    build.mkdir()
+    (build / "manifest.json").write_text("{}", encoding="utf-8")
+    with pytest.raises(UserError, match="a build with no runs yet"):
+        compare_cli.report_path(build)
+    older = _run_folder(tmp_path, "older", PREFAB)
+    newer = _run_folder(tmp_path, "newer", CONVENTIONAL)
+    remember_run_dir(build, older)
+    remember_run_dir(build, newer)
+    os.utime(older / "report" / "report.json", ns=(2_000_000_000, 2_000_000_000))
+    os.utime(newer / "report" / "report.json", ns=(1_000_000_000, 1_000_000_000))
+    assert compare_cli.report_path(build) == older.resolve() / "report" / "report.json"
+    in_runs = new_run_folder(build)  # runs/latest, its report the newest
+    in_runs.report_dir.mkdir(parents=True)
+    (in_runs.report_dir / "report.json").write_text(json.dumps(PREFAB), encoding="utf-8")
+    assert compare_cli.report_path(build) == in_runs.report_dir / "report.json"
+    RunFolder(newer.resolve()).mark_ended("done")  # a run that ended comes before one still going
+    assert compare_cli.report_path(build) == newer.resolve() / "report" / "report.json"
+
+
+def test_a_run_still_going_is_labelled_so(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    going = {**PREFAB, "ending": {"how": "running", "code": "interrupted"}}
+    a, b = _run_folder(tmp_path, "done", PREFAB), _run_folder(tmp_path, "going", going)
+    assert compare_cli.run(argparse.Namespace(runs=[a, b])) == 0
+    header = capsys.readouterr().out.splitlines()[0]
+    assert f"| {b} (still running) |" in header and f"| {a} |" in header
