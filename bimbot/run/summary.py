@@ -159,10 +159,12 @@ def summary_text(outcome: RunOutcome) -> str:
     early = []  # first: why the numbers below are what they are
     if ending is not None and ending.how != "done":
         early = [f"the run ended early: {ending.message}", *(f"  {detail}" for detail in ending.details)]
+    # the report's clock: built after the last message, which the run's own monitor may not have heard
+    sim_time_s = max(outcome.sim_time_s, float(outcome.report.get("sim_time_s") or 0.0))
     lines = [
         *early,
         f"constructed {outcome.constructed}/{outcome.total} components in "
-        f"{outcome.sim_time_s:.1f} s sim time ({outcome.wall_time_s:.1f} s wall{_makespan(totals)}), "
+        f"{sim_time_s:.1f} s sim time ({outcome.wall_time_s:.1f} s wall{_makespan(totals)}), "
         f"{_caught(outcome)}, {_give_backs(totals, outcome.report.get('robots', {}))}{_seed(outcome)}",
     ]
     walled_in = walled_in_lines(outcome.report.get("robots", {}))

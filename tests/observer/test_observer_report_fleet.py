@@ -239,3 +239,19 @@ def test_the_run_summary_lists_robots_by_type_with_hand_offs_and_utilisation_per
     ]
     assert "(1 hand-off(s))" in robot_lines[1] and "hand-off" not in robot_lines[3]
     assert utilisation_line(report) in lines
+
+
+def test_the_summary_s_sim_time_is_never_before_the_last_construction_the_report_counts() -> None:
+    """In plan fidelity the run's monitor may stop before it hears the last clock; the report, built after
+    the last message, knows it: the summary says the later of the two (never less than the makespan)."""
+    from bimbot.run.summary import RunOutcome, summary_text
+
+    report = {"sim_time_s": 1_795_233.6, "totals": {"makespan_s": 1_794_991.0}}
+    first = summary_text(
+        RunOutcome(exit_code=0, constructed=2, total=2, sim_time_s=1_738_309.7, report=report)
+    )
+    assert first.splitlines()[0].startswith("constructed 2/2 components in 1795233.6 s sim time")
+    later = summary_text(
+        RunOutcome(exit_code=0, constructed=2, total=2, sim_time_s=1_800_000.0, report=report)
+    )
+    assert "in 1800000.0 s sim time" in later
