@@ -25,7 +25,7 @@ from bimbot.services.physics.scene import component_pose, footprint
 from bimbot.services.physics.simulation import SimConfig, Simulation
 from bimbot.shared.connection_hold import longest_hold_s
 from bimbot.shared.connection_kinds import SupportKind, SupportWhen, TemporarySupportNeed
-from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.manifest import Component, Manifest, Pose
 from bimbot.shared.messages import AttachRequest, PhysicsReply, PlaceRequest, SkipRequest
 
 HOLD_S = 3.0  # short, so that the tests stay fast; the default is 20 s
@@ -42,20 +42,31 @@ def _built(sim: Simulation, component: Component) -> None:
     sim.handling.note_constructed(component.guid, True)
 
 
-def _place(
-    sim: Simulation, component: Component, *, offset_y_m: float = 0.0, within_s: float | None = None
-) -> tuple[PhysicsReply, float]:
-    """Pick ``component`` from the yard, stand west of its target and place it (``offset_y_m`` off its
-    target); the reply and the sim seconds from the end of the motion to the reply."""
+def _pick_up(sim: Simulation, component: Component) -> None:
+    """r1 takes ``component`` from its yard slot."""
     slot = sim.layout.slots[component.guid]
     spot = slot.footprint
     x = spot.min_xy[0] - 0.8 if slot.aisle_side < 0 else spot.max_xy[0] + 0.8
     sim.teleport_robot("r1", (x, (spot.min_xy[1] + spot.max_xy[1]) / 2.0, math.pi / 2))
     assert sim.attach(AttachRequest(robot_id="r1", guid=component.guid)).ok
     idle(sim, 1.2)
+
+
+def _beside_target(sim: Simulation, component: Component) -> Pose:
+    """r1 stands west of ``component``'s target; the target."""
     target = component.target_pose_world
     rect = footprint(component, (target.position_m, target.quat_xyzw))
     sim.teleport_robot("r1", (rect.min_xy[0] - 0.8, (rect.min_xy[1] + rect.max_xy[1]) / 2.0, 0.0))
+    return target
+
+
+def _place(
+    sim: Simulation, component: Component, *, offset_y_m: float = 0.0, within_s: float | None = None
+) -> tuple[PhysicsReply, float]:
+    """Pick ``component`` from the yard, stand west of its target and place it (``offset_y_m`` off its
+    target); the reply and the sim seconds from the end of the motion to the reply."""
+    _pick_up(sim, component)
+    target = _beside_target(sim, component)
     x0, y0, z0 = target.position_m
     request = PlaceRequest(
         robot_id="r1",
@@ -238,17 +249,10 @@ def test_the_clock_skips_to_the_end_of_a_hold_only_while_the_robot_named_holds_i
         _built(sim, _named(frame_manifest, name))
     _built(sim, neighbour)
     far_s = sim.sim_time_s + 3600.0
-    slot = sim.layout.slots[beam.guid]
-    spot = slot.footprint
-    x = spot.min_xy[0] - 0.8 if slot.aisle_side < 0 else spot.max_xy[0] + 0.8
-    sim.teleport_robot("r1", (x, (spot.min_xy[1] + spot.max_xy[1]) / 2.0, math.pi / 2))
-    assert sim.attach(AttachRequest(robot_id="r1", guid=beam.guid)).ok
-    idle(sim, 1.2)
+    _pick_up(sim, beam)
     carried = sim.skip(SkipRequest(to_sim_s=far_s, holding=["r1"]))
     assert not carried.ok and "r1 carries" in (carried.reason or "")
-    target = beam.target_pose_world
-    rect = footprint(beam, (target.position_m, target.quat_xyzw))
-    sim.teleport_robot("r1", (rect.min_xy[0] - 0.8, (rect.min_xy[1] + rect.max_xy[1]) / 2.0, 0.0))
+    target = _beside_target(sim, beam)
     request = PlaceRequest(
         robot_id="r1", guid=beam.guid, pose=pose(target.position_m, target.quat_xyzw), duration_s=1.0
     )
