@@ -9,6 +9,11 @@ Layout (world frame, metres)::
 
 from __future__ import annotations
 
+import itertools
+
+from bimbot.services.planner.capability import SiteRobot
+from bimbot.services.planner.scheduler import PlannerCore
+from bimbot.services.planner.sources import plan_from_sequence
 from bimbot.shared.construction_methods import CastWork, ConstructionMethod
 from bimbot.shared.manifest import (
     BoundingBox,
@@ -34,6 +39,7 @@ from bimbot.shared.messages import (
 from bimbot.shared.reasons import Reason
 from bimbot.shared.robot_description import DEFAULT_ROBOT, Capability, LayingSpec, RobotDescription
 from bimbot.shared.site_layout import plan_site
+from bimbot.shared.support_graph import derive_sequence
 
 PORTAL = ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c", "beam")
 
@@ -224,3 +230,14 @@ def one_robot_site_info(manifest: Manifest) -> SiteInfoMsg:
         control_period_s=0.2,
         lock_step=True,
     )
+
+
+def idle_core(manifest: Manifest, robots: list[SiteRobot]) -> PlannerCore:
+    """A planner core on the derived plan of ``manifest`` with ``robots`` alive and idle at their homes."""
+    plan = plan_from_sequence(derive_sequence(manifest.components), manifest.components, "test")
+    counter = itertools.count(1)
+    core = PlannerCore(manifest, plan, new_id=lambda: f"ev{next(counter)}", robots=robots, slots={})
+    for robot in robots:
+        core.robot_liveliness(robot.robot_id, True)
+        core.observe_robot_state(robot_msg(robot.robot_id, robot.home_xy_yaw[:2]))
+    return core

@@ -3,15 +3,12 @@
 
 from __future__ import annotations
 
-import itertools
-
 import pytest
-from planner_builders import component, portal_manifest, robot_msg, state_msg
+from planner_builders import component, idle_core, portal_manifest, state_msg
 
 from bimbot.services.planner.capability import SiteRobot, Where, task_estimate_s
 from bimbot.services.planner.feasibility import slot_where
-from bimbot.services.planner.scheduler import Phase, PlannerCore
-from bimbot.services.planner.sources import plan_from_sequence
+from bimbot.services.planner.scheduler import Phase
 from bimbot.shared.connection_hold import UNLINKED_CONNECTION_S, expected_hold_s
 from bimbot.shared.connection_kinds import (
     ConnectionKind,
@@ -23,7 +20,6 @@ from bimbot.shared.connection_kinds import (
 from bimbot.shared.fleet import default_fleet
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentState, TaskStatus
-from bimbot.shared.support_graph import derive_sequence
 
 TYPES = default_fleet().types
 CARRIER, CRANE = TYPES["carrier"], TYPES["tower_crane"]
@@ -94,12 +90,7 @@ def test_a_busy_robot_whose_column_is_still_held_is_not_waited_for_by_the_next_c
     columns = [_bolted_column("col_a", 0.0), _bolted_column("col_b", 4.0)]
     manifest = manifest.model_copy(update={"components": columns})
     robots = [SiteRobot("r1", CARRIER, (2.0, -3.0, 0.0)), SiteRobot("r2", CARRIER, (60.0, -3.0, 0.0))]
-    plan = plan_from_sequence(derive_sequence(manifest.components), manifest.components, "test")
-    counter = itertools.count(1)
-    core = PlannerCore(manifest, plan, new_id=lambda: f"ev{next(counter)}", robots=robots, slots={})
-    for robot in robots:
-        core.robot_liveliness(robot.robot_id, True)
-        core.observe_robot_state(robot_msg(robot.robot_id, robot.home_xy_yaw[:2]))
+    core = idle_core(manifest, robots)
     core.step(0.0)
     for guid in ("col_a", "col_b"):
         core.observe_component_state(state_msg(guid, ComponentState.RELEASED, event="release"))

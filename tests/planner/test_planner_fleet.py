@@ -3,15 +3,13 @@ component's slot gets it through a hand-off task of its own (pure core, no bus).
 
 from __future__ import annotations
 
-import itertools
 import math
 
 import pytest
-from planner_builders import portal_manifest, robot_msg, state_msg
+from planner_builders import idle_core, portal_manifest, robot_msg, state_msg
 
 from bimbot.services.planner.capability import SiteRobot, Where, crane_reaches_centre
 from bimbot.services.planner.scheduler import Phase, PlannerCore
-from bimbot.services.planner.sources import plan_from_sequence
 from bimbot.shared.fleet import default_fleet
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import (
@@ -26,7 +24,6 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.site_plan import Rect
-from bimbot.shared.support_graph import derive_sequence
 
 S = ComponentState
 TYPES = default_fleet().types
@@ -37,16 +34,6 @@ def _manifest(**masses: float) -> Manifest:
     manifest = portal_manifest()
     components = [c.model_copy(update={"mass_kg": masses.get(c.guid, 40.0)}) for c in manifest.components]
     return manifest.model_copy(update={"components": components})
-
-
-def _core(manifest: Manifest, robots: list[SiteRobot]) -> PlannerCore:
-    plan = plan_from_sequence(derive_sequence(manifest.components), manifest.components, "test")
-    counter = itertools.count(1)
-    core = PlannerCore(manifest, plan, new_id=lambda: f"ev{next(counter)}", robots=robots, slots={})
-    for robot in robots:
-        core.robot_liveliness(robot.robot_id, True)
-        core.observe_robot_state(robot_msg(robot.robot_id, robot.home_xy_yaw[:2]))
-    return core
 
 
 def _assignments(out: list) -> dict[str, TaskMsg]:
@@ -66,7 +53,7 @@ def test_a_component_heavier_than_the_husky_payload_never_goes_to_the_husky_even
         SiteRobot("r1", HUSKY, (0.0, -5.0, 0.0)),  # right beside the footings
         SiteRobot("r2", CARRIER, (-30.0, -5.0, 0.0)),  # far away
     ]
-    core = _core(manifest, robots)
+    core = idle_core(manifest, robots)
     out = _release(core, "foot_a", "foot_b", "foot_c")
     assigned = _assignments(out)
     assert {m.robot_id for m in assigned.values()} == {"r2"}  # one footing to the carrier, the others wait
@@ -81,7 +68,7 @@ def test_among_capable_idle_robots_the_lowest_bid_wins_not_the_nearest() -> None
         SiteRobot("r1", slow, (0.0, -3.0, 0.0)),  # nearest, but crawls
         SiteRobot("r2", HUSKY, (-20.0, -3.0, 0.0)),
     ]
-    core = _core(manifest, robots)
+    core = idle_core(manifest, robots)
     assigned = _assignments(_release(core, "foot_a"))
     assert assigned["foot_a"].robot_id == "r2"
 
@@ -92,7 +79,7 @@ def test_a_busy_robot_that_would_finish_sooner_is_waited_for() -> None:
         SiteRobot("r1", CARRIER, (0.0, -3.0, 0.0)),
         SiteRobot("r2", CARRIER.model_copy(update={"name": "crawler", "max_speed_mps": 0.02}), (60.0, 0, 0)),
     ]
-    core = _core(manifest, robots)
+    core = idle_core(manifest, robots)
     first = _assignments(_release(core, "foot_a", "foot_b"))
     assert [m.robot_id for m in first.values()] == ["r1"]  # r2 would take hours: foot_b waits for r1
     assert core.phase("foot_b") is Phase.RELEASED
@@ -108,7 +95,7 @@ def test_a_crane_gets_what_only_it_can_place_and_a_hand_off_brings_it_within_its
         SiteRobot("r1", CARRIER.model_copy(update={"max_place_height_m": 1.0}), (-10.0, -10.0, 0.0)),
         SiteRobot("r2", CRANE, crane_at, staging),
     ]
-    core = _core(manifest, robots)
+    core = idle_core(manifest, robots)
     for guid in ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c"):
         core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified"))
     # the beam lies 70 m from the crane: beyond its 60 m jib
@@ -157,7 +144,7 @@ def _beam_for_the_crane_only() -> PlannerCore:
         SiteRobot("r1", CARRIER.model_copy(update={"max_place_height_m": 1.0}), (-10.0, -10.0, 0.0)),
         SiteRobot("r2", CRANE, (2.0, 12.0, -1.5708), staging),
     ]
-    core = _core(_manifest(beam=300.0), robots)
+    core = idle_core(_manifest(beam=300.0), robots)
     for guid in ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c"):
         core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified"))
     core.observe_component_pose(_pose("beam", (2.0, -58.0)))
@@ -252,7 +239,7 @@ def test_a_restarted_planner_that_adopted_a_hand_off_as_a_build_frees_its_robot_
         SiteRobot("r1", CARRIER.model_copy(update={"max_place_height_m": 1.0}), (-10.0, -10.0, 0.0)),
         SiteRobot("r2", CRANE, (2.0, 12.0, -1.5708), Rect((-2.0, 16.0), (6.0, 24.0))),
     ]
-    core = _core(manifest, robots)  # a new planner: it never assigned the hand-off r1 is carrying out
+    core = idle_core(manifest, robots)  # a new planner: it never assigned the hand-off r1 is carrying out
     for guid in ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c"):
         core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified"))
     core.observe_component_state(state_msg("beam", S.TRANSPORTING, event="attach", robot_id="r1"))
@@ -312,7 +299,7 @@ def test_where_a_component_lies_is_its_body_not_its_frame_origin_100_m_away() ->
         SiteRobot("r1", CARRIER.model_copy(update={"max_place_height_m": 1.0}), (-10.0, -10.0, 0.0)),
         SiteRobot("r2", CRANE, crane_at, Rect((-2.0, 16.0), (6.0, 24.0))),
     ]
-    core = _core(manifest, robots)
+    core = idle_core(manifest, robots)
     for guid in ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c"):
         core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified"))
     beam = next(c for c in manifest.components if c.guid == "beam")
@@ -331,7 +318,7 @@ def test_a_robot_that_gave_a_task_back_gets_it_again_when_no_other_robot_can_tak
     give-backs stay bounded: max_give_backs fails the component with its reason)."""
     manifest = _manifest(foot_a=259.0)
     robots = [SiteRobot("r1", HUSKY, (0.0, -5.0, 0.0)), SiteRobot("r2", CARRIER, (-30.0, -5.0, 0.0))]
-    core = _core(manifest, robots)
+    core = idle_core(manifest, robots)
     assert _assignments(_release(core, "foot_a"))["foot_a"].robot_id == "r2"
     why = Reason(code=ReasonCode.NO_PROGRESS, message="r2 could not drive there", robot_id="r2")
     core.observe_component_state(state_msg("foot_a", S.PICKING, event="pick", robot_id="r2", sim_time_s=1.0))
@@ -363,7 +350,7 @@ def test_what_a_robot_can_build_is_worked_out_once_per_place_a_component_lies_no
     monkeypatch.setattr(dispatch, "can_build_from", counting)
     manifest = _manifest(foot_a=259.0, foot_b=259.0, foot_c=259.0)
     robots = [SiteRobot("r1", HUSKY, (0.0, -5.0, 0.0)), SiteRobot("r2", CARRIER, (-30.0, -5.0, 0.0))]
-    core = _core(manifest, robots)
+    core = idle_core(manifest, robots)
     _release(core, "foot_a", "foot_b", "foot_c")  # r2 takes one; the two others wait for it
     first = len(asked)
     assert first > 0
@@ -395,7 +382,7 @@ def test_bids_are_asked_again_when_something_changed_or_every_rebid_period_not_a
     monkeypatch.setattr(dispatch, "choose", counting)
     manifest = _manifest(foot_a=259.0, foot_b=259.0, foot_c=259.0)
     robots = [SiteRobot("r1", HUSKY, (0.0, -5.0, 0.0)), SiteRobot("r2", CARRIER, (-30.0, -5.0, 0.0))]
-    core = _core(manifest, robots)
+    core = idle_core(manifest, robots)
     assigned = _assignments(_release(core, "foot_a", "foot_b", "foot_c"))
     assert [m.robot_id for m in assigned.values()] == ["r2"]
     core.observe_clock(0.2)
