@@ -23,6 +23,7 @@ Key space (``<site>`` is the manifest's site slug, ``<key>`` a component's bus k
     bimbot/<site>/physics/relocate            (queryable)         physics answers SetUpRequest → PhysicsReply
     bimbot/<site>/physics/poses               (queryable)         physics answers SitePosesMsg
     bimbot/<site>/planner/plan                (queryable)         planner answers PlannedSequenceMsg
+    bimbot/<site>/planner/preparing           PreparingMsg        planner → run, physics (before it is ready)
     bimbot/<site>/clock                       ClockMsg            physics → all
     bimbot/<site>/progress                    ProgressMsg         planner → all
     bimbot/<site>/steps/<participant>         StepDoneMsg         planner/agent → all (lock-step answers)
@@ -413,6 +414,19 @@ class SiteInfoMsg(_Message):
 PLANNER_PLAN_KEY = "bimbot/{site}/planner/plan"
 
 
+PLANNER_PREPARING_KEY = "bimbot/{site}/planner/preparing"
+
+
+class PreparingMsg(_Message):
+    """The planner still prepares its plan (the access check of a large building takes minutes): what it
+    does and how far it is. Published at least every few seconds until it is ready; the run's watchdog and
+    physics, which hold the clock at 0 for it, take each as a sign of life, not as a hang."""
+
+    stage: str = Field(min_length=1, max_length=200)  # e.g. "access check, round 3 of at most 8"
+    done: Count  # steps of the stage done, of ``total``
+    total: Count
+
+
 class PlannedSequenceMsg(_Message):
     """The plan the planner builds by (after its access check): reports and the run ask it, so a run with
     ``--derive`` or ``--sequence`` reports the order it really followed, not the build's sequence.xml."""
@@ -607,6 +621,9 @@ PHYSICS_RELOCATE = Queryable(PHYSICS_RELOCATE_KEY, SetUpRequest, PhysicsReply, "
 PLANNER_PLAN = Queryable(PLANNER_PLAN_KEY, None, PlannedSequenceMsg, "planner")
 CLOCK = Topic(CLOCK_KEY, ClockMsg, "physics", "all")
 PROGRESS = Topic(PROGRESS_KEY, ProgressMsg, "planner", "all")
+PLANNER_PREPARING = Topic(
+    PLANNER_PREPARING_KEY, PreparingMsg, "planner", "run, physics", "before it is ready"
+)
 STEP_DONE = Topic(STEP_DONE_KEY, StepDoneMsg, "planner/agent", "all", "lock-step answers")
 # kind: component, robot, planner, physics, observer
 ALIVE = Liveliness(ALIVE_KEY, "every running service")
@@ -631,6 +648,7 @@ KEY_SPACE: tuple[Entry, ...] = (
     PHYSICS_RELOCATE,
     PHYSICS_POSES,
     PLANNER_PLAN,
+    PLANNER_PREPARING,
     CLOCK,
     PROGRESS,
     STEP_DONE,

@@ -26,7 +26,7 @@ remaining component (candidate cells are computed once); at 0.2 m, ~5–20 ms pe
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -101,45 +101,52 @@ class SiteAccess:
         self._cells: dict[str, NDArray[np.int64]] = {}
         self._target_candidates: dict[str, NDArray[np.int64]] = {}
         self._slot_candidates: dict[str, NDArray[np.int64]] = {}
+        # the cells each component occupies at its target and in its yard slot (None: none, or driven onto)
+        self._target_cells: dict[str, NDArray[np.int64] | None] = {}
+        self._slot_cells: dict[str, NDArray[np.int64] | None] = {}
         self.placed: set[str] = set()
         for guid, component in self._components.items():
             target = component.target_pose_world
-            self._target_candidates[guid] = self._candidates(
-                posed_footprint(component, target.position_m, target.quat_xyzw)
-            )
+            footprint = posed_footprint(component, target.position_m, target.quat_xyzw)
+            self._target_candidates[guid] = self._candidates(footprint)
+            driven_onto = drives_onto(component, footprint.z_max_m, self._step_m)
+            self._target_cells[guid] = None if driven_onto else self._covered(footprint)
             slot = layout.slots.get(guid)
             if slot is not None:
                 footprint = posed_footprint(component, slot.position_m, slot.quat_xyzw)
                 self._slot_candidates[guid] = self._candidates(footprint)
-                self._occupy(guid, footprint)
+                self._slot_cells[guid] = self._covered(footprint)
+                self._occupy(guid, self._slot_cells[guid])
         for component in in_place:  # built before the robots came: it stands where the model puts it
             target = component.target_pose_world
             footprint = posed_footprint(component, target.position_m, target.quat_xyzw)
             if not drives_onto(component, footprint.z_max_m, self._step_m):
-                self._occupy(f"in place {component.guid}", footprint)
+                self._occupy(f"in place {component.guid}", self._covered(footprint))
         self._start = layout.robot_starts[0][:2]
         self._region: NDArray[np.bool_] | None = None
+        # the grid box of the cells each component is reached from (slot and target): its access changes
+        # only where the free region changes inside it
+        self._reach_boxes = {guid: _box_of(self._reach_cells(guid)) for guid in self._components}
 
     # --- changes ----------------------------------------------------------------------------------------
 
     def place(self, guid: str) -> None:
         """``guid`` leaves its yard slot and stands at its BIM target."""
-        component = self._components[guid]
         self._release(guid)
-        target = component.target_pose_world
-        footprint = posed_footprint(component, target.position_m, target.quat_xyzw)
-        if not drives_onto(component, footprint.z_max_m, self._step_m):
-            self._occupy(guid, footprint)
+        self._occupy(guid, self._target_cells[guid])
         self.placed.add(guid)
 
     def remove(self, guid: str) -> None:
         """Undo :meth:`place` (back to its slot)."""
         self._release(guid)
         self.placed.discard(guid)
-        slot = self.layout.slots.get(guid)
-        if slot is not None:
-            component = self._components[guid]
-            self._occupy(guid, posed_footprint(component, slot.position_m, slot.quat_xyzw))
+        self._occupy(guid, self._slot_cells.get(guid))
+
+    def reset(self) -> None:
+        """Every placed component back in its yard slot: the grid as it was built, without building it
+        again (the candidates of every component are kept)."""
+        for guid in list(self.placed):
+            self.remove(guid)
 
     def clear(self, guid: str) -> None:
         """``guid`` is neither in its yard slot nor at its target (a failed part carried or cleared away)."""
@@ -223,7 +230,20 @@ class SiteAccess:
         cells = self._slot_candidates.get(guid)
         return True if cells is None else self._any_in_region(cells)
 
+    def reach_meets(self, guid: str, box: tuple[int, int, int, int]) -> bool:
+        """Whether any cell ``guid`` is reached from (slot or target) lies in the grid ``box`` (first row,
+        last row, first column, last column)."""
+        own = self._reach_boxes[guid]
+        return own is not None and not (
+            own[1] < box[0] or own[0] > box[1] or own[3] < box[2] or own[2] > box[3]
+        )
+
     # --- internals ----------------------------------------------------------------------------------------
+
+    def _reach_cells(self, guid: str) -> NDArray[np.int64]:
+        slot = self._slot_candidates.get(guid)
+        target = self._target_candidates[guid]
+        return target if slot is None else np.concatenate([slot, target])
 
     def _any_in_region(self, cells: NDArray[np.int64]) -> bool:
         if len(cells) == 0:
@@ -251,12 +271,14 @@ class SiteAccess:
     def _blocks(self, footprint: Footprint) -> bool:
         return footprint.z_max_m >= self.config.band_min_z_m and footprint.z_min_m <= self.config.band_max_z_m
 
-    def _occupy(self, guid: str, footprint: Footprint) -> None:
+    def _covered(self, footprint: Footprint) -> NDArray[np.int64] | None:
+        """The cells ``footprint`` occupies in the robots' height band (None: none)."""
         outlines = footprint.outlines_meeting(self.config.band_min_z_m, self.config.band_max_z_m)
-        if not outlines:
-            return
-        cells = covered_cells(self.grid, outlines)
-        if len(cells) == 0:
+        cells = covered_cells(self.grid, outlines) if outlines else None
+        return cells if cells is not None and len(cells) > 0 else None
+
+    def _occupy(self, guid: str, cells: NDArray[np.int64] | None) -> None:
+        if cells is None:
             return
         self._cells[guid] = cells
         self._counts[cells[:, 0], cells[:, 1]] += 1
@@ -271,29 +293,58 @@ class SiteAccess:
             self._region = None
 
 
-def check_order(access: SiteAccess, order: Iterable[str]) -> AccessCheck:
+def check_order(
+    access: SiteAccess, order: Iterable[str], on_step: Callable[[int, int], None] | None = None
+) -> AccessCheck:
     """Place ``order`` one by one on ``access`` (which it changes) and report what each step cuts off.
 
     Before each placement: is the component accessible at its slot and at its target? If not, it is
     ``inaccessible`` (naming the placed components whose placement cut it off). After it: every remaining
-    component that was accessible and no longer is, is cut off by this placement.
+    component that was accessible and no longer is, is cut off by this placement. ``on_step`` hears each
+    step (done, total): a check of a large site takes a while.
     """
     remaining = list(dict.fromkeys(order))
     cut_by: dict[str, list[str]] = {}
     inaccessible: dict[str, tuple[str, ...]] = {}
     pairs: list[tuple[str, str]] = []
     before = {guid: _open(access, guid) for guid in remaining}
+    region = access.region()
     for index, guid in enumerate(remaining):
+        if on_step is not None:
+            on_step(index, len(remaining))
         if not before[guid]:
             inaccessible[guid] = tuple(cut_by.get(guid, ()))
         access.place(guid)
+        changed = _changed_box(region, region := access.region())
+        if changed is None:
+            continue  # the free region is as it was: nothing's access changed
         for other in remaining[index + 1 :]:
+            if not access.reach_meets(other, changed):
+                continue  # the region changed nowhere it is reached from
             now = _open(access, other)
             if before[other] and not now:
                 pairs.append((guid, other))
                 cut_by.setdefault(other, []).append(guid)
             before[other] = now
     return AccessCheck(cut_offs=tuple(pairs), inaccessible=inaccessible)
+
+
+def _changed_box(before: NDArray[np.bool_], after: NDArray[np.bool_]) -> tuple[int, int, int, int] | None:
+    """The grid box (first row, last row, first column, last column) of every cell where ``before`` and
+    ``after`` differ; None where they are equal."""
+    changed = before != after
+    rows = np.flatnonzero(changed.any(axis=1))
+    if len(rows) == 0:
+        return None
+    cols = np.flatnonzero(changed.any(axis=0))
+    return int(rows[0]), int(rows[-1]), int(cols[0]), int(cols[-1])
+
+
+def _box_of(cells: NDArray[np.int64]) -> tuple[int, int, int, int] | None:
+    if len(cells) == 0:
+        return None
+    (r0, c0), (r1, c1) = cells.min(axis=0), cells.max(axis=0)
+    return int(r0), int(r1), int(c0), int(c1)
 
 
 def _open(access: SiteAccess, guid: str, region: NDArray[np.bool_] | None = None) -> bool:

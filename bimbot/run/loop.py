@@ -96,7 +96,9 @@ class RunWatch:
         while True:
             monitor.drain(wait_s=0.1)
             now = time.monotonic()
-            self.watchdog.observe(monitor.changes, monitor.sim_time_s, now, monitor.awaited_sim_s())
+            self.watchdog.observe(
+                monitor.changes, monitor.sim_time_s, now, monitor.awaited_sim_s(), monitor.preparing_heard
+            )
             planner = monitor.progress
             self.progress.update(
                 monitor.constructed,
@@ -190,6 +192,7 @@ class RunWatch:
             monitor.names,
             expected=robots,
             planner_ready=monitor.progress is not None,
+            preparing=monitor.preparing,
         )
         return tuple(details)
 

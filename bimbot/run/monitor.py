@@ -47,12 +47,14 @@ from bimbot.shared.messages import (
     PHYSICS_INFO,
     PHYSICS_POSES,
     PLANNER_PLAN,
+    PLANNER_PREPARING,
     PROGRESS,
     ROBOT_POSE,
     ROBOT_STATE,
     TASK,
     ComponentState,
     ComponentStateMsg,
+    PreparingMsg,
     ProgressMsg,
     RobotStateMsg,
     TaskMsg,
@@ -99,6 +101,8 @@ class RunMonitor:
         self.robots: dict[str, RobotStateMsg] = {}
         self.tasks: dict[str, TaskMsg] = {}
         self.progress: ProgressMsg | None = None
+        self.preparing: PreparingMsg | None = None  # the planner's last word while it prepared its plan
+        self.preparing_heard = 0  # how many such words: each one a sign of life while the clock waits
         self.names = {c.guid: c.name for c in manifest.components}
         self.total = len(manifest.components)
         self.as_built: AsBuiltAudit | None = None  # set by audit()
@@ -117,6 +121,7 @@ class RunMonitor:
             inbox.subscribe(session, PROGRESS, site=site),
             inbox.subscribe(session, TASK, site=site, task_id="*"),
             inbox.subscribe(session, CLOCK, site=site),
+            inbox.subscribe(session, PLANNER_PREPARING, site=site),
         ]
 
     @property
@@ -167,6 +172,9 @@ class RunMonitor:
             self.sim_time_s = max(self.sim_time_s, float(said_at_s))
         if isinstance(message, ComponentStateMsg):
             self._component_state(message)
+            return
+        if isinstance(message, PreparingMsg):
+            self.preparing, self.preparing_heard = message, self.preparing_heard + 1
             return
         self.collector.add(message)
         if isinstance(message, ProgressMsg):

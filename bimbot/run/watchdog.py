@@ -5,7 +5,8 @@ failed, blocked) for ``stall_after_s`` seconds of *sim* time: robots that wait f
 a task handed back and forth without a state change, a planner that waits for nobody. The sim clock is
 the measure, so a run at 50× real time stalls after the same simulated minutes as one at 1×. Should the
 clock itself stop (a service hung in lock-step, physics stuck), sim time no longer passes; then the
-fallback bound is in wall time: the clock stood still for ``clock_stall_wall_s`` real seconds. Timed work
+fallback bound is in wall time: the clock stood still for ``clock_stall_wall_s`` real seconds, with no
+report of the planner's preparation meanwhile (it holds the clock at 0 while it works). Timed work
 that says when it ends (a robot's ``busy_until_s``: formwork, a pour, a course) and curing holds (the
 planner's progress) are changes scheduled ahead: the quiet time counts from the latest of them once it has
 passed, so a site that skipped its clock over a three-day cure is not a stalled one.
@@ -21,13 +22,14 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from bimbot.shared.identifiers import named_guid
-from bimbot.shared.messages import ComponentState, RobotStateMsg, TaskMsg, TaskStatus
+from bimbot.shared.messages import ComponentState, PreparingMsg, RobotStateMsg, TaskMsg, TaskStatus
 
 DEFAULT_STALL_AFTER_S = 1500.0  # sim seconds without a change on the site (above every lower watchdog)
 DEFAULT_CLOCK_STALL_WALL_S = 300.0  # wall seconds without the clock advancing (covers start-up: ≤ 120 s)
 PLANNER_NOT_READY = (
-    "the planner never said it was ready (no progress on the bus): it was still preparing its plan (a large "
-    "build or a busy machine: give it longer with --stall-wall-s) or it hung; see logs/planner.log"
+    "the planner never said it was ready (no progress on the bus) and said nothing of its preparation for "
+    "the wall bound: it hung, or one step of its preparation took that long on a busy machine (give it "
+    "longer with --stall-wall-s); see logs/planner.log"
 )
 _SETTLED = (ComponentState.PLANNED, ComponentState.CONSTRUCTED, ComponentState.FAILED, ComponentState.BLOCKED)
 
@@ -46,16 +48,27 @@ class StallWatchdog:
     _clock_sim_s: float | None = None
     _clock_moved_wall_s: float | None = None
     _wall_s: float = 0.0
+    _preparing: int = 0
 
-    def observe(self, changes: int, sim_time_s: float, wall_s: float, awaited_sim_s: float = 0.0) -> None:
+    def observe(
+        self,
+        changes: int,
+        sim_time_s: float,
+        wall_s: float,
+        awaited_sim_s: float = 0.0,
+        preparing_heard: int = 0,
+    ) -> None:
         """``changes`` counts every change on the site so far (state changes, progress changes);
         ``sim_time_s`` is the latest clock, ``wall_s`` a monotonic wall time; ``awaited_sim_s`` the latest
-        sim time a change is scheduled for (timed work, curing), 0 when none."""
+        sim time a change is scheduled for (timed work, curing), 0 when none; ``preparing_heard`` counts the
+        planner's reports while it prepares its plan (the clock waits for it: a new one restarts the wall
+        bound, so a planner that works is not taken for one that hung)."""
         self._awaited_sim_s = max(self._awaited_sim_s, awaited_sim_s)
         if self._clock_moved_wall_s is None:
             self._clock_moved_wall_s = wall_s  # the wall bound counts from the first observation
-        if self._clock_sim_s is None or sim_time_s > self._clock_sim_s:
-            self._clock_sim_s, self._clock_moved_wall_s = sim_time_s, wall_s
+        if self._clock_sim_s is None or sim_time_s > self._clock_sim_s or preparing_heard != self._preparing:
+            self._clock_sim_s, self._clock_moved_wall_s = max(sim_time_s, self._clock_sim_s or 0.0), wall_s
+            self._preparing = preparing_heard
         if changes != self._changes:
             self._changes, self._last_change_sim_s = changes, sim_time_s
         self._sim_s = max(self._sim_s, sim_time_s)
@@ -94,12 +107,15 @@ def stall_details(
     expected: Sequence[str] = (),
     *,
     planner_ready: bool = True,
+    preparing: PreparingMsg | None = None,
 ) -> list[str]:
     """One line per robot (its last state message: state, task, component, activity; a robot of
     ``expected`` that never said a word: that, and where its log is) and per open task or component in
     progress (assigned to whom, in which state); first, unless ``planner_ready``, that the planner never
-    said it was ready."""
+    said it was ready (and, when it said, how far its preparation went)."""
     lines = [] if planner_ready else [PLANNER_NOT_READY]
+    if not planner_ready and preparing is not None:
+        lines.append(f"the planner's last word: {preparing.stage}, {preparing.done} of {preparing.total}")
     lines += [
         f"robot {robot_id}: never said it was up (no state on the bus): its process hung or failed while "
         f"starting; see logs/robot-{robot_id}.log"

@@ -75,6 +75,7 @@ from bimbot.shared.messages import (
     PHYSICS_POSES,
     PHYSICS_RELOCATE,
     PHYSICS_SKIP,
+    PLANNER_PREPARING,
     ROBOT_CMD_VEL,
     ROBOT_PLAN,
     ROBOT_STATE,
@@ -89,6 +90,7 @@ from bimbot.shared.messages import (
     DropRequest,
     PhysicsReply,
     PlaceRequest,
+    PreparingMsg,
     SensorsMsg,
     SetUpRequest,
     SkipRequest,
@@ -240,6 +242,7 @@ class _Loop:
         if self.run.wait_for_planner:
             planner = key(ALIVE_KEY, site=site, kind="planner", id="*")
             declarations.append(inbox.subscribe_liveliness(session, planner))
+            declarations.append(inbox.subscribe(session, PLANNER_PREPARING, site=site))
         declarations += [
             inbox.serve(session, PHYSICS_INFO, complete=True, site=site),
             inbox.serve(session, PHYSICS_ATTACH, complete=True, site=site),
@@ -331,6 +334,13 @@ class _Loop:
             )
             self._robots_deadline = -math.inf
         return False
+
+    def _planner_preparing(self, preparing: PreparingMsg) -> None:
+        """The planner still prepares its plan: the wait for it starts again (its bound is for a planner
+        nobody hears from, not for one that works)."""
+        if self._robots_deadline is not None and self._robots_deadline != -math.inf:
+            self._robots_deadline = time.monotonic() + self.run.wait_for_robots_s
+            _log.debug("planner preparing: %s (%d of %d)", preparing.stage, preparing.done, preparing.total)
 
     def _wait_s(self, now: float) -> float:
         """How long to wait before the next period may run (0: run it now)."""
@@ -506,6 +516,8 @@ class _Loop:
                     self.inbox.invalid.record(reply_key, "a twin answered on another component's key")
                 elif (state := self.states.take_twin(twin)) is not None:
                     self.sim.handling.note_constructed(twin.guid, state == ComponentState.CONSTRUCTED)
+            case Received(message=PreparingMsg() as preparing):
+                self._planner_preparing(preparing)
             case LivelinessChange() if item.kind == "planner":
                 self._planner_alive = item.alive
                 _log.info("planner %s", "alive" if item.alive else "gone")

@@ -24,7 +24,7 @@ reordered or failed for it.
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from bimbot.shared.identifiers import named_guid
@@ -35,6 +35,7 @@ from bimbot.shared.robot_description import Capability, RobotDescription
 from bimbot.shared.sequence import priority_topological_order
 from bimbot.shared.site_access import AccessConfig, SiteAccess, check_order
 
+from .preparing import Report, no_report
 from .sources import Plan, PlanError
 from .work_in_place import works_in_place
 
@@ -64,36 +65,50 @@ def site_robot(info: SiteInfoMsg) -> RobotDescription:
 
 
 def access_plan(
-    plan: Plan, manifest: Manifest, info: SiteInfoMsg, *, adjust: bool, strict: bool = False
+    plan: Plan,
+    manifest: Manifest,
+    info: SiteInfoMsg,
+    *,
+    adjust: bool,
+    strict: bool = False,
+    report: Report = no_report,
 ) -> AccessOutcome:
-    """Check ``plan`` for access (see the module docstring); mend it when ``adjust``."""
+    """Check ``plan`` for access (see the module docstring); mend it when ``adjust``. ``report`` hears how
+    far the check is, step by step (:mod:`.preparing`)."""
     components = list(manifest.components)
     robot = site_robot(info)
     layout = info.layout  # physics' site plan: the one the robots drive in
     by_guid = {component.guid: component for component in components}
     in_place = {component.guid for component in components if works_in_place(component)}
     added = 0
-    check = check_order(SiteAccess(components, layout, robot, in_place=manifest.in_place), plan.order)
-    for _ in range(MAX_ROUNDS if adjust else 0):
+    report("access check: the site grid", 0, len(components))
+    access = SiteAccess(components, layout, robot, in_place=manifest.in_place)
+    check = check_order(access, plan.order, _stage(report, "access check"))
+    for rounds in range(1, (MAX_ROUNDS if adjust else 0) + 1):
         preds = {guid: set(plan.predecessors.get(guid, ())) for guid in plan.order}
         new = 0
         for placed, cut in _driven_to(check.cut_offs, in_place):
             if cut not in preds[placed] and not _depends_on(preds, cut, placed):
                 preds[placed].add(cut)
                 new += 1
+        _log.info(
+            "access check round %d: %d cut-off(s), %d precedence(s) added", rounds, len(check.cut_offs), new
+        )
         if not new:
             break
         added += new
         frozen = {guid: frozenset(values) for guid, values in preds.items()}
         plan = replace(plan, predecessors=frozen, order=_priority_order(plan.order, frozen))
-        check = check_order(SiteAccess(components, layout, robot, in_place=manifest.in_place), plan.order)
+        access.reset()
+        check = check_order(access, plan.order, _stage(report, f"access check, mended {rounds} time(s)"))
     warnings = [
         f"access check: placing {_describe(placed, by_guid)} cuts off {_describe(cut, by_guid)}"
         for placed, cut in _driven_to(check.cut_offs, in_place)
     ]
     unreachable: dict[str, Reason] = {}
     fine: SiteAccess | None = None  # one fine grid for every doubt, changed only where ancestors differ
-    for guid in check.inaccessible:
+    for done, guid in enumerate(check.inaccessible):
+        report("access check: what no robot can reach", done, len(check.inaccessible))
         if guid in in_place:
             continue
         ancestors = _ancestors(plan.predecessors, guid)
@@ -126,6 +141,10 @@ def access_plan(
     if strict and warnings:
         raise PlanError(f"{len(warnings)} step(s) of the sequence cut off later work; first: {warnings[0]}")
     return AccessOutcome(plan, unreachable, tuple(warnings), added)
+
+
+def _stage(report: Report, stage: str) -> Callable[[int, int], None]:
+    return lambda done, total: report(stage, done, total)
 
 
 def _cut_off_alone(access: SiteAccess, guid: str, order: Sequence[str]) -> bool:

@@ -54,6 +54,7 @@ from bimbot.shared.messages import (
     COMPONENT_TWIN,
     PHYSICS_INFO,
     PLANNER_PLAN,
+    PLANNER_PREPARING_KEY,
     PROGRESS_KEY,
     ROBOT_CMD_VEL,
     ROBOT_STATE,
@@ -78,6 +79,7 @@ from bimbot.shared.twin_query import ask_twins
 
 from .capability import site_robots
 from .feasibility import infeasible
+from .preparing import PreparationReporter, Report, no_report
 from .scheduler import Outgoing, PlannerCore, PlannerLimits
 from .skip_requests import SkipAnswer, Skipper, bus_sender
 from .sources import Plan, PlanSource, load_plan
@@ -132,7 +134,11 @@ def main(
         info = query_first(
             session, PHYSICS_INFO, inbox.invalid, timeout_s=options.site_info_timeout_s, stop=stop, site=site
         )
-        plan, cannot = _checked_plan(plan, manifest, info, options.strict)
+        report = PreparationReporter(
+            lambda message: session.put(key(PLANNER_PREPARING_KEY, site=site), encode(message))
+        )
+        plan, cannot = _checked_plan(plan, manifest, info, options.strict, report)
+        report("access guard: the site grid at 0.1 m", 0, len(manifest.components))
         core = PlannerCore(
             manifest,
             plan,
@@ -167,6 +173,7 @@ def main(
             ),
         )
         _log.info("planner for %s: %d task(s) from %s", site, len(plan.order), plan.source)
+        report("waiting for the component agents", len(feed.alive_components), len(manifest.components))
         _wait_for_agents(inbox, feed, manifest, options.agents_timeout_s, stop)
         _sync_twins(session, site, core, inbox, options.twin_timeout_s)
         core.finish_sync()
@@ -219,7 +226,7 @@ def _run_stepped(  # noqa: PLR0917 - the planner's parts, named at the single ca
 
 
 def _checked_plan(
-    plan: Plan, manifest: Manifest, info: SiteInfoMsg | None, strict: bool
+    plan: Plan, manifest: Manifest, info: SiteInfoMsg | None, strict: bool, report: Report = no_report
 ) -> tuple[Plan, dict[str, Reason]]:
     """The plan after the access check, and the components that cannot be built (GUID → reason): too
     heavy or out of reach for every robot type on site, or never accessible at their turn."""
@@ -230,7 +237,7 @@ def _checked_plan(
         return plan, {}
     from .access_plan import access_plan  # scipy.ndimage: not for `bimbot run`'s argument check
 
-    outcome = access_plan(plan, manifest, info, adjust=plan.derived, strict=strict)
+    outcome = access_plan(plan, manifest, info, adjust=plan.derived, strict=strict, report=report)
     cannot = {
         **outcome.unreachable,
         **infeasible(manifest.components, site_robots(info), info.layout.slots),

@@ -25,6 +25,7 @@ from bimbot.shared.messages import (
     PHYSICS_ATTACH_KEY,
     PHYSICS_INFO_KEY,
     PHYSICS_PLACE_KEY,
+    PLANNER_PREPARING_KEY,
     ROBOT_CMD_VEL_KEY,
     ROBOT_POSE_KEY,
     ROBOT_SENSORS_KEY,
@@ -32,6 +33,7 @@ from bimbot.shared.messages import (
     ClockMsg,
     CmdVelMsg,
     PhysicsReply,
+    PreparingMsg,
     RobotPoseMsg,
     SensorsMsg,
     SiteInfoMsg,
@@ -247,3 +249,47 @@ def test_physics_holds_its_clock_at_zero_until_the_robots_are_alive(
             declared.undeclare()
     waited_for = "robot r1 and the planner" if planner else "robot r1"
     assert f"holding the clock until {waited_for} are alive" in (tmp_path / "physics.log").read_text()
+
+
+def test_a_planner_that_reports_its_preparation_keeps_the_clock_held_past_the_wait_bound(
+    bundled_build: Path, tmp_path: Path
+) -> None:
+    """The wait for the planner is bounded for a planner nobody hears from: one that reports how far its
+    preparation is (a large building's access check takes minutes) is waited for, each report starting the
+    bound again; once the reports stop, the bound starts the clock as before."""
+    build = tmp_path / "build"
+    shutil.copytree(bundled_build, build)
+    site = read_manifest(build).site
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    fleet = str(ground_fleet_file(tmp_path))
+    wait_s = bound_s(3.0)
+    physics_args = ["physics", "--build", str(build), "--fleet", fleet, "--connect", endpoint, "--rtf", "0"]
+    physics_args += ["--listen", "tcp/127.0.0.1:0", "--lock-step", "--wait-for-robots-s", f"{wait_s:.1f}"]
+    physics_args += ["--wait-for-planner"]
+    with (
+        running("bus", ["bus", "--listen", endpoint], tmp_path),
+        running("physics", physics_args, tmp_path) as physics,
+        open_session(BusOptions(connect=(endpoint,), listen=())) as session,
+    ):
+        listener = _Listener(session, {"clock": key(CLOCK_KEY, site=site)})
+        deadline = time.monotonic() + bound_s(60.0)
+        while _get(session, key(PHYSICS_INFO_KEY, site=site), timeout_s=1.0) is None:
+            assert physics.poll() is None and time.monotonic() < deadline, (
+                tmp_path / "physics.log"
+            ).read_text()
+        token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id="r1"))
+        cmd_key = key(ROBOT_CMD_VEL_KEY, site=site, robot_id="r1")
+        session.put(cmd_key, encode(CmdVelMsg(robot_id="r1", v_mps=0.0, w_radps=0.0, sim_time_s=0.0, step=0)))
+        preparing_key = key(PLANNER_PREPARING_KEY, site=site)
+        reported_until = time.monotonic() + 2.5 * wait_s
+        done = 0
+        while time.monotonic() < reported_until:  # the planner works: a report every half second
+            session.put(preparing_key, encode(PreparingMsg(stage="access check", done=done, total=1000)))
+            done += 1
+            time.sleep(0.5)
+        held = {ClockMsg.model_validate_json(m).step for m in listener.drain("clock")}
+        assert held <= {0}, "the clock ran while the planner still reported its preparation"
+        assert _wait_clock(listener, 1, timeout_s=3.0 + 10.0).step >= 1  # silent: the bound starts the clock
+        token.undeclare()
+    log = (tmp_path / "physics.log").read_text()
+    assert "the planner not alive after" in log and "starting without them" in log

@@ -29,6 +29,7 @@ from bimbot.shared.messages import (
     COMPONENT_STATE_KEY,
     COMPONENT_TWIN_KEY,
     PHYSICS_SKIP,
+    PLANNER_PREPARING_KEY,
     PROGRESS_KEY,
     ROBOT_STATE_KEY,
     TASK_KEY,
@@ -36,6 +37,7 @@ from bimbot.shared.messages import (
     ComponentEventMsg,
     ComponentState,
     PhysicsReply,
+    PreparingMsg,
     ProgressMsg,
     SkipRequest,
     TaskMsg,
@@ -81,6 +83,7 @@ def test_planner_builds_the_portal_over_the_bus_and_exits_0(portal_build: Path) 
     guids = [item.guid for item in portal_manifest().components]
     constructed: list[str] = []
     progress: list[ProgressMsg] = []
+    preparing: list[tuple[str, int]] = []  # (stage, components constructed when it was heard)
     twins = dict.fromkeys(guids, ComponentState.PLANNED)
     forged: set[str] = set()
     with open_session(BusOptions(mode="peer", connect=(endpoint,), listen=())) as session:
@@ -89,6 +92,7 @@ def test_planner_builds_the_portal_over_the_bus_and_exits_0(portal_build: Path) 
         session.declare_subscriber(key(COMPONENT_EVENT_KEY, site=SITE, key="*"), callback)
         session.declare_subscriber(key(TASK_KEY, site=SITE, task_id="*"), callback)
         session.declare_subscriber(key(PROGRESS_KEY, site=SITE), callback)
+        session.declare_subscriber(key(PLANNER_PREPARING_KEY, site=SITE), callback)
         tokens = [
             session.liveliness().declare_token(key(ALIVE_KEY, site=SITE, kind="component", id=guid))
             for guid in guids
@@ -122,6 +126,9 @@ def test_planner_builds_the_portal_over_the_bus_and_exits_0(portal_build: Path) 
                         assert task.robot_id == "r1"
                         constructed.append(task.guid)
                         _publish_state(session, task.guid, ComponentState.CONSTRUCTED, twins)
+                elif where.endswith("/planner/preparing"):
+                    said = decode(PreparingMsg, where, payload, invalid)
+                    preparing.extend([(said.stage, len(constructed))] if said is not None else [])
                 else:
                     message = decode(ProgressMsg, where, payload, invalid)
                     progress.extend([message] if message is not None else [])
@@ -140,6 +147,8 @@ def test_planner_builds_the_portal_over_the_bus_and_exits_0(portal_build: Path) 
     assert constructed.index("beam") > max(constructed.index("col_a"), constructed.index("col_b"))
     assert invalid.total == 0
     assert progress[-1].done and progress[-1].percent_constructed == 100.0 and progress[-1].total == 7
+    # the planner told its preparation on the bus before it handed out work
+    assert ("waiting for the component agents", 0) in preparing
 
 
 def _drain(received: queue.Queue[tuple[str, bytes]], timeout_s: float) -> list[tuple[str, bytes]]:

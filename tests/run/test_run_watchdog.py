@@ -4,7 +4,15 @@ and a clock that stops is caught by the wall-time bound; the stall details name 
 from __future__ import annotations
 
 from bimbot.run.watchdog import PLANNER_NOT_READY, StallWatchdog, stall_details
-from bimbot.shared.messages import ComponentState, PoseMsg, RobotState, RobotStateMsg, TaskMsg, TaskStatus
+from bimbot.shared.messages import (
+    ComponentState,
+    PoseMsg,
+    PreparingMsg,
+    RobotState,
+    RobotStateMsg,
+    TaskMsg,
+    TaskStatus,
+)
 
 
 def test_nothing_changing_for_the_bound_in_sim_time_is_a_stall_naming_the_numbers() -> None:
@@ -150,3 +158,27 @@ def test_a_planner_still_preparing_at_the_stall_is_named_first_with_what_to_do()
     assert lines[0] == PLANNER_NOT_READY and "--stall-wall-s" in lines[0]
     assert lines[1].startswith("robot r1: idle")
     assert PLANNER_NOT_READY not in stall_details(robots, {}, {}, {})
+
+
+def test_a_planner_that_reports_its_preparation_is_no_stall_one_that_falls_silent_is() -> None:
+    """The clock waits at 0 while the planner checks a large building's access: each report of its
+    preparation restarts the wall bound; once the reports stop, the bound ends the run as before."""
+    watchdog = StallWatchdog(stall_after_s=600.0, clock_stall_wall_s=300.0)
+    heard = 0
+    for wall_s in range(0, 1200, 10):  # 20 minutes of preparation, a report every 10 s
+        heard += 1
+        watchdog.observe(changes=0, sim_time_s=0.0, wall_s=float(wall_s), preparing_heard=heard)
+        assert watchdog.verdict() is None, wall_s
+    watchdog.observe(changes=0, sim_time_s=0.0, wall_s=1190.0 + 299.0, preparing_heard=heard)
+    assert watchdog.verdict() is None
+    watchdog.observe(changes=0, sim_time_s=0.0, wall_s=1190.0 + 300.0, preparing_heard=heard)
+    verdict = watchdog.verdict()
+    assert verdict is not None and "clock stood still at 0.0 s" in verdict
+
+
+def test_the_stall_details_give_the_planners_last_word_on_its_preparation() -> None:
+    said = PreparingMsg(stage="access check, mended 3 time(s)", done=120, total=468)
+    lines = stall_details({}, {}, {}, {}, planner_ready=False, preparing=said)
+    assert lines[0] == PLANNER_NOT_READY
+    assert lines[1] == "the planner's last word: access check, mended 3 time(s), 120 of 468"
+    assert len(stall_details({}, {}, {}, {}, planner_ready=True, preparing=said)) == 0

@@ -164,3 +164,30 @@ def test_what_a_placement_would_cut_off_is_answered_without_changing_the_grid(bu
     finally:
         site_access._splits_nothing = local
     assert any(answers), "some placement in the order cuts something off"
+
+
+def test_the_check_asks_only_whose_reach_the_region_changed_in_and_answers_as_asking_all(
+    bundled_build: Path,
+) -> None:
+    """A placement changes the free region round itself (or splits it): the check asks again only the
+    components reached from where it changed; asking every component after every placement gives the same
+    answers, along several orders of the room, its gate and the frame."""
+    from bimbot.shared import site_access
+
+    built, _, _, _ = _room_with_gate(bundled_build)
+    layout = plan_site(built, robots=1)
+    rng = np.random.default_rng(11)
+    guids = [c.guid for c in built]
+    whole_grid = lambda before, after: (0, before.shape[0] - 1, 0, before.shape[1] - 1)  # noqa: E731
+    cutting = 0
+    for _ in range(4):
+        order = [str(g) for g in rng.permutation(guids)]
+        fast = check_order(SiteAccess(built, layout, DEFAULT_ROBOT), order)
+        local, site_access._changed_box = site_access._changed_box, whole_grid
+        try:
+            everyone = check_order(SiteAccess(built, layout, DEFAULT_ROBOT), order)
+        finally:
+            site_access._changed_box = local
+        assert fast == everyone
+        cutting += bool(fast.cut_offs)
+    assert cutting, "some order cuts something off (the gate, the room)"
