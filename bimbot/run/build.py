@@ -70,7 +70,7 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
     ``report.png``). ``announce`` gets the lines a user must see while it runs (the viewer's URL)."""
     started = time.perf_counter()
     # the services' code loads in the fork server while this process checks the input
-    launcher = ForkServer() if fork_server_enabled() else None
+    launcher = ForkServer(say=announce) if fork_server_enabled() else None
     try:
         return _run_build(build, options, announce, launcher, started)
     finally:
