@@ -140,7 +140,8 @@ def _run_build(
                 observer = by_name.get("observer")
                 viewer_url = _announce_viewer(observer, options.observer, announce, stop)
                 if options.show_progress:
-                    progress = make_progress(monitor.names, quiet=False, say=announce)
+                    types = run_fleet(options).type_of()
+                    progress = make_progress(monitor.names, quiet=False, say=announce, types=types)
                 result = RunWatch(
                     planner=by_name["planner"],
                     everyone=[*routers, *services],
