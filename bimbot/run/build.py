@@ -142,6 +142,7 @@ def _run_build(
                 if options.show_progress:
                     types = run_fleet(options).type_of()
                     progress = make_progress(monitor.names, quiet=False, say=announce, types=types)
+                building_from = time.perf_counter()
                 result = RunWatch(
                     planner=by_name["planner"],
                     everyone=[*routers, *services],
@@ -163,6 +164,7 @@ def _run_build(
                 monitor.drain(wait_s=0.3)  # the last state messages
                 monitor.audit()  # the twins confirm every state, physics' poses against the BIM targets
                 outcome = _outcome(manifest, monitor, result, time.perf_counter() - started)
+                outcome.startup_wall_s, outcome.build_wall_s = building_from - started, result.wall_s
                 outcome.report_dir, outcome.viewer_url, outcome.run_dir = report_dir, viewer_url, run.root
                 plan = monitor.plan.answer
                 outcome.plan_warnings = list(plan.warnings) if plan is not None else []

@@ -53,7 +53,11 @@ def duration_text(seconds: float) -> str:
     """A duration in the unit a person would say it in: ``45.0 s``, ``12.5 min``, ``2.0 h``, ``81.0 h``,
     ``5.2 days`` (minutes only up to an hour; the seconds too when the unit is not seconds:
     ``81.0 h (291,652 s)``). The one format of every duration in the run's summary."""
-    unit = spoken_unit(seconds)
+    return in_unit_text(seconds, spoken_unit(seconds))
+
+
+def in_unit_text(seconds: float, unit: TimeUnit) -> str:
+    """``seconds`` in ``unit`` as :func:`duration_text` says it: ``6.6 min (396 s)``, ``45.0 s``."""
     text = f"{seconds / unit.seconds:.1f} {unit.name}"
     return text if unit.seconds == 1.0 else f"{text} ({seconds:,.0f} s)"
 
