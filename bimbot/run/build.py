@@ -47,7 +47,7 @@ from bimbot.run.options import ObserverOptions, RunOptions, default_timeout_s
 from bimbot.run.preflight import check_build_and_run_folder, check_run_input
 from bimbot.run.progress import NoProgress, ProgressView, make_progress
 from bimbot.run.restarts import Restarter, RestartPolicy
-from bimbot.run.settings import run_settings
+from bimbot.run.settings import model_settings, run_settings
 from bimbot.run.summary import RunOutcome, summary_text
 from bimbot.run.watchdog import StallWatchdog
 from bimbot.shared.bus import open_session
@@ -125,7 +125,7 @@ def _run_build(
                 def report_of(ending: RunEnding) -> dict[str, Any]:
                     return {
                         **monitor.report(ending),
-                        "settings": run_settings(options),
+                        "settings": {**run_settings(options), "model": model_settings(manifest.source)},
                         "restarts": restarter.report(),
                     }
 
