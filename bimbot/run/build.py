@@ -72,7 +72,9 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
     # the services' code loads in the fork server while this process checks the input
     launcher = ForkServer(say=announce) if fork_server_enabled() else None
     try:
-        return _run_build(build, options, announce, launcher, started)
+        outcome = _run_build(build, options, announce, launcher, started)
+        outcome.wall_time_s = time.perf_counter() - started  # up to the summary: report and stop included
+        return outcome
     finally:
         if launcher is not None:
             launcher.close()

@@ -65,7 +65,8 @@ def wall_line(outcome: RunOutcome) -> str:
     """``wall time 34.2 s: 9.3 s start-up, 21.0 s building, 3.9 s closing``: what the command
     took, and of it the part the progress lines and the run's ending (its ``ENDED`` file, ``bimbot runs``)
     count as "wall": from the services' start to the build's end. Start-up is the input check and the
-    first load of the simulation libraries; a run that did not get to its build says the whole only."""
+    first load of the simulation libraries; closing the audit, the report and stopping the services. A
+    run that did not get to its build says the whole only."""
     total = f"wall time {duration_text(outcome.wall_time_s)}"
     if outcome.startup_wall_s is None or outcome.build_wall_s is None:
         return total
@@ -73,7 +74,7 @@ def wall_line(outcome: RunOutcome) -> str:
     return (
         f"{total}: {duration_text(outcome.startup_wall_s)} start-up, {duration_text(outcome.build_wall_s)} "
         f"building (the wall time the progress and the run's ending count), {duration_text(rest_s)} "
-        "closing (the as-built audit)"
+        "closing (the as-built audit, the report, stopping the services)"
     )
 
 

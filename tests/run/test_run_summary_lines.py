@@ -57,7 +57,7 @@ def test_the_wall_time_is_split_into_start_up_and_the_building_the_runs_ending_c
     lines = _lines(wall_time_s=345.0, startup_wall_s=85.0, build_wall_s=251.0)
     assert "wall" not in lines[0]  # the one figure "345 s wall" beside an ENDED line's 251 s is gone
     assert lines[1].startswith("wall time 345.0 s: 85.0 s start-up, 251.0 s building (the wall time")
-    assert lines[1].endswith("9.0 s closing (the as-built audit)")
+    assert lines[1].endswith("9.0 s closing (the as-built audit, the report, stopping the services)")
     ended = watch_of(_Dead("planner", 0, []), [], _Monitor())._ended(251.0)
     assert ended is not None and "after 251 s wall of building" in ended.ending.message
     assert _lines(wall_time_s=3.0)[1] == "wall time 3.0 s"  # a run that never got to its build
