@@ -79,12 +79,25 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     ),
 }
 
+#: The long-running services: their log (a file under ``bimbot run``) is their output, INFO by default.
+#: Every other command prints its result on stdout and logs warnings only, unless ``-v``.
+SERVICE_COMMANDS = frozenset({"bus", "agents", "planner", "physics", "robot", "observe"})
+
 _log = logging.getLogger("bimbot")
 PR_SET_PDEATHSIG = 1  # prctl(2): the signal the kernel sends when the parent dies
 
 EXIT_USER_ERROR = 2  # bad input: one line
 EXIT_BUG = 1  # an unexpected exception: its traceback is in the log
 BUG_MARK = "failed with an unexpected error"  # in the log line above the traceback (bimbot run looks for it)
+
+
+def log_verbosity(command: str, verbose: int, quiet: bool) -> int:
+    """The verbosity :func:`configure_logging` takes for ``command``: -1 (warnings) with ``-q``; for a
+    service 0 (INFO) plus each ``-v``; for any other command (convert, run, compare …) -1 plus each ``-v``:
+    a user reads its summary on stdout, not the INFO lines of its steps (``-v`` shows them)."""
+    if quiet:
+        return -1
+    return verbose if command in SERVICE_COMMANDS else verbose - 1
 
 
 def configure_logging(verbosity: int) -> None:
@@ -113,7 +126,13 @@ def build_parser(argv: list[str]) -> argparse.ArgumentParser:
     parser = OneLineErrorParser(
         prog="bimbot", description="bimbot: IFC building model → robot construction simulation"
     )
-    parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
+    parser.add_argument(
+        "-v",
+        "--verbose",
+        action="count",
+        default=0,
+        help="more log output: -v a command's INFO lines, -vv debug (a service logs INFO unasked)",
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="warnings and errors only")
     parser.add_argument("--version", action="version", version=f"bimbot {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -167,7 +186,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     stop_with_parent()
     args = parse_arguments(argv)
-    configure_logging(-1 if args.quiet else args.verbose)
+    configure_logging(log_verbosity(args.command, args.verbose, args.quiet))
     module = importlib.import_module(args._module)
     try:
         return int(module.run(args) or 0)

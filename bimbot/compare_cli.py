@@ -3,21 +3,33 @@
 A run is named by its run folder, its ``report.json`` or a build folder: its latest run with a report,
 under ``BUILD/runs/`` or given elsewhere with ``--run-dir`` (``BUILD/runs/elsewhere``). For each run:
 constructed of all, makespan, and for each method the components it built, the time its work took and
-its longest cure (:mod:`bimbot.shared.report.compare`); then each run's makespan against the first's.
+its longest cure (:mod:`bimbot.shared.report.compare`); then each run's makespan against the first's. Runs
+of another building or fidelity than the first are warned of, one line each, and marked in the table.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import logging
 import sys
 from pathlib import Path
 from typing import Any
 
 from bimbot.shared.errors import UserError
-from bimbot.shared.report.compare import MethodFigures, RunColumn, methods_in, run_column
+from bimbot.shared.report.compare import (
+    MethodFigures,
+    RunColumn,
+    methods_in,
+    mismatches,
+    run_column,
+    same_building,
+    same_fidelity,
+)
 from bimbot.shared.report.durations import duration_text
 from bimbot.shared.run_folder import RunFolder, latest_run_folder, runs_elsewhere
+
+_log = logging.getLogger(__name__)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -76,10 +88,27 @@ def _cell(figures: MethodFigures | None) -> str:
     return text + (f", cure up to {duration_text(figures.cure_s)}" if figures.cure_s else "")
 
 
+DIFFERS = " ⚠ differs"  # a run's cell that does not match the first run's (building, fidelity)
+
+
 def table(columns: list[RunColumn]) -> list[str]:
-    """The comparison as markdown lines."""
+    """The comparison as markdown lines: what each run built and at which fidelity first, a cell unlike
+    the first run's marked (:data:`DIFFERS`), then the figures."""
+    first = columns[0]
     lines = ["| | " + " | ".join(column.label for column in columns) + " |"]
     lines.append("|---|" + "---|" * len(columns))
+    lines.append(
+        "| building | "
+        + " | ".join(c.building + ("" if same_building(first, c) else DIFFERS) for c in columns)
+        + " |"
+    )
+    lines.append(
+        "| fidelity | "
+        + " | ".join(
+            (c.fidelity or "unknown") + ("" if same_fidelity(first, c) else DIFFERS) for c in columns
+        )
+        + " |"
+    )
     lines.append("| constructed | " + " | ".join(f"{c.constructed}/{c.components}" for c in columns) + " |")
     lines.append(
         "| makespan | "
@@ -88,13 +117,13 @@ def table(columns: list[RunColumn]) -> list[str]:
     )
     for method in methods_in(columns):
         lines.append(f"| {method} | " + " | ".join(_cell(c.methods.get(method)) for c in columns) + " |")
-    first = columns[0].makespan_s
+    first_s = columns[0].makespan_s
     for column in columns[1:]:
-        if first and column.makespan_s is not None:
-            change = column.makespan_s - first
+        if first_s and column.makespan_s is not None:
+            change = column.makespan_s - first_s
             lines.append(
                 f"\n{column.label}: makespan {'+' if change >= 0 else '−'}{duration_text(abs(change))} "
-                f"({100.0 * change / first:+.1f} %) against {columns[0].label}"
+                f"({100.0 * change / first_s:+.1f} %) against {columns[0].label}"
             )
     return lines
 
@@ -106,5 +135,11 @@ def run(args: argparse.Namespace) -> int:
         data = _read(report)
         going = (data.get("ending") or {}).get("how") == "running"
         columns.append(run_column(f"{path} (still running)" if going else str(path), data))
-    sys.stdout.write("\n".join(table(columns)) + "\n")
+    said = mismatches(columns)
+    for sentence in said:
+        _log.warning("%s", sentence)
+    lines = table(columns)
+    if said:
+        lines.append(f"\nnote: these runs do not all compare ({len(said)} difference(s), marked ⚠ above)")
+    sys.stdout.write("\n".join(lines) + "\n")
     return 0

@@ -35,7 +35,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import IO, Any
 
@@ -79,8 +79,10 @@ class ForkedChild:
 class ForkServer:
     """The run's side of a fork server: start it, ask it for children, learn how they ended."""
 
-    def __init__(self) -> None:
-        """Start the server; it preloads while the run checks its input (its log: :meth:`attach_log`)."""
+    def __init__(self, say: Callable[[str], None] = _log.info) -> None:
+        """Start the server; it preloads while the run checks its input (its log: :meth:`attach_log`).
+        ``say`` gets the one line a user waiting on a slow first start must see (the run's stdout)."""
+        self._say = say
         from bimbot.supervisor import HASH_SEED, STOP_WITH_PARENT_ENV
 
         self._process = subprocess.Popen(
@@ -159,7 +161,7 @@ class ForkServer:
                         return None
                     if not said and now - asked >= SLOW_START_S:
                         said = True  # a first start after setup compiles the kernels (numba): minutes
-                        _log.info("loading the simulation libraries (the first start after setup: 1-2 min)")
+                        self._say("loading the simulation libraries (the first start after setup: 1-2 min)")
                     self._changed.wait(timeout=min(left, 0.5))
                 return self._checks.pop(token, None) or None
 

@@ -64,15 +64,24 @@ if [ ! -x .venv/bin/python ]; then
     echo "setup: creating .venv with $("$PYTHON" --version)" >&2
     "$PYTHON" -m venv .venv
 fi
+# pip warns "Location 'file:///…/simple/<package>/' is ignored: it is neither a file nor a directory" for
+# every package a local index lacks: a machine whose pip configuration (pip config list: a user's or the
+# system's pip.conf, PIP_EXTRA_INDEX_URL) names file:// indexes that each hold a few packages gets one line
+# per package and index. Only those lines are dropped; pip's other output, and its exit status (pipefail),
+# are kept.
+IGNORED_LOCATION="^WARNING: Location 'file:[^']*' is ignored: it is neither a file nor a directory\.\$"
+pip_quietly() {
+    { .venv/bin/python -m pip "$@" 2>&1 1>&3 3>&- | { grep -v -E "$IGNORED_LOCATION" || true; } >&2; } 3>&1
+}
 if ! .venv/bin/python -c "import bimbot, ifcopenshell, zenoh, pybullet, rerun, trimesh" 2>/dev/null \
     || [ pyproject.toml -nt .venv/.bimbot-installed ]; then
     echo "setup: installing bimbot and its pinned dependencies into .venv" >&2
-    .venv/bin/python -m pip install -q --disable-pip-version-check --upgrade pip
+    pip_quietly install -q --disable-pip-version-check --upgrade pip
     # setuptools prints a boxed "Editable installation" warning about package-named folders in the working
     # directory; bimbot maps services/ and shared/ into its package and every service starts with
     # `python -P` (no working directory on sys.path), so the warning says nothing a user can act on
     PYTHONWARNINGS="ignore:Editable installation" \
-        .venv/bin/python -m pip install -q --disable-pip-version-check -e '.[test]'
+        pip_quietly install -q --disable-pip-version-check -e '.[test]'
     touch .venv/.bimbot-installed
 fi
 echo "setup: ready ($(.venv/bin/bimbot --version 2>/dev/null || echo bimbot))" >&2

@@ -9,15 +9,13 @@ of columns (3x3, the paper's case, gives 9 footings, 9 columns and 10 beams). Ba
 from __future__ import annotations
 
 import argparse
-import logging
+import sys
 import time
 from collections import Counter
 from pathlib import Path
 
 from bimbot.shared.errors import UserError
 from bimbot.shared.output_paths import check_writable_file
-
-_log = logging.getLogger(__name__)
 
 KINDS = ("light-steel-frame",)
 DEFAULT_BAYS = "3x3"
@@ -54,16 +52,9 @@ def run(args: argparse.Namespace) -> int:
     except RuntimeError as error:  # ifcopenshell's own "Failed to write to path"
         raise UserError(f"--output {output}: cannot write ({error})") from None
     counts = Counter(element.is_a() for element in model.by_type("IfcElement"))
-    _log.info(
-        "wrote %s: %s %dx%d, %d footings, %d columns, %d beams, %d tasks (%.1f s)",
-        output,
-        args.kind,
-        columns_x,
-        columns_y,
-        counts["IfcFooting"],
-        counts["IfcColumn"],
-        counts["IfcBeam"],
-        len(model.by_type("IfcTask")),
-        time.perf_counter() - started_s,
+    sys.stdout.write(  # the command's result: on stdout, as convert's summary
+        f"wrote {output}: {args.kind} {columns_x}x{columns_y}, {counts['IfcFooting']} footings, "
+        f"{counts['IfcColumn']} columns, {counts['IfcBeam']} beams, {len(model.by_type('IfcTask'))} tasks "
+        f"({time.perf_counter() - started_s:.1f} s)\n"
     )
     return 0

@@ -179,8 +179,9 @@ def _as_dict(audit: AsBuiltAudit | None) -> dict[str, Any]:
 
 
 def as_built_line(report: dict[str, Any]) -> str | None:
-    """The summary's line, from ``report.json``: ``as-built: 28 checked, max 0.40 mm / 0.02°, 0 errors``,
-    the wrong ones named when there are any; None when the run made no audit."""
+    """The summary's line, from ``report.json``: ``as-built: 28 checked, largest deviation 0.40 mm /
+    0.02°, all within tolerance (10 mm / 1°)``, or how many are beyond it, each named; None when the run
+    made no audit."""
     audit = report.get("as_built") or {}
     if not audit.get("audited"):
         return None
@@ -193,12 +194,21 @@ def as_built_line(report: dict[str, Any]) -> str | None:
         totals.get("max_final_angle_error_deg"),
     )
     if position_mm is not None and angle_deg is not None:
-        line += f", max {position_mm:.2f} mm / {angle_deg:.2f}°"
+        line += f", largest deviation {position_mm:.2f} mm / {angle_deg:.2f}°"
+    tolerance = _tolerance_text(audit)
     errors: list[str] = audit.get("errors", [])
-    line += f", {len(errors)} error{'' if len(errors) == 1 else 's'}"
     if not errors:
-        return line
+        return f"{line}, all within tolerance{tolerance}"
+    line += f", {len(errors)} beyond tolerance{tolerance}"
     shown = [f"  {error}" for error in errors[:MAX_ERRORS_SHOWN]]
     if len(errors) > MAX_ERRORS_SHOWN:
         shown.append(f"  … and {len(errors) - MAX_ERRORS_SHOWN} more (report.json: as_built.errors)")
     return "\n".join([line + ":", *shown])
+
+
+def _tolerance_text(audit: dict[str, Any]) -> str:
+    """`` (10 mm / 1°)``: the tolerances the audit held the components to ("" in an older report)."""
+    position_mm, angle_deg = audit.get("tolerance_mm"), audit.get("tolerance_deg")
+    if position_mm is None or angle_deg is None:
+        return ""
+    return f" ({position_mm:g} mm / {angle_deg:g}°)"

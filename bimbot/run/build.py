@@ -47,7 +47,7 @@ from bimbot.run.options import ObserverOptions, RunOptions, default_timeout_s
 from bimbot.run.preflight import check_build_and_run_folder, check_run_input
 from bimbot.run.progress import NoProgress, ProgressView, make_progress
 from bimbot.run.restarts import Restarter, RestartPolicy
-from bimbot.run.settings import run_settings
+from bimbot.run.settings import model_settings, run_settings
 from bimbot.run.summary import RunOutcome, summary_text
 from bimbot.run.watchdog import StallWatchdog
 from bimbot.shared.bus import open_session
@@ -70,9 +70,11 @@ def run_build(build: Path, options: RunOptions, announce: Callable[[str], None] 
     ``report.png``). ``announce`` gets the lines a user must see while it runs (the viewer's URL)."""
     started = time.perf_counter()
     # the services' code loads in the fork server while this process checks the input
-    launcher = ForkServer() if fork_server_enabled() else None
+    launcher = ForkServer(say=announce) if fork_server_enabled() else None
     try:
-        return _run_build(build, options, announce, launcher, started)
+        outcome = _run_build(build, options, announce, launcher, started)
+        outcome.wall_time_s = time.perf_counter() - started  # up to the summary: report and stop included
+        return outcome
     finally:
         if launcher is not None:
             launcher.close()
@@ -125,7 +127,7 @@ def _run_build(
                 def report_of(ending: RunEnding) -> dict[str, Any]:
                     return {
                         **monitor.report(ending),
-                        "settings": run_settings(options),
+                        "settings": {**run_settings(options), "model": model_settings(manifest.source)},
                         "restarts": restarter.report(),
                     }
 
@@ -140,7 +142,9 @@ def _run_build(
                 observer = by_name.get("observer")
                 viewer_url = _announce_viewer(observer, options.observer, announce, stop)
                 if options.show_progress:
-                    progress = make_progress(monitor.names, quiet=False, say=announce)
+                    types = run_fleet(options).type_of()
+                    progress = make_progress(monitor.names, quiet=False, say=announce, types=types)
+                building_from = time.perf_counter()
                 result = RunWatch(
                     planner=by_name["planner"],
                     everyone=[*routers, *services],
@@ -162,6 +166,7 @@ def _run_build(
                 monitor.drain(wait_s=0.3)  # the last state messages
                 monitor.audit()  # the twins confirm every state, physics' poses against the BIM targets
                 outcome = _outcome(manifest, monitor, result, time.perf_counter() - started)
+                outcome.startup_wall_s, outcome.build_wall_s = building_from - started, result.wall_s
                 outcome.report_dir, outcome.viewer_url, outcome.run_dir = report_dir, viewer_url, run.root
                 plan = monitor.plan.answer
                 outcome.plan_warnings = list(plan.warnings) if plan is not None else []

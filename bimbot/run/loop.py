@@ -67,6 +67,7 @@ class LoopResult:
     planner_code: int | None = None  # the planner's exit code when it exited
     signum: int | None = None  # the signal that stopped the run
     input_error: str | None = None  # the planner rejected its input (exit 2): this is its log tail
+    wall_s: float = 0.0  # from the loop's start (the services just started) to its end: the build's wall
 
 
 @dataclass(frozen=True)
@@ -110,6 +111,7 @@ class RunWatch:
             )
             result = self._ended(now - started)
             if result is not None:
+                result.wall_s = now - started
                 return result
             if self.limits.report_every_s > 0 and now >= next_report_s:
                 next_report_s = now + self.limits.report_every_s
@@ -120,7 +122,7 @@ class RunWatch:
     def _ended(self, wall_s: float) -> LoopResult | None:
         monitor, planner = self.monitor, self.planner
         built = f"{monitor.constructed}/{monitor.total} constructed"
-        at = f"after {wall_s:.0f} s wall, at sim {monitor.sim_time_s:.1f} s, with {built}"
+        at = f"after {wall_s:.0f} s wall of building, at sim {monitor.sim_time_s:.1f} s, with {built}"
         if self.stop.signum is not None:
             name = signal.Signals(self.stop.signum).name
             ending = RunEnding("interrupted", ReasonCode.INTERRUPTED, f"stopped by {name} {at}")
@@ -147,7 +149,7 @@ class RunWatch:
                 if code == 0
                 else "every component constructed, failed or blocked"
             )
-            when = f"after {wall_s:.0f} s wall, at sim {monitor.sim_time_s:.1f} s"
+            when = f"after {wall_s:.0f} s wall of building, at sim {monitor.sim_time_s:.1f} s"
             ending = RunEnding(
                 "done", None, f"the planner finished the build ({outcome}, exit {code}) {when}"
             )

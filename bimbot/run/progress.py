@@ -1,10 +1,12 @@
 """Live progress of ``bimbot run`` in the terminal: constructed/total, sim time, real-time factor, robots.
 
 A slow build and a stuck one must look different while they run. On a terminal the progress is a rich
-``Live`` display (redrawn a few times a second, one row per robot: state, task, component, what it is
-doing); when stdout is not a terminal (a log file, CI) it is one plain line as the clock starts, then one
-every ``PLAIN_EVERY_S`` wall seconds, so logs stay readable; ``-q`` turns it off. The text is made by pure
-functions (:func:`progress_line`, :func:`robot_line`, :class:`RateWindow`); the displays only show it.
+``Live`` display (redrawn a few times a second, one row per robot at work, named with its type: state,
+task, component, what it is doing; the idle ones in one row); when stdout is not a terminal (a log file,
+CI) it is one plain line as the clock starts, then one every ``PLAIN_EVERY_S`` wall seconds, so logs stay
+readable; ``-q`` turns it off. Sim time is said in minutes, hours or days once long (a plan run covers
+days in seconds), the speed-up as ``×47,001``. The text is made by pure functions (:func:`progress_line`,
+:func:`robot_lines`, :class:`RateWindow`); the displays only show it.
 """
 
 from __future__ import annotations
@@ -18,7 +20,9 @@ from rich.console import Console, Group
 from rich.live import Live
 from rich.text import Text
 
-from bimbot.shared.messages import RobotStateMsg
+from bimbot.shared.messages import RobotState, RobotStateMsg
+from bimbot.shared.report.durations import short_duration_text
+from bimbot.shared.report.fleet import natural_key
 
 PLAIN_EVERY_S = 10.0  # wall seconds between two plain progress lines
 RATE_WINDOW_S = 10.0  # wall seconds over which the real-time factor is measured
@@ -48,9 +52,17 @@ class RateWindow:
         return (sim1 - sim0) / (wall1 - wall0) if wall1 > wall0 else None
 
 
-def robot_line(msg: RobotStateMsg, names: Mapping[str, str | None]) -> str:
-    """``r1 pick_up T0004 Column A1: driving to the yard``."""
-    parts = [msg.robot_id, msg.state.value]
+def robot_label(robot_id: str, types: Mapping[str, str]) -> str:
+    """``r1 (husky)``, as the summary names it; ``r1`` when its type is not known."""
+    robot_type = types.get(robot_id)
+    return f"{robot_id} ({robot_type})" if robot_type else robot_id
+
+
+def robot_line(
+    msg: RobotStateMsg, names: Mapping[str, str | None], types: Mapping[str, str] | None = None
+) -> str:
+    """``r1 (husky) pick_up T0004 Column A1: driving to the yard``."""
+    parts = [robot_label(msg.robot_id, types or {}), msg.state.value]
     if msg.task_id:
         parts.append(msg.task_id)
     if msg.guid:
@@ -64,10 +76,46 @@ def robot_line(msg: RobotStateMsg, names: Mapping[str, str | None]) -> str:
     return line
 
 
+def idle_line(robot_ids: list[str], types: Mapping[str, str]) -> str:
+    """``idle: r2 (carrier), r3, r4 (tower_crane)``: the robots idle with nothing to say, those of a type
+    together, in one line instead of one per robot."""
+    by_type: dict[str, list[str]] = {}
+    for robot_id in robot_ids:
+        by_type.setdefault(types.get(robot_id, ""), []).append(robot_id)
+    groups = [", ".join(ids) + (f" ({name})" if name else "") for name, ids in by_type.items()]
+    return "idle: " + ", ".join(groups)
+
+
+def robot_lines(
+    robots: Mapping[str, RobotStateMsg], names: Mapping[str, str | None], types: Mapping[str, str]
+) -> list[str]:
+    """A line per robot at work or with something to say (:func:`robot_line`), then the idle ones in one
+    (:func:`idle_line`), in natural id order (r2 before r10)."""
+    lines, idle = [], []
+    for robot_id in sorted(robots, key=natural_key):
+        msg = robots[robot_id]
+        if msg.state is RobotState.IDLE and not msg.activity and not msg.task_id:
+            idle.append(robot_id)
+        else:
+            lines.append(robot_line(msg, names, types))
+    return [*lines, idle_line(idle, types)] if idle else lines
+
+
+def speed_text(rtf: float | None) -> str:
+    """``real time ×8.1``, ``×93``, ``×47,001`` (a plan run's clock jumps by events): sim seconds per
+    wall second, as many digits as mean something."""
+    if rtf is None:
+        return "real time ×–"
+    if rtf < 10.0:
+        return f"real time ×{rtf:.1f}"
+    return f"real time ×{rtf:,.0f}"
+
+
 def progress_line(
     constructed: int, total: int, sim_time_s: float, rtf: float | None, wall_s: float, *, not_built: int = 0
 ) -> str:
-    """``constructed 3/9 · sim 412.0 s · 8.1× real time · wall 51 s``, with ``· 2 will not be built (the
+    """``constructed 3/9 · sim 412 s · real time ×8.1 · wall 51 s`` (sim time in minutes, hours or days
+    when long: ``sim 13.1 h``), with ``· 2 will not be built (the
     table at the end says why)`` once the planner has failed or blocked some (those no robot on site can
     build fail before the build starts: "13/85" alone read as a run going badly); before the clock moves,
     that the services are still starting (physics holds its clock until every robot is up)."""
@@ -75,8 +123,8 @@ def progress_line(
     if sim_time_s == 0.0 and constructed == 0:
         waiting = "starting the services (the clock waits for the robots)"
         return f"constructed 0/{total}{lost} · {waiting} · wall {wall_s:.0f} s"
-    speed = f"{rtf:.1f}× real time" if rtf is not None else "real time –"
-    return f"constructed {constructed}/{total}{lost} · sim {sim_time_s:.1f} s · {speed} · wall {wall_s:.0f} s"
+    sim = short_duration_text(sim_time_s)
+    return f"constructed {constructed}/{total}{lost} · sim {sim} · {speed_text(rtf)} · wall {wall_s:.0f} s"
 
 
 class ProgressView(Protocol):
@@ -97,8 +145,8 @@ class ProgressView(Protocol):
 
 
 class _Base:
-    def __init__(self, names: Mapping[str, str | None]) -> None:
-        self.names = names
+    def __init__(self, names: Mapping[str, str | None], types: Mapping[str, str] | None = None) -> None:
+        self.names, self.types = names, types or {}
         self.rate = RateWindow()
 
     def update(
@@ -113,8 +161,7 @@ class _Base:
     ) -> None:
         self.rate.add(wall_s, sim_time_s)
         head = progress_line(constructed, total, sim_time_s, self.rate.factor(), wall_s, not_built=not_built)
-        robot_lines = [robot_line(msg, self.names) for _, msg in sorted(robots.items())]
-        self._show(head, robot_lines, wall_s, sim_time_s)
+        self._show(head, robot_lines(robots, self.names, self.types), wall_s, sim_time_s)
 
     def _show(self, head: str, robot_lines: list[str], wall_s: float, sim_time_s: float) -> None:
         raise NotImplementedError
@@ -135,9 +182,13 @@ class PlainProgress(_Base):
     terminal: a log, a pipe, CI; the first line had come only after ``every_s``)."""
 
     def __init__(
-        self, names: Mapping[str, str | None], say: Callable[[str], None], every_s: float = PLAIN_EVERY_S
+        self,
+        names: Mapping[str, str | None],
+        say: Callable[[str], None],
+        every_s: float = PLAIN_EVERY_S,
+        types: Mapping[str, str] | None = None,
     ) -> None:
-        super().__init__(names)
+        super().__init__(names, types)
         self.say, self.every_s = say, every_s
         self._next_s = every_s
         self._clock_seen = False
@@ -157,8 +208,10 @@ class PlainProgress(_Base):
 class LiveProgress(_Base):
     """A rich ``Live`` display on a terminal; lines written to stdout meanwhile appear above it."""
 
-    def __init__(self, names: Mapping[str, str | None], stream: TextIO) -> None:
-        super().__init__(names)
+    def __init__(
+        self, names: Mapping[str, str | None], stream: TextIO, types: Mapping[str, str] | None = None
+    ) -> None:
+        super().__init__(names, types)
         self._live = Live(
             Text("starting…"),
             console=Console(file=stream),
@@ -178,12 +231,17 @@ class LiveProgress(_Base):
 
 
 def make_progress(
-    names: Mapping[str, str | None], quiet: bool, say: Callable[[str], None], stream: TextIO | None = None
+    names: Mapping[str, str | None],
+    quiet: bool,
+    say: Callable[[str], None],
+    stream: TextIO | None = None,
+    types: Mapping[str, str] | None = None,
 ) -> ProgressView:
-    """The display that fits: none with ``quiet``, live on a terminal, plain lines otherwise."""
+    """The display that fits: none with ``quiet``, live on a terminal, plain lines otherwise; ``types``:
+    robot id → its type, named beside each robot."""
     stream = stream or sys.stdout
     if quiet:
         return NoProgress()
     if stream.isatty():
-        return LiveProgress(names, stream)
-    return PlainProgress(names, say)
+        return LiveProgress(names, stream, types)
+    return PlainProgress(names, say, types=types)

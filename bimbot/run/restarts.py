@@ -22,6 +22,8 @@ from collections import Counter
 from dataclasses import asdict, dataclass, field
 from typing import Protocol
 
+from bimbot.shared.report.durations import duration_text
+
 _log = logging.getLogger(__name__)
 
 
@@ -57,8 +59,8 @@ class Restart:
         if self.restarted_wall_s is None:
             then = "not restarted"
         else:
-            then = f"restarted {self.restarted_wall_s - self.died_wall_s:.1f} s later"
-        return f"{self.service} died ({how}) at sim {self.died_sim_time_s:.1f} s, {then}"
+            then = f"restarted {duration_text(self.restarted_wall_s - self.died_wall_s)} later"
+        return f"{self.service} died ({how}) at sim {duration_text(self.died_sim_time_s)}, {then}"
 
 
 @dataclass

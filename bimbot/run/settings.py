@@ -15,6 +15,7 @@ from typing import Any
 from bimbot.run.options import RunOptions
 from bimbot.services.component_agents.agent import AgentConfig
 from bimbot.services.physics.profiles import PROFILES
+from bimbot.shared.manifest import SourceModel
 
 DEFAULT_FLEET = "the default fleet"  # the fleet embedded in bimbot (shared/models/default_fleet.toml)
 
@@ -65,3 +66,9 @@ def sequence_source(planner_source: tuple[str, ...]) -> str:
         named = [*planner_source[planner_source.index("--from-ifc") + 1 :], "--"][0]
         return f"the IFC schedule of {'the build model' if named.startswith('--') else named}"
     return "the build's sequence.xml"
+
+
+def model_settings(source: SourceModel) -> dict[str, str]:
+    """The model the run built, for its report: the IFC file and its content's hash, so two reports tell
+    whether they built the same building (``bimbot compare``)."""
+    return {"path": source.path, "sha256": source.sha256}

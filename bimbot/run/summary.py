@@ -1,8 +1,10 @@
 """The summary ``bimbot run`` prints as it ends: what was built, how well, by whom, and what was not and why.
 
-Pure: a :class:`RunOutcome` (the run's counts, its report and where its files are) in, text out. The
-figures are the report's (:mod:`bimbot.shared.report.collector` and its ``report_*`` helpers), so the
-summary and ``report.json`` cannot disagree.
+Pure: a :class:`RunOutcome` (the run's counts, its report and where its files are) in, text out. Every
+duration is said by :func:`~bimbot.shared.report.durations.duration_text` (one format, the unit a person
+says it in: ``396.0 s``, ``36.6 min (2,197 s)``, ``5.0 days (432,000 s)``). The figures are the report's
+(:mod:`bimbot.shared.report.collector` and its ``report_*`` helpers), so the summary and ``report.json``
+cannot disagree.
 """
 
 from __future__ import annotations
@@ -14,13 +16,14 @@ from typing import Any
 
 from bimbot.run.as_built import as_built_line
 from bimbot.run.restarts import Restart
+from bimbot.run.robot_summary import robot_lines, walled_in_line
 from bimbot.run.table import not_built_table
 from bimbot.shared.report.collector import RunEnding
 from bimbot.shared.report.durations import duration_text
-from bimbot.shared.report.fleet import lane_label, robot_order, utilisation_line
+from bimbot.shared.report.fleet import robot_order, utilisation_line
 from bimbot.shared.report.methods import curing_line
 from bimbot.shared.report.placements import caught_on_last_attempt, placement_line
-from bimbot.shared.report.totals import busy_within_s, makespan_window
+from bimbot.shared.report.totals import makespan_window
 from bimbot.shared.run_folder import RunFolder
 
 MAX_PLAN_WARNINGS_SHOWN = 5
@@ -43,34 +46,36 @@ class RunOutcome:
     viewer_url: str | None = None
     summary_announced: bool = False  # the summary went out through ``announce`` already (--live)
     ending: RunEnding | None = None
+    # of wall_time_s: before the services ran (input check, loading the libraries), and with them running
+    # until the build ended (the progress lines' and the ending's "wall"); None: not measured
+    startup_wall_s: float | None = None
+    build_wall_s: float | None = None
 
 
 def _makespan(totals: dict[str, Any]) -> str:
-    """``; makespan 1060.6 s``: the report's and report.png's figure (first release to last construction),
-    which a user otherwise cannot tell from the run's sim time."""
+    """``, makespan 17.7 min (1,061 s)``: the report's and report.png's figure (first release to last
+    construction), which a user otherwise cannot tell from the run's sim time."""
     makespan = totals.get("makespan_s")
     if not makespan:
         return ""
-    return f"; makespan {duration_text(makespan)} from the first release to the last construction"
+    return f", makespan {duration_text(makespan)} from the first release to the last construction"
 
 
-def _busy(busy_s: float) -> str:
-    """``77 s``; a machine's hours of formwork as ``9.0 h (32,403 s)``."""
-    return f"{busy_s:.0f} s" if busy_s <= LONG_BUSY_S else duration_text(busy_s)
-
-
-LONG_BUSY_S = 600.0
-
-
-def _busy_outside(robot: dict[str, Any], window: tuple[float, float] | None) -> str:
-    """`` (120 s of it after the last construction)``: the utilisation counts a robot's busy time within
-    the makespan only; without this a robot busy 360 s beside a 268 s makespan read as a contradiction."""
-    if window is None:
-        return ""
-    outside = robot["busy_s"] - busy_within_s(robot, window)
-    if outside < 1.0:
-        return ""
-    return f" ({outside:.0f} s of it after the last construction, on tasks that built nothing more)"
+def wall_line(outcome: RunOutcome) -> str:
+    """``wall time 34.2 s: 9.3 s start-up, 21.0 s building, 3.9 s closing``: what the command
+    took, and of it the part the progress lines and the run's ending (its ``ENDED`` file, ``bimbot runs``)
+    count as "wall": from the services' start to the build's end. Start-up is the input check and the
+    first load of the simulation libraries; closing the audit, the report and stopping the services. A
+    run that did not get to its build says the whole only."""
+    total = f"wall time {duration_text(outcome.wall_time_s)}"
+    if outcome.startup_wall_s is None or outcome.build_wall_s is None:
+        return total
+    rest_s = max(0.0, outcome.wall_time_s - outcome.startup_wall_s - outcome.build_wall_s)
+    return (
+        f"{total}: {duration_text(outcome.startup_wall_s)} start-up, {duration_text(outcome.build_wall_s)} "
+        f"building (the wall time the progress and the run's ending count), {duration_text(rest_s)} "
+        "closing (the as-built audit, the report, stopping the services)"
+    )
 
 
 def _caught(outcome: RunOutcome) -> str:
@@ -113,27 +118,6 @@ def _give_backs(totals: dict[str, Any], robots: dict[str, Any]) -> str:
     )
 
 
-def _tasks(robot: dict[str, Any]) -> str:
-    """``11 task(s): 1 built, 10 given back``; a report without the counts: ``11 task(s)``."""
-    tasks = f"{len(robot['tasks'])} task(s)"
-    if "built" not in robot:
-        return tasks
-    return f"{tasks}: {robot['built']} built, {robot.get('given_back', 0)} given back"
-
-
-def walled_in_lines(robots: dict[str, Any]) -> list[str]:
-    """``r1 at (1.43, -6.35) from 470130 s of sim time to the end of the run``: each time a robot said it
-    had no way to its depot, where it stood and since when (and until when, if it got out)."""
-    lines = []
-    for robot_id in robot_order(robots):
-        for spell in robots[robot_id].get("walled_in") or []:
-            x, y = spell["xy_m"]
-            until = spell.get("until_s")
-            to = "to the end of the run" if until is None else f"to {until:.0f} s"
-            lines.append(f"{robot_id} at ({x:.2f}, {y:.2f}) from {spell['since_s']:.0f} s of sim time {to}")
-    return lines
-
-
 def clear_away_line(components: list[dict[str, Any]]) -> str | None:
     """``cleared out of the robots' way: Ledger L1 by r2 at 3157400 s (took 412 s); …``: the failed bodies
     carried to the yard, and those left in the way with why (None: no failed body lay in the way)."""
@@ -144,9 +128,8 @@ def clear_away_line(components: list[dict[str, Any]]) -> str | None:
             continue
         name = component.get("name") or component["guid"]
         if entry.get("cleared"):
-            parts.append(
-                f"{name} by {entry['robot_id']} at {entry['cleared_s']:.0f} s (took {entry['took_s']:.0f} s)"
-            )
+            at, took = duration_text(entry["cleared_s"]), duration_text(entry["took_s"])
+            parts.append(f"{name} by {entry['robot_id']} at {at} (took {took})")
         elif entry.get("cleared") is False:
             why = (entry.get("reason") or {}).get("message", "")
             parts.append(f"{name} NOT cleared: {why}")
@@ -163,13 +146,14 @@ def summary_text(outcome: RunOutcome) -> str:
     sim_time_s = max(outcome.sim_time_s, float(outcome.report.get("sim_time_s") or 0.0))
     lines = [
         *early,
-        f"constructed {outcome.constructed}/{outcome.total} components in "
-        f"{sim_time_s:.1f} s sim time ({outcome.wall_time_s:.1f} s wall{_makespan(totals)}), "
-        f"{_caught(outcome)}, {_give_backs(totals, outcome.report.get('robots', {}))}{_seed(outcome)}",
+        f"constructed {outcome.constructed}/{outcome.total} components in {duration_text(sim_time_s)} of "
+        f"sim time{_makespan(totals)}; {_caught(outcome)}, "
+        f"{_give_backs(totals, outcome.report.get('robots', {}))}{_seed(outcome)}",
+        wall_line(outcome),
     ]
-    walled_in = walled_in_lines(outcome.report.get("robots", {}))
-    if walled_in:
-        lines.append("walled in (no way to its depot start): " + "; ".join(walled_in))
+    walled_in = walled_in_line(outcome.report.get("robots", {}))
+    if walled_in is not None:
+        lines.append(walled_in)
     cleared = clear_away_line(outcome.report.get("components", []))
     if cleared is not None:
         lines.append(cleared)
@@ -200,17 +184,7 @@ def summary_text(outcome: RunOutcome) -> str:
     as_built = as_built_line(outcome.report)
     if as_built is not None:
         lines.append(as_built)
-    robots = outcome.report.get("robots", {})
-    window = makespan_window(outcome.report.get("components", []))
-    for robot_id in robot_order(robots):
-        robot = robots[robot_id]
-        hand_offs = sum(1 for task in robot["tasks"] if task.get("kind") == "hand_off")
-        lines.append(
-            f"{lane_label(robot_id, robot)}: {_tasks(robot)}"
-            + (f" ({hand_offs} hand-off(s))" if hand_offs else "")
-            + f", {robot['distance_m']:.0f} m driven, busy {_busy(robot['busy_s'])}"
-            + _busy_outside(robot, window)
-        )
+    lines += robot_lines(outcome.report, makespan_window(outcome.report.get("components", [])))
     utilisation = utilisation_line(outcome.report)
     if utilisation is not None:
         lines.append(utilisation)

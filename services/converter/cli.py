@@ -218,19 +218,19 @@ def run(args: argparse.Namespace) -> int:
             earlier,
             args.output,
         )
-    if manifest.in_place:
-        _log.info(
-            "in place before the robots come: %s",
-            ", ".join(c.name or c.guid for c in manifest.in_place[:6])
-            + (f" and {len(manifest.in_place) - 6} more" if len(manifest.in_place) > 6 else ""),
+    if manifest.in_place:  # what the user asked for (--in-place), said with the summary
+        sys.stdout.write(
+            "in place before the robots come: "
+            + ", ".join(c.name or c.guid for c in manifest.in_place[:6])
+            + (f" and {len(manifest.in_place) - 6} more" if len(manifest.in_place) > 6 else "")
+            + "\n"
         )
     standing = above_ground(manifest.in_place)
     if standing:
-        _log.info(
-            "%d component(s) in place reach above the ground (%s): physics, the robots' maps and the "
-            "planner's access check have them where the model puts them",
-            len(standing),
-            ", ".join(c.name or c.guid for c in standing[:3]) + (" …" if len(standing) > 3 else ""),
+        named = ", ".join(c.name or c.guid for c in standing[:3]) + (" …" if len(standing) > 3 else "")
+        sys.stdout.write(
+            f"{len(standing)} component(s) in place reach above the ground ({named}): physics, the robots' "
+            "maps and the planner's access check have them where the model puts them\n"
         )
     if not manifest.components and manifest.in_place:
         _log.error(

@@ -73,8 +73,9 @@ class Parking:
                 self._park_failures += 1
                 failure = navigator.failure
                 why = failure.message if failure is not None else "no path"
-                self._say_cannot_park(why)
-                if context.cut_off_from_depot():
+                walled_in = context.cut_off_from_depot()
+                self._say_cannot_park(why, walled_in)
+                if walled_in:
                     cycle.walled_in(f"it cannot drive to its depot: {why}")
             elif status is NavStatus.REACHED and self._parking:
                 cycle.activity, self._park_failures = "", 0
@@ -97,13 +98,14 @@ class Parking:
             navigator.set_goal((x, y), yaw, sim_s, tolerance_m=0.3, quiet=retry)
             self._parking = True
 
-    def _say_cannot_park(self, why: str) -> None:
-        """The robot's state says where it stays and why; the log says it at the first failure in a row,
-        then at the 2nd, 4th, 8th, … with the count (a power of two: a handful of lines for a whole run)."""
+    def _say_cannot_park(self, why: str, walled_in: bool) -> None:
+        """The robot's state says where it stays and what that means (:func:`not_parked_activity`); the log
+        says why at the first failure in a row, then at the 2nd, 4th, 8th, … with the count (a power of
+        two: a handful of lines for a whole run)."""
         context, failures = self.context, self._park_failures
         x, y = context.navigator.pose_xy_yaw[:2]
         where = f"stays at ({x:.1f}, {y:.1f})"
-        self.cycle.activity = f"not parked: no way to its depot, {where}"  # why: its log
+        self.cycle.activity = not_parked_activity((x, y), walled_in)  # why: its log
         if failures == 1:
             _log.warning(
                 "%s: cannot drive to the depot, %s, idle, and tries again every %.0f s: %s",
@@ -119,3 +121,14 @@ class Parking:
                 failures,
                 where,
             )
+
+
+def not_parked_activity(xy: tuple[float, float], walled_in: bool) -> str:
+    """What a robot whose parking drive failed says in its state (the run's progress line shows it, up to
+    60 characters): where it waits and what that means for the build. Not walled in, nothing changes: it
+    waits there for its next task (``waits at (1.4, -6.3) for a task: no way to its depot``); walled in,
+    it takes no task until it gets out, and the other robots take the work."""
+    where = f"({xy[0]:.1f}, {xy[1]:.1f})"
+    if walled_in:
+        return f"walled in at {where}: no task until it gets out"
+    return f"waits at {where} for a task: no way to its depot"

@@ -11,6 +11,10 @@ method and when each step happened (:mod:`.methods`); this sums them per method:
 * ``cure_s``: the longest cure of its components (concrete that must cure before what rests on it);
 * ``span_s``: from the first start of that method's work to its last component built.
 
+Two runs compare only when they built the same model (one model converted two ways is one building) at
+the same fidelity: :func:`mismatches` says each run that does not, which ``bimbot compare`` warns of and
+marks in its table.
+
 Pure: report dicts in, rows out (``bimbot compare`` prints them).
 """
 
@@ -18,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import PurePath
 from typing import Any
 
 WORK_START = {  # the report field where a method's own work starts (placed_s ends it)
@@ -71,24 +76,75 @@ def by_method(report: Mapping[str, Any]) -> dict[str, MethodFigures]:
 
 @dataclass(frozen=True)
 class RunColumn:
-    """A run as ``bimbot compare`` shows it: a label, its makespan and its figures by method."""
+    """A run as ``bimbot compare`` shows it: a label, what it built (``building``: its site and model, by
+    name; ``model_sha256`` tells two models apart) at which fidelity, its makespan and its figures by
+    method."""
 
     label: str
     makespan_s: float | None
     constructed: int
     components: int
     methods: dict[str, MethodFigures]
+    site: str | None = None
+    model: str | None = None  # the IFC file's name
+    model_sha256: str | None = None
+    fidelity: str | None = None  # None: a report that does not say
+
+    @property
+    def building(self) -> str:
+        """``greenhouse-site (light_steel_frame.ifc)``; ``unknown`` for a report that names neither."""
+        if self.site is None:
+            return self.model or "unknown"
+        return f"{self.site} ({self.model})" if self.model else self.site
 
 
 def run_column(label: str, report: Mapping[str, Any]) -> RunColumn:
     totals = report.get("totals") or {}
+    settings = report.get("settings") or {}
+    model = settings.get("model") or {}
+    path = model.get("path")
     return RunColumn(
         label=label,
         makespan_s=_number(totals.get("makespan_s")),
         constructed=int(totals.get("constructed") or 0),
         components=int(totals.get("components") or 0),
         methods=by_method(report),
+        site=report.get("site"),
+        model=PurePath(path).name if isinstance(path, str) else None,
+        model_sha256=model.get("sha256"),
+        fidelity=settings.get("fidelity"),
     )
+
+
+def same_building(a: RunColumn, b: RunColumn) -> bool:
+    """Whether two runs built the same model: the same site and, where both reports say it, the same
+    model file (by content). One model converted two ways (``--methods``) is the same building."""
+    if a.site != b.site:
+        return False
+    return a.model_sha256 is None or b.model_sha256 is None or a.model_sha256 == b.model_sha256
+
+
+def same_fidelity(a: RunColumn, b: RunColumn) -> bool:
+    """Whether two runs ran at the same fidelity (a report that does not say is taken to)."""
+    return a.fidelity is None or b.fidelity is None or a.fidelity == b.fidelity
+
+
+def mismatches(columns: Sequence[RunColumn]) -> list[str]:
+    """One sentence per run that does not compare with the first: another building, another fidelity
+    (a ``plan`` run's times come from kinematic robots, a ``physics`` run's from the simulation)."""
+    first, said = columns[0], []
+    for column in columns[1:]:
+        if not same_building(first, column):
+            said.append(
+                f"{column.label} built {column.building}, {first.label} built {first.building}: different "
+                "buildings, their figures do not compare"
+            )
+        if not same_fidelity(first, column):
+            said.append(
+                f"{column.label} ran at fidelity {column.fidelity}, {first.label} at {first.fidelity}: their "
+                "times are not measured alike (plan: kinematic robots; physics: the simulation)"
+            )
+    return said
 
 
 def methods_in(columns: Sequence[RunColumn]) -> list[str]:

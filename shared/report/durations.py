@@ -42,12 +42,30 @@ def format_in(unit: TimeUnit, seconds: float) -> str:
     return f"{seconds / unit.seconds:.6g}"
 
 
+def spoken_unit(seconds: float) -> TimeUnit:
+    """The unit a person says ``seconds`` in: the axis's (:func:`time_unit`), with minutes only up to an
+    hour."""
+    unit = time_unit(seconds)
+    return next(u for u in TIME_UNITS if u.name == "h") if unit.name == "min" and seconds > 3600.0 else unit
+
+
 def duration_text(seconds: float) -> str:
     """A duration in the unit a person would say it in: ``45.0 s``, ``12.5 min``, ``2.0 h``, ``81.0 h``,
     ``5.2 days`` (minutes only up to an hour; the seconds too when the unit is not seconds:
-    ``81.0 h (291,652 s)``)."""
-    unit = time_unit(seconds)
-    if unit.name == "min" and seconds > 3600.0:
-        unit = next(u for u in TIME_UNITS if u.name == "h")
+    ``81.0 h (291,652 s)``). The one format of every duration in the run's summary."""
+    return in_unit_text(seconds, spoken_unit(seconds))
+
+
+def in_unit_text(seconds: float, unit: TimeUnit) -> str:
+    """``seconds`` in ``unit`` as :func:`duration_text` says it: ``6.6 min (396 s)``, ``45.0 s``."""
     text = f"{seconds / unit.seconds:.1f} {unit.name}"
     return text if unit.seconds == 1.0 else f"{text} ({seconds:,.0f} s)"
+
+
+def short_duration_text(seconds: float) -> str:
+    """:func:`duration_text` without the seconds in brackets, for a line redrawn while a run goes on:
+    ``412 s``, ``43.8 min``, ``13.1 h``, ``5.2 days`` (whole seconds from 10 s: ``7.5 s``, ``51 s``)."""
+    unit = spoken_unit(seconds)
+    if unit.seconds == 1.0:
+        return f"{seconds:.0f} s" if seconds >= 10.0 else f"{seconds:.1f} s"
+    return f"{seconds / unit.seconds:.1f} {unit.name}"

@@ -28,6 +28,8 @@ from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import ComponentState, ComponentStateMsg, ProgressMsg
 
+from .durations import duration_text
+
 CONSTRUCTED = ComponentState.CONSTRUCTED.value
 WORK_IN_PLACE = (ConstructionMethod.CAST_IN_PLACE.value, ConstructionMethod.LAID.value)
 WORK_STATES = {  # state entered → the report's field of its time
@@ -170,15 +172,15 @@ def method_word(method: str) -> str:
 
 
 def curing_line(report: Mapping[str, Any]) -> str | None:
-    """``cured: 2 cast components, the longest 72 h (the planner held 1 component for it)``; None when
-    nothing was cast."""
+    """``cured: 2 cast components, the longest 72.0 h (259,200 s) (the planner held 1 component for
+    it)``, in the summary's duration format; None when nothing was cast."""
     cured = [c["curing"] for c in report.get("components", []) if c.get("curing")]
     if not cured:
         return None
-    longest_h = max(entry["until_s"] - entry["from_s"] for entry in cured) / 3600.0
+    longest_s = max(entry["until_s"] - entry["from_s"] for entry in cured)
     held = sum(len(entry["holds"]) for entry in cured)
     components = f"{len(cured)} cast component{'' if len(cured) == 1 else 's'}"
-    line = f"cured: {components}, the longest {longest_h:.0f} h"
+    line = f"cured: {components}, the longest {duration_text(longest_s)}"
     if held:
         line += f" (the planner held {held} component{'' if held == 1 else 's'} for it)"
     return line

@@ -65,7 +65,7 @@ def test_in_place_takes_classes_and_global_ids_and_names_a_token_it_does_not_kno
     assert standing.returncode == 0, standing.stderr
     assert [c.guid for c in read_manifest(tmp_path / "b").in_place] == [column.guid]
     # a column stands above the ground: the robots' maps do not know it, and the user is told
-    assert "reach above the ground" in standing.stderr and column.name in standing.stderr
+    assert "reach above the ground" in standing.stdout and column.name in standing.stdout
     unknown = _convert(frame_ifc, tmp_path / "c", "--in-place", "foundation")
     assert unknown.returncode == 2 and "Traceback" not in unknown.stderr
     assert (

@@ -70,5 +70,5 @@ def test_the_report_and_summary_say_who_cleared_a_failed_body_away_and_why_anoth
     assert (report["totals"]["cleared_away"], report["totals"]["not_cleared_away"]) == (1, 1)
     text = summary_text(RunOutcome(exit_code=1, constructed=0, total=len(entries), report=report))
     line = next(line for line in text.splitlines() if line.startswith("failed bodies cleared"))
-    assert "by r1 at 161 s (took 60 s)" in line
+    assert "by r1 at 161.0 s (took 60.0 s)" in line
     assert "NOT cleared: no robot on site can carry its 900 kg away" in line

@@ -133,11 +133,13 @@ def test_the_summary_names_the_robots_walled_in_and_who_gave_back_how_many(
     assert "2 give-back(s) by robots (r1 2)" in lines[0], lines[0]
     walled = next(line for line in lines if line.startswith("walled in"))
     assert walled == (
-        "walled in (no way to its depot start): r1 at (1.43, -6.35) from 20 s of sim time to the end of the "
-        "run; r3 at (-2.98, 4.31) from 30 s of sim time to 50 s"
+        "walled in (no way to its depot start: meanwhile it got no task another robot could take): "
+        "r1 at (1.43, -6.35) from 20.0 s of sim time to the end of the run; "
+        "r3 at (-2.98, 4.31) from 30.0 s of sim time to 50.0 s"
     )
     r1 = next(line for line in lines if line.startswith("r1 (carrier)"))
     assert r1.startswith("r1 (carrier): 3 task(s): 1 built, 2 given back,"), r1
+    assert " other (" not in r1, r1  # every task accounted for: none named
     r2 = next(line for line in lines if line.startswith("r2 (carrier)"))
     assert r2.startswith("r2 (carrier): 2 task(s): 2 built, 0 given back,"), r2
 

@@ -7,6 +7,7 @@ import pytest
 from fake_site import DT, FakeSite, construct_named, make_site
 from site_models import ROOM_CENTRE_M, ROOM_WALLS
 
+from bimbot.services.robot.parking import not_parked_activity
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
     ComponentEvent,
@@ -58,3 +59,14 @@ def test_a_robot_closed_in_by_walls_says_where_and_since_when_until_it_drives_ou
     out = _state(site)
     assert out.walled_in_since_s is None, f"still walled in at {out.pose_xy_yaw} after {site.step * DT:.0f} s"
     assert abs(out.pose_xy_yaw[0] - home[0]) < 0.5 and abs(out.pose_xy_yaw[1] - home[1]) < 0.5, "at its depot"
+
+
+@pytest.mark.parametrize("xy", [(1.43, -6.35), (-123.45, -678.9)])
+def test_a_robot_that_cannot_park_says_what_it_means_for_the_build_in_a_progress_line(
+    xy: tuple[float, float],
+) -> None:
+    waits = not_parked_activity(xy, walled_in=False)
+    assert waits.startswith("waits at (") and "for a task" in waits  # nothing changes: it takes tasks
+    walled = not_parked_activity(xy, walled_in=True)
+    assert walled.startswith("walled in at (") and walled.endswith(": no task until it gets out")
+    assert max(len(waits), len(walled)) <= 60  # whole on the run's progress line (MAX_ACTIVITY_CHARS)

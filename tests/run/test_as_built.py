@@ -85,7 +85,10 @@ def test_the_report_gets_final_errors_per_component_the_largest_of_the_construct
     assert report["totals"]["as_built_errors"] == 1 and report["as_built"]["wrong"] == [BEAM]
     json.dumps(report)  # plain JSON
     line = as_built_line(report)
-    assert line is not None and line.startswith("as-built: 2 checked, max 20.00 mm / 0.00°, 1 error:")
+    assert line is not None
+    assert line.startswith(
+        "as-built: 2 checked, largest deviation 20.00 mm / 0.00°, 1 beyond tolerance (10 mm / 1°):"
+    )
     assert BEAM in line
 
 
@@ -109,7 +112,10 @@ def test_the_summary_line_of_a_clean_build() -> None:
     answer = poses(SITE_MANIFEST, moved={OTHER: ((0.0004, 0.0, 0.0), 0.02)})
     add_to_report(report, audit_as_built(SITE_MANIFEST, answer, constructed=set(GUIDS)), set(GUIDS))
     expected_mm = 1000.0 * _centre_error_m(OTHER, (0.0004, 0.0, 0.0), 0.02)
-    assert as_built_line(report) == f"as-built: 4 checked, max {expected_mm:.2f} mm / 0.02°, 0 errors"
+    assert as_built_line(report) == (  # not "max …, 0 errors", which read as a contradiction
+        f"as-built: 4 checked, largest deviation {expected_mm:.2f} mm / 0.02°, "
+        "all within tolerance (10 mm / 1°)"
+    )
 
 
 def test_the_chart_carries_the_audit_in_its_title_and_marks_the_wrong_component(tmp_path: Path) -> None:

@@ -112,3 +112,47 @@ def test_a_run_still_going_is_labelled_so(tmp_path: Path, capsys: pytest.Capture
     assert compare_cli.run(argparse.Namespace(runs=[a, b])) == 0
     header = capsys.readouterr().out.splitlines()[0]
     assert f"| {b} (still running) |" in header and f"| {a} |" in header
+
+
+def _of(report: dict[str, object], site: str, model: str, sha256: str, fidelity: str) -> dict[str, object]:
+    settings = {"fidelity": fidelity, "model": {"path": f"models/{model}", "sha256": sha256}}
+    return {**report, "site": site, "settings": settings}
+
+
+def test_runs_of_another_building_or_fidelity_are_warned_of_and_marked_in_the_table(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    frame = _run_folder(tmp_path, "frame", _of(PREFAB, "greenhouse-site", "frame.ifc", "aa", "physics"))
+    frame_plan = _run_folder(tmp_path, "plan", _of(PREFAB, "greenhouse-site", "frame.ifc", "aa", "plan"))
+    hub = _run_folder(tmp_path, "hub", _of(CONVENTIONAL, "hub-site", "rac_sample.ifc", "bb", "physics"))
+    with caplog.at_level("WARNING", logger="bimbot.compare_cli"):
+        assert compare_cli.run(argparse.Namespace(runs=[frame, frame_plan, hub])) == 0
+    out = capsys.readouterr().out
+    warnings = [record.getMessage() for record in caplog.records]
+    assert len(warnings) == 2, warnings  # one line per mismatch
+    assert f"{frame_plan} ran at fidelity plan, {frame} at physics" in warnings[0]
+    assert f"{hub} built hub-site (rac_sample.ifc), {frame} built greenhouse-site (frame.ifc)" in warnings[1]
+    rows = {
+        line.split("|")[1].strip(): line.split("|")[2:-1]
+        for line in out.splitlines()
+        if line.startswith("| ")
+    }
+    assert [cell.strip() for cell in rows["building"]] == [
+        "greenhouse-site (frame.ifc)",
+        "greenhouse-site (frame.ifc)",
+        "hub-site (rac_sample.ifc) ⚠ differs",
+    ]
+    assert [cell.strip() for cell in rows["fidelity"]] == ["physics", "plan ⚠ differs", "physics"]
+    assert "note: these runs do not all compare (2 difference(s), marked ⚠ above)" in out
+
+
+def test_one_model_converted_two_ways_at_one_fidelity_compares_without_a_warning(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    prefab = _run_folder(tmp_path, "prefab", _of(PREFAB, "hub-site", "hub.ifc", "aa", "physics"))
+    conventional = _run_folder(tmp_path, "conv", _of(CONVENTIONAL, "hub-site", "hub.ifc", "aa", "physics"))
+    with caplog.at_level("WARNING", logger="bimbot.compare_cli"):
+        assert compare_cli.run(argparse.Namespace(runs=[prefab, conventional])) == 0
+    assert not caplog.records
+    out = capsys.readouterr().out
+    assert "⚠" not in out and "note:" not in out

@@ -12,6 +12,7 @@ from bimbot.run.progress import (
     make_progress,
     progress_line,
     robot_line,
+    robot_lines,
 )
 from bimbot.shared.messages import RobotState, RobotStateMsg
 
@@ -38,17 +39,44 @@ def test_the_real_time_factor_is_measured_over_the_last_window() -> None:
 
 def test_progress_and_robot_lines() -> None:
     assert (
-        progress_line(3, 9, 412.04, 8.12, 51.2)
-        == "constructed 3/9 · sim 412.0 s · 8.1× real time · wall 51 s"
+        progress_line(3, 9, 412.04, 8.12, 51.2) == "constructed 3/9 · sim 412 s · real time ×8.1 · wall 51 s"
     )
     assert "starting the services" in progress_line(0, 9, 0.0, None, 12.0)  # the clock has not moved yet
     assert progress_line(13, 85, 300.0, 9.0, 30.0, not_built=69) == (  # failed before the build: said at once
-        "constructed 13/85 · 69 will not be built (the table at the end says why) · sim 300.0 s · "
-        "9.0× real time · wall 30 s"
+        "constructed 13/85 · 69 will not be built (the table at the end says why) · sim 300 s · "
+        "real time ×9.0 · wall 30 s"
     )
-    line = robot_line(ROBOT, {GUID: "Column A1"})
-    assert line.startswith("r1 pick_up T0004 Column A1: driving to the yard")
-    assert line.endswith("…") and len(line) < 100
+    line = robot_line(ROBOT, {GUID: "Column A1"}, {"r1": "husky"})
+    assert line.startswith("r1 (husky) pick_up T0004 Column A1: driving to the yard")
+    assert line.endswith("…") and len(line) < 110
+
+
+def test_a_plan_runs_progress_says_its_sim_time_in_days_and_its_speed_up_as_a_whole_number() -> None:
+    line = progress_line(40, 85, 4.5 * 86400.0, 47001.1, 9.0)
+    assert line == "constructed 40/85 · sim 4.5 days · real time ×47,001 · wall 9 s"
+    assert "sim 13.1 h ·" in progress_line(1, 2, 13.1 * 3600.0, 950.0, 50.0)
+    assert "sim 43.8 min ·" in progress_line(1, 2, 2627.0, 92.6, 28.0)
+    assert "real time ×93 ·" in progress_line(1, 2, 2627.0, 92.6, 28.0)
+
+
+def test_robots_are_named_with_their_type_and_the_idle_ones_share_a_line() -> None:
+    def idle(robot_id: str, activity: str = "") -> RobotStateMsg:
+        return RobotStateMsg(
+            robot_id=robot_id,
+            state=RobotState.IDLE,
+            pose_xy_yaw=(0.0, 0.0, 0.0),
+            sim_time_s=10.0,
+            wall_time_s=0.0,
+            activity=activity,
+        )
+
+    types = {"r1": "husky", "r2": "carrier", "r3": "tower_crane", "r10": "carrier", "r4": "block_layer"}
+    robots = {"r1": ROBOT, "r2": idle("r2"), "r3": idle("r3"), "r10": idle("r10"), "r4": idle("r4", "stays")}
+    lines = robot_lines(robots, {GUID: "Column A1"}, types)
+    assert lines[0].startswith("r1 (husky) pick_up T0004 Column A1")
+    assert lines[1] == "r4 (block_layer) idle: stays"  # an idle robot with something to say: its own line
+    assert lines[2] == "idle: r2, r10 (carrier), r3 (tower_crane)"
+    assert robot_lines({"r2": idle("r2")}, {}, {}) == ["idle: r2"]  # type not known
 
 
 def test_plain_progress_says_one_line_as_the_clock_starts_then_one_every_ten_seconds() -> None:

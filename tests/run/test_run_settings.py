@@ -7,8 +7,9 @@ import json
 from pathlib import Path
 
 from bimbot.run.options import RunOptions
-from bimbot.run.settings import run_settings
+from bimbot.run.settings import model_settings, run_settings
 from bimbot.services.physics.profiles import FINE, REHEARSAL
+from bimbot.shared.manifest import SourceModel
 
 
 def test_the_profile_fills_what_the_user_left_open() -> None:
@@ -44,3 +45,9 @@ def test_what_the_user_set_is_what_the_report_says() -> None:
     assert settings["fleet"] == "fleet.toml" and settings["max_attempts"] == 5
     assert settings["sequence"].startswith("derived")
     assert run_settings(RunOptions(planner_source=("--sequence", "my.xml")))["sequence"] == "my.xml"
+
+
+def test_a_report_names_the_model_it_built_by_file_and_content() -> None:
+    """``bimbot compare`` tells two buildings apart by these (one model converted two ways is one)."""
+    source = SourceModel(path="bimbot/data/frame.ifc", schema_name="IFC4", sha256="ab12", length_unit_m=0.001)
+    assert model_settings(source) == {"path": "bimbot/data/frame.ifc", "sha256": "ab12"}

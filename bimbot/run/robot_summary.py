@@ -1,0 +1,175 @@
+"""The summary's robot lines: each robot's tasks by how they ended, the distance it drove, its busy time,
+and where it was walled in.
+
+A robot's task count is its busy intervals (:mod:`bimbot.shared.report.robots`); ``built`` and
+``given_back`` count the ones that ended so. The rest (a placement caught off target or unstable and
+retried, a failed last attempt, a task still going when the run ended, a failed body carried away) are
+named, so "24 task(s): 23 built" never leaves the reader guessing which one and why. Pure: the report's
+dictionaries in, text out; every duration through :func:`~bimbot.shared.report.durations.duration_text`.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from typing import Any
+
+from bimbot.shared.report.durations import TimeUnit, duration_text, in_unit_text, spoken_unit
+from bimbot.shared.report.fleet import lane_label, robot_order
+from bimbot.shared.report.totals import busy_within_s
+
+MAX_OTHERS_NAMED = 3  # tasks named per robot line; report.json has every one
+
+
+def busy_outside(robot: dict[str, Any], window: tuple[float, float] | None, unit: TimeUnit) -> str:
+    """``, 3.3 min (198 s) of it after the last construction …`` (in the line's ``unit``): the utilisation
+    counts a robot's busy time within the makespan only; without this a robot busy 360 s beside a 268 s
+    makespan read as a contradiction."""
+    if window is None:
+        return ""
+    outside = robot["busy_s"] - busy_within_s(robot, window)
+    if outside < 1.0:
+        return ""
+    return (
+        f", {in_unit_text(outside, unit)} of it after the last construction, on tasks that built nothing more"
+    )
+
+
+def _placements_by(robot_id: str, components: dict[str, dict[str, Any]]) -> dict[str, list[dict[str, Any]]]:
+    """GUID → this robot's verdicts on it that did not construct it, in order."""
+    out: dict[str, list[dict[str, Any]]] = {}
+    for guid, component in components.items():
+        caught = [
+            placement
+            for placement in component.get("placements") or []
+            if placement.get("robot_id") == robot_id and placement.get("verdict") != "constructed"
+        ]
+        if caught:
+            out[guid] = caught
+    return out
+
+
+def _what_became(task: dict[str, Any], component: dict[str, Any] | None, caught: list[dict[str, Any]]) -> str:
+    """What one task that neither built nor gave back its component came to."""
+    if task.get("kind") == "clear":
+        return "carried out of the robots' way"
+    if task.get("open"):
+        return "still at it when the run ended"
+    if caught:
+        placement = caught.pop(0)
+        how = "unstable" if placement.get("cause") == "unstable" else "off target"
+        if placement.get("verdict") == "failed":
+            return f"placed {how} on its last attempt: failed"
+        return f"placed {how}, retried"
+    if component is None:
+        return "no component heard of"
+    state = component.get("state") or "unknown"
+    reason = (component.get("reason") or {}).get("code")
+    return f"ended without a placement; the component is {state}" + (f" ({reason})" if reason else "")
+
+
+def other_tasks(robot_id: str, robot: dict[str, Any], components: dict[str, dict[str, Any]]) -> list[str]:
+    """``T0017 Beam B1-B2: placed unstable, retried``: each task of the robot that did not end as built or
+    given back and was not a hand-off (counted apart). A component's last task by the robot is taken as
+    the one that built it, its earlier ones as the retries."""
+    built: Counter[str] = Counter()
+    for guid, component in components.items():
+        built[guid] = sum(
+            1
+            for placement in component.get("placements") or []
+            if placement.get("robot_id") == robot_id and placement.get("verdict") == "constructed"
+        )
+    given_back = Counter(
+        guid
+        for guid, component in components.items()
+        for who in component.get("given_back_by") or []
+        if who == robot_id
+    )
+    caught = _placements_by(robot_id, components)
+    others: list[tuple[int, str]] = []
+    tasks = robot.get("tasks") or []
+    for index in reversed(range(len(tasks))):
+        task = tasks[index]
+        guid = task.get("guid")
+        if task.get("kind") == "hand_off":
+            continue
+        if task.get("kind") != "clear" and guid is not None and built[guid] > 0:
+            built[guid] -= 1
+            continue
+        if task.get("kind") != "clear" and guid is not None and given_back[guid] > 0:
+            given_back[guid] -= 1
+            continue
+        others.append((index, guid or ""))
+    lines = []
+    for index, guid in sorted(others):
+        entry = components.get(guid)
+        name = (entry or {}).get("name") or guid or "no component"
+        became = _what_became(tasks[index], entry, caught.get(guid, []))
+        lines.append(f"{tasks[index].get('task_id') or '?'} {name}: {became}")
+    return lines
+
+
+def tasks_text(robot_id: str, robot: dict[str, Any], components: dict[str, dict[str, Any]]) -> str:
+    """``24 task(s): 23 built, 0 given back, 1 other (T0017 Beam B1-B2: placed unstable, retried)``; a
+    report without the counts: ``11 task(s)``."""
+    tasks = f"{len(robot['tasks'])} task(s)"
+    if "built" not in robot:
+        return tasks
+    text = f"{tasks}: {robot['built']} built, {robot.get('given_back', 0)} given back"
+    others = other_tasks(robot_id, robot, components)
+    if not others:
+        return text
+    named = "; ".join(others[:MAX_OTHERS_NAMED])
+    more = (
+        f"; … and {len(others) - MAX_OTHERS_NAMED} more (report.json)"
+        if len(others) > MAX_OTHERS_NAMED
+        else ""
+    )
+    return f"{text}, {len(others)} other ({named}{more})"
+
+
+def robot_lines(report: dict[str, Any], window: tuple[float, float] | None) -> list[str]:
+    """One line per robot, by type: its tasks, hand-offs, distance and busy time (every robot's in one
+    unit, so they compare at a glance)."""
+    robots = report.get("robots", {})
+    components = {
+        component["guid"]: component for component in report.get("components", []) if "guid" in component
+    }
+    order = robot_order(robots)
+    unit = spoken_unit(max((robots[robot_id]["busy_s"] for robot_id in order), default=0.0))  # one for all
+    lines = []
+    for robot_id in order:
+        robot = robots[robot_id]
+        hand_offs = sum(1 for task in robot["tasks"] if task.get("kind") == "hand_off")
+        lines.append(
+            f"{lane_label(robot_id, robot)}: {tasks_text(robot_id, robot, components)}"
+            + (f" ({hand_offs} hand-off(s))" if hand_offs else "")
+            + f", {robot['distance_m']:.0f} m driven, busy {in_unit_text(robot['busy_s'], unit)}"
+            + busy_outside(robot, window, unit)
+        )
+    return lines
+
+
+def walled_in_lines(robots: dict[str, Any]) -> list[str]:
+    """``r1 at (1.43, -6.35) from 5.4 days (470,130 s) of sim time to the end of the run``: each time a
+    robot said it had no way to its depot, where it stood and since when (and until when, if it got
+    out)."""
+    lines = []
+    for robot_id in robot_order(robots):
+        for spell in robots[robot_id].get("walled_in") or []:
+            x, y = spell["xy_m"]
+            until = spell.get("until_s")
+            to = "to the end of the run" if until is None else f"to {duration_text(until)}"
+            since = duration_text(spell["since_s"])
+            lines.append(f"{robot_id} at ({x:.2f}, {y:.2f}) from {since} of sim time {to}")
+    return lines
+
+
+def walled_in_line(robots: dict[str, Any]) -> str | None:
+    """The summary's line on robots walled in, with what it meant for the build; None when none was."""
+    spells = walled_in_lines(robots)
+    if not spells:
+        return None
+    return (
+        "walled in (no way to its depot start: meanwhile it got no task another robot could take): "
+        + "; ".join(spells)
+    )

@@ -1,0 +1,87 @@
+"""The summary as a new user reads it: the wall time split as the run's ending counts it, one duration
+format (the robots' busy times in one unit), an as-built line that does not read as a contradiction, and
+every task a robot did not build named."""
+
+from __future__ import annotations
+
+from run_builders import watch_of
+from test_run_loop_dead_service import _Dead, _Monitor
+
+from bimbot.run.summary import RunOutcome, summary_text
+
+
+def _report() -> dict:
+    components = [
+        {
+            "guid": "A",
+            "name": "Beam A",
+            "state": "constructed",
+            "released_s": 0.0,
+            "constructed_s": 2000.0,
+            "placements": [
+                {"attempt": 1, "robot_id": "r1", "verdict": "misplaced", "cause": "unstable"},
+                {"attempt": 2, "robot_id": "r1", "verdict": "constructed", "cause": "within_tolerance"},
+            ],
+        },
+        {"guid": "B", "name": "Column B", "state": "assembling", "released_s": 10.0, "constructed_s": None},
+        {
+            "guid": "C",
+            "name": "Footing C",
+            "state": "constructed",
+            "released_s": 1000.0,
+            "constructed_s": 1396.0,
+            "placements": [{"attempt": 1, "robot_id": "r2", "verdict": "constructed"}],
+        },
+    ]
+    r2_tasks = [{"task_id": "T3", "guid": "C", "kind": "build", "start_s": 1000.0, "end_s": 1396.0}]
+    r1_tasks = [
+        {"task_id": "T1", "guid": "A", "kind": "build", "start_s": 0.0, "end_s": 900.0, "open": False},
+        {"task_id": "T1", "guid": "A", "kind": "build", "start_s": 901.0, "end_s": 2000.0, "open": False},
+        {"task_id": "T2", "guid": "B", "kind": "build", "start_s": 2001.0, "end_s": 2197.0, "open": True},
+    ]
+    robots = {
+        "r1": {"type": "husky", "tasks": r1_tasks, "distance_m": 426.0, "busy_s": 2197.0, "built": 1},
+        "r2": {"type": "carrier", "tasks": r2_tasks, "distance_m": 200.0, "busy_s": 396.0, "built": 1},
+    }
+    return {"components": components, "robots": robots, "totals": {"makespan_s": 2000.0}}
+
+
+def _lines(**extra: object) -> list[str]:
+    outcome = RunOutcome(exit_code=1, constructed=2, total=3, sim_time_s=2197.0, report=_report())
+    for name, value in extra.items():
+        setattr(outcome, name, value)
+    return summary_text(outcome).splitlines()
+
+
+def test_the_wall_time_is_split_into_start_up_and_the_building_the_runs_ending_counts() -> None:
+    lines = _lines(wall_time_s=345.0, startup_wall_s=85.0, build_wall_s=251.0)
+    assert "wall" not in lines[0]  # the one figure "345 s wall" beside an ENDED line's 251 s is gone
+    assert lines[1].startswith("wall time 345.0 s: 85.0 s start-up, 251.0 s building (the wall time")
+    assert lines[1].endswith("9.0 s closing (the as-built audit, the report, stopping the services)")
+    ended = watch_of(_Dead("planner", 0, []), [], _Monitor())._ended(251.0)
+    assert ended is not None and "after 251 s wall of building" in ended.ending.message
+    assert _lines(wall_time_s=3.0)[1] == "wall time 3.0 s"  # a run that never got to its build
+
+
+def test_the_summary_says_every_duration_one_way_and_the_robots_busy_times_in_one_unit() -> None:
+    lines = _lines()
+    assert lines[0].startswith(
+        "constructed 2/3 components in 36.6 min (2,197 s) of sim time, makespan 33.3 min"
+    )
+    r1 = next(line for line in lines if line.startswith("r1 (husky)"))
+    r2 = next(line for line in lines if line.startswith("r2 (carrier)"))
+    assert r1.endswith(
+        "busy 36.6 min (2,197 s), 3.3 min (198 s) of it after the last construction, on tasks that built "
+        "nothing more"
+    )
+    assert r2.endswith("busy 6.6 min (396 s)")  # beside r1's minutes, not "396.0 s"
+
+
+def test_the_tasks_a_robot_did_not_build_or_give_back_are_named_with_what_they_came_to() -> None:
+    r1 = next(line for line in _lines() if line.startswith("r1 (husky)"))
+    assert r1.startswith(
+        "r1 (husky): 3 task(s): 1 built, 0 given back, 2 other (T1 Beam A: placed unstable, retried; "
+        "T2 Column B: still at it when the run ended)"
+    ), r1
+    r2 = next(line for line in _lines() if line.startswith("r2 (carrier)"))
+    assert " other" not in r2
