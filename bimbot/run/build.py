@@ -41,6 +41,7 @@ from bimbot.run.commands import (
     secure_bus,
     service_commands,
 )
+from bimbot.run.interim_reports import InterimReports
 from bimbot.run.loop import LoopLimits, LoopResult, RunWatch, StopSignals
 from bimbot.run.monitor import RunMonitor
 from bimbot.run.options import ObserverOptions, RunOptions, default_timeout_s
@@ -145,6 +146,7 @@ def _run_build(
                     types = run_fleet(options).type_of()
                     progress = make_progress(monitor.names, quiet=False, say=announce, types=types)
                 building_from = time.perf_counter()
+                interim = _interim_reports(report_dir)
                 result = RunWatch(
                     planner=by_name["planner"],
                     everyone=[*routers, *services],
@@ -155,7 +157,7 @@ def _run_build(
                     watchdog=StallWatchdog(options.stall_after_s, options.clock_stall_wall_s),
                     progress=progress,
                     stop=stop,
-                    write_report=lambda ending: _write_report(report_of(ending), report_dir),
+                    write_report=lambda ending: interim.write(report_of(ending)),
                     restarter=restarter,
                 ).run()
                 ended_how = f"{result.ending.how}: {result.ending.message}"
@@ -211,6 +213,23 @@ def _write_report(report: dict[str, Any], report_dir: Path) -> None:
     from bimbot.shared.report.png import write_report_files
 
     write_report_files(report, report_dir)
+
+
+def _interim_reports(report_dir: Path) -> InterimReports:
+    """The reports written while the build goes on (:mod:`.interim_reports`); matplotlib is imported when
+    the first is due, as for :func:`_write_report`."""
+
+    def write_json(report: dict[str, Any], folder: Path) -> None:
+        from bimbot.shared.report.png import write_report_json
+
+        write_report_json(report, folder)
+
+    def write_png(report: dict[str, Any], folder: Path) -> None:
+        from bimbot.shared.report.png import write_report_png
+
+        write_report_png(report, folder)
+
+    return InterimReports(report_dir, write_json, write_png)
 
 
 def _outcome(manifest: Manifest, monitor: RunMonitor, result: LoopResult, wall_s: float) -> RunOutcome:

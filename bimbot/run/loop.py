@@ -108,6 +108,7 @@ class RunWatch:
                 monitor.robots,
                 now - started,
                 not_built=len(planner.failed) + len(planner.blocked) if planner is not None else 0,
+                preparing=monitor.preparing if planner is None else None,
             )
             result = self._ended(now - started)
             if result is not None:

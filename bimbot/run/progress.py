@@ -20,7 +20,7 @@ from rich.console import Console, Group
 from rich.live import Live
 from rich.text import Text
 
-from bimbot.shared.messages import RobotState, RobotStateMsg
+from bimbot.shared.messages import PreparingMsg, RobotState, RobotStateMsg
 from bimbot.shared.report.durations import short_duration_text
 from bimbot.shared.report.fleet import natural_key
 
@@ -112,16 +112,26 @@ def speed_text(rtf: float | None) -> str:
 
 
 def progress_line(
-    constructed: int, total: int, sim_time_s: float, rtf: float | None, wall_s: float, *, not_built: int = 0
+    constructed: int,
+    total: int,
+    sim_time_s: float,
+    rtf: float | None,
+    wall_s: float,
+    *,
+    not_built: int = 0,
+    preparing: PreparingMsg | None = None,
 ) -> str:
     """``constructed 3/9 · sim 412 s · real time ×8.1 · wall 51 s`` (sim time in minutes, hours or days
     when long: ``sim 13.1 h``), with ``· 2 will not be built (the
     table at the end says why)`` once the planner has failed or blocked some (those no robot on site can
     build fail before the build starts: "13/85" alone read as a run going badly); before the clock moves,
-    that the services are still starting (physics holds its clock until every robot is up)."""
+    that the services are still starting (physics holds its clock until every robot is up), or, while the
+    planner prepares its plan (``preparing``, its last report), how far it is."""
     lost = f" · {not_built} will not be built (the table at the end says why)" if not_built else ""
     if sim_time_s == 0.0 and constructed == 0:
         waiting = "starting the services (the clock waits for the robots)"
+        if preparing is not None:
+            waiting = f"the planner prepares its plan: {preparing.stage}, {preparing.done}/{preparing.total}"
         return f"constructed 0/{total}{lost} · {waiting} · wall {wall_s:.0f} s"
     sim = short_duration_text(sim_time_s)
     return f"constructed {constructed}/{total}{lost} · sim {sim} · {speed_text(rtf)} · wall {wall_s:.0f} s"
@@ -139,6 +149,7 @@ class ProgressView(Protocol):
         wall_s: float,
         *,
         not_built: int = 0,
+        preparing: PreparingMsg | None = None,
     ) -> None: ...
 
     def close(self) -> None: ...
@@ -158,9 +169,13 @@ class _Base:
         wall_s: float,
         *,
         not_built: int = 0,
+        preparing: PreparingMsg | None = None,
     ) -> None:
         self.rate.add(wall_s, sim_time_s)
-        head = progress_line(constructed, total, sim_time_s, self.rate.factor(), wall_s, not_built=not_built)
+        factor = self.rate.factor()
+        head = progress_line(
+            constructed, total, sim_time_s, factor, wall_s, not_built=not_built, preparing=preparing
+        )
         self._show(head, robot_lines(robots, self.names, self.types), wall_s, sim_time_s)
 
     def _show(self, head: str, robot_lines: list[str], wall_s: float, sim_time_s: float) -> None:

@@ -14,7 +14,7 @@ from bimbot.run.progress import (
     robot_line,
     robot_lines,
 )
-from bimbot.shared.messages import RobotState, RobotStateMsg
+from bimbot.shared.messages import PreparingMsg, RobotState, RobotStateMsg
 
 GUID = "2O2Fr$t4X7Zf8NOew3FLOH"
 ROBOT = RobotStateMsg(
@@ -42,6 +42,10 @@ def test_progress_and_robot_lines() -> None:
         progress_line(3, 9, 412.04, 8.12, 51.2) == "constructed 3/9 · sim 412 s · real time ×8.1 · wall 51 s"
     )
     assert "starting the services" in progress_line(0, 9, 0.0, None, 12.0)  # the clock has not moved yet
+    said = PreparingMsg(stage="access check, mended 2 time(s)", done=120, total=468)
+    assert progress_line(0, 9, 0.0, None, 95.0, preparing=said) == (  # the planner works on its plan
+        "constructed 0/9 · the planner prepares its plan: access check, mended 2 time(s), 120/468 · wall 95 s"
+    )
     assert progress_line(13, 85, 300.0, 9.0, 30.0, not_built=69) == (  # failed before the build: said at once
         "constructed 13/85 · 69 will not be built (the table at the end says why) · sim 300 s · "
         "real time ×9.0 · wall 30 s"
