@@ -97,10 +97,15 @@ class RunWatch:
         while True:
             monitor.drain(wait_s=0.1)
             now = time.monotonic()
-            self.watchdog.observe(
-                monitor.changes, monitor.sim_time_s, now, monitor.awaited_sim_s(), monitor.preparing_heard
-            )
             planner = monitor.progress
+            self.watchdog.observe(
+                monitor.changes,
+                monitor.sim_time_s,
+                now,
+                monitor.awaited_sim_s(),
+                monitor.preparing_heard,
+                planner.sim_time_s if planner is not None else None,
+            )
             self.progress.update(
                 monitor.constructed,
                 monitor.total,

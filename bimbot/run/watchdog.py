@@ -3,7 +3,9 @@
 A site has stalled when no component changed state and the planner's progress did not change (counts,
 failed, blocked) for ``stall_after_s`` seconds of *sim* time: robots that wait for a path that never comes,
 a task handed back and forth without a state change, a planner that waits for nobody. The sim clock is
-the measure, so a run at 50× real time stalls after the same simulated minutes as one at 1×. Should the
+the measure, so a run at 50× real time stalls after the same simulated minutes as one at 1×; the verdict
+stands once the planner confirms it (a progress said past the bound: news in flight when the clock jumped
+come first), or after ``confirm_wall_s`` of wall time. Should the
 clock itself stop (a service hung in lock-step, physics stuck), sim time no longer passes; then the
 fallback bound is in wall time: the clock stood still for ``clock_stall_wall_s`` real seconds, with no
 report of the planner's preparation meanwhile (it holds the clock at 0 while it works). Timed work
@@ -25,6 +27,11 @@ from bimbot.shared.identifiers import named_guid
 from bimbot.shared.messages import ComponentState, PreparingMsg, RobotStateMsg, TaskMsg, TaskStatus
 
 DEFAULT_STALL_AFTER_S = 1500.0  # sim seconds without a change on the site (above every lower watchdog)
+# A stall in sim time ends the run once the planner confirms it: a progress said at a sim time past the
+# bound (news said before the clock moved, the planner's progress with a curing hold, comes from another
+# service than the clock and may arrive after it: a clock that jumped over a 3-day cure is no stall). A
+# planner that says nothing confirms it after this many wall seconds.
+STALL_CONFIRM_WALL_S = 60.0
 DEFAULT_CLOCK_STALL_WALL_S = 300.0  # wall seconds without the clock advancing (covers start-up: ≤ 120 s)
 PLANNER_NOT_READY = (
     "the planner never said it was ready (no progress on the bus) and said nothing of its preparation for "
@@ -41,6 +48,9 @@ class StallWatchdog:
 
     stall_after_s: float = DEFAULT_STALL_AFTER_S
     clock_stall_wall_s: float = DEFAULT_CLOCK_STALL_WALL_S
+    confirm_wall_s: float = STALL_CONFIRM_WALL_S
+    _quiet_since_wall_s: float | None = None  # since when (wall) the sim-time bound has been passed
+    _planner_sim_s: float | None = None
     _changes: int = -1
     _last_change_sim_s: float = 0.0
     _awaited_sim_s: float = 0.0  # the latest sim time something was scheduled to happen (timed work)
@@ -50,19 +60,22 @@ class StallWatchdog:
     _wall_s: float = 0.0
     _preparing: int = 0
 
-    def observe(
+    def observe(  # noqa: PLR0917 - the facts of one observation, named at the call
         self,
         changes: int,
         sim_time_s: float,
         wall_s: float,
         awaited_sim_s: float = 0.0,
         preparing_heard: int = 0,
+        planner_sim_s: float | None = None,
     ) -> None:
         """``changes`` counts every change on the site so far (state changes, progress changes);
         ``sim_time_s`` is the latest clock, ``wall_s`` a monotonic wall time; ``awaited_sim_s`` the latest
         sim time a change is scheduled for (timed work, curing), 0 when none; ``preparing_heard`` counts the
         planner's reports while it prepares its plan (the clock waits for it: a new one restarts the wall
-        bound, so a planner that works is not taken for one that hung)."""
+        bound, so a planner that works is not taken for one that hung); ``planner_sim_s`` the sim time of
+        the planner's latest progress (None: none yet), which confirms a stall in sim time."""
+        self._planner_sim_s = planner_sim_s
         self._awaited_sim_s = max(self._awaited_sim_s, awaited_sim_s)
         if self._clock_moved_wall_s is None:
             self._clock_moved_wall_s = wall_s  # the wall bound counts from the first observation
@@ -73,11 +86,28 @@ class StallWatchdog:
             self._changes, self._last_change_sim_s = changes, sim_time_s
         self._sim_s = max(self._sim_s, sim_time_s)
         self._wall_s = wall_s
+        if not (self.stall_after_s > 0 and self.quiet_sim_s >= self.stall_after_s):
+            self._quiet_since_wall_s = None
+        elif self._quiet_since_wall_s is None:
+            self._quiet_since_wall_s = wall_s
 
     @property
     def quiet_sim_s(self) -> float:
         """Sim seconds since the last change on the site (or since a scheduled one came due)."""
-        return max(0.0, self._sim_s - max(self._last_change_sim_s, min(self._awaited_sim_s, self._sim_s)))
+        return max(0.0, self._sim_s - self._quiet_from_sim_s)
+
+    @property
+    def _quiet_from_sim_s(self) -> float:
+        return max(self._last_change_sim_s, min(self._awaited_sim_s, self._sim_s))
+
+    def _stall_confirmed(self) -> bool:
+        """The planner said its progress at a sim time past the bound, or nothing for ``confirm_wall_s``."""
+        if self._quiet_since_wall_s is None:
+            return False
+        passed_s = self._quiet_from_sim_s + self.stall_after_s
+        if self._planner_sim_s is not None and self._planner_sim_s >= passed_s:
+            return True
+        return self._wall_s - self._quiet_since_wall_s >= self.confirm_wall_s
 
     @property
     def clock_still_wall_s(self) -> float:
@@ -85,7 +115,7 @@ class StallWatchdog:
         return 0.0 if self._clock_moved_wall_s is None else self._wall_s - self._clock_moved_wall_s
 
     def verdict(self) -> str | None:
-        if self.stall_after_s > 0 and self.quiet_sim_s >= self.stall_after_s:
+        if self._stall_confirmed():
             return (
                 f"nothing on the site changed for {self.quiet_sim_s:.0f} s of sim time "
                 f"(last change at sim {self._last_change_sim_s:.1f} s, now {self._sim_s:.1f} s; "

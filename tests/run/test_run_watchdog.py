@@ -16,7 +16,7 @@ from bimbot.shared.messages import (
 
 
 def test_nothing_changing_for_the_bound_in_sim_time_is_a_stall_naming_the_numbers() -> None:
-    watchdog = StallWatchdog(stall_after_s=600.0, clock_stall_wall_s=300.0)
+    watchdog = StallWatchdog(stall_after_s=600.0, clock_stall_wall_s=300.0, confirm_wall_s=0.0)
     watchdog.observe(changes=4, sim_time_s=768.0, wall_s=0.0)
     watchdog.observe(changes=4, sim_time_s=1367.0, wall_s=60.0)
     assert watchdog.verdict() is None
@@ -118,7 +118,7 @@ def test_stall_details_say_what_each_robot_and_open_task_was_doing() -> None:
 def test_timed_work_and_curing_scheduled_ahead_are_not_a_stall() -> None:
     """A site that skipped its clock over a pour and a 3-day cure changed nothing for that long, as
     scheduled: it stalls only once the scheduled time has passed by the bound."""
-    dog = StallWatchdog(stall_after_s=100.0)
+    dog = StallWatchdog(stall_after_s=100.0, confirm_wall_s=0.0)
     dog.observe(5, 10.0, 0.0)
     cure_ends_s = 10.0 + 72 * 3600.0
     dog.observe(5, cure_ends_s - 1.0, 1.0, awaited_sim_s=cure_ends_s)
@@ -182,3 +182,38 @@ def test_the_stall_details_give_the_planners_last_word_on_its_preparation() -> N
     assert lines[0] == PLANNER_NOT_READY
     assert lines[1] == "the planner's last word: access check, mended 3 time(s), 120 of 468"
     assert len(stall_details({}, {}, {}, {}, planner_ready=True, preparing=said)) == 0
+
+
+def test_a_clock_that_jumped_before_the_news_of_its_cure_arrived_is_no_stall() -> None:
+    """The Revit hub, seed 0, on a loaded machine: the foundation slab was built at sim 857,983 s and the
+    walls waited for its 3-day cure; physics jumped its clock to the cure's end, and the run heard the
+    clock before the planner's progress naming the cure: 259,200 s 'without a change', a stall, and a
+    healthy build ended with 9 of 115. A stall in sim time now stands once the planner's progress, said
+    past the bound, confirms it; the news said before it has arrived by then."""
+    built_s, cure_ends_s = 857_983.1, 857_983.1 + 72 * 3600.0
+    dog = StallWatchdog(stall_after_s=1500.0, confirm_wall_s=60.0)
+    dog.observe(changes=40, sim_time_s=built_s, wall_s=100.0, planner_sim_s=built_s)
+    dog.observe(changes=40, sim_time_s=cure_ends_s, wall_s=100.1, planner_sim_s=built_s)  # clock first
+    assert dog.verdict() is None  # the planner has not said anything past the bound
+    dog.observe(41, cure_ends_s, 101.5, awaited_sim_s=cure_ends_s, planner_sim_s=built_s)  # its progress
+    for wall_s in (105.0, 120.0, 200.0):
+        dog.observe(changes=41, sim_time_s=cure_ends_s + 0.2, wall_s=wall_s, planner_sim_s=cure_ends_s)
+        assert dog.verdict() is None
+    # nothing happens after the cure: the planner's progress past the bound confirms the stall at once
+    dog.observe(changes=41, sim_time_s=cure_ends_s + 1600.0, wall_s=201.0, planner_sim_s=cure_ends_s + 1400.0)
+    assert dog.verdict() is None
+    dog.observe(changes=41, sim_time_s=cure_ends_s + 1601.0, wall_s=201.5, planner_sim_s=cure_ends_s + 1600.0)
+    verdict = dog.verdict()
+    assert verdict is not None and "nothing on the site changed for 1601 s of sim time" in verdict
+
+
+def test_without_a_word_from_the_planner_a_stall_stands_after_the_wall_confirmation() -> None:
+    dog = StallWatchdog(stall_after_s=100.0, confirm_wall_s=60.0)
+    dog.observe(changes=3, sim_time_s=10.0, wall_s=0.0)
+    dog.observe(changes=3, sim_time_s=200.0, wall_s=10.0)
+    assert dog.verdict() is None
+    dog.observe(changes=3, sim_time_s=900.0, wall_s=69.0)
+    assert dog.verdict() is None
+    dog.observe(changes=3, sim_time_s=905.0, wall_s=70.0)  # past the bound for 60 s of wall time
+    verdict = dog.verdict()
+    assert verdict is not None and "for 895 s of sim time" in verdict
