@@ -175,6 +175,8 @@ def _run_build(
                 outcome.report = report_of(result.ending)
                 if outcome.exit_code == 0 and (outcome.report.get("as_built") or {}).get("errors"):
                     outcome.exit_code = 1  # the bus says built, physics has it elsewhere
+                if observer is None:  # audited and reported: nothing more is asked of the services
+                    stop_all([*routers, *services])  # not stepping on while the chart is drawn
                 _write_report(outcome.report, report_dir)
                 if result.input_error is not None:
                     raise UserError(f"the planner rejected its input:\n{result.input_error}")

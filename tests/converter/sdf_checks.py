@@ -18,6 +18,7 @@ import re
 import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -50,12 +51,13 @@ def sdformat_library() -> Path:
 
 def sdf_check_all(paths: list[Path], models_dir: Path) -> dict[Path, str]:
     """``Valid.`` or the reference parser's message for each of ``paths``, checked in one process."""
-    results = models_dir.parent / "sdf-check.json"
-    command = [sys.executable, str(BATCH_SCRIPT), str(sdformat_library()), str(results), *map(str, paths)]
-    subprocess.run(
-        command, capture_output=True, env=_resource_env(models_dir), timeout=bound_s(300), check=True
-    )
-    codes = json.loads(results.read_text())
+    with tempfile.TemporaryDirectory(prefix="sdf-check-") as scratch:  # the build may be shared: not there
+        results = Path(scratch) / "sdf-check.json"
+        command = [sys.executable, str(BATCH_SCRIPT), str(sdformat_library()), str(results), *map(str, paths)]
+        subprocess.run(
+            command, capture_output=True, env=_resource_env(models_dir), timeout=bound_s(300), check=True
+        )
+        codes = json.loads(results.read_text())
     assert len(codes) == len(paths), "the batch checker answered for every file"
     return {
         path: "Valid." if code == 0 else ign_sdf_check(path, models_dir)

@@ -14,6 +14,7 @@ import pybullet
 import pytest
 import trimesh
 from lxml import etree
+from sample_builds import converted_sample
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 from sdf_checks import sdf_check_all, sdf_model_pose
@@ -45,11 +46,11 @@ def frame(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Manifest]:
 def sample(
     request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
 ) -> tuple[Path, Manifest, Path]:
+    """The sample's default conversion, shared with the other test files that read it (sample_builds)."""
     if not SAMPLE_FILES:
         pytest.skip(f"{SAMPLES_DIR} is absent")
-    source = SAMPLES_DIR / request.param
-    out = tmp_path_factory.mktemp(source.stem)
-    return out, _convert(source, out), source
+    out, manifest = converted_sample(request.param, tmp_path_factory)
+    return out, manifest, SAMPLES_DIR / request.param
 
 
 # --- shared checks ---------------------------------------------------------------------------------------

@@ -4,7 +4,8 @@
 * SIGTERM: within seconds no service and no process of their groups is left, exit 143, and report.json
   (written every second meanwhile) gives every component not built a reason;
 * the stall watchdog: a site where nothing changes for the bound ends the run, exit 1, ``stalled``;
-* ``--timeout-s``: the report is written, exit 1, ``interrupted``; the terminal table names each.
+* ``--timeout-s``: the report is written, exit 1, ``interrupted``; the terminal table names each; the
+  services are stopped before the report is drawn (physics does not step on beside matplotlib).
 """
 
 from __future__ import annotations
@@ -170,7 +171,11 @@ def test_the_time_limit_ends_the_run_with_its_report_and_exit_1(small_frame: Pat
     assert {c["reason"]["code"] for c in _assert_every_component_not_built_has_a_reason(report)} == {
         "interrupted"
     }
-    assert os.path.getsize(_latest(small_frame).report_dir / "report.png") > 10_000
+    run = _latest(small_frame)
+    assert os.path.getsize(run.report_dir / "report.png") > 10_000
+    # physics' closing lines (written as it stops) come before the chart: stopped, then reported
+    physics_log_ns = (run.logs_dir / "physics.log").stat().st_mtime_ns
+    assert physics_log_ns <= (run.report_dir / "report.png").stat().st_mtime_ns
 
 
 def _latest(build: Path) -> RunFolder:

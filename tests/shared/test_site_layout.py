@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from component_boxes import box_component
+from sample_builds import converted_sample
 from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
@@ -66,14 +67,12 @@ def _convert(source: Path, out: Path) -> Manifest:
 
 @pytest.fixture(scope="module")
 def hub(samples_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> list[Component]:
-    source = samples_dir / "revit2021_structural_hub.ifc"
-    return _convert(source, tmp_path_factory.mktemp("hub")).components
+    return converted_sample("revit2021_structural_hub.ifc", tmp_path_factory)[1].components
 
 
 @pytest.fixture(scope="module")
 def house(samples_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> list[Component]:
-    source = samples_dir / "revit2021_sample_project.ifc"
-    return _convert(source, tmp_path_factory.mktemp("house")).components
+    return converted_sample("revit2021_sample_project.ifc", tmp_path_factory)[1].components
 
 
 @pytest.fixture(scope="module")
