@@ -15,8 +15,9 @@ functions turn the agents' verdicts into those figures; no bus, no files.
   without one): over every attempt, ``placements`` (attempts), ``unmeasured`` (attempts without a
   position error: no pose on the bus), ``mean``/``p50``/``p95``/``max`` of the position errors in mm
   (percentiles interpolated linearly between order statistics, as numpy's default), and
-  ``out_of_tolerance``: the attempts the agent judged out of tolerance (its verdict, not a second
-  threshold here; a miss by angle alone counts).
+  ``out_of_tolerance``: the attempts the agent judged out of tolerance as placed (its verdict, not a
+  second threshold here; a miss by angle alone counts), not those that moved after release (``unstable``,
+  counted apart: one attempt is one of the two, never both).
 * Retries by cause: the ``misplaced`` verdicts (each one a retry), by cause. A ``failed`` verdict is not
   retried: its cause is in its component's reason (``totals.by_reason``).
 """
@@ -132,7 +133,7 @@ def error_distribution(placements: Sequence[Mapping[str, Any]]) -> dict[str, Any
         "p50": percentile(errors, 0.50) if errors else None,
         "p95": percentile(errors, 0.95) if errors else None,
         "max": errors[-1] if errors else None,
-        "out_of_tolerance": sum(1 for p in placements if p["cause"] != WITHIN_TOLERANCE),
+        "out_of_tolerance": sum(1 for p in placed if p["cause"] != WITHIN_TOLERANCE),
     }
 
 

@@ -12,7 +12,7 @@ verdict, one message a second, so the k-th attempt's verdict is at 6·k s:
     D  r3 carrier  12, 20 mm misplaced, 30 mm failed (reason misplaced), drift 0
 
     husky    [2, 4, 14]          mean 6.67  p50  4  p95 4 + 0.9·10 = 13  max 14  1 out of tolerance
-    carrier  [6, 12, 20, 30, 80]  mean 29.6  p50 20  p95 30 + 0.8·50 = 70  max 80  4 out of tolerance
+    carrier  [6, 12, 20, 30, 80]  mean 29.6  p50 20  p95 30 + 0.8·50 = 70  max 80  4 off target (3 out of tolerance as placed, 1 unstable)
     retries (misplaced verdicts): misplaced 3 (A1, D1, D2), unstable 1 (B1); largest drift 75 mm
 """
 
@@ -205,7 +205,7 @@ def test_placement_errors_are_distributed_per_robot_type_in_lane_order(report: d
             "p50": 16.0,
             "p95": 28.5,
             "max": 30.0,
-            "out_of_tolerance": 4,
+            "out_of_tolerance": 3,  # B's unstable attempt is counted once, as unstable
         },
     }
 
@@ -328,7 +328,7 @@ def test_the_summary_has_one_line_of_placement_errors_by_type_retries_by_cause_a
     line = (
         "every placement attempt by robot type: "
         "husky mean 6.7 / p95 13.0 / max 14.0 mm (3 placements, 1 out of tolerance), "
-        "carrier mean 17.0 / p95 28.5 / max 30.0 mm (5 placements, 4 out of tolerance, "
+        "carrier mean 17.0 / p95 28.5 / max 30.0 mm (5 placements, 3 out of tolerance, "
         "1 unstable: moved after release, not in these errors); "
         "retries by cause: misplaced 3, unstable 1; largest drift after placement 75.0 mm"
     )
