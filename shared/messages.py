@@ -574,6 +574,9 @@ class ProgressMsg(_Message):
 STEP_DONE_KEY = "bimbot/{site}/steps/{participant}"
 
 
+PLANNER_PARTICIPANT = "planner"  # the planner's name as a lock-step participant (``StepDoneMsg.participant``)
+
+
 class StepDoneMsg(_Message):
     """A lock-step participant that is not a robot (the planner, each agents shard) answered clock step
     ``step``: what it had to say up to that step has been sent (see :mod:`bimbot.shared.step_gate`).

@@ -349,6 +349,8 @@ class _Loop:
         if self._holding_clock(now):
             self._held = True
             return LOOP_WAIT_S
+        if isinstance(self.sim, PlanSimulation) and self.sim.over_at is not None:
+            return LOOP_WAIT_S  # the plan fidelity's build is over: another period would change nothing
         if self._held:  # the robots are up: step 0 again for them, and their answers waited for from now
             self._held = False
             self._publish(self.sim.start_messages())

@@ -28,6 +28,10 @@ handling, placing, pits, joints, connections and their reasons, and changes thre
   jumps from a step at which a known event fell (its robot acts on it at that step), nor from a step a
   skip landed on or the one after it (what the planner skipped to, a curing's end, is no event physics
   knows).
+* **The clock stops when the build is over.** Once the planner has said it is done (every task settled)
+  and the site waits for nothing it knows (no news, nothing settling, no event ahead), nothing can happen
+  any more: :attr:`PlanSimulation.over_at` is set and physics advances no further (:mod:`.app`), so the
+  services stop stepping an empty site while the run audits, reports and stops them.
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ from typing import TYPE_CHECKING
 
 from bimbot.shared.fidelity import FIDELITIES
 from bimbot.shared.messages import (
+    PLANNER_PARTICIPANT,
     AttachRequest,
     BuildRequest,
     ComponentEventMsg,
@@ -106,6 +111,8 @@ class PlanSimulation(Simulation):
         self.heard = SteppedNews()  # what is heard, until the advance that takes it
         self._step_start_s: float | None = None  # the sim time the previous step went out at
         self._skipped_at = -2  # the step a skip landed on (no jump from it nor from the next)
+        self._planner_done = False  # the planner said it is done (taken as news are: at a defined step)
+        self.over_at: int | None = None  # the step at which the build was over (the clock stops there)
         cid = self.client_id
         for robot_id, robot in self.robots.items():
             if not robot.drives:
@@ -167,6 +174,8 @@ class PlanSimulation(Simulation):
         last = self._own_events.get(answer.participant)
         if last is not None and answer.step < last[0]:
             return
+        if answer.done and answer.participant == PLANNER_PARTICIPANT:
+            self._planner_done = True
         self._own_events[answer.participant] = (answer.step, None if answer.done else answer.next_event_s)
 
     def _changed(self, kind: str, name: str, signature: tuple[object, ...]) -> None:
@@ -284,6 +293,14 @@ class PlanSimulation(Simulation):
             return self._count("event unanswered")
         event = self.next_event_s()
         if event is None:
+            if self._planner_done and self.over_at is None:
+                self.over_at = self.step
+                _log.info(
+                    "plan fidelity: the build is over at step %d (%.1f s of sim time): the planner is done "
+                    "and nothing is known ahead; the clock stops after this period",
+                    self.step,
+                    self.sim_time_s,
+                )
             return self._count("no event")
         period = self.config.control_period_s
         # whole periods, so that this period ends at the event or just after it

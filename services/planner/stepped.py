@@ -28,6 +28,7 @@ import zenoh
 from bimbot.shared.bus import Answer, Inbox, LivelinessChange, Received, encode
 from bimbot.shared.clock_guard import ClockGuard, Verdict
 from bimbot.shared.messages import (
+    PLANNER_PARTICIPANT,
     STEP_DONE,
     ClockMsg,
     CmdVelMsg,
@@ -48,7 +49,7 @@ from .skip_requests import SkipAnswer, Skipper
 
 _log = logging.getLogger(__name__)
 
-PARTICIPANT = "planner"
+PARTICIPANT = PLANNER_PARTICIPANT
 SKIP_CHECK_STEPS = 5  # control periods between two looks at whether the site is quiet
 SKIP_RETRY_STEPS = 25  # control periods between two skip requests
 CONFIRM_STEPS = 50  # steps a done planner waits for the agents to confirm every terminal state, at most

@@ -471,6 +471,9 @@ def report_figure(report: dict[str, Any]) -> Figure:
         bottom += LEGEND_ROW
     figure.tight_layout(rect=(0.0, bottom, 1.0, 0.97))
     fit_bar_labels(figure, lanes, labels)
+    # laid out: without a layout engine, savefig draws the figure once (with the placeholder engine that
+    # tight_layout leaves behind it first draws it a second time, for a layout already done)
+    figure.set_layout_engine(None)
     return figure
 
 

@@ -2,7 +2,8 @@
 one carrier, kinematic and with a clock that jumps by events. The physics fidelity builds every component
 of this frame (``test_reproducible_runs.py``, ``test_full_build.py``); the plan fidelity must build the same
 set, say its fidelity in the report's settings and in ``bimbot runs``, and its physics must have jumped
-its clock (else it ran period by period, as the physics fidelity does)."""
+its clock (else it ran period by period, as the physics fidelity does) and stopped it once the build was
+over (else the services step an empty site while the run closes)."""
 
 from __future__ import annotations
 
@@ -50,9 +51,10 @@ def test_plan_fidelity_builds_the_frame_and_says_so(tmp_path: Path) -> None:
     assert report["settings"]["fidelity"] == "plan"
     assert "fidelity plan" in result.stdout
     assert report["totals"]["distance_m"] > 10.0  # the carrier drove between the yard and the frame
-    jumps = re.search(
-        r"plan fidelity: \d+ period\(s\).*?(\d+) jump\(s\)", (run_dir / "logs/physics.log").read_text()
-    )
-    assert jumps is not None and int(jumps.group(1)) > 0
+    physics_log = (run_dir / "logs/physics.log").read_text()
+    jumps = re.search(r"plan fidelity: (\d+) period\(s\).*?(\d+) jump\(s\)", physics_log)
+    assert jumps is not None and int(jumps.group(2)) > 0
+    over = re.search(r"the build is over at step (\d+)", physics_log)  # then the clock stopped
+    assert over is not None and int(jumps.group(1)) == int(over.group(1)) + 1, physics_log[-3000:]
     runs = _bimbot("runs", str(build))
     assert runs.returncode == 0 and "fidelity plan" in runs.stdout

@@ -9,13 +9,14 @@ from pathlib import Path
 
 import matplotlib.image
 import pytest
+from matplotlib.figure import Figure
 from pydantic import BaseModel
 
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState as S
 from bimbot.shared.messages import ComponentStateMsg, RobotPoseMsg, RobotState, RobotStateMsg, SensorsMsg
 from bimbot.shared.report.collector import ReportCollector
-from bimbot.shared.report.png import DPI, FIGURE_SIZE_IN, render_report_png
+from bimbot.shared.report.png import DPI, FIGURE_SIZE_IN, render_report_png, report_figure
 
 
 def _report(manifest: Manifest, sequence: list[str], messages: list[tuple[str, BaseModel]]) -> dict:
@@ -131,6 +132,24 @@ def test_the_gantt_chart_is_written_at_its_size(report: dict, tmp_path: Path) ->
     assert path.stat().st_size > 10_000
     height, width = matplotlib.image.imread(path).shape[:2]
     assert (width, height) == (FIGURE_SIZE_IN[0] * DPI, FIGURE_SIZE_IN[1] * DPI)
+
+
+def test_saving_the_chart_draws_it_once(
+    report: dict, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The chart is laid out when it is made: saving it draws it once, not a second time for a layout engine
+    (each draw of the bundled frame's chart takes seconds)."""
+    figure = report_figure(report)
+    draws: list[object] = []
+    draw = Figure.draw
+
+    def counted(self: Figure, renderer: object) -> None:
+        draws.append(renderer)
+        draw(self, renderer)
+
+    monkeypatch.setattr(Figure, "draw", counted)
+    figure.savefig(tmp_path / "report.png", dpi=DPI)
+    assert len(draws) == 1
 
 
 def test_a_run_without_messages_still_gets_a_chart(frame_manifest: Manifest, tmp_path: Path) -> None:

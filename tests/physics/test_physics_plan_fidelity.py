@@ -230,3 +230,22 @@ def test_the_clock_stops_where_the_planner_said_it_acts_next_not_at_a_robot_s_la
         times.append(sim.sim_time_s)
     assert sim.sim_time_s == pytest.approx(1000.0)
     assert not any(900.0 - 1e-6 <= time < 900.2 for time in times)
+
+
+def test_the_build_is_over_once_the_planner_is_done_and_nothing_is_ahead(sim: PlanSimulation) -> None:
+    """A site that waits for nothing is no finished build while the planner works (it may still release a
+    task) nor when an agents shard stops answering; once the planner said it is done, the build is over at
+    the first step where nothing is heard, settling or ahead: after a robot's timed work, not before."""
+    for _ in range(2 * QUIET_PERIODS):
+        sim.advance()
+    assert sim.stepped_for.get("no event", 0) > 0 and sim.over_at is None
+    sim.hear(StepDoneMsg(participant="agents-1of1", step=sim.step, sim_time_s=sim.sim_time_s, done=True))
+    for _ in range(2 * QUIET_PERIODS):
+        sim.advance()
+    assert sim.over_at is None
+    work_end_s = sim.sim_time_s + 20.0
+    sim.hear(_busy("r9", work_end_s, sim.sim_time_s))
+    sim.hear(_answer(sim.step, sim.sim_time_s, None, done=True))
+    while sim.over_at is None and sim.step < 200:
+        sim.advance()
+    assert sim.over_at == sim.step - 1 and sim.sim_time_s > work_end_s
