@@ -12,7 +12,7 @@ verdict, one message a second, so the k-th attempt's verdict is at 6·k s:
     D  r3 carrier  12, 20 mm misplaced, 30 mm failed (reason misplaced), drift 0
 
     husky    [2, 4, 14]          mean 6.67  p50  4  p95 4 + 0.9·10 = 13  max 14  1 out of tolerance
-    carrier  [6, 12, 20, 30, 80]  mean 29.6  p50 20  p95 30 + 0.8·50 = 70  max 80  4 off target (3 out of tolerance as placed, 1 unstable)
+    carrier  [6, 12, 20, 30, 80]  mean 29.6  p50 20  p95 30 + 0.8·50 = 70  max 80  3 out of tol., 1 unstable
     retries (misplaced verdicts): misplaced 3 (A1, D1, D2), unstable 1 (B1); largest drift 75 mm
 """
 
