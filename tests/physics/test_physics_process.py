@@ -8,6 +8,7 @@ import queue
 import re
 import shutil
 import signal
+import subprocess
 import time
 from pathlib import Path
 
@@ -75,6 +76,15 @@ def _get(
         if reply.ok is not None:
             return reply.ok.payload.to_bytes()
     return None
+
+
+def _wait_for_site_info(
+    session: zenoh.Session, site: str, physics: subprocess.Popen[bytes], tmp_path: Path
+) -> None:
+    """Until physics answers ``physics/info`` (it is up); its log when it died or never answered."""
+    deadline = time.monotonic() + bound_s(60.0)
+    while _get(session, key(PHYSICS_INFO_KEY, site=site), timeout_s=1.0) is None:
+        assert physics.poll() is None and time.monotonic() < deadline, (tmp_path / "physics.log").read_text()
 
 
 def _wait_clock(listener: _Listener, step: int, timeout_s: float = 5.0) -> ClockMsg:
@@ -227,11 +237,7 @@ def test_physics_holds_its_clock_at_zero_until_the_robots_are_alive(
         open_session(BusOptions(connect=(endpoint,), listen=())) as session,
     ):
         listener = _Listener(session, {"clock": key(CLOCK_KEY, site=site)})
-        deadline = time.monotonic() + bound_s(60.0)
-        while _get(session, key(PHYSICS_INFO_KEY, site=site), timeout_s=1.0) is None:
-            assert physics.poll() is None and time.monotonic() < deadline, (
-                tmp_path / "physics.log"
-            ).read_text()
+        _wait_for_site_info(session, site, physics, tmp_path)
         time.sleep(1.5)  # free-running, physics would be hundreds of steps on by now
         held = [ClockMsg.model_validate_json(m).step for m in listener.drain("clock")]
         assert set(held) <= {0}
@@ -272,11 +278,7 @@ def test_a_planner_that_reports_its_preparation_keeps_the_clock_held_past_the_wa
         open_session(BusOptions(connect=(endpoint,), listen=())) as session,
     ):
         listener = _Listener(session, {"clock": key(CLOCK_KEY, site=site)})
-        deadline = time.monotonic() + bound_s(60.0)
-        while _get(session, key(PHYSICS_INFO_KEY, site=site), timeout_s=1.0) is None:
-            assert physics.poll() is None and time.monotonic() < deadline, (
-                tmp_path / "physics.log"
-            ).read_text()
+        _wait_for_site_info(session, site, physics, tmp_path)
         token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id="r1"))
         cmd_key = key(ROBOT_CMD_VEL_KEY, site=site, robot_id="r1")
         session.put(cmd_key, encode(CmdVelMsg(robot_id="r1", v_mps=0.0, w_radps=0.0, sim_time_s=0.0, step=0)))
