@@ -109,6 +109,8 @@ def table(columns: list[RunColumn]) -> list[str]:
         )
         + " |"
     )
+    lines.append("| robots | " + " | ".join(c.fleet or "unknown" for c in columns) + " |")
+    lines.append("| seed | " + " | ".join("–" if c.seed is None else str(c.seed) for c in columns) + " |")
     lines.append("| constructed | " + " | ".join(f"{c.constructed}/{c.components}" for c in columns) + " |")
     lines.append(
         "| makespan | "
@@ -121,9 +123,10 @@ def table(columns: list[RunColumn]) -> list[str]:
     for column in columns[1:]:
         if first_s and column.makespan_s is not None:
             change = column.makespan_s - first_s
+            sign = "+" if change >= 0 else "−"
             lines.append(
-                f"\n{column.label}: makespan {'+' if change >= 0 else '−'}{duration_text(abs(change))} "
-                f"({100.0 * change / first_s:+.1f} %) against {columns[0].label}"
+                f"\n{column.label}: makespan {sign}{duration_text(abs(change))} "
+                f"({sign}{100.0 * abs(change) / first_s:.1f} %) against {columns[0].label}"
             )
     return lines
 

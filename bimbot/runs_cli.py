@@ -16,6 +16,7 @@ from pathlib import Path
 
 from bimbot.shared.errors import UserError
 from bimbot.shared.manifest import load_manifest
+from bimbot.shared.report.compare import fleet_of
 from bimbot.shared.report.durations import time_unit
 from bimbot.shared.run_folder import (
     RunFolder,
@@ -89,9 +90,7 @@ def _with(report: dict) -> str:
     """``, 3 robots, 9 in place, without connections``: what tells two runs of one build apart (a trial
     could not tell a ``--robots 1`` run from one of the default fleet, nor one with ``--no-connections``)."""
     settings = report.get("settings") or {}
-    robots = settings.get("robots")
-    fleet = settings.get("fleet")
-    parts = [f"{robots} robot(s) of the default type" if robots else f"{fleet}" if fleet else ""]
+    parts = [fleet_of(settings) or ""]
     if settings.get("fidelity"):
         parts.append(f"fidelity {settings['fidelity']}")
     in_place = (report.get("totals") or {}).get("in_place")

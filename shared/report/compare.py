@@ -89,6 +89,8 @@ class RunColumn:
     model: str | None = None  # the IFC file's name
     model_sha256: str | None = None
     fidelity: str | None = None  # None: a report that does not say
+    fleet: str | None = None  # what robots built it (:func:`fleet_of`); None: a report that does not say
+    seed: int | None = None
 
     @property
     def building(self) -> str:
@@ -113,7 +115,18 @@ def run_column(label: str, report: Mapping[str, Any]) -> RunColumn:
         model=PurePath(path).name if isinstance(path, str) else None,
         model_sha256=model.get("sha256"),
         fidelity=settings.get("fidelity"),
+        fleet=fleet_of(settings),
+        seed=settings.get("seed"),
     )
+
+
+def fleet_of(settings: Mapping[str, Any]) -> str | None:
+    """What robots a run had, from its report's settings: ``3 robot(s) of the default type`` (``--robots``)
+    or its fleet (``the default fleet``, a fleet file's path); None when the report does not say."""
+    robots, fleet = settings.get("robots"), settings.get("fleet")
+    if robots:
+        return f"{robots} robot(s) of the default type"
+    return str(fleet) if fleet else None
 
 
 def same_building(a: RunColumn, b: RunColumn) -> bool:

@@ -21,6 +21,7 @@ def _component(method: str, state: str = "constructed", **times: object) -> dict
 
 
 PREFAB = {
+    "settings": {"fleet": "the default fleet", "robots": None, "seed": 0},
     "totals": {"makespan_s": 1000.0, "constructed": 3, "components": 3},
     "components": [
         _component("lifted", picked_s=100.0, placed_s=160.0),
@@ -29,6 +30,7 @@ PREFAB = {
     ],
 }
 CONVENTIONAL = {
+    "settings": {"fleet": "the default fleet", "robots": 3, "seed": 7},
     "totals": {"makespan_s": 5000.0, "constructed": 3, "components": 4},
     "components": [
         _component("lifted", picked_s=4000.0, placed_s=4050.0),
@@ -76,6 +78,14 @@ def test_the_table_has_a_row_per_method_and_the_makespan_against_the_first(
     assert "1/2 built" in rows["laid"] and rows["laid"].split("|")[2].strip() == "–"  # prefab laid none
     assert "cure up to 50.0 min" in rows["cast_in_place"]
     assert "makespan +1.1 h (4,000 s) (+400.0 %) against" in out
+    # what tells the two runs apart: their robots and seeds (a trial compared fleets by folder name)
+    assert [cell.strip() for cell in rows["robots"].split("|")[2:4]] == [
+        "the default fleet",
+        "3 robot(s) of the default type",
+    ]
+    assert [cell.strip() for cell in rows["seed"].split("|")[2:4]] == ["0", "7"]
+    back = compare_cli.run(argparse.Namespace(runs=[b, a]))
+    assert back == 0 and "makespan −1.1 h (4,000 s) (−80.0 %) against" in capsys.readouterr().out
 
 
 def test_a_path_with_no_report_is_one_clear_error(tmp_path: Path) -> None:
