@@ -172,8 +172,9 @@ def method_word(method: str) -> str:
 
 
 def curing_line(report: Mapping[str, Any]) -> str | None:
-    """``cured: 2 cast components, the longest 72.0 h (259,200 s) (the planner held 1 component for
-    it)``, in the summary's duration format; None when nothing was cast."""
+    """``cured: 2 cast components, the longest 72.0 h (259,200 s) (1 component ready but for a cure waited
+    for it, and what rests on it in turn)``, in the summary's duration format; None when nothing was cast.
+    The count is of the planner's holds: what the cure held directly, not all it delayed."""
     cured = [c["curing"] for c in report.get("components", []) if c.get("curing")]
     if not cured:
         return None
@@ -182,5 +183,7 @@ def curing_line(report: Mapping[str, Any]) -> str | None:
     components = f"{len(cured)} cast component{'' if len(cured) == 1 else 's'}"
     line = f"cured: {components}, the longest {duration_text(longest_s)}"
     if held:
-        line += f" (the planner held {held} component{'' if held == 1 else 's'} for it)"
+        which = "component" if held == 1 else "components"
+        it = "it" if held == 1 else "them"
+        line += f" ({held} {which} ready but for a cure waited for it, and what rests on {it} in turn)"
     return line

@@ -109,7 +109,8 @@ def test_work_in_place_is_no_placement_by_a_hand(report: dict) -> None:
 
 def test_the_run_summary_says_how_long_the_cast_components_cured(report: dict) -> None:
     assert curing_line(report) == (
-        "cured: 2 cast components, the longest 72.0 h (259,200 s) (the planner held 1 component for it)"
+        "cured: 2 cast components, the longest 72.0 h (259,200 s) (1 component ready but for a cure waited "
+        "for it, and what rests on it in turn)"
     )
     assert curing_line({"components": [{"curing": None}]}) is None
     lifted = {"by_method": {"lifted": {"components": 3, "constructed": 3}, "with_host": {"components": 2}}}
