@@ -330,7 +330,9 @@ def test_cli_writes_a_frame_that_reopens(tmp_path: Path) -> None:
     result = _bimbot("sample", "light-steel-frame", "-o", "tmp.ifc", "--bays", "2x2", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     assert "Traceback" not in result.stderr
-    assert result.stdout == ""
+    # what it wrote, on stdout (commands log only warnings unless -v)
+    assert result.stdout.startswith("wrote tmp.ifc: light-steel-frame 2x2, 4 footings, 4 columns, 4 beams")
+    assert len(result.stdout.splitlines()) == 1
     assert _counts(ifcopenshell.open(str(tmp_path / "tmp.ifc"))) == (4, 4, 4)
 
 
