@@ -3,13 +3,14 @@ refusal with its reason, garbage on every input, and a quick clean exit on SIGTE
 
 from __future__ import annotations
 
+import contextlib
 import os
 import queue
 import re
 import shutil
 import signal
-import subprocess
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -78,13 +79,41 @@ def _get(
     return None
 
 
-def _wait_for_site_info(
-    session: zenoh.Session, site: str, physics: subprocess.Popen[bytes], tmp_path: Path
-) -> None:
-    """Until physics answers ``physics/info`` (it is up); its log when it died or never answered."""
-    deadline = time.monotonic() + bound_s(60.0)
-    while _get(session, key(PHYSICS_INFO_KEY, site=site), timeout_s=1.0) is None:
-        assert physics.poll() is None and time.monotonic() < deadline, (tmp_path / "physics.log").read_text()
+def _robot_r1_up(session: zenoh.Session, site: str) -> zenoh.LivelinessToken:
+    """Robot r1 comes up: its liveliness token (returned) and its answer to clock step 0."""
+    token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id="r1"))
+    cmd_key = key(ROBOT_CMD_VEL_KEY, site=site, robot_id="r1")
+    session.put(cmd_key, encode(CmdVelMsg(robot_id="r1", v_mps=0.0, w_radps=0.0, sim_time_s=0.0, step=0)))
+    return token
+
+
+@contextlib.contextmanager
+def _physics_holding(
+    bundled_build: Path, tmp_path: Path, wait_s: float, planner: bool
+) -> Iterator[tuple[zenoh.Session, _Listener, str]]:
+    """Physics in lock-step on a bus, holding its clock at 0 for the robots (``--wait-for-robots-s``) and,
+    with ``planner``, the planner; up (it answered ``physics/info``) when this yields a session, a listener
+    of its clock and the site."""
+    build = tmp_path / "build"
+    shutil.copytree(bundled_build, build)
+    site = read_manifest(build).site
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    fleet = str(ground_fleet_file(tmp_path))
+    physics_args = ["physics", "--build", str(build), "--fleet", fleet, "--connect", endpoint, "--rtf", "0"]
+    physics_args += ["--listen", "tcp/127.0.0.1:0", "--lock-step", "--wait-for-robots-s", f"{wait_s:.1f}"]
+    physics_args += ["--wait-for-planner"] if planner else []
+    with (
+        running("bus", ["bus", "--listen", endpoint], tmp_path),
+        running("physics", physics_args, tmp_path) as physics,
+        open_session(BusOptions(connect=(endpoint,), listen=())) as session,
+    ):
+        listener = _Listener(session, {"clock": key(CLOCK_KEY, site=site)})
+        deadline = time.monotonic() + bound_s(60.0)
+        while _get(session, key(PHYSICS_INFO_KEY, site=site), timeout_s=1.0) is None:
+            assert physics.poll() is None and time.monotonic() < deadline, (
+                tmp_path / "physics.log"
+            ).read_text()
+        yield session, listener, site
 
 
 def _wait_clock(listener: _Listener, step: int, timeout_s: float = 5.0) -> ClockMsg:
@@ -217,33 +246,11 @@ def test_physics_holds_its_clock_at_zero_until_the_robots_are_alive(
 ) -> None:
     """And with ``--wait-for-planner`` (``bimbot run``) until the planner is alive too: on the 988-component
     site its start-up took 20 s of wall time while the idle site stepped 216 s of sim time."""
-    build = tmp_path / "build"
-    shutil.copytree(bundled_build, build)
-    site = read_manifest(build).site
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    fleet = str(ground_fleet_file(tmp_path))
-    physics_args = ["physics", "--build", str(build), "--fleet", fleet, "--connect", endpoint, "--rtf", "0"]
-    physics_args += [
-        "--listen",
-        "tcp/127.0.0.1:0",
-        "--lock-step",
-        "--wait-for-robots-s",
-        f"{bound_s(60):.0f}",
-    ]
-    physics_args += ["--wait-for-planner"] if planner else []
-    with (
-        running("bus", ["bus", "--listen", endpoint], tmp_path),
-        running("physics", physics_args, tmp_path) as physics,
-        open_session(BusOptions(connect=(endpoint,), listen=())) as session,
-    ):
-        listener = _Listener(session, {"clock": key(CLOCK_KEY, site=site)})
-        _wait_for_site_info(session, site, physics, tmp_path)
+    with _physics_holding(bundled_build, tmp_path, bound_s(60), planner) as (session, listener, site):
         time.sleep(1.5)  # free-running, physics would be hundreds of steps on by now
         held = [ClockMsg.model_validate_json(m).step for m in listener.drain("clock")]
         assert set(held) <= {0}
-        token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id="r1"))
-        cmd_key = key(ROBOT_CMD_VEL_KEY, site=site, robot_id="r1")
-        session.put(cmd_key, encode(CmdVelMsg(robot_id="r1", v_mps=0.0, w_radps=0.0, sim_time_s=0.0, step=0)))
+        token = _robot_r1_up(session, site)
         tokens = [token]
         if planner:
             time.sleep(1.5)  # the robot is up, the planner is not: still held
@@ -263,25 +270,9 @@ def test_a_planner_that_reports_its_preparation_keeps_the_clock_held_past_the_wa
     """The wait for the planner is bounded for a planner nobody hears from: one that reports how far its
     preparation is (a large building's access check takes minutes) is waited for, each report starting the
     bound again; once the reports stop, the bound starts the clock as before."""
-    build = tmp_path / "build"
-    shutil.copytree(bundled_build, build)
-    site = read_manifest(build).site
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    fleet = str(ground_fleet_file(tmp_path))
     wait_s = bound_s(2.0)
-    physics_args = ["physics", "--build", str(build), "--fleet", fleet, "--connect", endpoint, "--rtf", "0"]
-    physics_args += ["--listen", "tcp/127.0.0.1:0", "--lock-step", "--wait-for-robots-s", f"{wait_s:.1f}"]
-    physics_args += ["--wait-for-planner"]
-    with (
-        running("bus", ["bus", "--listen", endpoint], tmp_path),
-        running("physics", physics_args, tmp_path) as physics,
-        open_session(BusOptions(connect=(endpoint,), listen=())) as session,
-    ):
-        listener = _Listener(session, {"clock": key(CLOCK_KEY, site=site)})
-        _wait_for_site_info(session, site, physics, tmp_path)
-        token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id="r1"))
-        cmd_key = key(ROBOT_CMD_VEL_KEY, site=site, robot_id="r1")
-        session.put(cmd_key, encode(CmdVelMsg(robot_id="r1", v_mps=0.0, w_radps=0.0, sim_time_s=0.0, step=0)))
+    with _physics_holding(bundled_build, tmp_path, wait_s, planner=True) as (session, listener, site):
+        token = _robot_r1_up(session, site)
         preparing_key = key(PLANNER_PREPARING_KEY, site=site)
         reported_until = time.monotonic() + 1.6 * wait_s  # past the bound: it would have started by now
         done = 0

@@ -4,16 +4,12 @@ give-backs are bounded, so the run still ends)."""
 
 from __future__ import annotations
 
-import itertools
-
-from planner_builders import portal_manifest, robot_msg, state_msg
+from planner_builders import idle_core, portal_manifest, robot_msg, state_msg
 
 from bimbot.services.planner.capability import SiteRobot
 from bimbot.services.planner.scheduler import PlannerCore
-from bimbot.services.planner.sources import plan_from_sequence
 from bimbot.shared.fleet import default_fleet
 from bimbot.shared.messages import ComponentState, RobotState, RobotStateMsg
-from bimbot.shared.support_graph import derive_sequence
 
 S = ComponentState
 CARRIER = default_fleet().types["carrier"]
@@ -22,17 +18,10 @@ FOOTINGS = ("foot_a", "foot_b", "foot_c")
 
 def _core(*robot_ids: str) -> PlannerCore:
     """Carriers ``robot_ids``, the first beside the footings, the others far away (its bid would win)."""
-    manifest = portal_manifest()
-    plan = plan_from_sequence(derive_sequence(manifest.components), manifest.components, "test")
     robots = [
         SiteRobot(robot_id, CARRIER, (-40.0 * index, -5.0, 0.0)) for index, robot_id in enumerate(robot_ids)
     ]
-    counter = itertools.count(1)
-    core = PlannerCore(manifest, plan, new_id=lambda: f"ev{next(counter)}", robots=robots, slots={})
-    for robot in robots:
-        core.robot_liveliness(robot.robot_id, True)
-        core.observe_robot_state(robot_msg(robot.robot_id, robot.home_xy_yaw[:2]))
-    return core
+    return idle_core(portal_manifest(), robots)
 
 
 def _walled_in(robot_id: str, since_s: float | None, sim_time_s: float) -> RobotStateMsg:
