@@ -17,7 +17,8 @@
 # Environment: BIMBOT_SMOKE_TIMEOUT_S (wait for the build, default 360), BIMBOT_SMOKE_BUDGET_S (the whole
 #              script, image build included, default 540: the wait is cut short to keep within it),
 #              BIMBOT_SMOKE_PROJECT (compose project, default bimbot-smoke-<pid>), BIMBOT_SMOKE_KEEP=1
-#              (leave the stack up for a look).
+#              (leave the stack up for a look), BIMBOT_FIDELITY (physics, the default, or plan: what
+#              compose.yaml's physics and robots simulate; the test suite's smoke test runs plan).
 # Exit codes: 0 all constructed, 1 failure, 2 usage, 3 docker cannot be used on this machine.
 # Prints "compose-smoke: all N of N components constructed" on success. Logs: build/compose-smoke/.
 set -euo pipefail
@@ -311,5 +312,6 @@ python3 -c "import sys, urllib.request; sys.exit(urllib.request.urlopen(sys.argv
 # ------------------------------------------------------------------------------ 6. summary
 summary
 say "timings: image build ${build_s} s, stack up ${up_s} s, construction ${build_wait_s} s" \
+    "at fidelity ${BIMBOT_FIDELITY:-physics}" \
     "(total so far $((SECONDS - started_all)) s); observer ${o_status} (${o_health}), viewer answers"
 echo "compose-smoke: all $constructed of $total components constructed"

@@ -1,5 +1,10 @@
 """compose.yaml end to end: ``scripts/compose-smoke.sh`` builds the image, runs the stack, checks the build.
 
+The stack runs at the plan fidelity (``BIMBOT_FIDELITY=plan``): every service in its container, on the
+secured bus, as compose starts them, with kinematic robots. What this test proves is the stack (the image,
+the start order, the credentials, the volume, the viewer); the physics fidelity's builds of the frame are
+the integration tests' (tests/integration/), and its compose run costs the suite twice the wall time.
+
 Needs docker, compose and debootstrap (``bash scripts/setup.sh --tests`` installs them); the script starts
 dockerd when no daemon answers. When docker cannot be made to work this test fails, saying why: it is
 never skipped.
@@ -26,6 +31,7 @@ SMOKE_SCRIPT = ROOT / "scripts" / "compose-smoke.sh"
 # scaled by this machine's speed now. The test's own bound on top only stops a hang of the script itself.
 SMOKE_BUDGET_S, SMOKE_WAIT_S, SMOKE_HANG_S = 540.0, 360.0, 360.0
 EXIT_NO_DOCKER = 3
+PLAN_PHYSICS = re.compile(r"^physics \| .*plan fidelity: robots move kinematically", re.MULTILINE)
 ALL_CONSTRUCTED = re.compile(r"^compose-smoke: all (\d+) of (\d+) components constructed$", re.MULTILINE)
 
 
@@ -38,6 +44,7 @@ def _run_smoke_script() -> tuple[int, str, float]:
         **os.environ,
         "BIMBOT_SMOKE_BUDGET_S": f"{budget_s:.0f}",
         "BIMBOT_SMOKE_TIMEOUT_S": f"{SMOKE_WAIT_S * factor:.0f}",
+        "BIMBOT_FIDELITY": "plan",
     }
     process = subprocess.Popen(
         ["bash", str(SMOKE_SCRIPT)],
@@ -74,5 +81,7 @@ def test_compose_stack_constructs_every_component_of_the_bundled_model(bundled_b
     constructed, total = int(match.group(1)), int(match.group(2))
     assert total == expected, "the stack built the bundled model, every component of it"
     assert constructed == total
+    stack_log = (ROOT / "build" / "compose-smoke" / "compose.log").read_text(errors="replace")
+    assert PLAN_PHYSICS.search(stack_log), "physics ran at the fidelity the environment asked for"
     timings = [line for line in output.splitlines() if "timings:" in line or "total" in line]
     print(f"compose-smoke.sh passed in {elapsed_s:.0f} s of {budget_s:.0f}; " + " | ".join(timings))  # -rA
