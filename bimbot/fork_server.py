@@ -14,7 +14,9 @@ and reads ``{"pid"}`` back; when a child exits the server writes ``{"exited": pi
 killed by signal N, as :class:`subprocess.Popen` reports it). :class:`ForkedChild` is the run's handle on
 such a child with ``Popen``'s ``pid``/``poll``/``wait``/``kill``/``send_signal``. A server that cannot start
 or dies is no error: :mod:`bimbot.supervisor` then starts services as plain processes
-(``BIMBOT_FORK_SERVER=0`` does that always). A request ``{"check", "payload", …}`` asks for ``bimbot run``'s
+(``BIMBOT_FORK_SERVER=0`` does that always). With ``BIMBOT_WARM_FORK_SERVER=SOCKET`` the run takes a
+session of a warm server shared by many runs instead of starting its own (:mod:`bimbot.warm_fork_server`):
+the same protocol, without the preload. A request ``{"check", "payload", …}`` asks for ``bimbot run``'s
 input check in a child instead (:mod:`bimbot.forked_check`). This module is the run's side; the server's
 own process is :mod:`bimbot.fork_server_process`.
 
@@ -84,8 +86,10 @@ class ForkServer:
         ``say`` gets the one line a user waiting on a slow first start must see (the run's stdout)."""
         self._say = say
         from bimbot.supervisor import HASH_SEED, STOP_WITH_PARENT_ENV
+        from bimbot.warm_fork_server import WarmSession, connect
 
-        self._process = subprocess.Popen(
+        # a session of a warm server the environment names (loaded already), else a server of its own
+        self._process: WarmSession | subprocess.Popen[bytes] = connect() or subprocess.Popen(
             [sys.executable, "-P", "-m", "bimbot.fork_server_process"],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,

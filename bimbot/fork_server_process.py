@@ -178,36 +178,54 @@ def _resident_mb() -> float:
     return process_status_mb("VmRSS") or 0.0
 
 
+def prepare() -> float | None:
+    """Load what every child needs (:func:`preload`); the seconds it took, None when this kernel has no
+    pidfd to watch a child's end with (the run then starts plain processes)."""
+    try:  # a child's end is watched through a pidfd (Linux 5.3): without one, the run starts plain processes
+        os.close(os.pidfd_open(os.getpid()))
+    except (AttributeError, OSError) as error:
+        sys.stderr.write(f"fork server: no pidfd here ({error}); the run starts its services as processes\n")
+        return None
+    started = time.perf_counter()
+    stdout = os.dup(1)  # nothing printed while importing reaches the answers (fd 1 of a run's server)
+    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
+    try:
+        preload()
+    finally:
+        os.dup2(stdout, 1)
+        os.close(stdout)
+    logging.getLogger().handlers.clear()  # a child configures its own logging (bimbot.cli.main)
+    gc.collect()
+    gc.freeze()
+    return time.perf_counter() - started
+
+
+def serve_run(run_pid: int, said: str) -> int:
+    """Serve one run on fds 0 (its requests), 1 (the answers) and 2 (its log), having said ``said``."""
+    # setproctitle claims the room for its children's longer titles now, while the environment is the
+    # original one; ps says what this process is for
+    setproctitle.setproctitle(
+        f"{sys.executable} -P -m bimbot.fork_server_process (starts the services of bimbot run {run_pid})"
+    )
+    # the answers go on a copy of stdout: a child's fd 1 becomes its log, and nothing buffered follows it
+    answers = os.dup(1)
+    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
+    sys.stderr.write(said + "\n")
+    sys.stderr.flush()
+    return serve(0, answers)
+
+
 def main() -> int:
     from bimbot.cli import stop_with_parent
 
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
     stop_with_parent()  # the run's death ends the server, and the server's its children
-    try:  # a child's end is watched through a pidfd (Linux 5.3): without one, the run starts plain processes
-        os.close(os.pidfd_open(os.getpid()))
-    except (AttributeError, OSError) as error:
-        sys.stderr.write(f"fork server: no pidfd here ({error}); the run starts its services as processes\n")
+    took_s = prepare()
+    if took_s is None:
         return 3
-    # setproctitle claims the room for its children's longer titles now, while the environment is the
-    # original one; ps says what this process is for
-    setproctitle.setproctitle(
-        f"{sys.executable} -P -m bimbot.fork_server_process "
-        f"(starts the services of bimbot run {os.getppid()})"
-    )
-    started = time.perf_counter()
-    # the answers go on a copy of stdout: a child's fd 1 becomes its log, and nothing buffered follows it
-    answers = os.dup(1)
-    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
-    preload()
-    logging.getLogger().handlers.clear()  # a child configures its own logging (bimbot.cli.main)
-    gc.collect()
-    gc.freeze()
-    sys.stderr.write(
-        f"fork server: {len(PRELOAD_MODULES)} service modules preloaded in "
-        f"{time.perf_counter() - started:.2f} s, {_resident_mb():.0f} MB\n"
-    )
-    sys.stderr.flush()
-    return serve(0, answers)
+    modules = len(PRELOAD_MODULES)
+    said = f"fork server: {modules} service modules preloaded in {took_s:.2f} s, {_resident_mb():.0f} MB"
+    return serve_run(os.getppid(), said)
 
 
 if __name__ == "__main__":

@@ -13,6 +13,8 @@ work) that then ran alone at the end instead of beside the other worker's files.
 
 from __future__ import annotations
 
+import os
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -57,6 +59,22 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object | 
 def pytest_report_header(config: pytest.Config) -> str:
     """The factor every wall-clock bound of this run is scaled by (tests/wall_clock.py)."""
     return f"wall-clock bounds: x{speed_factor():.2f} (measured speed factor; {SLOWDOWN_ENV} sets a floor)"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def warm_fork_server() -> Iterator[Path]:
+    """One warm fork server per test process (each xdist worker): every ``bimbot run`` a test starts takes
+    a session of it instead of loading the services' code itself (2-5 s of each run's start-up; see
+    :mod:`bimbot.warm_fork_server`). A run that cannot use it starts its own fork server, as without one;
+    tests/run/test_fork_server.py tests the run's own server with the variable unset."""
+    from bimbot.warm_fork_server import WARM_FORK_SERVER_ENV, running
+
+    with running() as path:
+        os.environ[WARM_FORK_SERVER_ENV] = str(path)
+        try:
+            yield path
+        finally:
+            os.environ.pop(WARM_FORK_SERVER_ENV, None)
 
 
 @pytest.fixture(scope="session")

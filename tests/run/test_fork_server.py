@@ -30,6 +30,16 @@ from bimbot.run.options import RunOptions
 from bimbot.run.preflight import check_run_input
 from bimbot.shared.errors import UserError
 from bimbot.supervisor import ServiceProcess, free_port, wait_until
+from bimbot.warm_fork_server import WARM_FORK_SERVER_ENV
+
+
+@pytest.fixture(scope="module", autouse=True)
+def own_server() -> Iterator[None]:
+    """The run's own fork server, not a session of the suite's warm one (tests/conftest.py)."""
+    named = os.environ.pop(WARM_FORK_SERVER_ENV, None)
+    yield
+    if named is not None:
+        os.environ[WARM_FORK_SERVER_ENV] = named
 
 
 @pytest.fixture(scope="module")
