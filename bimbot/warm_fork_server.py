@@ -153,6 +153,22 @@ def running() -> Iterator[Path]:
         shutil.rmtree(folder, ignore_errors=True)
 
 
+@contextlib.contextmanager
+def for_the_runs_of_this_process() -> Iterator[Path]:
+    """:func:`running`, named in this process's environment (which the runs it starts inherit) until the
+    end; a warm server the environment names already is kept, and none is started."""
+    named = os.environ.get(WARM_FORK_SERVER_ENV)
+    if named:
+        yield Path(named)
+        return
+    with running() as path:
+        os.environ[WARM_FORK_SERVER_ENV] = str(path)
+        try:
+            yield path
+        finally:
+            os.environ.pop(WARM_FORK_SERVER_ENV, None)
+
+
 # --- the warm server's side ----------------------------------------------------------------------------
 
 

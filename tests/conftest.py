@@ -13,7 +13,6 @@ work) that then ran alone at the end instead of beside the other worker's files.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -67,14 +66,10 @@ def warm_fork_server() -> Iterator[Path]:
     a session of it instead of loading the services' code itself (2-5 s of each run's start-up; see
     :mod:`bimbot.warm_fork_server`). A run that cannot use it starts its own fork server, as without one;
     tests/run/test_fork_server.py tests the run's own server with the variable unset."""
-    from bimbot.warm_fork_server import WARM_FORK_SERVER_ENV, running
+    from bimbot.warm_fork_server import for_the_runs_of_this_process
 
-    with running() as path:
-        os.environ[WARM_FORK_SERVER_ENV] = str(path)
-        try:
-            yield path
-        finally:
-            os.environ.pop(WARM_FORK_SERVER_ENV, None)
+    with for_the_runs_of_this_process() as path:
+        yield path
 
 
 @pytest.fixture(scope="session")

@@ -43,7 +43,11 @@ def dask_client(scheduler: str | None, workers: int) -> Iterator[Any]:
         with client:
             yield client
         return
+    from bimbot.warm_fork_server import for_the_runs_of_this_process
+
+    # the runs start on this machine: their services fork from one warm server, not one server a run
     with (
+        for_the_runs_of_this_process(),
         LocalCluster(
             n_workers=1,
             threads_per_worker=workers,

@@ -19,7 +19,7 @@ from wall_clock import bound_s
 
 from bimbot.fork_server import ForkedChild, ForkServer
 from bimbot.supervisor import ServiceProcess, free_port, wait_until
-from bimbot.warm_fork_server import WARM_FORK_SERVER_ENV, WarmSession, running
+from bimbot.warm_fork_server import WARM_FORK_SERVER_ENV, WarmSession, for_the_runs_of_this_process, running
 
 
 @pytest.fixture(scope="module")
@@ -149,3 +149,27 @@ def test_a_run_that_names_no_listening_server_starts_its_own(
     finally:
         launcher.close()
     assert os.environ.get(WARM_FORK_SERVER_ENV) == str(tmp_path / "no.sock")  # monkeypatch undoes it
+
+
+def test_a_process_names_its_warm_server_for_its_runs_and_keeps_one_named_already(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    monkeypatch.delenv(WARM_FORK_SERVER_ENV, raising=False)
+    with for_the_runs_of_this_process() as path:
+        assert os.environ[WARM_FORK_SERVER_ENV] == str(path)
+        assert wait_until(path.exists, timeout_s=bound_s(120.0)), "the warm server never listened"
+        with for_the_runs_of_this_process() as inner:
+            assert inner == path  # named already: kept, no second server
+    assert WARM_FORK_SERVER_ENV not in os.environ
+    assert not path.exists()  # stopped, its socket gone
+
+
+def test_a_study_on_its_embedded_cluster_starts_its_runs_from_a_warm_server(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from bimbot.study.cluster import dask_client
+
+    monkeypatch.delenv(WARM_FORK_SERVER_ENV, raising=False)
+    with dask_client(None, 1):
+        assert os.environ.get(WARM_FORK_SERVER_ENV), "the study's runs name no warm server"
+    assert WARM_FORK_SERVER_ENV not in os.environ
