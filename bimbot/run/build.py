@@ -24,6 +24,7 @@ import logging
 import re
 import shutil
 import signal
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -146,6 +147,7 @@ def _run_build(
                     types = run_fleet(options).type_of()
                     progress = make_progress(monitor.names, quiet=False, say=announce, types=types)
                 building_from = time.perf_counter()
+                _load_report_code_meanwhile()
                 interim = _interim_reports(report_dir)
                 result = RunWatch(
                     planner=by_name["planner"],
@@ -209,9 +211,24 @@ def _check_input(build: Path, options: RunOptions, launcher: ForkServer | None) 
     return manifest
 
 
+def _load_report_code_meanwhile() -> None:
+    """Import the report's plotting code (matplotlib: about a second of CPU) in the background while the
+    build runs, when this process mostly waits, so that the report at the end does not wait for it. Not
+    before the services start: they need the cores then."""
+
+    def load() -> None:
+        try:
+            import bimbot.shared.report.png  # noqa: F401
+        except Exception as error:  # the report imports it again, and says what fails then
+            _log.debug("the report's code did not load in the background: %s", error)
+
+    threading.Thread(target=load, name="report-imports", daemon=True).start()
+
+
 def _write_report(report: dict[str, Any], report_dir: Path) -> None:
-    """``report.json`` and ``report.png``; matplotlib is imported here, when the first report is due, not
-    before the services start (a quarter of a second of every run's start)."""
+    """``report.json`` and ``report.png``; matplotlib is imported while the build runs
+    (:func:`_load_report_code_meanwhile`), not before the services start (a quarter of a second of every
+    run's start)."""
     from bimbot.shared.report.png import write_report_files
 
     write_report_files(report, report_dir)
