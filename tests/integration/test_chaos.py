@@ -25,6 +25,7 @@ import pytest
 from fleets import ground_fleet_file
 from frames import convert_small_frame
 from lock_step_logs import waits_that_ran_out
+from processes import run_services
 from wall_clock import bound_s
 
 from bimbot.services.component_agents.journal import journal_path, replay
@@ -43,27 +44,8 @@ FIRST_KILL_AT, KILL_EVERY = 1, 1
 
 
 def _children(pid: int) -> dict[str, int]:
-    """``bimbot <command>`` → pid of the services started by ``pid`` (from /proc): its children, or the
-    children of its fork server (:mod:`bimbot.fork_server`), whose command line is the service's."""
-    parents: dict[int, int] = {}
-    argvs: dict[int, list[bytes]] = {}
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            stat = (entry / "stat").read_text()
-            argv = (entry / "cmdline").read_bytes().replace(b"\0", b" ").split()
-        except OSError:
-            continue
-        parents[int(entry.name)] = int(stat.rsplit(")", 1)[1].split()[1])
-        argvs[int(entry.name)] = argv
-    found: dict[str, int] = {}
-    for child, parent in parents.items():
-        argv = argvs[child]
-        started_by_run = parent == pid or parents.get(parent) == pid
-        if started_by_run and b"bimbot.cli" in argv:
-            found[argv[argv.index(b"bimbot.cli") + 1].decode()] = child
-    return found
+    """``bimbot <command>`` → pid of the services started by the run ``pid`` (tests/processes.py)."""
+    return {argv[argv.index("bimbot.cli") + 1]: child for child, argv in run_services(pid).items()}
 
 
 def _constructions(run: RunFolder) -> Counter[str]:

@@ -26,6 +26,7 @@ import pytest
 from fleets import ground_fleet_file
 from frames import convert_small_frame
 from lock_step_logs import waits_that_ran_out
+from processes import run_services
 
 from bimbot.services.component_agents.journal import journal_path, replay
 from bimbot.shared.messages import ComponentState
@@ -41,25 +42,11 @@ FIRST_KILL_AT, KILL_EVERY = 2, 3
 
 
 def _routers(pid: int) -> dict[str, tuple[int, list[str]]]:
-    """``bus`` / ``bus-2`` → (pid, argv) of the routers started by ``pid`` (directly or by its fork server):
+    """``bus`` / ``bus-2`` → (pid, argv) of the routers started by the run ``pid`` (tests/processes.py):
     the second is the one that connects to another router."""
-    parents: dict[int, int] = {}
-    argvs: dict[int, list[str]] = {}
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            stat = (entry / "stat").read_text()
-            # a forked service's title is its command line, one string (setproctitle)
-            argv = (entry / "cmdline").read_bytes().decode(errors="replace").replace("\0", " ").split()
-        except OSError:
-            continue
-        parents[int(entry.name)] = int(stat.rsplit(")", 1)[1].split()[1])
-        argvs[int(entry.name)] = argv
     found: dict[str, tuple[int, list[str]]] = {}
-    for child, argv in argvs.items():
-        started_by_run = parents[child] == pid or parents.get(parents[child]) == pid
-        if started_by_run and "bimbot.cli" in argv and argv[argv.index("bimbot.cli") + 1] == "bus":
+    for child, argv in run_services(pid).items():
+        if argv[argv.index("bimbot.cli") + 1] == "bus":
             found["bus-2" if "--connect" in argv else "bus"] = (child, argv)
     return found
 

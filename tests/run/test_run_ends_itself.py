@@ -85,6 +85,22 @@ def _descendants(pid: int) -> set[int]:
     return found
 
 
+def _run_processes(run_pid: int, build: Path) -> set[int]:
+    """The run's processes: its descendants, and, when its services fork from a session of a warm fork
+    server (tests/conftest.py), that session (its title names the run) and the services of ``build``."""
+    found = _descendants(run_pid)
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit() and int(entry.name) != run_pid:
+            try:
+                title = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+            except OSError:
+                continue
+            ours = f"bimbot run {run_pid})" in title or ("bimbot.cli" in title and str(build) in title)
+            if ours:
+                found |= {int(entry.name)} | _descendants(int(entry.name))
+    return found
+
+
 def _assert_every_component_not_built_has_a_reason(report: dict) -> list[dict]:
     not_built = [c for c in report["components"] if c["state"] != "constructed"]
     assert not_built, "the run was meant to end before the frame was built"
@@ -115,7 +131,7 @@ def test_sigterm_stops_every_service_and_their_groups_and_still_writes_the_repor
             "no report while running"
         )
         assert json.loads(report_path.read_text())["ending"]["how"] == "running"
-        children = _descendants(process.pid)
+        children = _run_processes(process.pid, small_frame)
         groups = {pgid for pid, (_, pgid) in _processes().items() if pid in children}
         assert len(children) >= 5 and process.pid not in groups  # bus, physics, agents, planner, robot
         process.send_signal(signal.SIGTERM)
