@@ -5,7 +5,9 @@ it, drives the component through ``pick → attach → arrive → place`` (publi
 physics would: carried, then at its target, optionally with an injected error) and waits for the
 component's verdict before going idle again. Events are sent at least once: repeated with the same
 ``event_id`` until the component's state shows them applied, so an agent process that is down for a
-while loses nothing.
+while loses nothing. What it waits for is looked up in every state published since it sent the event,
+not only in the latest: a misplacement's ``verifying``, ``misplaced`` and (on the planner's retry)
+``released`` can arrive together, and then the latest has already moved past what the robot waits for.
 """
 
 from __future__ import annotations
@@ -145,6 +147,10 @@ class RobotStandIn:
             message = ComponentStateMsg.model_validate_json(sample.payload.to_bytes())
         except ValueError:
             return
+        self.record_state(message)
+
+    def record_state(self, message: ComponentStateMsg) -> None:
+        """Record ``message`` and wake the robots that wait for a state."""
         with self._changed:
             self.record.states.append(message)
             self._latest[message.guid] = message
@@ -220,9 +226,10 @@ class RobotStandIn:
             offset = np.array([0.05, 0.0, 0.0])  # 5 cm off: beyond the agent's position tolerance
         placed = PoseMsg(position_m=tuple(np.array(target.position_m) + offset), quat_xyzw=target.quat_xyzw)
         self._pose(task.guid, placed, fixed=True)
+        placing = self.mark()
         if not self._send(robot_id, task, ComponentEvent.PLACE):
             return
-        verdict = self._wait_for(task.guid, VERDICTS, timeout_s=bound_s(60.0))
+        verdict = self.wait_for(task.guid, VERDICTS, since=placing, timeout_s=bound_s(60.0))
         if verdict is not None and verdict.state == ComponentState.CONSTRUCTED:
             self.record.tasks_done.append(task.guid)
         self._robot_state(robot_id, RobotState.IDLE, None, pose)
@@ -241,20 +248,31 @@ class RobotStandIn:
             sim_time_s=self.sim_time(),
             wall_time_s=time.time(),
         )
+        sent = self.mark()
         deadline = time.monotonic() + bound_s(60.0)
         while not self.stop.is_set() and time.monotonic() < deadline:
             self._put(key(COMPONENT_EVENT_KEY, site=self.site, key=guid_to_key(task.guid)), message)
-            if self._wait_for(task.guid, EXPECTED_AFTER[event], timeout_s=self.resend_s) is not None:
+            if self.wait_for(task.guid, EXPECTED_AFTER[event], since=sent, timeout_s=self.resend_s):
                 return True
         return False
 
-    def _wait_for(self, guid: str, states: set[ComponentState], timeout_s: float) -> ComponentStateMsg | None:
+    def mark(self) -> int:
+        """Where the record of states stands now: :meth:`wait_for` looks at what was published after it."""
+        with self._changed:
+            return len(self.record.states)
+
+    def wait_for(
+        self, guid: str, states: set[ComponentState], *, since: int, timeout_s: float
+    ) -> ComponentStateMsg | None:
+        """The first state of ``guid`` in ``states`` published since the :meth:`mark` ``since``; None when
+        none came within ``timeout_s`` (or the stand-in stops)."""
         deadline = time.monotonic() + timeout_s
         with self._changed:
             while not self.stop.is_set():
-                latest = self._latest.get(guid)
-                if latest is not None and latest.state in states:
-                    return latest
+                for message in self.record.states[since:]:
+                    if message.guid == guid and message.state in states:
+                        return message
+                since = len(self.record.states)  # the ones looked at did not match
                 remaining = deadline - time.monotonic()
                 if remaining <= 0:
                     return None
