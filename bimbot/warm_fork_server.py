@@ -197,6 +197,7 @@ def _open_session(connection: socket.socket, listener: socket.socket, said: str)
                 listener.close()
                 connection.close()
                 signal.signal(signal.SIGTERM, signal.SIG_DFL)
+                signal.signal(signal.SIGCHLD, signal.SIG_DFL)  # the session waits for its own children
                 os.setsid()  # as the run starts its own server: a Ctrl-C at the terminal reaches the run only
                 for target, fd in enumerate(fds):
                     os.dup2(fd, target)
@@ -245,6 +246,7 @@ def serve(path: Path) -> int:
         f"preloaded in {took_s:.2f} s once, for every run that names it"
     )
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
+    signal.signal(signal.SIGCHLD, lambda *_: _reap())  # an ended session is collected at once
     with contextlib.suppress(FileNotFoundError):
         path.unlink()
     listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
