@@ -40,17 +40,19 @@ CONNECT_TIMEOUT_S = 10.0  # a warm server answers a connection at once; one that
 STOP_TIMEOUT_S = 5.0  # a warm server ends within a second of its stdin closing (it looks every second)
 
 
-def identity(environ: Mapping[str, str]) -> dict[str, str]:
+def identity(environ: Mapping[str, str], *, server: bool = False) -> dict[str, str]:
     """What a run and a warm server must share: the code the server loaded (the package, the Python and
     its module path) and the hash seed the run's services would have (:data:`bimbot.supervisor.HASH_SEED`;
     a value the user set wins)."""
     import bimbot
     from bimbot.supervisor import HASH_SEED
 
+    # the server's own seed is the one it started with (none set: a random one, which no run shares)
+    seed = environ.get("PYTHONHASHSEED", "random") if server else {**HASH_SEED, **environ}["PYTHONHASHSEED"]
     return {
         "package": str(Path(bimbot.__file__).resolve().parent),
         "python": sys.executable,
-        "hash_seed": {**HASH_SEED, **environ}["PYTHONHASHSEED"],
+        "hash_seed": seed,
         "python_path": environ.get("PYTHONPATH", ""),  # what the server's imports found
     }
 
@@ -180,7 +182,7 @@ def _open_session(connection: socket.socket, listener: socket.socket, said: str)
     try:
         message, fds, _, _ = socket.recv_fds(connection, 1 << 16, 3)
         request = json.loads(message)
-        mine = identity(os.environ)
+        mine = identity(os.environ, server=True)
         if len(fds) != 3:
             refused = f"{len(fds)} pipe(s) handed over, not 3"
         elif request.get("identity") != mine:
@@ -272,4 +274,9 @@ def serve(path: Path) -> int:
 if __name__ == "__main__":
     if len(sys.argv) != 2:
         sys.exit("usage: python -P -m bimbot.warm_fork_server SOCKET")
+    if "PYTHONHASHSEED" not in os.environ:  # hash as a run's services do: the seed is fixed at start-up
+        from bimbot.supervisor import HASH_SEED
+
+        command = [sys.executable, "-P", "-m", "bimbot.warm_fork_server", sys.argv[1]]
+        os.execve(sys.executable, command, {**HASH_SEED, **os.environ})
     sys.exit(serve(Path(sys.argv[1])))

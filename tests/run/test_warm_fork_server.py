@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -173,3 +174,30 @@ def test_a_study_on_its_embedded_cluster_starts_its_runs_from_a_warm_server(
     with dask_client(None, 1):
         assert os.environ.get(WARM_FORK_SERVER_ENV), "the study's runs name no warm server"
     assert WARM_FORK_SERVER_ENV not in os.environ
+
+
+def test_a_warm_server_started_by_hand_hashes_as_a_run_s_services_do(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """Started without PYTHONHASHSEED (as the README shows), it takes the seed a run's services have (a
+    server with a random one serves no run), so the services forked from it hash alike run after run."""
+    path = tmp_path / "fork.sock"
+    environment = {k: v for k, v in os.environ.items() if k != "PYTHONHASHSEED"}
+    server = subprocess.Popen(
+        [sys.executable, "-P", "-m", "bimbot.warm_fork_server", str(path)],
+        stdin=subprocess.PIPE,
+        env=environment,
+        start_new_session=True,
+    )
+    try:
+        assert wait_until(path.exists, timeout_s=bound_s(120.0)), "the warm server never listened"
+        monkeypatch.delenv("PYTHONHASHSEED", raising=False)
+        launcher = _launcher(path, monkeypatch, tmp_path / "fork-server.log")
+        try:
+            assert isinstance(launcher._process, WarmSession), "refused: the server hashes otherwise"
+        finally:
+            launcher.close()
+    finally:
+        assert server.stdin is not None
+        server.stdin.close()
+        server.wait(timeout=bound_s(30.0))
