@@ -166,7 +166,10 @@ class ForkServer:
                         return None
                     if not said and now - asked >= SLOW_START_S:
                         said = True  # a first start after setup compiles the kernels (numba): minutes
-                        self._say("loading the simulation libraries (the first start after setup: 1-2 min)")
+                        self._say(
+                            "loading the simulation libraries (1-2 min on the first start after setup; "
+                            "longer than usual on a busy machine)"
+                        )
                     self._changed.wait(timeout=min(left, 0.5))
                 return self._checks.pop(token, None) or None
 

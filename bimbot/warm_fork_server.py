@@ -29,6 +29,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import time
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import IO, Any
@@ -156,14 +157,18 @@ def running() -> Iterator[Path]:
 
 
 @contextlib.contextmanager
-def for_the_runs_of_this_process() -> Iterator[Path]:
+def for_the_runs_of_this_process(wait_s: float = 0.0) -> Iterator[Path]:
     """:func:`running`, named in this process's environment (which the runs it starts inherit) until the
-    end; a warm server the environment names already is kept, and none is started."""
+    end; a warm server the environment names already is kept, and none is started. ``wait_s``: how long to
+    wait for it to listen (0: not at all), so that the first run, too, takes a session of it."""
     named = os.environ.get(WARM_FORK_SERVER_ENV)
     if named:
         yield Path(named)
         return
     with running() as path:
+        deadline = time.monotonic() + wait_s
+        while not path.exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
         os.environ[WARM_FORK_SERVER_ENV] = str(path)
         try:
             yield path

@@ -101,6 +101,8 @@ def run(args: argparse.Namespace) -> int:
     from .summary import markdown_table, write_csv, write_plot
 
     _check(args)
+    import distributed  # noqa: F401 - its import sets its loggers to INFO: quieted after it, not before
+
     logging.getLogger("distributed").setLevel(max(logging.WARNING, logging.getLogger().level))
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)

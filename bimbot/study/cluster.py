@@ -25,6 +25,9 @@ from .rows import failed_row
 _log = logging.getLogger(__name__)
 
 SCHEDULER_TIMEOUT_S = 30.0  # wall seconds to reach a --scheduler
+# wall seconds the runs wait for their warm fork server to load (seconds; a first start after setup
+# compiles the kernels: then the first runs load their own)
+WARM_SERVER_WAIT_S = 60.0
 
 Progress = Callable[[dict[str, Any]], None]  # called with each row as its run ends
 
@@ -47,12 +50,13 @@ def dask_client(scheduler: str | None, workers: int) -> Iterator[Any]:
 
     # the runs start on this machine: their services fork from one warm server, not one server a run
     with (
-        for_the_runs_of_this_process(),
+        for_the_runs_of_this_process(wait_s=WARM_SERVER_WAIT_S),
         LocalCluster(
             n_workers=1,
             threads_per_worker=workers,
             processes=False,
             dashboard_address="127.0.0.1:0",  # its HTTP endpoint on a free loopback port, not 8787
+            worker_dashboard_address="127.0.0.1:0",  # the worker's too (else on every interface)
             scheduler_kwargs={"dashboard": False},
             silence_logs=logging.WARNING,
         ) as cluster,

@@ -125,7 +125,7 @@ def fleet_of(settings: Mapping[str, Any]) -> str | None:
     or its fleet (``the default fleet``, a fleet file's path); None when the report does not say."""
     robots, fleet = settings.get("robots"), settings.get("fleet")
     if robots:
-        return f"{robots} robot(s) of the default type"
+        return f"{robots} robot(s) of the default type, with the fleet's machines"
     return str(fleet) if fleet else None
 
 

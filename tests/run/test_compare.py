@@ -81,7 +81,7 @@ def test_the_table_has_a_row_per_method_and_the_makespan_against_the_first(
     # what tells the two runs apart: their robots and seeds (a trial compared fleets by folder name)
     assert [cell.strip() for cell in rows["robots"].split("|")[2:4]] == [
         "the default fleet",
-        "3 robot(s) of the default type",
+        "3 robot(s) of the default type, with the fleet's machines",
     ]
     assert [cell.strip() for cell in rows["seed"].split("|")[2:4]] == ["0", "7"]
     back = compare_cli.run(argparse.Namespace(runs=[b, a]))

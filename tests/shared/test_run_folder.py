@@ -100,7 +100,8 @@ def test_bimbot_runs_lists_runs_with_their_reports_and_makes_new_ones(
     report["totals"] |= {"in_place": 9}
     (made / "report" / "report.json").write_text(json.dumps(report))
     assert main(["runs", str(build)]) == 0
-    assert "812 s sim, 3 robot(s) of the default type, 9 in place; not constructed" in capsys.readouterr().out
+    said = "812 s sim, 3 robot(s) of the default type, with the fleet's machines, 9 in place; not constructed"
+    assert said in capsys.readouterr().out
     report["settings"] = {"robots": None, "fleet": "site.toml"}
     (made / "report" / "report.json").write_text(json.dumps(report))
     assert main(["runs", str(build)]) == 0

@@ -7,6 +7,7 @@ from a real run's report.
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -18,6 +19,7 @@ from bimbot.study.cluster import run_on_dask
 from bimbot.study.execute import RunJob
 from bimbot.study.grid import study_grid
 from bimbot.study.summary import read_csv
+from bimbot.warm_fork_server import WARM_FORK_SERVER_ENV
 
 ONE_CARRIER = """
 default_type = "carrier"
@@ -62,14 +64,19 @@ def test_bimbot_study_writes_the_csv_table_and_plot_of_its_runs(tmp_path: Path) 
     out = tmp_path / "study"
     command = [sys.executable, "-m", "bimbot.cli", "-q", "study", str(build), "--fleet", str(fleet)]
     command += ["--seeds", "1", "-o", str(out), "--timeout-s", "300"]
-    done = subprocess.run(command, check=False, capture_output=True, text=True, timeout=600)
+    # the study starts its own warm fork server (not the suite's), and its one run takes a session of it
+    environment = {k: v for k, v in os.environ.items() if k != WARM_FORK_SERVER_ENV}
+    done = subprocess.run(command, check=False, capture_output=True, text=True, timeout=600, env=environment)
     assert done.returncode == 0, done.stdout + done.stderr
+    assert "distributed." not in done.stderr, done.stderr  # Dask's INFO lines are not the user's
     (row,) = read_csv(out / "study.csv")
     assert (row["fleet"], row["seed"], row["status"]) == ("one_carrier", "1", "built"), row
     assert row["constructed"] == row["components"] != "0"
     assert float(row["makespan_s"]) > 0 and 0 < float(row["utilisation_carrier"]) <= 1
     assert float(row["cost"]) == pytest.approx(60.0 * float(row["busy_h"]), abs=0.01)
     assert (out / row["run_dir"] / "report" / "report.json").is_file()
+    fork_server_log = (out / row["run_dir"] / "logs" / "fork-server.log").read_text()
+    assert "a session of the warm fork server" in fork_server_log, fork_server_log
     table = (out / "study.md").read_text()
     assert "| one_carrier | 1/1 |" in table and table.split("\n", 2)[2] in done.stdout
     assert (out / "study.png").read_bytes()[:4] == b"\x89PNG"
