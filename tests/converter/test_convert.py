@@ -1,5 +1,6 @@
 """End-to-end conversion: the bundled frame and every public sample → SDF world, checked by the SDFormat
-reference parser, PyBullet, and the world-coordinate tessellation of the source."""
+reference parser (one file per structure) and a value check of every file (tests/converter/sdf_checks.py),
+PyBullet, and the world-coordinate tessellation of the source."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from lxml import etree
 from sample_builds import converted_sample
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
-from sdf_checks import sdf_check_all, sdf_model_pose
+from sdf_checks import sdf_check_files, sdf_model_pose
 
 from bimbot.demo import bundled_model_path
 from bimbot.services.converter.convert import convert_model
@@ -56,11 +57,12 @@ def sample(
 # --- shared checks ---------------------------------------------------------------------------------------
 
 
-def _check_every_sdf_is_valid(out: Path, manifest: Manifest) -> None:
+def _check_every_sdf_file(out: Path, manifest: Manifest) -> None:
+    """Every file's values, and the reference parser on one file of each structure (the world among them)."""
     files = [out / component.files.sdf_file for component in manifest.components] + [
         out / manifest.world_file
     ]
-    checked = sdf_check_all(files, out / "models")
+    checked = sdf_check_files(files, out / "models")
     assert {path: answer for path, answer in checked.items() if answer != "Valid."} == {}
 
 
@@ -129,8 +131,10 @@ def test_frame_converts_all_28_components_with_nothing_skipped(frame: tuple[Path
     assert manifest.site == "greenhouse-site" and (out / "worlds" / "greenhouse-site.world").is_file()
 
 
-def test_frame_sdf_files_pass_the_reference_parser(frame: tuple[Path, Manifest]) -> None:
-    _check_every_sdf_is_valid(*frame)
+def test_frame_sdf_files_pass_the_value_check_and_each_structure_the_reference_parser(
+    frame: tuple[Path, Manifest],
+) -> None:
+    _check_every_sdf_file(*frame)
 
 
 def test_frame_meshes_at_their_poses_coincide_with_the_world_tessellation(
@@ -206,9 +210,11 @@ def test_frame_semantics_in_manifest_config_and_split_ifc(frame: tuple[Path, Man
 # --- every public sample -------------------------------------------------------------------------------
 
 
-def test_sample_sdf_files_pass_the_reference_parser(sample: tuple[Path, Manifest, Path]) -> None:
+def test_sample_sdf_files_pass_the_value_check_and_each_structure_the_reference_parser(
+    sample: tuple[Path, Manifest, Path],
+) -> None:
     out, manifest, _ = sample
-    _check_every_sdf_is_valid(out, manifest)
+    _check_every_sdf_file(out, manifest)
 
 
 def test_sample_meshes_at_poses_coincide_with_world_tessellation(sample: tuple[Path, Manifest, Path]) -> None:

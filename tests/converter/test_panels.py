@@ -13,7 +13,7 @@ import numpy as np
 import pybullet
 import pytest
 from ifc_builders import SmallModel, add_beam, add_opening, add_wall, new_model, place, translation
-from sdf_checks import sdf_check_all
+from sdf_checks import sdf_check_files
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
 from bimbot.services.converter.final_method import default_limits
@@ -161,7 +161,7 @@ def test_panels_are_valid_models_at_their_places(build: tuple[Path, Manifest, di
     out, manifest, _ = build
     panels = [c for c in manifest.components if c.parent_guid]
     files = [out / c.files.sdf_file for c in panels] + [out / manifest.world_file]
-    checked = sdf_check_all(files, out / "models")
+    checked = sdf_check_files(files, out / "models")
     assert {path: answer for path, answer in checked.items() if answer != "Valid."} == {}
     client = pybullet.connect(pybullet.DIRECT)
     try:
