@@ -239,21 +239,21 @@ def test_sample_lists_every_element_as_component_or_skipped(sample: tuple[Path, 
     assert all(skipped.reason for skipped in manifest.skipped)
 
 
-def test_far_model_is_shifted_to_a_local_origin(tmp_path: Path) -> None:
+def test_far_model_is_shifted_to_a_local_origin(tmp_path_factory: pytest.TempPathFactory) -> None:
     source = SAMPLES_DIR / "large_offset.ifc"
     if not source.is_file():
         pytest.skip(f"{source} is absent")
-    manifest = _convert(source, tmp_path)
+    _, manifest = converted_sample(source.name, tmp_path_factory)  # the sample tests' conversion
     assert any(abs(v) > 1000.0 for v in manifest.local_origin_m)
     for component in manifest.components:
         assert np.abs(component.target_pose_world.position_m).max() < 1000.0
 
 
-def test_csg_only_element_is_skipped_with_the_reason(tmp_path: Path) -> None:
+def test_csg_only_element_is_skipped_with_the_reason(tmp_path_factory: pytest.TempPathFactory) -> None:
     source = SAMPLES_DIR / "geographic-referencing.ifc"
     if not source.is_file():
         pytest.skip(f"{source} is absent")
-    manifest = _convert(source, tmp_path)
+    _, manifest = converted_sample(source.name, tmp_path_factory)  # the sample tests' conversion
     (skipped,) = manifest.skipped
     assert skipped.guid == "0rBru4syGxGOZb$M8kVJuS"
     assert "could not build" in skipped.reason
