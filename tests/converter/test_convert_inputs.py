@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import ifcopenshell
@@ -195,3 +197,14 @@ def test_unknown_class_in_include_is_a_user_error(tmp_path: Path) -> None:
     )
     assert result.returncode == 2 and "unknown IFC class" in result.stderr and "IfcWal" in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
+
+
+def test_the_command_imports_neither_trimesh_nor_scipy_until_a_step_needs_them() -> None:
+    """They cost a command about a second of imports (half of a user error's answer): the converter imports
+    them where a step uses them (a bar's oriented box, an overlap's plan area, a flat mesh)."""
+    code = (
+        "import sys, bimbot.services.converter.cli, bimbot.services.converter.convert;"
+        "print(sorted({name.split('.')[0] for name in sys.modules} & {'trimesh', 'scipy'}))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == "[]"
