@@ -11,8 +11,9 @@ and asks ``ign sdf -k`` itself only about a file that fails, for its message.
 
 ``sdf_check_files`` is what a test of a whole build uses: the reference parser on one file per structure
 (the tag tree with attribute names, ``sdf_values.structure_key``; the world file has one of its own) and the
-pure Python value check (``sdf_values.sdf_value_problems``) on every file. A build's model files come from
-one deterministic writer and differ in their values only, which the value check covers for each file.
+pure Python value check (``sdf_values.sdf_value_problems``) on every file. The files come from one
+deterministic writer; files of one structure differ only in their values, which the value check reads in
+each of them.
 """
 
 from __future__ import annotations
