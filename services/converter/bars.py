@@ -14,7 +14,6 @@ import logging
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
 from bimbot.shared.manifest import Component
 
@@ -50,6 +49,8 @@ class BarShapes:
         points = np.unique(np.vstack(clouds).round(6), axis=0)
         if len(points) < 4:
             return False
+        import trimesh.bounds  # here, not at the top: trimesh and scipy cost a command ~1 s of imports
+
         try:
             _, extents = trimesh.bounds.oriented_bounds(points)
         except (ValueError, RuntimeError) as error:  # flat or degenerate: no hull to fit a box to

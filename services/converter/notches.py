@@ -13,7 +13,6 @@ deck is set round it.
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
 from bimbot.shared.manifest import Component, Joint, JointSource
 
@@ -68,6 +67,8 @@ def plan_area_m2(region_world_m: np.ndarray) -> float:
     points = np.unique(region_world_m[:, :2].round(6), axis=0)
     if len(points) < 3:
         return 0.0
+    from scipy.spatial import ConvexHull, QhullError  # here: scipy costs a command its import
+
     try:
         return float(ConvexHull(points).volume)  # a 2-D hull's "volume" is its area
     except QhullError:  # all on one line

@@ -8,6 +8,12 @@ reference parser; it prints ``Valid.`` for a valid file. Model URIs (``model://â
 file, most of it starting Ruby and loading the library. ``sdf_check_all`` calls the very same function of
 the very same library (the one the Ruby script names) on every file in one process (``sdf_batch_check.py``)
 and asks ``ign sdf -k`` itself only about a file that fails, for its message.
+
+``sdf_check_files`` is what a test of a whole build uses: the reference parser on one file per structure
+(the tag tree with attribute names, ``sdf_values.structure_key``; the world file has one of its own) and the
+pure Python value check (``sdf_values.sdf_value_problems``) on every file. The files come from one
+deterministic writer; files of one structure differ only in their values, which the value check reads in
+each of them.
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 from scipy.spatial.transform import Rotation
+from sdf_values import sdf_value_problems, structure_key
 from wall_clock import bound_s
 
 IGN = shutil.which("ign")
@@ -63,6 +70,31 @@ def sdf_check_all(paths: list[Path], models_dir: Path) -> dict[Path, str]:
         path: "Valid." if code == 0 else ign_sdf_check(path, models_dir)
         for path, code in zip(paths, codes, strict=True)
     }
+
+
+def one_file_per_structure(paths: list[Path]) -> list[Path]:
+    """The first of ``paths`` with each structure key; a file lxml cannot parse is a structure of its own."""
+    first: dict[str, Path] = {}
+    for path in paths:
+        try:
+            key = structure_key(etree.parse(str(path)).getroot())
+        except etree.XMLSyntaxError:
+            key = f"unparsed {path}"
+        first.setdefault(key, path)
+    return list(first.values())
+
+
+def sdf_check_files(paths: list[Path], models_dir: Path) -> dict[Path, str]:
+    """``Valid.`` or what is wrong, for each of ``paths``: the value check of every file and the reference
+    parser's answer for one file per structure (``one_file_per_structure``), see the module."""
+    referenced = sdf_check_all(one_file_per_structure(paths), models_dir)
+    answers: dict[Path, str] = {}
+    for path in paths:
+        problems = [f"value check: {problem}" for problem in sdf_value_problems(path, models_dir)]
+        if referenced.get(path, "Valid.") != "Valid.":
+            problems.append(f"reference parser: {referenced[path]}")
+        answers[path] = "\n".join(problems) or "Valid."
+    return answers
 
 
 def ign_sdf_check(path: Path, models_dir: Path) -> str:

@@ -1,5 +1,6 @@
 """End-to-end conversion: the bundled frame and every public sample → SDF world, checked by the SDFormat
-reference parser, PyBullet, and the world-coordinate tessellation of the source."""
+reference parser (one file per structure) and a value check of every file (tests/converter/sdf_checks.py),
+PyBullet, and the world-coordinate tessellation of the source."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from lxml import etree
 from sample_builds import converted_sample
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
-from sdf_checks import sdf_check_all, sdf_model_pose
+from sdf_checks import sdf_check_files, sdf_model_pose
 
 from bimbot.demo import bundled_model_path
 from bimbot.services.converter.convert import convert_model
@@ -56,11 +57,12 @@ def sample(
 # --- shared checks ---------------------------------------------------------------------------------------
 
 
-def _check_every_sdf_is_valid(out: Path, manifest: Manifest) -> None:
+def _check_every_sdf_file(out: Path, manifest: Manifest) -> None:
+    """Every file's values, and the reference parser on one file of each structure (the world among them)."""
     files = [out / component.files.sdf_file for component in manifest.components] + [
         out / manifest.world_file
     ]
-    checked = sdf_check_all(files, out / "models")
+    checked = sdf_check_files(files, out / "models")
     assert {path: answer for path, answer in checked.items() if answer != "Valid."} == {}
 
 
@@ -129,8 +131,10 @@ def test_frame_converts_all_28_components_with_nothing_skipped(frame: tuple[Path
     assert manifest.site == "greenhouse-site" and (out / "worlds" / "greenhouse-site.world").is_file()
 
 
-def test_frame_sdf_files_pass_the_reference_parser(frame: tuple[Path, Manifest]) -> None:
-    _check_every_sdf_is_valid(*frame)
+def test_frame_sdf_files_pass_the_value_check_and_each_structure_the_reference_parser(
+    frame: tuple[Path, Manifest],
+) -> None:
+    _check_every_sdf_file(*frame)
 
 
 def test_frame_meshes_at_their_poses_coincide_with_the_world_tessellation(
@@ -206,9 +210,11 @@ def test_frame_semantics_in_manifest_config_and_split_ifc(frame: tuple[Path, Man
 # --- every public sample -------------------------------------------------------------------------------
 
 
-def test_sample_sdf_files_pass_the_reference_parser(sample: tuple[Path, Manifest, Path]) -> None:
+def test_sample_sdf_files_pass_the_value_check_and_each_structure_the_reference_parser(
+    sample: tuple[Path, Manifest, Path],
+) -> None:
     out, manifest, _ = sample
-    _check_every_sdf_is_valid(out, manifest)
+    _check_every_sdf_file(out, manifest)
 
 
 def test_sample_meshes_at_poses_coincide_with_world_tessellation(sample: tuple[Path, Manifest, Path]) -> None:
@@ -233,21 +239,21 @@ def test_sample_lists_every_element_as_component_or_skipped(sample: tuple[Path, 
     assert all(skipped.reason for skipped in manifest.skipped)
 
 
-def test_far_model_is_shifted_to_a_local_origin(tmp_path: Path) -> None:
+def test_far_model_is_shifted_to_a_local_origin(tmp_path_factory: pytest.TempPathFactory) -> None:
     source = SAMPLES_DIR / "large_offset.ifc"
     if not source.is_file():
         pytest.skip(f"{source} is absent")
-    manifest = _convert(source, tmp_path)
+    _, manifest = converted_sample(source.name, tmp_path_factory)  # the sample tests' conversion
     assert any(abs(v) > 1000.0 for v in manifest.local_origin_m)
     for component in manifest.components:
         assert np.abs(component.target_pose_world.position_m).max() < 1000.0
 
 
-def test_csg_only_element_is_skipped_with_the_reason(tmp_path: Path) -> None:
+def test_csg_only_element_is_skipped_with_the_reason(tmp_path_factory: pytest.TempPathFactory) -> None:
     source = SAMPLES_DIR / "geographic-referencing.ifc"
     if not source.is_file():
         pytest.skip(f"{source} is absent")
-    manifest = _convert(source, tmp_path)
+    _, manifest = converted_sample(source.name, tmp_path_factory)  # the sample tests' conversion
     (skipped,) = manifest.skipped
     assert skipped.guid == "0rBru4syGxGOZb$M8kVJuS"
     assert "could not build" in skipped.reason

@@ -13,8 +13,8 @@ import ifcopenshell.api.spatial
 import ifcopenshell.api.unit
 import numpy as np
 import pytest
+from cli_runs import Ended, bimbot_in_process, bimbot_process
 from ifc_builders import SmallModel, add_beam, add_wall, new_model, translation
-from wall_clock import bound_s
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
 from bimbot.shared.manifest import Manifest
@@ -26,16 +26,6 @@ def _convert_small(small: SmallModel, tmp_path: Path, options: ConvertOptions | 
     source = tmp_path / "model.ifc"
     small.file.write(str(source))
     return convert_model(ifcopenshell.open(str(source)), source, tmp_path / "out", options)
-
-
-def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "bimbot.cli", *args],
-        capture_output=True,
-        text=True,
-        timeout=bound_s(300),
-        check=False,
-    )
 
 
 @pytest.mark.parametrize("schema", ["IFC2X3", "IFC4", "IFC4X3"])
@@ -120,12 +110,18 @@ def test_curve_only_element_is_skipped_with_its_reason_and_the_rest_converts(tmp
     assert "cannot be meshed" in skipped.reason or "could not build" in skipped.reason
 
 
-def test_cli_converts_and_prints_a_summary(tmp_path: Path) -> None:
+def test_cli_converts_and_prints_a_summary(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
     small = new_model()
     add_wall(small, "W")
     source = tmp_path / "m.ifc"
     small.file.write(str(source))
-    result = _bimbot("convert", str(source), "-o", str(tmp_path / "out"))
+
+    def bimbot(*args: str) -> Ended:
+        return bimbot_in_process(*args, capfd=capfd, caplog=caplog)
+
+    result = bimbot("convert", str(source), "-o", str(tmp_path / "out"))
     assert result.returncode == 0, result.stderr
     assert "converted 1 component(s), skipped 0" in result.stdout
     assert "sequence sequence.xml derived from the structure" in result.stdout  # no schedule in the file
@@ -133,38 +129,61 @@ def test_cli_converts_and_prints_a_summary(tmp_path: Path) -> None:
     assert "earlier conversion" not in result.stderr
     # converting again into a folder that holds runs keeps them, and says they are of the earlier conversion
     (tmp_path / "out" / "runs" / "20261127-120000").mkdir(parents=True)
-    again = _bimbot("convert", str(source), "-o", str(tmp_path / "out"))
+    again = bimbot("convert", str(source), "-o", str(tmp_path / "out"))
     assert again.returncode == 0, again.stderr
     assert "out/runs/ holds 1 run(s) of an earlier conversion into this folder" in again.stderr
     assert (tmp_path / "out" / "runs" / "20261127-120000").is_dir()
 
 
-@pytest.mark.parametrize(
-    ("name", "message"),
-    [
-        ("missing.ifc", "no such file"),
-        ("empty.ifc", "empty file"),
-        ("not_ifc.ifc", "not an IFC file"),
-        ("truncated.ifc", "truncated IFC file"),
-        ("unsupported_schema.ifc", "unsupported IFC schema"),
-    ],
-)
-def test_unreadable_input_gives_one_clear_line_and_exit_2(name: str, message: str, tmp_path: Path) -> None:
-    result = _bimbot("convert", str(BROKEN / name), "-o", str(tmp_path / "out"))
+UNREADABLE = [
+    ("missing.ifc", "no such file"),
+    ("empty.ifc", "empty file"),
+    ("not_ifc.ifc", "not an IFC file"),
+    ("truncated.ifc", "truncated IFC file"),
+    ("unsupported_schema.ifc", "unsupported IFC schema"),
+]
+
+
+def _one_clear_line(result: Ended, name: str, message: str) -> None:
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and message in lines[0] and name in lines[0], result.stderr
     assert "Traceback" not in result.stderr
 
 
+@pytest.mark.parametrize(("name", "message"), UNREADABLE)
+def test_unreadable_input_gives_one_clear_line_and_exit_2(
+    name: str,
+    message: str,
+    tmp_path: Path,
+    capfd: pytest.CaptureFixture[str],
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    result = bimbot_in_process(
+        "convert", str(BROKEN / name), "-o", str(tmp_path / "out"), capfd=capfd, caplog=caplog
+    )
+    _one_clear_line(result, name, message)
+
+
+def test_the_real_command_says_a_truncated_file_in_one_line_and_exits_2(tmp_path: Path) -> None:
+    """A process of its own, for a file ifcopenshell's parser reads part of: nothing else on stderr."""
+    result = bimbot_process("convert", str(BROKEN / "truncated.ifc"), "-o", str(tmp_path / "out"))
+    _one_clear_line(result, "truncated.ifc", "truncated IFC file")
+
+
 def test_model_without_geometry_reports_every_element_and_exits_1(tmp_path: Path) -> None:
-    result = _bimbot("convert", str(BROKEN / "no_geometry.ifc"), "-o", str(tmp_path / "out"))
+    result = bimbot_process("convert", str(BROKEN / "no_geometry.ifc"), "-o", str(tmp_path / "out"))
     assert result.returncode == 1
     assert "no element could be converted" in result.stderr and "Traceback" not in result.stderr
 
 
-def test_duplicate_guid_converts_the_first_and_skips_the_second_with_the_reason(tmp_path: Path) -> None:
-    result = _bimbot("convert", str(BROKEN / "duplicate_guids.ifc"), "-o", str(tmp_path / "out"))
+def test_duplicate_guid_converts_the_first_and_skips_the_second_with_the_reason(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    out = str(tmp_path / "out")
+    result = bimbot_in_process(
+        "convert", str(BROKEN / "duplicate_guids.ifc"), "-o", out, capfd=capfd, caplog=caplog
+    )
     assert result.returncode == 0, result.stderr
     assert "converted 1 component(s), skipped 1" in result.stdout
     manifest = Manifest.model_validate_json((tmp_path / "out" / "manifest.json").read_text())
@@ -173,7 +192,19 @@ def test_duplicate_guid_converts_the_first_and_skips_the_second_with_the_reason(
 
 
 def test_unknown_class_in_include_is_a_user_error(tmp_path: Path) -> None:
-    result = _bimbot(
+    result = bimbot_process(
         "convert", str(BROKEN / "duplicate_guids.ifc"), "-o", str(tmp_path / "o"), "--include", "IfcWal"
     )
     assert result.returncode == 2 and "unknown IFC class" in result.stderr and "IfcWal" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
+
+
+def test_the_command_imports_neither_trimesh_nor_scipy_until_a_step_needs_them() -> None:
+    """They cost a command about a second of imports (half of a user error's answer): the converter imports
+    them where a step uses them (a bar's oriented box, an overlap's plan area, a flat mesh)."""
+    code = (
+        "import sys, bimbot.services.converter.cli, bimbot.services.converter.convert;"
+        "print(sorted({name.split('.')[0] for name in sys.modules} & {'trimesh', 'scipy'}))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == "[]"

@@ -3,16 +3,15 @@
 
 from __future__ import annotations
 
-import subprocess
-import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import ifcopenshell
 import pybullet
 import pytest
+from cli_runs import Ended, bimbot_in_process, bimbot_process
 from lxml import etree
-from sdf_checks import ign_sdf_check
-from wall_clock import bound_s
+from sdf_checks import sdf_check_all
 
 from bimbot.demo import bundled_model_path
 from bimbot.services.converter.convert import ConvertOptions, convert_model
@@ -29,6 +28,24 @@ VISUAL_NAMES = {"dae": "visual.dae", "obj": "visual.obj", "glb": "visual.glb"}
 def _convert(out: Path, formats: tuple[str, ...]) -> Manifest:
     source = bundled_model_path()
     return convert_model(open_model(source), source, out, ConvertOptions(formats=formats))
+
+
+Converted = Callable[[tuple[str, ...]], tuple[Path, Manifest]]
+
+
+@pytest.fixture(scope="module")
+def converted(tmp_path_factory: pytest.TempPathFactory) -> Converted:
+    """The bundled frame converted with the visual formats asked for, once per module for each choice of
+    formats (several tests read the same one): its folder, read-only, and its manifest."""
+    done: dict[tuple[str, ...], tuple[Path, Manifest]] = {}
+
+    def convert(formats: tuple[str, ...]) -> tuple[Path, Manifest]:
+        if formats not in done:
+            out = tmp_path_factory.mktemp("frame-" + ("-".join(formats) or "none"))
+            done[formats] = (out, _convert(out, formats))
+        return done[formats]
+
+    return convert
 
 
 def _mesh_files(out: Path, manifest: Manifest) -> set[str]:
@@ -74,8 +91,8 @@ def test_unknown_format_is_refused_with_the_choices() -> None:
 
 
 @pytest.mark.parametrize("formats", [("glb",), ("obj",), ("dae", "glb")])
-def test_only_the_formats_asked_for_are_written(formats: tuple[str, ...], tmp_path: Path) -> None:
-    manifest = _convert(tmp_path, formats)
+def test_only_the_formats_asked_for_are_written(formats: tuple[str, ...], converted: Converted) -> None:
+    tmp_path, manifest = converted(formats)
     written = _mesh_files(tmp_path, manifest)
     expected_visuals = {VISUAL_NAMES[name] for name in formats}
     assert {name for name in written if name.startswith("visual.")} == expected_visuals
@@ -89,29 +106,29 @@ def test_only_the_formats_asked_for_are_written(formats: tuple[str, ...], tmp_pa
         assert all((tmp_path / path).is_file() for path in component.files.collision)
 
 
-def test_without_dae_model_sdf_names_the_first_format_written_and_stays_valid(tmp_path: Path) -> None:
-    manifest = _convert(tmp_path, ("obj", "glb"))
-    for component in manifest.components[:3]:
-        sdf = tmp_path / component.files.sdf_file
+def test_without_dae_model_sdf_names_the_first_format_written_and_stays_valid(converted: Converted) -> None:
+    tmp_path, manifest = converted(("obj", "glb"))
+    files = [tmp_path / component.files.sdf_file for component in manifest.components[:3]]
+    for sdf in files:
         assert [uri.rsplit("/", 1)[-1] for uri in _sdf_visual_uris(sdf)] == ["visual.obj"]
-        assert ign_sdf_check(sdf, tmp_path / "models") == "Valid."
-    assert ign_sdf_check(tmp_path / manifest.world_file, tmp_path / "models") == "Valid."
+    checked = sdf_check_all([*files, tmp_path / manifest.world_file], tmp_path / "models")
+    assert set(checked.values()) == {"Valid."}
 
 
-def test_collision_only_writes_no_visual_and_keeps_every_sdf_valid(tmp_path: Path) -> None:
-    manifest = _convert(tmp_path, ())
+def test_collision_only_writes_no_visual_and_keeps_every_sdf_valid(converted: Converted) -> None:
+    tmp_path, manifest = converted(())
     assert not any(name.startswith("visual.") for name in _mesh_files(tmp_path, manifest))
     sdf = tmp_path / manifest.components[0].files.sdf_file
     assert _sdf_visual_uris(sdf) == []
     assert etree.parse(str(sdf)).find(".//collision") is not None
-    assert ign_sdf_check(sdf, tmp_path / "models") == "Valid."
-    assert ign_sdf_check(tmp_path / manifest.world_file, tmp_path / "models") == "Valid."
+    checked = sdf_check_all([sdf, tmp_path / manifest.world_file], tmp_path / "models")
+    assert set(checked.values()) == {"Valid."}
     assert load_mesh(tmp_path, manifest.components[0]) is None  # the observer draws nothing, says so
     _physics_builds_every_body(tmp_path, manifest)  # physics needs only the collision meshes
 
 
-def test_observer_reads_the_glb_and_physics_its_collision_parts(tmp_path: Path) -> None:
-    manifest = _convert(tmp_path, ("glb",))
+def test_observer_reads_the_glb_and_physics_its_collision_parts(converted: Converted) -> None:
+    tmp_path, manifest = converted(("glb",))
     for component in manifest.components:
         loaded = load_mesh(tmp_path, component)
         assert loaded is not None and loaded[1] == "model/gltf-binary" and loaded[0][:4] == b"glTF"
@@ -119,8 +136,8 @@ def test_observer_reads_the_glb_and_physics_its_collision_parts(tmp_path: Path) 
     _physics_builds_every_body(tmp_path, manifest, visual=True)  # --gui without visual.obj: no visual
 
 
-def test_observer_falls_back_to_the_obj_and_physics_gui_finds_it(tmp_path: Path) -> None:
-    manifest = _convert(tmp_path, ("obj",))
+def test_observer_falls_back_to_the_obj_and_physics_gui_finds_it(converted: Converted) -> None:
+    tmp_path, manifest = converted(("obj",))
     component = manifest.components[0]
     loaded = load_mesh(tmp_path, component)
     assert loaded is not None and loaded[1] == "model/obj" and loaded[0].startswith(b"#")
@@ -129,8 +146,8 @@ def test_observer_falls_back_to_the_obj_and_physics_gui_finds_it(tmp_path: Path)
     _physics_builds_every_body(tmp_path, manifest, visual=True)
 
 
-def test_shared_geometry_links_only_the_formats_written(tmp_path: Path) -> None:
-    manifest = _convert(tmp_path, ("glb",))
+def test_shared_geometry_links_only_the_formats_written(converted: Converted) -> None:
+    tmp_path, manifest = converted(("glb",))
     glbs = [tmp_path / c.files.visual_glb for c in manifest.components]
     inodes = {path.stat().st_ino for path in glbs}
     assert len(inodes) < len(glbs)  # the frame's 28 elements share 3 geometries
@@ -139,18 +156,15 @@ def test_shared_geometry_links_only_the_formats_written(tmp_path: Path) -> None:
     )
 
 
-def test_cli_formats_option_writes_the_formats_and_refuses_unknown_ones(tmp_path: Path) -> None:
+def test_cli_formats_option_writes_the_formats_and_refuses_unknown_ones(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    """The conversions in this process (``main``), the refusal a real command: one line, exit 2."""
     source = tmp_path / "frame.ifc"
     ifcopenshell.open(str(bundled_model_path())).write(str(source))
 
-    def bimbot(*args: str) -> subprocess.CompletedProcess[str]:
-        return subprocess.run(
-            [sys.executable, "-m", "bimbot.cli", "convert", str(source), "--no-progress", *args],
-            capture_output=True,
-            text=True,
-            timeout=bound_s(300),
-            check=False,
-        )
+    def bimbot(*args: str) -> Ended:
+        return bimbot_in_process("convert", str(source), "--no-progress", *args, capfd=capfd, caplog=caplog)
 
     done = bimbot("-o", str(tmp_path / "out"), "--formats", "glb")
     assert done.returncode == 0, done.stderr
@@ -160,22 +174,19 @@ def test_cli_formats_option_writes_the_formats_and_refuses_unknown_ones(tmp_path
     }
     none = bimbot("-o", str(tmp_path / "none"), "--formats", "none")
     assert none.returncode == 0, none.stderr
-    refused = bimbot("-o", str(tmp_path / "bad"), "--formats", "glb,stl")
+    refused = bimbot_process("convert", str(source), "-o", str(tmp_path / "bad"), "--formats", "glb,stl")
     assert refused.returncode == 2 and "--formats" in refused.stderr and "stl" in refused.stderr
+    assert len(refused.stderr.strip().splitlines()) == 1
     assert "Traceback" not in refused.stderr and not (tmp_path / "bad" / "manifest.json").exists()
 
 
-def test_no_split_ifc_writes_no_standalone_ifc_and_the_run_still_has_what_it_reads(tmp_path: Path) -> None:
+def test_no_split_ifc_writes_no_standalone_ifc_and_the_run_still_has_what_it_reads(
+    tmp_path: Path, converted: Converted, capfd: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
     source = tmp_path / "frame.ifc"
     ifcopenshell.open(str(bundled_model_path())).write(str(source))
-    command = [sys.executable, "-m", "bimbot.cli", "convert", str(source), "--no-progress", "--no-split-ifc"]
-    done = subprocess.run(
-        [*command, "-o", str(tmp_path / "out")],
-        capture_output=True,
-        text=True,
-        timeout=bound_s(300),
-        check=False,
-    )
+    command = ["convert", str(source), "--no-progress", "--no-split-ifc", "-o", str(tmp_path / "out")]
+    done = bimbot_in_process(*command, capfd=capfd, caplog=caplog)
     assert done.returncode == 0, done.stderr
     out = tmp_path / "out"
     manifest = Manifest.model_validate_json((out / "manifest.json").read_text())
@@ -183,5 +194,5 @@ def test_no_split_ifc_writes_no_standalone_ifc_and_the_run_still_has_what_it_rea
     assert not list((out / "models").rglob("*.ifc"))
     assert all((out / c.files.sdf_file).is_file() for c in manifest.components)
     _physics_builds_every_body(out, manifest)
-    with_split = _convert(tmp_path / "default", VISUAL_FORMATS)  # the default still writes one per component
-    assert all((tmp_path / "default" / c.files.split_ifc).is_file() for c in with_split.components)
+    default, with_split = converted(VISUAL_FORMATS)  # the default still writes one per component
+    assert all((default / c.files.split_ifc).is_file() for c in with_split.components)

@@ -2,17 +2,17 @@
 
 The Revit hub's foundations (a 49 t ground slab, 3–11 t footings) are heavier than any robot: without
 them in place a run built 3 of 115, everything else ``blocked_by`` them. Here on the generated 2×1 frame
-(two footings in the ground, two columns, a beam), with the real command.
+(two footings in the ground, two columns, a beam), with the command's ``main`` in this process, and a token
+it does not know with the real command (tests/converter/cli_runs.py).
 """
 
 from __future__ import annotations
 
-import subprocess
-import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from wall_clock import bound_s
+from cli_runs import Ended, bimbot_in_process, bimbot_process
 
 from bimbot.data.light_steel_frame import build_light_steel_frame
 from bimbot.services.converter.in_place import above_ground, in_the_ground, split_in_place
@@ -28,17 +28,33 @@ def frame_ifc(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return source
 
 
-def _convert(source: Path, out: Path, *extra: str) -> subprocess.CompletedProcess[str]:
-    command = [sys.executable, "-m", "bimbot.cli", "convert", str(source), "-o", str(out), "--no-progress"]
-    return subprocess.run(
-        [*command, *extra], capture_output=True, text=True, timeout=bound_s(300), check=False
-    )
+Convert = Callable[..., Ended]
+
+
+@pytest.fixture
+def convert(capfd: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture) -> Convert:
+    """``convert(source, out, *options)``: ``bimbot convert`` in this process."""
+
+    def run(source: Path, out: Path, *extra: str) -> Ended:
+        command = ["convert", str(source), "-o", str(out), "--no-progress", *extra]
+        return bimbot_in_process(*command, capfd=capfd, caplog=caplog)
+
+    return run
+
+
+@pytest.fixture(scope="module")
+def plain(frame_ifc: Path, tmp_path_factory: pytest.TempPathFactory) -> Manifest:
+    """The frame converted without --in-place, once for the tests that read it: read-only."""
+    from bimbot.services.converter.convert import convert_model
+    from bimbot.shared.ifc_input import open_model
+
+    return convert_model(open_model(frame_ifc), frame_ifc, tmp_path_factory.mktemp("plain"))
 
 
 def test_foundations_in_place_are_converted_apart_and_left_out_of_the_sequence(
-    frame_ifc: Path, tmp_path: Path
+    frame_ifc: Path, tmp_path: Path, convert: Convert
 ) -> None:
-    result = _convert(frame_ifc, tmp_path / "out", "--in-place", "foundations")
+    result = convert(frame_ifc, tmp_path / "out", "--in-place", "foundations")
     assert result.returncode == 0, result.stderr
     assert "converted 3 component(s) (and 2 in place before the robots come)" in result.stdout
     manifest = read_manifest(tmp_path / "out")
@@ -54,20 +70,22 @@ def test_foundations_in_place_are_converted_apart_and_left_out_of_the_sequence(
 
 
 def test_in_place_takes_classes_and_global_ids_and_names_a_token_it_does_not_know(
-    frame_ifc: Path, tmp_path: Path
+    frame_ifc: Path, tmp_path: Path, convert: Convert
 ) -> None:
-    by_class = _convert(frame_ifc, tmp_path / "a", "--in-place", "IfcFooting")
+    by_class = convert(frame_ifc, tmp_path / "a", "--in-place", "IfcFooting")
     assert by_class.returncode == 0, by_class.stderr
     footings = read_manifest(tmp_path / "a").in_place
     assert sorted(c.name for c in footings) == ["Footing A1", "Footing A2"]
     column = next(c for c in read_manifest(tmp_path / "a").components if c.ifc_class == "IfcColumn")
-    standing = _convert(frame_ifc, tmp_path / "b", "--in-place", column.guid)
+    standing = convert(frame_ifc, tmp_path / "b", "--in-place", column.guid)
     assert standing.returncode == 0, standing.stderr
     assert [c.guid for c in read_manifest(tmp_path / "b").in_place] == [column.guid]
     # a column stands above the ground: the robots' maps do not know it, and the user is told
     assert "reach above the ground" in standing.stdout and column.name in standing.stdout
-    unknown = _convert(frame_ifc, tmp_path / "c", "--in-place", "foundation")
+    command = ["convert", str(frame_ifc), "-o", str(tmp_path / "c"), "--in-place", "foundation"]
+    unknown = bimbot_process(*command)
     assert unknown.returncode == 2 and "Traceback" not in unknown.stderr
+    assert len(unknown.stderr.strip().splitlines()) == 1
     assert (
         "--in-place: neither an IFC class of IFC4 nor the GlobalId of an element in the model: foundation"
         in (unknown.stderr)
@@ -75,16 +93,15 @@ def test_in_place_takes_classes_and_global_ids_and_names_a_token_it_does_not_kno
 
 
 def test_every_component_in_place_leaves_nothing_to_build_and_says_so(
-    frame_ifc: Path, tmp_path: Path
+    frame_ifc: Path, tmp_path: Path, convert: Convert
 ) -> None:
-    result = _convert(frame_ifc, tmp_path / "out", "--in-place", "IfcFooting,IfcColumn,IfcBeam")
+    result = convert(frame_ifc, tmp_path / "out", "--in-place", "IfcFooting,IfcColumn,IfcBeam")
     assert result.returncode == 1
     assert "every component converted is in place (--in-place): nothing is left to build" in result.stderr
 
 
-def test_split_in_place_keeps_the_order_and_the_ground_rule(frame_ifc: Path, tmp_path: Path) -> None:
-    assert _convert(frame_ifc, tmp_path / "out").returncode == 0
-    manifest: Manifest = read_manifest(tmp_path / "out")
+def test_split_in_place_keeps_the_order_and_the_ground_rule(plain: Manifest) -> None:
+    manifest = plain
     beam = next(c for c in manifest.components if c.ifc_class == "IfcBeam")
     build, in_place = split_in_place(manifest.components, [beam.guid], foundations=True)
     assert [c.guid for c in build] == [c.guid for c in manifest.components if c.ifc_class == "IfcColumn"]
@@ -95,14 +112,11 @@ def test_split_in_place_keeps_the_order_and_the_ground_rule(frame_ifc: Path, tmp
     assert all(in_the_ground(c) for c in in_place if c.ifc_class == "IfcFooting")
 
 
-def test_foundations_reach_below_the_ground_a_sill_flush_with_it_is_no_foundation(
-    frame_ifc: Path, tmp_path: Path
-) -> None:
+def test_foundations_reach_below_the_ground_a_sill_flush_with_it_is_no_foundation(plain: Manifest) -> None:
     """A trial's first rule (the top at most 5 cm above the ground) also took the Revit house's four 9 kg
     curtain-wall sills, 0–5 cm high, and a robot got stuck on one (the robots' maps leave in-place
     components out). A foundation also reaches below the ground."""
-    assert _convert(frame_ifc, tmp_path / "out").returncode == 0
-    column = next(c for c in read_manifest(tmp_path / "out").components if c.ifc_class == "IfcColumn")
+    column = next(c for c in plain.components if c.ifc_class == "IfcColumn")
     box = column.bbox_world
 
     def spanning(low_z: float, high_z: float):

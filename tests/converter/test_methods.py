@@ -4,11 +4,10 @@ file's rules against the fleet's lift, and the user's own word over both (tiny m
 from __future__ import annotations
 
 import itertools
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from cli_runs import bimbot_in_process, bimbot_process
 from ifc_builders import SmallModel, add_box, add_layers, add_material, add_pset, new_model
 
 from bimbot.data.light_steel_frame import build_light_steel_frame
@@ -259,8 +258,9 @@ def test_the_bundled_frame_stays_all_lifted_its_footings_precast_as_its_ifc_says
 
 
 def test_convert_takes_a_preset_or_a_file_counts_by_method_and_names_a_bad_file_in_one_line(
-    tmp_path: Path,
+    tmp_path: Path, capfd: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
 ) -> None:
+    """The preset through ``main`` in this process; the bad file through the real command."""
     small = new_model()
     brick = add_box(small, "IfcWall", "Brick wall", size_m=(1.0, 0.1, 1.0))
     add_material(small, [brick], "Brick")
@@ -268,18 +268,13 @@ def test_convert_takes_a_preset_or_a_file_counts_by_method_and_names_a_bad_file_
     source = tmp_path / "model.ifc"
     small.file.write(str(source))
 
-    def convert(*extra: str) -> subprocess.CompletedProcess[str]:
-        command = [sys.executable, "-m", "bimbot.cli", "convert", str(source), "-o", str(tmp_path / "out")]
-        return subprocess.run(
-            [*command, "--no-progress", *extra], capture_output=True, text=True, check=False
-        )
-
-    done = convert("--methods", "conventional")
+    command = ["convert", str(source), "-o", str(tmp_path / "out"), "--no-progress"]
+    done = bimbot_in_process(*command, "--methods", "conventional", capfd=capfd, caplog=caplog)
     assert done.returncode == 0, done.stderr
     assert done.stdout.rstrip().endswith("; built: 1 cast_in_place, 1 laid"), done.stdout
     bad = tmp_path / "bad.toml"
     bad.write_text('[by_class]\nIfcWall = "glued"\n', encoding="utf-8")
-    refused = convert("--methods", str(bad))
+    refused = bimbot_process(*command, "--methods", str(bad))
     assert refused.returncode == 2 and "Traceback" not in refused.stderr
     assert refused.stderr.startswith(
         f"bimbot convert: error: methods file {bad}: by_class.IfcWall: Input should be"

@@ -13,7 +13,7 @@ import numpy as np
 import pybullet
 import pytest
 from ifc_builders import SmallModel, add_beam, add_opening, add_wall, new_model, place, translation
-from sdf_checks import sdf_check_all
+from sdf_checks import sdf_check_files
 
 from bimbot.services.converter.convert import ConvertOptions, convert_model
 from bimbot.services.converter.final_method import default_limits
@@ -161,7 +161,7 @@ def test_panels_are_valid_models_at_their_places(build: tuple[Path, Manifest, di
     out, manifest, _ = build
     panels = [c for c in manifest.components if c.parent_guid]
     files = [out / c.files.sdf_file for c in panels] + [out / manifest.world_file]
-    checked = sdf_check_all(files, out / "models")
+    checked = sdf_check_files(files, out / "models")
     assert {path: answer for path, answer in checked.items() if answer != "Valid."} == {}
     client = pybullet.connect(pybullet.DIRECT)
     try:
@@ -207,7 +207,8 @@ HOUSE_ROOF_SLAB = "1s5utE$rDDfRKgzV6jUJ0r"  # 16.9 × 7.4 × 0.3 m, 37,518 kg, o
 def test_the_revit_house_heavy_wall_and_roof_slab_split_sensibly(samples_dir: Path, tmp_path: Path) -> None:
     source = samples_dir / "revit2021_sample_project.ifc"
     decisions = {guid: PANELISED for guid in (HOUSE_HEAVY_WALL, HOUSE_WINDOW_WALL, HOUSE_ROOF_SLAB)}
-    manifest = convert_model(open_model(source), source, tmp_path, ConvertOptions(decisions=decisions))
+    options = ConvertOptions(decisions=decisions, formats=(), split_ifc=False)  # the split, not the files
+    manifest = convert_model(open_model(source), source, tmp_path, options)
     planks = _panels(manifest, HOUSE_ROOF_SLAB)
     # 2.11 m between cuts: a truck's width, not the crane's 8 t; each plank 15 mm short of its cuts (joints)
     assert [round(c.mass_kg) for c in planks] == [4673, *[4656] * 6, 4673]

@@ -5,29 +5,17 @@ cut in half converted silently with 570 kg instead of 308 kg)."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import ifcopenshell
 import pytest
-from wall_clock import bound_s
+from cli_runs import bimbot_in_process, bimbot_process
 
 from bimbot.data.light_steel_frame import build_light_steel_frame
 from bimbot.services.converter.convert import convert_model
 from bimbot.services.converter.selection import select_elements
 from bimbot.shared.ifc_input import read_model
 from bimbot.shared.ifc_parse_damage import damaged_elements
-
-
-def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "bimbot.cli", *args],
-        capture_output=True,
-        text=True,
-        timeout=bound_s(300),
-        check=False,
-    )
 
 
 @pytest.fixture
@@ -50,7 +38,7 @@ def _cut_in_half(path: Path, line_number: int) -> None:
 
 
 def test_a_line_cut_in_half_leaves_out_the_element_it_belongs_to_and_says_where(
-    frame: Path, tmp_path: Path
+    frame: Path, tmp_path: Path, capfd: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
 ) -> None:
     model = ifcopenshell.open(str(frame))
     column = next(c for c in model.by_type("IfcColumn") if c.Name == "Column A2")
@@ -59,7 +47,8 @@ def test_a_line_cut_in_half_leaves_out_the_element_it_belongs_to_and_says_where(
     total = len(select_elements(model, (), (), ()).elements)
     _cut_in_half(frame, line)
 
-    done = _bimbot("convert", str(frame), "-o", str(tmp_path / "out"), "--no-progress")
+    command = ["convert", str(frame), "-o", str(tmp_path / "out"), "--no-progress"]
+    done = bimbot_in_process(*command, capfd=capfd, caplog=caplog)
     assert done.returncode == 0, done.stderr
     assert f"converted {total - 1} component(s), skipped 1 (1 damaged in the file)" in done.stdout
     assert f"frame.ifc line {line}: could not be read" in done.stderr and "Traceback" not in done.stderr
@@ -82,7 +71,7 @@ def test_a_damaged_line_that_costs_the_project_is_named_in_one_line(frame: Path)
     lines.insert(project, "#99999=IFCWALL(garbage(((;\n")  # the parser loses its way from here on
     frame.write_text("".join(lines))
 
-    done = _bimbot("convert", str(frame), "-o", str(frame.parent / "out"))
+    done = bimbot_process("convert", str(frame), "-o", str(frame.parent / "out"))
     assert done.returncode == 2 and "Traceback" not in done.stderr
     (said,) = done.stderr.strip().splitlines()
     assert f"frame.ifc line {project + 1}: could not be read" in said and "no IfcProject" in said
