@@ -174,6 +174,12 @@ def _become_service(request: dict[str, Any], requests: int, answers: int, preloa
         np.random.seed()  # as a fresh process would start: from the OS's entropy
 
 
+def _to_devnull(fd: int) -> None:
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, fd)
+    os.close(devnull)
+
+
 def _resident_mb() -> float:
     return process_status_mb("VmRSS") or 0.0
 
@@ -188,7 +194,7 @@ def prepare() -> float | None:
         return None
     started = time.perf_counter()
     stdout = os.dup(1)  # nothing printed while importing reaches the answers (fd 1 of a run's server)
-    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
+    _to_devnull(1)
     try:
         preload()
     finally:
@@ -209,7 +215,7 @@ def serve_run(run_pid: int, said: str) -> int:
     )
     # the answers go on a copy of stdout: a child's fd 1 becomes its log, and nothing buffered follows it
     answers = os.dup(1)
-    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
+    _to_devnull(1)
     sys.stderr.write(said + "\n")
     sys.stderr.flush()
     return serve(0, answers)

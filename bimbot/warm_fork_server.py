@@ -29,7 +29,6 @@ import socket
 import subprocess
 import sys
 import tempfile
-import time
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import IO, Any
@@ -165,10 +164,11 @@ def for_the_runs_of_this_process(wait_s: float = 0.0) -> Iterator[Path]:
     if named:
         yield Path(named)
         return
+    from bimbot.supervisor import wait_until
+
     with running() as path:
-        deadline = time.monotonic() + wait_s
-        while not path.exists() and time.monotonic() < deadline:
-            time.sleep(0.05)
+        if wait_s > 0:
+            wait_until(path.exists, timeout_s=wait_s, interval_s=0.05)
         os.environ[WARM_FORK_SERVER_ENV] = str(path)
         try:
             yield path

@@ -16,6 +16,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from processes import alive
 from wall_clock import bound_s
 
 from bimbot.fork_server import ForkedChild, ForkServer
@@ -110,14 +111,7 @@ def test_a_closed_run_ends_its_session_and_the_session_s_services(
     assert wait_until(lambda: "listening" in bus.log(), timeout_s=bound_s(30.0)), bus.log()
     pid = bus.process.pid
     launcher.close()
-    assert wait_until(lambda: not Path(f"/proc/{pid}").exists() or _zombie(pid), timeout_s=bound_s(30.0))
-
-
-def _zombie(pid: int) -> bool:
-    try:
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
-    except OSError:
-        return True
+    assert wait_until(lambda: not alive(pid), timeout_s=bound_s(30.0))
 
 
 def test_a_run_of_another_hash_seed_is_refused_and_starts_its_own_server(
