@@ -84,6 +84,11 @@ class ComponentStates:
         self._asked_at.pop(twin.guid, None)  # answered: the next question about it goes out at once
         return twin.state
 
+    @property
+    def asking(self) -> bool:
+        """Whether a twin is wanted and has not answered yet."""
+        return bool(self._to_ask)
+
     def ask(self, guid: str) -> None:
         """Want ``guid``'s twin (what the listener heard may be out of date: a message lost on the way)."""
         if guid in self._keys:

@@ -324,6 +324,9 @@ class CmdVelMsg(_Message):
     # physics requests the robot sent before this command, answering the same step: a query travels apart
     # from the command and may come after it, and physics must not step past it (reproducible runs)
     requests: Count = 0
+    # the robot is idle and sleeps after this step: it answers no step until a task message wakes it (the
+    # planner's answer says so, ``StepDoneMsg.wakes``); nobody waits for it meanwhile (shared/step_gate.py)
+    sleeps: bool = False
 
 
 class RobotPoseMsg(_Message):
@@ -592,6 +595,9 @@ class StepDoneMsg(_Message):
     # the earliest sim time after this step at which the participant acts of its own accord, with nothing
     # heard (the planner: a curing's end releases a task): the plan fidelity's clock jumps no further
     next_event_s: SimTime | None = None
+    # the planner sent a task message at this step: every sleeping robot wakes at ``step + DELAY_STEPS``,
+    # the step that takes it (shared/step_gate.py)
+    wakes: bool = False
 
 
 def key(template: str, **parts: str) -> str:

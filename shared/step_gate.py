@@ -19,6 +19,15 @@ comes; a step whose inputs are not all resolved waits. Every wait is bounded by 
 A participant (re)started mid-run joins at the first clock step it hears, ``j``: the answers the others
 gave before it listened can never reach it, so their answers up to ``j − DELAY_STEPS`` count as heard
 (physics published ``j`` only after them). Waiting for them would hold every restart for the whole bound.
+
+**An idle robot sleeps.** A robot with nothing to do (no task, parked, nothing asked) still costs every
+step: its answer, and everyone's wait for it. It may say in its answer to step ``s`` that it sleeps
+(``CmdVelMsg.sleeps``): from ``s + 1`` on it answers nothing and nobody waits for it, until the planner
+sends a task message (a release wakes the idle, an assignment starts one). The planner's answer to the
+step ``j`` it sent one at says so (``StepDoneMsg.wakes``), and every sleeper wakes at ``j + DELAY_STEPS``,
+the step that takes that message: from there its answers are waited for again. Everyone reckons both by
+step numbers, so the order in which a sleep and a wake arrive changes nothing (:meth:`StepGate.answered`,
+:meth:`StepGate.wake_sleepers`).
 """
 
 from __future__ import annotations
@@ -49,6 +58,45 @@ class _Input(Generic[T]):
 
 
 @dataclass
+class Sleepers:
+    """Who sleeps (participant → the step it fell asleep after) and the steps the sleepers wake at; the
+    answers are the caller's (participant → the last step it answered), moved on at a wake."""
+
+    asleep: dict[str, int] = field(default_factory=dict)
+    wakes: set[int] = field(default_factory=set)
+
+    def answered(self, answered: dict[str, int], participant: str, step: int, *, sleeps: bool) -> None:
+        """``participant`` answered ``step``, asleep after it or not."""
+        if sleeps:
+            self.asleep[participant] = max(step, self.asleep.get(participant, step))
+            self._settle(answered, participant)
+        elif step > self.asleep.get(participant, step):
+            del self.asleep[participant]  # awake again (it restarted, say): its answers count as they come
+
+    def wake(self, answered: dict[str, int], step: int) -> None:
+        """Every participant asleep before ``step`` answers again from ``step`` on."""
+        self.wakes.add(step)
+        for participant in list(self.asleep):
+            self._settle(answered, participant)
+
+    def woken(self, since_step: int, step: int) -> bool:
+        """Whether a sleeper that fell asleep after ``since_step`` is awake at ``step``."""
+        return any(since_step < wake <= step for wake in self.wakes)
+
+    def forget_before(self, step: int) -> None:
+        """Wakes before ``step`` are for sleeps long said (a sleep said from now on is later)."""
+        self.wakes = {wake for wake in self.wakes if wake >= step}
+
+    def _settle(self, answered: dict[str, int], participant: str) -> None:
+        """A sleeper with a wake after its sleep: awake from that wake, its answers waited for from there."""
+        since = self.asleep[participant]
+        wake = min((w for w in self.wakes if w > since), default=None)
+        if wake is not None:
+            del self.asleep[participant]
+            answered[participant] = max(answered.get(participant, -1), wake - 1)
+
+
+@dataclass
 class StepGate(Generic[T]):
     """Stamped inputs held until the step that takes them (see the module docstring)."""
 
@@ -57,6 +105,7 @@ class StepGate(Generic[T]):
     _times: dict[int, float] = field(default_factory=dict)  # clock step → its sim time (recent ones)
     _answered: dict[str, int] = field(default_factory=dict)  # participant → last step it answered
     _absent: set[str] = field(default_factory=set)  # participants not waited for until heard again
+    sleepers: Sleepers = field(default_factory=Sleepers)
     _joined_at: int | None = None  # the first clock step heard (see the module docstring)
     _seq: int = 0
     _seen: set[object] = field(default_factory=set)  # keys of inputs put (a repeated delivery is dropped)
@@ -79,11 +128,21 @@ class StepGate(Generic[T]):
         """The step every participant counts as answered: the one before the first this gate takes."""
         return -1 if self._joined_at is None else max(-1, self._joined_at - self.delay_steps)
 
-    def answered(self, participant: str, step: int) -> None:
-        """``participant`` answered clock step ``step`` (its own output up to there has been sent)."""
+    def answered(self, participant: str, step: int, *, sleeps: bool = False) -> None:
+        """``participant`` answered clock step ``step`` (its own output up to there has been sent);
+        ``sleeps``: and answers nothing more until the next wake after ``step``."""
         if step > self._answered.get(participant, -1):
             self._answered[participant] = step
         self._absent.discard(participant)
+        self.sleepers.answered(self._answered, participant, step, sleeps=sleeps)
+
+    def wake_sleepers(self, step: int) -> None:
+        """Every participant asleep before ``step`` answers again from ``step`` on."""
+        self.sleepers.wake(self._answered, step)
+
+    def woken(self, since_step: int, step: int) -> bool:
+        """Whether a sleeper that fell asleep after ``since_step`` is awake at ``step``."""
+        return self.sleepers.woken(since_step, step)
 
     def expect(self, participants: Iterable[str]) -> None:
         """Wait for these participants' answers from the start (one not heard yet is waited for too: a
@@ -157,7 +216,11 @@ class StepGate(Generic[T]):
     def waiting_for(self, step: int) -> list[str]:
         """The participants whose answer to ``step - delay`` has not been heard (sorted)."""
         need = step - self.delay_steps
-        return sorted(p for p, s in self._answered.items() if s < need and p not in self._absent)
+        return sorted(
+            p
+            for p, s in self._answered.items()
+            if s < need and p not in self._absent and p not in self.sleepers.asleep
+        )
 
     def ready(self, step: int) -> bool:
         """Whether step ``step`` can take its inputs now (every answer heard, every due input resolved)."""
@@ -179,6 +242,7 @@ class StepGate(Generic[T]):
         gate = self.gate_s(step)
         for old in [s for s in self._times if s < step - 2 * self.delay_steps]:
             del self._times[old]
+        self.sleepers.forget_before(step - 2 * self.delay_steps)
         if gate is None:  # the first steps heard: nothing is known to have arrived yet (taken later)
             return []
         due = [e for e in self._inputs if e.stamp_s <= gate and e.resolved]

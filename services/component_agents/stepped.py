@@ -21,7 +21,7 @@ from collections.abc import Callable, Iterable
 from bimbot.shared.bus import Received
 from bimbot.shared.clock_guard import ClockGuard, Verdict
 from bimbot.shared.messages import ClockMsg, CmdVelMsg, ComponentEventMsg, ComponentPoseMsg, StepDoneMsg
-from bimbot.shared.step_gate import HOLD_S, StepGate
+from bimbot.shared.step_gate import DELAY_STEPS, HOLD_S, StepGate
 
 from .host import AgentHost, Outgoing
 
@@ -72,7 +72,7 @@ class SteppedAgents:
                     self.answer(self._last_answer)
             case Received(message=CmdVelMsg() as command):
                 if command.step is not None:
-                    self.gate.answered(command.robot_id, command.step)
+                    self.gate.answered(command.robot_id, command.step, sleeps=command.sleeps)
             case Received(message=StepDoneMsg() as answer):
                 if answer.participant.startswith("agents-"):
                     pass  # other shards: nothing of theirs is taken here
@@ -80,6 +80,8 @@ class SteppedAgents:
                     self.gate.leave(answer.participant)
                 else:
                     self.gate.answered(answer.participant, answer.step)
+                    if answer.wakes:
+                        self.gate.wake_sleepers(answer.step + DELAY_STEPS)
             case Received(message=ComponentEventMsg() as event):
                 sender = f"{event.source}/{event.robot_id or ''}"
                 self._stamped(event.sim_time_s, sender, item, key=("event", event.event_id))

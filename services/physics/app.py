@@ -100,6 +100,7 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.period_times import PeriodTimes
 from bimbot.shared.service_runner import BuildInput
+from bimbot.shared.step_gate import DELAY_STEPS
 from bimbot.shared.twin_query import answered_on_its_key, ask_twin, ask_twins
 
 from .clock import LockStepBarrier, Pacer, RtfMeter
@@ -489,7 +490,7 @@ class _Loop:
                     return
                 if not self.sim.known(command.robot_id):
                     return
-                self.barrier.record(command.robot_id, command.step)
+                self.barrier.record(command.robot_id, command.step, sleeps=command.sleeps)
                 if command.requests and command.step is not None and self.run.step_with:
                     self._count_request(command.robot_id, command.step, command.requests)
                 if self.pipeline.command_now(command):
@@ -497,6 +498,10 @@ class _Loop:
             case Received(message=StepDoneMsg() as answer):
                 if answer.participant in self.run.step_with:
                     self.barrier.record(answer.participant, answer.step)
+                    if (
+                        answer.wakes
+                    ):  # a task message: the sleeping robots answer again from the step taking it
+                        self.barrier.wake_sleepers(answer.step + DELAY_STEPS)
                     if answer.requests:  # a skip it asked: not stepped past before it came
                         self._count_request(answer.participant, answer.step, answer.requests)
                     if answer.done:

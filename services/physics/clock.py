@@ -14,6 +14,8 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Iterable
 
+from bimbot.shared.step_gate import Sleepers
+
 
 class Pacer:
     def __init__(self, rtf: float, max_lag_s: float = 1.0) -> None:
@@ -64,11 +66,21 @@ class LockStepBarrier:
         self.step = 0
         self._opened_wall_s: float | None = None
         self._answered: dict[str, int] = {}
+        self.sleepers = Sleepers()  # idle robots not waited for (bimbot.shared.step_gate)
 
-    def record(self, robot_id: str, step: int | None) -> None:
-        """A command from ``robot_id`` answering clock step ``step`` (None: not a lock-step command)."""
-        if step is not None and step > self._answered.get(robot_id, -1):
+    def record(self, robot_id: str, step: int | None, *, sleeps: bool = False) -> None:
+        """A command from ``robot_id`` answering clock step ``step`` (None: not a lock-step command);
+        ``sleeps``: it answers no step after it until a wake."""
+        if step is None:
+            return
+        if step > self._answered.get(robot_id, -1):
             self._answered[robot_id] = step
+        self.sleepers.answered(self._answered, robot_id, step, sleeps=sleeps)
+
+    def wake_sleepers(self, step: int) -> None:
+        """The sleepers answer again from clock step ``step`` on (a task message is taken there)."""
+        self.sleepers.wake(self._answered, step)
+        self.sleepers.forget_before(self.step - 4)
 
     def open(self, step: int, now_wall_s: float) -> None:
         """Clock step ``step`` was just published; start waiting for its answers."""
@@ -77,7 +89,8 @@ class LockStepBarrier:
 
     def missing(self, waited_for: Iterable[str]) -> list[str]:
         """The robots in ``waited_for`` that have not answered the open step yet (sorted)."""
-        return sorted(r for r in waited_for if self._answered.get(r, -1) < self.step)
+        asleep = self.sleepers.asleep
+        return sorted(r for r in waited_for if self._answered.get(r, -1) < self.step and r not in asleep)
 
     def timed_out(self, now_wall_s: float) -> bool:
         return self._opened_wall_s is not None and now_wall_s - self._opened_wall_s >= self.timeout_s

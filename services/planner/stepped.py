@@ -37,11 +37,12 @@ from bimbot.shared.messages import (
     ProgressMsg,
     RobotStateMsg,
     StepDoneMsg,
+    TaskMsg,
     TwinMsg,
     key,
 )
 from bimbot.shared.state_table import TERMINAL
-from bimbot.shared.step_gate import HOLD_S, StepGate
+from bimbot.shared.step_gate import DELAY_STEPS, HOLD_S, StepGate
 from bimbot.shared.twin_claims import TwinClaims
 
 from .scheduler import Outgoing, PlannerCore
@@ -113,7 +114,7 @@ class SteppedLoop:
                 elif verdict is Verdict.OLD and self._last_answer is not None:
                     self.session.put(self._answer_key, encode(self._last_answer))
             case Received(message=CmdVelMsg() as command) if command.step is not None:
-                self.gate.answered(command.robot_id, command.step)
+                self.gate.answered(command.robot_id, command.step, sleeps=command.sleeps)
             case Received(message=StepDoneMsg() as answer) if answer.participant != PARTICIPANT:
                 if answer.done:
                     self.gate.leave(answer.participant)
@@ -206,8 +207,10 @@ class SteppedLoop:
         self.core.observe_clock(clock.sim_time_s)  # first: what the inputs make it say is stamped with k
         for item in self.gate.take(step, force=force):
             self._feed(item)
+        wakes = False  # a task message wakes the sleeping robots (bimbot.shared.step_gate)
         for message in self.core.step(clock.sim_time_s):
             self.publish(message)
+            wakes = wakes or isinstance(message, TaskMsg)
         asked = None
         if self.skipper is not None:  # stamped with this step: physics acts on it at the next one
             asked = self.skipper.tick(self.core.quiet_until, float(step), step=step)
@@ -215,7 +218,7 @@ class SteppedLoop:
             self._progress = self.core.progress()
             self._progress_revision, self._progress_step = self.core.revision, step
             self.publish(self._progress)
-        self._answer(step, clock.sim_time_s, requests=int(asked is not None))
+        self._answer(step, clock.sim_time_s, requests=int(asked is not None), wakes=wakes)
         self._last_step = step
         return self._progress
 
@@ -231,7 +234,9 @@ class SteppedLoop:
             case RobotStateMsg():
                 core.observe_robot_state(item)
 
-    def _answer(self, step: int, sim_time_s: float, *, done: bool = False, requests: int = 0) -> None:
+    def _answer(
+        self, step: int, sim_time_s: float, *, done: bool = False, requests: int = 0, wakes: bool = False
+    ) -> None:
         """Answer ``step``; ``requests``: the skip requests sent for it (physics waits for them). The answer
         says when the planner acts next of its own accord (a curing's end): the plan fidelity's physics
         does not jump its clock past that."""
@@ -242,7 +247,10 @@ class SteppedLoop:
             done=done,
             requests=requests,
             next_event_s=None if done else self.core.next_own_event_s(),
+            wakes=wakes,
         )
+        if wakes:
+            self.gate.wake_sleepers(step + DELAY_STEPS)
         self.session.put(self._answer_key, encode(message))
         # said again when the step is heard again, without its requests: those went with the first
         self._last_answer = None if done else message.model_copy(update={"requests": 0})

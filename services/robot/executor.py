@@ -78,7 +78,7 @@ from .driving import Driving
 from .handover import Handover
 from .navigator import Navigator, NavigatorConfig
 from .parking import Parking
-from .protocol import VERDICTS, EventQueue, Outgoing, PhysicsResult
+from .protocol import VERDICTS, EventQueue, Outgoing, PhysicsResult, assignment_waiting
 from .robot_context import GettingThere, robot_context
 from .site_map import MapConfig
 from .site_work import SiteWorkExecutor
@@ -257,6 +257,20 @@ class Executor:
         """Work that may wait until the step's command is out: the localisation update on the step's scan
         (the robot's heaviest work; run while physics steps the next period, see :mod:`.localisation`)."""
         self.navigator.localise()
+
+    def can_sleep(self) -> bool:
+        """Idle with nothing ahead of its own accord (:mod:`bimbot.shared.step_gate`: it may sleep until a
+        task message wakes it): no task and none assigned to it waiting to start, standing where it parks,
+        nothing left to say or to ask."""
+        return (
+            self.task is None
+            and self.machine.state is _S.IDLE
+            and not assignment_waiting(self.tasks, self.robot_id, self.performed)
+            and self.navigator.goal is None
+            and (self.parking is None or self.parking.settled())
+            and not self.cycle.outbox
+            and not self.component_states.asking
+        )
 
     def poll(self, wall_s: float) -> list[Outgoing]:
         """What is due regardless of the clock: a physics request, event (re)sends, the robot's state."""

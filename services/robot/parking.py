@@ -98,6 +98,18 @@ class Parking:
             navigator.set_goal((x, y), yaw, sim_s, tolerance_m=0.3, quiet=retry)
             self._parking = True
 
+    def settled(self) -> bool:
+        """Nothing left to do of its own accord: out of the structure, no drive under way or tried again
+        later, and standing at its depot once the parking time came."""
+        context = self.context
+        if not self._left_structure or self._parking or self._idle_since_s is None or self._park_failures:
+            return False
+        if context.sim_s - self._idle_since_s < context.config.park_after_s:
+            return False
+        x, y, _ = context.home_xy_yaw
+        pose = context.navigator.pose_xy_yaw
+        return math.hypot(pose[0] - x, pose[1] - y) <= 0.5
+
     def _say_cannot_park(self, why: str, walled_in: bool) -> None:
         """The robot's state says where it stays and what that means (:func:`not_parked_activity`); the log
         says why at the first failure in a row, then at the 2nd, 4th, 8th, … with the count (a power of

@@ -35,6 +35,8 @@ from bimbot.shared.messages import (
     PlanMsg,
     RobotStateMsg,
     SetUpRequest,
+    TaskMsg,
+    TaskStatus,
 )
 
 _E, _C = ComponentEvent, ComponentState
@@ -153,6 +155,8 @@ class RobotExecutor(Protocol):
 
     def after_tick(self) -> None: ...
 
+    def can_sleep(self) -> bool: ...
+
     def poll(self, wall_s: float) -> list[Outgoing]: ...
 
 
@@ -167,3 +171,16 @@ def injected(
         return guid in guids
     share = fraction if fraction > 0 else 1.0
     return zlib.crc32(f"{seed}:{guid}".encode()) / 2**32 < share
+
+
+def assignment_waiting(
+    tasks: dict[str, TaskMsg], robot_id: str, performed: set[tuple[str, int, float]]
+) -> bool:
+    """Whether a task assigned to ``robot_id`` has not been taken on (it waits for its component's
+    release: a component state, not a task message, starts it)."""
+    return any(
+        message.status is TaskStatus.ASSIGNED
+        and message.robot_id == robot_id
+        and (message.task_id, message.attempt, message.wall_time_s) not in performed
+        for message in tasks.values()
+    )

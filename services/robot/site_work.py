@@ -55,7 +55,7 @@ from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import Capability, RobotDescription
 from bimbot.shared.site_plan import machine_setups
 
-from .protocol import VERDICTS, EventQueue, Outgoing, PhysicsRequest, PhysicsResult
+from .protocol import VERDICTS, EventQueue, Outgoing, PhysicsRequest, PhysicsResult, assignment_waiting
 from .task_machine import TaskMachine, Trigger
 from .task_state import ExecutorConfig, task_event
 
@@ -190,6 +190,15 @@ class SiteWorkExecutor:
 
     def after_tick(self) -> None:
         """Nothing to localise: it stands where it was set up."""
+
+    def can_sleep(self) -> bool:
+        """Idle with nothing ahead of its own accord (see :meth:`.executor.Executor.can_sleep`)."""
+        return (
+            self.job is None
+            and not self._out
+            and not self.component_states.asking
+            and not assignment_waiting(self.tasks, self.robot_id, self.performed)
+        )
 
     def poll(self, wall_s: float) -> list[Outgoing]:
         self._wall_s = wall_s

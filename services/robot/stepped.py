@@ -13,6 +13,11 @@ periodic state and the event resends run on sim time (the executor is ticked wit
 "wall" clock), and nothing is published between steps: every message is stamped with the step it answers.
 A step's sensors heard again (physics says them again while it waits: an answer may have been lost with a
 router) are answered with the last command again (:meth:`SteppedTicks.answer_again`).
+
+An idle robot sleeps (:mod:`bimbot.shared.step_gate`): once its executor can (``can_sleep``: no task,
+parked, nothing to say), its answer says so, and the steps after it are taken without a tick and without an
+answer (their inputs are handled, their sensors dropped) until the step a wake falls on, which is ticked.
+Only where the planner answers the steps: its answers carry the wakes.
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ from dataclasses import dataclass, field
 from bimbot.shared.bus import Answer, Received
 from bimbot.shared.component_states import TwinQuestion
 from bimbot.shared.messages import (
+    PLANNER_PARTICIPANT,
     CmdVelMsg,
     ComponentEventMsg,
     ComponentPoseMsg,
@@ -39,7 +45,7 @@ from bimbot.shared.messages import (
     TwinMsg,
 )
 from bimbot.shared.state_table import TERMINAL
-from bimbot.shared.step_gate import HOLD_S, StepGate
+from bimbot.shared.step_gate import DELAY_STEPS, HOLD_S, StepGate
 from bimbot.shared.twin_claims import TwinClaims
 
 from .protocol import Outgoing, PhysicsResult, RobotExecutor
@@ -69,7 +75,11 @@ class SteppedTicks:
         self.executor, self.publish, self.on_answered = executor, publish, on_answered
         self.keys = dict(keys)
         self.gate: StepGate[object] = StepGate()
+        participants = list(participants)
         self.gate.expect(name for name in participants if name != executor.robot_id)
+        self.may_sleep = PLANNER_PARTICIPANT in participants  # the planner's answers carry the wakes
+        self.asleep_since: int | None = None  # the step it fell asleep after (None: awake)
+        self.slept_steps = 0
         self.steps: deque[_Step] = deque()
         self.claims = TwinClaims()  # terminal claims awaiting their twin's answer
         self._before: list[object] = []  # since the last sensors
@@ -88,12 +98,14 @@ class SteppedTicks:
                 self._before = []
             case Received(message=CmdVelMsg() as command):
                 if command.step is not None and command.robot_id != robot_id:
-                    self.gate.answered(command.robot_id, command.step)
+                    self.gate.answered(command.robot_id, command.step, sleeps=command.sleeps)
             case Received(message=StepDoneMsg() as answer):
                 if answer.done:
                     self.gate.leave(answer.participant)
                 else:
                     self.gate.answered(answer.participant, answer.step)
+                if answer.wakes:
+                    self.gate.wake_sleepers(answer.step + DELAY_STEPS)
             case Received(message=ComponentStateMsg() as message) if message.state in TERMINAL:
                 stamped = self._stamped(message.sim_time_s, message.guid, message, resolved=False)
                 if stamped and self.claims.claim(message):
@@ -171,6 +183,12 @@ class SteppedTicks:
             self._replies = [r for r in self._replies if r not in due]
             for message in [*due, *entry.before]:
                 executor.handle(message)
+            if self.asleep_since is not None:
+                if not self.gate.woken(self.asleep_since, clock.step):
+                    self.slept_steps += 1
+                    self._last_step = max(self._last_step, clock.step)
+                    continue  # no tick, no answer: nobody waits for it
+                self.asleep_since = None
             sensors = entry.sensors
             executor.handle(sensors.odom)
             if sensors.fix is not None:
@@ -179,6 +197,14 @@ class SteppedTicks:
                 executor.handle(sensors.scan)
             if clock.step > self._last_step:
                 said = sent_now(executor.tick(clock, clock.sim_time_s), clock.sim_time_s)
+                if self.may_sleep and executor.can_sleep():
+                    said = [
+                        message.model_copy(update={"sleeps": True})
+                        if isinstance(message, CmdVelMsg)
+                        else message
+                        for message in said
+                    ]
+                    self.asleep_since = clock.step
                 self.publish(said)
                 answers = [message for message in said if isinstance(message, CmdVelMsg)]
                 self._last_answer = answers[-1].model_copy(update={"requests": 0}) if answers else None
@@ -192,6 +218,8 @@ class SteppedTicks:
             self.publish([self._last_answer])
 
     def finish(self) -> None:
+        if self.slept_steps:
+            _log.info("lock-step: slept %d step(s), idle", self.slept_steps)
         if self.gate.late or self.gate.forced:
             _log.warning(
                 "lock-step: %d input(s) came after their step and %d step(s) were ticked without every "
