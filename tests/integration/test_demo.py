@@ -70,6 +70,14 @@ def test_demo_writes_world_recording_and_report_and_says_how_to_open_it(
     assert (run.report_dir / "report.png").stat().st_size > 10_000
     assert sorted(p.name for p in run.root.rglob("report.json")) == ["report.json"]  # one report, not two
     assert (run.logs_dir / "planner.log").is_file() and list(run.state_dir.glob("agents-*.jsonl"))
+    # the default fleet's tower crane, pumps and block layer have no work in a frame: they sleep, and the
+    # others do not wait for them (shared/step_gate.py); asleep for most of the build
+    slept = {
+        log.stem: int(found.group(1))
+        for log in run.logs_dir.glob("robot-*.log")
+        if (found := re.search(r"slept (\d+) step\(s\)", log.read_text()))
+    }
+    assert len(slept) >= 4 and sorted(slept.values())[-4] > 100, slept
     verify = subprocess.run(
         [str(rerun_cli_binary()), "rrd", "verify", str(rrd)],
         capture_output=True,

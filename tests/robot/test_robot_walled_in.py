@@ -53,12 +53,15 @@ def test_a_robot_closed_in_by_walls_says_where_and_since_when_until_it_drives_ou
     assert abs(x - ROOM_CENTRE_M[0]) < 1.5 and abs(y - ROOM_CENTRE_M[1]) < 1.5, state.pose_xy_yaw
     site.run(200)  # its parking drives fail: still walled in, since the same time
     assert _state(site).walled_in_since_s == state.walled_in_since_s
+    assert not site.executor.can_sleep()  # it tries to park again later: it must not sleep through that
     _open_the_room(site, room)
     home = site.executor.home_xy_yaw
     site.run(4000, until=lambda s: _state(s).walled_in_since_s is None)
     out = _state(site)
     assert out.walled_in_since_s is None, f"still walled in at {out.pose_xy_yaw} after {site.step * DT:.0f} s"
     assert abs(out.pose_xy_yaw[0] - home[0]) < 0.5 and abs(out.pose_xy_yaw[1] - home[1]) < 0.5, "at its depot"
+    site.run(1)
+    assert site.executor.can_sleep()  # parked at its depot, idle: nothing ahead of its own accord
 
 
 @pytest.mark.parametrize("xy", [(1.43, -6.35), (-123.45, -678.9)])

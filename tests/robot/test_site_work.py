@@ -265,3 +265,17 @@ def test_a_clock_that_jumps_to_the_promised_end_while_the_pour_is_unanswered_end
     site.release_held()
     site.run(300.0)
     assert site.builds and site.builds[0][0] <= promised + 2 * PERIOD_S
+
+
+def test_a_crew_may_sleep_only_while_it_has_no_work_and_none_assigned(frame_manifest: Manifest) -> None:
+    manifest, info, component = _site(frame_manifest, PUMP, ConstructionMethod.CAST_IN_PLACE)
+    executor = SiteWorkExecutor(manifest, info, ExecutorConfig(robot_id="r1"))
+    site = FakeAgentAndPhysics(executor, component)
+    site.run(1.0)
+    assert executor.can_sleep()  # idle, nothing assigned: nobody needs to wait for its answers
+    site.assign()
+    assert not executor.can_sleep()  # assigned: it starts at its next tick
+    site.run(100.0)
+    assert executor.job is not None and not executor.can_sleep()  # forming
+    site.run(1000.0)
+    assert site.state is ComponentState.CONSTRUCTED and executor.can_sleep()
