@@ -8,6 +8,9 @@
 * a schedule that sets a column before its footing: the column drops into the footing's open pit;
 * a robot type with a poor hand (its precision in the fleet file): its placements miss, the agents catch
   every miss with its numbers and the retries fix them; every error comes from physics, none is injected.
+  In the plan fidelity: physics draws a placement's error from the type's precision and settles the part
+  as in the physics fidelity (``services/physics/placing.py``); how the carrier drives there is not the
+  subject (``test_full_build.py`` catches a misplacement in the physics fidelity).
 """
 
 from __future__ import annotations
@@ -138,7 +141,10 @@ def test_a_robot_type_with_a_poor_hand_misses_the_agents_catch_it_and_the_retrie
         )
         + "\n"
     )
-    result = _bimbot("run", str(build), "--fleet", str(fleet_file), "--derive", "--max-attempts", "8", "-q")
+    result = _bimbot(
+        "run", str(build), "--fleet", str(fleet_file), "--derive", "--max-attempts", "8",
+        "--fidelity", "plan", "-q",
+    )  # fmt: skip
     report = _report(build)
     assert result.returncode == 0, result.stdout + result.stderr[-2000:]
     misses = [
