@@ -69,7 +69,7 @@ def run_summary(run: RunFolder) -> str:
     totals = report.get("totals", {})
     ending = report.get("ending") or {}
     sim_s = report.get("sim_time_s", totals.get("makespan_s"))
-    sim = f", {sim_s:.0f} s sim" if isinstance(sim_s, int | float) else ""
+    sim = f", {sim_s:,.0f} s sim" if isinstance(sim_s, int | float) else ""
     if isinstance(sim_s, int | float) and sim_s > LONG_RUN_S:  # curing: say it in hours or days too
         unit = time_unit(sim_s)
         sim += f" ({sim_s / unit.seconds:.1f} {unit.name})"

@@ -110,6 +110,10 @@ def test_bimbot_runs_lists_runs_with_their_reports_and_makes_new_ones(
     (made / "report" / "report.json").write_text(json.dumps(report))
     assert main(["runs", str(build)]) == 0
     assert "site.toml, 9 in place, without connections; not constructed" in capsys.readouterr().out
+    report["sim_time_s"] = 473683.2  # a curing site's days: grouped as the run's summary prints them
+    (made / "report" / "report.json").write_text(json.dumps(report))
+    assert main(["runs", str(build)]) == 0
+    assert "done, 473,683 s sim (5.5 days)" in capsys.readouterr().out
     assert main(["runs", str(tmp_path / "nothing")]) == 2
     # the folder asked for, not its parent's missing manifest (a new-user trial was told of tmp/manifest.json)
     assert f"{tmp_path / 'nothing'}: no such folder" in capsys.readouterr().err
