@@ -412,6 +412,7 @@ class SiteInfoMsg(_Message):
     # lock-step participants besides the robots (physics --step-with): who answers every clock step, so a
     # service that takes its inputs at defined steps knows whose answers to wait for from the first step
     lock_step_participants: list[str] = []
+    fidelity: str | None = None  # what physics simulates at: "physics" or "plan" (None: it does not say)
 
 
 PLANNER_PLAN_KEY = "bimbot/{site}/planner/plan"

@@ -583,7 +583,11 @@ class _Loop:
         if served.request is None:
             participants = list(self.run.step_with)
             self._reply(
-                query, reply_key, self.sim.info().model_copy(update={"lock_step_participants": participants})
+                query,
+                reply_key,
+                self.sim.info().model_copy(
+                    update={"lock_step_participants": participants, "fidelity": self.run.fidelity}
+                ),
             )
             return
         payload = query.payload.to_bytes() if query.payload is not None else b""

@@ -174,6 +174,7 @@ class ReportCollector:
         }
         self.robots: dict[str, RobotTimeline] = {}
         self.robot_type_of: dict[str, str] = {}  # robot id → type name (physics' site info)
+        self.fidelity: str | None = None  # physics' site info says it (bimbot run's settings say more)
         self.task_kinds: dict[str, TaskKind] = {}
         self.put_downs: dict[str, tuple[float, float]] = {}  # hand-off task id → where the load went down
         self.clears: dict[str, ClearSeen] = {}  # failed GUID → its clear-away out of the robots' way
@@ -213,6 +214,7 @@ class ReportCollector:
             take_clear(self.clears, message)
         elif isinstance(message, SiteInfoMsg):
             self.robot_type_of.update(message.robot_type_of)
+            self.fidelity = message.fidelity or self.fidelity
             for robot_id in message.robot_ids:
                 self.robots.setdefault(robot_id, RobotTimeline())
         elif isinstance(message, ProgressMsg):
@@ -399,6 +401,8 @@ class ReportCollector:
             # built into their hosts (anchor bolts cast into a footing, a base plate welded to its column)
             "with_host": with_host_elements(self.manifest, components),
             "robots": robots,
+            # what made it, as far as the bus says (bimbot run replaces it with its own settings)
+            "settings": {"fidelity": self.fidelity} if self.fidelity else {},
         }
 
     def _reason(self, guid: str, timeline: ComponentTimeline, ending: RunEnding) -> Reason | None:

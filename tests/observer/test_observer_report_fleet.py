@@ -257,3 +257,10 @@ def test_the_summary_s_sim_time_is_never_before_the_last_construction_the_report
         RunOutcome(exit_code=0, constructed=2, total=2, sim_time_s=1_800_000.0, report=report)
     )
     assert "in 20.8 days (1,800,000 s) of sim time" in later
+
+
+def test_the_observer_s_report_says_the_fidelity_physics_simulates_at(frame_manifest: Manifest) -> None:
+    collector = ReportCollector(frame_manifest)
+    assert collector.report()["settings"] == {}  # physics has not said: no guess
+    collector.add(_site_info().model_copy(update={"fidelity": "plan"}))
+    assert collector.report()["settings"] == {"fidelity": "plan"}  # a compose site's report says it too
