@@ -88,6 +88,10 @@ def _cell(figures: MethodFigures | None) -> str:
     return text + (f", cure up to {duration_text(figures.cure_s)}" if figures.cure_s else "")
 
 
+WORK_LEGEND = (
+    "work: a method's own work summed over the components it built (a lift from pick to placement, formwork "
+    "and pour, laying); cure: its longest curing"
+)
 DIFFERS = " ⚠ differs"  # a run's cell that does not match the first run's (building, fidelity)
 
 
@@ -111,14 +115,23 @@ def table(columns: list[RunColumn]) -> list[str]:
     )
     lines.append("| robots | " + " | ".join(c.fleet or "unknown" for c in columns) + " |")
     lines.append("| seed | " + " | ".join("–" if c.seed is None else str(c.seed) for c in columns) + " |")
-    lines.append("| constructed | " + " | ".join(f"{c.constructed}/{c.components}" for c in columns) + " |")
+    lines.append(
+        "| constructed | "
+        + " | ".join(
+            f"{c.constructed}/{c.components}" + (f" ⚠ {c.ending}" if c.ended_early else "") for c in columns
+        )
+        + " |"
+    )
     lines.append(
         "| makespan | "
         + " | ".join(duration_text(c.makespan_s) if c.makespan_s is not None else "–" for c in columns)
         + " |"
     )
-    for method in methods_in(columns):
+    methods = methods_in(columns)
+    for method in methods:
         lines.append(f"| {method} | " + " | ".join(_cell(c.methods.get(method)) for c in columns) + " |")
+    if methods:
+        lines.append(f"\n{WORK_LEGEND}")
     first_s = columns[0].makespan_s
     for column in columns[1:]:
         if first_s and column.makespan_s is not None:

@@ -147,11 +147,20 @@ def _problems(error: ValidationError, shown: int = 3) -> str:
     """Pydantic's errors as one line: ``types.carrier.paylod_kg: Extra inputs are not permitted; …``."""
     parts = []
     for item in error.errors()[:shown]:
-        where = ".".join(str(part) for part in item["loc"])
+        where = _where(item["loc"])
         message = str(item["msg"]).removeprefix("Value error, ")
         parts.append(f"{where}: {message}" if where else message)
     more = error.error_count() - shown
     return "; ".join(parts) + (f" (and {more} more)" if more > 0 else "")
+
+
+def _where(loc: tuple[int | str, ...]) -> str:
+    """A place in the fleet file as its reader counts: pydantic's ``robots.1.count`` (from 0) is the second
+    ``[[robots]]`` entry's ``count``, said ``[[robots]] #2: count``."""
+    if len(loc) >= 2 and loc[0] == "robots" and isinstance(loc[1], int):
+        rest = ".".join(str(part) for part in loc[2:])
+        return f"[[robots]] #{loc[1] + 1}" + (f": {rest}" if rest else "")
+    return ".".join(str(part) for part in loc)
 
 
 def check_urdfs(fleet: Fleet) -> None:

@@ -340,7 +340,12 @@ def main(options: BusOptions, build: BuildInput, config: ObserverConfig, stop: t
             page = stack.enter_context(web_viewer(config.bind, config.web_port, grpc_url))
             _log.info("web viewer: %s (gRPC %s)", page, grpc_url)
         observer = Observer(build.manifest, build.dir, config, recording)
-        _log.info("recording to %s; reports to %s", config.rrd_path, config.report_dir)
+        if config.report_dir is None:
+            _log.info(
+                "recording to %s; no report of its own (the run writes the run's report)", config.rrd_path
+            )
+        else:
+            _log.info("recording to %s; reports to %s", config.rrd_path, config.report_dir)
         with open_session(options) as session:
             try:
                 serve(session, observer, stop)

@@ -91,6 +91,14 @@ class RunColumn:
     fidelity: str | None = None  # None: a report that does not say
     fleet: str | None = None  # what robots built it (:func:`fleet_of`); None: a report that does not say
     seed: int | None = None
+    ending: str | None = (
+        None  # how the run ended (``done``, ``interrupted``, …); None: a report that does not say
+    )
+
+    @property
+    def ended_early(self) -> bool:
+        """Stopped before its end (interrupted, timed out, stalled): its figures cover part of the build."""
+        return self.ending not in (None, "done", "running")
 
     @property
     def building(self) -> str:
@@ -117,6 +125,7 @@ def run_column(label: str, report: Mapping[str, Any]) -> RunColumn:
         fidelity=settings.get("fidelity"),
         fleet=fleet_of(settings),
         seed=settings.get("seed"),
+        ending=(report.get("ending") or {}).get("how"),
     )
 
 
@@ -144,8 +153,15 @@ def same_fidelity(a: RunColumn, b: RunColumn) -> bool:
 
 def mismatches(columns: Sequence[RunColumn]) -> list[str]:
     """One sentence per run that does not compare with the first: another building, another fidelity
-    (a ``plan`` run's times come from kinematic robots, a ``physics`` run's from the simulation)."""
-    first, said = columns[0], []
+    (a ``plan`` run's times come from kinematic robots, a ``physics`` run's from the simulation); and one
+    per run that ended early (interrupted, timed out, stalled)."""
+    first = columns[0]
+    said = [
+        f"{column.label} ended {column.ending} with {column.constructed}/{column.components} constructed: "
+        "its figures cover only the part of the build it got to"
+        for column in columns
+        if column.ended_early
+    ]
     for column in columns[1:]:
         if not same_building(first, column):
             said.append(

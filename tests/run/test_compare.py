@@ -84,6 +84,7 @@ def test_the_table_has_a_row_per_method_and_the_makespan_against_the_first(
         "3 robot(s) of the default type, with the fleet's machines",
     ]
     assert [cell.strip() for cell in rows["seed"].split("|")[2:4]] == ["0", "7"]
+    assert "work: a method's own work summed over the components it built" in out  # what "work" means
     back = compare_cli.run(argparse.Namespace(runs=[b, a]))
     assert back == 0 and "makespan −1.1 h (4,000 s) (−80.0 %) against" in capsys.readouterr().out
 
@@ -166,3 +167,19 @@ def test_one_model_converted_two_ways_at_one_fidelity_compares_without_a_warning
     assert not caplog.records
     out = capsys.readouterr().out
     assert "⚠" not in out and "note:" not in out
+
+
+def test_a_run_that_ended_early_is_warned_of_and_marked(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    stopped = {**PREFAB, "ending": {"how": "interrupted"}, "totals": {**PREFAB["totals"], "constructed": 1}}
+    a, b = (
+        _run_folder(tmp_path, "done", {**PREFAB, "ending": {"how": "done"}}),
+        _run_folder(tmp_path, "cut", stopped),
+    )
+    with caplog.at_level("WARNING", logger="bimbot.compare_cli"):
+        assert compare_cli.run(argparse.Namespace(runs=[a, b])) == 0
+    (warning,) = [record.getMessage() for record in caplog.records]
+    assert f"{b} ended interrupted with 1/3 constructed" in warning
+    row = next(line for line in capsys.readouterr().out.splitlines() if line.startswith("| constructed"))
+    assert [cell.strip() for cell in row.split("|")[2:4]] == ["3/3", "1/3 ⚠ interrupted"]

@@ -165,6 +165,11 @@ def test_a_block_layer_of_ones_own_loads_with_its_laying_spec(tmp_path: Path) ->
         (HUSKY.replace("max_speed_mps = 1.0", "max_speed_mps = 0"), "needs max_speed_mps"),
         (HUSKY.replace("max_speed_mps = 1.0", "max_speed_mps = nan"), "finite number"),
         (HUSKY.replace("payload_kg = 75", "paylod_kg = 75"), "paylod_kg: Extra inputs are not permitted"),
+        # the second [[robots]] entry, counted as its reader counts (pydantic's robots.1 counts from 0)
+        (
+            HUSKY + '[[robots]]\ntype = "husky"\ncount = 1\n[[robots]]\ntype = "husky"\ncuont = 1\n',
+            "[[robots]] #2: count",
+        ),
         (LAYER.split("[types.layer.laying]", maxsplit=1)[0], "lay and a [laying] spec go together"),
         (
             LAYER.replace('"stand_fixed", "lay"', '"stand_fixed", "drive", "lay"'),
