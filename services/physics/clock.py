@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Iterable
 
-from bimbot.shared.step_gate import Sleepers
+from bimbot.shared.step_gate import DELAY_STEPS, Sleepers
 
 
 class Pacer:
@@ -80,7 +80,7 @@ class LockStepBarrier:
     def wake_sleepers(self, step: int) -> None:
         """The sleepers answer again from clock step ``step`` on (a task message is taken there)."""
         self.sleepers.wake(self._answered, step)
-        self.sleepers.forget_before(self.step - 4)
+        self.sleepers.forget_before(self.step - 2 * DELAY_STEPS)  # a sleep said from now on is later
 
     def open(self, step: int, now_wall_s: float) -> None:
         """Clock step ``step`` was just published; start waiting for its answers."""

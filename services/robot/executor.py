@@ -261,14 +261,13 @@ class Executor:
     def can_sleep(self) -> bool:
         """Idle with nothing ahead of its own accord (:mod:`bimbot.shared.step_gate`: it may sleep until a
         task message wakes it): no task and none assigned to it waiting to start, standing where it parks,
-        nothing left to say or to ask."""
+        nothing left to ask (what it had to say went out with the tick)."""
         return (
             self.task is None
             and self.machine.state is _S.IDLE
             and not assignment_waiting(self.tasks, self.robot_id, self.performed)
             and self.navigator.goal is None
             and (self.parking is None or self.parking.settled())
-            and not self.cycle.outbox
             and not self.component_states.asking
         )
 

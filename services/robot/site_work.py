@@ -195,7 +195,6 @@ class SiteWorkExecutor:
         """Idle with nothing ahead of its own accord (see :meth:`.executor.Executor.can_sleep`)."""
         return (
             self.job is None
-            and not self._out
             and not self.component_states.asking
             and not assignment_waiting(self.tasks, self.robot_id, self.performed)
         )
