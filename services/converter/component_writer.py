@@ -21,7 +21,15 @@ import numpy as np
 
 from bimbot.shared.construction_methods import MethodDecision, MethodLimits
 from bimbot.shared.identifiers import guid_to_folder, guid_to_key, is_valid_guid
-from bimbot.shared.manifest import BoundingBox, Component, ComponentFiles, Inertia, MassSource, SkippedElement
+from bimbot.shared.manifest import (
+    BoundingBox,
+    Component,
+    ComponentFiles,
+    Inertia,
+    InertiaSource,
+    MassSource,
+    SkippedElement,
+)
 from bimbot.shared.methods_file import MethodsFile
 
 from . import mass as mass_chain
@@ -112,14 +120,21 @@ def place_element(element: ifcopenshell.entity_instance, shape: ElementShape) ->
 def geometry_work(item: PlacedElement, context: ShardContext) -> GeometryWork:
     geometry = item.shape.geometry
     mesh = mesh_from_arrays(item.vertices_local_m, geometry.faces)
+    props = mass_properties(mesh)
+    surface_m3 = props.volume_m3 if _surface_closes(props) else None
     return GeometryWork(
         mesh=mesh,
-        props=mass_properties(mesh),
+        props=props,
         collision=collision_shape(item.element, mesh, context.unit_scale_m, sections=context.sections),
-        volumes_by_style=volumes_by_style(mesh, geometry.face_style_ids)
+        volumes_by_style=volumes_by_style(mesh, geometry.face_style_ids, surface_m3)
         if len(geometry.face_style_ids)
         else {},
     )
+
+
+def _surface_closes(props: MassProperties) -> bool:
+    """The mesh is not watertight by its edges, yet its surface closes (its exact integrals were taken)."""
+    return not props.watertight and props.source == InertiaSource.MESH
 
 
 def element_mass(item: PlacedElement, work: GeometryWork, context: ShardContext) -> mass_chain.MassResult:
@@ -161,7 +176,7 @@ def write_component(
     if decision is None:
         decision = settled_method(item, work, mass.mass_kg, context)
     notes = [*mass.warnings, *item.notes, *warnings]
-    if not props.watertight:
+    if not props.watertight and not _surface_closes(props):
         notes.append(
             "mesh is not watertight: inertia from its bounding box, volume from its closed pieces and the "
             "convex hulls of its open ones"

@@ -45,17 +45,30 @@ def _surface_styles(item: ifcopenshell.entity_instance) -> list[ifcopenshell.ent
     return styles
 
 
-def volumes_by_style(mesh: TriMesh, face_style_ids: np.ndarray) -> dict[int, float]:
+def volumes_by_style(
+    mesh: TriMesh, face_style_ids: np.ndarray, surface_volume_m3: float | None = None
+) -> dict[int, float]:
     """Surface style STEP id (-1: none) → the volume of the pieces of ``mesh`` most of whose faces have it
-    (``face_style_ids``: per face of ``mesh``); empty when the styles do not match the faces."""
+    (``face_style_ids``: per face of ``mesh``); empty when the styles do not match the faces.
+    ``surface_volume_m3``: the whole surface's exact volume when it closes though its pieces do not
+    (:func:`.mass_properties.mass_properties`): the closed pieces keep their own, and the open ones share
+    the rest in proportion to their estimates, so a frame's hull does not outweigh the glass it holds."""
     if len(face_style_ids) != len(mesh.faces):
         return {}
-    volumes: dict[int, float] = {}
+    pieces: list[tuple[int, float, bool]] = []
     for faces in mesh.piece_faces():
         styles, counts = np.unique(face_style_ids[faces], return_counts=True)
-        style = int(styles[np.argmax(counts)])
-        volume = piece_volume_m3(submesh(mesh.vertices, mesh.faces[faces]))
-        volumes[style] = volumes.get(style, 0.0) + volume
+        piece = submesh(mesh.vertices, mesh.faces[faces])
+        closed = piece.is_watertight and piece.is_winding_consistent
+        pieces.append((int(styles[np.argmax(counts)]), piece_volume_m3(piece), closed))
+    open_m3 = sum(volume for _, volume, closed in pieces if not closed)
+    closed_m3 = sum(volume for _, volume, closed in pieces if closed)
+    scale = 1.0
+    if surface_volume_m3 is not None and open_m3 > 0 and surface_volume_m3 >= closed_m3:
+        scale = (surface_volume_m3 - closed_m3) / open_m3
+    volumes: dict[int, float] = {}
+    for style, volume, closed in pieces:
+        volumes[style] = volumes.get(style, 0.0) + (volume if closed else volume * scale)
     return volumes
 
 

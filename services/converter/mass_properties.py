@@ -3,8 +3,10 @@
 Computed once per distinct geometry (elements that share a tessellation share these numbers) with the exact
 polyhedral integrals of :mod:`.mesh` (the ones trimesh uses). A closed mesh whose faces are wound
 inconsistently (exports flip some of a solid's faces) is rewound first, by trimesh, and is then a solid like
-any other. A mesh that is not watertight has no meaningful enclosed volume as a whole: then it is taken
-piece by piece (faces connected through edges that two faces share): each piece that is closed, or closed
+any other. A mesh that is not watertight by its edges but whose surface closes (faces meeting at
+T-junctions, as B-rep exports draw them) has the same exact integrals (:func:`_closed_surface`). Any other
+mesh that is not watertight has no meaningful enclosed volume as a whole: then it is taken piece by piece
+(faces connected through edges that two faces share): each piece that is closed, or closed
 once trimesh has filled its holes and made its winding consistent, counts with its exact volume (at most its
 convex hull's), each still open one with its convex hull's, and the inertia is that of a solid box filling
 the mesh's bounding box, centred on it; the result says so, and the manifest reports it. One convex hull
@@ -25,9 +27,13 @@ import numpy as np
 
 from bimbot.shared.manifest import InertiaSource
 
-from .mesh import MeshLike, TriMesh, as_trimesh_lite, convex_hull, welded
+from .mesh import MeshLike, TriMesh, as_trimesh_lite, convex_hull, cross_rows, mass_integrals, welded
 
 MIN_THICKNESS_M = 0.001
+CLOSED_SURFACE_VOLUME_SHIFT = 0.01
+"""A surface counts as closed when moving the origin anywhere in its bounding box changes its enclosed
+volume by at most this share (the change is the origin's shift dotted with the surface's vector area / 3,
+zero for a closed surface)."""
 
 
 @dataclass(frozen=True)
@@ -81,7 +87,47 @@ def mass_properties(mesh_like: MeshLike) -> MassProperties:
             source=InertiaSource.MESH,
             bbox_local_m=bbox,
         )
-    return _bounding_box_fallback(mesh, bbox)
+    return _closed_surface(mesh, bbox) or _bounding_box_fallback(mesh, bbox)
+
+
+def _closed_surface(mesh: TriMesh, bbox: np.ndarray) -> MassProperties | None:
+    """The exact integrals of a mesh whose surface closes geometrically though not by its edges, None for
+    any other. Exports draw a B-rep's faces with vertices along an edge that the face beside it lacks (a
+    T-junction): no edge is shared, so the mesh is not watertight and splits into open pieces, yet the
+    divergence theorem holds as it does for a solid. The piecewise estimate would weigh an open frame
+    piece as its convex hull, the opening it surrounds filled. Taken only when the volume does not depend
+    on the origin (:data:`CLOSED_SURFACE_VOLUME_SHIFT`), is at least its closed pieces' own and at most
+    the piecewise estimate, and has no closed piece wound inward: a surface with a real hole, or a winding
+    not to be trusted, is not taken."""
+    if len(mesh.faces) == 0:
+        return None
+    centre = (bbox[0] + bbox[1]) / 2.0
+    triangles = mesh.triangles - centre
+    crosses = cross_rows(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    integrals = mass_integrals(triangles, crosses)
+    volume = integrals.volume
+    if not volume > 1e-12:
+        return None
+    vector_area = crosses.sum(axis=0) / 2.0
+    half_extent = (bbox[1] - bbox[0]) / 2.0
+    if float(np.abs(vector_area) @ half_extent) / 3.0 > CLOSED_SURFACE_VOLUME_SHIFT * volume:
+        return None
+    pieces = mesh.split()
+    closed = [piece.volume for piece in pieces if _solid(piece)]
+    if any(
+        piece_m3 < 0 for piece_m3 in closed
+    ):  # a closed body wound inward: the winding is not to be trusted
+        return None
+    if volume < sum(closed) * (1.0 - 1e-9) or volume > sum(piece_volume_m3(piece) for piece in pieces):
+        return None
+    return MassProperties(
+        volume_m3=volume,
+        watertight=False,
+        com_local_m=integrals.center_mass + centre,
+        inertia_per_kg_m2=integrals.inertia / volume,
+        source=InertiaSource.MESH,
+        bbox_local_m=bbox,
+    )
 
 
 def piecewise_volume_m3(mesh: TriMesh) -> float:
