@@ -18,7 +18,8 @@ from pathlib import Path
 from typing import Any
 
 from bimbot.shared.errors import UserError
-from bimbot.shared.option_types import positive_float, positive_int
+from bimbot.shared.option_types import non_negative_int, positive_float, positive_int
+from bimbot.shared.seeds import DEFAULT_SEED
 
 from .grid import DEFAULT_FIDELITY, DERIVE, FIDELITIES, run_accepts_seed, study_grid
 from .rows import FAILED
@@ -45,6 +46,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_SEEDS,
         metavar="N",
         help=f"runs per scenario ({DEFAULT_SEEDS})",
+    )
+    parser.add_argument(
+        "--first-seed",
+        type=non_negative_int,
+        default=DEFAULT_SEED,
+        metavar="N",
+        help=f"the seeds are N … N + seeds - 1 ({DEFAULT_SEED}: the first is the run `bimbot run` makes)",
     )
     parser.add_argument(
         "--sequence",
@@ -107,7 +115,8 @@ def run(args: argparse.Namespace) -> int:
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
     sequences = [s if s == DERIVE else str(Path(s).resolve()) for s in args.sequence or ()]
-    grid = study_grid([f.resolve() for f in args.fleet], args.seeds, sequences, args.fidelity)
+    fleets = [f.resolve() for f in args.fleet]
+    grid = study_grid(fleets, args.seeds, sequences, args.fidelity, first_seed=args.first_seed)
     pass_seed = run_accepts_seed()
     if not pass_seed:
         _log.warning("bimbot run has no --seed here: the seeds of a scenario are repeats (seed_reached_run)")

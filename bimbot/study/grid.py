@@ -17,6 +17,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from bimbot.shared.seeds import DEFAULT_SEED
+
 #: What each fidelity adds to ``bimbot run``: "physics" is the full simulation (every service, PyBullet).
 FIDELITIES: dict[str, tuple[str, ...]] = {"physics": (), "plan": ("--fidelity", "plan")}
 DEFAULT_FIDELITY = "physics"
@@ -65,10 +67,11 @@ def study_grid(
     seeds: int,
     sequences: Sequence[str] = (),
     fidelity: str = DEFAULT_FIDELITY,
-    first_seed: int = 1,
+    first_seed: int = DEFAULT_SEED,
 ) -> list[StudyRun]:
-    """Every fleet × sequence × seed, fleets outermost (seeds ``first_seed`` … ``first_seed + seeds - 1``);
-    no sequences given: the build's own."""
+    """Every fleet × sequence × seed, fleets outermost (seeds ``first_seed`` … ``first_seed + seeds - 1``;
+    from ``bimbot run``'s own default, so a study's first seed is the run a user has seen); no sequences
+    given: the build's own."""
     if seeds < 1:
         raise ValueError("a study needs at least one seed")
     if fidelity not in FIDELITIES:

@@ -100,8 +100,9 @@ def markdown_table(rows: Sequence[Row]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_plot(rows: Sequence[Row], path: Path) -> None:
-    """``study.png``: makespan per scenario (every run, mean and range) and mean utilisation per type."""
+def write_plot(rows: Sequence[Row], path: Path) -> tuple[float, float]:
+    """``study.png``: makespan per scenario (every run, mean and range) and mean utilisation per type; the
+    makespan axis's limits (s)."""
     from matplotlib.figure import Figure
 
     groups = by_scenario(rows)
@@ -126,6 +127,7 @@ def write_plot(rows: Sequence[Row], path: Path) -> None:
         )
     makespan_axes.set_xticks(range(len(names)), names, rotation=15)
     makespan_axes.set_xlim(-0.6, len(names) - 0.4)
+    makespan_axes.set_ylim(bottom=0)  # from zero: a spread of seconds on 2,600 s must look like one
     makespan_axes.set_ylabel("makespan (sim s)")
     makespan_axes.set_title("makespan per scenario: runs, mean and range")
     makespan_axes.grid(axis="y", alpha=0.3)
@@ -147,3 +149,5 @@ def write_plot(rows: Sequence[Row], path: Path) -> None:
         utilisation_axes.legend(fontsize="small")
     utilisation_axes.grid(axis="y", alpha=0.3)
     figure.savefig(path, dpi=110)
+    low, high = makespan_axes.get_ylim()
+    return float(low), float(high)

@@ -48,7 +48,7 @@ def test_a_run_that_cannot_run_is_a_failed_row_with_its_reason(tmp_path: Path) -
     jobs = [RunJob(tmp_path / "no-build", tmp_path / "study", run, 60.0, pass_seed=False) for run in grid]
     seen: list[str] = []
     rows = run_on_dask(jobs, workers=2, progress=lambda row: seen.append(row["seed"]))
-    assert sorted(seen) == [1, 2] and [row["seed"] for row in rows] == [1, 2]  # grid order
+    assert sorted(seen) == [0, 1] and [row["seed"] for row in rows] == [0, 1]  # grid order, from run's seed
     for row in rows:
         assert row["status"] == "failed" and row["exit_code"] == 2, row
         assert row["reason"].startswith("no report (exit 2): bimbot run: error:"), row
@@ -70,7 +70,7 @@ def test_bimbot_study_writes_the_csv_table_and_plot_of_its_runs(tmp_path: Path) 
     assert done.returncode == 0, done.stdout + done.stderr
     assert "distributed." not in done.stderr, done.stderr  # Dask's INFO lines are not the user's
     (row,) = read_csv(out / "study.csv")
-    assert (row["fleet"], row["seed"], row["status"]) == ("one_carrier", "1", "built"), row
+    assert (row["fleet"], row["seed"], row["status"]) == ("one_carrier", "0", "built"), row
     assert row["constructed"] == row["components"] != "0"
     assert float(row["makespan_s"]) > 0 and 0 < float(row["utilisation_carrier"]) <= 1
     assert float(row["cost"]) == pytest.approx(60.0 * float(row["busy_h"]), abs=0.01)

@@ -13,7 +13,7 @@ def test_grid_is_every_fleet_times_every_sequence_times_every_seed_fleets_outerm
     fleets = [Path("/f/a.toml"), Path("/f/b.toml")]
     grid = study_grid(fleets, seeds=3, sequences=["/s/one.xml", DERIVE])
     assert len(grid) == 2 * 2 * 3
-    assert [run.name for run in grid[:4]] == ["a-one-1", "a-one-2", "a-one-3", "a-derive-1"]
+    assert [run.name for run in grid[:4]] == ["a-one-0", "a-one-1", "a-one-2", "a-derive-0"]
     assert {run.fleet for run in grid[6:]} == {Path("/f/b.toml")}
     assert len({run.name for run in grid}) == len(grid)  # one run folder each
 
@@ -21,9 +21,19 @@ def test_grid_is_every_fleet_times_every_sequence_times_every_seed_fleets_outerm
 def test_without_sequences_the_runs_use_the_builds_own_and_their_names_omit_it() -> None:
     grid = study_grid([Path("carriers.toml")], seeds=2)
     assert [(run.name, run.sequence, run.sequence_label) for run in grid] == [
+        ("carriers-0", None, "build"),
         ("carriers-1", None, "build"),
-        ("carriers-2", None, "build"),
     ]
+
+
+def test_the_seeds_start_at_bimbot_run_s_own_so_the_first_run_is_the_one_a_user_has_seen() -> None:
+    from bimbot.cli import build_parser
+
+    default_seed = build_parser(["run", "b"]).parse_args(["run", "b"]).seed
+    assert [run.seed for run in study_grid([Path("a.toml")], seeds=2)] == [default_seed, default_seed + 1]
+    assert [run.seed for run in study_grid([Path("a.toml")], seeds=2, first_seed=5)] == [5, 6]
+    argv = ["study", "b", "--fleet", "a.toml", "-o", "o", "--first-seed", "5"]
+    assert build_parser(argv).parse_args(argv).first_seed == 5
 
 
 def test_two_fleet_files_of_one_name_get_distinct_labels() -> None:

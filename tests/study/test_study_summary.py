@@ -62,5 +62,6 @@ def test_the_csv_keeps_every_row_and_writes_missing_figures_as_empty_cells(tmp_p
 
 def test_the_plot_is_a_png(tmp_path: Path) -> None:
     path = tmp_path / "study.png"
-    write_plot(ROWS, path)
+    low_s, high_s = write_plot(ROWS, path)
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
+    assert low_s == 0 and high_s > 0  # from zero: a spread of seconds must not fill the axis
