@@ -14,6 +14,7 @@ bimbot's own models (``shared/robots/``); else relative to ``pybullet_data``.
 
 from __future__ import annotations
 
+import difflib
 import tomllib
 from pathlib import Path
 
@@ -136,22 +137,62 @@ def load_fleet(path: Path | str | None = None) -> Fleet:
         raise InputError(f"fleet file {file}: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"fleet file {file}: not valid TOML: {exc}") from None
+    if "types" not in data and path is not None:  # only [[robots]]: of bimbot's own types
+        data = {**data, "types": _builtin_types()}
     try:
         fleet = Fleet.model_validate({**data, "source": str(file), "base_dir": str(file.resolve().parent)})
     except ValidationError as exc:
-        raise InputError(f"fleet file {file}: {_problems(exc)}") from None
+        raise InputError(f"fleet file {file}: {_problems(exc, data)}") from None
     return fleet
 
 
-def _problems(error: ValidationError, shown: int = 3) -> str:
-    """Pydantic's errors as one line: ``types.carrier.paylod_kg: Extra inputs are not permitted; …``."""
+def _builtin_types() -> dict[str, object]:
+    """The ``[types]`` tables of the embedded default fleet: a fleet file without its own uses these."""
+    types = tomllib.loads(DEFAULT_FLEET_FILE.read_text(encoding="utf-8"))["types"]
+    assert isinstance(types, dict)
+    return types
+
+
+def _problems(error: ValidationError, data: dict[str, object], shown: int = 3) -> str:
+    """Pydantic's errors as one line, in the file's words: ``[[robots]] #2: cont: not a known key (did
+    you mean count?); …``."""
     parts = []
     for item in error.errors()[:shown]:
         where = _where(item["loc"])
         message = str(item["msg"]).removeprefix("Value error, ")
+        if item["type"] == "extra_forbidden":
+            key = str(item["loc"][-1])
+            message = "not a known key" + _did_you_mean(key, _keys_at(item["loc"]))
+            if item["loc"][:1] == ("robots",) and difflib.get_close_matches(
+                key, RobotDescription.model_fields
+            ):
+                message += " (a robot type's limits go in its [types.NAME] table)"
+        elif item["type"] == "missing":
+            message = "missing"
+        elif message.startswith("robots of unknown type(s)"):
+            types = data.get("types")
+            known = list(types) if isinstance(types, dict) else []
+            robots = data.get("robots")
+            named = [r.get("type") for r in robots if isinstance(r, dict)] if isinstance(robots, list) else []
+            unknown = [str(name) for name in named if name not in known]
+            message += "".join(_did_you_mean(name, known) for name in unknown[:1])
         parts.append(f"{where}: {message}" if where else message)
     more = error.error_count() - shown
     return "; ".join(parts) + (f" (and {more} more)" if more > 0 else "")
+
+
+def _keys_at(loc: tuple[int | str, ...]) -> list[str]:
+    """The keys the table at ``loc`` (an extra key's place) may have."""
+    if loc[:1] == ("robots",):
+        return list(FleetEntry.model_fields)
+    if loc[:1] == ("types",) and len(loc) == 3:
+        return list(RobotDescription.model_fields)
+    return [name for name in Fleet.model_fields if name not in ("source", "base_dir")]
+
+
+def _did_you_mean(word: str, choices: list[str]) -> str:
+    close = difflib.get_close_matches(word, choices, n=1)
+    return f" (did you mean {close[0]}?)" if close else ""
 
 
 def _where(loc: tuple[int | str, ...]) -> str:

@@ -156,19 +156,33 @@ def test_a_block_layer_of_ones_own_loads_with_its_laying_spec(tmp_path: Path) ->
     assert fleet.with_robots(2, "husky").summary() == "2 husky, 1 layer"
 
 
+def test_a_fleet_file_of_robots_alone_uses_bimbot_s_own_types(tmp_path: Path) -> None:
+    fleet = load_fleet(_write(tmp_path, '[[robots]]\ntype = "carrier"\ncount = 2\n'))
+    assert fleet.summary() == "2 carrier"
+    assert fleet.types["carrier"] == default_fleet().types["carrier"]
+
+
 @pytest.mark.parametrize(
     ("text", "words"),
     [
         ("types = [", "not valid TOML"),
         (HUSKY + '[[robots]]\ntype = "crane"\ncount = 1\n', "unknown type"),
+        (HUSKY + '[[robots]]\ntype = "huksy"\ncount = 1\n', "(did you mean husky?)"),
         (HUSKY.replace("payload_kg = 75", "payload_kg = -1"), "types.husky.payload_kg"),
         (HUSKY.replace("max_speed_mps = 1.0", "max_speed_mps = 0"), "needs max_speed_mps"),
         (HUSKY.replace("max_speed_mps = 1.0", "max_speed_mps = nan"), "finite number"),
-        (HUSKY.replace("payload_kg = 75", "paylod_kg = 75"), "paylod_kg: Extra inputs are not permitted"),
+        (
+            HUSKY.replace("payload_kg = 75", "paylod_kg = 75"),
+            "paylod_kg: not a known key (did you mean payload_kg?)",
+        ),
+        (
+            HUSKY + '[[robots]]\ntype = "husky"\ncount = 1\nmax_sped_mps = 1\n',
+            "max_sped_mps: not a known key (a robot type's limits go in its [types.NAME] table)",
+        ),
         # the second [[robots]] entry, counted as its reader counts (pydantic's robots.1 counts from 0)
         (
             HUSKY + '[[robots]]\ntype = "husky"\ncount = 1\n[[robots]]\ntype = "husky"\ncuont = 1\n',
-            "[[robots]] #2: count",
+            "[[robots]] #2: count: missing; [[robots]] #2: cuont: not a known key (did you mean count?)",
         ),
         (LAYER.split("[types.layer.laying]", maxsplit=1)[0], "lay and a [laying] spec go together"),
         (
