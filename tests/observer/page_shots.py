@@ -48,7 +48,11 @@ def browser_page(url: str, port: int, timeout_s: float) -> Iterator[websocket.We
     command = ["xvfb-run", "-a", "-s", f"-screen 0 {SCREEN}", "chromium", *CHROMIUM_FLAGS]
     command += [f"--remote-debugging-port={port}", f"--user-data-dir={profile}", url]
     browser = subprocess.Popen(
-        command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+        command,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+        env={**os.environ, "TMPDIR": profile},  # Chromium's own temporary folders go with the profile
     )
     try:
         deadline = time.monotonic() + timeout_s
