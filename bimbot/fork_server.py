@@ -85,7 +85,7 @@ class ForkServer:
         """Start the server; it preloads while the run checks its input (its log: :meth:`attach_log`).
         ``say`` gets the one line a user waiting on a slow first start must see (the run's stdout)."""
         self._say = say
-        from bimbot.supervisor import HASH_SEED, STOP_WITH_PARENT_ENV
+        from bimbot.child_process import HASH_SEED, STOP_WITH_PARENT_ENV
         from bimbot.warm_fork_server import WarmSession, connect
 
         # a session of a warm server the environment names (loaded already), else a server of its own

@@ -148,7 +148,7 @@ def _in_child(keep_open: tuple[int, int, selectors.BaseSelector], body: Callable
 
 def _become_service(request: dict[str, Any], requests: int, answers: int, preloaded_mb: float) -> None:
     """In the child: a process of its own, as ``subprocess.Popen(start_new_session=True)`` makes one."""
-    from bimbot.supervisor import STOP_WITH_PARENT_ENV
+    from bimbot.child_process import STOP_WITH_PARENT_ENV
 
     os.setsid()
     log = os.open(request["log"], os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
@@ -222,7 +222,7 @@ def serve_run(run_pid: int, said: str) -> int:
 
 
 def main() -> int:
-    from bimbot.cli import stop_with_parent
+    from bimbot.child_process import stop_with_parent
 
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
     stop_with_parent()  # the run's death ends the server, and the server's its children

@@ -22,10 +22,12 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+from bimbot.child_process import HASH_SEED, STOP_WITH_PARENT_ENV
 
 if TYPE_CHECKING:
     from bimbot.fork_server import ForkedChild, ForkServer
@@ -68,13 +70,6 @@ def _ephemeral_low() -> int:
         return 32768
 
 
-STOP_WITH_PARENT_ENV = "BIMBOT_STOP_WITH_PARENT"  # the pid of the process that started the service
-# Every service of a run hashes strings alike, run after run: Python salts ``hash`` per process, so a set
-# iterated where it decides (which of two equal choices comes first) would differ between two runs of one
-# seed. A value the user set wins.
-HASH_SEED = {"PYTHONHASHSEED": "0"}
-
-
 class ServiceProcess:
     """One ``bimbot <command>`` child process logging to ``<log_dir>/<name>.log``."""
 
@@ -113,7 +108,7 @@ class ServiceProcess:
                 [sys.executable, "-P", "-m", "bimbot.cli", *args],
                 stdout=self._log,
                 stderr=subprocess.STDOUT,
-                # the child stops when this process dies, even by SIGKILL (bimbot.cli.stop_with_parent)
+                # the child stops when this process dies, even by SIGKILL (child_process.stop_with_parent)
                 env={**env, STOP_WITH_PARENT_ENV: str(os.getpid())},
                 start_new_session=True,  # its own process group: stop() reaches its children too
             )
@@ -201,12 +196,3 @@ def running(name: str, args: Sequence[str], log_dir: Path) -> Iterator[subproces
         yield service.process
     finally:
         service.stop()
-
-
-def wait_until(condition: Callable[[], bool], timeout_s: float, interval_s: float = 0.05) -> bool:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        time.sleep(interval_s)
-    return False

@@ -42,10 +42,10 @@ STOP_TIMEOUT_S = 5.0  # a warm server ends within a second of its stdin closing 
 
 def identity(environ: Mapping[str, str], *, server: bool = False) -> dict[str, str]:
     """What a run and a warm server must share: the code the server loaded (the package, the Python and
-    its module path) and the hash seed the run's services would have (:data:`bimbot.supervisor.HASH_SEED`;
+    its module path) and the hash seed the run's services would have (:data:`bimbot.child_process.HASH_SEED`;
     a value the user set wins)."""
     import bimbot
-    from bimbot.supervisor import HASH_SEED
+    from bimbot.child_process import HASH_SEED
 
     # the server's own seed is the one it started with (none set: a random one, which no run shares)
     seed = environ.get("PYTHONHASHSEED", "random") if server else {**HASH_SEED, **environ}["PYTHONHASHSEED"]
@@ -129,7 +129,7 @@ def running() -> Iterator[Path]:
     """A warm server for the runs this process starts (set :data:`WARM_FORK_SERVER_ENV` to the path this
     yields), stopped at the end. It is not waited for: a run that comes before it listens starts its own
     fork server. Its log is ``warm.log`` beside the socket."""
-    from bimbot.supervisor import HASH_SEED, STOP_WITH_PARENT_ENV
+    from bimbot.child_process import HASH_SEED, STOP_WITH_PARENT_ENV
 
     folder = Path(tempfile.mkdtemp(prefix="bimbot-warm-"))
     path = folder / "fork.sock"
@@ -164,7 +164,7 @@ def for_the_runs_of_this_process(wait_s: float = 0.0) -> Iterator[Path]:
     if named:
         yield Path(named)
         return
-    from bimbot.supervisor import wait_until
+    from bimbot.polling import wait_until
 
     with running() as path:
         if wait_s > 0:
@@ -239,7 +239,7 @@ def serve(path: Path) -> int:
     import setproctitle
 
     from bimbot import fork_server_process
-    from bimbot.cli import stop_with_parent
+    from bimbot.child_process import stop_with_parent
 
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
     stop_with_parent()
@@ -280,7 +280,7 @@ if __name__ == "__main__":
     if len(sys.argv) != 2:
         sys.exit("usage: python -P -m bimbot.warm_fork_server SOCKET")
     if "PYTHONHASHSEED" not in os.environ:  # hash as a run's services do: the seed is fixed at start-up
-        from bimbot.supervisor import HASH_SEED
+        from bimbot.child_process import HASH_SEED
 
         command = [sys.executable, "-P", "-m", "bimbot.warm_fork_server", sys.argv[1]]
         os.execve(sys.executable, command, {**HASH_SEED, **os.environ})

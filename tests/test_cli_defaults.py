@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from bimbot.cli import build_parser
+from bimbot.command_line import build_parser
 from bimbot.run.commands import physics_arguments
 from bimbot.run.options import RunOptions, run_options
 from bimbot.services.physics.app import RunConfig

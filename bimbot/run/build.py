@@ -34,6 +34,7 @@ from typing import Any
 from bimbot.fork_server import ForkServer
 from bimbot.fork_server import enabled as fork_server_enabled
 from bimbot.forked_check import apply_answer, check_request
+from bimbot.polling import wait_until
 from bimbot.run.commands import (
     monitor_bus_options,
     restart_arguments,
@@ -58,7 +59,7 @@ from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentState
 from bimbot.shared.report.collector import RunEnding
 from bimbot.shared.run_folder import RunFolder, new_run_folder, remember_run_dir
-from bimbot.supervisor import ServiceProcess, free_port, stop_all, wait_until
+from bimbot.supervisor import ServiceProcess, free_port, stop_all
 
 _log = logging.getLogger(__name__)
 

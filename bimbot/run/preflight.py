@@ -79,7 +79,7 @@ def check_run_folder(build_dir: Path, run_dir: Path | None) -> None:
 
 def parse_service_arguments(name: str, arguments: list[str]) -> argparse.Namespace:
     """``arguments`` parsed by the service's own parser; a UserError with argparse's message when bad."""
-    from bimbot.cli import build_parser
+    from bimbot.command_line import build_parser
 
     parser = build_parser(arguments)
     errors = io.StringIO()

@@ -78,7 +78,7 @@ def test_a_folder_that_is_no_run_is_one_line(tmp_path: Path, capsys: pytest.Capt
 def test_bimbot_run_from_ifc_reaches_the_planner_and_the_export_reads_the_same_plan(
     frame_run: Path, tmp_path: Path
 ) -> None:
-    from bimbot.cli import parse_arguments
+    from bimbot.command_line import parse_arguments
     from bimbot.export.run_data import run_plan
     from bimbot.run.options import run_options
     from bimbot.run.settings import run_settings

@@ -19,11 +19,12 @@ import pytest
 from robot_stand_in import RobotStandIn
 from wall_clock import bound_s
 
+from bimbot.polling import wait_until
 from bimbot.shared.bus import BusOptions, open_session
 from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.messages import ComponentState, ComponentStateMsg, TwinMsg
 from bimbot.shared.support_graph import support_predecessors
-from bimbot.supervisor import ServiceProcess, free_port, wait_until
+from bimbot.supervisor import ServiceProcess, free_port
 
 pytestmark = pytest.mark.integration
 RUN_TIMEOUT_S = 120.0

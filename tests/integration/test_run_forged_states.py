@@ -28,11 +28,11 @@ from fleets import ground_fleet_file
 from frames import convert_small_frame
 from wall_clock import bound_s
 
+from bimbot.polling import wait_until
 from bimbot.services.component_agents.journal import journal_path, replay
 from bimbot.shared.manifest import read_manifest
 from bimbot.shared.messages import ComponentState
 from bimbot.shared.run_folder import RunFolder
-from bimbot.supervisor import wait_until
 
 pytestmark = pytest.mark.integration
 RUN_TIMEOUT_S = 300

@@ -28,10 +28,10 @@ from frames import convert_small_frame
 from lock_step_logs import waits_that_ran_out
 from processes import run_services
 
+from bimbot.polling import wait_until
 from bimbot.services.component_agents.journal import journal_path, replay
 from bimbot.shared.messages import ComponentState
 from bimbot.shared.run_folder import RunFolder
-from bimbot.supervisor import wait_until
 
 pytestmark = pytest.mark.integration
 

@@ -17,10 +17,11 @@ from pathlib import Path
 import pytest
 from wall_clock import bound_s
 
+from bimbot.polling import wait_until
 from bimbot.services.observer.app import rerun_cli_binary
 from bimbot.shared.bus import BusOptions
 from bimbot.shared.manifest import Manifest, read_manifest
-from bimbot.supervisor import ServiceProcess, free_port, wait_until
+from bimbot.supervisor import ServiceProcess, free_port
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "integration"))
 from robot_stand_in import RobotStandIn  # the integration tests' robot stand-in

@@ -15,9 +15,10 @@ from pathlib import Path
 import pytest
 from wall_clock import bound_s
 
+from bimbot.polling import wait_until
 from bimbot.services.observer.app import rerun_cli_binary
 from bimbot.shared.run_folder import latest_run_folder
-from bimbot.supervisor import ServiceProcess, free_port, wait_until
+from bimbot.supervisor import ServiceProcess, free_port
 
 pytestmark = pytest.mark.integration
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")

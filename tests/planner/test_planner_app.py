@@ -15,8 +15,8 @@ import zenoh
 from planner_builders import portal_manifest, robot_msg, state_msg, twin_msg
 from wall_clock import bound_s
 
-from bimbot.cli import build_parser
 from bimbot.cli import main as bimbot_main
+from bimbot.command_line import build_parser
 from bimbot.services.planner.app import PlannerOptions, main
 from bimbot.services.planner.cli import plan_source
 from bimbot.services.planner.skip_requests import SkipAnswer, bus_sender

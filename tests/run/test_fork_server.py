@@ -25,11 +25,12 @@ from wall_clock import bound_s
 import bimbot.fork_server
 from bimbot.fork_server import ForkedChild, ForkServer
 from bimbot.forked_check import apply_answer, check_request
+from bimbot.polling import wait_until
 from bimbot.run.build import _check_input
 from bimbot.run.options import RunOptions
 from bimbot.run.preflight import check_run_input
 from bimbot.shared.errors import UserError
-from bimbot.supervisor import ServiceProcess, free_port, wait_until
+from bimbot.supervisor import ServiceProcess, free_port
 from bimbot.warm_fork_server import WARM_FORK_SERVER_ENV
 
 

@@ -25,8 +25,8 @@ from frames import convert_small_frame
 from processes import alive
 from wall_clock import bound_s
 
+from bimbot.polling import wait_until
 from bimbot.shared.run_folder import RunFolder, latest_run_folder
-from bimbot.supervisor import wait_until
 
 pytestmark = pytest.mark.integration
 TIMEOUT_S = 120

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from bimbot.cli import build_parser
+from bimbot.command_line import build_parser
 from bimbot.run.commands import service_commands
 from bimbot.run.options import SERVICE_OPTIONS, RunOptions, run_options
 from bimbot.run.preflight import parse_service_arguments

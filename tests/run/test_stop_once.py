@@ -17,7 +17,8 @@ from pathlib import Path
 
 from wall_clock import bound_s
 
-from bimbot.supervisor import ServiceProcess, stop_all, wait_until
+from bimbot.polling import wait_until
+from bimbot.supervisor import ServiceProcess, stop_all
 
 COUNTING_SERVICE = textwrap.dedent(
     """

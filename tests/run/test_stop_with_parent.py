@@ -19,7 +19,8 @@ import pytest
 from processes import alive
 from wall_clock import bound_s
 
-from bimbot.supervisor import free_port, wait_until
+from bimbot.polling import wait_until
+from bimbot.supervisor import free_port
 
 PARENT = textwrap.dedent(
     """

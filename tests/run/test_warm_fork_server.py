@@ -20,7 +20,8 @@ from processes import alive
 from wall_clock import bound_s
 
 from bimbot.fork_server import ForkedChild, ForkServer
-from bimbot.supervisor import ServiceProcess, free_port, wait_until
+from bimbot.polling import wait_until
+from bimbot.supervisor import ServiceProcess, free_port
 from bimbot.warm_fork_server import WARM_FORK_SERVER_ENV, WarmSession, for_the_runs_of_this_process, running
 
 

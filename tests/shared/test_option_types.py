@@ -6,7 +6,7 @@ import argparse
 
 import pytest
 
-from bimbot.cli import build_parser
+from bimbot.command_line import build_parser
 from bimbot.shared.option_types import (
     finite_float,
     non_negative_float,

@@ -16,6 +16,7 @@ from pydantic import BaseModel
 from wall_clock import bound_s
 
 import bimbot.cli
+import bimbot.command_line
 from bimbot.shared.errors import UserError
 from bimbot.shared.service_runner import resolve_build, service_bus, writable_dir
 
@@ -100,7 +101,7 @@ def test_a_validation_error_inside_a_command_is_a_traceback_and_exit_1_not_exit_
     module.add_arguments = _add_nothing  # type: ignore[attr-defined]
     module.run = _raise_validation_error  # type: ignore[attr-defined]
     monkeypatch.setitem(sys.modules, "fake_buggy_service", module)
-    monkeypatch.setitem(bimbot.cli.SUBCOMMANDS, "buggy", ("fake_buggy_service", "raises a bug"))
+    monkeypatch.setitem(bimbot.command_line.SUBCOMMANDS, "buggy", ("fake_buggy_service", "raises a bug"))
     with caplog.at_level(logging.ERROR):
         assert bimbot.cli.main(["buggy"]) == bimbot.cli.EXIT_BUG == 1
     [record] = [r for r in caplog.records if r.exc_info]
@@ -118,7 +119,7 @@ def test_a_user_error_inside_a_command_stays_one_line_and_exit_2(
     module.add_arguments = _add_nothing  # type: ignore[attr-defined]
     module.run = bad_input  # type: ignore[attr-defined]
     monkeypatch.setitem(sys.modules, "fake_picky_service", module)
-    monkeypatch.setitem(bimbot.cli.SUBCOMMANDS, "picky", ("fake_picky_service", "rejects its input"))
+    monkeypatch.setitem(bimbot.command_line.SUBCOMMANDS, "picky", ("fake_picky_service", "rejects its input"))
     with caplog.at_level(logging.ERROR):
         assert bimbot.cli.main(["picky"]) == 2
     assert not any(r.exc_info for r in caplog.records)

@@ -18,7 +18,8 @@ from pathlib import Path
 
 from wall_clock import bound_s
 
-from bimbot.supervisor import ServiceProcess, free_port, wait_until
+from bimbot.polling import wait_until
+from bimbot.supervisor import ServiceProcess, free_port
 
 # A signal landing while the main thread holds the stop event's lock, made deterministic: the handler is
 # called with the lock held, as Python calls it between two bytecodes of Event.wait or of a first handler.

@@ -10,10 +10,11 @@ import zenoh
 from planner.planner_builders import twin_msg
 from wall_clock import bound_s
 
+from bimbot.polling import wait_until
 from bimbot.shared.bus import BusOptions, encode, open_session
 from bimbot.shared.messages import COMPONENT_TWIN, ComponentState, TwinMsg
 from bimbot.shared.twin_query import ask_twins
-from bimbot.supervisor import free_port, wait_until
+from bimbot.supervisor import free_port
 
 SITE = "test-site"
 

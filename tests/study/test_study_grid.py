@@ -27,7 +27,7 @@ def test_without_sequences_the_runs_use_the_builds_own_and_their_names_omit_it()
 
 
 def test_the_seeds_start_at_bimbot_run_s_own_so_the_first_run_is_the_one_a_user_has_seen() -> None:
-    from bimbot.cli import build_parser
+    from bimbot.command_line import build_parser
 
     default_seed = build_parser(["run", "b"]).parse_args(["run", "b"]).seed
     assert [run.seed for run in study_grid([Path("a.toml")], seeds=2)] == [default_seed, default_seed + 1]
@@ -67,7 +67,7 @@ def test_run_arguments_name_the_fleet_folder_limit_and_sequence_and_the_seed_onl
 
 
 def test_whether_bimbot_run_takes_a_seed_is_read_from_its_own_parser() -> None:
-    from bimbot.cli import build_parser
+    from bimbot.command_line import build_parser
 
     parser = build_parser(["run", "x"])
     run_parser = parser._subparsers._group_actions[0].choices["run"]  # type: ignore[union-attr]
