@@ -8,7 +8,7 @@ chart's radius for their mass, not at the far end of the yard. Here:
 * **crane-only** — a component that is lifted (not built in place), heavier than the largest payload among
   the fleet's ground types that carry, and no heavier than a hook-lifting type's largest payload;
 * each goes, heaviest first, to the free spot nearest the first crane (robot id order) that can lift it:
-  lying as in the yard (:func:`.site_layout.laid_slot`), its centre at a hook radius between the trolley's
+  lying as in the yard (:func:`.yard_slot.laid_slot`), its centre at a hook radius between the trolley's
   innermost radius and the chart's radius for its mass, clear by a gap of what is blocked (the building,
   yard, depot and main street with their lanes, every machine's base and staging area with a lane around
   them, so ground robots still reach the staging area) and of the loads laid before it;
@@ -29,6 +29,7 @@ from .construction_methods import ConstructionMethod
 from .manifest import Component
 from .robot_description import Capability, RobotDescription
 from .site_plan import Rect, YardSlot
+from .yard_slot import laid_slot
 
 SPOT_STEP_M = 0.5  # candidate centres around the mast
 LAYDOWN_GAP_M = 0.6  # between two loads, and between a load and what is blocked
@@ -67,8 +68,6 @@ def lay_down(
 ) -> dict[str, YardSlot]:
     """Slots beside the cranes for ``components`` (the crane-only ones), by the module docstring's rule;
     a component without a spot is not in the result."""
-    from .site_layout import laid_slot  # the yard's way of laying a component down
-
     taken = [rect.grown(LAYDOWN_GAP_M) for rect in blocked]
     slots: dict[str, YardSlot] = {}
     order = sorted(range(len(components)), key=lambda i: (-components[i].mass_kg, i))

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
 import manifold3d
@@ -181,12 +180,6 @@ class TriMesh:
         import trimesh
 
         return trimesh.Trimesh(self.vertices, self.faces, process=False)
-
-    def export(self, path: str | Path) -> None:
-        """Write the mesh as an OBJ file (see :mod:`.mesh_files`)."""
-        from .mesh_files import write_obj
-
-        write_obj(Path(path), self)
 
 
 def as_trimesh_lite(mesh: MeshLike) -> TriMesh:

@@ -12,7 +12,7 @@ import contextlib
 import logging
 import os
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from types import ModuleType, TracebackType
 
 _log = logging.getLogger(__name__)
@@ -39,6 +39,11 @@ def quiet_stdout() -> Iterator[None]:
         for descriptor, copy in zip((1, 2), saved, strict=True):
             os.dup2(copy, descriptor)
             os.close(copy)
+
+
+CLIENT_FORGETTERS: list[Callable[[int], None]] = []
+"""What keeps state per pybullet client id registers here how to drop it (:mod:`.ray_scene`'s records): a
+client that connects or closes forgets what an earlier client of its id left."""
 
 
 def import_pybullet() -> ModuleType:
@@ -78,9 +83,8 @@ class BulletClient:
             client_id = p.connect(self.mode)
         if client_id < 0:
             raise RuntimeError("could not connect a pybullet physics server")
-        from .ray_scene import forget  # it imports this module
-
-        forget(client_id)  # whatever an earlier client of this id left (one disconnected without close())
+        for forget in CLIENT_FORGETTERS:  # what an earlier client of this id left (one not closed)
+            forget(client_id)
         self._id = client_id
         _log.debug("pybullet client %d connected", client_id)
         return self
@@ -95,9 +99,8 @@ class BulletClient:
 
     def close(self) -> None:
         if self._id is not None:
-            from .ray_scene import forget  # it imports this module
-
-            forget(self._id)  # pybullet gives the next client this id again
+            for forget in CLIENT_FORGETTERS:  # pybullet gives the next client this id again
+                forget(self._id)
             if p.isConnected(physicsClientId=self._id):
                 p.disconnect(physicsClientId=self._id)
             _log.debug("pybullet client %d disconnected", self._id)

@@ -17,8 +17,8 @@ from scipy.spatial.transform import Rotation
 from bimbot.shared.footprint import footprint_distance_m, posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.robot_description import Capability, RobotDescription
-from bimbot.shared.site_layout import GROUND_CLEARANCE_M, lying_rotation
 from bimbot.shared.site_plan import Rect
+from bimbot.shared.yard_slot import GROUND_CLEARANCE_M, lying_rotation
 
 from .crane import load_box
 from .scene import Frame, compose, footprint, yaw_of, yaw_quat

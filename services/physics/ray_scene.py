@@ -30,7 +30,7 @@ import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 from scipy.spatial.transform import Rotation
 
-from .client import p
+from .client import CLIENT_FORGETTERS, p
 from .ray_kernel import KIND_CONVEX, KIND_CYLINDER, KIND_SPHERE, cast_fan, pose_shapes, warm_up
 
 _log = logging.getLogger(__name__)
@@ -75,6 +75,9 @@ def _record(client_id: int) -> _ClientRecord:
 def forget(client_id: int) -> None:
     """Drop what was recorded for a client (it was disconnected)."""
     _RECORDS.pop(client_id, None)
+
+
+CLIENT_FORGETTERS.append(forget)
 
 
 def unregister(client_id: int, body_id: int) -> None:

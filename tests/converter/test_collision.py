@@ -35,6 +35,7 @@ from bimbot.services.converter.collision import (
     vhacd_parts,
 )
 from bimbot.services.converter.mesh import TriMesh
+from bimbot.services.converter.mesh_files import write_obj
 from bimbot.shared.manifest import MAX_COLLISION_PARTS, CollisionMethod
 
 MM = 0.001
@@ -544,7 +545,7 @@ def test_profile_parts_rest_on_the_ground_as_a_compound_body(model: Model, tmp_p
     files = []
     for index, part in enumerate(shape.parts):
         files.append(str(tmp_path / f"part_{index}.obj"))
-        part.export(files[-1])
+        write_obj(Path(files[-1]), part)
     client = p.connect(p.DIRECT)
     try:
         p.setGravity(0, 0, -9.81, physicsClientId=client)

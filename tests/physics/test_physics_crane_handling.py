@@ -24,7 +24,7 @@ from bimbot.shared.connection_hold import longest_hold_s
 from bimbot.shared.fleet import Fleet, default_fleet
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import AttachRequest, PlaceRequest
-from bimbot.shared.site_layout import GROUND_CLEARANCE_M
+from bimbot.shared.yard_slot import GROUND_CLEARANCE_M
 
 
 def _crane_fleet(chart: list[tuple[float, float]] | None = None) -> Fleet:

@@ -42,8 +42,8 @@ from bimbot.shared.messages import (
     PoseMsg,
     RobotPoseMsg,
 )
-from bimbot.shared.site_layout import GROUND_CLEARANCE_M
 from bimbot.shared.site_plan import Rect
+from bimbot.shared.yard_slot import GROUND_CLEARANCE_M
 
 
 @pytest.fixture(scope="module")

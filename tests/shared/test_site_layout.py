@@ -24,14 +24,9 @@ from bimbot.shared.ifc_input import open_model
 from bimbot.shared.manifest import Component, Manifest, read_manifest
 from bimbot.shared.occupancy_grid import from_footprints, inflate
 from bimbot.shared.robot_description import DEFAULT_ROBOT, Capability
-from bimbot.shared.site_layout import (
-    GROUND_CLEARANCE_M,
-    INFLATION_MARGIN_M,
-    aisle_width_m,
-    lying_rotation,
-    plan_site,
-)
+from bimbot.shared.site_layout import INFLATION_MARGIN_M, aisle_width_m, plan_site
 from bimbot.shared.site_plan import FENCE_THICKNESS_M, SiteLayout
+from bimbot.shared.yard_slot import GROUND_CLEARANCE_M, lying_rotation
 
 GRID_M = 0.2
 REACH_MARGIN_M = 0.1  # the robot's approach stays this much inside its reach
