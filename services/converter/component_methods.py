@@ -21,7 +21,7 @@ from .final_method import default_limits, final_method
 from .in_place import lies_in_ground
 
 if TYPE_CHECKING:
-    from .component_writer import GeometryWork, PlacedElement, ShardContext
+    from .component_work import GeometryWork, PlacedElement, ShardContext
 
 
 def target_in_ground(item: PlacedElement, context: ShardContext) -> bool:

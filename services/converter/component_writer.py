@@ -12,14 +12,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import ifcopenshell
 import ifcopenshell.util.element
 import numpy as np
 
-from bimbot.shared.construction_methods import MethodDecision, MethodLimits
+from bimbot.shared.construction_methods import MethodDecision
 from bimbot.shared.identifiers import guid_to_folder, guid_to_key, is_valid_guid
 from bimbot.shared.manifest import (
     BoundingBox,
@@ -30,70 +29,23 @@ from bimbot.shared.manifest import (
     MassSource,
     SkippedElement,
 )
-from bimbot.shared.methods_file import MethodsFile
 
 from . import mass as mass_chain
 from .collision import CollisionShape, collision_shape
 from .component_methods import method_fields, settled_method
+from .component_work import GeometryWork, PlacedElement, ShardContext
 from .connections import element_connections
 from .face_materials import material_volumes, volumes_by_style
 from .mass_properties import MassProperties, mass_properties, mesh_from_arrays
 from .mesh import TriMesh
-from .mesh_files import VISUAL_FORMATS, GeometryFiles, link_geometry_files, write_geometry_files
+from .mesh_files import GeometryFiles, link_geometry_files, write_geometry_files
 from .placement import pose_from_rigid, split_rigid, vec3
-from .prism_split import SectionCache
-from .room_contents import RoomFloor
 from .sdf_writer import ModelSpec, model_config, model_sdf
 from .split_ifc import split_element
 from .tessellation import ElementShape
 
 if TYPE_CHECKING:
-    from .crane_reach import LiftLimit
-
-
-@dataclass
-class ShardContext:
-    """What every element of a shard shares, computed once per shard (not per element)."""
-
-    out_dir: Path
-    origin: np.ndarray  # local origin, IFC world frame, metres
-    unit_scale_m: float
-    mass_unit_kg: float = 1.0  # kilograms per project mass unit (mass.mass_unit_kg)
-    formats: tuple[str, ...] = VISUAL_FORMATS  # visual mesh formats written (see mesh_files)
-    split_ifc: bool = True  # write each component's standalone IFC
-    sections: SectionCache = field(default_factory=SectionCache)  # section splits by section
-    chains: dict[int, list[ifcopenshell.entity_instance]] = field(default_factory=dict)  # split_ifc
-    decisions: dict[str, MethodDecision] = field(default_factory=dict)  # by GlobalId; absent: lifted/rule
-    limits: MethodLimits | None = None  # what a lifted part may weigh and measure (None: the default fleet's)
-    lift_limits: dict[str, LiftLimit] = field(default_factory=dict)  # by GlobalId: the crane's where it goes
-    methods: MethodsFile | None = None  # the methods file in force: its cast-in-place rates
-    storey_levels_m: tuple[float, ...] = ()  # storey elevations, IFC world z, metres (panels' rows)
-    style_materials: dict[int, ifcopenshell.entity_instance] = field(default_factory=dict)  # face_materials
-    room_floors: dict[int, RoomFloor] = field(default_factory=dict)  # by step id: a room's content's floor
-
-
-@dataclass
-class GeometryWork:
-    """Per distinct geometry: computed once, shared by every element that uses it."""
-
-    mesh: TriMesh  # welded, outward: the visual mesh and the input of every computation
-    props: MassProperties
-    collision: CollisionShape
-    volumes_by_style: dict[int, float] = field(default_factory=dict)  # m³ by face style (face_materials)
-    files: GeometryFiles | None = None
-    files_dir: Path | None = None
-
-
-@dataclass
-class PlacedElement:
-    element: ifcopenshell.entity_instance
-    shape: ElementShape
-    geometry_key: str
-    rotation: np.ndarray
-    translation_m: np.ndarray
-    vertices_local_m: np.ndarray
-    bbox_ifc_world_m: np.ndarray  # (2, 3) in IFC world coordinates (before the local-origin shift)
-    notes: tuple[str, ...] = ()  # what was done to its geometry (a room's content cut at its floor)
+    pass
 
 
 def skipped_entry(element: ifcopenshell.entity_instance, reason: str) -> SkippedElement:

@@ -46,7 +46,8 @@ from bimbot.shared.manifest import Component, Manifest, SourceModel, write_manif
 from bimbot.shared.methods_file import MethodsFile, load_methods
 from bimbot.shared.sequence import SEQUENCE_FILE_NAME, write_sequence
 
-from .component_writer import ShardContext, skipped_entry
+from .component_work import ShardContext
+from .component_writer import skipped_entry
 from .connection_kinds import decide_connections
 from .crane_reach import crane_lift_limits, tightened
 from .duplicates import drop_duplicates

@@ -45,15 +45,8 @@ from .bays import split_into_bays
 from .cast_work import cast_work, rates_class
 from .collision import collision_from_mesh
 from .component_methods import element_limits, settled_method, target_in_ground
-from .component_writer import (
-    EntryParts,
-    GeometryWork,
-    PlacedElement,
-    ShardContext,
-    element_mass,
-    write_component,
-    write_entry,
-)
+from .component_work import GeometryWork, PlacedElement, ShardContext
+from .component_writer import EntryParts, element_mass, write_component, write_entry
 from .mass_properties import mass_properties
 from .mesh import TriMesh
 from .mesh_files import write_geometry_files

@@ -34,7 +34,8 @@ import numpy as np
 from bimbot.shared.construction_methods import PanelisedElement
 from bimbot.shared.manifest import Component, SkippedElement
 
-from .component_writer import GeometryWork, ShardContext, geometry_work, place_element, skipped_entry
+from .component_work import GeometryWork, ShardContext
+from .component_writer import geometry_work, place_element, skipped_entry
 from .panel_writer import write_element
 from .room_contents import cut_at_room_floor
 from .sdf_writer import ModelSpec
