@@ -148,8 +148,7 @@ def load_fleet(path: Path | str | None = None) -> Fleet:
 
 def _builtin_types() -> dict[str, object]:
     """The ``[types]`` tables of the embedded default fleet: a fleet file without its own uses these."""
-    types = tomllib.loads(DEFAULT_FLEET_FILE.read_text(encoding="utf-8"))["types"]
-    assert isinstance(types, dict)
+    types: dict[str, object] = tomllib.loads(DEFAULT_FLEET_FILE.read_text(encoding="utf-8"))["types"]
     return types
 
 

@@ -114,9 +114,8 @@ def _closed_surface(mesh: TriMesh, bbox: np.ndarray) -> MassProperties | None:
         return None
     pieces = mesh.split()
     closed = [piece.volume for piece in pieces if _solid(piece)]
-    if any(
-        piece_m3 < 0 for piece_m3 in closed
-    ):  # a closed body wound inward: the winding is not to be trusted
+    inward = any(piece_m3 < 0 for piece_m3 in closed)  # a closed body wound inward: winding not trusted
+    if inward:
         return None
     if volume < sum(closed) * (1.0 - 1e-9) or volume > sum(piece_volume_m3(piece) for piece in pieces):
         return None
