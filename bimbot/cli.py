@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib
 import logging
+import os
 import sys
 
 from bimbot.child_process import stop_with_parent
@@ -20,6 +21,7 @@ from bimbot.shared.errors import UserError
 _log = logging.getLogger("bimbot")
 
 EXIT_BUG = 1  # an unexpected exception: its traceback is in the log
+EXIT_BROKEN_PIPE = 141  # as a shell reports a command killed by SIGPIPE (128 + 13)
 BUG_MARK = "failed with an unexpected error"  # in the log line above the traceback (bimbot run looks for it)
 
 
@@ -50,13 +52,18 @@ def main(argv: list[str] | None = None) -> int:
     configure_logging(log_verbosity(args.command, args.verbose, args.quiet))
     module = importlib.import_module(args._module)
     try:
-        return int(module.run(args) or 0)
+        code = int(module.run(args) or 0)
+        sys.stdout.flush()  # a reader gone (below) is found here, not in the interpreter's last flush
+        return code
     except UserError as error:  # the same one-line form as a bad option's (OneLineErrorParser)
         sys.stderr.write(f"bimbot {args.command}: error: {error}\n")
         return EXIT_USER_ERROR
     except KeyboardInterrupt:
         _log.error("interrupted")
         return 130
+    except BrokenPipeError:  # its reader went away (``bimbot runs | head``): nothing more to say, and no bug
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # Python's exit flush fails quietly
+        return EXIT_BROKEN_PIPE
     except Exception:  # a bug: keep the traceback for the log, not the "bad input" exit code
         _log.exception("bimbot %s %s (a bug; traceback follows)", args.command, BUG_MARK)
         return EXIT_BUG

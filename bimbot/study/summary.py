@@ -100,6 +100,11 @@ def markdown_table(rows: Sequence[Row]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _makespans(rows: Sequence[Row]) -> list[float]:
+    """The makespans (s) of the runs that did not fail."""
+    return _numbers([row for row in rows if row.get("status") != FAILED], "makespan_s")
+
+
 def write_plot(rows: Sequence[Row], path: Path) -> tuple[float, float]:
     """``study.png``: makespan per scenario (every run, mean and range) and mean utilisation per type; the
     makespan axis's limits (s)."""
@@ -111,7 +116,7 @@ def write_plot(rows: Sequence[Row], path: Path) -> tuple[float, float]:
     figure = Figure(figsize=(max(7.0, 2.2 * len(names) + 3.0), 4.2), layout="constrained")
     makespan_axes, utilisation_axes = figure.subplots(1, 2, width_ratios=[1.2, 1.0])
     for x, name in enumerate(names):
-        values = _numbers([row for row in groups[name] if row.get("status") != FAILED], "makespan_s")
+        values = _makespans(groups[name])
         if not values:
             continue
         mean = statistics.fmean(values)
@@ -127,7 +132,9 @@ def write_plot(rows: Sequence[Row], path: Path) -> tuple[float, float]:
         )
     makespan_axes.set_xticks(range(len(names)), names, rotation=15)
     makespan_axes.set_xlim(-0.6, len(names) - 0.4)
-    makespan_axes.set_ylim(bottom=0)  # from zero: a spread of seconds on 2,600 s must look like one
+    tops = [max(values) for name in names if (values := _makespans(groups[name]))]
+    # from zero: a spread of seconds on 2,600 s must look like one; room above the highest run
+    makespan_axes.set_ylim(0, 1.1 * max(tops) if tops else 1.0)
     makespan_axes.set_ylabel("makespan (sim s)")
     makespan_axes.set_title("makespan per scenario: runs, mean and range")
     makespan_axes.grid(axis="y", alpha=0.3)

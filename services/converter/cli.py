@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import re
 import sys
 import time
 from collections import Counter
@@ -36,8 +37,18 @@ if TYPE_CHECKING:
 
 _log = logging.getLogger(__name__)
 MAX_WARNINGS_SHOWN = 10  # the converter's warnings on stderr; every one is in the manifest
+# warnings that change what a component weighs or where it stands come first on stderr: a guessed density
+# moves the method and the robot a part gets; a note on how its geometry was decomposed changes neither
+CHANGES_THE_BUILD = re.compile(r"density|weigh|\bmass\b|\bkg\b|clash|implausible", re.I)
 MAX_JOINTS_LOGGED = 20  # joints logged one a line at INFO (the rest at DEBUG); every one is in the manifest
 MAX_CLASHES_NAMED = 3  # clashes named in the warning; every one is in the manifest
+
+
+def warnings_to_show(warnings: list[str], limit: int = MAX_WARNINGS_SHOWN) -> list[str]:
+    """The first ``limit`` warnings, those that change the build (:data:`CHANGES_THE_BUILD`) first, each
+    group in the manifest's order."""
+    ranked = sorted(range(len(warnings)), key=lambda i: (CHANGES_THE_BUILD.search(warnings[i]) is None, i))
+    return [warnings[i] for i in ranked[:limit]]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -188,7 +199,7 @@ def run(args: argparse.Namespace) -> int:
         _log.log(
             level, "skipped %s %s (%s): %s", item.ifc_class, item.guid, item.name or "unnamed", item.reason
         )
-    for warning in manifest.warnings[:MAX_WARNINGS_SHOWN]:
+    for warning in warnings_to_show(manifest.warnings):
         _log.warning("%s", warning)
     if len(manifest.warnings) > MAX_WARNINGS_SHOWN:
         _log.warning(

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import subprocess
 import sys
 import textwrap
@@ -123,3 +124,23 @@ def test_a_user_error_inside_a_command_stays_one_line_and_exit_2(
     with caplog.at_level(logging.ERROR):
         assert bimbot.cli.main(["picky"]) == 2
     assert not any(r.exc_info for r in caplog.records)
+
+
+def test_a_reader_that_went_away_ends_a_command_quietly_not_as_a_bug() -> None:
+    """``bimbot runs | head -1``: the pipe's reader is gone before the command writes; exit 141 as a shell
+    says for SIGPIPE, and no traceback labelled a bug."""
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    try:
+        done = subprocess.run(
+            [sys.executable, "-m", "bimbot.cli", "fleet", "show"],
+            stdout=write_end,
+            stderr=subprocess.PIPE,
+            text=True,
+            timeout=120,
+            check=False,
+        )
+    finally:
+        os.close(write_end)
+    assert done.returncode == bimbot.cli.EXIT_BROKEN_PIPE == 141, done.stderr
+    assert "Traceback" not in done.stderr and bimbot.cli.BUG_MARK not in done.stderr, done.stderr
