@@ -64,7 +64,10 @@ class Fleet(BaseModel):
                 raise ValueError(f"type {name!r} is named {description.name!r}: use one name")
         unknown = sorted({entry.type for entry in self.robots} - set(self.types))
         if unknown:
-            raise ValueError(f"robots of unknown type(s) {unknown}; types: {sorted(self.types)}")
+            raise ValueError(
+                f"robots of unknown type(s) {unknown}; types: {sorted(self.types)}"
+                + _did_you_mean(unknown[0], list(self.types))
+            )
         if self.default_type is not None and self.default_type not in self.types:
             raise ValueError(
                 f"default_type {self.default_type!r} is not among the types {sorted(self.types)}"
@@ -142,7 +145,7 @@ def load_fleet(path: Path | str | None = None) -> Fleet:
     try:
         fleet = Fleet.model_validate({**data, "source": str(file), "base_dir": str(file.resolve().parent)})
     except ValidationError as exc:
-        raise InputError(f"fleet file {file}: {_problems(exc, data)}") from None
+        raise InputError(f"fleet file {file}: {_problems(exc)}") from None
     return fleet
 
 
@@ -152,7 +155,7 @@ def _builtin_types() -> dict[str, object]:
     return types
 
 
-def _problems(error: ValidationError, data: dict[str, object], shown: int = 3) -> str:
+def _problems(error: ValidationError, shown: int = 3) -> str:
     """Pydantic's errors as one line, in the file's words: ``[[robots]] #2: cont: not a known key (did
     you mean count?); …``."""
     parts = []
@@ -168,13 +171,6 @@ def _problems(error: ValidationError, data: dict[str, object], shown: int = 3) -
                 message += " (a robot type's limits go in its [types.NAME] table)"
         elif item["type"] == "missing":
             message = "missing"
-        elif message.startswith("robots of unknown type(s)"):
-            types = data.get("types")
-            known = list(types) if isinstance(types, dict) else []
-            robots = data.get("robots")
-            named = [r.get("type") for r in robots if isinstance(r, dict)] if isinstance(robots, list) else []
-            unknown = [str(name) for name in named if name not in known]
-            message += "".join(_did_you_mean(name, known) for name in unknown[:1])
         parts.append(f"{where}: {message}" if where else message)
     more = error.error_count() - shown
     return "; ".join(parts) + (f" (and {more} more)" if more > 0 else "")

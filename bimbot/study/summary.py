@@ -100,11 +100,6 @@ def markdown_table(rows: Sequence[Row]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _makespans(rows: Sequence[Row]) -> list[float]:
-    """The makespans (s) of the runs that did not fail."""
-    return _numbers([row for row in rows if row.get("status") != FAILED], "makespan_s")
-
-
 def write_plot(rows: Sequence[Row], path: Path) -> tuple[float, float]:
     """``study.png``: makespan per scenario (every run, mean and range) and mean utilisation per type; the
     makespan axis's limits (s)."""
@@ -115,10 +110,12 @@ def write_plot(rows: Sequence[Row], path: Path) -> tuple[float, float]:
     types = robot_types(rows)
     figure = Figure(figsize=(max(7.0, 2.2 * len(names) + 3.0), 4.2), layout="constrained")
     makespan_axes, utilisation_axes = figure.subplots(1, 2, width_ratios=[1.2, 1.0])
+    highest_s = 0.0
     for x, name in enumerate(names):
-        values = _makespans(groups[name])
+        values = _numbers([row for row in groups[name] if row.get("status") != FAILED], "makespan_s")
         if not values:
             continue
+        highest_s = max(highest_s, *values)
         mean = statistics.fmean(values)
         makespan_axes.scatter([x] * len(values), values, color="tab:blue", alpha=0.6, zorder=3)
         makespan_axes.errorbar(
@@ -132,9 +129,8 @@ def write_plot(rows: Sequence[Row], path: Path) -> tuple[float, float]:
         )
     makespan_axes.set_xticks(range(len(names)), names, rotation=15)
     makespan_axes.set_xlim(-0.6, len(names) - 0.4)
-    tops = [max(values) for name in names if (values := _makespans(groups[name]))]
     # from zero: a spread of seconds on 2,600 s must look like one; room above the highest run
-    makespan_axes.set_ylim(0, 1.1 * max(tops) if tops else 1.0)
+    makespan_axes.set_ylim(0, 1.1 * highest_s if highest_s > 0 else 1.0)
     makespan_axes.set_ylabel("makespan (sim s)")
     makespan_axes.set_title("makespan per scenario: runs, mean and range")
     makespan_axes.grid(axis="y", alpha=0.3)

@@ -18,7 +18,7 @@ import ifcopenshell
 import ifcopenshell.util.element
 import numpy as np
 
-from .mass_properties import piece_volume_m3
+from .mass_properties import is_solid, piece_volume_m3
 from .mesh import TriMesh, submesh
 
 
@@ -59,8 +59,7 @@ def volumes_by_style(
     for faces in mesh.piece_faces():
         styles, counts = np.unique(face_style_ids[faces], return_counts=True)
         piece = submesh(mesh.vertices, mesh.faces[faces])
-        closed = piece.is_watertight and piece.is_winding_consistent
-        pieces.append((int(styles[np.argmax(counts)]), piece_volume_m3(piece), closed))
+        pieces.append((int(styles[np.argmax(counts)]), piece_volume_m3(piece), is_solid(piece)))
     open_m3 = sum(volume for _, volume, closed in pieces if not closed)
     closed_m3 = sum(volume for _, volume, closed in pieces if closed)
     scale = 1.0

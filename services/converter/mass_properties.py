@@ -113,7 +113,7 @@ def _closed_surface(mesh: TriMesh, bbox: np.ndarray) -> MassProperties | None:
     if float(np.abs(vector_area) @ half_extent) / 3.0 > CLOSED_SURFACE_VOLUME_SHIFT * volume:
         return None
     pieces = mesh.split()
-    closed = [piece.volume for piece in pieces if _solid(piece)]
+    closed = [piece.volume for piece in pieces if is_solid(piece)]
     inward = any(piece_m3 < 0 for piece_m3 in closed)  # a closed body wound inward: winding not trusted
     if inward:
         return None
@@ -138,16 +138,17 @@ def piece_volume_m3(piece: TriMesh) -> float:
     """A piece's volume: its own when it is closed and consistently wound; else, with its holes filled and
     its winding made consistent (:func:`repaired`), its own when it is then closed, at most its convex
     hull's, else its convex hull's (0 when flat)."""
-    if _solid(piece):
+    if is_solid(piece):
         return abs(piece.volume)
     hull = convex_hull(piece.vertices)
     if hull is None:  # flat: no volume, nothing to repair
         return 0.0
     closed = repaired(piece, fill_holes=True)
-    return min(abs(closed.volume), hull.volume) if _solid(closed) else hull.volume
+    return min(abs(closed.volume), hull.volume) if is_solid(closed) else hull.volume
 
 
-def _solid(piece: TriMesh) -> bool:
+def is_solid(piece: TriMesh) -> bool:
+    """Closed, and wound consistently: its volume is its own."""
     return piece.is_watertight and piece.is_winding_consistent
 
 
