@@ -204,6 +204,10 @@ class ComponentPoseMsg(_Message):
     # pinned_end, fixed_end, bearing, grouted), and the temporary supports standing on it now (props, braces)
     connection_kinds: dict[str, str] = {}
     temporary_supports: Count = 0
+    # placed or joined by a robot: its target fitted to the structure as built (physics' support_fit.py: on
+    # its supports' seats, drawn up to the built member in its way; within the tolerances of its BIM target);
+    # None: its BIM target. Its agent, its connections and the run's as-built audit judge it there
+    fitted_target: PoseMsg | None = None
 
 
 class TwinMsg(_Message):

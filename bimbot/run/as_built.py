@@ -22,16 +22,18 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from bimbot.services.component_agents.agent import AgentConfig
-from bimbot.shared.manifest import Manifest
+from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import SitePosesMsg
 from bimbot.shared.verification import (
+    HasPose,
     PlacementCheck,
     Tolerances,
     is_valid_pose,
+    rotate,
     verify,
 )
 
@@ -48,6 +50,9 @@ class AsBuiltAudit:
     constructed: int  # components whose twins say constructed
     checked: int  # of those, the ones physics has a pose of
     final: dict[str, PlacementCheck]  # GUID → errors against the BIM target, every component physics has
+    # GUID → how far (m, world) its target's centre was moved to fit the structure as built (physics'
+    # support_fit.py): its final errors are measured from its fitted target
+    fitted: dict[str, tuple[float, float, float]] = field(default_factory=dict)
     errors: tuple[str, ...] = ()  # one sentence per constructed component away from its target
     wrong: tuple[str, ...] = ()  # their GUIDs, in manifest order
     sim_time_s: float | None = None  # physics' answer: when
@@ -76,20 +81,23 @@ def audit_as_built(
     if poses is None:
         return AsBuiltAudit(False, tolerances, len(built), 0, {}, asked_at_unix_s=asked_at_unix_s)
     final: dict[str, PlacementCheck] = {}
+    fitted: dict[str, tuple[float, float, float]] = {}
     errors: list[str] = []
     wrong: list[str] = []
     for component in manifest.components:
         label = f"{component.name or component.ifc_class} ({component.guid})"
         pose = poses.components.get(component.guid)
         if pose is not None and is_valid_pose(pose.pose.position_m, pose.pose.quat_xyzw):
-            check = verify(
-                pose.pose, component.target_pose_world, tolerances, reference_local_m=component.com_local_m
-            )
+            target = pose.fitted_target or component.target_pose_world
+            check = verify(pose.pose, target, tolerances, reference_local_m=component.com_local_m)
+            if pose.fitted_target is not None:
+                fitted[component.guid] = centre_moved_m(component, pose.fitted_target)
             final[component.guid] = check
             if component.guid in built and not check.ok:
                 errors.append(
                     f"{label} is constructed but physics has it {check.position_error_m * 1000:.1f} mm and "
-                    f"{math.degrees(check.angle_error_rad):.2f}° from its BIM target (tolerance "
+                    f"{math.degrees(check.angle_error_rad):.2f}° from its "
+                    f"{'target fitted to the structure' if pose.fitted_target else 'BIM target'} (tolerance "
                     f"{tolerances.position_m * 1000:g} mm, {math.degrees(tolerances.angle_rad):g}°)"
                 )
                 wrong.append(component.guid)
@@ -103,12 +111,27 @@ def audit_as_built(
         constructed=len(built),
         checked=sum(1 for guid in built if guid in final),
         final=final,
+        fitted=fitted,
         errors=tuple(errors),
         wrong=tuple(wrong),
         sim_time_s=poses.sim_time_s,
         step=poses.step,
         epoch=poses.epoch,
         asked_at_unix_s=asked_at_unix_s,
+    )
+
+
+def centre_moved_m(component: Component, fitted: HasPose) -> tuple[float, float, float]:
+    """How far ``fitted`` puts ``component``'s centre from where its BIM target does (m, world)."""
+    target = component.target_pose_world
+    here, there = (
+        rotate(fitted.quat_xyzw, component.com_local_m),
+        rotate(target.quat_xyzw, component.com_local_m),
+    )
+    return (
+        fitted.position_m[0] + here[0] - target.position_m[0] - there[0],
+        fitted.position_m[1] + here[1] - target.position_m[1] - there[1],
+        fitted.position_m[2] + here[2] - target.position_m[2] - there[2],
     )
 
 
@@ -124,6 +147,8 @@ def add_to_report(report: dict[str, Any], audit: AsBuiltAudit | None, constructe
         check = final.get(component["guid"])
         component["final_position_error_mm"] = check.position_error_m * 1000.0 if check else None
         component["final_angle_error_deg"] = math.degrees(check.angle_error_rad) if check else None
+        offset = audit.fitted.get(component["guid"]) if audit is not None else None
+        component["fitted_offset_mm"] = [round(1000.0 * c, 2) for c in offset] if offset else None
         if check is not None and component["state"] == "failed" and component.get("reason"):
             assert audit is not None  # a check comes from an audit
             where = where_it_lies(check, component.get("position_error_mm"), audit.tolerances.position_m)
@@ -167,6 +192,7 @@ def _as_dict(audit: AsBuiltAudit | None) -> dict[str, Any]:
         "answered": audit.answered,
         "constructed": audit.constructed,
         "checked": audit.checked,
+        "fitted_to_structure": len(audit.fitted),
         "tolerance_mm": audit.tolerances.position_m * 1000.0,
         "tolerance_deg": math.degrees(audit.tolerances.angle_rad),
         "errors": list(audit.errors),
@@ -195,6 +221,16 @@ def as_built_line(report: dict[str, Any]) -> str | None:
     )
     if position_mm is not None and angle_deg is not None:
         line += f", largest deviation {position_mm:.2f} mm / {angle_deg:.2f}°"
+    fits = [
+        math.hypot(*component["fitted_offset_mm"])
+        for component in report.get("components", [])
+        if component.get("fitted_offset_mm") and component.get("state") == "constructed"
+    ]
+    if fits:
+        line += (
+            f" ({len(fits)} against their targets fitted to the structure as built, moved at most "
+            f"{max(fits):.1f} mm)"
+        )
     tolerance = _tolerance_text(audit)
     errors: list[str] = audit.get("errors", [])
     if not errors:

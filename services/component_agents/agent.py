@@ -45,7 +45,12 @@ from bimbot.shared.messages import (
 from bimbot.shared.reasons import BESIDE_IT, CLASH_ADVICE, Reason, ReasonCode, clash_clause
 from bimbot.shared.robot_description import RobotDescription
 from bimbot.shared.state_table import INITIAL, ComponentMachine, Verdict
-from bimbot.shared.verification import PlacementCheck, Tolerances, is_valid_pose, verify
+from bimbot.shared.verification import (
+    PlacementCheck,
+    Tolerances,
+    is_valid_pose,
+    verify,
+)
 
 from .advice import SetAgainst, misplaced_hint
 
@@ -152,6 +157,7 @@ class ComponentAgent:
         "component",
         "drift_m",
         "event_ids",
+        "fitted_target",
         "guid",
         "history",
         "key",
@@ -193,6 +199,8 @@ class ComponentAgent:
         self.set_against: SetAgainst | None = None  # the neighbours its release moved it out of, how far
         self.open_pits: tuple[str, ...] = ()  # released over the open pit of these foundations
         self.clash_depth_m: dict[str, float] = {}  # the model put it into these components (GUID → m)
+        # physics fitted its target to the structure as built (None: its BIM target): judged there
+        self.fitted_target: PoseMsg | None = None
         self.bumped: tuple[str, float] | None = None  # the robot that touched it since its release, when
         self.arrive_sim_time_s: float | None = None
         self.place_sim_time_s: float | None = None
@@ -292,6 +300,7 @@ class ComponentAgent:
         self.pose_fixed = msg.fixed
         self.drift_m, self.supports, self.open_pits = msg.drift_m, tuple(msg.supports), tuple(msg.open_pits)
         self.clash_depth_m = dict(msg.clash_depth_m)
+        self.fitted_target = msg.fitted_target
         shift = msg.set_against_shift_m
         self.set_against = SetAgainst(tuple(msg.set_against), shift) if msg.set_against and shift else None
         bumped_at_s = msg.bumped_at_s if msg.bumped_at_s is not None else msg.sim_time_s
@@ -327,7 +336,8 @@ class ComponentAgent:
         check = None
         if self.pose is not None:
             drift = self.drift_m if fresh else None
-            target, centre = self.component.target_pose_world, self.component.com_local_m
+            target = self.fitted_target or self.component.target_pose_world
+            centre = self.component.com_local_m
             check = verify(self.pose, target, self._config.tolerances, drift, reference_local_m=centre)
         stamp = self.pose_sim_time_s if fresh else None
         return [self._decide(check, cause, self._clock.now(stamp), now)]

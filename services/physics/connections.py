@@ -69,10 +69,21 @@ class ConnectionConfig:
                 raise ValueError(f"connections: {name} must be a finite number ≥ 0, got {value!r}")
 
 
-def fits_its_target(component: Component, frame: Frame, fit: Tolerances) -> bool:
-    """Whether ``component`` at ``frame`` lies within the agents' tolerances of its BIM target."""
+def fits_its_target(
+    component: Component,
+    frame: Frame,
+    fit: Tolerances,
+    fitted_target: Frame | None = None,
+) -> bool:
+    """Whether ``component`` at ``frame`` lies within the agents' tolerances of its BIM target, or of its
+    target fitted to the structure as built (:mod:`.support_fit`) when it has one."""
     here = PoseMsg(position_m=frame[0], quat_xyzw=frame[1])
-    return verify(here, component.target_pose_world, fit, reference_local_m=component.com_local_m).ok
+    target = (
+        PoseMsg(position_m=fitted_target[0], quat_xyzw=fitted_target[1])
+        if fitted_target is not None
+        else component.target_pose_world
+    )
+    return verify(here, target, fit, reference_local_m=component.com_local_m).ok
 
 
 def side_neighbours(

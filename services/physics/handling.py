@@ -179,13 +179,23 @@ class Handling:
             state.watch[guid].settled = True
             item.phase = Phase.PLACED
 
-    def restore(self, guid: str, frame: Frame, *, fixed: bool, carrier: Robot | None) -> None:
+    def restore(
+        self,
+        guid: str,
+        frame: Frame,
+        *,
+        fixed: bool,
+        carrier: Robot | None,
+        fitted_target: Frame | None = None,
+    ) -> None:
         """Put ``guid`` back as a restarted physics found it in its record: carried by ``carrier`` (at once,
         no lift), placed (released again where it lay, watched as settled; joined once its twin says
-        constructed, :meth:`note_constructed`), or resting at ``frame``."""
+        constructed, :meth:`note_constructed`), or resting at ``frame``; ``fitted_target``: its recorded
+        target fitted to the structure (:mod:`.support_fit`)."""
         state = self.state
         item = state.items[guid]
         item.pose, item.tag, item.motion_to = frame, None, None
+        item.fitted_target = fitted_target if carrier is None else None
         item.separating_from, item.dropped_by = None, None
         state.watch.pop(guid, None)
         if carrier is not None:
@@ -258,6 +268,9 @@ class Handling:
                 other: kind.value for other, kind in state.supports.kinds.get(guid, {}).items()
             },
             temporary_supports=state.supports.count(guid),
+            fitted_target=pose_msg(item.fitted_target)
+            if item.fitted_target is not None and item.carrier is None
+            else None,
         )
 
     def take_changed(self) -> list[str]:

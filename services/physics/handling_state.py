@@ -71,6 +71,9 @@ class Item:
     drift_m: float | None = None  # joined: how far it had moved since its release
     supports: tuple[str, ...] = ()  # placed or joined: the components it rests on
     connected_to: tuple[str, ...] = ()  # joined: the components it was connected to as it was set down
+    # placed or joined by a robot: its target fitted to the structure as built (.support_fit; None: its
+    # BIM target); its placement is judged there
+    fitted_target: Frame | None = None
 
 
 @dataclass

@@ -165,6 +165,18 @@ def clear_overlap(
     return Cleared(frame, clashes_among(points), against)
 
 
+def intrusions(
+    client_id: int, body: ComponentBody, frame: Frame, others: Mapping[int, str], kept: frozenset[str]
+) -> tuple[tuple[str, float], ...]:
+    """The ``others`` (body → GUID; ``kept`` aside) that ``body`` at ``frame`` overlaps deeper than the
+    solver's slop, up to :data:`MAX_CLEARED_M` (GUID, metres), deepest first: what a release would clear."""
+    deepest: dict[str, float] = {}
+    for point, guid in _penetrations(client_id, body, frame, others):
+        if _clearable([(point, guid)], kept, MAX_CLEARED_M):
+            deepest[guid] = max(-point[8], deepest.get(guid, 0.0))
+    return tuple(sorted(deepest.items(), key=lambda item: -item[1]))
+
+
 def _clearable(
     points: list[tuple[tuple[Any, ...], str]], kept: frozenset[str], max_cleared_m: float
 ) -> list[tuple[Any, ...]]:

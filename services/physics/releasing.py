@@ -18,18 +18,29 @@ import numpy as np
 
 from bimbot.shared.connection_hold import plan_connections, sets_supports, supports_s
 from bimbot.shared.footprint import body_centre_m
+from bimbot.shared.manifest import Component
+from bimbot.shared.verification import angle_error_rad
 
 from .client import p
 from .connections import fits_its_target, side_neighbours, within_gap
 from .handling_state import BUILT_WHERE_IT_STANDS, HandlingState, Item, Phase, target_frame
 from .pits import DEEPER_M
-from .release import MAX_CLEARED_M, Watch, box_corners, clear_overlap, deep_overlaps, overlap_at_targets
+from .release import (
+    MAX_CLEARED_M,
+    Watch,
+    box_corners,
+    clear_overlap,
+    deep_overlaps,
+    intrusions,
+    overlap_at_targets,
+)
 from .robots import Robot
 from .scene import (
     ALL_GROUPS,
     DYNAMIC_GROUP,
     IDENTITY,
     STATIC_MASK,
+    Frame,
     component_pose,
     compose,
     make_dynamic,
@@ -37,6 +48,7 @@ from .scene import (
     set_component_pose,
     set_filter,
 )
+from .support_fit import BuiltSupport, bounded, centre_m, following, moved_with, on_its_seats
 from .temporary_supports import anchored
 
 _log = logging.getLogger(__name__)
@@ -58,6 +70,23 @@ class Releasing:
         item.pose = item.motion_to or item.pose
         set_component_pose(cid, body, item.pose)
         set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)  # see what it overlaps, the carrier aside
+        # a robot's placement fitted to the structure as it stands (.support_fit); a set-down without one
+        # (the stability replay) goes to the BIM target
+        item.fitted_target = self._fit_to_structure(item) if carrier is not None else None
+        if item.fitted_target is not None:
+            target = target_frame(item.component)
+            item.pose = moved_with(item.pose, target, item.fitted_target)
+            set_component_pose(cid, body, item.pose)
+            centre = item.component.com_local_m
+            moved = centre_m(item.fitted_target, centre) - centre_m(target, centre)
+            _log.info(
+                "%s fitted to the structure as built: its target moved %.1f mm (%+.1f, %+.1f, %+.1f mm), "
+                "turned %.3f°",
+                guid,
+                1000.0 * float(np.linalg.norm(moved)),
+                *(1000.0 * float(c) for c in moved),
+                math.degrees(angle_error_rad(item.fitted_target[1], target[1])),
+            )
         partners = state.joints.get(guid, frozenset()) | self._framed_within_clearance(item)
         nearby = {other: g for other, g in self._nearby_components(item).items() if g not in partners}
         # a joint partner is no overlap to clear; one the model itself puts it into is kept (a clash in
@@ -195,6 +224,46 @@ class Releasing:
             )
         state.changed.add(guid)
 
+    def _fit_to_structure(self, item: Item) -> Frame | None:
+        """``item``'s target as the structure built so far leaves room for it (:mod:`.support_fit`): on
+        its supports' seats, drawn up to the built member that stands in its way, clear of the rest; None:
+        its BIM target."""
+        state = self._state
+        cid, body, component = state.client_id, item.body, item.component
+        target = target_frame(component)
+        aim = on_its_seats(component, target, self._built_supports(component))
+        before = item.pose
+        try:
+            set_component_pose(cid, body, aim)
+            partners = state.joints.get(component.guid, frozenset()) | self._framed_within_clearance(item)
+            nearby = {other: g for other, g in self._nearby_components(item).items() if g not in partners}
+            kept = frozenset(
+                other for other, _ in deep_overlaps(cid, body, aim, nearby) if self._model_clash(item, other)
+            )
+            for other_guid, _ in intrusions(cid, body, aim, nearby, kept):
+                other = state.items.get(other_guid)
+                if other is not None and other.phase is Phase.JOINED:
+                    aim = following(target, target_frame(other.component), other.pose)
+                    break
+            cleared = clear_overlap(cid, body, aim, nearby, max_cleared_m=AT_TARGET_M, kept=kept)
+        finally:
+            set_component_pose(cid, body, before)
+        return bounded(component, target, cleared.frame, state.connections.fit)
+
+    def _built_supports(self, component: Component) -> list[BuiltSupport]:
+        """The built members ``component``'s manifest connects it to, where they stand."""
+        state = self._state
+        in_place = set(state.in_place.values())
+        supports: list[BuiltSupport] = []
+        for link in component.connection_links:
+            other = state.items.get(link.other_guid)
+            if other is not None and other.phase is Phase.JOINED:
+                where_built = None if other.component.method in BUILT_WHERE_IT_STANDS else other.pose
+                supports.append(BuiltSupport(link.kind, other.component, where_built))
+            elif link.other_guid in in_place:
+                supports.append(BuiltSupport(link.kind, None, None))
+        return supports
+
     def _framed_within_clearance(self, item: Item) -> frozenset[str]:
         """The parts ``item`` is framed to at an end (:func:`.joints.framed_ends`) that it overlaps, as let
         go, no deeper than the model draws plus the erection clearance: it is not moved out of those. A
@@ -229,7 +298,7 @@ class Releasing:
         if not config.enabled:
             return (), 0.0
         found: tuple[str, ...] = ()
-        if fits_its_target(component, item.pose, config.fit):
+        if fits_its_target(component, item.pose, config.fit, item.fitted_target):
             found = self._connected_neighbours(item)
         else:
             _log.info("%s set down off its target: no connection is made (the holes miss)", guid)

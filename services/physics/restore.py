@@ -83,7 +83,13 @@ def restore_site(sim: Simulation, snapshot: PhysicsSnapshot, twins: Iterable[Twi
             if pose.fixed:
                 sim.in_place_work.stand_built(guid, frame)
             continue
-        handling.restore(guid, frame, fixed=pose.fixed and carrier is None, carrier=carrier)
+        handling.restore(
+            guid,
+            frame,
+            fixed=pose.fixed and carrier is None,
+            carrier=carrier,
+            fitted_target=_frame(pose.fitted_target) if pose.fitted_target is not None else None,
+        )
     constructed = from_twins = 0
     for twin in twins:
         if twin.state != ComponentState.CONSTRUCTED or twin.guid not in handling.items:

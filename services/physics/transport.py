@@ -99,7 +99,7 @@ class Transport:
                 )
         item.phase = Phase.CARRIED
         item.carrier = robot.robot_id
-        item.dropped_by = None
+        item.dropped_by, item.fitted_target = None, None
         if robot.lifts_by_hook:  # on the hook, straight up from where it lay
             (x, y, z), quat = item.pose
             item.offset = hanging_offset(robot, ((x, y, z + state.config.hook_lift_m), quat), state.client_id)

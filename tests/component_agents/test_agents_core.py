@@ -412,3 +412,23 @@ def test_events_are_taken_only_from_who_may_send_them() -> None:
     assert agent.state is S.PICKING
     assert agent.apply_event(event(agent.guid, E.ATTACH, robot_id="r1"), NOW)
     assert agent.state is S.TRANSPORTING
+
+
+def test_a_placement_is_judged_against_the_target_physics_fitted_it_to() -> None:
+    """Physics fitted the member's target 9 mm along x, to a support built off its own (physics'
+    support_fit.py): 15 mm from its BIM target but 6 mm from its fitted one, it is constructed, and its
+    error is the 6 mm. Without the fit the same pose is misplaced."""
+    fitted_agent, plain_agent = new_agent(), new_agent()
+    for agent, fitted in ((fitted_agent, True), (plain_agent, False)):
+        drive_to_assembling(agent)
+        pose = pose_of(agent.component, sim_time_s=5.0, offset_m=(0.015, 0.0, 0.0))
+        if fitted:
+            target = agent.component.target_pose_world
+            x, y, z = target.position_m
+            moved = PoseMsg(position_m=(x + 0.009, y, z), quat_xyzw=target.quat_xyzw)
+            pose = pose.model_copy(update={"fitted_target": moved})
+        agent.observe_pose(pose, NOW)
+    done = fitted_agent.apply_event(event(fitted_agent.guid, E.PLACE, sim_time_s=5.0), NOW)[-1]
+    assert done.state is S.CONSTRUCTED and done.position_error_m == pytest.approx(0.006, abs=1e-9)
+    missed = plain_agent.apply_event(event(plain_agent.guid, E.PLACE, sim_time_s=5.0), NOW)[-1]
+    assert missed.state is S.MISPLACED and missed.position_error_m == pytest.approx(0.015, abs=1e-9)

@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from bimbot.run.as_built import AGENT_TOLERANCES, add_to_report, as_built_line, audit_as_built
 from bimbot.services.component_agents.agent import AgentConfig
-from bimbot.shared.messages import ComponentState
+from bimbot.shared.messages import ComponentState, PoseMsg
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.report.collector import ReportCollector
 from bimbot.shared.report.png import _as_built_title, render_report_png
@@ -164,3 +164,29 @@ def test_a_report_written_while_the_run_goes_on_says_why_it_has_no_final_errors(
     add_to_report(report, None, set())
     assert report["totals"]["max_final_position_error_mm"] is None
     assert "comes at its end" in report["as_built"]["note"]
+
+
+def test_a_member_fitted_to_the_structure_is_audited_against_its_fitted_target() -> None:
+    """Physics fitted the beam's target 9 mm along x (its support stood off its own): 15 mm from its BIM
+    target it is 6 mm from its fitted one, no error; the report gives the fit, the summary counts it."""
+    answer = poses(SITE_MANIFEST, moved={BEAM: ((0.015, 0.0, 0.0), 0.0)})
+    target = SITE_MANIFEST.component(BEAM).target_pose_world
+    x, y, z = target.position_m
+    fitted = PoseMsg(position_m=(x + 0.009, y, z), quat_xyzw=target.quat_xyzw)
+    beam = answer.components[BEAM].model_copy(update={"fitted_target": fitted})
+    answer = answer.model_copy(update={"components": {**answer.components, BEAM: beam}})
+    audit = audit_as_built(SITE_MANIFEST, answer, constructed={BEAM})
+    assert audit.errors == () and audit.final[BEAM].position_error_m == pytest.approx(0.006, abs=1e-9)
+    assert audit.fitted[BEAM] == pytest.approx((0.009, 0.0, 0.0), abs=1e-9)
+    unfitted = audit_as_built(
+        SITE_MANIFEST, poses(SITE_MANIFEST, moved={BEAM: ((0.015, 0.0, 0.0), 0.0)}), {BEAM}
+    )
+    assert unfitted.wrong == (BEAM,)
+    report = {
+        "components": [{"guid": BEAM, "state": "constructed"}],
+        "totals": {},
+    }
+    add_to_report(report, audit, {BEAM})
+    assert report["components"][0]["fitted_offset_mm"] == pytest.approx([9.0, 0.0, 0.0], abs=0.01)
+    line = as_built_line(report)
+    assert line is not None and "1 against their targets fitted to the structure as built" in line

@@ -1,0 +1,115 @@
+"""A member fitted to the structure as it was built: where a site's erector puts it.
+
+Every built member stands within its tolerance of its BIM target, not on it. A beam framed into a channel
+that stands 9 mm towards it cannot go to its own target: aimed there, it runs into the channel, is stopped
+at the contact and ends 25 mm off its target at every attempt (tolerance stack-up), and no retry mends what
+the standing steel fixes. On a site the member is drawn up to the steel as it stands, bolted to the holes
+where they are and laid on the seats and tops of what carries it; its erection tolerance is relative to
+those supports.
+
+So the release (:mod:`.releasing`) moves a robot's placement by its member's *fit*, the member's target as
+the built structure leaves room for it:
+
+* on its seats: its BIM target raised or lowered by the mean vertical displacement of the built members its
+  manifest connects it to (``connection_links``), each taken where it meets the member (the member's centre
+  brought into the support's box). A grouted panel is shimmed to its level on its bed: a grouted link does
+  not count;
+* drawn up to what stands in its way: where that aim runs into a built member standing off its own target,
+  the member follows that member (the deepest such), as bolted to it: the member's target moved by the
+  rigid displacement that member has from its own target;
+* what overlap is left is cleared (:func:`.release.clear_overlap`, as for any placement).
+
+A fit moves the member's centre at most the position tolerance and turns it at most the angle tolerance
+(:func:`bounded`), so no member ends further than twice the tolerance from its BIM target however its
+supports stand. Its agent, its connections and the run's as-built audit judge it against its fitted target.
+A component in place from the start, or cast or laid where it stands, is a support with no displacement.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from bimbot.shared.connection_kinds import ConnectionKind
+from bimbot.shared.manifest import Component
+from bimbot.shared.verification import Tolerances, angle_error_rad
+
+from .scene import Frame, compose, invert, rotate
+
+NEGLIGIBLE_M = 1e-4  # a fit that moves the centre less than this (and does not turn it) is none
+
+
+@dataclass(frozen=True)
+class BuiltSupport:
+    """A built member another is connected to: how, where its model puts it, where it stands."""
+
+    kind: ConnectionKind
+    component: Component | None  # None: in place from the start (it stands where the model puts it)
+    as_built: Frame | None  # None: it stands at its target (in place, cast or laid where it stands)
+
+
+def displacement_at_m(support: BuiltSupport, point_m: np.ndarray) -> np.ndarray:
+    """How far ``support``, as built, moved its point nearest ``point_m`` (world, at its target)."""
+    if support.as_built is None or support.component is None:
+        return np.zeros(3)
+    box = support.component.bbox_world
+    at = np.clip(point_m, np.asarray(box.min_m), np.asarray(box.max_m))
+    target = support.component.target_pose_world
+    local = Rotation.from_quat(target.quat_xyzw).inv().apply(at - np.asarray(target.position_m))
+    built_position, built_quat = support.as_built
+    return Rotation.from_quat(built_quat).apply(local) + np.asarray(built_position) - at
+
+
+def centre_m(frame: Frame, centre_local_m: tuple[float, float, float]) -> np.ndarray:
+    """The world position of the point ``centre_local_m`` (component frame) at ``frame``."""
+    return np.asarray(frame[0]) + np.asarray(rotate(frame[1], centre_local_m))
+
+
+def on_its_seats(member: Component, target: Frame, supports: Iterable[BuiltSupport]) -> Frame:
+    """``target`` raised or lowered by the mean vertical displacement of ``supports`` where they meet
+    ``member`` (grouted links aside; none: ``target`` itself)."""
+    centre = centre_m(target, member.com_local_m)
+    rises = [
+        float(displacement_at_m(support, centre)[2])
+        for support in supports
+        if support.kind is not ConnectionKind.GROUTED
+    ]
+    if not rises:
+        return target
+    (x, y, z), quat = target
+    return (x, y, z + sum(rises) / len(rises)), quat
+
+
+def following(target: Frame, support_target: Frame, support_as_built: Frame) -> Frame:
+    """``target`` moved by the rigid displacement that takes ``support_target`` to ``support_as_built``:
+    the member goes where a member it is bolted to went."""
+    return compose(compose(support_as_built, invert(support_target)), target)
+
+
+def bounded(member: Component, target: Frame, fitted: Frame, tolerances: Tolerances) -> Frame | None:
+    """``fitted`` within the tolerances of ``target``: turned back to ``target``'s orientation if it turns
+    further than the angle tolerance, its centre brought back to at most the position tolerance from
+    ``target``'s; None when it is ``target`` itself (to within :data:`NEGLIGIBLE_M`)."""
+    quat = fitted[1]
+    turned = angle_error_rad(quat, target[1])
+    if turned > tolerances.angle_rad:
+        quat, turned = target[1], 0.0
+    wanted = centre_m(fitted, member.com_local_m) - centre_m(target, member.com_local_m)
+    length = float(np.linalg.norm(wanted))
+    if not math.isfinite(length) or (length < NEGLIGIBLE_M and turned < 1e-6):
+        return None
+    if length > tolerances.position_m:
+        wanted *= tolerances.position_m / length
+    # the frame whose centre lies ``wanted`` from the target's centre, at orientation ``quat``
+    centre = centre_m(target, member.com_local_m) + wanted
+    origin = centre - np.asarray(rotate(quat, member.com_local_m))
+    return (float(origin[0]), float(origin[1]), float(origin[2])), quat
+
+
+def moved_with(placed: Frame, target: Frame, fitted: Frame) -> Frame:
+    """A placement ``placed`` made against ``target``, made against ``fitted`` instead: the same error."""
+    return compose(fitted, compose(invert(target), placed))
