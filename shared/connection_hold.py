@@ -43,7 +43,8 @@ def plan_connections(
     """Kinds and times for the neighbours ``made`` (GUIDs in order): a neighbour the manifest links is
     connected as its link says; one it does not (an older build, a contact physics found) as a bolted end
     in ``fallback_s``. A bearing holds by friction only, except on a joint partner (no contact between
-    the two: it would pass into it), which holds it as a fixed connection would."""
+    the two: it would pass into it), which holds it as a fixed connection would; a single pinned end holds
+    it only with something else (:func:`hinged_only`)."""
     kinds: dict[str, ConnectionKind] = {}
     holds_at_s: dict[str, float] = {}
     connection_s = 0.0
@@ -64,9 +65,16 @@ def hinged_only(
     holds: Mapping[str, float], kinds: Mapping[str, ConnectionKind], jointed: Sequence[str]
 ) -> bool:
     """Whether the member is held by a single pinned end and nothing else: a bolted shear end lets it turn,
-    so it stands only with a second end (or a fixed connection, a joint, a support) holding it."""
+    so it stands only with a second end (or a fixed connection, a joint, a support) holding it.
+
+    A bearing made on another neighbour is such a second support: the member lies on it, so it cannot turn
+    about its pin, and the pin keeps it from sliding off (a pin and a roller: simply supported). A curtain
+    wall's bottom transom lying on its slab and bolted to the wall it abuts is held so; left free, the
+    release of its neighbour set against it (kept within the erection clearance of their framed ends) shot
+    both 0.3 m off the slab (the Revit house, seed 1)."""
     pinned = [guid for guid in holds if kinds[guid] is ConnectionKind.PINNED_END and guid not in jointed]
-    return len(holds) == 1 and len(pinned) == 1
+    bears = any(kind is ConnectionKind.BEARING for guid, kind in kinds.items() if guid not in holds)
+    return len(holds) == 1 and len(pinned) == 1 and not bears
 
 
 def sets_supports(

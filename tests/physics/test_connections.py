@@ -24,7 +24,13 @@ from bimbot.services.physics.handling_state import Phase
 from bimbot.services.physics.scene import component_pose, footprint
 from bimbot.services.physics.simulation import SimConfig, Simulation
 from bimbot.shared.connection_hold import longest_hold_s
-from bimbot.shared.connection_kinds import SupportKind, SupportWhen, TemporarySupportNeed
+from bimbot.shared.connection_kinds import (
+    ConnectionKind,
+    ConnectionLink,
+    SupportKind,
+    SupportWhen,
+    TemporarySupportNeed,
+)
 from bimbot.shared.manifest import Component, Manifest, Pose
 from bimbot.shared.messages import AttachRequest, PhysicsReply, PlaceRequest, SkipRequest
 
@@ -208,6 +214,45 @@ def test_without_a_link_resting_on_top_of_a_built_column_is_not_a_connection(
     with Simulation(unlinked, bundled_build, config) as sim:
         waited_s = _placed_unconnected_and_tipped(sim, unlinked, ("Footing A1", "Column A1"))
     assert waited_s < HOLD_S + 3.0
+
+
+def test_a_member_bearing_on_one_support_and_bolted_at_its_other_end_is_simply_supported_and_stays(
+    frame_manifest: Manifest, bundled_build: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A pin and a bearing hold a member as a pin and a roller do: Beam A1-A2, seated on Column A1's cap
+    (a bearing here) and bolted at its other end to the built Beam A2-A3, with Column A2 not there and no
+    props. Its one pinned end alone would be a hinge; the bearing keeps it from turning about it. Left
+    free, a curtain wall's bottom transom on its slab, bolted only to the wall it abuts, was shot 0.3 m
+    off its target by the release of its neighbour set against it (the Revit house, seed 1)."""
+    column, neighbour = _named(frame_manifest, "Column A1"), _named(frame_manifest, "Beam A2-A3")
+    bearing = ConnectionLink(
+        other_guid=column.guid, kind=ConnectionKind.BEARING, time_s=HOLD_S, source="bearing face"
+    )
+
+    def seated(c: Component) -> Component:
+        if c.name != "Beam A1-A2":
+            return c
+        links = [bearing if link.other_guid == column.guid else link for link in c.connection_links]
+        return c.model_copy(update={"connection_links": links, "temporary_support": None})
+
+    manifest = frame_manifest.model_copy(
+        update={"components": [seated(c) for c in frame_manifest.components]}
+    )
+    caplog.set_level(logging.INFO, logger="bimbot.services.physics.releasing")
+    config = SimConfig(robots=1, odom_noise=0.0, connections=ConnectionConfig(hold_s=HOLD_S))
+    with Simulation(manifest, bundled_build, config) as sim:
+        for name in ("Footing A1", "Column A1", "Beam A2-A3"):
+            _built(sim, _named(manifest, name))
+        beam = _named(manifest, "Beam A1-A2")
+        reply, _ = _place(sim, beam)
+        assert reply.ok, reply.reason
+        message = sim.handling.pose_message(beam.guid, sim.sim_time_s)
+        assert message.connection_kinds == {neighbour.guid: "pinned_end", column.guid: "bearing"}
+        assert message.connected_to == [neighbour.guid], "fixed by its pin; the bearing carries it"
+        assert message.drift_m is not None and message.drift_m < 0.001, "without the fix its free end fell"
+        assert f"pinned_end to {neighbour.guid}" in caplog.text and f"bearing to {column.guid}" in caplog.text
+        idle(sim, 3.0)
+        assert sim.handling.pose_message(beam.guid, sim.sim_time_s).drift_m == pytest.approx(message.drift_m)
 
 
 def test_side_neighbours_are_beside_within_the_gap_not_below(
