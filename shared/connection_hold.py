@@ -68,10 +68,8 @@ def hinged_only(
     so it stands only with a second end (or a fixed connection, a joint, a support) holding it.
 
     A bearing made on another neighbour is such a second support: the member lies on it, so it cannot turn
-    about its pin, and the pin keeps it from sliding off (a pin and a roller: simply supported). A curtain
-    wall's bottom transom lying on its slab and bolted to the wall it abuts is held so; left free, the
-    release of its neighbour set against it (kept within the erection clearance of their framed ends) shot
-    both 0.3 m off the slab (the Revit house, seed 1)."""
+    about its pin, and the pin keeps it from sliding off (a pin and a roller: simply supported), as a
+    curtain wall's bottom transom lying on its slab and bolted to the wall it abuts is held."""
     pinned = [guid for guid in holds if kinds[guid] is ConnectionKind.PINNED_END and guid not in jointed]
     bears = any(kind is ConnectionKind.BEARING for guid, kind in kinds.items() if guid not in holds)
     return len(holds) == 1 and len(pinned) == 1 and not bears
