@@ -8,11 +8,12 @@ The chain, first hit wins (the manifest records which one gave each mass):
    (see :data:`VENDOR_WEIGHT_NAMES`);
 3. the **mesh** volume × the material's density: ``Pset_MaterialCommon.MassDensity`` (IFC2X3:
    ``IfcGeneralMaterialProperties.MassDensity``), else :data:`DENSITY_TABLE_KG_M3` by material name or
-   category, else 1000 kg/m³ with a warning. An element of layers (``IfcMaterialLayerSet``) or of
-   constituents with fractions (``IfcMaterialConstituentSet``) takes the mean of its materials' densities
-   weighted by thickness or fraction, each layer by the same chain; a layer that is mostly air is weighed as
-   what it is (:data:`LAYER_DENSITY_KG_M3`): Revit's "Metal - Stud Layer" is light-gauge studs in a cavity,
-   not solid steel.
+   category, else, for a class that is almost always concrete (a floor slab, a footing, a pile), concrete's
+   2400 kg/m³, and 1000 kg/m³ for any other, each with a warning. An element of layers
+   (``IfcMaterialLayerSet``) or of constituents with fractions (``IfcMaterialConstituentSet``) takes the
+   mean of its materials' densities weighted by thickness or fraction, each layer by the same chain; a
+   layer that is mostly air is weighed as what it is (:data:`LAYER_DENSITY_KG_M3`): Revit's "Metal - Stud
+   Layer" is light-gauge studs in a cavity, not solid steel.
 
 The mesh volume is used rather than IFC volume quantities because Revit exports can mis-scale those.
 A weight that implies an implausible density (outside :data:`PLAUSIBLE_DENSITY_KG_M3`, e.g. a concrete
@@ -35,6 +36,10 @@ from bimbot.shared.manifest import MassSource
 _log = logging.getLogger(__name__)
 
 DEFAULT_DENSITY_KG_M3 = 1000.0
+CONCRETE_DENSITY_KG_M3 = 2400.0  # normal-weight reinforced concrete (as the table's "concrete" below)
+CLASS_DEFAULT_CLASSES = frozenset(
+    {"IfcSlab", "IfcSlabStandardCase", "IfcSlabElementedCase", "IfcFooting", "IfcPile"}
+)
 PLAUSIBLE_DENSITY_KG_M3 = (10.0, 25_000.0)
 # (pattern on material name or category, density kg/m³); first match wins, so specific words come first.
 # Names in English, German, French, Spanish and Italian: exports keep the authoring tool's language (the
@@ -65,7 +70,10 @@ DENSITY_TABLE_KG_M3: tuple[tuple[re.Pattern[str], float], ...] = (
     ),
     (re.compile(r"alumin", re.I), 2700.0),
     (re.compile(r"steel|stahl|acier|acero|acciaio|\bs\d{3}\b|\bmetal", re.I), 7850.0),
-    (re.compile(r"concrete|b[eé]ton|hormig[oó]n|calcestruzzo|\bc\d{2}/\d{2}\b", re.I), 2400.0),
+    (
+        re.compile(r"concrete|b[eé]ton|hormig[oó]n|calcestruzzo|\bc\d{2}/\d{2}\b", re.I),
+        CONCRETE_DENSITY_KG_M3,
+    ),
     (re.compile(r"timber|wood|\bholz\b|\bglulam\b|\bclt\b|madera|\bbois\b|legno", re.I), 500.0),
     (re.compile(r"glass|glazing|\bglas\b|vidrio|cristal|verre|vetro", re.I), 2500.0),
     (re.compile(r"brick|masonry|block|ladrillo|brique|mattone|ziegel|mauerwerk", re.I), 1900.0),
@@ -179,8 +187,26 @@ def material_density(
             if pattern.search(name):
                 return density, MassSource.MATERIAL_DENSITY_TABLE, None
     what = f"material {names[0]!r}" if names else "no material"
+    assumed = class_default(element)
+    if assumed is not None:
+        kind, density = assumed
+        note = f"{what}: density unknown; an {element.is_a()} is taken for {kind}, {density:g} kg/m³"
+        return density, MassSource.DEFAULT_DENSITY, note
     note = f"{what}: density unknown, using {DEFAULT_DENSITY_KG_M3:g} kg/m³"
     return DEFAULT_DENSITY_KG_M3, MassSource.DEFAULT_DENSITY, note
+
+
+def class_default(element: ifcopenshell.entity_instance) -> tuple[str, float] | None:
+    """(what it is taken for, its density kg/m³) for an element of unknown material whose class is almost
+    always of one material on a site: floor and base slabs, footings and piles are concrete. A 30 cm
+    floor weighed as water (:data:`DEFAULT_DENSITY_KG_M3`) is less than half its weight, and lighter than
+    any crane would find it; None: no such class (a wall may be of masonry, studs or concrete)."""
+    if element.is_a() not in CLASS_DEFAULT_CLASSES:
+        return None
+    predefined = str(getattr(element, "PredefinedType", None) or "")
+    if predefined in ("ROOF", "USERDEFINED") and element.is_a("IfcSlab"):
+        return None  # a roof may be timber or metal deck; a user-defined slab says nothing
+    return "concrete", CONCRETE_DENSITY_KG_M3
 
 
 def layered_density(

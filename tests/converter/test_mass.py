@@ -272,3 +272,28 @@ def test_a_window_of_listed_materials_weighs_each_body_with_the_material_its_fac
     (converted,) = manifest.components
     assert converted.volume_m3 == pytest.approx(0.04)
     assert converted.mass_kg == pytest.approx(0.02 * 2500.0 + 0.02 * 500.0)
+
+
+@pytest.mark.parametrize(
+    ("ifc_class", "predefined", "density"),
+    [
+        ("IfcSlab", "FLOOR", 2400.0),  # a floor slab is concrete on a site
+        ("IfcFooting", "PAD_FOOTING", 2400.0),
+        ("IfcSlab", "ROOF", DEFAULT_DENSITY_KG_M3),  # a roof may be timber or metal deck
+        ("IfcWall", None, DEFAULT_DENSITY_KG_M3),  # masonry, studs or concrete: nothing to assume
+    ],
+)
+def test_unknown_material_of_a_class_that_is_concrete_is_weighed_as_concrete(
+    ifc_class: str, predefined: str | None, density: float
+) -> None:
+    """The Revit house's 30 cm floors name only "Suelos por defecto": weighed as water they were 37.5 t,
+    as concrete 90 t, which changes how a site builds them (cast, not lifted in planks)."""
+    small = new_model()
+    element = ifcopenshell.api.root.create_entity(small.file, ifc_class=ifc_class, predefined_type=predefined)
+    add_material(small, [element], "Suelos por defecto", category="")
+    result = element_mass(element, VOLUME_M3)
+    assert result.source == MassSource.DEFAULT_DENSITY
+    assert result.mass_kg == pytest.approx(VOLUME_M3 * density)
+    (warning,) = result.warnings
+    assert "Suelos por defecto" in warning and "density unknown" in warning
+    assert (f"an {ifc_class} is taken for concrete, 2400 kg/m³" in warning) == (density == 2400.0)

@@ -165,18 +165,18 @@ def test_conventional_lays_a_brick_wall_and_casts_concrete_where_prefab_lifts_th
 def test_conventional_casts_a_slab_of_unknown_material_too_heavy_to_lift_where_prefab_cuts_planks(
     tmp_path: Path,
 ) -> None:
-    """The Revit house's upper floor ("Suelos por defecto", 16.9 × 7.4 × 0.3 m, 37.5 t) was cut into 8
-    precast planks by both presets: a site that casts its concrete casts such a slab. A light one of
+    """The Revit house's upper floor ("Suelos por defecto", 16.9 × 7.4 × 0.3 m, 90 t as concrete) was cut
+    into 8 precast planks by both presets: a site that casts its concrete casts such a slab. A light one of
     unknown material stays lifted, and a wall of unknown material is still panelised."""
     small = new_model()
-    add_box(small, "IfcSlab", "Floor", size_m=(6.0, 3.0, 0.3), corner_m=(0.0, 0.0, 3.0))  # 5.4 t
-    add_box(small, "IfcSlab", "Landing", size_m=(1.0, 1.0, 0.1), corner_m=(8.0, 0.0, 1.5))  # 0.1 t
+    add_box(small, "IfcSlab", "Floor", size_m=(6.0, 3.0, 0.2), corner_m=(0.0, 0.0, 3.0))  # 8.6 t (concrete)
+    add_box(small, "IfcSlab", "Landing", size_m=(1.0, 1.0, 0.1), corner_m=(8.0, 0.0, 1.5))  # 0.24 t
     add_box(small, "IfcWall", "Wall", size_m=(6.0, 0.2, 3.0), corner_m=(0.0, 5.0, 0.0))  # 3.6 t
     conventional = _by_name(_convert(small, tmp_path / "conventional", load_methods("conventional")))
     floor = conventional["Floor"]
     assert (floor.method, floor.method_source) == (CAST, MethodSource.RULE) and floor.cast is not None
     assert floor.method_note == (
-        "5,400 kg is more than the fleet lifts, 2,000 kg (lifter): "
+        "8,640 kg is more than the fleet lifts, 2,000 kg (lifter): "
         "an IfcSlab of unknown material, cast in place as concrete instead"
     )
     assert floor.cast.cure_s == 120 * 3600  # a suspended slab's decking
