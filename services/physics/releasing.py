@@ -70,9 +70,10 @@ class Releasing:
         item.pose = item.motion_to or item.pose
         set_component_pose(cid, body, item.pose)
         set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)  # see what it overlaps, the carrier aside
-        # a robot's placement fitted to the structure as it stands (.support_fit); a set-down without one
-        # (the stability replay) goes to the BIM target
-        item.fitted_target = self._fit_to_structure(item) if carrier is not None else None
+        # a robot's placement at its target fitted to the structure as it stands (.support_fit); a set-down
+        # without one (the stability replay) goes to the BIM target
+        at_target = carrier is not None and self._at_its_target(item, released=True)
+        item.fitted_target = self._fit_to_structure(item) if at_target else None
         if item.fitted_target is not None:
             target = target_frame(item.component)
             item.pose = moved_with(item.pose, target, item.fitted_target)
