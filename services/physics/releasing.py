@@ -18,8 +18,6 @@ import numpy as np
 
 from bimbot.shared.connection_hold import plan_connections, sets_supports, supports_s
 from bimbot.shared.footprint import body_centre_m
-from bimbot.shared.manifest import Component
-from bimbot.shared.verification import angle_error_rad
 
 from .client import p
 from .connections import fits_its_target, side_neighbours, within_gap
@@ -48,7 +46,7 @@ from .scene import (
     set_component_pose,
     set_filter,
 )
-from .support_fit import BuiltSupport, bounded, centre_m, following, moved_with, on_its_seats
+from .support_fit import bounded, built_supports, describe, following, moved_with, on_its_seats
 from .temporary_supports import anchored
 
 _log = logging.getLogger(__name__)
@@ -75,18 +73,10 @@ class Releasing:
         at_target = carrier is not None and self._at_its_target(item, released=True)
         item.fitted_target = self._fit_to_structure(item) if at_target else None
         if item.fitted_target is not None:
-            target = target_frame(item.component)
-            item.pose = moved_with(item.pose, target, item.fitted_target)
+            item.pose = moved_with(item.pose, target_frame(item.component), item.fitted_target)
             set_component_pose(cid, body, item.pose)
-            centre = item.component.com_local_m
-            moved = centre_m(item.fitted_target, centre) - centre_m(target, centre)
             _log.info(
-                "%s fitted to the structure as built: its target moved %.1f mm (%+.1f, %+.1f, %+.1f mm), "
-                "turned %.3f°",
-                guid,
-                1000.0 * float(np.linalg.norm(moved)),
-                *(1000.0 * float(c) for c in moved),
-                math.degrees(angle_error_rad(item.fitted_target[1], target[1])),
+                "%s fitted to the structure as built: %s", guid, describe(item.component, item.fitted_target)
             )
         partners = state.joints.get(guid, frozenset()) | self._framed_within_clearance(item)
         nearby = {other: g for other, g in self._nearby_components(item).items() if g not in partners}
@@ -232,7 +222,7 @@ class Releasing:
         state = self._state
         cid, body, component = state.client_id, item.body, item.component
         target = target_frame(component)
-        aim = on_its_seats(component, target, self._built_supports(component))
+        aim = on_its_seats(component, target, built_supports(state, component))
         before = item.pose
         try:
             set_component_pose(cid, body, aim)
@@ -250,20 +240,6 @@ class Releasing:
         finally:
             set_component_pose(cid, body, before)
         return bounded(component, target, cleared.frame, state.connections.fit)
-
-    def _built_supports(self, component: Component) -> list[BuiltSupport]:
-        """The built members ``component``'s manifest connects it to, where they stand."""
-        state = self._state
-        in_place = set(state.in_place.values())
-        supports: list[BuiltSupport] = []
-        for link in component.connection_links:
-            other = state.items.get(link.other_guid)
-            if other is not None and other.phase is Phase.JOINED:
-                where_built = None if other.component.method in BUILT_WHERE_IT_STANDS else other.pose
-                supports.append(BuiltSupport(link.kind, other.component, where_built))
-            elif link.other_guid in in_place:
-                supports.append(BuiltSupport(link.kind, None, None))
-        return supports
 
     def _framed_within_clearance(self, item: Item) -> frozenset[str]:
         """The parts ``item`` is framed to at an end (:func:`.joints.framed_ends`) that it overlaps, as let

@@ -38,6 +38,7 @@ from bimbot.shared.connection_kinds import ConnectionKind
 from bimbot.shared.manifest import Component
 from bimbot.shared.verification import Tolerances, angle_error_rad
 
+from .handling_state import BUILT_WHERE_IT_STANDS, HandlingState, Phase
 from .scene import Frame, compose, invert, rotate
 
 NEGLIGIBLE_M = 1e-4  # a fit that moves the centre less than this (and does not turn it) is none
@@ -50,6 +51,20 @@ class BuiltSupport:
     kind: ConnectionKind
     component: Component | None  # None: in place from the start (it stands where the model puts it)
     as_built: Frame | None  # None: it stands at its target (in place, cast or laid where it stands)
+
+
+def built_supports(state: HandlingState, component: Component) -> list[BuiltSupport]:
+    """The built members ``component``'s manifest connects it to, where they stand."""
+    in_place = set(state.in_place.values())
+    supports: list[BuiltSupport] = []
+    for link in component.connection_links:
+        other = state.items.get(link.other_guid)
+        if other is not None and other.phase is Phase.JOINED:
+            where_built = None if other.component.method in BUILT_WHERE_IT_STANDS else other.pose
+            supports.append(BuiltSupport(link.kind, other.component, where_built))
+        elif link.other_guid in in_place:
+            supports.append(BuiltSupport(link.kind, None, None))
+    return supports
 
 
 def displacement_at_m(support: BuiltSupport, point_m: np.ndarray) -> np.ndarray:
@@ -113,3 +128,15 @@ def bounded(member: Component, target: Frame, fitted: Frame, tolerances: Toleran
 def moved_with(placed: Frame, target: Frame, fitted: Frame) -> Frame:
     """A placement ``placed`` made against ``target``, made against ``fitted`` instead: the same error."""
     return compose(fitted, compose(invert(target), placed))
+
+
+def describe(member: Component, fitted: Frame) -> str:
+    """How far ``fitted`` moves and turns ``member`` from its BIM target, for the log."""
+    target = member.target_pose_world
+    at_target: Frame = (tuple(target.position_m), tuple(target.quat_xyzw))  # type: ignore[assignment]
+    moved = centre_m(fitted, member.com_local_m) - centre_m(at_target, member.com_local_m)
+    return (
+        f"its target moved {1000.0 * float(np.linalg.norm(moved)):.1f} mm "
+        f"({', '.join(f'{1000.0 * float(c):+.1f}' for c in moved)} mm), "
+        f"turned {math.degrees(angle_error_rad(fitted[1], at_target[1])):.3f}°"
+    )
