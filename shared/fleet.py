@@ -140,8 +140,8 @@ def load_fleet(path: Path | str | None = None) -> Fleet:
         raise InputError(f"fleet file {file}: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"fleet file {file}: not valid TOML: {exc}") from None
-    if "types" not in data and path is not None:  # only [[robots]]: of bimbot's own types
-        data = {**data, "types": _builtin_types()}
+    if path is not None:
+        data = _over_builtin(data)
     try:
         fleet = Fleet.model_validate({**data, "source": str(file), "base_dir": str(file.resolve().parent)})
     except ValidationError as exc:
@@ -149,10 +149,37 @@ def load_fleet(path: Path | str | None = None) -> Fleet:
     return fleet
 
 
-def _builtin_types() -> dict[str, object]:
-    """The ``[types]`` tables of the embedded default fleet: a fleet file without its own uses these."""
-    types: dict[str, object] = tomllib.loads(DEFAULT_FLEET_FILE.read_text(encoding="utf-8"))["types"]
-    return types
+def _over_builtin(data: dict[str, object]) -> dict[str, object]:
+    """A user's fleet file laid over bimbot's own: a ``[types.NAME]`` table of a built-in type changes only
+    the values it gives (``[types.carrier]`` with ``payload_kg = 5000`` is the carrier with a 5 t payload);
+    a robot of a built-in type the file does not define is of bimbot's own; a file of types alone, every one
+    built in, is the default fleet with those changes (its robots and default type)."""
+    default = tomllib.loads(DEFAULT_FLEET_FILE.read_text(encoding="utf-8"))
+    builtin: dict[str, object] = default["types"]
+    given = data.get("types")
+    if not isinstance(given, dict):  # only [[robots]] (or nothing valid: the model says what is wrong)
+        return data if given is not None else {**data, "types": builtin}
+    types = {name: _laid_over(builtin.get(name), table) for name, table in given.items()}
+    robots = data.get("robots", default["robots"] if set(given) <= set(builtin) else None)
+    for entry in robots if isinstance(robots, list) else ():
+        name = entry.get("type") if isinstance(entry, dict) else None
+        if isinstance(name, str) and name in builtin and name not in types:
+            types[name] = builtin[name]
+    if "robots" not in data and robots is not None:  # the default fleet, changed
+        return {
+            "default_type": default.get("default_type"),
+            **data,
+            "types": {**builtin, **types},
+            "robots": robots,
+        }
+    return {**data, "types": types}
+
+
+def _laid_over(base: object, table: object) -> object:
+    """``table`` over ``base`` (TOML tables: its keys replace, its sub-tables are laid over theirs)."""
+    if not isinstance(base, dict) or not isinstance(table, dict):
+        return table
+    return {**base, **{key: _laid_over(base.get(key), value) for key, value in table.items()}}
 
 
 def _problems(error: ValidationError, shown: int = 3) -> str:

@@ -162,6 +162,33 @@ def test_a_fleet_file_of_robots_alone_uses_bimbot_s_own_types(tmp_path: Path) ->
     assert fleet.types["carrier"] == default_fleet().types["carrier"]
 
 
+def test_a_fleet_file_that_changes_a_built_in_type_changes_only_what_it_gives(tmp_path: Path) -> None:
+    """``[types.carrier]`` with a payload alone is bimbot's carrier with that payload, in the default fleet;
+    with its own robots, the carrier as changed and the crane it names but does not define are bimbot's."""
+    default = default_fleet()
+    changed = load_fleet(_write(tmp_path, "[types.carrier]\npayload_kg = 5000\n"))
+    assert changed.types["carrier"] == default.types["carrier"].model_copy(update={"payload_kg": 5000.0})
+    assert changed.robots == default.robots and changed.default_type == default.default_type
+    assert {name: t for name, t in changed.types.items() if name != "carrier"} == {
+        name: t for name, t in default.types.items() if name != "carrier"
+    }
+    own = load_fleet(
+        _write(
+            tmp_path,
+            '[types.carrier]\nreach_m = 2.5\n[[robots]]\ntype = "carrier"\ncount = 2\n'
+            '[[robots]]\ntype = "tower_crane"\ncount = 1\n',
+        )
+    )
+    assert own.summary() == "2 carrier, 1 tower_crane"
+    assert (
+        own.types["carrier"].reach_m == 2.5
+        and own.types["carrier"].payload_kg == default.types["carrier"].payload_kg
+    )
+    assert own.types["tower_crane"] == default.types["tower_crane"]
+    with pytest.raises(InputError, match="payload_kgg: not a known key"):
+        load_fleet(_write(tmp_path, "[types.carrier]\npayload_kgg = 5000\n"))
+
+
 @pytest.mark.parametrize(
     ("text", "words"),
     [
