@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import logging
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -39,6 +40,26 @@ def open_model(path: Path) -> ifcopenshell.file:
     return read_model(path).model
 
 
+TOKEN_AT_OFFSET = re.compile(r"token (?P<token>.*?) at offset (?P<offset>\d+) invalid")
+
+
+def parse_failure(path: Path, error: str, log: str) -> str:
+    """The line for a file the parser gave up on: where and what, from the parser's log when it says
+    (ifcopenshell's own message is "Syntax error during parse, check logs")."""
+    found = TOKEN_AT_OFFSET.search(log or "")
+    if found is None:
+        return f"{path}: not a readable IFC file ({error})"
+    offset = int(found["offset"])
+    with open(path, "rb") as source:
+        line = source.read(offset).count(b"\n") + 1
+    token = found["token"].strip()
+    shown = token if len(token) <= 40 else token[:40] + "…"
+    return (
+        f"{path} line {line}: not a readable IFC file: {shown!r} is no valid STEP token there "
+        "(the file is cut off or damaged at that point)"
+    )
+
+
 def read_model(path: Path) -> ReadModel:
     """:func:`open_model`, and what the parser could not read in the file."""
     path = Path(path)
@@ -58,7 +79,7 @@ def read_model(path: Path) -> ReadModel:
         message = f"{path}: unsupported IFC schema {schema} (bimbot reads {SUPPORTED_SCHEMAS})"
         raise UserError(message) from None
     except (ifcopenshell.Error, OSError, RuntimeError) as error:
-        raise UserError(f"{path}: not a readable IFC file ({error})") from None
+        raise UserError(parse_failure(path, str(error), ifcopenshell.get_log())) from None
     schema = model.schema_identifier if hasattr(model, "schema_identifier") else model.schema
     if not str(schema).upper().startswith(SUPPORTED_SCHEMA_PREFIXES):
         raise UserError(f"{path}: unsupported IFC schema {schema} (bimbot reads {SUPPORTED_SCHEMAS})")
