@@ -18,8 +18,10 @@ import pytest
 
 from bimbot.services.physics.client import p
 from bimbot.services.physics.handling_state import target_frame
+from bimbot.services.physics.restore import restore_site
 from bimbot.services.physics.scene import Frame, set_component_pose
 from bimbot.services.physics.simulation import Simulation
+from bimbot.services.physics.snapshot import PhysicsSnapshot
 from bimbot.services.physics.support_fit import (
     BuiltSupport,
     bounded,
@@ -155,3 +157,19 @@ def test_a_placement_keeps_its_error_when_made_against_a_fitted_target() -> None
 
     before, after = compose(invert(target), placed), compose(invert(fitted), again)
     assert np.allclose(before[0], after[0], atol=1e-12) and np.allclose(before[1], after[1], atol=1e-12)
+
+
+def test_a_restarted_physics_keeps_a_member_s_fitted_target(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """Physics' record is its pose messages; a restart puts a placed member back with the fitted target
+    its record holds, so its agent and the end-of-run audit judge it where they did before."""
+    sim, second, _ = _release_beside_built(make_sim, frame_manifest, 0.008, by_robot=True)
+    recorded = sim.handling.pose_message(second.guid, sim.sim_time_s)
+    assert recorded.fitted_target is not None
+    snapshot = PhysicsSnapshot(
+        epoch=0, step=10, sim_time_s=1.0, robots={}, components={second.guid: recorded}
+    )
+    again = make_sim(robots=0)
+    restore_site(again, snapshot, twins=[])
+    assert again.handling.pose_message(second.guid, again.sim_time_s).fitted_target == recorded.fitted_target
