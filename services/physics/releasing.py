@@ -46,7 +46,7 @@ from .scene import (
     set_component_pose,
     set_filter,
 )
-from .support_fit import bounded, built_supports, describe, following, moved_with, on_its_seats
+from .support_fit import bounded, built_supports, deepest_m, describe, following, moved_with, on_its_seats
 from .temporary_supports import anchored
 
 _log = logging.getLogger(__name__)
@@ -231,11 +231,14 @@ class Releasing:
             kept = frozenset(
                 other for other, _ in deep_overlaps(cid, body, aim, nearby) if self._model_clash(item, other)
             )
-            for other_guid, _ in intrusions(cid, body, aim, nearby, kept):
-                other = state.items.get(other_guid)
-                if other is not None and other.phase is Phase.JOINED:
-                    aim = following(target, target_frame(other.component), other.pose)
-                    break
+            # where it fits best: its seats, or following one of the built members in its way (the one
+            # that leaves the shallowest overlap; squeezed between two, following one may not help)
+            candidates = [aim] + [
+                following(target, target_frame(other.component), other.pose)
+                for other in (state.items.get(g) for g, _ in intrusions(cid, body, aim, nearby, kept))
+                if other is not None and other.phase is Phase.JOINED
+            ]
+            aim = min(candidates, key=lambda frame: deepest_m(intrusions(cid, body, frame, nearby, kept)))
             cleared = clear_overlap(cid, body, aim, nearby, max_cleared_m=AT_TARGET_M, kept=kept)
         finally:
             set_component_pose(cid, body, before)

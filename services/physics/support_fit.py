@@ -14,9 +14,10 @@ the built structure leaves room for it:
   manifest connects it to (``connection_links``), each taken where it meets the member (the member's centre
   brought into the support's box). A grouted panel is shimmed to its level on its bed: a grouted link does
   not count;
-* drawn up to what stands in its way: where that aim runs into a built member standing off its own target,
-  the member follows that member (the deepest such), as bolted to it: the member's target moved by the
-  rigid displacement that member has from its own target;
+* drawn up to what stands in its way: where that aim runs into built members standing off their own
+  targets, the member follows one of them, as bolted to it (its target moved by the rigid displacement that
+  member has from its own target): the one that leaves the shallowest overlap with everything else, or none
+  when following makes it worse (a member squeezed between two that both moved towards it);
 * what overlap is left is cleared (:func:`.release.clear_overlap`, as for any placement).
 
 A fit moves the member's centre at most the position tolerance and turns it at most the angle tolerance
@@ -103,6 +104,11 @@ def following(target: Frame, support_target: Frame, support_as_built: Frame) -> 
     """``target`` moved by the rigid displacement that takes ``support_target`` to ``support_as_built``:
     the member goes where a member it is bolted to went."""
     return compose(compose(support_as_built, invert(support_target)), target)
+
+
+def deepest_m(overlaps: Iterable[tuple[str, float]]) -> float:
+    """The deepest of ``overlaps`` (GUID, metres; 0 when none)."""
+    return max((depth for _, depth in overlaps), default=0.0)
 
 
 def bounded(member: Component, target: Frame, fitted: Frame, tolerances: Tolerances) -> Frame | None:
