@@ -53,6 +53,8 @@ class AsBuiltAudit:
     # GUID → how far (m, world) its target's centre was moved to fit the structure as built (physics'
     # support_fit.py): its final errors are measured from its fitted target
     fitted: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+    # GUID → the fitted ones' errors against their BIM targets, not their fitted ones (the design's view)
+    from_bim: dict[str, PlacementCheck] = field(default_factory=dict)
     errors: tuple[str, ...] = ()  # one sentence per constructed component away from its target
     wrong: tuple[str, ...] = ()  # their GUIDs, in manifest order
     sim_time_s: float | None = None  # physics' answer: when
@@ -82,6 +84,7 @@ def audit_as_built(
         return AsBuiltAudit(False, tolerances, len(built), 0, {}, asked_at_unix_s=asked_at_unix_s)
     final: dict[str, PlacementCheck] = {}
     fitted: dict[str, tuple[float, float, float]] = {}
+    from_bim: dict[str, PlacementCheck] = {}
     errors: list[str] = []
     wrong: list[str] = []
     for component in manifest.components:
@@ -92,6 +95,12 @@ def audit_as_built(
             check = verify(pose.pose, target, tolerances, reference_local_m=component.com_local_m)
             if pose.fitted_target is not None:
                 fitted[component.guid] = centre_moved_m(component, pose.fitted_target)
+                from_bim[component.guid] = verify(
+                    pose.pose,
+                    component.target_pose_world,
+                    tolerances,
+                    reference_local_m=component.com_local_m,
+                )
             final[component.guid] = check
             if component.guid in built and not check.ok:
                 errors.append(
@@ -112,6 +121,7 @@ def audit_as_built(
         checked=sum(1 for guid in built if guid in final),
         final=final,
         fitted=fitted,
+        from_bim=from_bim,
         errors=tuple(errors),
         wrong=tuple(wrong),
         sim_time_s=poses.sim_time_s,
@@ -149,6 +159,9 @@ def add_to_report(report: dict[str, Any], audit: AsBuiltAudit | None, constructe
         component["final_angle_error_deg"] = math.degrees(check.angle_error_rad) if check else None
         offset = audit.fitted.get(component["guid"]) if audit is not None else None
         component["fitted_offset_mm"] = [round(1000.0 * c, 2) for c in offset] if offset else None
+        bim = audit.from_bim.get(component["guid"]) if audit is not None else check
+        bim = bim or check
+        component["final_position_error_from_bim_mm"] = bim.position_error_m * 1000.0 if bim else None
         if check is not None and component["state"] == "failed" and component.get("reason"):
             assert audit is not None  # a check comes from an audit
             where = where_it_lies(check, component.get("position_error_mm"), audit.tolerances.position_m)
@@ -221,15 +234,15 @@ def as_built_line(report: dict[str, Any]) -> str | None:
     )
     if position_mm is not None and angle_deg is not None:
         line += f", largest deviation {position_mm:.2f} mm / {angle_deg:.2f}°"
-    fits = [
-        math.hypot(*component["fitted_offset_mm"])
-        for component in report.get("components", [])
-        if component.get("fitted_offset_mm") and component.get("state") == "constructed"
+    built = [c for c in report.get("components", []) if c.get("state") == "constructed"]
+    fits = [math.hypot(*c["fitted_offset_mm"]) for c in built if c.get("fitted_offset_mm")]
+    from_bim = [
+        c["final_position_error_from_bim_mm"] for c in built if c.get("final_position_error_from_bim_mm")
     ]
     if fits:
         line += (
-            f" ({len(fits)} against their targets fitted to the structure as built, moved at most "
-            f"{max(fits):.1f} mm)"
+            f" ({len(fits)} judged where the structure as built put them, up to {max(fits):.1f} mm from "
+            f"their BIM targets; from the BIM targets the largest deviation is {max(from_bim):.1f} mm)"
         )
     tolerance = _tolerance_text(audit)
     errors: list[str] = audit.get("errors", [])

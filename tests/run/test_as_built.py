@@ -189,4 +189,6 @@ def test_a_member_fitted_to_the_structure_is_audited_against_its_fitted_target()
     add_to_report(report, audit, {BEAM})
     assert report["components"][0]["fitted_offset_mm"] == pytest.approx([9.0, 0.0, 0.0], abs=0.01)
     line = as_built_line(report)
-    assert line is not None and "1 against their targets fitted to the structure as built" in line
+    assert line is not None and "1 judged where the structure as built put them, up to 9.0 mm" in line
+    assert "from the BIM targets the largest deviation is 15.0 mm" in line
+    assert report["components"][0]["final_position_error_from_bim_mm"] == pytest.approx(15.0, abs=0.01)
