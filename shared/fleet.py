@@ -145,8 +145,26 @@ def load_fleet(path: Path | str | None = None) -> Fleet:
     try:
         fleet = Fleet.model_validate({**data, "source": str(file), "base_dir": str(file.resolve().parent)})
     except ValidationError as exc:
-        raise InputError(f"fleet file {file}: {_problems(exc)}") from None
+        raise InputError(f"fleet file {file}: {_problems(exc)}{_new_type_hint(data)}") from None
     return fleet
+
+
+def _new_type_hint(data: dict[str, object]) -> str:
+    """For a ``[types.NAME]`` table that is not one of bimbot's types but is spelt like one (so it is taken
+    for a new type, which must give every field): the type it may mean."""
+    given = data.get("types")
+    if not isinstance(given, dict):
+        return ""
+    builtin = list(tomllib.loads(DEFAULT_FLEET_FILE.read_text(encoding="utf-8"))["types"])
+    for name, table in given.items():
+        if name not in builtin and isinstance(table, dict) and "urdf" not in table:
+            hint = _did_you_mean(name, builtin)
+            if hint:
+                return (
+                    f"; [types.{name}] is no type of bimbot's{hint}: a table of one of bimbot's types "
+                    "changes only what it gives, a new type gives every field"
+                )
+    return ""
 
 
 def _over_builtin(data: dict[str, object]) -> dict[str, object]:

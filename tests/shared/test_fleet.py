@@ -187,6 +187,10 @@ def test_a_fleet_file_that_changes_a_built_in_type_changes_only_what_it_gives(tm
     assert own.types["tower_crane"] == default.types["tower_crane"]
     with pytest.raises(InputError, match="payload_kgg: not a known key"):
         load_fleet(_write(tmp_path, "[types.carrier]\npayload_kgg = 5000\n"))
+    with pytest.raises(
+        InputError, match=r"\[types.carier\] is no type of bimbot's \(did you mean carrier\?\)"
+    ):
+        load_fleet(_write(tmp_path, "[types.carier]\npayload_kg = 5000\n"))
 
 
 @pytest.mark.parametrize(
