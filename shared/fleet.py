@@ -15,8 +15,10 @@ bimbot's own models (``shared/robots/``); else relative to ``pybullet_data``.
 from __future__ import annotations
 
 import difflib
+import functools
 import tomllib
 from pathlib import Path
+from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
@@ -155,7 +157,7 @@ def _new_type_hint(data: dict[str, object]) -> str:
     given = data.get("types")
     if not isinstance(given, dict):
         return ""
-    builtin = list(tomllib.loads(DEFAULT_FLEET_FILE.read_text(encoding="utf-8"))["types"])
+    builtin = list(_default_fleet_data()["types"])
     for name, table in given.items():
         if name not in builtin and isinstance(table, dict) and "urdf" not in table:
             hint = _did_you_mean(name, builtin)
@@ -172,7 +174,7 @@ def _over_builtin(data: dict[str, object]) -> dict[str, object]:
     the values it gives (``[types.carrier]`` with ``payload_kg = 5000`` is the carrier with a 5 t payload);
     a robot of a built-in type the file does not define is of bimbot's own; a file of types alone, every one
     built in, is the default fleet with those changes (its robots and default type)."""
-    default = tomllib.loads(DEFAULT_FLEET_FILE.read_text(encoding="utf-8"))
+    default = _default_fleet_data()
     builtin: dict[str, object] = default["types"]
     given = data.get("types")
     if not isinstance(given, dict):  # only [[robots]] (or nothing valid: the model says what is wrong)
@@ -191,6 +193,12 @@ def _over_builtin(data: dict[str, object]) -> dict[str, object]:
             "robots": robots,
         }
     return {**data, "types": types}
+
+
+@functools.cache
+def _default_fleet_data() -> dict[str, Any]:
+    """The embedded default fleet file as TOML data, read once (not changed by its readers)."""
+    return tomllib.loads(DEFAULT_FLEET_FILE.read_text(encoding="utf-8"))
 
 
 def _laid_over(base: object, table: object) -> object:

@@ -159,8 +159,7 @@ def add_to_report(report: dict[str, Any], audit: AsBuiltAudit | None, constructe
         component["final_angle_error_deg"] = math.degrees(check.angle_error_rad) if check else None
         offset = audit.fitted.get(component["guid"]) if audit is not None else None
         component["fitted_offset_mm"] = [round(1000.0 * c, 2) for c in offset] if offset else None
-        bim = audit.from_bim.get(component["guid"]) if audit is not None else check
-        bim = bim or check
+        bim = (audit.from_bim.get(component["guid"]) if audit is not None else None) or check
         component["final_position_error_from_bim_mm"] = bim.position_error_m * 1000.0 if bim else None
         if check is not None and component["state"] == "failed" and component.get("reason"):
             assert audit is not None  # a check comes from an audit

@@ -170,11 +170,8 @@ def intrusions(
 ) -> tuple[tuple[str, float], ...]:
     """The ``others`` (body → GUID; ``kept`` aside) that ``body`` at ``frame`` overlaps deeper than the
     solver's slop, up to :data:`MAX_CLEARED_M` (GUID, metres), deepest first: what a release would clear."""
-    deepest: dict[str, float] = {}
-    for point, guid in _penetrations(client_id, body, frame, others):
-        if _clearable([(point, guid)], kept, MAX_CLEARED_M):
-            deepest[guid] = max(-point[8], deepest.get(guid, 0.0))
-    return tuple(sorted(deepest.items(), key=lambda item: -item[1]))
+    points = _penetrations(client_id, body, frame, others)
+    return _deepest_each([(p, g) for p, g in points if _clearable([(p, g)], kept, MAX_CLEARED_M)])
 
 
 def _clearable(
@@ -197,10 +194,14 @@ def _deepest_m(points: list[tuple[Any, ...]]) -> float:
 def clashes_among(points: list[tuple[tuple[Any, ...], str]]) -> tuple[tuple[str, float], ...]:
     """Of contact points with other components (point, GUID), the components overlapped deeper than
     ``MAX_CLEARED_M`` (GUID, metres), deepest first."""
+    return _deepest_each([(point, guid) for point, guid in points if -point[8] > MAX_CLEARED_M])
+
+
+def _deepest_each(points: list[tuple[tuple[Any, ...], str]]) -> tuple[tuple[str, float], ...]:
+    """Of contact points (point, GUID), each GUID's deepest overlap (m), deepest first."""
     deepest: dict[str, float] = {}
     for point, guid in points:
-        if -point[8] > MAX_CLEARED_M:
-            deepest[guid] = max(-point[8], deepest.get(guid, 0.0))
+        deepest[guid] = max(-point[8], deepest.get(guid, 0.0))
     return tuple(sorted(deepest.items(), key=lambda item: -item[1]))
 
 

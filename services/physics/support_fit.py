@@ -39,7 +39,7 @@ from bimbot.shared.connection_kinds import ConnectionKind
 from bimbot.shared.manifest import Component
 from bimbot.shared.verification import Tolerances, angle_error_rad
 
-from .handling_state import BUILT_WHERE_IT_STANDS, HandlingState, Phase
+from .handling_state import BUILT_WHERE_IT_STANDS, HandlingState, Phase, target_frame
 from .scene import Frame, compose, invert, rotate
 
 NEGLIGIBLE_M = 1e-4  # a fit that moves the centre less than this (and does not turn it) is none
@@ -138,8 +138,7 @@ def moved_with(placed: Frame, target: Frame, fitted: Frame) -> Frame:
 
 def describe(member: Component, fitted: Frame) -> str:
     """How far ``fitted`` moves and turns ``member`` from its BIM target, for the log."""
-    target = member.target_pose_world
-    at_target: Frame = (tuple(target.position_m), tuple(target.quat_xyzw))  # type: ignore[assignment]
+    at_target = target_frame(member)
     moved = centre_m(fitted, member.com_local_m) - centre_m(at_target, member.com_local_m)
     return (
         f"its target moved {1000.0 * float(np.linalg.norm(moved)):.1f} mm "
