@@ -48,6 +48,9 @@ _EIGHT = np.ones((3, 3), bool)
 # how far round a placed part its window reaches beyond the robot's body: room for the free region to go
 # round the part inside the window, so a placement that splits nothing is seen to split nothing
 WINDOW_MARGIN_M = 3.0
+# how far from a robot's position the free cell that stands for it may be (a robot close to a wall stands
+# in the inflated margin of the widest robot)
+SHUT_IN_SEARCH_M = 1.0
 
 
 @dataclass(frozen=True)
@@ -188,6 +191,45 @@ class SiteAccess:
             self.placed.discard(guid)
         self._region = region
         return cut
+
+    def frees(self, guid: str, points_xy_m: Sequence[tuple[float, float]]) -> list[int]:
+        """Which of ``points_xy_m`` (where robots stand), cut off from the depot start now, would have their
+        way out if ``guid`` did not stand at its target: ``guid`` is what shuts them in. The grid is left as
+        it was. A point stands for the free cell nearest it (within ``SHUT_IN_SEARCH_M``), on its side of
+        any wall. Cost: nothing more than a lookup unless a point is cut off; then one labelling."""
+        cells = self._target_cells.get(guid)
+        if guid not in self.placed or cells is None or not points_xy_m:
+            return []
+        region = self.region()
+        near = [self._free_cell_near(point) for point in points_xy_m]
+        shut = [i for i, cell in enumerate(near) if cell is not None and not region[cell]]
+        if not shut:
+            return []
+        self._release(guid)
+        after = self.region()
+        freed = [i for i in shut if after[near[i]]]  # type: ignore[index]
+        self._occupy(guid, cells)
+        self._region = region
+        return freed
+
+    def _free_cell_near(self, point_xy_m: tuple[float, float]) -> tuple[int, int] | None:
+        """The free cell (the robot inflated) nearest ``point_xy_m``, within ``SHUT_IN_SEARCH_M``."""
+        row, col = (int(v) for v in self.grid.world_to_cell(np.asarray(point_xy_m, float)))
+        half = int(np.ceil(SHUT_IN_SEARCH_M / self.config.resolution_m))
+        rows, cols = self.grid.shape
+        r0, r1, c0, c1 = (
+            max(row - half, 0),
+            min(row + half + 1, rows),
+            max(col - half, 0),
+            min(col + half + 1, cols),
+        )
+        if r0 >= r1 or c0 >= c1:
+            return None
+        free_r, free_c = np.nonzero(self._distance.distance_m[r0:r1, c0:c1] > self.inflation_m + 1e-9)
+        if free_r.size == 0:
+            return None
+        best = int(np.argmin(np.hypot(free_r + r0 - row, free_c + c0 - col)))
+        return int(free_r[best] + r0), int(free_c[best] + c0)
 
     def _window_round(self, guid: str) -> tuple[slice, slice] | None:
         """The grid window round ``guid``'s cells at its target, wide enough for the free region to go

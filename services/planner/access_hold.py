@@ -93,6 +93,12 @@ class AccessGuard:
         others = [other for other in to_build if other in self._driven_to and other not in after]
         return self._access.cut_off_by(guid, others)
 
+    def shuts_in(self, guid: str, robots_xy_m: Mapping[str, tuple[float, float]]) -> list[str]:
+        """Which robots (id → where it stands), with no way out to the depot in the site as released, would
+        have one if ``guid`` were not standing: placing ``guid`` now would shut them in."""
+        ids = sorted(robots_xy_m)
+        return [ids[i] for i in self._access.frees(guid, [robots_xy_m[robot] for robot in ids])]
+
     def _needs_first(self, guid: str) -> frozenset[str]:
         """Every component a path in the plan leads to from ``guid``."""
         known = self._after.get(guid)

@@ -81,6 +81,7 @@ from .planner_state import PlannerState
 from .quiet import MIN_SKIP_S, Quiet, Skip
 from .records import FINAL, TERMINAL, Outgoing, Phase, PlannerLimits
 from .release import Release
+from .shut_in import ShutInHolds
 from .sources import Plan
 from .watchdog import Watchdog
 from .work_in_place import cure_s
@@ -128,7 +129,13 @@ class PlannerCore:
         )
         self._release = Release(state, self._outbox, self._curing, access)
         self._follow_up = FollowUp(state, self._outbox, self._curing, self._failures, self._give_backs)
-        self._dispatch = Dispatch(state, self._outbox, self._failures, holds=self._clear_aways.holds)
+        shut_in = ShutInHolds(state, access)
+        self._dispatch = Dispatch(
+            state,
+            self._outbox,
+            self._failures,
+            holds=lambda task: self._clear_aways.holds(task) or shut_in.holds(task),
+        )
         self._quiet = Quiet(state, self._outbox, self._release, self._watchdog)
 
     @property
