@@ -29,7 +29,6 @@ from .release import (
     box_corners,
     clear_overlap,
     deep_overlaps,
-    intrusions,
     overlap_at_targets,
 )
 from .robots import Robot
@@ -46,7 +45,7 @@ from .scene import (
     set_component_pose,
     set_filter,
 )
-from .support_fit import bounded, built_supports, deepest_m, describe, following, moved_with, on_its_seats
+from .support_fit import describe, fit, moved_with
 from .temporary_supports import anchored
 
 _log = logging.getLogger(__name__)
@@ -216,33 +215,15 @@ class Releasing:
         state.changed.add(guid)
 
     def _fit_to_structure(self, item: Item) -> Frame | None:
-        """``item``'s target as the structure built so far leaves room for it (:mod:`.support_fit`): on
-        its supports' seats, drawn up to the built member that stands in its way, clear of the rest; None:
-        its BIM target."""
-        state = self._state
-        cid, body, component = state.client_id, item.body, item.component
-        target = target_frame(component)
-        aim = on_its_seats(component, target, built_supports(state, component))
-        before = item.pose
-        try:
-            set_component_pose(cid, body, aim)
-            partners = state.joints.get(component.guid, frozenset()) | self._framed_within_clearance(item)
-            nearby = {other: g for other, g in self._nearby_components(item).items() if g not in partners}
-            kept = frozenset(
-                other for other, _ in deep_overlaps(cid, body, aim, nearby) if self._model_clash(item, other)
-            )
-            # where it fits best: its seats, or following one of the built members in its way (the one
-            # that leaves the shallowest overlap; squeezed between two, following one may not help)
-            candidates = [aim] + [
-                following(target, target_frame(other.component), other.pose)
-                for other in (state.items.get(g) for g, _ in intrusions(cid, body, aim, nearby, kept))
-                if other is not None and other.phase is Phase.JOINED
-            ]
-            aim = min(candidates, key=lambda frame: deepest_m(intrusions(cid, body, frame, nearby, kept)))
-            cleared = clear_overlap(cid, body, aim, nearby, max_cleared_m=AT_TARGET_M, kept=kept)
-        finally:
-            set_component_pose(cid, body, before)
-        return bounded(component, target, cleared.frame, state.connections.fit)
+        """``item``'s target as the structure built so far leaves room for it (:func:`.support_fit.fit`);
+        None: its BIM target."""
+        return fit(
+            self._state,
+            item,
+            self._nearby_components(item),
+            lambda other: self._model_clash(item, other),
+            max_cleared_m=AT_TARGET_M,
+        )
 
     def _framed_within_clearance(self, item: Item) -> frozenset[str]:
         """The parts ``item`` is framed to at an end (:func:`.joints.framed_ends`) that it overlaps, as let

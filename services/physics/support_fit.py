@@ -16,8 +16,10 @@ the built structure leaves room for it:
   not count;
 * drawn up to what stands in its way: where that aim runs into built members standing off their own
   targets, the member follows one of them, as bolted to it (its target moved by the rigid displacement that
-  member has from its own target): the one that leaves the shallowest overlap with everything else, or none
-  when following makes it worse (a member squeezed between two that both moved towards it);
+  member has from its own target), or goes halfway to that, or stays: whichever leaves the least to clear
+  (:func:`fit_score`: an overlap with a part it is not framed to, or a framed end overlapped beyond its
+  erection clearance), then the most clearance at its framed ends for the robot's own error. A mullion
+  between two transom ends, one set 10 mm towards it, goes halfway: 5 mm into each end's clearance;
 * what overlap is left is cleared (:func:`.release.clear_overlap`, as for any placement).
 
 A fit moves the member's centre at most the position tolerance and turns it at most the angle tolerance
@@ -29,18 +31,19 @@ A component in place from the start, or cast or laid where it stands, is a suppo
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+from scipy.spatial.transform import Rotation, Slerp
 
 from bimbot.shared.connection_kinds import ConnectionKind
 from bimbot.shared.manifest import Component
 from bimbot.shared.verification import Tolerances, angle_error_rad
 
-from .handling_state import BUILT_WHERE_IT_STANDS, HandlingState, Phase, target_frame
-from .scene import Frame, compose, invert, rotate
+from .handling_state import BUILT_WHERE_IT_STANDS, HandlingState, Item, Phase, target_frame
+from .release import clear_overlap, deep_overlaps, intrusions
+from .scene import Frame, compose, invert, rotate, set_component_pose
 
 NEGLIGIBLE_M = 1e-4  # a fit that moves the centre less than this (and does not turn it) is none
 
@@ -111,6 +114,25 @@ def deepest_m(overlaps: Iterable[tuple[str, float]]) -> float:
     return max((depth for _, depth in overlaps), default=0.0)
 
 
+def halfway(a: Frame, b: Frame) -> Frame:
+    """The frame halfway between ``a`` and ``b`` (positions averaged, orientations slerped)."""
+    quat = Slerp([0.0, 1.0], Rotation.from_quat([a[1], b[1]]))(0.5).as_quat()
+    x, y, z = ((u + v) / 2.0 for u, v in zip(a[0], b[0], strict=True))
+    return (x, y, z), (float(quat[0]), float(quat[1]), float(quat[2]), float(quat[3]))
+
+
+def fit_score(
+    clash_m: float, framed_m: Mapping[str, float], allowed_m: Mapping[str, float]
+) -> tuple[int, float]:
+    """How well an aim fits, lower better: first what its release would clear, in whole millimetres (the
+    deepest overlap ``clash_m`` with a part it is not framed to, or how far a framed partner's overlap
+    ``framed_m`` goes beyond what its joint allows, ``allowed_m``); then the deepest framed overlap, the
+    clearance the robot's own error eats into. A mullion between two transom ends, one of them set 10 mm
+    towards it, fits best halfway: 5 mm into each end, not 10 mm into one."""
+    beyond = max((depth - allowed_m[guid] for guid, depth in framed_m.items()), default=0.0)
+    return round(1000.0 * max(clash_m, beyond, 0.0)), max(framed_m.values(), default=0.0)
+
+
 def bounded(member: Component, target: Frame, fitted: Frame, tolerances: Tolerances) -> Frame | None:
     """``fitted`` within the tolerances of ``target``: turned back to ``target``'s orientation if it turns
     further than the angle tolerance, its centre brought back to at most the position tolerance from
@@ -145,3 +167,49 @@ def describe(member: Component, fitted: Frame) -> str:
         f"({', '.join(f'{1000.0 * float(c):+.1f}' for c in moved)} mm), "
         f"turned {math.degrees(angle_error_rad(fitted[1], at_target[1])):.3f}°"
     )
+
+
+def fit(
+    state: HandlingState,
+    item: Item,
+    around: Mapping[int, str],
+    model_clash: Callable[[str], bool],
+    *,
+    max_cleared_m: float,
+) -> Frame | None:
+    """``item``'s target as the structure built so far leaves room for it (see the module); None: its BIM
+    target. ``around``: body → GUID of the components near it; ``model_clash``: whether the model itself
+    draws it into a component (an overlap kept, not cleared)."""
+    cid, body, component = state.client_id, item.body, item.component
+    target = target_frame(component)
+    aim = on_its_seats(component, target, built_supports(state, component))
+    joined = {guid for guid, other in state.items.items() if other.phase is Phase.JOINED}
+    allowed = {guid: m for guid, m in state.framed.get(component.guid, {}).items() if guid in joined}
+    joints = state.joints.get(component.guid, frozenset())
+    nearby = {b: g for b, g in around.items() if g not in joints and g not in allowed}
+    framed = {b: g for b, g in around.items() if g not in joints and g in allowed}
+    before = item.pose
+    try:
+        set_component_pose(cid, body, aim)
+        kept = frozenset(other for other, _ in deep_overlaps(cid, body, aim, nearby) if model_clash(other))
+
+        def framed_m(frame: Frame) -> dict[str, float]:
+            return dict(intrusions(cid, body, frame, framed, frozenset()))
+
+        def score(frame: Frame) -> tuple[int, float]:
+            return fit_score(deepest_m(intrusions(cid, body, frame, nearby, kept)), framed_m(frame), allowed)
+
+        # where it fits best: its seats, following one of the built members in its way, or halfway between
+        in_its_way = intrusions(cid, body, aim, nearby, kept) + intrusions(cid, body, aim, framed, kept)
+        follows = [
+            following(target, target_frame(other.component), other.pose)
+            for other in (state.items.get(guid) for guid, _ in in_its_way)
+            if other is not None and other.phase is Phase.JOINED
+        ]
+        aim = min([aim, *follows, *(halfway(aim, follow) for follow in follows)], key=score)
+        # a framed partner overlapped no deeper than its joint allows is no overlap to clear
+        beyond = {b: g for b, g in framed.items() if framed_m(aim).get(g, 0.0) > allowed[g]}
+        cleared = clear_overlap(cid, body, aim, nearby | beyond, max_cleared_m=max_cleared_m, kept=kept)
+    finally:
+        set_component_pose(cid, body, before)
+    return bounded(component, target, cleared.frame, state.connections.fit)

@@ -15,6 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from bimbot.services.physics.client import p
 from bimbot.services.physics.handling_state import target_frame
@@ -26,12 +27,14 @@ from bimbot.services.physics.support_fit import (
     BuiltSupport,
     bounded,
     centre_m,
+    fit_score,
     following,
+    halfway,
     moved_with,
     on_its_seats,
 )
 from bimbot.shared.connection_kinds import ConnectionKind
-from bimbot.shared.manifest import Component, Manifest
+from bimbot.shared.manifest import Component, Joint, JointSource, Manifest
 from bimbot.shared.verification import Tolerances, verify
 
 
@@ -173,3 +176,65 @@ def test_a_restarted_physics_keeps_a_member_s_fitted_target(
     again = make_sim(robots=0)
     restore_site(again, snapshot, twins=[])
     assert again.handling.pose_message(second.guid, again.sim_time_s).fitted_target == recorded.fitted_target
+
+
+def test_a_part_squeezed_between_two_framed_ends_goes_halfway(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """A2 between A1 and A3, framed to both ends with 10 mm clearance; A1 built 10 mm towards it. Following
+    A1 would put A2 10 mm into A3's clearance, staying 10 mm into A1's: halfway leaves 5 mm to each."""
+    first, second, third = (_named(frame_manifest, f"Footing A{n}") for n in (1, 2, 3))
+    (x, y, z), quat = target_frame(first)
+    moved = {
+        second.guid: second.model_copy(
+            update={
+                "target_pose_world": second.target_pose_world.model_copy(
+                    update={"position_m": (x + 0.6, y, z)}
+                )
+            }
+        ),
+        third.guid: third.model_copy(
+            update={
+                "target_pose_world": third.target_pose_world.model_copy(
+                    update={"position_m": (x + 1.2, y, z)}
+                )
+            }
+        ),
+    }
+    joints = [
+        Joint(
+            guids=(part, second.guid), depth_m=0.0, source=JointSource.FRAMED, rule="test", clearance_m=0.01
+        )
+        for part in (first.guid, third.guid)
+    ]
+    components = [moved.get(c.guid, c) for c in frame_manifest.components]
+    sim = make_sim(frame_manifest.model_copy(update={"components": components, "joints": joints}), robots=1)
+    sim.handling.restore(first.guid, ((x + 0.010, y, z), quat), fixed=True, carrier=None)
+    sim.handling.restore(third.guid, ((x + 1.2, y, z), quat), fixed=True, carrier=None)
+    for guid in (first.guid, third.guid):
+        sim.handling.note_constructed(guid, True)
+    item = sim.handling.items[second.guid]
+    item.motion_to = ((x + 0.6, y, z), quat)
+    set_component_pose(sim.client_id, item.body, item.motion_to)
+    p.performCollisionDetection(physicsClientId=sim.client_id)
+    sim.handling.releasing.release(item, sim.robots["r1"], sim.sim_time_s, tag=None)
+    pose = sim.handling.pose_message(second.guid, sim.sim_time_s)
+    assert pose.fitted_target is not None
+    assert pose.fitted_target.position_m[0] == pytest.approx(x + 0.605, abs=0.0005)
+
+
+def test_the_fit_score_counts_a_framed_end_only_beyond_its_clearance() -> None:
+    allowed = {"left": 0.010, "right": 0.010}
+    # 3 mm into a part it is not framed to outweighs 9 mm into a framed end's 10 mm clearance
+    assert fit_score(0.003, {"left": 0.009}, allowed) > fit_score(0.0, {"left": 0.009}, allowed)
+    # beyond the clearance counts as a clash of that depth
+    assert fit_score(0.0, {"left": 0.013}, allowed) == (3, 0.013)
+    # within it, less overlap leaves the robot more room
+    assert fit_score(0.0, {"left": 0.005, "right": 0.005}, allowed) < fit_score(0.0, {"left": 0.010}, allowed)
+
+
+def test_halfway_averages_positions_and_slerps_turns() -> None:
+    turned = Rotation.from_euler("z", 0.02).as_quat()
+    (position, quat) = halfway(((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)), ((0.01, 0.0, 0.2), tuple(turned)))
+    assert position == pytest.approx((0.005, 0.0, 0.1))
+    assert Rotation.from_quat(quat).as_euler("xyz")[2] == pytest.approx(0.01)
