@@ -4,9 +4,10 @@ Why: a builder choosing robots wants to know, before a run, which robot types ca
 the model, and why none can build the others (``too_heavy``, ``out_of_reach`` with the numbers). The table
 comes from the planner's own feasibility check (:mod:`bimbot.services.planner.feasibility`) on the same
 site plan physics would make, so a run fails exactly these components before it starts.
-``bimbot fleet show [--fleet FLEET.toml]`` prints the fleet file (the embedded default when none is given),
-a starting point for one's own. Exit 0 when the fleet can build every component, 1 when it cannot build
-some (the table says which and why), 2 for unusable input.
+``bimbot fleet show`` prints bimbot's default fleet file, a starting point for one's own; with ``--fleet``
+or ``--robots`` it prints the fleet a run would use (a file's types laid over the default's). Exit 0 when
+the fleet can build every component, 1 when it cannot build some (the table says which and why), 2 for
+unusable input.
 
 Columns: ``built by / why not`` lists every route, the first being the one the planner's bids usually
 take; a crane is named with its robot id because where it stands (the site plan sets it up where its hook
@@ -40,7 +41,7 @@ _log = logging.getLogger(__name__)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("action", choices=("check", "show"), help="check: feasibility table; show: the file")
+    parser.add_argument("action", choices=("check", "show"), help="check: feasibility table; show: the fleet")
     parser.add_argument("build", type=Path, nargs="?", help="converted build folder (check)")
     parser.add_argument("--fleet", type=Path, default=None, metavar="FLEET.toml", help="default: bimbot's")
     parser.add_argument(
@@ -50,6 +51,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="N robots of the default type, plus the fleet's machines that stand fixed (cranes, pumps, …)",
     )
     parser.add_argument("--json", action="store_true", help="check: one JSON object per component")
+
+
+def fleet_in_force(fleet: Fleet, path: Path | None, robots: int | None) -> str:
+    """The fleet a run would use, as a fleet file (TOML): the types a file changes laid over bimbot's own,
+    ``--robots`` applied, a URDF of the file's own folder given by its full path (the text stands alone)."""
+    import tomli_w
+
+    data = fleet.model_dump(mode="json", exclude_none=True)
+    for description in data["types"].values():
+        urdf = Path(description["urdf"])
+        if fleet.base_dir and not urdf.is_absolute() and (Path(fleet.base_dir) / urdf).is_file():
+            description["urdf"] = str(Path(fleet.base_dir) / urdf)
+    given = [f"{path} laid over bimbot's default fleet" if path is not None else "bimbot's default fleet"]
+    if robots is not None:
+        given.append(f"--robots {robots}")
+    head = f"# the fleet in force: {', '.join(given)} ({fleet.summary()})\n"
+    return head + tomli_w.dumps(data)
 
 
 def check(manifest: Manifest, fleet: Fleet) -> list[tuple[Component, Feasibility]]:
@@ -67,7 +85,10 @@ def run(args: argparse.Namespace) -> int:
     if args.robots is not None:
         fleet = fleet.with_robots(args.robots)
     if args.action == "show":
-        sys.stdout.write((args.fleet or DEFAULT_FLEET_FILE).read_text(encoding="utf-8"))
+        if args.fleet is None and args.robots is None:  # bimbot's own file, with its comments
+            sys.stdout.write(DEFAULT_FLEET_FILE.read_text(encoding="utf-8"))
+        else:
+            sys.stdout.write(fleet_in_force(fleet, args.fleet, args.robots))
         return 0
     if args.build is None:
         from bimbot.shared.errors import UserError
@@ -100,7 +121,8 @@ def _print_table(rows: list[tuple[Component, Feasibility]], fleet: Fleet, joints
     from rich.console import Console
     from rich.table import Table
 
-    table = Table(title=f"what {fleet.summary()} can build ({len(rows)} components)")
+    source = f"the fleet of {fleet.source}: " if fleet.source != str(DEFAULT_FLEET_FILE) else ""
+    table = Table(title=f"what {source}{fleet.summary()} can build ({len(rows)} components)")
     for column in ("component", "class", "method", "mass kg", "top m", "built by / why not"):
         table.add_column(column, justify="right" if column in ("mass kg", "top m") else "left")
     for component, row in rows:

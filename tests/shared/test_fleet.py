@@ -267,6 +267,7 @@ def test_fleet_check_prints_the_husky_only_fleet_footings_too_heavy_with_the_num
     # what rests on the footings cannot be built either: the check says so, as a run's blocked_by would
     assert "of the buildable, 19 rest (directly or through others) on one that cannot" in done.stdout
     assert "so it can build at most 0" in done.stdout
+    assert f"the fleet of {path}" in done.stdout.replace("\n", "")  # which file the table is for
     assert done.stdout.count("259 kg exceeds the largest payload on site (75 kg") == 9
 
 
@@ -280,3 +281,24 @@ def test_the_example_fleets_load_and_their_types_match_the_default_ones() -> Non
             machine = description.model_copy(update={"cost_per_h": DEFAULT.types[name].cost_per_h})
             assert machine == DEFAULT.types[name], f"{path.name}: {name} differs from the default fleet"
             assert description.cost_per_h is None or description.cost_per_h > 0
+
+
+def test_fleet_show_with_a_file_prints_the_fleet_in_force_which_loads_back_the_same(tmp_path: Path) -> None:
+    """``fleet show --fleet`` of a file that changes one field printed that file back, not the fleet a run
+    would use; it now prints the whole fleet, the change laid over bimbot's, as a fleet file."""
+    path = _write(tmp_path, "[types.carrier]\npayload_kg = 5000\n")
+    done = subprocess.run(
+        [sys.executable, "-m", "bimbot.cli", "fleet", "show", "--fleet", str(path), "--robots", "2"],
+        capture_output=True,
+        text=True,
+        timeout=bound_s(120),
+        check=True,
+    )
+    assert done.stdout.startswith(
+        f"# the fleet in force: {path} laid over bimbot's default fleet, --robots 2"
+    )
+    shown = tmp_path / "shown.toml"
+    shown.write_text(done.stdout, encoding="utf-8")
+    in_force = load_fleet(path).with_robots(2)
+    assert load_fleet(shown).model_dump() == in_force.model_dump()
+    assert load_fleet(shown).types["carrier"].payload_kg == 5000.0
