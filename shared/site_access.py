@@ -207,7 +207,7 @@ class SiteAccess:
             return []
         self._release(guid)
         after = self.region()
-        freed = [i for i in shut if after[near[i]]]  # type: ignore[index]
+        freed = [i for i in shut if after[near[i]]]
         self._occupy(guid, cells)
         self._region = region
         return freed

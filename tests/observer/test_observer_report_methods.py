@@ -110,7 +110,8 @@ def test_work_in_place_is_no_placement_by_a_hand(report: dict) -> None:
 def test_the_run_summary_says_how_long_the_cast_components_cured(report: dict) -> None:
     assert curing_line(report) == (
         "cured: 2 cast components, the longest 72.0 h (259,200 s) (1 component ready but for a cure waited "
-        "for it, and what rests on it in turn); the last cure ends 4.5 h (16,172 s) after the last construction"
+        "for it, and what rests on it in turn); the last cure ends 4.5 h (16,172 s) after the last "
+        "construction"
     )
     assert curing_line({"components": [{"curing": None}]}) is None
     last_poured = {
