@@ -224,9 +224,10 @@ def _no_cut(
     if kind is PanelKind.SLAB and length_m >= PLANK_WIDTH_M[0]:
         narrowest = mass_kg * PLANK_WIDTH_M[0] / length_m
         if narrowest > limits.max_mass_kg:
+            who = f" ({limits.lifted_by})" if limits.lifted_by else ""
             return (
                 f"{what}: a {PLANK_WIDTH_M[0]:g} m plank would weigh {narrowest:,.0f} kg, over the "
-                f"{limits.max_mass_kg:,.0f} kg lift capacity"
+                f"{limits.max_mass_kg:,.0f} kg lift capacity{who}"
             )
     tried = f" (best try: {best[1]})" if best else " (no cut avoids its openings)"
     return f"{what}: no cutting into {kind.value} panels keeps each within {limits.describe()}{tried}"
