@@ -34,10 +34,20 @@ def log_verbosity(command: str, verbose: int, quiet: bool) -> int:
     return verbose if command in SERVICE_COMMANDS else verbose - 1
 
 
-def configure_logging(verbosity: int) -> None:
+NAMED_FORMAT = "%(levelname)s %(name)s: %(message)s"  # a service's log, or a command's with -v
+PLAIN_FORMAT = "%(levelname)s: %(message)s"  # a command's warnings as its user reads them
+
+
+def log_format(command: str, verbosity: int) -> str:
+    """A service's log lines name their module (its log is read to debug it), and so do a command's with
+    ``-v``; a command's warnings (convert, run, fleet …) read as plain lines: ``WARNING: IfcSlab …``."""
+    return NAMED_FORMAT if command in SERVICE_COMMANDS or verbosity >= 0 else PLAIN_FORMAT
+
+
+def configure_logging(verbosity: int, log_format: str = NAMED_FORMAT) -> None:
     """Configure the root logger once, from ``main`` only (libraries just call ``getLogger``)."""
     level = logging.WARNING if verbosity < 0 else logging.INFO if verbosity == 0 else logging.DEBUG
-    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
+    logging.basicConfig(level=level, format=log_format, stream=sys.stderr)
     if level > logging.DEBUG:
         # transitions logs every state entry and exit at INFO: thousands of lines a second in the agents,
         # most of a robot's log; the services log their own transitions where they matter
@@ -49,7 +59,8 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     stop_with_parent()
     args = parse_arguments(argv)
-    configure_logging(log_verbosity(args.command, args.verbose, args.quiet))
+    verbosity = log_verbosity(args.command, args.verbose, args.quiet)
+    configure_logging(verbosity, log_format(args.command, verbosity))
     module = importlib.import_module(args._module)
     try:
         code = int(module.run(args) or 0)

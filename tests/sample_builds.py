@@ -29,12 +29,13 @@ from pathlib import Path
 
 import pytest
 
+from bimbot.cli import PLAIN_FORMAT
 from bimbot.shared.manifest import Manifest, read_manifest
 
 SAMPLES_DIR = Path(__file__).resolve().parents[2] / "shared" / "samples" / "ifc"
 DONE = "converted"  # written once the build is whole: a worker that died mid-conversion left none
 ENDED = "ended.json"  # how the command ended: its exit code, stdout and log
-LOG_FORMAT = "%(levelname)s %(name)s: %(message)s"  # bimbot.cli.configure_logging's
+LOG_FORMAT = PLAIN_FORMAT  # what a command prints of its warnings (bimbot.cli.log_format)
 
 
 @dataclass(frozen=True)

@@ -23,9 +23,9 @@ from dataclasses import dataclass
 import pytest
 from wall_clock import bound_s
 
-from bimbot.cli import main
+from bimbot.cli import PLAIN_FORMAT, main
 
-LOG_FORMAT = "%(levelname)s %(name)s: %(message)s"  # bimbot.cli.configure_logging's
+LOG_FORMAT = PLAIN_FORMAT  # what a command prints of its warnings (bimbot.cli.log_format)
 
 
 @dataclass(frozen=True)

@@ -231,8 +231,8 @@ def test_the_revit_house_walls_split_and_its_concrete_floor_is_not_cut_beyond_th
     roof = manifest.component(HOUSE_ROOF_SLAB)
     assert round(roof.mass_kg) == 90043
     assert (
-        "a 1.2 m plank would weigh 6,394 kg, over the 3,000 kg lift capacity (the largest ground payload that "
-        "hands a part off to a crane)" in roof.method_note
+        "a 1.2 m plank would weigh 6,394 kg, over the 3,000 kg lift capacity (the largest ground payload "
+        "that hands a part off to a crane)" in roof.method_note
     )
     assert [round(c.mass_kg) for c in _panels(manifest, HOUSE_HEAVY_WALL)] == [
         2440,

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from wall_clock import bound_s
 
-from bimbot.cli import configure_logging, log_verbosity
+from bimbot.cli import NAMED_FORMAT, PLAIN_FORMAT, configure_logging, log_format, log_verbosity
 from bimbot.data.light_steel_frame import build_light_steel_frame
 
 
@@ -68,3 +68,17 @@ def test_convert_prints_its_summary_and_no_info_lines_unless_verbose(tmp_path: P
     verbose = convert("-v")
     assert verbose.stdout.startswith("converted 28 component(s)")
     assert "INFO bimbot.services.converter" in verbose.stderr
+
+
+def test_a_command_s_warnings_read_as_plain_lines_and_a_service_s_name_their_module(tmp_path: Path) -> None:
+    """``WARNING bimbot.services.converter.cli: IfcWall …`` put a module path before what a user reads."""
+    assert log_format("convert", log_verbosity("convert", 0, False)) == PLAIN_FORMAT
+    assert log_format("convert", log_verbosity("convert", 1, False)) == NAMED_FORMAT  # -v: to debug
+    assert log_format("physics", log_verbosity("physics", 0, True)) == NAMED_FORMAT
+    source = Path(__file__).parents[1] / "converter" / "broken" / "duplicate_guids.ifc"
+    command = [sys.executable, "-P", "-m", "bimbot.cli", "convert", str(source), "-o", str(tmp_path / "out")]
+    done = subprocess.run(
+        [*command, "--no-progress"], capture_output=True, text=True, check=False, timeout=bound_s(300)
+    )
+    assert done.returncode == 0, done.stderr
+    assert "WARNING: IfcWall 'Wall 1' (1nnj1oeev0ShCcNmCt8M94): no material" in done.stderr, done.stderr
