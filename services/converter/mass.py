@@ -186,7 +186,7 @@ def material_density(
         for pattern, density in DENSITY_TABLE_KG_M3:
             if pattern.search(name):
                 return density, MassSource.MATERIAL_DENSITY_TABLE, None
-    what = f"material {names[0]!r}" if names else "no material"
+    what = f"material {names[0].strip()!r}" if names else "no material"
     assumed = class_default(element)
     if assumed is not None:
         kind, density = assumed
