@@ -53,7 +53,7 @@ def test_the_wall_that_closes_the_room_frees_the_robot_inside(room: tuple[Manife
 
 def _core(manifest: Manifest, inside: str) -> PlannerCore:
     """A planner with two default robots on the site (``inside`` in the room, the other at its start), the
-    walls released together (nothing is under them)."""
+    walls released together (nothing is under them) and a first assignment pass made."""
     info = one_robot_site_info(manifest)
     plan = plan_from_sequence(derive_sequence(manifest.components), manifest.components, "test")
     start = info.layout.robot_starts[0]
@@ -71,6 +71,7 @@ def _core(manifest: Manifest, inside: str) -> PlannerCore:
     for item in manifest.components:  # the agents say released
         if core.phase(item.guid) is Phase.RELEASED:
             core.observe_component_state(state_msg(item.guid, ComponentState.RELEASED, event="release"))
+    core.step(0.0)
     return core
 
 
@@ -78,9 +79,8 @@ def test_no_wall_is_given_out_while_a_robot_stands_in_the_room_it_closes(
     room: tuple[Manifest, dict[str, str]],
 ) -> None:
     manifest, guid = room
-    walls = [guid[wall] for wall in ROOM_WALLS]
     core = _core(manifest, inside="r1")
-    core.step(0.0)
+    walls = [guid[wall] for wall in ROOM_WALLS]
     assert all(core.phase(wall) is Phase.RELEASED for wall in walls)
     # r1 gets out: the walls go to the robots
     core.observe_robot_state(
@@ -93,10 +93,8 @@ def test_no_wall_is_given_out_while_a_robot_stands_in_the_room_it_closes(
 def test_a_robot_that_stays_in_the_room_holds_the_walls_at_most_the_bound(
     room: tuple[Manifest, dict[str, str]],
 ) -> None:
-    manifest, guid = room
-    walls = [guid[wall] for wall in ROOM_WALLS]
-    core = _core(manifest, inside="r1")
-    core.step(0.0)
+    core = _core(room[0], inside="r1")
+    walls = [room[1][wall] for wall in ROOM_WALLS]
     core.observe_robot_state(robot_msg("r1", INSIDE_XY_M, sim_time_s=HOLD_MAX_S / 2))
     core.step(0.0)
     assert all(core.phase(wall) is Phase.RELEASED for wall in walls)
