@@ -10,7 +10,8 @@ slow idle robot does not take what a fast busy one would finish sooner.
 
 When no robot can build the component where it lies but a tower crane can place it and its staging area
 is in reach, the same auction runs among ground robots that can carry it to a free staging spot: a
-**hand-off** task (``TaskKind.HAND_OFF``).
+**hand-off** task (``TaskKind.HAND_OFF``). A component a ground robot gave back because it could not get
+to its target goes to a crane first (lifted where it lies, or handed off), and only then to a ground robot.
 """
 
 from __future__ import annotations
@@ -70,11 +71,15 @@ def choose(
     avoid: set[str],
     taken_spots: list[tuple[float, float]],
     able_to_build: Callable[[SiteRobot, Component, Where], bool] = can_build_from,
+    crane_first: bool = False,
 ) -> Choice | None:
     """The winning bid for ``component`` lying at ``where`` (None: no alive robot can take it now).
     ``promised_s``: extra busy time promised to robots earlier in this round; ``avoid``: robots that gave
     the task back (bidding only when nobody else can); ``able_to_build``: :func:`can_build_from`, or a
-    memo of it (what a robot can build does not change while the component lies where it lies)."""
+    memo of it (what a robot can build does not change while the component lies where it lies);
+    ``crane_first``: a ground robot could not get to its target (given back ``unreachable`` or with no
+    stand-point): a crane sets it if one can, lifting it where it lies or from a hand-off, before a ground
+    robot tries again, as a site lifts what cannot be driven to."""
     alive = [record for record in records if record.alive and record.robot_id in site]
     fresh = [record for record in alive if record.robot_id not in avoid]
 
@@ -91,11 +96,16 @@ def choose(
     # a robot that gave the task back bids again only when no other robot *can* take it (not: when no
     # other is alive — on the hub a trapped carrier's give-back left a beam only carriers lift "waiting
     # for a robot" beside an idle Husky and crane until the run stalled)
+    def by_crane(pool: list[RobotRecord]) -> list[RobotRecord]:
+        return [record for record in pool if site[record.robot_id].lifts_by_hook]
+
     for pool in (fresh, alive) if len(fresh) < len(alive) else (alive,):
-        found = bids(TaskKind.BUILD, None, pool)
+        found = bids(TaskKind.BUILD, None, by_crane(pool) if crane_first else pool)
         if not found:
             spot = _hand_off_spot(component, pool, site, taken_spots)
             found = bids(TaskKind.HAND_OFF, spot, pool) if spot is not None else []
+        if not found and crane_first:
+            found = bids(TaskKind.BUILD, None, pool)
         if found:
             return min(found, key=lambda bid: (bid[0], bid[1]))[2]
     return None

@@ -128,6 +128,7 @@ class Dispatch:
                 avoid=self._avoid(task),
                 taken_spots=taken,
                 able_to_build=self._can_build,
+                crane_first=_target_out_of_ground_reach(task),
             )
             if choice is None:
                 continue
@@ -235,3 +236,13 @@ class Dispatch:
             and robot.task_guid is None
             and self._state.sim_time_s >= robot.held_until_s
         )
+
+
+# a ground robot's give-back that says it cannot get to where the component goes
+_CANNOT_GET_THERE = frozenset({ReasonCode.UNREACHABLE, ReasonCode.NO_APPROACH_POSE})
+
+
+def _target_out_of_ground_reach(task: TaskRecord) -> bool:
+    """The task's last give-back says a ground robot could not get to it: a crane is asked first."""
+    last = task.last_give_back
+    return last is not None and last.code in _CANNOT_GET_THERE

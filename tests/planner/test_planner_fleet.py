@@ -402,3 +402,30 @@ def test_bids_are_asked_again_when_something_changed_or_every_rebid_period_not_a
     core.observe_robot_state(robot_msg("r2", (0.0, -4.0)))
     core.step(2.3)
     assert passes, "a pass at once when a component was built and its robot came free"
+
+
+def test_a_beam_a_carrier_could_not_get_to_goes_to_the_crane_by_a_hand_off() -> None:
+    """The carrier can set the beam, and takes it first; its target cut off, the carrier gives it back
+    ``unreachable``. A site then lifts it with the crane: the next task is a hand-off to the crane's
+    staging area, not the same drive again (the Janesville restaurant's canopy tee, given back 3 times)."""
+    staging = Rect((-2.0, 16.0), (6.0, 24.0))
+    robots = [
+        SiteRobot("r1", CARRIER, (-10.0, -10.0, 0.0)),
+        SiteRobot("r2", CRANE, (2.0, 12.0, -1.5708), staging),
+    ]
+    core = idle_core(_manifest(beam=300.0), robots)
+    for guid in ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c"):
+        core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified"))
+    core.observe_component_pose(_pose("beam", (2.0, -58.0)))  # beyond the crane's hook where it lies
+    first = _assignments(_release(core, "beam"))["beam"]
+    assert (first.robot_id, first.kind) == ("r1", TaskKind.BUILD)
+    cut_off = Reason(
+        code=ReasonCode.UNREACHABLE, message="the target of beam is cut off from r1", robot_id="r1"
+    )
+    core.observe_component_state(
+        state_msg("beam", S.RELEASED, event="abandon", robot_id="r1", sim_time_s=20.0, reason=cut_off)
+    )
+    core.observe_robot_state(robot_msg("r1", (0.0, -50.0), sim_time_s=10_000.0))  # past any hold
+    again = _assignments(core.step(1.0))["beam"]
+    assert (again.robot_id, again.kind) == ("r1", TaskKind.HAND_OFF)
+    assert again.put_down_xy_m is not None
