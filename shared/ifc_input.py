@@ -20,6 +20,7 @@ import ifcopenshell
 from bimbot.shared.errors import UserError
 
 from .ifc_parse_damage import ParseDamage, read_parse_log
+from .step_brackets import first_unclosed_line
 
 _log = logging.getLogger(__name__)
 
@@ -84,6 +85,8 @@ def read_model(path: Path) -> ReadModel:
     if not str(schema).upper().startswith(SUPPORTED_SCHEMA_PREFIXES):
         raise UserError(f"{path}: unsupported IFC schema {schema} (bimbot reads {SUPPORTED_SCHEMAS})")
     damage = read_parse_log(ifcopenshell.get_log(), path)
+    if any(_END_MARKER.search(what) for _, what in damage.unreadable):
+        raise UserError(_lost_its_place(path, damage))
     if not model.by_type("IfcProject"):
         if damage.unreadable:
             line, what = damage.unreadable[0]
@@ -93,6 +96,27 @@ def read_model(path: Path) -> ReadModel:
             )
         raise UserError(f"{path}: no IfcProject, not a complete IFC model")
     return ReadModel(model, damage)
+
+
+_END_MARKER = re.compile(r"'(ENDSEC|END-ISO-10303-21)'")
+
+
+def _lost_its_place(path: Path, damage: ParseDamage) -> str:
+    """The line for a file whose end markers the parser read as instances: it lost its place at an
+    instance whose brackets do not close, and what followed was swallowed (:mod:`.step_brackets`)."""
+    line = first_unclosed_line(path)
+    if line is not None:
+        return (
+            f"{path} line {line}: not a readable IFC file: the brackets of this instance do not close "
+            "before its ';', so the parser reads the rest of the file as part of it (the file is damaged "
+            "at that point)"
+        )
+    first = next((number for number, _ in damage.unreadable if number is not None), None)
+    where = f" line {first}" if first is not None else ""
+    return (
+        f"{path}{where}: not a readable IFC file: the parser lost its place before the file's end (it read "
+        "the end markers as instances): the file is damaged"
+    )
 
 
 def _check_step_frame(path: Path, size: int) -> None:

@@ -146,6 +146,8 @@ UNREADABLE = [
         "cut_mid_entity.ifc line 22: not a readable IFC file: '0.ENDSEC' is no valid STEP",
     ),
     ("unsupported_schema.ifc", "unsupported IFC schema"),
+    # one instance's brackets left open: the parser swallows the rest and names only the end markers
+    ("unclosed_bracket.ifc", "unclosed_bracket.ifc line 22: not a readable IFC file: the brackets of this"),
 ]
 
 
