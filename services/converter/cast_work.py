@@ -37,9 +37,18 @@ def formwork_area_m2(mesh: TriMesh, rotation: np.ndarray, *, on_base: bool) -> f
     return float(mesh.area_faces[formed].sum())
 
 
-def rates_class(element: ifcopenshell.entity_instance, rates: CastInPlace) -> str | None:
+GROUND_SLAB = "IfcSlab.BASESLAB"
+
+
+def rates_class(
+    element: ifcopenshell.entity_instance, rates: CastInPlace, *, in_ground: bool = False
+) -> str | None:
     """The ``by_class`` key of ``element``'s rates: the first ``Class.PREDEFINED_TYPE`` it is, else the first
-    class it is an instance of (with subclasses); None for the general rates."""
+    class it is an instance of (with subclasses); None for the general rates. A slab that lies in the ground
+    (``in_ground``) is a ground slab whatever its predefined type (Revit's house types its ground floor
+    ``FLOOR``): edge forms, no decking to strike, as the ground slab's rates say."""
+    if in_ground and element.is_a("IfcSlab") and GROUND_SLAB in rates.by_class:
+        return GROUND_SLAB
     predefined = str(ifcopenshell.util.element.get_predefined_type(element) or "").upper()
     typed = [name for name in rates.by_class if "." in name]
     for name in typed:
@@ -61,7 +70,7 @@ def cast_work(
     """The :class:`CastWork` of ``element`` (its welded mesh in its own frame, ``rotation`` to the world)."""
     on_base = in_ground or is_poured(material_texts(element))
     area = formwork_area_m2(mesh, rotation, on_base=on_base)
-    formwork_rate, pour_rate, setup_h, cure_h = rates.rates(rates_class(element, rates))
+    formwork_rate, pour_rate, setup_h, cure_h = rates.rates(rates_class(element, rates, in_ground=in_ground))
     return CastWork(
         formwork_area_m2=area,
         volume_m3=volume_m3,

@@ -167,7 +167,7 @@ def day_pour_m3(item: PlacedElement, context: ShardContext) -> float:
     if context.methods is None:
         return math.inf
     rates = context.methods.cast_in_place
-    return rates.day_pour_m3(rates_class(item.element, rates))
+    return rates.day_pour_m3(rates_class(item.element, rates, in_ground=target_in_ground(item, context)))
 
 
 def write_bays(
@@ -183,7 +183,8 @@ def write_bays(
     cut = split_into_bays(work.mesh, mass.mass_kg, day_m3, rotation=item.rotation)
     assert context.methods is not None  # day_pour_m3 is finite
     rates = context.methods.cast_in_place
-    hours = rates.pour_day_h - rates.rates(rates_class(item.element, rates))[2]
+    in_ground = target_in_ground(item, context)
+    hours = rates.pour_day_h - rates.rates(rates_class(item.element, rates, in_ground=in_ground))[2]
     why = (
         f"{work.props.volume_m3:,.1f} m³, more than one day's pour of {day_m3:,.0f} m³ ({hours:g} h of "
         f"pouring): {cut.why}"
