@@ -130,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
     from bimbot.shared.joints import load_joint_settings
 
     from .convert import ConversionStats, ConvertOptions, convert_model
-    from .in_place import FOUNDATIONS, above_ground
+    from .in_place import FOUNDATIONS, above_ground, named_existing
     from .mesh_files import parse_formats
     from .selection import check_classes, check_exclusions, check_in_place, parse_class_list
 
@@ -228,6 +228,16 @@ def run(args: argparse.Namespace) -> int:
             args.output,
             earlier,
             args.output,
+        )
+    existing = named_existing(manifest.components)
+    if existing:
+        _log.warning(
+            "%d component(s) to build are named existing (%s%s): if they stand before the build, convert "
+            "with --in-place %s",
+            len(existing),
+            ", ".join(c.name for c in existing[:3]),
+            " …" if len(existing) > 3 else "",
+            ",".join(c.parent_guid or c.guid for c in existing[:3]),
         )
     if manifest.in_place:  # what the user asked for (--in-place), said with the summary
         sys.stdout.write(

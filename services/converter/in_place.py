@@ -15,6 +15,7 @@ checks, which follow ``components``, stay right.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable, Sequence
 
 from bimbot.shared.construction_methods import ConstructionMethod, MethodSource
@@ -22,6 +23,7 @@ from bimbot.shared.excavation import BELOW_GROUND_M  # its bottom more than this
 from bimbot.shared.manifest import Component
 
 FOUNDATIONS = "foundations"  # the --in-place keyword
+_EXISTING = re.compile(r"\bexisting\b", re.IGNORECASE)
 IN_THE_GROUND_M = 0.02  # a foundation's top is at most this above the ground
 
 
@@ -66,3 +68,13 @@ def above_ground(in_place: Sequence[Component]) -> list[Component]:
     """The in-place components that reach above the ground: a robot's laser sees them and they stand in
     its way (its map has them, from the manifest's ``in_place``)."""
     return [c for c in in_place if not in_the_ground(c)]
+
+
+def named_existing(components: Sequence[Component]) -> list[Component]:
+    """The components to build whose name says they exist (Revit's "Existing Strip Footing"), with no
+    status or phase in the IFC to say so: a hint that they may stand before the build (``--in-place``)."""
+    return [
+        c
+        for c in components
+        if c.method is not ConstructionMethod.IN_PLACE and _EXISTING.search(c.name or "")
+    ]

@@ -15,7 +15,7 @@ import pytest
 from cli_runs import Ended, bimbot_in_process, bimbot_process
 
 from bimbot.data.light_steel_frame import build_light_steel_frame
-from bimbot.services.converter.in_place import above_ground, in_the_ground, split_in_place
+from bimbot.services.converter.in_place import above_ground, in_the_ground, named_existing, split_in_place
 from bimbot.shared.construction_methods import ConstructionMethod, MethodSource
 from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.sequence import read_sequence
@@ -127,3 +127,14 @@ def test_foundations_reach_below_the_ground_a_sill_flush_with_it_is_no_foundatio
     assert in_the_ground(spanning(-0.56, 0.0))  # a thickened slab
     assert in_the_ground(spanning(-0.5, -0.13))  # a footing below a slab
     assert not in_the_ground(spanning(-0.3, 3.0))  # a column set into its footing stands above it
+
+
+def test_a_component_named_existing_is_pointed_out_as_perhaps_in_place(plain: Manifest) -> None:
+    """The Revit hub's "Existing Strip Footing" states no status or phase: it was cast as new work, first
+    in a chain of cures. The converter names it and the --in-place that would take it as existing."""
+    column = plain.components[0]
+    existing = column.model_copy(update={"name": "Existing Strip Footing:Existing Strip Footing:682677"})
+    unnamed = column.model_copy(update={"name": "Coexisting"})  # a word of its own only
+    assert named_existing([existing, unnamed, column]) == [existing]
+    in_place = existing.model_copy(update={"method": ConstructionMethod.IN_PLACE})
+    assert named_existing([in_place]) == []
