@@ -244,10 +244,13 @@ def as_built_line(report: dict[str, Any]) -> str | None:
             f"their BIM targets; from the BIM targets the largest deviation is {max(from_bim):.1f} mm)"
         )
     tolerance = _tolerance_text(audit)
+    of_what = (
+        " of their targets, fitted or BIM" if fits else ""
+    )  # a fitted one's BIM deviation is not held to it
     errors: list[str] = audit.get("errors", [])
     if not errors:
-        return f"{line}, all within tolerance{tolerance}"
-    line += f", {len(errors)} beyond tolerance{tolerance}"
+        return f"{line}, all within tolerance{tolerance}{of_what}"
+    line += f", {len(errors)} beyond tolerance{tolerance}{of_what}"
     shown = [f"  {error}" for error in errors[:MAX_ERRORS_SHOWN]]
     if len(errors) > MAX_ERRORS_SHOWN:
         shown.append(f"  … and {len(errors) - MAX_ERRORS_SHOWN} more (report.json: as_built.errors)")

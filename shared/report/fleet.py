@@ -124,7 +124,7 @@ def utilisation_line(report: Mapping[str, Any]) -> str | None:
     or None without types or a makespan; the part in brackets says what the percentages measure."""
     types = report.get("totals", {}).get("by_type") or {}
     parts = [
-        f"{name} {entry['utilisation'] * 100:.0f} % ({_robots(len(entry['robots']))})"
+        f"{name} {percent(entry['utilisation'])} ({_robots(len(entry['robots']))})"
         for name, entry in types.items()
         if entry.get("utilisation") is not None
     ]
@@ -137,9 +137,15 @@ def utilisation_line(report: Mapping[str, Any]) -> str | None:
     if (
         at_work and working_s is not None and makespan_s and working_s < AT_WORK_SHARE * makespan_s
     ):  # long waits (a cure) in it
-        shares = ", ".join(f"{name} {entry['utilisation_at_work'] * 100:.0f} %" for name, entry in at_work)
+        shares = ", ".join(f"{name} {percent(entry['utilisation_at_work'])}" for name, entry in at_work)
         line += f"; while some robot was at work ({duration_text(working_s)} of it): {shares}"
     return line
+
+
+def percent(share: float) -> str:
+    """``45 %``; ``<1 %`` for a share above 0 that rounds to 0 (a robot that did work is not idle)."""
+    shown = f"{share * 100:.0f}"
+    return "<1 %" if share > 0.0 and shown == "0" else f"{shown} %"
 
 
 def _count(tasks: Iterable[Mapping[str, Any]], kind: str) -> int:

@@ -7,7 +7,7 @@ from typing import Any
 
 import pytest
 
-from bimbot.shared.report.fleet import by_type
+from bimbot.shared.report.fleet import by_type, percent
 from bimbot.shared.report.totals import busy_within_s, makespan_window, totals_of
 
 
@@ -86,3 +86,8 @@ def test_a_long_cure_in_the_makespan_gives_the_utilisation_while_some_robot_was_
         utilisation_line({"totals": {"by_type": busy, "makespan_s": 100 * hour, "working_s": 90 * hour}})
         or ""
     )
+
+
+def test_a_share_that_rounds_to_nothing_is_said_under_one_percent() -> None:
+    """The house's Husky built 23 components in 0.4 % of an 8.8-day makespan: "husky 0 %" read as idle."""
+    assert [percent(share) for share in (0.0, 0.0041, 0.005, 0.45)] == ["0 %", "<1 %", "<1 %", "45 %"]

@@ -191,4 +191,6 @@ def test_a_member_fitted_to_the_structure_is_audited_against_its_fitted_target()
     line = as_built_line(report)
     assert line is not None and "1 judged where the structure as built put them, up to 9.0 mm" in line
     assert "from the BIM targets the largest deviation is 15.0 mm" in line
+    # 15 mm next to "all within tolerance (10 mm …)" read as a contradiction: the tolerance is the targets'
+    assert line.endswith("all within tolerance (10 mm / 1°) of their targets, fitted or BIM")
     assert report["components"][0]["final_position_error_from_bim_mm"] == pytest.approx(15.0, abs=0.01)
