@@ -130,7 +130,10 @@ def not_panelised(
         if unknown
         else "lifted whole"
     )
-    note = f"{decision.note}; not panelised ({error}): {then}" if decision.note else f"not panelised: {then}"
+    # the decision's note ends with what it meant to do ("…: split into precast panels"): say it was tried
+    meant = decision.note.removesuffix(": split into precast panels")
+    tried = f"{meant}: a split into precast panels was tried" if meant != decision.note else decision.note
+    note = f"{tried}; not panelised ({error}): {then}" if decision.note else f"not panelised: {then}"
     return decision.model_copy(update={"method": method, "note": note})
 
 
