@@ -125,6 +125,8 @@ def _check_step_frame(path: Path, size: int) -> None:
         head = stream.read(256)
         stream.seek(max(0, size - 256))
         tail = stream.read()
+    if head.startswith(b"PK\x03\x04"):
+        raise UserError(f"{path}: a zip archive, not an IFC file: unzip it and convert the .ifc inside")
     if _STEP_MAGIC not in head.lstrip()[: len(_STEP_MAGIC) + 8]:
         raise UserError(f"{path}: not an IFC file (no ISO-10303-21 header; only IFC-SPF .ifc files are read)")
     if _STEP_END not in tail:

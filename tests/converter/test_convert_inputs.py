@@ -172,6 +172,17 @@ def test_unreadable_input_gives_one_clear_line_and_exit_2(
     _one_clear_line(result, name, message)
 
 
+def test_a_zipped_model_is_told_to_be_unzipped(tmp_path: Path) -> None:
+    """The Janesville restaurant ships as a .zip: "not an IFC file" gave no hint what to do."""
+    import zipfile
+
+    archive = tmp_path / "model.zip"
+    with zipfile.ZipFile(archive, "w") as packed:
+        packed.write(BROKEN / "duplicate_guids.ifc", "model.ifc")
+    result = bimbot_process("convert", str(archive), "-o", str(tmp_path / "out"))
+    _one_clear_line(result, "model.zip", "a zip archive, not an IFC file: unzip it")
+
+
 def test_the_real_command_says_a_truncated_file_in_one_line_and_exits_2(tmp_path: Path) -> None:
     """A process of its own, for a file ifcopenshell's parser reads part of: nothing else on stderr."""
     result = bimbot_process("convert", str(BROKEN / "truncated.ifc"), "-o", str(tmp_path / "out"))
