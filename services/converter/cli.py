@@ -258,11 +258,10 @@ def run(args: argparse.Namespace) -> int:
             "%s: every component converted is in place (--in-place): nothing is left to build", args.model
         )
         return 1
-    if not manifest.components:
-        _log.error(
-            "%s: no element could be converted (see 'skipped' in %s/manifest.json)", args.model, args.output
+    if not manifest.components:  # unusable input (exit 2): nothing in it can be built (the manifest says why)
+        raise UserError(
+            f"{args.model}: no element could be converted (see 'skipped' in {args.output}/manifest.json)"
         )
-        return 1
     return 0
 
 

@@ -189,9 +189,10 @@ def test_the_real_command_says_a_truncated_file_in_one_line_and_exits_2(tmp_path
     _one_clear_line(result, "truncated.ifc", "truncated IFC file")
 
 
-def test_model_without_geometry_reports_every_element_and_exits_1(tmp_path: Path) -> None:
+def test_model_without_geometry_reports_every_element_and_exits_2(tmp_path: Path) -> None:
+    """Nothing in it can be built: unusable input (exit 2), as the README's exit codes say."""
     result = bimbot_process("convert", str(BROKEN / "no_geometry.ifc"), "-o", str(tmp_path / "out"))
-    assert result.returncode == 1
+    assert result.returncode == 2
     assert "no element could be converted" in result.stderr and "Traceback" not in result.stderr
 
 
