@@ -235,7 +235,7 @@ def run(args: argparse.Namespace) -> int:
             "%d component(s) to build are named existing (%s%s): if they stand before the build, convert "
             "with --in-place %s",
             len(existing),
-            ", ".join(c.name for c in existing[:3]),
+            ", ".join(c.name or c.guid for c in existing[:3]),
             " …" if len(existing) > 3 else "",
             ",".join(c.parent_guid or c.guid for c in existing[:3]),
         )
