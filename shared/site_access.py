@@ -213,7 +213,9 @@ class SiteAccess:
         return freed
 
     def _free_cell_near(self, point_xy_m: tuple[float, float]) -> tuple[int, int] | None:
-        """The free cell (the robot inflated) nearest ``point_xy_m``, within ``SHUT_IN_SEARCH_M``."""
+        """The free cell (the robot inflated) nearest ``point_xy_m``, within ``SHUT_IN_SEARCH_M``: read from
+        the distance field in a window (``occupancy_grid.nearest_free_cell`` would need the whole inflated
+        grid built first, on every assignment pass)."""
         row, col = (int(v) for v in self.grid.world_to_cell(np.asarray(point_xy_m, float)))
         half = int(np.ceil(SHUT_IN_SEARCH_M / self.config.resolution_m))
         rows, cols = self.grid.shape

@@ -165,12 +165,18 @@ def write_panels(
     return _write_parts(item, context, mass, cut, decision, method=ConstructionMethod.PANELISED)
 
 
+def _rates_key(item: PlacedElement, context: ShardContext) -> str | None:
+    """``item``'s ``cast_in_place.by_class`` key (:func:`.cast_work.rates_class`; a methods file given)."""
+    assert context.methods is not None
+    in_ground = target_in_ground(item, context)
+    return rates_class(item.element, context.methods.cast_in_place, in_ground=in_ground)
+
+
 def day_pour_m3(item: PlacedElement, context: ShardContext) -> float:
     """What one day's pour places for ``item`` (its rates class's; infinite without a methods file)."""
     if context.methods is None:
         return math.inf
-    rates = context.methods.cast_in_place
-    return rates.day_pour_m3(rates_class(item.element, rates, in_ground=target_in_ground(item, context)))
+    return context.methods.cast_in_place.day_pour_m3(_rates_key(item, context))
 
 
 def write_bays(
@@ -182,12 +188,11 @@ def write_bays(
 ) -> WrittenElement:
     """Cut ``item``, cast in place, into bays of one day's pour and write each as a component (see the
     module); PanelisationError when it cannot be cut so."""
-    day_m3 = day_pour_m3(item, context)
+    assert context.methods is not None  # bays are cut only when a day's pour is finite (a methods file)
+    rates, key = context.methods.cast_in_place, _rates_key(item, context)
+    day_m3 = rates.day_pour_m3(key)
     cut = split_into_bays(work.mesh, mass.mass_kg, day_m3, rotation=item.rotation)
-    assert context.methods is not None  # day_pour_m3 is finite
-    rates = context.methods.cast_in_place
-    in_ground = target_in_ground(item, context)
-    hours = rates.pour_day_h - rates.rates(rates_class(item.element, rates, in_ground=in_ground))[2]
+    hours = rates.pour_day_h - rates.rates(key)[2]
     why = (
         f"{work.props.volume_m3:,.1f} m³, more than one day's pour of {day_m3:,.0f} m³ ({hours:g} h of "
         f"pouring): {cut.why}"

@@ -183,8 +183,11 @@ def fit(
     cid, body, component = state.client_id, item.body, item.component
     target = target_frame(component)
     aim = on_its_seats(component, target, built_supports(state, component))
-    joined = {guid for guid, other in state.items.items() if other.phase is Phase.JOINED}
-    allowed = {guid: m for guid, m in state.framed.get(component.guid, {}).items() if guid in joined}
+    allowed = {
+        guid: m
+        for guid, m in state.framed.get(component.guid, {}).items()
+        if (other := state.items.get(guid)) is not None and other.phase is Phase.JOINED
+    }
     joints = state.joints.get(component.guid, frozenset())
     nearby = {b: g for b, g in around.items() if g not in joints and g not in allowed}
     framed = {b: g for b, g in around.items() if g not in joints and g in allowed}
@@ -208,7 +211,8 @@ def fit(
         ]
         aim = min([aim, *follows, *(halfway(aim, follow) for follow in follows)], key=score)
         # a framed partner overlapped no deeper than its joint allows is no overlap to clear
-        beyond = {b: g for b, g in framed.items() if framed_m(aim).get(g, 0.0) > allowed[g]}
+        depths_m = framed_m(aim)
+        beyond = {b: g for b, g in framed.items() if depths_m.get(g, 0.0) > allowed[g]}
         cleared = clear_overlap(cid, body, aim, nearby | beyond, max_cleared_m=max_cleared_m, kept=kept)
     finally:
         set_component_pose(cid, body, before)
