@@ -174,6 +174,12 @@ def build_large(folder: Path, bays: str = LARGE_BAYS, fidelity: str = "physics")
     )
     if fidelity == "plan":
         minutes = outcome.wall_time_s / 60.0
+        if outcome.constructed < outcome.total:  # a run stopped early is no figure against the target
+            print(
+                f"  plan fidelity wall {minutes:.1f} min for {outcome.constructed}/{outcome.total}: "
+                f"not complete, no ratio against the {LARGE_PLAN_WALL_TARGET_MIN:.0f} min target"
+            )
+            return
         print(
             f"  plan fidelity wall {minutes:.1f} min (target ≤ {LARGE_PLAN_WALL_TARGET_MIN:.0f} min, ratio "
             f"{minutes / LARGE_PLAN_WALL_TARGET_MIN:.2f})"
