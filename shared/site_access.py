@@ -51,6 +51,7 @@ WINDOW_MARGIN_M = 3.0
 # how far from a robot's position the free cell that stands for it may be (a robot close to a wall stands
 # in the inflated margin of the widest robot)
 SHUT_IN_SEARCH_M = 1.0
+NEAR_CACHE_SIZE = 1024  # robots' points remembered at most, between two changes of the grid
 
 
 @dataclass(frozen=True)
@@ -92,6 +93,11 @@ class SiteAccess:
         fence = from_footprints(self.grid.bounds_xy_m, config.resolution_m, boxes_xy_m=boxes)
         self._fence = fence.occupied
         self._counts = np.zeros(self.grid.shape, np.int32)
+        # asked for every released task at every assignment pass while the grid stays the same: the free
+        # cell nearest each robot (cleared by any change of the grid), and which components are open in
+        # the free region (kept with the region it was read from)
+        self._near: dict[tuple[float, float], tuple[int, int] | None] = {}
+        self._open_in: tuple[NDArray[np.bool_] | None, dict[str, bool]] = (None, {})
         # the distance to the nearest occupied cell, kept current around each change (a whole transform of
         # a 988-component site's 0.1 m grid took 50–100 ms, after every one of the check's placements)
         self._distance = ClippedDistanceField(
@@ -187,6 +193,7 @@ class SiteAccess:
             self._cells[guid] = cells
             self._counts[cells[:, 0], cells[:, 1]] += 1
             self._distance.touch(cells)
+            self._near.clear()
         if not was_placed:
             self.placed.discard(guid)
         self._region = region
@@ -201,7 +208,7 @@ class SiteAccess:
         if guid not in self.placed or cells is None or not points_xy_m:
             return []
         region = self.region()
-        near = [self._free_cell_near(point) for point in points_xy_m]
+        near = [self._near_cached(point) for point in points_xy_m]
         shut = [i for i, cell in enumerate(near) if cell is not None and not region[cell]]
         if not shut:
             return []
@@ -211,6 +218,28 @@ class SiteAccess:
         self._occupy(guid, cells)
         self._region = region
         return freed
+
+    def _near_cached(self, point_xy_m: tuple[float, float]) -> tuple[int, int] | None:
+        """:meth:`_free_cell_near`, remembered until the grid changes (a few robots, many tasks a pass)."""
+        key = (float(point_xy_m[0]), float(point_xy_m[1]))
+        if key not in self._near:
+            if len(self._near) >= NEAR_CACHE_SIZE:  # robots on the move: every pass asks new points
+                self._near.clear()
+            self._near[key] = self._free_cell_near(key)
+        return self._near[key]
+
+    def open_now(self, guid: str) -> bool:
+        """Accessible at its yard slot and at its target in the free region as it stands, remembered with
+        that region (every released task's check asks it of every component still to be built)."""
+        region = self.region()
+        held, known = self._open_in
+        if held is not region:
+            known = {}
+            self._open_in = (region, known)
+        is_open = known.get(guid)
+        if is_open is None:
+            is_open = known[guid] = self.slot_accessible(guid) and self.target_accessible(guid)
+        return is_open
 
     def _free_cell_near(self, point_xy_m: tuple[float, float]) -> tuple[int, int] | None:
         """The free cell (the robot inflated) nearest ``point_xy_m``, within ``SHUT_IN_SEARCH_M``: read from
@@ -328,6 +357,7 @@ class SiteAccess:
         self._counts[cells[:, 0], cells[:, 1]] += 1
         self._distance.touch(cells)
         self._region = None
+        self._near.clear()
 
     def _release(self, guid: str) -> None:
         cells = self._cells.pop(guid, None)
@@ -335,6 +365,7 @@ class SiteAccess:
             self._counts[cells[:, 0], cells[:, 1]] -= 1
             self._distance.touch(cells)
             self._region = None
+            self._near.clear()
 
 
 def check_order(
@@ -394,7 +425,7 @@ def _box_of(cells: NDArray[np.int64]) -> tuple[int, int, int, int] | None:
 def _open(access: SiteAccess, guid: str, region: NDArray[np.bool_] | None = None) -> bool:
     """Accessible at its yard slot and at its target (in ``region``, else the access's free region)."""
     if region is None:
-        return access.slot_accessible(guid) and access.target_accessible(guid)
+        return access.open_now(guid)
     slot = access._slot_candidates.get(guid)
     target = access._target_candidates[guid]
     reached = (slot is None or bool(region[slot[:, 0], slot[:, 1]].any())) and len(target) > 0

@@ -175,6 +175,25 @@ def staging_reached(crane: SiteRobot, component: Component) -> bool:
     return all(crane_reaches_centre(crane, Where(corner, 0.0), component.mass_kg) for corner in corners)
 
 
+_HOLDS: dict[int, tuple[Component, float]] = {}  # id → (the component, its expected hold): see below
+_HOLDS_KEPT = 100_000
+
+
+def _expected_hold_s(component: Component) -> float:
+    """:func:`~bimbot.shared.connection_hold.expected_hold_s`, remembered per component object: it reads
+    only the manifest's entry, and every assignment pass asks it of each released task for every robot
+    (on a 988-component site a tenth of the planner's time). The entry is kept with its figure, so an id
+    is never taken for another object's."""
+    known = _HOLDS.get(id(component))
+    if known is not None and known[0] is component:
+        return known[1]
+    if len(_HOLDS) >= _HOLDS_KEPT:
+        _HOLDS.clear()
+    hold_s = expected_hold_s(component)
+    _HOLDS[id(component)] = (component, hold_s)
+    return hold_s
+
+
 def task_estimate_s(
     robot: SiteRobot,
     robot_xy_m: Sequence[float],
@@ -196,7 +215,7 @@ def task_estimate_s(
             drive_s = relocation_to_s(robot, robot_xy_m, component)
         return drive_s + handling_s + work_s(component, description)
     # set at its target, it is held until its connections are made (and its temporary supports set)
-    hold_s = expected_hold_s(component) if to_xy_m is None else 0.0
+    hold_s = _expected_hold_s(component) if to_xy_m is None else 0.0
     if robot.lifts_by_hook and description.crane is not None:
         start = (*where.xy_m, where.top_z_m)
         end = (target[0], target[1], component.bbox_world.max_m[2])

@@ -101,3 +101,20 @@ def test_a_robot_that_stays_in_the_room_holds_the_walls_at_most_the_bound(
     core.observe_robot_state(robot_msg("r1", INSIDE_XY_M, sim_time_s=HOLD_MAX_S + 1))
     core.step(0.0)
     assert any(core.phase(wall) is Phase.ASSIGNED for wall in walls)
+
+
+def test_who_is_shut_in_is_answered_for_the_grid_as_it_stands_after_each_change(
+    room: tuple[Manifest, dict[str, str]],
+) -> None:
+    """Asked, taken down, asked again: the answer follows the grid, not the robots' points as last read."""
+    manifest, guid = room
+    info = one_robot_site_info(manifest)
+    access = SiteAccess(list(manifest.components), info.layout, site_robot(info), FINE)
+    walls = [guid[wall] for wall in ROOM_WALLS]
+    for wall in walls:
+        access.place(wall)
+    assert access.frees(walls[0], [INSIDE_XY_M]) == [0]
+    access.remove(walls[2])  # the room is open again: nobody is shut in
+    assert access.frees(walls[0], [INSIDE_XY_M]) == []
+    access.place(walls[2])
+    assert access.frees(walls[2], [INSIDE_XY_M]) == [0]

@@ -191,3 +191,28 @@ def test_the_check_asks_only_whose_reach_the_region_changed_in_and_answers_as_as
         assert fast == everyone
         cutting += bool(fast.cut_offs)
     assert cutting, "some order cuts something off (the gate, the room)"
+
+
+def test_what_the_access_remembers_between_changes_is_what_it_would_read_afresh(bundled_build: Path) -> None:
+    """Along a whole build order, with the cut-off question (which changes the grid and puts it back)
+    asked before each placement: every component's openness and every robot point's nearest free cell,
+    as remembered, equal those read afresh from the grid as it stands. A memory kept past a change of
+    the grid would answer for the grid before it."""
+    built, column, _ring, gate = _room_with_gate(bundled_build)
+    layout = plan_site(built, robots=1)
+    access = SiteAccess(built, layout, DEFAULT_ROBOT, AccessConfig(0.1))
+    order = [c.guid for c in built if c.guid not in (column.guid, gate.guid)] + [column.guid, gate.guid]
+    cx, cy, _ = column.target_pose_world.position_m
+    points = [(cx + dx, cy + dy) for dx in (-1.2, 0.0, 0.9) for dy in (-0.8, 0.0, 0.7)]
+    moved = 0
+    for guid in order:
+        before = [access._near_cached(point) for point in points]
+        access.cut_off_by(guid, order)
+        access.place(guid)
+        for other in order:
+            afresh = access.slot_accessible(other) and access.target_accessible(other)
+            assert access.open_now(other) == afresh, other
+        now = [access._near_cached(point) for point in points]
+        assert now == [access._free_cell_near(point) for point in points], guid
+        moved += now != before
+    assert moved, "some placement moves a point's nearest free cell (the memory was cleared and read again)"
