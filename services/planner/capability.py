@@ -29,6 +29,7 @@ time to set up and to clear, and the drive of a machine that drives.
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -175,22 +176,19 @@ def staging_reached(crane: SiteRobot, component: Component) -> bool:
     return all(crane_reaches_centre(crane, Where(corner, 0.0), component.mass_kg) for corner in corners)
 
 
-_HOLDS: dict[int, tuple[Component, float]] = {}  # id → (the component, its expected hold): see below
-_HOLDS_KEPT = 100_000
+_HOLDS: dict[int, float] = {}  # id of a component object → its expected hold, while the object lives
 
 
 def _expected_hold_s(component: Component) -> float:
     """:func:`~bimbot.shared.connection_hold.expected_hold_s`, remembered per component object: it reads
     only the manifest's entry, and every assignment pass asks it of each released task for every robot
-    (on a 988-component site a tenth of the planner's time). The entry is kept with its figure, so an id
-    is never taken for another object's."""
-    known = _HOLDS.get(id(component))
-    if known is not None and known[0] is component:
-        return known[1]
-    if len(_HOLDS) >= _HOLDS_KEPT:
-        _HOLDS.clear()
-    hold_s = expected_hold_s(component)
-    _HOLDS[id(component)] = (component, hold_s)
+    (on a 988-component site a tenth of the planner's time). An entry goes with its object, so an id is
+    never taken for another object's."""
+    key = id(component)
+    hold_s = _HOLDS.get(key)
+    if hold_s is None:
+        hold_s = _HOLDS[key] = expected_hold_s(component)
+        weakref.finalize(component, _HOLDS.pop, key, None)
     return hold_s
 
 

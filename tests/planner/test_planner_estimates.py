@@ -104,3 +104,22 @@ def test_a_busy_robot_whose_column_is_still_held_is_not_waited_for_by_the_next_c
     far = task_estimate_s(robots[1], (60.0, -3.0), columns[1], lies)
     assert 2 * (near - BOLTED_BASE_S) < far - BOLTED_BASE_S  # without the holds r1 would win ...
     assert far < 2 * near  # ... with them r2 does
+
+
+def test_a_components_hold_is_remembered_while_the_component_lives_and_no_longer() -> None:
+    """Every assignment pass asks the hold of each released task for every robot: it is worked out once
+    per component object, and forgotten with the object (a long planner or test session keeps no dead
+    manifest alive, and a new object that takes the same id is not given another's hold)."""
+    import gc
+
+    from bimbot.services.planner import capability
+
+    robot = SiteRobot("r1", CARRIER, (0.0, -3.0, 0.0))
+    item = _bolted_column("remembered")
+    first = task_estimate_s(robot, (0.0, -3.0), item, Where((0.0, -6.0), 0.5))
+    key = id(item)
+    assert capability._HOLDS[key] == expected_hold_s(item) == BOLTED_BASE_S
+    assert task_estimate_s(robot, (0.0, -3.0), item, Where((0.0, -6.0), 0.5)) == first
+    del item
+    gc.collect()
+    assert key not in capability._HOLDS
