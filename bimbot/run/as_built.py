@@ -238,19 +238,21 @@ def as_built_line(report: dict[str, Any]) -> str | None:
     from_bim = [
         c["final_position_error_from_bim_mm"] for c in built if c.get("final_position_error_from_bim_mm")
     ]
-    if fits:
-        line += (
-            f" ({len(fits)} judged where the structure as built put them, up to {max(fits):.1f} mm from "
-            f"their BIM targets; from the BIM targets the largest deviation is {max(from_bim):.1f} mm)"
-        )
-    tolerance = _tolerance_text(audit)
-    of_what = (
-        " of their targets, fitted or BIM" if fits else ""
-    )  # a fitted one's BIM deviation is not held to it
+    tolerance = _tolerance_text(audit) + (" of their targets" if fits else "")
     errors: list[str] = audit.get("errors", [])
     if not errors:
-        return f"{line}, all within tolerance{tolerance}{of_what}"
-    line += f", {len(errors)} beyond tolerance{tolerance}{of_what}"
+        line += f", all within tolerance{tolerance}"
+    else:
+        line += f", {len(errors)} beyond tolerance{tolerance}"
+    if fits:
+        # a fitted member is judged at its fitted target: its BIM deviation is how far the fit moved it
+        # plus its own, not held to the tolerance
+        line += (
+            f"; {len(fits)} fitted to the structure as built (their targets moved up to {max(fits):.1f} mm "
+            f"from the BIM model), so standing up to {max(from_bim):.1f} mm from their BIM positions"
+        )
+    if not errors:
+        return line
     shown = [f"  {error}" for error in errors[:MAX_ERRORS_SHOWN]]
     if len(errors) > MAX_ERRORS_SHOWN:
         shown.append(f"  … and {len(errors) - MAX_ERRORS_SHOWN} more (report.json: as_built.errors)")
