@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import re
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from bimbot import __version__
 
@@ -82,6 +82,11 @@ class OneLineErrorParser(argparse.ArgumentParser):
     must be zero or a positive number (see bimbot run --help)``. argparse's own ``error`` prints the whole
     usage first, a screenful for a service's options that buried the one line that matters; ``--help``
     still prints it all. Sub-command parsers are of this class too (argparse makes them of the parent's)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        # no abbreviations: ``--robot 3`` was taken for ``--robots 3`` and a 3-minute build began unasked
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
         self.exit(EXIT_USER_ERROR, f"{self.prog}: error: {message} (see {self.prog} --help)\n")

@@ -195,6 +195,13 @@ def test_an_option_the_sub_command_does_not_know_is_that_sub_command_s_error(tmp
     assert not (tmp_path / "out").exists()
 
 
+def test_a_shortened_option_is_not_taken_for_the_one_it_begins(build: Path) -> None:
+    """``--robot 3`` is no ``--robots 3``: argparse would have started a build with three robots unasked."""
+    done = _bimbot("run", str(build), "--robot", "3")
+    _one_line(done, "bimbot run: error: unrecognized arguments: --robot 3")
+    assert _nothing_started(build)
+
+
 def test_an_option_before_any_sub_command_is_named_not_reported_as_a_missing_command() -> None:
     _one_line(_bimbot("--frobnicate"), "bimbot: error: unrecognized arguments: --frobnicate")
     _one_line(_bimbot("-v"), "the following arguments are required: COMMAND")  # a known option: as before
