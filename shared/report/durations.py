@@ -57,7 +57,10 @@ def duration_text(seconds: float) -> str:
 
 
 def in_unit_text(seconds: float, unit: TimeUnit) -> str:
-    """``seconds`` in ``unit`` as :func:`duration_text` says it: ``6.6 min (396 s)``, ``45.0 s``."""
+    """``seconds`` in ``unit`` as :func:`duration_text` says it: ``6.6 min (396 s)``, ``45.0 s``. A time
+    that would read 0.0 in ``unit`` is said in its own (``15.6 min (935 s)``, not ``0.0 days (935 s)``)."""
+    if seconds > 0.0 and round(seconds / unit.seconds, 1) == 0.0:
+        unit = spoken_unit(seconds)
     text = f"{seconds / unit.seconds:.1f} {unit.name}"
     return text if unit.seconds == 1.0 else f"{text} ({seconds:,.0f} s)"
 

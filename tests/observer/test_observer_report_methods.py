@@ -12,7 +12,7 @@ from method_run import END_S, FIRST_CURED_S, TYPES, method_manifest, method_mess
 
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.report.collector import ReportCollector
-from bimbot.shared.report.durations import duration_text, time_unit
+from bimbot.shared.report.durations import duration_text, in_unit_text, spoken_unit, time_unit
 from bimbot.shared.report.methods import curing_line
 from bimbot.shared.report.methods_png import (
     CURING_HATCH,
@@ -131,6 +131,13 @@ def test_times_are_said_in_the_unit_of_their_span() -> None:
     assert duration_text(291651.0) == "81.0 h (291,651 s)"
     assert duration_text(45.0) == "45.0 s"
     assert (duration_text(1800.0), duration_text(7201.0)) == ("30.0 min (1,800 s)", "2.0 h (7,201 s)")
+    # robots' busy times share one unit, but a short one is not "0.0 days": it is said in its own
+    days = spoken_unit(30 * 86400.0)
+    assert [in_unit_text(s, days) for s in (935.0, 0.0, 300_000.0)] == [
+        "15.6 min (935 s)",
+        "0.0 days (0 s)",
+        "3.5 days (300,000 s)",
+    ]
 
 
 def _bars_x(ax: Axes, color: RGB | None = None, hatch: str | None = None) -> list[tuple[float, float]]:
