@@ -10,12 +10,16 @@ per scenario with its mean and range, and the mean utilisation per robot type be
 from __future__ import annotations
 
 import csv
+import math
 import statistics
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from .rows import FAILED, UTILISATION_PREFIX, columns
+
+LEGEND_COLUMNS = 3  # robot types a row of the utilisation legend names
+LEGEND_ROW_PERCENT = 9.0  # the axis' height above 100 % a legend row takes
 
 Row = Mapping[str, Any]
 
@@ -145,11 +149,14 @@ def write_plot(rows: Sequence[Row], path: Path) -> tuple[float, float]:
         offsets = [x - 0.4 + width * (index + 0.5) for x in range(len(names))]
         utilisation_axes.bar(offsets, means, width=width, label=robot_type)
     utilisation_axes.set_xticks(range(len(names)), names, rotation=15)
-    utilisation_axes.set_ylim(0, 100)
+    # the legend in a band of its own above 100 %, so that it covers no bar (a husky's 84 % was hidden)
+    legend_rows = math.ceil(len(types) / LEGEND_COLUMNS)
+    utilisation_axes.set_ylim(0, 100 + LEGEND_ROW_PERCENT * legend_rows)
+    utilisation_axes.set_yticks(range(0, 101, 20))
     utilisation_axes.set_ylabel("utilisation (% of the makespan)")
     utilisation_axes.set_title("mean utilisation per robot type")
     if types:
-        utilisation_axes.legend(fontsize="small")
+        utilisation_axes.legend(fontsize="small", loc="upper center", ncol=LEGEND_COLUMNS, frameon=False)
     utilisation_axes.grid(axis="y", alpha=0.3)
     figure.savefig(path, dpi=110)
     low, high = makespan_axes.get_ylim()

@@ -5,6 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 from bimbot.study.summary import by_scenario, markdown_table, read_csv, write_csv, write_plot
 
 
@@ -66,3 +68,23 @@ def test_the_plot_is_a_png(tmp_path: Path) -> None:
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
     highest = max(float(row["makespan_s"]) for row in ROWS if row["makespan_s"] not in ("", None))
     assert low_s == 0 and high_s > 1.05 * highest  # from zero, and the highest run not at the edge
+
+
+def test_the_utilisation_legend_covers_no_bar(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A type busy 84 % of the makespan drew its bar under the legend: the legend has a band of its own
+    above 100 %, and no bar's box meets the legend's."""
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Rectangle
+
+    drawn: list[Figure] = []
+    save = Figure.savefig
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: (drawn.append(self), save(self, *a, **k)))
+    busy = [{**row, "utilisation_husky": 0.99} for row in ROWS]
+    write_plot(busy, tmp_path / "study.png")
+    (figure,) = drawn
+    renderer = figure._get_renderer()  # the one the saved image was drawn with
+    axes = figure.axes[1]
+    legend = axes.get_legend().get_window_extent(renderer)
+    bars = [patch for patch in axes.patches if isinstance(patch, Rectangle) and patch.get_height() > 0]
+    assert bars and axes.get_ylim()[1] > 100
+    assert not any(bar.get_window_extent(renderer).overlaps(legend) for bar in bars)
