@@ -189,11 +189,7 @@ class SiteAccess:
             self._region = None
             cut = [other for other in before if not _open(self, other)]
         self._release(guid)
-        if cells is not None:  # back where it was (its yard slot, or its target)
-            self._cells[guid] = cells
-            self._counts[cells[:, 0], cells[:, 1]] += 1
-            self._distance.touch(cells)
-            self._near.clear()
+        self._occupy(guid, cells)  # back where it was (its yard slot, or its target)
         if not was_placed:
             self.placed.discard(guid)
         self._region = region

@@ -25,6 +25,8 @@ from bimbot.shared.fleet import Fleet, default_fleet
 from bimbot.shared.methods_file import MaterialKind, MethodsFile, load_methods
 from bimbot.shared.robot_description import Capability
 
+SPLIT_NOTE = ": split into precast panels"  # how a note of a part too heavy to lift whole ends
+
 DEFAULT_DECISION = MethodDecision(
     method=ConstructionMethod.LIFTED, source=MethodSource.RULE, note="by default"
 )
@@ -100,7 +102,7 @@ def final_method(
     why = "; ".join(problems)
     fallback = decision.if_too_heavy
     if fallback is ConstructionMethod.PANELISED:
-        return _rule(fallback, f"{why}: split into precast panels", decision)
+        return _rule(fallback, f"{why}{SPLIT_NOTE}", decision)
     if fallback is ConstructionMethod.CAST_IN_PLACE:
         unknown = decision.material in (None, MaterialKind.UNKNOWN.value)
         what = (

@@ -47,6 +47,7 @@ from .collision import collision_from_mesh
 from .component_methods import element_limits, settled_method, target_in_ground
 from .component_work import GeometryWork, PlacedElement, ShardContext
 from .component_writer import EntryParts, element_mass, write_component, write_entry
+from .final_method import SPLIT_NOTE
 from .mass_properties import mass_properties
 from .mesh import TriMesh
 from .mesh_files import write_geometry_files
@@ -130,8 +131,8 @@ def not_panelised(
         if unknown
         else "lifted whole"
     )
-    # the decision's note ends with what it meant to do ("…: split into precast panels"): say it was tried
-    meant = decision.note.removesuffix(": split into precast panels")
+    # the decision's note ends with what it meant to do (final_method.SPLIT_NOTE): say it was tried
+    meant = decision.note.removesuffix(SPLIT_NOTE)
     tried = f"{meant}: a split into precast panels was tried" if meant != decision.note else decision.note
     note = f"{tried}; not panelised ({error}): {then}" if decision.note else f"not panelised: {then}"
     return decision.model_copy(update={"method": method, "note": note})
