@@ -542,6 +542,11 @@ class ClockMsg(_Message):
     real_time_factor: NonNegative
     lock_step: bool = False
     epoch: Step = 0  # physics starts of this run - 1: a new epoch is a restart, not a jump in time
+    # lock-step with participants (shared/step_gate.py): every participant's output stamped up to here has
+    # been sent before this clock (the sim time of step - 2); and the latest step at or before this one at
+    # which the sleeping robots woke (None: no wake yet)
+    inputs_to_s: SimTime | None = None
+    last_wake_step: Step | None = None
 
 
 class SensorsMsg(_Message):
@@ -638,7 +643,7 @@ PROGRESS = Topic(PROGRESS_KEY, ProgressMsg, "planner", "all")
 PLANNER_PREPARING = Topic(
     PLANNER_PREPARING_KEY, PreparingMsg, "planner", "run, physics", "before it is ready"
 )
-STEP_DONE = Topic(STEP_DONE_KEY, StepDoneMsg, "planner/agent", "all", "lock-step answers")
+STEP_DONE = Topic(STEP_DONE_KEY, StepDoneMsg, "planner/agent", "physics", "lock-step answers")
 # kind: component, robot, planner, physics, observer
 ALIVE = Liveliness(ALIVE_KEY, "every running service")
 

@@ -11,11 +11,12 @@ and the agents' processes stay free of numpy.
 
 Layout of a ``SensorsMsg`` (little-endian): ``b"BS"``, layout version (u8), schema version (u8), robot id
 (u8 length + UTF-8); clock: sim time (f64), step (i64), real-time factor (f64), lock-step (u8), epoch
-(i64); odometry: x, y, yaw, v, w, sim time (6 × f64); a scan flag (u8), and with a scan: angle min,
+(i64), a flag (u8) and the time its inputs are vouched for up to (f64), a flag (u8) and the latest wake
+step (i64); odometry: x, y, yaw, v, w, sim time (6 × f64); a scan flag (u8), and with a scan: angle min,
 angle increment, range max, sim time (4 × f64), beam count (u32), ranges (f32 each; +inf is "no return");
 a fix flag (u8), and with a position fix: x, y, standard deviation, yaw, its standard deviation, sim time
-(6 × f64). Layout 2 added the
-fix; both ends are this codebase, so a layout-1 payload is refused like any other foreign bytes.
+(6 × f64). Layout 2 added the fix, layout 3 the clock's inputs time and wake step; both ends are this
+codebase, so a payload of an older layout is refused like any other foreign bytes.
 """
 
 from __future__ import annotations
@@ -28,9 +29,9 @@ from pydantic import BaseModel
 from .messages import SensorsMsg
 
 MAGIC: Final = b"BS"
-LAYOUT_VERSION: Final = 2
+LAYOUT_VERSION: Final = 3
 _HEAD = struct.Struct("<2sBBB")  # magic, layout, schema version, robot id length
-_CLOCK = struct.Struct("<dqdBq")
+_CLOCK = struct.Struct("<dqdBqBdBq")
 _ODOM = struct.Struct("<6d")
 _SCAN = struct.Struct("<4dI")
 _FLAG = struct.Struct("<B")
@@ -53,7 +54,17 @@ def encode_sensors(message: SensorsMsg) -> bytes:
     parts = [
         _HEAD.pack(MAGIC, LAYOUT_VERSION, message.schema_version, len(robot)),
         robot,
-        _CLOCK.pack(clock.sim_time_s, clock.step, clock.real_time_factor, clock.lock_step, clock.epoch),
+        _CLOCK.pack(
+            clock.sim_time_s,
+            clock.step,
+            clock.real_time_factor,
+            clock.lock_step,
+            clock.epoch,
+            clock.inputs_to_s is not None,
+            clock.inputs_to_s or 0.0,
+            clock.last_wake_step is not None,
+            clock.last_wake_step or 0,
+        ),
         _ODOM.pack(*odom.pose_xy_yaw, odom.v_mps, odom.w_radps, odom.sim_time_s),
         _FLAG.pack(scan is not None),
     ]
@@ -87,7 +98,9 @@ def sensors_fields(payload: bytes) -> dict[str, Any]:
         at = _HEAD.size
         robot_id = bytes(payload[at : at + robot_length]).decode("utf-8")
         at += robot_length
-        sim_s, step, rtf, lock_step, epoch = _CLOCK.unpack_from(payload, at)
+        sim_s, step, rtf, lock_step, epoch, has_inputs_to, inputs_to, has_wake, wake = _CLOCK.unpack_from(
+            payload, at
+        )
         at += _CLOCK.size
         x, y, yaw, v, w, odom_s = _ODOM.unpack_from(payload, at)
         at += _ODOM.size
@@ -141,6 +154,8 @@ def sensors_fields(payload: bytes) -> dict[str, Any]:
             "real_time_factor": rtf,
             "lock_step": bool(lock_step),
             "epoch": epoch,
+            "inputs_to_s": inputs_to if has_inputs_to else None,
+            "last_wake_step": wake if has_wake else None,
         },
         "odom": {
             "schema_version": schema,

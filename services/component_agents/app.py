@@ -48,8 +48,6 @@ from bimbot.shared.messages import (
     COMPONENT_STATE_KEY,
     COMPONENT_TWIN,
     PHYSICS_INFO,
-    ROBOT_CMD_VEL,
-    STEP_DONE,
     STEP_DONE_KEY,
     SiteInfoMsg,
     key,
@@ -139,11 +137,7 @@ def serve(
     ]
     physics = PhysicsReach()
     steps = None
-    if stepped:  # the other participants' answers: what they sent up to a step has arrived
-        declarations += [
-            inbox.subscribe(session, ROBOT_CMD_VEL, site=site, robot_id="*"),
-            inbox.subscribe(session, STEP_DONE, site=site, participant="*"),
-        ]
+    if stepped:  # a lock-step participant (.stepped)
         answer_key = key(STEP_DONE_KEY, site=site, participant=participant_name(host.shard, host.n_shards))
         steps = SteppedAgents(
             host,
@@ -174,7 +168,7 @@ def serve(
             host.use_tolerances(info.tolerances)  # the tolerances in force: physics' site info
             host.use_fleet(info.robot_type_of, info.robot_types)
             if steps is not None:
-                steps.expect(info.robot_ids, info.lock_step_participants)
+                steps.start()
             site_info = None
         elif site_info is not None and time.monotonic() - asked_since > SITE_INFO_WAIT_S:
             host.assume_own_tolerances(SITE_INFO_WAIT_S)  # still asked: physics' answer wins when it comes

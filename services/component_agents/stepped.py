@@ -4,11 +4,12 @@ Why: an agent stamps a state change with the sim time it has heard, and changes 
 pose arrives; both depend on the machine's load, so a component became constructed a few steps earlier or
 later from run to run, and what rests on it was released then. Here the shard is a lock-step participant
 (``agents-<i>of<n>``; physics waits for its :class:`~bimbot.shared.messages.StepDoneMsg`): at each clock
-step ``k`` it takes the events and poses stamped at or before step ``k − 2``
-(:class:`~bimbot.shared.step_gate.StepGate`, once the planner and every robot have answered that step),
+step ``k`` it takes the events and poses stamped up to the time the clock says (those of step ``k − 2``
+and before: physics' clock vouches that they have all come, :class:`~bimbot.shared.step_gate.StepGate`),
 in (stamp, sender) order, at the sim time of ``k``; checks the verification timeouts in sim time; then
-answers ``k``. A clock step heard again (physics says it again while it waits: an answer may have been
-lost with a router) is answered with the last answer again. Twin queries are answered at once, as before.
+answers ``k``. It steps once physics' site info has come (the tolerances in force). A clock step heard
+again (physics says it again while it waits: an answer may have been lost with a router) is answered with
+the last answer again. Twin queries are answered at once, as before.
 """
 
 from __future__ import annotations
@@ -20,8 +21,8 @@ from collections.abc import Callable, Iterable
 
 from bimbot.shared.bus import Received
 from bimbot.shared.clock_guard import ClockGuard, Verdict
-from bimbot.shared.messages import ClockMsg, CmdVelMsg, ComponentEventMsg, ComponentPoseMsg, StepDoneMsg
-from bimbot.shared.step_gate import DELAY_STEPS, HOLD_S, StepGate
+from bimbot.shared.messages import ClockMsg, ComponentEventMsg, ComponentPoseMsg, StepDoneMsg
+from bimbot.shared.step_gate import StepGate
 
 from .host import AgentHost, Outgoing
 
@@ -49,16 +50,14 @@ class SteppedAgents:
         self.gate: StepGate[Received] = StepGate()
         self.clocks: deque[ClockMsg] = deque()
         self.clock_guard = ClockGuard(f"{self.name} clock")
-        self._held_since: float | None = None
         self._last_step = -1
         self._last_answer: StepDoneMsg | None = None
         self._restate = False  # say every agent's state again at the next step (:mod:`.reconnect`)
-        self.expecting = False  # until physics' site info says who answers each step
+        self.started = False  # until physics' site info came (the tolerances in force)
 
-    def expect(self, robot_ids: Iterable[str], participants: Iterable[str]) -> None:
-        """Whose answers each step waits for: every robot and the planner (not the other shards)."""
-        self.gate.expect([*robot_ids, *(name for name in participants if not name.startswith("agents-"))])
-        self.expecting = True
+    def start(self) -> None:
+        """Physics' site info came: the steps are taken from now on."""
+        self.started = True
 
     def hear(self, item: object) -> bool:
         """Take one inbox item (False: not one of the stepped kinds, the caller handles it)."""
@@ -66,22 +65,10 @@ class SteppedAgents:
             case Received(message=ClockMsg() as clock):
                 verdict = self.clock_guard.check(clock, time.monotonic())
                 if verdict.accepted:
-                    self.gate.clock(clock.step, clock.sim_time_s)
+                    self.gate.clock(clock.step, clock.sim_time_s, clock.inputs_to_s)
                     self.clocks.append(clock)
                 elif verdict is Verdict.OLD and self._last_answer is not None:
                     self.answer(self._last_answer)
-            case Received(message=CmdVelMsg() as command):
-                if command.step is not None:
-                    self.gate.answered(command.robot_id, command.step, sleeps=command.sleeps)
-            case Received(message=StepDoneMsg() as answer):
-                if answer.participant.startswith("agents-"):
-                    pass  # other shards: nothing of theirs is taken here
-                elif answer.done:
-                    self.gate.leave(answer.participant)
-                else:
-                    self.gate.answered(answer.participant, answer.step)
-                    if answer.wakes:
-                        self.gate.wake_sleepers(answer.step + DELAY_STEPS)
             case Received(message=ComponentEventMsg() as event):
                 sender = f"{event.source}/{event.robot_id or ''}"
                 self._stamped(event.sim_time_s, sender, item, key=("event", event.event_id))
@@ -101,26 +88,12 @@ class SteppedAgents:
 
     def step_ready(self) -> None:
         """Take every clock step that is ready, in order."""
-        while self.clocks and self.expecting:
+        while self.clocks and self.started:
             clock = self.clocks[0]
-            force = False
-            if not self.gate.ready(clock.step):
-                now = time.monotonic()
-                self._held_since = now if self._held_since is None else self._held_since
-                if now - self._held_since < HOLD_S:
-                    return
-                force = True
-                _log.warning(
-                    "lock-step: step %d taken without %s after %.0f s",
-                    clock.step,
-                    ", ".join(self.gate.waiting_for(clock.step)),
-                    HOLD_S,
-                )
-            self._held_since = None
             self.clocks.popleft()
             host = self.host
             host.clock.observe(clock.sim_time_s)
-            for item in self.gate.take(clock.step, force=force):
+            for item in self.gate.take(clock.step):
                 self.publish(host.handle(item))
             self.publish(host.tick())
             if self._restate:
@@ -136,10 +109,7 @@ class SteppedAgents:
         self.answer(
             StepDoneMsg(participant=self.name, step=max(self._last_step, 0), sim_time_s=0.0, done=True)
         )
-        if self.gate.late or self.gate.forced:
+        if self.gate.late:
             _log.warning(
-                "lock-step: %d input(s) came after their step and %d step(s) were taken without every "
-                "answer: this run may not reproduce",
-                self.gate.late,
-                self.gate.forced,
+                "lock-step: %d input(s) came after their step: this run may not reproduce", self.gate.late
             )

@@ -222,6 +222,7 @@ class _Loop:
         # and that have not come
         self._requests_due: dict[str, dict[int, int]] = {}
         self._announced: list[Outgoing] = []  # the open step's clock and sensors, as they went out
+        self._clock_times: dict[int, float] = {}  # recent clock steps → their sim time (_vouched)
         self._reannounced_wall_s = -math.inf
 
     def serve(self) -> None:
@@ -634,17 +635,48 @@ class _Loop:
             query.drop()
 
     def _publish(self, messages: Iterable[Outgoing]) -> None:
-        """Record, then publish: the record is never behind what the bus heard (:mod:`.snapshot`)."""
-        messages = list(messages)
+        """Record, then publish: the record is never behind what the bus heard (:mod:`.snapshot`). A
+        sleeping robot is sent its sensors only where it needs them (``Sleepers.sends_sensors``)."""
+        messages = self._vouched(list(messages))
         if self.recorder is not None and messages:
             self.recorder.record(item.message for item in messages)
             self.recorder.write()
         bundled = bundle(messages)
+        if self.run.step_with:
+            sleepers = self.barrier.sleepers
+            bundled = [
+                item
+                for item in bundled
+                if not isinstance(sensors := item.message, SensorsMsg)
+                or sleepers.sends_sensors(sensors.robot_id, sensors.clock.step)
+            ]
         if any(isinstance(item.message, ClockMsg) for item in bundled):  # a new step: what _reannounce says
             self._announced = [item for item in bundled if isinstance(item.message, ClockMsg | SensorsMsg)]
             self._reannounced_wall_s = -math.inf
         for item in bundled:
             self._put(item)
+
+    def _vouched(self, messages: list[Outgoing]) -> list[Outgoing]:
+        """With participants, each clock says up to when every participant's output has been sent (the sim
+        time of step ``k − DELAY_STEPS``: physics heard their answers to it) and the latest wake at or
+        before its step (:mod:`bimbot.shared.step_gate`)."""
+        if not self.run.step_with:
+            return messages
+        out = []
+        for item in messages:
+            if isinstance(clock := item.message, ClockMsg):
+                times = self._clock_times
+                times[clock.step] = clock.sim_time_s
+                for old in [step for step in times if step < clock.step - 2 * DELAY_STEPS]:
+                    del times[old]
+                update = {
+                    "inputs_to_s": times.get(clock.step - DELAY_STEPS),
+                    "last_wake_step": self.barrier.sleepers.latest_wake(clock.step),
+                }
+                out.append(Outgoing(item.key_expr, clock.model_copy(update=update)))
+            else:
+                out.append(item)
+        return out
 
     def _put(self, item: Outgoing) -> None:
         payload = encode(item.message)

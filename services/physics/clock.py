@@ -14,7 +14,9 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Iterable
 
-from bimbot.shared.step_gate import DELAY_STEPS, Sleepers
+from bimbot.shared.step_gate import DELAY_STEPS
+
+from .sleepers import Sleepers
 
 
 class Pacer:
@@ -66,7 +68,7 @@ class LockStepBarrier:
         self.step = 0
         self._opened_wall_s: float | None = None
         self._answered: dict[str, int] = {}
-        self.sleepers = Sleepers()  # idle robots not waited for (bimbot.shared.step_gate)
+        self.sleepers = Sleepers()  # idle robots not waited for (.sleepers)
 
     def record(self, robot_id: str, step: int | None, *, sleeps: bool = False) -> None:
         """A command from ``robot_id`` answering clock step ``step`` (None: not a lock-step command);

@@ -56,9 +56,7 @@ from bimbot.shared.messages import (
     PLANNER_PLAN,
     PLANNER_PREPARING_KEY,
     PROGRESS_KEY,
-    ROBOT_CMD_VEL,
     ROBOT_STATE,
-    STEP_DONE,
     TASK_KEY,
     ClockMsg,
     ComponentEventMsg,
@@ -158,11 +156,6 @@ def main(
             inbox.subscribe_liveliness(session, key(ALIVE_KEY, site=site, kind="robot", id="*")),
             inbox.subscribe_liveliness(session, key(ALIVE_KEY, site=site, kind="component", id="*")),
         ]
-        if stepped:  # the other participants' answers: what they sent up to a step has arrived
-            subscribers += [
-                inbox.subscribe(session, ROBOT_CMD_VEL, site=site, robot_id="*"),
-                inbox.subscribe(session, STEP_DONE, site=site, participant="*"),
-            ]
         alive = key(ALIVE_KEY, site=site, kind="planner", id="main")
         # stepped: alive once synced (physics holds its clock at 0 until then: the start-up is not sim time)
         token = None if stepped else session.liveliness().declare_token(alive)
@@ -180,9 +173,7 @@ def main(
         core.fail_at_start(cannot)
         if stepped:
             token = session.liveliness().declare_token(alive)
-            assert info is not None
-            participants = [*info.robot_ids, *info.lock_step_participants]
-            code = _run_stepped(session, site, core, inbox, feed, options, stop, participants)
+            code = _run_stepped(session, site, core, inbox, feed, options, stop)
         else:
             skipper = Skipper(bus_sender(session, site, inbox)) if options.skip_quiet else None
             code = _Loop(session, site, core, inbox, feed, skipper=skipper).run(options, stop)
@@ -202,7 +193,6 @@ def _run_stepped(  # noqa: PLR0917 - the planner's parts, named at the single ca
     feed: _Feeder,
     options: PlannerOptions,
     stop: threading.Event,
-    participants: list[str],
 ) -> int:
     """The lock-step loop (:mod:`.stepped`); the exit code as :class:`_Loop`'s."""
     sender = bus_sender(session, site, inbox)
@@ -215,7 +205,6 @@ def _run_stepped(  # noqa: PLR0917 - the planner's parts, named at the single ca
         lambda message: session.put(outgoing_key(site, message), encode(message)),
         skipper=stepped_skipper(sender) if options.skip_quiet else None,
         robot_liveliness=core.robot_liveliness,
-        participants=participants,
     )
     _log.info("planner in lock-step: decisions at clock steps, from the inputs of step k - 2")
     progress = loop.run(stop, options.poll_s, options.exit_when_done)

@@ -5,14 +5,15 @@ heard say idle when its loop came round, and a component became released, done o
 happened to arrive: the bundled frame with three robots gave 20 of 28 components another robot from one
 run to the next. Here the planner is a lock-step participant (physics waits for its
 :class:`~bimbot.shared.messages.StepDoneMsg` as it waits for a robot's command): at each clock step ``k``
-it takes the inputs stamped at or before step ``k − 2`` (:class:`~bimbot.shared.step_gate.StepGate`: the
-component states, poses and robot states, in (stamp, sender) order, once every participant's answer to
-that step is heard), steps the core at the sim time of ``k``, publishes what it decided, then answers
-``k``. A claim that a component is constructed, failed or blocked is still taken from its twin, not from
-the message: the step that takes it waits for the twin's answer (at most ``hold_s`` wall seconds). Sim
-time comes from the clock only, and the skip requests are paced in steps and stamped with the step
-that asks (physics acts on them at the next step). A clock step heard again (physics says it again while
-it waits: an answer may have been lost with a router) is answered with the last answer again.
+it takes the inputs stamped up to the time the clock says (the component states, poses and robot states
+stamped at or before step ``k − 2``, in (stamp, sender) order: physics' clock vouches that they have all
+come, :class:`~bimbot.shared.step_gate.StepGate`), steps the core at the sim time of ``k``, publishes what
+it decided, then answers ``k``. A claim that a component is constructed, failed or blocked is still taken
+from its twin, not from the message: the step that takes it waits for the twin's answer (at most
+``HOLD_S`` wall seconds). Sim time comes from the clock only, and the skip requests are paced in steps and
+stamped with the step that asks (physics acts on them at the next step). A clock step heard again (physics
+says it again while it waits: an answer may have been lost with a router) is answered with the last
+answer again.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import logging
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 
 import zenoh
 
@@ -31,7 +32,6 @@ from bimbot.shared.messages import (
     PLANNER_PARTICIPANT,
     STEP_DONE,
     ClockMsg,
-    CmdVelMsg,
     ComponentPoseMsg,
     ComponentStateMsg,
     ProgressMsg,
@@ -42,7 +42,7 @@ from bimbot.shared.messages import (
     key,
 )
 from bimbot.shared.state_table import TERMINAL
-from bimbot.shared.step_gate import DELAY_STEPS, HOLD_S, StepGate
+from bimbot.shared.step_gate import HOLD_S, StepGate
 from bimbot.shared.twin_claims import TwinClaims
 
 from .scheduler import Outgoing, PlannerCore
@@ -83,14 +83,11 @@ class SteppedLoop:
         *,
         skipper: Skipper | None = None,
         robot_liveliness: Callable[[str, bool], None],
-        participants: Iterable[str] = (),
     ) -> None:
-        """``participants``: whose answers each step waits for (the robots, the agents shards)."""
         self.session, self.site, self.core, self.inbox = session, site, core, inbox
         self.ask_twin, self.publish, self.skipper = ask_twin, publish, skipper
         self.robot_liveliness = robot_liveliness
         self.gate: StepGate[object] = StepGate()
-        self.gate.expect(name for name in participants if name != PARTICIPANT)
         self.clocks: deque[ClockMsg] = deque()
         self.clock_guard = ClockGuard("planner clock")
         self.claims = TwinClaims()  # terminal claims awaiting their twin's answer
@@ -109,17 +106,10 @@ class SteppedLoop:
             case Received(message=ClockMsg() as clock):
                 verdict = self.clock_guard.check(clock, time.monotonic())
                 if verdict.accepted:
-                    self.gate.clock(clock.step, clock.sim_time_s)
+                    self.gate.clock(clock.step, clock.sim_time_s, clock.inputs_to_s)
                     self.clocks.append(clock)
                 elif verdict is Verdict.OLD and self._last_answer is not None:
                     self.session.put(self._answer_key, encode(self._last_answer))
-            case Received(message=CmdVelMsg() as command) if command.step is not None:
-                self.gate.answered(command.robot_id, command.step, sleeps=command.sleeps)
-            case Received(message=StepDoneMsg() as answer) if answer.participant != PARTICIPANT:
-                if answer.done:
-                    self.gate.leave(answer.participant)
-                else:
-                    self.gate.answered(answer.participant, answer.step)
             case Received(message=ComponentStateMsg() as message) if message.state in TERMINAL:
                 stamped = self._stamped(message.sim_time_s, message.guid, message, resolved=False)
                 if stamped and self.claims.claim(message):
@@ -137,8 +127,6 @@ class SteppedLoop:
                 if ask_again:  # not (yet) what the message said
                     self.ask_twin(twin.guid)
             case LivelinessChange() if item.kind == "robot":
-                if not item.alive:
-                    self.gate.leave(item.id)
                 self.robot_liveliness(item.id, item.alive)
             case SkipAnswer() if self.skipper is not None:
                 self.skipper.answered(item)
@@ -153,7 +141,6 @@ class SteppedLoop:
 
     def run(self, stop: threading.Event, poll_s: float, exit_when_done: bool) -> ProgressMsg | None:
         """Step until ``stop``, or until done with ``exit_when_done`` (the last progress is returned)."""
-        _log.info("lock-step: each step waits for %s", ", ".join(self.gate.participants()) or "nobody")
         try:
             while not stop.is_set():
                 for item in self.inbox.drain(first_timeout_s=poll_s if not self.clocks else 0.0):
@@ -169,7 +156,7 @@ class SteppedLoop:
             if self.gate.late or self.gate.forced:
                 _log.warning(
                     "lock-step: %d input(s) came after their step and %d step(s) were taken without every "
-                    "answer: this run may not reproduce",
+                    "twin's answer: this run may not reproduce",
                     self.gate.late,
                     self.gate.forced,
                 )
@@ -195,9 +182,9 @@ class SteppedLoop:
                 return None
             force = True
             _log.warning(
-                "lock-step: step %d taken without %s after %.0f s",
+                "lock-step: step %d taken without the twins of %s after %.0f s",
                 step,
-                ", ".join(self.gate.waiting_for(step)) or "the twins of " + ", ".join(self.claims.guids()),
+                ", ".join(self.claims.guids()),
                 HOLD_S,
             )
             for guid in self.claims.guids():
@@ -249,8 +236,6 @@ class SteppedLoop:
             next_event_s=None if done else self.core.next_own_event_s(),
             wakes=wakes,
         )
-        if wakes:
-            self.gate.wake_sleepers(step + DELAY_STEPS)
         self.session.put(self._answer_key, encode(message))
         # said again when the step is heard again, without its requests: those went with the first
         self._last_answer = None if done else message.model_copy(update={"requests": 0})

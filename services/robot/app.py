@@ -56,14 +56,12 @@ from bimbot.shared.messages import (
     PHYSICS_PLACE,
     PHYSICS_POSES,
     PHYSICS_RELOCATE,
-    ROBOT_CMD_VEL,
     ROBOT_CMD_VEL_KEY,
     ROBOT_PLAN_KEY,
     ROBOT_POSE,
     ROBOT_SENSORS,
     ROBOT_STATE,
     ROBOT_STATE_KEY,
-    STEP_DONE,
     TASK,
     ClockMsg,
     CmdVelMsg,
@@ -136,11 +134,6 @@ def main(
         )
         if info is None:
             return 0 if stop.is_set() else _no_physics(options.info_timeout_s)
-        if options.stepped and info.lock_step:  # the other participants' answers (.stepped)
-            subscribers += [
-                inbox.subscribe(session, ROBOT_CMD_VEL, site=site, robot_id="*"),
-                inbox.subscribe(session, STEP_DONE, site=site, participant="*"),
-            ]
         poses = query_first(session, PHYSICS_POSES, inbox.invalid, timeout_s=POSES_TIMEOUT_S, site=site)
         chosen = plan_executor_class if options.fidelity == "plan" else executor_class
         executor = chosen(info, robot_id)(
@@ -149,7 +142,7 @@ def main(
         _learn_the_site(session, inbox, site, executor, poses)
         keys = {component.guid: component.key for component in manifest.components}
         stepped = keys if options.stepped and info.lock_step else None
-        participants = [*info.robot_ids, *info.lock_step_participants]
+        participants = list(info.lock_step_participants)
         loop = _Loop(session, site, executor, inbox, options, stepped=stepped, participants=participants)
         token = session.liveliness().declare_token(key(ALIVE_KEY, site=site, kind="robot", id=robot_id))
         _log.info(

@@ -3,10 +3,9 @@
 Why: the robot took whatever had arrived when its loop came round — a task, a verdict, another robot's
 position — and, when it fell behind, answered only the newest of two clock steps; which step saw which
 input then depended on the machine's load, and two runs of one seed drove apart. Here each step's
-:class:`~bimbot.shared.messages.SensorsMsg` is queued; step ``k`` is ticked once every participant (the
-planner, the agents, the other robots) has answered step ``k − 2``, and it takes first the tasks, states,
-poses and robot states stamped at or before step ``k − 2``
-(:class:`~bimbot.shared.step_gate.StepGate`, in (stamp, sender) order), then physics' replies that came
+:class:`~bimbot.shared.messages.SensorsMsg` is queued; step ``k`` takes first the tasks, states, poses and
+robot states stamped up to the time its clock says (physics' clock vouches that they have all come:
+:class:`~bimbot.shared.step_gate.StepGate`, in (stamp, sender) order), then physics' replies that came
 before its sensors, then its odometry, fix and scan. A claim that a component is constructed, failed or
 blocked waits for its twin's answer (asked when the claim arrives), which is taken in its place. The
 periodic state and the event resends run on sim time (the executor is ticked with the sim time as its
@@ -15,8 +14,9 @@ A step's sensors heard again (physics says them again while it waits: an answer 
 router) are answered with the last command again (:meth:`SteppedTicks.answer_again`).
 
 An idle robot sleeps (:mod:`bimbot.shared.step_gate`): once its executor can (``can_sleep``: no task,
-parked, nothing to say), its answer says so, and the steps after it are taken without a tick and without an
-answer (their inputs are handled, their sensors dropped) until the step a wake falls on, which is ticked.
+parked, nothing to say), its answer says so. Physics then sends it its sensors only every
+``SLEEP_TAKE_STEPS``-th step, where it takes its inputs without a tick or an answer (other sensors that
+still came are dropped whole), until the first clock that says a wake after its sleep: that step is ticked.
 Only where the planner answers the steps: its answers carry the wakes.
 """
 
@@ -40,12 +40,11 @@ from bimbot.shared.messages import (
     PlanMsg,
     RobotStateMsg,
     SensorsMsg,
-    StepDoneMsg,
     TaskMsg,
     TwinMsg,
 )
 from bimbot.shared.state_table import TERMINAL
-from bimbot.shared.step_gate import DELAY_STEPS, HOLD_S, StepGate
+from bimbot.shared.step_gate import HOLD_S, SLEEP_TAKE_STEPS, StepGate, woken
 from bimbot.shared.twin_claims import TwinClaims
 
 from .protocol import Outgoing, PhysicsResult, RobotExecutor
@@ -71,12 +70,10 @@ class SteppedTicks:
         participants: Iterable[str] = (),
     ) -> None:
         """``keys``: component GUID → its bus key (the manifest's), for the twin questions;
-        ``participants``: whose answers each step waits for (every robot, the planner, the agents)."""
+        ``participants``: who answers the steps besides the robots (physics' site info)."""
         self.executor, self.publish, self.on_answered = executor, publish, on_answered
         self.keys = dict(keys)
         self.gate: StepGate[object] = StepGate()
-        participants = list(participants)
-        self.gate.expect(name for name in participants if name != executor.robot_id)
         self.may_sleep = PLANNER_PARTICIPANT in participants  # the planner's answers carry the wakes
         self.asleep_since: int | None = None  # the step it fell asleep after (None: awake)
         self.slept_steps = 0
@@ -93,19 +90,10 @@ class SteppedTicks:
         robot_id = self.executor.robot_id
         match item:
             case Received(message=SensorsMsg() as sensors):
-                self.gate.clock(sensors.clock.step, sensors.clock.sim_time_s)
+                clock = sensors.clock
+                self.gate.clock(clock.step, clock.sim_time_s, clock.inputs_to_s)
                 self.steps.append(_Step(sensors, self._before))
                 self._before = []
-            case Received(message=CmdVelMsg() as command):
-                if command.step is not None and command.robot_id != robot_id:
-                    self.gate.answered(command.robot_id, command.step, sleeps=command.sleeps)
-            case Received(message=StepDoneMsg() as answer):
-                if answer.done:
-                    self.gate.leave(answer.participant)
-                else:
-                    self.gate.answered(answer.participant, answer.step)
-                if answer.wakes:
-                    self.gate.wake_sleepers(answer.step + DELAY_STEPS)
             case Received(message=ComponentStateMsg() as message) if message.state in TERMINAL:
                 stamped = self._stamped(message.sim_time_s, message.guid, message, resolved=False)
                 if stamped and self.claims.claim(message):
@@ -157,6 +145,13 @@ class SteppedTicks:
         while self.steps:
             entry = self.steps[0]
             clock = entry.sensors.clock
+            asleep = self.asleep_since is not None and not woken(self.asleep_since, clock.last_wake_step)
+            if asleep and clock.step % SLEEP_TAKE_STEPS:
+                # physics sent it before it heard the sleep: dropped whole, as if never sent (what came
+                # before it goes with the next sensors)
+                self.steps.popleft()
+                (self.steps[0].before if self.steps else self._before)[:0] = entry.before
+                continue
             force = False
             if not self.gate.ready(clock.step):
                 now = time.monotonic()
@@ -167,10 +162,9 @@ class SteppedTicks:
                     return
                 force = True
                 _log.warning(
-                    "lock-step: step %d ticked without %s after %.0f s",
+                    "lock-step: step %d ticked without the twins of %s after %.0f s",
                     clock.step,
-                    ", ".join(self.gate.waiting_for(clock.step))
-                    or "the twins of " + ", ".join(self.claims.guids()),
+                    ", ".join(self.claims.guids()),
                     HOLD_S,
                 )
             self._held_since = None
@@ -183,11 +177,11 @@ class SteppedTicks:
             self._replies = [r for r in self._replies if r not in due]
             for message in [*due, *entry.before]:
                 executor.handle(message)
+            if asleep:
+                self._last_step = max(self._last_step, clock.step)
+                continue  # no tick, no answer: nobody waits for it
             if self.asleep_since is not None:
-                if not self.gate.woken(self.asleep_since, clock.step):
-                    self.slept_steps += 1
-                    self._last_step = max(self._last_step, clock.step)
-                    continue  # no tick, no answer: nobody waits for it
+                self.slept_steps += clock.step - self.asleep_since - 1
                 self.asleep_since = None
             sensors = entry.sensors
             executor.handle(sensors.odom)
@@ -218,8 +212,12 @@ class SteppedTicks:
             self.publish([self._last_answer])
 
     def finish(self) -> None:
-        if self.slept_steps:
-            _log.info("lock-step: slept %d step(s), idle", self.slept_steps)
+        if self.slept_steps or self.asleep_since is not None:
+            _log.info(
+                "lock-step: slept %d step(s), idle%s",
+                self.slept_steps,
+                "" if self.asleep_since is None else f", and from step {self.asleep_since + 1} to the end",
+            )
         if self.gate.late or self.gate.forced:
             _log.warning(
                 "lock-step: %d input(s) came after their step and %d step(s) were ticked without every "

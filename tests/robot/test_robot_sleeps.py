@@ -1,7 +1,9 @@
 """A robot in lock-step sleeps while its executor says it can (idle, nothing ahead): its answer says so,
 the steps after it are neither ticked nor answered, and it wakes, ticks and answers at the step that takes
-the planner's task message, two steps after the planner's answer that said it sent one. Without this the
-robot answers every step and every participant waits for it (tests/shared/test_step_gate_sleep.py)."""
+the planner's task message, two steps after the planner's answer that said it sent one: the first clock
+that names a wake after its sleep. Without this the robot answers every step and physics waits for it
+(tests/shared/test_step_gate_sleep.py). Whichever sensors physics sends it while it sleeps, it does the
+same: it takes its inputs only at the steps physics always sends, and at its wake."""
 
 from __future__ import annotations
 
@@ -11,19 +13,21 @@ from bimbot.services.robot.protocol import Outgoing
 from bimbot.services.robot.stepped import SteppedTicks
 from bimbot.shared.bus import Received
 from bimbot.shared.messages import (
+    COMPONENT_STATE,
     PLANNER_PARTICIPANT,
     ROBOT_SENSORS,
-    STEP_DONE,
     TASK,
     ClockMsg,
     CmdVelMsg,
+    ComponentState,
+    ComponentStateMsg,
     OdomMsg,
     PoseMsg,
     SensorsMsg,
-    StepDoneMsg,
     TaskMsg,
     TaskStatus,
 )
+from bimbot.shared.step_gate import DELAY_STEPS, SLEEP_TAKE_STEPS
 
 PERIOD_S = 0.2
 
@@ -37,10 +41,13 @@ class _IdleExecutor:
     step: int = -1
     ticked: list[int] = field(default_factory=list)
     tasks: list[str] = field(default_factory=list)
+    states: list[tuple[int, str]] = field(default_factory=list)  # (step taken at, GUID)
 
     def handle(self, message: object) -> None:
         if isinstance(message, TaskMsg):
             self.tasks.append(message.task_id)
+        if isinstance(message, ComponentStateMsg):
+            self.states.append((self.step, message.guid))
 
     def tick(self, clock: ClockMsg, wall_s: float) -> list[Outgoing]:
         self.ticked.append(clock.step)
@@ -57,16 +64,29 @@ class _IdleExecutor:
         return not self.tasks
 
 
-def _sensors(step: int) -> Received[SensorsMsg]:
+def _sensors(step: int, last_wake_step: int | None) -> Received[SensorsMsg]:
     now = step * PERIOD_S
-    clock = ClockMsg(sim_time_s=now, step=step, real_time_factor=1.0, lock_step=True)
+    clock = ClockMsg(
+        sim_time_s=now,
+        step=step,
+        real_time_factor=1.0,
+        lock_step=True,
+        inputs_to_s=max(0, step - DELAY_STEPS) * PERIOD_S,
+        last_wake_step=last_wake_step,
+    )
     odom = OdomMsg(robot_id="r1", pose_xy_yaw=(0.0, 0.0, 0.0), v_mps=0, w_radps=0, sim_time_s=now)
     return Received(ROBOT_SENSORS, "s", SensorsMsg(robot_id="r1", clock=clock, odom=odom))
 
 
-def _planner(step: int, *, wakes: bool = False) -> Received[StepDoneMsg]:
-    answer = StepDoneMsg(participant=PLANNER_PARTICIPANT, step=step, sim_time_s=step * PERIOD_S, wakes=wakes)
-    return Received(STEP_DONE, "d", answer)
+def _state(step: int) -> Received[ComponentStateMsg]:
+    state = ComponentStateMsg(
+        guid=f"g{step}",
+        state=ComponentState.RELEASED,
+        event="release",
+        sim_time_s=step * PERIOD_S,
+        wall_time_s=0.0,
+    )
+    return Received(COMPONENT_STATE, "c", state)
 
 
 def _task(step: int) -> Received[TaskMsg]:
@@ -84,8 +104,10 @@ def _task(step: int) -> Received[TaskMsg]:
 
 
 def _run(
-    steps: int, task_at: int | None, *, participants: list[str]
+    steps: int, task_at: int | None, *, participants: list[str], every_sensors: bool = True
 ) -> tuple[_IdleExecutor, list[CmdVelMsg]]:
+    """``every_sensors``: physics sent every step's sensors (it had not heard the sleep, say); else only
+    the ones it always sends a sleeper (every ``SLEEP_TAKE_STEPS``-th step, and from its wake)."""
     executor = _IdleExecutor()
     answers: list[CmdVelMsg] = []
     ticks = SteppedTicks(
@@ -95,25 +117,48 @@ def _run(
         {},
         participants,
     )
+    wake = None if task_at is None else task_at + DELAY_STEPS
     for step in range(steps):
         if step == task_at:
             ticks.hear(_task(step))
-        if PLANNER_PARTICIPANT in participants:
-            ticks.hear(_planner(step, wakes=step == task_at))
-        ticks.hear(_sensors(step))
+        ticks.hear(_state(step))
+        woke = wake is not None and step >= wake
+        asleep = answers and answers[-1].sleeps and not woke
+        if every_sensors or not asleep or step % SLEEP_TAKE_STEPS == 0:
+            ticks.hear(_sensors(step, wake if woke else None))
         ticks.tick_ready()
     return executor, answers
 
 
 def test_an_idle_robot_sleeps_and_wakes_at_the_step_that_takes_the_task() -> None:
-    executor, answers = _run(20, task_at=10, participants=["r1", PLANNER_PARTICIPANT])
-    # step 0 is ticked and says it sleeps; nothing until 12, which takes the task stamped at 10
-    assert executor.ticked[0] == 0 and answers[0].sleeps
-    assert executor.ticked[1] == 12 and executor.tasks == ["T1"]
-    assert [a.step for a in answers if not a.sleeps] == list(range(12, 20))
-    assert executor.ticked == [0, *range(12, 20)]
+    for every_sensors in (True, False):
+        executor, answers = _run(
+            20, task_at=10, participants=["r1", PLANNER_PARTICIPANT], every_sensors=every_sensors
+        )
+        # step 0 is ticked and says it sleeps; nothing until 12, which takes the task stamped at 10
+        assert executor.ticked[0] == 0 and answers[0].sleeps
+        assert executor.ticked[1] == 12 and executor.tasks == ["T1"]
+        assert [a.step for a in answers if not a.sleeps] == list(range(12, 20))
+        assert executor.ticked == [0, *range(12, 20)]
+
+
+def test_a_sleeper_takes_its_inputs_only_where_physics_always_sends_its_sensors() -> None:
+    taken = []
+    for every_sensors in (True, False):
+        executor, _ = _run(
+            SLEEP_TAKE_STEPS + 5,
+            task_at=None,
+            participants=["r1", PLANNER_PARTICIPANT],
+            every_sensors=every_sensors,
+        )
+        assert executor.ticked == [0]
+        taken.append(executor.states)
+    assert taken[0] == taken[1]
+    at = {step for step, _ in taken[0]}
+    assert at == {0, SLEEP_TAKE_STEPS}  # everything up to step SLEEP_TAKE_STEPS − 2, in one go
+    assert len(taken[0]) == SLEEP_TAKE_STEPS - DELAY_STEPS + 1
 
 
 def test_without_the_planner_answering_steps_nobody_could_wake_it_so_it_never_sleeps() -> None:
-    executor, answers = _run(8, task_at=None, participants=["r1"])
+    executor, answers = _run(8, task_at=None, participants=[])
     assert executor.ticked == list(range(8)) and not any(a.sleeps for a in answers)

@@ -34,19 +34,29 @@ def test_the_first_steps_heard_take_nothing() -> None:
     assert gate.take(2) == ["task"]
 
 
-def test_a_step_waits_for_every_expected_participant_until_forced() -> None:
+def test_a_step_takes_up_to_the_time_its_clock_vouches_for() -> None:
+    """Physics' clock says up to when every participant's output has come: a participant that slept
+    through the steps between still takes each input at the step whose clock covers it."""
+    gate: StepGate[str] = StepGate()
+    gate.put(0.2, "r1", "early")
+    gate.put(0.6, "planner", "task")
+    gate.put(9.0, "r2", "later")
+    gate.clock(40, 8.0, inputs_to_s=0.6)  # no clock heard before it: the time comes with this one
+    assert gate.ready(40) and gate.take(40) == ["early", "task"]
+    gate.clock(90, 18.0, inputs_to_s=17.6)
+    assert gate.take(90) == ["later"]
+
+
+def test_a_step_with_an_unresolved_input_is_taken_only_when_forced_and_leaves_it_for_later() -> None:
     gate = _clocked(5)
-    gate.expect(["r1", "planner"])
-    gate.answered("r1", 2)
-    assert gate.waiting_for(4) == ["planner"] and not gate.ready(4)
+    gate.put(0.2, "0abc", "constructed (claim)", resolved=False)
+    gate.put(0.2, "r1", "state")
+    assert not gate.ready(3)
     with pytest.raises(RuntimeError):
-        gate.take(4)
-    gate.put(0.4, "r1", "state")
-    assert gate.take(4, force=True) == ["state"]
-    gate.answered("r1", 3)
-    assert gate.forced == 1 and gate.ready(5)  # the planner is not waited for again until it answers
-    gate.answered("planner", 3)
-    assert gate.waiting_for(6) == ["planner", "r1"]
+        gate.take(3)
+    assert gate.take(3, force=True) == ["state"] and gate.forced == 1
+    gate.resolve("constructed (claim)")
+    assert gate.take(4) == ["constructed (claim)"]
 
 
 def test_an_input_waiting_for_an_answer_holds_its_step_and_is_taken_in_its_place() -> None:
@@ -76,28 +86,3 @@ def test_a_participant_far_behind_still_takes_each_input_at_its_own_step() -> No
     taken = {step: gate.take(step) for step in range(40)}
     assert taken[3] == ["early"] and taken[32] == ["late"]
     assert sum(len(items) for items in taken.values()) == 2
-
-
-def test_a_participant_joining_mid_run_takes_its_first_step_without_the_answers_it_could_not_hear() -> None:
-    """A restarted participant hears clock 40 first: the others answered 38 to physics before it listened,
-    and waiting for those answers would hold every restart for the whole bound."""
-    gate: StepGate[str] = StepGate()
-    gate.expect(["r1"])
-    gate.clock(40, 8.0)
-    gate.expect(["planner"])  # who answers may be known only after the first clock (physics' site info)
-    assert gate.ready(40) and gate.take(40) == [] and gate.forced == 0
-    gate.clock(41, 8.2)
-    assert gate.waiting_for(41) == ["planner", "r1"]  # from there on every answer is waited for
-    gate.answered("r1", 39)
-    gate.answered("planner", 41)
-    assert gate.ready(41)
-
-
-def test_a_participant_starting_with_the_run_waits_for_every_answer_from_step_zero() -> None:
-    gate: StepGate[str] = StepGate()
-    gate.expect(["r1"])
-    for step in range(3):
-        gate.clock(step, step * 0.2)
-    assert gate.ready(1) and not gate.ready(2)  # step 2 takes what r1 said at step 0: its answer first
-    gate.answered("r1", 0)
-    assert gate.ready(2)

@@ -45,6 +45,15 @@ def test_a_robot_without_a_laser_sends_its_clock_and_odometry_only() -> None:
     assert decode_sensors(encode(message)) == message
 
 
+def test_the_clock_s_lock_step_times_come_back_and_their_absence_too() -> None:
+    """A sleeping robot knows its wake and what to take only from these two (shared/step_gate.py)."""
+    message = _sensors(None)
+    for inputs_to_s, wake in ((11.8, 40), (0.0, 0), (None, None)):
+        clock = message.clock.model_copy(update={"inputs_to_s": inputs_to_s, "last_wake_step": wake})
+        sent = message.model_copy(update={"clock": clock})
+        assert decode_sensors(encode(sent)).clock == clock
+
+
 @pytest.mark.parametrize(
     ("change", "why"),
     [

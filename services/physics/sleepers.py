@@ -1,0 +1,66 @@
+"""Which idle robots sleep at a clock step, and the latest wake a clock says (pure; physics' bookkeeping).
+
+Why: a robot with nothing to do (no task, parked, nothing asked) still cost every step: its answer, and
+physics' wait for it. It says in its answer to step ``s`` that it sleeps (``CmdVelMsg.sleeps``): from
+``s + 1`` on physics neither waits for it nor sends it its sensors, until the planner's answer to a step
+``j`` says it sent a task message (``StepDoneMsg.wakes``); every sleeper wakes at ``j + DELAY_STEPS``,
+the step that takes that message, and is waited for again from there. Reckoned by step numbers, so the
+order in which a sleep and a wake arrive changes nothing. Each clock says the latest wake at or before its
+step (:meth:`Sleepers.latest_wake`): physics sends clock ``k`` only after the planner's answer to
+``k − DELAY_STEPS``, so it knows every wake up to ``k`` by then, and a robot tells from the clock alone
+whether it woke (:func:`bimbot.shared.step_gate.woken`). See :mod:`bimbot.shared.step_gate`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from bimbot.shared.step_gate import SLEEP_TAKE_STEPS
+
+
+@dataclass
+class Sleepers:
+    """Who sleeps (participant → the step it fell asleep after) and the steps the sleepers wake at; the
+    answers are the caller's (participant → the last step it answered), moved on at a wake."""
+
+    asleep: dict[str, int] = field(default_factory=dict)
+    wakes: set[int] = field(default_factory=set)
+    _forgotten: int | None = None  # the latest wake no longer kept (a clock may still name it)
+
+    def answered(self, answered: dict[str, int], participant: str, step: int, *, sleeps: bool) -> None:
+        """``participant`` answered ``step``, asleep after it or not."""
+        if sleeps:
+            self.asleep[participant] = max(step, self.asleep.get(participant, step))
+            self._settle(answered, participant)
+        elif step > self.asleep.get(participant, step):
+            del self.asleep[participant]  # awake again (it restarted, say): its answers count as they come
+
+    def wake(self, answered: dict[str, int], step: int) -> None:
+        """Every participant asleep before ``step`` answers again from ``step`` on."""
+        self.wakes.add(step)
+        for participant in list(self.asleep):
+            self._settle(answered, participant)
+
+    def latest_wake(self, step: int) -> int | None:
+        """The latest wake at or before ``step`` (what clock ``step`` says), None before the first."""
+        return max((wake for wake in self.wakes if wake <= step), default=self._forgotten)
+
+    def forget_before(self, step: int) -> None:
+        """Wakes before ``step`` are for sleeps long said (a sleep said from now on is later)."""
+        old = [wake for wake in self.wakes if wake < step]
+        if old:
+            self._forgotten = max(old)
+            self.wakes.difference_update(old)
+
+    def sends_sensors(self, robot_id: str, step: int) -> bool:
+        """Whether physics sends ``robot_id`` its sensors at ``step``: not to one asleep with no wake ahead
+        that it knows of, but every ``SLEEP_TAKE_STEPS``-th step all the same (it takes its inputs there)."""
+        return robot_id not in self.asleep or step % SLEEP_TAKE_STEPS == 0
+
+    def _settle(self, answered: dict[str, int], participant: str) -> None:
+        """A sleeper with a wake after its sleep: awake from that wake, its answers waited for from there."""
+        since = self.asleep[participant]
+        wake = min((w for w in self.wakes if w > since), default=None)
+        if wake is not None:
+            del self.asleep[participant]
+            answered[participant] = max(answered.get(participant, -1), wake - 1)
