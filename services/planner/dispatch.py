@@ -19,7 +19,7 @@ from bimbot.shared.messages import ComponentState, RobotState, TaskKind
 from bimbot.shared.reasons import Reason, ReasonCode
 
 from .assignment import choose
-from .capability import SiteRobot, Where, can_build_from, target_centre_xy
+from .capability import SiteRobot, Where, can_build_from, can_carry, target_centre_xy
 from .failures import Failures
 from .outbox import Outbox
 from .planner_state import PlannerState
@@ -106,6 +106,7 @@ class Dispatch:
         if last is not None and last[:2] == (state.revision, idle) and state.sim_time_s - last[2] < REBID_S:
             return  # nothing changed since the last pass but the clock, by less than REBID_S
         self._last_bids = (state.revision, idle, state.sim_time_s)
+        bidders = self._could_win(idle)
         promised: dict[str, float] = {}
         taken = self._taken_spots()
         for guid in state.plan.order:
@@ -115,8 +116,8 @@ class Dispatch:
                 continue
             if self._holds(task):
                 continue
-            if not any(self._is_idle(robot) for robot in state.robots.values()):
-                return
+            if not any(self._is_idle(state.robots[robot_id]) for robot_id in bidders):
+                return  # the rest of the round would only promise work to busy robots
             item = state.manifest[guid]
             choice = choose(
                 item,
@@ -142,6 +143,26 @@ class Dispatch:
             if choice.put_down_xy_m is not None:
                 taken.append(choice.put_down_xy_m)
             self._give_to(task, robot, choice.kind, choice.put_down_xy_m, estimate_s=choice.estimate_s)
+
+    def _could_win(self, idle: frozenset[str]) -> list[str]:
+        """The idle robots that can build or carry some released component where it lies: only they can
+        be given a task this round. (A machine with nothing of its kind left, a pump once the pours are
+        done, stays idle all run: the round went on through every released component, bids and all, for
+        a winner that could never be it.)"""
+        state = self._state
+        assert state.site is not None
+        released = [
+            (state.manifest[guid], state.lies(guid))
+            for guid in state.plan.order
+            if state.tasks[guid].phase is Phase.RELEASED
+            and state.components[guid].state is ComponentState.RELEASED
+        ]
+        robots = [state.site[robot_id] for robot_id in sorted(idle) if robot_id in state.site]
+        return [
+            robot.robot_id
+            for robot in robots
+            if any(can_carry(robot, item) or self._can_build(robot, item, where) for item, where in released)
+        ]
 
     def _avoid(self, task: TaskRecord) -> set[str]:
         """The robots that bid for ``task`` only when no other can take it: those that gave it back, and

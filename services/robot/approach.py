@@ -317,11 +317,34 @@ def exit_point(grid: OccupancyGrid, area: Rect, robot_xy_m: ArrayLike) -> tuple[
     region = reachable_region(grid, here)
     if region is None:
         return None
-    cells = np.argwhere(region)
-    xy = grid.cell_to_world(cells)
-    outside = (xy[:, 0] <= x0) | (xy[:, 0] >= x1) | (xy[:, 1] <= y0) | (xy[:, 1] >= y1)
-    if not outside.any():
-        return None
-    xy = xy[outside]
-    best = xy[int(np.argmin(np.hypot(*(xy - here).T)))]
-    return float(best[0]), float(best[1])
+    return _nearest_outside(grid, region, area, here)
+
+
+def _nearest_outside(
+    grid: OccupancyGrid, region: NDArray[np.bool_], area: Rect, here: NDArray[np.float64]
+) -> tuple[float, float] | None:
+    """The cell of ``region`` outside ``area`` nearest ``here``, the first in row-major order among equals:
+    searched in squares of cells round ``here``, doubled until the best in the square lies nearer than
+    anything beyond it can (on a site of a thousand components, a pass over every reachable cell took a
+    tenth of a second after every task)."""
+    (x0, y0), (x1, y1) = area.min_xy, area.max_xy
+    rows, cols = region.shape
+    row, col = (int(index) for index in grid.world_to_cell(here))
+    half = max(8, int(min(here[0] - x0, x1 - here[0], here[1] - y0, y1 - here[1]) / grid.resolution_m) + 2)
+    while True:
+        r0, r1 = max(0, row - half), min(rows, row + half + 1)
+        c0, c1 = max(0, col - half), min(cols, col + half + 1)
+        whole = r0 == 0 and c0 == 0 and r1 == rows and c1 == cols
+        cells = np.argwhere(region[r0:r1, c0:c1]) + np.array([r0, c0])
+        xy = grid.cell_to_world(cells)
+        outside = (xy[:, 0] <= x0) | (xy[:, 0] >= x1) | (xy[:, 1] <= y0) | (xy[:, 1] >= y1)
+        if outside.any():
+            xy = xy[outside]
+            distances = np.hypot(*(xy - here).T)
+            best = int(np.argmin(distances))
+            # a cell beyond the square is more than `half` cells away along a row or a column
+            if whole or distances[best] < half * grid.resolution_m:
+                return float(xy[best][0]), float(xy[best][1])
+        if whole:
+            return None
+        half *= 2

@@ -216,7 +216,7 @@ class SteppedTicks:
             _log.info(
                 "lock-step: slept %d step(s), idle%s",
                 self.slept_steps,
-                "" if self.asleep_since is None else f", and from step {self.asleep_since + 1} to the end",
+                "" if self.asleep_since is None else f", and asleep from step {self.asleep_since + 1} on",
             )
         if self.gate.late or self.gate.forced:
             _log.warning(

@@ -369,17 +369,24 @@ def test_bids_are_asked_again_when_something_changed_or_every_rebid_period_not_a
     monkeypatch,
 ) -> None:
     """With tasks waiting for a busy robot and an idle one that cannot take them, the pass over the bids
-    runs once per REBID_S of sim time while nothing changes, and at once when a robot comes free."""
+    runs once per REBID_S of sim time while nothing changes, and at once when a robot comes free; and a
+    pass whose only idle robot can take none of them asks no robot for a bid."""
     from bimbot.services.planner import dispatch
 
     passes: list[float] = []
-    real_choose = dispatch.choose
+    bids: list[float] = []
+    real_choose, real_could_win = dispatch.choose, dispatch.Dispatch._could_win
 
     def counting(*args, **kwargs):
-        passes.append(kwargs["now_s"])
+        bids.append(kwargs["now_s"])
         return real_choose(*args, **kwargs)
 
+    def counting_passes(self, idle):
+        passes.append(self._state.sim_time_s)
+        return real_could_win(self, idle)
+
     monkeypatch.setattr(dispatch, "choose", counting)
+    monkeypatch.setattr(dispatch.Dispatch, "_could_win", counting_passes)
     manifest = _manifest(foot_a=259.0, foot_b=259.0, foot_c=259.0)
     robots = [SiteRobot("r1", HUSKY, (0.0, -5.0, 0.0)), SiteRobot("r2", CARRIER, (-30.0, -5.0, 0.0))]
     core = idle_core(manifest, robots)
@@ -388,6 +395,7 @@ def test_bids_are_asked_again_when_something_changed_or_every_rebid_period_not_a
     core.observe_clock(0.2)
     core.step(0.2)  # the assignment itself changed the records: one more pass
     passes.clear()
+    bids.clear()
     for step in range(3, 20):  # 0.3 .. 1.9 s: the idle Husky cannot lift any of them, r2 is busy
         core.observe_clock(0.1 * step)
         core.step(0.1 * step)
@@ -395,13 +403,14 @@ def test_bids_are_asked_again_when_something_changed_or_every_rebid_period_not_a
     core.observe_clock(0.2 + dispatch.REBID_S)
     core.step(0.2 + dispatch.REBID_S)
     assert passes, "a pass once REBID_S went by"
+    assert bids == [], "the Husky cannot take any: nobody is asked for a bid"
     passes.clear()
     (guid,) = assigned
     core.observe_clock(2.3)
     core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified", sim_time_s=2.3))
     core.observe_robot_state(robot_msg("r2", (0.0, -4.0)))
     core.step(2.3)
-    assert passes, "a pass at once when a component was built and its robot came free"
+    assert passes and bids, "a pass at once when a component was built and its robot came free"
 
 
 def test_a_beam_a_carrier_could_not_get_to_goes_to_the_crane_by_a_hand_off() -> None:
