@@ -26,7 +26,7 @@ Key space (``<site>`` is the manifest's site slug, ``<key>`` a component's bus k
     bimbot/<site>/planner/preparing           PreparingMsg        planner → run, physics (before it is ready)
     bimbot/<site>/clock                       ClockMsg            physics → all
     bimbot/<site>/progress                    ProgressMsg         planner → all
-    bimbot/<site>/steps/<participant>         StepDoneMsg         planner/agent → all (lock-step answers)
+    bimbot/<site>/steps/<participant>         StepDoneMsg         planner/agent → physics (lock-step answers)
     bimbot/<site>/alive/<kind>/<id>           (liveliness)        token of every running service
 
 A state change has one record, :class:`ComponentStateMsg`: the agent publishes it, keeps it in its twin's
