@@ -251,6 +251,9 @@ def as_built_line(report: dict[str, Any]) -> str | None:
             f"; {len(fits)} fitted to the structure as built (their targets moved up to {max(fits):.1f} mm "
             f"from the BIM model), so standing up to {max(from_bim):.1f} mm from their BIM positions"
         )
+        position_mm = audit.get("tolerance_mm")
+        if position_mm is not None:  # a fit moves a target at most one tolerance: two from the BIM model
+            line += f" (a fitted member may stand {2 * position_mm:g} mm from it: two tolerances)"
     if not errors:
         return line
     shown = [f"  {error}" for error in errors[:MAX_ERRORS_SHOWN]]

@@ -58,9 +58,11 @@ def duration_text(seconds: float) -> str:
 
 def in_unit_text(seconds: float, unit: TimeUnit) -> str:
     """``seconds`` in ``unit`` as :func:`duration_text` says it: ``6.6 min (396 s)``, ``45.0 s``. A time
-    that would read 0.0 in ``unit`` is said in its own (``15.6 min (935 s)``, not ``0.0 days (935 s)``)."""
-    if seconds > 0.0 and round(seconds / unit.seconds, 1) == 0.0:
-        unit = spoken_unit(seconds)
+    shorter than one ``unit`` is said in its own when that is a smaller one (``15.6 min (935 s)``, not
+    ``0.0 days (935 s)``; ``3.1 h (11,062 s)``, not ``0.1 days``: a tenth of a day hides hours)."""
+    own = spoken_unit(seconds)
+    if 0.0 < seconds < unit.seconds and own.seconds < unit.seconds:
+        unit = own
     text = f"{seconds / unit.seconds:.1f} {unit.name}"
     return text if unit.seconds == 1.0 else f"{text} ({seconds:,.0f} s)"
 

@@ -131,10 +131,12 @@ def test_times_are_said_in_the_unit_of_their_span() -> None:
     assert duration_text(291651.0) == "81.0 h (291,651 s)"
     assert duration_text(45.0) == "45.0 s"
     assert (duration_text(1800.0), duration_text(7201.0)) == ("30.0 min (1,800 s)", "2.0 h (7,201 s)")
-    # robots' busy times share one unit, but a short one is not "0.0 days": it is said in its own
+    # robots' busy times share one unit, but one shorter than that unit is not "0.0 days" or "0.1 days":
+    # it is said in its own
     days = spoken_unit(30 * 86400.0)
-    assert [in_unit_text(s, days) for s in (935.0, 0.0, 300_000.0)] == [
+    assert [in_unit_text(s, days) for s in (935.0, 11_062.0, 0.0, 300_000.0)] == [
         "15.6 min (935 s)",
+        "3.1 h (11,062 s)",
         "0.0 days (0 s)",
         "3.5 days (300,000 s)",
     ]
