@@ -23,8 +23,10 @@ from typing import Annotated, Final
 
 from pydantic import AfterValidator, Field
 
-MAX_SIM_TIME_S: Final = 1.0e7  # s of simulated time (≈ 116 days): far past any build, short of float trouble
-MAX_STEP: Final = 10**9  # clock steps and epochs are below this (1e9 periods of 10 ms already pass 1e7 s)
+# s of simulated time (≈ 3.2 years: a large project's whole programme; 116 days, the bound before, stopped a
+# 945-element Revit frame's build halfway), short of float trouble
+MAX_SIM_TIME_S: Final = 1.0e8
+MAX_STEP: Final = 10**9  # clock steps and epochs are below this (no run takes a billion control periods)
 MAX_SITE_M: Final = 1.0e5  # m, |x|, |y|, |z| on site (the converter moves far models to a local origin)
 MAX_ANGLE_RAD: Final = 1.0e3  # |yaw| and angles (producers wrap them into [-π, π))
 MAX_SPEED_MPS: Final = 1.0e3  # |v| (robots' limits are ≤ 20 m/s; odometry is measured, hence the margin)

@@ -37,7 +37,7 @@ Times: ``sim_time_s`` is simulated time from the physics clock; ``wall_time_s`` 
 latency measurements. Poses are in the simulation world frame (see :mod:`bimbot.shared.manifest`).
 
 Bounds: every number is declared with a bounded type of :mod:`bimbot.shared.message_bounds` (finite, sim
-times in [0, 1e7] s, steps below 1e9, positions within 1e5 m, unit quaternions, …), so schema-valid nonsense
+times in [0, 1e8] s, steps below 1e9, positions within 1e5 m, unit quaternions, …), so schema-valid nonsense
 is rejected by :func:`bimbot.shared.bus.decode` like any invalid payload.
 """
 

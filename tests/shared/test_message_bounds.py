@@ -23,6 +23,7 @@ from bimbot.shared.messages import (
     ComponentPoseMsg,
     ComponentState,
     ComponentStateMsg,
+    CuringHold,
     OdomMsg,
     PoseMsg,
     ProgressMsg,
@@ -91,6 +92,15 @@ def _payload(message: BaseModel, path: tuple[str | int, ...], value: Any) -> byt
         target = target[part]
     target[path[-1]] = value
     return json.dumps(data, allow_nan=True).encode()
+
+
+def test_a_build_of_a_year_and_more_is_in_bounds() -> None:
+    """A 945-element Revit frame (concrete cast and cured bay by bay) runs past 116 days of sim time: the
+    planner's curing hold of 10,033,010 s was refused and the planner died halfway through the build."""
+    clock = GOOD["clock"]
+    later = clock.model_copy(update={"sim_time_s": 3.2e7})  # a year of site time
+    assert decode(type(clock), "k", encode(later), InvalidPayloads()) == later
+    assert CuringHold(guid="g", cast_guid="c", until_s=10_033_010.4).until_s == 10_033_010.4
 
 
 @pytest.mark.parametrize("name", sorted(GOOD))
