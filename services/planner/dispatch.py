@@ -77,7 +77,7 @@ class Dispatch:
         for guid in state.plan.order:
             task = state.tasks[guid]
             component = state.components[guid]
-            if task.phase is not Phase.RELEASED or component.state is not ComponentState.RELEASED:
+            if not self._released(guid):
                 continue
             if self._holds(task):
                 continue
@@ -111,8 +111,7 @@ class Dispatch:
         taken = self._taken_spots()
         for guid in state.plan.order:
             task = state.tasks[guid]
-            component = state.components[guid]
-            if task.phase is not Phase.RELEASED or component.state is not ComponentState.RELEASED:
+            if not self._released(guid):
                 continue
             if self._holds(task):
                 continue
@@ -144,6 +143,14 @@ class Dispatch:
                 taken.append(choice.put_down_xy_m)
             self._give_to(task, robot, choice.kind, choice.put_down_xy_m, estimate_s=choice.estimate_s)
 
+    def _released(self, guid: str) -> bool:
+        """Its task released and its agent reporting released: a task a round may give out."""
+        state = self._state
+        return (
+            state.tasks[guid].phase is Phase.RELEASED
+            and state.components[guid].state is ComponentState.RELEASED
+        )
+
     def _could_win(self, idle: frozenset[str]) -> list[str]:
         """The idle robots that can build or carry some released component where it lies: only they can
         be given a task this round. (A machine with nothing of its kind left, a pump once the pours are
@@ -151,12 +158,8 @@ class Dispatch:
         a winner that could never be it.)"""
         state = self._state
         assert state.site is not None
-        released = [
-            (state.manifest[guid], state.lies(guid))
-            for guid in state.plan.order
-            if state.tasks[guid].phase is Phase.RELEASED
-            and state.components[guid].state is ComponentState.RELEASED
-        ]
+        order = state.plan.order
+        released = [(state.manifest[guid], state.lies(guid)) for guid in order if self._released(guid)]
         robots = [state.site[robot_id] for robot_id in sorted(idle) if robot_id in state.site]
         return [
             robot.robot_id
