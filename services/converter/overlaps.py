@@ -48,6 +48,9 @@ class Overlap:
     depth_m: float
     # the penetrating pairs of convex parts (vertices, world frame; ``first``'s part, then ``second``'s)
     part_pairs: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+    # every convex part of each (vertices, world frame): what lies under the overlap too
+    first_parts: tuple[np.ndarray, ...] = ()
+    second_parts: tuple[np.ndarray, ...] = ()
 
     @cached_property
     def region_m(self) -> np.ndarray:
@@ -57,17 +60,37 @@ class Overlap:
 
     def bottoms_under_m(self) -> tuple[float, float]:
         """How low ``first`` and ``second`` reach right under where they overlap: the lowest point of each
-        one's penetrating parts within the region's plan box (a sloped rafter's section over its purlin,
-        not its end at the eaves)."""
+        one's parts within the region's plan box (a sloped rafter's section over its purlin, not its end at
+        the eaves). All its parts, not only those that penetrate: a wall drawn into the roof panel it
+        carries penetrates it with the lintel over a window, and the wall under that lintel reaches the
+        ground (the lintel alone, 2 cm above the panel's underside, put the roof before its wall)."""
         region = self.region_m
         low, high = region[:, :2].min(axis=0), region[:, :2].max(axis=0)
-        first = min(_bottom_within(a, low, high) for a, _ in self.part_pairs)
-        second = min(_bottom_within(b, low, high) for _, b in self.part_pairs)
+        first = _lowest(self.first_parts, [a for a, _ in self.part_pairs], low, high)
+        second = _lowest(self.second_parts, [b for _, b in self.part_pairs], low, high)
         return round(first, 4), round(second, 4)
 
 
-def _bottom_within(vertices: np.ndarray, low_xy: np.ndarray, high_xy: np.ndarray) -> float:
-    """The lowest point of the convex part ``vertices`` within the vertical prism over a plan box."""
+def _lowest(
+    parts: Sequence[np.ndarray], penetrating: Sequence[np.ndarray], low_xy: np.ndarray, high_xy: np.ndarray
+) -> float:
+    """The lowest point of ``parts`` within the prism over a plan box; of the ``penetrating`` parts (each
+    its lowest point where it misses the prism, a sliver) when no part reaches into it."""
+    within = [z for z in (_bottom_within(part, low_xy, high_xy) for part in parts) if z is not None]
+    if within:
+        return min(within)
+    return min(
+        float(part[:, 2].min()) if (z := _bottom_within(part, low_xy, high_xy)) is None else z
+        for part in penetrating
+    )
+
+
+def _bottom_within(vertices: np.ndarray, low_xy: np.ndarray, high_xy: np.ndarray) -> float | None:
+    """The lowest point of the convex part ``vertices`` within the vertical prism over a plan box; None
+    where the part misses it."""
+    part_low, part_high = vertices[:, :2].min(axis=0), vertices[:, :2].max(axis=0)
+    if np.any(part_high < low_xy) or np.any(part_low > high_xy + 1e-3):
+        return None  # its box misses the prism: no solid needed
     size = np.maximum(high_xy - low_xy, 1e-3)
     z0, z1 = float(vertices[:, 2].min()) - 1.0, float(vertices[:, 2].max()) + 1.0
     prism = manifold3d.Manifold.cube([float(size[0]), float(size[1]), z1 - z0]).translate(
@@ -75,7 +98,7 @@ def _bottom_within(vertices: np.ndarray, low_xy: np.ndarray, high_xy: np.ndarray
     )
     solid = manifold3d.Manifold.hull_points(vertices) ^ prism
     if solid.is_empty():
-        return float(vertices[:, 2].min())
+        return None
     return float(np.asarray(solid.to_mesh().vert_properties)[:, 2].min())
 
 
@@ -118,9 +141,12 @@ def measure_overlaps(components: Sequence[Component], out_dir: Path, contact_m: 
             if overlap is not None:
                 depth_m, part_pairs = overlap
                 first, second = sorted((components[i].guid, components[j].guid))
+                all_i = tuple(part.vertices_world_m for part in parts[i])
+                all_j = tuple(part.vertices_world_m for part in parts[j])
                 if first != components[i].guid:  # each pair of parts: the first component's part first
                     part_pairs = tuple((b, a) for a, b in part_pairs)
-                found.append(Overlap(first, second, depth_m, part_pairs))
+                    all_i, all_j = all_j, all_i
+                found.append(Overlap(first, second, depth_m, part_pairs, all_i, all_j))
     _log.debug(
         "%d candidate pair(s) by their boxes, %d overlap deeper than a contact",
         len(pairs),
