@@ -3,8 +3,9 @@
 A component set down at its target is held by its robot or crane until its connection to what supports it
 is made, then let go. What that connection is decides what physics does (:mod:`bimbot.services.physics.
 connections`): a bolted base, a bolted (pinned) or welded (fixed) end fixes the member once made; a
-bearing holds it by friction only (no constraint: it rests on its supports); a grouted joint fixes it
-only once its grout has set, and until then the member stands on temporary props. Members that cannot
+bearing holds it by friction only (no constraint: it rests on its supports), and only on a level seat: one
+on a slope (a pitched roof panel) is fastened down, which fixes it; a grouted joint fixes it only once its
+grout has set, and until then the member stands on temporary props. Members that cannot
 stand until their frame closes (a precast wall panel, a slender column with no fixed base) get temporary
 supports: placed by the robot as part of its task, removed once the member is held by connections that
 reach the ground through the structure. The converter decides the kind per supporting neighbour
@@ -27,6 +28,7 @@ class ConnectionKind(StrEnum):
     FIXED_END = "fixed_end"  # a welded (moment) end
     BEARING = "bearing"  # a precast plank or slab on beams or walls: friction only, no constraint
     GROUTED = "grouted"  # a precast wall panel on its grout bed: fixed once the grout has set, propped until
+    FASTENED = "fastened"  # a panel or member bearing on a slope, screwed or nailed down: fixed once made
 
     @property
     def fixes(self) -> bool:
@@ -82,6 +84,7 @@ class ConnectionTimes(_Frozen):
     bearing_s: float = Field(ge=0)
     grouted_s: float = Field(ge=0, description="set on its grout bed and shims")
     grout_set_s: float = Field(ge=0, description="until the grout holds the panel (its props stay till then)")
+    fastened_s: float = Field(ge=0, description="a roof panel on a pitch screwed down to its bearers")
 
     def time_s(self, kind: ConnectionKind) -> float:
         return float(getattr(self, f"{kind.value}_s"))

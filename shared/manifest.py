@@ -198,6 +198,15 @@ class Component(_Frozen):
             "them (a door's opening under its lintel) are driven through"
         ),
     )
+    face_slope_deg: float = Field(
+        default=0.0,
+        ge=0.0,
+        le=90.0,
+        description=(
+            "the area-weighted slope of its faces within 60° of horizontal, world (0: flat; a pitched roof "
+            "panel's pitch): what bears on a slope is fastened down, not left on friction"
+        ),
+    )
     files: ComponentFiles
     connections: list[Connection] = []
     warnings: list[str] = []

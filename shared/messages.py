@@ -201,7 +201,8 @@ class ComponentPoseMsg(_Message):
     set_against: list[str] = []
     set_against_shift_m: NonNegative | None = None
     # placed: the built neighbours it was connected to, GUID → kind (shared/connection_kinds.py: bolted_base,
-    # pinned_end, fixed_end, bearing, grouted), and the temporary supports standing on it now (props, braces)
+    # pinned_end, fixed_end, bearing, grouted, fastened), and the temporary supports standing on it now
+    # (props, braces)
     connection_kinds: dict[str, str] = {}
     temporary_supports: Count = 0
     # placed or joined by a robot: its target fitted to the structure as built (physics' support_fit.py: on

@@ -36,6 +36,7 @@ from .component_methods import method_fields, settled_method
 from .component_work import GeometryWork, PlacedElement, ShardContext
 from .connections import element_connections
 from .face_materials import material_volumes, volumes_by_style
+from .face_slope import face_slope_deg
 from .mass_properties import MassProperties, mass_properties, mesh_from_arrays
 from .mesh import TriMesh
 from .mesh_files import GeometryFiles, link_geometry_files, write_geometry_files
@@ -154,6 +155,7 @@ def write_component(
             collision=work.collision,
             files=work.files,
             split_ifc=split_name,
+            face_slope_deg=face_slope_deg(work.mesh, item.rotation),
             warnings=notes,
             extra=method_fields(decision, item, work, context),
         ),
@@ -177,6 +179,7 @@ class EntryParts:
     collision: CollisionShape
     files: GeometryFiles
     split_ifc: str = ""  # file name in the model folder; empty: not written
+    face_slope_deg: float = 0.0  # :func:`.face_slope.face_slope_deg`
     warnings: list[str] = field(default_factory=list)
     extra: dict[str, object] = field(default_factory=dict)  # more manifest fields (a panel's parent_guid…)
 
@@ -242,6 +245,7 @@ def write_entry(
         collision_method=parts.collision.method,
         collision_parts=len(parts.collision.parts),
         part_boxes_local=_part_boxes(parts.collision.parts),
+        face_slope_deg=parts.face_slope_deg,
         files=ComponentFiles(
             model_dir=rel_dir,
             sdf_file=f"{rel_dir}/model.sdf",

@@ -8,8 +8,10 @@ For every component set by a robot (lifted or panelised) and each neighbour it m
   gap a connection bridges (``side``);
 * the kind follows the pair: a column-like member whose base sits on it → ``bolted_base`` (a base plate on
   anchor bolts, a footing); a precast wall on what carries it → ``grouted``; a slab, plank or roof on a
-  beam or wall, a beam on a wall → ``bearing``; a beam or member framed in at its side, or set on a
-  column's cap → ``pinned_end``, ``fixed_end`` where the IFC realises the connection with a weld.
+  beam or wall, a beam on a wall → ``bearing``, or ``fastened`` where it lies on a pitch (its
+  ``face_slope_deg`` beyond :data:`LEVEL_SEAT_MAX_DEG`: a site screws a pitched roof panel down); a beam
+  or member framed in at its side, or set on a column's cap → ``pinned_end``, ``fixed_end`` where the IFC
+  realises the connection with a weld.
 
 Temporary supports (``[temporary_supports]`` of the methods file): a precast wall panel gets props (it
 stands on grout that has not set); a member with nothing under it above the ground gets props when no
@@ -17,7 +19,7 @@ fixing connection is made as it is set down (a stub column hung from beams not b
 member with no fixing base connection that is slender (height over least width beyond
 ``brace_slenderness``) gets braces unless its connections already reach what stands by itself. Physics
 applies the condition (``TemporarySupportNeed.when``). Times come from the methods file. The decision uses
-the manifest's world bounding boxes only: cheap for any model.
+the manifest's world bounding boxes and each component's face slope only: cheap for any model.
 """
 
 from __future__ import annotations
@@ -44,6 +46,10 @@ SET_BY_ROBOT = (ConstructionMethod.LIFTED, ConstructionMethod.PANELISED)
 RELATIONS = ("IfcRelConnectsElements", "IfcRelConnectsPathElements", "IfcRelConnectsWithRealizingElements")
 BEARS = ("IfcSlab", "IfcRoof", "IfcPlate", "IfcCovering", "IfcStair", "IfcRamp")  # set on, held by friction
 WELD_WORDS = ("weld",)
+# a bearing deck or member whose broad faces slope more than this (a flat roof's fall is 1-3°) is fastened
+# down: a pitched roof panel, a rafter (a window's sloped sill says nothing of how it is seated)
+LEVEL_SEAT_MAX_DEG = 5.0
+PITCHED = (*BEARS, "IfcBeam", "IfcMember")
 BASE_KINDS = (ConnectionKind.BOLTED_BASE, ConnectionKind.GROUTED, ConnectionKind.BEARING)
 
 
@@ -77,6 +83,8 @@ def connection_kind(component: Component, other: Component, *, base: bool, welde
     if base and _precast_wall(component):
         return ConnectionKind.GROUTED
     if base and (_is(component, BEARS) or _is(other, ("IfcWall", "IfcSlab"))):
+        if _is(component, PITCHED) and component.face_slope_deg > LEVEL_SEAT_MAX_DEG:
+            return ConnectionKind.FASTENED  # on a pitch friction is not a fixing: screwed or nailed down
         return ConnectionKind.BEARING
     return ConnectionKind.FIXED_END if welded else ConnectionKind.PINNED_END
 

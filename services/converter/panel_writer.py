@@ -47,6 +47,7 @@ from .collision import collision_from_mesh
 from .component_methods import element_limits, settled_method, target_in_ground
 from .component_work import GeometryWork, PlacedElement, ShardContext
 from .component_writer import EntryParts, element_mass, write_component, write_entry
+from .face_slope import face_slope_deg
 from .final_method import SPLIT_NOTE
 from .mass_properties import mass_properties
 from .mesh import TriMesh
@@ -261,6 +262,7 @@ def _write_parts(
                 mass_source=mass.source,
                 collision=collision,
                 files=files,
+                face_slope_deg=face_slope_deg(local, item.rotation),
                 warnings=notes,
                 extra={
                     "method": method,

@@ -1,11 +1,12 @@
 """Connections made and temporary supports, as physics' component poses tell them (pure, for report.json).
 
 Physics says, in every component's pose message, the built neighbours it was connected to and how
-(``connection_kinds``: bolted_base, pinned_end, fixed_end, bearing, grouted) and how many temporary
-supports stand on it now (``temporary_supports``: props or braces). :class:`SupportsSeen` keeps the latest
-kinds and every span a member stood on supports; the report gives per component ``connections`` (GUID →
-kind) and ``temporary_supports`` (how many, from when to when), and in its totals the supports used, the
-most standing at once, and how long each stood (until the end of the run for those still standing).
+(``connection_kinds``: bolted_base, pinned_end, fixed_end, bearing, grouted, fastened) and how many
+temporary supports stand on it now (``temporary_supports``: props or braces). :class:`SupportsSeen` keeps
+the latest kinds and every span a member stood on supports; the report gives per component
+``connections`` (GUID → kind) and ``temporary_supports`` (how many, from when to when), and in its totals
+the supports used, the most standing at once, and how long each stood (until the end of the run for those
+still standing).
 """
 
 from __future__ import annotations

@@ -39,3 +39,10 @@ def test_two_pinned_ends_hold_it_and_a_joint_holds_as_a_fixed_connection() -> No
     assert plan_connections(("left", "right"), links, (), 20.0).fixed_to == ("left", "right")
     jointed = plan_connections(("left",), links, ("left",), 20.0)
     assert jointed.fixed_to == ("left",), "a joint partner (no contact between the two) holds it"
+
+
+def test_a_roof_panel_fastened_down_on_a_pitch_is_held_by_that_one_connection() -> None:
+    """Screwed down to its wall plate, a pitched roof panel is fixed where it was set: one fastened
+    connection is not a hinge."""
+    plan = plan_connections(("wall",), _links(wall=ConnectionKind.FASTENED), (), 20.0)
+    assert plan.fixed_to == ("wall",) and plan.kinds == {"wall": ConnectionKind.FASTENED}
