@@ -54,6 +54,10 @@ class JointRule(BaseModel):
     # only a member shaped as a bar (a rod, strut or hanger: its oriented box at least ten times longer than
     # wide), whatever class it was exported as; not a cabinet or a fitting of the same class
     slender: bool = False
+    # only a member drawn inside the part's thickness along its length (a lintel or bond beam in its
+    # wall): the overlap takes in the member's whole section and runs along it for more than twice the
+    # part's thickness, so a member crossing the part is not one
+    embedded: bool = False
     why: str = ""
 
     @field_validator("member", "part")

@@ -50,11 +50,13 @@ from .bars import BarShapes
 from .connections import element_connections
 from .notches import notched_round
 from .overlaps import Overlap, measure_overlaps
+from .placement import matrix_from_quat
 
 _log = logging.getLogger(__name__)
 
 END_TOLERANCE_M = 0.01  # an overlap this much past a rule's depth from the member's end still lies at it
 FITTED_MAX_DEPTH_M = 0.15  # a new part drawn this deep into existing work is fitted on site (notched)
+EMBED_SECTION_SHARE = 0.9  # an embedded member's section lies this much inside the part, on both axes
 FILLS = "IfcRelFillsElement"
 RELATIONS = frozenset(
     {
@@ -276,6 +278,8 @@ def _by_rule(
             continue
         if rule.at_end and not at_an_end(member, overlap.region_m, rule.max_depth_m + END_TOLERANCE_M):
             continue
+        if rule.embedded and not embedded_along(member, part, overlap.region_m):
+            continue
         # either may be the member of a rule that does not look for an end: no direction then
         either_way = not rule.at_end and classes.matching(part.ifc_class, rule.member) is not None
         either_way = either_way and classes.matching(member.ifc_class, rule.part) is not None
@@ -303,29 +307,57 @@ def _fitting(
                 yield rule, member, part, member_class, part_class
 
 
+def _in_member_frame(member: Component, points_world_m: np.ndarray) -> np.ndarray:
+    """``points_world_m`` in ``member``'s own frame (its target pose)."""
+    pose = member.target_pose_world
+    turn = matrix_from_quat(pose.quat_xyzw)
+    return (np.asarray(points_world_m, dtype=float) - np.asarray(pose.position_m)) @ turn
+
+
+def embedded_along(member: Component, part: Component, region_world_m: np.ndarray) -> bool:
+    """Whether ``member`` is drawn inside ``part``'s thickness along its length where they overlap: the
+    overlap (its vertices) takes in the member's whole section (within :data:`EMBED_SECTION_SHARE` of it
+    on both short axes of its own frame) and runs along its length for more than twice the part's
+    thickness (the least side of its own box): a lintel or bond beam in its wall, not a beam through it."""
+    local = _in_member_frame(member, region_world_m)
+    low, high = np.asarray(member.bbox_local.min_m), np.asarray(member.bbox_local.max_m)
+    size = high - low
+    length_axis = int(np.argmax(size))
+    covered = local.max(axis=0) - local.min(axis=0)
+    section = [axis for axis in range(3) if axis != length_axis]
+    if any(covered[axis] < EMBED_SECTION_SHARE * size[axis] for axis in section):
+        return False
+    thickness_m = float(np.min(np.asarray(part.bbox_local.max_m) - np.asarray(part.bbox_local.min_m)))
+    return bool(covered[length_axis] > 2.0 * thickness_m)
+
+
 def at_an_end(
     member: Component, region_world_m: np.ndarray, band_m: float, *, length_only: bool = False
 ) -> bool:
     """Whether the overlap (its vertices, world frame) lies within ``band_m`` of one end or face of
     ``member``'s box, along an axis of its own frame on which it is longer than ``2 * band_m``; with
-    ``length_only``, of one of its two ends along its longest axis (a framed end, not a side it touches)."""
-    pose = member.target_pose_world
-    x, y, z, w = pose.quat_xyzw
-    turn = np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-    local = (np.asarray(region_world_m, dtype=float) - np.asarray(pose.position_m)) @ turn
+    ``length_only``, of one of its two ends along its longest axis (a framed end, not a side it touches).
+
+    An overlap that takes in one end of the member itself (and not the other) lies at that end however far
+    along it it runs: an end drawn into its part at a slant (a tube's end cut to the saddle of the chord
+    it meets, a short brace on a shallow slant) overlaps the part far past the depth it is drawn in (the
+    Revit 2025 structural sample: HSS 114 braces 53-68 mm into the tube they meet, the overlap 120-320 mm
+    along them). The rule's depth still bounds how far in it is drawn."""
+    local = _in_member_frame(member, region_world_m)
     low, high = np.asarray(member.bbox_local.min_m), np.asarray(member.bbox_local.max_m)
-    axes = [int(np.argmax(high - low))] if length_only else range(3)
+    size = high - low
+    length_axis = int(np.argmax(size))
+    axes = [length_axis] if length_only else range(3)
     for axis in axes:
-        if high[axis] - low[axis] <= 2.0 * band_m:
+        if size[axis] <= 2.0 * band_m:
             continue
-        if local[:, axis].max() <= low[axis] + band_m or local[:, axis].min() >= high[axis] - band_m:
+        first, last = local[:, axis].min(), local[:, axis].max()
+        if last <= low[axis] + band_m or first >= high[axis] - band_m:
             return True
+        if axis == length_axis and (first <= low[axis] + END_TOLERANCE_M) != (
+            last >= high[axis] - END_TOLERANCE_M
+        ):
+            return True  # one of its ends lies in the part
     return False
 
 

@@ -546,3 +546,51 @@ def test_a_deck_crossed_on_the_slant_by_a_wall_rising_through_it_is_cut_round_it
     [joint] = manifest.joints
     assert joint.source is JointSource.NOTCHED
     assert joint.guids == (guid["Wall"], guid["Deck"])
+
+
+def test_a_lintel_drawn_inside_its_wall_is_a_joint_and_a_beam_through_a_wall_a_clash(tmp_path: Path) -> None:
+    """A steel lintel (178 × 400 mm) drawn inside a 417 mm masonry wall along its length, at the wall's
+    head, as the Revit duplex draws its W410 beams: a joint by rule, the wall first (it reaches the ground
+    under the beam). The same beam run through another wall across it is a clash."""
+    small = new_model()
+    add_wall(small, "Wall", length_m=6.0, height_m=3.1, thickness_m=0.417)
+    # along x, its 400 mm depth upright (its profile's x turned down), 289 mm into the wall's face
+    lintel_along_x = np.array([[0, 0, 1, 0.5], [0, 1, 0, 0.2], [-1, 0, 0, 2.9], [0, 0, 0, 1]], dtype=float)
+    add_beam(small, "Lintel", length_m=4.0, width_m=0.4, depth_m=0.178, matrix_m=lintel_along_x)
+    add_wall(small, "Cross wall", length_m=6.0, height_m=3.1, thickness_m=0.3, matrix_m=translation(y_m=4.0))
+    # along y, through the cross wall at mid-span
+    across_y = np.array([[1, 0, 0, 3.0], [0, 0, 1, 2.5], [0, -1, 0, 2.9], [0, 0, 0, 1]], dtype=float)
+    add_beam(small, "Through beam", length_m=3.0, width_m=0.178, depth_m=0.4, matrix_m=across_y)
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    panels = [guid["Wall panel 1/2"], guid["Wall panel 2/2"]]  # the heavy wall is cut in two, as there
+    expected = sorted((panel, guid["Lintel"]) for panel in panels)
+    assert sorted(joint.guids for joint in manifest.joints) == expected
+    assert {joint.rule for joint in manifest.joints} == {"IfcBeam into IfcWall, up to 450 mm"}
+    [clash] = manifest.clashes
+    assert set(clash.guids) == {guid["Cross wall"], guid["Through beam"]}
+    assert set(panels) <= support_predecessors(manifest.components, joints=manifest.joints)[guid["Lintel"]]
+
+
+def test_a_brace_drawn_into_a_chord_at_a_slant_is_a_joint_though_the_overlap_runs_past_its_depth(
+    tmp_path: Path,
+) -> None:
+    """A 114 mm brace rising at 30° from a chord, its end drawn some 80 mm into it (a tube's end cut to
+    the chord's saddle, as the Revit 2025 structural sample draws its HSS braces): the overlap runs about
+    160 mm along the brace, more than the rule's 100 mm, but it takes in the brace's end. A joint, the
+    chord first."""
+    small = new_model()
+    chord_along_x = np.array([[0, 0, 1, 0.0], [0, 1, 0, 0.0], [-1, 0, 0, 2.0], [0, 0, 0, 1]], dtype=float)
+    add_beam(small, "Chord", length_m=4.0, width_m=0.114, depth_m=0.114, matrix_m=chord_along_x,
+             schema_class="IfcMember")  # fmt: skip
+    c, s = np.cos(np.radians(30.0)), np.sin(np.radians(30.0))
+    brace_up = np.array([[s, 0, c, 1.5], [0, 1, 0, 0.0], [-c, 0, s, 2.027], [0, 0, 0, 1]], dtype=float)
+    add_beam(small, "Brace", length_m=0.9, width_m=0.114, depth_m=0.114, matrix_m=brace_up,
+             schema_class="IfcMember")  # fmt: skip
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    assert manifest.clashes == []
+    [joint] = manifest.joints
+    assert joint.guids == (guid["Chord"], guid["Brace"])
+    assert joint.rule.startswith("IfcMember into IfcMember")
+    assert 0.05 < joint.depth_m <= 0.1
