@@ -16,8 +16,10 @@ For every component set by a robot (lifted or panelised) and each neighbour it m
 Temporary supports (``[temporary_supports]`` of the methods file): a precast wall panel gets props (it
 stands on grout that has not set); a member with nothing under it above the ground gets props when no
 fixing connection is made as it is set down (a stub column hung from beams not built yet); a column-like
-member with no fixing base connection that is slender (height over least width beyond
-``brace_slenderness``) gets braces unless its connections already reach what stands by itself. Physics
+member, or a member or plate standing on a narrow edge (the Revit duplex's 50 mm stair stringer, 3.1 m
+tall, tipped onto the carrier that set it), with no fixing base connection that is slender (height over
+least width beyond ``brace_slenderness``) gets braces unless its connections already reach what stands by
+itself. Physics
 applies the condition (``TemporarySupportNeed.when``). Times come from the methods file. The decision uses
 the manifest's world bounding boxes and each component's face slope only: cheap for any model.
 """
@@ -64,6 +66,13 @@ def column_like(component: Component) -> bool:
     return _is(component, ("IfcColumn",)) or (
         _is(component, ("IfcMember", "IfcBeam")) and height > 2.0 * max(plan, 1e-6)
     )
+
+
+def _braced_kind(component: Component) -> bool:
+    """A column-like member, or a member or plate that may stand on a narrow edge (a stair's stringer, a
+    fin plate): braced when slender with no fixed base. A wall panel gets props instead; a door or window
+    is set in its opening."""
+    return column_like(component) or _is(component, ("IfcMember", "IfcPlate"))
 
 
 def slenderness(component: Component) -> float:
@@ -201,7 +210,7 @@ def _support_need(
             when=SupportWhen.UNCONNECTED,
             why="nothing under it: propped until the members it is framed into hold it",
         )
-    if column_like(component) and not fixed_base and slenderness(component) > rules.brace_slenderness:
+    if _braced_kind(component) and not fixed_base and slenderness(component) > rules.brace_slenderness:
         return TemporarySupportNeed(
             kind=SupportKind.BRACES,
             count=rules.braces_per_column,
@@ -209,7 +218,7 @@ def _support_need(
             when=SupportWhen.UNANCHORED,
             why=(
                 f"slender ({slenderness(component):.0f}× its least width) with no fixed base: braced "
-                "until its beams connect it to the structure"
+                "until what it is framed to connects it to the structure"
             ),
         )
     return None

@@ -1,0 +1,46 @@
+"""Which robot-set members get braces until their frame holds them (services/converter/connection_kinds.py):
+a slender column with no fixed base, and a member or plate standing on a narrow edge, such as a stair's
+stringer; not a column bolted to its base plate, nor a member lying flat."""
+
+from __future__ import annotations
+
+from component_boxes import box_component
+
+from bimbot.services.converter.connection_kinds import decide_connections
+from bimbot.shared.connection_kinds import ConnectionKind, SupportKind, SupportWhen, TemporarySupportNeed
+from bimbot.shared.manifest import Component
+from bimbot.shared.methods_file import load_methods
+
+
+def _on_slab(ifc_class: str, size_m: tuple[float, float, float]) -> tuple[Component, Component]:
+    slab = box_component("slab", (8.0, 8.0, 0.2), (-4.0, -4.0, -0.2))
+    slab = slab.model_copy(update={"ifc_class": "IfcSlab"})
+    member = box_component("member", size_m, (0.0, 0.0, 0.0)).model_copy(update={"ifc_class": ifc_class})
+    return slab, member
+
+
+def _decided(slab: Component, member: Component, *more: Component) -> Component:
+    methods = load_methods()
+    decided = decide_connections(
+        [member], [slab, member, *more], [], methods.connections, methods.temporary_supports
+    )
+    return decided[0]
+
+
+def test_a_stair_stringer_standing_on_its_edge_is_braced_until_what_it_is_framed_to_holds_it() -> None:
+    """The Revit duplex's stringer: 50 mm wide, 3.75 m long, 3.1 m tall, set on its slab. Unbraced it
+    tipped over onto the carrier that set it and walled it in."""
+    stringer = _decided(*_on_slab("IfcMember", (0.05, 3.75, 3.1)))
+    need = stringer.temporary_support
+    assert isinstance(need, TemporarySupportNeed)
+    assert need.kind is SupportKind.BRACES and need.when is SupportWhen.UNANCHORED
+    assert need.count == load_methods().temporary_supports.braces_per_column
+    assert "62× its least width" in need.why
+
+
+def test_a_member_lying_flat_or_a_column_on_its_base_plate_is_not_braced() -> None:
+    purlin = _decided(*_on_slab("IfcMember", (4.0, 0.1, 0.2)))
+    assert purlin.temporary_support is None
+    column = _decided(*_on_slab("IfcColumn", (0.2, 0.2, 3.0)))  # on anchor bolts in its slab
+    assert {link.kind for link in column.connection_links} == {ConnectionKind.BOLTED_BASE}
+    assert column.temporary_support is None
