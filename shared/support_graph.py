@@ -8,7 +8,10 @@ Component ``B`` supports component ``A`` (B → A) when B's bottom is lower than
 
 a foundation in the ground comes before what stands over its excavation with nothing else under or beside
 it, touching or not (:mod:`.excavation`: the model leaves the fill between out; a column on its own footing
-inside a ground slab's excavation may still go before the slab);
+inside a ground slab's excavation may still go before the slab), and before a member over it that stands on
+props until its frame holds it (``temporary_support`` when ``unconnected``: its props stand on what lies
+below; the Revit duplex's first-floor joist panel was set over the open pit of its slab on grade, where
+no crew props it, and fell in);
 whatever the heights, a wall supports the window or door that fills one of its openings (IfcRelFillsElement:
 the filling is placed into the standing wall, never before it); and the two components of a **joint** (the
 model draws them into each other where they are joined: ``Manifest.joints``; a framed end drawn butting
@@ -54,6 +57,7 @@ from enum import IntEnum
 
 import numpy as np
 
+from .connection_kinds import SupportWhen
 from .excavation import over_open_pits
 from .manifest import Component, Joint, JointSource
 from .sequence import ConstructionSequence, priority_topological_order, sequence_from_predecessors
@@ -139,10 +143,16 @@ def support_predecessors(
         if first in preds[second] and second in preds[first] and kinds[second, first] < kinds[first, second]:
             preds[first].discard(second)
             _log.debug("support graph: %s before %s (the host's or the joint's order)", first, second)
-    # what nothing holds, the stated orders applied: over an excavation it would fall into the pit
+    # what nothing holds, the stated orders applied: over an excavation it would fall into the pit; so
+    # would the props of a member propped until its frame holds it (they stand on what lies below)
     unsupported = {guid for guid, supports in preds.items() if not supports}
+    propped = {
+        item.guid
+        for item in components
+        if item.temporary_support is not None and item.temporary_support.when is SupportWhen.UNCONNECTED
+    }
     for foundation, guid in over_open_pits(components, tolerance_m):
-        if guid in unsupported:  # nothing else under it or beside it: it would fall into the pit
+        if guid in unsupported or guid in propped:
             add(foundation, guid, Edge.PIT)
     break_cycles(preds, kinds)
     return preds

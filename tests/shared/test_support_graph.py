@@ -6,6 +6,7 @@ import logging
 
 import pytest
 
+from bimbot.shared.connection_kinds import SupportKind, SupportWhen, TemporarySupportNeed
 from bimbot.shared.manifest import (
     BoundingBox,
     CollisionMethod,
@@ -267,6 +268,19 @@ def test_what_is_set_down_over_a_foundations_open_pit_waits_for_it_though_they_d
     assert "slab" in preds["panel"] and "slab" in preds["curb"] and "slab" in preds["rail"]
     assert "slab" not in preds["beside"] and preds["column"] == {"footing"}
     assert preds["slab"] == {"footing"} and preds["footing"] == set()
+
+
+def test_a_propped_member_waits_for_the_foundation_whose_pit_its_props_would_stand_in() -> None:
+    """The Revit duplex: a first-floor joist panel 2.8 m over the 127 mm slab on grade, framed at its side
+    into an exterior wall, stands on props until its neighbours hold it; its props stand in the slab's pit,
+    so the slab is poured first. Unpropped, the same panel does not wait for the slab: its wall holds it."""
+    slab = _component("slab", "IfcSlab", (0.4, -9.7, -0.13), (8.4, -0.4, 0.0))
+    wall = _component("wall", "IfcWall", (8.4, -9.7, -0.13), (8.8, -0.4, 3.1))
+    panel = _component("panel", "IfcSlab", (4.7, -6.8, 2.8), (8.38, -4.7, 3.1))
+    props = TemporarySupportNeed(kind=SupportKind.PROPS, count=2, place_s=90.0, when=SupportWhen.UNCONNECTED)
+    propped = panel.model_copy(update={"temporary_support": props})
+    assert "slab" in support_predecessors([slab, wall, propped])["panel"]
+    assert support_predecessors([slab, wall, panel])["panel"] == {"wall"}
 
 
 def test_a_wall_part_over_the_ceiling_line_rests_on_the_wall_below_not_on_the_ceiling() -> None:
