@@ -594,3 +594,23 @@ def test_a_brace_drawn_into_a_chord_at_a_slant_is_a_joint_though_the_overlap_run
     assert joint.guids == (guid["Chord"], guid["Brace"])
     assert joint.rule.startswith("IfcMember into IfcMember")
     assert 0.05 < joint.depth_m <= 0.1
+
+
+def test_two_coupled_windows_drawn_into_each_other_are_a_joint_and_a_window_deep_in_another_a_clash(
+    tmp_path: Path,
+) -> None:
+    """Two windows side by side whose frames the model draws 26 mm into each other where they share a
+    mullion, as the public Revit basic house does: a joint by rule (as a clash, physics pushed one 66 mm
+    off its target and it failed). A window drawn 200 mm into another is still a clash."""
+    small = new_model()
+    add_box(small, "IfcWindow", "Left", size_m=(1.0, 0.1, 1.0), corner_m=(0.0, 0.0, 1.0))
+    add_box(small, "IfcWindow", "Right", size_m=(1.0, 0.1, 1.0), corner_m=(0.974, 0.0, 1.0))
+    add_box(small, "IfcWindow", "Far", size_m=(1.0, 0.1, 1.0), corner_m=(5.0, 0.0, 1.0))
+    add_box(small, "IfcWindow", "Deep", size_m=(1.0, 0.1, 1.0), corner_m=(5.8, 0.0, 1.0))
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    [joint] = manifest.joints
+    assert set(joint.guids) == {guid["Left"], guid["Right"]}
+    assert joint.rule == "IfcWindow into IfcWindow, up to 50 mm"
+    [clash] = manifest.clashes
+    assert set(clash.guids) == {guid["Far"], guid["Deep"]}
