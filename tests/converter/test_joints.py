@@ -614,3 +614,25 @@ def test_two_coupled_windows_drawn_into_each_other_are_a_joint_and_a_window_deep
     assert joint.rule == "IfcWindow into IfcWindow, up to 50 mm"
     [clash] = manifest.clashes
     assert set(clash.guids) == {guid["Far"], guid["Deep"]}
+
+
+def test_a_beam_drawn_to_the_column_centre_line_is_a_joint(tmp_path: Path) -> None:
+    """A UB305 drawn 178 mm into a UC356 column, to its centre line, as the public Revit 2025 structural
+    sample exports it: past the beam rule's 150 mm, a joint by the centre-line rule, the column first."""
+    small = new_model()
+    add_box(small, "IfcColumn", "Column", size_m=(0.356, 0.368, 4.0), corner_m=(0.0, -0.184, 0.0))
+    add_beam(
+        small,
+        "Beam",
+        length_m=3.178,
+        width_m=0.3,
+        depth_m=0.165,
+        matrix_m=_along((1.0, 0.0), (-3.0, 0.0, 3.0)),
+    )
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    assert manifest.clashes == []
+    [joint] = manifest.joints
+    assert joint.guids == (guid["Column"], guid["Beam"])
+    assert joint.rule == "IfcBeam into IfcColumn, up to 200 mm"
+    assert joint.depth_m == pytest.approx(0.178, abs=0.005)
