@@ -16,7 +16,7 @@ For every component set by a robot (lifted or panelised) and each neighbour it m
 Temporary supports (``[temporary_supports]`` of the methods file): a precast wall panel gets props (it
 stands on grout that has not set); a member with nothing under it above the ground gets props when no
 fixing connection is made as it is set down (a stub column hung from beams not built yet); a column-like
-member, or a member or plate standing on a narrow edge (the Revit duplex's 50 mm stair stringer, 3.1 m
+member, or a member standing on a narrow edge (the Revit duplex's 50 mm stair stringer, 3.1 m
 tall, tipped onto the carrier that set it), with no fixing base connection that is slender (height over
 least width beyond ``brace_slenderness``) gets braces unless its connections already reach what stands by
 itself. Physics
@@ -69,10 +69,10 @@ def column_like(component: Component) -> bool:
 
 
 def _braced_kind(component: Component) -> bool:
-    """A column-like member, or a member or plate that may stand on a narrow edge (a stair's stringer, a
-    fin plate): braced when slender with no fixed base. A wall panel gets props instead; a door or window
-    is set in its opening."""
-    return column_like(component) or _is(component, ("IfcMember", "IfcPlate"))
+    """A column-like member, or a member that may stand on a narrow edge (a stair's stringer): braced when
+    slender with no fixed base. A wall panel gets props instead; a door or window is set in its opening; a
+    plate (a curtain wall's glazing) is set into the pockets of its frame."""
+    return column_like(component) or _is(component, ("IfcMember",))
 
 
 def slenderness(component: Component) -> float:

@@ -1,6 +1,6 @@
 """Which robot-set members get braces until their frame holds them (services/converter/connection_kinds.py):
-a slender column with no fixed base, and a member or plate standing on a narrow edge, such as a stair's
-stringer; not a column bolted to its base plate, nor a member lying flat."""
+a slender column with no fixed base, and a member standing on a narrow edge, such as a stair's stringer;
+not a column bolted to its base plate, nor a member lying flat, nor a glazing panel set into its frame."""
 
 from __future__ import annotations
 
@@ -38,9 +38,11 @@ def test_a_stair_stringer_standing_on_its_edge_is_braced_until_what_it_is_framed
     assert "62× its least width" in need.why
 
 
-def test_a_member_lying_flat_or_a_column_on_its_base_plate_is_not_braced() -> None:
+def test_a_member_lying_flat_a_glazing_panel_or_a_column_on_its_base_plate_is_not_braced() -> None:
     purlin = _decided(*_on_slab("IfcMember", (4.0, 0.1, 0.2)))
     assert purlin.temporary_support is None
+    glazing = _decided(*_on_slab("IfcPlate", (1.5, 0.025, 3.0)))  # set into the pockets of its mullions
+    assert glazing.temporary_support is None
     column = _decided(*_on_slab("IfcColumn", (0.2, 0.2, 3.0)))  # on anchor bolts in its slab
     assert {link.kind for link in column.connection_links} == {ConnectionKind.BOLTED_BASE}
     assert column.temporary_support is None
