@@ -70,6 +70,17 @@ class Driving:
             return None
         return way_out_after(grid, outlines, self.context.home_xy_yaw[:2], site_map.config.inflation_m)
 
+    def _walls_itself_in(self, footprint: Footprint, xy: tuple[float, float]) -> bool:
+        """Whether, on the static map (laser marks left out: they pass), no stand-point within reach of
+        ``footprint`` keeps the robot a way back to its depot once it stands."""
+        site_map, config = self.context.site_map, self.context.approach_config
+        static = site_map.inflated_grid()
+        way_out = self._way_out(static, footprint)
+        if way_out is None:
+            return True
+        found = approach_pose(static, footprint, xy, blocks_band=True, config=config, way_out=way_out)
+        return found is None or not _leaves(static, way_out, found.xy_m)
+
     def _no_approach(self, grid: OccupancyGrid, footprint: Footprint, what: str) -> Reason:
         context = self.context
         return no_approach_reason(
@@ -146,6 +157,7 @@ class Driving:
         enclosing = sets_from_outside(task.component.ifc_class) and not task.failed_xy_m
         outside = site_map.layout.structure if enclosing else None
         placing = self.cycle.state not in (_S.DETECT_COMPONENT_POSITION, _S.PICK_UP)
+        way_out = self._way_out(grid, footprint) if placing and blocks else None
         found = approach_pose(
             grid,
             footprint,
@@ -154,8 +166,18 @@ class Driving:
             config=config,
             avoid_xy_m=task.failed_xy_m,
             outside_of=outside,
-            way_out=self._way_out(grid, footprint) if placing and blocks else None,
+            way_out=way_out,
         )
+        if found is not None and way_out is not None and not _leaves(grid, way_out, found.xy_m):
+            # every stand-point walls it in once the component stands: on the static map too, it is no
+            # place to set it from (given back: a crane is asked first); else only traffic hides the way
+            if self._walls_itself_in(footprint, xy):
+                reach_m = config.reach_m
+                self.handover.give_back(
+                    task, give_back.walls_itself_in(context.robot_id, component_name(task), reach_m)
+                )
+                return False
+            found = None
         if found is None and task.failed_xy_m:  # every other side tried: the failed ones again
             found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=config)
         if found is None:
@@ -192,3 +214,10 @@ class Driving:
         task.approach, task.traffic_since_s = found, None
         navigator.set_goal(found.xy_m, found.yaw_rad, context.sim_s)
         return True
+
+
+def _leaves(grid: OccupancyGrid, way_out: NDArray[np.bool_], xy_m: tuple[float, float]) -> bool:
+    """Whether the stand-point ``xy_m`` lies in ``way_out`` (cells of ``grid`` that keep a way home)."""
+    row, col = (int(v) for v in grid.world_to_cell(np.asarray(xy_m, float)))
+    rows, cols = way_out.shape
+    return 0 <= row < rows and 0 <= col < cols and bool(way_out[row, col])

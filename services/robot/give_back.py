@@ -72,3 +72,18 @@ def withdrawn(robot_id: str, what: str) -> Reason:
         robot_id=robot_id,
         message=f"the planner took the task of {what} back while {robot_id} carried it",
     )
+
+
+def walls_itself_in(robot_id: str, what: str, reach_m: float) -> Reason:
+    """Setting ``what`` would wall the robot in: once it stands, no stand-point within reach keeps a way
+    back to the depot (``no_approach_pose``: the planner asks a crane first, :mod:`bimbot.services.planner.
+    dispatch`)."""
+    return Reason(
+        code=ReasonCode.NO_APPROACH_POSE,
+        robot_id=robot_id,
+        message=(
+            f"{robot_id} would wall itself in setting {what}: once it stands, no stand-point within "
+            f"{robot_id}'s reach ({reach_m:.2f} m) of it keeps a way back to its depot; a crane lifts it "
+            "in, or it is set from where its robot can still leave"
+        ),
+    )

@@ -1,0 +1,52 @@
+"""A ground robot does not set a component from where it would wall itself in (services/robot/driving.py):
+when, once the component stands, no stand-point within reach keeps a way back to the depot, it gives the
+task back ``no_approach_pose`` (the planner then asks a crane first) instead of setting it from inside."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+from typing import Any, cast
+
+import numpy as np
+
+from bimbot.services.robot import give_back
+from bimbot.services.robot.approach import ApproachConfig
+from bimbot.services.robot.driving import Driving
+from bimbot.shared.footprint import Footprint
+from bimbot.shared.occupancy_grid import from_footprints, inflate
+from bimbot.shared.reasons import ReasonCode
+
+INFLATION_M = 0.75
+ROOM = [(8.0, 2.0, 8.2, 10.0), (8.0, 13.0, 8.2, 18.0), (8.0, 2.0, 16.0, 2.2), (8.0, 17.8, 16.0, 18.0)]
+ROOM.append((15.8, 2.0, 16.0, 18.0))  # closed but for a 3 m opening in its west wall, x = 8.0-8.2
+GATE = Footprint(np.array([[8.0, 10.0], [8.2, 10.0], [8.2, 13.0], [8.0, 13.0]]), 0.0, 2.5)  # closes it
+
+
+def _driving(walls: list[tuple[float, float, float, float]]) -> Driving:
+    """A Driving whose robot stands on a site with ``walls`` (20 m × 20 m, its depot at (1, 1))."""
+    grid = inflate(from_footprints((0.0, 0.0, 20.0, 20.0), 0.1, boxes_xy_m=walls), INFLATION_M)
+    site_map = SimpleNamespace(
+        inflated_grid=lambda: grid,
+        config=SimpleNamespace(band_min_z_m=0.02, band_max_z_m=1.0, inflation_m=INFLATION_M),
+    )
+    context = SimpleNamespace(
+        site_map=site_map,
+        home_xy_yaw=(1.0, 1.0, 0.0),
+        approach_config=ApproachConfig(reach_m=1.5, body_clearance_m=INFLATION_M),
+    )
+    return Driving(cast(Any, context), cast(Any, None), cast(Any, None))
+
+
+def test_a_gate_set_from_outside_the_room_it_closes_leaves_the_robot_its_way_home() -> None:
+    assert not _driving(ROOM)._walls_itself_in(GATE, (10.0, 11.5))
+
+
+def test_a_gate_whose_outside_is_taken_walls_in_the_robot_that_would_set_it_from_inside() -> None:
+    """A wall runs 0.6 m outside the opening: no stand-point outside it fits the robot, so every one within
+    reach is in the room the gate closes (the Janesville restaurant's carrier set a feature wall so and
+    stood walled in to the end of the run; 14 components failed robot_trapped)."""
+    outside = (7.2, 8.0, 7.4, 15.0)
+    assert _driving([*ROOM, outside])._walls_itself_in(GATE, (10.0, 11.5))
+    reason = give_back.walls_itself_in("r2", "Gate", 1.5)
+    assert reason.code is ReasonCode.NO_APPROACH_POSE and reason.robot_id == "r2"
+    assert "would wall itself in setting Gate" in reason.message
