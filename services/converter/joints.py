@@ -338,11 +338,12 @@ def at_an_end(
     ``member``'s box, along an axis of its own frame on which it is longer than ``2 * band_m``; with
     ``length_only``, of one of its two ends along its longest axis (a framed end, not a side it touches).
 
-    An overlap that takes in one end of the member itself (and not the other) lies at that end however far
-    along it it runs: an end drawn into its part at a slant (a tube's end cut to the saddle of the chord
-    it meets, a short brace on a shallow slant) overlaps the part far past the depth it is drawn in (the
-    Revit 2025 structural sample: HSS 114 braces 53-68 mm into the tube they meet, the overlap 120-320 mm
-    along them). The rule's depth still bounds how far in it is drawn."""
+    Not for a framed end: an overlap that takes in one end of the member itself and stops short of its
+    middle lies at that end however far along it runs: an end drawn into its part at a slant (a tube's end
+    cut to the saddle of the chord it meets, a short brace on a shallow slant) overlaps the part far past
+    the depth it is drawn in (the Revit 2025 structural sample: HSS 114 braces 53-65 mm into the tube they
+    meet, the overlap 120-150 mm along them). The rule's depth still bounds how far in it is drawn; a
+    member lying along its part (a tee under the canopy it carries) overlaps it past its middle."""
     local = _in_member_frame(member, region_world_m)
     low, high = np.asarray(member.bbox_local.min_m), np.asarray(member.bbox_local.max_m)
     size = high - low
@@ -354,10 +355,13 @@ def at_an_end(
         first, last = local[:, axis].min(), local[:, axis].max()
         if last <= low[axis] + band_m or first >= high[axis] - band_m:
             return True
-        if axis == length_axis and (first <= low[axis] + END_TOLERANCE_M) != (
-            last >= high[axis] - END_TOLERANCE_M
+        if length_only or axis != length_axis:
+            continue
+        half = low[axis] + size[axis] / 2.0
+        if (first <= low[axis] + END_TOLERANCE_M and last < half) or (
+            last >= high[axis] - END_TOLERANCE_M and first > half
         ):
-            return True  # one of its ends lies in the part
+            return True  # one of its ends lies in the part, and the overlap stops short of its middle
     return False
 
 
