@@ -89,8 +89,8 @@ def write_element(
             return write_panels(item, work, context, mass, decision)
         except PanelisationError as error:
             _log.info("%s %s not panelised: %s", element.is_a(), guid, error)
-            warnings = (f"not panelised: {error}",)
             decision = not_panelised(decision, str(error), context.methods, element)
+            warnings = (f"not panelised: {error} → {decision.method.value.replace('_', ' ')}",)
     day_m3 = day_pour_m3(item, context)
     if decision.method is ConstructionMethod.CAST_IN_PLACE and work.props.volume_m3 > day_m3:
         try:

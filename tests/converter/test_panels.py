@@ -169,6 +169,8 @@ def test_an_element_that_is_not_cut_stays_whole_and_says_why(
     column = manifest.component(guids["column"])
     assert column.parent_guid is None
     assert any("not panelised: an IfcColumn is not cut into panels" in note for note in column.warnings)
+    # the warning says what it became instead
+    assert any(note.endswith(f"→ {column.method.value.replace('_', ' ')}") for note in column.warnings)
 
 
 def test_panels_are_valid_models_at_their_places(build: tuple[Path, Manifest, dict[str, str]]) -> None:
