@@ -31,6 +31,7 @@ import numpy as np
 
 from bimbot.shared.manifest import Component
 
+from .placement import matrix_from_quat
 from .vhacd import _pybullet
 
 _log = logging.getLogger(__name__)
@@ -214,7 +215,7 @@ def _parts(p: Any, cid: int, component: Component, out_dir: Path) -> list[_Part]
     pose = component.target_pose_world
     position = (float(pose.position_m[0]), float(pose.position_m[1]), float(pose.position_m[2]))
     quat = tuple(float(q) for q in pose.quat_xyzw)
-    turn = _rotation_matrix(pose.quat_xyzw)
+    turn = matrix_from_quat(pose.quat_xyzw)
     parts: list[_Part] = []
     for name in component.files.collision:
         try:
@@ -230,17 +231,6 @@ def _parts(p: Any, cid: int, component: Component, out_dir: Path) -> list[_Part]
         world = vertices @ turn.T + np.asarray(position)
         parts.append(_Part(shape, position, quat, world, world.min(axis=0), world.max(axis=0)))  # type: ignore[arg-type]
     return parts
-
-
-def _rotation_matrix(quat_xyzw: tuple[float, float, float, float]) -> np.ndarray:
-    x, y, z, w = quat_xyzw
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
 
 
 def inset_by_margin(vertices: np.ndarray, margin_m: float = HULL_MARGIN_M) -> np.ndarray:

@@ -172,10 +172,8 @@ class Driving:
             # every stand-point walls it in once the component stands: on the static map too, it is no
             # place to set it from (given back: a crane is asked first); else only traffic hides the way
             if self._walls_itself_in(footprint, xy):
-                reach_m = config.reach_m
-                self.handover.give_back(
-                    task, give_back.walls_itself_in(context.robot_id, component_name(task), reach_m)
-                )
+                reason = give_back.walls_itself_in(context.robot_id, component_name(task), config.reach_m)
+                self.handover.give_back(task, reason)
                 return False
             found = None
         if found is None and task.failed_xy_m:  # every other side tried: the failed ones again
