@@ -20,7 +20,7 @@ from importlib import resources
 from pathlib import Path
 
 from bimbot.run.build import run_build
-from bimbot.run.commands import run_fleet
+from bimbot.run.commands import fleet_words, with_machines_for
 from bimbot.run.main import finish, say
 from bimbot.run.options import add_run_arguments, run_options
 from bimbot.services.converter.convert import convert_model
@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
         args.build = world_dir
         return check_stability_command(args, say)
     options = run_options(args, observe=True)
-    say(f"demo: building it with {run_fleet(options).summary()}")
+    say(f"demo: building it with {fleet_words(with_machines_for(options, manifest))}")
     return finish(run_build(world_dir, options, announce=say))
 
 

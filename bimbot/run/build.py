@@ -36,12 +36,14 @@ from bimbot.fork_server import enabled as fork_server_enabled
 from bimbot.forked_check import apply_answer, check_request
 from bimbot.polling import wait_until
 from bimbot.run.commands import (
+    fleet_words,
     monitor_bus_options,
     restart_arguments,
     router_commands,
     run_fleet,
     secure_bus,
     service_commands,
+    with_machines_for,
 )
 from bimbot.run.interim_reports import InterimReports
 from bimbot.run.loop import LoopLimits, LoopResult, RunWatch, StopSignals
@@ -93,6 +95,9 @@ def _run_build(
     manifest = _check_input(build, options, launcher)  # bad input: one line and exit 2, before any service
     if options.timeout_s is None:
         options = replace(options, timeout_s=default_timeout_s(len(manifest.components)))
+    options = with_machines_for(options, manifest)  # a pump comes for concrete, a block layer for masonry
+    if options.off_site:
+        announce(f"fleet: {fleet_words(options)}")
     run = RunFolder(options.run_dir) if options.run_dir is not None else new_run_folder(build)
     if options.run_dir is not None:
         remember_run_dir(build, options.run_dir)  # bimbot runs BUILD lists it

@@ -9,6 +9,7 @@ folder.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 from bimbot.run.options import ObserverOptions, RunOptions, service_flags
@@ -19,6 +20,8 @@ from bimbot.shared.bus_access import robot_user
 from bimbot.shared.bus_credentials import BusFiles, write_bus_credentials
 from bimbot.shared.errors import UserError
 from bimbot.shared.fleet import Fleet, load_fleet
+from bimbot.shared.idle_machines import idle_machine_types, without_types
+from bimbot.shared.manifest import Manifest
 from bimbot.shared.run_folder import RunFolder
 from bimbot.shared.step_gate import HOLD_S
 
@@ -29,9 +32,28 @@ LINK_GRACE_S = 30.0
 
 def run_fleet(options: RunOptions) -> Fleet:
     """The run's fleet: ``--fleet`` (else the default), with ``--robots N`` N of its default type and
-    every machine of it that stands fixed (:meth:`bimbot.shared.fleet.Fleet.with_robots`)."""
+    every machine of it that stands fixed (:meth:`bimbot.shared.fleet.Fleet.with_robots`), without the
+    types that stay off site (``options.off_site``)."""
     fleet = load_fleet(options.fleet)
-    return fleet.with_robots(options.robots) if options.robots is not None else fleet
+    fleet = fleet.with_robots(options.robots) if options.robots is not None else fleet
+    return without_types(fleet, options.off_site)
+
+
+def with_machines_for(options: RunOptions, manifest: Manifest) -> RunOptions:
+    """``options`` with ``off_site`` the machine types of the run's fleet that no component of
+    ``manifest`` gives work (:func:`bimbot.shared.idle_machines.idle_machine_types`)."""
+    fleet = run_fleet(replace(options, off_site=()))
+    idle = idle_machine_types(fleet, (component.method for component in manifest.components))
+    return replace(options, off_site=idle)
+
+
+def fleet_words(options: RunOptions) -> str:
+    """The run's fleet in words, and the machines left off site: ``1 husky, 1 carrier, 1 tower_crane
+    (off site, no work in this build: concrete_pump, block_layer)``."""
+    words = run_fleet(options).summary()
+    if options.off_site:
+        words += f" (off site, no work in this build: {', '.join(options.off_site)})"
+    return words
 
 
 def physics_arguments(build: Path, options: RunOptions) -> list[str]:
@@ -41,6 +63,8 @@ def physics_arguments(build: Path, options: RunOptions) -> list[str]:
     arguments += service_flags("physics", options)  # the tolerances too: physics serves them to every service
     if 0.0 < options.clock_stall_wall_s != DEFAULT_CLOCK_STALL_WALL_S:  # the clock waits as long as the run
         arguments += ["--wait-for-robots-s", f"{options.clock_stall_wall_s:g}"]
+    if options.off_site:
+        arguments += ["--off-site", ",".join(options.off_site)]
     if stepped(options):  # the planner and the agents answer each step too (reproducible runs)
         arguments += ["--step-with", ",".join(stepped_participants(options))]
         arguments += ["--lock-step-timeout-s", f"{HOLD_S:g}"]  # a loaded machine is not a hang

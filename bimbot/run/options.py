@@ -97,6 +97,9 @@ class RunOptions:
     seed: int = DEFAULT_SEED  # every random draw of the run (physics, each robot's own stream)
     fidelity: str = DEFAULT_FIDELITY  # "plan": kinematic robots, a clock that jumps by events
     routers: int = 1  # 2: a site across two hosts, rehearsed here (bimbot.run.commands.service_commands)
+    # machine types that stay off site: ``bimbot run`` fills it with those the build gives no work
+    # (bimbot.shared.idle_machines); physics gets it as --off-site
+    off_site: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -155,7 +158,7 @@ SERVICE_OPTIONS: tuple[ServiceOption, ...] = (
             metavar="N",
             help="N robots of the fleet's default type (its `default_type`: the carrier in bimbot's fleet) "
             "instead of its ground robots; the machines that stand fixed (its cranes, pumps, block layers) "
-            "stay",
+            "stay, a pump or a block layer only when the build has work for it",
         ),
         ("physics",),
         "robots",

@@ -27,6 +27,7 @@ from bimbot.shared.bus import add_bus_arguments
 from bimbot.shared.errors import UserError
 from bimbot.shared.fidelity import add_fidelity_argument
 from bimbot.shared.fleet import MAX_ROBOTS, Fleet, load_fleet
+from bimbot.shared.idle_machines import without_types
 from bimbot.shared.option_types import (
     finite_float,
     non_negative_float,
@@ -72,6 +73,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="N robots of the fleet's default_type instead of its ground robots, plus every machine of the "
         "fleet that stands fixed (default: the fleet's robots)",
+    )
+    parser.add_argument(
+        "--off-site",
+        default="",
+        metavar="TYPE[,TYPE]",
+        help="robot types of the fleet that stay off site (bimbot run: the machines with no work in the "
+        "build, such as a concrete pump when nothing is cast)",
     )
     add_profile_arguments(parser, FINE.name)  # bimbot run uses the rehearsal profile
     add_tolerance_arguments(parser)
@@ -200,11 +208,16 @@ def apply_profile(args: argparse.Namespace) -> argparse.Namespace:
 
 def fleet_of(args: argparse.Namespace) -> Fleet:
     """The fleet on site: ``--fleet`` (or the embedded default), with ``--robots N`` robots of its default
-    type and its machines that stand fixed when given; every type's URDF found. An InputError (one line)
-    when the file or a URDF is bad."""
+    type and its machines that stand fixed when given, none of the ``--off-site`` types; every type's URDF
+    found. An InputError (one line) when the file or a URDF is bad."""
     fleet = load_fleet(args.fleet)
     if args.robots is not None:
         fleet = fleet.with_robots(args.robots)
+    off_site = [name.strip() for name in args.off_site.split(",") if name.strip()]
+    unknown = sorted(set(off_site) - set(fleet.types))
+    if unknown:
+        raise UserError(f"physics: --off-site names no robot type of the fleet: {', '.join(unknown)}")
+    fleet = without_types(fleet, off_site)
     for description in fleet.on_site().values():
         fleet.resolve_urdf(description.urdf)
     return fleet

@@ -34,12 +34,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from bimbot.shared.connection_hold import expected_hold_s
+from bimbot.shared.idle_machines import lifts_parts
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import SiteInfoMsg
 from bimbot.shared.robot_description import Capability, RobotDescription
 from bimbot.shared.site_plan import Rect, SiteLayout, machine_setups
 
-from .work_in_place import can_work_on, lifts, target_footprint, work_s, works_in_place
+from .work_in_place import can_work_on, target_footprint, work_s, works_in_place
 
 DETOUR = 1.5  # driven path / straight line on a site with a yard, aisles and lanes
 GROUND_PLACE_S = 2.0  # a ground robot's assembly motion (the executor's place duration)
@@ -138,7 +139,7 @@ def can_place(robot: SiteRobot, component: Component) -> bool:
     in place: the robot can do the work and its boom covers the target (:mod:`.work_in_place`)."""
     if works_in_place(component):
         return any(can_work_on(robot.description, pose[:2], component) for pose in robot.set_up_at)
-    if not lifts(robot.description):
+    if not lifts_parts(robot.description):
         return False
     top_z_m = component.bbox_world.max_m[2]
     if robot.description.refusal(component.mass_kg, top_z_m) is not None:

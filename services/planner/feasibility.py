@@ -26,6 +26,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from bimbot.shared.idle_machines import lifts_parts
 from bimbot.shared.manifest import Component, MassSource
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import Capability
@@ -46,7 +47,6 @@ from .work_in_place import (
     WORK_WORDS,
     boom_span_m,
     can_work_on,
-    lifts,
     work_capability,
     works_in_place,
 )
@@ -100,7 +100,7 @@ def component_feasibility(
     routes = list(dict.fromkeys(routes))
     if routes or not robots:
         return Feasibility(component.guid, tuple(sorted(types)), tuple(routes), None)
-    lifters = [robot for robot in robots if lifts(robot.description)]
+    lifters = [robot for robot in robots if lifts_parts(robot.description)]
     if not lifters:
         return Feasibility(component.guid, (), (), _no_lifter(component, robots))
     return Feasibility(component.guid, (), (), _why_not(component, lifters, where))

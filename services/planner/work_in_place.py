@@ -52,13 +52,6 @@ def works_in_place(component: Component) -> bool:
     return component.method in WORK
 
 
-def lifts(description: RobotDescription) -> bool:
-    """A type that can carry or hook a prefabricated part and set it at its target."""
-    return description.can(Capability.PLACE) and (
-        description.can(Capability.CARRY) or description.can(Capability.HOOK_LIFT)
-    )
-
-
 _FOOTPRINTS: dict[int, tuple[Component, Footprint]] = {}  # id → (the component, kept alive; its footprint)
 _FOOTPRINTS_MAX = 50_000
 

@@ -70,14 +70,19 @@ def test_demo_writes_world_recording_and_report_and_says_how_to_open_it(
     assert (run.report_dir / "report.png").stat().st_size > 10_000
     assert sorted(p.name for p in run.root.rglob("report.json")) == ["report.json"]  # one report, not two
     assert (run.logs_dir / "planner.log").is_file() and list(run.state_dir.glob("agents-*.jsonl"))
-    # the default fleet's tower crane, pumps and block layer have no work in a frame: they sleep, and the
-    # others do not wait for them (shared/step_gate.py); asleep for most of the build
+    # the default fleet's pumps and block layer have no work in a frame: they stay off site, and the run
+    # says so; its tower crane comes (it may lift), sleeps while it has no task, and the others do not wait
+    # for it (shared/step_gate.py)
+    assert "(off site, no work in this build: concrete_pump, block_layer, line_pump)" in result.stdout
+    assert settings["off_site"] == ["concrete_pump", "block_layer", "line_pump"]
+    logs = sorted(log.stem for log in run.logs_dir.glob("robot-*.log"))
+    assert logs == ["robot-r1", "robot-r2", "robot-r3"], logs
     slept = {
         log.stem: int(found.group(1))
         for log in run.logs_dir.glob("robot-*.log")
         if (found := re.search(r"slept (\d+) step\(s\)", log.read_text()))
     }
-    assert len(slept) >= 4 and sorted(slept.values())[-4] > 100, slept
+    assert slept.get("robot-r3", 0) > 100, slept  # r3: the crane
     verify = subprocess.run(
         [str(rerun_cli_binary()), "rrd", "verify", str(rrd)],
         capture_output=True,
