@@ -57,6 +57,10 @@ _log = logging.getLogger(__name__)
 END_TOLERANCE_M = 0.01  # an overlap this much past a rule's depth from the member's end still lies at it
 FITTED_MAX_DEPTH_M = 0.15  # a new part drawn this deep into existing work is fitted on site (notched)
 EMBED_SECTION_SHARE = 0.9  # an embedded member's section lies this much inside the part, on both axes
+# an end drawn in at a slant overlaps its part along the member for up to this many times its section's
+# larger side (a 114 mm tube on a 20° slant to the chord: about 0.33 m), past its middle if it is short
+SLANT_RUN_SECTIONS = 3.0
+BAR_SECTIONS = 4.0  # …a member this many times longer than its section's larger side (a tube, not a wall)
 FILLS = "IfcRelFillsElement"
 RELATIONS = frozenset(
     {
@@ -342,8 +346,12 @@ def at_an_end(
     middle lies at that end however far along it runs: an end drawn into its part at a slant (a tube's end
     cut to the saddle of the chord it meets, a short brace on a shallow slant) overlaps the part far past
     the depth it is drawn in (the Revit 2025 structural sample: HSS 114 braces 53-65 mm into the tube they
-    meet, the overlap 120-150 mm along them). The rule's depth still bounds how far in it is drawn; a
-    member lying along its part (a tee under the canopy it carries) overlaps it past its middle."""
+    meet, the overlap 120-150 mm along them). A short member's slanted end may run past its middle: it
+    still lies at that end while the run is at most :data:`SLANT_RUN_SECTIONS` times the member's larger
+    section side, for a bar (:data:`BAR_SECTIONS`; the same sample's 0.6 m HSS 114 stubs on its arched
+    tube: 317 mm along them). The rule's
+    depth still bounds how far in it is drawn; a member lying along its part (a tee under the canopy it
+    carries) overlaps it far past that."""
     local = _in_member_frame(member, region_world_m)
     low, high = np.asarray(member.bbox_local.min_m), np.asarray(member.bbox_local.max_m)
     size = high - low
@@ -358,10 +366,14 @@ def at_an_end(
         if length_only or axis != length_axis:
             continue
         half = low[axis] + size[axis] / 2.0
-        if (first <= low[axis] + END_TOLERANCE_M and last < half) or (
-            last >= high[axis] - END_TOLERANCE_M and first > half
+        section_m = max(size[other] for other in range(3) if other != axis)
+        bar = size[axis] >= BAR_SECTIONS * section_m
+        short = bar and last - first <= SLANT_RUN_SECTIONS * section_m
+        if (first <= low[axis] + END_TOLERANCE_M and (last < half or short)) or (
+            last >= high[axis] - END_TOLERANCE_M and (first > half or short)
         ):
-            return True  # one of its ends lies in the part, and the overlap stops short of its middle
+            return True  # one of its ends lies in the part; the overlap stops short of its middle, or of
+            # the run of an end on a slant
     return False
 
 

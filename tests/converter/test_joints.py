@@ -596,6 +596,35 @@ def test_a_brace_drawn_into_a_chord_at_a_slant_is_a_joint_though_the_overlap_run
     assert 0.05 < joint.depth_m <= 0.1
 
 
+def _stub_on_chord(rise_deg: float) -> SmallModel:
+    """A 0.6 m HSS 114 stub rising at ``rise_deg`` from a 114 mm chord, its end drawn about 80 mm in."""
+    small = new_model()
+    chord_along_x = np.array([[0, 0, 1, 0.0], [0, 1, 0, 0.0], [-1, 0, 0, 2.0], [0, 0, 0, 1]], dtype=float)
+    add_beam(small, "Chord", length_m=4.0, width_m=0.114, depth_m=0.114, matrix_m=chord_along_x,
+             schema_class="IfcMember")  # fmt: skip
+    c, s = np.cos(np.radians(rise_deg)), np.sin(np.radians(rise_deg))
+    stub_up = np.array([[s, 0, c, 1.5], [0, 1, 0, 0.0], [-c, 0, s, 2.03], [0, 0, 0, 1]], dtype=float)
+    add_beam(small, "Stub", length_m=0.6, width_m=0.114, depth_m=0.114, matrix_m=stub_up,
+             schema_class="IfcMember")  # fmt: skip
+    return small
+
+
+def test_a_short_stub_whose_slanted_end_runs_past_its_middle_is_a_joint_and_one_lying_in_the_chord_a_clash(
+    tmp_path: Path,
+) -> None:
+    """The Revit 2025 structural sample's 0.6 m HSS 114 stubs meet its arched tube on a shallow slant: the
+    overlap runs 317 mm along them, past their middle, from one end. At 15° it runs about 0.32 m, within
+    three times the tube's 114 mm: the stub's end, a joint. At 12° it runs about 0.40 m: the stub lies in
+    the chord more than an end does, a clash."""
+    fifteen = _convert(_stub_on_chord(15.0), tmp_path / "fifteen")
+    guid = _guids(fifteen)
+    assert fifteen.clashes == []
+    [joint] = fifteen.joints
+    assert joint.guids == (guid["Chord"], guid["Stub"]) and joint.rule.startswith("IfcMember into IfcMember")
+    twelve = _convert(_stub_on_chord(12.0), tmp_path / "twelve")
+    assert twelve.joints == [] and len(twelve.clashes) == 1
+
+
 def test_two_coupled_windows_drawn_into_each_other_are_a_joint_and_a_window_deep_in_another_a_clash(
     tmp_path: Path,
 ) -> None:
