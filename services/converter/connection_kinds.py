@@ -11,7 +11,8 @@ For every component set by a robot (lifted or panelised) and each neighbour it m
   beam or wall, a beam on a wall → ``bearing``, or ``fastened`` where it lies on a pitch (its
   ``face_slope_deg`` beyond :data:`LEVEL_SEAT_MAX_DEG`: a site screws a pitched roof panel down); a beam
   or member framed in at its side, or set on a column's cap → ``pinned_end``, ``fixed_end`` where the IFC
-  realises the connection with a weld.
+  realises the connection with a weld; a thin panel (a board, sign or lining) whose broad face lies
+  against the neighbour's side → ``fastened`` (screwed or anchored across its face).
 
 Temporary supports (``[temporary_supports]`` of the methods file): a precast wall panel gets props (it
 stands on grout that has not set); a member with nothing under it above the ground gets props when no
@@ -53,6 +54,11 @@ WELD_WORDS = ("weld",)
 LEVEL_SEAT_MAX_DEG = 5.0
 PITCHED = (*BEARS, "IfcBeam", "IfcMember")
 BASE_KINDS = (ConnectionKind.BOLTED_BASE, ConnectionKind.GROUTED, ConnectionKind.BEARING)
+# a board, sign, lining or cladding panel: this thin at most, and this many times wider and taller than thick…
+FACE_PANEL_MAX_M = 0.10
+FACE_PANEL_ASPECT = 5.0
+FACE_SHARE = 0.5  # …whose broad face lies against a neighbour's side over this share of each of its sides
+FACE_FIXED_CLASSES = ("IfcBuildingElementProxy", "IfcCovering", "IfcPlate", "IfcMember")
 
 
 def _is(component: Component, prefixes: Sequence[str]) -> bool:
@@ -85,8 +91,30 @@ def _precast_wall(component: Component) -> bool:
     return _is(component, ("IfcWall",)) and component.method in SET_BY_ROBOT
 
 
+def face_fixed(component: Component, other: Component) -> bool:
+    """Whether ``component`` is a thin panel (a board, a sign, a lining or cladding panel; not a wall, slab,
+    door or window) whose broad face lies against ``other``'s side: a site screws or anchors it to
+    ``other`` across that face, which holds it (a single bolted end would be a hinge). The Janesville
+    restaurant's 23 mm, 2.4 m square board hung on its brick wall 0.56 m above the floor fell when linked
+    by one pinned end."""
+    if not _is(component, FACE_FIXED_CLASSES):
+        return False
+    low, high = np.asarray(component.bbox_world.min_m), np.asarray(component.bbox_world.max_m)
+    o_low, o_high = np.asarray(other.bbox_world.min_m), np.asarray(other.bbox_world.max_m)
+    size = high - low
+    thin = int(np.argmin(size))
+    broad = [axis for axis in range(3) if axis != thin]
+    if size[thin] > FACE_PANEL_MAX_M or min(size[axis] for axis in broad) < FACE_PANEL_ASPECT * size[thin]:
+        return False
+    beside = o_low[thin] <= high[thin] + CONNECTION_GAP_M and o_high[thin] >= low[thin] - CONNECTION_GAP_M
+    shares = [(min(high[a], o_high[a]) - max(low[a], o_low[a])) / size[a] for a in broad]
+    return bool(beside and min(shares) >= FACE_SHARE)
+
+
 def connection_kind(component: Component, other: Component, *, base: bool, welded: bool) -> ConnectionKind:
     """The kind of ``component``'s connection to ``other`` (``base``: its underside sits on ``other``)."""
+    if not base and face_fixed(component, other):
+        return ConnectionKind.FASTENED  # a board or panel fixed flat to the wall face beside it
     if base and column_like(component):
         return ConnectionKind.BOLTED_BASE
     if base and _precast_wall(component):
