@@ -46,6 +46,7 @@ from bimbot.shared.manifest import Component, Manifest, SourceModel, write_manif
 from bimbot.shared.methods_file import MethodsFile, load_methods
 from bimbot.shared.sequence import SEQUENCE_FILE_NAME, write_sequence
 
+from .built_in_boards import build_in_boards
 from .component_work import ShardContext
 from .component_writer import skipped_entry
 from .connection_kinds import decide_connections
@@ -223,7 +224,7 @@ def _convert(
     )
     panelised = sorted((entry for result in results for entry in result.panelised), key=lambda e: e.guid)
     merged_components = [component for _, _, component, _ in merged]
-    converted = link_panels(merged_components, panelised)
+    converted = build_in_boards(link_panels(merged_components, panelised))  # blocking inside its wall
     hostings, unhosted = find_hosts(model, converted)
     converted, specs = build_guests_into_hosts(
         converted, [spec for _, _, _, spec in merged], hostings, unhosted, out_dir
