@@ -7,7 +7,7 @@ board after the wall stands (it is inside it) nor before (nothing holds it in th
 between the studs as the wall goes up. So a lifted ``IfcBuildingElementProxy`` that is a board (its least
 side at most :data:`BOARD_MAX_M`) and lies inside one wall (:data:`INSIDE_SHARE` of its box within the
 wall's own box, in the wall's frame, clear of both its faces: a trim drawn into a wall's face is fixed on
-it, :mod:`.joints`) becomes ``with_host``: :mod:`.guest_hosts`
+it, :mod:`.joints`; a wall this build puts up, not existing work) becomes ``with_host``: :mod:`.guest_hosts`
 then finds the wall it is embedded in and :mod:`.guest_merge` builds it into that wall. A method the
 user's methods file gave is kept. Pure, over the manifest entries' boxes and poses.
 """
@@ -29,15 +29,18 @@ INSIDE_SHARE = 0.9  # of its box's volume within the wall's box…
 COVER_M = 0.01  # …and this far from both its faces: inside it, not a trim drawn into its face
 HOSTS = ("IfcWall",)
 BOARDS = ("IfcBuildingElementProxy",)
+# walls this build puts up: a board in existing work (in place) is new work set into it, not blocking
+BUILT_HOSTS = (
+    ConstructionMethod.LIFTED,
+    ConstructionMethod.PANELISED,
+    ConstructionMethod.LAID,
+    ConstructionMethod.CAST_IN_PLACE,
+)
 
 
 def build_in_boards(components: Sequence[Component]) -> list[Component]:
     """``components`` with each board drawn inside a wall made ``with_host`` (see the module doc)."""
-    walls = [
-        c
-        for c in components
-        if c.ifc_class.startswith(HOSTS) and c.method is not ConstructionMethod.WITH_HOST
-    ]
+    walls = [c for c in components if c.ifc_class.startswith(HOSTS) and c.method in BUILT_HOSTS]
     if not walls:
         return list(components)
     lows = np.array([wall.bbox_world.min_m for wall in walls], dtype=float)

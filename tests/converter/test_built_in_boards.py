@@ -32,3 +32,12 @@ def test_a_board_on_the_wall_face_a_block_inside_it_or_the_users_word_stay_as_th
     assert _method((0.023, 8.0, 0.38), (0.021, 0.1, 2.69), ifc_class="IfcMember") == "lifted"  # a stud
     user = {"method_source": MethodSource.USER}
     assert _method((0.023, 8.0, 0.38), (0.021, 0.1, 2.69), **user) == "lifted"
+
+
+def test_a_board_inside_existing_work_stays_new_work_of_its_own() -> None:
+    """The restaurant's 23 mm panels set into its existing brick wall are new construction: built in with
+    an in-place wall they would vanish from the build."""
+    existing = WALL.model_copy(update={"method": ConstructionMethod.IN_PLACE})
+    board = box_component("board", (0.023, 1.6, 1.8), (0.05, 0.1, 0.15))
+    decided = {c.guid: c for c in build_in_boards([existing, board])}
+    assert decided["board"].method is ConstructionMethod.LIFTED
