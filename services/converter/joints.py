@@ -284,6 +284,8 @@ def _by_rule(
             continue
         if rule.embedded and not embedded_along(member, part, overlap.region_m):
             continue
+        if rule.min_run_m > 0.0 and plan_run_m(overlap.region_m) < rule.min_run_m:
+            continue
         # either may be the member of a rule that does not look for an end: no direction then
         either_way = not rule.at_end and classes.matching(part.ifc_class, rule.member) is not None
         either_way = either_way and classes.matching(member.ifc_class, rule.part) is not None
@@ -333,6 +335,15 @@ def embedded_along(member: Component, part: Component, region_world_m: np.ndarra
         return False
     thickness_m = float(np.min(np.asarray(part.bbox_local.max_m) - np.asarray(part.bbox_local.min_m)))
     return bool(covered[length_axis] > 2.0 * thickness_m)
+
+
+def plan_run_m(region_world_m: np.ndarray) -> float:
+    """How far the overlap (its vertices, world frame) runs in plan: the largest distance between two of
+    its vertices seen from above (a lining's overlap runs along the wall; a pier's is its width)."""
+    xy = np.asarray(region_world_m, dtype=float)[:, :2]
+    if len(xy) < 2:
+        return 0.0
+    return float(np.max(np.linalg.norm(xy[:, None, :] - xy[None, :, :], axis=-1)))
 
 
 def at_an_end(

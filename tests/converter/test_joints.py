@@ -625,6 +625,30 @@ def test_a_short_stub_whose_slanted_end_runs_past_its_middle_is_a_joint_and_one_
     assert twelve.joints == [] and len(twelve.clashes) == 1
 
 
+def test_a_furring_drawn_into_the_face_of_the_wall_it_lines_is_a_joint_and_a_wall_edge_in_a_pier_a_clash(
+    tmp_path: Path,
+) -> None:
+    """The Revit duplex draws a 152 mm stud furring 57 mm into its CMU party wall along 2.8 m: a lining,
+    framed against that face; a joint, the larger wall first. A wall's edge drawn 45 mm into a 0.33 m
+    brick pier is no lining (the overlap runs 0.33 m): still a clash."""
+    small = new_model()
+    add_wall(small, "Party wall", length_m=4.0, height_m=2.9, thickness_m=0.55)
+    add_wall(
+        small, "Furring", length_m=3.0, height_m=2.6, thickness_m=0.152, matrix_m=translation(0.5, 0.493)
+    )
+    add_wall(small, "Pier", length_m=0.33, height_m=3.7, thickness_m=0.35, matrix_m=translation(6.0, 0.0))
+    add_wall(small, "Screen", length_m=2.5, height_m=2.4, thickness_m=0.1, matrix_m=translation(5.8, 0.3))
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    [joint] = manifest.joints
+    assert set(joint.guids) == {guid["Party wall"], guid["Furring"]}
+    assert joint.rule == "IfcWall into IfcWall, up to 60 mm"
+    preds = support_predecessors(manifest.components, joints=manifest.joints)
+    assert guid["Party wall"] in preds[guid["Furring"]]  # the larger wall first
+    [clash] = manifest.clashes
+    assert set(clash.guids) == {guid["Pier"], guid["Screen"]}
+
+
 def test_two_coupled_windows_drawn_into_each_other_are_a_joint_and_a_window_deep_in_another_a_clash(
     tmp_path: Path,
 ) -> None:
