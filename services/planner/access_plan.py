@@ -12,8 +12,11 @@ of the robot type on site and finds, for every step, the components it cuts off.
 * a given sequence (an XML or the IFC's 4D schedule) is not changed: every cut-off is a warning naming
   both GUIDs (``strict``: a :class:`~.sources.PlanError`, exit 2);
 * a component whose target (or yard slot) is cut off by the components that must stand before it (its
-  ancestors in the plan) can never be built: it is returned with reason ``unreachable`` naming them, and
-  the planner fails it before the build starts. Checked on the robots' own 0.1 m grid, so a coarse grid
+  ancestors in the plan) can never be built by a ground robot: when a crane on site can set it at its
+  target (load chart, jib height) it goes in ``Plan.from_above`` and a crane is asked first, as a site
+  lifts in what it cannot drive to (the Revit duplex's upper-floor door in a room its exterior walls
+  close); else it is returned with reason ``unreachable`` naming them, and the planner fails it before
+  the build starts. Checked on the robots' own 0.1 m grid, so a coarse grid
   never fails a buildable component.
 
 A component built where it stands (cast in place, laid: :mod:`.work_in_place`) is reached by its machine's
@@ -35,6 +38,7 @@ from bimbot.shared.robot_description import Capability, RobotDescription
 from bimbot.shared.sequence import priority_topological_order
 from bimbot.shared.site_access import AccessConfig, SiteAccess, check_order
 
+from .capability import can_place, site_robots
 from .preparing import Report, no_report
 from .sources import Plan, PlanError
 from .work_in_place import works_in_place
@@ -106,6 +110,8 @@ def access_plan(
         for placed, cut in _driven_to(check.cut_offs, in_place)
     ]
     unreachable: dict[str, Reason] = {}
+    from_above: set[str] = set()
+    cranes = [robot for robot in site_robots(info) if robot.lifts_by_hook]
     fine: SiteAccess | None = None  # one fine grid for every doubt, changed only where ancestors differ
     for done, guid in enumerate(check.inaccessible):
         report("access check: what no robot can reach", done, len(check.inaccessible))
@@ -117,6 +123,9 @@ def access_plan(
         if fine.slot_accessible(guid) and fine.target_accessible(guid):
             continue
         where = "target" if not fine.target_accessible(guid) else "yard slot"
+        if where == "target" and any(can_place(crane, by_guid[guid]) for crane in cranes):
+            from_above.add(guid)  # a crane sets it from above while nothing covers it (a site lifts it in)
+            continue
         if manifest.in_place and not check.inaccessible[guid] and _cut_off_alone(fine, guid, plan.order):
             cutters = []  # nothing built by the plan is needed to cut it off: the existing work does
         else:
@@ -138,6 +147,12 @@ def access_plan(
         _log.warning("%s", warning)
     if added:
         _log.info("access check: %d precedence(s) added so that no placement cuts off later work", added)
+    if from_above:
+        _log.info(
+            "access check: %d component(s) no ground robot can get to at their turn go to a crane first",
+            len(from_above),
+        )
+        plan = replace(plan, from_above=frozenset(from_above))
     if strict and warnings:
         raise PlanError(f"{len(warnings)} step(s) of the sequence cut off later work; first: {warnings[0]}")
     return AccessOutcome(plan, unreachable, tuple(warnings), added)

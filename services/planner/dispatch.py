@@ -128,7 +128,7 @@ class Dispatch:
                 avoid=self._avoid(task),
                 taken_spots=taken,
                 able_to_build=self._can_build,
-                crane_first=_target_out_of_ground_reach(task),
+                crane_first=guid in state.plan.from_above or _target_out_of_ground_reach(task),
             )
             if choice is None:
                 continue

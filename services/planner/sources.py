@@ -80,6 +80,9 @@ class Plan:
     derived: bool = False  # derived from the support graph (the planner may add precedences for access)
     # GUID → what it physically rests on (the support graph); None: unknown, every precedence is physical
     supports: Mapping[str, frozenset[str]] | None = None
+    # GUIDs no ground robot can get to at their turn that a crane on site sets from above: asked of a crane
+    # first (the access check, :mod:`.access_plan`)
+    from_above: frozenset[str] = frozenset()
 
     def successors(self) -> dict[str, set[str]]:
         """GUID → GUIDs that wait for it directly."""

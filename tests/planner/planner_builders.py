@@ -9,7 +9,9 @@ Layout (world frame, metres)::
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
+from collections.abc import Iterable
 
 from bimbot.services.planner.capability import SiteRobot
 from bimbot.services.planner.scheduler import PlannerCore
@@ -232,9 +234,11 @@ def one_robot_site_info(manifest: Manifest) -> SiteInfoMsg:
     )
 
 
-def idle_core(manifest: Manifest, robots: list[SiteRobot]) -> PlannerCore:
-    """A planner core on the derived plan of ``manifest`` with ``robots`` alive and idle at their homes."""
+def idle_core(manifest: Manifest, robots: list[SiteRobot], from_above: Iterable[str] = ()) -> PlannerCore:
+    """A planner core on the derived plan of ``manifest`` with ``robots`` alive and idle at their homes
+    (``from_above``: what the plan's access check gave a crane first)."""
     plan = plan_from_sequence(derive_sequence(manifest.components), manifest.components, "test")
+    plan = dataclasses.replace(plan, from_above=frozenset(from_above))
     counter = itertools.count(1)
     core = PlannerCore(manifest, plan, new_id=lambda: f"ev{next(counter)}", robots=robots, slots={})
     for robot in robots:

@@ -17,6 +17,7 @@ from bimbot.services.planner.feasibility import component_feasibility, infeasibl
 from bimbot.services.planner.scheduler import Phase, PlannerCore, PlannerLimits
 from bimbot.services.planner.sources import PlanError, PlanSource, SourceKind, load_plan, plan_from_sequence
 from bimbot.shared.construction_methods import ConstructionMethod
+from bimbot.shared.fleet import default_fleet
 from bimbot.shared.manifest import MassSource, read_manifest
 from bimbot.shared.messages import (
     ComponentEvent,
@@ -29,6 +30,7 @@ from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.sequence import sequence_from_predecessors
 from bimbot.shared.site_access import AccessConfig, SiteAccess
+from bimbot.shared.site_layout import plan_site
 from bimbot.shared.support_graph import derive_sequence, support_predecessors
 
 S = ComponentState
@@ -378,3 +380,27 @@ def test_a_component_walled_in_by_existing_work_says_so_not_what_the_plan_built_
     reason = outcome.unreachable[column]
     assert reason.message.endswith("with the work in place before the robots come"), reason.message
     assert reason.guid is None
+
+
+def test_a_column_walled_in_at_its_turn_goes_to_a_crane_on_site_not_failed_unreachable(
+    walls_first_build: Path,
+) -> None:
+    """The given sequence closes the room before its column, as above; with a tower crane on site the
+    column is set from above: not failed before the build, listed for the crane first."""
+    manifest = read_manifest(walls_first_build)
+    column = next(c.guid for c in manifest.components if c.name == "Column R1")
+    crane = default_fleet().types["tower_crane"]
+    layout = plan_site(manifest.components, fleet=[DEFAULT_ROBOT, crane])
+    info = one_robot_site_info(manifest).model_copy(
+        update={
+            "robot_ids": ["r1", "r2"],
+            "robot_starts_xy_yaw": list(layout.robot_starts),
+            "layout": layout,
+            "robot_type_of": {"r1": DEFAULT_ROBOT.name, "r2": crane.name},
+            "robot_types": {DEFAULT_ROBOT.name: DEFAULT_ROBOT, crane.name: crane},
+        }
+    )
+    plan = load_plan(manifest, walls_first_build, PlanSource(SourceKind.BUILD))
+    outcome = access_plan(plan, manifest, info, adjust=plan.derived)
+    assert outcome.unreachable == {}
+    assert outcome.plan.from_above == frozenset({column})

@@ -438,3 +438,22 @@ def test_a_beam_a_carrier_could_not_get_to_goes_to_the_crane_by_a_hand_off() -> 
     again = _assignments(core.step(1.0))["beam"]
     assert (again.robot_id, again.kind) == ("r1", TaskKind.HAND_OFF)
     assert again.put_down_xy_m is not None
+
+
+def test_what_no_ground_robot_can_get_to_at_its_turn_goes_to_the_crane_first() -> None:
+    """The access check found the beam's target closed to ground robots by what stands before it (the
+    Revit duplex's upper-floor door in a room its exterior walls close) and a crane on site that sets it:
+    the plan lists it ``from_above``. Its first task is the hand-off that brings it under the crane's hook,
+    not a drive the carrier cannot finish."""
+    staging = Rect((-2.0, 16.0), (6.0, 24.0))
+    robots = [
+        SiteRobot("r1", CARRIER, (-10.0, -10.0, 0.0)),
+        SiteRobot("r2", CRANE, (2.0, 12.0, -1.5708), staging),
+    ]
+    core = idle_core(_manifest(beam=300.0), robots, from_above=["beam"])
+    for guid in ("foot_a", "foot_b", "foot_c", "col_a", "col_b", "post_c"):
+        core.observe_component_state(state_msg(guid, S.CONSTRUCTED, event="verified"))
+    core.observe_component_pose(_pose("beam", (2.0, -58.0)))  # beyond the crane's hook where it lies
+    first = _assignments(_release(core, "beam"))["beam"]
+    assert (first.robot_id, first.kind) == ("r1", TaskKind.HAND_OFF)
+    assert first.put_down_xy_m is not None
