@@ -649,6 +649,26 @@ def test_a_furring_drawn_into_the_face_of_the_wall_it_lines_is_a_joint_and_a_wal
     assert set(clash.guids) == {guid["Pier"], guid["Screen"]}
 
 
+def test_a_tee_carried_through_a_pier_exported_as_a_proxy_is_a_joint_and_a_box_through_it_a_clash(
+    tmp_path: Path,
+) -> None:
+    """The Janesville restaurant's canopy tees run through its 4 m piers (generic models), 73 mm inside
+    their face over 1.2 m: the pier is built round the tee, a joint; the pier first. A proxy box drawn
+    as deep into the pier is still a clash."""
+    small = new_model()
+    add_box(small, "IfcBuildingElementProxy", "Pier", size_m=(1.17, 0.26, 4.15), corner_m=(2.0, 0.0, -0.7))
+    tee_along_x = np.array([[0, 0, 1, 0.0], [0, 1, 0, 0.05], [-1, 0, 0, 2.9], [0, 0, 0, 1]], dtype=float)
+    add_beam(small, "Tee", length_m=6.0, width_m=0.11, depth_m=0.06, matrix_m=tee_along_x)
+    add_box(small, "IfcBuildingElementProxy", "Sign", size_m=(0.5, 0.3, 0.5), corner_m=(2.3, 0.19, 0.5))
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    [joint] = manifest.joints
+    assert joint.guids == (guid["Pier"], guid["Tee"])
+    assert joint.rule == "IfcBeam into IfcBuildingElementProxy, up to 300 mm"
+    [clash] = manifest.clashes
+    assert set(clash.guids) == {guid["Pier"], guid["Sign"]}
+
+
 def test_two_coupled_windows_drawn_into_each_other_are_a_joint_and_a_window_deep_in_another_a_clash(
     tmp_path: Path,
 ) -> None:
