@@ -48,7 +48,7 @@ from bimbot.shared.manifest import Clash, Component, Joint, JointSource
 
 from .bars import BarShapes
 from .connections import element_connections
-from .notches import notched_round
+from .notches import element_plans_m2, notched_round
 from .overlaps import Overlap, measure_overlaps
 from .placement import matrix_from_quat
 
@@ -103,6 +103,7 @@ def find_joints(
     by_guid = {component.guid: component for component in components}
     related = relations(model, components)
     bars = BarShapes(out_dir)
+    element_plans = element_plans_m2(components)
     clashes: list[Clash] = []
     for overlap in overlaps:
         relation = related.get(frozenset((overlap.first, overlap.second)))
@@ -119,7 +120,7 @@ def find_joints(
         first, second = by_guid[overlap.first], by_guid[overlap.second]
         joint = _by_rule(overlap, first, second, settings.rule, classes, bars=bars)
         joint = joint or _cast_around(overlap, first, second) or _fitted_to_existing(overlap, first, second)
-        joint = joint or notched_round(overlap, first, second)
+        joint = joint or notched_round(overlap, first, second, element_plans)
         if joint is not None:
             joints.append(_with_bottoms(joint, overlap))
         elif overlap.depth_m > CLASH_DEPTH_M:

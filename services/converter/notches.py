@@ -6,11 +6,15 @@ is no end in a support, and its depth is no measure of anything (the shortest mo
 the deck over the upright's top: the Janesville restaurant's 38 mm roof plank through a post reads 729 mm
 deep), so no depth rule can tell it from a clash. The shape does: the overlap spans the deck's whole
 thickness, the upright rises past the deck, and the overlap is a small part of the deck's plan (the area it
-covers seen from above, for a wall crossing on the slant as much as square). The upright stands first; the
+covers seen from above, for a wall crossing on the slant as much as square; a panel's share is taken of the
+element it was cut from, as the model draws the deck: the Janesville restaurant's bridge floor, cut in five,
+has a wall through a third of one panel's box, a small part of the floor). The upright stands first; the
 deck is set round it.
 """
 
 from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -25,11 +29,34 @@ PAST_THE_DECK_M = 0.05  # the upright rises (or reaches down) at least this far 
 MAX_PLAN_SHARE = 0.25  # the overlap's plan (its hull) is at most this share of the deck's plan box
 
 
-def notched_round(overlap: Overlap, a: Component, b: Component) -> Joint | None:
+def element_plans_m2(components: Sequence[Component]) -> dict[str, float]:
+    """Panel GUID → the plan area of the element it was cut from (the sum of its panels' plan boxes):
+    a deck is judged as the model draws it, not as bimbot cut it."""
+    by_parent: dict[str, list[Component]] = {}
+    for component in components:
+        if component.parent_guid:
+            by_parent.setdefault(component.parent_guid, []).append(component)
+    plans: dict[str, float] = {}
+    for panels in by_parent.values():
+        total = sum(_plan_box_m2(panel) for panel in panels)
+        plans.update((panel.guid, total) for panel in panels)
+    return plans
+
+
+def _plan_box_m2(component: Component) -> float:
+    low, high = component.bbox_world.min_m, component.bbox_world.max_m
+    return (high[0] - low[0]) * (high[1] - low[1])
+
+
+def notched_round(
+    overlap: Overlap, a: Component, b: Component, element_plans_m2: Mapping[str, float] | None = None
+) -> Joint | None:
     """The joint of a deck drawn through an upright that passes through it (see the module doc), the
-    upright first; None when neither way round fits."""
+    upright first; None when neither way round fits. ``element_plans_m2``: a panel's element's plan
+    (:func:`element_plans_m2`), against which its share is taken."""
+    plans = element_plans_m2 or {}
     for deck, upright in ((a, b), (b, a)):
-        if _passes_through(overlap, deck, upright):
+        if _passes_through(overlap, deck, upright, plans.get(deck.guid)):
             return Joint(
                 guids=(upright.guid, deck.guid),
                 depth_m=round(overlap.depth_m, 4),
@@ -40,7 +67,9 @@ def notched_round(overlap: Overlap, a: Component, b: Component) -> Joint | None:
     return None
 
 
-def _passes_through(overlap: Overlap, deck: Component, upright: Component) -> bool:
+def _passes_through(
+    overlap: Overlap, deck: Component, upright: Component, element_plan_m2: float | None = None
+) -> bool:
     if not deck.ifc_class.startswith(DECK_CLASSES) or upright.ifc_class.startswith(DECK_CLASSES):
         return False
     deck_low, deck_high = deck.bbox_world.min_m, deck.bbox_world.max_m
@@ -57,7 +86,7 @@ def _passes_through(overlap: Overlap, deck: Component, upright: Component) -> bo
     spans = spans and region[:, 2].max() >= deck_high[2] - THROUGH_TOLERANCE_M
     if not spans:
         return False
-    deck_plan = (deck_high[0] - deck_low[0]) * (deck_high[1] - deck_low[1])
+    deck_plan = element_plan_m2 if element_plan_m2 is not None else _plan_box_m2(deck)
     return plan_area_m2(region) <= MAX_PLAN_SHARE * deck_plan
 
 
