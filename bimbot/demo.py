@@ -63,7 +63,9 @@ def run(args: argparse.Namespace) -> int:
         args.build = world_dir
         return check_stability_command(args, say)
     options = run_options(args, observe=True)
-    say(f"demo: building it with {fleet_words(with_machines_for(options, manifest))}")
+    options = with_machines_for(options, manifest)
+    if not options.off_site:  # else the run's own "fleet: …" line names the fleet and who stays away
+        say(f"demo: building it with {fleet_words(options)}")
     return finish(run_build(world_dir, options, announce=say))
 
 

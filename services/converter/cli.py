@@ -397,9 +397,15 @@ class _ProgressBar:
         if self._lines:
             now_s = self._clock()
             if stage != self._stage or now_s - self._last_line_s >= PROGRESS_LINE_S:
+                starts = stage != self._stage
                 self._stage, self._last_line_s = stage, now_s
                 what = "" if stage == "convert" else f" ({stage})"
-                sys.stderr.write(f"bimbot convert: {done:,} of {total:,} elements{what}\n")
+                line = (  # a start is not "0 of N done": a short conversion prints nothing after it
+                    f"{total:,} IFC elements to convert{what}"
+                    if starts
+                    else f"{done:,} of {total:,} IFC elements converted{what}"
+                )
+                sys.stderr.write(f"bimbot convert: {line}\n")
             return
         if not self._enabled:
             return

@@ -15,8 +15,8 @@ def test_progress_lines_come_at_a_stage_start_then_every_30_s(capsys: pytest.Cap
         now[0] = at_s
         bar.update("convert", done, 100)
     assert capsys.readouterr().err.splitlines() == [
-        "bimbot convert: 0 of 100 elements",
-        "bimbot convert: 20 of 100 elements",
+        "bimbot convert: 100 IFC elements to convert",  # not "0 of 100": it may say nothing more
+        "bimbot convert: 20 of 100 IFC elements converted",
     ]
 
 
