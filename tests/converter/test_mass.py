@@ -297,3 +297,39 @@ def test_unknown_material_of_a_class_that_is_concrete_is_weighed_as_concrete(
     (warning,) = result.warnings
     assert "Suelos por defecto" in warning and "density unknown" in warning
     assert (f"an {ifc_class} is taken for concrete, 2400 kg/m³" in warning) == (density == 2400.0)
+
+
+@pytest.mark.parametrize(
+    ("profile_class", "density"),
+    [
+        ("IfcCircleHollowProfileDef", 7850.0),
+        ("IfcIShapeProfileDef", 7850.0),
+        ("IfcRectangleProfileDef", 1000.0),
+    ],
+)
+def test_a_member_of_unknown_material_drawn_with_a_steel_section_is_weighed_as_steel(
+    profile_class: str, density: float
+) -> None:
+    """The Revit 2025 structural sample's HSS 114 tubes name their material "<Unnamed>": weighed as water a
+    4.6 m tube was 13.8 kg, an eighth of its weight. A hollow or I section is a rolled steel profile; a
+    rectangle says nothing (timber, concrete)."""
+    small = new_model()
+    f = small.file
+    member = ifcopenshell.api.root.create_entity(f, ifc_class="IfcMember")
+    add_material(small, [member], "<Unnamed>", category="")
+    profile = {
+        "IfcCircleHollowProfileDef": lambda: f.createIfcCircleHollowProfileDef(
+            "AREA", None, None, 0.057, 0.0086
+        ),
+        "IfcIShapeProfileDef": lambda: f.createIfcIShapeProfileDef(
+            "AREA", None, None, 0.165, 0.303, 0.006, 0.01
+        ),
+        "IfcRectangleProfileDef": lambda: f.createIfcRectangleProfileDef("AREA", None, None, 0.1, 0.2),
+    }[profile_class]()
+    solid = f.createIfcExtrudedAreaSolid(profile, None, f.createIfcDirection((0.0, 0.0, 1.0)), 4.6)
+    body = f.createIfcShapeRepresentation(small.body, "Body", "SweptSolid", [solid])
+    member.Representation = f.createIfcProductDefinitionShape(None, None, [body])
+    result = element_mass(member, VOLUME_M3)
+    assert result.mass_kg == pytest.approx(VOLUME_M3 * density)
+    (warning,) = result.warnings
+    assert ("taken for steel" in warning) == (density == 7850.0)
