@@ -22,7 +22,7 @@ import numpy as np
 from bimbot.shared.construction_methods import ConstructionMethod, MethodSource
 from bimbot.shared.manifest import Component
 
-from .placement import matrix_from_quat
+from .placement import in_pose_frame
 
 BOARD_MAX_M = 0.10  # a board's least side
 INSIDE_SHARE = 0.9  # of its box's volume within the wall's box…
@@ -91,8 +91,7 @@ def _wall_of(
 def _inside_share(corners_world_m: np.ndarray, least_side_m: float, wall: Component) -> tuple[float, bool]:
     """(the share of the board's box, taken in the wall's frame, inside the wall's own box; whether the
     board is thinner than the wall and covered on both sides: :data:`COVER_M` from either face)."""
-    pose = wall.target_pose_world
-    local = (corners_world_m - np.asarray(pose.position_m)) @ matrix_from_quat(pose.quat_xyzw)
+    local = in_pose_frame(wall.target_pose_world, corners_world_m)
     low, high = local.min(axis=0), local.max(axis=0)
     w_low, w_high = np.asarray(wall.bbox_local.min_m), np.asarray(wall.bbox_local.max_m)
     volume = float(np.prod(high - low))

@@ -50,7 +50,7 @@ from .bars import BarShapes
 from .connections import element_connections
 from .notches import element_plans_m2, notched_round
 from .overlaps import Overlap, measure_overlaps
-from .placement import matrix_from_quat
+from .placement import in_pose_frame
 
 _log = logging.getLogger(__name__)
 
@@ -314,19 +314,12 @@ def _fitting(
                 yield rule, member, part, member_class, part_class
 
 
-def _in_member_frame(member: Component, points_world_m: np.ndarray) -> np.ndarray:
-    """``points_world_m`` in ``member``'s own frame (its target pose)."""
-    pose = member.target_pose_world
-    turn = matrix_from_quat(pose.quat_xyzw)
-    return (np.asarray(points_world_m, dtype=float) - np.asarray(pose.position_m)) @ turn
-
-
 def embedded_along(member: Component, part: Component, region_world_m: np.ndarray) -> bool:
     """Whether ``member`` is drawn inside ``part``'s thickness along its length where they overlap: the
     overlap (its vertices) takes in the member's whole section (within :data:`EMBED_SECTION_SHARE` of it
     on both short axes of its own frame) and runs along its length for more than twice the part's
     thickness (the least side of its own box): a lintel or bond beam in its wall, not a beam through it."""
-    local = _in_member_frame(member, region_world_m)
+    local = in_pose_frame(member.target_pose_world, region_world_m)
     low, high = np.asarray(member.bbox_local.min_m), np.asarray(member.bbox_local.max_m)
     size = high - low
     length_axis = int(np.argmax(size))
@@ -361,10 +354,9 @@ def at_an_end(
     meet, the overlap 120-150 mm along them). A short member's slanted end may run past its middle: it
     still lies at that end while the run is at most :data:`SLANT_RUN_SECTIONS` times the member's larger
     section side, for a bar (:data:`BAR_SECTIONS`; the same sample's 0.6 m HSS 114 stubs on its arched
-    tube: 317 mm along them). The rule's
-    depth still bounds how far in it is drawn; a member lying along its part (a tee under the canopy it
-    carries) overlaps it far past that."""
-    local = _in_member_frame(member, region_world_m)
+    tube: 317 mm along them). The rule's depth still bounds how far in it is drawn; a member lying along
+    its part (a tee under the canopy it carries) overlaps it far past that."""
+    local = in_pose_frame(member.target_pose_world, region_world_m)
     low, high = np.asarray(member.bbox_local.min_m), np.asarray(member.bbox_local.max_m)
     size = high - low
     length_axis = int(np.argmax(size))

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import ifcopenshell
 import ifcopenshell.util.element
+import ifcopenshell.util.representation
 import ifcopenshell.util.unit
 
 from bimbot.shared.manifest import MassSource
@@ -432,22 +433,15 @@ def _density_property(material: ifcopenshell.entity_instance) -> float | None:
 
 def _steel_section(element: ifcopenshell.entity_instance) -> bool:
     """Whether the element is drawn with a steel section profile (:data:`STEEL_SECTIONS`): its material
-    profile set's, or the swept area of a solid of its body (through mapped items too)."""
+    profile set's, or the swept area of a solid of its shape (through mapped items and booleans too:
+    ifcopenshell's ``resolve_base_items``)."""
     material = ifcopenshell.util.element.get_material(element, should_skip_usage=True)
     profiles = [item.Profile for item in getattr(material, "MaterialProfiles", None) or () if item.Profile]
     if any(profile.is_a() in STEEL_SECTIONS for profile in profiles):
         return True
-    pending = [
-        item
-        for representation in getattr(getattr(element, "Representation", None), "Representations", None) or ()
-        for item in representation.Items or ()
-    ]
-    for _ in range(200):  # bounded: a mapped item nests a representation
-        if not pending:
-            break
-        item = pending.pop()
-        if item.is_a("IfcMappedItem"):
-            pending.extend(item.MappingSource.MappedRepresentation.Items or ())
-        elif item.is_a("IfcSweptAreaSolid") and item.SweptArea.is_a() in STEEL_SECTIONS:
-            return True
-    return False
+    representations = getattr(getattr(element, "Representation", None), "Representations", None) or ()
+    return any(
+        item.is_a("IfcSweptAreaSolid") and item.SweptArea.is_a() in STEEL_SECTIONS
+        for representation in representations
+        for item in ifcopenshell.util.representation.resolve_base_items(representation)
+    )

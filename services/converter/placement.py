@@ -140,6 +140,13 @@ def pose_matrix(pose: Pose) -> np.ndarray:
     return matrix
 
 
+def in_pose_frame(pose: Pose, points_world_m: np.ndarray) -> np.ndarray:
+    """``points_world_m`` ``(n, 3)`` in the frame of ``pose`` (a component's target: its own box's frame)."""
+    return (np.asarray(points_world_m, dtype=float) - np.asarray(pose.position_m)) @ matrix_from_quat(
+        pose.quat_xyzw
+    )
+
+
 def axis2placement_matrix(placement: ifcopenshell.entity_instance) -> np.ndarray:
     """4×4 matrix of an IfcAxis2Placement (IFC length units): ifcopenshell's ``get_axis2placement``, except
     that a 2D placement's direction is widened without ``ndarray.resize``, which refuses to run (and failed
