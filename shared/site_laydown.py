@@ -19,6 +19,7 @@ Deterministic: candidate centres lie on a grid ``SPOT_STEP_M`` apart around the 
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -99,29 +100,48 @@ def _free_spot(
     taken: list[Rect],
 ) -> tuple[float, float] | None:
     """The centre nearest the mast (ties: the grid's order) of a ``size`` footprint overlapping none of
-    ``taken``, at a hook radius in ``[min_radius_m, max_radius_m]``."""
+    ``taken``, at a hook radius in ``[min_radius_m, max_radius_m]``. The candidates are tried against every
+    taken footprint a block at a time (a site of thousands of panels lays thousands of loads, each tried
+    against all laid before it)."""
     if max_radius_m < min_radius_m:
         return None
+    offsets_x, offsets_y = _candidate_offsets(max_radius_m, min_radius_m)
+    xs, ys = offsets_x + mast_xy[0], offsets_y + mast_xy[1]
+    half_x, half_y = size[0] / 2.0, size[1] / 2.0
+    lows = np.array([rect.min_xy for rect in taken]).reshape(-1, 2)
+    highs = np.array([rect.max_xy for rect in taken]).reshape(-1, 2)
+    for start in range(0, len(xs), _BLOCK):
+        x, y = xs[start : start + _BLOCK, None], ys[start : start + _BLOCK, None]
+        clear = (
+            (x + half_x <= lows[:, 0])
+            | (x - half_x >= highs[:, 0])
+            | (y + half_y <= lows[:, 1])
+            | (y - half_y >= highs[:, 1])
+        ).all(axis=1)
+        hits = np.flatnonzero(clear)
+        if hits.size:
+            first = start + int(hits[0])
+            return (float(xs[first]), float(ys[first]))
+    return None
+
+
+_BLOCK = 256  # candidate centres tried together
+
+
+@functools.lru_cache(maxsize=64)
+def _candidate_offsets(max_radius_m: float, min_radius_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Grid offsets from the mast at a radius in ``[min_radius_m, max_radius_m]``, nearest first (ties: x,
+    then y); read-only."""
     steps = int(max_radius_m // SPOT_STEP_M)
     offsets = np.arange(-steps, steps + 1) * SPOT_STEP_M
     dx, dy = np.meshgrid(offsets, offsets, indexing="ij")
     radius = np.hypot(dx, dy).ravel()
     inside = (radius >= min_radius_m - 1e-9) & (radius <= max_radius_m + 1e-9)
     order = np.lexsort((dy.ravel()[inside], dx.ravel()[inside], np.round(radius[inside], 6)))
-    xs, ys = dx.ravel()[inside][order] + mast_xy[0], dy.ravel()[inside][order] + mast_xy[1]
-    half_x, half_y = size[0] / 2.0, size[1] / 2.0
-    lows = np.array([rect.min_xy for rect in taken]).reshape(-1, 2)
-    highs = np.array([rect.max_xy for rect in taken]).reshape(-1, 2)
-    for x, y in zip(xs.tolist(), ys.tolist(), strict=True):
-        clear = (
-            (x + half_x <= lows[:, 0])
-            | (x - half_x >= highs[:, 0])
-            | (y + half_y <= lows[:, 1])
-            | (y - half_y >= highs[:, 1])
-        )
-        if bool(clear.all()):
-            return (x, y)
-    return None
+    xs, ys = dx.ravel()[inside][order], dy.ravel()[inside][order]
+    xs.flags.writeable = False
+    ys.flags.writeable = False
+    return xs, ys
 
 
 def hook_radius_m(crane: Crane, slot: YardSlot) -> float:
