@@ -90,13 +90,29 @@ def _caught(outcome: RunOutcome) -> str:
     )
 
 
+APART = ("with_host", "in_place")  # counted beside the components: guests built into a host, existing work
+
+
 def method_line(totals: dict) -> str | None:
-    """``by method: cast_in_place 9/9, lifted 33/33, …`` (constructed/components), unless all are lifted."""
+    """``by method (constructed/components): cast_in_place 9/9, lifted 33/33; besides them: with_host 2/2
+    (built into their hosts)``, unless all are lifted. The components' methods add up to the run's
+    components; the guests and existing work are counted apart, after them."""
     by_method = totals.get("by_method") or {}
     if set(by_method) <= {"lifted"}:
         return None
-    parts = [f"{method} {entry['constructed']}/{entry['components']}" for method, entry in by_method.items()]
-    return "by method (constructed/components): " + ", ".join(parts)
+    parts = [
+        f"{method} {entry['constructed']}/{entry['components']}"
+        for method, entry in by_method.items()
+        if method not in APART
+    ]
+    why = {"with_host": "built into their hosts", "in_place": "existing work"}
+    apart = [
+        f"{method} {by_method[method]['constructed']}/{by_method[method]['components']} ({why[method]})"
+        for method in APART
+        if method in by_method
+    ]
+    line = "by method (constructed/components): " + ", ".join(parts)
+    return f"{line}; besides them: {', '.join(apart)}" if apart else line
 
 
 def _seed(outcome: RunOutcome) -> str:

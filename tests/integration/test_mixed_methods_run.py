@@ -71,7 +71,8 @@ def test_a_site_is_cast_laid_panelised_and_lifted_with_its_anchor_bolt_cast_in_a
     assert "constructed 6/6 components" in result.stdout, detail
     assert (
         "by method (constructed/components): "
-        "cast_in_place 2/2, laid 1/1, lifted 1/1, panelised 2/2, with_host 2/2" in result.stdout
+        "cast_in_place 2/2, laid 1/1, lifted 1/1, panelised 2/2; "
+        "besides them: with_host 2/2 (built into their hosts)" in result.stdout
     ), detail
     report = json.loads((run.report_dir / "report.json").read_text())
     by_guid = {c["guid"]: c for c in report["components"]}

@@ -7,7 +7,7 @@ from __future__ import annotations
 from run_builders import watch_of
 from test_run_loop_dead_service import _Dead, _Monitor
 
-from bimbot.run.summary import RunOutcome, summary_text
+from bimbot.run.summary import RunOutcome, method_line, summary_text
 
 
 def _report() -> dict:
@@ -85,3 +85,21 @@ def test_the_tasks_a_robot_did_not_build_or_give_back_are_named_with_what_they_c
     ), r1
     r2 = next(line for line in _lines() if line.startswith("r2 (carrier)"))
     assert " other" not in r2
+
+
+def test_the_method_line_adds_up_to_the_components_and_counts_guests_and_existing_work_apart() -> None:
+    """937 components with 2 bolts built into their hosts: the line's components add up to 937, and the
+    bolts are said apart, not as a ninth method beside them."""
+
+    by_method = {
+        "cast_in_place": {"components": 226, "constructed": 226},
+        "in_place": {"components": 3, "constructed": 3},
+        "lifted": {"components": 711, "constructed": 711},
+        "with_host": {"components": 2, "constructed": 2},
+    }
+    line = method_line({"by_method": by_method})
+    assert line == (
+        "by method (constructed/components): cast_in_place 226/226, lifted 711/711; "
+        "besides them: with_host 2/2 (built into their hosts), in_place 3/3 (existing work)"
+    )
+    assert method_line({"by_method": {"lifted": {"components": 5, "constructed": 5}}}) is None
