@@ -91,6 +91,13 @@ class PanelRule(_Frozen):
             "them whole and no panel cut fits (a solid floor slab of that size is concrete on a site)"
         ),
     )
+    lay_when_not_panelised: tuple[MaterialKind, ...] = Field(
+        default=(),
+        description=(
+            "elements of these materials that no panel cut fits are laid where they stand (a brick or "
+            "block wall too heavy to lift whole is laid course by course on a site)"
+        ),
+    )
     cast_unknown_when_too_heavy: bool = Field(
         default=False,
         description=(

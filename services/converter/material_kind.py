@@ -24,6 +24,11 @@ from bimbot.shared.methods_file import MaterialKind
 
 # (pattern on a material name or category, kind); the first match wins, so specific words come first
 KIND_PATTERNS: tuple[tuple[re.Pattern[str], MaterialKind], ...] = (
+    # concrete blocks are masonry: "Masonry - Concrete Block", "Concrete Masonry Units" (the Revit duplex's)
+    (
+        re.compile(r"masonry|concrete[-_ ]?block|\bcmu\b|blockwork|mauerwerk|betonstein|parpaing", re.I),
+        MaterialKind.MASONRY,
+    ),
     (re.compile(r"alumin", re.I), MaterialKind.ALUMINIUM),
     # 钢 is steel, 钢筋 its rebar (钢筋混凝土: reinforced concrete), as Stahlbeton is concrete
     (

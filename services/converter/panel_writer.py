@@ -113,8 +113,9 @@ def not_panelised(
     """What an element that cannot be cut into panels becomes: cast in place when its material is one the
     methods file casts when too heavy (concrete: a slab with a stair opening no cut avoids is formed and
     poured where it stands, as a site would), or when its material is unknown and its class one the file
-    casts then (a solid floor slab too heavy for any machine is concrete on a site); else lifted whole (and
-    the fleet check says if no machine can lift it)."""
+    casts then (a solid floor slab too heavy for any machine is concrete on a site); laid when its material
+    is one the file lays then (a brick-on-block wall no panel fits is laid course by course); else lifted
+    whole (and the fleet check says if no machine can lift it)."""
     castable = methods is not None and decision.material in {
         kind.value for kind in methods.panels.cast_when_too_heavy
     }
@@ -124,14 +125,16 @@ def not_panelised(
         and decision.material == MaterialKind.UNKNOWN.value
         and any(element.is_a(name) for name in methods.panels.cast_unknown_classes)
     )
-    method = ConstructionMethod.CAST_IN_PLACE if castable or unknown else ConstructionMethod.LIFTED
-    then = (
-        "cast in place"
-        if castable
-        else "material unknown, cast in place as concrete"
-        if unknown
-        else "lifted whole"
-    )
+    layable = methods is not None and decision.material in {
+        kind.value for kind in methods.panels.lay_when_not_panelised
+    }
+    if castable or unknown:
+        method = ConstructionMethod.CAST_IN_PLACE
+        then = "cast in place" if castable else "material unknown, cast in place as concrete"
+    elif layable:
+        method, then = ConstructionMethod.LAID, "laid where it stands"
+    else:
+        method, then = ConstructionMethod.LIFTED, "lifted whole"
     # the decision's note ends with what it meant to do (final_method.SPLIT_NOTE): say it was tried
     meant = decision.note.removesuffix(SPLIT_NOTE)
     tried = f"{meant}: a split into precast panels was tried" if meant != decision.note else decision.note

@@ -320,3 +320,12 @@ def test_material_names_in_chinese_and_other_languages_say_the_kind_and_how_it_i
     assert kind_of("Бетон B25") is MaterialKind.CONCRETE and CAST_IN_PLACE_WORDS.search("монолитный")
     assert PRECAST_WORDS.search("预制混凝土") and not CAST_IN_PLACE_WORDS.search("预制混凝土")
     assert kind_of("默认墙") is MaterialKind.UNKNOWN
+
+
+def test_concrete_blocks_are_masonry_not_concrete() -> None:
+    """The Revit duplex's walls are "Masonry - Concrete Block" and "Concrete Masonry Units": laid on a site,
+    not cast; read as concrete, its two brick-on-block walls no panel fits were cast in place."""
+    for name in ("Masonry - Concrete Block", "Concrete Masonry Units", "CMU 8in", "Betonstein", "Parpaing"):
+        assert kind_of(name) is MaterialKind.MASONRY, name
+    for name in ("Concrete, Cast-in-Place gray", "Precast Concrete", "Stahlbeton", "Concrete"):
+        assert kind_of(name) is MaterialKind.CONCRETE, name

@@ -276,6 +276,18 @@ def test_a_concrete_element_no_cut_keeps_within_the_limits_is_cast_in_place_not_
     assert not_panelised(slab, "no cut", None).method is ConstructionMethod.LIFTED
 
 
+def test_a_masonry_wall_no_cut_keeps_within_the_limits_is_laid_where_it_stands() -> None:
+    """The Revit duplex's 26 t brick-on-block walls (17.8 m, openings no panel cut avoids) would be lifted
+    whole, beyond every machine; a site lays them course by course. The lifted-only file lays nothing."""
+    wall = MethodDecision(
+        method=ConstructionMethod.PANELISED, source=MethodSource.RULE, note="too heavy", material="masonry"
+    )
+    laid = not_panelised(wall, "no cut avoids its openings", load_methods("prefab"))
+    assert laid.method is ConstructionMethod.LAID
+    assert laid.note == "too heavy; not panelised (no cut avoids its openings): laid where it stands"
+    assert not_panelised(wall, "no cut", load_methods("lifted")).method is ConstructionMethod.LIFTED
+
+
 def test_a_slab_of_unknown_material_no_cut_fits_is_cast_in_place_as_concrete_other_classes_stay_lifted() -> (
     None
 ):
