@@ -5,7 +5,10 @@ which robot gets which released task, and sends the assignment. Without the site
 planner that got no site info) a task goes to the nearest idle robot; with them, to the capable robot
 whose bid (estimated finish time) is lowest, or as a hand-off to a crane's staging spot
 (:mod:`.assignment`). A robot that gave the task back, or says it is walled in (no way to its depot), gets
-it only when no other robot can take it.
+it only when no other robot can take it; and a robot walled in for less than ``WALLED_IN_WAIT_S`` of sim
+time gets no task at all: a way is often shut only for a while (a crane's load passing, a panel being set
+beside it), and giving it the one task only it could take burned that task's three give-backs in 200 s
+(the Revit duplex's 4.8 m window, failed ``robot_trapped`` while its carrier was out again 700 s later).
 """
 
 from __future__ import annotations
@@ -33,6 +36,9 @@ MAX_HAND_OFFS = 2  # hand-off tasks per component; a third would be a loop: fail
 # one's), but a pass over every released task and robot at every 0.2 s period was most of the planner's
 # time on a 988-component site
 REBID_S = 2.0
+# sim s a robot that says it is walled in gets no task: its way out may open again (bounded: after this, it
+# bids as a robot to avoid, and a task it cannot do fails with its reason after its give-backs)
+WALLED_IN_WAIT_S = 1800.0
 
 
 class Dispatch:
@@ -121,7 +127,7 @@ class Dispatch:
             choice = choose(
                 item,
                 state.lies(guid),
-                [robot for robot in state.robots.values() if state.sim_time_s >= robot.held_until_s],
+                [robot for robot in state.robots.values() if self._may_bid(robot)],
                 state.site,
                 now_s=state.sim_time_s,
                 promised_s=promised,
@@ -166,6 +172,13 @@ class Dispatch:
             for robot in robots
             if any(can_carry(robot, item) or self._can_build(robot, item, where) for item, where in released)
         ]
+
+    def _may_bid(self, robot: RobotRecord) -> bool:
+        """Not held after give-backs, nor walled in for less than ``WALLED_IN_WAIT_S`` (see the module)."""
+        now_s = self._state.sim_time_s
+        if now_s < robot.held_until_s:
+            return False
+        return robot.walled_in_since_s is None or now_s - robot.walled_in_since_s >= WALLED_IN_WAIT_S
 
     def _avoid(self, task: TaskRecord) -> set[str]:
         """The robots that bid for ``task`` only when no other can take it: those that gave it back, and

@@ -1,12 +1,13 @@
 """A robot that says it is walled in (no way to its depot) gets no new task while another robot can take
-it, and tasks again once it says it can move; when no other robot can take a task, it still gets it (its
-give-backs are bounded, so the run still ends)."""
+it, and tasks again once it says it can move; when no other robot can take a task, it gets it once it has
+been walled in for a while (its give-backs are bounded, so the run still ends)."""
 
 from __future__ import annotations
 
 from planner_builders import idle_core, portal_manifest, robot_msg, state_msg
 
 from bimbot.services.planner.capability import SiteRobot
+from bimbot.services.planner.dispatch import WALLED_IN_WAIT_S
 from bimbot.services.planner.scheduler import PlannerCore
 from bimbot.shared.fleet import default_fleet
 from bimbot.shared.messages import ComponentState, RobotState, RobotStateMsg
@@ -54,9 +55,29 @@ def test_a_walled_in_robot_gets_no_task_another_can_take_and_gets_one_once_it_ca
     assert len(_tasks_of(core, "r1")) == 1
 
 
-def test_a_walled_in_robot_still_gets_a_task_no_other_robot_can_take() -> None:
+def test_a_robot_walled_in_for_a_while_waits_before_it_gets_a_task_no_other_robot_can_take() -> None:
+    """A way shut for a while (a crane's load passing) opens again: the only robot gets no task until it has
+    been walled in for WALLED_IN_WAIT_S of sim time; then it does (its give-backs fail the component with
+    its reason, bounded)."""
     core = _core("r1")
     core.observe_robot_state(_walled_in("r1", since_s=5.0, sim_time_s=5.0))
     _release(core, *FOOTINGS)
     core.step(0.1)
-    assert len(_tasks_of(core, "r1")) == 1, "the only robot: its give-backs fail the component, bounded"
+    assert _tasks_of(core, "r1") == [], "walled in for a moment: no task burns a give-back yet"
+    core.observe_robot_state(_walled_in("r1", since_s=5.0, sim_time_s=5.0 + WALLED_IN_WAIT_S - 10.0))
+    core.step(0.2)
+    assert _tasks_of(core, "r1") == []
+    core.observe_robot_state(_walled_in("r1", since_s=5.0, sim_time_s=5.0 + WALLED_IN_WAIT_S))
+    core.step(0.3)
+    assert len(_tasks_of(core, "r1")) == 1, "the only robot, walled in for long: it gets one, bounded"
+
+
+def test_a_robot_out_again_before_the_wait_is_over_gets_its_task_at_once() -> None:
+    core = _core("r1")
+    core.observe_robot_state(_walled_in("r1", since_s=5.0, sim_time_s=5.0))
+    _release(core, *FOOTINGS)
+    core.step(0.1)
+    assert _tasks_of(core, "r1") == []
+    core.observe_robot_state(_walled_in("r1", since_s=None, sim_time_s=600.0))  # its way opened again
+    core.step(0.2)
+    assert len(_tasks_of(core, "r1")) == 1
