@@ -128,20 +128,28 @@ def _free_spot(
 _BLOCK = 256  # candidate centres tried together
 
 
-@functools.lru_cache(maxsize=64)
 def _candidate_offsets(max_radius_m: float, min_radius_m: float) -> tuple[np.ndarray, np.ndarray]:
     """Grid offsets from the mast at a radius in ``[min_radius_m, max_radius_m]``, nearest first (ties: x,
-    then y); read-only."""
-    steps = int(max_radius_m // SPOT_STEP_M)
+    then y)."""
+    xs, ys, radius = _ordered_grid(int(max_radius_m // SPOT_STEP_M), min_radius_m)
+    keep = radius <= max_radius_m + 1e-9  # sorted by radius: the nearer ones, in the same order
+    return xs[keep], ys[keep]
+
+
+@functools.lru_cache(maxsize=256)
+def _ordered_grid(steps: int, min_radius_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The grid's offsets ``steps`` each way at a radius of at least ``min_radius_m``, nearest first, with
+    their radii; cached by the grid's size (a chart's radius for each load's mass is a new number, its grid
+    seldom is); read-only."""
     offsets = np.arange(-steps, steps + 1) * SPOT_STEP_M
     dx, dy = np.meshgrid(offsets, offsets, indexing="ij")
     radius = np.hypot(dx, dy).ravel()
-    inside = (radius >= min_radius_m - 1e-9) & (radius <= max_radius_m + 1e-9)
+    inside = radius >= min_radius_m - 1e-9
     order = np.lexsort((dy.ravel()[inside], dx.ravel()[inside], np.round(radius[inside], 6)))
-    xs, ys = dx.ravel()[inside][order], dy.ravel()[inside][order]
-    xs.flags.writeable = False
-    ys.flags.writeable = False
-    return xs, ys
+    arrays = dx.ravel()[inside][order], dy.ravel()[inside][order], radius[inside][order]
+    for array in arrays:
+        array.flags.writeable = False
+    return arrays
 
 
 def hook_radius_m(crane: Crane, slot: YardSlot) -> float:
