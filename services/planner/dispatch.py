@@ -127,7 +127,11 @@ class Dispatch:
             choice = choose(
                 item,
                 state.lies(guid),
-                [robot for robot in state.robots.values() if self._may_bid(robot)],
+                [
+                    robot
+                    for robot in state.robots.values()
+                    if self._may_bid(robot) and self._may_retry(task, robot)
+                ],
                 state.site,
                 now_s=state.sim_time_s,
                 promised_s=promised,
@@ -179,6 +183,17 @@ class Dispatch:
         if now_s < robot.held_until_s:
             return False
         return robot.walled_in_since_s is None or now_s - robot.walled_in_since_s >= WALLED_IN_WAIT_S
+
+    def _may_retry(self, task: TaskRecord, robot: RobotRecord) -> bool:
+        """Not a robot that gave ``task`` back less than the limits' ``hold_s`` ago: its way was shut, and
+        the world it found unchanged two seconds later shuts it again (FZK-Haus's roof panel: its carrier
+        found the crane's staging spot cut off, was given the hand-off again 2.4 s later, found the same
+        and spent the panel's last hand-off; 60 s later the way was open)."""
+        return (
+            robot.robot_id not in task.given_back_by
+            or task.given_back_s is None
+            or self._state.sim_time_s - task.given_back_s >= self._state.limits.hold_s
+        )
 
     def _avoid(self, task: TaskRecord) -> set[str]:
         """The robots that bid for ``task`` only when no other can take it: those that gave it back, and

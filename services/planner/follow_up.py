@@ -109,6 +109,7 @@ class FollowUp:
                 giver = robot_id or (reason.robot_id if reason is not None else None)
                 if giver is not None:  # the agent's released state names no robot; the robot's reason does
                     task.given_back_by.add(giver)
+                    task.given_back_s = records.sim_time_s
                     self._give_backs.robot_gave_back(giver)
                 given_back = reason or Reason(code=ReasonCode.NO_PROGRESS, message="given back")
                 self._give_backs.count(task, given_back)

@@ -75,6 +75,7 @@ class TaskRecord:
     changed_sim_s: float = 0.0  # last assignment or component state change (the no-progress watchdog)
     give_backs: int = 0
     given_back_by: set[str] = field(default_factory=set)  # robots that gave it back: others first
+    given_back_s: float | None = None  # sim time of its last give-back by a robot
     last_give_back: Reason | None = None
     reason: Reason | None = None  # failed/blocked: why
     kind: TaskKind = TaskKind.BUILD  # HAND_OFF while a ground robot carries it to a crane's staging spot

@@ -178,12 +178,12 @@ def test_a_component_the_crane_still_cannot_reach_after_its_hand_offs_fails_out_
 def test_hand_offs_the_carrier_gave_back_fail_with_its_reason_not_the_crane_s_reach() -> None:
     """A carrier walled in gives back each hand-off it is given before it picks the beam up: the beam was
     never put down beside the crane, so the reason is the carrier's, not "still beyond the hook"."""
-    core = _beam_for_the_crane_only()
+    core = _beam_for_the_crane_only()  # each give-back 100 s apart: beyond the hold on giving it again
     trapped = Reason(code=ReasonCode.ROBOT_TRAPPED, message="r1 at (0, -50) is walled in", robot_id="r1")
     for number in (1, 2):
         assert core.phase("beam") is Phase.ASSIGNED
         core.observe_component_state(
-            state_msg("beam", S.PICKING, event="pick", robot_id="r1", sim_time_s=10.0 * number)
+            state_msg("beam", S.PICKING, event="pick", robot_id="r1", sim_time_s=100.0 * number)
         )
         core.observe_component_state(
             state_msg(
@@ -191,11 +191,11 @@ def test_hand_offs_the_carrier_gave_back_fail_with_its_reason_not_the_crane_s_re
                 S.RELEASED,
                 event="abandon",
                 robot_id="r1",
-                sim_time_s=10.0 * number + 5,
+                sim_time_s=100.0 * number + 5,
                 reason=trapped,
             )
         )
-        core.observe_robot_state(robot_msg("r1", (0.0, -50.0), sim_time_s=10.0 * number + 5))
+        core.observe_robot_state(robot_msg("r1", (0.0, -50.0), sim_time_s=100.0 * number + 70))
         core.step(float(number))
     core.observe_robot_state(robot_msg("r1", (0.0, -50.0), sim_time_s=10_000.0))  # past any hold
     core.step(3.0)
@@ -314,8 +314,9 @@ def test_where_a_component_lies_is_its_body_not_its_frame_origin_100_m_away() ->
 def test_a_robot_that_gave_a_task_back_gets_it_again_when_no_other_robot_can_take_it() -> None:
     """The hub: a carrier gave back a 1.1 t beam (it could not drive there); the Husky (75 kg) and the
     crane (out of reach) were alive and idle, so the beam waited "for a robot" until the run stalled.
-    Another robot that *can* take it goes first; when none can, the one that gave it back bids again (its
-    give-backs stay bounded: max_give_backs fails the component with its reason)."""
+    Another robot that *can* take it goes first; when none can, the one that gave it back bids again once
+    the hold after its give-back is over (its give-backs stay bounded: max_give_backs fails the component
+    with its reason)."""
     manifest = _manifest(foot_a=259.0)
     robots = [SiteRobot("r1", HUSKY, (0.0, -5.0, 0.0)), SiteRobot("r2", CARRIER, (-30.0, -5.0, 0.0))]
     core = idle_core(manifest, robots)
@@ -327,7 +328,10 @@ def test_a_robot_that_gave_a_task_back_gets_it_again_when_no_other_robot_can_tak
     )
     core.observe_robot_state(robot_msg("r2", (-30.0, -5.0), sim_time_s=2.0))
     core.observe_clock(3.0)
-    out = core.step(3.0)
+    assert "foot_a" not in _assignments(core.step(3.0)), "given back a second ago: its way may open first"
+    core.observe_robot_state(robot_msg("r2", (-30.0, -5.0), sim_time_s=62.0))
+    core.observe_clock(63.0)
+    out = core.step(63.0)
     assert _assignments(out)["foot_a"].robot_id == "r2"  # the Husky, idle beside it, cannot carry 259 kg
 
 

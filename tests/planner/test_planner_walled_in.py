@@ -8,6 +8,7 @@ from planner_builders import idle_core, portal_manifest, robot_msg, state_msg
 
 from bimbot.services.planner.capability import SiteRobot
 from bimbot.services.planner.dispatch import WALLED_IN_WAIT_S
+from bimbot.services.planner.records import PlannerLimits
 from bimbot.services.planner.scheduler import PlannerCore
 from bimbot.shared.fleet import default_fleet
 from bimbot.shared.messages import ComponentState, RobotState, RobotStateMsg
@@ -15,6 +16,7 @@ from bimbot.shared.messages import ComponentState, RobotState, RobotStateMsg
 S = ComponentState
 CARRIER = default_fleet().types["carrier"]
 FOOTINGS = ("foot_a", "foot_b", "foot_c")
+HOLD_S = PlannerLimits().hold_s
 
 
 def _core(*robot_ids: str) -> PlannerCore:
@@ -81,3 +83,23 @@ def test_a_robot_out_again_before_the_wait_is_over_gets_its_task_at_once() -> No
     core.observe_robot_state(_walled_in("r1", since_s=None, sim_time_s=600.0))  # its way opened again
     core.step(0.2)
     assert len(_tasks_of(core, "r1")) == 1
+
+
+def test_a_task_a_robot_gave_back_is_not_given_to_it_again_for_the_hold_but_is_after() -> None:
+    """FZK-Haus: a carrier found the crane's staging spot cut off and gave its hand-off back; given it
+    again 2.4 s later, it found the same and the panel's last hand-off was spent. The world it found must
+    have time to change: the same robot gets the task again only after the limits' hold_s."""
+    core = _core("r1")
+    _release(core, "foot_a")
+    core.step(0.1)
+    assert core.robot_of("foot_a") == "r1"
+    core.observe_component_state(state_msg("foot_a", S.PICKING, event="pick", robot_id="r1", sim_time_s=10.0))
+    core.observe_component_state(
+        state_msg("foot_a", S.RELEASED, event="abandon", robot_id="r1", sim_time_s=12.0)
+    )
+    core.observe_robot_state(robot_msg("r1", (0.0, -5.0), sim_time_s=14.0))
+    core.step(0.2)
+    assert core.robot_of("foot_a") is None, "given back 2 s ago: not again at once"
+    core.observe_robot_state(robot_msg("r1", (0.0, -5.0), sim_time_s=12.0 + HOLD_S))
+    core.step(0.3)
+    assert core.robot_of("foot_a") == "r1"
