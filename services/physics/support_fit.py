@@ -16,7 +16,8 @@ the built structure leaves room for it:
   not count;
 * drawn up to what stands in its way: where that aim runs into built members standing off their own
   targets, the member follows one of them, as bolted to it (its target moved by the rigid displacement that
-  member has from its own target), or goes halfway to that, or stays: whichever leaves the least to clear
+  member has from its own target), or is shifted, not turned, as far as that member's face beside it moved
+  (:func:`shifted`), or goes halfway to either, or stays: whichever leaves the least to clear
   (:func:`fit_score`: an overlap with a part it is not framed to, or a framed end overlapped beyond its
   erection clearance), then the most clearance at its framed ends for the robot's own error. A mullion
   between two transom ends, one set 10 mm towards it, goes halfway: 5 mm into each end's clearance;
@@ -107,6 +108,17 @@ def following(target: Frame, support_target: Frame, support_as_built: Frame) -> 
     """``target`` moved by the rigid displacement that takes ``support_target`` to ``support_as_built``:
     the member goes where a member it is bolted to went."""
     return compose(compose(support_as_built, invert(support_target)), target)
+
+
+def shifted(member: Component, target: Frame, other: Component, other_as_built: Frame) -> Frame:
+    """``target`` moved, not turned, as far as ``other`` as built moved its point nearest ``member``'s
+    centre: a finish panel notched round a partition is drawn up to where the partition stands, not swung
+    with it (a partition turned 0.4° about its own origin swings a 3.7 m floor panel 26 mm at its far
+    end, beyond every tolerance, where the partition's face beside it moved 7 mm)."""
+    support = BuiltSupport(ConnectionKind.FASTENED, other, other_as_built)
+    (x, y, z), quat = target
+    dx, dy, dz = displacement_at_m(support, centre_m(target, member.com_local_m))
+    return (x + float(dx), y + float(dy), z + float(dz)), quat
 
 
 def deepest_m(overlaps: Iterable[tuple[str, float]]) -> float:
@@ -204,11 +216,13 @@ def fit(
 
         # where it fits best: its seats, following one of the built members in its way, or halfway between
         in_its_way = intrusions(cid, body, aim, nearby, kept) + intrusions(cid, body, aim, framed, kept)
-        follows = [
-            following(target, target_frame(other.component), other.pose)
+        built = [
+            other
             for other in (state.items.get(guid) for guid, _ in in_its_way)
             if other is not None and other.phase is Phase.JOINED
         ]
+        follows = [following(target, target_frame(other.component), other.pose) for other in built]
+        follows += [shifted(component, target, other.component, other.pose) for other in built]
         aim = min([aim, *follows, *(halfway(aim, follow) for follow in follows)], key=score)
         # a framed partner overlapped no deeper than its joint allows is no overlap to clear
         depths_m = framed_m(aim)
