@@ -12,6 +12,9 @@ inside a ground slab's excavation may still go before the slab), and before a me
 props until its frame holds it (``temporary_support`` when ``unconnected``: its props stand on what lies
 below; the Revit duplex's first-floor joist panel was set over the open pit of its slab on grade, where
 no crew props it, and fell in);
+a lining goes up after the wall whose face it lines, and a floor finish after the walls beside it
+(:mod:`.fitted_after`: a stud furring against a CMU party wall, tiles cut to the walls), unless it stands
+lower;
 whatever the heights, a wall supports the window or door that fills one of its openings (IfcRelFillsElement:
 the filling is placed into the standing wall, never before it); and the two components of a **joint** (the
 model draws them into each other where they are joined: ``Manifest.joints``; a framed end drawn butting
@@ -39,11 +42,11 @@ with only the first as its support it was erected while the second was never bui
 The graph never holds a cycle. Edges from heights run from a strictly lower bottom to a higher one; a
 host's or a joint's order overrides a height edge the other way (a door drawn lower than the wall above
 it, which rests on the door at its side, is still placed after that wall); and should a cycle remain (from
-joints and connections in both directions), its weakest edge (side contact, then contact, connection,
-joint, host) is dropped with a warning. A given predecessor map with a cycle is broken the same way by
-:func:`derive_sequence`. Footprints and heights come from the manifest's world-frame bounding boxes. The
-graph gives the derived construction sequence (footings and lower, supporting elements first) and is the
-yardstick a given sequence is checked against.
+joints and connections in both directions), its weakest edge (fitted after, side contact, then contact,
+connection, joint, host) is dropped with a warning. A given predecessor map with a cycle is broken the
+same way by :func:`derive_sequence`. Footprints and heights come from the manifest's world-frame bounding
+boxes. The graph gives the derived construction sequence (footings and lower, supporting elements first)
+and is the yardstick a given sequence is checked against.
 """
 
 from __future__ import annotations
@@ -59,6 +62,7 @@ import numpy as np
 
 from .connection_kinds import SupportWhen
 from .excavation import over_open_pits
+from .fitted_after import fitted_after
 from .manifest import Component, Joint, JointSource
 from .sequence import ConstructionSequence, priority_topological_order, sequence_from_predecessors
 
@@ -86,12 +90,13 @@ CLASS_RANK = {
 class Edge(IntEnum):
     """Why one component precedes another, weakest first: a cycle loses its weakest edge."""
 
-    SIDE = 1  # it would float or tip: held by what it touches at its side with a lower bottom
-    PIT = 2  # set down near the ground over its open excavation (:mod:`.excavation`)
-    CONTACT = 3  # it rests on it from above
-    CONNECTION = 4  # connected in the IFC, the lower first
-    JOINT = 5  # drawn into each other where they are joined, in the joint's order
-    HOST = 6  # the wall before what fills its opening
+    FITTED = 1  # a lining or a floor finish goes in after the walls it is fitted to (:mod:`.fitted_after`)
+    SIDE = 2  # it would float or tip: held by what it touches at its side with a lower bottom
+    PIT = 3  # set down near the ground over its open excavation (:mod:`.excavation`)
+    CONTACT = 4  # it rests on it from above
+    CONNECTION = 5  # connected in the IFC, the lower first
+    JOINT = 6  # drawn into each other where they are joined, in the joint's order
+    HOST = 7  # the wall before what fills its opening
 
 
 def support_predecessors(
@@ -139,6 +144,9 @@ def support_predecessors(
         if item.guid in resting and item.guid not in connected and not _balanced(item, resting[item.guid])
     }
     _add_side_contacts(components, preds, bottoms, tolerance_m, tipping, kinds=kinds)
+    for wall, fitted in fitted_after(components, tolerance_m):
+        if not lower(wall, fitted):  # one lower than the wall stands first, as it carries it
+            add(wall, fitted, Edge.FITTED)
     for first, second in stated:  # the stated order wins over an edge of another kind the other way
         if first in preds[second] and second in preds[first] and kinds[second, first] < kinds[first, second]:
             preds[first].discard(second)

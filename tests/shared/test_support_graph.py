@@ -301,3 +301,43 @@ def test_a_wall_part_over_the_ceiling_line_rests_on_the_wall_below_not_on_the_ce
         update={"predefined_type": "FLOORING", "guid": "flooring", "key": "flooring"}
     )
     assert support_predecessors([flooring, floor, wall, strip])["strip"] == {"wall", "flooring"}
+
+
+# --- linings: a thin wall against a thicker one's face goes up after it ---------------------------------
+
+
+def test_a_furring_against_a_party_wall_face_goes_up_after_it_whatever_their_order() -> None:
+    """The Revit duplex: a 152 mm stud furring drawn 57 mm into its 550 mm CMU party wall's box, face to
+    face over 2 m on the same floor. Listed first, it still waits for the wall."""
+    party = _component("party", "IfcWall", (4.125, -11.72, 3.1), (4.675, -8.907, 6.0))
+    furring = _component("furring", "IfcWall", (4.618, -10.95, 3.1), (4.77, -6.79, 5.695))
+    preds = support_predecessors([furring, party])
+    assert preds["furring"] == {"party"} and preds["party"] == set()
+
+
+def test_no_lining_at_a_t_junction_between_equal_walls_or_under_a_metre_of_run() -> None:
+    """A partition's end against another's face runs the crossing wall's thickness, not a face; two walls
+    of one thickness side by side are no lining; a stud wall touching a thick wall for 0.6 m is none."""
+    crossing = _component("crossing", "IfcWall", (0.0, 0.0, 0.0), (6.0, 0.124, 2.7))
+    ending = _component("ending", "IfcWall", (2.0, 0.124, 0.0), (2.124, 4.0, 2.7))
+    twin = _component("twin", "IfcWall", (0.0, 0.124, 0.0), (6.0, 0.248, 2.7))
+    thick = _component("thick", "IfcWall", (10.0, 0.0, 0.0), (10.5, 6.0, 2.7))
+    short = _component("short", "IfcWall", (10.5, 0.0, 0.0), (10.65, 0.6, 2.7))
+    preds = support_predecessors([crossing, ending, twin, thick, short])
+    assert all(not supports for supports in preds.values()), preds
+
+
+def test_a_floor_finish_goes_in_after_the_walls_beside_it_and_before_a_wall_standing_on_it() -> None:
+    """The duplex's 13 mm tile floor touches the furring standing on the slab beside it: the tiles go in
+    after it, cut to it. A partition drawn standing on a 40 mm board floor is carried by it: the boards go
+    first. A 200 mm slab beside a wall is no finish."""
+    furring = _component("furring", "IfcWall", (4.03, -7.582, 0.0), (8.383, -7.43, 2.795))
+    tiles = _component("tiles", "IfcSlab", (2.574, -7.43, 0.0), (8.383, -5.2, 0.013))
+    boards = _component("boards", "IfcCovering", (20.0, 0.0, 0.0), (24.0, 4.0, 0.04))
+    partition = _component("partition", "IfcWall", (21.0, 1.0, 0.04), (21.124, 4.0, 2.7))
+    slab = _component("slab", "IfcSlab", (30.0, 0.0, 0.0), (34.0, 4.0, 0.2))
+    beside = _component("beside", "IfcWall", (34.0, 0.0, 0.0), (34.2, 4.0, 2.7))
+    preds = support_predecessors([tiles, furring, boards, partition, slab, beside])
+    assert preds["tiles"] == {"furring"} and preds["furring"] == set()
+    assert preds["partition"] == {"boards"} and preds["boards"] == set()
+    assert preds["slab"] == set()
