@@ -253,7 +253,10 @@ def as_built_line(report: dict[str, Any]) -> str | None:
         )
         position_mm = audit.get("tolerance_mm")
         if position_mm is not None:  # a fit moves a target at most one tolerance: two from the BIM model
-            line += f" (a fitted member may stand {2 * position_mm:g} mm from it: two tolerances)"
+            line += (
+                f" (at most {2 * position_mm:g} mm: a fit moves a target at most one tolerance, and the "
+                "member stands within one tolerance of its fitted target)"
+            )
     if not errors:
         return line
     shown = [f"  {error}" for error in errors[:MAX_ERRORS_SHOWN]]

@@ -194,6 +194,7 @@ def test_a_member_fitted_to_the_structure_is_audited_against_its_fitted_target()
     assert line is not None and line.endswith(
         "all within tolerance (10 mm / 1°) of their targets; 1 fitted to the structure as built (their "
         "targets moved up to 9.0 mm from the BIM model), so standing up to 15.0 mm from their BIM positions "
-        "(a fitted member may stand 20 mm from it: two tolerances)"
+        "(at most 20 mm: a fit moves a target at most one tolerance, and the member stands within one "
+        "tolerance of its fitted target)"
     )
     assert report["components"][0]["final_position_error_from_bim_mm"] == pytest.approx(15.0, abs=0.01)
