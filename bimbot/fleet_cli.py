@@ -165,7 +165,7 @@ def resting_on_unbuildable(
     ordered as the converter orders them), transitively: what a run blocks (the planner's ``blocked_by``)
     when the model's own sequence is not given."""
     dependents: dict[str, set[str]] = {}
-    for guid, supports in support_predecessors(components, joints=joints).items():
+    for guid, supports in support_predecessors(components, joints=joints, cycles_level=logging.INFO).items():
         for support in supports:
             dependents.setdefault(support, set()).add(guid)
     blocked: set[str] = set()

@@ -100,10 +100,16 @@ class Edge(IntEnum):
 
 
 def support_predecessors(
-    components: Sequence[Component], tolerance_m: float = CONTACT_TOLERANCE_M, joints: Sequence[Joint] = ()
+    components: Sequence[Component],
+    tolerance_m: float = CONTACT_TOLERANCE_M,
+    joints: Sequence[Joint] = (),
+    *,
+    cycles_level: int = logging.WARNING,
 ) -> dict[str, set[str]]:
     """GUID → GUIDs of the components it rests on, is connected to below it, is set into or jointed after
-    (``joints``: the manifest's; those naming a component not in ``components`` are passed over)."""
+    (``joints``: the manifest's; those naming a component not in ``components`` are passed over).
+    ``cycles_level``: how a cycle broken is logged; the converter warns, and what reads its build again
+    (fleet check, the planner, physics) finds the same cycles and says them at ``logging.INFO``."""
     by_guid = {item.guid: item for item in components}
     preds: dict[str, set[str]] = {guid: set() for guid in by_guid}
     kinds: dict[tuple[str, str], Edge] = {}  # (pred, component) → why
@@ -162,7 +168,7 @@ def support_predecessors(
     for foundation, guid in over_open_pits(components, tolerance_m):
         if guid in unsupported or guid in propped:
             add(foundation, guid, Edge.PIT)
-    break_cycles(preds, kinds)
+    break_cycles(preds, kinds, level=cycles_level)
     return preds
 
 
@@ -191,9 +197,14 @@ def _box_volume(item: Component) -> float:
     return float((high[0] - low[0]) * (high[1] - low[1]) * (high[2] - low[2]))
 
 
-def break_cycles(preds: dict[str, set[str]], kinds: Mapping[tuple[str, str], Edge] | None = None) -> int:
+def break_cycles(
+    preds: dict[str, set[str]],
+    kinds: Mapping[tuple[str, str], Edge] | None = None,
+    *,
+    level: int = logging.WARNING,
+) -> int:
     """Drop, in place, the weakest edge of every cycle of ``preds`` (GUID → predecessors) until none is
-    left (``kinds``: why each edge is there; unknown edges are the weakest), each with a warning; the
+    left (``kinds``: why each edge is there; unknown edges are the weakest), each logged at ``level``; the
     number dropped. Deterministic: among equally weak edges of a cycle, the first in GUID order goes."""
     kinds = kinds or {}
     dropped = 0
@@ -208,7 +219,8 @@ def break_cycles(preds: dict[str, set[str]], kinds: Mapping[tuple[str, str], Edg
         pred, guid = min(edges, key=lambda edge: (kinds.get(edge, 0), edge))
         preds[guid].discard(pred)
         dropped += 1
-        _log.warning(
+        _log.log(
+            level,
             "support graph: %s would wait for itself (%s): it no longer waits for %s (%s, the weakest)",
             guid,
             " → ".join(cycle),

@@ -104,7 +104,7 @@ def check_stability(
 ) -> StabilityReport:
     """Replay ``order`` (GUIDs of ``manifest``) in physics; stop at the first step that does not stand."""
     names = {component.guid: component.name or component.ifc_class for component in manifest.components}
-    rests_on = support_predecessors(manifest.components, joints=manifest.joints)
+    rests_on = support_predecessors(manifest.components, joints=manifest.joints, cycles_level=logging.INFO)
     placed: set[str] = set()
     config = SimConfig(
         robots=0,

@@ -110,7 +110,7 @@ def load_plan(manifest: Manifest, build_dir: Path, source: PlanSource) -> Plan:
         raise PlanError(f"{build_dir}: the build has no components to construct")
     build_dir = Path(build_dir)
     extra_warnings: list[str] = []
-    support = support_predecessors(components, joints=manifest.joints)
+    support = support_predecessors(components, joints=manifest.joints, cycles_level=logging.INFO)
     if source.kind is SourceKind.DERIVE:
         sequence, label = derive_sequence(components, support=support), "derived from the support graph"
     elif source.kind is SourceKind.BUILD:
@@ -164,7 +164,7 @@ def plan_from_sequence(
         raise PlanError(
             f"{origin}: {len(unknown)} task(s) name component(s) that are not in the build: {shown}"
         )
-    support = support if support is not None else support_predecessors(components)
+    support = support if support is not None else support_predecessors(components, cycles_level=logging.INFO)
     explicit = sequence.has_explicit_predecessors
     preds: dict[str, frozenset[str]] = {}
     if explicit:

@@ -341,3 +341,24 @@ def test_a_floor_finish_goes_in_after_the_walls_beside_it_and_before_a_wall_stan
     assert preds["tiles"] == {"furring"} and preds["furring"] == set()
     assert preds["partition"] == {"boards"} and preds["boards"] == set()
     assert preds["slab"] == set()
+
+
+def test_a_cycle_is_a_warning_for_the_converter_and_said_at_info_by_what_reads_the_build_again(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """The duplex's two cycles were printed again by fleet check and run: the converter warns once, the
+    readers of its build (fleet check, planner, physics) log the same cycle at INFO."""
+    components = [
+        _component(
+            "a", "IfcBeam", (0.0, 0.0, 3.0), (4.0, 0.2, 3.4), (("IfcRelConnectsElements", "b", "relating"),)
+        ),
+        _component(
+            "b", "IfcBeam", (3.9, 0.0, 3.0), (8.0, 0.2, 3.4), (("IfcRelConnectsElements", "a", "relating"),)
+        ),
+    ]
+    joints = [_joint("a", "b"), _joint("b", "a")]
+    with caplog.at_level(logging.INFO, logger="bimbot.shared.support_graph"):
+        support_predecessors(components, joints=joints)
+        support_predecessors(components, joints=joints, cycles_level=logging.INFO)
+    levels = [record.levelno for record in caplog.records if "would wait for itself" in record.message]
+    assert levels == [logging.WARNING, logging.INFO]
