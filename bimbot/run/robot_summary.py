@@ -71,6 +71,15 @@ def other_tasks(robot_id: str, robot: dict[str, Any], components: dict[str, dict
     """``T0017 Beam B1-B2: placed unstable, retried``: each task of the robot that did not end as built or
     given back and was not a hand-off (counted apart). A component's last task by the robot is taken as
     the one that built it, its earlier ones as the retries."""
+    return _named_others(robot_id, robot, components, _classified(robot_id, robot, components)[2])
+
+
+def _classified(
+    robot_id: str, robot: dict[str, Any], components: dict[str, dict[str, Any]]
+) -> tuple[int, int, list[tuple[int, str]]]:
+    """(built, given back, the others' (index, GUID)) among the robot's tasks that are not hand-offs: each
+    constructed placement by the robot and each give-back it made is matched to one of its tasks of that
+    component, latest first, so the three add up to its tasks less its hand-offs."""
     built: Counter[str] = Counter()
     for guid, component in components.items():
         built[guid] = sum(
@@ -84,7 +93,7 @@ def other_tasks(robot_id: str, robot: dict[str, Any], components: dict[str, dict
         for who in component.get("given_back_by") or []
         if who == robot_id
     )
-    caught = _placements_by(robot_id, components)
+    counts = [0, 0]
     others: list[tuple[int, str]] = []
     tasks = robot.get("tasks") or []
     for index in reversed(range(len(tasks))):
@@ -94,11 +103,21 @@ def other_tasks(robot_id: str, robot: dict[str, Any], components: dict[str, dict
             continue
         if task.get("kind") != "clear" and guid is not None and built[guid] > 0:
             built[guid] -= 1
+            counts[0] += 1
             continue
         if task.get("kind") != "clear" and guid is not None and given_back[guid] > 0:
             given_back[guid] -= 1
+            counts[1] += 1
             continue
         others.append((index, guid or ""))
+    return counts[0], counts[1], others
+
+
+def _named_others(
+    robot_id: str, robot: dict[str, Any], components: dict[str, dict[str, Any]], others: list[tuple[int, str]]
+) -> list[str]:
+    caught = _placements_by(robot_id, components)
+    tasks = robot.get("tasks") or []
     lines = []
     for index, guid in sorted(others):
         entry = components.get(guid)
@@ -109,22 +128,25 @@ def other_tasks(robot_id: str, robot: dict[str, Any], components: dict[str, dict
 
 
 def tasks_text(robot_id: str, robot: dict[str, Any], components: dict[str, dict[str, Any]]) -> str:
-    """``24 task(s): 23 built, 0 given back, 1 other (T0017 Beam B1-B2: placed unstable, retried)``; a
-    report without the counts: ``11 task(s)``."""
+    """``24 task(s): 20 built, 1 given back, 1 other (T0017 Beam B1-B2: placed unstable, retried), 2
+    hand-off(s) to a crane``: the parts add up to the tasks; a report without the counts: ``11 task(s)``."""
     tasks = f"{len(robot['tasks'])} task(s)"
+    hand_offs = sum(1 for task in robot["tasks"] if task.get("kind") == "hand_off")
+    handed = f", {hand_offs} hand-off(s) to a crane" if hand_offs else ""
     if "built" not in robot:
-        return tasks
-    text = f"{tasks}: {robot['built']} built, {robot.get('given_back', 0)} given back"
-    others = other_tasks(robot_id, robot, components)
+        return tasks + (f" ({hand_offs} hand-off(s) to a crane)" if hand_offs else "")
+    built, given_back, unnamed = _classified(robot_id, robot, components)
+    text = f"{tasks}: {built} built, {given_back} given back"
+    others = _named_others(robot_id, robot, components, unnamed)
     if not others:
-        return text
+        return text + handed
     named = "; ".join(others[:MAX_OTHERS_NAMED])
     more = (
         f"; … and {len(others) - MAX_OTHERS_NAMED} more (report.json)"
         if len(others) > MAX_OTHERS_NAMED
         else ""
     )
-    return f"{text}, {len(others)} other ({named}{more})"
+    return f"{text}, {len(others)} other ({named}{more}){handed}"
 
 
 def robot_lines(report: dict[str, Any], window: tuple[float, float] | None) -> list[str]:
@@ -139,10 +161,8 @@ def robot_lines(report: dict[str, Any], window: tuple[float, float] | None) -> l
     lines = []
     for robot_id in order:
         robot = robots[robot_id]
-        hand_offs = sum(1 for task in robot["tasks"] if task.get("kind") == "hand_off")
         lines.append(
             f"{lane_label(robot_id, robot)}: {tasks_text(robot_id, robot, components)}"
-            + (f" ({hand_offs} hand-off(s))" if hand_offs else "")
             + f", {robot['distance_m']:.0f} m driven, busy {in_unit_text(robot['busy_s'], unit)}"
             + busy_outside(robot, window, unit)
         )

@@ -237,7 +237,7 @@ def test_the_run_summary_lists_robots_by_type_with_hand_offs_and_utilisation_per
         "r4 (carrier)",
         "r3 (tower_crane)",
     ]
-    assert "(1 hand-off(s))" in robot_lines[1] and "hand-off" not in robot_lines[3]
+    assert "1 hand-off(s) to a crane" in robot_lines[1] and "hand-off" not in robot_lines[3]
     assert utilisation_line(report) in lines
 
 

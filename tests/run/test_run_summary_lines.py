@@ -7,6 +7,7 @@ from __future__ import annotations
 from run_builders import watch_of
 from test_run_loop_dead_service import _Dead, _Monitor
 
+from bimbot.run.robot_summary import tasks_text
 from bimbot.run.summary import RunOutcome, method_line, summary_text
 
 
@@ -103,3 +104,22 @@ def test_the_method_line_adds_up_to_the_components_and_counts_guests_and_existin
         "besides them: with_host 2/2 (built into their hosts), in_place 3/3 (existing work)"
     )
     assert method_line({"by_method": {"lifted": {"components": 5, "constructed": 5}}}) is None
+
+
+def test_a_robot_s_tasks_add_up_its_hand_offs_among_them() -> None:
+    """A new user's trial: "70 task(s): 40 built, 5 given back (26 hand-off(s))" is 71. A hand-off given
+    back was counted as given back and as a hand-off; now the parts add up to the tasks."""
+    robot = {
+        "built": 1,
+        "given_back": 1,
+        "tasks": [
+            {"guid": "A", "task_id": "T1", "kind": "build"},
+            {"guid": "B", "task_id": "T2-h1", "kind": "hand_off"},
+            {"guid": "B", "task_id": "T2-h2", "kind": "hand_off"},
+        ],
+    }
+    components = {
+        "A": {"guid": "A", "placements": [{"robot_id": "r2", "verdict": "constructed"}]},
+        "B": {"guid": "B", "given_back_by": ["r2"], "placements": []},
+    }
+    assert tasks_text("r2", robot, components) == "3 task(s): 1 built, 0 given back, 2 hand-off(s) to a crane"
