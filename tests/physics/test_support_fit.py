@@ -32,6 +32,7 @@ from bimbot.services.physics.support_fit import (
     halfway,
     moved_with,
     on_its_seats,
+    shifted,
 )
 from bimbot.shared.connection_kinds import ConnectionKind
 from bimbot.shared.manifest import Component, Joint, JointSource, Manifest
@@ -238,3 +239,26 @@ def test_halfway_averages_positions_and_slerps_turns() -> None:
     (position, quat) = halfway(((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)), ((0.01, 0.0, 0.2), tuple(turned)))
     assert position == pytest.approx((0.005, 0.0, 0.1))
     assert Rotation.from_quat(quat).as_euler("xyz")[2] == pytest.approx(0.01)
+
+
+def test_shifted_moves_a_member_as_far_as_the_face_beside_it_moved_without_turning_it(
+    frame_manifest: Manifest,
+) -> None:
+    """The duplex's finish floor notched round a partition turned 0.4°: followed rigidly, it was swung with
+    it; shifted, it moves as far as the partition's point nearest its centre moved, and keeps its own
+    orientation."""
+    member, other = _named(frame_manifest, "Footing A2"), _named(frame_manifest, "Footing A1")
+    target, other_target = target_frame(member), target_frame(other)
+    turn = Rotation.from_euler("z", 0.4, degrees=True)
+    as_built_quat = tuple((turn * Rotation.from_quat(other_target[1])).as_quat())
+    as_built = ((other_target[0][0] + 0.005, other_target[0][1], other_target[0][2]), as_built_quat)
+    fitted = shifted(member, target, other, as_built)
+    assert fitted[1] == target[1]  # not turned
+    centre = centre_m(target, member.com_local_m)
+    box = other.bbox_world
+    nearest = np.clip(centre, np.asarray(box.min_m), np.asarray(box.max_m))
+    local = Rotation.from_quat(other_target[1]).inv().apply(nearest - np.asarray(other_target[0]))
+    moved_to = Rotation.from_quat(as_built_quat).apply(local) + np.asarray(as_built[0])
+    assert np.asarray(fitted[0]) - np.asarray(target[0]) == pytest.approx(moved_to - nearest, abs=1e-9)
+    swung = following(target, other_target, as_built)
+    assert swung[1] != target[1]  # following turns it with the partition; shifted does not
