@@ -67,19 +67,15 @@ def _what_became(task: dict[str, Any], component: dict[str, Any] | None, caught:
     return f"ended without a placement; the component is {state}" + (f" ({reason})" if reason else "")
 
 
-def other_tasks(robot_id: str, robot: dict[str, Any], components: dict[str, dict[str, Any]]) -> list[str]:
-    """``T0017 Beam B1-B2: placed unstable, retried``: each task of the robot that did not end as built or
-    given back and was not a hand-off (counted apart). A component's last task by the robot is taken as
-    the one that built it, its earlier ones as the retries."""
-    return _named_others(robot_id, robot, components, _classified(robot_id, robot, components)[2])
-
-
 def _classified(
     robot_id: str, robot: dict[str, Any], components: dict[str, dict[str, Any]]
 ) -> tuple[int, int, list[tuple[int, str]]]:
     """(built, given back, the others' (index, GUID)) among the robot's tasks that are not hand-offs: each
     constructed placement by the robot and each give-back it made is matched to one of its tasks of that
-    component, latest first, so the three add up to its tasks less its hand-offs."""
+    component, latest first (a component's last task by the robot is taken as the one that built it, its
+    earlier ones as the retries), so the three add up to its tasks less its hand-offs. The others (a
+    placement caught and retried, a last attempt failed, a task open at the end, a body cleared away) are
+    named by :func:`_named_others`."""
     built: Counter[str] = Counter()
     for guid, component in components.items():
         built[guid] = sum(
@@ -93,7 +89,7 @@ def _classified(
         for who in component.get("given_back_by") or []
         if who == robot_id
     )
-    counts = [0, 0]
+    built_tasks = given_back_tasks = 0
     others: list[tuple[int, str]] = []
     tasks = robot.get("tasks") or []
     for index in reversed(range(len(tasks))):
@@ -103,19 +99,21 @@ def _classified(
             continue
         if task.get("kind") != "clear" and guid is not None and built[guid] > 0:
             built[guid] -= 1
-            counts[0] += 1
+            built_tasks += 1
             continue
         if task.get("kind") != "clear" and guid is not None and given_back[guid] > 0:
             given_back[guid] -= 1
-            counts[1] += 1
+            given_back_tasks += 1
             continue
         others.append((index, guid or ""))
-    return counts[0], counts[1], others
+    return built_tasks, given_back_tasks, others
 
 
 def _named_others(
     robot_id: str, robot: dict[str, Any], components: dict[str, dict[str, Any]], others: list[tuple[int, str]]
 ) -> list[str]:
+    """``T0017 Beam B1-B2: placed unstable, retried``: what each of ``others`` (:func:`_classified`)
+    came to."""
     caught = _placements_by(robot_id, components)
     tasks = robot.get("tasks") or []
     lines = []

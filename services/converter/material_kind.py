@@ -45,7 +45,7 @@ KIND_PATTERNS: tuple[tuple[re.Pattern[str], MaterialKind], ...] = (
     ),
     (
         re.compile(
-            r"brick|masonry|block|\bcmu\b|ladrillo|brique|mattone|ziegel|mauerwerk|stone|piedra|pierre|pietra|"
+            r"brick|block|ladrillo|brique|mattone|ziegel|stone|piedra|pierre|pietra|"
             r"砖|砌块|砌体|煉瓦|レンガ|кирпич",
             re.I,
         ),
