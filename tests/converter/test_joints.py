@@ -40,6 +40,15 @@ def _guids(manifest: Manifest) -> dict[str, str]:
     return {component.name or "": component.guid for component in [*manifest.components, *manifest.in_place]}
 
 
+def _one_joint_and_one_clash(manifest: Manifest, joint: tuple[str, str], rule: str, clash: set[str]) -> None:
+    """The manifest's only joint joins ``joint`` (in that order) by ``rule``; its only clash is ``clash``."""
+    [found] = manifest.joints
+    assert found.guids == joint
+    assert found.rule == rule
+    [clashed] = manifest.clashes
+    assert set(clashed.guids) == clash
+
+
 def _column_in_footing(drawn_into_m: float = 0.05) -> SmallModel:
     small = new_model()
     add_beam(
@@ -521,11 +530,12 @@ def test_a_hanger_rod_drawn_through_the_deck_it_carries_is_a_joint_and_a_block_a
     add_box(small, "IfcBuildingElementProxy", "Block", size_m=(0.3, 0.3, 0.5), corner_m=(2.2, 1.5, 2.84))
     manifest = _convert(small, tmp_path)
     guid = _guids(manifest)
-    [joint] = manifest.joints
-    assert joint.guids == (guid["Deck"], guid["Hanger"])
-    assert joint.rule == "IfcBuildingElementProxy into IfcSlab, up to 150 mm"
-    [clash] = manifest.clashes
-    assert set(clash.guids) == {guid["Deck"], guid["Block"]}
+    _one_joint_and_one_clash(
+        manifest,
+        (guid["Deck"], guid["Hanger"]),
+        "IfcBuildingElementProxy into IfcSlab, up to 150 mm",
+        {guid["Deck"], guid["Block"]},
+    )
     assert support_predecessors(manifest.components, joints=manifest.joints)[guid["Hanger"]] == {guid["Deck"]}
 
 
@@ -662,11 +672,12 @@ def test_a_tee_carried_through_a_pier_exported_as_a_proxy_is_a_joint_and_a_box_t
     add_box(small, "IfcBuildingElementProxy", "Sign", size_m=(0.5, 0.3, 0.5), corner_m=(2.3, 0.19, 0.5))
     manifest = _convert(small, tmp_path)
     guid = _guids(manifest)
-    [joint] = manifest.joints
-    assert joint.guids == (guid["Pier"], guid["Tee"])
-    assert joint.rule == "IfcBeam into IfcBuildingElementProxy, up to 300 mm"
-    [clash] = manifest.clashes
-    assert set(clash.guids) == {guid["Pier"], guid["Sign"]}
+    _one_joint_and_one_clash(
+        manifest,
+        (guid["Pier"], guid["Tee"]),
+        "IfcBeam into IfcBuildingElementProxy, up to 300 mm",
+        {guid["Pier"], guid["Sign"]},
+    )
 
 
 def test_two_coupled_windows_drawn_into_each_other_are_a_joint_and_a_window_deep_in_another_a_clash(
