@@ -46,6 +46,7 @@ import numpy as np
 from bimbot.shared.manifest import MAX_COLLISION_PARTS, CollisionMethod
 
 from .mesh import MeshLike, TriMesh, as_trimesh_lite, convex_hull
+from .part_merging import merge_nearest
 from .placement import axis2placement_matrix
 from .plane_split import split_into_convex_parts
 from .prism_split import SectionCache, extrusion_parts
@@ -232,7 +233,7 @@ def _shape_from_representation(
     if not parts:
         raise _NotDecomposableError("empty Body representation")
     _validate(parts, mesh_local, outline_allowance_m)
-    return CollisionShape(CollisionMethod.PROFILE_DECOMPOSITION, tuple(parts))
+    return _profile_pieces(parts)
 
 
 def _shape_from_section(
@@ -260,7 +261,17 @@ def _shape_from_section(
     if parts is None:
         raise _NotDecomposableError("mesh is not a closed prism of its extrusion")
     _validate(parts, mesh_local, 0.0)
-    return CollisionShape(CollisionMethod.PROFILE_DECOMPOSITION, tuple(parts))
+    return _profile_pieces(parts)
+
+
+def _profile_pieces(parts: list[TriMesh]) -> CollisionShape:
+    """The exact pieces of a decomposed body, merged into :data:`MAX_PARTS` hulls when there are more
+    (:mod:`.part_merging`): physics keeps no more (a railing's 113 posts, balusters and rails collided as
+    its whole box, and the joints the converter measured on its pieces were not what physics saw)."""
+    if len(parts) <= MAX_PARTS:
+        return CollisionShape(CollisionMethod.PROFILE_DECOMPOSITION, tuple(parts))
+    note = f"{len(parts)} profile pieces merged into {MAX_PARTS} hulls, neighbours first"
+    return CollisionShape(CollisionMethod.PROFILE_DECOMPOSITION, tuple(merge_nearest(parts, MAX_PARTS)), note)
 
 
 def _extrusion_frame(
