@@ -21,6 +21,11 @@ from bimbot.shared.errors import InputError
 
 DEFAULT_JOINT_RULES_FILE = Path(__file__).resolve().parent / "joint_rules.toml"
 
+FITTING_THIN_M = 0.05
+"""A member whose least side is at most this is a board or sheet a site scribes or cuts to fit it."""
+FITTING_OPEN_FILL = 0.25
+"""A member whose volume fills at most this share of its own box is an open frame (a railing, a screen)."""
+
 CLASH_DEPTH_M = 0.015
 """An overlap deeper than this that is no joint is a clash: physics cannot take it for a contact to stop at
 (a robot setting a member against its neighbour stops there; shallower overlaps are cleared at release)."""
@@ -61,6 +66,14 @@ class JointRule(BaseModel):
     # only an overlap that runs at least this far in plan (a lining along the wall it lines, not a wall's
     # edge against a pier); 0: any
     min_run_m: float = Field(default=0.0, ge=0.0, le=100.0)
+    # only a member a site makes to fit the part as built: a board or sheet (its least side at most
+    # FITTING_THIN_M) or an open frame (its volume at most FITTING_OPEN_FILL of its own box: a railing, a
+    # screen, a rod on the slant), not a solid block
+    fitting: bool = False
+    # only a member that weighs at most this; 0: any
+    max_member_kg: float = Field(default=0.0, ge=0.0)
+    # …and at most this share of the part's mass (the lighter is made to fit the heavier); 0: any
+    max_member_share: float = Field(default=0.0, ge=0.0, le=1.0)
     why: str = ""
 
     @field_validator("member", "part")
@@ -70,6 +83,18 @@ class JointRule(BaseModel):
             if not (name.startswith("Ifc") and name[3:].isalnum()):
                 raise ValueError(f"{name!r} is not an IFC class name (IfcColumn, IfcWall, …)")
         return names
+
+    def takes_masses(self, member_kg: float, part_kg: float) -> bool:
+        """Whether a member of ``member_kg`` drawn into a part of ``part_kg`` is light enough for the rule."""
+        if self.max_member_kg > 0.0 and member_kg > self.max_member_kg:
+            return False
+        return not (self.max_member_share > 0.0 and member_kg > self.max_member_share * part_kg)
+
+    def takes_shape(self, least_side_m: float, box_fill: float) -> bool:
+        """Whether a member whose own box's least side is ``least_side_m`` and whose volume fills
+        ``box_fill`` of that box is shaped as the rule asks: any, or a ``fitting`` (a board, a sheet or an
+        open frame)."""
+        return not self.fitting or least_side_m <= FITTING_THIN_M or box_fill <= FITTING_OPEN_FILL
 
     def describe(self, member: str, part: str) -> str:
         """``"IfcColumn into IfcFooting, up to 100 mm"``: the rule as the manifest and the log name it."""

@@ -26,6 +26,11 @@ part first (a Revit renovation draws its new fittings into the existing slabs an
 A thin **deck drawn through an upright** that passes through it (a post through a roof plank) is cut round
 it on site (:mod:`.notches`): a joint, the upright first.
 
+Last, a **fitting** rule (``fitting = true``): a light board, sheet or open frame drawn into a heavier part
+is made to it on site (a railing's infill cut to its parapet, a screen scribed between its piers): a joint,
+the heavier part first. It comes after the others so that what the drawing says (a deck cut round the
+railing passing up through it) decides first.
+
 Any other overlap deeper than :data:`~bimbot.shared.joints.CLASH_DEPTH_M` is a **clash**: two parts that
 cannot both be where the model puts them. The manifest keeps both lists; physics lets a jointed pair overlap
 and connects them, and still reports a clash.
@@ -104,6 +109,10 @@ def find_joints(
     related = relations(model, components)
     bars = BarShapes(out_dir)
     element_plans = element_plans_m2(components)
+    # a fitting rule is the last word: what the drawing itself says (a joint's usual drawing, a pour round
+    # it, existing work, a deck cut round an upright) decides first
+    drawn_rules = [rule for rule in settings.rule if not rule.fitting]
+    fitting_rules = [rule for rule in settings.rule if rule.fitting]
     clashes: list[Clash] = []
     for overlap in overlaps:
         relation = related.get(frozenset((overlap.first, overlap.second)))
@@ -118,9 +127,10 @@ def find_joints(
             joints.append(_with_bottoms(related_joint, overlap))
             continue
         first, second = by_guid[overlap.first], by_guid[overlap.second]
-        joint = _by_rule(overlap, first, second, settings.rule, classes, bars=bars)
+        joint = _by_rule(overlap, first, second, drawn_rules, classes, bars=bars)
         joint = joint or _cast_around(overlap, first, second) or _fitted_to_existing(overlap, first, second)
         joint = joint or notched_round(overlap, first, second, element_plans)
+        joint = joint or _by_rule(overlap, first, second, fitting_rules, classes, bars=bars)
         if joint is not None:
             joints.append(_with_bottoms(joint, overlap))
         elif overlap.depth_m > CLASH_DEPTH_M:
@@ -287,9 +297,12 @@ def _by_rule(
             continue
         if rule.min_run_m > 0.0 and plan_run_m(overlap.region_m) < rule.min_run_m:
             continue
+        if not rule.takes_masses(member.mass_kg, part.mass_kg) or not rule.takes_shape(*_shape(member)):
+            continue
         # either may be the member of a rule that does not look for an end: no direction then
         either_way = not rule.at_end and classes.matching(part.ifc_class, rule.member) is not None
         either_way = either_way and classes.matching(member.ifc_class, rule.part) is not None
+        either_way = either_way and rule.takes_masses(part.mass_kg, member.mass_kg)
         return Joint(
             guids=(part.guid, member.guid),
             depth_m=round(overlap.depth_m, 4),
@@ -312,6 +325,13 @@ def _fitting(
             part_class = classes.matching(part.ifc_class, rule.part)
             if member_class is not None and part_class is not None:
                 yield rule, member, part, member_class, part_class
+
+
+def _shape(component: Component) -> tuple[float, float]:
+    """``component``'s own box's least side (m) and the share of that box its volume fills."""
+    size = np.asarray(component.bbox_local.max_m) - np.asarray(component.bbox_local.min_m)
+    box_m3 = float(np.prod(size))
+    return float(np.min(size)), (component.volume_m3 / box_m3 if box_m3 > 0.0 else 1.0)
 
 
 def embedded_along(member: Component, part: Component, region_world_m: np.ndarray) -> bool:

@@ -720,3 +720,59 @@ def test_a_beam_drawn_to_the_column_centre_line_is_a_joint(tmp_path: Path) -> No
     assert joint.guids == (guid["Column"], guid["Beam"])
     assert joint.rule == "IfcBeam into IfcColumn, up to 200 mm"
     assert joint.depth_m == pytest.approx(0.178, abs=0.005)
+
+
+def test_a_light_board_drawn_deep_into_the_heavier_part_it_is_fixed_to_is_made_to_fit_it(
+    tmp_path: Path,
+) -> None:
+    """The Janesville restaurant draws its bridge railings' infill (19 mm) 158 mm down into their parapet:
+    a site makes the railing to the parapet as built (its posts cored in, its infill cut to the top), a
+    joint by the fitting rule, the parapet first. A 45 kg solid block drawn as deep is still a clash, and
+    so is a 207 kg sheet (over the fitting rule's 150 kg)."""
+    small = new_model()
+    add_wall(small, "Parapet", length_m=4.0, height_m=1.0, thickness_m=0.4)
+    add_box(small, "IfcRailing", "Infill", size_m=(3.0, 0.019, 1.0), corner_m=(0.5, 0.15, 0.7))
+    add_wall(small, "Wall", length_m=4.0, height_m=1.0, thickness_m=0.4, matrix_m=translation(y_m=3.0))
+    add_box(small, "IfcBuildingElementProxy", "Block", size_m=(0.3, 0.3, 0.5), corner_m=(0.5, 3.05, 0.8))
+    add_wall(small, "Pier", length_m=0.6, height_m=3.0, thickness_m=0.6, matrix_m=translation(y_m=6.0))
+    add_box(small, "IfcBuildingElementProxy", "Sheet", size_m=(3.0, 0.03, 2.3), corner_m=(-1.0, 6.2, 0.5))
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    [joint] = manifest.joints
+    assert joint.guids == (guid["Parapet"], guid["Infill"])
+    assert joint.rule == "IfcRailing into IfcWall, up to 350 mm"
+    assert joint.depth_m > 0.1  # deeper than a railing's posts are set by the rule before it
+    assert {frozenset(clash.guids) for clash in manifest.clashes} == {
+        frozenset((guid["Wall"], guid["Block"])),
+        frozenset((guid["Pier"], guid["Sheet"])),
+    }
+    preds = support_predecessors(manifest.components, joints=manifest.joints)
+    assert guid["Parapet"] in preds[guid["Infill"]]
+
+
+def test_a_fitting_rule_takes_a_board_or_an_open_frame_not_a_solid_block() -> None:
+    """The shape a fitting rule asks of its member: a board or sheet (least side ≤ 50 mm) or an open frame
+    (a railing's 11 m box 6 % full), not a solid block; a rule without ``fitting`` takes any shape."""
+    [rule] = [rule for rule in load_joint_settings().rule if rule.fitting]
+    assert rule.takes_shape(0.006, 0.9) and rule.takes_shape(0.121, 0.057)
+    assert not rule.takes_shape(0.305, 1.0)
+    assert rule.takes_masses(82.0, 1742.0) and not rule.takes_masses(109.0, 200.0)
+    assert not rule.takes_masses(151.0, 5000.0)
+    assert rule.model_copy(update={"fitting": False}).takes_shape(0.305, 1.0)
+
+
+def test_a_ceiling_a_light_railing_passes_up_through_is_cut_round_it_before_any_fitting_rule(
+    tmp_path: Path,
+) -> None:
+    """The Revit duplex's stair guard rail rises through its ceiling: the ceiling is cut round it, the rail
+    first (a notch). The fitting rule, which would take the 25 kg rail into the 52 kg ceiling and put the
+    ceiling first, is only tried after that judgement (tried first, it reordered the duplex's floor and two
+    partitions fell into their slab's open pit)."""
+    small = new_model()
+    add_box(small, "IfcCovering", "Ceiling", size_m=(2.0, 2.0, 0.013), corner_m=(0.0, 0.0, 2.4))
+    add_box(small, "IfcRailing", "Rail", size_m=(0.02, 0.5, 2.5), corner_m=(0.9, 1.8, 0.5))
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    [joint] = manifest.joints
+    assert joint.source is JointSource.NOTCHED
+    assert joint.guids == (guid["Rail"], guid["Ceiling"])
