@@ -16,16 +16,22 @@ release would call the overlap a clash in the IFC. The converter tells joints fr
 A **framed end** (``JointSource.FRAMED``: a member's end drawn butting the part it frames into) is not such
 a joint: the two keep their contacts and it is connected as any neighbour. Only its release differs: set
 against the part, the member is not moved out of it as long as they overlap no deeper than the model draws
-plus the erection clearance, since the member is made short by that gap (:func:`framed_ends`).
+plus the erection clearance, since the member is made short by that gap (:func:`framed_ends`). Boards cut
+from one covering (a ceiling's, a floor finish's panels) are let overlap the board beside them as far as a
+site trims one to the other, the joint left between them (:func:`trimmed_boards`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 
-from bimbot.shared.manifest import Joint, JointSource
+from bimbot.shared.manifest import Component, Joint, JointSource
 
 from .client import p
+
+# a board is trimmed to the one beside it by up to the joint the converter leaves between two panels side
+# by side (services/converter/panelise.py: PANEL_JOINT_M)
+BOARD_TRIM_M = 0.015
 
 
 def joint_partners(joints: Iterable[Joint]) -> dict[str, frozenset[str]]:
@@ -53,6 +59,24 @@ def framed_ends(joints: Iterable[Joint]) -> dict[str, dict[str, float]]:
             depth_m = joint.depth_m + joint.clearance_m
             allowed.setdefault(a, {})[b] = depth_m
             allowed.setdefault(b, {})[a] = depth_m
+    return allowed
+
+
+def trimmed_boards(components: Iterable[Component]) -> dict[str, dict[str, float]]:
+    """GUID → {a board beside it cut from the same covering: how deep the two may overlap (m)}, as
+    :func:`framed_ends` gives: the panels of a ceiling, floor finish or cladding (``IfcCovering``) are
+    boards a site cuts to the one beside it as it stands, by up to the joint left between them
+    (:data:`BOARD_TRIM_M`). A board set against a neighbour fitted a few mm towards it and turned (the
+    Janesville restaurant's gypsum ceiling: 10 mm and 0.43°) was moved 17.6 mm out of it and failed
+    misplaced; on a site its edge is trimmed. Precast panels and planks are not trimmed: they are not here."""
+    by_parent: dict[str, list[str]] = {}
+    for component in components:
+        if component.parent_guid is not None and component.ifc_class == "IfcCovering":
+            by_parent.setdefault(component.parent_guid, []).append(component.guid)
+    allowed: dict[str, dict[str, float]] = {}
+    for boards in by_parent.values():
+        for guid in boards:
+            allowed[guid] = {other: BOARD_TRIM_M for other in boards if other != guid}
     return allowed
 
 

@@ -72,7 +72,7 @@ from .fleet_spawn import robot_pose_msg, robot_types, spawn_fleet, types_on_site
 from .handling import Handling
 from .handling_state import HandlingConfig, Item, Phase
 from .in_place_work import BUILT_IN_PLACE, InPlaceWork, hide
-from .joints import framed_ends, joint_partners, let_joints_overlap
+from .joints import framed_ends, joint_partners, let_joints_overlap, trimmed_boards
 from .odometry import Odometry
 from .pits import Pits, collision_part_boxes
 from .positioning import TotalStation
@@ -274,7 +274,7 @@ class Simulation:
             connections=replace(self.config.connections, fit=self.config.tolerances),
             in_place={body: guid for guid, body in self.in_place_bodies.items()},
             joints=partners,
-            framed=framed_ends(self.manifest.joints),
+            framed=_with_trims(framed_ends(self.manifest.joints), trimmed_boards(self.manifest.components)),
             seed=self.config.seed,
         )
         self.in_place_work = InPlaceWork(cid, self.handling.state, self.build_dir, ground_id=self.ground_id)
@@ -691,3 +691,15 @@ class Simulation:
         self._odometry[robot_id].pose_xy_yaw = xy_yaw
         if robot_id in self.handling.carrying:
             self._late_replies.extend(self.handling.follow(self.robots, self.sim_time_s))
+
+
+def _with_trims(
+    framed: dict[str, dict[str, float]], trims: dict[str, dict[str, float]]
+) -> dict[str, dict[str, float]]:
+    """The overlaps release lets stand: framed ends and boards trimmed to their neighbours (the deeper)."""
+    merged = {guid: dict(others) for guid, others in framed.items()}
+    for guid, others in trims.items():
+        mine = merged.setdefault(guid, {})
+        for other, depth_m in others.items():
+            mine[other] = max(depth_m, mine.get(other, 0.0))
+    return merged

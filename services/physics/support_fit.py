@@ -16,11 +16,12 @@ the built structure leaves room for it:
   not count;
 * drawn up to what stands in its way: where that aim runs into built members standing off their own
   targets, the member follows one of them, as bolted to it (its target moved by the rigid displacement that
-  member has from its own target), or is shifted, not turned, as far as that member's face beside it moved
-  (:func:`shifted`), or goes halfway to either, or stays: whichever leaves the least to clear
-  (:func:`fit_score`: an overlap with a part it is not framed to, or a framed end overlapped beyond its
-  erection clearance), then the most clearance at its framed ends for the robot's own error. A mullion
-  between two transom ends, one set 10 mm towards it, goes halfway: 5 mm into each end's clearance;
+  member has from its own target; never a covering's board: :func:`is_board`), or is shifted, not turned,
+  as far as that member's face beside it moved (:func:`shifted`), or goes halfway to either, or stays:
+  whichever leaves the least to clear (:func:`fit_score`: an overlap with a part it is not framed to, or a
+  framed end overlapped beyond its erection clearance), then the most clearance at its framed ends for the
+  robot's own error. A mullion between two transom ends, one set 10 mm towards it, goes halfway: 5 mm into
+  each end's clearance;
 * what overlap is left is cleared (:func:`.release.clear_overlap`, as for any placement).
 
 A fit moves the member's centre at most the position tolerance and turns it at most the angle tolerance
@@ -119,6 +120,14 @@ def shifted(member: Component, target: Frame, other: Component, other_as_built: 
     (x, y, z), quat = target
     dx, dy, dz = displacement_at_m(support, centre_m(target, member.com_local_m))
     return (x + float(dx), y + float(dy), z + float(dz)), quat
+
+
+def is_board(component: Component) -> bool:
+    """A board cut from a covering (a ceiling's, a floor finish's, a cladding's panel): a site sets it
+    square to the room and trims its edge to what stands, it does not turn it to follow a wall or the
+    board beside it (the Janesville restaurant's gypsum ceiling board turned 0.43° with what it was fitted
+    to left the next board no room over its 2.4 m width)."""
+    return component.parent_guid is not None and component.ifc_class == "IfcCovering"
 
 
 def deepest_m(overlaps: Iterable[tuple[str, float]]) -> float:
@@ -221,7 +230,11 @@ def fit(
             for other in (state.items.get(guid) for guid, _ in in_its_way)
             if other is not None and other.phase is Phase.JOINED
         ]
-        follows = [following(target, target_frame(other.component), other.pose) for other in built]
+        follows = (
+            []
+            if is_board(component)
+            else [following(target, target_frame(o.component), o.pose) for o in built]
+        )
         follows += [shifted(component, target, other.component, other.pose) for other in built]
         aim = min([aim, *follows, *(halfway(aim, follow) for follow in follows)], key=score)
         # a framed partner overlapped no deeper than its joint allows is no overlap to clear

@@ -161,12 +161,21 @@ def test_a_placement_off_its_target_into_a_neighbour_is_no_clash_in_the_ifc(
 
 
 def _released_beside_a_part_built_off_its_target(
-    stack: ExitStack, frame_manifest: Manifest, bundled_build: Path, *, built_off_m: float, framed: bool
+    stack: ExitStack,
+    frame_manifest: Manifest,
+    bundled_build: Path,
+    *,
+    built_off_m: float,
+    framed: bool,
+    boards_of: tuple[str, str] | None = None,
 ) -> tuple[Simulation, Component, Component, float]:
     """Footing A2 framed to Footing A1 at an end, drawn touching it (0.6 m footings side by side). A1 is
     built ``built_off_m`` off its target towards A2; A2 is let go at its own target. Its released x, with
-    A1's target x."""
+    A1's target x. With ``boards_of``, the two are covering panels cut from those elements instead."""
     first, second = _named(frame_manifest, "Footing A1"), _named(frame_manifest, "Footing A2")
+    if boards_of is not None:
+        first = first.model_copy(update={"ifc_class": "IfcCovering", "parent_guid": boards_of[0]})
+        second = second.model_copy(update={"ifc_class": "IfcCovering", "parent_guid": boards_of[1]})
     (x, y, z), quat = target_frame(first)
     beside = second.target_pose_world.model_copy(update={"position_m": (x + 0.6, y, z)})
     moved = second.model_copy(update={"target_pose_world": beside})
@@ -183,7 +192,8 @@ def _released_beside_a_part_built_off_its_target(
         if framed
         else []
     )
-    components = [moved if c.guid == second.guid else c for c in frame_manifest.components]
+    replaced = {first.guid: first, second.guid: moved}
+    components = [replaced.get(c.guid, c) for c in frame_manifest.components]
     manifest = frame_manifest.model_copy(update={"components": components, "joints": joints})
     sim = stack.enter_context(Simulation(manifest, bundled_build, SimConfig(robots=0)))
     sim.handling.restore(first.guid, ((x + built_off_m, y, z), quat), fixed=True, carrier=None)
@@ -226,4 +236,23 @@ def test_a_part_off_by_more_than_the_clearance_still_moves_the_framed_member_out
     )
     watch = sim.handling.watch[second.guid]
     assert watch.released[0][0] == pytest.approx(x + 0.615, abs=0.002)
+    assert sim.handling.pose_message(second.guid, sim.sim_time_s).set_against == [first.guid]
+
+
+def test_a_board_set_against_the_board_beside_it_built_off_its_target_is_trimmed_to_it(
+    stack: ExitStack, frame_manifest: Manifest, bundled_build: Path
+) -> None:
+    """Two boards cut from one ceiling: the first stands 8 mm off towards the second (within its
+    tolerance); the second, let go at its own target, stays there (a site trims its edge by up to the
+    15 mm joint between them), where the Janesville restaurant's gypsum board was moved 17.6 mm out and
+    failed. Boards of two different ceilings are not trimmed to each other: moved 8 mm out."""
+    sim, first, second, x = _released_beside_a_part_built_off_its_target(
+        stack, frame_manifest, bundled_build, built_off_m=0.008, framed=False, boards_of=("C", "C")
+    )
+    assert sim.handling.watch[second.guid].released[0][0] == pytest.approx(x + 0.6, abs=0.0005)
+    assert sim.handling.pose_message(second.guid, sim.sim_time_s).set_against == []
+    sim, first, second, x = _released_beside_a_part_built_off_its_target(
+        stack, frame_manifest, bundled_build, built_off_m=0.008, framed=False, boards_of=("C", "D")
+    )
+    assert sim.handling.watch[second.guid].released[0][0] == pytest.approx(x + 0.608, abs=0.002)
     assert sim.handling.pose_message(second.guid, sim.sim_time_s).set_against == [first.guid]

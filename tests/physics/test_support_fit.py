@@ -44,17 +44,32 @@ def _named(manifest: Manifest, name: str) -> Component:
 
 
 def _release_beside_built(
-    make_sim: Callable[..., Simulation], manifest: Manifest, built_off_m: float, *, by_robot: bool
+    make_sim: Callable[..., Simulation],
+    manifest: Manifest,
+    built_off_m: float,
+    *,
+    by_robot: bool,
+    turned_deg: float = 0.0,
+    boards: bool = False,
 ) -> tuple[Simulation, Component, float]:
-    """A1 built ``built_off_m`` towards A2 (+x); A2 placed exactly at its target 0.6 m beside A1's and let
-    go, by robot r1 or (``by_robot`` False) set down with none. A2 (as moved) and A1's target x."""
+    """A1 built ``built_off_m`` towards A2 (+x), turned ``turned_deg`` about z; A2 placed exactly at its
+    target 0.6 m beside A1's and let go, by robot r1 or (``by_robot`` False) set down with none; with
+    ``boards``, both are boards of one ceiling. A2 (as moved) and A1's target x."""
     first, second = _named(manifest, "Footing A1"), _named(manifest, "Footing A2")
     (x, y, z), quat = target_frame(first)
     beside = second.target_pose_world.model_copy(update={"position_m": (x + 0.6, y, z)})
     moved = second.model_copy(update={"target_pose_world": beside})
-    components = [moved if c.guid == second.guid else c for c in manifest.components]
+    replaced = {second.guid: moved}
+    if boards:
+        board = {"ifc_class": "IfcCovering", "parent_guid": "CEILING"}
+        replaced = {first.guid: first.model_copy(update=board), second.guid: moved.model_copy(update=board)}
+        moved = replaced[second.guid]
+    components = [replaced.get(c.guid, c) for c in manifest.components]
     sim = make_sim(manifest.model_copy(update={"components": components}), robots=1)
-    sim.handling.restore(first.guid, ((x + built_off_m, y, z), quat), fixed=True, carrier=None)
+    built_quat = tuple(
+        (Rotation.from_euler("z", turned_deg, degrees=True) * Rotation.from_quat(quat)).as_quat()
+    )
+    sim.handling.restore(first.guid, ((x + built_off_m, y, z), built_quat), fixed=True, carrier=None)
     sim.handling.note_constructed(first.guid, True)
     item = sim.handling.items[second.guid]
     item.motion_to = ((x + 0.6, y, z), quat)  # the robot's placement: exactly its BIM target
@@ -262,3 +277,21 @@ def test_shifted_moves_a_member_as_far_as_the_face_beside_it_moved_without_turni
     assert np.asarray(fitted[0]) - np.asarray(target[0]) == pytest.approx(moved_to - nearest, abs=1e-9)
     swung = following(target, other_target, as_built)
     assert swung[1] != target[1]  # following turns it with the partition; shifted does not
+
+
+@pytest.mark.parametrize("boards", [False, True])
+def test_a_covering_s_board_is_not_turned_to_follow_the_board_beside_it(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest, boards: bool
+) -> None:
+    """A1 built 5 mm towards A2 and turned 0.4°. A member bolted to it follows it, turned; a board of a
+    ceiling is set square to the room and trimmed (the Janesville restaurant's gypsum board turned 0.43°
+    with its neighbour left the next board no room): its fitted target keeps its BIM orientation."""
+    sim, second, _ = _release_beside_built(
+        make_sim, frame_manifest, 0.005, by_robot=True, turned_deg=0.4, boards=boards
+    )
+    pose = sim.handling.pose_message(second.guid, sim.sim_time_s)
+    assert pose.fitted_target is not None
+    turned = (
+        Rotation.from_quat(pose.fitted_target.quat_xyzw) * Rotation.from_quat(target_frame(second)[1]).inv()
+    )
+    assert bool(turned.magnitude() < 1e-6) is boards
