@@ -43,7 +43,8 @@ The graph never holds a cycle. Edges from heights run from a strictly lower bott
 host's or a joint's order overrides a height edge the other way (a door drawn lower than the wall above
 it, which rests on the door at its side, is still placed after that wall); and should a cycle remain (from
 joints and connections in both directions), its weakest edge (fitted after, side contact, then contact,
-connection, joint, host) is dropped with a warning. A given predecessor map with a cycle is broken the
+connection, joint, host) is dropped with a warning; a component that leaves with nothing before it is then
+held at its side, as a floating one. A given predecessor map with a cycle is broken the
 same way by :func:`derive_sequence`. Footprints and heights come from the manifest's world-frame bounding
 boxes. The graph gives the derived construction sequence (footings and lower, supporting elements first)
 and is the yardstick a given sequence is checked against.
@@ -169,6 +170,13 @@ def support_predecessors(
         if guid in unsupported or guid in propped:
             add(foundation, guid, Edge.PIT)
     break_cycles(preds, kinds, level=cycles_level)
+    # a component a broken cycle left with nothing under or before it would float: held by what it touches
+    # at its side, as one that never had a support (the duplex's upper partition, drawn down through its
+    # floor, waited only for the guard rail a cycle took from it, and was set in the air), then any cycle
+    # that closes broken again
+    if any(not supports for supports in preds.values()):
+        _add_side_contacts(components, preds, bottoms, tolerance_m, set(), kinds=kinds)
+        break_cycles(preds, kinds, level=cycles_level)
     return preds
 
 

@@ -236,6 +236,23 @@ def test_joints_and_connections_in_both_directions_make_no_cycle() -> None:
     assert preds["a"] & {"b"} == set() or preds["b"] & {"a"} == set()
 
 
+def test_a_component_a_broken_cycle_leaves_with_no_support_is_held_by_what_it_touches_at_its_side() -> None:
+    """Two beams 3 m up that two joints order each way round, and a column beside both: the cycle is
+    broken, and the beam it left with nothing before it would be set in the air (the duplex's upper
+    partition, whose only support was a guard rail a cycle took away, fell 2.7 m): it waits for the column
+    it touches, as a beam that never had a support does."""
+    components = [
+        _component("a", "IfcBeam", (0.0, 0.0, 3.0), (4.0, 0.2, 3.4)),
+        _component("b", "IfcBeam", (3.9, 0.0, 3.0), (8.0, 0.2, 3.4)),
+        _component("c", "IfcColumn", (3.8, 0.2, 0.0), (4.1, 0.5, 3.4)),
+    ]
+    preds = support_predecessors(components, joints=[_joint("a", "b"), _joint("b", "a")])
+    assert preds["a"] and preds["b"]  # neither floats
+    emptied = "a" if "b" not in preds["a"] else "b"
+    assert preds[emptied] == {"c"}
+    assert len(derive_sequence(components, support=preds).guids()) == 3
+
+
 def test_a_cycle_in_a_given_support_map_is_broken_with_a_warning(caplog: pytest.LogCaptureFixture) -> None:
     components = _portal()
     support = {component.guid: set() for component in components}
