@@ -21,7 +21,9 @@ so the part's own erection error is taken in that gap, not by pushing the member
 
 A new component drawn into **existing work** (in place before the robots come) no deeper than
 :data:`FITTED_MAX_DEPTH_M` is fitted to it on site (a notch cut, the new part scribed): a joint, the existing
-part first (a Revit renovation draws its new fittings into the existing slabs and walls by a few cm).
+part first (a Revit renovation draws its new fittings into the existing slabs and walls by a few cm). So is
+a new part rising from below whose top is drawn up into the existing part over it, up to
+:data:`FITTED_UNDER_MAX_DEPTH_M` (a partition drawn to the top of the existing beam it is framed up to).
 
 A thin **deck drawn through an upright** that passes through it (a post through a roof plank) is cut round
 it on site (:mod:`.notches`): a joint, the upright first.
@@ -61,6 +63,9 @@ _log = logging.getLogger(__name__)
 
 END_TOLERANCE_M = 0.01  # an overlap this much past a rule's depth from the member's end still lies at it
 FITTED_MAX_DEPTH_M = 0.15  # a new part drawn this deep into existing work is fitted on site (notched)
+# a new part rising from below into existing work over it, its top drawn up to this far above the existing
+# part's underside (a deep beam: a W24 is 610 mm), is framed up to that underside on site
+FITTED_UNDER_MAX_DEPTH_M = 0.65
 EMBED_SECTION_SHARE = 0.9  # an embedded member's section lies this much inside the part, on both axes
 # an end drawn in at a slant overlaps its part along the member for up to this many times its section's
 # larger side (a 114 mm tube on a 20° slant to the chord: about 0.33 m), past its middle if it is short
@@ -254,13 +259,34 @@ def _cast_around(overlap: Overlap, a: Component, b: Component) -> Joint | None:
 
 def _fitted_to_existing(overlap: Overlap, a: Component, b: Component) -> Joint | None:
     """A joint where a new component is drawn into existing work (in place before the robots come) no
-    deeper than :data:`FITTED_MAX_DEPTH_M`, the existing part first, or None."""
+    deeper than :data:`FITTED_MAX_DEPTH_M`, or rises from below with its top drawn up into it no deeper
+    than :data:`FITTED_UNDER_MAX_DEPTH_M` (:func:`framed_up_under`), the existing part first, or None."""
     existing = [c for c in (a, b) if c.method is ConstructionMethod.IN_PLACE]
-    if len(existing) != 1 or overlap.depth_m > FITTED_MAX_DEPTH_M:
+    if len(existing) != 1:
         return None
     member = b if existing[0] is a else a
-    rule = f"{member.ifc_class} fitted to existing {existing[0].ifc_class}"
+    if overlap.depth_m <= FITTED_MAX_DEPTH_M:
+        rule = f"{member.ifc_class} fitted to existing {existing[0].ifc_class}"
+    elif framed_up_under(member, existing[0]):
+        rule = f"{member.ifc_class} framed up under existing {existing[0].ifc_class}"
+    else:
+        return None
     return _part_first(overlap, existing[0], member, JointSource.FITTED, rule)
+
+
+def framed_up_under(member: Component, existing: Component) -> bool:
+    """Whether ``member`` rises from below ``existing`` with its top drawn up into it, no more than
+    :data:`FITTED_UNDER_MAX_DEPTH_M` above its underside and not past its top: a partition a renovation
+    draws to the top of the existing beam over it (the Janesville restaurant: 432-533 mm into its timber
+    and W24 beams) is framed up to the beam's underside and scribed to it on site."""
+    member_low, member_high = member.bbox_world.min_m[2], member.bbox_world.max_m[2]
+    existing_low, existing_high = existing.bbox_world.min_m[2], existing.bbox_world.max_m[2]
+    drawn_up_m = member_high - existing_low
+    return (
+        member_low < existing_low - FITTED_UNDER_MAX_DEPTH_M
+        and 0.0 < drawn_up_m <= FITTED_UNDER_MAX_DEPTH_M
+        and member_high <= existing_high + END_TOLERANCE_M
+    )
 
 
 def _part_first(

@@ -776,3 +776,29 @@ def test_a_ceiling_a_light_railing_passes_up_through_is_cut_round_it_before_any_
     [joint] = manifest.joints
     assert joint.source is JointSource.NOTCHED
     assert joint.guids == (guid["Rail"], guid["Ceiling"])
+
+
+@pytest.mark.parametrize(("wall_top_m", "framed_up"), [(3.75, True), (4.0, False)])
+def test_a_new_partition_drawn_up_into_the_existing_beam_over_it_is_framed_up_to_its_underside(
+    tmp_path: Path, wall_top_m: float, framed_up: bool
+) -> None:
+    """The Janesville restaurant draws its new partitions to the top of the existing 16x20 timber beams
+    over them, 495 mm up into them: a site frames the partition up to the beam's underside and scribes it,
+    a joint, the beam first. A wall drawn on past the beam's top runs through it: still a clash. (The wall
+    crosses under a 0.4 × 0.5 m beam; the shortest move that parts them is the 0.45 m down.)"""
+    small = new_model()
+    add_box(small, "IfcBeam", "Beam", size_m=(4.0, 0.4, 0.5), corner_m=(0.0, -0.2, 3.25))
+    wall_along_y = np.array([[0, -1, 0, 2.06], [1, 0, 0, -1.5], [0, 0, 1, 0.05], [0, 0, 0, 1]], dtype=float)
+    add_wall(small, "Partition", length_m=3.0, height_m=wall_top_m - 0.05, thickness_m=0.12,
+             matrix_m=wall_along_y)  # fmt: skip
+    existing = next(str(e.GlobalId) for e in small.file.by_type("IfcBeam"))
+    manifest = _convert(small, tmp_path, ConvertOptions(formats=(), in_place_guids=(existing,)))
+    guid = _guids(manifest)
+    if not framed_up:
+        assert manifest.joints == [] and len(manifest.clashes) == 1
+        return
+    assert manifest.clashes == []
+    [joint] = manifest.joints
+    assert joint.source is JointSource.FITTED and joint.guids == (existing, guid["Partition"])
+    assert joint.rule == "IfcWall framed up under existing IfcBeam"
+    assert joint.depth_m > 0.15  # deeper than a part is fitted to existing work otherwise
