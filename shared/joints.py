@@ -97,8 +97,10 @@ class JointRule(BaseModel):
         return not self.fitting or least_side_m <= FITTING_THIN_M or box_fill <= FITTING_OPEN_FILL
 
     def describe(self, member: str, part: str) -> str:
-        """``"IfcColumn into IfcFooting, up to 100 mm"``: the rule as the manifest and the log name it."""
-        return f"{member} into {part}, up to {1000.0 * self.max_depth_m:.0f} mm"
+        """``"IfcColumn into IfcFooting, up to 100 mm"`` (a fitting rule: ``"IfcRailing made to fit IfcWall,
+        up to 350 mm"``): the rule as the manifest and the log name it."""
+        how = "made to fit" if self.fitting else "into"
+        return f"{member} {how} {part}, up to {1000.0 * self.max_depth_m:.0f} mm"
 
     def describe_framed(self, member: str, part: str) -> str:
         """``"IfcBeam framed to IfcBeam, 10 mm erection clearance"``: a butt or gap taken by this rule."""

@@ -181,8 +181,8 @@ def summary_text(outcome: RunOutcome) -> str:
         lines.append(curing)
     if totals.get("in_place"):
         lines.append(
-            f"in place before the run (convert --in-place): {totals['in_place']} component(s), not built "
-            "by the robots and not counted above"
+            f"in place before the run (existing work the IFC marks, or convert --in-place): "
+            f"{totals['in_place']} component(s), not built by the robots and not counted above"
         )
     if (outcome.report.get("settings") or {}).get("connections") is False:
         lines.append(

@@ -291,22 +291,35 @@ def report_joints(manifest: Manifest, output: Path) -> None:
     if len(manifest.joints) > MAX_JOINTS_LOGGED:
         more = len(manifest.joints) - MAX_JOINTS_LOGGED
         _log.info("… and %d more joint(s): 'joints' in %s/manifest.json", more, output)
-    if manifest.clashes:
+    existing = {component.guid for component in manifest.in_place}
+    # a clash between two parts in place touches no placement: they stand fixed where the model puts them
+    built = [clash for clash in manifest.clashes if not set(clash.guids) <= existing]
+    both_in_place = len(manifest.clashes) - len(built)
+    in_place_words = (
+        f" ({both_in_place} more between two parts in place, which stand fixed where the model puts them: "
+        "no robot places them)"
+        if both_in_place
+        else ""
+    )
+    if built:
         shown = "; ".join(
             f"{names.get(a, a)} and {names.get(b, b)}, {1000.0 * clash.depth_m:.0f} mm"
-            for clash in manifest.clashes[:MAX_CLASHES_NAMED]
+            for clash in built[:MAX_CLASHES_NAMED]
             for a, b in [clash.guids]
         )
-        more = len(manifest.clashes) - MAX_CLASHES_NAMED
+        more = len(built) - MAX_CLASHES_NAMED
         _log.warning(
-            "the model puts %d pair(s) of components into each other with no joint between them (clashes in "
-            "the IFC; physics pushes each pair apart): %s%s. To try: %s (--exclude GUID), or a joint rule "
-            "(--joints FILE) where the overlap is a joint",
-            len(manifest.clashes),
+            "the model puts %d pair(s) of components to build into each other, or into a part in place, with "
+            "no joint between them (clashes in the IFC; physics pushes each pair apart): %s%s. To try: %s "
+            "(--exclude GUID), or a joint rule (--joints FILE) where the overlap is a joint%s",
+            len(built),
             shown,
             f"; and {more} more in {output}/manifest.json ('clashes')" if more > 0 else "",
             CLASH_ADVICE,
+            in_place_words,
         )
+    elif both_in_place:
+        _log.info("no clash touches a component to build%s", in_place_words)
 
 
 def _named(component: Component) -> str:

@@ -391,7 +391,7 @@ class ReportCollector:
             "progress": self.progress.model_dump(mode="json") if self.progress else None,
             "totals": totals,
             "components": components,
-            # in place before the run (convert --in-place): not built by the robots, not in the totals above
+            # in place before the run (existing work, --in-place): not built by the robots, not in the totals
             "in_place": [
                 {"guid": c.guid, "name": c.name, "ifc_class": c.ifc_class, "method": "in_place"}
                 for c in self.manifest.in_place

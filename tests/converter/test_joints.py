@@ -8,6 +8,7 @@ is the user's to change (``--joints``), and a bad one is one line.
 
 from __future__ import annotations
 
+import logging
 import subprocess
 import sys
 from pathlib import Path
@@ -19,6 +20,7 @@ import numpy as np
 import pytest
 from ifc_builders import SmallModel, add_beam, add_box, add_opening, add_wall, new_model, place, translation
 
+from bimbot.services.converter.cli import report_joints
 from bimbot.services.converter.convert import ConvertOptions, convert_model
 from bimbot.shared.errors import InputError
 from bimbot.shared.ifc_input import open_model
@@ -740,7 +742,7 @@ def test_a_light_board_drawn_deep_into_the_heavier_part_it_is_fixed_to_is_made_t
     guid = _guids(manifest)
     [joint] = manifest.joints
     assert joint.guids == (guid["Parapet"], guid["Infill"])
-    assert joint.rule == "IfcRailing into IfcWall, up to 350 mm"
+    assert joint.rule == "IfcRailing made to fit IfcWall, up to 350 mm"
     assert joint.depth_m > 0.1  # deeper than a railing's posts are set by the rule before it
     assert {frozenset(clash.guids) for clash in manifest.clashes} == {
         frozenset((guid["Wall"], guid["Block"])),
@@ -802,3 +804,25 @@ def test_a_new_partition_drawn_up_into_the_existing_beam_over_it_is_framed_up_to
     assert joint.source is JointSource.FITTED and joint.guids == (existing, guid["Partition"])
     assert joint.rule == "IfcWall framed up under existing IfcBeam"
     assert joint.depth_m > 0.15  # deeper than a part is fitted to existing work otherwise
+
+
+def test_the_clash_warning_counts_apart_the_clashes_no_robot_places(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A renovation draws existing parts into each other (the Janesville restaurant: 27 of its 35 clashes
+    are between two parts in place, which stand fixed and are never placed). The warning names the clashes
+    that touch a component to build and only counts the others."""
+    small = new_model()
+    add_wall(small, "Old wall", length_m=4.0, height_m=3.0, thickness_m=0.3)
+    add_wall(small, "Old pier", length_m=0.6, height_m=3.0, thickness_m=0.6, matrix_m=translation(1.0, -0.2))
+    add_box(small, "IfcBuildingElementProxy", "New block", size_m=(0.4, 0.4, 0.4), corner_m=(3.0, 0.1, 1.0))
+    existing = tuple(str(e.GlobalId) for e in small.file.by_type("IfcWall"))
+    manifest = _convert(small, tmp_path, ConvertOptions(formats=(), in_place_guids=existing))
+    assert len(manifest.clashes) == 2
+    with caplog.at_level(logging.INFO):
+        report_joints(manifest, tmp_path / "build")
+    [warning] = [record.getMessage() for record in caplog.records if record.levelno == logging.WARNING]
+    assert warning.startswith("the model puts 1 pair(s) of components to build into each other")
+    assert "New block" in warning and "Old pier" not in warning
+    in_place_words = "(1 more between two parts in place, which stand fixed where the model puts them: "
+    assert warning.endswith(in_place_words + "no robot places them)")

@@ -46,7 +46,9 @@ def test_a_run_with_the_foundations_in_place_builds_the_rest_on_them(tmp_path: P
     detail = f"{result.stdout}\n{result.stderr[-3000:]}"
     assert result.returncode == 0, detail
     assert "constructed 3/3 components" in result.stdout, detail
-    assert "in place before the run (convert --in-place): 2 component(s)" in result.stdout, detail
+    assert "in place before the run (existing work the IFC marks, or convert --in-place): 2 component(s)" in (
+        result.stdout
+    ), detail
     report = json.loads((run.report_dir / "report.json").read_text())
     assert report["totals"]["components"] == 3 and report["totals"]["in_place"] == 2
     assert sorted(item["name"] for item in report["in_place"]) == ["Footing A1", "Footing A2"]
