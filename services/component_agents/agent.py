@@ -69,7 +69,13 @@ BUMPED_HINT = (
     "robot's log), or its laser did not see the component"
 )
 
-CLASH_HINT = f"{CLASH_ADVICE}: bimbot convert MODEL.ifc -o OUT/ --exclude GLOBALID"
+
+def clash_hint(guid: str, clash_depth_m: dict[str, float]) -> str:
+    """The advice for a component the model draws into others: leave one out, the command with the
+    GlobalIds filled in (the one it is drawn deepest into, or its own: a new user had to look them up)."""
+    other = max(sorted(clash_depth_m), key=lambda key: clash_depth_m[key])
+    return f"{CLASH_ADVICE}: bimbot convert MODEL.ifc -o OUT/ --exclude {other} (or --exclude {guid})"
+
 
 PLANNER_SOURCE = "planner"  # ComponentEventMsg.source of the planner's events; a robot's is its id
 PLANNER_EVENTS = frozenset(
@@ -462,7 +468,7 @@ class ComponentAgent:
             miss = Reason(code=ReasonCode.MISPLACED, message=f"{why}; {cause}{note}", robot_id=self.robot_id)
         if verdict is Verdict.FAILED and miss is not None and miss.code is ReasonCode.UNSTABLE:
             hint = (
-                CLASH_HINT
+                clash_hint(self.guid, self.clash_depth_m)
                 if self.clash_depth_m
                 else BUMPED_HINT
                 if self.bumped is not None

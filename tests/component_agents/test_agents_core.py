@@ -214,6 +214,8 @@ def test_a_component_the_model_puts_into_another_says_it_is_a_clash_in_the_ifc()
     message = agent.reason.message
     assert "puts it into 2hQ7nQyXr5XBJw0GkS1lVd (229 mm deep): a clash in the IFC" in message
     assert "repair the clash in the model" in message and "--check-stability" not in message
+    # the command with the GlobalIds filled in: the other part's, or its own
+    assert f"--exclude 2hQ7nQyXr5XBJw0GkS1lVd (or --exclude {agent.guid})" in message
 
 
 def test_a_small_settling_drift_is_within_tolerance_and_a_miss_says_misplaced() -> None:
