@@ -188,6 +188,6 @@ def walled_in_line(robots: dict[str, Any]) -> str | None:
     if not spells:
         return None
     return (
-        "walled in (no way to its depot start: meanwhile it got no task another robot could take): "
-        + "; ".join(spells)
+        "robots walled in by what was built round them (no way out to where they started; meanwhile each got "
+        "no task another robot could take, and its log names what stands beside it): " + "; ".join(spells)
     )

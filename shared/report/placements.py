@@ -146,8 +146,15 @@ def placement_totals(
 ) -> dict[str, Any]:
     """``placement_error_mm_by_type`` (robot types in ``type_order`` first, the Gantt's lane order, then
     by name, ``unknown`` last), ``retries_by_cause`` and ``max_drift_mm`` over every component's
-    ``placements``."""
+    ``placements``, with ``max_drift_component``: the name (else GUID) of the component it moved."""
+    components = list(components)
     placements = [p for component in components for p in component.get("placements", [])]
+    drifts = [
+        (p["drift_mm"], str(component.get("name") or component.get("guid") or ""))
+        for component in components
+        for p in component.get("placements", [])
+        if p.get("drift_mm") is not None
+    ]
     by_type: dict[str, list[Mapping[str, Any]]] = {}
     for placement in placements:
         by_type.setdefault(type_of(placement), []).append(placement)
@@ -161,6 +168,7 @@ def placement_totals(
         "placement_error_mm_by_type": {name: error_distribution(by_type[name]) for name in names},
         "retries_by_cause": retries,
         "max_drift_mm": max_or_none(p["drift_mm"] for p in placements),
+        "max_drift_component": max(drifts)[1] if drifts else None,
     }
 
 
@@ -188,8 +196,11 @@ def placement_line(report: Mapping[str, Any]) -> str | None:
     line = "every placement attempt by robot type: " + ", ".join(parts)
     line += "; retries by cause: " + ", ".join(f"{cause} {count}" for cause, count in retries.items())
     drift = totals.get("max_drift_mm")
-    line += f"; largest drift after placement {drift:.1f} mm" if drift is not None else "; drift not measured"
-    return line
+    if drift is None:
+        return line + "; drift not measured"
+    line += f"; largest drift after placement {drift:.1f} mm"
+    moved = totals.get("max_drift_component")
+    return line + (f" ({moved}: it slid, tipped or fell after its release)" if moved and drift > 5.0 else "")
 
 
 def caught_on_last_attempt(report: dict[str, Any]) -> int:

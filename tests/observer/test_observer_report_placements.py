@@ -330,7 +330,8 @@ def test_the_summary_has_one_line_of_placement_errors_by_type_retries_by_cause_a
         "husky mean 6.7 / p95 13.0 / max 14.0 mm (3 placements, 1 out of tolerance), "
         "carrier mean 17.0 / p95 28.5 / max 30.0 mm (5 placements, 3 out of tolerance, "
         "1 unstable: moved after release, not in these errors); "
-        "retries by cause: misplaced 3, unstable 1; largest drift after placement 75.0 mm"
+        "retries by cause: misplaced 3, unstable 1; largest drift after placement 75.0 mm "
+        "(Footing A2: it slid, tipped or fell after its release)"  # the part it moved, named
     )
     assert placement_line(report) == line
     lines = summary_text(RunOutcome(exit_code=1, constructed=3, total=28, report=report)).splitlines()

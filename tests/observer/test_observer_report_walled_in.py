@@ -131,9 +131,10 @@ def test_the_summary_names_the_robots_walled_in_and_who_gave_back_how_many(
     text = summary_text(RunOutcome(exit_code=0, constructed=3, total=3, report=report))
     lines = text.splitlines()
     assert "2 give-back(s) by robots (r1 2)" in lines[0], lines[0]
-    walled = next(line for line in lines if line.startswith("walled in"))
+    walled = next(line for line in lines if line.startswith("robots walled in"))
     assert walled == (
-        "walled in (no way to its depot start: meanwhile it got no task another robot could take): "
+        "robots walled in by what was built round them (no way out to where they started; meanwhile each got "
+        "no task another robot could take, and its log names what stands beside it): "
         "r1 at (1.43, -6.35) from 20.0 s of sim time to the end of the run; "
         "r3 at (-2.98, 4.31) from 30.0 s of sim time to 50.0 s"
     )
