@@ -31,6 +31,7 @@ from pathlib import Path
 from bimbot.services.planner.capability import robots_on_plan
 from bimbot.services.planner.feasibility import Feasibility, feasibility_table
 from bimbot.shared.fleet import DEFAULT_FLEET_FILE, Fleet, check_urdfs, load_fleet
+from bimbot.shared.idle_machines import idle_machine_types, without_types
 from bimbot.shared.manifest import Component, Joint, Manifest
 from bimbot.shared.option_types import positive_int
 from bimbot.shared.service_runner import resolve_build
@@ -96,6 +97,9 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("bimbot fleet check: give the converted build folder (OUT/)")
     check_urdfs(fleet)  # as physics would: a missing model is one line here too
     manifest = resolve_build(args.build).manifest
+    # the machines bimbot run leaves off site stay off here too, so the robots' ids are the run's
+    idle = idle_machine_types(fleet, (component.method for component in manifest.components))
+    fleet = without_types(fleet, idle)
     rows = check(manifest, fleet)
     code = 0 if all(row.reason is None for _, row in rows) else 1  # 1: some component has no route
     if args.json:
@@ -113,6 +117,8 @@ def run(args: argparse.Namespace) -> int:
             }
             sys.stdout.write(json.dumps(record) + "\n")
         return code
+    if idle:
+        sys.stdout.write(f"off site, no work in this build (as bimbot run leaves them): {', '.join(idle)}\n")
     _print_table(rows, fleet, manifest.joints)
     return code
 

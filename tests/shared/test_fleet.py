@@ -9,8 +9,10 @@ from pathlib import Path
 import pytest
 from wall_clock import bound_s
 
+from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.errors import InputError
 from bimbot.shared.fleet import default_fleet, load_fleet, resolve_urdf
+from bimbot.shared.idle_machines import idle_machine_types
 from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.robot_description import Capability
 from bimbot.shared.site_layout import plan_site
@@ -269,6 +271,27 @@ def test_fleet_check_prints_the_husky_only_fleet_footings_too_heavy_with_the_num
     assert "so it can build at most 0" in done.stdout
     assert f"the fleet of {path}" in done.stdout.replace("\n", "")  # which file the table is for
     assert done.stdout.count("259 kg exceeds the largest payload on site (75 kg") == 9
+
+
+def test_fleet_check_leaves_off_site_the_machines_a_run_leaves_off_so_the_ids_are_the_run_s(
+    bundled_build: Path,
+) -> None:
+    """The bundled frame is all lifted: bimbot run leaves the pumps and the block layer off site and numbers
+    the robots without them; fleet check says so and numbers them as the run does (a new user read the
+    line pump as r6 in the check and r5 in the run)."""
+    done = subprocess.run(
+        [sys.executable, "-m", "bimbot.cli", "fleet", "check", str(bundled_build)],
+        capture_output=True,
+        text=True,
+        timeout=bound_s(120),
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    idle = idle_machine_types(DEFAULT, [ConstructionMethod.LIFTED])
+    assert idle  # the default fleet has machines that only pour or lay
+    assert f"off site, no work in this build (as bimbot run leaves them): {', '.join(idle)}" in done.stdout
+    for name in idle:
+        assert f"{name} (r" not in done.stdout
 
 
 def test_the_example_fleets_load_and_their_types_match_the_default_ones() -> None:
