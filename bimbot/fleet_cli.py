@@ -160,7 +160,9 @@ def _print_table(rows: list[tuple[Component, Feasibility]], fleet: Fleet, joints
         )
     if routes:
         console.print(
-            "first route: " + ", ".join(f"{count} {route}" for route, count in routes.most_common())
+            "first route (the first machine named in each row above; a run gives each task to the capable "
+            "machine that bids best): "
+            + ", ".join(f"{count} {route}" for route, count in routes.most_common())
         )
 
 
