@@ -174,7 +174,8 @@ def support_predecessors(
     # at its side, as one that never had a support (the duplex's upper partition, drawn down through its
     # floor, waited only for the guard rail a cycle took from it, and was set in the air), then any cycle
     # that closes broken again
-    if any(not supports for supports in preds.values()):
+    ground = min(bottoms.values(), default=0.0)
+    if any(not supports and bottoms[guid] > ground + tolerance_m for guid, supports in preds.items()):
         _add_side_contacts(components, preds, bottoms, tolerance_m, set(), kinds=kinds)
         break_cycles(preds, kinds, level=cycles_level)
     return preds

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 import manifold3d
 import numpy as np
 
-from .mesh import TriMesh, convex_hull
+from .mesh import TriMesh, convex_hull, manifold_to_mesh
 
 NEIGHBOURS = 6  # each piece is weighed against this many pieces nearest to it (centre to centre)
 
@@ -48,10 +48,10 @@ def merge_nearest(parts: Sequence[TriMesh], limit: int) -> list[TriMesh]:
         _, first, second = heapq.heappop(heap)
         if first not in alive or second not in alive:
             continue
-        union = np.vstack([points[first], points[second]])
+        hull_points, hull_volume = _hull(np.vstack([points[first], points[second]]))
         merged = len(points)
-        points.append(_hull_points(union))
-        volumes.append(_hull_volume(union))
+        points.append(hull_points)
+        volumes.append(hull_volume)
         alive -= {first, second}
         alive.add(merged)
         weigh(merged)
@@ -59,14 +59,19 @@ def merge_nearest(parts: Sequence[TriMesh], limit: int) -> list[TriMesh]:
     return [hull for hull in hulls if hull is not None]
 
 
-def _hull_volume(points: np.ndarray) -> float:
+def _hull(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """The vertices of ``points``' convex hull and its volume, from one hull (all the points and 0 when
+    it has no volume)."""
     if len(points) < 4:
-        return 0.0
+        return points, 0.0
     hull = manifold3d.Manifold.hull_points(points)
-    return 0.0 if hull.is_empty() else float(hull.volume())
+    if hull.is_empty():
+        return points, 0.0
+    volume_m3 = float(hull.volume())
+    return (
+        np.asarray(manifold_to_mesh(hull).vertices, dtype=float) if volume_m3 > 0.0 else points
+    ), volume_m3
 
 
-def _hull_points(points: np.ndarray) -> np.ndarray:
-    """The vertices of ``points``' convex hull (all of them when it has no volume)."""
-    hull = convex_hull(points)
-    return points if hull is None else np.asarray(hull.vertices, dtype=float)
+def _hull_volume(points: np.ndarray) -> float:
+    return _hull(points)[1]

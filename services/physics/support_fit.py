@@ -44,6 +44,7 @@ from bimbot.shared.manifest import Component
 from bimbot.shared.verification import Tolerances, angle_error_rad
 
 from .handling_state import BUILT_WHERE_IT_STANDS, HandlingState, Item, Phase, target_frame
+from .joints import is_board
 from .release import clear_overlap, deep_overlaps, intrusions
 from .scene import Frame, compose, invert, rotate, set_component_pose
 
@@ -120,14 +121,6 @@ def shifted(member: Component, target: Frame, other: Component, other_as_built: 
     (x, y, z), quat = target
     dx, dy, dz = displacement_at_m(support, centre_m(target, member.com_local_m))
     return (x + float(dx), y + float(dy), z + float(dz)), quat
-
-
-def is_board(component: Component) -> bool:
-    """A board cut from a covering (a ceiling's, a floor finish's, a cladding's panel): a site sets it
-    square to the room and trims its edge to what stands, it does not turn it to follow a wall or the
-    board beside it (the Janesville restaurant's gypsum ceiling board turned 0.43° with what it was fitted
-    to left the next board no room over its 2.4 m width)."""
-    return component.parent_guid is not None and component.ifc_class == "IfcCovering"
 
 
 def deepest_m(overlaps: Iterable[tuple[str, float]]) -> float:

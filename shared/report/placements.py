@@ -167,7 +167,7 @@ def placement_totals(
     return {
         "placement_error_mm_by_type": {name: error_distribution(by_type[name]) for name in names},
         "retries_by_cause": retries,
-        "max_drift_mm": max_or_none(p["drift_mm"] for p in placements),
+        "max_drift_mm": max(drifts)[0] if drifts else None,
         "max_drift_component": max(drifts)[1] if drifts else None,
     }
 
