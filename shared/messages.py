@@ -528,6 +528,8 @@ class PhysicsReply(_Message):
     sim_time_s: SimTime
     pose: PoseMsg | None = None  # the component's pose after the request (a placement: once settled)
     distance_m: NonNegative | None = None  # a reach refusal: the robot's true distance to the footprint (m)
+    # a refusal for now (another robot stands where the load goes): ask again after this many sim s; no try
+    wait_s: NonNegative | None = None
 
 
 # --- site-wide -------------------------------------------------------------------------------------------

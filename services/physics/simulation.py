@@ -39,6 +39,7 @@ import numpy as np
 from pydantic import BaseModel
 
 from bimbot.shared.fleet import Fleet
+from bimbot.shared.footprint import posed_footprint
 from bimbot.shared.identifiers import guid_to_key
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import (
@@ -73,8 +74,10 @@ from .handling import Handling
 from .handling_state import HandlingConfig, Item, Phase
 from .in_place_work import BUILT_IN_PLACE, InPlaceWork, hide
 from .joints import framed_ends, joint_partners, let_joints_overlap, trimmed_boards
+from .landing_zone import ASK_AGAIN_S, Bystander, LandingWaits, in_the_way
 from .odometry import Odometry
 from .pits import Pits, collision_part_boxes
+from .placing import valid_frame
 from .positioning import TotalStation
 from .profiles import FINE, MAX_TOTAL_STATION_MM
 from .ray_scene import RayScene
@@ -189,6 +192,7 @@ class Simulation:
         self.scan_wall_s = 0.0  # wall seconds in the laser's scans (status line: their share of a period)
         self.scans_taken = 0
         self.robots: dict[str, Robot] = {}
+        self._landing_waits = LandingWaits()  # loads waiting for a robot to move off where they go
         self.alive: set[str] = set()
         self._odometry: dict[str, Odometry] = {}
         self.in_place_bodies: dict[str, int] = {}  # GUID → body of a component in place from the start
@@ -427,6 +431,9 @@ class Simulation:
             return PhysicsReply(
                 ok=False, reason=f"unknown robot {request.robot_id}", sim_time_s=self.sim_time_s
             )
+        waiting = self._landing_refusal(robot, request)
+        if waiting is not None:
+            return PhysicsReply(ok=False, reason=waiting, sim_time_s=self.sim_time_s, wait_s=ASK_AGAIN_S)
         return self.handling.place(
             robot,
             request.guid,
@@ -436,6 +443,33 @@ class Simulation:
             tag=tag,
             believed_xy_yaw=request.believed_xy_yaw,
         )
+
+    def _landing_refusal(self, robot: Robot, request: PlaceRequest) -> str | None:
+        """Why the load ``robot`` carries may not be set down yet: another driving robot stands where it
+        goes (:mod:`.landing_zone`); None when the zone is clear or the load has waited long enough."""
+        item = self.handling.items.get(request.guid)
+        if item is None or item.carrier != robot.robot_id or item.phase is Phase.ASSEMBLING:
+            return None  # refused (or not) by the handling, as before
+        frame, invalid = valid_frame(request.pose)
+        if frame is None or invalid is not None:
+            return None  # refused by the handling, with its reason
+        footprint = posed_footprint(item.component, frame[0], frame[1])
+        bystanders = []
+        for other in self.robots.values():
+            if other is robot or not other.drives:  # a robot whose service stopped still stands there
+                continue
+            (x, y, z), _ = other.frame(self.client_id)
+            bystanders.append(
+                Bystander(
+                    other.robot_id,
+                    (x, y),
+                    other.description.radius_m,
+                    z - other.base_height_m,
+                    z + other.top_height_m,
+                )
+            )
+        found = in_the_way(footprint, bystanders)
+        return self._landing_waits.refusal(request.guid, item.component.name, found, self.sim_time_s)
 
     def build(self, request: BuildRequest) -> PhysicsReply:
         """Build a component where it stands, up to a fraction of its height (:mod:`.in_place_work`)."""

@@ -405,7 +405,9 @@ class Executor:
             if not self.getting_there.drive(task, task.target):
                 return  # a refused placement sent the robot to another approach pose
             waiting = task.events.unconfirmed & {_E.ATTACH, _E.ARRIVE}
-            if task.request is None and not waiting and self.navigator.ready_to_place:  # standing still
+            # standing still, and not told to wait (another robot stands where the load goes)
+            ready = self.navigator.ready_to_place and self.sim_s >= task.retry_at_s
+            if task.request is None and not waiting and ready:
                 self.handover.request(task, "place", self.handover.place_request(task))
             return
         if task.verdict is not None and _E.PLACE not in task.events.unconfirmed:

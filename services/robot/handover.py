@@ -217,6 +217,14 @@ class Handover:
                 )
             return
         why = result.reply.reason if result.reply is not None else result.error
+        if result.reply is not None and result.reply.wait_s is not None:
+            # not now: another robot stands where the load goes (physics bounds the wait); no failed try
+            if task.waiting_since_s is None:
+                task.waiting_since_s = context.sim_s
+                _log.info("%s: %s of %s waits: %s", robot_id, kind, task.message.guid, why)
+            task.retry_at_s = context.sim_s + result.reply.wait_s
+            return None
+        task.waiting_since_s = None
         _log.warning("%s: %s of %s refused: %s", robot_id, kind, task.message.guid, why)
         if result.reply is not None and result.reply.distance_m is not None:
             self._check_localisation(task, kind, result.reply.distance_m)

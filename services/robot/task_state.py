@@ -68,6 +68,7 @@ class Task:
     failed_xy_m: list[tuple[float, float]] = field(default_factory=list)  # stand-points that failed
     misses: int = 0  # approach searches that found nothing
     traffic_since_s: float | None = None  # since when only laser marks cut every stand-point off
+    waiting_since_s: float | None = None  # since when physics says another robot stands where it goes
     placed: bool = False
     placement_note: str = ""  # said with the place event: how the robot placed it when it matters
     verdict: ComponentState | None = None

@@ -60,6 +60,8 @@ class FakeSite:
     lose_state: set[ComponentState] = field(default_factory=set)  # the first message of it is lost on the way
     refuse_attach: int = 0  # physics refuses this many attach requests
     refuse_distance_m: float | None = None  # the distance physics measured, on those refusals
+    wait_place: int = 0  # physics says "not now: another robot stands there" to this many place requests
+    wait_s: float = 5.0  # how long it says to wait
     frozen: bool = False  # the robot does not move whatever it is told (stuck wheels)
     step: int = 0
     states: dict[str, ComponentState] = field(default_factory=dict)
@@ -68,6 +70,7 @@ class FakeSite:
     robot_states: list[RobotState] = field(default_factory=list)
     commands: list[CmdVelMsg] = field(default_factory=list)
     requests: list[PhysicsRequest] = field(default_factory=list)
+    request_steps: list[int] = field(default_factory=list)  # the step each request came at
     due: list[tuple[int, object]] = field(default_factory=list)
     carried: str | None = None
     tick_s: list[float] = field(default_factory=list)
@@ -167,6 +170,7 @@ class FakeSite:
             self.component_event(message)
         elif isinstance(message, PhysicsRequest):
             self.requests.append(message)
+            self.request_steps.append(self.step)
             self.physics(message)
         elif isinstance(message, TwinQuestion):
             self.twin_questions.append(message.guid)
@@ -213,6 +217,12 @@ class FakeSite:
             self.send(
                 PhysicsResult(request.request_id, PhysicsReply(ok=True, sim_time_s=now, pose=beside)), 2
             )
+        elif isinstance(message, PlaceRequest) and self.wait_place > 0:
+            self.wait_place -= 1
+            reply = PhysicsReply(
+                ok=False, reason="r2 stands where it goes", sim_time_s=now, wait_s=self.wait_s
+            )
+            self.send(PhysicsResult(request.request_id, reply), self.latency)
         elif isinstance(message, PlaceRequest):
             placed = ComponentPoseMsg(
                 guid=message.guid, pose=message.pose, sim_time_s=now, fixed=True, joined=True

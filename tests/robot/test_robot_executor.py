@@ -3,6 +3,8 @@ the paper's state order, a command for every clock step, at-least-once events, r
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from fake_site import DT, make_site, run_task
@@ -92,6 +94,22 @@ def test_a_refused_attach_sends_the_robot_to_another_approach_and_tries_again(fr
     run_task(site, released, task)
     assert [r.kind for r in site.requests] == ["attach", "attach", "place"]
     assert site.executor.done == [(task.guid, ComponentState.CONSTRUCTED)]
+
+
+def test_a_placement_told_to_wait_for_a_robot_in_the_way_asks_again_later_without_using_a_try(
+    frame: Manifest,
+) -> None:
+    """Physics says another robot stands where the load goes (``wait_s``): the robot stays at its stand-point
+    and asks again after that much sim time; more waits than ``max_tries`` still end in the placement."""
+    site, released, task = make_site(frame, max_tries=2)
+    site.wait_place, site.wait_s = 4, 5.0
+    run_task(site, released, task)
+    places = [r for r in site.requests if r.kind == "place"]
+    assert len(places) == 5 and site.executor.done == [(task.guid, ComponentState.CONSTRUCTED)]
+    asked_s = [
+        step * DT for step, r in zip(site.request_steps, site.requests, strict=True) if r.kind == "place"
+    ]
+    assert all(later - earlier >= 5.0 for earlier, later in itertools.pairwise(asked_s))
 
 
 def test_physics_measuring_the_robot_farther_than_it_believes_makes_it_relocalise(
