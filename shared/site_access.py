@@ -11,11 +11,11 @@ the ground does not), inflated by the robot's radius plus the map margin
 (:data:`bimbot.shared.site_layout.INFLATION_MARGIN_M`), as the robots plan. A floor placed at its target
 whose top is within the robot's step (``max_step_m``: a ground slab, its flooring, :mod:`.floors`) is
 driven on, not an obstacle, as in the robots' map once it is constructed (and cured). The robot's free
-region is the 8-connected free cells around its depot start. A component is *accessible* when some cell of
-that region lies within the robot's reach of its footprint (the one reach rule,
-:mod:`bimbot.shared.robot_description`: nearest point of the footprint, ``reach_m`` less a margin), and,
-for a component in the band, at least the inflation radius outside it (the body stays clear): at its BIM
-target for the assembly and at its yard slot for the pick-up.
+region is the 4-connected free cells around its depot start (what its A* reaches: it never cuts a
+corner). A component is *accessible* when some cell of that region lies within the robot's reach of its
+footprint (the one reach rule, :mod:`bimbot.shared.robot_description`: nearest point of the footprint,
+``reach_m`` less a margin), and, for a component in the band, at least the inflation radius outside it
+(the body stays clear): at its BIM target for the assembly and at its yard slot for the pick-up.
 
 :func:`check_order` walks a sequence placing one component after the other and reports, for each step,
 the components it cuts off (accessible before, not after) and the components not accessible at their own
@@ -44,7 +44,9 @@ from .site_plan import GRID_MARGIN_M, SiteLayout, fence_boxes, machine_boxes
 
 _log = logging.getLogger(__name__)
 
-_EIGHT = np.ones((3, 3), bool)
+# the robots' A* steps diagonally only between two free orthogonal neighbours (it never cuts a corner), so
+# the cells it can reach are those 4-connected: a gap two cells touch only at a corner is no way through
+_FOUR = ndimage.generate_binary_structure(2, 1)
 # how far round a placed part its window reaches beyond the robot's body: room for the free region to go
 # round the part inside the window, so a placement that splits nothing is seen to split nothing
 WINDOW_MARGIN_M = 3.0
@@ -278,10 +280,10 @@ class SiteAccess:
         return self.grid.with_occupied(self._fence | (self._counts > 0))
 
     def region(self) -> NDArray[np.bool_]:
-        """The robot's free region: inflated free cells 8-connected to its depot start."""
+        """The robot's free region: inflated free cells 4-connected to its depot start."""
         if self._region is None:
             free = ~(self._distance.distance_m <= self.inflation_m + 1e-9)
-            labels, _ = ndimage.label(free, structure=_EIGHT)
+            labels, _ = ndimage.label(free, structure=_FOUR)
             start = nearest_free_cell(self.grid.with_occupied(~free), self._start, max_distance_m=5.0)
             self._region = labels == labels[start] if start is not None else np.zeros_like(free)
         return self._region
@@ -436,8 +438,8 @@ def _splits_nothing(before: NDArray[np.bool_], free: NDArray[np.bool_]) -> bool:
     taken = before & ~free
     if taken[0].any() or taken[-1].any() or taken[:, 0].any() or taken[:, -1].any():
         return False
-    labels_before, count = ndimage.label(before, structure=_EIGHT)
-    labels_after, _ = ndimage.label(before & free, structure=_EIGHT)
+    labels_before, count = ndimage.label(before, structure=_FOUR)
+    labels_after, _ = ndimage.label(before & free, structure=_FOUR)
     kept = labels_after > 0
     pairs = np.unique(np.stack([labels_before[kept], labels_after[kept]]), axis=1)
     # each piece before goes on as exactly one piece after (none lost, none split)

@@ -56,7 +56,9 @@ from bimbot.shared.site_plan import Rect
 
 _log = logging.getLogger(__name__)
 
-_EIGHT = np.ones((3, 3), bool)
+# the robots' A* steps diagonally only between two free orthogonal neighbours (it never cuts a corner), so
+# the cells it can reach are those 4-connected: a gap two cells touch only at a corner is no way through
+_FOUR = ndimage.generate_binary_structure(2, 1)
 
 
 @dataclass(frozen=True)
@@ -83,9 +85,10 @@ class Approach:
 
 
 def reachable_region(grid: OccupancyGrid, from_xy_m: ArrayLike) -> NDArray[np.bool_] | None:
-    """Free cells 8-connected to ``from_xy_m`` (or to the free cell nearest it), None if there are none."""
+    """Free cells 4-connected to ``from_xy_m`` (or to the free cell nearest it; the cells A* reaches from
+    there), None if there are none."""
     free = ~grid.occupied
-    labels, _ = ndimage.label(free, structure=_EIGHT)
+    labels, _ = ndimage.label(free, structure=_FOUR)
     rc = grid.world_to_cell(np.asarray(from_xy_m, float))
     if not (grid.in_bounds(rc) and free[rc[0], rc[1]]):
         near = nearest_free_cell(grid, from_xy_m, max_distance_m=3.0)

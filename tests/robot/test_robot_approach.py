@@ -18,10 +18,11 @@ from bimbot.services.robot.approach import (
     way_out_after,
     within_reach,
 )
+from bimbot.services.robot.astar import plan_path
 from bimbot.services.robot.site_map import SiteMap
 from bimbot.shared.footprint import Footprint, posed_footprint
 from bimbot.shared.manifest import Manifest, read_manifest
-from bimbot.shared.occupancy_grid import from_footprints, inflate
+from bimbot.shared.occupancy_grid import OccupancyGrid, from_footprints, inflate
 from bimbot.shared.reasons import ReasonCode
 from bimbot.shared.robot_description import DEFAULT_ROBOT
 from bimbot.shared.site_layout import plan_site
@@ -285,3 +286,21 @@ def test_a_stand_point_in_a_pocket_the_component_closes_at_the_robots_inflation_
     kept = approach_pose(grid, post, robot, way_out=way_out, **kwargs)
     assert kept is not None and kept.x_m < 8.0, kept
     assert not cut_off(after, kept.xy_m, home), "from there it drives home once the post stands"
+
+
+def test_a_gap_two_free_cells_touch_only_at_a_corner_is_no_way_through_for_the_region_as_for_a_star() -> None:
+    """The Janesville restaurant's storefront vestibule opened onto the rest of the site only through two
+    inflated cells touching at a corner: the walled-in check (8-connected then) found a way to the depot that
+    A*, which never cuts a corner, could not take; the carrier inside took task after task and gave each back
+    ``no_progress``, three mullions failed. The region is what A* reaches: 4-connected."""
+    occupied = np.ones((5, 5), bool)
+    occupied[1, 1] = occupied[2, 2] = occupied[3, 3] = False  # a diagonal of free cells, corners only
+    grid = OccupancyGrid(occupied, 1.0, (0.0, 0.0))
+    start, goal = grid.cell_to_world((1, 1)), grid.cell_to_world((3, 3))
+    assert not plan_path(grid, start, goal).found
+    region = reachable_region(grid, start)
+    assert region is not None and region.sum() == 1
+    assert cut_off(grid, start, goal)
+    occupied[1, 2] = occupied[2, 3] = False  # a straight step beside each corner: a way A* takes
+    open_grid = OccupancyGrid(occupied, 1.0, (0.0, 0.0))
+    assert plan_path(open_grid, start, goal).found and not cut_off(open_grid, start, goal)
