@@ -24,6 +24,7 @@ from bimbot.shared.manifest import Component
 from bimbot.shared.messages import RobotState, TaskKind
 from bimbot.shared.robot_description import Capability
 from bimbot.shared.site_cranes import staging_spots
+from bimbot.shared.site_layout import INFLATION_MARGIN_M
 
 from .capability import (
     SiteRobot,
@@ -38,6 +39,43 @@ from .capability import (
 from .records import RobotRecord
 
 SPOT_CLEARANCE_M = 2.5  # a staging spot is taken while a component lies (or is on its way) this close
+
+
+@dataclass(frozen=True)
+class StagedLoad:
+    """A load lying at a staging spot or on its way there: where (world xy, m) and half its plan diagonal
+    lying flat (m)."""
+
+    xy_m: tuple[float, float]
+    half_m: float
+
+
+def lying_half_m(component: Component) -> float:
+    """Half the plan diagonal of ``component`` put down flat (its two largest extents lie horizontal)."""
+    low, high = component.bbox_local.min_m, component.bbox_local.max_m
+    extents = sorted(h - lo for lo, h in zip(low, high, strict=True))
+    return 0.5 * math.hypot(extents[1], extents[2])
+
+
+def spot_is_free(
+    spot_xy_m: tuple[float, float], half_m: float, taken: Iterable[StagedLoad], lane_m: float
+) -> bool:
+    """Whether a load of ``half_m`` (:func:`lying_half_m`) put down at ``spot_xy_m`` keeps a ``lane_m`` lane
+    from every load in ``taken`` (and at least :data:`SPOT_CLEARANCE_M` from each)."""
+    return all(
+        math.dist(spot_xy_m, load.xy_m) >= max(SPOT_CLEARANCE_M, load.half_m + half_m + lane_m)
+        for load in taken
+    )
+
+
+def aisle_m(site: Mapping[str, SiteRobot]) -> float:
+    """The lane the widest driving robot needs between two loads: its inflated diameter, as it plans."""
+    widths = [
+        2.0 * (robot.description.radius_m + INFLATION_MARGIN_M)
+        for robot in site.values()
+        if robot.description.can(Capability.DRIVE)
+    ]
+    return max(widths, default=0.0)
 
 
 @dataclass(frozen=True)
@@ -69,7 +107,7 @@ def choose(
     now_s: float,
     promised_s: Mapping[str, float],
     avoid: set[str],
-    taken_spots: list[tuple[float, float]],
+    taken_spots: list[StagedLoad],
     able_to_build: Callable[[SiteRobot, Component, Where], bool] = can_build_from,
     crane_first: bool = False,
 ) -> Choice | None:
@@ -133,10 +171,14 @@ def _hand_off_spot(
     component: Component,
     records: list[RobotRecord],
     site: Mapping[str, SiteRobot],
-    taken: list[tuple[float, float]],
+    taken: list[StagedLoad],
 ) -> tuple[float, float] | None:
     """A free staging spot of an alive crane that can place ``component`` (the nearest crane to its
-    target first), or None."""
+    target first), or None. Free: every load lying there or on its way keeps a driving robot's lane from
+    it (:func:`aisle_m`). Four ceiling panels 2.4 m long on the spots 4 m apart of the Janesville
+    restaurant's staging area closed its middle round the carrier that had set the last one down: it was
+    walled in there, again and again, with three carriers."""
+    half_m, lane_m = lying_half_m(component), aisle_m(site)
     target = target_centre_xy(component)
     cranes = [
         site[record.robot_id]
@@ -149,7 +191,7 @@ def _hand_off_spot(
     for crane in cranes:
         assert crane.staging is not None
         for spot in staging_spots(crane.staging):
-            if all(math.dist(spot, other) >= SPOT_CLEARANCE_M for other in taken):
+            if spot_is_free(spot, half_m, taken, lane_m):
                 return spot
     return None
 

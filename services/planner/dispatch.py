@@ -21,7 +21,7 @@ from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentState, RobotState, TaskKind
 from bimbot.shared.reasons import Reason, ReasonCode
 
-from .assignment import choose
+from .assignment import StagedLoad, choose, lying_half_m
 from .capability import SiteRobot, Where, can_build_from, can_carry, target_centre_xy
 from .failures import Failures
 from .outbox import Outbox
@@ -150,7 +150,7 @@ class Dispatch:
                 promised[choice.robot_id] = promised.get(choice.robot_id, 0.0) + choice.estimate_s
                 continue
             if choice.put_down_xy_m is not None:
-                taken.append(choice.put_down_xy_m)
+                taken.append(StagedLoad(choice.put_down_xy_m, lying_half_m(item)))
             self._give_to(task, robot, choice.kind, choice.put_down_xy_m, estimate_s=choice.estimate_s)
 
     def _released(self, guid: str) -> bool:
@@ -219,10 +219,14 @@ class Dispatch:
             ),
         )
 
-    def _taken_spots(self) -> list[tuple[float, float]]:
+    def _taken_spots(self) -> list[StagedLoad]:
         """Staging spots in use: a hand-off on its way there, or a component lying in a staging area."""
         state = self._state
-        spots = [task.put_down_xy for task in state.tasks.values() if task.put_down_xy is not None]
+        spots = [
+            StagedLoad(task.put_down_xy, lying_half_m(state.manifest[guid]))
+            for guid, task in state.tasks.items()
+            if task.put_down_xy is not None
+        ]
         areas = [robot.staging for robot in (state.site or {}).values() if robot.staging is not None]
         for guid, component in state.components.items():
             xy = component.position_xy
@@ -231,7 +235,7 @@ class Dispatch:
             if any(
                 a.min_xy[0] <= xy[0] <= a.max_xy[0] and a.min_xy[1] <= xy[1] <= a.max_xy[1] for a in areas
             ):
-                spots.append(xy)
+                spots.append(StagedLoad(xy, lying_half_m(state.manifest[guid])))
         return spots
 
     def _give_to(
