@@ -166,12 +166,18 @@ def clear_overlap(
 
 
 def intrusions(
-    client_id: int, body: ComponentBody, frame: Frame, others: Mapping[int, str], kept: frozenset[str]
+    client_id: int,
+    body: ComponentBody,
+    frame: Frame,
+    others: Mapping[int, str],
+    kept: frozenset[str],
+    *,
+    max_cleared_m: float = MAX_CLEARED_M,
 ) -> tuple[tuple[str, float], ...]:
     """The ``others`` (body → GUID; ``kept`` aside) that ``body`` at ``frame`` overlaps deeper than the
-    solver's slop, up to :data:`MAX_CLEARED_M` (GUID, metres), deepest first: what a release would clear."""
+    solver's slop, up to ``max_cleared_m`` (GUID, metres), deepest first: what a release would clear."""
     points = _penetrations(client_id, body, frame, others)
-    return _deepest_each([(p, g) for p, g in points if _clearable([(p, g)], kept, MAX_CLEARED_M)])
+    return _deepest_each([(p, g) for p, g in points if _clearable([(p, g)], kept, max_cleared_m)])
 
 
 def _clearable(

@@ -210,11 +210,14 @@ def fit(
         set_component_pose(cid, body, aim)
         kept = frozenset(other for other, _ in deep_overlaps(cid, body, aim, nearby) if model_clash(other))
 
+        # every overlap the release would clear counts, up to its bound: one deeper than a clash's depth
+        # is not invisible (a sill rammed 17 mm into the mullion it is framed to scored as no overlap)
         def framed_m(frame: Frame) -> dict[str, float]:
-            return dict(intrusions(cid, body, frame, framed, frozenset()))
+            return dict(intrusions(cid, body, frame, framed, frozenset(), max_cleared_m=max_cleared_m))
 
         def score(frame: Frame) -> tuple[int, float]:
-            return fit_score(deepest_m(intrusions(cid, body, frame, nearby, kept)), framed_m(frame), allowed)
+            clash_m = deepest_m(intrusions(cid, body, frame, nearby, kept, max_cleared_m=max_cleared_m))
+            return fit_score(clash_m, framed_m(frame), allowed)
 
         # where it fits best: its seats, following one of the built members in its way, or halfway between
         in_its_way = intrusions(cid, body, aim, nearby, kept) + intrusions(cid, body, aim, framed, kept)
@@ -229,11 +232,17 @@ def fit(
             else [following(target, target_frame(o.component), o.pose) for o in built]
         )
         follows += [shifted(component, target, other.component, other.pose) for other in built]
-        aim = min([aim, *follows, *(halfway(aim, follow) for follow in follows)], key=score)
+        tolerances = state.connections.fit
+
+        def usable(frame: Frame) -> Frame:  # as far as a fit may move it: the frame that is scored is used
+            return bounded(component, target, frame, tolerances) or target
+
+        candidates = [aim, *follows, *(halfway(aim, follow) for follow in follows)]
+        aim = min((usable(frame) for frame in candidates), key=score)
         # a framed partner overlapped no deeper than its joint allows is no overlap to clear
         depths_m = framed_m(aim)
         beyond = {b: g for b, g in framed.items() if depths_m.get(g, 0.0) > allowed[g]}
         cleared = clear_overlap(cid, body, aim, nearby | beyond, max_cleared_m=max_cleared_m, kept=kept)
     finally:
         set_component_pose(cid, body, before)
-    return bounded(component, target, cleared.frame, state.connections.fit)
+    return bounded(component, target, cleared.frame, tolerances)

@@ -239,6 +239,49 @@ def test_a_part_squeezed_between_two_framed_ends_goes_halfway(
     assert pose.fitted_target.position_m[0] == pytest.approx(x + 0.605, abs=0.0005)
 
 
+def test_a_part_pinched_between_two_framed_ends_stays_when_following_either_rams_the_other_end(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """A2 between A1 and A3, framed to both with 10 mm clearance; A1 and A3 each built 8 mm towards it.
+    On its target it is 8 mm into each end, within both clearances. Following A1 puts it 16 mm into A3:
+    deeper than a clash's 15 mm, that overlap used to be left out of the score, so following scored as no
+    overlap at all, was chosen, and the release pushed A2 16 mm out (the Janesville restaurant's corner
+    sill between two mullions failed misplaced three times, 17.6 mm)."""
+    first, second, third = (_named(frame_manifest, f"Footing A{n}") for n in (1, 2, 3))
+    (x, y, z), quat = target_frame(first)
+    moved = {
+        guid: component.model_copy(
+            update={
+                "target_pose_world": component.target_pose_world.model_copy(
+                    update={"position_m": (x + offset, y, z)}
+                )
+            }
+        )
+        for guid, component, offset in ((second.guid, second, 0.6), (third.guid, third, 1.2))
+    }
+    joints = [
+        Joint(
+            guids=(part, second.guid), depth_m=0.0, source=JointSource.FRAMED, rule="test", clearance_m=0.01
+        )
+        for part in (first.guid, third.guid)
+    ]
+    components = [moved.get(c.guid, c) for c in frame_manifest.components]
+    sim = make_sim(frame_manifest.model_copy(update={"components": components, "joints": joints}), robots=1)
+    sim.handling.restore(first.guid, ((x + 0.008, y, z), quat), fixed=True, carrier=None)
+    sim.handling.restore(third.guid, ((x + 1.2 - 0.008, y, z), quat), fixed=True, carrier=None)
+    for guid in (first.guid, third.guid):
+        sim.handling.note_constructed(guid, True)
+    item = sim.handling.items[second.guid]
+    item.motion_to = ((x + 0.6, y, z), quat)
+    set_component_pose(sim.client_id, item.body, item.motion_to)
+    p.performCollisionDetection(physicsClientId=sim.client_id)
+    sim.handling.releasing.release(item, sim.robots["r1"], sim.sim_time_s, tag=None)
+    pose = sim.handling.pose_message(second.guid, sim.sim_time_s)
+    assert pose.fitted_target is None  # its seats: nothing to follow
+    assert pose.set_against == []  # not pushed out of either end
+    assert pose.pose.position_m[0] == pytest.approx(x + 0.6, abs=0.0005)
+
+
 def test_the_fit_score_counts_a_framed_end_only_beyond_its_clearance() -> None:
     allowed = {"left": 0.010, "right": 0.010}
     # 3 mm into a part it is not framed to outweighs 9 mm into a framed end's 10 mm clearance
