@@ -194,28 +194,23 @@ def test_a_restarted_physics_keeps_a_member_s_fitted_target(
     assert again.handling.pose_message(second.guid, again.sim_time_s).fitted_target == recorded.fitted_target
 
 
-def test_a_part_squeezed_between_two_framed_ends_goes_halfway(
-    make_sim: Callable[..., Simulation], frame_manifest: Manifest
-) -> None:
-    """A2 between A1 and A3, framed to both ends with 10 mm clearance; A1 built 10 mm towards it. Following
-    A1 would put A2 10 mm into A3's clearance, staying 10 mm into A1's: halfway leaves 5 mm to each."""
-    first, second, third = (_named(frame_manifest, f"Footing A{n}") for n in (1, 2, 3))
+def _between_framed_ends(
+    make_sim: Callable[..., Simulation], manifest: Manifest, first_in_m: float, third_in_m: float
+) -> tuple[Simulation, Component, float]:
+    """A2 placed exactly at its target between A1 and A3 (0.6 m apart, butting), framed to both with 10 mm
+    clearance, A1 and A3 built ``first_in_m`` and ``third_in_m`` towards it, and let go by robot r1. A2
+    and A1's target x."""
+    first, second, third = (_named(manifest, f"Footing A{n}") for n in (1, 2, 3))
     (x, y, z), quat = target_frame(first)
     moved = {
-        second.guid: second.model_copy(
+        component.guid: component.model_copy(
             update={
-                "target_pose_world": second.target_pose_world.model_copy(
-                    update={"position_m": (x + 0.6, y, z)}
+                "target_pose_world": component.target_pose_world.model_copy(
+                    update={"position_m": (x + offset, y, z)}
                 )
             }
-        ),
-        third.guid: third.model_copy(
-            update={
-                "target_pose_world": third.target_pose_world.model_copy(
-                    update={"position_m": (x + 1.2, y, z)}
-                )
-            }
-        ),
+        )
+        for component, offset in ((second, 0.6), (third, 1.2))
     }
     joints = [
         Joint(
@@ -223,10 +218,10 @@ def test_a_part_squeezed_between_two_framed_ends_goes_halfway(
         )
         for part in (first.guid, third.guid)
     ]
-    components = [moved.get(c.guid, c) for c in frame_manifest.components]
-    sim = make_sim(frame_manifest.model_copy(update={"components": components, "joints": joints}), robots=1)
-    sim.handling.restore(first.guid, ((x + 0.010, y, z), quat), fixed=True, carrier=None)
-    sim.handling.restore(third.guid, ((x + 1.2, y, z), quat), fixed=True, carrier=None)
+    components = [moved.get(c.guid, c) for c in manifest.components]
+    sim = make_sim(manifest.model_copy(update={"components": components, "joints": joints}), robots=1)
+    sim.handling.restore(first.guid, ((x + first_in_m, y, z), quat), fixed=True, carrier=None)
+    sim.handling.restore(third.guid, ((x + 1.2 - third_in_m, y, z), quat), fixed=True, carrier=None)
     for guid in (first.guid, third.guid):
         sim.handling.note_constructed(guid, True)
     item = sim.handling.items[second.guid]
@@ -234,6 +229,15 @@ def test_a_part_squeezed_between_two_framed_ends_goes_halfway(
     set_component_pose(sim.client_id, item.body, item.motion_to)
     p.performCollisionDetection(physicsClientId=sim.client_id)
     sim.handling.releasing.release(item, sim.robots["r1"], sim.sim_time_s, tag=None)
+    return sim, moved[second.guid], x
+
+
+def test_a_part_squeezed_between_two_framed_ends_goes_halfway(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """A2 between A1 and A3, framed to both ends with 10 mm clearance; A1 built 10 mm towards it. Following
+    A1 would put A2 10 mm into A3's clearance, staying 10 mm into A1's: halfway leaves 5 mm to each."""
+    sim, second, x = _between_framed_ends(make_sim, frame_manifest, 0.010, 0.0)
     pose = sim.handling.pose_message(second.guid, sim.sim_time_s)
     assert pose.fitted_target is not None
     assert pose.fitted_target.position_m[0] == pytest.approx(x + 0.605, abs=0.0005)
@@ -247,35 +251,7 @@ def test_a_part_pinched_between_two_framed_ends_stays_when_following_either_rams
     deeper than a clash's 15 mm, that overlap used to be left out of the score, so following scored as no
     overlap at all, was chosen, and the release pushed A2 16 mm out (the Janesville restaurant's corner
     sill between two mullions failed misplaced three times, 17.6 mm)."""
-    first, second, third = (_named(frame_manifest, f"Footing A{n}") for n in (1, 2, 3))
-    (x, y, z), quat = target_frame(first)
-    moved = {
-        guid: component.model_copy(
-            update={
-                "target_pose_world": component.target_pose_world.model_copy(
-                    update={"position_m": (x + offset, y, z)}
-                )
-            }
-        )
-        for guid, component, offset in ((second.guid, second, 0.6), (third.guid, third, 1.2))
-    }
-    joints = [
-        Joint(
-            guids=(part, second.guid), depth_m=0.0, source=JointSource.FRAMED, rule="test", clearance_m=0.01
-        )
-        for part in (first.guid, third.guid)
-    ]
-    components = [moved.get(c.guid, c) for c in frame_manifest.components]
-    sim = make_sim(frame_manifest.model_copy(update={"components": components, "joints": joints}), robots=1)
-    sim.handling.restore(first.guid, ((x + 0.008, y, z), quat), fixed=True, carrier=None)
-    sim.handling.restore(third.guid, ((x + 1.2 - 0.008, y, z), quat), fixed=True, carrier=None)
-    for guid in (first.guid, third.guid):
-        sim.handling.note_constructed(guid, True)
-    item = sim.handling.items[second.guid]
-    item.motion_to = ((x + 0.6, y, z), quat)
-    set_component_pose(sim.client_id, item.body, item.motion_to)
-    p.performCollisionDetection(physicsClientId=sim.client_id)
-    sim.handling.releasing.release(item, sim.robots["r1"], sim.sim_time_s, tag=None)
+    sim, second, x = _between_framed_ends(make_sim, frame_manifest, 0.008, 0.008)
     pose = sim.handling.pose_message(second.guid, sim.sim_time_s)
     assert pose.fitted_target is None  # its seats: nothing to follow
     assert pose.set_against == []  # not pushed out of either end
