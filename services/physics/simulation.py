@@ -469,7 +469,8 @@ class Simulation:
                 )
             )
         found = in_the_way(footprint, bystanders)
-        return self._landing_waits.refusal(request.guid, item.component.name, found, self.sim_time_s)
+        name = item.component.name or request.guid
+        return self._landing_waits.refusal(request.guid, name, found, self.sim_time_s)
 
     def build(self, request: BuildRequest) -> PhysicsReply:
         """Build a component where it stands, up to a fraction of its height (:mod:`.in_place_work`)."""
