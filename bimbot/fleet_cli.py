@@ -13,9 +13,9 @@ Columns: ``built by / why not`` lists every route, the first being the one the p
 take; a crane is named with its robot id because where it stands (the site plan sets it up where its hook
 covers the building best, then the yard, :mod:`bimbot.shared.site_machines`) decides what it reaches;
 ``A → crane (r3, hand-off)`` is a ground robot of type A bringing the component within the crane's hook
-first; a component cast in place or laid (column ``method``, counted by method under the table) is built
-where it stands by a machine that pours or lays, named with its robot id when it stands fixed (its boom
-must cover the whole footprint from where the site plan puts it).
+first; a component cast in place, laid or driven (column ``method``, counted by method under the table) is
+built where it stands by a machine that pours, lays or drives piles, named with its robot id when it stands
+fixed (its boom must cover the whole footprint from where the site plan puts it).
 """
 
 from __future__ import annotations

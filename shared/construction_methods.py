@@ -17,6 +17,8 @@ Methods:
                   poured, and what rests on it waits for its curing; an element larger than one day's
                   pour is poured in bays, each a component, built when all its bays are
 ``laid``          masonry built course by course by a block-laying robot standing within its boom's reach
+``driven``        a steel, timber or precast pile driven into the ground by a piling rig (a crawler crane
+                  with a vibratory hammer) from a set-up within its reach: pitched, then driven to its toe
 ``with_host``     a fastener, anchor, embed or shop-welded plate: built into its host (cast into the
                   footing, carried with the column), never a task of its own
 ``in_place``      existing work, or built by others before the robots come
@@ -37,6 +39,7 @@ class ConstructionMethod(StrEnum):
     PANELISED = "panelised"
     CAST_IN_PLACE = "cast_in_place"
     LAID = "laid"
+    DRIVEN = "driven"
     WITH_HOST = "with_host"
     IN_PLACE = "in_place"
 

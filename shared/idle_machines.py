@@ -23,6 +23,7 @@ from .robot_description import Capability, RobotDescription
 WORK_METHODS: dict[Capability, ConstructionMethod] = {
     Capability.POUR: ConstructionMethod.CAST_IN_PLACE,
     Capability.LAY: ConstructionMethod.LAID,
+    Capability.PILE: ConstructionMethod.DRIVEN,
 }
 
 

@@ -107,6 +107,7 @@ class ComponentState(StrEnum):
     FORMING = "forming"  # cast in place: formwork and reinforcement being set
     POURING = "pouring"  # cast in place: concrete being placed
     LAYING = "laying"  # laid: courses being laid
+    DRIVING = "driving"  # driven: a pile being pitched and driven
     VERIFYING = "verifying"
     CONSTRUCTED = "constructed"
     MISPLACED = "misplaced"
@@ -130,6 +131,7 @@ class ComponentEvent(StrEnum):
     FORM = "form"  # crew: formwork begins (cast in place)
     POUR = "pour"  # crew: the pour begins (cast in place)
     LAY = "lay"  # block layer: laying begins (laid)
+    DRIVE = "drive"  # piling rig: pitching and driving begin (driven)
 
 
 class PoseMsg(BaseModel):

@@ -19,8 +19,8 @@ place they are applied:
   footprint; a component is within reach when that radius lies between the trolley's innermost radius and
   the largest radius at which the load chart lifts its mass (linear between the chart's points, nothing
   beyond the last);
-* a boom machine that stands fixed and works in place (``pour``, ``lay``) reaches a component when its
-  whole footprint lies within ``reach_m`` of its base (the boom covers every part of it); a truck-mounted
+* a boom machine that stands fixed and works in place (``pour``, ``lay``, ``pile``) reaches a component when
+  its whole footprint lies within ``reach_m`` of its base (the boom covers every part of it); a truck-mounted
   one that may ``relocate`` reaches it from any of the set-up positions the site plan gives it
   (``SiteLayout.setups``), at the cost of a relocation (:meth:`RobotDescription.relocation_s`).
 
@@ -55,6 +55,7 @@ class Capability(StrEnum):
     HAND_OFF = "hand_off"  # puts a load down in a crane's staging area for the crane to lift
     POUR = "pour"  # forms and pours cast-in-place concrete within its boom's reach (``reach_m``)
     LAY = "lay"  # lays masonry course by course within its boom's reach (``laying``)
+    PILE = "pile"  # pitches and drives piles within its reach (``piling``)
     # a truck-mounted machine that stands fixed but drives to another of its set-up positions (the site
     # plan's) for work its boom cannot reach from where it stands: stow, drive, set up (``setup_s``,
     # ``relocation_speed_mps``)
@@ -158,6 +159,20 @@ class LayingSpec(BaseModel):
     blocks_per_h: float = Field(gt=0, le=10000)
 
 
+class PilingSpec(BaseModel):
+    """A piling rig's work: pitching a pile (slinging it, lifting it upright into the hammer's grip, setting
+    its toe on its mark) and driving it at a rate of penetration."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    pitch_s: float = Field(ge=0, le=86400)
+    penetration_m_per_h: float = Field(gt=0, le=10000)
+
+    def drive_s(self, length_m: float) -> float:
+        """Seconds to pitch a pile ``length_m`` long and drive it to its toe."""
+        return self.pitch_s + 3600.0 * max(0.0, length_m) / self.penetration_m_per_h
+
+
 class RobotDescription(BaseModel):
     """One robot type: its model, its limits and its footprint (SI units, robot base frame)."""
 
@@ -203,6 +218,7 @@ class RobotDescription(BaseModel):
     )
     crane: CraneSpec | None = None
     laying: LayingSpec | None = None
+    piling: PilingSpec | None = None
     capabilities: frozenset[Capability] = Field(
         default=frozenset(),
         description="what it can do; when left out: a crane spec means "
@@ -235,6 +251,8 @@ class RobotDescription(BaseModel):
             raise ValueError(f"robot type {self.name!r}: hook_lift and a [crane] spec go together")
         if (Capability.LAY in has) != (self.laying is not None):
             raise ValueError(f"robot type {self.name!r}: lay and a [laying] spec go together")
+        if (Capability.PILE in has) != (self.piling is not None):
+            raise ValueError(f"robot type {self.name!r}: pile and a [piling] spec go together")
         if Capability.RELOCATE in has and (
             Capability.STAND_FIXED not in has or Capability.HOOK_LIFT in has or self.relocation_speed_mps <= 0
         ):

@@ -34,7 +34,7 @@ from .yard_slot import laid_slot
 
 SPOT_STEP_M = 0.5  # candidate centres around the mast
 LAYDOWN_GAP_M = 0.6  # between two loads, and between a load and what is blocked
-IN_PLACE = {ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID}
+IN_PLACE = {ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID, ConstructionMethod.DRIVEN}
 
 
 @dataclass(frozen=True)

@@ -45,7 +45,11 @@ from .site_plan import Rect
 
 PUSH_STEP_M = 0.5  # a candidate that is not clear moves this far out at a time…
 MAX_PUSH_M = 150.0  # …up to this far (then the direction is given up)
-WORKS = {Capability.POUR: ConstructionMethod.CAST_IN_PLACE, Capability.LAY: ConstructionMethod.LAID}
+WORKS = {
+    Capability.POUR: ConstructionMethod.CAST_IN_PLACE,
+    Capability.LAY: ConstructionMethod.LAID,
+    Capability.PILE: ConstructionMethod.DRIVEN,
+}
 
 # (x, y) direction from the building's centre, in candidate order: sides first, then corners
 _DIRECTIONS = ((1, 0), (0, 1), (-1, 0), (0, -1), (1, 1), (-1, 1), (-1, -1), (1, -1))

@@ -17,11 +17,15 @@ The rule, for each machine that relocates (robot id order), after every machine'
   the depot or the main street is dropped, one that meets another machine's set-up (main or extra) or a
   crane's staging area moves out along its direction until it keeps a lane from them (its own set-ups may
   overlap: it stands at one at a time);
-* **greedy cover** — the components of its method (pour: cast in place; lay: laid) that some candidate's
-  boom covers and its main set-up does not are covered by adding, one at a time, the candidate that covers
-  the most of those still uncovered (then the one nearest its main set-up, then candidate order), until
-  each is covered by some set-up. A component no candidate covers stays out of reach (its reason names the
-  nearest set-up).
+* **a piling rig** also over the building's own ground — piles are the first work on a site, driven into
+  open ground before anything stands there, so the rig tracks in to them: the centres of a grid over the
+  building's rectangle, its cells no wider than the rig's reach (every pile in a cell lies within reach of
+  its centre), that meet no other machine's set-up;
+* **greedy cover** — the components of its method (pour: cast in place; lay: laid; pile: driven) that some
+  candidate's boom covers and its main set-up does not are covered by adding, one at a time, the candidate
+  that covers the most of those still uncovered (then the one nearest its main set-up, then candidate
+  order), until each is covered by some set-up. A component no candidate covers stays out of reach (its
+  reason names the nearest set-up).
 
 Deterministic: the same components and fleet give the same set-ups. A machine that does not relocate has
 its main set-up only.
@@ -35,7 +39,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .manifest import Component
-from .robot_description import RobotDescription
+from .robot_description import Capability, RobotDescription
 from .site_machines import (
     MAX_PUSH_M,
     PUSH_STEP_M,
@@ -128,6 +132,23 @@ def setup_candidates(
     return found
 
 
+def inside_candidates(building: Rect, machine: RobotDescription, blocked: Sequence[Rect]) -> list[Setup]:
+    """A piling rig's candidates over the building's own ground (see the module): the centres of a grid
+    over ``building`` whose cells are no wider than its reach, clear of ``blocked``."""
+    (x0, y0), (x1, y1) = building.min_xy, building.max_xy
+    columns = max(1, math.ceil((x1 - x0) / machine.reach_m))
+    rows = max(1, math.ceil((y1 - y0) / machine.reach_m))
+    yaw = machine_yaw(machine, 0.0)
+    found: list[Setup] = []
+    for column in range(columns):
+        for row in range(rows):
+            pose = (x0 + (column + 0.5) * (x1 - x0) / columns, y0 + (row + 0.5) * (y1 - y0) / rows, yaw)
+            setup = Setup(pose, base_rect(machine, pose))
+            if not any(setup.base.overlaps(other) for other in blocked):
+                found.append(setup)
+    return found
+
+
 def plan_setups(
     machines: Sequence[RobotDescription],
     mains: Sequence[Setup],
@@ -153,6 +174,8 @@ def plan_setups(
         mine = np.array([method in own for method in methods], dtype=bool)
         others = [rect.grown(lane_m) for j, setup in enumerate(mains) if j != index for rect in setup.rects]
         found = setup_candidates(building, machine, lane_m, fixed, [*others, *extras_taken])
+        if machine.can(Capability.PILE):
+            found += inside_candidates(building, machine, [*others, *extras_taken])
         covers = [covered_by_boom(machine, setup.pose[:2], corners) & mine for setup in found]
         covered = covered_by_boom(machine, main.pose[:2], corners) & mine
         coverable = np.logical_or.reduce([covered, *covers]) if covers else covered

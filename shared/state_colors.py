@@ -20,6 +20,7 @@ STATE_COLORS: dict[ComponentState, Rgba] = {
     ComponentState.FORMING: (0, 0, 195, 255),  # navy: formwork going up around it
     ComponentState.POURING: (0, 150, 136, 255),  # teal: concrete going in
     ComponentState.LAYING: (255, 90, 255, 255),  # magenta: courses going up
+    ComponentState.DRIVING: (160, 140, 60, 255),  # khaki: a pile going into the ground
     ComponentState.VERIFYING: (255, 235, 59, 255),  # yellow: checking its own pose
     ComponentState.CONSTRUCTED: (46, 160, 67, 255),  # green: done
     ComponentState.MISPLACED: (244, 67, 54, 255),  # red: off target, will be retried

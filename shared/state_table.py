@@ -7,7 +7,7 @@ Two kinds of trigger:
 
 * **external** — the :class:`bimbot.shared.messages.ComponentEvent` values the planner and robots send on
   ``components/<key>/event``: release, pick, attach, arrive, place, retry, abandon, hand_off, fail, block,
-  form, pour, lay;
+  form, pour, lay, drive;
 * **internal** — the agent's own verification verdict after a placement (:class:`Verdict`): verified,
   misplaced_placement, failed_placement. They are never accepted from the bus.
 
@@ -18,14 +18,15 @@ Choices:
   a ``place`` can only precede its ``arrive`` when the ``arrive`` was lost, and the sender repeats it (at
   least once delivery) before it repeats ``place``. Being strict keeps a robot's progress observable.
 * Work in place has its own path from ``released``: a cast-in-place component goes ``form`` → ``forming``,
-  ``pour`` → ``pouring``, a laid one ``lay`` → ``laying``; ``place`` (it stands, poured or laid) leads from
-  either to ``verifying`` like a placement, so the agent verifies every component the same way.
+  ``pour`` → ``pouring``, a laid one ``lay`` → ``laying``, a driven pile ``drive`` → ``driving``; ``place``
+  (it stands, poured, laid or driven) leads from each to ``verifying`` like a placement, so the agent
+  verifies every component the same way.
 * ``hand_off`` (a robot's hand-off task: it carried the component to a crane's staging spot and put it
   down there) is accepted from ``transporting``: the component is released again, now within the crane's
   reach, and the planner assigns its build task.
 * ``abandon`` (robot lost) is accepted while a robot holds the component (picking, transporting,
-  assembling) or works on it in place (forming, pouring, laying). Once placed (verifying) the component
-  judges itself whatever happened to the robot.
+  assembling) or works on it in place (forming, pouring, laying, driving). Once placed (verifying) the
+  component judges itself whatever happened to the robot.
 * ``fail`` (the planner: the component cannot be built, e.g. too heavy for every robot, or given back by
   robots too often) is accepted while no robot holds it (planned, released, misplaced); ``block`` (a
   predecessor failed) while it was never picked (planned, released). Both carry a reason.
@@ -65,14 +66,27 @@ TRANSITIONS: tuple[dict, ...] = (
     {"trigger": _E.PICK.value, "source": _S.RELEASED, "dest": _S.PICKING},
     {"trigger": _E.ATTACH.value, "source": _S.PICKING, "dest": _S.TRANSPORTING},
     {"trigger": _E.ARRIVE.value, "source": _S.TRANSPORTING, "dest": _S.ASSEMBLING},
-    {"trigger": _E.PLACE.value, "source": [_S.ASSEMBLING, _S.POURING, _S.LAYING], "dest": _S.VERIFYING},
+    {
+        "trigger": _E.PLACE.value,
+        "source": [_S.ASSEMBLING, _S.POURING, _S.LAYING, _S.DRIVING],
+        "dest": _S.VERIFYING,
+    },
     {"trigger": _E.FORM.value, "source": _S.RELEASED, "dest": _S.FORMING},
     {"trigger": _E.POUR.value, "source": _S.FORMING, "dest": _S.POURING},
     {"trigger": _E.LAY.value, "source": _S.RELEASED, "dest": _S.LAYING},
+    {"trigger": _E.DRIVE.value, "source": _S.RELEASED, "dest": _S.DRIVING},
     {"trigger": _E.RETRY.value, "source": _S.MISPLACED, "dest": _S.RELEASED},
     {
         "trigger": _E.ABANDON.value,
-        "source": [_S.PICKING, _S.TRANSPORTING, _S.ASSEMBLING, _S.FORMING, _S.POURING, _S.LAYING],
+        "source": [
+            _S.PICKING,
+            _S.TRANSPORTING,
+            _S.ASSEMBLING,
+            _S.FORMING,
+            _S.POURING,
+            _S.LAYING,
+            _S.DRIVING,
+        ],
         "dest": _S.RELEASED,
     },
     {"trigger": _E.HAND_OFF.value, "source": _S.TRANSPORTING, "dest": _S.RELEASED},

@@ -185,12 +185,12 @@ def test_bimbot_run_and_physics_share_one_definition_of_the_profile_options() ->
 
 
 def test_robots_n_keeps_the_fleets_machines_that_stand_fixed_in_run_physics_and_fleet_check() -> None:
-    """``--robots 3``: three of the default type (carriers) and still the crane, the pump, the block layer
-    and the line pump; the help says so wherever the option is."""
+    """``--robots 3``: three of the default type (carriers) and still the crane, the pump, the block layer,
+    the line pump and the piling rig; the help says so wherever the option is."""
     from bimbot.run.commands import run_fleet
     from bimbot.services.physics.cli import fleet_of
 
-    expected = "3 carrier, 1 tower_crane, 1 concrete_pump, 1 block_layer, 1 line_pump"
+    expected = "3 carrier, 1 tower_crane, 1 concrete_pump, 1 block_layer, 1 line_pump, 1 piling_rig"
     assert run_fleet(RunOptions(robots=3)).summary() == expected
     assert fleet_of(_parsed("physics", "--robots", "3")).summary() == expected
     for command in ("run", "physics", "fleet"):

@@ -13,7 +13,8 @@ come from its construction method (:mod:`bimbot.shared.construction_methods`):
 * ``cast_in_place``: formwork (forming → pouring), pour (→ verifying), cure (from constructed, for
   ``Component.cast.cure_s``: what rests on it waits for it, so the task ends there); without those states in
   the journal, the durations of ``Component.cast`` fitted into the task's span;
-* ``laid``: lay (laying → constructed).
+* ``laid``: lay (laying → constructed);
+* ``driven``: drive (driving → constructed).
 
 A component the run never started has no times (a task without dates); one without a journal has no steps.
 """
@@ -31,7 +32,17 @@ LIFTED_STEPS = ("pick", "carry", "place", "connect")
 CAST_STEPS = ("formwork", "pour", "cure")
 LAID_STEPS = ("lay",)
 WORK_STATES = frozenset(
-    {"picking", "transporting", "assembling", "forming", "pouring", "laying", "verifying", "misplaced"}
+    {
+        "picking",
+        "transporting",
+        "assembling",
+        "forming",
+        "pouring",
+        "laying",
+        "driving",
+        "verifying",
+        "misplaced",
+    }
 )
 END_STATES = frozenset({"constructed", "failed"})
 
@@ -193,6 +204,9 @@ def method_steps(
     if component.method is ConstructionMethod.LAID:
         laying = next((time_s for state, time_s in states if state == "laying"), start_s)
         return (Step("lay", laying, max(finish_s, laying)),)
+    if component.method is ConstructionMethod.DRIVEN:
+        driving = next((time_s for state, time_s in states if state == "driving"), start_s)
+        return (Step("drive", driving, max(finish_s, driving)),)
     return _lifted_steps(states, finish_s)
 
 

@@ -91,11 +91,14 @@ ROBOT_EVENTS = frozenset(
         ComponentEvent.FORM,
         ComponentEvent.POUR,
         ComponentEvent.LAY,
+        ComponentEvent.DRIVE,
     }
 )
 # events after which physics may fix the component where it stands before the robot says place: a lifted
-# component at its target (connected), a cast one poured, a laid one's last course
-FIXED_AFTER = frozenset({ComponentEvent.ARRIVE, ComponentEvent.POUR, ComponentEvent.LAY})
+# component at its target (connected), a cast one poured, a laid one's last course, a pile driven
+FIXED_AFTER = frozenset(
+    {ComponentEvent.ARRIVE, ComponentEvent.POUR, ComponentEvent.LAY, ComponentEvent.DRIVE}
+)
 
 
 @dataclass(frozen=True)

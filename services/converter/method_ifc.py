@@ -14,8 +14,8 @@ In the order tried, the first statement wins:
   everything is built, and finds one by geometry where no relation names one;
 * ``Pset_ConcreteElementGeneral.CastingMethod``: ``INSITU`` is cast in place, ``PRECAST`` lifted;
   ``Pset_PrecastConcreteElementGeneral`` (any property) lifted;
-* a pile's ``ConstructionType`` (``CAST_IN_PLACE``; ``PRECAST_CONCRETE``, ``PREFAB_STEEL``) or type
-  (``BORED`` piles are cast, ``DRIVEN`` ones lifted);
+* a pile's ``ConstructionType`` (``CAST_IN_PLACE`` is cast; ``PRECAST_CONCRETE``, ``PREFAB_STEEL`` are
+  driven) or type (``BORED`` piles are cast, ``DRIVEN`` ones driven);
 * a material whose name says it: cast-in-place or in situ, poured (a floor's topping, underlayment or
   screed: cast in place), precast or prefabricated (:mod:`.material_kind`);
 * a part of a prefabricated assembly (``IfcElementAssembly``): lifted, but a fitting of it (a plate) goes
@@ -51,7 +51,7 @@ STATING_PSETS = frozenset(
     {"Pset_ConcreteElementGeneral", "Pset_PrecastConcreteElementGeneral", "PSet_Revit_Phasing"}
 )
 PILE_CAST = frozenset({"CAST_IN_PLACE", "BORED"})
-PILE_LIFTED = frozenset({"PRECAST_CONCRETE", "PREFAB_STEEL", "DRIVEN"})
+PILE_DRIVEN = frozenset({"PRECAST_CONCRETE", "PREFAB_STEEL", "DRIVEN"})
 
 
 def ifc_statement(
@@ -193,8 +193,8 @@ def _pile(element: ifcopenshell.entity_instance) -> MethodDecision | None:
         value = str(getattr(element, attribute, None) or "")
         if value in PILE_CAST:
             return _ifc(ConstructionMethod.CAST_IN_PLACE, f"IfcPile.{attribute} = {value}")
-        if value in PILE_LIFTED:
-            return _ifc(ConstructionMethod.LIFTED, f"IfcPile.{attribute} = {value}")
+        if value in PILE_DRIVEN:
+            return _ifc(ConstructionMethod.DRIVEN, f"IfcPile.{attribute} = {value}")
     return None
 
 

@@ -1,13 +1,14 @@
-"""Work in place in the live twin: a cast or laid component drawn where it is built, when it is built.
+"""Work in place in the live twin: a cast, laid or driven component drawn where it is built, when it is built.
 
-A cast-in-place or laid component never lies in the yard: physics keeps it out of sight until a pump pours
-it or a block layer lays it, and publishes its pose only once it stands built at its target. So the twin
-(:mod:`.twin_log`) logs its mesh not at the start (a mesh without a pose is drawn at the world's origin)
-but with that first pose, on the timeline: scrubbed back, it is not there yet. While it is worked on, its
-BIM box is drawn at ``world/work/<guid>`` in the state's colour, labelled with its name, the step and the
-machine (``Footing A2: formwork, r2 (pump)``):
+A cast-in-place, laid or driven component never lies in the yard: physics keeps it out of sight until a
+pump pours it, a block layer lays it or a piling rig drives it, and publishes its pose only once it stands
+built at its target. So the twin (:mod:`.twin_log`) logs its mesh not at the start (a mesh without a pose
+is drawn at the world's origin) but with that first pose, on the timeline: scrubbed back, it is not there
+yet. While it is worked on, its BIM box is drawn at ``world/work/<guid>`` in the state's colour, labelled
+with its name, the step and the machine (``Footing A2: formwork, r2 (pump)``):
 
 * ``forming``: the box's outline (the formwork going up), navy; ``pouring``: the outline in teal;
+  ``driving``: the outline in khaki (a pile going in);
 * ``laying``: the outline in magenta, its label counting the courses standing (``Wall W1: laying 2/8
   courses, r3 (block_layer)``), and in it at ``world/work/<guid>/courses`` a solid box up to them.
   Physics does not publish a wall's height; the block layer's state says ``course k/n`` while it lays
@@ -34,11 +35,12 @@ from bimbot.shared.state_colors import STATE_COLORS
 
 from .twin_items import LogItem, component_path, mesh_archetype
 
-BUILT_IN_PLACE = (ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID)
+BUILT_IN_PLACE = (ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID, ConstructionMethod.DRIVEN)
 WORK_STEPS = {  # a working state → the step's word on its label
     ComponentState.FORMING: "formwork",
     ComponentState.POURING: "pour",
     ComponentState.LAYING: "laying",
+    ComponentState.DRIVING: "driving",
 }
 COURSE = re.compile(r"\bcourse (\d+)/(\d+)\b")  # the block layer's activity (services/robot/site_work.py)
 MIN_COURSES_HEIGHT_M = 0.01

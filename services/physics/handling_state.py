@@ -39,7 +39,7 @@ class Phase(StrEnum):
 
 
 DYNAMIC_PHASES = (Phase.SETTLING, Phase.PLACED)
-BUILT_WHERE_IT_STANDS = (ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID)
+BUILT_WHERE_IT_STANDS = (ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID, ConstructionMethod.DRIVEN)
 
 
 @dataclass(frozen=True)

@@ -48,8 +48,12 @@ from .scene import (
 
 _log = logging.getLogger(__name__)
 
-BUILT_IN_PLACE = (ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID)
-NEEDS = {ConstructionMethod.CAST_IN_PLACE: Capability.POUR, ConstructionMethod.LAID: Capability.LAY}
+BUILT_IN_PLACE = (ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID, ConstructionMethod.DRIVEN)
+NEEDS = {
+    ConstructionMethod.CAST_IN_PLACE: Capability.POUR,
+    ConstructionMethod.LAID: Capability.LAY,
+    ConstructionMethod.DRIVEN: Capability.PILE,
+}
 UNBUILT_DEPTH_M = 500.0  # an unbuilt component's body waits this far below its target
 HIDDEN_GROUP = 0  # no filter bit: nothing collides with it and no laser ray sees it
 

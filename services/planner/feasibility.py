@@ -124,7 +124,7 @@ def _in_place_feasibility(component: Component, robots: Sequence[SiteRobot]) -> 
 
 
 #: How a reason names a method of work in place.
-METHOD_WORDS = {"cast_in_place": "cast in place", "laid": "laid masonry"}
+METHOD_WORDS = {"cast_in_place": "cast in place", "laid": "laid masonry", "driven": "a driven pile"}
 
 
 def _why_no_worker(component: Component, robots: Sequence[SiteRobot]) -> Reason:

@@ -22,11 +22,14 @@ CARRYING = frozenset(
         ComponentState.FORMING,
         ComponentState.POURING,
         ComponentState.LAYING,
+        ComponentState.DRIVING,
     }
 )
 TERMINAL = frozenset({ComponentState.CONSTRUCTED, ComponentState.FAILED, ComponentState.BLOCKED})
-#: Components worked on in place by a robot in timed work (forming, pouring, laying).
-WORKING = frozenset({ComponentState.FORMING, ComponentState.POURING, ComponentState.LAYING})
+#: Components worked on in place by a robot in timed work (forming, pouring, laying, driving).
+WORKING = frozenset(
+    {ComponentState.FORMING, ComponentState.POURING, ComponentState.LAYING, ComponentState.DRIVING}
+)
 Outgoing = ComponentEventMsg | TaskMsg
 
 

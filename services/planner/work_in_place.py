@@ -1,16 +1,18 @@
-"""Work in place: which robot type can cast or lay a component, and how long the work takes (pure).
+"""Work in place: which robot type can cast, lay or drive a component, and how long the work takes (pure).
 
-Why apart from :mod:`.capability`: a cast-in-place or laid component is never carried. It is built where
-it stands by a machine that can do its method's work (:data:`WORK`: ``pour`` for cast in place, ``lay`` for
-laid); its mass does not matter. A machine that stands fixed (a boom pump, a block layer) builds it when its
-boom covers the whole target footprint from where it stands (the shared reach rule,
-:meth:`~bimbot.shared.robot_description.RobotDescription.reaches`); a machine that drives goes there. In
-both cases the target's top must lie within the machine's ``max_place_height_m``.
+Why apart from :mod:`.capability`: a cast-in-place, laid or driven component is never carried. It is built
+where it stands by a machine that can do its method's work (:data:`WORK`: ``pour`` for cast in place,
+``lay`` for laid, ``pile`` for a driven pile); its mass does not matter. A machine that stands fixed (a
+boom pump, a block layer, a piling rig) builds it when its boom covers the whole target footprint from
+where it stands (the shared reach rule, :meth:`~bimbot.shared.robot_description.RobotDescription.reaches`);
+a machine that drives goes there. In both cases the target's top must lie within the machine's
+``max_place_height_m``.
 
 Durations (sim seconds): a cast element's own work record (``Component.cast``: formwork, then pour; the
 cure is not the crew's time, it holds what rests on it); a laid element's blocks
 (``ceil(volume / block volume)``, at least one a course, the block of the machine's ``laying`` spec) at
-its ``blocks_per_h``: the counts the robot's own executor works by.
+its ``blocks_per_h``: the counts the robot's own executor works by; a driven pile's pitch and its length
+(its height) at the rig's rate of penetration (its ``piling`` spec).
 """
 
 from __future__ import annotations
@@ -27,18 +29,21 @@ from bimbot.shared.robot_description import Capability, RobotDescription
 WORK: dict[ConstructionMethod, Capability] = {
     ConstructionMethod.CAST_IN_PLACE: Capability.POUR,
     ConstructionMethod.LAID: Capability.LAY,
+    ConstructionMethod.DRIVEN: Capability.PILE,
 }
 
 #: How a reason names the work a capability does.
 WORK_WORDS: dict[Capability, str] = {
     Capability.POUR: "pour concrete",
     Capability.LAY: "lay masonry",
+    Capability.PILE: "drive piles",
 }
 
 #: What a user adds to the fleet for it.
 WORK_MACHINE: dict[Capability, str] = {
     Capability.POUR: "a concrete pump",
     Capability.LAY: "a block-laying robot",
+    Capability.PILE: "a piling rig",
 }
 
 
@@ -48,7 +53,7 @@ def work_capability(component: Component) -> Capability | None:
 
 
 def works_in_place(component: Component) -> bool:
-    """Built where it stands (cast in place, laid), not carried."""
+    """Built where it stands (cast in place, laid, driven), not carried."""
     return component.method in WORK
 
 
@@ -106,7 +111,7 @@ def blocks_needed(component: Component, description: RobotDescription) -> int:
 def work_s(component: Component, description: RobotDescription | None) -> float:
     """Sim seconds of ``component``'s work in place by ``description``: formwork + pour for a cast one (its
     ``cast`` record; 0 when the converter gave none), the blocks at the machine's rate for a laid one (0
-    without a machine that lays); 0 for anything carried."""
+    without a machine that lays), the pitch and the drive for a driven pile; 0 for anything carried."""
     if component.method is ConstructionMethod.CAST_IN_PLACE:
         cast = component.cast
         return cast.formwork_s + cast.pour_s if cast is not None else 0.0
@@ -114,7 +119,16 @@ def work_s(component: Component, description: RobotDescription | None) -> float:
         laying = description.laying
         if laying is not None:
             return 3600.0 * blocks_needed(component, description) / laying.blocks_per_h
+    if component.method is ConstructionMethod.DRIVEN and description is not None:
+        piling = description.piling
+        if piling is not None:
+            return piling.drive_s(pile_length_m(component))
     return 0.0
+
+
+def pile_length_m(component: Component) -> float:
+    """A pile's length: its height, toe to head (a pile stands upright)."""
+    return component.bbox_world.max_m[2] - component.bbox_world.min_m[2]
 
 
 def cure_s(component: Component) -> float:

@@ -449,8 +449,9 @@ class CraneExecutor(Executor):
 
 
 def executor_class(info: SiteInfoMsg, robot_id: str) -> type[Executor] | type[SiteWorkExecutor]:
-    """The executor of a robot's capabilities: work in place (pour, lay), lifting by hook, or carrying."""
+    """The executor of a robot's capabilities: work in place (pour, lay, pile), lifting by hook, or
+    carrying."""
     description = info.robot_types[info.robot_type_of[robot_id]]
-    if description.can(Capability.POUR) or description.can(Capability.LAY):
+    if any(description.can(work) for work in (Capability.POUR, Capability.LAY, Capability.PILE)):
         return SiteWorkExecutor
     return CraneExecutor if description.can(Capability.HOOK_LIFT) else Executor

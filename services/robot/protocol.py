@@ -52,6 +52,7 @@ CONFIRMS: dict[ComponentEvent, frozenset[ComponentState]] = {
     _E.FORM: frozenset({_C.FORMING, _C.POURING, _C.VERIFYING, _C.CONSTRUCTED}),
     _E.POUR: frozenset({_C.POURING, _C.VERIFYING, _C.CONSTRUCTED}),
     _E.LAY: frozenset({_C.LAYING, _C.VERIFYING, _C.CONSTRUCTED}),
+    _E.DRIVE: frozenset({_C.DRIVING, _C.VERIFYING, _C.CONSTRUCTED}),
 }
 """The component states that show an event applied (or overtaken by what followed it)."""
 

@@ -1,5 +1,6 @@
 """A machine that builds components where they stand: a pump and its crew cast concrete, a block layer lays
-masonry. The executor of a robot type that can ``pour`` or ``lay`` (no bus; the adapter is the robot's).
+masonry, a piling rig drives piles. The executor of a robot type that can ``pour``, ``lay`` or ``pile`` (no
+bus; the adapter is the robot's).
 
 It never drives under its own control: it stands where the site plan set it up and works within its boom's
 reach. A truck-mounted one that may ``relocate`` moves first when its boom does not cover the component from
@@ -13,7 +14,9 @@ construction protocol:
   then physics builds it whole (``physics/build``) and ``place`` hands it to its agent's verification;
 * laid — ``lay``, then course by course: each course takes its blocks at the type's rate
   (``laying.blocks_per_h``) and physics raises the wall to that course (``height_fraction``); after the
-  last course ``place``.
+  last course ``place``;
+* driven — ``drive``: the pile is pitched and driven (``piling.pitch_s``, then its length at
+  ``piling.penetration_m_per_h``), then physics builds it whole and ``place``.
 
 What cures is the planner's business (it holds what rests on a cast component). While a timer runs the
 robot's state says until when (``busy_until_s``), so a site where nothing else moves can skip to it; a step's
@@ -62,7 +65,11 @@ from .task_state import ExecutorConfig, task_event
 _log = logging.getLogger(__name__)
 _E, _C = ComponentEvent, ComponentState
 
-WORK = {ConstructionMethod.CAST_IN_PLACE: Capability.POUR, ConstructionMethod.LAID: Capability.LAY}
+WORK = {
+    ConstructionMethod.CAST_IN_PLACE: Capability.POUR,
+    ConstructionMethod.LAID: Capability.LAY,
+    ConstructionMethod.DRIVEN: Capability.PILE,
+}
 
 
 @dataclass(frozen=True)
@@ -86,6 +93,12 @@ def work_steps(component: Component, description: RobotDescription) -> list[Step
             Step(_E.FORM, formwork_s, None, "formwork and reinforcement"),
             Step(_E.POUR, pour_s, 1.0, "pour"),
         ]
+    if component.method is ConstructionMethod.DRIVEN:
+        piling = description.piling
+        if piling is None:
+            return []
+        length_m = component.bbox_world.max_m[2] - component.bbox_world.min_m[2]  # toe to head
+        return [Step(_E.DRIVE, piling.drive_s(length_m), 1.0, f"pitching and driving {length_m:.1f} m")]
     laying = description.laying
     if component.method is not ConstructionMethod.LAID or laying is None:
         return []

@@ -7,7 +7,8 @@ method and when each step happened (:mod:`.methods`); this sums them per method:
 * ``components`` and ``constructed``;
 * ``work_s``: the time the work itself took, summed over what was built: a lift from pick to placement
   (``lifted``, ``panelised``), formwork and pour (``cast_in_place``: from ``forming_s`` to ``placed_s``),
-  laying (``laid``: from ``laying_s``); a part installed with its host (``with_host``) has none of its own;
+  laying (``laid``: from ``laying_s``), pitching and driving (``driven``: from ``driving_s``); a part
+  installed with its host (``with_host``) has none of its own;
 * ``cure_s``: the longest cure of its components (concrete that must cure before what rests on it);
 * ``span_s``: from the first start of that method's work to its last component built.
 
@@ -30,6 +31,7 @@ WORK_START = {  # the report field where a method's own work starts (placed_s en
     "panelised": "picked_s",
     "cast_in_place": "forming_s",
     "laid": "laying_s",
+    "driven": "driving_s",
 }
 
 

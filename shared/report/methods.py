@@ -31,11 +31,16 @@ from bimbot.shared.messages import ComponentState, ComponentStateMsg, ProgressMs
 from .durations import duration_text
 
 CONSTRUCTED = ComponentState.CONSTRUCTED.value
-WORK_IN_PLACE = (ConstructionMethod.CAST_IN_PLACE.value, ConstructionMethod.LAID.value)
+WORK_IN_PLACE = (
+    ConstructionMethod.CAST_IN_PLACE.value,
+    ConstructionMethod.LAID.value,
+    ConstructionMethod.DRIVEN.value,
+)
 WORK_STATES = {  # state entered → the report's field of its time
     ComponentState.FORMING: "forming_s",
     ComponentState.POURING: "pouring_s",
     ComponentState.LAYING: "laying_s",
+    ComponentState.DRIVING: "driving_s",
 }
 
 
@@ -112,6 +117,7 @@ class WorkTimes:
     forming_s: float | None = None
     pouring_s: float | None = None
     laying_s: float | None = None
+    driving_s: float | None = None
 
     def take(self, msg: ComponentStateMsg, at_s: float) -> None:
         """A state change (``at_s``: its time as the report keeps it, never going backwards)."""
@@ -157,6 +163,7 @@ def work_fields(work: WorkTimes, curing: dict[str, Any] | None) -> dict[str, Any
         "forming_s": work.forming_s,
         "pouring_s": work.pouring_s,
         "laying_s": work.laying_s,
+        "driving_s": work.driving_s,
         "curing": curing,
     }
 

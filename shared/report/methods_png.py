@@ -29,11 +29,12 @@ from ..state_colors import STATE_COLORS, unit_rgb
 from .methods import method_word
 
 RGB = tuple[float, float, float]
-FORMWORK, POUR, LAYING = "formwork", "pour", "laying"
+FORMWORK, POUR, LAYING, DRIVING = "formwork", "pour", "laying", "driving"
 STEP_COLORS: dict[str, RGB] = {
     FORMWORK: unit_rgb(STATE_COLORS[ComponentState.FORMING]),
     POUR: unit_rgb(STATE_COLORS[ComponentState.POURING]),
     LAYING: unit_rgb(STATE_COLORS[ComponentState.LAYING]),
+    DRIVING: unit_rgb(STATE_COLORS[ComponentState.DRIVING]),
 }
 PANEL_HATCH = "///"
 CURING_HATCH = "\\\\\\"
@@ -45,11 +46,13 @@ Segment = tuple[float, float, str | None]  # (start s, end s, work step or None:
 
 def work_segments(component: Mapping[str, Any] | None, start_s: float, end_s: float) -> list[Segment]:
     """The parts of ``[start_s, end_s]`` (a robot's task, a component's work) by work step: a cast
-    component's formwork up to its ``pouring_s`` and its pour after; a laid one's laying; else the whole
-    span as the component's own bar."""
+    component's formwork up to its ``pouring_s`` and its pour after; a laid one's laying; a driven pile's
+    driving; else the whole span as the component's own bar."""
     method = (component or {}).get("method")
     if method == ConstructionMethod.LAID.value:
         return [(start_s, end_s, LAYING)]
+    if method == ConstructionMethod.DRIVEN.value:
+        return [(start_s, end_s, DRIVING)]
     if method != ConstructionMethod.CAST_IN_PLACE.value:
         return [(start_s, end_s, None)]
     pouring_s = (component or {}).get("pouring_s")
@@ -100,6 +103,8 @@ def row_work(component: Mapping[str, Any]) -> tuple[float, list[Segment]] | None
     start = component.get("forming_s")
     if component.get("method") == ConstructionMethod.LAID.value:
         start = component.get("laying_s")
+    if component.get("method") == ConstructionMethod.DRIVEN.value:
+        start = component.get("driving_s")
     if start is None or done is None:
         return None
     return start, work_segments(component, start, done)
@@ -146,6 +151,8 @@ def method_legend(report: Mapping[str, Any]) -> list[Artist]:
                 )
         elif name == ConstructionMethod.LAID.value:
             handles.append(Patch(color=STEP_COLORS[LAYING], label=f"laid {count}: courses"))
+        elif name == ConstructionMethod.DRIVEN.value:
+            handles.append(Patch(color=STEP_COLORS[DRIVING], label=f"driven {count}: piles"))
         elif name == ConstructionMethod.PANELISED.value:
             handles.append(
                 Patch(facecolor="0.75", edgecolor="white", hatch=PANEL_HATCH, label=f"panelised {count}")

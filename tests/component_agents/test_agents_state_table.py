@@ -43,15 +43,18 @@ EXPECTED_EDGES = {
     ("fail", S.MISPLACED, S.FAILED),
     ("block", S.PLANNED, S.BLOCKED),
     ("block", S.RELEASED, S.BLOCKED),
-    # work in place: cast (formwork, pour) and laid, then verified like a placement
+    # work in place: cast (formwork, pour), laid and driven, then verified like a placement
     ("form", S.RELEASED, S.FORMING),
     ("pour", S.FORMING, S.POURING),
     ("lay", S.RELEASED, S.LAYING),
+    ("drive", S.RELEASED, S.DRIVING),
     ("place", S.POURING, S.VERIFYING),
     ("place", S.LAYING, S.VERIFYING),
+    ("place", S.DRIVING, S.VERIFYING),
     ("abandon", S.FORMING, S.RELEASED),
     ("abandon", S.POURING, S.RELEASED),
     ("abandon", S.LAYING, S.RELEASED),
+    ("abandon", S.DRIVING, S.RELEASED),
 }
 ALL_TRIGGERS = sorted(EXTERNAL_TRIGGERS | INTERNAL_TRIGGERS)
 

@@ -329,3 +329,41 @@ def test_concrete_blocks_are_masonry_not_concrete() -> None:
         assert kind_of(name) is MaterialKind.MASONRY, name
     for name in ("Concrete, Cast-in-Place gray", "Precast Concrete", "Stahlbeton", "Concrete"):
         assert kind_of(name) is MaterialKind.CONCRETE, name
+
+
+def test_a_steel_pile_is_driven_and_so_is_a_steel_pile_family_drawn_as_a_slab_in_the_ground(
+    tmp_path: Path,
+) -> None:
+    """The Revit 2025 structural sample draws its 216 steel pipe piles as IfcSlab BASESLAB of "Metal - Steel":
+    cast in place by the ground-slab rule, they were steel poured like concrete. A steel or timber pile is
+    driven by a piling rig; a concrete one, or a concrete slab in the ground, is still cast; a pile the IFC
+    says is prefabricated steel is driven whatever its material."""
+    small = new_model()
+    boxes = {  # name: class, size, corner, predefined type
+        "Pipe pile": ("IfcPile", (0.4, 0.4, 6.0), (0.0, 0.0, -7.2), None),
+        "Pile drawn as a slab": ("IfcSlab", (0.4, 0.4, 6.0), (3.0, 0.0, -7.2), "BASESLAB"),
+        "Bored pile": ("IfcPile", (0.6, 0.6, 8.0), (6.0, 0.0, -8.0), None),
+        "Ground slab": ("IfcSlab", (4.0, 3.0, 0.2), (0.0, 3.0, -0.2), "BASESLAB"),
+        "Declared pile": ("IfcPile", (0.3, 0.3, 5.0), (9.0, 0.0, -5.0), None),
+    }
+    pile, as_slab, bored, ground, declared = (
+        add_box(small, ifc_class, name, size_m=size, corner_m=corner, predefined_type=kind)
+        for name, (ifc_class, size, corner, kind) in boxes.items()
+    )
+    declared.ConstructionType = "PREFAB_STEEL"
+    add_material(small, [pile, as_slab], "Metal - Steel - 345 MPa", "steel")
+    add_material(small, [bored, ground, declared], "Concrete C30/37", "concrete")
+    components = _by_name(_convert(small, tmp_path))
+    driven = ConstructionMethod.DRIVEN
+    assert (components["Pipe pile"].method, components["Pipe pile"].method_note) == (
+        driven,
+        "a steel or timber pile is driven",
+    )
+    assert components["Pile drawn as a slab"].method is driven
+    assert components["Pile drawn as a slab"].method_source is MethodSource.RULE
+    assert components["Bored pile"].method is CAST and components["Ground slab"].method is CAST
+    assert (components["Declared pile"].method, components["Declared pile"].method_source) == (
+        driven,
+        MethodSource.IFC,
+    )
+    assert components["Declared pile"].method_note == "IfcPile.ConstructionType = PREFAB_STEEL"

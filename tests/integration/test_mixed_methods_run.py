@@ -1,7 +1,8 @@
 """Every construction method in one build over the bus: a generated site (tests/mixed_methods_model.py) with a
 ground slab the IFC says is cast in situ, a block wall laid on it, a 9 t concrete wall on it that the
-default fleet cannot lift whole (so ``prefab`` panelises it), a pad footing cast by rule with an anchor
-bolt embedded in it (``with_host``: a guest of the footing) and a steel column on a base plate over it.
+default fleet cannot lift whole (so ``prefab`` panelises it), a steel pile driven by the piling rig, a pad
+footing cast by rule on it with an anchor bolt embedded in it (``with_host``: a guest of the footing) and a
+steel column on a base plate over it.
 
 The methods come from the IFC and the default ``prefab`` rules, but for the block wall: ``prefab`` lifts
 masonry, so the methods file passed to ``bimbot convert --methods`` lays it (``[by_material] masonry =
@@ -9,8 +10,8 @@ masonry, so the methods file passed to ``bimbot convert --methods`` lays it (``[
 test_connections_run's, and at their defaults they would be most of the stepped physics here.
 ``bimbot convert`` then ``bimbot run`` as processes on a loopback bus, real pybullet, with the default
 fleet's carrier and its fixed machines (``--robots 1``: a carrier, the tower crane, the concrete pump, the
-block layer and the line pump). The elements are small, so the formwork, pours and cures are most of the
-sim time, and the planner's quiet clock skips them."""
+block layer, the line pump and the piling rig). The elements are small, so the formwork, pours and cures
+are most of the sim time, and the planner's quiet clock skips them."""
 
 from __future__ import annotations
 
@@ -21,9 +22,10 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from mixed_methods_model import MASONRY_LAID, write_mixed_methods_model
+from mixed_methods_model import MASONRY_LAID, PILE_M, write_mixed_methods_model
 from wall_clock import bound_s
 
+from bimbot.shared.fleet import default_fleet
 from bimbot.shared.manifest import read_manifest
 from bimbot.shared.run_folder import RunFolder
 from bimbot.shared.sequence import read_sequence
@@ -42,7 +44,8 @@ def _bimbot(*args: str) -> subprocess.CompletedProcess[str]:
 
 def _began_s(component: dict[str, Any]) -> float:
     """When work on a component began on site: formwork, laying, or the pick of a part that is set down."""
-    began = [component[key] for key in ("forming_s", "laying_s", "picked_s") if component[key] is not None]
+    keys = ("forming_s", "laying_s", "driving_s", "picked_s")
+    began = [component[key] for key in keys if component[key] is not None]
     assert began, component
     return float(min(began))
 
@@ -68,10 +71,10 @@ def test_a_site_is_cast_laid_panelised_and_lifted_with_its_anchor_bolt_cast_in_a
     )
     detail = f"{result.stdout}\n{result.stderr[-3000:]}"
     assert result.returncode == 0, detail
-    assert "constructed 6/6 components" in result.stdout, detail
+    assert "constructed 7/7 components" in result.stdout, detail
     assert (
         "by method (constructed/components): "
-        "cast_in_place 2/2, laid 1/1, lifted 1/1, panelised 2/2; "
+        "cast_in_place 2/2, driven 1/1, laid 1/1, lifted 1/1, panelised 2/2; "
         "besides them: with_host 2/2 (built into their hosts)" in result.stdout
     ), detail
     report = json.loads((run.report_dir / "report.json").read_text())
@@ -104,6 +107,15 @@ def test_a_site_is_cast_laid_panelised_and_lifted_with_its_anchor_bolt_cast_in_a
     assert sorted(wall["panels"]) == sorted(p["guid"] for p in panels)
     assert wall["constructed_s"] == max(p["constructed_s"] for p in panels)
     assert len(wall["joints"]) == 1  # the vertical joint between the two panels
+
+    # the pile was pitched and driven by the piling rig, for its pitch and its length at the rig's rate, and
+    # the footing was not begun before the pile stood
+    pile = by_guid[guid["Steel pile"]]
+    assert (pile["method"], pile["method_source"], pile["resources"]) == ("driven", "rule", ["piling_rig"])
+    piling = default_fleet().types["piling_rig"].piling
+    assert piling is not None
+    assert pile["constructed_s"] - pile["driving_s"] >= piling.drive_s(PILE_M) - 1.0
+    assert _began_s(footing) >= pile["constructed_s"]
 
     # the anchor bolt is no component: it is cast into the footing, constructed when the footing is
     assert guid["Anchor bolt"] not in by_guid and footing["guests"] == [guid["Anchor bolt"]]
@@ -146,7 +158,8 @@ def test_a_site_is_cast_laid_panelised_and_lifted_with_its_anchor_bolt_cast_in_a
     rests_on = {task.guid: {guid_of[p] for p in task.predecessors} for task in tasks}
     assert rests_on == {
         slab["guid"]: set(),
-        footing["guid"]: set(),
+        pile["guid"]: set(),
+        footing["guid"]: {pile["guid"]},
         column["guid"]: {footing["guid"]},
         blocks["guid"]: {slab["guid"]},
         **{p["guid"]: {slab["guid"]} for p in panels},

@@ -85,21 +85,21 @@ def test_carrier_and_husky_track_commanded_speed_and_turn_rate_alike(
 def test_each_robot_spawns_from_its_type_and_the_site_info_names_the_types(
     make_sim: Callable[..., Simulation],
 ) -> None:
-    fleet = default_fleet()  # a Husky, a carrier, a tower crane, a concrete pump, a block layer, a line pump
+    fleet = default_fleet()  # a Husky, a carrier, a tower crane, two pumps, a block layer, a piling rig
     sim = make_sim(fleet=fleet)
     info = sim.info()
-    names = ("husky", "carrier", "tower_crane", "concrete_pump", "block_layer", "line_pump")
-    assert info.robot_ids == ["r1", "r2", "r3", "r4", "r5", "r6"]
+    names = ("husky", "carrier", "tower_crane", "concrete_pump", "block_layer", "line_pump", "piling_rig")
+    assert info.robot_ids == ["r1", "r2", "r3", "r4", "r5", "r6", "r7"]
     assert info.robot_type_of == dict(zip(info.robot_ids, names, strict=True))
     assert info.robot_types == {name: fleet.types[name] for name in names}
     assert list(info.robot_starts_xy_yaw) == [pytest.approx(start) for start in sim.layout.robot_starts]
     assert len(sim.layout.staging) == 1  # the crane's staging area
-    husky, carrier, crane, pump, layer, line = (sim.robots[robot_id] for robot_id in info.robot_ids)
+    husky, carrier, crane, pump, layer, line, rig = (sim.robots[robot_id] for robot_id in info.robot_ids)
     assert husky.half_extents_xy_m[0] < 0.6 < carrier.half_extents_xy_m[0]  # different bodies
     assert crane.drive is None and crane.rig is not None
     assert crane.top_height_m == pytest.approx(38.5, abs=1e-3)  # the mast collides; jib and hook do not
     assert crane.rig.jib_height_m == pytest.approx(40.0, abs=1e-3)
-    for machine, length_m in ((pump, 10.0), (layer, 12.5), (line, 6.0)):  # machines: no wheels, no hook
+    for machine, length_m in ((pump, 10.0), (layer, 12.5), (line, 6.0), (rig, 8.5)):  # no wheels, no hook
         assert machine.drive is None and machine.rig is None and not machine.drives
         assert machine.half_extents_xy_m[0] == pytest.approx(length_m / 2.0, abs=2e-3)
         assert machine.base_height_m == pytest.approx(0.0, abs=2e-3)  # on the ground, not sunk or floating
@@ -150,12 +150,13 @@ def test_robots_n_keeps_the_crane_the_pump_and_the_block_layer(make_sim: Callabl
     assert info.robot_type_of == {
         "r1": "carrier", "r2": "carrier", "r3": "carrier",
         "r4": "tower_crane", "r5": "concrete_pump", "r6": "block_layer", "r7": "line_pump",
+        "r8": "piling_rig",
     }  # fmt: skip
     depot = sim.layout.depot
     for robot_id in ("r1", "r2", "r3"):
         x, y, _ = sim.robot_pose(robot_id)
         assert depot.min_xy[0] <= x <= depot.max_xy[0] and depot.min_xy[1] <= y <= depot.max_xy[1]
-    assert sim.robots["r4"].rig is not None and len(sim.layout.machines) == 4
+    assert sim.robots["r4"].rig is not None and len(sim.layout.machines) == 5
 
 
 def test_the_crane_stands_still_has_no_scan_and_publishes_its_joints(

@@ -15,7 +15,7 @@ from bimbot.services.planner.feasibility import component_feasibility
 from bimbot.services.planner.records import RobotRecord
 from bimbot.services.planner.scheduler import Phase, PlannerCore, PlannerLimits
 from bimbot.services.planner.sources import plan_from_sequence
-from bimbot.services.planner.work_in_place import blocks_needed
+from bimbot.services.planner.work_in_place import blocks_needed, work_s
 from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.fleet import default_fleet
 from bimbot.shared.manifest import Component, Manifest
@@ -99,6 +99,21 @@ def test_a_laid_post_goes_only_to_a_block_layer_within_its_boom_and_none_on_site
     assert row.reason is not None and row.reason.code is ReasonCode.NO_CAPABLE_ROBOT
     assert "laid masonry" in row.reason.message and "lay masonry" in row.reason.message
     assert "add a block-laying robot to the fleet" in row.reason.message
+
+
+def test_a_driven_pile_goes_only_to_a_piling_rig_for_its_pitch_and_drive_and_none_on_site_says_so() -> None:
+    pile = _part(with_methods(portal_manifest(), post_c=M.DRIVEN), "post_c")  # 3.0 m long
+    rig = SiteRobot("r6", TYPES["piling_rig"], (12.0, 0.0, 0.0))
+    assert component_feasibility(pile, [*LIFTERS, rig]).routes == ("piling_rig (r6)",)
+    piling = TYPES["piling_rig"].piling
+    assert piling is not None
+    assert work_s(pile, TYPES["piling_rig"]) == pytest.approx(piling.pitch_s + 3600.0 * 3.0 / 120.0)
+    row = component_feasibility(
+        pile, [*LIFTERS, SiteRobot("r4", PUMP, (12.0, 0.0, 0.0))]
+    )  # a pump drives none
+    assert row.reason is not None and row.reason.code is ReasonCode.NO_CAPABLE_ROBOT
+    assert "a driven pile" in row.reason.message and "drive piles" in row.reason.message
+    assert "add a piling rig to the fleet" in row.reason.message
 
 
 def test_a_machine_that_only_pours_never_gets_a_part_to_lift_and_alone_on_site_says_none_can() -> None:

@@ -53,13 +53,13 @@ def test_every_yard_item_blocks_its_slot_and_the_fence_encloses_the_site(site: S
 
 
 def test_the_machines_set_up_on_site_block_driving_and_are_in_the_lasers_map(frame: Manifest) -> None:
-    """A crane's, a pump's, a block layer's and a line pump's set-up rectangle is an obstacle to plan around
-    and, as its URDF fills it up to 1 m, something the laser sees: in the localiser's map and among the
-    outlines a robot aligns to before it places (on the bundled frame the pump stood where the fence had
-    been, unmapped, and the robots placing the columns beside it found nothing to align to)."""
+    """A crane's, a pump's, a block layer's, a line pump's and a piling rig's set-up rectangle is an obstacle
+    to plan around and, as its URDF fills it up to 1 m, something the laser sees: in the localiser's map
+    and among the outlines a robot aligns to before it places (on the bundled frame the pump stood where
+    the fence had been, unmapped, and the robots placing the columns beside it found nothing to align to)."""
     fleet = default_fleet().robot_types()
     site = SiteMap(plan_site(frame.components, fleet=fleet), frame.components)
-    assert len(site.layout.machines) == 4
+    assert len(site.layout.machines) == 5
     static, laser, fine = site.static_grid(), site.laser_grid(), site.laser_field_grid()
     segments = site.laser_segments()
     for machine in site.layout.machines:

@@ -31,7 +31,7 @@ from bimbot.shared.messages import (
     TaskMsg,
     TaskStatus,
 )
-from bimbot.shared.robot_description import Capability, LayingSpec, RobotDescription
+from bimbot.shared.robot_description import Capability, LayingSpec, PilingSpec, RobotDescription
 from bimbot.shared.site_layout import plan_site
 from bimbot.shared.state_table import Verdict, next_state
 
@@ -62,6 +62,14 @@ LAYER = PUMP.model_copy(
         "laying": LayingSpec(
             block_length_m=0.6, block_height_m=0.3, block_width_m=0.4, block_mass_kg=45.0, blocks_per_h=300.0
         ),
+    }
+)
+
+RIG = PUMP.model_copy(
+    update={
+        "name": "rig",
+        "capabilities": frozenset({Capability.STAND_FIXED, Capability.PILE}),
+        "piling": PilingSpec(pitch_s=300.0, penetration_m_per_h=60.0),
     }
 )
 
@@ -214,6 +222,25 @@ def test_a_block_layer_raises_the_wall_course_by_course_at_its_rate(frame_manife
     assert site.builds[-1][0] - site.events[0][0] == pytest.approx(total_s, abs=2 * len(steps) * PERIOD_S)
     assert [event for _, event in site.events] == [ComponentEvent.LAY, ComponentEvent.PLACE]
     assert site.state is ComponentState.CONSTRUCTED
+
+
+def test_a_piling_rig_pitches_and_drives_a_pile_for_its_length_at_its_rate_then_it_stands(
+    frame_manifest: Manifest,
+) -> None:
+    manifest, info, component = _site(frame_manifest, RIG, ConstructionMethod.DRIVEN)
+    assert executor_class(info, "r1") is SiteWorkExecutor
+    length_m = component.bbox_world.max_m[2] - component.bbox_world.min_m[2]
+    (step,) = work_steps(component, RIG)
+    assert (step.event, step.height_fraction) == (ComponentEvent.DRIVE, 1.0)
+    assert step.duration_s == pytest.approx(300.0 + 3600.0 * length_m / 60.0)
+    executor = SiteWorkExecutor(manifest, info, ExecutorConfig(robot_id="r1"))
+    site = FakeAgentAndPhysics(executor, component)
+    site.assign()
+    site.run(step.duration_s + 60.0)
+    assert [event for _, event in site.events] == [ComponentEvent.DRIVE, ComponentEvent.PLACE]
+    assert site.builds[0][0] - site.events[0][0] == pytest.approx(step.duration_s, abs=3 * PERIOD_S)
+    assert site.state is ComponentState.CONSTRUCTED
+    assert work_steps(component, PUMP) == []  # a pump drives no pile
 
 
 def test_a_task_beyond_the_boom_is_given_back_at_once_with_the_numbers(frame_manifest: Manifest) -> None:

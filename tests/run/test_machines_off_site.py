@@ -25,7 +25,7 @@ from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.run_folder import RunFolder
 
 LIFTED, CAST, LAID = ConstructionMethod.LIFTED, ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID
-WORK_MACHINES = ("concrete_pump", "block_layer", "line_pump")  # the default fleet's, in its robot order
+WORK_MACHINES = ("concrete_pump", "block_layer", "line_pump", "piling_rig")  # the default fleet's, in order
 
 
 def _physics(*words: str) -> argparse.Namespace:
@@ -42,9 +42,10 @@ def _with_method(manifest: Manifest, method: ConstructionMethod) -> Manifest:
 def test_a_machine_that_only_pours_or_lays_is_idle_without_its_method_and_a_lifter_never_is() -> None:
     fleet = default_fleet()
     assert idle_machine_types(fleet, [LIFTED]) == WORK_MACHINES
-    assert idle_machine_types(fleet, [LIFTED, CAST]) == ("block_layer",)
-    assert idle_machine_types(fleet, [LAID]) == ("concrete_pump", "line_pump")
-    assert idle_machine_types(fleet, [CAST, LAID]) == ()
+    assert idle_machine_types(fleet, [LIFTED, CAST]) == ("block_layer", "piling_rig")
+    assert idle_machine_types(fleet, [LAID]) == ("concrete_pump", "line_pump", "piling_rig")
+    assert idle_machine_types(fleet, [CAST, LAID]) == ("piling_rig",)
+    assert idle_machine_types(fleet, [CAST, LAID, ConstructionMethod.DRIVEN]) == ()
     assert idle_machine_types(fleet, []) == WORK_MACHINES  # ground robots and cranes come even so
     assert without_types(fleet, WORK_MACHINES).summary() == "1 husky, 1 carrier, 1 tower_crane"
 
@@ -57,7 +58,7 @@ def test_a_run_of_the_all_lifted_frame_leaves_the_pumps_and_the_block_layer_off_
     assert options.off_site == WORK_MACHINES
     assert run_fleet(options).summary() == "3 carrier, 1 tower_crane"
     assert fleet_words(options).endswith(
-        "(off site, no work in this build: concrete_pump, block_layer, line_pump)"
+        "(off site, no work in this build: concrete_pump, block_layer, line_pump, piling_rig)"
     )
     arguments = physics_arguments(bundled_build, options)
     assert arguments[arguments.index("--off-site") + 1] == ",".join(WORK_MACHINES)
@@ -88,7 +89,7 @@ def test_a_cast_component_brings_the_pumps_and_the_default_run_keeps_every_machi
     bundled_build: Path,
 ) -> None:
     cast = with_machines_for(RunOptions(), _with_method(read_manifest(bundled_build), CAST))
-    assert cast.off_site == ("block_layer",)
+    assert cast.off_site == ("block_layer", "piling_rig")
     assert "concrete_pump" in run_fleet(cast).type_of().values()
     assert "--off-site" not in physics_arguments(Path("OUT"), RunOptions())  # physics alone: the whole fleet
     assert fleet_of(_physics()).summary() == default_fleet().summary()

@@ -105,10 +105,10 @@ def test_a_missing_or_broken_config_file_or_a_bad_endpoint_is_one_line(tmp_path:
 
 def test_a_secured_run_gives_every_service_its_own_file_in_client_mode(tmp_path: Path) -> None:
     run = RunFolder(tmp_path / "run")
-    options = RunOptions(robots=2, secure=True)  # two carriers; the crane, pumps and block layer r3–r6
+    options = RunOptions(robots=2, secure=True)  # two carriers; the crane, pumps, block layer, rig r3–r7
     files = write_bus_credentials(run.root, tuple(run_fleet(options).type_of()))
     commands = dict(service_commands(tmp_path / "build", "tcp/127.0.0.1:7000", options, run, files))
-    assert set(commands) == {"physics", "agents", "planner", *(f"robot-r{n}" for n in range(1, 7))}
+    assert set(commands) == {"physics", "agents", "planner", *(f"robot-r{n}" for n in range(1, 8))}
     for name, arguments in commands.items():
         config = Path(arguments[arguments.index("--bus-config") + 1])
         assert config.is_file() and config.name == f"{name}.json5"

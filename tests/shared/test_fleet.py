@@ -22,7 +22,8 @@ DEFAULT = default_fleet()
 
 def test_the_default_fleet_has_its_types_each_with_a_urdf_physics_can_load() -> None:
     assert set(DEFAULT.types) == {
-        "husky", "carrier", "tower_crane", "concrete_pump", "block_layer", "line_pump", "crawler_crane"
+        "husky", "carrier", "tower_crane", "concrete_pump", "block_layer", "line_pump", "piling_rig",
+        "crawler_crane",
     }  # fmt: skip
     assert DEFAULT.type_of() == {
         "r1": "husky",
@@ -31,6 +32,7 @@ def test_the_default_fleet_has_its_types_each_with_a_urdf_physics_can_load() -> 
         "r4": "concrete_pump",
         "r5": "block_layer",
         "r6": "line_pump",
+        "r7": "piling_rig",
     }  # fmt: skip  (the crawler crane is in the catalogue only: its relocation is not simulated)
     assert DEFAULT.types["husky"].payload_kg == 75  # Clearpath's published maximum
     for description in DEFAULT.types.values():
@@ -46,6 +48,14 @@ def test_each_machine_type_says_what_it_can_do_with_the_spec_that_goes_with_it()
     relocate = Capability.RELOCATE  # truck-mounted: they drive to another set-up for what they cannot reach
     assert types["concrete_pump"].capabilities == {Capability.STAND_FIXED, Capability.POUR, relocate}
     assert types["block_layer"].capabilities == {Capability.STAND_FIXED, Capability.LAY, relocate}
+    assert types["piling_rig"].capabilities == {Capability.STAND_FIXED, Capability.PILE, relocate}
+    piling = types["piling_rig"].piling
+    assert (
+        piling is not None
+        and piling.drive_s(6.0) == piling.pitch_s + 3600.0 * 6.0 / piling.penetration_m_per_h
+    )
+    with pytest.raises(ValueError, match="pile and a \\[piling\\] spec go together"):
+        types["piling_rig"].model_validate({**types["piling_rig"].model_dump(), "piling": None})
     # a line pump's placing line reaches pours in the middle of a large footprint: it is extended, not moved
     assert types["line_pump"].capabilities == {Capability.STAND_FIXED, Capability.POUR}
     assert types["line_pump"].reach_m == 120.0 and not types["line_pump"].relocates
@@ -81,17 +91,24 @@ def test_robots_n_means_n_of_the_default_type_plus_every_machine_that_stands_fix
     assert three.type_of() == {
         "r1": "carrier", "r2": "carrier", "r3": "carrier",
         "r4": "tower_crane", "r5": "concrete_pump", "r6": "block_layer", "r7": "line_pump",
+        "r8": "piling_rig",
     }  # fmt: skip
-    assert three.summary() == "3 carrier, 1 tower_crane, 1 concrete_pump, 1 block_layer, 1 line_pump"
+    assert three.summary() == (
+        "3 carrier, 1 tower_crane, 1 concrete_pump, 1 block_layer, 1 line_pump, 1 piling_rig"
+    )
     assert DEFAULT.with_robots(1, "husky").type_of() == {
-        "r1": "husky", "r2": "tower_crane", "r3": "concrete_pump", "r4": "block_layer", "r5": "line_pump"
+        "r1": "husky", "r2": "tower_crane", "r3": "concrete_pump", "r4": "block_layer", "r5": "line_pump",
+        "r6": "piling_rig",
     }  # fmt: skip
     # asked for machines of a type that stands fixed: that count replaces the file's, the others stay
     assert (
         DEFAULT.with_robots(2, "tower_crane").summary()
-        == "2 tower_crane, 1 concrete_pump, 1 block_layer, 1 line_pump"
+        == "2 tower_crane, 1 concrete_pump, 1 block_layer, 1 line_pump, 1 piling_rig"
     )
-    assert DEFAULT.with_robots(0).summary() == "1 tower_crane, 1 concrete_pump, 1 block_layer, 1 line_pump"
+    assert (
+        DEFAULT.with_robots(0).summary()
+        == "1 tower_crane, 1 concrete_pump, 1 block_layer, 1 line_pump, 1 piling_rig"
+    )
     with pytest.raises(InputError, match="no robot type 'digger'"):
         DEFAULT.with_robots(1, "digger")
 
@@ -242,13 +259,13 @@ def test_the_site_plan_puts_ground_robots_at_the_depot_and_the_machines_around_t
 ) -> None:
     frame: Manifest = read_manifest(bundled_build)
     layout = plan_site(frame.components, fleet=DEFAULT.robot_types())
-    (husky, carrier, crane, pump, layer, _line) = layout.robot_starts
+    (husky, carrier, crane, pump, layer, _line, _rig) = layout.robot_starts
     assert layout.depot.min_xy[0] <= husky[0] <= layout.depot.max_xy[0]
     assert layout.depot.min_xy[0] <= carrier[0] <= layout.depot.max_xy[0]
     assert crane[0] > layout.building.max_xy[0]  # east of the building: its hook nearest the yard
     assert pump[1] > layout.building.max_xy[1] and layer[1] > pump[1]  # north, one behind the other
     assert not layout.building.overlaps(layout.machines[3])  # the line pump stands outside, too
-    assert len(layout.machines) == 4 and len(layout.staging) == 1  # only the crane has a staging area
+    assert len(layout.machines) == 5 and len(layout.staging) == 1  # only the crane has a staging area
     area = layout.staging[0]
     assert layout.fence.min_xy[0] < area.min_xy[0] and area.max_xy[0] < layout.fence.max_xy[0]
 

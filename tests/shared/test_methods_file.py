@@ -18,8 +18,13 @@ from bimbot.shared.methods_file import PRESETS, MaterialKind, load_methods, pres
 def test_each_builders_preset_loads_with_rules_rates_and_transport(name: str) -> None:
     methods = load_methods(name)
     assert methods.name == name
-    assert methods.rules[0].method is ConstructionMethod.CAST_IN_PLACE  # foundations cast in both
-    assert "IfcFooting" in methods.rules[0].classes
+    # steel and timber piles driven, then foundations cast, in both
+    assert [rule.method for rule in methods.rules[:3]] == [
+        ConstructionMethod.DRIVEN,
+        ConstructionMethod.DRIVEN,
+        ConstructionMethod.CAST_IN_PLACE,
+    ]
+    assert "IfcPile" in methods.rules[0].classes and "IfcFooting" in methods.rules[2].classes
     assert methods.transport.length_m == 13.6
     formwork, pour, setup, cure = methods.cast_in_place.rates("IfcSlab")
     assert (formwork, cure) == (1.8, 120.0)  # slab soffits, and the floor cycle

@@ -116,9 +116,9 @@ def test_no_machine_stands_on_a_lane_the_yard_the_depot_or_another_machine(
         (layout.depot.min_xy[0] - lane_m, layout.yard.max_xy[1]),
         (layout.fence.max_xy[0], layout.building.min_xy[1]),
     )
-    assert len(layout.machines) == 4 and len(layout.staging) == 1  # only the crane has a staging area
-    crane, pump, layer, line = layout.machines  # robot id order: r3, r4, r5, r6
-    groups = [(crane, layout.staging[0]), (pump,), (layer,), (line,)]  # a crane's staging area beside it
+    assert len(layout.machines) == 5 and len(layout.staging) == 1  # only the crane has a staging area
+    crane, pump, layer, line, rig = layout.machines  # robot id order: r3, r4, r5, r6, r7
+    groups = [(crane, layout.staging[0]), (pump,), (layer,), (line,), (rig,)]  # its staging area beside it
     inner = layout.fence.grown(-lane_m)  # the fence's lane stays around them
     for number, group in enumerate(groups):
         others = [rect for other in groups[number + 1 :] for rect in other]
