@@ -54,3 +54,10 @@ def without_types(fleet: Fleet, types: Iterable[str]) -> Fleet:
     if not gone:
         return fleet
     return fleet.model_copy(update={"robots": tuple(e for e in fleet.robots if e.type not in gone)})
+
+
+def site_fleet(fleet: Fleet, methods: Iterable[ConstructionMethod]) -> Fleet:
+    """The fleet a run puts on site for components built by ``methods``: ``fleet`` without its idle
+    machines (:func:`idle_machine_types`). The converter plans the site with it too, so the crane it cuts
+    parts for stands where the run's crane stands."""
+    return without_types(fleet, idle_machine_types(fleet, methods))

@@ -39,6 +39,7 @@ import numpy as np
 from bimbot.shared.construction_methods import MethodDecision, MethodLimits
 from bimbot.shared.fleet import Fleet, default_fleet
 from bimbot.shared.identifiers import slugify
+from bimbot.shared.idle_machines import site_fleet
 from bimbot.shared.ifc_input import file_sha256
 from bimbot.shared.ifc_parse_damage import ParseDamage, damaged_elements, describe_unreadable
 from bimbot.shared.joints import JointSettings, default_joint_settings
@@ -308,9 +309,11 @@ def _cut_within_crane_reach(
     for _ in range(REACH_ROUNDS):
         built = [component for result in results for component in result.components]
         to_build, _ = split_in_place(built, options.in_place_guids, foundations=options.foundations_in_place)
+        # the site as the run plans it: without the machines it leaves off site for want of work
+        on_site = site_fleet(fleet, (item.method for item in to_build))
         found = {
             guid: limit
-            for guid, limit in crane_lift_limits(to_build, fleet.robot_types()).items()
+            for guid, limit in crane_lift_limits(to_build, on_site.robot_types()).items()
             if guid in by_guid
             and (guid not in context.lift_limits or limit.lift_kg < context.lift_limits[guid].lift_kg)
         }

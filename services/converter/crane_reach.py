@@ -1,21 +1,22 @@
 """Precast parts a crane can set where they go: an element's lift from the crane's chart at its radius.
 
-Why: the converter panelises an element heavier than the fleet's largest lift, a tower crane's chart at its
-shortest radius (8 t at 15 m for the default one), but a crane lifts that only near its mast. The Revit
-restaurant's 5.2 t infill slab lies 46 m from where the site plan sets the crane up, where its chart lifts
-2.3 t: lifted whole, it was out of reach. A precaster sizes the parts for the crane's lift at the radius
-they are set at. So once every element is converted, the site is planned as physics will plan it
-(:func:`bimbot.shared.site_layout.plan_site`, the same components and fleet) and every lifted or panelised
-component that no ground robot can set (too heavy or too high) and no crane on site lifts at its target's
-hook radius gives its element a **lift limit**: the most a crane on site lifts at the radius of the
-element's farthest target corner (so every part cut from it, wherever it lies in the element, is within the
-chart). A part must also be picked where it starts: from its yard slot, or from the crane's staging area
-after a ground robot carried it there; so the limit is no more than the larger of the crane's lift at the
-part's yard slot and the largest ground payload that hands a part off. The converter converts those
-elements again with that limit (:func:`.final_method.final_method`, :mod:`.panelise`): a lifted wall, slab
-or ceiling becomes panelised, a panelised one is cut finer. An element no crane reaches at all (beyond
-every chart's last radius) gets no limit; nor does one whose parts could not be cut: a run gives their
-reason.
+Why: the converter panelises an element heavier than the fleet's largest lift, a tower crane's chart at
+its shortest radius (8 t at 15 m for the default one), but a crane lifts that only near its mast. The
+Revit restaurant's 5.2 t infill slab lies 46 m from where the site plan sets the crane up, where its chart
+lifts 2.3 t: lifted whole, it was out of reach. A precaster sizes the parts for the crane's lift at the
+radius they are set at. So once every element is converted, the site is planned as physics will plan it
+(:func:`bimbot.shared.site_layout.plan_site`, the same components, and the fleet the run puts on site: a
+pump, block layer or piling rig with no work in the model stays off it, as ``bimbot run`` leaves it) and
+every lifted or panelised component that no ground robot can set (too heavy or too high) and no crane on
+site lifts at its target's hook radius gives its element a **lift limit**: the most a crane on site lifts
+at the radius of the element's farthest target corner (so every part cut from it, wherever it lies in the
+element, is within the chart). A part must also be picked where it starts: from its yard slot, or from the
+crane's staging area after a ground robot carried it there; so the limit is no more than the larger of the
+crane's lift at the part's yard slot and the largest ground payload that hands a part off. The converter
+converts those elements again with that limit (:func:`.final_method.final_method`, :mod:`.panelise`): a
+lifted wall, slab or ceiling becomes panelised, a panelised one is cut finer. An element no crane reaches
+at all (beyond every chart's last radius) gets no limit; nor does one whose parts could not be cut: a run
+gives their reason.
 
 Pure: components and robot descriptions in, limits out.
 """

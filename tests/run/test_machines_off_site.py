@@ -20,7 +20,7 @@ from bimbot.services.physics.cli import fleet_of
 from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.errors import UserError
 from bimbot.shared.fleet import default_fleet
-from bimbot.shared.idle_machines import idle_machine_types, without_types
+from bimbot.shared.idle_machines import idle_machine_types, site_fleet, without_types
 from bimbot.shared.manifest import Manifest, read_manifest
 from bimbot.shared.run_folder import RunFolder
 
@@ -98,3 +98,18 @@ def test_a_cast_component_brings_the_pumps_and_the_default_run_keeps_every_machi
 def test_physics_names_an_off_site_type_the_fleet_does_not_have() -> None:
     with pytest.raises(UserError, match="--off-site names no robot type of the fleet: crane9"):
         fleet_of(_physics("--off-site", "crane9"))
+
+
+def test_the_converter_plans_the_site_with_the_fleet_the_run_puts_on_it(bundled_build: Path) -> None:
+    """The converter cuts precast parts for the crane's lift where the crane stands on the site plan; a
+    piling rig (or a pump) the run leaves off site moved the plan's machines and cut the ArchiCAD house's
+    walls into 40 panels where the run's crane needed 32. Both now take the same fleet."""
+    manifest = read_manifest(bundled_build)
+    for methods in ([LIFTED], [LIFTED, CAST], [ConstructionMethod.DRIVEN]):
+        built = _with_method(manifest, methods[-1])
+        options = with_machines_for(RunOptions(), built)
+        fleet = site_fleet(default_fleet(), (component.method for component in built.components))
+        assert fleet.type_of() == run_fleet(options).type_of()
+        assert fleet.robot_types() == run_fleet(options).robot_types()
+    assert "piling_rig" not in site_fleet(default_fleet(), [LIFTED]).type_of().values()
+    assert "piling_rig" in site_fleet(default_fleet(), [ConstructionMethod.DRIVEN]).type_of().values()
