@@ -147,9 +147,19 @@ def tasks_text(robot_id: str, robot: dict[str, Any], components: dict[str, dict[
     return f"{text}, {len(others)} other ({named}{more}){handed}"
 
 
+def moved_text(robot: dict[str, Any]) -> str:
+    """``, 412 m driven`` for a robot that drove; ``, 11 relocation(s) between set-ups`` for a machine that
+    moved between its set-ups; nothing for one that never moved."""
+    distance_m, relocations = float(robot.get("distance_m") or 0.0), int(robot.get("relocations") or 0)
+    if distance_m >= 0.5:
+        return f", {distance_m:.0f} m driven"
+    return f", {relocations} relocation(s) between set-ups" if relocations else ""
+
+
 def robot_lines(report: dict[str, Any], window: tuple[float, float] | None) -> list[str]:
-    """One line per robot, by type: its tasks, hand-offs, distance and busy time (every robot's in one
-    unit, so they compare at a glance)."""
+    """One line per robot, by type: its tasks, hand-offs, distance (a machine that stands fixed: its
+    relocations between set-ups, not ``0 m driven``: a new user read a piling rig's ``0 m driven`` beside
+    ``driven 216/216``) and busy time (every robot's in one unit, so they compare at a glance)."""
     robots = report.get("robots", {})
     components = {
         component["guid"]: component for component in report.get("components", []) if "guid" in component
@@ -161,7 +171,8 @@ def robot_lines(report: dict[str, Any], window: tuple[float, float] | None) -> l
         robot = robots[robot_id]
         lines.append(
             f"{lane_label(robot_id, robot)}: {tasks_text(robot_id, robot, components)}"
-            + f", {robot['distance_m']:.0f} m driven, busy {in_unit_text(robot['busy_s'], unit)}"
+            + moved_text(robot)
+            + f", busy {in_unit_text(robot['busy_s'], unit)}"
             + busy_outside(robot, window, unit)
         )
     return lines

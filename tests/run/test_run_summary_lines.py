@@ -7,7 +7,7 @@ from __future__ import annotations
 from run_builders import watch_of
 from test_run_loop_dead_service import _Dead, _Monitor
 
-from bimbot.run.robot_summary import tasks_text
+from bimbot.run.robot_summary import moved_text, tasks_text
 from bimbot.run.summary import RunOutcome, method_line, summary_text
 
 
@@ -123,3 +123,11 @@ def test_a_robot_s_tasks_add_up_its_hand_offs_among_them() -> None:
         "B": {"guid": "B", "given_back_by": ["r2"], "placements": []},
     }
     assert tasks_text("r2", robot, components) == "3 task(s): 1 built, 0 given back, 2 hand-off(s) to a crane"
+
+
+def test_a_machine_that_stands_fixed_says_its_relocations_not_zero_metres_driven() -> None:
+    """A new user read ``r6 (piling_rig): 216 task(s): 216 built, …, 0 m driven`` under ``driven 216/216``:
+    a machine's moves are its relocations between set-ups."""
+    assert moved_text({"distance_m": 412.4, "relocations": 0}) == ", 412 m driven"
+    assert moved_text({"distance_m": 0.0, "relocations": 11}) == ", 11 relocation(s) between set-ups"
+    assert moved_text({"distance_m": 0.0, "relocations": 0}) == ""  # a crane: it never moves
