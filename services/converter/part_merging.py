@@ -59,19 +59,24 @@ def merge_nearest(parts: Sequence[TriMesh], limit: int) -> list[TriMesh]:
     return [hull for hull in hulls if hull is not None]
 
 
+def _manifold_hull(points: np.ndarray) -> manifold3d.Manifold | None:
+    """The convex hull of ``points`` as a manifold, None when it has no volume."""
+    if len(points) < 4:
+        return None
+    hull = manifold3d.Manifold.hull_points(points)
+    return None if hull.is_empty() or hull.volume() <= 0.0 else hull
+
+
 def _hull(points: np.ndarray) -> tuple[np.ndarray, float]:
     """The vertices of ``points``' convex hull and its volume, from one hull (all the points and 0 when
     it has no volume)."""
-    if len(points) < 4:
+    hull = _manifold_hull(points)
+    if hull is None:
         return points, 0.0
-    hull = manifold3d.Manifold.hull_points(points)
-    if hull.is_empty():
-        return points, 0.0
-    volume_m3 = float(hull.volume())
-    return (
-        np.asarray(manifold_to_mesh(hull).vertices, dtype=float) if volume_m3 > 0.0 else points
-    ), volume_m3
+    return np.asarray(manifold_to_mesh(hull).vertices, dtype=float), float(hull.volume())
 
 
 def _hull_volume(points: np.ndarray) -> float:
-    return _hull(points)[1]
+    """The volume of ``points``' convex hull (no mesh made: weighed for every pair of neighbours)."""
+    hull = _manifold_hull(points)
+    return 0.0 if hull is None else float(hull.volume())
