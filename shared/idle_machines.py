@@ -18,13 +18,7 @@ from collections.abc import Iterable
 from .construction_methods import ConstructionMethod
 from .fleet import Fleet
 from .robot_description import Capability, RobotDescription
-
-#: The method of the work each capability does in place.
-WORK_METHODS: dict[Capability, ConstructionMethod] = {
-    Capability.POUR: ConstructionMethod.CAST_IN_PLACE,
-    Capability.LAY: ConstructionMethod.LAID,
-    Capability.PILE: ConstructionMethod.DRIVEN,
-}
+from .work_methods import WORK_METHOD
 
 
 def lifts_parts(description: RobotDescription) -> bool:
@@ -41,7 +35,7 @@ def idle_machine_types(fleet: Fleet, methods: Iterable[ConstructionMethod]) -> t
     for name, description in fleet.on_site().items():
         if lifts_parts(description):
             continue
-        works = {method for capability, method in WORK_METHODS.items() if description.can(capability)}
+        works = {method for capability, method in WORK_METHOD.items() if description.can(capability)}
         if not works & needed:
             idle.append(name)
     return tuple(idle)

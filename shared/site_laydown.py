@@ -26,15 +26,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .construction_methods import ConstructionMethod
 from .manifest import Component
 from .robot_description import Capability, RobotDescription
 from .site_plan import Rect, YardSlot
+from .work_methods import BUILT_IN_PLACE
 from .yard_slot import laid_slot
 
 SPOT_STEP_M = 0.5  # candidate centres around the mast
 LAYDOWN_GAP_M = 0.6  # between two loads, and between a load and what is blocked
-IN_PLACE = {ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID, ConstructionMethod.DRIVEN}
+IN_PLACE = frozenset(BUILT_IN_PLACE)
 
 
 @dataclass(frozen=True)

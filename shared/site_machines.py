@@ -42,14 +42,10 @@ from .manifest import Component
 from .robot_description import Capability, RobotDescription
 from .site_cranes import staging_area
 from .site_plan import Rect
+from .work_methods import WORK_METHOD
 
 PUSH_STEP_M = 0.5  # a candidate that is not clear moves this far out at a time…
 MAX_PUSH_M = 150.0  # …up to this far (then the direction is given up)
-WORKS = {
-    Capability.POUR: ConstructionMethod.CAST_IN_PLACE,
-    Capability.LAY: ConstructionMethod.LAID,
-    Capability.PILE: ConstructionMethod.DRIVEN,
-}
 
 # (x, y) direction from the building's centre, in candidate order: sides first, then corners
 _DIRECTIONS = ((1, 0), (0, 1), (-1, 0), (0, -1), (1, 1), (-1, 1), (-1, -1), (1, -1))
@@ -179,7 +175,7 @@ def _cost(
     if machine.can(Capability.HOOK_LIFT):
         return (round(farthest_m(xy, building), 6), round(farthest_m(xy, building, yard), 6))
     covered = covered_by_boom(machine, xy, corners)
-    own = {method for capability, method in WORKS.items() if machine.can(capability)}
+    own = {method for capability, method in WORK_METHOD.items() if machine.can(capability)}
     mine = sum(1 for hit, method in zip(covered, methods, strict=True) if hit and method in own)
     return (-float(mine), -float(covered.sum()), round(farthest_m(xy, building), 6))
 

@@ -43,7 +43,6 @@ from .robot_description import Capability, RobotDescription
 from .site_machines import (
     MAX_PUSH_M,
     PUSH_STEP_M,
-    WORKS,
     Setup,
     base_rect,
     covered_by_boom,
@@ -52,6 +51,7 @@ from .site_machines import (
     machine_yaw,
 )
 from .site_plan import Rect
+from .work_methods import WORK_METHOD
 
 SIDE_STEP_M = 2.0  # candidates along each side of the building, this far apart
 _SIDES = ((1, 0), (0, 1), (-1, 0), (0, -1))
@@ -170,7 +170,7 @@ def plan_setups(
         if not machine.relocates:
             planned.append((main,))
             continue
-        own = {method for capability, method in WORKS.items() if machine.can(capability)}
+        own = {method for capability, method in WORK_METHOD.items() if machine.can(capability)}
         mine = np.array([method in own for method in methods], dtype=bool)
         others = [rect.grown(lane_m) for j, setup in enumerate(mains) if j != index for rect in setup.rects]
         found = setup_candidates(building, machine, lane_m, fixed, [*others, *extras_taken])

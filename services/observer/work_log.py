@@ -28,14 +28,13 @@ from collections.abc import Iterable, Mapping
 
 import rerun as rr
 
-from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentPoseMsg, ComponentState, ComponentStateMsg, RobotStateMsg
 from bimbot.shared.state_colors import STATE_COLORS
+from bimbot.shared.work_methods import BUILT_IN_PLACE
 
 from .twin_items import LogItem, component_path, mesh_archetype
 
-BUILT_IN_PLACE = (ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID, ConstructionMethod.DRIVEN)
 WORK_STEPS = {  # a working state → the step's word on its label
     ComponentState.FORMING: "formwork",
     ComponentState.POURING: "pour",

@@ -13,10 +13,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from enum import StrEnum
 
-from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import PoseMsg
 from bimbot.shared.site_plan import Rect
+from bimbot.shared.work_methods import BUILT_IN_PLACE
 
 from .client import p
 from .connections import ConnectionConfig
@@ -39,7 +39,7 @@ class Phase(StrEnum):
 
 
 DYNAMIC_PHASES = (Phase.SETTLING, Phase.PLACED)
-BUILT_WHERE_IT_STANDS = (ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID, ConstructionMethod.DRIVEN)
+BUILT_WHERE_IT_STANDS = BUILT_IN_PLACE
 
 
 @dataclass(frozen=True)

@@ -25,10 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.footprint import posed_footprint
 from bimbot.shared.messages import PhysicsReply
-from bimbot.shared.robot_description import Capability
+from bimbot.shared.work_methods import BUILT_IN_PLACE, WORK_CAPABILITY
 
 from .client import p
 from .collision_margin import obj_vertices
@@ -48,12 +47,7 @@ from .scene import (
 
 _log = logging.getLogger(__name__)
 
-BUILT_IN_PLACE = (ConstructionMethod.CAST_IN_PLACE, ConstructionMethod.LAID, ConstructionMethod.DRIVEN)
-NEEDS = {
-    ConstructionMethod.CAST_IN_PLACE: Capability.POUR,
-    ConstructionMethod.LAID: Capability.LAY,
-    ConstructionMethod.DRIVEN: Capability.PILE,
-}
+NEEDS = WORK_CAPABILITY
 UNBUILT_DEPTH_M = 500.0  # an unbuilt component's body waits this far below its target
 HIDDEN_GROUP = 0  # no filter bit: nothing collides with it and no laser ray sees it
 

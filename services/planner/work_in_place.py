@@ -24,13 +24,10 @@ from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.footprint import Footprint, footprint_distance_m, posed_footprint
 from bimbot.shared.manifest import Component
 from bimbot.shared.robot_description import Capability, RobotDescription
+from bimbot.shared.work_methods import WORK_CAPABILITY, pile_length_m
 
-#: The capability each method of work in place needs.
-WORK: dict[ConstructionMethod, Capability] = {
-    ConstructionMethod.CAST_IN_PLACE: Capability.POUR,
-    ConstructionMethod.LAID: Capability.LAY,
-    ConstructionMethod.DRIVEN: Capability.PILE,
-}
+#: The capability each method of work in place needs (the shared table).
+WORK = WORK_CAPABILITY
 
 #: How a reason names the work a capability does.
 WORK_WORDS: dict[Capability, str] = {
@@ -124,11 +121,6 @@ def work_s(component: Component, description: RobotDescription | None) -> float:
         if piling is not None:
             return piling.drive_s(pile_length_m(component))
     return 0.0
-
-
-def pile_length_m(component: Component) -> float:
-    """A pile's length: its height, toe to head (a pile stands upright)."""
-    return component.bbox_world.max_m[2] - component.bbox_world.min_m[2]
 
 
 def cure_s(component: Component) -> float:

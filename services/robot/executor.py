@@ -69,6 +69,7 @@ from bimbot.shared.messages import (
 )
 from bimbot.shared.reasons import Reason
 from bimbot.shared.robot_description import Capability
+from bimbot.shared.work_methods import WORK_METHOD
 
 from . import give_back
 from .approach import ApproachConfig
@@ -452,6 +453,6 @@ def executor_class(info: SiteInfoMsg, robot_id: str) -> type[Executor] | type[Si
     """The executor of a robot's capabilities: work in place (pour, lay, pile), lifting by hook, or
     carrying."""
     description = info.robot_types[info.robot_type_of[robot_id]]
-    if any(description.can(work) for work in (Capability.POUR, Capability.LAY, Capability.PILE)):
+    if any(description.can(work) for work in WORK_METHOD):
         return SiteWorkExecutor
     return CraneExecutor if description.can(Capability.HOOK_LIFT) else Executor

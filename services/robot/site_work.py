@@ -57,6 +57,7 @@ from bimbot.shared.messages import (
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import Capability, RobotDescription
 from bimbot.shared.site_plan import machine_setups
+from bimbot.shared.work_methods import WORK_CAPABILITY, pile_length_m
 
 from .protocol import VERDICTS, EventQueue, Outgoing, PhysicsRequest, PhysicsResult, assignment_waiting
 from .task_machine import TaskMachine, Trigger
@@ -65,11 +66,7 @@ from .task_state import ExecutorConfig, task_event
 _log = logging.getLogger(__name__)
 _E, _C = ComponentEvent, ComponentState
 
-WORK = {
-    ConstructionMethod.CAST_IN_PLACE: Capability.POUR,
-    ConstructionMethod.LAID: Capability.LAY,
-    ConstructionMethod.DRIVEN: Capability.PILE,
-}
+WORK = WORK_CAPABILITY
 
 
 @dataclass(frozen=True)
@@ -97,7 +94,7 @@ def work_steps(component: Component, description: RobotDescription) -> list[Step
         piling = description.piling
         if piling is None:
             return []
-        length_m = component.bbox_world.max_m[2] - component.bbox_world.min_m[2]  # toe to head
+        length_m = pile_length_m(component)
         return [Step(_E.DRIVE, piling.drive_s(length_m), 1.0, f"pitching and driving {length_m:.1f} m")]
     laying = description.laying
     if component.method is not ConstructionMethod.LAID or laying is None:

@@ -27,15 +27,12 @@ from typing import Any
 from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.messages import ComponentState, ComponentStateMsg, ProgressMsg
+from bimbot.shared.work_methods import BUILT_IN_PLACE
 
 from .durations import duration_text
 
 CONSTRUCTED = ComponentState.CONSTRUCTED.value
-WORK_IN_PLACE = (
-    ConstructionMethod.CAST_IN_PLACE.value,
-    ConstructionMethod.LAID.value,
-    ConstructionMethod.DRIVEN.value,
-)
+WORK_IN_PLACE = tuple(method.value for method in BUILT_IN_PLACE)
 WORK_STATES = {  # state entered → the report's field of its time
     ComponentState.FORMING: "forming_s",
     ComponentState.POURING: "pouring_s",
