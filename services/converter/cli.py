@@ -20,15 +20,16 @@ import os
 import re
 import sys
 import time
-from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Never
 
 from bimbot.shared.errors import UserError
-from bimbot.shared.manifest import Component, JointSource, Manifest, SkippedElement
+from bimbot.shared.manifest import Component, Manifest
 from bimbot.shared.output_paths import check_writable_dir
 from bimbot.shared.reasons import CLASH_ADVICE
+
+from .summary_line import clash_summary, elements_summary, framed_summary, methods_summary, skipped_summary
 
 if TYPE_CHECKING:
     import ifcopenshell
@@ -212,11 +213,10 @@ def run(args: argparse.Namespace) -> int:
         )
     report_joints(manifest, args.output)
     origin = sequence_origin(manifest.sequence_source)
-    placed = f" (and {len(manifest.in_place)} in place before the robots come)" if manifest.in_place else ""
     sys.stdout.write(
-        f"converted {len(manifest.components)} component(s){placed}, skipped {len(manifest.skipped)}"
-        f"{skipped_summary(manifest.skipped)}, "
-        f"{len(manifest.joints)} joint(s){framed_summary(manifest)}, {len(manifest.clashes)} clash(es), "
+        f"converted {len(manifest.components)} component(s){elements_summary(manifest)}, "
+        f"skipped {len(manifest.skipped)}{skipped_summary(manifest.skipped)}, "
+        f"{len(manifest.joints)} joint(s){framed_summary(manifest)}, {clash_summary(manifest)}, "
         f"{len(manifest.warnings)} warning(s) in {seconds:.1f} s → {args.output}/ "
         f"(world {manifest.world_file}, sequence {manifest.sequence_file} {origin})"
         f"{methods_summary(manifest)}\n"
@@ -266,12 +266,6 @@ def run(args: argparse.Namespace) -> int:
             f"{args.model}: no element could be converted (see 'skipped' in {args.output}/manifest.json)"
         )
     return 0
-
-
-def framed_summary(manifest: Manifest) -> str:
-    """`` (12 of them framed ends)`` when some joints are framed ends drawn butting their part."""
-    framed = sum(1 for joint in manifest.joints if joint.source is JointSource.FRAMED)
-    return f" ({framed} of them framed ends)" if framed else ""
 
 
 def report_joints(manifest: Manifest, output: Path) -> None:
@@ -334,18 +328,6 @@ def _under(filename: object, folder: Path) -> bool:
     return path.is_relative_to(Path(folder).absolute())
 
 
-def methods_summary(manifest: Manifest) -> str:
-    """``; built: 12 lifted, 3 panelised, 2 cast_in_place (and 4 with their hosts)``: the components by
-    method, most first; empty for none."""
-    counts = Counter(component.method.value for component in manifest.components)
-    if not counts:
-        return ""
-    ranked = sorted(counts.items(), key=lambda pair: (-pair[1], pair[0]))
-    guests = sum(len(component.guests) for component in [*manifest.components, *manifest.in_place])
-    with_hosts = f" (and {guests} with their hosts)" if guests else ""
-    return "; built: " + ", ".join(f"{count} {method}" for method, count in ranked) + with_hosts
-
-
 def methods_warnings(model: ifcopenshell.file, methods: MethodsFile) -> list[str]:
     """The methods file's overrides that name nothing in ``model``: a GlobalId it lacks, a class its
     schema does not know."""
@@ -364,21 +346,6 @@ def methods_warnings(model: ifcopenshell.file, methods: MethodsFile) -> list[str
         except ValueError:
             warnings.append(f"{where}: by_class {name}: not a class of {model.schema}; it applies to nothing")
     return warnings
-
-
-def skipped_summary(skipped: Sequence[SkippedElement], most: int = 4) -> str:
-    """`` (35 not a building element (IfcFurnishingElement), 10 feature element (IfcOpeningElement))``:
-    the elements left out, counted by the head of their reason, most frequent first; empty for none."""
-    from .selection import reason_head
-
-    if not skipped:
-        return ""
-    counts = Counter(reason_head(item.reason) for item in skipped)
-    ranked = sorted(counts.items(), key=lambda pair: (-pair[1], pair[0]))
-    parts = [f"{count} {head}" for head, count in ranked[:most]]
-    if len(ranked) > most:
-        parts.append(f"{sum(count for _, count in ranked[most:])} for other reasons")
-    return f" ({', '.join(parts)})"
 
 
 PROGRESS_LINE_S = 30.0  # off a terminal: a progress line at each stage's start, then at most this often

@@ -56,7 +56,10 @@ def test_foundations_in_place_are_converted_apart_and_left_out_of_the_sequence(
 ) -> None:
     result = convert(frame_ifc, tmp_path / "out", "--in-place", "foundations")
     assert result.returncode == 0, result.stderr
-    assert "converted 3 component(s) (and 2 in place before the robots come)" in result.stdout
+    assert (
+        "converted 3 component(s) from 5 IFC element(s) (3 as one component each, 2 in place before the "
+        "robots come)" in result.stdout
+    )
     manifest = read_manifest(tmp_path / "out")
     assert sorted(c.name for c in manifest.in_place) == ["Footing A1", "Footing A2"]
     assert {(c.method, c.method_source, c.method_note) for c in manifest.in_place} == {
