@@ -95,12 +95,31 @@ def _far_from(color: RGB, others: Collection[RGB], distance: float = 0.35) -> bo
     return all(sum((a - b) ** 2 for a, b in zip(color, other, strict=True)) > distance**2 for other in others)
 
 
+def _distinct(colors: list[RGB], min_distance: float) -> list[RGB]:
+    """``colors`` in order, each kept when it lies ``min_distance`` from every one kept before it."""
+    kept: list[RGB] = []
+    for color in colors:
+        if _far_from(color, kept, min_distance):
+            kept.append(color)
+    return kept
+
+
 # No red: red marks what was not constructed (a constructed slab in tab10's red looked like the failed
-# ones round it on the Revit hub's chart); nor the colours of work in place (formwork, pour, laying)
+# ones round it on the Revit hub's chart); nor the colours of work in place (formwork, pour, laying,
+# driving); nor a grey or a pale colour (curing is hatched grey, a pale bar vanishes on white); and each
+# far enough from the ones before it that two classes do not look alike: ten, where tab10 and Dark2
+# alone gave seven and the Revit 2025 structural sample's eighth class wore its first one's colour
 CLASS_PALETTE = tuple(
-    color
-    for color in _palette("tab10") + _palette("Dark2")
-    if _far_from(color, [to_rgb(NOT_BUILT_COLOR), *STEP_COLORS.values()])
+    _distinct(
+        [
+            color
+            for color in _palette("tab10") + _palette("Dark2") + _palette("Set1") + _palette("tab20")
+            if _far_from(color, [to_rgb(NOT_BUILT_COLOR), *STEP_COLORS.values()])
+            and max(color) - min(color) > 0.15
+            and sum(color) / 3.0 < 0.85
+        ],
+        min_distance=0.22,
+    )
 )
 
 

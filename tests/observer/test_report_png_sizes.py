@@ -108,3 +108,38 @@ def test_the_legend_keeps_within_the_figure_and_no_class_is_drawn_in_the_not_bui
     extent = legend.get_window_extent(FigureCanvasAgg(figure).get_renderer())
     assert extent.x0 >= 0.0 and extent.x1 <= figure.bbox.width
     assert fitting_legend(Figure(figsize=FIGURE_SIZE_IN, dpi=DPI), handles[:3]) == 1  # a short one: one row
+
+
+def test_ten_classes_wear_ten_colours_none_like_another_or_a_step_of_work() -> None:
+    """The Revit 2025 structural sample has more classes than tab10 and Dark2 left colours for: its
+    eighth class wore its first one's colour. Ten classes get ten colours, each far from the others,
+    from red (not constructed) and from the colours of work in place (driving a pile among them)."""
+    from matplotlib.colors import to_rgb
+
+    from bimbot.shared.report.methods_png import STEP_COLORS
+    from bimbot.shared.report.png import NOT_BUILT_COLOR, class_colors
+
+    classes = [
+        f"Ifc{name}"
+        for name in [
+            "Beam",
+            "Column",
+            "Footing",
+            "Member",
+            "Pile",
+            "Plate",
+            "Slab",
+            "Wall",
+            "Stair",
+            "Railing",
+        ]
+    ]
+    colors = list(class_colors(classes).values())
+    assert len(set(colors)) == len(classes) == 10
+
+    def distance(a: tuple[float, ...], b: tuple[float, ...]) -> float:
+        return float(sum((x - y) ** 2 for x, y in zip(a, b, strict=True)) ** 0.5)
+
+    assert min(distance(a, b) for i, a in enumerate(colors) for b in colors[i + 1 :]) >= 0.22
+    avoid = [to_rgb(NOT_BUILT_COLOR), *STEP_COLORS.values()]
+    assert min(distance(color, other) for color in colors for other in avoid) > 0.35
