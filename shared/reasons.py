@@ -49,13 +49,19 @@ class ReasonCode(StrEnum):
     UNSTABLE = "unstable"
 
 
+MESSAGE_MAX = 2000  # characters of a reason's sentence
+
+# a ground robot's give-back that says it cannot get to where the component goes (or to its yard slot)
+CANNOT_GET_THERE = frozenset({ReasonCode.UNREACHABLE, ReasonCode.NO_APPROACH_POSE})
+
+
 class Reason(BaseModel):
     """One reason: a code, a sentence with the numbers, and who or what it names."""
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     code: ReasonCode
-    message: str = Field(max_length=2000, description="one sentence naming the numbers")
+    message: str = Field(max_length=MESSAGE_MAX, description="one sentence naming the numbers")
     guid: str | None = Field(default=None, description="the other component (blocked_by: the failed one)")
     robot_id: str | None = Field(default=None, description="the robot it happened to, if one")
 

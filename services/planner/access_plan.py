@@ -105,10 +105,13 @@ def access_plan(
         plan = replace(plan, predecessors=frozen, order=_priority_order(plan.order, frozen))
         access.reset()
         check = check_order(access, plan.order, _stage(report, f"access check, mended {rounds} time(s)"))
+    cut_offs = _driven_to(check.cut_offs, in_place)
     warnings = [
         f"access check: placing {_describe(placed, by_guid)} cuts off {_describe(cut, by_guid)}"
-        for placed, cut in _driven_to(check.cut_offs, in_place)
+        for placed, cut in cut_offs
     ]
+    if cut_offs:
+        plan = replace(plan, cut_off_by={cut: placed for placed, cut in reversed(cut_offs)})
     unreachable: dict[str, Reason] = {}
     from_above: set[str] = set()
     cranes = [robot for robot in site_robots(info) if robot.lifts_by_hook]

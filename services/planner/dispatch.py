@@ -19,7 +19,7 @@ from functools import partial
 
 from bimbot.shared.manifest import Component
 from bimbot.shared.messages import ComponentState, RobotState, TaskKind
-from bimbot.shared.reasons import Reason, ReasonCode
+from bimbot.shared.reasons import CANNOT_GET_THERE, Reason, ReasonCode
 
 from .assignment import StagedLoad, choose, lying_half_m
 from .capability import SiteRobot, Where, can_build_from, can_carry, target_centre_xy
@@ -294,11 +294,7 @@ class Dispatch:
         )
 
 
-# a ground robot's give-back that says it cannot get to where the component goes
-_CANNOT_GET_THERE = frozenset({ReasonCode.UNREACHABLE, ReasonCode.NO_APPROACH_POSE})
-
-
 def _target_out_of_ground_reach(task: TaskRecord) -> bool:
     """The task's last give-back says a ground robot could not get to it: a crane is asked first."""
     last = task.last_give_back
-    return last is not None and last.code in _CANNOT_GET_THERE
+    return last is not None and last.code in CANNOT_GET_THERE

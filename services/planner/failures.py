@@ -12,7 +12,7 @@ import logging
 from functools import partial
 
 from bimbot.shared.messages import ComponentEvent, ComponentState, TaskStatus
-from bimbot.shared.reasons import Reason, blocked_by
+from bimbot.shared.reasons import CANNOT_GET_THERE, MESSAGE_MAX, Reason, blocked_by
 
 from .outbox import Outbox
 from .planner_state import PlannerState
@@ -35,6 +35,7 @@ class Failures:
         if task.phase in FINAL:
             return
         self._state.free_robot(task)
+        reason = self._with_cut_off_advice(guid, reason)
         task.reason = reason
         self._outbox.set_phase(task, Phase.FAILED, TaskStatus.FAILED)
         _log.error("%s failed: %s", guid, reason.line())
@@ -42,6 +43,19 @@ class Failures:
         self._outbox.send_event(guid, ComponentEvent.FAIL, is_terminal, reason=reason)
         if block:
             self.block_dependents(guid)
+
+    def _with_cut_off_advice(self, guid: str, reason: Reason) -> Reason:
+        """A robot could not get to ``guid`` that the access check found a placement cuts off: the reason
+        names that placement and what a user can do about it (the plan's warning said it at the start)."""
+        placed = self._state.plan.cut_off_by.get(guid)
+        if placed is None or reason.code not in CANNOT_GET_THERE:
+            return reason
+        advice = (
+            f"; the plan's access check found that placing {self._state.describe(placed)} cuts it off: "
+            "build it before that (a sequence with that order: bimbot run BUILD --sequence FILE), or bring "
+            "a machine that reaches it from outside (a crane whose hook covers it: bimbot fleet check BUILD)"
+        )
+        return reason.model_copy(update={"message": (reason.message + advice)[:MESSAGE_MAX]})
 
     def block_dependents(self, guid: str) -> None:
         """Block what rests on ``guid`` (transitively); each reason names the failed component and, when

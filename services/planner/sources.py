@@ -27,7 +27,7 @@ import graphlib
 import hashlib
 import logging
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from pathlib import Path
 
@@ -83,6 +83,9 @@ class Plan:
     # GUIDs no ground robot can get to at their turn that a crane on site sets from above: asked of a crane
     # first (the access check, :mod:`.access_plan`)
     from_above: frozenset[str] = frozenset()
+    # GUID → the component whose placement the access check found cuts it off from the depot (its warning):
+    # a failure to get to it names that cause and what a user can do (:mod:`.failures`)
+    cut_off_by: Mapping[str, str] = field(default_factory=dict)
 
     def successors(self) -> dict[str, set[str]]:
         """GUID → GUIDs that wait for it directly."""

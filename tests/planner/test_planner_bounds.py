@@ -169,6 +169,30 @@ def test_a_task_without_progress_is_taken_back_after_its_bound_of_sim_time() -> 
     )
 
 
+def test_a_component_a_placement_cuts_off_fails_naming_that_placement_and_what_to_do() -> None:
+    """The restaurant's glazed panel, cut off once its door stood, failed 'cut off' with no word of why
+    or what to do, while the plan's warning at the start had named the door."""
+    manifest = portal_manifest()
+    plan = plan_from_sequence(derive_sequence(manifest.components), manifest.components, "test")
+    counter = itertools.count(1)
+    core = PlannerCore(
+        manifest, replace(plan, cut_off_by={"col_a": "foot_b"}), new_id=lambda: f"ev{next(counter)}"
+    )
+    cut_off = Reason(code=ReasonCode.UNREACHABLE, message="col_a is cut off from r1")
+    core.fail_at_start({"col_a": cut_off, "foot_a": cut_off.model_copy(update={"message": "foot_a too"})})
+    reason = core.reason_of("col_a")
+    assert reason is not None and reason.message.startswith("col_a is cut off from r1; ")
+    assert "placing IfcFooting (foot_b) cuts it off" in reason.message
+    assert "--sequence" in reason.message and "crane" in reason.message
+    assert core.reason_of("foot_a") == cut_off.model_copy(update={"message": "foot_a too"})  # none named
+    heavy = Reason(code=ReasonCode.TOO_HEAVY, message="too heavy")
+    core = PlannerCore(
+        manifest, replace(plan, cut_off_by={"col_a": "foot_b"}), new_id=lambda: f"ev{next(counter)}"
+    )
+    core.fail_at_start({"col_a": heavy})
+    assert core.reason_of("col_a") == heavy  # another cause: no access advice
+
+
 def test_feasibility_names_the_mass_and_the_height_against_the_robot_limits() -> None:
     manifest = portal_manifest()
     beam = next(c for c in manifest.components if c.guid == "beam")
@@ -204,6 +228,7 @@ def test_a_given_sequence_that_walls_in_a_column_fails_it_before_the_build_namin
     reason = outcome.unreachable[guid["Column R1"]]
     assert reason.code is ReasonCode.UNREACHABLE and reason.guid in {guid[w] for w in ROOM_WALLS}
     assert any(guid["Column R1"] in w and "cuts off" in w for w in outcome.warnings)
+    assert outcome.plan.cut_off_by[guid["Column R1"]] in {guid[w] for w in ROOM_WALLS}
     with pytest.raises(PlanError, match="cut off"):
         access_plan(plan, manifest, one_robot_site_info(manifest), adjust=False, strict=True)
 
