@@ -22,11 +22,12 @@ from bimbot.shared.messages import ComponentState, RobotState, TaskKind
 from bimbot.shared.reasons import CANNOT_GET_THERE, Reason, ReasonCode
 
 from .assignment import StagedLoad, choose, lying_half_m
-from .capability import SiteRobot, Where, can_build_from, can_carry, target_centre_xy
+from .capability import SiteRobot, Where, can_build_from, can_carry, relocation_to_s, target_centre_xy
 from .failures import Failures
 from .outbox import Outbox
 from .planner_state import PlannerState
 from .records import FINAL, ComponentRecord, Phase, RobotRecord, TaskRecord, distance
+from .work_in_place import works_in_place
 
 _log = logging.getLogger(__name__)
 
@@ -115,10 +116,8 @@ class Dispatch:
         bidders = self._could_win(idle)
         promised: dict[str, float] = {}
         taken = self._taken_spots()
-        for guid in state.plan.order:
+        for guid in self._round_order(idle):
             task = state.tasks[guid]
-            if not self._released(guid):
-                continue
             if self._holds(task):
                 continue
             if not any(self._is_idle(state.robots[robot_id]) for robot_id in bidders):
@@ -152,6 +151,33 @@ class Dispatch:
             if choice.put_down_xy_m is not None:
                 taken.append(StagedLoad(choice.put_down_xy_m, lying_half_m(item)))
             self._give_to(task, robot, choice.kind, choice.put_down_xy_m, estimate_s=choice.estimate_s)
+
+    def _round_order(self, idle: frozenset[str]) -> list[str]:
+        """The released tasks a round offers, in plan order, except that an idle machine that relocates
+        between set-ups works out the set-up it stands at first: the work it would relocate for goes after
+        the work its boom covers from where it stands. (A piling rig was offered the structural sample's
+        216 piles in the model's order, across the site and back: 11 relocations of half an hour.)"""
+        state = self._state
+        assert state.site is not None
+        order = [guid for guid in state.plan.order if self._released(guid)]
+        for robot_id in sorted(idle):
+            robot = state.site.get(robot_id)
+            pose = state.robots[robot_id].pose_xy_yaw
+            if robot is None or not robot.description.relocates or pose is None:
+                continue
+            here_xy = pose[:2]
+            mine = [
+                guid
+                for guid in order
+                if works_in_place(item := state.manifest[guid])
+                and self._can_build(robot, item, state.lies(guid))
+            ]
+            later = {guid for guid in mine if relocation_to_s(robot, here_xy, state.manifest[guid]) > 0.0}
+            if later and len(later) < len(mine):
+                order = [guid for guid in order if guid not in later] + [
+                    guid for guid in order if guid in later
+                ]
+        return order
 
     def _released(self, guid: str) -> bool:
         """Its task released and its agent reporting released: a task a round may give out."""

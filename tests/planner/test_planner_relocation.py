@@ -9,11 +9,13 @@ import dataclasses
 
 import pytest
 from component_boxes import box_component
+from planner_builders import idle_core, portal_manifest, state_msg
 
 from bimbot.services.planner.capability import SiteRobot, Where, robots_on_plan, task_estimate_s
 from bimbot.services.planner.feasibility import component_feasibility
 from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.fleet import default_fleet
+from bimbot.shared.messages import ComponentState, TaskMsg, TaskStatus
 from bimbot.shared.reasons import ReasonCode
 from bimbot.shared.site_layout import plan_site
 
@@ -83,3 +85,20 @@ def test_a_pour_no_boom_set_up_reaches_goes_to_the_line_pump_and_the_boom_bids_l
     assert component_feasibility(FOOTING, [near, line]).routes[0] == "concrete_pump (r4)"
     by_boom = task_estimate_s(near, NEAR[:2], FOOTING, where)
     assert by_boom < task_estimate_s(line, (10.0, 0.0), FOOTING, where)
+
+
+def test_an_idle_pump_works_out_the_set_up_it_stands_at_before_it_relocates() -> None:
+    """Offered the released pours in plan order, a relocating machine went across the site for the first
+    and back for the next (the structural sample's piling rig: 11 relocations for 216 piles). It now takes
+    first what its boom covers from where it stands; the far pour waits for it to be free."""
+    near = box_component("near", (1.0, 1.0, 0.5), (5.0, 0.0, -0.5), ConstructionMethod.CAST_IN_PLACE, 2000.0)
+    far = FOOTING.model_copy(update={"guid": "afar"})  # sorts first: plan order puts it before "near"
+    manifest = portal_manifest().model_copy(update={"components": [far, near]})
+    core = idle_core(manifest, [SiteRobot("r4", PUMP, HOME, setups=(HOME, NEAR))])
+    assert list(core._state.plan.order) == ["afar", "near"]  # the far pour comes first in plan order
+    core.step(0.0)
+    for guid in ("afar", "near"):
+        core.observe_component_state(state_msg(guid, ComponentState.RELEASED, event="release"))
+    out = core.step(0.1)
+    assigned = {m.guid: m.robot_id for m in out if isinstance(m, TaskMsg) and m.status is TaskStatus.ASSIGNED}
+    assert assigned == {"near": "r4"}
