@@ -219,6 +219,24 @@ SELECTION_HEADS = (
 )
 
 
+# every reason :func:`select_components` gives (the class rule's and the element's own: a duplicate, no
+# body, an aggregate whose parts are built): an element left out before the conversion's count begins
+SELECTED_OUT_HEADS = (
+    *SELECTION_HEADS,
+    "duplicate GlobalId",
+    "no geometry of its own",
+    "no representation",
+    "no body representation",
+    "an aggregate",
+)
+
+
+def selected_out(reason: str) -> bool:
+    """Whether a skip ``reason`` is the selection's (:data:`SELECTED_OUT_HEADS`): the element was never
+    among those to convert; else it was, and the conversion skipped it (drawn twice, no triangles, …)."""
+    return reason.startswith(SELECTED_OUT_HEADS)
+
+
 def left_out_by_selection(reason: str) -> bool:
     """Whether a skip ``reason`` is the class selection's (:func:`class_rejection`: what the user chose or the
     defaults leave out), not a problem with the element (no geometry, a duplicate GlobalId, …)."""

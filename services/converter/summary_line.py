@@ -20,8 +20,8 @@ from bimbot.shared.manifest import JointSource, Manifest, SkippedElement
 def elements_summary(manifest: Manifest) -> str:
     """`` from 919 IFC element(s) (701 as one component each, 18 cut into 236 panels, 180 built with their
     hosts)``: how the elements converted (the count the progress line gave) became the components to
-    build, the parts that apply in that order; empty when each element is one component. What was
-    skipped is said after it."""
+    build, the parts that apply in that order (and those it read but could not convert); empty when each
+    element is one component. Every skip is said after it, with its reason."""
     whole = sum(1 for c in manifest.components if c.parent_guid is None)
     parts = [c for c in manifest.components if c.parent_guid is not None]
     guests = sum(len(c.guests) for c in [*manifest.components, *manifest.in_place])
@@ -38,9 +38,16 @@ def elements_summary(manifest: Manifest) -> str:
         words.append(f"{guests} built with their hosts")
     if in_place:
         words.append(f"{in_place} in place before the robots come")
+    from .selection import selected_out
+
+    not_converted = sum(1 for item in manifest.skipped if not selected_out(item.reason))
+    if not_converted:
+        words.append(f"{not_converted} not converted (skipped, below)")
     if len(words) == 1:
         return ""
-    return f" from {whole + len(split) + guests + in_place} IFC element(s) ({', '.join(words)})"
+    return (
+        f" from {whole + len(split) + guests + in_place + not_converted} IFC element(s) ({', '.join(words)})"
+    )
 
 
 def clash_summary(manifest: Manifest) -> str:

@@ -14,7 +14,7 @@ import pytest
 from sample_builds import converted_sample, sample_conversion_ended
 
 from bimbot.services.converter.summary_line import clash_summary, elements_summary
-from bimbot.shared.manifest import Clash
+from bimbot.shared.manifest import Clash, SkippedElement
 
 HOUSE = "revit2021_sample_project.ifc"
 
@@ -52,7 +52,14 @@ def test_each_element_as_one_component_says_nothing_more(
         update={"components": [c for c in manifest.components if c.parent_guid is None], "panelised": []}
     )
     assert elements_summary(whole) == ""
-    assert elements_summary(manifest).startswith(" from ")
+    assert elements_summary(manifest).startswith(" from 58 IFC element(s) (")
+    # an element read but not converted counts among those read (the restaurant's 7 drawn twice and 2
+    # without triangles made its 742 of the 751 it read); one the selection left out does not
+    twice = SkippedElement(guid="x", ifc_class="IfcWall", reason="the model draws it twice: the same as y")
+    mixed = manifest.model_copy(update={"skipped": [*manifest.skipped, twice]})
+    assert elements_summary(mixed).startswith(" from 59 IFC element(s) (")
+    assert "1 not converted (skipped, below)" in elements_summary(mixed)
+    assert any(item.reason.startswith("not a building element") for item in manifest.skipped)
 
 
 def test_the_clash_count_leaves_the_pairs_in_place_apart(
