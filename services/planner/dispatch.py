@@ -154,29 +154,40 @@ class Dispatch:
 
     def _round_order(self, idle: frozenset[str]) -> list[str]:
         """The released tasks a round offers, in plan order, except that an idle machine that relocates
-        between set-ups works out the set-up it stands at first: the work it would relocate for goes after
-        the work its boom covers from where it stands. (A piling rig was offered the structural sample's
-        216 piles in the model's order, across the site and back: 11 relocations of half an hour.)"""
+        between set-ups works out the set-up it stands at first: the work only it can do that it would
+        relocate for goes after the work its boom covers from where it stands. (A piling rig was offered
+        the structural sample's 216 piles in the model's order, across the site and back: 11 relocations
+        of half an hour.) Work another machine can also do keeps its place: deferred, a pour the boom pump
+        would relocate for went to the slower line pump, and the restaurant took 5.7 % longer.)"""
         state = self._state
         assert state.site is not None
         order = [guid for guid in state.plan.order if self._released(guid)]
+        manifest = state.manifest
         for robot_id in sorted(idle):
             robot = state.site.get(robot_id)
             pose = state.robots[robot_id].pose_xy_yaw
             if robot is None or not robot.description.relocates or pose is None:
                 continue
-            here_xy = pose[:2]
+            others = [
+                other
+                for other in state.site.values()
+                if other.robot_id != robot_id
+                and (record := state.robots.get(other.robot_id)) is not None
+                and record.alive
+            ]
             mine = [
                 guid
                 for guid in order
-                if works_in_place(item := state.manifest[guid])
-                and self._can_build(robot, item, state.lies(guid))
+                if works_in_place(manifest[guid]) and self._can_build(robot, manifest[guid], state.lies(guid))
             ]
-            later = {guid for guid in mine if relocation_to_s(robot, here_xy, state.manifest[guid]) > 0.0}
+            later = {
+                guid
+                for guid in mine
+                if relocation_to_s(robot, pose[:2], manifest[guid]) > 0.0
+                and not any(self._can_build(other, manifest[guid], state.lies(guid)) for other in others)
+            }
             if later and len(later) < len(mine):
-                order = [guid for guid in order if guid not in later] + [
-                    guid for guid in order if guid in later
-                ]
+                order = [g for g in order if g not in later] + [g for g in order if g in later]
         return order
 
     def _released(self, guid: str) -> bool:

@@ -102,3 +102,20 @@ def test_an_idle_pump_works_out_the_set_up_it_stands_at_before_it_relocates() ->
     out = core.step(0.1)
     assigned = {m.guid: m.robot_id for m in out if isinstance(m, TaskMsg) and m.status is TaskStatus.ASSIGNED}
     assert assigned == {"near": "r4"}
+
+
+def test_work_another_machine_can_do_keeps_its_place_in_the_round() -> None:
+    """Deferred, a pour the boom pump would relocate for went to the slower line pump beside it (the
+    restaurant took 5.7 % longer): only work no other machine can do waits for the relocating one."""
+    near = box_component("near", (1.0, 1.0, 0.5), (5.0, 0.0, -0.5), ConstructionMethod.CAST_IN_PLACE, 2000.0)
+    far = FOOTING.model_copy(update={"guid": "afar"})
+    manifest = portal_manifest().model_copy(update={"components": [far, near]})
+    pump = SiteRobot("r4", PUMP, HOME, setups=(HOME, NEAR))
+    line = SiteRobot("r6", LINE, (10.0, 0.0, 0.0))
+    core = idle_core(manifest, [pump, line])
+    core.step(0.0)
+    for guid in ("afar", "near"):
+        core.observe_component_state(state_msg(guid, ComponentState.RELEASED, event="release"))
+    out = core.step(0.1)
+    assigned = {m.guid: m.robot_id for m in out if isinstance(m, TaskMsg) and m.status is TaskStatus.ASSIGNED}
+    assert assigned == {"afar": "r4"}  # the far pour keeps its place: first, to the pump that bids best
