@@ -52,6 +52,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="N robots of the default type, plus the fleet's machines that stand fixed (cranes, pumps, …)",
     )
     parser.add_argument("--json", action="store_true", help="check: one JSON object per component")
+    parser.add_argument(
+        "--summary",
+        action="store_true",
+        help="check: the totals and a row for each component that cannot be built, none for the rest "
+        "(a large build's table runs to hundreds of rows above its totals)",
+    )
 
 
 def fleet_in_force(fleet: Fleet, path: Path | None, robots: int | None) -> str:
@@ -119,19 +125,28 @@ def run(args: argparse.Namespace) -> int:
         return code
     if idle:
         sys.stdout.write(f"off site, no work in this build (as bimbot run leaves them): {', '.join(idle)}\n")
-    _print_table(rows, fleet, manifest.joints)
+    _print_table(rows, fleet, manifest.joints, only_unbuildable=args.summary)
     return code
 
 
-def _print_table(rows: list[tuple[Component, Feasibility]], fleet: Fleet, joints: Sequence[Joint]) -> None:
+def _print_table(
+    rows: list[tuple[Component, Feasibility]],
+    fleet: Fleet,
+    joints: Sequence[Joint],
+    *,
+    only_unbuildable: bool = False,
+) -> None:
+    """The table (with ``only_unbuildable``: only the rows that cannot be built), then the totals."""
     from rich.console import Console
     from rich.table import Table
 
     source = f"the fleet of {fleet.source}: " if fleet.source != str(DEFAULT_FLEET_FILE) else ""
-    table = Table(title=f"what {source}{fleet.summary()} can build ({len(rows)} components)")
+    shown = [(c, row) for c, row in rows if row.reason is not None] if only_unbuildable else rows
+    what = "cannot build" if only_unbuildable else "can build"
+    table = Table(title=f"what {source}{fleet.summary()} {what} ({len(shown)} of {len(rows)} components)")
     for column in ("component", "class", "method", "mass kg", "top m", "built by / why not"):
         table.add_column(column, justify="right" if column in ("mass kg", "top m") else "left")
-    for component, row in rows:
+    for component, row in shown:
         how = "; ".join(row.routes) if row.reason is None else f"[red]{row.reason.line()}[/red]"
         table.add_row(
             f"{component.name or component.guid}",
@@ -142,7 +157,8 @@ def _print_table(rows: list[tuple[Component, Feasibility]], fleet: Fleet, joints
             how,
         )
     console = Console(width=160)
-    console.print(table)
+    if shown:
+        console.print(table)
     failed = Counter(row.reason.code.value for _, row in rows if row.reason is not None)
     routes = Counter(route for _, row in rows for route in row.routes[:1])
     buildable = sum(1 for _, row in rows if row.reason is None)
@@ -160,8 +176,8 @@ def _print_table(rows: list[tuple[Component, Feasibility]], fleet: Fleet, joints
         )
     if routes:
         console.print(
-            "first route (the first machine named in each row above; a run gives each task to the capable "
-            "machine that bids best): "
+            "first route (the first machine named in each buildable row; a run gives each task to the "
+            "capable machine that bids best): "
             + ", ".join(f"{count} {route}" for route, count in routes.most_common())
         )
 

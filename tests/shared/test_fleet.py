@@ -288,6 +288,19 @@ def test_fleet_check_prints_the_husky_only_fleet_footings_too_heavy_with_the_num
     assert "so it can build at most 0" in done.stdout
     assert f"the fleet of {path}" in done.stdout.replace("\n", "")  # which file the table is for
     assert done.stdout.count("259 kg exceeds the largest payload on site (75 kg") == 9
+    # --summary: the totals and the nine footings that cannot be built, no row for the 19 columns and beams
+    command = ["fleet", "check", str(bundled_build), "--fleet", str(path), "--summary"]
+    summary = subprocess.run(
+        [sys.executable, "-m", "bimbot.cli", *command],
+        capture_output=True,
+        text=True,
+        timeout=bound_s(120),
+        check=False,
+    )
+    assert summary.returncode == 1, summary.stderr
+    assert "buildable: 19 of 28; cannot: 9 too_heavy" in summary.stdout
+    assert summary.stdout.count("259 kg exceeds the largest payload on site (75 kg") == 9
+    assert "(9 of 28 components)" in summary.stdout and "IfcColumn" not in summary.stdout
 
 
 def test_fleet_check_leaves_off_site_the_machines_a_run_leaves_off_so_the_ids_are_the_run_s(
