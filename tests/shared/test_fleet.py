@@ -270,17 +270,22 @@ def test_the_site_plan_puts_ground_robots_at_the_depot_and_the_machines_around_t
     assert layout.fence.min_xy[0] < area.min_xy[0] and area.max_xy[0] < layout.fence.max_xy[0]
 
 
-def test_fleet_check_prints_the_husky_only_fleet_footings_too_heavy_with_the_numbers(
-    bundled_build: Path, tmp_path: Path
-) -> None:
-    path = _write(tmp_path, HUSKY + '[[robots]]\ntype = "husky"\ncount = 2\n')
-    done = subprocess.run(
-        [sys.executable, "-m", "bimbot.cli", "fleet", "check", str(bundled_build), "--fleet", str(path)],
+def _fleet_check(build: Path, *args: str) -> subprocess.CompletedProcess[str]:
+    """``bimbot fleet check BUILD ARGS`` as a process of its own."""
+    return subprocess.run(
+        [sys.executable, "-m", "bimbot.cli", "fleet", "check", str(build), *args],
         capture_output=True,
         text=True,
         timeout=bound_s(120),
         check=False,
     )
+
+
+def test_fleet_check_prints_the_husky_only_fleet_footings_too_heavy_with_the_numbers(
+    bundled_build: Path, tmp_path: Path
+) -> None:
+    path = _write(tmp_path, HUSKY + '[[robots]]\ntype = "husky"\ncount = 2\n')
+    done = _fleet_check(bundled_build, "--fleet", str(path))
     assert done.returncode == 1, done.stderr  # 1: the fleet cannot build everything
     assert "buildable: 19 of 28; cannot: 9 too_heavy" in done.stdout
     # what rests on the footings cannot be built either: the check says so, as a run's blocked_by would
@@ -289,14 +294,7 @@ def test_fleet_check_prints_the_husky_only_fleet_footings_too_heavy_with_the_num
     assert f"the fleet of {path}" in done.stdout.replace("\n", "")  # which file the table is for
     assert done.stdout.count("259 kg exceeds the largest payload on site (75 kg") == 9
     # --summary: the totals and the nine footings that cannot be built, no row for the 19 columns and beams
-    command = ["fleet", "check", str(bundled_build), "--fleet", str(path), "--summary"]
-    summary = subprocess.run(
-        [sys.executable, "-m", "bimbot.cli", *command],
-        capture_output=True,
-        text=True,
-        timeout=bound_s(120),
-        check=False,
-    )
+    summary = _fleet_check(bundled_build, "--fleet", str(path), "--summary")
     assert summary.returncode == 1, summary.stderr
     assert "buildable: 19 of 28; cannot: 9 too_heavy" in summary.stdout
     assert summary.stdout.count("259 kg exceeds the largest payload on site (75 kg") == 9
@@ -309,13 +307,7 @@ def test_fleet_check_leaves_off_site_the_machines_a_run_leaves_off_so_the_ids_ar
     """The bundled frame is all lifted: bimbot run leaves the pumps and the block layer off site and numbers
     the robots without them; fleet check says so and numbers them as the run does (a new user read the
     line pump as r6 in the check and r5 in the run)."""
-    done = subprocess.run(
-        [sys.executable, "-m", "bimbot.cli", "fleet", "check", str(bundled_build)],
-        capture_output=True,
-        text=True,
-        timeout=bound_s(120),
-        check=False,
-    )
+    done = _fleet_check(bundled_build)
     assert done.returncode == 0, done.stderr
     idle = idle_machine_types(DEFAULT, [ConstructionMethod.LIFTED])
     assert idle  # the default fleet has machines that only pour or lay
