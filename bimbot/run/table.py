@@ -24,6 +24,7 @@ NAME_TAIL_CHARS = 16  # a long name keeps its end: Revit names end in the elemen
 HEADER = ("component", "guid", "state", "reason", "why")
 GROUP_FROM = 4  # this many components blocked by one failed component take one row (all are in report.json)
 NAMES_SHOWN = 3
+OPTION_BEFORE = re.compile(r"(?<![\w-])--[a-z][\w-]*[ =]$")  # ``--exclude `` just before a GUID
 GUID = re.compile(r"(?<![0-9A-Za-z_$])[0-9A-Za-z_$]{22}(?![0-9A-Za-z_$])")  # an IFC GlobalId in a sentence
 
 
@@ -127,13 +128,17 @@ def shortened(name: str) -> str:
 def with_names(message: str, names: dict[str, str], own: str = "") -> str:
     """``message`` with every other component's GUID it mentions preceded by that component's name
     (``came to rest on 2mLB0dQuXv1Ub0xTLNyjS4`` → ``came to rest on Beam A1-A2 (2mLB0dQuXv1Ub0xTLNyjS4)``),
-    unless the name is there already (before it or after it): a GUID alone tells a user nothing."""
+    unless the name is there already (before it or after it): a GUID alone tells a user nothing. A GUID
+    given to an option of a command the message advises (``--exclude 21TEK1_hD0xO7FHM1D4Y0W``) stays
+    bare: named, the command no longer ran as pasted."""
 
     def named(match: re.Match[str]) -> str:
         guid = match.group(0)
         name = names.get(guid)
         before, after = message[: match.start()].rstrip(" ("), message[match.end() :].lstrip(" (")
         if name is None or guid == own or before.endswith(name) or after.startswith(name):
+            return guid
+        if OPTION_BEFORE.search(message[: match.start()]):
             return guid
         return named_guid(guid, name)
 

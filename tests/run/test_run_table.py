@@ -163,6 +163,14 @@ def test_other_components_named_by_guid_in_a_message_get_their_names() -> None:
         {"code": "blocked_by", "message": f"on {support} (Beam A1-A2)"},
     )
     assert f"on {support} (Beam A1-A2)" in not_built_table({"components": [after, beam]})  # named already
+    # a GUID given to an option of the advised command stays bare, so the command runs as pasted (the
+    # restaurant's advice read "--exclude Signage_all:…:711229 (21TEK1_hD0xO7FHM1D4Y0W)")
+    advice = f"rests on {support}; leave one out: bimbot convert MODEL.ifc -o OUT/ --exclude {support}"
+    clash = _component(
+        "3eV89hRdQ1Bx5b6PaC9rjw", "Beam B", "failed", 3, {"code": "unstable", "message": advice}
+    )
+    table = not_built_table({"components": [clash, beam]})
+    assert f"rests on Beam A1-A2 ({support})" in table and f"-o OUT/ --exclude {support}" in table
 
 
 def test_rows_follow_the_tally_and_alike_rows_take_one() -> None:
