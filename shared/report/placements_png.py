@@ -69,7 +69,7 @@ def work_in_place_note(report: Mapping[str, Any]) -> str | None:
     if not count:
         return None
     verdicts = f"{count} verdict{'' if count == 1 else 's'}"
-    return f"left out: {verdicts} on work in place (cast or laid: built at its target, not set down)"
+    return f"left out: {verdicts} on work in place (cast, laid or driven: built at its target, not set down)"
 
 
 def _note(ax: Axes, report: Mapping[str, Any]) -> None:

@@ -321,11 +321,16 @@ def _sequence_rows(ax: Axes, report: dict[str, Any], colors: dict[str, RGB], bre
         color = colors[component["ifc_class"]]
         released, picked = component["released_s"], component["picked_s"]
         done = component["constructed_s"] if component["constructed_s"] is not None else component["failed_s"]
-        work = row_work(component)  # cast or laid: its work in place instead of pick → placed
+        work = row_work(component)  # cast, laid or driven: its work in place instead of pick → placed
+        wait_color: RGB | str = color
         if work is not None:
             picked = work[0]
+            # its wait in its work's colour, as the legend has it (in its class's, the structural sample's
+            # 216 piles drew long lines in a colour no legend entry had)
+            first_step = next((step for _, _, step in work[1] if step is not None), None)
+            wait_color = STEP_COLORS[first_step] if first_step is not None else color
         if released is not None and picked is not None:
-            ax.plot([released, picked], [row, row], color=color, linewidth=1.0, alpha=0.6)
+            ax.plot([released, picked], [row, row], color=wait_color, linewidth=1.0, alpha=0.6)
         if picked is not None and done is not None:
             segments: list[Segment] = work[1] if work is not None else [(picked, done, None)]
             min_width_s = MIN_BAR_FRACTION * span_s / breaks.scale_at(picked)

@@ -205,3 +205,31 @@ def test_the_wait_for_a_cure_is_drawn_narrow_so_the_work_after_it_reads(report: 
     assert any(text.get_text() == "67.5 h wait" for text in lanes.texts)
     ticks = [tick.get_position()[0] for tick in sequence.get_xticklabels()]
     assert ticks and not [t for t in ticks if start_s < t < end_s]  # no tick crammed into the wait
+
+
+def test_a_wait_for_work_in_place_is_drawn_in_its_works_colour_not_its_class(report: dict) -> None:
+    """The planned-sequence panel drew the wait from release to the start of work in the class colour: the
+    structural sample's 216 piles (IfcSlab) ran long magenta lines no legend entry had."""
+    from matplotlib.lines import Line2D
+
+    from bimbot.shared.report.methods_png import LAYING
+
+    figure = report_figure(report)
+    sequence = figure.axes[1]
+    waits: dict[tuple[float, float], list[tuple[float, float, float]]] = {}
+    for line in sequence.get_lines():
+        if isinstance(line, Line2D) and len(line.get_xdata()) == 2:
+            span = (round(float(line.get_xdata()[0]), 3), round(float(line.get_xdata()[1]), 3))
+            waits.setdefault(span, []).append(tuple(round(v, 6) for v in to_rgb(line.get_color())))
+    checked = 0
+    for component in report["components"]:
+        start = {"cast_in_place": component["forming_s"], "laid": component["laying_s"]}.get(
+            component["method"]
+        )
+        if start is None or component["released_s"] is None or start <= component["released_s"]:
+            continue
+        step = FORMWORK if component["method"] == "cast_in_place" else LAYING
+        colors = waits[(round(component["released_s"], 3), round(start, 3))]
+        assert tuple(round(v, 6) for v in STEP_COLORS[step]) in colors
+        checked += 1
+    assert checked >= 2
