@@ -219,10 +219,12 @@ SELECTION_HEADS = (
 )
 
 
-# every reason :func:`select_components` gives (the class rule's and the element's own: a duplicate, no
-# body, an aggregate whose parts are built): an element left out before the conversion's count begins
+# every reason :func:`select_elements` gives (the class rule's and the element's own: a duplicate, no
+# body, an aggregate whose parts are built), and the parser's damage (taken out with them): an element left
+# out before the conversion's count ("N IFC elements to convert") begins
 SELECTED_OUT_HEADS = (
     *SELECTION_HEADS,
+    "damaged in the file",
     "duplicate GlobalId",
     "no geometry of its own",
     "no representation",
