@@ -138,9 +138,10 @@ class Parking:
 def not_parked_activity(xy: tuple[float, float], walled_in: bool) -> str:
     """What a robot whose parking drive failed says in its state (the run's progress line shows it, up to
     60 characters): where it waits and what that means for the build. Not walled in, nothing changes: it
-    waits there for its next task (``waits at (1.4, -6.3) for a task: no way to its depot``); walled in,
-    it takes no task until it gets out, and the other robots take the work."""
+    waits there for its next task (``waits at (1.4, -6.3) for a task, short of its depot``: a new user
+    read "no way to its depot" in a run that built everything as an error); walled in, it takes no task
+    until it gets out, and the other robots take the work."""
     where = f"({xy[0]:.1f}, {xy[1]:.1f})"
     if walled_in:
         return f"walled in at {where}: no task until it gets out"
-    return f"waits at {where} for a task: no way to its depot"
+    return f"waits at {where} for a task, short of its depot"
