@@ -126,7 +126,7 @@ def _named_others(
 
 
 def tasks_text(robot_id: str, robot: dict[str, Any], components: dict[str, dict[str, Any]]) -> str:
-    """``24 task(s): 20 built, 1 given back, 1 other (T0017 Beam B1-B2: placed unstable, retried), 2
+    """``24 task(s): 20 built, 1 given back, 1 not built by it (T0017 Beam B1-B2: placed unstable, retried), 2
     hand-off(s) to a crane``: the parts add up to the tasks; a report without the counts: ``11 task(s)``."""
     tasks = f"{len(robot['tasks'])} task(s)"
     hand_offs = sum(1 for task in robot["tasks"] if task.get("kind") == "hand_off")
@@ -144,7 +144,7 @@ def tasks_text(robot_id: str, robot: dict[str, Any], components: dict[str, dict[
         if len(others) > MAX_OTHERS_NAMED
         else ""
     )
-    return f"{text}, {len(others)} other ({named}{more}){handed}"
+    return f"{text}, {len(others)} not built by it ({named}{more}){handed}"
 
 
 def moved_text(robot: dict[str, Any]) -> str:

@@ -176,8 +176,8 @@ def method_word(method: str) -> str:
 
 
 def curing_line(report: Mapping[str, Any]) -> str | None:
-    """``cured: 2 cast components, the longest 72.0 h (259,200 s) (1 component ready but for a cure waited
-    for it, and what rests on it in turn)``, in the summary's duration format; None when nothing was cast.
+    """``cured: 2 cast components, the longest 72.0 h (259,200 s) (1 component that rests on one waited for
+    its cure, and what rests on it in turn)``, in the summary's duration format; None when nothing was cast.
     The count is of the planner's holds: what the cure held directly, not all it delayed. A cure that ends
     after the last construction (the makespan's end: a roof slab poured last) says how much later."""
     cured = [c["curing"] for c in report.get("components", []) if c.get("curing")]
@@ -190,9 +190,13 @@ def curing_line(report: Mapping[str, Any]) -> str | None:
     if held:
         which = "component" if held == 1 else "components"
         it = "it" if held == 1 else "them"
-        line += f" ({held} {which} ready but for a cure waited for it, and what rests on {it} in turn)"
+        rests = "rests" if held == 1 else "rest"
+        line += f" ({held} {which} that {rests} on one waited for its cure, and what rests on {it} in turn)"
     last_s = report.get("totals", {}).get("last_constructed_s")
     cured_s = max(entry["until_s"] for entry in cured)
     if last_s is not None and cured_s > last_s:  # the makespan ends at the last pour, the building later
-        line += f"; the last cure ends {duration_text(cured_s - last_s)} after the last construction"
+        line += (
+            f"; the last cure ends {duration_text(cured_s - last_s)} after the last construction (the "
+            "makespan ends there; the concrete reaches its strength then)"
+        )
     return line
