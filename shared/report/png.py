@@ -148,15 +148,19 @@ def with_marked_rows(named: range, marked: Collection[int]) -> list[int]:
     """``named`` plus the ``marked`` rows (a placement caught off target or unstable, an as-built error: what
     a user looks for), each taking the place of a named neighbour whose label would overlap it; at most a
     quarter of :data:`MAX_ROW_LABELS` of them, the first in the sequence. A new user could not tell which
-    component of the hub's 85 had toppled: its row was one of the unnamed. Of marked rows next to each other
-    every second is named (twelve toppled beams in a row had piled twelve labels into one smudge)."""
+    component of the hub's 85 had toppled: its row was one of the unnamed. Of marked rows closer than a
+    label's height only the first is named (twelve toppled beams in a row had piled twelve labels into one
+    smudge)."""
     if named.step == 1:
         return list(named)
+    # a label is about ``named.step`` rows high: marks closer than that, or a named row that close to a
+    # mark, overlap it (the structural sample's 937 rows, a label every 16th, piled marks 6 rows apart)
+    gap = named.step
     extra: list[int] = []
     for row in sorted(set(marked)):
-        if len(extra) < MAX_ROW_LABELS // 4 and (not extra or row - extra[-1] > 1):
+        if len(extra) < MAX_ROW_LABELS // 4 and (not extra or row - extra[-1] >= gap):
             extra.append(row)
-    kept = [row for row in named if row in extra or all(abs(row - mark) > 1 for mark in extra)]
+    kept = [row for row in named if row in extra or all(abs(row - mark) >= gap for mark in extra)]
     return sorted(set(kept) | set(extra))
 
 

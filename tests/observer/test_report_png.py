@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 from bimbot.shared.report.png import caught_last_title, labelled_rows, marked_row, with_marked_rows
 
 
@@ -30,6 +32,12 @@ def test_a_row_with_a_caught_placement_is_named_even_between_the_kth_rows() -> N
     assert with_marked_rows(labelled_rows(28), [3]) == list(range(28))  # every row named anyway
     run = with_marked_rows(regular, range(23, 36))  # thirteen toppled in a row: every second one named
     assert [row for row in run if 22 <= row <= 36] == [23, 25, 27, 29, 31, 33, 35]
+    # 937 rows, a label every 16th: marks 6 rows apart, or a named row 6 rows from a mark, would overlap
+    large = labelled_rows(937)
+    assert large.step == 16
+    marks = with_marked_rows(large, [369, 375, 385, 522, 529])
+    assert [row for row in marks if 350 <= row <= 540] == [352, 369, 385, 416, 432, 448, 464, 480, 496, 522]
+    assert all(b - a >= 16 for a, b in itertools.pairwise(marks))
     caught = {"guid": "a", "placements": [{"verdict": "misplaced"}, {"verdict": "constructed"}]}
     clean = {"guid": "b", "placements": [{"verdict": "constructed"}]}
     assert marked_row(caught, set()) and not marked_row(clean, set()) and marked_row(clean, {"b"})
