@@ -129,6 +129,9 @@ def run(args: argparse.Namespace) -> int:
     return code
 
 
+CONSOLE_WIDTH = 160
+
+
 def _print_table(
     rows: list[tuple[Component, Feasibility]],
     fleet: Fleet,
@@ -156,7 +159,7 @@ def _print_table(
             f"{component.bbox_world.max_m[2]:.2f}",
             how,
         )
-    console = Console(width=160)
+    console = Console(width=CONSOLE_WIDTH)
     if shown:
         console.print(table)
     failed = Counter(row.reason.code.value for _, row in rows if row.reason is not None)
@@ -175,11 +178,28 @@ def _print_table(
             f"fails them blocked_by, so it can build at most {buildable - len(blocked)}"
         )
     if routes:
-        console.print(
+        head = (
             "first route (the first machine named in each buildable row; a run gives each task to the "
             "capable machine that bids best): "
-            + ", ".join(f"{count} {route}" for route, count in routes.most_common())
         )
+        entries = [f"{count} {route}" for route, count in routes.most_common()]
+        for line in packed_lines(head, entries, CONSOLE_WIDTH):
+            console.print(line, soft_wrap=True)
+
+
+def packed_lines(head: str, entries: Sequence[str], width: int) -> list[str]:
+    """``head`` and ``entries`` joined by ", " in lines of at most ``width`` characters, broken only between
+    entries (the console broke "216 piling_rig (r6)" between its name and its id)."""
+    lines, line = [], head.rstrip()
+    for index, entry in enumerate(entries):
+        piece = entry + ("," if index < len(entries) - 1 else "")
+        joined = f"{line} {piece}" if line else piece
+        if len(joined) > width and line.strip():
+            lines.append(line)
+            joined = piece
+        line = joined
+    lines.append(line)
+    return lines
 
 
 def resting_on_unbuildable(

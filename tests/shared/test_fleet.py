@@ -347,3 +347,17 @@ def test_fleet_show_with_a_file_prints_the_fleet_in_force_which_loads_back_the_s
     in_force = load_fleet(path).with_robots(2)
     assert load_fleet(shown).model_dump() == in_force.model_dump()
     assert load_fleet(shown).types["carrier"].payload_kg == 5000.0
+
+
+def test_the_first_route_line_breaks_between_entries_never_inside_one() -> None:
+    """The console broke the structural sample's "216 piling_rig (r6)" between its name and its id."""
+    from bimbot.fleet_cli import packed_lines
+
+    entries = ["502 concrete_pump (r4)", "216 piling_rig (r6)", "172 line_pump (r5)", "22 husky"]
+    lines = packed_lines("first route:", entries, 50)
+    assert lines == [
+        "first route: 502 concrete_pump (r4),",
+        "216 piling_rig (r6), 172 line_pump (r5), 22 husky",
+    ]
+    assert all(len(line) <= 50 for line in lines)
+    assert packed_lines("first route:", ["1 husky"], 160) == ["first route: 1 husky"]
