@@ -158,7 +158,7 @@ class Dispatch:
         relocate for goes after the work its boom covers from where it stands. (A piling rig was offered
         the structural sample's 216 piles in the model's order, across the site and back: 11 relocations
         of half an hour.) Work another machine can also do keeps its place: deferred, a pour the boom pump
-        would relocate for went to the slower line pump, and the restaurant took 5.7 % longer.)"""
+        would relocate for went to the slower line pump, and the restaurant took 5.7 % longer."""
         state = self._state
         assert state.site is not None
         order = [guid for guid in state.plan.order if self._released(guid)]
