@@ -34,7 +34,6 @@ from .yard_slot import laid_slot
 
 SPOT_STEP_M = 0.5  # candidate centres around the mast
 LAYDOWN_GAP_M = 0.6  # between two loads, and between a load and what is blocked
-IN_PLACE = frozenset(BUILT_IN_PLACE)
 
 
 @dataclass(frozen=True)
@@ -60,7 +59,7 @@ def crane_only(components: Sequence[Component], fleet: Sequence[RobotDescription
     return [
         index
         for index, component in enumerate(components)
-        if component.method not in IN_PLACE and ground_kg < component.mass_kg <= hook_kg
+        if component.method not in BUILT_IN_PLACE and ground_kg < component.mass_kg <= hook_kg
     ]
 
 

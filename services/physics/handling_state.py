@@ -39,7 +39,6 @@ class Phase(StrEnum):
 
 
 DYNAMIC_PHASES = (Phase.SETTLING, Phase.PLACED)
-BUILT_WHERE_IT_STANDS = BUILT_IN_PLACE
 
 
 @dataclass(frozen=True)
@@ -132,7 +131,7 @@ def handling_refusal(
         return f"unknown component {guid}"
     if item.phase is Phase.JOINED:
         return f"{guid} is constructed (joined to the structure)"
-    if item.phase is Phase.UNBUILT or item.component.method in BUILT_WHERE_IT_STANDS:
+    if item.phase is Phase.UNBUILT or item.component.method in BUILT_IN_PLACE:
         return f"{guid} is {item.component.method.value}: it is built where it stands, never carried"
     if item.phase in DYNAMIC_PHASES and not fixed_ok:
         return f"{guid} is placed"

@@ -47,7 +47,6 @@ from .scene import (
 
 _log = logging.getLogger(__name__)
 
-NEEDS = WORK_CAPABILITY
 UNBUILT_DEPTH_M = 500.0  # an unbuilt component's body waits this far below its target
 HIDDEN_GROUP = 0  # no filter bit: nothing collides with it and no laser ray sees it
 
@@ -137,7 +136,7 @@ class InPlaceWork:
         method = item.component.method
         if method not in BUILT_IN_PLACE:
             return f"{guid} is {method.value}: it is carried and placed, not built where it stands"
-        needs = NEEDS[method]
+        needs = WORK_CAPABILITY[method]
         if not robot.description.can(needs):
             who = f"robot {robot.robot_id} ({robot.description.name})"
             return f"{who} cannot {needs.value}; {guid} is {method.value}"

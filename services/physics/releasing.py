@@ -18,10 +18,11 @@ import numpy as np
 
 from bimbot.shared.connection_hold import plan_connections, sets_supports, supports_s
 from bimbot.shared.footprint import body_centre_m
+from bimbot.shared.work_methods import BUILT_IN_PLACE
 
 from .client import p
 from .connections import fits_its_target, side_neighbours, within_gap
-from .handling_state import BUILT_WHERE_IT_STANDS, HandlingState, Item, Phase, target_frame
+from .handling_state import HandlingState, Item, Phase, target_frame
 from .pits import DEEPER_M
 from .release import (
     MAX_CLEARED_M,
@@ -306,7 +307,7 @@ class Releasing:
         return set(self._state.in_place.values()) | {
             guid
             for guid, item in self._state.items.items()
-            if item.phase is Phase.JOINED and item.component.method in BUILT_WHERE_IT_STANDS
+            if item.phase is Phase.JOINED and item.component.method in BUILT_IN_PLACE
         }
 
     def remove_supports(self, now_s: float) -> None:

@@ -42,8 +42,9 @@ from scipy.spatial.transform import Rotation, Slerp
 from bimbot.shared.connection_kinds import ConnectionKind
 from bimbot.shared.manifest import Component
 from bimbot.shared.verification import Tolerances, angle_error_rad
+from bimbot.shared.work_methods import BUILT_IN_PLACE
 
-from .handling_state import BUILT_WHERE_IT_STANDS, HandlingState, Item, Phase, target_frame
+from .handling_state import HandlingState, Item, Phase, target_frame
 from .joints import is_board
 from .release import clear_overlap, deep_overlaps, intrusions
 from .scene import Frame, compose, invert, rotate, set_component_pose
@@ -67,7 +68,7 @@ def built_supports(state: HandlingState, component: Component) -> list[BuiltSupp
     for link in component.connection_links:
         other = state.items.get(link.other_guid)
         if other is not None and other.phase is Phase.JOINED:
-            where_built = None if other.component.method in BUILT_WHERE_IT_STANDS else other.pose
+            where_built = None if other.component.method in BUILT_IN_PLACE else other.pose
             supports.append(BuiltSupport(link.kind, other.component, where_built))
         elif link.other_guid in in_place:
             supports.append(BuiltSupport(link.kind, None, None))

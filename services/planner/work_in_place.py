@@ -1,12 +1,12 @@
 """Work in place: which robot type can cast, lay or drive a component, and how long the work takes (pure).
 
 Why apart from :mod:`.capability`: a cast-in-place, laid or driven component is never carried. It is built
-where it stands by a machine that can do its method's work (:data:`WORK`: ``pour`` for cast in place,
-``lay`` for laid, ``pile`` for a driven pile); its mass does not matter. A machine that stands fixed (a
-boom pump, a block layer, a piling rig) builds it when its boom covers the whole target footprint from
-where it stands (the shared reach rule, :meth:`~bimbot.shared.robot_description.RobotDescription.reaches`);
-a machine that drives goes there. In both cases the target's top must lie within the machine's
-``max_place_height_m``.
+where it stands by a machine that can do its method's work (the shared ``WORK_CAPABILITY``: ``pour``
+for cast in place, ``lay`` for laid, ``pile`` for a driven pile); its mass does not matter. A machine
+that stands fixed (a boom pump, a block layer, a piling rig) builds it when its boom covers the whole
+target footprint from where it stands (the shared reach rule,
+:meth:`~bimbot.shared.robot_description.RobotDescription.reaches`); a machine that drives goes there. In
+both cases the target's top must lie within the machine's ``max_place_height_m``.
 
 Durations (sim seconds): a cast element's own work record (``Component.cast``: formwork, then pour; the
 cure is not the crew's time, it holds what rests on it); a laid element's blocks
@@ -26,9 +26,6 @@ from bimbot.shared.manifest import Component
 from bimbot.shared.robot_description import Capability, RobotDescription
 from bimbot.shared.work_methods import WORK_CAPABILITY, pile_length_m
 
-#: The capability each method of work in place needs (the shared table).
-WORK = WORK_CAPABILITY
-
 #: How a reason names the work a capability does.
 WORK_WORDS: dict[Capability, str] = {
     Capability.POUR: "pour concrete",
@@ -46,12 +43,12 @@ WORK_MACHINE: dict[Capability, str] = {
 
 def work_capability(component: Component) -> Capability | None:
     """The capability ``component``'s method needs (None: it is carried and placed, lifted or panelised)."""
-    return WORK.get(component.method)
+    return WORK_CAPABILITY.get(component.method)
 
 
 def works_in_place(component: Component) -> bool:
     """Built where it stands (cast in place, laid, driven), not carried."""
-    return component.method in WORK
+    return component.method in WORK_CAPABILITY
 
 
 _FOOTPRINTS: dict[int, tuple[Component, Footprint]] = {}  # id → (the component, kept alive; its footprint)

@@ -66,8 +66,6 @@ from .task_state import ExecutorConfig, task_event
 _log = logging.getLogger(__name__)
 _E, _C = ComponentEvent, ComponentState
 
-WORK = WORK_CAPABILITY
-
 
 @dataclass(frozen=True)
 class Step:
@@ -357,7 +355,7 @@ class SiteWorkExecutor:
             return
 
     def _cannot(self, component: Component) -> Reason | None:
-        needs = WORK.get(component.method)
+        needs = WORK_CAPABILITY.get(component.method)
         name = component.name or component.guid
         if needs is None or not self.description.can(needs):
             return Reason(
