@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from typing import TYPE_CHECKING
 
 import ifcopenshell
@@ -78,7 +79,9 @@ def geometry_work(item: PlacedElement, context: ShardContext) -> GeometryWork:
     return GeometryWork(
         mesh=mesh,
         props=props,
-        collision=collision_shape(item.element, mesh, context.unit_scale_m, sections=context.sections),
+        find_collision=partial(
+            collision_shape, item.element, mesh, context.unit_scale_m, sections=context.sections
+        ),
         volumes_by_style=volumes_by_style(mesh, geometry.face_style_ids, surface_m3)
         if len(geometry.face_style_ids)
         else {},
