@@ -21,10 +21,12 @@ what it can build. The rule, for each machine in robot id order, hook-lifting ma
   most there — then the farthest point of the building and of the yard (a yard larger than its chart's
   radius is served through its staging area, where ground robots hand loads off); it gets a staging area
   beside it (:mod:`.site_cranes`);
-* a **boom** machine (a pump, a block layer) takes the candidate whose boom covers (``reach_m`` from its
-  base to every corner of a component's footprint) the most components of the method it works (pour: cast
-  in place; lay: laid), then the most components of any method, then the one nearest the building's far
-  side (the smallest farthest-corner distance).
+* a **further crane** (a site that erects two or more for a building one jib does not cover) stands where
+  it hooks the most lifted parts no crane set up before it hooks (the hook over the centre of a part's
+  target, within the radius its chart lifts the part's mass to), then farthest from the cranes set up
+  before it (their jibs overlap the least), among the eight and the positions along each side every
+  ``CRANE_SIDE_STEP_M``; where it would hook none of those parts, by the first crane's rule. (A second
+  crane used to stand behind the first and hook what the first hooked.)
 
 Deterministic: the same components and fleet give the same positions.
 """
@@ -44,9 +46,11 @@ from .site_cranes import staging_area
 from .site_plan import Rect
 from .work_methods import WORK_METHOD
 
+CRANE_SIDE_STEP_M = 4.0  # a further crane's candidates along each side of the building, this far apart
 PUSH_STEP_M = 0.5  # a candidate that is not clear moves this far out at a time…
 MAX_PUSH_M = 150.0  # …up to this far (then the direction is given up)
 
+_LIFTED = frozenset({ConstructionMethod.LIFTED, ConstructionMethod.PANELISED})
 # (x, y) direction from the building's centre, in candidate order: sides first, then corners
 _DIRECTIONS = ((1, 0), (0, 1), (-1, 0), (0, -1), (1, 1), (-1, 1), (-1, -1), (1, -1))
 
@@ -80,39 +84,66 @@ def base_rect(machine: RobotDescription, pose: tuple[float, float, float]) -> Re
 
 
 def candidate(
-    building: Rect, machine: RobotDescription, lane_m: float, direction: tuple[int, int], extra_m: float = 0.0
+    building: Rect,
+    machine: RobotDescription,
+    lane_m: float,
+    direction: tuple[int, int],
+    extra_m: float = 0.0,
+    *,
+    along_m: float = 0.0,
 ) -> Setup:
     """The machine's set-up beside ``building`` in ``direction`` (a side: ``(1, 0)`` east…, a corner:
-    ``(1, 1)`` north-east…), a lane and ``extra_m`` clear of it, facing it."""
+    ``(1, 1)`` north-east…), a lane and ``extra_m`` clear of it, facing it; on a side, moved ``along_m``
+    from its middle along it."""
     (x0, y0), (x1, y1) = building.min_xy, building.max_xy
     dx, dy = direction
     yaw = machine_yaw(machine, math.atan2(-dy, 0.0) if dx == 0 else math.atan2(0.0, -dx))
     half = base_rect(machine, (0.0, 0.0, yaw)).max_xy
     gap_x, gap_y = lane_m + half[0] + extra_m, lane_m + half[1] + extra_m
-    x = (x0 + x1) / 2.0 if dx == 0 else (x1 + gap_x if dx > 0 else x0 - gap_x)
-    y = (y0 + y1) / 2.0 if dy == 0 else (y1 + gap_y if dy > 0 else y0 - gap_y)
+    x = (x0 + x1) / 2.0 + along_m if dx == 0 else (x1 + gap_x if dx > 0 else x0 - gap_x)
+    y = (y0 + y1) / 2.0 + along_m if dy == 0 else (y1 + gap_y if dy > 0 else y0 - gap_y)
     pose = (x, y, yaw)
     staging = staging_area(pose, machine) if machine.can(Capability.HOOK_LIFT) else None
     return Setup(pose, base_rect(machine, pose), staging)
 
 
 def clear_candidates(
-    building: Rect, machine: RobotDescription, lane_m: float, fixed: Sequence[Rect], taken: Sequence[Rect]
+    building: Rect,
+    machine: RobotDescription,
+    lane_m: float,
+    fixed: Sequence[Rect],
+    taken: Sequence[Rect],
+    *,
+    along_sides: bool = False,
 ) -> list[Setup]:
     """Per direction (in candidate order) whose first set-up overlaps none of ``fixed``, the nearest one
-    out along it that overlaps none of ``fixed`` and ``taken`` either."""
+    out along it that overlaps none of ``fixed`` and ``taken`` either; with ``along_sides`` also from the
+    positions along each side every ``CRANE_SIDE_STEP_M`` (after the eight)."""
     found = []
     blocked = [*fixed, *taken]
-    for direction in _DIRECTIONS:
-        first = candidate(building, machine, lane_m, direction)
+    places = [(direction, 0.0) for direction in _DIRECTIONS]
+    if along_sides:
+        places += [
+            (direction, along) for direction in _DIRECTIONS[:4] for along in _along(building, direction)
+        ]
+    for direction, along_m in places:
+        first = candidate(building, machine, lane_m, direction, along_m=along_m)
         if any(rect.overlaps(other) for rect in first.rects for other in fixed):
             continue  # over the yard, the depot or the main street: not pushed across them
         for step in range(int(MAX_PUSH_M / PUSH_STEP_M) + 1):
-            setup = candidate(building, machine, lane_m, direction, step * PUSH_STEP_M)
+            setup = candidate(building, machine, lane_m, direction, step * PUSH_STEP_M, along_m=along_m)
             if not any(rect.overlaps(other) for rect in setup.rects for other in blocked):
                 found.append(setup)
                 break
     return found
+
+
+def _along(building: Rect, direction: tuple[int, int]) -> list[float]:
+    """Offsets from the middle of the side in ``direction``, ``CRANE_SIDE_STEP_M`` apart within it (not 0:
+    the middle is one of the eight)."""
+    half_m = building.size[0 if direction[1] else 1] / 2.0
+    count = int(half_m // CRANE_SIDE_STEP_M)
+    return [sign * step * CRANE_SIDE_STEP_M for step in range(1, count + 1) for sign in (-1.0, 1.0)]
 
 
 def keep_clear(building: Rect, yard: Rect, depot: Rect, lane_m: float) -> list[Rect]:
@@ -151,14 +182,71 @@ def plan_machines(
     methods = [component.method for component in components]
     order = sorted(range(len(machines)), key=lambda i: (not machines[i].can(Capability.HOOK_LIFT), i))
     setups: dict[int, Setup] = {}
+    hooked: np.ndarray | None = None  # per component: a crane set up so far hooks it (None: no crane yet)
+    masts: list[tuple[float, float]] = []  # of the cranes set up so far
     for index in order:
         machine = machines[index]
+        lifts = machine.crane is not None and machine.can(Capability.HOOK_LIFT)
+        reach = HookReach.of(machine, components) if lifts else None
         free = clear_candidates(building, machine, lane_m, fixed, taken) or [
             candidate(building, machine, lane_m, _DIRECTIONS[0], MAX_PUSH_M)  # never on a 150 m wide site
         ]
         setups[index] = min(free, key=lambda setup: _cost(machine, setup, (building, yard), corners, methods))
+        if reach is not None and hooked is not None:  # a crane after the first
+            along = clear_candidates(building, machine, lane_m, fixed, taken, along_sides=True)
+            setups[index] = _further_crane(reach, ~hooked, masts, along) or setups[index]
+        if reach is not None:
+            masts.append(setups[index].pose[:2])
+            reached = reach.hooked(setups[index].pose[:2])
+            hooked = reached if hooked is None else hooked | reached
         taken += [rect.grown(lane_m) for rect in setups[index].rects]
     return [setups[index] for index in range(len(machines))]
+
+
+def _further_crane(
+    reach: HookReach, left: np.ndarray, masts: Sequence[tuple[float, float]], free: Sequence[Setup]
+) -> Setup | None:
+    """The set-up among ``free`` that hooks the most of the parts ``left`` (not hooked by a crane before
+    it), then the farthest from the ``masts`` of those; None when none hooks any of them."""
+    best: tuple[int, float, int] | None = None
+    for number, setup in enumerate(free):
+        new = int((reach.hooked(setup.pose[:2]) & left).sum())
+        apart_m = min(math.dist(setup.pose[:2], mast) for mast in masts)
+        key = (-new, -round(apart_m, 6), number)
+        if new and (best is None or key < best):
+            best = key
+    return None if best is None else free[best[2]]
+
+
+@dataclass(frozen=True)
+class HookReach:
+    """Where a crane type hooks each component: the centre of its target's footprint and the radius its
+    chart lifts its mass to (-1 for a part it does not lift: built in place, or too heavy)."""
+
+    centres_xy_m: np.ndarray  # (n, 2)
+    radius_m: np.ndarray  # (n,)
+    min_radius_m: float
+
+    @classmethod
+    def of(cls, crane: RobotDescription, components: Sequence[Component]) -> HookReach:
+        chart = crane.crane
+        assert chart is not None
+        low = np.array([component.bbox_world.min_m[:2] for component in components]).reshape(-1, 2)
+        high = np.array([component.bbox_world.max_m[:2] for component in components]).reshape(-1, 2)
+        radius_m = np.array(
+            [
+                chart.radius_for(component.mass_kg)
+                if component.method in _LIFTED and component.mass_kg <= crane.payload_kg
+                else -1.0
+                for component in components
+            ]
+        )
+        return cls((low + high) / 2.0, radius_m, chart.min_radius_m)
+
+    def hooked(self, mast_xy: Sequence[float]) -> np.ndarray:
+        """Per component: the crane at ``mast_xy`` hooks it where it goes."""
+        distance_m = np.hypot(*(self.centres_xy_m - np.asarray(mast_xy, float)[:2]).T)
+        return (distance_m >= self.min_radius_m - 1e-9) & (distance_m <= self.radius_m + 1e-9)
 
 
 def _cost(

@@ -233,6 +233,7 @@ def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) ->
                 f"whose trolley comes no nearer than {spec.min_radius_m:.1f} m"
                 if far < spec.min_radius_m
                 else f"whose load chart lifts {mass:,.0f} kg to {radius:.1f} m at most{mass_note(component)}"
+                + (BEYOND_THE_JIB_HINT if far > spec.max_radius_m else "")
             )
             return Reason(
                 code=ReasonCode.OUT_OF_REACH,
@@ -275,6 +276,15 @@ def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) ->
 NO_CRANE_HINT = (
     "; no tower crane is on site to place it higher (the default fleet has one: run without --robots, "
     "or give --fleet a fleet file with a tower_crane)"
+)
+
+
+#: What a user can do about a target beyond the jib of every crane on site (a building wider than a jib
+#: covers: a site erects more cranes).
+BEYOND_THE_JIB_HINT = (
+    "; it lies beyond the jib: a building this size takes more tower cranes (raise the tower_crane count "
+    "in a fleet file given with --fleet; each further crane is set up where it hooks what those before it "
+    "do not)"
 )
 
 

@@ -231,6 +231,10 @@ def test_an_out_of_reach_reason_measures_to_the_footprint_the_decision_used_not_
     centre_m = math.hypot((low[0] + high[0]) / 2.0, (low[1] + high[1]) / 2.0)
     assert f"is {centre_m:.1f} m from tower_crane r3" in verdict.reason.message
     assert "is 0.0 m from" not in verdict.reason.message
+    assert centre_m > CRANE.reach_m and "takes more tower cranes" in verdict.reason.message  # beyond the jib
+    near_body = beam.model_copy(update={"mass_kg": 20_000.0})  # at its placement, 0 m: too heavy, not far
+    near = component_feasibility(near_body, [SiteRobot("r3", CRANE, (0.0, 0.0, 0.0))]).reason
+    assert near is not None and "more tower cranes" not in near.message
 
 
 def test_a_restarted_planner_that_adopted_a_hand_off_as_a_build_frees_its_robot_when_it_ends() -> None:

@@ -16,7 +16,7 @@ from bimbot.shared.fleet import default_fleet
 from bimbot.shared.manifest import Component, read_manifest
 from bimbot.shared.robot_description import Capability
 from bimbot.shared.site_layout import LANE_M, plan_site
-from bimbot.shared.site_machines import covered_by_boom, farthest_m, keep_clear, plan_machines
+from bimbot.shared.site_machines import HookReach, covered_by_boom, farthest_m, keep_clear, plan_machines
 from bimbot.shared.site_plan import Rect, SiteLayout
 
 FLEET = default_fleet()
@@ -169,3 +169,32 @@ def test_the_crane_covers_the_whole_building_first_and_the_yard_only_between_equ
     east = (building.max_xy[0] + LANE_M + 4.5 / 2.0, (building.min_xy[1] + building.max_xy[1]) / 2.0)
     assert farthest_m(east, building) > farthest_m(crane.pose[:2], building) + 4.0
     assert farthest_m(east, building, yard) < farthest_m(crane.pose[:2], building, yard)  # the yard's pick
+
+
+def _hooked(layout: SiteLayout, fleet: list, components: list[Component]) -> list[np.ndarray]:
+    """Per crane of ``fleet`` (in robot id order): which components it hooks where the plan sets it up."""
+    return [
+        HookReach.of(item, components).hooked(pose[:2])
+        for item, pose in zip(fleet, layout.robot_starts, strict=True)
+        if item.crane is not None
+    ]
+
+
+def test_a_further_crane_stands_where_it_hooks_what_the_cranes_before_it_do_not() -> None:
+    """A 160 m building: the first crane's jib (60 m) hooks its middle from the north side, not its ends. A
+    second and a third crane stand at the ends the first leaves out (a second crane used to stand behind
+    the first, hooking what the first hooked): together the three hook every part."""
+    components = long_building(length_m=160.0)
+    one = FLEET.robot_types()
+    first = _hooked(plan_site(components, fleet=one), one, components)[0]
+    assert 0 < first.sum() < len(components)
+    three = [*one, CRANE, CRANE]
+    layout = plan_site(components, fleet=three)
+    hooked = _hooked(layout, three, components)
+    assert np.array_equal(hooked[0], first)  # the first crane stands where it stood alone
+    assert (hooked[1] & ~hooked[0]).any() and (hooked[2] & ~(hooked[0] | hooked[1])).any()
+    assert np.logical_or.reduce(hooked).all()
+    masts = [
+        pose[:2] for item, pose in zip(three, layout.robot_starts, strict=True) if item.crane is not None
+    ]
+    assert min(math.dist(a, b) for i, a in enumerate(masts) for b in masts[i + 1 :]) > 40.0
