@@ -30,7 +30,8 @@ from bimbot.shared.idle_machines import lifts_parts
 from bimbot.shared.manifest import Component, MassSource
 from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.robot_description import Capability
-from bimbot.shared.site_plan import YardSlot
+from bimbot.shared.site_layout import LANE_M, building_footprint
+from bimbot.shared.site_plan import Rect, YardSlot
 
 from .capability import (
     SiteRobot,
@@ -75,9 +76,13 @@ def slot_where(component: Component, slot: YardSlot | None) -> Where:
 
 
 def component_feasibility(
-    component: Component, robots: Sequence[SiteRobot], slot: YardSlot | None = None
+    component: Component,
+    robots: Sequence[SiteRobot],
+    slot: YardSlot | None = None,
+    building: Rect | None = None,
 ) -> Feasibility:
-    """How ``component`` can be built by ``robots`` from its yard ``slot``."""
+    """How ``component`` can be built by ``robots`` from its yard ``slot`` (``building``: the site plan's
+    building rectangle, for a reason's advice on cranes)."""
     if works_in_place(component):
         return _in_place_feasibility(component, robots)
     where = slot_where(component, slot)
@@ -103,7 +108,7 @@ def component_feasibility(
     lifters = [robot for robot in robots if lifts_parts(robot.description)]
     if not lifters:
         return Feasibility(component.guid, (), (), _no_lifter(component, robots))
-    return Feasibility(component.guid, (), (), _why_not(component, lifters, where))
+    return Feasibility(component.guid, (), (), _why_not(component, lifters, where, building))
 
 
 def _in_place_feasibility(component: Component, robots: Sequence[SiteRobot]) -> Feasibility:
@@ -208,7 +213,9 @@ def mass_note(component: Component) -> str:
     return f"; the mass is an estimate, {how}: the IFC states no weight for it" if how else ""
 
 
-def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) -> Reason:
+def _why_not(
+    component: Component, robots: Sequence[SiteRobot], where: Where, building: Rect | None = None
+) -> Reason:
     mass, top_z = component.mass_kg, component.bbox_world.max_m[2]
     kinds = ", ".join(sorted({robot.description.name for robot in robots}))
     heaviest = max((robot.description for robot in robots), key=lambda item: item.payload_kg)
@@ -221,7 +228,7 @@ def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) ->
                 + mass_note(component)
             ),
         )
-    for robot in robots:
+    for robot in sorted(robots, key=lambda item: _hook_m(item, component)):  # the nearest crane first
         spec = robot.description.crane
         if spec is None or robot.description.refusal(mass, top_z) is not None:
             continue  # only a hook's load chart turns on the distance
@@ -233,7 +240,7 @@ def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) ->
                 f"whose trolley comes no nearer than {spec.min_radius_m:.1f} m"
                 if far < spec.min_radius_m
                 else f"whose load chart lifts {mass:,.0f} kg to {radius:.1f} m at most{mass_note(component)}"
-                + (BEYOND_THE_JIB_HINT if far > spec.max_radius_m else "")
+                + (_beyond_the_jib(robot, component, building) if far > spec.max_radius_m else "")
             )
             return Reason(
                 code=ReasonCode.OUT_OF_REACH,
@@ -263,8 +270,12 @@ def _why_not(component: Component, robots: Sequence[SiteRobot], where: Where) ->
             ),
             robot_id=robot.robot_id,
         )
+    # the refusal of the strongest robot that refuses: a crane's (its jib's height), not a Husky's payload
     refusals = [robot.description.refusal(mass, top_z) for robot in robots]
-    refusal = next(refusal for refusal in refusals if refusal is not None)
+    _, refusal = max(
+        ((robot, why) for robot, why in zip(robots, refusals, strict=True) if why is not None),
+        key=lambda item: item[0].description.payload_kg,
+    )
     if refusal.code is ReasonCode.OUT_OF_REACH and not any(
         robot.description.can(Capability.HOOK_LIFT) for robot in robots
     ):
@@ -280,7 +291,7 @@ NO_CRANE_HINT = (
 
 
 #: What a user can do about a target beyond the jib of every crane on site (a building wider than a jib
-#: covers: a site erects more cranes).
+#: covers: a site erects more cranes round it).
 BEYOND_THE_JIB_HINT = (
     "; it lies beyond the jib: a building this size takes more tower cranes (raise the tower_crane count "
     "in a fleet file given with --fleet; each further crane is set up where it hooks what those before it "
@@ -288,11 +299,38 @@ BEYOND_THE_JIB_HINT = (
 )
 
 
+def _hook_m(robot: SiteRobot, component: Component) -> float:
+    """A crane's hook radius over ``component``'s target; infinite for a robot without a hook."""
+    return math.inf if robot.description.crane is None else target_hook_radius_m(robot, component)
+
+
+def _beyond_the_jib(robot: SiteRobot, component: Component, building: Rect | None) -> str:
+    """The advice for a target beyond ``robot``'s jib: more cranes round the building, unless the target
+    lies deeper inside the building than any crane set up round it hooks (at least a lane and half the
+    crane's base outside its edge); a site puts a crane inside such a footprint, which the plan does not."""
+    spec = robot.description.crane
+    assert spec is not None
+    if building is None:
+        return BEYOND_THE_JIB_HINT
+    x, y = target_centre_xy(component)
+    (x0, y0), (x1, y1) = building.min_xy, building.max_xy
+    inside_m = min(x - x0, x1 - x, y - y0, y1 - y)
+    nearest_m = inside_m + LANE_M + robot.description.length_m / 2.0
+    if nearest_m <= spec.max_radius_m:
+        return BEYOND_THE_JIB_HINT
+    return (
+        f"; it lies {inside_m:.0f} m inside the building's edge, so no crane set up round the building "
+        f"hooks it (the nearest would stand {nearest_m:.0f} m away, beyond a {spec.max_radius_m:.0f} m jib): "
+        "a site this wide stands a tower crane inside the footprint, which bimbot's site plan does not do"
+    )
+
+
 def feasibility_table(
     components: Sequence[Component], robots: Sequence[SiteRobot], slots: dict[str, YardSlot]
 ) -> list[Feasibility]:
     """One row per component, in manifest order."""
-    return [component_feasibility(item, robots, slots.get(item.guid)) for item in components]
+    building = building_footprint(components) if components else None
+    return [component_feasibility(item, robots, slots.get(item.guid), building) for item in components]
 
 
 def infeasible(

@@ -237,6 +237,59 @@ def test_an_out_of_reach_reason_measures_to_the_footprint_the_decision_used_not_
     assert near is not None and "more tower cranes" not in near.message
 
 
+def _beam_at(x_m: float, **update: object) -> Component:
+    """The portal's beam moved ``x_m`` east (its body and its placement), with ``update``."""
+    beam = next(c for c in _manifest(beam=300.0).components if c.guid == "beam")
+    pose = beam.target_pose_world
+    moved = pose.model_copy(update={"position_m": (pose.position_m[0] + x_m, *pose.position_m[1:])})
+    low, high = beam.bbox_world.min_m, beam.bbox_world.max_m
+    box = beam.bbox_world.model_copy(
+        update={"min_m": (low[0] + x_m, *low[1:]), "max_m": (high[0] + x_m, *high[1:])}
+    )
+    return beam.model_copy(update={"target_pose_world": moved, "bbox_world": box, **update})
+
+
+def test_beyond_every_jib_the_advice_is_more_cranes_only_where_a_crane_round_the_building_could_hook_it() -> (
+    None
+):
+    """A public Revit office (236 m × 161 m): a user who followed "a building this size takes more tower
+    cranes" with six cranes got the same sentence back for parts 80 m inside the building, which no crane
+    standing round it hooks. Such a part now says how deep inside it lies; one near an edge keeps the
+    advice; several cranes: the reason names the nearest."""
+    from bimbot.services.planner.feasibility import component_feasibility
+
+    building = Rect((-5.0, -160.0), (235.0, 5.0))
+    crane = SiteRobot("r3", CRANE, (0.0, 12.0, 0.0))
+    deep = component_feasibility(_beam_at(100.0), [crane], None, Rect((-5.0, -160.0), (235.0, 100.0)))
+    assert deep.reason is not None and deep.reason.code.value == "out_of_reach"
+    assert "inside the building's edge" in deep.reason.message
+    assert "more tower cranes" not in deep.reason.message
+    edge = component_feasibility(_beam_at(100.0), [crane], None, building).reason
+    assert edge is not None and "takes more tower cranes" in edge.message
+    far_crane = SiteRobot("r7", CRANE, (-200.0, 12.0, 0.0))
+    both = component_feasibility(_beam_at(100.0), [far_crane, crane], None, building).reason
+    assert both is not None and "from tower_crane r3" in both.message
+
+
+def test_a_part_no_robot_takes_is_refused_by_the_strongest_robot_not_the_first() -> None:
+    """The office's 7.8 t slab panel at 37 m, above the crane's placement height, read "exceeds the husky
+    payload of 75 kg" with an 8 t crane and a 3 t carrier on site: the reason is the crane's height."""
+    from bimbot.services.planner.feasibility import component_feasibility
+
+    high = _beam_at(0.0, mass_kg=7_830.0)
+    top = CRANE.max_place_height_m + 1.0
+    low, high_m = high.bbox_world.min_m, high.bbox_world.max_m
+    box = high.bbox_world.model_copy(update={"min_m": (*low[:2], top - 0.3), "max_m": (*high_m[:2], top)})
+    robots = [
+        SiteRobot("r1", HUSKY, (-10.0, -10.0, 0.0)),
+        SiteRobot("r2", CARRIER, (-12.0, -10.0, 0.0)),
+        SiteRobot("r3", CRANE, (0.0, 12.0, 0.0)),
+    ]
+    reason = component_feasibility(high.model_copy(update={"bbox_world": box}), robots).reason
+    assert reason is not None and "husky" not in reason.message
+    assert "tower_crane" in reason.message and "placement height" in reason.message
+
+
 def test_a_restarted_planner_that_adopted_a_hand_off_as_a_build_frees_its_robot_when_it_ends() -> None:
     manifest = _manifest(beam=300.0)
     robots = [
