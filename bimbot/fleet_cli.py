@@ -27,6 +27,7 @@ import sys
 from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from bimbot.services.planner.capability import robots_on_plan
 from bimbot.services.planner.feasibility import Feasibility, feasibility_table
@@ -37,6 +38,9 @@ from bimbot.shared.option_types import positive_int
 from bimbot.shared.service_runner import resolve_build
 from bimbot.shared.site_layout import plan_site
 from bimbot.shared.support_graph import support_predecessors
+
+if TYPE_CHECKING:
+    from rich.table import Table
 
 _log = logging.getLogger(__name__)
 
@@ -55,8 +59,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--summary",
         action="store_true",
-        help="check: the totals and a row for each component that cannot be built, none for the rest "
-        "(a large build's table runs to hundreds of rows above its totals)",
+        help="check: the totals and the components that cannot be built, none of the rest; those of one "
+        "class whose reasons say the same but for their figures take one row (a large build's full "
+        "table runs to thousands of rows above its totals)",
     )
 
 
@@ -147,18 +152,21 @@ def _print_table(
     shown = [(c, row) for c, row in rows if row.reason is not None] if only_unbuildable else rows
     what = "cannot build" if only_unbuildable else "can build"
     table = Table(title=f"what {source}{fleet.summary()} {what} ({len(shown)} of {len(rows)} components)")
-    for column in ("component", "class", "method", "mass kg", "top m", "built by / why not"):
-        table.add_column(column, justify="right" if column in ("mass kg", "top m") else "left")
-    for component, row in shown:
-        how = "; ".join(row.routes) if row.reason is None else f"[red]{row.reason.line()}[/red]"
-        table.add_row(
-            f"{component.name or component.guid}",
-            component.ifc_class,
-            component.method.value,
-            f"{component.mass_kg:,.0f}",
-            f"{component.bbox_world.max_m[2]:.2f}",
-            how,
-        )
+    if only_unbuildable:
+        _summary_rows(table, shown)
+    else:
+        for column in ("component", "class", "method", "mass kg", "top m", "built by / why not"):
+            table.add_column(column, justify="right" if column in ("mass kg", "top m") else "left")
+        for component, row in shown:
+            how = "; ".join(row.routes) if row.reason is None else f"[red]{row.reason.line()}[/red]"
+            table.add_row(
+                f"{component.name or component.guid}",
+                component.ifc_class,
+                component.method.value,
+                f"{component.mass_kg:,.0f}",
+                f"{component.bbox_world.max_m[2]:.2f}",
+                how,
+            )
     console = Console(width=CONSOLE_WIDTH)
     if shown:
         console.print(table)
@@ -185,6 +193,26 @@ def _print_table(
         entries = [f"{count} {route}" for route, count in routes.most_common()]
         for line in packed_lines(head, entries, CONSOLE_WIDTH):
             console.print(line, soft_wrap=True)
+
+
+def _summary_rows(table: Table, shown: list[tuple[Component, Feasibility]]) -> None:
+    """The rows of ``--summary``: components of one class whose reasons say the same but for their
+    figures take one row (how many, each differing figure as its range, the first names), as in the run's
+    not-built table; the most frequent reason first. The Revit office's 4,105 rows had run to 39,709 lines
+    above the totals."""
+    from bimbot.run.table import by_reason, same_reason_together
+
+    plain = [
+        (component.name or component.guid, component.guid, component.ifc_class, row.reason.code.value,
+         row.reason.message)
+        for component, row in shown
+        if row.reason is not None
+    ]  # fmt: skip
+    counts = Counter(item[3] for item in plain)
+    for column in ("component", "class", "why not"):
+        table.add_column(column)
+    for name, _, ifc_class, code, message in by_reason(same_reason_together(plain), counts):
+        table.add_row(name, ifc_class, f"[red]{code}: {message}[/red]")
 
 
 def packed_lines(head: str, entries: Sequence[str], width: int) -> list[str]:

@@ -293,11 +293,13 @@ def test_fleet_check_prints_the_husky_only_fleet_footings_too_heavy_with_the_num
     assert "so it can build at most 0" in done.stdout
     assert f"the fleet of {path}" in done.stdout.replace("\n", "")  # which file the table is for
     assert done.stdout.count("259 kg exceeds the largest payload on site (75 kg") == 9
-    # --summary: the totals and the nine footings that cannot be built, no row for the 19 columns and beams
+    # --summary: the totals and the nine footings that cannot be built, no row for the 19 columns and beams;
+    # the nine say the same, so they take one row (the Revit office's 4,105 rows ran to 39,709 lines)
     summary = _fleet_check(bundled_build, "--fleet", str(path), "--summary")
     assert summary.returncode == 1, summary.stderr
     assert "buildable: 19 of 28; cannot: 9 too_heavy" in summary.stdout
-    assert summary.stdout.count("259 kg exceeds the largest payload on site (75 kg") == 9
+    assert summary.stdout.count("259 kg exceeds the largest payload on site (75 kg") == 1
+    assert "9 components" in summary.stdout
     assert "(9 of 28 components)" in summary.stdout and "IfcColumn" not in summary.stdout
 
 
