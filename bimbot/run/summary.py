@@ -27,6 +27,7 @@ from bimbot.shared.report.totals import makespan_window
 from bimbot.shared.run_folder import RunFolder
 
 MAX_PLAN_WARNINGS_SHOWN = 5
+MIN_CHAIN = 3  # this many components built one after another before the summary calls it a chain
 
 
 @dataclass
@@ -205,6 +206,9 @@ def summary_text(outcome: RunOutcome) -> str:
     utilisation = utilisation_line(outcome.report)
     if utilisation is not None:
         lines.append(utilisation)
+    one_at_a_time = one_at_a_time_line(outcome.report)
+    if one_at_a_time is not None:
+        lines.append(one_at_a_time)
     restarts = outcome.report.get("restarts", [])
     if restarts:
         lines.append(f"services that died during the run ({len(restarts)}):")
@@ -230,6 +234,36 @@ def summary_text(outcome: RunOutcome) -> str:
     if exit_why is not None:
         lines.append(exit_why)
     return "\n".join(lines) + "\n"
+
+
+def one_at_a_time_line(report: dict[str, Any]) -> str | None:
+    """``one component at a time: …``, when each constructed component was released only once the one
+    before it was built, with several robots on site and a sequence the run did not derive; else None.
+    A new user ran a 361-part frame with seven robots on the sample's 4D schedule (one chain): 14.7 h,
+    six robots idle, and nothing said why; ``--derive`` built it in 2.3 h."""
+    settings = report.get("settings") or {}
+    sequence = str(settings.get("sequence") or "")
+    if "derive" in sequence or len(report.get("robots") or {}) < 2:
+        return None
+    spans = sorted(
+        (component["released_s"], component["constructed_s"])
+        for component in report.get("components", [])
+        if component.get("state") == "constructed"
+        and component.get("released_s") is not None
+        and component.get("constructed_s") is not None
+    )
+    if len(spans) < MIN_CHAIN:
+        return None
+    built_s = spans[0][1]
+    for released_s, constructed_s in spans[1:]:
+        if released_s < built_s - 1e-6:
+            return None  # two were at work at once
+        built_s = max(built_s, constructed_s)
+    return (
+        f"one component at a time: each of the {len(spans)} was released only once the one before it was "
+        f"built, so the other robots waited: the sequence ({sequence}) released them one after another. "
+        "--derive releases each component once what it rests on is built, and the robots work at once"
+    )
 
 
 def exit_line(outcome: RunOutcome) -> str | None:

@@ -8,7 +8,7 @@ from run_builders import watch_of
 from test_run_loop_dead_service import _Dead, _Monitor
 
 from bimbot.run.robot_summary import moved_text, tasks_text
-from bimbot.run.summary import RunOutcome, method_line, summary_text
+from bimbot.run.summary import RunOutcome, method_line, one_at_a_time_line, summary_text
 
 
 def _report() -> dict:
@@ -133,3 +133,26 @@ def test_a_machine_that_stands_fixed_says_its_relocations_not_zero_metres_driven
     assert moved_text({"distance_m": 412.4, "relocations": 0}) == ", 412 m driven"
     assert moved_text({"distance_m": 0.0, "relocations": 11}) == ", 11 relocation(s) between set-ups"
     assert moved_text({"distance_m": 0.0, "relocations": 0}) == ""  # a crane: it never moves
+
+
+def _chain_report(spans: list[tuple[float, float]], sequence: str) -> dict:
+    components = [
+        {"guid": f"C{i}", "state": "constructed", "released_s": start, "constructed_s": end}
+        for i, (start, end) in enumerate(spans)
+    ]
+    return {"components": components, "robots": {"r1": {}, "r2": {}}, "settings": {"sequence": sequence}}
+
+
+def test_a_build_of_one_component_at_a_time_on_a_given_sequence_says_why_the_robots_waited() -> None:
+    """A 361-part frame with seven robots on the sample's 4D schedule (one chain) took 14.7 h with six
+    robots idle and nothing said why; --derive took 2.3 h. The summary names the chain and the way out;
+    it says nothing when two components were at work at once or when the run derived its sequence."""
+    chained = [(0.0, 100.0), (100.0, 250.0), (250.0, 300.0), (300.0, 420.0)]
+    line = one_at_a_time_line(_chain_report(chained, "the build's sequence.xml"))
+    assert line is not None and "each of the 4" in line and "--derive" in line
+    assert "the build's sequence.xml" in line
+    overlapping = [(0.0, 100.0), (50.0, 250.0), (250.0, 300.0), (300.0, 420.0)]
+    assert one_at_a_time_line(_chain_report(overlapping, "the build's sequence.xml")) is None
+    assert one_at_a_time_line(_chain_report(chained, "derived from the structure (--derive)")) is None
+    alone = _chain_report(chained, "the build's sequence.xml") | {"robots": {"r1": {}}}
+    assert one_at_a_time_line(alone) is None
