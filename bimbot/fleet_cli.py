@@ -29,7 +29,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bimbot.services.planner.capability import robots_on_plan
+from bimbot.services.planner.capability import SiteRobot, robots_on_plan
 from bimbot.services.planner.feasibility import Feasibility, feasibility_table
 from bimbot.shared.fleet import DEFAULT_FLEET_FILE, Fleet, check_urdfs, load_fleet
 from bimbot.shared.idle_machines import idle_machine_types, without_types
@@ -84,12 +84,33 @@ def fleet_in_force(fleet: Fleet, path: Path | None, robots: int | None) -> str:
 
 def check(manifest: Manifest, fleet: Fleet) -> list[tuple[Component, Feasibility]]:
     """The feasibility table of a build for ``fleet``, on the site plan physics would make."""
+    return checked(manifest, fleet)[0]
+
+
+def checked(manifest: Manifest, fleet: Fleet) -> tuple[list[tuple[Component, Feasibility]], list[SiteRobot]]:
+    """:func:`check`'s table and the robots where the site plan puts them."""
     components = list(manifest.components)
     descriptions = fleet.robot_types()
     layout = plan_site(components, fleet=descriptions)
     robots = robots_on_plan(list(fleet.type_of()), descriptions, layout)
     rows = feasibility_table(components, robots, dict(layout.slots))
-    return list(zip(components, rows, strict=True))
+    return list(zip(components, rows, strict=True)), robots
+
+
+SET_UP_HEAD = "set up round the building (x, y in the site frame, m):"
+
+
+def set_up_entries(robots: Sequence[SiteRobot]) -> list[str]:
+    """``tower_crane r3 (248.4, 410.8)``…: where each machine that stands fixed stands, for the line after
+    the totals (a new user could not tell where a second crane stood)."""
+    entries = []
+    for robot in robots:
+        if robot.stands_fixed:
+            x, y, _ = robot.home_xy_yaw
+            more = len(robot.set_up_at) - 1
+            extra = f" and {more} more set-up(s)" if more > 0 else ""
+            entries.append(f"{robot.description.name} {robot.robot_id} ({x:.1f}, {y:.1f}){extra}")
+    return entries
 
 
 def run(args: argparse.Namespace) -> int:
@@ -111,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
     # the machines bimbot run leaves off site stay off here too, so the robots' ids are the run's
     idle = idle_machine_types(fleet, (component.method for component in manifest.components))
     fleet = without_types(fleet, idle)
-    rows = check(manifest, fleet)
+    rows, robots = checked(manifest, fleet)
     code = 0 if all(row.reason is None for _, row in rows) else 1  # 1: some component has no route
     if args.json:
         for component, row in rows:
@@ -131,6 +152,9 @@ def run(args: argparse.Namespace) -> int:
     if idle:
         sys.stdout.write(f"off site, no work in this build (as bimbot run leaves them): {', '.join(idle)}\n")
     _print_table(rows, fleet, manifest.joints, only_unbuildable=args.summary)
+    machines = set_up_entries(robots)
+    if machines:
+        sys.stdout.writelines(line + "\n" for line in packed_lines(SET_UP_HEAD, machines, CONSOLE_WIDTH))
     return code
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -311,6 +312,9 @@ def test_fleet_check_leaves_off_site_the_machines_a_run_leaves_off_so_the_ids_ar
     line pump as r6 in the check and r5 in the run)."""
     done = _fleet_check(bundled_build)
     assert done.returncode == 0, done.stderr
+    # where the machines that stand fixed stand (a new user could not tell where a second crane stood)
+    where = next(line for line in done.stdout.splitlines() if line.startswith("set up round the building"))
+    assert re.search(r"tower_crane r\d+ \(-?\d+\.\d, -?\d+\.\d\)", where), where
     idle = idle_machine_types(DEFAULT, [ConstructionMethod.LIFTED])
     assert idle  # the default fleet has machines that only pour or lay
     assert f"off site, no work in this build (as bimbot run leaves them): {', '.join(idle)}" in done.stdout
