@@ -42,6 +42,11 @@ class ClippedDistanceField:
         self._field = np.full(self.shape, self.max_distance_m)
         self._dirty: list[Window] = [(0, self.shape[0], 0, self.shape[1])]
 
+    @property
+    def reach_cells(self) -> int:
+        """How many cells from a changed cell the field may change."""
+        return self._reach
+
     def touch(self, cells: NDArray[np.integer]) -> None:
         """Cells ``(n, 2)`` whose occupancy changed (or may have): the field around them is recomputed on
         the next read."""

@@ -102,9 +102,11 @@ def access_plan(
             break
         added += new
         frozen = {guid: frozenset(values) for guid, values in preds.items()}
+        earlier = (plan.order, check)
         plan = replace(plan, predecessors=frozen, order=_priority_order(plan.order, frozen))
         access.reset()
-        check = check_order(access, plan.order, _stage(report, f"access check, mended {rounds} time(s)"))
+        stage = _stage(report, f"access check, mended {rounds} time(s)")
+        check = check_order(access, plan.order, stage, earlier=earlier)
     cut_offs = _driven_to(check.cut_offs, in_place)
     warnings = [
         f"access check: placing {_describe(placed, by_guid)} cuts off {_describe(cut, by_guid)}"

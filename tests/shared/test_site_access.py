@@ -134,7 +134,7 @@ def test_what_a_placement_would_cut_off_is_answered_without_changing_the_grid(bu
     """The gate in the room's doorway cuts the column off; asked, the grid and its free region stay as
     they were. Answered in a window round the part, and on the whole grid when that cannot tell: the same
     answers along a whole build order."""
-    from bimbot.shared import site_access
+    from bimbot.shared import free_region, site_access
 
     built, column, ring, gate = _room_with_gate(bundled_build)
     layout = plan_site(built, robots=1)
@@ -156,13 +156,14 @@ def test_what_a_placement_would_cut_off_is_answered_without_changing_the_grid(bu
         access.place(guid)
     whole = SiteAccess(built, layout, DEFAULT_ROBOT, AccessConfig(0.1))
     whole.place(ring.guid)
-    local, site_access._splits_nothing = site_access._splits_nothing, lambda before, free: False
+    local, site_access.splits_nothing = site_access.splits_nothing, lambda before, free: False
+    free_region.splits_nothing = site_access.splits_nothing  # and the region itself labelled whole
     try:
         for guid, answer in zip(order, answers, strict=True):
             assert whole.cut_off_by(guid, order) == answer, guid
             whole.place(guid)
     finally:
-        site_access._splits_nothing = local
+        site_access.splits_nothing = free_region.splits_nothing = local
     assert any(answers), "some placement in the order cuts something off"
 
 
@@ -191,6 +192,36 @@ def test_the_check_asks_only_whose_reach_the_region_changed_in_and_answers_as_as
         assert fast == everyone
         cutting += bool(fast.cut_offs)
     assert cutting, "some order cuts something off (the gate, the room)"
+
+
+def test_a_check_taken_on_from_an_earlier_order_answers_as_a_check_from_the_start(
+    bundled_build: Path,
+) -> None:
+    """A mended plan shares its first steps with the order checked before it: the check takes those
+    answers over and goes on from the first step that differs. Along several pairs of orders of the room,
+    its gate and the frame (the second the first with a tail shuffled), the answers equal a whole check's,
+    and the steps taken over are not checked again."""
+    built, _, _, _ = _room_with_gate(bundled_build)
+    layout = plan_site(built, robots=1)
+    rng = np.random.default_rng(5)
+    guids = [c.guid for c in built]
+    taken_over = 0
+    for keep in (0, 3, len(guids) // 2, len(guids) - 2, len(guids)):
+        first = [str(g) for g in rng.permutation(guids)]
+        second = first[:keep] + [str(g) for g in rng.permutation(first[keep:])]
+        access = SiteAccess(built, layout, DEFAULT_ROBOT)
+        earlier = check_order(access, first)
+        access.reset()
+        steps: list[int] = []
+        resumed = check_order(
+            access, second, lambda done, _, seen=steps: seen.append(done), earlier=(first, earlier)
+        )
+        assert resumed == check_order(SiteAccess(built, layout, DEFAULT_ROBOT), second)
+        shared = next((i for i, (a, b) in enumerate(zip(first, second, strict=True)) if a != b), len(second))
+        assert steps == list(range(shared, len(second)))
+        assert access.placed == set(second)
+        taken_over += shared
+    assert taken_over > 0
 
 
 def test_what_the_access_remembers_between_changes_is_what_it_would_read_afresh(bundled_build: Path) -> None:
