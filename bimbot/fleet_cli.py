@@ -37,6 +37,7 @@ from bimbot.shared.manifest import Component, Joint, Manifest
 from bimbot.shared.option_types import positive_int
 from bimbot.shared.service_runner import resolve_build
 from bimbot.shared.site_layout import plan_site
+from bimbot.shared.site_plan import Rect
 from bimbot.shared.support_graph import support_predecessors
 
 if TYPE_CHECKING:
@@ -87,17 +88,26 @@ def check(manifest: Manifest, fleet: Fleet) -> list[tuple[Component, Feasibility
     return checked(manifest, fleet)[0]
 
 
-def checked(manifest: Manifest, fleet: Fleet) -> tuple[list[tuple[Component, Feasibility]], list[SiteRobot]]:
-    """:func:`check`'s table and the robots where the site plan puts them."""
+def checked(
+    manifest: Manifest, fleet: Fleet
+) -> tuple[list[tuple[Component, Feasibility]], list[SiteRobot], Rect]:
+    """:func:`check`'s table, the robots where the site plan puts them and the building's rectangle."""
     components = list(manifest.components)
     descriptions = fleet.robot_types()
     layout = plan_site(components, fleet=descriptions)
     robots = robots_on_plan(list(fleet.type_of()), descriptions, layout)
     rows = feasibility_table(components, robots, dict(layout.slots))
-    return list(zip(components, rows, strict=True)), robots
+    return list(zip(components, rows, strict=True)), robots, layout.building
 
 
-SET_UP_HEAD = "set up round the building (x, y in the site frame, m):"
+def set_up_head(building: Rect) -> str:
+    """``set up round the building (x 130.5–366.3, y 243.5–404.6 m; …):`` (a new user could not place the
+    machines' coordinates without the building's own)."""
+    (x0, y0), (x1, y1) = building.min_xy, building.max_xy
+    return (
+        f"set up round the building (x {x0:.1f}–{x1:.1f}, y {y0:.1f}–{y1:.1f} m, the site frame of "
+        "manifest.json's targets; each machine at x, y):"
+    )
 
 
 def set_up_entries(robots: Sequence[SiteRobot]) -> list[str]:
@@ -132,7 +142,7 @@ def run(args: argparse.Namespace) -> int:
     # the machines bimbot run leaves off site stay off here too, so the robots' ids are the run's
     idle = idle_machine_types(fleet, (component.method for component in manifest.components))
     fleet = without_types(fleet, idle)
-    rows, robots = checked(manifest, fleet)
+    rows, robots, building = checked(manifest, fleet)
     code = 0 if all(row.reason is None for _, row in rows) else 1  # 1: some component has no route
     if args.json:
         for component, row in rows:
@@ -154,7 +164,9 @@ def run(args: argparse.Namespace) -> int:
     _print_table(rows, fleet, manifest.joints, only_unbuildable=args.summary)
     machines = set_up_entries(robots)
     if machines:
-        sys.stdout.writelines(line + "\n" for line in packed_lines(SET_UP_HEAD, machines, CONSOLE_WIDTH))
+        sys.stdout.writelines(
+            line + "\n" for line in packed_lines(set_up_head(building), machines, CONSOLE_WIDTH)
+        )
     return code
 
 

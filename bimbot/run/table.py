@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import re
 from collections import Counter
+from collections.abc import Callable
 from typing import Any
 
 from bimbot.shared.identifiers import named_guid
@@ -97,17 +98,28 @@ def _shape(row: Row) -> tuple[str, str, str]:
 
 def with_ranges(messages: list[str]) -> str:
     """Messages of one shape (:data:`FIGURE` apart) as one: each figure that differs between them becomes
-    ``lowest–highest`` (as written in the messages), one that does not stays as it is."""
+    ``lowest–highest`` (as written in the messages), one that does not stays as it is; a range in each
+    (``127.5–144.2 m``, ``136.1–148.5 m``) becomes one range, ``127.5–148.5 m`` (it read
+    ``127.5–136.1–144.2–148.5 m``)."""
     texts = FIGURE.split(messages[0])  # the text around the figures: the same in every message
     figures = [FIGURE.findall(message) for message in messages]
     parts = [texts[0]]
-    for index, text in enumerate(texts[1:]):
-        column = [row[index] for row in figures]
-        values = [float(figure.replace(",", "")) for figure in column]
-        low, high = column[values.index(min(values))], column[values.index(max(values))]
-        parts.append(low if low == high else f"{low}–{high}")
-        parts.append(text)
+    index = 0
+    while index < len(texts) - 1:
+        spanned = texts[index + 1] == "–" and index + 2 < len(texts)  # a range in each: ``127.5–144.2 m``
+        last = index + 1 if spanned else index
+        low = _extreme([row[index] for row in figures], min)
+        high = _extreme([row[last] for row in figures], max)
+        parts.append(low if low == high else f"{low}–{high}")  # ranges joined: ``127.5–148.5 m``
+        parts.append(texts[last + 1])
+        index = last + 1
     return "".join(parts)
+
+
+def _extreme(column: list[str], pick: Callable[[list[float]], float]) -> str:
+    """The figure of ``column`` (as written) whose value ``pick`` (min or max) chooses."""
+    values = [float(figure.replace(",", "")) for figure in column]
+    return column[values.index(pick(values))]
 
 
 def by_reason(rows: list[Row], counts: Counter[str]) -> list[Row]:

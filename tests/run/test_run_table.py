@@ -227,3 +227,20 @@ def test_rows_that_differ_only_in_their_figures_take_one_with_the_ranges() -> No
         "target top at 3.90–4.30 m is above 3.50 m; 1,200 kg: Column 0, Column 1, Column 2 and 2 more"
         in (lines[2])
     )
+
+
+def test_alike_messages_take_one_row_with_each_differing_figure_as_its_range() -> None:
+    """Alike rows are one row whose figures are ranges; a range in each message becomes one range (a new
+    user read "spans 127.5–136.1–144.2–148.5 m" in fleet check's summary of a Revit office)."""
+    from bimbot.run.table import with_ranges
+
+    spans = ["its footprint spans 127.5–144.2 m from r5", "its footprint spans 136.1–148.5 m from r5"]
+    assert with_ranges(spans) == "its footprint spans 127.5–148.5 m from r5"
+    assert (
+        with_ranges(["top at 4.46 m above 3.5 m", "top at 3.92 m above 3.5 m"])
+        == "top at 3.92–4.46 m above 3.5 m"
+    )
+    assert (
+        with_ranges(["lifts 88 kg to 15.4 m", "lifts 7,835 kg to 60.0 m"])
+        == "lifts 88–7,835 kg to 15.4–60.0 m"
+    )
