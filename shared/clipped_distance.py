@@ -60,7 +60,7 @@ class ClippedDistanceField:
     def distance_m(self) -> NDArray[np.float64]:
         """The field, up to date (read-only view: the owner's changes go through :meth:`touch`)."""
         if self._dirty:
-            for window in _merged([self._grown(window, self._reach) for window in self._dirty]):
+            for window in merged_windows([self._grown(window, self._reach) for window in self._dirty]):
                 self._refresh(window)
             self._dirty = []
         view = self._field.view()
@@ -88,7 +88,7 @@ class ClippedDistanceField:
         self._field[target] = np.minimum(distance[inner], self.max_distance_m)
 
 
-def _merged(windows: list[Window]) -> list[Window]:
+def merged_windows(windows: list[Window]) -> list[Window]:
     """Windows that overlap joined into their bounding window, until none overlap (few windows: quadratic
     is fine), so no cell is recomputed twice."""
     merged = list(windows)

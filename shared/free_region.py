@@ -31,7 +31,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-Window = tuple[int, int, int, int]  # rows [r0, r1), cols [c0, c1)
+from .clipped_distance import Window, merged_windows
+
 FreeIn = Callable[[Window], NDArray[np.bool_]]  # the free cells of a window, as the grid stands now
 FOUR = ndimage.generate_binary_structure(2, 1)
 
@@ -68,7 +69,7 @@ def updated_region(
 ) -> NDArray[np.bool_] | None:
     """The region after ``changes`` (a new array; ``region`` is left as it was), or None when some change
     cannot be decided in its window (see the module docstring): the owner labels the whole grid."""
-    taken, freed = merged(changes.taken), merged(changes.freed)
+    taken, freed = merged_windows(changes.taken), merged_windows(changes.freed)
     if any(_meet(a, b) for a in taken for b in freed) or any(_meet(w, start_window) for w in taken + freed):
         return None
     after = region.copy()
@@ -115,25 +116,6 @@ def _joined(before: NDArray[np.bool_], free: NDArray[np.bool_]) -> NDArray[np.bo
     if any((after[edge] & ~before[edge]).any() for edge in edges):
         return None
     return after
-
-
-def merged(windows: list[Window]) -> list[Window]:
-    """Windows that meet joined into their bounding window, until none meet."""
-    out = list(windows)
-    changed = True
-    while changed:
-        changed = False
-        for i in range(len(out)):
-            for j in range(i + 1, len(out)):
-                if _meet(out[i], out[j]):
-                    a, b = out[i], out[j]
-                    out[i] = (min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3]))
-                    del out[j]
-                    changed = True
-                    break
-            if changed:
-                break
-    return out
 
 
 def _meet(a: Window, b: Window) -> bool:

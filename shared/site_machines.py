@@ -91,13 +91,17 @@ def candidate(
     extra_m: float = 0.0,
     *,
     along_m: float = 0.0,
+    turned: bool = False,
 ) -> Setup:
     """The machine's set-up beside ``building`` in ``direction`` (a side: ``(1, 0)`` east…, a corner:
     ``(1, 1)`` north-east…), a lane and ``extra_m`` clear of it, facing it; on a side, moved ``along_m``
-    from its middle along it."""
+    from its middle along it; when ``turned``, a quarter turn about itself (a truck square to the side
+    instead of alongside it: its boom slews round)."""
     (x0, y0), (x1, y1) = building.min_xy, building.max_xy
     dx, dy = direction
     yaw = machine_yaw(machine, math.atan2(-dy, 0.0) if dx == 0 else math.atan2(0.0, -dx))
+    if turned:
+        yaw = math.remainder(yaw + math.pi / 2.0, math.tau)
     half = base_rect(machine, (0.0, 0.0, yaw)).max_xy
     gap_x, gap_y = lane_m + half[0] + extra_m, lane_m + half[1] + extra_m
     x = (x0 + x1) / 2.0 + along_m if dx == 0 else (x1 + gap_x if dx > 0 else x0 - gap_x)

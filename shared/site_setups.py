@@ -45,6 +45,7 @@ from .site_machines import (
     PUSH_STEP_M,
     Setup,
     base_rect,
+    candidate,
     covered_by_boom,
     footprint_corners,
     keep_clear,
@@ -70,18 +71,9 @@ def placed(
 ) -> Setup:
     """The set-up of :func:`~.site_machines.candidate` (beside ``building`` in ``direction``, a lane and
     ``extra_m`` clear of it), moved ``along_m`` along its side, and when ``turned`` a quarter turn about
-    itself (the truck square to the side instead of alongside it: its boom slews round)."""
-    (x0, y0), (x1, y1) = building.min_xy, building.max_xy
-    dx, dy = direction
-    yaw = machine_yaw(machine, math.atan2(-dy, 0.0) if dx == 0 else math.atan2(0.0, -dx))
-    if turned:
-        yaw = math.remainder(yaw + math.pi / 2.0, math.tau)
-    half = base_rect(machine, (0.0, 0.0, yaw)).max_xy
-    gap_x, gap_y = lane_m + half[0] + extra_m, lane_m + half[1] + extra_m
-    x = (x0 + x1) / 2.0 + along_m if dx == 0 else (x1 + gap_x if dx > 0 else x0 - gap_x)
-    y = (y0 + y1) / 2.0 + along_m if dy == 0 else (y1 + gap_y if dy > 0 else y0 - gap_y)
-    pose = (x, y, yaw)
-    return Setup(pose, base_rect(machine, pose))
+    itself, without a staging area (a machine that relocates works where it stands)."""
+    setup = candidate(building, machine, lane_m, direction, extra_m, along_m=along_m, turned=turned)
+    return Setup(setup.pose, setup.base)
 
 
 def _clear(
