@@ -21,6 +21,10 @@ what it can build. The rule, for each machine in robot id order, hook-lifting ma
   most there — then the farthest point of the building and of the yard (a yard larger than its chart's
   radius is served through its staging area, where ground robots hand loads off); it gets a staging area
   beside it (:mod:`.site_cranes`);
+* a **boom** machine (a pump, a block layer) takes the candidate whose boom covers (``reach_m`` from its
+  base to every corner of a component's footprint) the most components of the method it works (pour: cast
+  in place; lay: laid), then the most components of any method, then the one nearest the building's far
+  side (the smallest farthest-corner distance);
 * a **further crane** (a site that erects two or more for a building one jib does not cover) stands where
   it hooks the most lifted parts no crane set up before it hooks (the hook over the centre of a part's
   target, within the radius its chart lifts the part's mass to), then farthest from the cranes set up
@@ -120,34 +124,54 @@ def clear_candidates(
     *,
     along_sides: bool = False,
 ) -> list[Setup]:
-    """Per direction (in candidate order) whose first set-up overlaps none of ``fixed``, the nearest one
-    out along it that overlaps none of ``fixed`` and ``taken`` either; with ``along_sides`` also from the
-    positions along each side every ``CRANE_SIDE_STEP_M`` (after the eight)."""
-    found = []
-    blocked = [*fixed, *taken]
+    """Per direction (in candidate order), the set-up :func:`pushed_clear` finds; with ``along_sides`` also
+    from the positions along each side every ``CRANE_SIDE_STEP_M`` (after the eight)."""
     places = [(direction, 0.0) for direction in _DIRECTIONS]
     if along_sides:
         places += [
-            (direction, along) for direction in _DIRECTIONS[:4] for along in _along(building, direction)
+            (direction, along)
+            for direction in _DIRECTIONS[:4]
+            for along in side_offsets(building, direction, CRANE_SIDE_STEP_M)
         ]
-    for direction, along_m in places:
-        first = candidate(building, machine, lane_m, direction, along_m=along_m)
-        if any(rect.overlaps(other) for rect in first.rects for other in fixed):
-            continue  # over the yard, the depot or the main street: not pushed across them
-        for step in range(int(MAX_PUSH_M / PUSH_STEP_M) + 1):
-            setup = candidate(building, machine, lane_m, direction, step * PUSH_STEP_M, along_m=along_m)
-            if not any(rect.overlaps(other) for rect in setup.rects for other in blocked):
-                found.append(setup)
-                break
-    return found
+    found = [
+        pushed_clear(building, machine, lane_m, direction, fixed=fixed, blocked=taken, along_m=along_m)
+        for direction, along_m in places
+    ]
+    return [setup for setup in found if setup is not None]
 
 
-def _along(building: Rect, direction: tuple[int, int]) -> list[float]:
-    """Offsets from the middle of the side in ``direction``, ``CRANE_SIDE_STEP_M`` apart within it (not 0:
-    the middle is one of the eight)."""
+def pushed_clear(
+    building: Rect,
+    machine: RobotDescription,
+    lane_m: float,
+    direction: tuple[int, int],
+    *,
+    fixed: Sequence[Rect],
+    blocked: Sequence[Rect],
+    along_m: float = 0.0,
+    turned: bool = False,
+) -> Setup | None:
+    """The nearest :func:`candidate` out along ``direction`` whose base (and staging area) overlaps none of
+    ``fixed`` and ``blocked``; None when the first one meets ``fixed`` (over the yard, the depot or the
+    main street: not pushed across them) or none within ``MAX_PUSH_M`` is clear."""
+    first = candidate(building, machine, lane_m, direction, along_m=along_m, turned=turned)
+    if any(rect.overlaps(other) for rect in first.rects for other in fixed):
+        return None
+    everything = [*fixed, *blocked]
+    for step in range(int(MAX_PUSH_M / PUSH_STEP_M) + 1):
+        extra_m = step * PUSH_STEP_M
+        setup = candidate(building, machine, lane_m, direction, extra_m, along_m=along_m, turned=turned)
+        if not any(rect.overlaps(other) for rect in setup.rects for other in everything):
+            return setup
+    return None
+
+
+def side_offsets(building: Rect, direction: tuple[int, int], step_m: float) -> list[float]:
+    """Offsets from the middle of the side in ``direction``, ``step_m`` apart within it, each distance
+    east/north first (not 0: the middle is a candidate of its own)."""
     half_m = building.size[0 if direction[1] else 1] / 2.0
-    count = int(half_m // CRANE_SIDE_STEP_M)
-    return [sign * step * CRANE_SIDE_STEP_M for step in range(1, count + 1) for sign in (-1.0, 1.0)]
+    count = int(half_m // step_m)
+    return [sign * number * step_m for number in range(1, count + 1) for sign in (1.0, -1.0)]
 
 
 def keep_clear(building: Rect, yard: Rect, depot: Rect, lane_m: float) -> list[Rect]:

@@ -41,15 +41,14 @@ import numpy as np
 from .manifest import Component
 from .robot_description import Capability, RobotDescription
 from .site_machines import (
-    MAX_PUSH_M,
-    PUSH_STEP_M,
     Setup,
     base_rect,
-    candidate,
     covered_by_boom,
     footprint_corners,
     keep_clear,
     machine_yaw,
+    pushed_clear,
+    side_offsets,
 )
 from .site_plan import Rect
 from .work_methods import WORK_METHOD
@@ -59,49 +58,6 @@ _SIDES = ((1, 0), (0, 1), (-1, 0), (0, -1))
 _CORNERS = ((1, 1), (-1, 1), (-1, -1), (1, -1))
 
 
-def placed(
-    building: Rect,
-    machine: RobotDescription,
-    lane_m: float,
-    direction: tuple[int, int],
-    *,
-    along_m: float = 0.0,
-    extra_m: float = 0.0,
-    turned: bool = False,
-) -> Setup:
-    """The set-up of :func:`~.site_machines.candidate` (beside ``building`` in ``direction``, a lane and
-    ``extra_m`` clear of it), moved ``along_m`` along its side, and when ``turned`` a quarter turn about
-    itself, without a staging area (a machine that relocates works where it stands)."""
-    setup = candidate(building, machine, lane_m, direction, extra_m, along_m=along_m, turned=turned)
-    return Setup(setup.pose, setup.base)
-
-
-def _clear(
-    building: Rect,
-    machine: RobotDescription,
-    lane_m: float,
-    where: tuple[tuple[int, int], float, bool],
-    *,
-    fixed: Sequence[Rect],
-    blocked: Sequence[Rect],
-) -> Setup | None:
-    """The nearest set-up out along its direction (``where``: direction, distance along the side, turned)
-    clear of ``fixed`` and ``blocked``; None when the first one meets ``fixed`` or none within
-    ``MAX_PUSH_M`` is clear."""
-    direction, along_m, turned = where
-    first = placed(building, machine, lane_m, direction, along_m=along_m, turned=turned)
-    if any(first.base.overlaps(other) for other in fixed):
-        return None
-    everything = [*fixed, *blocked]
-    for step in range(int(MAX_PUSH_M / PUSH_STEP_M) + 1):
-        setup = placed(
-            building, machine, lane_m, direction, along_m=along_m, extra_m=step * PUSH_STEP_M, turned=turned
-        )
-        if not any(setup.base.overlaps(other) for other in everything):
-            return setup
-    return None
-
-
 def setup_candidates(
     building: Rect, machine: RobotDescription, lane_m: float, fixed: Sequence[Rect], blocked: Sequence[Rect]
 ) -> list[Setup]:
@@ -109,19 +65,17 @@ def setup_candidates(
     places: list[tuple[tuple[int, int], float, bool]] = [
         (direction, 0.0, False) for direction in (*_SIDES, *_CORNERS)
     ]
-    (x0, y0), (x1, y1) = building.min_xy, building.max_xy
     for turned in (False, True):
         for direction in _SIDES:
-            length = (y1 - y0) if direction[0] != 0 else (x1 - x0)
-            count = int(length / 2.0 // SIDE_STEP_M)
-            offsets = [sign * number * SIDE_STEP_M for number in range(1, count + 1) for sign in (1.0, -1.0)]
+            offsets = side_offsets(building, direction, SIDE_STEP_M)
             places += [(direction, offset, turned) for offset in ([0.0] if turned else []) + offsets]
-    found: list[Setup] = []
-    for where in places:
-        setup = _clear(building, machine, lane_m, where, fixed=fixed, blocked=blocked)
-        if setup is not None:
-            found.append(setup)
-    return found
+    found = [
+        pushed_clear(
+            building, machine, lane_m, direction, fixed=fixed, blocked=blocked, along_m=along_m, turned=turned
+        )
+        for direction, along_m, turned in places
+    ]
+    return [setup for setup in found if setup is not None]
 
 
 def inside_candidates(building: Rect, machine: RobotDescription, blocked: Sequence[Rect]) -> list[Setup]:
