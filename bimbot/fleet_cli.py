@@ -83,15 +83,11 @@ def fleet_in_force(fleet: Fleet, path: Path | None, robots: int | None) -> str:
     return head + tomli_w.dumps(data)
 
 
-def check(manifest: Manifest, fleet: Fleet) -> list[tuple[Component, Feasibility]]:
-    """The feasibility table of a build for ``fleet``, on the site plan physics would make."""
-    return checked(manifest, fleet)[0]
-
-
 def checked(
     manifest: Manifest, fleet: Fleet
 ) -> tuple[list[tuple[Component, Feasibility]], list[SiteRobot], Rect]:
-    """:func:`check`'s table, the robots where the site plan puts them and the building's rectangle."""
+    """The feasibility table of a build for ``fleet``, on the site plan physics would make; the robots where
+    that plan puts them; the building's rectangle."""
     components = list(manifest.components)
     descriptions = fleet.robot_types()
     layout = plan_site(components, fleet=descriptions)
