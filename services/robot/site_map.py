@@ -23,7 +23,8 @@ What occupies the grid:
   height, so its edge is in the localiser's map and is no surprise.
 
 Laser hits are not stored here (they are transient); :meth:`SiteMap.planning_grid` adds the current ones.
-The localiser's map is :meth:`SiteMap.laser_grid`: only what reaches up to the laser's height.
+What the laser sees is :meth:`SiteMap.laser_grid`: only what reaches up to the laser's height. The
+localiser's map is that at a finer resolution (:mod:`.laser_layer`), made when a robot first localises.
 
 Cost: one count per cell, and each component keeps the cells it covers, so a change touches only that
 component's cells; the inflated grid and distance fields are recomputed lazily, once per change
@@ -56,6 +57,7 @@ from bimbot.shared.site_plan import (
 )
 
 from .fine_alignment import outline_edges
+from .laser_layer import LaserLayer, outline_cells
 
 _log = logging.getLogger(__name__)
 
@@ -63,7 +65,6 @@ _log = logging.getLogger(__name__)
 # (:mod:`bimbot.shared.clipped_distance`): every question asked of the static distance is about less than a
 # metre (inflation, sight, a laser point unexplained), and the likelihood field was always clipped at 2 m.
 STATIC_DISTANCE_MAX_M = 2.0
-LASER_FIELD_MAX_M = 2.0
 
 
 @dataclass(frozen=True)
@@ -125,16 +126,9 @@ class SiteMap:
         self._static_distance = ClippedDistanceField(
             self._geometry.shape, config.resolution_m, STATIC_DISTANCE_MAX_M, self._static_window
         )
-        # The localiser's map, at its finer resolution: the same counts, per component its fine cells.
-        self._fine = empty_grid(self._geometry.bounds_xy_m, config.laser_resolution_m)
-        self._fine_fence = from_footprints(
-            self._fine.bounds_xy_m, config.laser_resolution_m, boxes_xy_m=self._walls_seen
-        ).occupied
-        self._fine_counts = np.zeros(self._fine.shape, np.int16)
-        self._fine_cells: dict[str, NDArray[np.int64]] = {}
-        self._laser_distance = ClippedDistanceField(
-            self._fine.shape, config.laser_resolution_m, LASER_FIELD_MAX_M, self._laser_outline_window
-        )
+        # The localiser's map, at its finer resolution: made when first asked (a robot without a laser
+        # never asks), then kept current like the rest
+        self._laser_layer: LaserLayer | None = None
         self._cells: dict[str, NDArray[np.int64]] = {}  # guid → (n, 2) cells it covers now
         self._in_band: set[str] = set()  # of those, the ones that block
         self._floors_seen: set[str] = set()  # the others: floors driven on whose edge the laser sees
@@ -322,21 +316,19 @@ class SiteMap:
         """The localiser's map: :meth:`laser_grid` without what is flatter than ``localise_min_top_m``,
         rasterised again at ``laser_resolution_m`` from the exact outlines (at the planning grid's 0.1 m,
         outlines lying on cell borders grow objects by a cell on one side: half a cell of bias)."""
-        return self._cached(
-            "laser_fine", lambda: self._fine.with_occupied(self._fine_fence | (self._fine_counts > 0))
-        )
+        return self._cached("laser_fine", lambda: self._laser().grid())
 
     def laser_distance_m(self) -> NDArray[np.float64]:
         """The localiser's likelihood field: from every cell of :meth:`laser_field_grid` to the nearest
         surface (an occupied cell bordering a free one: inside a thick wall the distance grows again, so
         the likelihood peaks where the laser really hits), up to ``LASER_FIELD_MAX_M``; read-only, kept
         current around each change."""
-        return self._laser_distance.distance_m
+        return self._laser().distance_m
 
     @property
     def laser_field_geometry(self) -> OccupancyGrid:
         """An empty grid with the geometry of :meth:`laser_field_grid` and :meth:`laser_distance_m`."""
-        return self._fine
+        return self._laser().geometry
 
     def laser_segments(self) -> NDArray[np.float64]:
         """The exact outlines the laser can see, as segments ``(m, 2, 2)`` (world, m): the fence, the
@@ -458,10 +450,8 @@ class SiteMap:
             field.touch(cells)
         if self._sees.pop(guid, False):
             self._laser_counts[cells[:, 0], cells[:, 1]] -= 1
-        fine = self._fine_cells.pop(guid, None)
-        if fine is not None:
-            self._fine_counts[fine[:, 0], fine[:, 1]] -= 1
-            self._laser_distance.touch(fine)
+        if self._laser_layer is not None:
+            self._laser_layer.remove(guid)
         self.version += 1
         return True
 
@@ -487,11 +477,8 @@ class SiteMap:
         if seen:
             self._sees[guid] = True
             self._laser_counts[cells[:, 0], cells[:, 1]] += 1
-            if footprint.z_max_m >= self.config.localise_min_top_m:
-                fine = covered_cells(self._fine, outlines)
-                self._fine_cells[guid] = fine
-                self._fine_counts[fine[:, 0], fine[:, 1]] += 1
-                self._laser_distance.touch(fine)
+            if self._laser_layer is not None and footprint.z_max_m >= self.config.localise_min_top_m:
+                self._laser_layer.add(guid, outlines)
         self.version += 1
         return True
 
@@ -521,25 +508,22 @@ class SiteMap:
     def _static_window(self, rows: slice, cols: slice) -> NDArray[np.bool_]:
         return self._fence.occupied[rows, cols] | (self._counts[rows, cols] > 0)
 
-    def _laser_outline_window(self, rows: slice, cols: slice) -> NDArray[np.bool_]:
-        """The surfaces of :meth:`laser_field_grid` in a window (read with one cell around it, so the
-        outline at the window's edge is the whole grid's)."""
-        r0, c0 = max(0, rows.start - 1), max(0, cols.start - 1)
-        r1, c1 = min(self._fine.shape[0], rows.stop + 1), min(self._fine.shape[1], cols.stop + 1)
-        occupied = self._fine_fence[r0:r1, c0:c1] | (self._fine_counts[r0:r1, c0:c1] > 0)
-        surfaces = _outline_cells(occupied)
-        return surfaces[rows.start - r0 : rows.stop - r0, cols.start - c0 : cols.stop - c0]
+    def _laser(self) -> LaserLayer:
+        """The localiser's map, made from what the map holds now when first asked (see
+        :mod:`.laser_layer`), then kept current by :meth:`_set_footprint` and :meth:`_clear`."""
+        if self._laser_layer is None:
+            layer = LaserLayer(self._geometry.bounds_xy_m, self.config.laser_resolution_m, self._walls_seen)
+            for guid, seen in self._sees.items():
+                footprint = self.footprints[guid]
+                if seen and footprint.z_max_m >= self.config.localise_min_top_m:
+                    layer.add(guid, self._outlines(footprint, guid in self._in_band))
+            self._laser_layer = layer
+        return self._laser_layer
 
 
 def outline(grid: OccupancyGrid) -> OccupancyGrid:
     """Only the occupied cells that border a free cell (4-neighbourhood): the surfaces a laser can hit."""
-    return grid.with_occupied(_outline_cells(grid.occupied))
-
-
-def _outline_cells(occ: NDArray[np.bool_]) -> NDArray[np.bool_]:
-    padded = np.pad(occ, 1, constant_values=False)
-    interior = padded[:-2, 1:-1] & padded[2:, 1:-1] & padded[1:-1, :-2] & padded[1:-1, 2:] & occ
-    return occ & ~interior
+    return grid.with_occupied(outline_cells(grid.occupied))
 
 
 def _same_footprint(a: Footprint, b: Footprint, tolerance_m: float = 0.01) -> bool:

@@ -184,7 +184,8 @@ def test_the_distance_fields_follow_every_change_as_if_computed_whole(frame: Man
     placed and moved, both equal the whole transform of their grid, clipped at their bound."""
     from scipy import ndimage
 
-    from bimbot.services.robot.site_map import LASER_FIELD_MAX_M, STATIC_DISTANCE_MAX_M
+    from bimbot.services.robot.laser_layer import LASER_FIELD_MAX_M
+    from bimbot.services.robot.site_map import STATIC_DISTANCE_MAX_M
 
     def whole(grid: OccupancyGrid, bound: float) -> np.ndarray:
         distance = ndimage.distance_transform_edt(~grid.occupied, sampling=grid.resolution_m)
@@ -201,6 +202,36 @@ def test_the_distance_fields_follow_every_change_as_if_computed_whole(frame: Man
     laser = outline(site.laser_field_grid())
     assert np.array_equal(site.laser_distance_m(), whole(laser, LASER_FIELD_MAX_M))
     assert site.laser_distance_m().shape == site.laser_field_geometry.shape
+
+
+def test_the_localisers_map_is_made_when_first_asked_and_is_then_the_same_as_one_kept_from_the_start(
+    frame: Manifest,
+) -> None:
+    """A robot that moves without a laser (plan fidelity) never pays for the localiser's finer map (1.6 GB
+    of 3.2 GB on a 713 × 509 m site): it is made when first asked, from what the map holds then, and equals
+    the map of a robot that kept it current from the start, then follows later changes as that one does."""
+    layout = plan_site(frame.components, robots=1)
+    kept, late = SiteMap(layout, frame.components), SiteMap(layout, frame.components)
+    kept.laser_distance_m()
+    column, beam = of_class(frame, "IfcColumn"), of_class(frame, "IfcBeam")
+    moves = [
+        pose(column.guid, (0.0, 0.0, 0.5), attached_to="r1"),
+        at_target(column, fixed=True),
+        pose(beam.guid, (1.0, -2.0, 0.05), quat=(0.0, 0.0, 0.38268343, 0.92387953)),
+    ]
+    for message in moves:
+        kept.observe_pose(message)
+        late.observe_pose(message)
+    assert late._laser_layer is None  # asked for nothing the laser sees: not made
+    assert np.array_equal(late.laser_field_grid().occupied, kept.laser_field_grid().occupied)
+    assert np.array_equal(late.laser_distance_m(), kept.laser_distance_m())
+    for map_ in (kept, late):
+        map_.observe_pose(pose(beam.guid, (1.3, -2.2, 0.05)))
+    assert not np.array_equal(
+        late.laser_field_grid().occupied, SiteMap(layout, frame.components).laser_field_grid().occupied
+    )
+    assert np.array_equal(late.laser_field_grid().occupied, kept.laser_field_grid().occupied)
+    assert np.array_equal(late.laser_distance_m(), kept.laser_distance_m())
 
 
 def _floor(frame: Manifest, top_z_m: float) -> Component:
