@@ -67,6 +67,8 @@ class Releasing:
         cid, body = state.client_id, item.body
         item.pose = item.motion_to or item.pose
         set_component_pose(cid, body, item.pose)
+        if state.ground_id >= 0:  # off the ground until it is known whether the ground carries it (below)
+            p.setCollisionFilterPair(state.ground_id, body.body_id, -1, -1, 0, physicsClientId=cid)
         set_filter(cid, body.body_id, DYNAMIC_GROUP, ALL_GROUPS)  # see what it overlaps, the carrier aside
         # a robot's placement at its target fitted to the structure as it stands (.support_fit); a set-down
         # without one (the stability replay) goes to the BIM target
