@@ -20,11 +20,12 @@ and per end of its waits.
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass
 
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import SiteInfoMsg
-from bimbot.shared.site_access import SiteAccess
+from bimbot.shared.site_access import Candidates, SiteAccess
 
 from .access_plan import FINE, site_robot
 from .work_in_place import works_in_place
@@ -87,11 +88,9 @@ class AccessGuard:
             self._gone.discard(guid)
             self._access.place(guid)
 
-    def cut_off(self, guid: str, to_build: Iterable[str]) -> list[str]:
+    def cut_off(self, guid: str, to_build: Candidates) -> list[str]:
         """Which of ``to_build`` placing ``guid`` now would cut off (those that need it first left out)."""
-        after = self._needs_first(guid)
-        others = [other for other in to_build if other in self._driven_to and other not in after]
-        return self._access.cut_off_by(guid, others)
+        return self._access.cut_off_by(guid, _MayBeCutOff(to_build, self._driven_to, self._needs_first(guid)))
 
     def shuts_in(self, guid: str, robots_xy_m: Mapping[str, tuple[float, float]]) -> list[str]:
         """Which robots (id → where it stands), with no way out to the depot in the site as released, would
@@ -112,3 +111,20 @@ class AccessGuard:
                     stack.extend(self._successors.get(item, ()))
             known = self._after[guid] = frozenset(seen)
         return known
+
+
+@dataclass(frozen=True)
+class _MayBeCutOff:
+    """The components a placement may cut off: still to be built, driven to, and not needing it first.
+    Asked of the few components near the placement, gone through whole only when the site splits (a list
+    made for every released task was 32 million entries at the start of a 9,802-component frame)."""
+
+    to_build: Candidates
+    driven_to: frozenset[str]
+    needs_it_first: frozenset[str]
+
+    def __contains__(self, guid: object) -> bool:
+        return guid in self.to_build and guid in self.driven_to and guid not in self.needs_it_first
+
+    def __iter__(self) -> Iterator[str]:
+        return (guid for guid in self.to_build if guid in self)

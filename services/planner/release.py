@@ -47,7 +47,7 @@ class Release:
         self._curing = curing
         self._access = access
         self._access_waits: dict[str, tuple[str, ...]] = {}  # GUID → what it would cut off (held for)
-        self._to_build: list[str] | None = None  # this pass: the tasks not final (read once, when needed)
+        self._to_build: dict[str, None] | None = None  # this pass: the tasks not final (read when needed)
         self._held: dict[str, Hold] = {}  # GUID → the curing that holds its release (the last release pass)
         self._next_cure_s: float | None = None  # the earliest end of a hold: the release pass runs again then
         self._released_revision = 0
@@ -117,7 +117,7 @@ class Release:
             ]
             failed = [g for g, task in state.tasks.items() if task.phase is Phase.FAILED]
             self._access.observe(standing, failed)
-            self._to_build = [g for g, task in state.tasks.items() if task.phase not in FINAL]
+            self._to_build = dict.fromkeys(g for g, task in state.tasks.items() if task.phase not in FINAL)
         cut = tuple(self._access.cut_off(guid, self._to_build))
         if not cut:
             self._access_waits.pop(guid, None)

@@ -171,27 +171,48 @@ def test_the_check_asks_only_whose_reach_the_region_changed_in_and_answers_as_as
     bundled_build: Path,
 ) -> None:
     """A placement changes the free region round itself (or splits it): the check asks again only the
-    components reached from where it changed; asking every component after every placement gives the same
-    answers, along several orders of the room, its gate and the frame."""
+    components reached from the boxes where it changed (a slot freed and a part placed are two boxes);
+    asking every component after every placement gives the same answers, along several orders of the
+    room, its gate and the frame."""
     from bimbot.shared import site_access
 
     built, _, _, _ = _room_with_gate(bundled_build)
     layout = plan_site(built, robots=1)
     rng = np.random.default_rng(11)
     guids = [c.guid for c in built]
-    whole_grid = lambda before, after: (0, before.shape[0] - 1, 0, before.shape[1] - 1)  # noqa: E731
+    whole_grid = lambda before, after: [(0, before.shape[0] - 1, 0, before.shape[1] - 1)]  # noqa: E731
     cutting = 0
     for _ in range(4):
         order = [str(g) for g in rng.permutation(guids)]
         fast = check_order(SiteAccess(built, layout, DEFAULT_ROBOT), order)
-        local, site_access._changed_box = site_access._changed_box, whole_grid
+        local, site_access._changed_boxes = site_access._changed_boxes, whole_grid
         try:
             everyone = check_order(SiteAccess(built, layout, DEFAULT_ROBOT), order)
         finally:
-            site_access._changed_box = local
+            site_access._changed_boxes = local
         assert fast == everyone
         cutting += bool(fast.cut_offs)
     assert cutting, "some order cuts something off (the gate, the room)"
+
+
+def test_the_region_changed_in_two_places_is_two_boxes_that_hold_every_changed_cell() -> None:
+    """A slot freed in the yard and a part placed across the site are two boxes, not the one box round
+    both (on a 9,802-component frame that one box met hundreds of components' reach a placement)."""
+    from bimbot.shared.site_access import _changed_boxes
+
+    before = np.zeros((50, 60), bool)
+    after = before.copy()
+    assert _changed_boxes(before, after) == []
+    after[2:4, 5:9] = True  # the slot
+    after[40:45, 50:52] = True  # the target
+    after[41, 51] = False
+    boxes = _changed_boxes(before, after)
+    assert sorted(boxes) == [(2, 3, 5, 8), (40, 44, 50, 51)]
+    after[20, 30] = True  # a third change in a row band of its own and a column band of its own
+    covered = np.zeros_like(before)
+    for r0, r1, c0, c1 in _changed_boxes(before, after):
+        covered[r0 : r1 + 1, c0 : c1 + 1] = True
+    assert not ((before != after) & ~covered).any() and covered.sum() < 50 * 60 / 10
 
 
 def test_a_check_taken_on_from_an_earlier_order_answers_as_a_check_from_the_start(
