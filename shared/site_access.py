@@ -239,7 +239,8 @@ class SiteAccess:
         meets = np.zeros(own.shape[:2], bool)
         for r0, r1, c0, c1 in boxes:
             meets |= (own[..., 0] <= r1) & (own[..., 1] >= r0) & (own[..., 2] <= c1) & (own[..., 3] >= c0)
-        return meets.any(axis=1)
+        reached: NDArray[np.bool_] = np.any(meets, axis=1)
+        return reached
 
     def frees(self, guid: str, points_xy_m: Sequence[tuple[float, float]]) -> list[int]:
         """Which of ``points_xy_m`` (where robots stand), cut off from the depot start now, would have their
