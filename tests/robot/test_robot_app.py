@@ -239,7 +239,10 @@ def test_the_robot_process_builds_a_footing_over_the_bus_in_lock_step(build: Pat
         for item in (*subscribers, *queryables, alive):
             item.undeclare()
     assert agent.state is ComponentState.CONSTRUCTED
-    assert events[:4] == [
+    # events go at least once: one the agent's state has not confirmed yet is sent again (on a machine
+    # under a load of 23 a PICK went twice); the order is what counts
+    in_order = [event for i, event in enumerate(events) if i == 0 or event != events[i - 1]]
+    assert in_order[:4] == [
         ComponentEvent.PICK,
         ComponentEvent.ATTACH,
         ComponentEvent.ARRIVE,

@@ -196,3 +196,22 @@ def test_the_run_sim_time_is_the_latest_any_message_was_said_at() -> None:
         forger.put(ROBOT_STATE.key(site=SITE_MANIFEST.site, robot_id="r1"), encode(message))
         assert _drain_until(monitor, lambda: monitor.sim_time_s >= 500.0)
         assert monitor.sim_time_s == 500.0
+
+
+def test_the_end_of_timed_work_a_robot_said_stays_awaited_when_its_next_state_says_none() -> None:
+    """The plan fidelity's clock jumps to a pour's end at once, and the robot's next state (the end asked
+    of physics: no end said) can come in the same batch before the watchdog looks: the restaurant's run
+    ended 'stalled' 0.6 s of sim time before a 6,865 s pour ended. What any state said is kept."""
+    with _bus() as (_site, _forger, monitor):
+        pouring = RobotStateMsg(
+            robot_id="r5",
+            state=RobotState.WORK_IN_PLACE,
+            task_id="T0059",
+            pose_xy_yaw=(0.0, 0.0, 0.0),
+            sim_time_s=2_058_172.7,
+            wall_time_s=0.0,
+            busy_until_s=2_065_037.7,
+        )
+        monitor.apply(pouring)
+        monitor.apply(pouring.model_copy(update={"sim_time_s": 2_065_036.9, "busy_until_s": None}))
+        assert monitor.awaited_sim_s() == 2_065_037.7
