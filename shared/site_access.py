@@ -46,6 +46,8 @@ from .site_plan import GRID_MARGIN_M, SiteLayout, fence_boxes, machine_boxes
 
 _log = logging.getLogger(__name__)
 
+NO_CELL = 2**62  # a row or column beyond every grid
+
 # the robots' A* steps diagonally only between two free orthogonal neighbours (it never cuts a corner), so
 # the cells it can reach are those 4-connected: a gap two cells touch only at a corner is no way through
 # how far round a placed part its window reaches beyond the robot's body: room for the free region to go
@@ -95,7 +97,11 @@ class SiteAccess:
         robot: RobotDescription,
         config: AccessConfig = AccessConfig(),
         in_place: Sequence[Component] = (),
+        *,
+        on_step: Callable[[int, int], None] | None = None,
     ) -> None:
+        """``on_step`` hears how far the grid is (components done, total): on a large site it takes a
+        while (40 s for 9,802 components), and a trial user watched a stage stand at 0 meanwhile."""
         self.config, self.layout = config, layout
         self.inflation_m = robot.radius_m + INFLATION_MARGIN_M
         self._reach_m = robot.reach_m - config.reach_margin_m
@@ -129,7 +135,9 @@ class SiteAccess:
         self._target_cells: dict[str, NDArray[np.int64] | None] = {}
         self._slot_cells: dict[str, NDArray[np.int64] | None] = {}
         self.placed: set[str] = set()
-        for guid, component in self._components.items():
+        for done, (guid, component) in enumerate(self._components.items()):
+            if on_step is not None:
+                on_step(done, len(self._components))
             target = component.target_pose_world
             footprint = posed_footprint(component, target.position_m, target.quat_xyzw)
             self._target_candidates[guid] = self._candidates(footprint)
@@ -524,7 +532,7 @@ def _runs(flags: NDArray[np.bool_]) -> list[tuple[int, int]]:
 def _box_of(cells: NDArray[np.int64] | None) -> tuple[int, int, int, int]:
     """The grid box round ``cells``; a box that meets none (first row after the last) when there are none."""
     if cells is None or len(cells) == 0:
-        return (1, 0, 1, 0)
+        return (NO_CELL, -1, NO_CELL, -1)  # starts after every grid's last row and column: meets no box
     (r0, c0), (r1, c1) = cells.min(axis=0), cells.max(axis=0)
     return int(r0), int(r1), int(c0), int(c1)
 

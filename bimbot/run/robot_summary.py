@@ -59,12 +59,25 @@ def _what_became(task: dict[str, Any], component: dict[str, Any] | None, caught:
         how = "unstable" if placement.get("cause") == "unstable" else "off target"
         if placement.get("verdict") == "failed":
             return f"placed {how} on its last attempt: failed"
-        return f"placed {how}, retried"
+        return f"placed {how}, retried" + _built_after(component)
     if component is None:
         return "no component heard of"
     state = component.get("state") or "unknown"
     reason = (component.get("reason") or {}).get("code")
     return f"ended without a placement; the component is {state}" + (f" ({reason})" if reason else "")
+
+
+def _built_after(component: dict[str, Any] | None) -> str:
+    """``, then built by r3``: who built a component in the end (a trial user read a retried placement as
+    a part left unbuilt); nothing while it is not constructed."""
+    if component is None or component.get("state") != "constructed":
+        return ""
+    builders = [
+        placement.get("robot_id")
+        for placement in component.get("placements") or []
+        if placement.get("verdict") == "constructed" and placement.get("robot_id")
+    ]
+    return f", then built by {builders[-1]}" if builders else ""
 
 
 def _classified(
@@ -126,8 +139,9 @@ def _named_others(
 
 
 def tasks_text(robot_id: str, robot: dict[str, Any], components: dict[str, dict[str, Any]]) -> str:
-    """``24 task(s): 20 built, 1 given back, 1 not built by it (T0017 Beam B1-B2: placed unstable, retried), 2
-    hand-off(s) to a crane``: the parts add up to the tasks; a report without the counts: ``11 task(s)``."""
+    """``24 task(s): 20 built, 1 given back, 1 that built nothing (T0017 Beam B1-B2: placed unstable,
+    retried, then built by r2), 2 hand-off(s) to a crane``: the parts add up to the tasks; a report
+    without the counts: ``11 task(s)``."""
     tasks = f"{len(robot['tasks'])} task(s)"
     hand_offs = sum(1 for task in robot["tasks"] if task.get("kind") == "hand_off")
     handed = f", {hand_offs} hand-off(s) to a crane" if hand_offs else ""
@@ -144,7 +158,7 @@ def tasks_text(robot_id: str, robot: dict[str, Any], components: dict[str, dict[
         if len(others) > MAX_OTHERS_NAMED
         else ""
     )
-    return f"{text}, {len(others)} not built by it ({named}{more}){handed}"
+    return f"{text}, {len(others)} that built nothing ({named}{more}){handed}"
 
 
 def moved_text(robot: dict[str, Any]) -> str:

@@ -20,7 +20,7 @@ and per end of its waits.
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 
 from bimbot.shared.manifest import Manifest
@@ -53,12 +53,17 @@ class AccessGuard:
 
     @classmethod
     def for_site(
-        cls, manifest: Manifest, info: SiteInfoMsg, predecessors: Mapping[str, Iterable[str]]
+        cls,
+        manifest: Manifest,
+        info: SiteInfoMsg,
+        predecessors: Mapping[str, Iterable[str]],
+        on_step: Callable[[int, int], None] | None = None,
     ) -> AccessGuard:
-        """The guard for the robots on site (the widest ground type, as the plan's check)."""
+        """The guard for the robots on site (the widest ground type, as the plan's check); ``on_step``
+        hears how far its grid is."""
         components = list(manifest.components)
         robot = site_robot(info)
-        access = SiteAccess(components, info.layout, robot, FINE, in_place=manifest.in_place)
+        access = SiteAccess(components, info.layout, robot, FINE, in_place=manifest.in_place, on_step=on_step)
         driven_to = [item.guid for item in components if not works_in_place(item)]
         return cls(access, predecessors, driven_to)
 

@@ -85,8 +85,8 @@ def access_plan(
     by_guid = {component.guid: component for component in components}
     in_place = {component.guid for component in components if works_in_place(component)}
     added = 0
-    report("access check: the site grid", 0, len(components))
-    access = SiteAccess(components, layout, robot, in_place=manifest.in_place)
+    grid = _stage(report, "access check: the site grid")
+    access = SiteAccess(components, layout, robot, in_place=manifest.in_place, on_step=grid)
     check = check_order(access, plan.order, _stage(report, "access check"))
     for rounds in range(1, (MAX_ROUNDS if adjust else 0) + 1):
         preds = {guid: set(plan.predecessors.get(guid, ())) for guid in plan.order}

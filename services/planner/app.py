@@ -136,7 +136,6 @@ def main(
             lambda message: session.put(key(PLANNER_PREPARING_KEY, site=site), encode(message))
         )
         plan, cannot = _checked_plan(plan, manifest, info, options.strict, report)
-        report("access guard: the site grid at 0.1 m", 0, len(manifest.components))
         core = PlannerCore(
             manifest,
             plan,
@@ -144,7 +143,7 @@ def main(
             limits=options.limits,
             robots=site_robots(info) if info is not None else None,
             slots=dict(info.layout.slots) if info is not None else None,
-            access=_access_guard(manifest, info, plan),
+            access=_access_guard(manifest, info, plan, report),
         )
         plan_queryable = _serve_plan(session, site, plan)
         stepped = options.stepped and info is not None and info.lock_step
@@ -239,13 +238,18 @@ def _checked_plan(
     return checked, cannot
 
 
-def _access_guard(manifest: Manifest, info: SiteInfoMsg | None, plan: Plan) -> AccessGuard | None:
+def _access_guard(
+    manifest: Manifest, info: SiteInfoMsg | None, plan: Plan, report: Report = no_report
+) -> AccessGuard | None:
     """What holds a ready task that would cut off work still to be built (needs the site: physics')."""
     if info is None:
         return None
     from .access_hold import AccessGuard  # scipy.ndimage: not for `bimbot run`'s argument check
 
-    return AccessGuard.for_site(manifest, info, plan.predecessors)
+    def grid(done: int, total: int) -> None:
+        report("access guard: the site grid at 0.1 m", done, total)
+
+    return AccessGuard.for_site(manifest, info, plan.predecessors, grid)
 
 
 def planned_sequence(plan: Plan) -> PlannedSequenceMsg:

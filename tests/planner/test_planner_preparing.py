@@ -44,6 +44,8 @@ def test_the_access_check_reports_each_step_of_each_round(walls_first_build: Pat
     )  # reports change nothing
     steps = len(plan.order)
     assert heard[0] == ("access check: the site grid", 0, len(manifest.components))
+    grid = [done for stage, done, _ in heard if stage == "access check: the site grid"]
+    assert grid == list(range(len(manifest.components)))  # the grid's own progress (40 s at 9,802)
     first = [done for stage, done, total in heard if stage == "access check" and total == steps]
     assert first == list(range(steps))  # every placement of the first check
     assert any(stage == "access check, mended 1 time(s)" for stage, _, _ in heard)
