@@ -477,7 +477,7 @@ class SiteMap:
         if seen:
             self._sees[guid] = True
             self._laser_counts[cells[:, 0], cells[:, 1]] += 1
-            if self._laser_layer is not None and footprint.z_max_m >= self.config.localise_min_top_m:
+            if self._laser_layer is not None and self._localised_on(footprint):
                 self._laser_layer.add(guid, outlines)
         self.version += 1
         return True
@@ -508,6 +508,10 @@ class SiteMap:
     def _static_window(self, rows: slice, cols: slice) -> NDArray[np.bool_]:
         return self._fence.occupied[rows, cols] | (self._counts[rows, cols] > 0)
 
+    def _localised_on(self, footprint: Footprint) -> bool:
+        """Whether a footprint the laser sees is in the localiser's map (not flatter than its bound)."""
+        return footprint.z_max_m >= self.config.localise_min_top_m
+
     def _laser(self) -> LaserLayer:
         """The localiser's map, made from what the map holds now when first asked (see
         :mod:`.laser_layer`), then kept current by :meth:`_set_footprint` and :meth:`_clear`."""
@@ -515,7 +519,7 @@ class SiteMap:
             layer = LaserLayer(self._geometry.bounds_xy_m, self.config.laser_resolution_m, self._walls_seen)
             for guid, seen in self._sees.items():
                 footprint = self.footprints[guid]
-                if seen and footprint.z_max_m >= self.config.localise_min_top_m:
+                if seen and self._localised_on(footprint):
                     layer.add(guid, self._outlines(footprint, guid in self._in_band))
             self._laser_layer = layer
         return self._laser_layer
