@@ -334,6 +334,9 @@ class CmdVelMsg(_Message):
     # the robot is idle and sleeps after this step: it answers no step until a task message wakes it (the
     # planner's answer says so, ``StepDoneMsg.wakes``); nobody waits for it meanwhile (shared/step_gate.py)
     sleeps: bool = False
+    # with ``sleeps``: it also wakes at the first step whose sim time reaches this (a kinematic robot's
+    # drive ends there; shared/step_gate.py); None: only a task message wakes it
+    wakes_at_s: float | None = None
 
 
 class RobotPoseMsg(_Message):

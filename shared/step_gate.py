@@ -32,7 +32,9 @@ every sleeper wakes at ``j + DELAY_STEPS``, the step that takes that message. Ea
 wake at or before its step (:attr:`~bimbot.shared.messages.ClockMsg.last_wake_step`), so a robot knows
 from its sensors alone whether it woke (:func:`woken`). Every ``SLEEP_TAKE_STEPS``-th step physics sends
 a sleeper its sensors all the same, and it takes its inputs there without a tick (they stay few). Both are
-reckoned by step numbers, so which of a sleep and a wake arrives first changes nothing.
+reckoned by step numbers, so which of a sleep and a wake arrives first changes nothing. A kinematic robot
+that drives may sleep until its drive ends (``CmdVelMsg.wakes_at_s``): it is awake again at the first step
+whose clock reaches that sim time, which physics and the robot both read from the clock.
 """
 
 from __future__ import annotations

@@ -491,7 +491,9 @@ class _Loop:
                     return
                 if not self.sim.known(command.robot_id):
                     return
-                self.barrier.record(command.robot_id, command.step, sleeps=command.sleeps)
+                self.barrier.record(
+                    command.robot_id, command.step, sleeps=command.sleeps, wakes_at_s=command.wakes_at_s
+                )
                 if command.requests and command.step is not None and self.run.step_with:
                     self._count_request(command.robot_id, command.step, command.requests)
                 if self.pipeline.command_now(command):
@@ -669,6 +671,7 @@ class _Loop:
                 times[clock.step] = clock.sim_time_s
                 for old in [step for step in times if step < clock.step - 2 * DELAY_STEPS]:
                     del times[old]
+                self.barrier.publishing(clock.step, clock.sim_time_s)
                 update = {
                     "inputs_to_s": times.get(clock.step - DELAY_STEPS),
                     "last_wake_step": self.barrier.sleepers.latest_wake(clock.step),

@@ -70,14 +70,20 @@ class LockStepBarrier:
         self._answered: dict[str, int] = {}
         self.sleepers = Sleepers()  # idle robots not waited for (.sleepers)
 
-    def record(self, robot_id: str, step: int | None, *, sleeps: bool = False) -> None:
+    def record(
+        self, robot_id: str, step: int | None, *, sleeps: bool = False, wakes_at_s: float | None = None
+    ) -> None:
         """A command from ``robot_id`` answering clock step ``step`` (None: not a lock-step command);
-        ``sleeps``: it answers no step after it until a wake."""
+        ``sleeps``: it answers no step after it until a wake (or the first step at ``wakes_at_s``)."""
         if step is None:
             return
         if step > self._answered.get(robot_id, -1):
             self._answered[robot_id] = step
-        self.sleepers.answered(self._answered, robot_id, step, sleeps=sleeps)
+        self.sleepers.answered(self._answered, robot_id, step, sleeps=sleeps, wakes_at_s=wakes_at_s)
+
+    def publishing(self, step: int, sim_time_s: float) -> None:
+        """Clock step ``step`` is about to be published: the sleepers whose own wake it reaches wake."""
+        self.sleepers.published(self._answered, step, sim_time_s)
 
     def wake_sleepers(self, step: int) -> None:
         """The sleepers answer again from clock step ``step`` on (a task message is taken there)."""

@@ -8,7 +8,10 @@ the step that takes that message, and is waited for again from there. Reckoned b
 order in which a sleep and a wake arrive changes nothing. Each clock says the latest wake at or before its
 step (:meth:`Sleepers.latest_wake`): physics sends clock ``k`` only after the planner's answer to
 ``k − DELAY_STEPS``, so it knows every wake up to ``k`` by then, and a robot tells from the clock alone
-whether it woke (:func:`bimbot.shared.step_gate.woken`). See :mod:`bimbot.shared.step_gate`.
+whether it woke (:func:`bimbot.shared.step_gate.woken`). A kinematic robot that drives may sleep too
+(``CmdVelMsg.wakes_at_s``, plan fidelity): it also wakes at the first step whose sim time reaches the end
+of its drive, which physics and the robot both tell from that step's clock (:meth:`Sleepers.published`).
+See :mod:`bimbot.shared.step_gate`.
 """
 
 from __future__ import annotations
@@ -25,15 +28,43 @@ class Sleepers:
 
     asleep: dict[str, int] = field(default_factory=dict)
     wakes: set[int] = field(default_factory=set)
+    wakes_at_s: dict[str, float] = field(default_factory=dict)  # a sleeper's own wake, in sim time
+    # the sim time of the latest published clock steps: a step published before a sleep was heard may be
+    # the one it wakes at (physics publishes step k once it heard the answers to k - 2)
+    _published: dict[int, float] = field(default_factory=dict)
     _forgotten: int | None = None  # the latest wake no longer kept (a clock may still name it)
 
-    def answered(self, answered: dict[str, int], participant: str, step: int, *, sleeps: bool) -> None:
-        """``participant`` answered ``step``, asleep after it or not."""
+    def answered(
+        self,
+        answered: dict[str, int],
+        participant: str,
+        step: int,
+        *,
+        sleeps: bool,
+        wakes_at_s: float | None = None,
+    ) -> None:
+        """``participant`` answered ``step``, asleep after it or not; ``wakes_at_s``: asleep until the first
+        step whose sim time reaches it at the latest."""
         if sleeps:
             self.asleep[participant] = max(step, self.asleep.get(participant, step))
+            if wakes_at_s is None:
+                self.wakes_at_s.pop(participant, None)
+            else:
+                self.wakes_at_s[participant] = wakes_at_s
             self._settle(answered, participant)
         elif step > self.asleep.get(participant, step):
             del self.asleep[participant]  # awake again (it restarted, say): its answers count as they come
+            self.wakes_at_s.pop(participant, None)
+
+    def published(self, answered: dict[str, int], step: int, sim_time_s: float) -> None:
+        """Clock ``step`` (at ``sim_time_s``) is being published: a sleeper whose own wake it reaches is
+        awake from it (sent its sensors, waited for)."""
+        self._published[step] = sim_time_s
+        for old in [known for known in self._published if known < step - 4]:
+            del self._published[old]
+        for participant in [p for p, at_s in self.wakes_at_s.items() if at_s <= sim_time_s]:
+            if participant in self.asleep:
+                self._settle(answered, participant)
 
     def wake(self, answered: dict[str, int], step: int) -> None:
         """Every participant asleep before ``step`` answers again from ``step`` on."""
@@ -61,6 +92,10 @@ class Sleepers:
         """A sleeper with a wake after its sleep: awake from that wake, its answers waited for from there."""
         since = self.asleep[participant]
         wake = min((w for w in self.wakes if w > since), default=None)
+        if (at_s := self.wakes_at_s.get(participant)) is not None:
+            reached = [step for step, sim_s in self._published.items() if step > since and sim_s >= at_s]
+            wake = min([*reached, *([] if wake is None else [wake])], default=None)
         if wake is not None:
             del self.asleep[participant]
+            self.wakes_at_s.pop(participant, None)
             answered[participant] = max(answered.get(participant, -1), wake - 1)

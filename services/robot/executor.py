@@ -272,6 +272,11 @@ class Executor:
             and not self.component_states.asking
         )
 
+    def sleeps_until_s(self) -> float | None:
+        """The sim time until which it may sleep at work (a kinematic drive's end); None: it may not. A
+        robot that steers by its laser answers every step of its drive."""
+        return None
+
     def poll(self, wall_s: float) -> list[Outgoing]:
         """What is due regardless of the clock: a physics request, event (re)sends, the robot's state."""
         self.context.wall_s = wall_s

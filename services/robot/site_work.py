@@ -199,6 +199,10 @@ class SiteWorkExecutor:
     def after_tick(self) -> None:
         """Nothing to localise: it stands where it was set up."""
 
+    def sleeps_until_s(self) -> float | None:
+        """Never asleep at work (see :meth:`.executor.Executor.sleeps_until_s`)."""
+        return None
+
     def can_sleep(self) -> bool:
         """Idle with nothing ahead of its own accord (see :meth:`.executor.Executor.can_sleep`)."""
         return (

@@ -17,7 +17,9 @@ An idle robot sleeps (:mod:`bimbot.shared.step_gate`): once its executor can (``
 parked, nothing to say), its answer says so. Physics then sends it its sensors only every
 ``SLEEP_TAKE_STEPS``-th step, where it takes its inputs without a tick or an answer (other sensors that
 still came are dropped whole), until the first clock that says a wake after its sleep: that step is ticked.
-Only where the planner answers the steps: its answers carry the wakes.
+Only where the planner answers the steps: its answers carry the wakes. A kinematic robot sleeps through a
+drive too (``sleeps_until_s``, plan fidelity): it also wakes at the first step whose clock reaches the
+drive's end.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from bimbot.shared.bus import Answer, Received
 from bimbot.shared.component_states import TwinQuestion
 from bimbot.shared.messages import (
     PLANNER_PARTICIPANT,
+    ClockMsg,
     CmdVelMsg,
     ComponentEventMsg,
     ComponentPoseMsg,
@@ -76,7 +79,9 @@ class SteppedTicks:
         self.gate: StepGate[object] = StepGate()
         self.may_sleep = PLANNER_PARTICIPANT in participants  # the planner's answers carry the wakes
         self.asleep_since: int | None = None  # the step it fell asleep after (None: awake)
+        self.wakes_at_s: float | None = None  # asleep while driving: it wakes at the step reaching this
         self.slept_steps = 0
+        self.slept_driving = 0  # of those, while a kinematic drive went on
         self.steps: deque[_Step] = deque()
         self.claims = TwinClaims()  # terminal claims awaiting their twin's answer
         self._before: list[object] = []  # since the last sensors
@@ -145,7 +150,7 @@ class SteppedTicks:
         while self.steps:
             entry = self.steps[0]
             clock = entry.sensors.clock
-            asleep = self.asleep_since is not None and not woken(self.asleep_since, clock.last_wake_step)
+            asleep = self.asleep_since is not None and not self._woken(clock)
             if asleep and clock.step % SLEEP_TAKE_STEPS:
                 # physics sent it before it heard the sleep: dropped whole, as if never sent (what came
                 # before it goes with the next sensors)
@@ -181,8 +186,10 @@ class SteppedTicks:
                 self._last_step = max(self._last_step, clock.step)
                 continue  # no tick, no answer: nobody waits for it
             if self.asleep_since is not None:
-                self.slept_steps += clock.step - self.asleep_since - 1
-                self.asleep_since = None
+                slept = clock.step - self.asleep_since - 1
+                self.slept_steps += slept
+                self.slept_driving += slept if self.wakes_at_s is not None else 0
+                self.asleep_since, self.wakes_at_s = None, None
             sensors = entry.sensors
             executor.handle(sensors.odom)
             if sensors.fix is not None:
@@ -191,20 +198,36 @@ class SteppedTicks:
                 executor.handle(sensors.scan)
             if clock.step > self._last_step:
                 said = sent_now(executor.tick(clock, clock.sim_time_s), clock.sim_time_s)
-                if self.may_sleep and executor.can_sleep():
+                if self.may_sleep and (sleep := self._sleep(clock)) is not None:
                     said = [
-                        message.model_copy(update={"sleeps": True})
-                        if isinstance(message, CmdVelMsg)
-                        else message
+                        message.model_copy(update=sleep) if isinstance(message, CmdVelMsg) else message
                         for message in said
                     ]
-                    self.asleep_since = clock.step
+                    self.asleep_since, self.wakes_at_s = clock.step, sleep["wakes_at_s"]
                 self.publish(said)
                 answers = [message for message in said if isinstance(message, CmdVelMsg)]
                 self._last_answer = answers[-1].model_copy(update={"requests": 0}) if answers else None
                 self._last_step = clock.step
                 self.on_answered()
                 executor.after_tick()
+
+    def _sleep(self, clock: ClockMsg) -> dict | None:
+        """What its answer to ``clock`` says of a sleep: idle (until a task message wakes it), or driving
+        along a known motion (until it ends, or a task message); None: it stays awake."""
+        executor = self.executor
+        if executor.can_sleep():
+            return {"sleeps": True, "wakes_at_s": None}
+        wakes_at_s = executor.sleeps_until_s()
+        if wakes_at_s is None or wakes_at_s <= clock.sim_time_s:
+            return None
+        return {"sleeps": True, "wakes_at_s": wakes_at_s}
+
+    def _woken(self, clock: ClockMsg) -> bool:
+        """Whether a robot asleep is awake at ``clock``: a wake after its sleep, or its own wake reached."""
+        assert self.asleep_since is not None
+        if woken(self.asleep_since, clock.last_wake_step):
+            return True
+        return self.wakes_at_s is not None and clock.sim_time_s >= self.wakes_at_s
 
     def answer_again(self) -> None:
         """Send the last answer again (without its count of requests: those went with the first)."""
@@ -214,8 +237,9 @@ class SteppedTicks:
     def finish(self) -> None:
         if self.slept_steps or self.asleep_since is not None:
             _log.info(
-                "lock-step: slept %d step(s), idle%s",
+                "lock-step: slept %d step(s) (%d of them driving)%s",
                 self.slept_steps,
+                self.slept_driving,
                 "" if self.asleep_since is None else f", and asleep from step {self.asleep_since + 1} on",
             )
         if self.gate.late or self.gate.forced:

@@ -3,7 +3,8 @@ one carrier, kinematic and with a clock that jumps by events. The physics fideli
 of this frame (``test_reproducible_runs.py``, ``test_full_build.py``); the plan fidelity must build the same
 set, say its fidelity in the report's settings and in ``bimbot runs``, and its physics must have jumped
 its clock (else it ran period by period, as the physics fidelity does) and stopped it once the build was
-over (else the services step an empty site while the run closes)."""
+over (else the services step an empty site while the run closes), and its carrier must have slept through
+drives (else it answered every step of them)."""
 
 from __future__ import annotations
 
@@ -59,5 +60,11 @@ def test_plan_fidelity_builds_the_frame_and_says_so(tmp_path: Path) -> None:
     over = re.search(r"the build is over at step (\d+)", physics_log)
     if over is not None:
         assert int(jumps.group(1)) == int(over.group(1)) + 1, physics_log[-3000:]
+    # a kinematic robot sleeps through its drives (services/robot/plan_executor.py: sleeps_until_s): physics
+    # neither sends it its sensors nor waits for its answers until the drive ends
+    slept = re.search(
+        r"slept (\d+) step\(s\) \((\d+) of them driving\)", (run_dir / "logs/robot-r1.log").read_text()
+    )
+    assert slept is not None and int(slept.group(2)) > 0
     runs = _bimbot("runs", str(build))
     assert runs.returncode == 0 and "fidelity plan" in runs.stdout

@@ -63,6 +63,26 @@ class _IdleExecutor:
     def can_sleep(self) -> bool:
         return not self.tasks
 
+    def sleeps_until_s(self) -> float | None:
+        return None
+
+
+@dataclass
+class _DrivingExecutor(_IdleExecutor):
+    """A kinematic robot that drives until ``drive_end_s`` (it may sleep through it), then waits awake."""
+
+    drive_end_s: float = 3.0
+
+    def can_sleep(self) -> bool:
+        return False
+
+    def sleeps_until_s(self) -> float | None:
+        return self.drive_end_s if self.sim_s < self.drive_end_s else None
+
+    def tick(self, clock: ClockMsg, wall_s: float) -> list[Outgoing]:
+        self.sim_s = clock.sim_time_s
+        return super().tick(clock, wall_s)
+
 
 def _sensors(step: int, last_wake_step: int | None) -> Received[SensorsMsg]:
     now = step * PERIOD_S
@@ -162,3 +182,35 @@ def test_a_sleeper_takes_its_inputs_only_where_physics_always_sends_its_sensors(
 def test_without_the_planner_answering_steps_nobody_could_wake_it_so_it_never_sleeps() -> None:
     executor, answers = _run(8, task_at=None, participants=[])
     assert executor.ticked == list(range(8)) and not any(a.sleeps for a in answers)
+
+
+def test_a_kinematic_robot_sleeps_through_its_drive_and_wakes_at_the_step_that_reaches_its_end() -> None:
+    """Physics and the robot tell the wake from the step's clock alone; a task message wakes it sooner."""
+    for task_at in (None, 5):
+        for every_sensors in (True, False):
+            executor = _DrivingExecutor()
+            answers: list[CmdVelMsg] = []
+            ticks = SteppedTicks(
+                executor,  # type: ignore[arg-type]
+                answers.extend,
+                lambda: None,
+                {},
+                ["r1", PLANNER_PARTICIPANT],
+            )
+            wake = None if task_at is None else task_at + DELAY_STEPS
+            for step in range(20):
+                if step == task_at:
+                    ticks.hear(_task(step))
+                woke = (wake is not None and step >= wake) or step * PERIOD_S >= executor.drive_end_s
+                asleep = answers and answers[-1].sleeps and not woke
+                if every_sensors or not asleep or step % SLEEP_TAKE_STEPS == 0:
+                    ticks.hear(_sensors(step, wake if wake is not None and step >= wake else None))
+                ticks.tick_ready()
+            answers = [m for m in answers if isinstance(m, CmdVelMsg)]
+            assert answers[0].sleeps and answers[0].wakes_at_s == executor.drive_end_s
+            end_step = round(executor.drive_end_s / PERIOD_S)  # 15: the first step at the drive's end
+            if task_at is None:
+                assert executor.ticked == [0, *range(end_step, 20)]
+            else:  # woken at 7 by the task, asleep again until the drive ends
+                assert executor.ticked == [0, task_at + DELAY_STEPS, *range(end_step, 20)]
+            assert not any(a.sleeps for a in answers if a.step is not None and a.step >= end_step)

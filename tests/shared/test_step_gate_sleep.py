@@ -82,3 +82,23 @@ def test_physics_sends_a_sleeper_its_sensors_only_every_few_steps_and_once_it_wo
     assert sleepers.sends_sensors("r2", 7)  # awake: every step
     sleepers.wake(answered, 70)
     assert sleepers.sends_sensors("r1", 70) and answered["r1"] == 69
+
+
+def test_a_driving_sleeper_is_waited_for_from_the_first_step_that_reaches_its_wake_time() -> None:
+    """Physics tells the wake from each clock it publishes; a step published before it heard the sleep
+    counts too (it publishes step k once it heard the answers to k − 2)."""
+    barrier = LockStepBarrier(timeout_s=10.0)
+    for step, sim_s in ((6, 1.2), (7, 1.4)):
+        barrier.publishing(step, sim_s)
+    barrier.record("r1", 5, sleeps=True, wakes_at_s=2.0)
+    barrier.open(7, 0.0)
+    assert barrier.missing(["r1"]) == [] and not barrier.sleepers.sends_sensors("r1", 8)
+    barrier.publishing(8, 5.0)  # a jump to the drive's end
+    barrier.open(8, 0.0)
+    assert barrier.missing(["r1"]) == ["r1"] and barrier.sleepers.sends_sensors("r1", 8)
+
+    late = LockStepBarrier(timeout_s=10.0)
+    late.publishing(6, 2.4)  # already past its wake when the sleep said at 5 came
+    late.record("r1", 5, sleeps=True, wakes_at_s=2.0)
+    late.open(6, 0.0)
+    assert late.missing(["r1"]) == ["r1"]
