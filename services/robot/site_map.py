@@ -191,8 +191,10 @@ class SiteMap:
         else:
             self._settling.discard(guid)
         old = self.footprints.get(guid)
-        if old is not None and _same_footprint(old, footprint) and was_settling == (guid in self._settling):
-            return False
+        if old is not None and _same_footprint(old, footprint):
+            if was_settling == (guid in self._settling):
+                return False
+            footprint = old  # only settled (or not): the cells it covers are the ones it covered
         return self._set_footprint(guid, footprint)
 
     def observe_state(self, guid: str, state: ComponentState, sim_s: float = 0.0) -> bool:
@@ -456,6 +458,10 @@ class SiteMap:
         return True
 
     def _set_footprint(self, guid: str, footprint: Footprint) -> bool:
+        # the same footprint again in the same layer (placed, then joined, then constructed): the cells it
+        # covered, not rasterised again (every robot does it for every component, several times)
+        same = self.footprints.get(guid) is footprint
+        covered, covered_in_band = self._cells.get(guid), guid in self._in_band
         changed = self._clear(guid)
         self.footprints[guid] = footprint
         band = self.blocks(footprint, guid)
@@ -463,7 +469,10 @@ class SiteMap:
         if not (band or seen) or len(footprint.polygon_xy_m) < 3:
             return changed
         outlines = self._outlines(footprint, band)
-        cells = covered_cells(self._geometry, outlines)
+        if same and covered is not None and covered_in_band == band:
+            cells = covered
+        else:
+            cells = covered_cells(self._geometry, outlines)
         self._cells[guid] = cells
         if band:
             self._in_band.add(guid)

@@ -373,3 +373,32 @@ def test_free_at_answers_as_the_inflated_grid_does_without_building_it(
     assert np.array_equal(site.free_at(points, 0.35), site.inflated_grid(0.35).is_free_xy(points))
     site.observe_pose(at_target(of_class(frame, "IfcColumn"), fixed=True))
     assert np.array_equal(site.free_at(points), site.inflated_grid().is_free_xy(points))
+
+
+def test_a_part_placed_joined_and_constructed_where_it_lies_is_rasterised_once(
+    frame: Manifest, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Placed (settling), joined, then said constructed at the same pose: the cells it covered are kept,
+    not rasterised again (every robot did it for every component three times), and the map is the one a
+    robot that heard only the end has; a pose that moved it is rasterised again."""
+    import bimbot.services.robot.site_map as site_map_module
+
+    column = of_class(frame, "IfcColumn")
+    heard_all, heard_end = (SiteMap(plan_site(frame.components, robots=1), frame.components) for _ in "ab")
+    rasterised = []
+    real = site_map_module.covered_cells
+    monkeypatch.setattr(site_map_module, "covered_cells", lambda *a: rasterised.append(1) or real(*a))
+    heard_all.observe_pose(pose(column.guid, (0.0, 0.0, 0.5), attached_to="r1"))
+    assert heard_all.observe_pose(at_target(column, fixed=True))
+    assert len(rasterised) == 1
+    assert heard_all.observe_pose(at_target(column, fixed=True, joined=True))
+    heard_all.observe_state(column.guid, ComponentState.CONSTRUCTED, 2.0)
+    assert len(rasterised) == 1
+    heard_end.observe_pose(at_target(column, fixed=True, joined=True))
+    heard_end.observe_state(column.guid, ComponentState.CONSTRUCTED, 2.0)
+    assert np.array_equal(heard_all.static_grid().occupied, heard_end.static_grid().occupied)
+    assert np.array_equal(heard_all.static_distance_m(), heard_end.static_distance_m())
+    rasterised.clear()
+    moved = column.target_pose_world.position_m
+    heard_all.observe_pose(pose(column.guid, (moved[0] + 0.5, moved[1], moved[2]), fixed=True, joined=True))
+    assert len(rasterised) == 1
