@@ -4,7 +4,8 @@ A slow build and a stuck one must look different while they run. On a terminal t
 ``Live`` display (redrawn a few times a second, one row per robot at work, named with its type: state,
 task, component, what it is doing; the idle ones in one row); when stdout is not a terminal (a log file,
 CI) it is one plain line as the clock starts, then one every ``PLAIN_EVERY_S`` wall seconds, so logs stay
-readable; ``-q`` turns it off. Sim time is said in minutes, hours or days once long (a plan run covers
+readable (with more than ``PLAIN_ROBOTS_NAMED`` robots at work, those grouped by state); ``-q`` turns it
+off. Sim time is said in minutes, hours or days once long (a plan run covers
 days in seconds), the speed-up as ``×47,001``. The text is made by pure functions (:func:`progress_line`,
 :func:`robot_lines`, :class:`RateWindow`); the displays only show it.
 """
@@ -28,6 +29,9 @@ PLAIN_EVERY_S = 10.0  # wall seconds between two plain progress lines
 RATE_WINDOW_S = 10.0  # wall seconds over which the real-time factor is measured
 LIVE_REFRESH_HZ = 4.0
 MAX_ACTIVITY_CHARS = 60
+# a plain line names each robot at work with its task and component up to this many robots; with more, the
+# robots at work are grouped by state (11 robots made a 900-character line a log reader could not follow)
+PLAIN_ROBOTS_NAMED = 4
 
 
 class RateWindow:
@@ -76,14 +80,32 @@ def robot_line(
     return line
 
 
-def idle_line(robot_ids: list[str], types: Mapping[str, str]) -> str:
-    """``idle: r2 (carrier), r3, r4 (tower_crane)``: the robots idle with nothing to say, those of a type
-    together, in one line instead of one per robot."""
+def idle_line(robot_ids: list[str], types: Mapping[str, str], state: str = "idle") -> str:
+    """``idle: r2 (carrier), r3, r4 (tower_crane)``: the robots idle with nothing to say (or all in one
+    ``state``), those of a type together, in one line instead of one per robot."""
     by_type: dict[str, list[str]] = {}
     for robot_id in robot_ids:
         by_type.setdefault(types.get(robot_id, ""), []).append(robot_id)
     groups = [", ".join(ids) + (f" ({name})" if name else "") for name, ids in by_type.items()]
-    return "idle: " + ", ".join(groups)
+    return f"{state}: " + ", ".join(groups)
+
+
+def grouped_robot_lines(robots: Mapping[str, RobotStateMsg], types: Mapping[str, str]) -> list[str]:
+    """The robots at work grouped by state (``pick_up: r1, r5 (carrier)``), each state once, in the
+    order of the task cycle; a robot with something to say keeps its own line; the idle ones last, as in
+    :func:`robot_lines`. For a many-robot site in a plain log line."""
+    lines: list[str] = []
+    by_state: dict[RobotState, list[str]] = {}
+    for robot_id in sorted(robots, key=natural_key):
+        msg = robots[robot_id]
+        if msg.activity:
+            lines.append(robot_line(msg, {}, types))
+        else:
+            by_state.setdefault(msg.state, []).append(robot_id)
+    order = list(RobotState)
+    grouped = [idle_line(by_state[state], types, state.value) for state in order[1:] if state in by_state]
+    idle = [idle_line(by_state[RobotState.IDLE], types)] if RobotState.IDLE in by_state else []
+    return [*grouped, *lines, *idle]
 
 
 def robot_lines(
@@ -176,7 +198,10 @@ class _Base:
         head = progress_line(
             constructed, total, sim_time_s, factor, wall_s, not_built=not_built, preparing=preparing
         )
-        self._show(head, robot_lines(robots, self.names, self.types), wall_s, sim_time_s)
+        self._show(head, self._robot_lines(robots), wall_s, sim_time_s)
+
+    def _robot_lines(self, robots: Mapping[str, RobotStateMsg]) -> list[str]:
+        return robot_lines(robots, self.names, self.types)
 
     def _show(self, head: str, robot_lines: list[str], wall_s: float, sim_time_s: float) -> None:
         raise NotImplementedError
@@ -207,6 +232,12 @@ class PlainProgress(_Base):
         self.say, self.every_s = say, every_s
         self._next_s = every_s
         self._clock_seen = False
+
+    def _robot_lines(self, robots: Mapping[str, RobotStateMsg]) -> list[str]:
+        at_work = sum(1 for msg in robots.values() if msg.state is not RobotState.IDLE or msg.task_id)
+        if at_work > PLAIN_ROBOTS_NAMED:
+            return grouped_robot_lines(robots, self.types)
+        return super()._robot_lines(robots)
 
     def _show(self, head: str, robot_lines: list[str], wall_s: float, sim_time_s: float) -> None:
         if not self._clock_seen and sim_time_s > 0.0:

@@ -9,6 +9,7 @@ from bimbot.run.progress import (
     NoProgress,
     PlainProgress,
     RateWindow,
+    grouped_robot_lines,
     make_progress,
     progress_line,
     robot_line,
@@ -105,3 +106,44 @@ def test_plain_progress_says_one_line_as_the_clock_starts_then_one_every_ten_sec
 def test_quiet_or_not_a_terminal_chooses_the_display() -> None:
     assert isinstance(make_progress({}, quiet=True, say=print), NoProgress)
     assert isinstance(make_progress({}, quiet=False, say=print, stream=io.StringIO()), PlainProgress)
+
+
+def test_a_plain_line_groups_many_robots_at_work_by_state() -> None:
+    """Eleven robots named each with task and component made a 900-character line: past
+    ``PLAIN_ROBOTS_NAMED`` at work, a plain line says who is in which state, one group per state."""
+
+    def at(robot_id: str, state: RobotState, activity: str = "") -> RobotStateMsg:
+        return RobotStateMsg(
+            robot_id=robot_id,
+            state=state,
+            task_id=None if state is RobotState.IDLE else f"T{robot_id}",
+            guid=None if state is RobotState.IDLE else GUID,
+            pose_xy_yaw=(0.0, 0.0, 0.0),
+            sim_time_s=10.0,
+            wall_time_s=0.0,
+            activity=activity,
+        )
+
+    types = {f"r{i}": "carrier" for i in range(1, 11)} | {"r11": "tower_crane"}
+    states = [RobotState.PICK_UP] * 3 + [RobotState.IDENTIFY_TARGET_LOCATION] * 4 + [RobotState.IDLE] * 3
+    robots = {f"r{i}": at(f"r{i}", state) for i, state in enumerate(states, start=1)}
+    robots["r11"] = at("r11", RobotState.ASSEMBLE, "waiting for r4 to step aside")
+    assert grouped_robot_lines(robots, types) == [
+        "pick_up: r1, r2, r3 (carrier)",
+        "identify_target_location: r4, r5, r6, r7 (carrier)",
+        "r11 (tower_crane) assemble Tr11 " + GUID + ": waiting for r4 to step aside",
+        "idle: r8, r9, r10 (carrier)",
+    ]
+    said: list[str] = []
+    plain = PlainProgress({GUID: "Column A1"}, said.append, every_s=10.0, types=types)
+    plain.update(1, 988, 5.0, robots, 1.0)
+    assert said == [
+        "progress: "
+        + progress_line(1, 988, 5.0, None, 1.0)
+        + "; "
+        + "; ".join(grouped_robot_lines(robots, types))
+    ]
+    assert len(said[0]) < 300
+    few = {robot_id: robots[robot_id] for robot_id in ("r1", "r8")}  # few at work: each named in full
+    plain.update(1, 988, 6.0, few, 12.0)
+    assert "r1 (carrier) pick_up Tr1 Column A1" in said[1]
