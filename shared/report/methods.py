@@ -196,7 +196,7 @@ def curing_line(report: Mapping[str, Any]) -> str | None:
     cured_s = max(entry["until_s"] for entry in cured)
     if last_s is not None and cured_s > last_s:  # the makespan ends at the last pour, the building later
         line += (
-            f"; the last cure ends {duration_text(cured_s - last_s)} after the last construction (the "
-            "makespan ends there; the concrete reaches its strength then)"
+            "; the makespan ends with the last construction, and the concrete reaches its strength "
+            f"{duration_text(cured_s - last_s)} later, when the last cure ends"
         )
     return line

@@ -110,8 +110,8 @@ def test_work_in_place_is_no_placement_by_a_hand(report: dict) -> None:
 def test_the_run_summary_says_how_long_the_cast_components_cured(report: dict) -> None:
     assert curing_line(report) == (
         "cured: 2 cast components, the longest 72.0 h (259,200 s) (1 component that rests on one waited for "
-        "its cure, and what rests on it in turn); the last cure ends 4.5 h (16,172 s) after the last "
-        "construction (the makespan ends there; the concrete reaches its strength then)"
+        "its cure, and what rests on it in turn); the makespan ends with the last construction, and the "
+        "concrete reaches its strength 4.5 h (16,172 s) later, when the last cure ends"
     )
     assert curing_line({"components": [{"curing": None}]}) is None
     last_poured = {
@@ -119,8 +119,8 @@ def test_the_run_summary_says_how_long_the_cast_components_cured(report: dict) -
         "totals": {"last_constructed_s": 100.0},
     }
     assert curing_line(last_poured) == (
-        "cured: 1 cast component, the longest 24.0 h (86,400 s); the last cure ends 24.0 h (86,400 s) after "
-        "the last construction (the makespan ends there; the concrete reaches its strength then)"
+        "cured: 1 cast component, the longest 24.0 h (86,400 s); the makespan ends with the last "
+        "construction, and the concrete reaches its strength 24.0 h (86,400 s) later, when the last cure ends"
     )
     lifted = {"by_method": {"lifted": {"components": 3, "constructed": 3}, "with_host": {"components": 2}}}
     assert method_legend({"totals": lifted}) == []  # all lifted (guests have no bars): no legend of methods
