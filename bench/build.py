@@ -11,7 +11,7 @@ loopback bus, lock-step physics as fast as the robots follow) and prints, per ru
   log reports — and the whole build's wall time over it, in the same run (target ≤ 1.5: the distributed
   loop around the physics costs at most half the physics itself);
 * placement errors per robot type, retries by cause, the largest drift after release and that of the
-  components that were joined (target ≤ 5 mm), and every service's peak memory.
+  components that were joined (target ≤ 5 mm), and every service's peak memory and CPU time.
 
 ``--fleet`` also builds with the default mixed fleet (a Husky, a carrier, a crane: what ``bimbot demo``
 builds with); ``--demo`` times ``bimbot demo`` itself as a user runs it (conversion, observer and all,
@@ -108,6 +108,11 @@ def describe(label: str, outcome: RunOutcome, target_rtf: float | None = None) -
     print(f"  makespan {'–' if makespan is None else f'{float(makespan):.1f}'} s; {distance}")
     if figures.peak_mb:
         print("  peak memory: " + ", ".join(f"{name} {mb:.0f} MB" for name, mb in figures.peak_mb.items()))
+    if figures.cpu_s:
+        total_s = sum(figures.cpu_s.values())
+        shares = sorted(figures.cpu_s.items(), key=lambda item: -item[1])
+        said = [f"{name} {seconds:.0f} s ({100 * seconds / total_s:.0f} %)" for name, seconds in shares]
+        print(f"  CPU {total_s:.0f} s over the services: " + ", ".join(said))
 
 
 def build_sample(name: str, only: tuple[str, ...] | None, label: str, folder: Path, robots: int) -> None:

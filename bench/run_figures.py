@@ -2,7 +2,7 @@
 
 * ``physics stepping: N steps in S s wall`` (physics' log): the bare ``stepSimulation`` time of the run,
   the reference of the loop's overhead (wall time of the whole build over it, in the same run);
-* ``peak memory X MB`` (every service's log, as it ends);
+* ``peak memory X MB…; CPU Y s`` (every service's log, as it ends);
 * the report's placements: errors per robot type, drift after release (of every attempt, and of the
   placements that held and were joined), retries by cause.
 """
@@ -16,6 +16,7 @@ from typing import Any
 
 STEPPING = re.compile(r"physics stepping: (\d+) steps in ([0-9.]+) s wall")
 PEAK = re.compile(r"peak memory (\d+) MB")
+CPU = re.compile(r"peak memory \d+ MB.*; CPU ([0-9.]+) s")
 
 
 @dataclass(frozen=True)
@@ -23,6 +24,7 @@ class RunFigures:
     stepping_s: float | None  # wall seconds in stepSimulation alone
     steps: int | None
     peak_mb: dict[str, float] = field(default_factory=dict)  # service log name → peak memory
+    cpu_s: dict[str, float] = field(default_factory=dict)  # service log name → CPU seconds (user + system)
 
 
 def read_figures(run_dir: Path | None) -> RunFigures:
@@ -36,12 +38,14 @@ def read_figures(run_dir: Path | None) -> RunFigures:
         if found:  # one line per physics process that ended normally (a restarted one logs its own)
             steps = sum(int(n) for n, _ in found)
             stepping_s = sum(float(s) for _, s in found)
-    peaks = {}
+    peaks, cpu = {}, {}
     for log in sorted(logs.glob("*.log")):
-        found = PEAK.findall(log.read_text(errors="replace"))
-        if found:
+        text = log.read_text(errors="replace")
+        if found := PEAK.findall(text):
             peaks[log.stem] = float(found[-1])
-    return RunFigures(stepping_s, steps, peaks)
+        if used := CPU.findall(text):  # a restarted service logs once per process: all of them
+            cpu[log.stem] = sum(float(seconds) for seconds in used)
+    return RunFigures(stepping_s, steps, peaks, cpu)
 
 
 def placement_lines(report: dict[str, Any]) -> list[str]:

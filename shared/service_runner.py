@@ -84,14 +84,16 @@ def resolve_build(path: Path) -> BuildInput:
 
 def run_service(main: Callable[..., int | None], /, *args: object, **kwargs: object) -> int:
     """``main(*args, stop=<event>, **kwargs)`` with SIGINT/SIGTERM setting the event; its exit code. Its
-    peak memory is logged as it ends (``bench/build.py`` reads it per service)."""
+    peak memory and CPU time are logged as it ends (``bench/build.py`` reads them per service: on two cores
+    shared by a dozen services, where the CPU goes is where the wall time goes)."""
     with stop_on_signals() as stop:
         code = int(main(*args, stop=stop, **kwargs) or 0)
         # a service that ran (a user error stays one line); a forked one shares what its fork server
         # loaded. Logged while a late SIGTERM still only sets the event.
         shared = os.environ.get(PRELOADED_ENV)
         note = f" (forked from a {shared} MB fork server: what they share counts in both)" if shared else ""
-        _log.info("peak memory %.0f MB%s", peak_rss_mb(), note)
+        times = os.times()
+        _log.info("peak memory %.0f MB%s; CPU %.1f s", peak_rss_mb(), note, times.user + times.system)
     return code
 
 

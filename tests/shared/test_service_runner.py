@@ -144,3 +144,22 @@ def test_a_reader_that_went_away_ends_a_command_quietly_not_as_a_bug() -> None:
         os.close(write_end)
     assert done.returncode == bimbot.cli.EXIT_BROKEN_PIPE == 141, done.stderr
     assert "Traceback" not in done.stderr and bimbot.cli.BUG_MARK not in done.stderr, done.stderr
+
+
+def test_a_service_logs_its_peak_memory_and_cpu_time_as_it_ends(caplog: pytest.LogCaptureFixture) -> None:
+    """``bench/build.py`` reads both per service: where two cores' time goes in a build of a dozen."""
+    import time
+
+    from bimbot.shared.service_runner import run_service
+
+    def busy(stop: object) -> int:
+        until = time.process_time() + 0.2
+        while time.process_time() < until:
+            pass
+        return 0
+
+    with caplog.at_level(logging.INFO, logger="bimbot.shared.service_runner"):
+        assert run_service(busy) == 0
+    (line,) = [r.getMessage() for r in caplog.records if "peak memory" in r.getMessage()]
+    cpu_s = float(line.rsplit("CPU ", 1)[1].removesuffix(" s"))
+    assert cpu_s >= 0.2
