@@ -98,6 +98,15 @@ class Parking:
             navigator.set_goal((x, y), yaw, sim_s, tolerance_m=0.3, quiet=retry)
             self._parking = True
 
+    def next_act_s(self) -> float | None:
+        """While it waits, standing, for its parking time: the sim time it acts of its own accord next
+        (drives to its depot, or says it stands there); None when it may act at any step."""
+        if not self._left_structure or self._parking or self._idle_since_s is None:
+            return None
+        if self.context.navigator.goal is not None:
+            return None
+        return max(self._idle_since_s + self.context.config.park_after_s, self._park_again_s)
+
     def settled(self) -> bool:
         """Nothing left to do of its own accord: out of the structure, no drive under way or tried again
         later, and standing at its depot once the parking time came."""

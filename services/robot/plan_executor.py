@@ -22,7 +22,8 @@ until when (``CmdVelMsg.wakes_at_s``), and physics neither sends it sensors nor 
 first step that reaches the drive's end, or a task message wakes every sleeper (:mod:`.stepped`). On the
 988-component frame with ten carriers a robot answered every one of 33,000 steps; asleep through drives it
 answers a third of them, and the run took 642 s of wall time instead of 767 s (``bench/build.py --large``).
-The path is watched against the map at the next tick, not at every step of the drive.
+The path is watched against the map at the next tick, not at every step of the drive. An idle robot sleeps
+alike through its drive out of the structure and to its depot, and while it waits for its parking time.
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ from .fine_alignment import Alignment
 from .handover import Handover
 from .motion import Path
 from .nav_types import DEFAULT_NAVIGATOR, Goal, NavCommand, NavigatorConfig, NavStatus
-from .protocol import Outgoing
+from .protocol import Outgoing, assignment_waiting
 from .recovery import diagnose, escape_path, plan_start
 from .site_map import SiteMap
 from .site_work import SiteWorkExecutor
@@ -303,16 +304,34 @@ class PlanExecutor(Executor):
         """Until its drive ends, when all it does meanwhile is follow its motion (see the module doc):
         nothing to send or to hear back (no physics request out, every event confirmed, no question out),
         no wait on another robot, and the drive at least :data:`MIN_SLEEP_S` long yet. Its task's no-progress
-        bound wakes it too. None: it answers every step."""
+        bound wakes it too. Idle, until its parking acts (:meth:`_idle_until_s`). None: it answers every
+        step."""
         task, navigator = self.task, self.plan_navigator
-        if task is None or navigator.goal is None or navigator.status is not NavStatus.ACTIVE:
+        if self.component_states.asking or self.cycle.outbox:
             return None
-        if task.request is not None or task.events or self.component_states.asking or self.cycle.outbox:
+        if task is None:
+            return self._idle_until_s()
+        if navigator.goal is None or navigator.status is not NavStatus.ACTIVE:
+            return None
+        if task.request is not None or task.events:
             return None
         if task.abandoning or task.dropping is not None or task.withdrawn or task.waiting_since_s is not None:
             return None
         end_s = min(navigator.motion.end_s, self.cycle.state_since_s + self.config.task_timeout_s)
         return end_s if end_s - self.sim_s >= MIN_SLEEP_S else None
+
+    def _idle_until_s(self) -> float | None:
+        """Idle and not yet parked: asleep through its drive out of the structure or to its depot, and
+        while it stands waiting for its parking time (a task message wakes it, as any sleeper); never while
+        an assignment waits for its component's release (a component state starts it, and wakes nobody)."""
+        if self.parking is None or assignment_waiting(self.tasks, self.robot_id, self.performed):
+            return None
+        navigator = self.plan_navigator
+        if navigator.goal is not None:
+            end_s: float | None = navigator.motion.end_s if navigator.status is NavStatus.ACTIVE else None
+        else:
+            end_s = self.parking.next_act_s()
+        return end_s if end_s is not None and end_s - self.sim_s >= MIN_SLEEP_S else None
 
     def _ground_truth(self, message: RobotPoseMsg) -> None:
         """No localisation error to measure: physics poses it by the same motion (a pose message stamped

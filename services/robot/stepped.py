@@ -81,7 +81,7 @@ class SteppedTicks:
         self.asleep_since: int | None = None  # the step it fell asleep after (None: awake)
         self.wakes_at_s: float | None = None  # asleep while driving: it wakes at the step reaching this
         self.slept_steps = 0
-        self.slept_driving = 0  # of those, while a kinematic drive went on
+        self.slept_on_own_clock = 0  # of those, until a time of its own (a drive's end, a parking time)
         self.steps: deque[_Step] = deque()
         self.claims = TwinClaims()  # terminal claims awaiting their twin's answer
         self._before: list[object] = []  # since the last sensors
@@ -188,7 +188,7 @@ class SteppedTicks:
             if self.asleep_since is not None:
                 slept = clock.step - self.asleep_since - 1
                 self.slept_steps += slept
-                self.slept_driving += slept if self.wakes_at_s is not None else 0
+                self.slept_on_own_clock += slept if self.wakes_at_s is not None else 0
                 self.asleep_since, self.wakes_at_s = None, None
             sensors = entry.sensors
             executor.handle(sensors.odom)
@@ -237,9 +237,9 @@ class SteppedTicks:
     def finish(self) -> None:
         if self.slept_steps or self.asleep_since is not None:
             _log.info(
-                "lock-step: slept %d step(s) (%d of them driving)%s",
+                "lock-step: slept %d step(s) (%d of them until a drive or a wait of its own ended)%s",
                 self.slept_steps,
-                self.slept_driving,
+                self.slept_on_own_clock,
                 "" if self.asleep_since is None else f", and asleep from step {self.asleep_since + 1} on",
             )
         if self.gate.late or self.gate.forced:

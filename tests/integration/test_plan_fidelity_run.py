@@ -63,7 +63,7 @@ def test_plan_fidelity_builds_the_frame_and_says_so(tmp_path: Path) -> None:
     # a kinematic robot sleeps through its drives (services/robot/plan_executor.py: sleeps_until_s): physics
     # neither sends it its sensors nor waits for its answers until the drive ends
     slept = re.search(
-        r"slept (\d+) step\(s\) \((\d+) of them driving\)", (run_dir / "logs/robot-r1.log").read_text()
+        r"slept (\d+) step\(s\) \((\d+) of them until a drive", (run_dir / "logs/robot-r1.log").read_text()
     )
     assert slept is not None and int(slept.group(2)) > 0
     runs = _bimbot("runs", str(build))

@@ -63,3 +63,45 @@ def test_a_task_runs_the_protocol_along_timed_paths(frame: Manifest) -> None:
     assert site.executor.distance_m == pytest.approx(driven_m, rel=0.05)
     place = site.requests[-1].message
     assert isinstance(place, PlaceRequest) and place.believed_xy_yaw is None
+
+
+def test_a_kinematic_robot_may_sleep_through_its_drives_and_its_idle_wait_and_not_while_it_talks(
+    frame: Manifest,
+) -> None:
+    """``sleeps_until_s`` (the lock-step loop lets it sleep until then): the end of a drive with its load or
+    to it, of its drive out of the structure after the task, or its parking time; never with a request out
+    or an event unconfirmed, and never past the end of what it waits for."""
+    site, released, task = make_site(frame)
+    layout = plan_site(frame.components, robots=1)
+    info = SiteInfoMsg(
+        robot_ids=["r1"],
+        robot_starts_xy_yaw=list(layout.robot_starts),
+        step_s=1 / 240,
+        control_period_s=DT,
+        lock_step=True,
+        robot_type_of={"r1": DEFAULT_ROBOT.name},
+        robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
+        layout=layout,
+    )
+    executor = PlanExecutor(frame, info, ExecutorConfig(robot_id="r1"))
+    site.executor = executor
+    said: list[tuple[float, float | None, bool, bool]] = []  # (sim s, until, with a task, talking)
+    tick = executor.tick
+
+    def ticked(clock, wall_s):  # type: ignore[no-untyped-def]
+        out = tick(clock, wall_s)
+        current = executor.task
+        talking = current is not None and (current.request is not None or bool(current.events))
+        said.append((clock.sim_time_s, executor.sleeps_until_s(), current is not None, talking))
+        return out
+
+    executor.tick = ticked  # type: ignore[method-assign]
+    run_task(site, released, task)
+    site.run(int(3 * executor.config.park_after_s / DT))
+    with_task = [entry for entry in said if entry[2]]
+    idle = [entry for entry in said if not entry[2]]
+    assert any(until is not None for _, until, _, _ in with_task)  # its drives with and to its load
+    assert any(until is not None for _, until, _, _ in idle[2:])  # out of the structure, or parking
+    assert all(until is None for _, until, _, talking in said if talking)
+    assert all(until is None or until > now for now, until, _, _ in said)
+    assert executor.can_sleep()  # parked at its depot at last: asleep until a task message
