@@ -130,6 +130,7 @@ class SiteMap:
         # never asks), then kept current like the rest
         self._laser_layer: LaserLayer | None = None
         self._cells: dict[str, NDArray[np.int64]] = {}  # guid → (n, 2) cells it covers now
+        self._posed_at: dict[str, tuple] = {}  # guid: the pose its footprint was drawn at (position, quat)
         self._in_band: set[str] = set()  # of those, the ones that block
         self._floors_seen: set[str] = set()  # the others: floors driven on whose edge the laser sees
         self._driven_from_s: dict[str, float] = {}  # constructed: from when it may be driven on (cured)
@@ -191,10 +192,12 @@ class SiteMap:
         else:
             self._settling.discard(guid)
         old = self.footprints.get(guid)
-        if old is not None and _same_footprint(old, footprint):
-            if was_settling == (guid in self._settling):
-                return False
-            footprint = old  # only settled (or not): the cells it covers are the ones it covered
+        if old is not None and _same_footprint(old, footprint) and was_settling == (guid in self._settling):
+            return False
+        posed_at = (message.pose.position_m, message.pose.quat_xyzw)
+        if old is not None and self._posed_at.get(guid) == posed_at:
+            footprint = old  # the very pose it was drawn at (only settled, or joined): the cells it covered
+        self._posed_at[guid] = posed_at
         return self._set_footprint(guid, footprint)
 
     def observe_state(self, guid: str, state: ComponentState, sim_s: float = 0.0) -> bool:
@@ -221,6 +224,7 @@ class SiteMap:
         self.carried.pop(guid, None)
         self._applied.pop(guid, None)
         pose = component.target_pose_world
+        self._posed_at[guid] = (pose.position_m, pose.quat_xyzw)
         return self._set_footprint(guid, posed_footprint(component, pose.position_m, pose.quat_xyzw))
 
     def advance(self, sim_s: float) -> bool:
