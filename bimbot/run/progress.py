@@ -31,7 +31,7 @@ LIVE_REFRESH_HZ = 4.0
 MAX_ACTIVITY_CHARS = 60
 # a plain line names each robot at work with its task and component up to this many robots; with more, the
 # robots at work are grouped by state (11 robots made a 900-character line a log reader could not follow)
-PLAIN_ROBOTS_NAMED = 4
+PLAIN_ROBOTS_NAMED = 3
 
 
 class RateWindow:

@@ -21,7 +21,7 @@ from bimbot.run.table import not_built_table
 from bimbot.shared.report.collector import RunEnding
 from bimbot.shared.report.durations import duration_text
 from bimbot.shared.report.fleet import robot_order, utilisation_line
-from bimbot.shared.report.methods import curing_line
+from bimbot.shared.report.methods import curing_line, set_by_line
 from bimbot.shared.report.placements import caught_on_last_attempt, placement_line
 from bimbot.shared.report.totals import makespan_window
 from bimbot.shared.run_folder import RunFolder
@@ -53,13 +53,15 @@ class RunOutcome:
     build_wall_s: float | None = None
 
 
-def _makespan(totals: dict[str, Any]) -> str:
+def _makespan(totals: dict[str, Any], *, finished: bool = True) -> str:
     """``, makespan 17.7 min (1,061 s)``: the report's and report.png's figure (first release to last
-    construction), which a user otherwise cannot tell from the run's sim time."""
+    construction), which a user otherwise cannot tell from the run's sim time; of a run stopped before
+    its end, ``so far`` (a trial user read a stopped run's makespan as a finished build's)."""
     makespan = totals.get("makespan_s")
     if not makespan:
         return ""
-    return f", makespan {duration_text(makespan)} from the first release to the last construction"
+    so_far = "" if finished else " so far"
+    return f", makespan{so_far} {duration_text(makespan)} from the first release to the last construction"
 
 
 def wall_line(outcome: RunOutcome) -> str:
@@ -165,7 +167,7 @@ def summary_text(outcome: RunOutcome) -> str:
     lines = [
         *early,
         f"constructed {outcome.constructed}/{outcome.total} components in {duration_text(sim_time_s)} of "
-        f"sim time{_makespan(totals)}; {_caught(outcome)}, "
+        f"sim time{_makespan(totals, finished=_finished(outcome))}; {_caught(outcome)}, "
         f"{_give_backs(totals, outcome.report.get('robots', {}))}{_seed(outcome)}",
         wall_line(outcome),
     ]
@@ -206,6 +208,9 @@ def summary_text(outcome: RunOutcome) -> str:
     utilisation = utilisation_line(outcome.report)
     if utilisation is not None:
         lines.append(utilisation)
+    set_by = set_by_line(outcome.report)
+    if set_by is not None:
+        lines.append(set_by)
     one_at_a_time = one_at_a_time_line(outcome.report)
     if one_at_a_time is not None:
         lines.append(one_at_a_time)
@@ -234,6 +239,12 @@ def summary_text(outcome: RunOutcome) -> str:
     if exit_why is not None:
         lines.append(exit_why)
     return "\n".join(lines) + "\n"
+
+
+def _finished(outcome: RunOutcome) -> bool:
+    """Whether the run went on until nothing more could happen (done, or stalled): not stopped by a
+    signal, a timeout or a service gone."""
+    return outcome.ending is None or outcome.ending.how in ("done", "stalled")
 
 
 def one_at_a_time_line(report: dict[str, Any]) -> str | None:

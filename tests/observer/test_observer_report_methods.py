@@ -233,3 +233,27 @@ def test_a_wait_for_work_in_place_is_drawn_in_its_works_colour_not_its_class(rep
         assert tuple(round(v, 6) for v in STEP_COLORS[step]) in colors
         checked += 1
     assert checked >= 2
+
+
+def test_the_summary_says_when_work_in_place_and_cures_set_the_makespan_not_the_lifting() -> None:
+    """The Revit house: the lifting robots at 1 % each and three carriers changing its makespan by 0.1 %,
+    and nothing said that a slab's formwork, pour and cure took the time."""
+    from bimbot.shared.report.methods import set_by_line
+
+    def report(lift_end_s: float) -> dict:
+        return {
+            "totals": {"makespan_s": 100_000.0, "first_release_s": 0.0, "working_s": 40_000.0 + lift_end_s},
+            "components": [
+                {"guid": "slab", "method": "cast_in_place"},
+                {"guid": "beam", "method": "lifted"},
+            ],
+            "robots": {
+                "r1": {"tasks": [{"guid": "slab", "start_s": 0.0, "end_s": 40_000.0}]},
+                "r2": {"tasks": [{"guid": "beam", "start_s": 40_000.0, "end_s": 40_000.0 + lift_end_s}]},
+            },
+        }
+
+    line = set_by_line(report(3_600.0))
+    assert line is not None and line.startswith("what set the makespan: work in place")
+    assert "11.1 h (40,000 s)" in line and "15.7 h (56,400 s)" in line and "60.0 min (3,600 s)" in line
+    assert set_by_line(report(50_000.0)) is None  # the lifting took half of it: more robots may help

@@ -80,6 +80,21 @@ def test_the_summary_says_every_duration_one_way_and_the_robots_busy_times_in_on
     assert r2.endswith("busy 6.6 min (396 s)")  # beside r1's minutes, not "396.0 s"
 
 
+def test_a_run_stopped_before_its_end_says_its_makespan_so_far() -> None:
+    """A trial user read a stopped run's 'makespan 78.9 h' as a finished build's."""
+    from bimbot.shared.reasons import ReasonCode
+    from bimbot.shared.report.collector import RunEnding
+
+    stopped = RunEnding("interrupted", ReasonCode.INTERRUPTED, "SIGINT")
+
+    def headline(ending: RunEnding) -> str:
+        return next(line for line in _lines(ending=ending) if line.startswith("constructed "))
+
+    assert ", makespan so far 33.3 min" in headline(stopped)
+    for how in ("done", "stalled"):
+        assert ", makespan 33.3 min" in headline(RunEnding(how, None, ""))
+
+
 def test_the_tasks_a_robot_did_not_build_or_give_back_are_named_with_what_they_came_to() -> None:
     r1 = next(line for line in _lines() if line.startswith("r1 (husky)"))
     assert r1.startswith(
