@@ -10,6 +10,7 @@ import pytest
 
 from bimbot.services.physics.placement_error import guided_yaw_std_rad, physical_placement
 from bimbot.services.physics.scene import Frame, rotate
+from bimbot.shared.manifest import Manifest
 
 REVIT_CENTRE = (-17.1, 101.3, 1.6)  # a Revit column's centre in its frame: the frame sits at the model origin
 
@@ -80,3 +81,45 @@ def test_a_guided_long_loads_ends_land_within_the_precision_a_free_turn_swings_t
         for seed in range(200)
     ]
     assert float(np.percentile(ends, 95)) < 3 * precision_m
+
+
+def test_a_components_placement_error_is_drawn_for_it_and_its_attempt_whoever_placed_what_before(
+    frame_manifest: Manifest,
+) -> None:
+    """Common random numbers: the same component's first (second…) placement draws the same standard
+    errors whatever its robot placed before, so two fleets or two orders differ by what they do, not by
+    re-rolled errors (a per-robot stream re-rolled every later draw of the Janesville restaurant when its
+    robots were assigned other tasks). The error scales with the placing type's precision."""
+    from types import SimpleNamespace
+
+    from bimbot.services.physics.placing import Placing
+    from bimbot.shared.robot_description import DEFAULT_ROBOT
+
+    first, second, *_ = frame_manifest.components
+    commanded = ((1.0, 2.0, 0.5), (0.0, 0.0, 0.0, 1.0))
+
+    def robot(precision_scale: float) -> SimpleNamespace:
+        description = DEFAULT_ROBOT.model_copy(
+            update={
+                "placement_precision_m": 0.004 * precision_scale,
+                "placement_precision_yaw_deg": 0.2 * precision_scale,
+                "placement_guided_ends": False,
+            }
+        )
+        return SimpleNamespace(
+            description=description, drives=False, pose_xy_yaw=lambda _cid: (0.0, 0.0, 0.0)
+        )
+
+    def offset(frame: Frame) -> np.ndarray:
+        return np.asarray(frame[0]) - np.asarray(commanded[0])
+
+    alone = Placing(SimpleNamespace(client_id=0), None, seed=3)  # type: ignore[arg-type]
+    after_another = Placing(SimpleNamespace(client_id=0), None, seed=3)  # type: ignore[arg-type]
+    after_another._where_it_goes(robot(1.0), commanded, None, second)  # its robot placed another before
+    drawn = offset(alone._where_it_goes(robot(1.0), commanded, None, first))
+    assert np.allclose(drawn, offset(after_another._where_it_goes(robot(1.0), commanded, None, first)))
+    assert np.abs(drawn[:2]).max() > 0.0
+    again = offset(alone._where_it_goes(robot(1.0), commanded, None, first))  # its second attempt
+    assert not np.allclose(again, drawn)
+    coarse = Placing(SimpleNamespace(client_id=0), None, seed=3)  # type: ignore[arg-type]
+    assert np.allclose(offset(coarse._where_it_goes(robot(2.0), commanded, None, first))[:2], 2.0 * drawn[:2])
