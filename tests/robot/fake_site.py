@@ -249,16 +249,10 @@ class FakeSite:
                 self.set_state(guid, ComponentState.MISPLACED, Verdict.MISPLACED.value)
 
 
-def make_site(
-    manifest: Manifest,
-    name: str | None = None,
-    start_xy_yaw: tuple[float, float, float] | None = None,
-    **config: object,
-) -> tuple[FakeSite, ComponentStateMsg, TaskMsg]:
-    """A site with one task for r1: the component called ``name`` (default: the first footing); r1 stands
-    at ``start_xy_yaw`` (default: its depot start)."""
+def site_info(manifest: Manifest) -> SiteInfoMsg:
+    """What physics tells robot r1 (the default type) of a site planned for one robot, in lock-step."""
     layout = plan_site(manifest.components, robots=1)
-    info = SiteInfoMsg(
+    return SiteInfoMsg(
         robot_ids=["r1"],
         robot_starts_xy_yaw=list(layout.robot_starts),
         step_s=1 / 240,
@@ -268,6 +262,19 @@ def make_site(
         robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
         layout=layout,
     )
+
+
+def make_site(
+    manifest: Manifest,
+    name: str | None = None,
+    start_xy_yaw: tuple[float, float, float] | None = None,
+    **config: object,
+) -> tuple[FakeSite, ComponentStateMsg, TaskMsg]:
+    """A site with one task for r1: the component called ``name`` (default: the first footing); r1 stands
+    at ``start_xy_yaw`` (default: its depot start)."""
+    info = site_info(manifest)
+    layout = info.layout
+    assert layout is not None
     config_ = ExecutorConfig(robot_id="r1", **config)  # type: ignore[arg-type]
     executor = Executor(manifest, info, config_, start_xy_yaw=start_xy_yaw)
     site = FakeSite(manifest, executor, np.array(start_xy_yaw or layout.robot_starts[0], float))

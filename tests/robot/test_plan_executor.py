@@ -7,16 +7,15 @@ from __future__ import annotations
 import math
 
 import pytest
-from fake_site import DT, make_site, run_task
+from fake_site import DT, make_site, run_task, site_info
 from frames import convert_small_frame
 
 from bimbot.services.robot.executor import ExecutorConfig
 from bimbot.services.robot.plan_executor import PlanExecutor, plan_executor_class
 from bimbot.services.robot.task_machine import PAPER_ORDER
 from bimbot.shared.manifest import Manifest, read_manifest
-from bimbot.shared.messages import ComponentEvent, ComponentState, PlaceRequest, PlanMsg, SiteInfoMsg
+from bimbot.shared.messages import ComponentEvent, ComponentState, PlaceRequest, PlanMsg
 from bimbot.shared.robot_description import DEFAULT_ROBOT
-from bimbot.shared.site_layout import plan_site
 
 
 @pytest.fixture(scope="module")
@@ -26,17 +25,9 @@ def frame(tmp_path_factory: pytest.TempPathFactory) -> Manifest:
 
 def test_a_task_runs_the_protocol_along_timed_paths(frame: Manifest) -> None:
     site, released, task = make_site(frame)
-    layout = plan_site(frame.components, robots=1)
-    info = SiteInfoMsg(
-        robot_ids=["r1"],
-        robot_starts_xy_yaw=list(layout.robot_starts),
-        step_s=1 / 240,
-        control_period_s=DT,
-        lock_step=True,
-        robot_type_of={"r1": DEFAULT_ROBOT.name},
-        robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
-        layout=layout,
-    )
+    info = site_info(frame)
+    layout = info.layout
+    assert layout is not None
     assert plan_executor_class(info, "r1") is PlanExecutor
     site.executor = PlanExecutor(frame, info, ExecutorConfig(robot_id="r1"))
     plans: list[PlanMsg] = []
@@ -72,17 +63,9 @@ def test_a_kinematic_robot_may_sleep_through_its_drives_and_its_idle_wait_and_no
     to it, of its drive out of the structure after the task, or its parking time; never with a request out
     or an event unconfirmed, and never past the end of what it waits for."""
     site, released, task = make_site(frame)
-    layout = plan_site(frame.components, robots=1)
-    info = SiteInfoMsg(
-        robot_ids=["r1"],
-        robot_starts_xy_yaw=list(layout.robot_starts),
-        step_s=1 / 240,
-        control_period_s=DT,
-        lock_step=True,
-        robot_type_of={"r1": DEFAULT_ROBOT.name},
-        robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
-        layout=layout,
-    )
+    info = site_info(frame)
+    layout = info.layout
+    assert layout is not None
     executor = PlanExecutor(frame, info, ExecutorConfig(robot_id="r1"))
     site.executor = executor
     said: list[tuple[float, float | None, bool, bool]] = []  # (sim s, until, with a task, talking)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from fake_site import DT, FakeSite, make_site
+from fake_site import FakeSite, make_site, site_info
 from frames import convert_small_frame
 
 from bimbot.services.robot.executor import ExecutorConfig
@@ -22,12 +22,9 @@ from bimbot.shared.messages import (
     PoseMsg,
     RobotState,
     RobotStateMsg,
-    SiteInfoMsg,
     TaskKind,
     TaskMsg,
 )
-from bimbot.shared.robot_description import DEFAULT_ROBOT
-from bimbot.shared.site_layout import plan_site
 
 
 @pytest.fixture(scope="module")
@@ -39,17 +36,9 @@ def _clear_site(frame: Manifest) -> tuple[FakeSite, TaskMsg, tuple[float, float]
     """r1 (plan fidelity) and a failed footing lying on the ground 3 m south of its target; its clear
     task, and the centre of its yard slot (where it goes)."""
     site, _released, build = make_site(frame)
-    layout = plan_site(frame.components, robots=1)
-    info = SiteInfoMsg(
-        robot_ids=["r1"],
-        robot_starts_xy_yaw=list(layout.robot_starts),
-        step_s=1 / 240,
-        control_period_s=DT,
-        lock_step=True,
-        robot_type_of={"r1": DEFAULT_ROBOT.name},
-        robot_types={DEFAULT_ROBOT.name: DEFAULT_ROBOT},
-        layout=layout,
-    )
+    info = site_info(frame)
+    layout = info.layout
+    assert layout is not None
     site.executor = PlanExecutor(frame, info, ExecutorConfig(robot_id="r1"))
     guid = build.guid
     slot = layout.slots[guid].footprint
