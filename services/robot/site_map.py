@@ -202,9 +202,15 @@ class SiteMap:
 
     def observe_state(self, guid: str, state: ComponentState, sim_s: float = 0.0) -> bool:
         """A constructed component never placed on the bus so far is assumed at its BIM target; a floor
-        constructed (or no longer) is driven on (or no longer), a cast one once it has cured."""
+        constructed (or no longer) is driven on (or no longer), a cast one once it has cured; a part judged
+        misplaced no longer settles."""
         if guid not in self._components:
             return False
+        if state is ComponentState.MISPLACED and guid in self._settling and guid in self.footprints:
+            # judged where it came to rest: no longer settling, it blocks by its height as any part (a
+            # misplaced flush footing walled in the robot that had set it, standing over its edge)
+            self._settling.discard(guid)
+            return self._set_footprint(guid, self.footprints[guid])
         constructed = state is ComponentState.CONSTRUCTED
         if constructed == (guid in self._driven_from_s) and (not constructed or guid in self._placed):
             return False

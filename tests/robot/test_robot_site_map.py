@@ -178,6 +178,22 @@ def test_a_placed_footing_not_yet_joined_is_kept_off_until_it_is(frame: Manifest
     assert site.static_grid().is_free(x, y)  # built: below the robots' band, driven over
 
 
+def test_a_footing_judged_misplaced_settles_no_more_and_does_not_wall_in_its_robot(
+    frame: Manifest, site: SiteMap
+) -> None:
+    """A misplaced flush footing stays placed and not joined until it is picked again; kept off as if it
+    still settled, it walled in the carrier that had set it standing over its edge (0 of 12 built)."""
+    footing = of_class(frame, "IfcFooting")
+    target = footing.target_pose_world
+    x, y = target.position_m[0], target.position_m[1]
+    assert site.observe_pose(at_target(footing, fixed=True))
+    assert not site.static_grid().is_free(x, y)
+    assert site.observe_state(footing.guid, ComponentState.MISPLACED, 5.0)
+    assert site.static_grid().is_free(x, y)  # at rest where it was judged: below the band
+    assert not site.observe_pose(at_target(footing, fixed=True))  # physics repeats its pose: no change
+    assert site.static_grid().is_free(x, y)
+
+
 def test_the_distance_fields_follow_every_change_as_if_computed_whole(frame: Manifest, site: SiteMap) -> None:
     """The planner's static distance and the localiser's likelihood field are recomputed around each change
     only (a large site cannot afford the whole transform per change): after components are picked, carried,
