@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from bimbot.shared.step_gate import SLEEP_TAKE_STEPS
+from bimbot.shared.step_gate import DELAY_STEPS, SLEEP_TAKE_STEPS
 
 
 @dataclass
@@ -60,7 +60,7 @@ class Sleepers:
         """Clock ``step`` (at ``sim_time_s``) is being published: a sleeper whose own wake it reaches is
         awake from it (sent its sensors, waited for)."""
         self._published[step] = sim_time_s
-        for old in [known for known in self._published if known < step - 4]:
+        for old in [known for known in self._published if known < step - 2 * DELAY_STEPS]:
             del self._published[old]
         for participant in [p for p, at_s in self.wakes_at_s.items() if at_s <= sim_time_s]:
             if participant in self.asleep:

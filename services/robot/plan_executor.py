@@ -317,8 +317,9 @@ class PlanExecutor(Executor):
             return None
         if task.abandoning or task.dropping is not None or task.withdrawn or task.waiting_since_s is not None:
             return None
-        end_s = min(navigator.motion.end_s, self.cycle.state_since_s + self.config.task_timeout_s)
-        return end_s if end_s - self.sim_s >= MIN_SLEEP_S else None
+        return self._worth_sleeping(
+            min(navigator.motion.end_s, self.cycle.state_since_s + self.config.task_timeout_s)
+        )
 
     def _idle_until_s(self) -> float | None:
         """Idle and not yet parked: asleep through its drive out of the structure or to its depot, and
@@ -327,10 +328,12 @@ class PlanExecutor(Executor):
         if self.parking is None or assignment_waiting(self.tasks, self.robot_id, self.performed):
             return None
         navigator = self.plan_navigator
-        if navigator.goal is not None:
-            end_s: float | None = navigator.motion.end_s if navigator.status is NavStatus.ACTIVE else None
-        else:
-            end_s = self.parking.next_act_s()
+        if navigator.goal is None:
+            return self._worth_sleeping(self.parking.next_act_s())
+        return self._worth_sleeping(navigator.motion.end_s if navigator.status is NavStatus.ACTIVE else None)
+
+    def _worth_sleeping(self, end_s: float | None) -> float | None:
+        """``end_s`` when it lies at least :data:`MIN_SLEEP_S` ahead, else None."""
         return end_s if end_s is not None and end_s - self.sim_s >= MIN_SLEEP_S else None
 
     def _ground_truth(self, message: RobotPoseMsg) -> None:
