@@ -110,6 +110,7 @@ from .plan_fidelity import PlanSimulation, simulation_class
 from .profiles import FINE
 from .restore import restore_site
 from .simulation import Outgoing, SimConfig, Simulation
+from .sleepers import Sleepers
 from .snapshot import SnapshotRecorder, load_snapshot
 from .stepped_states import SteppedStates
 
@@ -647,7 +648,7 @@ class _Loop:
         if self.run.step_with:
             sleepers = self.barrier.sleepers
             bundled = [
-                item
+                _woken_alone(item, sleepers)
                 for item in bundled
                 if not isinstance(sensors := item.message, SensorsMsg)
                 or sleepers.sends_sensors(sensors.robot_id, sensors.clock.step)
@@ -672,6 +673,10 @@ class _Loop:
                 for old in [step for step in times if step < clock.step - 2 * DELAY_STEPS]:
                     del times[old]
                 self.barrier.publishing(clock.step, clock.sim_time_s)
+                if isinstance(self.sim, PlanSimulation):  # a part came to rest across a sleeper's way
+                    asleep = self.barrier.sleepers.asleep_driving()
+                    for robot_id in self.sim.crossed_drivers(clock.step, asleep):
+                        self.barrier.wake_one(robot_id, clock.step)
                 update = {
                     "inputs_to_s": times.get(clock.step - DELAY_STEPS),
                     "last_wake_step": self.barrier.sleepers.latest_wake(clock.step),
@@ -712,3 +717,17 @@ class _Loop:
 def _and(names: list[str]) -> str:
     """``robot r1, robot r2 and the planner``."""
     return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} and {names[-1]}"
+
+
+def _woken_alone(item: Outgoing, sleepers: Sleepers) -> Outgoing:
+    """A robot's sensors whose clock names the latest wake that woke it, its own included
+    (:meth:`.sleepers.Sleepers.latest_wake_for`); anything else as it is."""
+    sensors = item.message
+    if not isinstance(sensors, SensorsMsg) or sensors.robot_id not in sleepers.woken_alone:
+        return item
+    clock = sensors.clock
+    wake = sleepers.latest_wake_for(sensors.robot_id, clock.step)
+    if wake == clock.last_wake_step:
+        return item
+    clock = clock.model_copy(update={"last_wake_step": wake})
+    return Outgoing(item.key_expr, sensors.model_copy(update={"clock": clock}))

@@ -90,6 +90,10 @@ class LockStepBarrier:
         self.sleepers.wake(self._answered, step)
         self.sleepers.forget_before(self.step - 2 * DELAY_STEPS)  # a sleep said from now on is later
 
+    def wake_one(self, robot_id: str, step: int) -> None:
+        """``robot_id``, asleep, answers again from clock step ``step`` on (the one being published)."""
+        self.sleepers.wake_one(self._answered, robot_id, step)
+
     def open(self, step: int, now_wall_s: float) -> None:
         """Clock step ``step`` was just published; start waiting for its answers."""
         self.step = step

@@ -28,6 +28,9 @@ handling, placing, pits, joints, connections and their reasons, and changes thre
   jumps from a step at which a known event fell (its robot acts on it at that step), nor from a step a
   skip landed on or the one after it (what the planner skipped to, a curing's end, is no event physics
   knows).
+* **A sleeping driver wakes for a part set down in its way.** A robot asleep through its drive is woken
+  alone, at a defined step, when a part comes to rest across the rest of its path (:mod:`.crossed_drives`),
+  as a driver on site sees it: it plans round it instead of driving through it.
 * **The clock stops when the build is over.** Once the planner has said it is done (every task settled)
   and the site waits for nothing it knows (no news, nothing settling, no event ahead), nothing can happen
   any more: :attr:`PlanSimulation.over_at` is set and physics advances no further (:mod:`.app`), so the
@@ -42,11 +45,13 @@ from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from bimbot.shared.fidelity import FIDELITIES
+from bimbot.shared.footprint import posed_footprint
 from bimbot.shared.messages import (
     PLANNER_PARTICIPANT,
     AttachRequest,
     BuildRequest,
     ComponentEventMsg,
+    ComponentPoseMsg,
     ComponentState,
     ComponentStateMsg,
     DropRequest,
@@ -60,8 +65,10 @@ from bimbot.shared.messages import (
     TaskMsg,
 )
 from bimbot.shared.plan_motion import Trajectory, standing, trajectory
+from bimbot.shared.site_access import AccessConfig
 
 from .client import p
+from .crossed_drives import CrossedDrives
 from .handling_state import Item, Phase
 from .odometry import Odometry, OdomReading
 from .scene import compose, yaw_quat
@@ -113,6 +120,9 @@ class PlanSimulation(Simulation):
         self._skipped_at = -2  # the step a skip landed on (no jump from it nor from the next)
         self._planner_done = False  # the planner said it is done (taken as news are: at a defined step)
         self.over_at: int | None = None  # the step at which the build was over (the clock stops there)
+        self.crossed = CrossedDrives()  # parts that came to rest, for the sleeping drivers' ways
+        self._resting: set[str] = set()  # parts whose fixed pose went out, not carried nor moved since
+        self.woken_drivers = 0
         cid = self.client_id
         for robot_id, robot in self.robots.items():
             if not robot.drives:
@@ -349,18 +359,49 @@ class PlanSimulation(Simulation):
         self._motions_ended()
         if result.replies:
             self._news("placed")
+        self._note_rests(result.messages)
         return result
+
+    def _note_rests(self, messages: list[Outgoing]) -> None:
+        """The parts whose pose now says they are fixed where they were not before (placed, cast, set up
+        again), with their outlines in the robots' height band (:mod:`.crossed_drives`)."""
+        band = AccessConfig()
+        for item in messages:
+            pose = item.message
+            if not isinstance(pose, ComponentPoseMsg):
+                continue
+            if not pose.fixed or pose.attached_to is not None:
+                self._resting.discard(pose.guid)
+                continue
+            if pose.guid in self._resting or pose.guid not in self.handling.items:
+                continue
+            self._resting.add(pose.guid)
+            component = self.handling.items[pose.guid].component
+            footprint = posed_footprint(component, pose.pose.position_m, pose.pose.quat_xyzw)
+            outlines = footprint.outlines_meeting(band.band_min_z_m, band.band_max_z_m)
+            self.crossed.came_to_rest(self.step, pose.guid, outlines)
+
+    def crossed_drivers(self, step: int, asleep_driving: dict[str, int]) -> list[str]:
+        """The robots asleep through a drive (robot → the step it fell asleep after) that clock ``step``
+        wakes: a part that came to rest covers the rest of their way (:mod:`.crossed_drives`)."""
+        radius = {robot_id: robot.description.radius_m for robot_id, robot in self.robots.items()}
+        woken = self.crossed.to_wake(step, self.sim_time_s, asleep_driving, self.motions, radius)
+        for robot_id in woken:
+            _log.debug("plan fidelity: %s wakes at step %d: a part came to rest in its way", robot_id, step)
+        self.woken_drivers += len(woken)
+        return woken
 
     def __exit__(self, *exc: object) -> None:
         _log.info(
             "plan fidelity: %d period(s), %d with Bullet stepped; %d jump(s) over %.0f s of sim time; "
-            "periods without a jump: %s; news: %s",
+            "periods without a jump: %s; news: %s; %d sleeping driver(s) woken for a part in their way",
             self.step,
             self.physics_periods,
             self.jumps,
             self.jumped_s,
             ", ".join(f"{count} {why}" for why, count in sorted(self.stepped_for.items())) or "none",
             ", ".join(f"{count} {why}" for why, count in sorted(self.news.items())) or "none",
+            self.woken_drivers,
         )
         super().__exit__(*exc)  # type: ignore[arg-type]
 

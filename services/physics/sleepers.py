@@ -10,8 +10,10 @@ step (:meth:`Sleepers.latest_wake`): physics sends clock ``k`` only after the pl
 ``k − DELAY_STEPS``, so it knows every wake up to ``k`` by then, and a robot tells from the clock alone
 whether it woke (:func:`bimbot.shared.step_gate.woken`). A kinematic robot that drives may sleep too
 (``CmdVelMsg.wakes_at_s``, plan fidelity): it also wakes at the first step whose sim time reaches the end
-of its drive, which physics and the robot both tell from that step's clock (:meth:`Sleepers.published`).
-See :mod:`bimbot.shared.step_gate`.
+of its drive, which physics and the robot both tell from that step's clock (:meth:`Sleepers.published`),
+or at a step physics wakes it alone (:meth:`Sleepers.wake_one`: a part came to rest across its way,
+:mod:`.crossed_drives`); the clock in that robot's sensors then names that step as its latest wake
+(:meth:`Sleepers.latest_wake_for`). See :mod:`bimbot.shared.step_gate`.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ class Sleepers:
     # the one it wakes at (physics publishes step k once it heard the answers to k - 2)
     _published: dict[int, float] = field(default_factory=dict)
     _forgotten: int | None = None  # the latest wake no longer kept (a clock may still name it)
+    woken_alone: dict[str, int] = field(default_factory=dict)  # participant → the step it last woke alone
 
     def answered(
         self,
@@ -71,6 +74,31 @@ class Sleepers:
         self.wakes.add(step)
         for participant in list(self.asleep):
             self._settle(answered, participant)
+
+    def wake_one(self, answered: dict[str, int], participant: str, step: int) -> None:
+        """``participant``, asleep before ``step``, answers again from ``step`` on (the others sleep on)."""
+        since = self.asleep.get(participant)
+        if since is None or since >= step:
+            return
+        del self.asleep[participant]
+        self.wakes_at_s.pop(participant, None)
+        self.woken_alone[participant] = step
+        answered[participant] = max(answered.get(participant, -1), step - 1)
+
+    def latest_wake_for(self, participant: str, step: int) -> int | None:
+        """The latest wake at or before ``step`` that woke ``participant``: every sleeper's, or its own
+        (what the clock in its sensors at ``step`` says)."""
+        alone = self.woken_alone.get(participant)
+        common = self.latest_wake(step)
+        if alone is None or alone > step:
+            return common
+        return alone if common is None else max(alone, common)
+
+    def asleep_driving(self) -> dict[str, int]:
+        """The sleepers with a wake of their own ahead (robots asleep through a drive, or a wait of their
+        own) → the step they fell asleep after."""
+        asleep = self.asleep
+        return {participant: asleep[participant] for participant in self.wakes_at_s if participant in asleep}
 
     def latest_wake(self, step: int) -> int | None:
         """The latest wake at or before ``step`` (what clock ``step`` says), None before the first."""
