@@ -94,7 +94,7 @@ class SnapshotRecorder:
         self._robots: dict[str, RobotPoseMsg] = {}
         self._odom: dict[str, tuple[float, float, float]] = {}
         self._components: dict[str, ComponentPoseMsg] = {}
-        self._encoded: dict[str, bytes] = {}  # GUID → its JSON entry
+        self._encoded: dict[str, bytes] = {}  # GUID → its JSON member (``"GUID":{…}``)
         self._components_json: bytes | None = None  # every entry joined, until one changes
         Path(state_dir).mkdir(parents=True, exist_ok=True)
         self._fds = [os.open(path, os.O_RDWR | os.O_CREAT, 0o644) for path in record_paths(state_dir)]
@@ -112,7 +112,8 @@ class SnapshotRecorder:
                 previous = self._components.get(message.guid)
                 if previous is None or _moved(previous, message):
                     self._components[message.guid] = message
-                    self._encoded[message.guid] = message.model_dump_json().encode()
+                    entry = message.model_dump_json().encode()
+                    self._encoded[message.guid] = b'"%s":%s' % (message.guid.encode(), entry)
                     self._components_json = None
             elif isinstance(message, RobotPoseMsg):
                 self._robots[message.robot_id] = message
@@ -131,9 +132,9 @@ class SnapshotRecorder:
             for robot_id, pose in self._robots.items()
         }
         if self._components_json is None:  # a large site's components rarely change: joined once per change
-            self._components_json = b",".join(
-                b'"%s":%s' % (guid.encode(), entry) for guid, entry in self._encoded.items()
-            )
+            # (each member formatted once, when its message changed: formatting all 988 members of the
+            # generated frame's record every period a carried load moved was 6 % of physics' CPU)
+            self._components_json = b",".join(self._encoded.values())
         parts = [
             b'{"epoch":%d,"step":%d,"sim_time_s":%r,"robots":{' % (self.epoch, clock.step, clock.sim_time_s),
             b",".join(b'"%s":%s' % (robot_id.encode(), entry.encode()) for robot_id, entry in robots.items()),
@@ -141,10 +142,9 @@ class SnapshotRecorder:
             self._components_json,
             b"}}",
         ]
-        data = b"".join(parts)
         fd = self._fds[self._turn]
-        os.pwrite(fd, data, 0)
-        os.ftruncate(fd, len(data))
+        size = os.pwritev(fd, parts, 0)  # the parts as they are: no copy of the whole record joined first
+        os.ftruncate(fd, size)
         self._turn = 1 - self._turn
 
 
