@@ -67,6 +67,7 @@ from bimbot.shared.messages import (
 from bimbot.shared.plan_motion import Trajectory, standing, trajectory
 from bimbot.shared.site_access import AccessConfig
 
+from .carried_poses import CarriedPoses
 from .client import p
 from .crossed_drives import CrossedDrives
 from .handling_state import Item, Phase
@@ -81,6 +82,10 @@ if TYPE_CHECKING:
 _log = logging.getLogger(__name__)
 
 QUIET_PERIODS = 4  # periods without news before the clock may jump (answers come 2 periods later)
+# Poses of components at rest repeated a period at most (5 in the physics fidelity, on a large site): each
+# repeat costs every subscriber a decode, a sleeping robot's too, and the plan fidelity sends a pose at
+# once where one is needed (a verification).
+PLAN_POSE_REFRESH_MAX = 1
 EVENT_WAIT_PERIODS = 50  # at most this long a component event unanswered by its agent holds the clock
 
 
@@ -101,7 +106,8 @@ class PlanSimulation(Simulation):
     quiet_periods = QUIET_PERIODS
 
     def _build(self) -> None:
-        self.config = replace(self.config, compiled_laser=False)
+        refresh_max = min(self.config.pose_refresh_max, PLAN_POSE_REFRESH_MAX)
+        self.config = replace(self.config, compiled_laser=False, pose_refresh_max=refresh_max)
         super()._build()
         self.motions: dict[str, Trajectory] = {}
         self._ended: set[str] = set()  # robots whose motion ended and was noted as news
@@ -123,6 +129,7 @@ class PlanSimulation(Simulation):
         self.crossed = CrossedDrives()  # parts that came to rest, for the sleeping drivers' ways
         self._resting: set[str] = set()  # parts whose fixed pose went out, not carried nor moved since
         self.woken_drivers = 0
+        self.carried_poses = CarriedPoses()  # a carried load's pose goes out now and then
         cid = self.client_id
         for robot_id, robot in self.robots.items():
             if not robot.drives:
@@ -432,7 +439,8 @@ class PlanSimulation(Simulation):
 
     def _period_messages(self, real_time_factor: float | None, *, odometry: bool) -> list[Outgoing]:
         messages = super()._period_messages(real_time_factor, odometry=odometry)
-        return [item for item in messages if not isinstance(item.message, ScanMsg)]
+        due = self.carried_poses.due
+        return [item for item in messages if not isinstance(item.message, ScanMsg) and due(item.message)]
 
 
 def _set_base(client_id: int, robot: Robot, pose: tuple[float, float, float]) -> None:
