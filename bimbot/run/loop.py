@@ -33,6 +33,7 @@ from bimbot.run.restarts import Restarter
 from bimbot.run.watchdog import StallWatchdog, stall_details
 from bimbot.shared.reasons import ReasonCode
 from bimbot.shared.report.collector import RunEnding
+from bimbot.shared.report.durations import duration_text
 from bimbot.shared.signal_event import stop_handlers
 from bimbot.supervisor import ServiceProcess
 
@@ -128,7 +129,8 @@ class RunWatch:
     def _ended(self, wall_s: float) -> LoopResult | None:
         monitor, planner = self.monitor, self.planner
         built = f"{monitor.constructed}/{monitor.total} constructed"
-        at = f"after {wall_s:.0f} s wall of building, at sim {monitor.sim_time_s:.1f} s, with {built}"
+        sim = duration_text(monitor.sim_time_s)
+        at = f"after {wall_s:.0f} s wall of building, at sim {sim}, with {built}"
         if self.stop.signum is not None:
             name = signal.Signals(self.stop.signum).name
             ending = RunEnding("interrupted", ReasonCode.INTERRUPTED, f"stopped by {name} {at}")
@@ -155,7 +157,7 @@ class RunWatch:
                 if code == 0
                 else "every component constructed, failed or blocked"
             )
-            when = f"after {wall_s:.0f} s wall of building, at sim {monitor.sim_time_s:.1f} s"
+            when = f"after {wall_s:.0f} s wall of building, at sim {duration_text(monitor.sim_time_s)}"
             ending = RunEnding(
                 "done", None, f"the planner finished the build ({outcome}, exit {code}) {when}"
             )

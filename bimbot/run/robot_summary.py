@@ -139,7 +139,7 @@ def _named_others(
 
 
 def tasks_text(robot_id: str, robot: dict[str, Any], components: dict[str, dict[str, Any]]) -> str:
-    """``24 task(s): 20 built, 1 given back, 1 that built nothing (T0017 Beam B1-B2: placed unstable,
+    """``24 task(s): 20 built, 1 given back, 1 ended another way (T0017 Beam B1-B2: placed unstable,
     retried, then built by r2), 2 hand-off(s) to a crane``: the parts add up to the tasks; a report
     without the counts: ``11 task(s)``."""
     tasks = f"{len(robot['tasks'])} task(s)"
@@ -158,7 +158,9 @@ def tasks_text(robot_id: str, robot: dict[str, Any], components: dict[str, dict[
         if len(others) > MAX_OTHERS_NAMED
         else ""
     )
-    return f"{text}, {len(others)} that built nothing ({named}{more}){handed}"
+    # not "that built nothing": a trial user read that beside "then built by r3" of the same robot as a
+    # contradiction (the task was a retry's first attempt; the component was built by a later one)
+    return f"{text}, {len(others)} ended another way ({named}{more}){handed}"
 
 
 def moved_text(robot: dict[str, Any]) -> str:

@@ -59,7 +59,10 @@ def duration_text(seconds: float) -> str:
 def in_unit_text(seconds: float, unit: TimeUnit) -> str:
     """``seconds`` in ``unit`` as :func:`duration_text` says it: ``6.6 min (396 s)``, ``45.0 s``. A time
     shorter than one ``unit`` is said in its own when that is a smaller one (``15.6 min (935 s)``, not
-    ``0.0 days (935 s)``; ``3.1 h (11,062 s)``, not ``0.1 days``: a tenth of a day hides hours)."""
+    ``0.0 days (935 s)``; ``3.1 h (11,062 s)``, not ``0.1 days``: a tenth of a day hides hours); no time
+    at all is ``0 s`` whatever the unit (a trial user met "busy 0.0 days (0 s)" beside "0.0 h (0 s)")."""
+    if seconds == 0.0:
+        return "0 s"
     own = spoken_unit(seconds)
     if 0.0 < seconds < unit.seconds and own.seconds < unit.seconds:
         unit = own

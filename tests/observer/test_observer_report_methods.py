@@ -137,7 +137,7 @@ def test_times_are_said_in_the_unit_of_their_span() -> None:
     assert [in_unit_text(s, days) for s in (935.0, 11_062.0, 0.0, 300_000.0)] == [
         "15.6 min (935 s)",
         "3.1 h (11,062 s)",
-        "0.0 days (0 s)",
+        "0 s",
         "3.5 days (300,000 s)",
     ]
 
