@@ -31,6 +31,8 @@ handling, placing, pits, joints, connections and their reasons, and changes thre
 * **A sleeping driver wakes for a part set down in its way.** A robot asleep through its drive is woken
   alone, at a defined step, when a part comes to rest across the rest of its path (:mod:`.crossed_drives`),
   as a driver on site sees it: it plans round it instead of driving through it.
+* **Fewer poses.** A carried load's pose goes out when it is taken up and then once a second of sim time
+  (:mod:`.carried_poses`), and one resting pose is repeated a period (``PLAN_POSE_REFRESH_MAX``).
 * **The clock stops when the build is over.** Once the planner has said it is done (every task settled)
   and the site waits for nothing it knows (no news, nothing settling, no event ahead), nothing can happen
   any more: :attr:`PlanSimulation.over_at` is set and physics advances no further (:mod:`.app`), so the
