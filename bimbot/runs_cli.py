@@ -99,6 +99,10 @@ def _with(report: dict) -> str:
     if settings.get("connections") is False:
         parts.append("without connections")
     by_method = (report.get("totals") or {}).get("by_method") or {}
-    if set(by_method) - {"lifted"}:
+    unbuilt = {m for m, e in by_method.items() if (e.get("constructed") or 0) < (e.get("components") or 0)}
+    if unbuilt:  # not all built: what was, by method ("54 lifted" read as 54 built)
+        built = [f"{method} {e.get('constructed') or 0}/{e['components']}" for method, e in by_method.items()]
+        parts.append("built by method: " + ", ".join(built))
+    elif set(by_method) - {"lifted"}:
         parts.append(" ".join(f"{entry['components']} {method}" for method, entry in by_method.items()))
     return "".join(f", {part}" for part in parts if part)

@@ -114,6 +114,17 @@ def test_bimbot_runs_lists_runs_with_their_reports_and_makes_new_ones(
     (made / "report" / "report.json").write_text(json.dumps(report))
     assert main(["runs", str(build)]) == 0
     assert "done, 473,683 s sim (5.5 days)" in capsys.readouterr().out
+    # the methods: what the build has when all was built; what was built of each when not (a trial user
+    # read "54 lifted" of an interrupted run as 54 built)
+    methods = {"cast_in_place": {"components": 2, "constructed": 2}, "lifted": {"components": 54}}
+    report["totals"] |= {"by_method": methods | {"lifted": {"components": 54, "constructed": 54}}}
+    (made / "report" / "report.json").write_text(json.dumps(report))
+    assert main(["runs", str(build)]) == 0
+    assert ", 2 cast_in_place 54 lifted; not constructed" in capsys.readouterr().out
+    report["totals"] |= {"by_method": methods | {"lifted": {"components": 54, "constructed": 35}}}
+    (made / "report" / "report.json").write_text(json.dumps(report))
+    assert main(["runs", str(build)]) == 0
+    assert ", built by method: cast_in_place 2/2, lifted 35/54; not" in capsys.readouterr().out
     assert main(["runs", str(tmp_path / "nothing")]) == 2
     # the folder asked for, not its parent's missing manifest (a new-user trial was told of tmp/manifest.json)
     assert f"{tmp_path / 'nothing'}: no such folder" in capsys.readouterr().err
