@@ -67,15 +67,15 @@ def framed_summary(manifest: Manifest) -> str:
 
 
 def methods_summary(manifest: Manifest) -> str:
-    """``; built: 12 lifted, 3 panelised, 2 cast_in_place (and 4 with their hosts)``: the components by
-    method, most first; empty for none."""
+    """``; to be built: 12 lifted, 3 panelised, 2 cast_in_place (and 4 with their hosts)``: the components
+    by method, most first; empty for none (not "built:": a trial user read it as built already)."""
     counts = Counter(component.method.value for component in manifest.components)
     if not counts:
         return ""
     ranked = sorted(counts.items(), key=lambda pair: (-pair[1], pair[0]))
     guests = sum(len(component.guests) for component in [*manifest.components, *manifest.in_place])
     with_hosts = f" (and {guests} with their hosts)" if guests else ""
-    return "; built: " + ", ".join(f"{count} {method}" for method, count in ranked) + with_hosts
+    return "; to be built: " + ", ".join(f"{count} {method}" for method, count in ranked) + with_hosts
 
 
 def skipped_summary(skipped: Sequence[SkippedElement], most: int = 4) -> str:

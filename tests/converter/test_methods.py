@@ -273,7 +273,7 @@ def test_convert_takes_a_preset_or_a_file_counts_by_method_and_names_a_bad_file_
     command = ["convert", str(source), "-o", str(tmp_path / "out"), "--no-progress"]
     done = bimbot_in_process(*command, "--methods", "conventional", capfd=capfd, caplog=caplog)
     assert done.returncode == 0, done.stderr
-    assert done.stdout.rstrip().endswith("; built: 1 cast_in_place, 1 laid"), done.stdout
+    assert done.stdout.rstrip().endswith("; to be built: 1 cast_in_place, 1 laid"), done.stdout
     bad = tmp_path / "bad.toml"
     bad.write_text('[by_class]\nIfcWall = "glued"\n', encoding="utf-8")
     refused = bimbot_process(*command, "--methods", str(bad))
