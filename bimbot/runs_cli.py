@@ -90,7 +90,7 @@ def _with(report: dict) -> str:
     """``, 3 robots, 9 in place, without connections``: what tells two runs of one build apart (a trial
     could not tell a ``--robots 1`` run from one of the default fleet, nor one with ``--no-connections``)."""
     settings = report.get("settings") or {}
-    parts = [fleet_of(settings) or ""]
+    parts = [fleet_of(settings, report.get("robots")) or ""]
     if settings.get("fidelity"):
         parts.append(f"fidelity {settings['fidelity']}")
     in_place = (report.get("totals") or {}).get("in_place")

@@ -21,6 +21,7 @@ Pure: report dicts in, rows out (``bimbot compare`` prints them).
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import PurePath
@@ -125,17 +126,23 @@ def run_column(label: str, report: Mapping[str, Any]) -> RunColumn:
         model=PurePath(path).name if isinstance(path, str) else None,
         model_sha256=model.get("sha256"),
         fidelity=settings.get("fidelity"),
-        fleet=fleet_of(settings),
+        fleet=fleet_of(settings, report.get("robots")),
         seed=settings.get("seed"),
         ending=(report.get("ending") or {}).get("how"),
     )
 
 
-def fleet_of(settings: Mapping[str, Any]) -> str | None:
-    """What robots a run had, from its report's settings: ``3 robot(s) of the default type`` (``--robots``)
-    or its fleet (``the default fleet``, a fleet file's path); None when the report does not say."""
+def fleet_of(settings: Mapping[str, Any], robots_seen: Mapping[str, Any] | None = None) -> str | None:
+    """What robots a run had, from its report's settings: ``3 carrier(s) (--robots 3), with the fleet's
+    machines``, or ``3 robot(s) of the default type, …`` when the report's robots do not name the type
+    (a trial user asked which type that was); else its fleet (``the default fleet``, a fleet file's path);
+    None when the report does not say. ``robots_seen``: the report's ``robots`` (robot id → its figures)."""
     robots, fleet = settings.get("robots"), settings.get("fleet")
     if robots:
+        types = Counter(str(entry.get("type")) for entry in (robots_seen or {}).values() if entry.get("type"))
+        named = [kind for kind, count in types.items() if count == robots]
+        if len(named) == 1:
+            return f"{robots} {named[0]}(s) (--robots {robots}), with the fleet's machines"
         return f"{robots} robot(s) of the default type, with the fleet's machines"
     return str(fleet) if fleet else None
 

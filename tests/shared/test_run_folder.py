@@ -102,6 +102,12 @@ def test_bimbot_runs_lists_runs_with_their_reports_and_makes_new_ones(
     assert main(["runs", str(build)]) == 0
     said = "812 s sim, 3 robot(s) of the default type, with the fleet's machines, 9 in place; not constructed"
     assert said in capsys.readouterr().out
+    # the type named where the report's robots say it (a trial user asked which type "the default" was)
+    report["robots"] = {f"r{i}": {"type": "carrier"} for i in (1, 2, 3)} | {"r4": {"type": "tower_crane"}}
+    (made / "report" / "report.json").write_text(json.dumps(report))
+    assert main(["runs", str(build)]) == 0
+    assert "812 s sim, 3 carrier(s) (--robots 3), with the fleet's machines, 9 in" in capsys.readouterr().out
+    del report["robots"]
     report["settings"] = {"robots": None, "fleet": "site.toml"}
     (made / "report" / "report.json").write_text(json.dumps(report))
     assert main(["runs", str(build)]) == 0
