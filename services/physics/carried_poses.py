@@ -12,6 +12,7 @@ The dashboard draws a load on its way a little less often.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from bimbot.shared.messages import ComponentPoseMsg
@@ -33,9 +34,8 @@ class CarriedPoses:
         if message.attached_to is None:
             self.sent.pop(message.guid, None)
             return True
-        last = self.sent.get(message.guid)
-        same_robot = last is not None and last[0] == message.attached_to
-        if same_robot and last is not None and message.sim_time_s - last[1] < CARRIED_POSE_EVERY_S:
+        robot, sent_s = self.sent.get(message.guid, (None, -math.inf))
+        if robot == message.attached_to and message.sim_time_s - sent_s < CARRIED_POSE_EVERY_S:
             return False
         self.sent[message.guid] = (message.attached_to, message.sim_time_s)
         return True

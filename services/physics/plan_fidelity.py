@@ -88,6 +88,7 @@ QUIET_PERIODS = 4  # periods without news before the clock may jump (answers com
 # repeat costs every subscriber a decode, a sleeping robot's too, and the plan fidelity sends a pose at
 # once where one is needed (a verification).
 PLAN_POSE_REFRESH_MAX = 1
+ROBOTS_BAND = AccessConfig()  # the robots' height band (what of a part blocks their way)
 EVENT_WAIT_PERIODS = 50  # at most this long a component event unanswered by its agent holds the clock
 
 
@@ -129,6 +130,7 @@ class PlanSimulation(Simulation):
         self._planner_done = False  # the planner said it is done (taken as news are: at a defined step)
         self.over_at: int | None = None  # the step at which the build was over (the clock stops there)
         self.crossed = CrossedDrives()  # parts that came to rest, for the sleeping drivers' ways
+        self._radius_m = {robot_id: robot.description.radius_m for robot_id, robot in self.robots.items()}
         self._resting: set[str] = set()  # parts whose fixed pose went out, not carried nor moved since
         self.woken_drivers = 0
         self.carried_poses = CarriedPoses()  # a carried load's pose goes out now and then
@@ -374,7 +376,7 @@ class PlanSimulation(Simulation):
     def _note_rests(self, messages: list[Outgoing]) -> None:
         """The parts whose pose now says they are fixed where they were not before (placed, cast, set up
         again), with their outlines in the robots' height band (:mod:`.crossed_drives`)."""
-        band = AccessConfig()
+        band = ROBOTS_BAND
         for item in messages:
             pose = item.message
             if not isinstance(pose, ComponentPoseMsg):
@@ -393,8 +395,7 @@ class PlanSimulation(Simulation):
     def crossed_drivers(self, step: int, asleep_driving: dict[str, int]) -> list[str]:
         """The robots asleep through a drive (robot → the step it fell asleep after) that clock ``step``
         wakes: a part that came to rest covers the rest of their way (:mod:`.crossed_drives`)."""
-        radius = {robot_id: robot.description.radius_m for robot_id, robot in self.robots.items()}
-        woken = self.crossed.to_wake(step, self.sim_time_s, asleep_driving, self.motions, radius)
+        woken = self.crossed.to_wake(step, self.sim_time_s, asleep_driving, self.motions, self._radius_m)
         for robot_id in woken:
             _log.debug("plan fidelity: %s wakes at step %d: a part came to rest in its way", robot_id, step)
         self.woken_drivers += len(woken)

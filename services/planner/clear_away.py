@@ -89,9 +89,6 @@ class ClearAways:
         self._config = config or ObstructionConfig()
         self.records: dict[str, ClearRecord] = {}
         self._judged: dict[str, Pose] = {}  # failed GUID → the pose it was last judged at
-        # the failed tasks as of a revision (a phase changes only with one): every task of the 9,802-
-        # component frame looked at each step was 8 % of its planner's time
-        self._failed: tuple[int, list[str]] = (-1, [])
 
     # --- what the other parts ask ------------------------------------------------------------------------
 
@@ -130,11 +127,9 @@ class ClearAways:
 
     def _find(self) -> None:
         state = self._state
-        if self._failed[0] != state.revision:
-            failed = [guid for guid, task in state.tasks.items() if task.phase is Phase.FAILED]
-            self._failed = (state.revision, failed)
-        for guid in self._failed[1]:
-            task, component = state.tasks[guid], state.components[guid]
+        for task in state.tasks_in(Phase.FAILED):
+            guid = task.guid
+            component = state.components[guid]
             if task.phase is not Phase.FAILED or guid in self.records or component.pose is None:
                 continue
             if component.state is not ComponentState.FAILED or self._judged.get(guid) == component.pose:

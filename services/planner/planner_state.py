@@ -18,7 +18,7 @@ from bimbot.shared.site_plan import YardSlot
 from .assignment import staged_where
 from .capability import SiteRobot, Where
 from .feasibility import slot_where
-from .records import FINAL, ComponentRecord, PlannerLimits, RobotRecord, TaskRecord
+from .records import FINAL, ComponentRecord, Phase, PlannerLimits, RobotRecord, TaskRecord
 from .sources import Plan
 
 
@@ -39,6 +39,8 @@ class PlannerState:
     wall_s: float = 0.0  # the wall time of the current step
     synced: bool = False  # the start-up sync is over
     revision: int = 1
+    # phase → (the revision it was taken at, its tasks in plan order): see tasks_in
+    _in_phase: dict[Phase, tuple[int, list[TaskRecord]]] = field(default_factory=dict, repr=False)
 
     @classmethod
     def start(
@@ -67,6 +69,17 @@ class PlannerState:
     def done(self) -> bool:
         """Every task is final (done, failed or blocked)."""
         return all(task.phase in FINAL for task in self.tasks.values())
+
+    def tasks_in(self, phase: Phase) -> list[TaskRecord]:
+        """The tasks in ``phase``, in plan order, kept as of the revision (a phase changes only with one):
+        a pass that runs every step, as sim time moves, goes through the few it concerns (every task of the
+        9,802-component frame each step was 12 % of its planner's time in the watchdog, 8 % in the search
+        for failed bodies). The list is not changed afterwards: a pass may change phases as it goes."""
+        kept = self._in_phase.get(phase)
+        if kept is None or kept[0] != self.revision:
+            in_phase = [task for task in self.tasks.values() if task.phase is phase]
+            kept = self._in_phase[phase] = (self.revision, in_phase)
+        return kept[1]
 
     def robot(self, robot_id: str) -> RobotRecord:
         """The record of ``robot_id`` (a new one the first time it is heard of)."""

@@ -26,9 +26,6 @@ class Watchdog:
         self._state = state
         self._give_backs = give_backs
         self._watched: tuple[int, float] | None = None  # (revision, sim time) of the last pass
-        # the assigned tasks as of a revision: a phase changes only with one, while sim time moves every
-        # step (every task of the 9,802-component frame each step was 12 % of its planner's time)
-        self._assigned: tuple[int, list[TaskRecord]] = (-1, [])
 
     def watch(self) -> None:
         """Give back every assigned task past its bound (:meth:`task_bound_s`)."""
@@ -36,9 +33,7 @@ class Watchdog:
         if self._watched == (state.revision, state.sim_time_s):
             return  # no sim time passed and nothing changed since the last pass
         self._watched = (state.revision, state.sim_time_s)
-        if self._assigned[0] != state.revision:
-            self._assigned = (state.revision, [t for t in state.tasks.values() if t.phase is Phase.ASSIGNED])
-        for task in self._assigned[1]:
+        for task in state.tasks_in(Phase.ASSIGNED):
             component_state = state.components[task.guid].state
             if task.phase is not Phase.ASSIGNED or component_state is ComponentState.VERIFYING:
                 continue  # given back by this very pass (its revision follows), or being verified
