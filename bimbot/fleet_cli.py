@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 
 from bimbot.services.planner.capability import SiteRobot, robots_on_plan
 from bimbot.services.planner.feasibility import Feasibility, feasibility_table
+from bimbot.shared.crane_erection import erected_for, erection_words
 from bimbot.shared.fleet import DEFAULT_FLEET_FILE, Fleet, check_urdfs, load_fleet
 from bimbot.shared.idle_machines import idle_machine_types, without_types
 from bimbot.shared.manifest import Component, Joint, Manifest
@@ -138,6 +139,8 @@ def run(args: argparse.Namespace) -> int:
     # the machines bimbot run leaves off site stay off here too, so the robots' ids are the run's
     idle = idle_machine_types(fleet, (component.method for component in manifest.components))
     fleet = without_types(fleet, idle)
+    erected = erected_for(fleet, manifest.components)  # as physics erects the cranes for the building
+    raised, fleet = erection_words(fleet, erected), erected
     rows, robots, building = checked(manifest, fleet)
     code = 0 if all(row.reason is None for _, row in rows) else 1  # 1: some component has no route
     if args.json:
@@ -157,6 +160,7 @@ def run(args: argparse.Namespace) -> int:
         return code
     if idle:
         sys.stdout.write(f"off site, no work in this build (as bimbot run leaves them): {', '.join(idle)}\n")
+    sys.stdout.writelines(f"{words}\n" for words in raised)
     _print_table(rows, fleet, manifest.joints, only_unbuildable=args.summary)
     machines = set_up_entries(robots)
     if machines:

@@ -89,9 +89,25 @@ class CraneSpec(BaseModel):
     trolley_mps: float = Field(gt=0, le=10)
     hoist_mps: float = Field(gt=0, le=10)
     load_chart: tuple[LoadPoint, ...] = Field(min_length=1, description="radii ascending")
+    max_jib_height_m: float | None = Field(
+        default=None,
+        gt=0,
+        le=300,
+        description="the most its mast stands free-standing: the site erects it as high as the building "
+        "needs, up to this (shared/crane_erection.py); none: it stands at jib_height_m",
+    )
+    mast_raised_m: float = Field(
+        default=0.0,
+        ge=0,
+        le=300,
+        description="how much taller the site erected it than its URDF draws it (set by the site plan: "
+        "physics and the dashboard stretch the mast, shared/crane_mast.py)",
+    )
 
     @model_validator(mode="after")
     def _ascending(self) -> CraneSpec:
+        if self.max_jib_height_m is not None and self.max_jib_height_m < self.jib_height_m:
+            raise ValueError("max_jib_height_m must be at least jib_height_m")
         radii = [point.radius_m for point in self.load_chart]
         if radii != sorted(radii) or len(set(radii)) != len(radii):
             raise ValueError("load_chart radii must be strictly ascending")

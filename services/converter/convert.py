@@ -37,6 +37,7 @@ import ifcopenshell.util.unit
 import numpy as np
 
 from bimbot.shared.construction_methods import MethodDecision, MethodLimits
+from bimbot.shared.crane_erection import erected_for
 from bimbot.shared.fleet import Fleet, default_fleet
 from bimbot.shared.identifiers import slugify
 from bimbot.shared.idle_machines import site_fleet
@@ -310,7 +311,8 @@ def _cut_within_crane_reach(
         built = [component for result in results for component in result.components]
         to_build, _ = split_in_place(built, options.in_place_guids, foundations=options.foundations_in_place)
         # the site as the run plans it: without the machines it leaves off site for want of work
-        on_site = site_fleet(fleet, (item.method for item in to_build))
+        # and its cranes erected as high as the building needs, as physics erects them
+        on_site = erected_for(site_fleet(fleet, (item.method for item in to_build)), to_build)
         found = {
             guid: limit
             for guid, limit in crane_lift_limits(to_build, on_site.robot_types()).items()

@@ -109,7 +109,7 @@ class FleetLog:
     def __init__(self, pose_min_interval_s: float = 0.1) -> None:
         self.pose_min_interval_s = pose_min_interval_s
         self._meshes = LinkMeshes()
-        self._models_by_urdf: dict[str, RobotModel | None] = {}
+        self._models_by_urdf: dict[tuple[str, float], RobotModel | None] = {}
         self._robots: dict[str, RobotModel] = {}
         self._labels: dict[str, str] = {}
         self._joints: dict[str, _Joints] = {}
@@ -131,7 +131,8 @@ class FleetLog:
             description = info.robot_types.get(type_name) if type_name else None
             if description is None or robot_id in self._robots:
                 continue
-            model = self._model(description.urdf)
+            raised_m = description.crane.mast_raised_m if description.crane is not None else 0.0
+            model = self._model(description.urdf, raised_m)
             if model is None:
                 continue
             self._robots[robot_id] = model
@@ -216,16 +217,18 @@ class FleetLog:
             if link in meshes
         ]
 
-    def _model(self, urdf: str) -> RobotModel | None:
-        """The drawing of the URDF named ``urdf`` (read once; None, warned once, when it cannot be)."""
-        if urdf not in self._models_by_urdf:
+    def _model(self, urdf: str, mast_raised_m: float = 0.0) -> RobotModel | None:
+        """The drawing of the URDF named ``urdf``, a crane's mast ``mast_raised_m`` taller (read once; None,
+        warned once, when it cannot be)."""
+        key = (urdf, mast_raised_m)
+        if key not in self._models_by_urdf:
             model = None
             try:
-                model = build_model(read_urdf(resolve_urdf(urdf)), self._meshes)
+                model = build_model(read_urdf(resolve_urdf(urdf), mast_raised_m=mast_raised_m), self._meshes)
             except InputError as exc:
                 _log.warning("robots of URDF %r are drawn as boxes: %s", urdf, exc)
-            self._models_by_urdf[urdf] = model
-        return self._models_by_urdf[urdf]
+            self._models_by_urdf[key] = model
+        return self._models_by_urdf[key]
 
 
 def _changed(values: Mapping[str, float], last: Mapping[str, float]) -> set[str]:

@@ -26,6 +26,7 @@ import numpy as np
 from lxml import etree
 from scipy.spatial.transform import Rotation
 
+from bimbot.shared.crane_mast import raised_mast_urdf
 from bimbot.shared.errors import InputError
 
 _log = logging.getLogger(__name__)
@@ -121,11 +122,15 @@ def pose_matrix(xyz: tuple[float, float, float], rpy: tuple[float, float, float]
     return matrix
 
 
-def read_urdf(path: Path) -> UrdfModel:
-    """Parse the URDF at ``path``; an :class:`InputError` saying what is wrong when it cannot be used."""
+def read_urdf(path: Path, *, mast_raised_m: float = 0.0) -> UrdfModel:
+    """Parse the URDF at ``path`` (a crane's mast ``mast_raised_m`` taller, as the site erected it:
+    :mod:`bimbot.shared.crane_mast`); an :class:`InputError` saying what is wrong when it cannot be used."""
     parser = etree.XMLParser(remove_comments=True, resolve_entities=False, no_network=True)
     try:
-        robot = etree.parse(str(path), parser).getroot()
+        text = path.read_bytes()
+        if mast_raised_m > 0.0:
+            text = raised_mast_urdf(text, mast_raised_m, source=path)
+        robot = etree.fromstring(text, parser, base_url=str(path))
     except (OSError, etree.XMLSyntaxError) as exc:
         raise InputError(f"robot URDF {path}: {exc}") from None
     if robot.tag != "robot":

@@ -32,13 +32,17 @@ the wheels), not pybullet's base CoM frame. ``pose_xy_yaw`` is (x, y, heading) i
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
+import tempfile
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from bimbot.shared.crane_mast import raised_mast_urdf
 from bimbot.shared.errors import InputError
 from bimbot.shared.geometry import wrap_angle
 from bimbot.shared.robot_description import Capability, RobotDescription
@@ -317,9 +321,9 @@ def spawn_robot(
         raise InputError(f"robot URDF {urdf} not found")
     x, y, yaw = start_xy_yaw
     crane = description.crane
-    with quiet_stdout():  # loaded facing +x at the origin to measure it, then moved to its start
-        body_id = p.loadURDF(
-            str(urdf),
+    with quiet_stdout(), _as_erected(urdf, description) as loaded:  # loaded facing +x at the origin to
+        body_id = p.loadURDF(  # measure it, then moved to its start
+            str(loaded),
             [0.0, 0.0, 0.0],
             useFixedBase=description.can(Capability.STAND_FIXED),
             flags=p.URDF_USE_IMPLICIT_CYLINDER,
@@ -397,3 +401,19 @@ def spawn_robot(
             robot.top_height_m,
         )
     return robot
+
+
+@contextlib.contextmanager
+def _as_erected(urdf: Path, description: RobotDescription) -> Iterator[Path]:
+    """``urdf`` as pybullet should load it: a crane the site erected taller than its file draws it
+    (``crane.mast_raised_m``, :mod:`bimbot.shared.crane_erection`) from a copy with its mast stretched
+    (:mod:`bimbot.shared.crane_mast`), removed once loaded; any other robot from the file itself."""
+    raised_m = description.crane.mast_raised_m if description.crane is not None else 0.0
+    if raised_m <= 0.0:
+        yield urdf
+        return
+    stretched = raised_mast_urdf(urdf.read_bytes(), raised_m, source=urdf)
+    with tempfile.TemporaryDirectory(prefix="bimbot-crane-") as folder:
+        copy = Path(folder) / urdf.name
+        copy.write_bytes(stretched)
+        yield copy

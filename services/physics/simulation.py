@@ -38,6 +38,7 @@ from types import TracebackType
 import numpy as np
 from pydantic import BaseModel
 
+from bimbot.shared.crane_erection import erected_for, erection_words
 from bimbot.shared.fleet import Fleet
 from bimbot.shared.footprint import posed_footprint
 from bimbot.shared.identifiers import guid_to_key
@@ -176,7 +177,7 @@ class Simulation:
     ) -> None:
         self.manifest = manifest
         self.build_dir = Path(build_dir)
-        self.config = config or SimConfig()
+        self.config = _erected(config or SimConfig(), manifest)
         self.config.validate()
         self.site = manifest.site
         self.robot_types = robot_types(self.config.fleet, self.config.robots)  # one per robot, r1 first
@@ -740,3 +741,14 @@ def _with_trims(
         for other, depth_m in others.items():
             mine[other] = max(depth_m, mine.get(other, 0.0))
     return merged
+
+
+def _erected(config: SimConfig, manifest: Manifest) -> SimConfig:
+    """``config`` with its fleet's cranes erected as high as the build needs
+    (:mod:`bimbot.shared.crane_erection`); said in the log when one is raised."""
+    if config.fleet is None:
+        return config
+    fleet = erected_for(config.fleet, manifest.components)
+    for words in erection_words(config.fleet, fleet):
+        _log.info("%s", words)
+    return config if fleet is config.fleet else replace(config, fleet=fleet)

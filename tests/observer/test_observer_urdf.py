@@ -257,3 +257,35 @@ def test_the_state_of_a_drawn_robot_goes_on_its_labelled_marker(crane_urdf: Path
     (marker,) = fleet.robot_state("r1", RobotState.PICK_UP)
     assert marker.entity_path == marker_path("r1")
     assert fleet.robot_state("r9", RobotState.IDLE) == []  # not on site: no model, the twin's box
+
+
+def test_a_crane_erected_taller_is_drawn_with_its_hook_that_much_higher() -> None:
+    """The site erected the tower crane 11 m taller than its URDF (shared/crane_erection.py): the
+    dashboard draws the hook at hoist 0 and the mast's top 11 m higher, the jib unchanged."""
+    urdf = resolve_urdf("tower_crane.urdf")
+    as_drawn, erected = read_urdf(urdf), read_urdf(urdf, mast_raised_m=11.0)
+    hook = [model.link_poses()["hook_link"][2, 3] for model in (as_drawn, erected)]
+    assert hook[1] == pytest.approx(hook[0] + 11.0)
+    masts = [LinkMeshes().model_meshes(model)["mast_link"].bounds_m for model in (as_drawn, erected)]
+    assert masts[1][1][2] == pytest.approx(masts[0][1][2] + 11.0, abs=1e-4)
+    assert masts[1][0][2] == pytest.approx(masts[0][0][2], abs=1e-4)  # it still stands on its base
+
+
+def test_the_fleet_log_draws_the_crane_as_the_site_info_says_it_was_erected() -> None:
+    tower = load_fleet(DEFAULT_FLEET_FILE).types["tower_crane"]
+    assert tower.crane is not None
+    erected = tower.model_copy(
+        update={"crane": tower.crane.model_copy(update={"jib_height_m": 51.0, "mast_raised_m": 11.0})}
+    )
+    info = _site_info(Path("unused.urdf"))
+    info = info.model_copy(
+        update={
+            "robot_type_of": {"r1": "tower_crane", "r2": "tower_crane"},
+            "robot_types": {"tower_crane": erected},
+        }
+    )
+    fleet = FleetLog()
+    fleet.site_known(info)
+    model = fleet.robot_model("r1")
+    assert model is not None
+    assert model.urdf.link_poses()["hook_link"][2, 3] == pytest.approx(51.0, abs=0.01)

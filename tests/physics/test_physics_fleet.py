@@ -16,6 +16,7 @@ from bimbot.services.physics.client import p
 from bimbot.services.physics.robots import wheel_torque_nm
 from bimbot.services.physics.simulation import Simulation
 from bimbot.shared.fleet import default_fleet
+from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import CmdVelMsg, OdomMsg, RobotPoseMsg, ScanMsg
 
 
@@ -188,3 +189,25 @@ def test_without_a_fleet_the_site_holds_default_robots(make_sim: Callable[..., S
     info = make_sim(robots=2).info()
     assert info.robot_type_of == {"r1": "default", "r2": "default"}
     assert list(info.robot_types) == ["default"]
+
+
+def test_a_tall_buildings_crane_is_loaded_and_served_as_erected_for_it(
+    make_sim: Callable[..., Simulation], frame_manifest: Manifest
+) -> None:
+    """A part whose top is at 46.5 m: physics erects the tower crane at 51 m under hook (the pure rule is
+    tests/shared/test_crane_erection.py), loads its URDF with the mast that much taller, so the hook it
+    draws and moves loads from hangs where the description says, and serves that description."""
+    low = make_sim(fleet=default_fleet())
+    assert low.robots["r3"].rig is not None
+    assert low.robots["r3"].rig.jib_height_m == pytest.approx(40.0, abs=0.01)
+    beam = frame_manifest.components[-1]
+    box = beam.bbox_world.model_copy(update={"max_m": (*beam.bbox_world.max_m[:2], 46.5)})
+    tall = frame_manifest.model_copy(
+        update={"components": [*frame_manifest.components[:-1], beam.model_copy(update={"bbox_world": box})]}
+    )
+    sim = make_sim(manifest=tall, fleet=default_fleet())
+    rig = sim.robots["r3"].rig
+    assert rig is not None and rig.jib_height_m == pytest.approx(51.0, abs=0.01)
+    served = sim.info().robot_types["tower_crane"]
+    assert served.crane is not None and served.crane.jib_height_m == 51.0
+    assert served.max_place_height_m == 47.0
