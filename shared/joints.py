@@ -63,6 +63,10 @@ class JointRule(BaseModel):
     # wall): the overlap takes in the member's whole section and runs along it for more than twice the
     # part's thickness, so a member crossing the part is not one
     embedded: bool = False
+    # only a member carried through the part: the overlap takes in the member's whole section and the
+    # part's whole thickness, and the member runs on past both of the part's faces (a purlin through a
+    # gable, a girder through the wall it bears on), not an end drawn into it
+    through: bool = False
     # only an overlap that runs at least this far in plan (a lining along the wall it lines, not a wall's
     # edge against a pier); 0: any
     min_run_m: float = Field(default=0.0, ge=0.0, le=100.0)

@@ -56,21 +56,15 @@ from bimbot.shared.manifest import Clash, Component, Joint, JointSource
 from .bars import BarShapes
 from .connections import element_connections
 from .notches import element_plans_m2, notched_round
+from .overlap_shapes import END_TOLERANCE_M, at_an_end, carried_through, embedded_along, plan_run_m
 from .overlaps import Overlap, measure_overlaps
-from .placement import in_pose_frame
 
 _log = logging.getLogger(__name__)
 
-END_TOLERANCE_M = 0.01  # an overlap this much past a rule's depth from the member's end still lies at it
 FITTED_MAX_DEPTH_M = 0.15  # a new part drawn this deep into existing work is fitted on site (notched)
 # a new part rising from below into existing work over it, its top drawn up to this far above the existing
 # part's underside (a deep beam: a W24 is 610 mm), is framed up to that underside on site
 FITTED_UNDER_MAX_DEPTH_M = 0.65
-EMBED_SECTION_SHARE = 0.9  # an embedded member's section lies this much inside the part, on both axes
-# an end drawn in at a slant overlaps its part along the member for up to this many times its section's
-# larger side (a 114 mm tube on a 20° slant to the chord: about 0.33 m), past its middle if it is short
-SLANT_RUN_SECTIONS = 3.0
-BAR_SECTIONS = 4.0  # …a member this many times longer than its section's larger side (a tube, not a wall)
 FILLS = "IfcRelFillsElement"
 RELATIONS = frozenset(
     {
@@ -321,6 +315,12 @@ def _by_rule(
             continue
         if rule.embedded and not embedded_along(member, part, overlap.region_m):
             continue
+        # existing work is not built round: a new part drawn through it is judged as fitted to it
+        if rule.through and (
+            ConstructionMethod.IN_PLACE in (member.method, part.method)
+            or not carried_through(member, part, overlap.region_m)
+        ):
+            continue
         if rule.min_run_m > 0.0 and plan_run_m(overlap.region_m) < rule.min_run_m:
             continue
         if not rule.takes_masses(member.mass_kg, part.mass_kg) or not rule.takes_shape(*_shape(member)):
@@ -358,73 +358,6 @@ def _shape(component: Component) -> tuple[float, float]:
     size = np.asarray(component.bbox_local.max_m) - np.asarray(component.bbox_local.min_m)
     box_m3 = float(np.prod(size))
     return float(np.min(size)), (component.volume_m3 / box_m3 if box_m3 > 0.0 else 1.0)
-
-
-def embedded_along(member: Component, part: Component, region_world_m: np.ndarray) -> bool:
-    """Whether ``member`` is drawn inside ``part``'s thickness along its length where they overlap: the
-    overlap (its vertices) takes in the member's whole section (within :data:`EMBED_SECTION_SHARE` of it
-    on both short axes of its own frame) and runs along its length for more than twice the part's
-    thickness (the least side of its own box): a lintel or bond beam in its wall, not a beam through it."""
-    local = in_pose_frame(member.target_pose_world, region_world_m)
-    low, high = np.asarray(member.bbox_local.min_m), np.asarray(member.bbox_local.max_m)
-    size = high - low
-    length_axis = int(np.argmax(size))
-    covered = local.max(axis=0) - local.min(axis=0)
-    section = [axis for axis in range(3) if axis != length_axis]
-    if any(covered[axis] < EMBED_SECTION_SHARE * size[axis] for axis in section):
-        return False
-    thickness_m = float(np.min(np.asarray(part.bbox_local.max_m) - np.asarray(part.bbox_local.min_m)))
-    return bool(covered[length_axis] > 2.0 * thickness_m)
-
-
-def plan_run_m(region_world_m: np.ndarray) -> float:
-    """How far the overlap (its vertices, world frame) runs in plan: the largest distance between two of
-    its vertices seen from above (a lining's overlap runs along the wall; a pier's is its width)."""
-    xy = np.asarray(region_world_m, dtype=float)[:, :2]
-    if len(xy) < 2:
-        return 0.0
-    return float(np.max(np.linalg.norm(xy[:, None, :] - xy[None, :, :], axis=-1)))
-
-
-def at_an_end(
-    member: Component, region_world_m: np.ndarray, band_m: float, *, length_only: bool = False
-) -> bool:
-    """Whether the overlap (its vertices, world frame) lies within ``band_m`` of one end or face of
-    ``member``'s box, along an axis of its own frame on which it is longer than ``2 * band_m``; with
-    ``length_only``, of one of its two ends along its longest axis (a framed end, not a side it touches).
-
-    Not for a framed end: an overlap that takes in one end of the member itself and stops short of its
-    middle lies at that end however far along it runs: an end drawn into its part at a slant (a tube's end
-    cut to the saddle of the chord it meets, a short brace on a shallow slant) overlaps the part far past
-    the depth it is drawn in (the Revit 2025 structural sample: HSS 114 braces 53-65 mm into the tube they
-    meet, the overlap 120-150 mm along them). A short member's slanted end may run past its middle: it
-    still lies at that end while the run is at most :data:`SLANT_RUN_SECTIONS` times the member's larger
-    section side, for a bar (:data:`BAR_SECTIONS`; the same sample's 0.6 m HSS 114 stubs on its arched
-    tube: 317 mm along them). The rule's depth still bounds how far in it is drawn; a member lying along
-    its part (a tee under the canopy it carries) overlaps it far past that."""
-    local = in_pose_frame(member.target_pose_world, region_world_m)
-    low, high = np.asarray(member.bbox_local.min_m), np.asarray(member.bbox_local.max_m)
-    size = high - low
-    length_axis = int(np.argmax(size))
-    axes = [length_axis] if length_only else range(3)
-    for axis in axes:
-        if size[axis] <= 2.0 * band_m:
-            continue
-        first, last = local[:, axis].min(), local[:, axis].max()
-        if last <= low[axis] + band_m or first >= high[axis] - band_m:
-            return True
-        if length_only or axis != length_axis:
-            continue
-        half = low[axis] + size[axis] / 2.0
-        section_m = max(size[other] for other in range(3) if other != axis)
-        bar = size[axis] >= BAR_SECTIONS * section_m
-        short = bar and last - first <= SLANT_RUN_SECTIONS * section_m
-        if (first <= low[axis] + END_TOLERANCE_M and (last < half or short)) or (
-            last >= high[axis] - END_TOLERANCE_M and (first > half or short)
-        ):
-            return True  # one of its ends lies in the part; the overlap stops short of its middle, or of
-            # the run of an end on a slant
-    return False
 
 
 class _ClassTree:

@@ -560,28 +560,42 @@ def test_a_deck_crossed_on_the_slant_by_a_wall_rising_through_it_is_cut_round_it
     assert joint.guids == (guid["Wall"], guid["Deck"])
 
 
-def test_a_lintel_drawn_inside_its_wall_is_a_joint_and_a_beam_through_a_wall_a_clash(tmp_path: Path) -> None:
+def test_a_lintel_inside_its_wall_and_a_girder_carried_through_one_are_joints_a_beam_end_too_deep_a_clash(
+    tmp_path: Path,
+) -> None:
     """A steel lintel (178 × 400 mm) drawn inside a 417 mm masonry wall along its length, at the wall's
     head, as the Revit duplex draws its W410 beams: a joint by rule, the wall first (it reaches the ground
-    under the beam). The same beam run through another wall across it is a clash."""
+    under the beam). A girder carried through a cross wall it bears on (ifc-mcp's Building-Structural:
+    timber girders through a 200 mm inner wall) is a joint too, the wall first: the masonry is laid round
+    it. A beam whose end is drawn 350 mm into a 500 mm wall, deeper than a bearing and not through it, is a
+    clash."""
     small = new_model()
     add_wall(small, "Wall", length_m=6.0, height_m=3.1, thickness_m=0.417)
     # along x, its 400 mm depth upright (its profile's x turned down), 289 mm into the wall's face
     lintel_along_x = np.array([[0, 0, 1, 0.5], [0, 1, 0, 0.2], [-1, 0, 0, 2.9], [0, 0, 0, 1]], dtype=float)
     add_beam(small, "Lintel", length_m=4.0, width_m=0.4, depth_m=0.178, matrix_m=lintel_along_x)
     add_wall(small, "Cross wall", length_m=6.0, height_m=3.1, thickness_m=0.3, matrix_m=translation(y_m=4.0))
-    # along y, through the cross wall at mid-span
-    across_y = np.array([[1, 0, 0, 3.0], [0, 0, 1, 2.5], [0, -1, 0, 2.9], [0, 0, 0, 1]], dtype=float)
+    # along y, through the cross wall at mid-span, 200 mm under its top (z 2.5-2.9)
+    across_y = np.array([[1, 0, 0, 3.0], [0, 0, 1, 2.5], [0, -1, 0, 2.7], [0, 0, 0, 1]], dtype=float)
     add_beam(small, "Through beam", length_m=3.0, width_m=0.178, depth_m=0.4, matrix_m=across_y)
+    add_wall(small, "Thick wall", length_m=5.0, height_m=3.1, thickness_m=0.5, matrix_m=translation(y_m=9.0))
+    # along y, its end 350 mm into the thick wall: deeper than a bearing, and it does not come out again
+    stub_y = np.array([[1, 0, 0, 3.0], [0, 0, 1, 7.35], [0, -1, 0, 2.9], [0, 0, 0, 1]], dtype=float)
+    add_beam(small, "Stub", length_m=2.0, width_m=0.178, depth_m=0.4, matrix_m=stub_y)
     manifest = _convert(small, tmp_path)
     guid = _guids(manifest)
-    # the 7.8 t wall is lifted whole: the run's crane (no idle pump beside it) lifts it where it stands
-    panels = [guid["Wall"]]
-    assert sorted(joint.guids for joint in manifest.joints) == [(guid["Wall"], guid["Lintel"])]
-    assert {joint.rule for joint in manifest.joints} == {"IfcBeam into IfcWall, up to 450 mm"}
+    assert sorted(joint.guids for joint in manifest.joints) == sorted(
+        [(guid["Wall"], guid["Lintel"]), (guid["Cross wall"], guid["Through beam"])]
+    )
+    assert {joint.rule for joint in manifest.joints} == {
+        "IfcBeam into IfcWall, up to 450 mm",
+        "IfcBeam into IfcWall, up to 2000 mm",
+    }
     [clash] = manifest.clashes
-    assert set(clash.guids) == {guid["Cross wall"], guid["Through beam"]}
-    assert set(panels) <= support_predecessors(manifest.components, joints=manifest.joints)[guid["Lintel"]]
+    assert set(clash.guids) == {guid["Thick wall"], guid["Stub"]}
+    supports = support_predecessors(manifest.components, joints=manifest.joints)
+    assert guid["Wall"] in supports[guid["Lintel"]]
+    assert guid["Cross wall"] in supports[guid["Through beam"]]
 
 
 def test_a_brace_drawn_into_a_chord_at_a_slant_is_a_joint_though_the_overlap_runs_past_its_depth(
