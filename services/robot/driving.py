@@ -33,6 +33,7 @@ from .approach import approach_pose, no_approach_reason, sets_from_outside, way_
 from .handover import Handover
 from .navigator import NavStatus
 from .robot_context import RobotContext
+from .shut_in_check import joined_near
 from .task_cycle import TaskCycle
 from .task_state import Task, component_name
 
@@ -69,6 +70,21 @@ class Driving:
         if not outlines:
             return None
         return way_out_after(grid, outlines, self.context.home_xy_yaw[:2], site_map.config.inflation_m)
+
+    def _leaves_from(self, footprint: Footprint, xy_m: tuple[float, float]) -> bool:
+        """Whether the robot, setting ``footprint`` from ``xy_m`` where it stands, still has a way back to
+        its depot once it stands (always, when it is picking up or the component leaves its band free):
+        a drive that failed short of its stand-point is close enough only then. A robot held in an inflated
+        cell counts by the free cells within its inflation of it (on its own side of what it sets)."""
+        placing = self.cycle.state not in (_S.DETECT_COMPONENT_POSITION, _S.PICK_UP)
+        site_map = self.context.site_map
+        if not placing or not site_map.blocks(footprint):
+            return True
+        grid = site_map.inflated_grid()
+        way_out = self._way_out(grid, footprint)
+        if way_out is None:
+            return True  # no band outline: it closes nothing
+        return joined_near(grid, way_out, xy_m, site_map.config.inflation_m)
 
     def _walls_itself_in(self, footprint: Footprint, xy: tuple[float, float]) -> bool:
         """Whether, on the static map (laser marks left out: they pass), no stand-point within reach of
@@ -120,7 +136,9 @@ class Driving:
             # a load to be taken up need not be kept clear of: a robot held where it stands by the very
             # body it is to pick up (it fell beside it) takes it from there
             blocks = context.site_map.blocks(footprint) and self.cycle.state is not _S.PICK_UP
-            if within_reach(footprint, here, blocks_band=blocks, config=context.approach_config):
+            if within_reach(
+                footprint, here, blocks_band=blocks, config=context.approach_config
+            ) and self._leaves_from(footprint, here):
                 return True  # not on the stand-point, but the reach rule holds here: close enough
         if task.approach is not None and status is NavStatus.FAILED:
             # The navigator ran its recovery chain: re-choose the approach pose (any side, not this one).
@@ -168,6 +186,8 @@ class Driving:
             outside_of=outside,
             way_out=way_out,
         )
+        if found is None and task.failed_xy_m:  # every other side tried: the failed ones again
+            found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=config, way_out=way_out)
         if found is not None and way_out is not None and not _leaves(grid, way_out, found.xy_m):
             # every stand-point walls it in once the component stands: on the static map too, it is no
             # place to set it from (given back: a crane is asked first); else only traffic hides the way
@@ -176,8 +196,6 @@ class Driving:
                 self.handover.give_back(task, reason)
                 return False
             found = None
-        if found is None and task.failed_xy_m:  # every other side tried: the failed ones again
-            found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=config)
         if found is None:
             task.retry_at_s = context.sim_s + bounds.retry_delay_s
             traffic = approach_pose(

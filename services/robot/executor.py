@@ -81,6 +81,7 @@ from .navigator import Navigator, NavigatorConfig
 from .parking import Parking
 from .protocol import VERDICTS, EventQueue, Outgoing, PhysicsResult, assignment_waiting
 from .robot_context import GettingThere, robot_context
+from .shut_in_check import held
 from .site_map import MapConfig
 from .site_work import SiteWorkExecutor
 from .task_cycle import TaskCycle
@@ -231,6 +232,8 @@ class Executor:
             self._ground_truth(message)
         elif isinstance(message, RobotStateMsg) and message.robot_id != self.robot_id:
             self.navigator.observe_robot(message.robot_id, message.pose_xy_yaw[:2], message.sim_time_s)
+            x, y = message.pose_xy_yaw[:2]
+            self.context.others_xy[message.robot_id] = (float(x), float(y))
 
     def tick(self, clock: ClockMsg, wall_s: float) -> list[Outgoing]:
         """One control step: task progress, navigation, and the ``cmd_vel`` answering ``clock.step``."""
@@ -413,7 +416,7 @@ class Executor:
             waiting = task.events.unconfirmed & {_E.ATTACH, _E.ARRIVE}
             # standing still, and not told to wait (another robot stands where the load goes)
             ready = self.navigator.ready_to_place and self.sim_s >= task.retry_at_s
-            if task.request is None and not waiting and ready:
+            if task.request is None and not waiting and ready and not self._would_shut_in(task):
                 self.handover.request(task, "place", self.handover.place_request(task))
             return
         if task.verdict is not None and _E.PLACE not in task.events.unconfirmed:
@@ -421,6 +424,10 @@ class Executor:
             self.cycle.finish(task.verdict)
 
     # --- helpers -----------------------------------------------------------------------------------------
+
+    def _would_shut_in(self, task: Task) -> bool:
+        """Whether the placement waits: it would shut another robot in (:func:`.shut_in_check.held`)."""
+        return held(self.context, task, self.config)
 
     def _component_state(self, guid: str, state: ComponentState) -> None:
         """A trusted state change (a judged message, or a twin's answer)."""

@@ -10,7 +10,7 @@ built.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
@@ -19,7 +19,7 @@ from bimbot.shared.footprint import Footprint
 from bimbot.shared.manifest import Manifest
 from bimbot.shared.messages import ComponentEvent, SiteInfoMsg
 from bimbot.shared.reasons import Reason
-from bimbot.shared.robot_description import RobotDescription
+from bimbot.shared.robot_description import Capability, RobotDescription
 from bimbot.shared.seeds import robot_stream
 
 from .approach import ApproachConfig, cut_off
@@ -43,6 +43,10 @@ class RobotContext:
     sim_s: float = 0.0  # the sim time of the step being worked on
     wall_s: float = 0.0  # the wall time of the last tick or poll (event stamps, resends)
     distance_m: float = 0.0  # driven so far (its state message says it)
+    # the other robots that drive: id → (their map inflation, their depot start), and where each last said
+    # it stood (its state messages): what a placement must not shut in (:mod:`.shut_in_check`)
+    drivers: dict[str, tuple[float, tuple[float, float]]] = field(default_factory=dict)
+    others_xy: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     @property
     def robot_id(self) -> str:
@@ -114,7 +118,14 @@ def robot_context(
         reach_m=description.reach_m,
         body_clearance_m=map_config.inflation_m,
     )
-    return RobotContext(config, description, site_map, navigator, home_xy_yaw, approach_config)
+    drivers: dict[str, tuple[float, tuple[float, float]]] = {}
+    for other, (x, y, _) in zip(info.robot_ids, info.robot_starts_xy_yaw, strict=True):
+        kind = info.robot_types.get(info.robot_type_of.get(other, ""))
+        if other != robot_id and kind is not None and kind.can(Capability.DRIVE):
+            drivers[other] = (kind.radius_m + map_config.inflation_margin_m, (float(x), float(y)))
+    context = RobotContext(config, description, site_map, navigator, home_xy_yaw, approach_config)
+    context.drivers = drivers
+    return context
 
 
 class GettingThere(Protocol):

@@ -37,6 +37,10 @@ class ExecutorConfig:
     max_reselections: int = 20  # approach poses chosen again at once when their cell becomes occupied
     max_approach_misses: int = 10  # searches for an approach pose that found none, then given back
     traffic_wait_s: float = 120.0  # sim seconds to wait for a stand-point only laser marks cut off
+    shut_in_wait_s: float = (
+        900.0  # sim seconds to hold a placement that would shut a robot in (the planner's)
+    )
+    shut_in_recheck_s: float = 5.0  # …asking again this often (a flood fill of the site per robot)
     retry_delay_s: float = 1.0  # sim seconds before looking for an approach again
     task_timeout_s: float = 900.0  # sim seconds in one task state → given back (no_progress)
     give_back_timeout_s: float = 60.0  # sim seconds for the agent to confirm an abandon (else go idle)
@@ -68,6 +72,7 @@ class Task:
     failed_xy_m: list[tuple[float, float]] = field(default_factory=list)  # stand-points that failed
     misses: int = 0  # approach searches that found nothing
     traffic_since_s: float | None = None  # since when only laser marks cut every stand-point off
+    shut_in_since_s: float | None = None  # since when placing it would shut another robot in
     waiting_since_s: float | None = None  # since when physics says another robot stands where it goes
     placed: bool = False
     placement_note: str = ""  # said with the place event: how the robot placed it when it matters

@@ -50,3 +50,31 @@ def test_a_gate_whose_outside_is_taken_walls_in_the_robot_that_would_set_it_from
     reason = give_back.walls_itself_in("r2", "Gate", 1.5)
     assert reason.code is ReasonCode.NO_APPROACH_POSE and reason.robot_id == "r2"
     assert "would wall itself in setting Gate" in reason.message
+
+
+def _placing(driving: Driving) -> Driving:
+    """``driving`` of a robot about to set what it carries (its cycle past the pick-up), whose map counts
+    the gate in its band."""
+    driving.cycle = cast(Any, SimpleNamespace(state=give_back.RobotState.IDENTIFY_TARGET_LOCATION))
+    driving.context.site_map.blocks = lambda footprint: True
+    return driving
+
+
+def test_a_drive_that_failed_inside_the_room_is_not_close_enough_to_set_the_gate_from() -> None:
+    """The Revit house with three carriers: r2's drive to its stand-points failed, it stood within reach of
+    the wall panel it carried, inside the room that panel closed, set it from there and stood walled in
+    to the end of the run. Within reach is close enough only where a way home is left."""
+    driving = _placing(_driving(ROOM))
+    assert driving._leaves_from(GATE, (7.0, 11.5)), "outside the room: its way home is kept"
+    assert not driving._leaves_from(GATE, (9.3, 11.5)), "inside: the gate closes it in"
+    assert not driving._leaves_from(GATE, (8.9, 11.5)), "in the gate's inflation, inside: still closed in"
+
+
+def test_picking_up_or_setting_what_leaves_its_band_free_is_close_enough_anywhere() -> None:
+    driving = _driving(ROOM)
+    driving.cycle = cast(Any, SimpleNamespace(state=give_back.RobotState.PICK_UP))
+    driving.context.site_map.blocks = lambda footprint: True
+    assert driving._leaves_from(GATE, (9.3, 11.5))
+    placing = _placing(_driving(ROOM))
+    placing.context.site_map.blocks = lambda footprint: False  # a beam above the band closes nothing
+    assert placing._leaves_from(GATE, (9.3, 11.5))

@@ -1,0 +1,91 @@
+"""A robot does not place what would shut another robot into a room (services/robot/shut_in_check.py):
+it holds the placement while a robot that drives stands inside, asks again, and places after the
+planner's bound."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+from typing import Any, cast
+
+import numpy as np
+import pytest
+
+from bimbot.services.robot.shut_in_check import held, shut_in_by
+from bimbot.services.robot.task_state import ExecutorConfig
+from bimbot.shared.footprint import Footprint
+from bimbot.shared.occupancy_grid import from_footprints, inflate
+
+RADIUS_M = 0.75
+ROOM = [(8.0, 2.0, 8.2, 10.0), (8.0, 13.0, 8.2, 18.0), (8.0, 2.0, 16.0, 2.2), (8.0, 17.8, 16.0, 18.0)]
+ROOM.append((15.8, 2.0, 16.0, 18.0))  # closed but for a 3 m opening in its west wall, x = 8.0-8.2
+GATE = Footprint(np.array([[8.0, 10.0], [8.2, 10.0], [8.2, 13.0], [8.0, 13.0]]), 0.0, 2.5)  # closes it
+DEPOT = (1.0, 1.0)
+INSIDE, OUTSIDE = (12.0, 10.0), (4.0, 10.0)
+
+
+def _site_map(walls: list[tuple[float, float, float, float]]) -> Any:
+    """A map of a 20 m × 20 m site with ``walls``, inflated by any radius asked."""
+    static = from_footprints((0.0, 0.0, 20.0, 20.0), 0.1, boxes_xy_m=walls)
+    return SimpleNamespace(
+        inflated_grid=lambda radius_m=RADIUS_M: inflate(static, radius_m),
+        config=SimpleNamespace(band_min_z_m=0.02, band_max_z_m=1.0, inflation_m=RADIUS_M),
+    )
+
+
+def _outlines() -> list:
+    return GATE.outlines_meeting(0.02, 1.0)
+
+
+def test_a_robot_inside_the_room_the_gate_closes_is_shut_in_one_outside_is_not() -> None:
+    drivers = {"r2": (RADIUS_M, DEPOT), "r3": (RADIUS_M, DEPOT)}
+    shut = shut_in_by(_site_map(ROOM), _outlines(), drivers, {"r2": INSIDE, "r3": OUTSIDE})
+    assert shut == ["r2"]
+
+
+def test_a_robot_walled_in_already_or_one_that_does_not_drive_is_not_this_placements_doing() -> None:
+    closed = [*ROOM, (7.0, 10.0, 7.2, 13.0), (7.0, 9.8, 8.2, 10.0), (7.0, 13.0, 8.2, 13.2)]  # a lobby shut
+    drivers = {"r2": (RADIUS_M, DEPOT)}
+    assert shut_in_by(_site_map(closed), _outlines(), drivers, {"r2": INSIDE}) == []
+    assert shut_in_by(_site_map(ROOM), _outlines(), {}, {"r4": INSIDE}) == []  # a crane: no driver
+
+
+def test_a_robot_held_against_the_gates_side_counts_by_the_free_cells_near_it() -> None:
+    """Stopped 0.5 m inside the opening (in the gate's inflation, as a robot that failed to reach its
+    stand-point stands): still inside; 0.5 m outside it: still outside."""
+    drivers = {"r2": (RADIUS_M, DEPOT)}
+    assert shut_in_by(_site_map(ROOM), _outlines(), drivers, {"r2": (8.7, 11.5)}) == ["r2"]
+    assert shut_in_by(_site_map(ROOM), _outlines(), drivers, {"r2": (7.5, 11.5)}) == []
+
+
+def test_the_placement_waits_asks_again_and_goes_after_the_bound(caplog: pytest.LogCaptureFixture) -> None:
+    config = ExecutorConfig(robot_id="r1", shut_in_wait_s=900.0, shut_in_recheck_s=5.0)
+    context = SimpleNamespace(
+        robot_id="r1",
+        site_map=_site_map(ROOM),
+        drivers={"r2": (RADIUS_M, DEPOT)},
+        others_xy={"r2": INSIDE},
+        sim_s=100.0,
+    )
+    task = SimpleNamespace(
+        target=GATE,
+        shut_in_since_s=None,
+        retry_at_s=0.0,
+        message=SimpleNamespace(guid="gate"),
+        component=SimpleNamespace(name="Gate"),
+    )
+    with caplog.at_level("INFO"):
+        assert held(cast(Any, context), cast(Any, task), config)
+    assert task.shut_in_since_s == 100.0 and task.retry_at_s == 105.0
+    assert "placing it now would shut in r2" in caplog.text
+    context.sim_s = 500.0
+    assert held(cast(Any, context), cast(Any, task), config)  # still inside: still held
+    context.others_xy["r2"] = OUTSIDE
+    context.sim_s = 505.0
+    assert not held(cast(Any, context), cast(Any, task), config)  # out: it goes
+    assert task.shut_in_since_s is None
+    context.others_xy["r2"] = INSIDE
+    assert held(cast(Any, context), cast(Any, task), config)
+    context.sim_s = 505.0 + 900.0
+    with caplog.at_level("WARNING"):
+        assert not held(cast(Any, context), cast(Any, task), config)  # the bound: placed all the same
+    assert "it still shuts in r2" in caplog.text
