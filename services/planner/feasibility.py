@@ -84,7 +84,7 @@ def component_feasibility(
     """How ``component`` can be built by ``robots`` from its yard ``slot`` (``building``: the site plan's
     building rectangle, for a reason's advice on cranes)."""
     if works_in_place(component):
-        return _in_place_feasibility(component, robots)
+        return _in_place_feasibility(component, robots, building)
     where = slot_where(component, slot)
     routes: list[str] = []
     types: set[str] = set()
@@ -111,7 +111,9 @@ def component_feasibility(
     return Feasibility(component.guid, (), (), _why_not(component, lifters, where, building))
 
 
-def _in_place_feasibility(component: Component, robots: Sequence[SiteRobot]) -> Feasibility:
+def _in_place_feasibility(
+    component: Component, robots: Sequence[SiteRobot], building: Rect | None = None
+) -> Feasibility:
     """A component built where it stands: the machines that can do its work from where they stand."""
     able = [
         robot
@@ -125,14 +127,14 @@ def _in_place_feasibility(component: Component, robots: Sequence[SiteRobot]) -> 
         ]
         types = sorted({robot.description.name for robot in able})
         return Feasibility(component.guid, tuple(types), tuple(dict.fromkeys(routes)), None)
-    return Feasibility(component.guid, (), (), _why_no_worker(component, robots))
+    return Feasibility(component.guid, (), (), _why_no_worker(component, robots, building))
 
 
 #: How a reason names a method of work in place.
 METHOD_WORDS = {"cast_in_place": "cast in place", "laid": "laid masonry", "driven": "a driven pile"}
 
 
-def _why_no_worker(component: Component, robots: Sequence[SiteRobot]) -> Reason:
+def _why_no_worker(component: Component, robots: Sequence[SiteRobot], building: Rect | None = None) -> Reason:
     capability = work_capability(component)
     assert capability is not None
     words, method = WORK_WORDS[capability], METHOD_WORDS.get(component.method.value, component.method.value)
@@ -170,10 +172,30 @@ def _why_no_worker(component: Component, robots: Sequence[SiteRobot]) -> Reason:
         code=ReasonCode.OUT_OF_REACH,
         message=(
             f"its footprint spans {near:.1f}–{far:.1f} m from {nearest.description.name} {nearest.robot_id}"
-            f"{where}, whose boom reaches {nearest.description.reach_m:.1f} m{others}: a longer boom "
-            "(reach_m in the fleet file) would cover it"
+            f"{where}, whose boom reaches {nearest.description.reach_m:.1f} m{others}"
+            f"{_boom_advice(nearest, component, building, method)}"
         ),
         robot_id=nearest.robot_id,
+    )
+
+
+def _boom_advice(robot: SiteRobot, component: Component, building: Rect | None, method: str) -> str:
+    """What a user can do about work in place beyond a boom: a longer boom, unless the component lies
+    deeper inside the building than the boom reaches from any set-up round it (a lane and half the
+    machine outside its edge); a site does such work from inside the building, which bimbot does not."""
+    longer = ": a longer boom (reach_m in the fleet file) would cover it"
+    if building is None or not robot.description.relocates:
+        return longer
+    x, y = target_centre_xy(component)
+    (x0, y0), (x1, y1) = building.min_xy, building.max_xy
+    inside_m = min(x - x0, x1 - x, y - y0, y1 - y)
+    nearest_m = inside_m + LANE_M + robot.description.length_m / 2.0
+    if nearest_m <= robot.description.reach_m:
+        return longer
+    return (
+        f"; it lies {inside_m:.0f} m inside the building's edge, so no set-up round the building reaches it "
+        f"(the nearest would stand {nearest_m:.0f} m away): a site does such work ({method}) from inside the "
+        "building, which bimbot does not; a methods file can make it precast instead (bimbot methods show)"
     )
 
 

@@ -18,6 +18,7 @@ from bimbot.shared.fleet import default_fleet
 from bimbot.shared.messages import ComponentState, TaskMsg, TaskStatus
 from bimbot.shared.reasons import ReasonCode
 from bimbot.shared.site_layout import plan_site
+from bimbot.shared.site_plan import Rect
 
 PUMP = default_fleet().types["concrete_pump"]
 HOME, NEAR = (0.0, 0.0, 0.0), (60.0, 0.0, 0.0)
@@ -119,3 +120,25 @@ def test_work_another_machine_can_do_keeps_its_place_in_the_round() -> None:
     out = core.step(0.1)
     assigned = {m.guid: m.robot_id for m in out if isinstance(m, TaskMsg) and m.status is TaskStatus.ASSIGNED}
     assert assigned == {"afar": "r4"}  # the far pour keeps its place: first, to the pump that bids best
+
+
+def test_work_deeper_inside_the_building_than_any_set_up_reaches_says_so_not_a_longer_boom() -> None:
+    """The Revit office's interior masonry lies 55–80 m inside its edge: a longer boom is no answer for
+    a block layer that sets up round the building. A footing near the edge still gets the longer boom."""
+    building = Rect((0.0, -100.0), (200.0, 100.0))
+    deep = box_component(
+        "deep", (1.0, 1.0, 0.5), (100.0, 0.0, -0.5), ConstructionMethod.CAST_IN_PLACE, 2000.0
+    )
+    pump = SiteRobot("r4", PUMP, (-10.0, 0.0, 0.0), setups=((-10.0, 0.0, 0.0),))
+    row = component_feasibility(deep, [pump], building=building)
+    assert row.reason is not None and row.reason.code is ReasonCode.OUT_OF_REACH
+    assert "it lies 100 m inside the building's edge, so no set-up round the building reaches it" in (
+        row.reason.message
+    )
+    assert "a longer boom" not in row.reason.message
+    near_edge = box_component("edge", (1.0, 1.0, 0.5), (190.0, 0.0, -0.5), ConstructionMethod.CAST_IN_PLACE)
+    row = component_feasibility(near_edge, [pump], building=building)
+    assert (
+        row.reason is not None
+        and "a longer boom (reach_m in the fleet file) would cover it" in row.reason.message
+    )
