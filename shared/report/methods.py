@@ -180,7 +180,8 @@ def curing_line(report: Mapping[str, Any]) -> str | None:
     """``cured: 2 cast components, the longest 72.0 h (259,200 s) (1 component that rests on one waited for
     its cure, and what rests on it in turn)``, in the summary's duration format; None when nothing was cast.
     The count is of the planner's holds: what the cure held directly, not all it delayed. A cure that ends
-    after the last construction (the makespan's end: a roof slab poured last) says how much later."""
+    after the last construction (the makespan's end: a roof slab poured last) says how much later, and when
+    that is from the first release."""
     cured = [c["curing"] for c in report.get("components", []) if c.get("curing")]
     if not cured:
         return None
@@ -200,6 +201,9 @@ def curing_line(report: Mapping[str, Any]) -> str | None:
             "; the makespan ends with the last construction, and the concrete reaches its strength "
             f"{duration_text(cured_s - last_s)} later, when the last cure ends"
         )
+        first_s = report.get("totals", {}).get("first_release_s")
+        if first_s is not None:  # a builder's date: when the building stands at strength (a new user's ask)
+            line += f": {duration_text(cured_s - first_s)} from the first release"
     return line
 
 

@@ -111,7 +111,8 @@ def test_the_run_summary_says_how_long_the_cast_components_cured(report: dict) -
     assert curing_line(report) == (
         "cured: 2 cast components, the longest 72.0 h (259,200 s) (1 component that rests on one waited for "
         "its cure, and what rests on it in turn); the makespan ends with the last construction, and the "
-        "concrete reaches its strength 4.5 h (16,172 s) later, when the last cure ends"
+        "concrete reaches its strength 4.5 h (16,172 s) later, when the last cure ends: 81.0 h (291,602 s) from "
+        "the first release"
     )
     assert curing_line({"components": [{"curing": None}]}) is None
     last_poured = {
@@ -121,6 +122,10 @@ def test_the_run_summary_says_how_long_the_cast_components_cured(report: dict) -
     assert curing_line(last_poured) == (
         "cured: 1 cast component, the longest 24.0 h (86,400 s); the makespan ends with the last "
         "construction, and the concrete reaches its strength 24.0 h (86,400 s) later, when the last cure ends"
+    )
+    last_poured["totals"]["first_release_s"] = 0.5  # the date a builder asks for: strength, from the start
+    assert curing_line(last_poured).endswith(
+        "when the last cure ends: 24.0 h (86,500 s) from the first release"
     )
     lifted = {"by_method": {"lifted": {"components": 3, "constructed": 3}, "with_host": {"components": 2}}}
     assert method_legend({"totals": lifted}) == []  # all lifted (guests have no bars): no legend of methods
