@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from bimbot.services.planner.capability import SiteRobot, robots_on_plan
-from bimbot.services.planner.feasibility import Feasibility, feasibility_table
+from bimbot.services.planner.feasibility import Feasibility, advice_tally, feasibility_table
 from bimbot.shared.crane_erection import erected_for, erection_words
 from bimbot.shared.fleet import DEFAULT_FLEET_FILE, Fleet, check_urdfs, load_fleet
 from bimbot.shared.idle_machines import idle_machine_types, without_types
@@ -216,6 +216,13 @@ def _print_table(
     methods = Counter(component.method.value for component, _ in rows)
     console.print("by method: " + ", ".join(f"{count} {method}" for method, count in methods.most_common()))
     console.print(f"buildable: {buildable} of {len(rows)}; cannot: {summary}")
+    tally = advice_tally([row.reason for _, row in rows if row.reason is not None])
+    if tally:
+        entries = [f"{label}: {count}" for label, count in tally]
+        for line in packed_lines(
+            "what would build the rest, by the reasons' advice:", entries, CONSOLE_WIDTH
+        ):
+            console.print(line, soft_wrap=True)
     if blocked:
         console.print(
             f"of the buildable, {len(blocked)} rest (directly or through others) on one that cannot: a run "

@@ -183,7 +183,7 @@ def _boom_advice(robot: SiteRobot, component: Component, building: Rect | None, 
     """What a user can do about work in place beyond a boom: a longer boom, unless the component lies
     deeper inside the building than the boom reaches from any set-up round it (a lane and half the
     machine outside its edge); a site does such work from inside the building, which bimbot does not."""
-    longer = ": a longer boom (reach_m in the fleet file) would cover it"
+    longer = f": {LONGER_BOOM} (reach_m in the fleet file) would cover it"
     if building is None or not robot.description.relocates:
         return longer
     x, y = target_centre_xy(component)
@@ -194,8 +194,8 @@ def _boom_advice(robot: SiteRobot, component: Component, building: Rect | None, 
         return longer
     return (
         f"; it lies {inside_m:.0f} m inside the building's edge, so no set-up round the building reaches it "
-        f"(the nearest would stand {nearest_m:.0f} m away): a site does such work ({method}) from inside the "
-        "building, which bimbot does not; a methods file can make it precast instead (bimbot methods show)"
+        f"(the nearest would stand {nearest_m:.0f} m away): a site does such work ({method}) {FROM_INSIDE}; "
+        "a methods file can make it precast instead (bimbot methods show)"
     )
 
 
@@ -312,10 +312,25 @@ NO_CRANE_HINT = (
 )
 
 
+#: What a reason advises, as its words say it (and :func:`advice_tally` counts them).
+LONGER_BOOM = "a longer boom"
+FROM_INSIDE = "from inside the building, which bimbot does not"
+CRANE_INSIDE = "a tower crane inside the footprint, which bimbot's site plan does not do"
+MORE_CRANES = "a building this size takes more tower cranes"
+ADVICE: tuple[tuple[str, str], ...] = (
+    (MORE_CRANES, "more tower cranes round the building (a fleet file's tower_crane count)"),
+    (CRANE_INSIDE, "a tower crane inside the footprint (not simulated)"),
+    (
+        FROM_INSIDE,
+        "work in place from inside the building (not simulated), or a methods file making it precast",
+    ),
+    (LONGER_BOOM, "a longer boom"),
+)
+
 #: What a user can do about a target beyond the jib of every crane on site (a building wider than a jib
 #: covers: a site erects more cranes round it).
 BEYOND_THE_JIB_HINT = (
-    "; it lies beyond the jib: a building this size takes more tower cranes (raise the tower_crane count "
+    f"; it lies beyond the jib: {MORE_CRANES} (raise the tower_crane count "
     "in a fleet file given with --fleet; each further crane is set up where it hooks what those before it "
     "do not)"
 )
@@ -343,7 +358,7 @@ def _beyond_the_jib(robot: SiteRobot, component: Component, building: Rect | Non
     return (
         f"; it lies {inside_m:.0f} m inside the building's edge, so no crane set up round the building "
         f"hooks it (the nearest would stand {nearest_m:.0f} m away, beyond a {spec.max_radius_m:.0f} m jib): "
-        "a site this wide stands a tower crane inside the footprint, which bimbot's site plan does not do"
+        f"a site this wide stands {CRANE_INSIDE}"
     )
 
 
@@ -362,3 +377,15 @@ def infeasible(
     return {
         row.guid: row.reason for row in feasibility_table(components, robots, slots) if row.reason is not None
     }
+
+
+def advice_tally(reasons: Sequence[Reason]) -> list[tuple[str, int]]:
+    """How many of ``reasons`` advise each fix of :data:`ADVICE` (by the words the reason carries), most
+    first; a reason that advises none counts under its code. For ``fleet check --summary``'s last word: the
+    Revit office's 4,105 rows of reasons, in 150 lines, left a new user asking what would build the rest."""
+    tally: dict[str, int] = {}
+    for reason in reasons:
+        label = next((label for words, label in ADVICE if words in reason.message), None)
+        label = label or f"{reason.code.value} (see its rows)"
+        tally[label] = tally.get(label, 0) + 1
+    return sorted(tally.items(), key=lambda item: (-item[1], item[0]))

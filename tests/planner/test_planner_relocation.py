@@ -12,11 +12,11 @@ from component_boxes import box_component
 from planner_builders import idle_core, portal_manifest, state_msg
 
 from bimbot.services.planner.capability import SiteRobot, Where, robots_on_plan, task_estimate_s
-from bimbot.services.planner.feasibility import component_feasibility
+from bimbot.services.planner.feasibility import advice_tally, component_feasibility
 from bimbot.shared.construction_methods import ConstructionMethod
 from bimbot.shared.fleet import default_fleet
 from bimbot.shared.messages import ComponentState, TaskMsg, TaskStatus
-from bimbot.shared.reasons import ReasonCode
+from bimbot.shared.reasons import Reason, ReasonCode
 from bimbot.shared.site_layout import plan_site
 from bimbot.shared.site_plan import Rect
 
@@ -142,3 +142,19 @@ def test_work_deeper_inside_the_building_than_any_set_up_reaches_says_so_not_a_l
         row.reason is not None
         and "a longer boom (reach_m in the fleet file) would cover it" in row.reason.message
     )
+
+
+def test_fleet_checks_last_word_counts_the_rows_by_the_fix_their_reasons_advise() -> None:
+    building = Rect((0.0, -100.0), (200.0, 100.0))
+    pump = SiteRobot("r4", PUMP, (-10.0, 0.0, 0.0), setups=((-10.0, 0.0, 0.0),))
+    deep = box_component(
+        "deep", (1.0, 1.0, 0.5), (100.0, 0.0, -0.5), ConstructionMethod.CAST_IN_PLACE, 2000.0
+    )
+    edge = box_component("edge", (1.0, 1.0, 0.5), (190.0, 0.0, -0.5), ConstructionMethod.CAST_IN_PLACE)
+    reasons = [component_feasibility(item, [pump], building=building).reason for item in (deep, edge, edge)]
+    other = Reason(code=ReasonCode.TOO_HEAVY, message="9,514 kg exceeds the largest payload on site")
+    assert advice_tally([*[r for r in reasons if r is not None], other]) == [
+        ("a longer boom", 2),
+        ("too_heavy (see its rows)", 1),
+        ("work in place from inside the building (not simulated), or a methods file making it precast", 1),
+    ]
