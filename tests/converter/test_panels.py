@@ -294,7 +294,8 @@ def test_a_slab_of_unknown_material_no_cut_fits_is_cast_in_place_as_concrete_oth
     """FZK-Haus's upper floor (material "Solid", 11.8 × 9.8 × 0.2 m, 20 t, a stair opening no plank cut
     avoids) was lifted whole, beyond every machine, and the storey above waited on it; a site casts such a
     slab. The methods file names the classes so cast (``cast_unknown_classes``): a column of unknown
-    material stays lifted whole, and the lifted-only file casts nothing."""
+    material stays lifted whole, and the lifted-only file casts nothing. A wall no storey-high panel fits
+    (a core wall of the Revit office, 44 m tall) is cast too under the prefab preset."""
     model = ifcopenshell.file(schema="IFC4")
     slab_element = ifcopenshell.api.root.create_entity(model, ifc_class="IfcSlab")
     column = ifcopenshell.api.root.create_entity(model, ifc_class="IfcColumn")
@@ -309,6 +310,10 @@ def test_a_slab_of_unknown_material_no_cut_fits_is_cast_in_place_as_concrete_oth
     )
     assert (
         not_panelised(unknown, "no cut", load_methods("prefab"), column).method is ConstructionMethod.LIFTED
+    )
+    core_wall = ifcopenshell.api.root.create_entity(model, ifc_class="IfcWall")  # a shaft's wall, 44 m tall
+    assert not_panelised(unknown, "no cut", load_methods("prefab"), core_wall).method is (
+        ConstructionMethod.CAST_IN_PLACE
     )
     assert not_panelised(unknown, "no cut", load_methods("lifted"), slab_element).method is (
         ConstructionMethod.LIFTED
