@@ -261,7 +261,8 @@ def _why_not(
             limit = (
                 f"whose trolley comes no nearer than {spec.min_radius_m:.1f} m"
                 if far < spec.min_radius_m
-                else f"whose load chart lifts {mass:,.0f} kg to {radius:.1f} m at most{mass_note(component)}"
+                else f"whose load chart lifts its {mass:,.0f} kg out to a radius of {radius:.1f} m at most"
+                + mass_note(component)
                 + (_beyond_the_jib(robot, component, building) if far > spec.max_radius_m else "")
             )
             return Reason(
@@ -286,8 +287,8 @@ def _why_not(
         return Reason(
             code=ReasonCode.OUT_OF_REACH,
             message=(
-                f"its yard slot is {far:.1f} m from {robot.description.name} {robot.robot_id}, whose "
-                f"load chart lifts {mass:,.0f} kg to {radius:.1f} m at most, and {hand_off}"
+                f"its yard slot is {far:.1f} m from {robot.description.name} {robot.robot_id}, whose load "
+                f"chart lifts its {mass:,.0f} kg out to a radius of {radius:.1f} m at most, and {hand_off}"
                 + mass_note(component)
             ),
             robot_id=robot.robot_id,
