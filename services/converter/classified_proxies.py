@@ -10,6 +10,14 @@ their vendor or trade once the building stands, not built by its robots. A proxy
 says so is left out the same way. Read: ``IfcClassificationReference``\\ s of a UniFormat classification
 (the element's, then its type's), then an "Assembly Code" property (Revit's).
 
+Without a UniFormat code, the authoring tool's own category says the same: Revit exports its category as
+the standard ``Pset_ProductRequirements.Category`` (and in its "Other" set). A proxy of a category Revit
+keeps for equipment, devices, fixtures, furniture or planting (the public Revit office from ifc-mcp: 13
+fridge and freezer fronts of "Electrical Equipment", 8 wall displays of "Communication Devices", lifts,
+cook tops and solar panels of "Specialty Equipment"; the public Revit basic house's cook top and
+refrigerators) is what IFC classes as a distribution element or furniture, and is left out as those are.
+"Generic Models" says nothing and is built.
+
 Entourage too: the people, cars and plants an architect places for renderings are no part of the building.
 Revit draws them with ArchVision's RPC content and exports them as proxies whose "Render Appearance"
 property names the RPC item (``RPC-8-…``; the restaurant's "RPC Male" and "RPC Female" figures, flat
@@ -31,6 +39,24 @@ LEFT_OUT_GROUPS: tuple[tuple[str, str], ...] = (
     ("E20", "furnishings"),
     ("G2050", "landscaping"),
 )
+# Revit categories whose elements IFC classes as distribution elements, furniture or geography, and what
+# they are (the exporter's own classes for them: flow terminals, electric appliances, furniture)
+LEFT_OUT_CATEGORIES: dict[str, str] = {
+    **{
+        name: "services"
+        for name in (
+            "Electrical Equipment", "Electrical Fixtures", "Mechanical Equipment", "Plumbing Fixtures",
+            "Lighting Fixtures", "Lighting Devices", "Communication Devices", "Data Devices",
+            "Fire Alarm Devices", "Security Devices", "Nurse Call Devices", "Telephone Devices", "Sprinklers",
+            "Air Terminals",
+        )
+    },
+    **{name: "equipment" for name in ("Specialty Equipment", "Food Service Equipment", "Medical Equipment")},
+    **{name: "furnishings" for name in ("Furniture", "Furniture Systems", "Casework")},
+    "Planting": "landscaping",
+    "Entourage": "entourage",
+}  # fmt: skip
+CATEGORY_PROPERTY = "Category"  # Pset_ProductRequirements.Category (IFC's), Revit's "Other" set too
 UNIFORMAT_CODE = re.compile(r"^[A-G]\d{0,8}$")
 CODE_PROPERTY = "Assembly Code"  # Revit's UniFormat code of a type
 DESCRIPTION_PROPERTY = "Assembly Description"
@@ -46,6 +72,14 @@ def proxy_trade(element: ifcopenshell.entity_instance) -> str | None:
         return None
     found = uniformat_code(element)
     if found is None:
+        category = revit_category(element)
+        if category in LEFT_OUT_CATEGORIES:
+            kind = LEFT_OUT_CATEGORIES[category]
+            return (
+                f"not a building element (a proxy classified as {kind}); its category {category!r}, "
+                "installed by its vendor or trade, not built by the robots; --include "
+                "IfcBuildingElementProxy to build it"
+            )
         rpc = rpc_item(element)
         if rpc is None:
             return None
@@ -76,6 +110,20 @@ def uniformat_code(element: ifcopenshell.entity_instance) -> tuple[str, str] | N
     code, description = _assembly_code(element)
     if code and UNIFORMAT_CODE.match(code):
         return code, description
+    return None
+
+
+def revit_category(element: ifcopenshell.entity_instance) -> str | None:
+    """The element's category as its authoring tool exported it: ``Pset_ProductRequirements.Category``,
+    else a "Category" property of any of its (or its type's) property sets; None when it states none."""
+    properties = ifcopenshell.util.element.get_psets(element, psets_only=True)
+    standard = (properties.get("Pset_ProductRequirements") or {}).get(CATEGORY_PROPERTY)
+    if standard:
+        return str(standard).strip()
+    for values in properties.values():
+        value = values.get(CATEGORY_PROPERTY)
+        if value:
+            return str(value).strip()
     return None
 
 
