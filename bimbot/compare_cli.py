@@ -50,6 +50,8 @@ def report_path(path: Path) -> Path:
         if latest is None:
             raise UserError(f"{path}: a build with no runs yet (bimbot run {path})")
         return latest
+    if not path.exists():
+        raise UserError(f"{path}: no such file or folder (a run folder, its report.json or a build folder)")
     report = RunFolder(path).report_dir / "report.json"
     if not report.is_file():
         raise UserError(f"{path}: no report.json there (a run folder, its report.json or a build folder)")

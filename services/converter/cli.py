@@ -214,10 +214,10 @@ def run(args: argparse.Namespace) -> int:
     report_joints(manifest, args.output)
     origin = sequence_origin(manifest.sequence_source)
     sys.stdout.write(
-        f"converted {len(manifest.components)} component(s){elements_summary(manifest)}, "
-        f"skipped {len(manifest.skipped)}{skipped_summary(manifest.skipped)}, "
-        f"{len(manifest.joints)} joint(s){framed_summary(manifest)}, {clash_summary(manifest)}, "
-        f"{len(manifest.warnings)} warning(s) in {seconds:.1f} s → {args.output}/ "
+        f"converted {len(manifest.components):,} component(s){elements_summary(manifest)}, "
+        f"skipped {len(manifest.skipped):,}{skipped_summary(manifest.skipped)}, "
+        f"{len(manifest.joints):,} joint(s){framed_summary(manifest)}, {clash_summary(manifest)}, "
+        f"{len(manifest.warnings):,} warning(s) in {seconds:.1f} s → {args.output}/ "
         f"(world {manifest.world_file}, sequence {manifest.sequence_file} {origin})"
         f"{methods_summary(manifest)}\n"
     )

@@ -29,25 +29,24 @@ def elements_summary(manifest: Manifest) -> str:
     split = {element.guid: element for element in manifest.panelised}
     cut = {guid for guid, element in split.items() if element.method is ConstructionMethod.PANELISED}
     panels = sum(1 for c in parts if c.parent_guid in cut)
-    words = [f"{whole} as one component each"]
+    words = [f"{whole:,} as one component each"]
     if cut:
-        words.append(f"{len(cut)} cut into {panels} panels")
+        words.append(f"{len(cut):,} cut into {panels:,} panels")
     if len(split) > len(cut):
-        words.append(f"{len(split) - len(cut)} poured in {len(parts) - panels} bays")
+        words.append(f"{len(split) - len(cut):,} poured in {len(parts) - panels:,} bays")
     if guests:
-        words.append(f"{guests} built with their hosts")
+        words.append(f"{guests:,} built with their hosts")
     if in_place:
-        words.append(f"{in_place} in place before the robots come")
+        words.append(f"{in_place:,} in place before the robots come")
     from .selection import selected_out
 
     not_converted = sum(1 for item in manifest.skipped if not selected_out(item.reason))
     if not_converted:
-        words.append(f"{not_converted} not converted (skipped, below)")
+        words.append(f"{not_converted:,} not converted (skipped, below)")
     if len(words) == 1:
         return ""
-    return (
-        f" from {whole + len(split) + guests + in_place + not_converted} IFC element(s) ({', '.join(words)})"
-    )
+    elements = whole + len(split) + guests + in_place + not_converted
+    return f" from {elements:,} IFC element(s) ({', '.join(words)})"
 
 
 def clash_summary(manifest: Manifest) -> str:
@@ -56,14 +55,14 @@ def clash_summary(manifest: Manifest) -> str:
     existing = {component.guid for component in manifest.in_place}
     both_in_place = sum(1 for clash in manifest.clashes if set(clash.guids) <= existing)
     built = len(manifest.clashes) - both_in_place
-    more = f" ({both_in_place} more between two parts in place)" if both_in_place else ""
-    return f"{built} clash(es){more}"
+    more = f" ({both_in_place:,} more between two parts in place)" if both_in_place else ""
+    return f"{built:,} clash(es){more}"
 
 
 def framed_summary(manifest: Manifest) -> str:
     """`` (12 of them framed ends)`` when some joints are framed ends drawn butting their part."""
     framed = sum(1 for joint in manifest.joints if joint.source is JointSource.FRAMED)
-    return f" ({framed} of them framed ends)" if framed else ""
+    return f" ({framed:,} of them framed ends)" if framed else ""
 
 
 def methods_summary(manifest: Manifest) -> str:
@@ -74,8 +73,8 @@ def methods_summary(manifest: Manifest) -> str:
         return ""
     ranked = sorted(counts.items(), key=lambda pair: (-pair[1], pair[0]))
     guests = sum(len(component.guests) for component in [*manifest.components, *manifest.in_place])
-    with_hosts = f" (and {guests} with their hosts)" if guests else ""
-    return "; to be built: " + ", ".join(f"{count} {method}" for method, count in ranked) + with_hosts
+    with_hosts = f" (and {guests:,} with their hosts)" if guests else ""
+    return "; to be built: " + ", ".join(f"{count:,} {method}" for method, count in ranked) + with_hosts
 
 
 def skipped_summary(skipped: Sequence[SkippedElement], most: int = 4) -> str:
@@ -87,7 +86,7 @@ def skipped_summary(skipped: Sequence[SkippedElement], most: int = 4) -> str:
         return ""
     counts = Counter(reason_head(item.reason) for item in skipped)
     ranked = sorted(counts.items(), key=lambda pair: (-pair[1], pair[0]))
-    parts = [f"{count} {head}" for head, count in ranked[:most]]
+    parts = [f"{count:,} {head}" for head, count in ranked[:most]]
     if len(ranked) > most:
-        parts.append(f"{sum(count for _, count in ranked[most:])} for other reasons")
+        parts.append(f"{sum(count for _, count in ranked[most:]):,} for other reasons")
     return f" ({', '.join(parts)})"

@@ -89,6 +89,12 @@ def test_the_table_has_a_row_per_method_and_the_makespan_against_the_first(
     assert back == 0 and "makespan −1.1 h (4,000 s) (−80.0 %) against" in capsys.readouterr().out
 
 
+def test_a_path_that_does_not_exist_says_so(tmp_path: Path) -> None:
+    """A new user's typo read 'no report.json there' for a folder that is not there at all."""
+    with pytest.raises(UserError, match=r"nosuch: no such file or folder"):
+        compare_cli.report_path(tmp_path / "nosuch")
+
+
 def test_a_path_with_no_report_is_one_clear_error(tmp_path: Path) -> None:
     with pytest.raises(UserError, match=r"no report\.json there"):
         compare_cli.report_path(tmp_path)
