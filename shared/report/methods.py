@@ -229,7 +229,25 @@ def set_by_line(report: Mapping[str, Any]) -> str | None:
     if not in_place or lifting_s >= LIFTING_SETS_IT * makespan_s or in_place_s + waiting_s < 0.5 * makespan_s:
         return None
     return (
-        f"what set the makespan: work in place (forming, pouring, laying) {duration_text(in_place_s)} and "
+        f"what set the makespan: work in place ({_phases(report)}) {duration_text(in_place_s)} and "
         f"waits with nothing at work (cures, holds) {duration_text(waiting_s)}; the robots that lift were at "
         f"work {duration_text(lifting_s)} of it, so more of them would not make it much shorter"
     )
+
+
+def _phases(report: Mapping[str, Any]) -> str:
+    """``forming 77.6 h, pouring 4.8 h``: the work in place's phases summed over its components (from each
+    one's phase start to the next phase or its construction), in the summary's units; ``forming, pouring,
+    laying`` when the report has none of them. A new user asked what took a slab 77.6 h."""
+    sums = {"forming": 0.0, "pouring": 0.0, "laying": 0.0}
+    for component in report.get("components", []):
+        end = component.get("constructed_s")
+        starts = [(phase, component.get(f"{phase}_s")) for phase in sums]
+        stamps = sorted((float(at), phase) for phase, at in starts if at is not None)
+        if not stamps:
+            continue
+        for (at, phase), following in zip(stamps, [*[t for t, _ in stamps[1:]], end], strict=True):
+            if following is not None:
+                sums[phase] += max(0.0, float(following) - at)
+    said = [f"{phase} {duration_text(total_s)}" for phase, total_s in sums.items() if total_s > 0.0]
+    return ", ".join(said) or "forming, pouring, laying"

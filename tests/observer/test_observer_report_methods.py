@@ -111,8 +111,8 @@ def test_the_run_summary_says_how_long_the_cast_components_cured(report: dict) -
     assert curing_line(report) == (
         "cured: 2 cast components, the longest 72.0 h (259,200 s) (1 component that rests on one waited for "
         "its cure, and what rests on it in turn); the makespan ends with the last construction, and the "
-        "concrete reaches its strength 4.5 h (16,172 s) later, when the last cure ends: 81.0 h (291,602 s) from "
-        "the first release"
+        "concrete reaches its strength 4.5 h (16,172 s) later, when the last cure ends: 81.0 h (291,602 s) "
+        "from the first release"
     )
     assert curing_line({"components": [{"curing": None}]}) is None
     last_poured = {
@@ -249,7 +249,13 @@ def test_the_summary_says_when_work_in_place_and_cures_set_the_makespan_not_the_
         return {
             "totals": {"makespan_s": 100_000.0, "first_release_s": 0.0, "working_s": 40_000.0 + lift_end_s},
             "components": [
-                {"guid": "slab", "method": "cast_in_place"},
+                {
+                    "guid": "slab",
+                    "method": "cast_in_place",
+                    "forming_s": 0.0,
+                    "pouring_s": 36_000.0,
+                    "constructed_s": 40_000.0,
+                },
                 {"guid": "beam", "method": "lifted"},
             ],
             "robots": {
@@ -261,4 +267,5 @@ def test_the_summary_says_when_work_in_place_and_cures_set_the_makespan_not_the_
     line = set_by_line(report(3_600.0))
     assert line is not None and line.startswith("what set the makespan: work in place")
     assert "11.1 h (40,000 s)" in line and "15.7 h (56,400 s)" in line and "60.0 min (3,600 s)" in line
+    assert "work in place (forming 10.0 h (36,000 s), pouring 1.1 h (4,000 s))" in line  # what took it
     assert set_by_line(report(50_000.0)) is None  # the lifting took half of it: more robots may help
