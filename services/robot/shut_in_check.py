@@ -12,6 +12,10 @@ each one's own radius); it waits while there is one (:mod:`.executor`).
 A robot stands on a free cell of its own inflated grid or, held close to a wall, in its inflation: it
 counts as joined when a joined cell lies within its inflation radius (one cell more) of where it said it
 stood (:func:`joined_near`). What lies across the component it sets is farther than that.
+
+Cost: two labellings of the free grid for each size of robot on site (the depots lie in one depot area,
+joined to each other, so one depot stands for all robots of a size), once a placement and then every
+few seconds of sim time while one is held.
 """
 
 from __future__ import annotations
@@ -63,17 +67,19 @@ def shut_in_by(
     if not outlines_xy_m:
         return []
     shut = []
+    regions: dict[float, tuple[OccupancyGrid, NDArray[np.bool_] | None, NDArray[np.bool_] | None]] = {}
     for robot_id in sorted(others_xy):
         if robot_id not in drivers:
             continue
         radius_m, depot_xy = drivers[robot_id]
-        grid = site_map.inflated_grid(radius_m)
+        if radius_m not in regions:  # once per robot size: the depots lie in one yard, joined to each other
+            grid = site_map.inflated_grid(radius_m)
+            before = reachable_region(grid, depot_xy)
+            regions[radius_m] = (grid, before, way_out_after(grid, outlines_xy_m, depot_xy, radius_m))
+        grid, before, after = regions[radius_m]
         xy = others_xy[robot_id]
-        if not joined_near(grid, reachable_region(grid, depot_xy), xy, radius_m):
-            continue  # walled in already, or not on this map: not this placement's doing
-        after = way_out_after(grid, outlines_xy_m, depot_xy, radius_m)
-        if not joined_near(grid, after, xy, radius_m):
-            shut.append(robot_id)
+        if joined_near(grid, before, xy, radius_m) and not joined_near(grid, after, xy, radius_m):
+            shut.append(robot_id)  # joined now (else walled in already: not this placement's doing)
     return shut
 
 
