@@ -31,7 +31,7 @@ from bimbot.shared.occupancy_grid import OccupancyGrid
 
 from .approach import reachable_region, way_out_after
 from .robot_context import RobotContext
-from .site_map import SiteMap
+from .site_map import STATIC_DISTANCE_MAX_M, SiteMap
 from .task_state import ExecutorConfig, Task, component_name
 
 _log = logging.getLogger(__name__)
@@ -72,6 +72,8 @@ def shut_in_by(
         if robot_id not in drivers:
             continue
         radius_m, depot_xy = drivers[robot_id]
+        if radius_m >= STATIC_DISTANCE_MAX_M:
+            continue  # wider than the map's distance field goes: not checked (none of bimbot's types)
         if radius_m not in regions:  # once per robot size: the depots lie in one yard, joined to each other
             grid = site_map.inflated_grid(radius_m)
             before = reachable_region(grid, depot_xy)
