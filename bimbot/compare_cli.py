@@ -20,6 +20,7 @@ from bimbot.shared.errors import UserError
 from bimbot.shared.report.compare import (
     MethodFigures,
     RunColumn,
+    TypeFigures,
     methods_in,
     mismatches,
     run_column,
@@ -90,6 +91,13 @@ def _cell(figures: MethodFigures | None) -> str:
     return text + (f", cure up to {duration_text(figures.cure_s)}" if figures.cure_s else "")
 
 
+def _type_cell(figures: TypeFigures | None) -> str:
+    if figures is None:
+        return "–"
+    driven = f", {figures.distance_m:,.0f} m driven" if figures.distance_m else ""
+    return f"{figures.robots} robot(s), {figures.built} built, busy {duration_text(figures.busy_s)}{driven}"
+
+
 WORK_LEGEND = (
     "work: a method's own work summed over the components it built (a lift from pick to placement, formwork "
     "and pour, laying); cure: its longest curing"
@@ -129,6 +137,21 @@ def table(columns: list[RunColumn]) -> list[str]:
         + " | ".join(duration_text(c.makespan_s) if c.makespan_s is not None else "–" for c in columns)
         + " |"
     )
+    lines.append(
+        "| retries, give-backs | "
+        + " | ".join(f"{c.retries} retried, {c.give_backs} given back" for c in columns)
+        + " |"
+    )
+    lines.append(
+        "| walled in | "
+        + " | ".join(
+            ", ".join(f"{robot} {duration_text(s)}" for robot, s in sorted(c.walled_in_s.items())) or "none"
+            for c in columns
+        )
+        + " |"
+    )
+    for kind in sorted({kind for column in columns for kind in column.by_type}):
+        lines.append(f"| {kind} | " + " | ".join(_type_cell(c.by_type.get(kind)) for c in columns) + " |")
     methods = methods_in(columns)
     for method in methods:
         lines.append(f"| {method} | " + " | ".join(_cell(c.methods.get(method)) for c in columns) + " |")

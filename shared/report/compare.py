@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import PurePath
 from typing import Any
 
@@ -78,6 +78,17 @@ def by_method(report: Mapping[str, Any]) -> dict[str, MethodFigures]:
 
 
 @dataclass(frozen=True)
+class TypeFigures:
+    """One robot type's figures in a run: how many robots, the components they built, their busy time and
+    the distance they drove (a new user found compare silent on what each robot did)."""
+
+    robots: int
+    built: int
+    busy_s: float
+    distance_m: float
+
+
+@dataclass(frozen=True)
 class RunColumn:
     """A run as ``bimbot compare`` shows it: a label, what it built (``building``: its site and model, by
     name; ``model_sha256`` tells two models apart) at which fidelity, its makespan and its figures by
@@ -97,6 +108,10 @@ class RunColumn:
     ending: str | None = (
         None  # how the run ended (``done``, ``interrupted``, …); None: a report that does not say
     )
+    retries: int = 0  # placements caught off target or unstable and tried again
+    give_backs: int = 0
+    walled_in_s: dict[str, float] = field(default_factory=dict)  # robot id → sim s it stood walled in
+    by_type: dict[str, TypeFigures] = field(default_factory=dict)  # robot type → its robots' figures
 
     @property
     def ended_early(self) -> bool:
@@ -129,7 +144,39 @@ def run_column(label: str, report: Mapping[str, Any]) -> RunColumn:
         fleet=fleet_of(settings, report.get("robots")),
         seed=settings.get("seed"),
         ending=(report.get("ending") or {}).get("how"),
+        retries=int(totals.get("retries") or 0),
+        give_backs=int(totals.get("give_backs") or 0),
+        walled_in_s=_walled_in_s(report.get("robots") or {}, _number(totals.get("last_constructed_s"))),
+        by_type=_by_type(report.get("robots") or {}),
     )
+
+
+def _walled_in_s(robots: Mapping[str, Any], end_s: float | None) -> dict[str, float]:
+    """Robot id → the sim seconds it stood walled in (a spell with no end: to ``end_s``)."""
+    spells: dict[str, float] = {}
+    for robot_id, figures in robots.items():
+        for spell in figures.get("walled_in") or []:
+            until = spell.get("until_s") if spell.get("until_s") is not None else end_s
+            if until is not None:
+                spells[robot_id] = spells.get(robot_id, 0.0) + max(
+                    0.0, float(until) - float(spell["since_s"])
+                )
+    return spells
+
+
+def _by_type(robots: Mapping[str, Any]) -> dict[str, TypeFigures]:
+    """Robot type → :class:`TypeFigures`, summed over its robots."""
+    types: dict[str, TypeFigures] = {}
+    for figures in robots.values():
+        kind = str(figures.get("type") or "unknown")
+        old = types.get(kind, TypeFigures(0, 0, 0.0, 0.0))
+        types[kind] = TypeFigures(
+            old.robots + 1,
+            old.built + int(figures.get("built") or 0),
+            old.busy_s + float(figures.get("busy_s") or 0.0),
+            old.distance_m + float(figures.get("distance_m") or 0.0),
+        )
+    return types
 
 
 def fleet_of(settings: Mapping[str, Any], robots_seen: Mapping[str, Any] | None = None) -> str | None:

@@ -189,3 +189,44 @@ def test_a_run_that_ended_early_is_warned_of_and_marked(
     assert f"{b} ended interrupted with 1/3 constructed" in warning
     row = next(line for line in capsys.readouterr().out.splitlines() if line.startswith("| constructed"))
     assert [cell.strip() for cell in row.split("|")[2:4]] == ["3/3", "1/3 ⚠ interrupted"]
+
+
+def test_each_run_says_its_retries_give_backs_walled_in_robots_and_what_each_type_did(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A new user compared the Revit house with the default fleet and with --robots 3 and saw only the
+    makespan: not that the husky was gone, nor that a carrier stood walled in."""
+    one = {
+        **PREFAB,
+        "totals": {**PREFAB["totals"], "retries": 2, "give_backs": 0},
+        "robots": {
+            "r1": {"type": "husky", "built": 2, "busy_s": 600.0, "distance_m": 900.0},
+            "r2": {"type": "tower_crane", "built": 1, "busy_s": 300.0, "distance_m": 0.0},
+        },
+    }
+    three = {
+        **PREFAB,
+        "totals": {**PREFAB["totals"], "retries": 1, "give_backs": 2, "last_constructed_s": 5000.0},
+        "robots": {
+            "r1": {"type": "carrier", "built": 2, "busy_s": 500.0, "distance_m": 400.0},
+            "r2": {
+                "type": "carrier",
+                "built": 1,
+                "busy_s": 100.0,
+                "distance_m": 50.0,
+                "walled_in": [{"since_s": 1000.0, "until_s": 2472.0}, {"since_s": 4000.0, "until_s": None}],
+            },
+        },
+    }
+    a, b = _run_folder(tmp_path, "one", one), _run_folder(tmp_path, "three", three)
+    assert compare_cli.run(argparse.Namespace(runs=[a, b])) == 0
+    rows = {
+        line.split("|")[1].strip(): [cell.strip() for cell in line.split("|")[2:4]]
+        for line in capsys.readouterr().out.splitlines()
+        if line.startswith("| ")
+    }
+    assert rows["retries, give-backs"] == ["2 retried, 0 given back", "1 retried, 2 given back"]
+    assert rows["walled in"] == ["none", "r2 41.2 min (2,472 s)"]  # the open spell to the last construction
+    assert rows["husky"] == ["1 robot(s), 2 built, busy 600.0 s, 900 m driven", "–"]
+    assert rows["carrier"] == ["–", "2 robot(s), 3 built, busy 600.0 s, 450 m driven"]
+    assert rows["tower_crane"][0] == "1 robot(s), 1 built, busy 300.0 s"  # it drives nowhere
