@@ -45,17 +45,26 @@ LEFT_OUT_CATEGORIES: dict[str, str] = {
     **{
         name: "services"
         for name in (
-            "Electrical Equipment", "Electrical Fixtures", "Mechanical Equipment", "Plumbing Fixtures",
-            "Lighting Fixtures", "Lighting Devices", "Communication Devices", "Data Devices",
-            "Fire Alarm Devices", "Security Devices", "Nurse Call Devices", "Telephone Devices", "Sprinklers",
+            "Electrical Equipment",
+            "Electrical Fixtures",
+            "Mechanical Equipment",
+            "Plumbing Fixtures",
+            "Lighting Fixtures",
+            "Lighting Devices",
+            "Communication Devices",
+            "Data Devices",
+            "Fire Alarm Devices",
+            "Security Devices",
+            "Nurse Call Devices",
+            "Telephone Devices",
+            "Sprinklers",
             "Air Terminals",
         )
     },
     **{name: "equipment" for name in ("Specialty Equipment", "Food Service Equipment", "Medical Equipment")},
     **{name: "furnishings" for name in ("Furniture", "Furniture Systems", "Casework")},
     "Planting": "landscaping",
-    "Entourage": "entourage",
-}  # fmt: skip
+}  # fmt: skip (entourage: by its render appearance below, whatever its category)
 CATEGORY_PROPERTY = "Category"  # Pset_ProductRequirements.Category (IFC's), Revit's "Other" set too
 UNIFORMAT_CODE = re.compile(r"^[A-G]\d{0,8}$")
 CODE_PROPERTY = "Assembly Code"  # Revit's UniFormat code of a type
