@@ -28,7 +28,7 @@ from bimbot.shared.report.compare import (
     same_fidelity,
 )
 from bimbot.shared.report.durations import duration_text
-from bimbot.shared.run_folder import RunFolder, latest_run_folder, runs_elsewhere
+from bimbot.shared.run_folder import RunFolder, latest_run_folder, run_folders, runs_elsewhere
 
 _log = logging.getLogger(__name__)
 
@@ -65,6 +65,9 @@ def latest_report(build: Path) -> Path | None:
     still going writes a report too, and is not the one to compare; None when no run has a report."""
     latest = latest_run_folder(build)
     runs = [RunFolder(folder) for folder in ([latest.root] if latest is not None else [])]
+    # every run of BUILD/runs/ too: while one is going, ``latest`` names it, and the last ended run is the
+    # one to compare (a new user's compare said "a build with no runs yet" beside a finished run)
+    runs += [RunFolder(folder) for folder in run_folders(build)]
     runs += [RunFolder(folder) for folder in runs_elsewhere(build)]
     written = [run for run in runs if (run.report_dir / "report.json").is_file()]
     candidates = [run for run in written if run.ended] or written

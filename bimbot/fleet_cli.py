@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from bimbot.services.planner.capability import SiteRobot, robots_on_plan
-from bimbot.services.planner.feasibility import Feasibility, advice_tally, feasibility_table
+from bimbot.services.planner.feasibility import SEE_ITS_ROWS, Feasibility, advice_tally, feasibility_table
 from bimbot.shared.crane_erection import erected_for, erection_words
 from bimbot.shared.fleet import DEFAULT_FLEET_FILE, Fleet, check_urdfs, load_fleet
 from bimbot.shared.idle_machines import idle_machine_types, without_types
@@ -217,7 +217,7 @@ def _print_table(
     console.print("by method: " + ", ".join(f"{count} {method}" for method, count in methods.most_common()))
     console.print(f"buildable: {buildable} of {len(rows)}; cannot: {summary}")
     tally = advice_tally([row.reason for _, row in rows if row.reason is not None])
-    if tally:
+    if any(not label.endswith(SEE_ITS_ROWS) for label, _ in tally):  # else it only repeats "cannot:"
         entries = [f"{label}: {count}" for label, count in tally]
         for line in packed_lines(
             "what would build the rest, by the reasons' advice:", entries, CONSOLE_WIDTH

@@ -102,7 +102,10 @@ class JointRule(BaseModel):
 
     def describe(self, member: str, part: str) -> str:
         """``"IfcColumn into IfcFooting, up to 100 mm"`` (a fitting rule: ``"IfcRailing made to fit IfcWall,
-        up to 350 mm"``): the rule as the manifest and the log name it."""
+        up to 350 mm"``; a through rule: ``"IfcBeam carried through IfcWall"``): the rule as the manifest and
+        the log name it."""
+        if self.through:  # its depth bound is no measure of anything (the shape decides)
+            return f"{member} carried through {part}"
         how = "made to fit" if self.fitting else "into"
         return f"{member} {how} {part}, up to {1000.0 * self.max_depth_m:.0f} mm"
 

@@ -328,6 +328,8 @@ ADVICE: tuple[tuple[str, str], ...] = (
     (LONGER_BOOM, "a longer boom"),
 )
 
+SEE_ITS_ROWS = " (see its rows)"  # a tally's label for the reasons that advise none of ADVICE
+
 #: What a user can do about a target beyond the jib of every crane on site (a building wider than a jib
 #: covers: a site erects more cranes round it).
 BEYOND_THE_JIB_HINT = (
@@ -387,6 +389,6 @@ def advice_tally(reasons: Sequence[Reason]) -> list[tuple[str, int]]:
     tally: dict[str, int] = {}
     for reason in reasons:
         label = next((label for words, label in ADVICE if words in reason.message), None)
-        label = label or f"{reason.code.value} (see its rows)"
+        label = label or f"{reason.code.value}{SEE_ITS_ROWS}"
         tally[label] = tally.get(label, 0) + 1
     return sorted(tally.items(), key=lambda item: (-item[1], item[0]))

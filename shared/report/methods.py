@@ -229,7 +229,8 @@ def set_by_line(report: Mapping[str, Any]) -> str | None:
     if not in_place or lifting_s >= LIFTING_SETS_IT * makespan_s or in_place_s + waiting_s < 0.5 * makespan_s:
         return None
     return (
-        f"what set the makespan: work in place ({_phases(report)}) {duration_text(in_place_s)} and "
+        f"what set the makespan: work in place {duration_text(in_place_s)} (summed over its components, "
+        f"which may overlap: {_phases(report)}) and "
         f"waits with nothing at work (cures, holds) {duration_text(waiting_s)}; the robots that lift were at "
         f"work {duration_text(lifting_s)} of it, so more of them would not make it much shorter"
     )

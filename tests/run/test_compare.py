@@ -230,3 +230,18 @@ def test_each_run_says_its_retries_give_backs_walled_in_robots_and_what_each_typ
     assert rows["husky"] == ["1 robot(s), 2 built, busy 600.0 s, 900 m driven", "–"]
     assert rows["carrier"] == ["–", "2 robot(s), 3 built, busy 600.0 s, 450 m driven"]
     assert rows["tower_crane"][0] == "1 robot(s), 1 built, busy 300.0 s"  # it drives nowhere
+
+
+def test_a_run_still_going_does_not_hide_the_builds_ended_runs(tmp_path: Path) -> None:
+    """A new user compared a build while a second run of it was going: ``runs/latest`` named the new run,
+    which had no report yet, and compare said "a build with no runs yet" beside a finished run."""
+    build = tmp_path / "build"
+    build.mkdir()
+    (build / "manifest.json").write_text("{}", encoding="utf-8")
+    ended = new_run_folder(build)
+    ended.report_dir.mkdir(parents=True)
+    (ended.report_dir / "report.json").write_text(json.dumps(PREFAB), encoding="utf-8")
+    ended.mark_ended("done")
+    going = new_run_folder(build)  # runs/latest now: no report yet
+    assert going.root != ended.root
+    assert compare_cli.report_path(build) == ended.report_dir / "report.json"
