@@ -18,6 +18,10 @@ cook tops and solar panels of "Specialty Equipment"; the public Revit basic hous
 refrigerators) is what IFC classes as a distribution element or furniture, and is left out as those are.
 "Generic Models" says nothing and is built.
 
+A marker is not built either: SketchUp's IFC-manager exports a model's coordination origin (a 1 m cube)
+and its geo-reference point as proxies of a material named ``virtual_white`` and ``virtual_black`` (ifc-mcp's
+Building-Structural: the cube was "lifted" by the crane, the point "cast in place" 30 m off the building).
+
 Entourage too: the people, cars and plants an architect places for renderings are no part of the building.
 Revit draws them with ArchVision's RPC content and exports them as proxies whose "Render Appearance"
 property names the RPC item (``RPC-8-…``; the restaurant's "RPC Male" and "RPC Female" figures, flat
@@ -79,6 +83,13 @@ def proxy_trade(element: ifcopenshell.entity_instance) -> str | None:
     (…)"); None for anything else."""
     if not element.is_a("IfcBuildingElementProxy"):
         return None
+    virtual = virtual_material(element)
+    if virtual is not None:
+        return (
+            f"not a building element (a marker); its material {virtual!r} is virtual: "
+            f"{element.Description or element.ObjectType or 'a reference point of the model'}; --include "
+            "IfcBuildingElementProxy to build it"
+        )
     found = uniformat_code(element)
     if found is None:
         category = revit_category(element)
@@ -119,6 +130,20 @@ def uniformat_code(element: ifcopenshell.entity_instance) -> tuple[str, str] | N
     code, description = _assembly_code(element)
     if code and UNIFORMAT_CODE.match(code):
         return code, description
+    return None
+
+
+def virtual_material(element: ifcopenshell.entity_instance) -> str | None:
+    """The name of the element's material when every material it has is named as virtual (``virtual_white``:
+    SketchUp's IFC-manager draws a model's coordination origin and geo-reference point as proxies of such a
+    material), else None."""
+    names = [
+        str(material.Name or "")
+        for material in ifcopenshell.util.element.get_materials(element)
+        if material.is_a("IfcMaterial")
+    ]
+    if names and all(name.lower().startswith("virtual") for name in names):
+        return names[0]
     return None
 
 

@@ -9,6 +9,7 @@ import ifcopenshell
 import ifcopenshell.api.aggregate
 import ifcopenshell.api.classification
 import ifcopenshell.api.geometry
+import ifcopenshell.api.material
 import ifcopenshell.api.root
 import ifcopenshell.api.spatial
 import pytest
@@ -380,3 +381,25 @@ def test_a_global_id_the_shell_cut_at_its_dollar_is_named_with_the_quoting_that_
     other.GlobalId = "0sfBnoLAb0R9H9P$iaZdP4"
     with pytest.raises(ValueError, match=r"the start of 2 GlobalId\(s\).*--exclude '…\$…'"):
         check_exclusions(small.file, ["0sfBnoLAb0R9H9P"])
+
+
+def test_a_marker_of_a_virtual_material_is_left_out() -> None:
+    """SketchUp's IFC-manager exports a model's coordination origin as a 1 m cube of material
+    ``virtual_white`` (ifc-mcp's Building-Structural): the crane lifted it as a 1 t part. A proxy whose
+    every material is named virtual is a marker; one of a real material is built."""
+    small = new_model("IFC4")
+    origin = _element(small, "IfcBuildingElementProxy", "origin")
+    origin.Description = "The local position for coordination of aspect models."
+    virtual = ifcopenshell.api.material.add_material(small.file, name="virtual_white")
+    ifcopenshell.api.material.assign_material(small.file, products=[origin], material=virtual)
+    block = _element(small, "IfcBuildingElementProxy", "Block", x_m=3.0)
+    concrete = ifcopenshell.api.material.add_material(small.file, name="concrete")
+    ifcopenshell.api.material.assign_material(small.file, products=[block], material=concrete)
+    selection = select_elements(small.file)
+    assert [element.Name for element in selection.elements] == ["Block"]
+    (rejected,) = selection.rejected
+    assert rejected.reason == (
+        "not a building element (a marker); its material 'virtual_white' is virtual: The local position for "
+        "coordination of aspect models.; --include IfcBuildingElementProxy to build it"
+    )
+    assert reason_head(rejected.reason) == "not a building element (a marker)"
