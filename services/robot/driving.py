@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from bimbot.shared.footprint import Footprint
 from bimbot.shared.messages import RobotState
 from bimbot.shared.occupancy_grid import OccupancyGrid
-from bimbot.shared.reasons import Reason
+from bimbot.shared.reasons import Reason, ReasonCode
 
 from . import give_back
 from .approach import approach_pose, no_approach_reason, sets_from_outside, way_out_after, within_reach
@@ -98,18 +98,28 @@ class Driving:
         return found is None or not _leaves(static, way_out, found.xy_m)
 
     def _no_approach(self, grid: OccupancyGrid, footprint: Footprint, what: str) -> Reason:
+        """Why no stand-point beside ``footprint`` is found; a robot walled in names what stands beside it
+        (the run summary's walled-in line sends the reader to this log for it)."""
         context = self.context
-        return no_approach_reason(
+        here = context.navigator.pose_xy_yaw[:2]
+        reason = no_approach_reason(
             grid,
             footprint,
-            context.navigator.pose_xy_yaw[:2],
+            here,
             blocks_band=context.site_map.blocks(footprint),
             config=context.approach_config,
             what=what,
             robot=context.robot_id,
             radius_m=context.site_map.config.inflation_m,
             home_xy_m=context.home_xy_yaw[:2],
-        ).model_copy(update={"robot_id": context.robot_id})
+        )
+        update: dict[str, object] = {"robot_id": context.robot_id}
+        if reason.code is ReasonCode.ROBOT_TRAPPED:
+            beside = context.site_map.components_near(here, context.navigator.config.beside_m)
+            if beside:
+                named = ", ".join(f"{name} ({m:.1f} m)" for name, m in beside[:3])
+                update["message"] = f"{reason.message}; beside it: {named}"
+        return reason.model_copy(update=update)
 
     def drive(self, task: Task, footprint: Footprint | None) -> bool:
         """Drive to an approach pose beside ``footprint`` (found again after a failure); True once there."""

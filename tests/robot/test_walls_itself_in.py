@@ -78,3 +78,20 @@ def test_picking_up_or_setting_what_leaves_its_band_free_is_close_enough_anywher
     placing = _placing(_driving(ROOM))
     placing.context.site_map.blocks = lambda footprint: False  # a beam above the band closes nothing
     assert placing._leaves_from(GATE, (9.3, 11.5))
+
+
+def test_a_robot_walled_in_names_what_stands_beside_it() -> None:
+    """The run summary's walled-in line sends the reader to the robot's log for what stands beside it;
+    the reason in that log named only the depot and the target."""
+    closed = [*ROOM, (8.0, 10.0, 8.2, 13.0)]  # the gate stands: the room is shut
+    driving = _driving(closed)
+    driving.context.navigator = SimpleNamespace(
+        pose_xy_yaw=(12.0, 10.0, 0.0), config=SimpleNamespace(beside_m=1.0)
+    )
+    driving.context.robot_id = "r2"
+    driving.context.site_map.blocks = lambda footprint: True
+    driving.context.site_map.components_near = lambda xy, within_m: [("Gate", 0.4), ("Partition", 0.9)]
+    target = Footprint(np.array([[2.0, 10.0], [3.0, 10.0], [3.0, 11.0], [2.0, 11.0]]), 0.0, 2.5)
+    reason = driving._no_approach(driving.context.site_map.inflated_grid(), target, "the target of Column")
+    assert reason.code is ReasonCode.ROBOT_TRAPPED and reason.robot_id == "r2"
+    assert reason.message.endswith("; beside it: Gate (0.4 m), Partition (0.9 m)")
