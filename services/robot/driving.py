@@ -115,7 +115,8 @@ class Driving:
         )
         update: dict[str, object] = {"robot_id": context.robot_id}
         if reason.code is ReasonCode.ROBOT_TRAPPED:
-            beside = context.site_map.components_near(here, context.navigator.config.beside_m)
+            within_m = context.navigator.config.beside_m + context.site_map.config.inflation_m  # of its body
+            beside = context.site_map.components_near(here, within_m)
             if beside:
                 named = ", ".join(f"{name} ({m:.1f} m)" for name, m in beside[:3])
                 update["message"] = f"{reason.message}; beside it: {named}"
