@@ -61,6 +61,15 @@ def _element(small: SmallModel, ifc_class: str, name: str, x_m: float = 0.0) -> 
     return element
 
 
+def _the_one_left_out(small: SmallModel, kept: str) -> str:
+    """The reason of the one element ``small``'s selection leaves out, the element named ``kept`` being the
+    one it keeps."""
+    selection = select_elements(small.file)
+    assert [element.Name for element in selection.elements] == [kept]
+    (rejected,) = selection.rejected
+    return rejected.reason
+
+
 def _classes_model(schema: str) -> tuple[SmallModel, dict[str, bool]]:
     small = new_model(schema)
     expected: dict[str, bool] = {}
@@ -172,15 +181,13 @@ def test_an_rpc_person_is_entourage_left_out_and_a_proxy_with_another_appearance
     bench = _element(small, "IfcBuildingElementProxy", "Bench", x_m=2.0)
     appearance = {"Render Appearance": "Concrete - Cast-in-Place"}
     add_pset(small, [bench], "PSet_Revit_Type_Identity Data", appearance)
-    selection = select_elements(small.file)
-    assert [element.Name for element in selection.elements] == ["Bench"]
-    (rejected,) = selection.rejected
-    assert rejected.reason == (
+    reason = _the_one_left_out(small, kept="Bench")
+    assert reason == (
         "not a building element (entourage); rendered as RPC-8-X9C2-NGU9-LXF5-4 of ArchVision's RPC content, "
         "a person, vehicle or plant drawn for renderings, not built by the robots; --include "
         "IfcBuildingElementProxy to build it"
     )
-    assert reason_head(rejected.reason) == "not a building element (entourage)"
+    assert reason_head(reason) == "not a building element (entourage)"
     assert len(select_elements(small.file, include=("IfcBuildingElementProxy",)).elements) == 2
 
 
@@ -395,11 +402,9 @@ def test_a_marker_of_a_virtual_material_is_left_out() -> None:
     block = _element(small, "IfcBuildingElementProxy", "Block", x_m=3.0)
     concrete = ifcopenshell.api.material.add_material(small.file, name="concrete")
     ifcopenshell.api.material.assign_material(small.file, products=[block], material=concrete)
-    selection = select_elements(small.file)
-    assert [element.Name for element in selection.elements] == ["Block"]
-    (rejected,) = selection.rejected
-    assert rejected.reason == (
+    reason = _the_one_left_out(small, kept="Block")
+    assert reason == (
         "not a building element (a marker); its material 'virtual_white' is virtual: The local position for "
         "coordination of aspect models.; --include IfcBuildingElementProxy to build it"
     )
-    assert reason_head(rejected.reason) == "not a building element (a marker)"
+    assert reason_head(reason) == "not a building element (a marker)"
