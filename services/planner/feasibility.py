@@ -186,10 +186,7 @@ def _boom_advice(robot: SiteRobot, component: Component, building: Rect | None, 
     longer = f": {LONGER_BOOM} (reach_m in the fleet file) would cover it"
     if building is None or not robot.description.relocates:
         return longer
-    x, y = target_centre_xy(component)
-    (x0, y0), (x1, y1) = building.min_xy, building.max_xy
-    inside_m = min(x - x0, x1 - x, y - y0, y1 - y)
-    nearest_m = inside_m + LANE_M + robot.description.length_m / 2.0
+    inside_m, nearest_m = _inside_the_edge_m(robot, component, building)
     if nearest_m <= robot.description.reach_m:
         return longer
     return (
@@ -197,6 +194,15 @@ def _boom_advice(robot: SiteRobot, component: Component, building: Rect | None, 
         f"(the nearest would stand {nearest_m:.0f} m away): a site does such work ({method}) {FROM_INSIDE}; "
         "a methods file can make it precast instead (bimbot methods show)"
     )
+
+
+def _inside_the_edge_m(robot: SiteRobot, component: Component, building: Rect) -> tuple[float, float]:
+    """(how far the component's target centre lies inside the building's edge, how far from it the
+    nearest set-up of ``robot`` round the building could stand: a lane and half the machine further), m."""
+    x, y = target_centre_xy(component)
+    (x0, y0), (x1, y1) = building.min_xy, building.max_xy
+    inside_m = min(x - x0, x1 - x, y - y0, y1 - y)
+    return inside_m, inside_m + LANE_M + robot.description.length_m / 2.0
 
 
 def _nearest_setup_span(robot: SiteRobot, component: Component) -> tuple[float, float, int]:
@@ -352,10 +358,7 @@ def _beyond_the_jib(robot: SiteRobot, component: Component, building: Rect | Non
     assert spec is not None
     if building is None:
         return BEYOND_THE_JIB_HINT
-    x, y = target_centre_xy(component)
-    (x0, y0), (x1, y1) = building.min_xy, building.max_xy
-    inside_m = min(x - x0, x1 - x, y - y0, y1 - y)
-    nearest_m = inside_m + LANE_M + robot.description.length_m / 2.0
+    inside_m, nearest_m = _inside_the_edge_m(robot, component, building)
     if nearest_m <= spec.max_radius_m:
         return BEYOND_THE_JIB_HINT
     return (

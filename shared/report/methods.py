@@ -240,7 +240,7 @@ def _phases(report: Mapping[str, Any]) -> str:
     """``forming 77.6 h, pouring 4.8 h``: the work in place's phases summed over its components (from each
     one's phase start to the next phase or its construction), in the summary's units; ``forming, pouring,
     laying`` when the report has none of them. A new user asked what took a slab 77.6 h."""
-    sums = {"forming": 0.0, "pouring": 0.0, "laying": 0.0}
+    sums = {field.removesuffix("_s"): 0.0 for field in WORK_STATES.values()}  # forming, pouring, …
     for component in report.get("components", []):
         end = component.get("constructed_s")
         starts = [(phase, component.get(f"{phase}_s")) for phase in sums]
