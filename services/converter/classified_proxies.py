@@ -18,6 +18,15 @@ cook tops and solar panels of "Specialty Equipment"; the public Revit basic hous
 refrigerators) is what IFC classes as a distribution element or furniture, and is left out as those are.
 "Generic Models" says nothing and is built.
 
+Older Revit exports state no category. There the family's parameters still tell: Revit gives the "Electrical
+- Loads" group (``Panel``, ``Circuit Number``) to families of the categories that take an electrical
+connector, equipment and fixtures, not to walls, floors or generic models. In the four Revit models at hand
+every proxy that carries it is equipment: the office's fridge fronts, displays, lifts and solar panels (their
+category says so too), the basic house's cook top and refrigerators, and the restaurant's ranges, fryer,
+toilet partitions, sign and fire-extinguisher cabinet (the last two drawn 305 mm into each other; the run
+failed the cabinet "unstable" after its third try). A proxy with no category and that group is left out as
+equipment.
+
 A marker is not built either: SketchUp's IFC-manager exports a model's coordination origin (a 1 m cube)
 and its geo-reference point as proxies of a material named ``virtual_white`` and ``virtual_black`` (ifc-mcp's
 Building-Structural: the cube was "lifted" by the crane, the point "cast in place" 30 m off the building).
@@ -74,13 +83,16 @@ UNIFORMAT_CODE = re.compile(r"^[A-G]\d{0,8}$")
 CODE_PROPERTY = "Assembly Code"  # Revit's UniFormat code of a type
 DESCRIPTION_PROPERTY = "Assembly Description"
 RENDER_PROPERTY = "Render Appearance"  # Revit's render appearance of a type: an RPC item's id for entourage
+ELECTRICAL_LOADS_SET = "Electrical - Loads"  # a Revit group, exported as "PSet_Revit_Electrical - Loads"
+ELECTRICAL_LOADS_PROPERTIES = ("Panel", "Circuit Number")
 RPC_ITEM = re.compile(r"^RPC-[0-9A-Z]+(-[0-9A-Z]+)*$", re.IGNORECASE)
 
 
 def proxy_trade(element: ifcopenshell.entity_instance) -> str | None:
-    """For a proxy classified in a group of :data:`LEFT_OUT_GROUPS`, or unclassified and rendered as RPC
-    entourage, the reason it is left out (a :mod:`.selection` reason: its head is "not a building element
-    (…)"); None for anything else."""
+    """For a proxy classified in a group of :data:`LEFT_OUT_GROUPS`, of a category in
+    :data:`LEFT_OUT_CATEGORIES`, of no category but Revit's electrical loads, a marker, or unclassified and
+    rendered as RPC entourage, the reason it is left out (a :mod:`.selection` reason: its head is "not a
+    building element (…)"); None for anything else."""
     if not element.is_a("IfcBuildingElementProxy"):
         return None
     virtual = virtual_material(element)
@@ -99,6 +111,13 @@ def proxy_trade(element: ifcopenshell.entity_instance) -> str | None:
                 f"not a building element (a proxy classified as {kind}); its category {category!r}, "
                 "installed by its vendor or trade, not built by the robots; --include "
                 "IfcBuildingElementProxy to build it"
+            )
+        if category is None and electrical_loads(element):
+            return (
+                "not a building element (a proxy of an equipment family); it carries Revit's "
+                f"{ELECTRICAL_LOADS_SET!r} parameters ({', '.join(ELECTRICAL_LOADS_PROPERTIES)}), which "
+                "Revit gives to equipment and fixtures, installed by their vendor or trade, not built by the "
+                "robots; --include IfcBuildingElementProxy to build it"
             )
         rpc = rpc_item(element)
         if rpc is None:
@@ -159,6 +178,17 @@ def revit_category(element: ifcopenshell.entity_instance) -> str | None:
         if value:
             return str(value).strip()
     return None
+
+
+def electrical_loads(element: ifcopenshell.entity_instance) -> bool:
+    """Whether a property set of the element (or its type) is Revit's "Electrical - Loads" group with its
+    ``Panel`` or ``Circuit Number`` parameter."""
+    for name, values in ifcopenshell.util.element.get_psets(element, psets_only=True).items():
+        if name.removeprefix("PSet_Revit_").strip() != ELECTRICAL_LOADS_SET:
+            continue
+        if any(prop in values for prop in ELECTRICAL_LOADS_PROPERTIES):
+            return True
+    return False
 
 
 def rpc_item(element: ifcopenshell.entity_instance) -> str | None:

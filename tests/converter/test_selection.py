@@ -167,6 +167,34 @@ def test_a_proxy_classified_as_equipment_or_planting_is_left_out_as_its_own_clas
     assert len(included.elements) == 5
 
 
+def test_a_proxy_of_no_category_with_revits_electrical_loads_is_equipment_another_is_built() -> None:
+    """The Revit restaurant (a 2012 export, no categories) draws a fire-extinguisher cabinet 305 mm into a
+    sign;
+    both carry Revit's "Electrical - Loads" parameters, as its ranges and fryer do, and the run failed the
+    cabinet "unstable" three times. That group marks an equipment family: left out. A proxy with an empty
+    "Electrical - Loads"-like set of other names, or with the group and a category Revit builds, is built."""
+    small = new_model("IFC2X3")
+    cabinet = _element(small, "IfcBuildingElementProxy", "Fire Extinguishers and Cabinet:711290")
+    add_pset(small, [cabinet], "PSet_Revit_Electrical - Loads", {"Panel": "", "Circuit Number": ""})
+    add_pset(small, [cabinet], "PSet_Revit_Phasing", {"Phase Created": "New Construction"})
+    plinth = _element(small, "IfcBuildingElementProxy", "Plinth", x_m=2.0)
+    add_pset(small, [plinth], "PSet_Revit_Electrical - Loads", {"Load Classification": "Other"})
+    block = _element(small, "IfcBuildingElementProxy", "Generic block", x_m=4.0)
+    add_pset(small, [block], "PSet_Revit_Electrical - Loads", {"Panel": ""})
+    add_pset(small, [block], "Pset_ProductRequirements", {"Category": "Generic Models"})
+    selection = select_elements(small.file)
+    assert {element.Name for element in selection.elements} == {"Plinth", "Generic block"}
+    (rejected,) = selection.rejected
+    assert rejected.element.Name == "Fire Extinguishers and Cabinet:711290"
+    assert rejected.reason == (
+        "not a building element (a proxy of an equipment family); it carries Revit's 'Electrical - Loads' "
+        "parameters (Panel, Circuit Number), which Revit gives to equipment and fixtures, installed by their "
+        "vendor or trade, not built by the robots; --include IfcBuildingElementProxy to build it"
+    )
+    assert reason_head(rejected.reason) == "not a building element (a proxy of an equipment family)"
+    assert len(select_elements(small.file, include=("IfcBuildingElementProxy",)).elements) == 3
+
+
 def test_an_rpc_person_is_entourage_left_out_and_a_proxy_with_another_appearance_is_built() -> None:
     """The Revit restaurant's "RPC Male" and "RPC Female" figures are proxies with no classification whose
     render appearance is an ArchVision RPC item: people drawn for renderings, not building elements."""
