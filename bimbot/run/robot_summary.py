@@ -138,17 +138,34 @@ def _named_others(
     return lines
 
 
+def _given_back_named(robot_id: str, components: dict[str, dict[str, Any]]) -> str:
+    """`` (Wall W1 panel 2/2: no_approach_pose; Stud S4: robot_trapped)``: each component this robot gave
+    back and the reason's code (a trial user found the reasons only in report.json: its components'
+    ``give_backs`` have the whole of each); nothing when it gave none back."""
+    named = []
+    for component in components.values():
+        reasons = component.get("give_backs") or []
+        for who, reason in zip(component.get("given_back_by") or [], reasons, strict=False):
+            if who == robot_id:
+                code = str(reason).split(":", 1)[0].strip() or "no reason"
+                named.append(f"{component.get('name') or component.get('guid')}: {code}")
+    if not named:
+        return ""
+    more = f"; … and {len(named) - MAX_OTHERS_NAMED} more" if len(named) > MAX_OTHERS_NAMED else ""
+    return f" ({'; '.join(named[:MAX_OTHERS_NAMED])}{more}; why: report.json, each component's give_backs)"
+
+
 def tasks_text(robot_id: str, robot: dict[str, Any], components: dict[str, dict[str, Any]]) -> str:
-    """``24 task(s): 20 built, 1 given back, 1 ended another way (T0017 Beam B1-B2: placed unstable,
-    retried, then built by r2), 2 hand-off(s) to a crane``: the parts add up to the tasks; a report
-    without the counts: ``11 task(s)``."""
+    """``24 task(s): 20 built, 1 given back (Beam B3: no_approach_pose; why: …), 1 ended another way (T0017
+    Beam B1-B2: placed unstable, retried, then built by r2), 2 hand-off(s) to a crane``: the parts add up
+    to the tasks; a report without the counts: ``11 task(s)``."""
     tasks = f"{len(robot['tasks'])} task(s)"
     hand_offs = sum(1 for task in robot["tasks"] if task.get("kind") == "hand_off")
     handed = f", {hand_offs} hand-off(s) to a crane" if hand_offs else ""
     if "built" not in robot:
         return tasks + (f" ({hand_offs} hand-off(s) to a crane)" if hand_offs else "")
     built, given_back, unnamed = _classified(robot_id, robot, components)
-    text = f"{tasks}: {built} built, {given_back} given back"
+    text = f"{tasks}: {built} built, {given_back} given back" + _given_back_named(robot_id, components)
     others = _named_others(robot_id, robot, components, unnamed)
     if not others:
         return text + handed

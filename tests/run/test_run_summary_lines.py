@@ -142,6 +142,37 @@ def test_a_robot_s_tasks_add_up_its_hand_offs_among_them() -> None:
     assert tasks_text("r2", robot, components) == "3 task(s): 1 built, 0 given back, 2 hand-off(s) to a crane"
 
 
+def test_a_robot_s_give_backs_are_named_with_their_reasons_codes() -> None:
+    """A new user's trial found "2 given back" and the reasons only in report.json."""
+    robot = {
+        "built": 0,
+        "given_back": 2,
+        "tasks": [
+            {"guid": "W", "task_id": "T1", "kind": "build"},
+            {"guid": "S", "task_id": "T2", "kind": "build"},
+        ],
+    }
+    components = {
+        "W": {
+            "guid": "W",
+            "name": "Wall W1 panel 2/2",
+            "given_back_by": ["r2"],
+            "give_backs": ["no_approach_pose: r2 would wall itself in setting Wall W1 panel 2/2 (W): …"],
+        },
+        "S": {
+            "guid": "S",
+            "name": "Stud S4",
+            "given_back_by": ["r1", "r2"],
+            "give_backs": ["out_of_reach: …", "robot_trapped: r2 at (-2.87, 4.38) is walled in: …"],
+        },
+    }
+    assert tasks_text("r2", robot, components) == (
+        "2 task(s): 0 built, 2 given back (Wall W1 panel 2/2: no_approach_pose; Stud S4: robot_trapped; why: "
+        "report.json, each component's give_backs)"
+    )
+    assert "given back (Stud S4: out_of_reach;" in tasks_text("r1", {**robot, "given_back": 1}, components)
+
+
 def test_a_machine_that_stands_fixed_says_its_relocations_not_zero_metres_driven() -> None:
     """A new user read ``r6 (piling_rig): 216 task(s): 216 built, …, 0 m driven`` under ``driven 216/216``:
     a machine's moves are its relocations between set-ups."""
