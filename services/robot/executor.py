@@ -81,7 +81,7 @@ from .navigator import Navigator, NavigatorConfig
 from .parking import Parking
 from .protocol import VERDICTS, EventQueue, Outgoing, PhysicsResult, assignment_waiting
 from .robot_context import GettingThere, robot_context
-from .shut_in_check import held
+from .shut_in_check import held, note_placing
 from .site_map import MapConfig
 from .site_work import SiteWorkExecutor
 from .task_cycle import TaskCycle
@@ -137,6 +137,7 @@ class Executor:
         self.getting_there = self._getting_there()
         self.parking = self._parking()
         self.tasks: dict[str, TaskMsg] = {}  # latest message per task id (assigned to this robot once)
+        self._task_kinds: dict[str, TaskKind] = {}  # every task's kind, the others' too (what they set)
         # judged state messages, twins asked when one does not fit (a forged state must not stall a task)
         self.component_states = ComponentStates({c.guid: c.key for c in manifest.components})
         # assignments taken on: (task id, attempt, assignment stamp); a task given back and assigned again
@@ -220,6 +221,7 @@ class Executor:
             if (state := self.component_states.take_twin(message)) is not None:
                 self._component_state(message.guid, state)
         elif isinstance(message, TaskMsg):
+            self._task_kinds[message.task_id] = message.kind
             if message.robot_id == self.robot_id or message.task_id in self.tasks:
                 self.tasks[message.task_id] = message
             if message.status is TaskStatus.RELEASED and self.task is None:
@@ -234,6 +236,8 @@ class Executor:
             self.navigator.observe_robot(message.robot_id, message.pose_xy_yaw[:2], message.sim_time_s)
             x, y = message.pose_xy_yaw[:2]
             self.context.others_xy[message.robot_id] = (float(x), float(y))
+            kind = self._task_kinds.get(message.task_id) if message.task_id else None
+            note_placing(self.context, message, self.components.get(message.guid or ""), kind)
 
     def tick(self, clock: ClockMsg, wall_s: float) -> list[Outgoing]:
         """One control step: task progress, navigation, and the ``cmd_vel`` answering ``clock.step``."""

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
+from numpy.typing import NDArray
 
 from bimbot.shared.footprint import Footprint
 from bimbot.shared.manifest import Manifest
@@ -47,6 +48,9 @@ class RobotContext:
     # it stood (its state messages): what a placement must not shut in (:mod:`.shut_in_check`)
     drivers: dict[str, tuple[float, tuple[float, float]]] = field(default_factory=dict)
     others_xy: dict[str, tuple[float, float]] = field(default_factory=dict)
+    # the other robots setting a part at its target now (their state messages: assembling or working in
+    # place on a build task): id → (its guid, the outlines of the robots' height band it will occupy)
+    others_placing: dict[str, tuple[str, list[NDArray[np.float64]]]] = field(default_factory=dict)
 
     @property
     def robot_id(self) -> str:

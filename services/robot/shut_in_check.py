@@ -13,6 +13,14 @@ A robot stands on a free cell of its own inflated grid or, held close to a wall,
 counts as joined when a joined cell lies within its inflation radius (one cell more) of where it said it
 stood (:func:`joined_near`). What lies across the component it sets is farther than that.
 
+Two robots may set the two parts that close a room at the same moment, each checking the site as it
+stands: on the Revit house with three carriers, r2 set a partition panel from inside while one gap was
+open, and a stud r1 set at the same time closed that gap (r2 walled in for 24.5 min). So a check counts
+the parts the other robots are setting at their targets now (their state messages, :func:`note_placing`)
+as standing too, and holds a placement for a robot that its part and theirs shut in together and theirs
+alone would not. The robot inside is not held by its own check: it sets its part and drives out, and the
+robot outside waits for that.
+
 Cost: two labellings of the free grid for each size of robot on site (the depots lie in one depot area,
 joined to each other, so one depot stands for all robots of a size), once a placement and then every
 few seconds of sim time while one is held.
@@ -27,6 +35,9 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from bimbot.shared.footprint import posed_footprint
+from bimbot.shared.manifest import Component
+from bimbot.shared.messages import RobotState, RobotStateMsg, TaskKind
 from bimbot.shared.occupancy_grid import OccupancyGrid
 
 from .approach import reachable_region, way_out_after
@@ -35,6 +46,30 @@ from .site_map import STATIC_DISTANCE_MAX_M, SiteMap
 from .task_state import ExecutorConfig, Task, component_name
 
 _log = logging.getLogger(__name__)
+
+# a robot in these states on a build task is setting its part at its target (carried there, or worked in
+# place): the part counts as standing for the others' checks
+PLACING_STATES = frozenset({RobotState.ASSEMBLE, RobotState.WORK_IN_PLACE})
+
+
+def note_placing(
+    context: RobotContext, message: RobotStateMsg, component: Component | None, kind: TaskKind | None
+) -> None:
+    """Keep in ``context.others_placing`` what another robot says it is setting at its target now: the
+    band outlines of ``component`` at its BIM target while ``message`` is in a :data:`PLACING_STATES` state of
+    a build task (``kind``; a hand-off goes down at a staging spot, a clear-away at a yard slot), else
+    nothing for that robot."""
+    if message.state not in PLACING_STATES or component is None or kind is not TaskKind.BUILD:
+        context.others_placing.pop(message.robot_id, None)
+        return
+    known = context.others_placing.get(message.robot_id)
+    if known is not None and known[0] == component.guid:
+        return
+    band = context.site_map.config
+    target = component.target_pose_world
+    footprint = posed_footprint(component, target.position_m, target.quat_xyzw)
+    outlines = footprint.outlines_meeting(band.band_min_z_m, band.band_max_z_m)
+    context.others_placing[message.robot_id] = (component.guid, outlines)
 
 
 def joined_near(
@@ -85,27 +120,61 @@ def shut_in_by(
     return shut
 
 
+def theirs_setting(context: RobotContext, guid: str) -> tuple[list[str], list[NDArray[np.float64]]]:
+    """The other robots setting a part other than ``guid`` at its target now, and those parts' band
+    outlines (``context.others_placing``)."""
+    setting = sorted(
+        robot_id
+        for robot_id, (other_guid, _) in context.others_placing.items()
+        if other_guid != guid and robot_id != context.robot_id
+    )
+    return setting, [outline for robot_id in setting for outline in context.others_placing[robot_id][1]]
+
+
+def shut_by_both(
+    context: RobotContext, guid: str, outlines_xy_m: list[NDArray[np.float64]]
+) -> tuple[list[str], list[str]]:
+    """The robots that the part ``guid`` of these band outlines shuts in, with the parts the other robots
+    are setting now (``context.others_placing``) counted as standing, less those that theirs alone shut
+    in (their own checks' business); and the robots whose parts were counted (both sorted)."""
+    setting, theirs = theirs_setting(context, guid)
+    site_map, drivers, others_xy = context.site_map, context.drivers, context.others_xy
+    shut = shut_in_by(site_map, outlines_xy_m + theirs, drivers, others_xy)
+    if shut and theirs:
+        alone = set(shut_in_by(site_map, theirs, drivers, others_xy))
+        shut = [robot_id for robot_id in shut if robot_id not in alone]
+    return shut, setting
+
+
 def held(context: RobotContext, task: Task, config: ExecutorConfig) -> bool:
     """Whether the robot holds the task's placement now: placing it would shut another robot in
-    (:func:`shut_in_by`). It asks again in ``shut_in_recheck_s`` (``task.retry_at_s``), for
+    (:func:`shut_in_by`), counting the parts the other robots are setting now (:func:`shut_by_both`). It
+    asks again in ``shut_in_recheck_s`` (``task.retry_at_s``), for
     ``shut_in_wait_s`` at most; then it places (the planner's bound: the robot inside may be held there by
     its own work), and says so."""
     band = context.site_map.config
     outlines = task.target.outlines_meeting(band.band_min_z_m, band.band_max_z_m) if task.target else []
-    shut = shut_in_by(context.site_map, outlines, context.drivers, context.others_xy) if outlines else []
+    shut, setting = shut_by_both(context, task.message.guid, outlines) if outlines else ([], [])
     name, now = component_name(task), context.sim_s
     if not shut:
         if task.shut_in_since_s is not None:
-            _log.info("%s: %s goes: it shuts nobody in now", context.robot_id, name)
+            _log.info(
+                "%s: %s goes at %.0f s of sim time: it shuts nobody in now", context.robot_id, name, now
+            )
             task.shut_in_since_s = None
         return False
     if task.shut_in_since_s is None:
         task.shut_in_since_s = now
         _log.info(
-            "%s: %s waits: placing it now would shut in %s (no way out to the depot)",
+            "%s: %s waits at %.0f s of sim time: placing it now would shut in %s (no way out to the depot%s)",
             context.robot_id,
             name,
-            ", ".join(shut),
+            now,
+            ", ".join(
+                f"{robot_id} at ({context.others_xy[robot_id][0]:.1f}, {context.others_xy[robot_id][1]:.1f})"
+                for robot_id in shut
+            ),
+            f"; counting what {', '.join(setting)} set now" if setting else "",
         )
     if now - task.shut_in_since_s >= config.shut_in_wait_s:
         _log.warning(

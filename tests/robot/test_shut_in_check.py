@@ -10,10 +10,12 @@ from typing import Any, cast
 import numpy as np
 import pytest
 
-from bimbot.services.robot.shut_in_check import held, shut_in_by
+from bimbot.services.robot.shut_in_check import held, note_placing, shut_in_by
 from bimbot.services.robot.task_state import ExecutorConfig
 from bimbot.shared.footprint import Footprint
+from bimbot.shared.messages import RobotState, RobotStateMsg, TaskKind
 from bimbot.shared.occupancy_grid import from_footprints, inflate
+from tests.component_boxes import box_component
 
 RADIUS_M = 0.75
 ROOM = [(8.0, 2.0, 8.2, 10.0), (8.0, 13.0, 8.2, 18.0), (8.0, 2.0, 16.0, 2.2), (8.0, 17.8, 16.0, 18.0)]
@@ -64,6 +66,7 @@ def test_the_placement_waits_asks_again_and_goes_after_the_bound(caplog: pytest.
         site_map=_site_map(ROOM),
         drivers={"r2": (RADIUS_M, DEPOT)},
         others_xy={"r2": INSIDE},
+        others_placing={},
         sim_s=100.0,
     )
     task = SimpleNamespace(
@@ -76,7 +79,7 @@ def test_the_placement_waits_asks_again_and_goes_after_the_bound(caplog: pytest.
     with caplog.at_level("INFO"):
         assert held(cast(Any, context), cast(Any, task), config)
     assert task.shut_in_since_s == 100.0 and task.retry_at_s == 105.0
-    assert "placing it now would shut in r2" in caplog.text
+    assert "placing it now would shut in r2 at (12.0, 10.0)" in caplog.text
     context.sim_s = 500.0
     assert held(cast(Any, context), cast(Any, task), config)  # still inside: still held
     context.others_xy["r2"] = OUTSIDE
@@ -89,3 +92,82 @@ def test_the_placement_waits_asks_again_and_goes_after_the_bound(caplog: pytest.
     with caplog.at_level("WARNING"):
         assert not held(cast(Any, context), cast(Any, task), config)  # the bound: placed all the same
     assert "it still shuts in r2" in caplog.text
+
+
+def _context(robot_id: str, others_xy: dict[str, tuple[float, float]], walls: list) -> Any:
+    drivers = {other: (RADIUS_M, DEPOT) for other in others_xy}
+    return SimpleNamespace(
+        robot_id=robot_id, site_map=_site_map(walls), drivers=drivers, others_xy=others_xy,
+        others_placing={}, sim_s=100.0,
+    )  # fmt: skip
+
+
+def _task(guid: str, target: Footprint) -> Any:
+    message = SimpleNamespace(guid=guid)
+    return SimpleNamespace(
+        target=target,
+        shut_in_since_s=None,
+        retry_at_s=0.0,
+        message=message,
+        component=SimpleNamespace(name=guid),
+    )
+
+
+def _state(robot_id: str, state: RobotState, guid: str | None, task_id: str | None = "T1") -> RobotStateMsg:
+    return RobotStateMsg(
+        robot_id=robot_id, state=state, task_id=task_id, guid=guid, pose_xy_yaw=(0.0, 0.0, 0.0),
+        sim_time_s=100.0, wall_time_s=1.0,
+    )  # fmt: skip
+
+
+def test_two_parts_set_at_once_that_close_a_room_between_them_hold_the_robot_outside(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """The race on the Revit house with three carriers: r2 set a panel from inside a room while one gap was
+    open, and r1 set the stud that closed that gap at the same moment; each checked the site as it stood
+    and r2 was walled in. Now r1 counts the panel r2 is setting: it holds the stud until r2 is out. r2's
+    own check does not hold r2's panel (r1 stands outside), and a part that the other robot's alone
+    closes the room with is that robot's check's business."""
+    room = [*ROOM[:2], (8.0, 2.0, 11.0, 2.2), (14.0, 2.0, 16.0, 2.2), *ROOM[3:]]  # a 3 m gap in the south too
+    south = Footprint(np.array([[11.0, 2.0], [14.0, 2.0], [14.0, 2.2], [11.0, 2.2]]), 0.0, 2.5)
+    config = ExecutorConfig(robot_id="r1")
+    r1 = _context("r1", {"r2": INSIDE}, room)
+    stud = _task("stud", GATE)
+    assert not held(r1, stud, config)  # the south gap is open: nobody is shut in by the stud alone
+    r1.others_placing["r2"] = ("panel", south.outlines_meeting(0.02, 1.0))
+    with caplog.at_level("INFO"):
+        assert held(r1, stud, config)
+    assert (
+        "placing it now would shut in r2 at (12.0, 10.0) (no way out to the depot; counting what r2 set now)"
+        in caplog.text
+    )
+    r1.others_xy["r2"] = OUTSIDE  # r2 set its panel and drove out
+    r1.sim_s = 105.0
+    assert not held(r1, stud, config)
+    r2 = _context("r2", {"r1": OUTSIDE}, room)
+    r2.others_placing["r1"] = ("stud", GATE.outlines_meeting(0.02, 1.0))
+    assert not held(r2, _task("panel", south), config)  # the robot inside sets its part and drives out
+    r3 = _context("r3", {"r2": INSIDE}, ROOM)  # the stud alone closes this room: r1's check holds it
+    r3.others_placing["r1"] = ("stud", GATE.outlines_meeting(0.02, 1.0))
+    elsewhere = Footprint(np.array([[2.0, 15.0], [3.0, 15.0], [3.0, 16.0], [2.0, 16.0]]), 0.0, 2.5)
+    assert not held(r3, _task("post", elsewhere), config)
+
+
+def test_what_another_robot_is_setting_counts_only_while_it_sets_a_build_tasks_part_at_its_target() -> None:
+    """A part in the air over its target counts; a hand-off goes down at a staging spot, a part being
+    picked up is still in the yard, and a robot that finished sets nothing."""
+    context = _context("r1", {"r2": INSIDE}, ROOM)
+    panel = box_component("panel", (3.0, 0.2, 2.5), (11.0, 2.0, 0.0))
+    note_placing(context, _state("r2", RobotState.ASSEMBLE, "panel"), panel, TaskKind.BUILD)
+    guid, outlines = context.others_placing["r2"]
+    assert guid == "panel" and len(outlines) == 1
+    low, high = outlines[0].min(axis=0), outlines[0].max(axis=0)
+    assert np.allclose(low, (11.0, 2.0)) and np.allclose(high, (14.0, 2.2))
+    note_placing(context, _state("r2", RobotState.IDLE, None, task_id=None), None, None)
+    assert context.others_placing == {}
+    note_placing(context, _state("r2", RobotState.WORK_IN_PLACE, "panel"), panel, TaskKind.BUILD)
+    assert "r2" in context.others_placing  # laid or cast where it stands
+    note_placing(context, _state("r2", RobotState.ASSEMBLE, "panel"), panel, TaskKind.HAND_OFF)
+    assert context.others_placing == {}
+    note_placing(context, _state("r2", RobotState.PICK_UP, "panel"), panel, TaskKind.BUILD)
+    assert context.others_placing == {}
