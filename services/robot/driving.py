@@ -14,6 +14,14 @@ the others move on. The robot then keeps looking, one second of sim time apart, 
 ``traffic_wait_s`` (120 s) before it gives the task back, the reason saying so: ten looks in ten seconds
 gave tasks back while another robot merely stood at the neighbouring slot, and three give-backs fail a
 component (a ten-robot yard failed five components so in 1,300 s).
+
+Rooms about to close: the parts the other robots are setting at their targets now count as standing when a
+stand-point is chosen (:func:`.shut_in_check.theirs_setting`). On the Revit house with three carriers, r2
+drove into a room to take up a door the crane had misplaced there while r1 and r3 were setting the two
+studs that closed it; their placement checks had passed with r2 outside, and r2 stood walled in for 19 min.
+A stand-point that only their parts cut off is waited for as traffic is: they stand in a moment, and the
+way round them, or the give-back, follows. A robot already inside such a room works on: the others' checks
+wait for it to leave.
 """
 
 from __future__ import annotations
@@ -33,7 +41,7 @@ from .approach import approach_pose, no_approach_reason, sets_from_outside, way_
 from .handover import Handover
 from .navigator import NavStatus
 from .robot_context import RobotContext
-from .shut_in_check import joined_near
+from .shut_in_check import joined_near, theirs_setting
 from .task_cycle import TaskCycle
 from .task_state import Task, component_name
 
@@ -63,10 +71,18 @@ class Driving:
             return None
         return self._no_approach(grid, task.target, f"the target of {component_name(task)}")
 
-    def _way_out(self, grid: OccupancyGrid, footprint: Footprint) -> NDArray[np.bool_] | None:
-        """Where the robot can still leave for its depot from once ``footprint`` stands (its band parts)."""
+    def _way_out(
+        self,
+        grid: OccupancyGrid,
+        footprint: Footprint | None,
+        theirs: list[NDArray[np.float64]] | None = None,
+    ) -> NDArray[np.bool_] | None:
+        """Where the robot can still leave for its depot from once ``footprint`` (its band parts; None: no
+        part of its own) and the parts of outlines ``theirs`` stand; None when neither has any."""
         site_map = self.context.site_map
-        outlines = footprint.outlines_meeting(site_map.config.band_min_z_m, site_map.config.band_max_z_m)
+        band = site_map.config
+        outlines = footprint.outlines_meeting(band.band_min_z_m, band.band_max_z_m) if footprint else []
+        outlines = outlines + (theirs or [])
         if not outlines:
             return None
         return way_out_after(grid, outlines, self.context.home_xy_yaw[:2], site_map.config.inflation_m)
@@ -186,7 +202,12 @@ class Driving:
         enclosing = sets_from_outside(task.component.ifc_class) and not task.failed_xy_m
         outside = site_map.layout.structure if enclosing else None
         placing = self.cycle.state not in (_S.DETECT_COMPONENT_POSITION, _S.PICK_UP)
-        way_out = self._way_out(grid, footprint) if placing and blocks else None
+        own = footprint if placing and blocks else None
+        setting, theirs = theirs_setting(context, task.message.guid)
+        way_out = self._way_out(grid, own, theirs)
+        if theirs and not joined_near(grid, way_out, xy, site_map.config.inflation_m):
+            # inside the room their parts close already: theirs wait for it to set its part and leave
+            setting, way_out = [], self._way_out(grid, own)
         found = approach_pose(
             grid,
             footprint,
@@ -201,8 +222,9 @@ class Driving:
             found = approach_pose(grid, footprint, xy, blocks_band=blocks, config=config, way_out=way_out)
         if found is not None and way_out is not None and not _leaves(grid, way_out, found.xy_m):
             # every stand-point walls it in once the component stands: on the static map too, it is no
-            # place to set it from (given back: a crane is asked first); else only traffic hides the way
-            if self._walls_itself_in(footprint, xy):
+            # place to set it from (given back: a crane is asked first); else only traffic hides the way,
+            # or the parts the others are setting now close it (waited for as traffic)
+            if placing and blocks and self._walls_itself_in(footprint, xy):
                 reason = give_back.walls_itself_in(context.robot_id, component_name(task), config.reach_m)
                 self.handover.give_back(task, reason)
                 return False
@@ -216,9 +238,10 @@ class Driving:
                 if task.traffic_since_s is None:
                     task.traffic_since_s = context.sim_s
                     _log.info(
-                        "%s: every stand-point of %s is blocked by traffic: waiting",
+                        "%s: every stand-point of %s is blocked by traffic%s: waiting",
                         context.robot_id,
                         component_name(task),
+                        f", or shut in by what {', '.join(setting)} set now" if setting else "",
                     )
                 waited_s = context.sim_s - task.traffic_since_s
                 if waited_s < bounds.traffic_wait_s:

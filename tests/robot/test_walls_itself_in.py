@@ -12,6 +12,7 @@ import numpy as np
 from bimbot.services.robot import give_back
 from bimbot.services.robot.approach import ApproachConfig
 from bimbot.services.robot.driving import Driving
+from bimbot.services.robot.task_state import ExecutorConfig
 from bimbot.shared.footprint import Footprint
 from bimbot.shared.occupancy_grid import from_footprints, inflate
 from bimbot.shared.reasons import ReasonCode
@@ -95,3 +96,51 @@ def test_a_robot_walled_in_names_what_stands_beside_it() -> None:
     reason = driving._no_approach(driving.context.site_map.inflated_grid(), target, "the target of Column")
     assert reason.code is ReasonCode.ROBOT_TRAPPED and reason.robot_id == "r2"
     assert reason.message.endswith("; beside it: Gate (0.4 m), Partition (0.9 m)")
+
+
+def _picking_up(robot_xy: tuple[float, float], others_placing: dict[str, Any]) -> tuple[Driving, Any]:
+    """A Driving whose robot at ``robot_xy`` is to take up a door lying in the room (its pick-up), with
+    what the other robots are setting now; and its task."""
+    driving = _driving(ROOM)
+    driving.cycle = cast(Any, SimpleNamespace(state=give_back.RobotState.PICK_UP))
+    context = driving.context
+    site_map = context.site_map
+    site_map.blocks = lambda footprint: True
+    site_map.planning_grid = lambda marks, margin_m: site_map.inflated_grid()
+    site_map.layout = SimpleNamespace(structure=None)
+    goals: list[tuple[float, float]] = []
+    context.navigator = SimpleNamespace(
+        see=lambda: None,
+        marks=None,
+        config=SimpleNamespace(dynamic_margin_m=0.0),
+        pose_xy_yaw=(*robot_xy, 0.0),
+        set_goal=lambda xy, yaw, sim_s: goals.append(tuple(xy)),
+    )
+    context.goals = goals
+    context.robot_id, context.sim_s, context.others_placing = "r2", 100.0, others_placing
+    context.config = ExecutorConfig(robot_id="r2")
+    task = SimpleNamespace(
+        message=SimpleNamespace(guid="door"),
+        component=SimpleNamespace(ifc_class="IfcDoor", name="Door"),
+        failed_xy_m=[],
+        retry_at_s=0.0,
+        traffic_since_s=None,
+        misses=0,
+    )
+    return driving, task
+
+
+def test_a_robot_does_not_drive_into_a_room_the_parts_others_are_setting_now_will_close() -> None:
+    """The Revit house with three carriers: r2 drove into a room to take up a door the crane had misplaced
+    there while r1 and r3 set the two studs that closed it (their checks passed with r2 outside): walled
+    in for 19 min. Now the parts being set count as standing: it waits outside, as for traffic. Already
+    inside, it works on (the others' checks wait for it)."""
+    door = Footprint(np.array([[12.0, 9.0], [13.0, 9.0], [13.0, 9.5], [12.0, 9.5]]), 0.0, 0.1)
+    stud = {"r1": ("stud", GATE.outlines_meeting(0.02, 1.0))}
+    driving, task = _picking_up((4.0, 10.0), {})
+    assert driving.approach(task, door) and len(driving.context.goals) == 1  # nothing being set: it goes
+    driving, task = _picking_up((4.0, 10.0), stud)
+    assert not driving.approach(task, door)
+    assert driving.context.goals == [] and task.traffic_since_s == 100.0  # waits, as for traffic
+    driving, task = _picking_up((12.0, 12.0), stud)
+    assert driving.approach(task, door) and len(driving.context.goals) == 1
