@@ -28,6 +28,7 @@ from bimbot.shared.construction_methods import (
 )
 from bimbot.shared.errors import UserError
 from bimbot.shared.geometry import Quat, Vec3
+from bimbot.shared.run_folder import ENDED_NAME, RUNS_DIR_NAME
 
 MANIFEST_SCHEMA_VERSION = 1
 MANIFEST_FILE_NAME = "manifest.json"
@@ -287,6 +288,14 @@ def read_manifest(build_dir: Path) -> Manifest:
     return Manifest.model_validate(data)
 
 
+def _run_folder(folder: Path) -> bool:
+    """Whether ``folder`` is a run folder: its run ended (``ENDED``) or left a report (a trial user gave
+    ``bimbot run`` the run folder and read "no manifest")."""
+    return folder.is_dir() and (
+        (folder / ENDED_NAME).is_file() or (folder / "report" / "report.json").is_file()
+    )
+
+
 def load_manifest(build: Path) -> Manifest:
     """:func:`read_manifest` for a command: a missing or broken manifest is one clear :class:`UserError`
     line naming the file (what every service and ``bimbot run`` report), never a traceback."""
@@ -294,6 +303,12 @@ def load_manifest(build: Path) -> Manifest:
     path = build / MANIFEST_FILE_NAME if build.is_dir() else build
     if not build.exists():
         raise UserError(f"{build}: no such folder (convert a model first: bimbot convert MODEL.ifc -o OUT/)")
+    if not path.is_file() and _run_folder(build):
+        ran = build.parent.parent if build.parent.name == RUNS_DIR_NAME else None
+        raise UserError(
+            f"{build}: a run folder (what bimbot run wrote), not a build; give the build it ran"
+            + (f": {ran}" if ran is not None else " (the folder bimbot convert -o wrote)")
+        )
     if not path.is_file():
         raise UserError(f"{path}: no manifest (convert a model first: bimbot convert MODEL.ifc -o OUT/)")
     if path.suffix.lower() in (".ifc", ".ifczip", ".ifcxml"):

@@ -75,6 +75,23 @@ def test_a_missing_build_is_one_line(tmp_path: Path) -> None:
         resolve_build(tmp_path / "empty")
 
 
+def test_a_run_folder_given_for_a_build_is_named_as_one_with_the_build_it_ran(tmp_path: Path) -> None:
+    """A trial user gave ``bimbot run`` the run folder and read "no manifest"."""
+    run = tmp_path / "house" / "runs" / "20261202-1"
+    (run / "report").mkdir(parents=True)
+    (run / "report" / "report.json").write_text("{}")
+    build = tmp_path / "house"
+    message = f"{run}: a run folder (what bimbot run wrote), not a build; give the build it ran: {build}"
+    with pytest.raises(UserError) as raised:
+        resolve_build(run)
+    assert str(raised.value) == message
+    elsewhere = tmp_path / "mine"
+    elsewhere.mkdir()
+    (elsewhere / "ENDED").write_text("done\n")
+    with pytest.raises(UserError, match=r"mine: a run folder .* \(the folder bimbot convert -o wrote\)$"):
+        resolve_build(elsewhere)
+
+
 def test_an_unwritable_output_folder_is_a_user_error(tmp_path: Path) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
