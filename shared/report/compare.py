@@ -36,6 +36,9 @@ WORK_START = {  # the report field where a method's own work starts (placed_s en
 }
 
 
+UNNAMED_SITES = frozenset({"default", "site"})  # Revit's site name, and the converter's slug for none
+
+
 @dataclass(frozen=True)
 class MethodFigures:
     """One method's figures in one run."""
@@ -120,8 +123,10 @@ class RunColumn:
 
     @property
     def building(self) -> str:
-        """``greenhouse-site (light_steel_frame.ifc)``; ``unknown`` for a report that names neither."""
-        if self.site is None:
+        """``greenhouse-site (light_steel_frame.ifc)``; the model alone where the site has no name of its
+        own (Revit names every site "Default": a trial user read "default" as the building); ``unknown``
+        for a report that names neither."""
+        if self.site is None or (self.model and self.site in UNNAMED_SITES):
             return self.model or "unknown"
         return f"{self.site} ({self.model})" if self.model else self.site
 

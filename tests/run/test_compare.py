@@ -12,7 +12,7 @@ import pytest
 
 from bimbot import compare_cli
 from bimbot.shared.errors import UserError
-from bimbot.shared.report.compare import by_method
+from bimbot.shared.report.compare import by_method, run_column
 from bimbot.shared.run_folder import RunFolder, new_run_folder, remember_run_dir
 
 
@@ -161,6 +161,15 @@ def test_runs_of_another_building_or_fidelity_are_warned_of_and_marked_in_the_ta
     ]
     assert [cell.strip() for cell in rows["fidelity"]] == ["physics", "plan ⚠ differs", "physics"]
     assert "note: these runs do not all compare (2 difference(s), marked ⚠ above)" in out
+
+
+def test_a_site_revit_names_default_is_shown_by_its_model_alone() -> None:
+    """Revit names every site "Default": a trial user read "default (revit2021_sample_project.ifc)" as the
+    building's name."""
+    house = run_column("house", _of(PREFAB, "default", "revit2021_sample_project.ifc", "cc", "physics"))
+    assert house.building == "revit2021_sample_project.ifc"
+    frame = run_column("frame", _of(PREFAB, "greenhouse-site", "frame.ifc", "aa", "physics"))
+    assert frame.building == "greenhouse-site (frame.ifc)"
 
 
 def test_one_model_converted_two_ways_at_one_fidelity_compares_without_a_warning(
