@@ -24,8 +24,9 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import PurePath
 from typing import Any
+
+from .building_name import building_name, model_file
 
 WORK_START = {  # the report field where a method's own work starts (placed_s ends it)
     "lifted": "picked_s",
@@ -34,9 +35,6 @@ WORK_START = {  # the report field where a method's own work starts (placed_s en
     "laid": "laying_s",
     "driven": "driving_s",
 }
-
-
-UNNAMED_SITES = frozenset({"default", "site"})  # Revit's site name, and the converter's slug for none
 
 
 @dataclass(frozen=True)
@@ -126,16 +124,13 @@ class RunColumn:
         """``greenhouse-site (light_steel_frame.ifc)``; the model alone where the site has no name of its
         own (Revit names every site "Default": a trial user read "default" as the building); ``unknown``
         for a report that names neither."""
-        if self.site is None or (self.model and self.site in UNNAMED_SITES):
-            return self.model or "unknown"
-        return f"{self.site} ({self.model})" if self.model else self.site
+        return building_name(self.site, self.model)
 
 
 def run_column(label: str, report: Mapping[str, Any]) -> RunColumn:
     totals = report.get("totals") or {}
     settings = report.get("settings") or {}
     model = settings.get("model") or {}
-    path = model.get("path")
     return RunColumn(
         label=label,
         makespan_s=_number(totals.get("makespan_s")),
@@ -143,7 +138,7 @@ def run_column(label: str, report: Mapping[str, Any]) -> RunColumn:
         components=int(totals.get("components") or 0),
         methods=by_method(report),
         site=report.get("site"),
-        model=PurePath(path).name if isinstance(path, str) else None,
+        model=model_file(report),
         model_sha256=model.get("sha256"),
         fidelity=settings.get("fidelity"),
         fleet=fleet_of(settings, report.get("robots")),

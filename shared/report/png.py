@@ -52,6 +52,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.text import Text
 
+from .building_name import report_building
 from .durations import duration_text
 from .fleet import lane_label, robot_order, utilisation_line
 from .methods import WORK_IN_PLACE
@@ -475,7 +476,7 @@ def report_figure(report: dict[str, Any]) -> Figure:
     ending = report.get("ending") or {}
     how = ending.get("how")
     figure.suptitle(
-        f"bimbot construction report — site {report['site']}: "
+        f"bimbot construction report — {report_building(report)}: "
         f"{totals['constructed']}/{totals['components']} constructed, retries: {totals['retries']}"
         + caught_last_title(report)
         + (f", makespan {duration_text(makespan)}" if makespan is not None else "")

@@ -12,6 +12,7 @@ import pytest
 
 from bimbot import compare_cli
 from bimbot.shared.errors import UserError
+from bimbot.shared.report.building_name import report_building
 from bimbot.shared.report.compare import by_method, run_column
 from bimbot.shared.run_folder import RunFolder, new_run_folder, remember_run_dir
 
@@ -170,6 +171,8 @@ def test_a_site_revit_names_default_is_shown_by_its_model_alone() -> None:
     assert house.building == "revit2021_sample_project.ifc"
     frame = run_column("frame", _of(PREFAB, "greenhouse-site", "frame.ifc", "aa", "physics"))
     assert frame.building == "greenhouse-site (frame.ifc)"
+    assert report_building(_of(PREFAB, "default", "house.ifc", "cc", "plan")) == "house.ifc"  # report.png
+    assert report_building({"site": "default"}) == "default"  # no model named: the site is all there is
 
 
 def test_one_model_converted_two_ways_at_one_fidelity_compares_without_a_warning(
