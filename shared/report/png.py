@@ -38,6 +38,7 @@ import math
 import textwrap
 import warnings
 from collections.abc import Collection
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -55,6 +56,7 @@ from matplotlib.text import Text
 from .building_name import report_building
 from .durations import duration_text
 from .fleet import lane_label, robot_order, utilisation_line
+from .lifts_inset import add_lifts_inset
 from .methods import WORK_IN_PLACE
 from .methods_png import (
     MIN_BAR_FRACTION,
@@ -234,11 +236,34 @@ def _robot_lanes(
     bars' labels (fitted to their bars once the figure is laid out). A label that would lie on the one
     before it in its lane is left out (the sequence panel names every row)."""
     breaks = breaks or TimeBreaks(chart_span_s(report))
+    robots = report["robots"]
+    robot_ids = robot_order(robots)
+    labels = draw_lane_tasks(ax, report, robot_ids, colors, breaks)
+    for lane in range(1, len(robot_ids)):  # a line where one robot type's lanes end
+        if robots[robot_ids[lane]].get("type") != robots[robot_ids[lane - 1]].get("type"):
+            ax.axhline(lane - 0.5, color="black", linewidth=0.8, alpha=0.6)
+    ax.set_yticks(range(len(robot_ids)), [lane_label(r, robots[r]) for r in robot_ids])
+    ax.set_ylim(-0.6, max(len(robot_ids), 1) - 0.4)
+    ax.invert_yaxis()
+    set_broken_time_axis(ax, breaks)
+    utilisation = utilisation_line(report)
+    title = "simulated construction: one lane per robot, grouped by type"
+    wrapped = textwrap.fill(utilisation, TITLE_CHARS_LEFT) if utilisation else ""
+    ax.set_title(title + (f"\n{wrapped}" if wrapped else ""))
+    ax.grid(axis="x", alpha=0.3)
+    if not robot_ids:
+        ax.text(0.5, 0.5, "no robot reported a state", transform=ax.transAxes, ha="center", va="center")
+    return labels
+
+
+def draw_lane_tasks(
+    ax: Axes, report: dict[str, Any], robot_ids: list[str], colors: dict[str, RGB], breaks: TimeBreaks
+) -> list[Text]:
+    """The task bars of ``robot_ids``, one lane each in that order, and their labels."""
     span_s = breaks.shown_s  # bar widths and labels are sized in axis units (a break's scale differs)
     labels: list[Text] = []
     by_guid = {c["guid"]: c for c in report["components"]}
     robots = report["robots"]
-    robot_ids = robot_order(robots)
     for lane, robot_id in enumerate(robot_ids):
         last_label_s = -math.inf
         for task in robots[robot_id]["tasks"]:
@@ -279,20 +304,6 @@ def _robot_lanes(
                 )
                 labels.append(label)
                 last_label_s = centre_shown
-    for lane in range(1, len(robot_ids)):  # a line where one robot type's lanes end
-        if robots[robot_ids[lane]].get("type") != robots[robot_ids[lane - 1]].get("type"):
-            ax.axhline(lane - 0.5, color="black", linewidth=0.8, alpha=0.6)
-    ax.set_yticks(range(len(robot_ids)), [lane_label(r, robots[r]) for r in robot_ids])
-    ax.set_ylim(-0.6, max(len(robot_ids), 1) - 0.4)
-    ax.invert_yaxis()
-    set_broken_time_axis(ax, breaks)
-    utilisation = utilisation_line(report)
-    title = "simulated construction: one lane per robot, grouped by type"
-    wrapped = textwrap.fill(utilisation, TITLE_CHARS_LEFT) if utilisation else ""
-    ax.set_title(title + (f"\n{wrapped}" if wrapped else ""))
-    ax.grid(axis="x", alpha=0.3)
-    if not robot_ids:
-        ax.text(0.5, 0.5, "no robot reported a state", transform=ax.transAxes, ha="center", va="center")
     return labels
 
 
@@ -468,6 +479,10 @@ def report_figure(report: dict[str, Any]) -> Figure:
     lanes = figure.add_subplot(grid[0, 0])
     sequence = figure.add_subplot(grid[0, 1], sharex=lanes)
     labels = _robot_lanes(lanes, report, colors, breaks)
+    # lifts that a long work in place squeezes into a sliver, drawn again zoomed in
+    inset = add_lifts_inset(
+        lanes, report, robot_order(report["robots"]), breaks, partial(draw_lane_tasks, colors=colors)
+    )
     _sequence_rows(sequence, report, colors, breaks)
     draw_placement_errors(figure.add_subplot(grid[1, 0]), report)
     draw_drift(figure.add_subplot(grid[1, 1]), report)
@@ -500,6 +515,8 @@ def report_figure(report: dict[str, Any]) -> Figure:
         bottom += LEGEND_ROW
     figure.tight_layout(rect=(0.0, bottom, 1.0, 0.97))
     fit_bar_labels(figure, lanes, labels)
+    if inset is not None:
+        fit_bar_labels(figure, *inset)
     # laid out: without a layout engine, savefig draws the figure once (with the placeholder engine that
     # tight_layout leaves behind it first draws it a second time, for a layout already done)
     figure.set_layout_engine(None)
