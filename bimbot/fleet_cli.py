@@ -136,6 +136,12 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("bimbot fleet check: give the converted build folder (OUT/)")
     check_urdfs(fleet)  # as physics would: a missing model is one line here too
     manifest = resolve_build(args.build).manifest
+    if not manifest.components:  # a conversion that converted nothing (exit 2) still writes its folder
+        from bimbot.shared.errors import UserError
+
+        raise UserError(
+            f"{args.build}: the build has no components to construct (see its conversion's summary)"
+        )
     # the machines bimbot run leaves off site stay off here too, so the robots' ids are the run's
     idle = idle_machine_types(fleet, (component.method for component in manifest.components))
     fleet = without_types(fleet, idle)

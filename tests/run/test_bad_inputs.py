@@ -11,6 +11,7 @@ permission bits do it.
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -205,6 +206,15 @@ def test_a_shortened_option_is_not_taken_for_the_one_it_begins(build: Path) -> N
 def test_an_option_before_any_sub_command_is_named_not_reported_as_a_missing_command() -> None:
     _one_line(_bimbot("--frobnicate"), "bimbot: error: unrecognized arguments: --frobnicate")
     _one_line(_bimbot("-v"), "the following arguments are required: COMMAND")  # a known option: as before
+
+
+def test_a_build_of_no_component_is_one_line_for_run_and_fleet_check(build: Path) -> None:
+    """A conversion that converts nothing (a script-made model of 30 elements with no geometry, exit 2)
+    still writes its folder; ``bimbot fleet check`` on it ended in a traceback."""
+    manifest = json.loads((build / "manifest.json").read_text())
+    (build / "manifest.json").write_text(json.dumps({**manifest, "components": [], "in_place": []}))
+    for command in (("run", str(build)), ("fleet", "check", str(build), "--summary")):
+        _one_line(_bimbot(*command), str(build), "the build has no components to construct")
 
 
 def test_run_on_a_folder_that_does_not_exist_says_so(tmp_path: Path) -> None:
