@@ -46,3 +46,14 @@ def test_a_member_lying_flat_a_glazing_panel_or_a_column_on_its_base_plate_is_no
     column = _decided(*_on_slab("IfcColumn", (0.2, 0.2, 3.0)))  # on anchor bolts in its slab
     assert {link.kind for link in column.connection_links} == {ConnectionKind.BOLTED_BASE}
     assert column.temporary_support is None
+
+
+def test_a_spiral_stair_on_its_post_is_bolted_to_the_floor_a_straight_flight_bears() -> None:
+    """The ArchiCAD 14 export of the FZK-Haus: its 3.56 m spiral stair on a 1.7 m × 1.6 m plan, set bearing
+    on the floor, tipped three times and 76 components that rest on it were blocked (33 of 110 built). A
+    spiral stair stands on its central post, whose base plate a site bolts down; a straight flight runs
+    longer than it rises and bears on what carries it."""
+    spiral = _decided(*_on_slab("IfcStair", (1.7, 1.6, 3.56)))
+    assert {link.kind for link in spiral.connection_links} == {ConnectionKind.BOLTED_BASE}
+    flight = _decided(*_on_slab("IfcStair", (1.1, 4.2, 2.9)))
+    assert {link.kind for link in flight.connection_links} == {ConnectionKind.BEARING}
