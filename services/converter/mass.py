@@ -112,9 +112,14 @@ DENSITY_TABLE_KG_M3: tuple[tuple[re.Pattern[str], float], ...] = (
 # would weigh a "Metal - Stud Layer" as 7,850 kg/m³ of steel). A framed layer: 3-5/8 in. steel studs at
 # 16 in. centres weigh 1.31 lb/ft² of wall (1.75 lb/ft a stud), 2x4 timber studs at 16 in. 1.3 lb/ft²:
 # about 70 kg/m³ of the layer's depth. An air gap (IfcMaterialLayer.IsVentilated, or so named): air.
-FRAMED_LAYER = re.compile(r"\bstuds?\b|framing|furring|\bjoists?\b|\bbattens?\b|\brafters?\b", re.I)
+# "Firring": the WBDG clinic's Revit walls spell furring so ("Metal - Firring", 38 mm), and were weighed as
+# 38 mm of solid steel (75 t walls). A profiled metal deck layer is a sheet folded over its depth: a 1.5 in.
+# 20-gauge roof deck weighs about 2.1 lb/ft² (10 kg/m²) over 38 mm, some 260 kg/m³ of the layer (the
+# clinic's "Metal - Decking" under its standing-seam roofs was weighed as solid steel: 89 t roofs).
+FRAMED_LAYER = re.compile(r"\bstuds?\b|framing|f[ui]rring|\bjoists?\b|\bbattens?\b|\brafters?\b", re.I)
 AIR_LAYER = re.compile(r"\bair\b|cavity|\bvoid\b|luftschicht|lame d'air|c[aá]mara de aire", re.I)
-LAYER_DENSITY_KG_M3 = ((FRAMED_LAYER, 70.0), (AIR_LAYER, 1.2))
+METAL_DECK_LAYER = re.compile(r"(metal|steel).*\bdeck|\bdeck.*(metal|steel)", re.I)
+LAYER_DENSITY_KG_M3 = ((FRAMED_LAYER, 70.0), (AIR_LAYER, 1.2), (METAL_DECK_LAYER, 260.0))
 WEIGHT_QUANTITY_PREFERENCE = ("netweight", "grossweight", "weight")
 # Property names (lower-case, without spaces) that vendors use for an element's weight.
 VENDOR_WEIGHT_NAMES = ("exactweight", "weight", "netweight", "grossweight", "mass")

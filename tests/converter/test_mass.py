@@ -184,6 +184,30 @@ def test_a_stud_partition_weighs_its_layers_not_solid_steel() -> None:
     assert not result.warnings
 
 
+def test_furring_spelt_firring_and_a_metal_deck_are_weighed_as_the_air_they_mostly_are() -> None:
+    """The WBDG clinic (a public Revit model): its "Insul Panel on Mtl. Stud" walls have a 38 mm "Metal -
+    Firring" layer and its standing-seam roofs a 38 mm "Metal - Decking" over bar joists; both were
+    weighed as solid steel (75 t walls, 89 t roofs, too heavy for any crane)."""
+    small = new_model()
+    layers = [("Metal - Firring", 0.038), ("Metal - Stud Layer", 0.152), ("Plasterboard", 0.016)]
+    wall = add_wall(small, thickness_m=0.206)
+    add_layers(small, [wall], layers)
+    furred = element_mass(wall, 1.0)
+    assert furred.density_kg_m3 == pytest.approx((0.19 * 70.0 + 0.016 * 900.0) / 0.206)
+    roof = add_wall(small, thickness_m=0.33)
+    add_layers(
+        small,
+        [roof],
+        [
+            ("Roofing - Metal", 0.006),
+            ("Metal - Decking", 0.038),
+            ("Structure - Steel Bar Joist Layer", 0.286),
+        ],
+    )
+    decked = element_mass(roof, 1.0)
+    assert decked.density_kg_m3 == pytest.approx((0.006 * 7850.0 + 0.038 * 260.0 + 0.286 * 70.0) / 0.33)
+
+
 def test_a_layer_of_unknown_material_counts_at_the_default_density_and_is_named() -> None:
     """The restaurant's compound ceilings: studs and a finish "J_Ceiling_Dark" the table does not know."""
     small = new_model()
