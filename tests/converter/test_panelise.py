@@ -147,11 +147,20 @@ def test_a_slab_opening_is_not_cut_through() -> None:
     assert sum(cut.volumes_m3) == pytest.approx(slab.volume() - joints_m3, rel=1e-6)
 
 
-def test_an_open_mesh_is_not_cut() -> None:
+def test_a_mesh_with_a_hole_is_closed_and_cut_an_open_surface_is_not() -> None:
+    """The WBDG clinic's Revit roofs tessellate with open edges and could not be cut into panels: a hole
+    is filled (trimesh), and the panels hold the whole volume; a lone surface encloses nothing."""
     box = manifold_to_mesh(_box((0, 0, 0), (17.0, 0.2, 3.0)))
-    open_mesh = TriMesh(box.vertices, box.faces[:-1])
+    holed = TriMesh(box.vertices, box.faces[:-1])
+    cut = panelise(holed, PanelKind.WALL, 20_000.0, LIMITS)
+    assert len(cut.panels) > 1
+    joints_m3 = (len(cut.panels) - 1) * PANEL_JOINT_M * 0.2 * 3.0
+    assert sum(cut.volumes_m3) == pytest.approx(17.0 * 0.2 * 3.0 - joints_m3, rel=1e-6)
+    sheet = TriMesh(
+        np.array([[0, 0, 0], [17, 0, 0], [17, 0, 3], [0, 0, 3]], float), np.array([[0, 1, 2], [0, 2, 3]])
+    )
     with pytest.raises(PanelisationError, match="not a closed solid"):
-        panelise(open_mesh, PanelKind.WALL, 20_000.0, LIMITS)
+        panelise(sheet, PanelKind.WALL, 20_000.0, LIMITS)
 
 
 def test_what_is_cut_into_panels() -> None:
