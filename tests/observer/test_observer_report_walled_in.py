@@ -140,8 +140,8 @@ def test_the_summary_names_the_robots_walled_in_and_who_gave_back_how_many(
     )
     r1 = next(line for line in lines if line.startswith("r1 (carrier)"))
     assert r1.startswith(
-        "r1 (carrier): 3 task(s): 1 built, 2 given back (Footing A2: robot_trapped; Footing A3: robot_trapped; "
-        "why: report.json, each component's give_backs),"
+        "r1 (carrier): 3 task(s): 1 built, 2 given back (Footing A2: robot_trapped; Footing A3: "
+        "robot_trapped; why: report.json, each component's give_backs),"
     ), r1
     assert " other (" not in r1, r1  # every task accounted for: none named
     r2 = next(line for line in lines if line.startswith("r2 (carrier)"))
