@@ -8,6 +8,7 @@ from types import SimpleNamespace
 from typing import Any, cast
 
 import numpy as np
+import pytest
 
 from bimbot.services.robot import give_back
 from bimbot.services.robot.approach import ApproachConfig
@@ -144,3 +145,27 @@ def test_a_robot_does_not_drive_into_a_room_the_parts_others_are_setting_now_wil
     assert driving.context.goals == [] and task.traffic_since_s == 100.0  # waits, as for traffic
     driving, task = _picking_up((12.0, 12.0), stud)
     assert driving.approach(task, door) and len(driving.context.goals) == 1
+
+
+def test_a_robot_that_finds_itself_walled_in_while_parking_names_what_stands_beside_it(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A new user's trial: the run summary says the walled-in robot's log names what stands beside it, but
+    r2, walled in while it drove to its depot (no task in hand), logged only that its depot was cut off."""
+    from bimbot.services.robot.task_cycle import TaskCycle
+
+    context = SimpleNamespace(
+        robot_id="r2",
+        sim_s=284404.5,
+        navigator=SimpleNamespace(pose_xy_yaw=(1.64, 8.05, 0.0), config=SimpleNamespace(beside_m=1.0)),
+        site_map=SimpleNamespace(
+            config=SimpleNamespace(inflation_m=INFLATION_M),
+            components_near=lambda xy, within_m: [("Stud 167106", 0.6), ("Door 166070", 1.2)],
+        ),
+    )
+    cycle = TaskCycle(cast(Any, context))
+    cycle.say_state_soon = lambda: None  # type: ignore[method-assign]
+    with caplog.at_level("WARNING"):
+        cycle.walled_in("it cannot drive to its depot")
+    assert cycle.walled_in_since_s == 284404.5
+    assert "it cannot drive to its depot; beside it: Stud 167106 (0.6 m), Door 166070 (1.2 m)" in caplog.text
