@@ -138,17 +138,35 @@ def _named_others(
     return lines
 
 
+REASON_WORDS_MAX = 60  # characters of a give-back's reason said on the robot's line
+
+
+def _reason_words(reason: str, name: str, robot_id: str) -> str:
+    """``no_approach_pose, would wall itself in setting it``: a give-back reason's code and its first words
+    (up to the component's name, else its first clause), without the robot's id (a trial user read the code
+    alone, "no_approach_pose", as something other than "r2 would wall itself in setting …")."""
+    code, _, message = reason.partition(": ")
+    in_name = bool(name) and name in message
+    words = message.split(name)[0].strip() + " it" if in_name else message.split(": ")[0]
+    words = words.strip().removeprefix(f"{robot_id} ").strip()
+    if len(words) > REASON_WORDS_MAX:
+        words = words[: REASON_WORDS_MAX - 1].rstrip() + "…"
+    return (
+        f"{code.strip() or 'no reason'}, {words}" if words and words != "it" else code.strip() or "no reason"
+    )
+
+
 def _given_back_named(robot_id: str, components: dict[str, dict[str, Any]]) -> str:
-    """`` (Wall W1 panel 2/2: no_approach_pose; Stud S4: robot_trapped)``: each component this robot gave
-    back and the reason's code (a trial user found the reasons only in report.json: its components'
-    ``give_backs`` have the whole of each); nothing when it gave none back."""
+    """`` (Wall W1 panel 2/2: no_approach_pose, would wall itself in setting it; …)``: each component this
+    robot gave back and the reason's code and first words (a trial user found the reasons only in
+    report.json: its components' ``give_backs`` have the whole of each); nothing when it gave none back."""
     named = []
     for component in components.values():
         reasons = component.get("give_backs") or []
         for who, reason in zip(component.get("given_back_by") or [], reasons, strict=False):
             if who == robot_id:
-                code = str(reason).split(":", 1)[0].strip() or "no reason"
-                named.append(f"{component.get('name') or component.get('guid')}: {code}")
+                name = component.get("name") or component.get("guid") or ""
+                named.append(f"{name}: {_reason_words(str(reason), name, robot_id)}")
     if not named:
         return ""
     more = f"; … and {len(named) - MAX_OTHERS_NAMED} more" if len(named) > MAX_OTHERS_NAMED else ""

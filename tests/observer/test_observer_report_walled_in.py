@@ -140,8 +140,9 @@ def test_the_summary_names_the_robots_walled_in_and_who_gave_back_how_many(
     )
     r1 = next(line for line in lines if line.startswith("r1 (carrier)"))
     assert r1.startswith(
-        "r1 (carrier): 3 task(s): 1 built, 2 given back (Footing A2: robot_trapped; Footing A3: "
-        "robot_trapped; why: report.json, each component's give_backs),"
+        "r1 (carrier): 3 task(s): 1 built, 2 given back (Footing A2: robot_trapped, at (1.43, -6.35) is "
+        "walled in; Footing A3: robot_trapped, at (1.43, -6.35) is walled in; why: report.json, each "
+        "component's give_backs),"
     ), r1
     assert " other (" not in r1, r1  # every task accounted for: none named
     r2 = next(line for line in lines if line.startswith("r2 (carrier)"))
@@ -155,4 +156,4 @@ def test_a_summary_of_a_run_where_no_robot_was_walled_in_says_nothing_of_it(
     for robot in report["robots"].values():
         robot["walled_in"] = []
     text = summary_text(RunOutcome(exit_code=0, constructed=3, total=3, report=report))
-    assert "walled in" not in text
+    assert "robots walled in" not in text  # (a give-back's reason on a robot's line may say it)

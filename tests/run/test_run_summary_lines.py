@@ -143,7 +143,8 @@ def test_a_robot_s_tasks_add_up_its_hand_offs_among_them() -> None:
 
 
 def test_a_robot_s_give_backs_are_named_with_their_reasons_codes() -> None:
-    """A new user's trial found "2 given back" and the reasons only in report.json."""
+    """A new user's trial found "2 given back" and the reasons only in report.json; the next read the code
+    alone, "no_approach_pose", as something other than "r2 would wall itself in setting …"."""
     robot = {
         "built": 0,
         "given_back": 2,
@@ -167,10 +168,11 @@ def test_a_robot_s_give_backs_are_named_with_their_reasons_codes() -> None:
         },
     }
     assert tasks_text("r2", robot, components) == (
-        "2 task(s): 0 built, 2 given back (Wall W1 panel 2/2: no_approach_pose; Stud S4: robot_trapped; why: "
-        "report.json, each component's give_backs)"
+        "2 task(s): 0 built, 2 given back (Wall W1 panel 2/2: no_approach_pose, would wall itself in setting "
+        "it; Stud S4: robot_trapped, at (-2.87, 4.38) is walled in; why: report.json, each component's "
+        "give_backs)"
     )
-    assert "given back (Stud S4: out_of_reach;" in tasks_text("r1", {**robot, "given_back": 1}, components)
+    assert "given back (Stud S4: out_of_reach, …;" in tasks_text("r1", {**robot, "given_back": 1}, components)
 
 
 def test_a_machine_that_stands_fixed_says_its_relocations_not_zero_metres_driven() -> None:
