@@ -203,7 +203,7 @@ def moved_text(robot: dict[str, Any]) -> str:
     moved between its set-ups; nothing for one that never moved."""
     distance_m, relocations = float(robot.get("distance_m") or 0.0), int(robot.get("relocations") or 0)
     if distance_m >= 0.5:
-        return f", {distance_m:.0f} m driven"
+        return f", {distance_m:,.0f} m driven"
     return f", {relocations} relocation(s) between set-ups" if relocations else ""
 
 

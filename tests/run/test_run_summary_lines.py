@@ -179,6 +179,7 @@ def test_a_machine_that_stands_fixed_says_its_relocations_not_zero_metres_driven
     """A new user read ``r6 (piling_rig): 216 task(s): 216 built, …, 0 m driven`` under ``driven 216/216``:
     a machine's moves are its relocations between set-ups."""
     assert moved_text({"distance_m": 412.4, "relocations": 0}) == ", 412 m driven"
+    assert moved_text({"distance_m": 3233.2, "relocations": 0}) == ", 3,233 m driven"  # as seconds are said
     assert moved_text({"distance_m": 0.0, "relocations": 11}) == ", 11 relocation(s) between set-ups"
     assert moved_text({"distance_m": 0.0, "relocations": 0}) == ""  # a crane: it never moves
 
