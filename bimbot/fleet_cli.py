@@ -34,7 +34,7 @@ from bimbot.services.planner.feasibility import SEE_ITS_ROWS, Feasibility, advic
 from bimbot.shared.crane_erection import erected_for, erection_words
 from bimbot.shared.fleet import DEFAULT_FLEET_FILE, Fleet, check_urdfs, load_fleet
 from bimbot.shared.idle_machines import idle_machine_types, without_types
-from bimbot.shared.manifest import Component, Joint, Manifest
+from bimbot.shared.manifest import Component, Joint, Manifest, require_components
 from bimbot.shared.option_types import positive_int
 from bimbot.shared.service_runner import resolve_build
 from bimbot.shared.site_layout import plan_site
@@ -136,12 +136,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("bimbot fleet check: give the converted build folder (OUT/)")
     check_urdfs(fleet)  # as physics would: a missing model is one line here too
     manifest = resolve_build(args.build).manifest
-    if not manifest.components:  # a conversion that converted nothing (exit 2) still writes its folder
-        from bimbot.shared.errors import UserError
-
-        raise UserError(
-            f"{args.build}: the build has no components to construct (see its conversion's summary)"
-        )
+    require_components(args.build, manifest)
     # the machines bimbot run leaves off site stay off here too, so the robots' ids are the run's
     idle = idle_machine_types(fleet, (component.method for component in manifest.components))
     fleet = without_types(fleet, idle)

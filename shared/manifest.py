@@ -288,6 +288,13 @@ def read_manifest(build_dir: Path) -> Manifest:
     return Manifest.model_validate(data)
 
 
+def require_components(build: Path, manifest: Manifest) -> None:
+    """A :class:`UserError` when the build has nothing to construct (a conversion that converted nothing,
+    exit 2, still writes its folder): what ``bimbot run`` and ``bimbot fleet check`` say of it."""
+    if not manifest.components:
+        raise UserError(f"{build}: the build has no components to construct")
+
+
 def _run_folder(folder: Path) -> bool:
     """Whether ``folder`` is a run folder: its run ended (``ENDED``) or left a report (a trial user gave
     ``bimbot run`` the run folder and read "no manifest")."""

@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING
 
 from bimbot.run.commands import service_commands
 from bimbot.shared.errors import UserError
+from bimbot.shared.manifest import require_components
 from bimbot.shared.output_paths import check_writable_dir
 from bimbot.shared.run_folder import RUN_DIR_HINT, RunFolder, runs_dir
 from bimbot.shared.service_runner import BuildInput, resolve_build
@@ -63,8 +64,7 @@ def check_build_and_run_folder(build: Path, options: RunOptions) -> BuildInput:
     """The checks that need none of the services' code: a build with components, a run folder that can be
     made (a :class:`UserError`, one line); the build."""
     checked = resolve_build(build)
-    if not checked.manifest.components:
-        raise UserError(f"{build}: the build has no components to construct")
+    require_components(build, checked.manifest)
     check_run_folder(checked.dir, options.run_dir)
     return checked
 

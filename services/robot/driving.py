@@ -131,11 +131,7 @@ class Driving:
         )
         update: dict[str, object] = {"robot_id": context.robot_id}
         if reason.code is ReasonCode.ROBOT_TRAPPED:
-            within_m = context.navigator.config.beside_m + context.site_map.config.inflation_m  # of its body
-            beside = context.site_map.components_near(here, within_m)
-            if beside:
-                named = ", ".join(f"{name} ({m:.1f} m)" for name, m in beside[:3])
-                update["message"] = f"{reason.message}; beside it: {named}"
+            update["message"] = reason.message + context.beside_words((float(here[0]), float(here[1])))
         return reason.model_copy(update=update)
 
     def drive(self, task: Task, footprint: Footprint | None) -> bool:

@@ -68,6 +68,16 @@ class RobotContext:
         body = self.site_map.inflated_grid(config.body_half_width_m)
         return held_where_it_stands(grid, body, here, config.plan_out_max_m)
 
+    def beside_words(self, xy_m: tuple[float, float]) -> str:
+        """``; beside it: Stud S4 (0.6 m), Door D1 (1.2 m)``: the components within the navigator's
+        ``beside_m`` of the robot's body at ``xy_m`` (what may wall it in), nearest first, at most three;
+        nothing when none is."""
+        within_m = self.navigator.config.beside_m + self.site_map.config.inflation_m  # of its body
+        beside = self.site_map.components_near(xy_m, within_m)
+        if not beside:
+            return ""
+        return "; beside it: " + ", ".join(f"{name} ({m:.1f} m)" for name, m in beside[:3])
+
     def queue_event(
         self,
         task: Task,

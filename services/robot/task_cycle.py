@@ -92,10 +92,7 @@ class TaskCycle:
         self.walled_in_since_s = context.sim_s
         x, y = context.navigator.pose_xy_yaw[:2]
         if "beside it:" not in why:  # the run summary sends the reader here for what walls it in
-            within_m = context.navigator.config.beside_m + context.site_map.config.inflation_m
-            beside = context.site_map.components_near((x, y), within_m)
-            if beside:
-                why += "; beside it: " + ", ".join(f"{name} ({m:.1f} m)" for name, m in beside[:3])
+            why += context.beside_words((float(x), float(y)))
         _log.warning(
             "%s: walled in at (%.2f, %.2f) since %.1f s of sim time; it takes no new task until it drives "
             "out: %s",

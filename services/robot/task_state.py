@@ -37,9 +37,7 @@ class ExecutorConfig:
     max_reselections: int = 20  # approach poses chosen again at once when their cell becomes occupied
     max_approach_misses: int = 10  # searches for an approach pose that found none, then given back
     traffic_wait_s: float = 120.0  # sim seconds to wait for a stand-point only laser marks cut off
-    shut_in_wait_s: float = (
-        900.0  # sim seconds to hold a placement that would shut a robot in (the planner's)
-    )
+    shut_in_wait_s: float = 900.0  # sim seconds to hold a placement that would shut a robot in (planner's)
     shut_in_recheck_s: float = 5.0  # …asking again this often (a flood fill of the site per robot)
     retry_delay_s: float = 1.0  # sim seconds before looking for an approach again
     task_timeout_s: float = 900.0  # sim seconds in one task state → given back (no_progress)

@@ -4,6 +4,7 @@ task back ``no_approach_pose`` (the planner then asks a crane first) instead of 
 
 from __future__ import annotations
 
+from functools import partial
 from types import SimpleNamespace
 from typing import Any, cast
 
@@ -13,6 +14,7 @@ import pytest
 from bimbot.services.robot import give_back
 from bimbot.services.robot.approach import ApproachConfig
 from bimbot.services.robot.driving import Driving
+from bimbot.services.robot.robot_context import RobotContext
 from bimbot.services.robot.task_state import ExecutorConfig
 from bimbot.shared.footprint import Footprint
 from bimbot.shared.occupancy_grid import from_footprints, inflate
@@ -93,6 +95,7 @@ def test_a_robot_walled_in_names_what_stands_beside_it() -> None:
     driving.context.robot_id = "r2"
     driving.context.site_map.blocks = lambda footprint: True
     driving.context.site_map.components_near = lambda xy, within_m: [("Gate", 0.4), ("Partition", 0.9)]
+    driving.context.beside_words = partial(RobotContext.beside_words, driving.context)
     target = Footprint(np.array([[2.0, 10.0], [3.0, 10.0], [3.0, 11.0], [2.0, 11.0]]), 0.0, 2.5)
     reason = driving._no_approach(driving.context.site_map.inflated_grid(), target, "the target of Column")
     assert reason.code is ReasonCode.ROBOT_TRAPPED and reason.robot_id == "r2"
@@ -163,6 +166,7 @@ def test_a_robot_that_finds_itself_walled_in_while_parking_names_what_stands_bes
             components_near=lambda xy, within_m: [("Stud 167106", 0.6), ("Door 166070", 1.2)],
         ),
     )
+    context.beside_words = partial(RobotContext.beside_words, context)
     cycle = TaskCycle(cast(Any, context))
     cycle.say_state_soon = lambda: None  # type: ignore[method-assign]
     with caplog.at_level("WARNING"):
