@@ -230,9 +230,9 @@ def robot_lines(report: dict[str, Any], window: tuple[float, float] | None) -> l
 
 
 def walled_in_lines(robots: dict[str, Any]) -> list[str]:
-    """``r1 at (1.43, -6.35) from 5.4 days (470,130 s) of sim time to the end of the run``: each time a
-    robot said it had no way to its depot, where it stood and since when (and until when, if it got
-    out)."""
+    """``r1 at (1.43, -6.35) from 5.4 days round the clock (470,130 s) of sim time to the end of the run``:
+    each time a robot said it had no way to its depot, where it stood and since when (and until when, if
+    it got out)."""
     lines = []
     for robot_id in robot_order(robots):
         for spell in robots[robot_id].get("walled_in") or []:

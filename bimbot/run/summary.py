@@ -2,9 +2,9 @@
 
 Pure: a :class:`RunOutcome` (the run's counts, its report and where its files are) in, text out. Every
 duration is said by :func:`~bimbot.shared.report.durations.duration_text` (one format, the unit a person
-says it in: ``396.0 s``, ``36.6 min (2,197 s)``, ``5.0 days (432,000 s)``). The figures are the report's
-(:mod:`bimbot.shared.report.collector` and its ``report_*`` helpers), so the summary and ``report.json``
-cannot disagree.
+says it in: ``396.0 s``, ``36.6 min (2,197 s)``, ``5.0 days round the clock (432,000 s)``). The figures are
+the report's (:mod:`bimbot.shared.report.collector` and its ``report_*`` helpers), so the summary and
+``report.json`` cannot disagree.
 """
 
 from __future__ import annotations

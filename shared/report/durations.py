@@ -51,8 +51,10 @@ def spoken_unit(seconds: float) -> TimeUnit:
 
 def duration_text(seconds: float) -> str:
     """A duration in the unit a person would say it in: ``45.0 s``, ``12.5 min``, ``2.0 h``, ``81.0 h``,
-    ``5.2 days`` (minutes only up to an hour; the seconds too when the unit is not seconds:
-    ``81.0 h (291,652 s)``). The one format of every duration in the run's summary."""
+    ``5.2 days round the clock`` (minutes only up to an hour; the seconds too when the unit is not
+    seconds: ``81.0 h (291,652 s)``). The one format of every duration in the run's summary. Sim time
+    runs day and night (robots, crews and curing alike), and a trial builder read "6.6 days" as six
+    working days: days are said "round the clock"."""
     return in_unit_text(seconds, spoken_unit(seconds))
 
 
@@ -67,6 +69,8 @@ def in_unit_text(seconds: float, unit: TimeUnit) -> str:
     if 0.0 < seconds < unit.seconds and own.seconds < unit.seconds:
         unit = own
     text = f"{seconds / unit.seconds:.1f} {unit.name}"
+    if unit.name == "days":  # sim time runs day and night; a builder reads "days" as working days
+        text += " round the clock"
     return text if unit.seconds == 1.0 else f"{text} ({seconds:,.0f} s)"
 
 

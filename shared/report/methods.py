@@ -233,6 +233,26 @@ def set_by_line(report: Mapping[str, Any]) -> str | None:
         f"which may overlap: {_phases(report)}) and "
         f"waits with nothing at work (cures, holds) {duration_text(waiting_s)}; the robots that lift were at "
         f"work {duration_text(lifting_s)} of it, so more of them would not make it much shorter"
+        f"{_in_place_lever(report, in_place)}"
+    )
+
+
+def _in_place_lever(report: Mapping[str, Any], in_place: set[str]) -> str:
+    """``; the work in place was r5's (concrete_pump): …``: who did the work in place and the files that
+    change it, since that, not the lifting, is the lever (a new user read the line as advice on lifting
+    robots alone); empty when no robot's task was one."""
+    robots = report.get("robots") or {}
+    doers = [
+        f"{robot_id} ({robot.get('type', '?')})"
+        for robot_id, robot in sorted(robots.items())
+        if any(task.get("guid") in in_place for task in robot.get("tasks", []))
+    ]
+    if not doers:
+        return ""
+    whose = f"{doers[0]}'s" if len(doers) == 1 else f"that of {', '.join(doers)}"
+    return (
+        f"; the work in place was {whose}: more crews or pumps of that type in the fleet file (--fleet) "
+        "share it, and the methods file (--methods) sets its forming rates and cure times"
     )
 
 

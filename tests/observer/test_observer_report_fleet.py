@@ -251,12 +251,12 @@ def test_the_summary_s_sim_time_is_never_before_the_last_construction_the_report
         RunOutcome(exit_code=0, constructed=2, total=2, sim_time_s=1_738_309.7, report=report)
     )
     assert first.splitlines()[0].startswith(
-        "constructed 2/2 components in 20.8 days (1,795,234 s) of sim time"
+        "constructed 2/2 components in 20.8 days round the clock (1,795,234 s) of sim time"
     )
     later = summary_text(
         RunOutcome(exit_code=0, constructed=2, total=2, sim_time_s=1_800_000.0, report=report)
     )
-    assert "in 20.8 days (1,800,000 s) of sim time" in later
+    assert "in 20.8 days round the clock (1,800,000 s) of sim time" in later
 
 
 def test_the_observer_s_report_says_the_fidelity_physics_simulates_at(frame_manifest: Manifest) -> None:

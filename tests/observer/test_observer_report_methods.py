@@ -143,7 +143,7 @@ def test_times_are_said_in_the_unit_of_their_span() -> None:
         "15.6 min (935 s)",
         "3.1 h (11,062 s)",
         "0 s",
-        "3.5 days (300,000 s)",
+        "3.5 days round the clock (300,000 s)",
     ]
 
 
@@ -259,7 +259,10 @@ def test_the_summary_says_when_work_in_place_and_cures_set_the_makespan_not_the_
                 {"guid": "beam", "method": "lifted"},
             ],
             "robots": {
-                "r1": {"tasks": [{"guid": "slab", "start_s": 0.0, "end_s": 40_000.0}]},
+                "r1": {
+                    "type": "concrete_pump",
+                    "tasks": [{"guid": "slab", "start_s": 0.0, "end_s": 40_000.0}],
+                },
                 "r2": {"tasks": [{"guid": "beam", "start_s": 40_000.0, "end_s": 40_000.0 + lift_end_s}]},
             },
         }
@@ -268,4 +271,8 @@ def test_the_summary_says_when_work_in_place_and_cures_set_the_makespan_not_the_
     assert line is not None and line.startswith("what set the makespan: work in place")
     assert "11.1 h (40,000 s)" in line and "15.7 h (56,400 s)" in line and "60.0 min (3,600 s)" in line
     assert "(summed over its components, which may overlap: forming 10.0 h (36,000 s), pouring 1.1 h" in line
+    assert line.endswith(
+        "; the work in place was r1 (concrete_pump)'s: more crews or pumps of that type in the fleet file "
+        "(--fleet) share it, and the methods file (--methods) sets its forming rates and cure times"
+    )
     assert set_by_line(report(50_000.0)) is None  # the lifting took half of it: more robots may help
