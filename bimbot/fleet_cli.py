@@ -231,8 +231,9 @@ def _print_table(
         )
     if routes:
         head = (
-            "first route (the first machine named in each buildable row; a run gives each task to the "
-            "capable machine that bids best): "
+            "first route (of each buildable component, the first machine that can do its work, as the "
+            'full table\'s "built by" column names it; a run gives each task to the capable machine '
+            "that bids best): "
         )
         entries = [f"{count} {route}" for route, count in routes.most_common()]
         for line in packed_lines(head, entries, CONSOLE_WIDTH):
