@@ -18,8 +18,16 @@ stands: on the Revit house with three carriers, r2 set a partition panel from in
 open, and a stud r1 set at the same time closed that gap (r2 walled in for 24.5 min). So a check counts
 the parts the other robots are setting at their targets now (their state messages, :func:`note_placing`)
 as standing too, and holds a placement for a robot that its part and theirs shut in together and theirs
-alone would not. The robot inside is not held by its own check: it sets its part and drives out, and the
-robot outside waits for that.
+alone would not, or that its part alone shuts in (a mullion and its glazing panel close one gap each
+alone: two checks that each left it to the other let both go). A part set down already stands on the map,
+its robot's check done: it is not theirs to check any more. The robot inside is not held by its own
+check: it sets its part and drives out, and the robot outside waits for that.
+
+A part set down and not joined lies loose: it is judged, and joined at its target or taken up by its
+retry and set there. On the Revit house with three carriers a crane set a door off its target, across a
+gap of the room r2 stood in; r2 counted as walled in already, r1's stud closed the room's other gap, and
+once the door stood in its doorway r2 was walled in for 19.3 min. So the check sees past a loose part, as
+set at its target (:meth:`.site_map.SiteMap.loose_targets`).
 
 Cost: two labellings of the free grid for each size of robot on site (the depots lie in one depot area,
 joined to each other, so one depot stands for all robots of a size), once a placement and then every
@@ -90,18 +98,19 @@ def joined_near(
     return bool((joined[r0:r1, c0:c1] & near).any())
 
 
-def shut_in_by(
+def ways_out(
     site_map: SiteMap,
     outlines_xy_m: Sequence[NDArray[np.float64]],
     drivers: Mapping[str, tuple[float, tuple[float, float]]],
     others_xy: Mapping[str, tuple[float, float]],
-) -> list[str]:
-    """The robots of ``drivers`` (id → its inflation radius and depot start) that, where ``others_xy`` says
-    they stand, reach their depot on ``site_map`` now and would not once a component of these band outlines
-    stands; sorted."""
-    if not outlines_xy_m:
-        return []
-    shut = []
+    placing: str | None = None,
+) -> dict[str, tuple[bool, bool]]:
+    """For each robot of ``drivers`` (id → its inflation radius and depot start) where ``others_xy`` says
+    it stands: whether it reaches its depot on ``site_map`` now, and once a component of these band
+    outlines (``placing``, its guid) stands. Parts lying loose (set down, not joined) are seen past, as set
+    at their targets (:meth:`.site_map.SiteMap.loose_targets`)."""
+    loose, loose_outlines = site_map.loose_targets(but=placing)
+    status = {}
     regions: dict[float, tuple[OccupancyGrid, NDArray[np.bool_] | None, NDArray[np.bool_] | None]] = {}
     for robot_id in sorted(others_xy):
         if robot_id not in drivers:
@@ -110,23 +119,55 @@ def shut_in_by(
         if radius_m >= STATIC_DISTANCE_MAX_M:
             continue  # wider than the map's distance field goes: not checked (none of bimbot's types)
         if radius_m not in regions:  # once per robot size: the depots lie in one yard, joined to each other
-            grid = site_map.inflated_grid(radius_m)
-            before = reachable_region(grid, depot_xy)
-            regions[radius_m] = (grid, before, way_out_after(grid, outlines_xy_m, depot_xy, radius_m))
+            if loose:
+                grid = site_map.inflated_grid_without(loose, radius_m)
+                before = way_out_after(grid, loose_outlines, depot_xy, radius_m)
+            else:
+                grid = site_map.inflated_grid(radius_m)
+                before = reachable_region(grid, depot_xy)
+            after = way_out_after(grid, [*outlines_xy_m, *loose_outlines], depot_xy, radius_m)
+            regions[radius_m] = (grid, before, after)
         grid, before, after = regions[radius_m]
         xy = others_xy[robot_id]
-        if joined_near(grid, before, xy, radius_m) and not joined_near(grid, after, xy, radius_m):
-            shut.append(robot_id)  # joined now (else walled in already: not this placement's doing)
-    return shut
+        status[robot_id] = (joined_near(grid, before, xy, radius_m), joined_near(grid, after, xy, radius_m))
+    return status
+
+
+def shut_in_by(
+    site_map: SiteMap,
+    outlines_xy_m: Sequence[NDArray[np.float64]],
+    drivers: Mapping[str, tuple[float, tuple[float, float]]],
+    others_xy: Mapping[str, tuple[float, float]],
+    placing: str | None = None,
+) -> list[str]:
+    """The robots that reach their depot now and would not once a component of these band outlines
+    stands (:func:`ways_out`); sorted. One walled in already is not this placement's doing."""
+    if not outlines_xy_m:
+        return []
+    status = ways_out(site_map, outlines_xy_m, drivers, others_xy, placing)
+    return [robot_id for robot_id, (now, then) in status.items() if now and not then]
+
+
+def walled_in_already(context: RobotContext, robot_ids: Sequence[str]) -> list[str]:
+    """Of ``robot_ids``, those with no way to their depot now, the loose parts seen past (:func:`ways_out`
+    with nothing added)."""
+    asked = {robot_id: context.others_xy[robot_id] for robot_id in robot_ids if robot_id in context.others_xy}
+    status = ways_out(context.site_map, [], context.drivers, asked)
+    return [robot_id for robot_id, (now, _) in status.items() if not now]
 
 
 def theirs_setting(context: RobotContext, guid: str) -> tuple[list[str], list[NDArray[np.float64]]]:
     """The other robots setting a part other than ``guid`` at its target now, and those parts' band
-    outlines (``context.others_placing``)."""
+    outlines (``context.others_placing``). A part set down already (held while its connection is made, or
+    being judged) stands on the map, its robot's check done: it is no longer theirs to check. On the Revit
+    house with three carriers, r1's stud waited for r2 inside; once r2's panel and r4's door stood, both
+    robots still holding them, "theirs alone" shut r2 in, r1 left it to their checks, set the stud, and
+    r2 was walled in."""
+    site_map = context.site_map
     setting = sorted(
         robot_id
         for robot_id, (other_guid, _) in context.others_placing.items()
-        if other_guid != guid and robot_id != context.robot_id
+        if other_guid != guid and robot_id != context.robot_id and not site_map.set_down(other_guid)
     )
     return setting, [outline for robot_id in setting for outline in context.others_placing[robot_id][1]]
 
@@ -136,12 +177,16 @@ def shut_by_both(
 ) -> tuple[list[str], list[str]]:
     """The robots that the part ``guid`` of these band outlines shuts in, with the parts the other robots
     are setting now (``context.others_placing``) counted as standing, less those that theirs alone shut
-    in (their own checks' business); and the robots whose parts were counted (both sorted)."""
+    in and this part alone does not (their own checks' business); and the robots whose parts were counted
+    (both sorted). A robot that this part alone shuts in is held for here whatever the others set: a
+    mullion and the glazing panel it frames close the same gap, each alone, and two checks that each left
+    it to the other let both go (the Revit house with three carriers: r2 walled in to the end of a run)."""
     setting, theirs = theirs_setting(context, guid)
     site_map, drivers, others_xy = context.site_map, context.drivers, context.others_xy
-    shut = shut_in_by(site_map, outlines_xy_m + theirs, drivers, others_xy)
+    shut = shut_in_by(site_map, outlines_xy_m + theirs, drivers, others_xy, placing=guid)
     if shut and theirs:
-        alone = set(shut_in_by(site_map, theirs, drivers, others_xy))
+        alone = set(shut_in_by(site_map, theirs, drivers, others_xy, placing=guid))
+        alone -= set(shut_in_by(site_map, outlines_xy_m, drivers, others_xy, placing=guid))
         shut = [robot_id for robot_id in shut if robot_id not in alone]
     return shut, setting
 
@@ -158,11 +203,17 @@ def held(context: RobotContext, task: Task, config: ExecutorConfig) -> bool:
     name, now = component_name(task), context.sim_s
     if not shut:
         if task.shut_in_since_s is not None:
+            walled = walled_in_already(context, task.shut_in_robots)
             _log.info(
-                "%s: %s goes at %.0f s of sim time: it shuts nobody in now", context.robot_id, name, now
+                "%s: %s goes at %.0f s of sim time: it shuts nobody in now%s",
+                context.robot_id,
+                name,
+                now,
+                f" ({', '.join(walled)} walled in already, not by it)" if walled else "",
             )
-            task.shut_in_since_s = None
+            task.shut_in_since_s, task.shut_in_robots = None, []
         return False
+    task.shut_in_robots = shut
     if task.shut_in_since_s is None:
         task.shut_in_since_s = now
         _log.info(

@@ -146,6 +146,8 @@ class SiteMap:
         self._placed: set[str] = set()  # guids that left their yard slot for the structure
         self._applied: dict[str, tuple[object, ...]] = {}  # guid → the last pose message applied (its facts)
         self._settling: set[str] = set()  # placed, not yet joined: blocking whatever their height
+        self.loose: set[str] = set()  # judged misplaced: lying where they are to be taken up for a retry
+        self._without: tuple[tuple[object, ...], OccupancyGrid] | None = None  # inflated_grid_without's last
         self.version = 0
         self._cache: dict[str, object] = {}
         for guid, slot in layout.slots.items():
@@ -206,6 +208,10 @@ class SiteMap:
         misplaced no longer settles."""
         if guid not in self._components:
             return False
+        if state is ComponentState.MISPLACED:
+            self.loose.add(guid)
+        else:
+            self.loose.discard(guid)
         if state is ComponentState.MISPLACED and guid in self._settling and guid in self.footprints:
             # judged where it came to rest: no longer settling, it blocks by its height as any part (a
             # misplaced flush footing walled in the robot that had set it, standing over its edge)
@@ -264,6 +270,10 @@ class SiteMap:
                 near.append((component.name or guid, distance))
         return sorted(near, key=lambda item: (item[1], item[0]))
 
+    def set_down(self, guid: str) -> bool:
+        """Set down by physics where it was placed (fixed, or built), not carried."""
+        return guid in self._placed and guid not in self.carried
+
     def in_yard(self, guid: str) -> bool:
         """Still at its yard slot (not carried, never placed)."""
         return guid in self.footprints and guid not in self._placed and guid not in self.carried
@@ -290,6 +300,38 @@ class SiteMap:
             f"inflated:{radius:.4f}",
             lambda: self._geometry.with_occupied(self.static_distance_m() <= self._inflated_within(radius)),
         )
+
+    def inflated_grid_without(self, guids: Sequence[str], radius_m: float) -> OccupancyGrid:
+        """:meth:`inflated_grid` as if the components ``guids`` were not where they are (taken up): what a
+        robot's check of a room's way out sees past parts lying there loose. The whole grid inflated
+        again (kept until the map changes), so asked only when there are such parts."""
+
+        def build() -> OccupancyGrid:
+            counts = self._counts.copy()
+            for guid in guids:
+                cells = self._cells.get(guid)
+                if cells is not None and guid in self._in_band:
+                    counts[cells[:, 0], cells[:, 1]] -= 1  # as it was counted (_set_footprint)
+            return inflate(self._fence.with_occupied(self._fence.occupied | (counts > 0)), radius_m)
+
+        key = (self.version, radius_m, tuple(sorted(guids)))
+        if self._without is None or self._without[0] != key:  # one kept: a key per set of parts would pile up
+            self._without = (key, build())
+        return self._without[1]
+
+    def loose_targets(self, but: str | None = None) -> tuple[list[str], list[NDArray[np.float64]]]:
+        """The parts set down and not joined to the structure (still settling, or judged misplaced:
+        :attr:`loose`), in the band where they lie, other than ``but``; and the band outlines of their BIM
+        targets, where they stand once joined or their retry sets them."""
+        band_min, band_max = self.config.band_min_z_m, self.config.band_max_z_m
+        lying = self.loose | self._settling
+        guids = sorted(guid for guid in lying if guid != but and guid in self._in_band)
+        outlines = []
+        for guid in guids:
+            target = self._components[guid].target_pose_world
+            footprint = posed_footprint(self._components[guid], target.position_m, target.quat_xyzw)
+            outlines.extend(footprint.outlines_meeting(band_min, band_max))
+        return guids, outlines
 
     def free_at(self, xy_m: ArrayLike, radius_m: float | None = None) -> NDArray[np.bool_]:
         """Whether each point ``(n, 2)`` lies in a free cell of :meth:`inflated_grid` (outside the grid: not

@@ -71,6 +71,7 @@ class Task:
     misses: int = 0  # approach searches that found nothing
     traffic_since_s: float | None = None  # since when only laser marks cut every stand-point off
     shut_in_since_s: float | None = None  # since when placing it would shut another robot in
+    shut_in_robots: list[str] = field(default_factory=list)  # the robots placing it would shut in, last asked
     waiting_since_s: float | None = None  # since when physics says another robot stands where it goes
     placed: bool = False
     placement_note: str = ""  # said with the place event: how the robot placed it when it matters

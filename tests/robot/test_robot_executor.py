@@ -4,6 +4,7 @@ the paper's state order, a command for every clock step, at-least-once events, r
 from __future__ import annotations
 
 import itertools
+from typing import Any
 
 import numpy as np
 import pytest
@@ -289,3 +290,27 @@ def test_an_idle_robot_that_cannot_reach_its_depot_says_once_why_and_where_it_st
     )
     assert len(state.activity) <= 60, "whole on the run's progress line (MAX_ACTIVITY_CHARS)"
     assert state.walled_in_since_s is None, "its wheels are stuck, but a way is free: it is not walled in"
+
+
+def test_a_robot_holding_a_part_it_set_does_not_choose_its_stand_point_again(frame: Manifest) -> None:
+    """Physics answers a placement when the part's connection is made (a hold of minutes). Meanwhile the
+    robot's map has the part standing: on the Revit house with three carriers r2, holding a partition
+    panel it had set from a stand-point found close enough, asked again where to set it from, found the
+    panel now closed the room, and gave the standing panel back. While a placement is in flight the robot
+    does not drive nor choose a stand-point."""
+    site, released, task = make_site(frame)
+    driving = site.executor.getting_there
+    drive = driving.drive
+    while_placing: list[int] = []
+
+    def watched(task_: Any, footprint: Any) -> bool:
+        request = task_.request
+        if request is not None and request.kind == "place":
+            while_placing.append(site.step)
+        return drive(task_, footprint)
+
+    driving.drive = watched  # type: ignore[method-assign]
+    run_task(site, released, task)
+    assert [r.kind for r in site.requests] == ["attach", "place"]
+    assert site.executor.done == [(task.guid, ComponentState.CONSTRUCTED)]
+    assert while_placing == []

@@ -418,3 +418,28 @@ def test_a_part_placed_joined_and_constructed_where_it_lies_is_rasterised_once(
     moved = column.target_pose_world.position_m
     heard_all.observe_pose(pose(column.guid, (moved[0] + 0.5, moved[1], moved[2]), fixed=True, joined=True))
     assert len(rasterised) == 1
+
+
+def test_a_part_judged_misplaced_is_loose_until_taken_up_and_the_map_sees_past_it(
+    frame: Manifest, site: SiteMap
+) -> None:
+    """What the shut-in check sees past (services/robot/shut_in_check.py): a column set down off its target,
+    settling and then judged misplaced, lies loose; the grid without it is free where it lies, and its
+    target is where its retry will set it. Taken up again, it is loose no more."""
+    column = of_class(frame, "IfcColumn")
+    target = column.target_pose_world
+    off = (target.position_m[0] + 1.5, target.position_m[1], target.position_m[2])
+    assert site.observe_pose(pose(column.guid, off, target.quat_xyzw, fixed=True))
+    assert site.loose_targets()[0] == [column.guid]  # set down, not joined: settling, judged next
+    assert site.observe_state(column.guid, ComponentState.MISPLACED, 5.0)
+    assert site.loose == {column.guid}
+    radius = site.config.inflation_m
+    assert not site.inflated_grid(radius).is_free(off[0], off[1])
+    assert site.inflated_grid_without([column.guid], radius).is_free(off[0], off[1])
+    guids, outlines = site.loose_targets()
+    assert guids == [column.guid] and len(outlines) >= 1
+    centre = np.mean(np.vstack(outlines), axis=0)
+    assert np.allclose(centre, target.position_m[:2], atol=0.3)
+    assert site.loose_targets(but=column.guid) == ([], [])
+    site.observe_state(column.guid, ComponentState.PICKING, 6.0)
+    assert site.loose == set() and site.loose_targets() == ([], [])

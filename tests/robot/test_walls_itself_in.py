@@ -112,6 +112,7 @@ def _picking_up(robot_xy: tuple[float, float], others_placing: dict[str, Any]) -
     site_map.blocks = lambda footprint: True
     site_map.planning_grid = lambda marks, margin_m: site_map.inflated_grid()
     site_map.layout = SimpleNamespace(structure=None)
+    site_map.set_down = lambda guid: False  # the others' parts are in the air still
     goals: list[tuple[float, float]] = []
     context.navigator = SimpleNamespace(
         see=lambda: None,
