@@ -238,7 +238,11 @@ def as_built_line(report: dict[str, Any]) -> str | None:
     from_bim = [
         c["final_position_error_from_bim_mm"] for c in built if c.get("final_position_error_from_bim_mm")
     ]
-    tolerance = _tolerance_text(audit) + (" of their targets" if fits else "")
+    # "within 10 mm" beside "14.7 mm from BIM" read to a trial builder as a contradiction: say first
+    # which targets the tolerance holds to
+    tolerance = _tolerance_text(audit) + (
+        " of their targets (a fitted member's: where it fits the structure as built)" if fits else ""
+    )
     errors: list[str] = audit.get("errors", [])
     if not errors:
         line += f", all within tolerance{tolerance}"

@@ -238,9 +238,12 @@ def set_by_line(report: Mapping[str, Any]) -> str | None:
 
 
 def _in_place_lever(report: Mapping[str, Any], in_place: set[str]) -> str:
-    """``; the work in place was r5's (concrete_pump): …``: who did the work in place and the files that
-    change it, since that, not the lifting, is the lever (a new user read the line as advice on lifting
-    robots alone); empty when no robot's task was one."""
+    """``; the work in place was r5 (concrete_pump)'s, while r6 (line_pump) stood idle: …``: who did the
+    work in place, which machines did nothing, and what changes it. A new user read the line as advice on
+    lifting robots alone; then, told "more pumps share it", saw the run's second pump idle (the house's
+    two pours wait on each other's cure): another machine helps only where work in place can run side by
+    side, and the rates and cures are the methods file's, read at conversion. Empty when no robot's task
+    was work in place."""
     robots = report.get("robots") or {}
     doers = [
         f"{robot_id} ({robot.get('type', '?')})"
@@ -249,10 +252,17 @@ def _in_place_lever(report: Mapping[str, Any], in_place: set[str]) -> str:
     ]
     if not doers:
         return ""
+    idle = [
+        f"{robot_id} ({robot.get('type', '?')})"
+        for robot_id, robot in sorted(robots.items())
+        if not robot.get("tasks") and not robot.get("distance_m")
+    ]
     whose = f"{doers[0]}'s" if len(doers) == 1 else f"that of {', '.join(doers)}"
+    stood = f", while {', '.join(idle)} stood idle" if idle else ""
     return (
-        f"; the work in place was {whose}: more crews or pumps of that type in the fleet file (--fleet) "
-        "share it, and the methods file (--methods) sets its forming rates and cure times"
+        f"; the work in place was {whose}{stood}: it waits on cures and on what it stands on, so another "
+        "machine for it shortens it only where that work can run side by side; the forming rates and cure "
+        "times are the methods file's (bimbot convert MODEL --methods FILE, then run again)"
     )
 
 

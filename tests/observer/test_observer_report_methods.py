@@ -272,7 +272,12 @@ def test_the_summary_says_when_work_in_place_and_cures_set_the_makespan_not_the_
     assert "11.1 h (40,000 s)" in line and "15.7 h (56,400 s)" in line and "60.0 min (3,600 s)" in line
     assert "(summed over its components, which may overlap: forming 10.0 h (36,000 s), pouring 1.1 h" in line
     assert line.endswith(
-        "; the work in place was r1 (concrete_pump)'s: more crews or pumps of that type in the fleet file "
-        "(--fleet) share it, and the methods file (--methods) sets its forming rates and cure times"
+        "; the work in place was r1 (concrete_pump)'s: it waits on cures and on what it stands on, so "
+        "another machine for it shortens it only where that work can run side by side; the forming rates "
+        "and cure times are the methods file's (bimbot convert MODEL --methods FILE, then run again)"
     )
+    idle_pump = report(3_600.0)
+    idle_pump["robots"]["r3"] = {"type": "line_pump", "tasks": [], "distance_m": 0.0}
+    idle_line = str(set_by_line(idle_pump))
+    assert "was r1 (concrete_pump)'s, while r3 (line_pump) stood idle: it waits" in idle_line
     assert set_by_line(report(50_000.0)) is None  # the lifting took half of it: more robots may help

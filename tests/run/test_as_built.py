@@ -192,7 +192,8 @@ def test_a_member_fitted_to_the_structure_is_audited_against_its_fitted_target()
     # the tolerance first, then what the fit did: "up to 9 mm from their BIM targets" beside "15 mm from the
     # BIM targets" beside "within 10 mm" read as three answers to one question
     assert line is not None and line.endswith(
-        "all within tolerance (10 mm / 1°) of their targets; 1 fitted to the structure as built (their "
+        "all within tolerance (10 mm / 1°) of their targets (a fitted member's: where it fits the structure "
+        "as built); 1 fitted to the structure as built (their "
         "targets moved up to 9.0 mm from the BIM model), so standing up to 15.0 mm from their BIM positions "
         "(at most 20 mm: a fit moves a target at most one tolerance, and the member stands within one "
         "tolerance of its fitted target)"
