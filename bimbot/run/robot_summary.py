@@ -82,8 +82,10 @@ def _built_after(component: dict[str, Any] | None) -> str:
 
 def _classified(
     robot_id: str, robot: dict[str, Any], components: dict[str, dict[str, Any]]
-) -> tuple[int, int, list[tuple[int, str]]]:
-    """(built, given back, the others' (index, GUID)) among the robot's tasks that are not hand-offs: each
+) -> tuple[int, int, list[tuple[int, str]], int]:
+    """(built, given back, the others' (index, GUID), hand-offs given back) among the robot's tasks: a
+    hand-off counts only when given back (on the Revit hub with three carriers a summary said "0 given
+    back (L-Angle …: no_progress …)" of a hand-off given back); of the rest, each
     constructed placement by the robot and each give-back it made is matched to one of its tasks of that
     component, latest first (a component's last task by the robot is taken as the one that built it, its
     earlier ones as the retries), so the three add up to its tasks less its hand-offs. The others (a
@@ -104,11 +106,16 @@ def _classified(
     )
     built_tasks = given_back_tasks = 0
     others: list[tuple[int, str]] = []
+    handed_back: list[int] = []
     tasks = robot.get("tasks") or []
     for index in reversed(range(len(tasks))):
         task = tasks[index]
         guid = task.get("guid")
         if task.get("kind") == "hand_off":
+            if guid is not None and given_back[guid] > 0:  # given back: a give-back, not a hand-off
+                given_back[guid] -= 1
+                given_back_tasks += 1
+                handed_back.append(index)
             continue
         if task.get("kind") != "clear" and guid is not None and built[guid] > 0:
             built[guid] -= 1
@@ -119,7 +126,7 @@ def _classified(
             given_back_tasks += 1
             continue
         others.append((index, guid or ""))
-    return built_tasks, given_back_tasks, others
+    return built_tasks, given_back_tasks, others, len(handed_back)
 
 
 def _named_others(
@@ -182,7 +189,9 @@ def tasks_text(robot_id: str, robot: dict[str, Any], components: dict[str, dict[
     handed = f", {hand_offs} hand-off(s) to a crane" if hand_offs else ""
     if "built" not in robot:
         return tasks + (f" ({hand_offs} hand-off(s) to a crane)" if hand_offs else "")
-    built, given_back, unnamed = _classified(robot_id, robot, components)
+    built, given_back, unnamed, handed_back = _classified(robot_id, robot, components)
+    hand_offs -= handed_back
+    handed = f", {hand_offs} hand-off(s) to a crane" if hand_offs else ""
     text = f"{tasks}: {built} built, {given_back} given back" + _given_back_named(robot_id, components)
     others = _named_others(robot_id, robot, components, unnamed)
     if not others:
