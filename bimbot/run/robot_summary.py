@@ -186,7 +186,6 @@ def tasks_text(robot_id: str, robot: dict[str, Any], components: dict[str, dict[
     to the tasks; a report without the counts: ``11 task(s)``."""
     tasks = f"{len(robot['tasks'])} task(s)"
     hand_offs = sum(1 for task in robot["tasks"] if task.get("kind") == "hand_off")
-    handed = f", {hand_offs} hand-off(s) to a crane" if hand_offs else ""
     if "built" not in robot:
         return tasks + (f" ({hand_offs} hand-off(s) to a crane)" if hand_offs else "")
     built, given_back, unnamed, handed_back = _classified(robot_id, robot, components)

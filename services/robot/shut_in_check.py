@@ -24,10 +24,9 @@ its robot's check done: it is not theirs to check any more. The robot inside is 
 check: it sets its part and drives out, and the robot outside waits for that.
 
 A part set down and not joined lies loose: it is judged, and joined at its target or taken up by its
-retry and set there. On the Revit house with three carriers a crane set a door off its target, across a
-gap of the room r2 stood in; r2 counted as walled in already, r1's stud closed the room's other gap, and
-once the door stood in its doorway r2 was walled in for 19.3 min. So the check sees past a loose part, as
-set at its target (:meth:`.site_map.SiteMap.loose_targets`).
+retry and set there. The check sees past it, as set at its target (:meth:`.site_map.SiteMap.loose_targets`):
+a part judged misplaced across a room's gap neither counts a robot inside as walled in already nor hides
+that its retry will close that gap.
 
 Cost: two labellings of the free grid for each size of robot on site (the depots lie in one depot area,
 joined to each other, so one depot stands for all robots of a size), once a placement and then every

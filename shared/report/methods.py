@@ -244,17 +244,17 @@ def _in_place_lever(report: Mapping[str, Any], in_place: set[str]) -> str:
     two pours wait on each other's cure): another machine helps only where work in place can run side by
     side, and the rates and cures are the methods file's, read at conversion. Empty when no robot's task
     was work in place."""
-    robots = report.get("robots") or {}
+    robots = sorted((report.get("robots") or {}).items())
     doers = [
         f"{robot_id} ({robot.get('type', '?')})"
-        for robot_id, robot in sorted(robots.items())
+        for robot_id, robot in robots
         if any(task.get("guid") in in_place for task in robot.get("tasks", []))
     ]
     if not doers:
         return ""
     idle = [
         f"{robot_id} ({robot.get('type', '?')})"
-        for robot_id, robot in sorted(robots.items())
+        for robot_id, robot in robots
         if not robot.get("tasks") and not robot.get("distance_m")
     ]
     whose = f"{doers[0]}'s" if len(doers) == 1 else f"that of {', '.join(doers)}"

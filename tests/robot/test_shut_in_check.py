@@ -189,11 +189,11 @@ def _site_map_with_loose(walls: list, loose_box: tuple, loose_target: Footprint)
 
 
 def test_a_part_lying_loose_is_seen_past_as_set_at_its_target_by_its_retry() -> None:
-    """The Revit house with three carriers: a crane set a door off its target, and it lay across the gap a
-    stud was to close; r2 inside counted as walled in already, so r1's stud went, and when the door was
-    set again in its doorway r2 was walled in for 19.3 min. A part judged misplaced will be taken up and
-    set at its target: the check sees the room as it will be, the door in its doorway and the gap open,
-    so the stud that closes the gap shuts r2 in and waits."""
+    """A door set off its target lies across the gap a stud is to close, its doorway open: seen as it lies,
+    the robot inside goes out by the doorway and the stud goes; once the door is set again in its doorway
+    the robot is walled in. A part judged misplaced will be taken up and set at its target: the check sees
+    the room as it will be, the door in its doorway and the gap open, so the stud shuts the robot in and
+    waits."""
     room = [*ROOM[:2], (8.0, 2.0, 11.0, 2.2), (14.0, 2.0, 16.0, 2.2), *ROOM[3:]]  # the doorway: the south gap
     doorway = Footprint(np.array([[11.0, 2.0], [14.0, 2.0], [14.0, 2.2], [11.0, 2.2]]), 0.0, 2.5)
     lying_in_the_gap = (8.3, 9.8, 9.0, 13.2)
