@@ -19,7 +19,7 @@ from bimbot.run.restarts import Restart
 from bimbot.run.robot_summary import robot_lines, walled_in_line
 from bimbot.run.table import not_built_table
 from bimbot.shared.report.collector import RunEnding
-from bimbot.shared.report.durations import duration_text
+from bimbot.shared.report.durations import ROUND_THE_CLOCK, duration_text
 from bimbot.shared.report.fleet import robot_order, utilisation_line
 from bimbot.shared.report.methods import curing_line, set_by_line
 from bimbot.shared.report.placements import caught_on_last_attempt, placement_line
@@ -238,7 +238,17 @@ def summary_text(outcome: RunOutcome) -> str:
     exit_why = exit_line(outcome)
     if exit_why is not None:
         lines.append(exit_why)
-    return "\n".join(lines) + "\n"
+    return said_once("\n".join(lines) + "\n", ROUND_THE_CLOCK)
+
+
+def said_once(text: str, words: str) -> str:
+    """``text`` with ``words`` kept at their first place only: a trial user of the house read "round the
+    clock" eight times in one summary; once, at the first time in days, says how every later one is meant."""
+    first = text.find(words)
+    if first < 0:
+        return text
+    cut = first + len(words)
+    return text[:cut] + text[cut:].replace(words, "")
 
 
 def _finished(outcome: RunOutcome) -> bool:

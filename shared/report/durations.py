@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+ROUND_THE_CLOCK = " round the clock"  # what a time in days says (a builder reads "days" as working days)
+
 
 @dataclass(frozen=True)
 class TimeUnit:
@@ -70,7 +72,7 @@ def in_unit_text(seconds: float, unit: TimeUnit) -> str:
         unit = own
     text = f"{seconds / unit.seconds:.1f} {unit.name}"
     if unit.name == "days":  # sim time runs day and night; a builder reads "days" as working days
-        text += " round the clock"
+        text += ROUND_THE_CLOCK
     return text if unit.seconds == 1.0 else f"{text} ({seconds:,.0f} s)"
 
 

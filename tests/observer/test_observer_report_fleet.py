@@ -264,3 +264,16 @@ def test_the_observer_s_report_says_the_fidelity_physics_simulates_at(frame_mani
     assert collector.report()["settings"] == {}  # physics has not said: no guess
     collector.add(_site_info().model_copy(update={"fidelity": "plan"}))
     assert collector.report()["settings"] == {"fidelity": "plan"}  # a compose site's report says it too
+
+
+def test_the_summary_says_round_the_clock_once_at_its_first_time_in_days() -> None:
+    """A trial user read "round the clock" eight times in the house's summary: it is said at the first time
+    in days, and every later time in days is read the same way."""
+    from bimbot.run.summary import RunOutcome, summary_text
+
+    report = {"sim_time_s": 574_792.0, "totals": {"makespan_s": 574_791.0}}
+    text = summary_text(RunOutcome(exit_code=0, constructed=2, total=2, sim_time_s=574_792.0, report=report))
+    assert text.count("round the clock") == 1
+    first = text.splitlines()[0]
+    assert first.startswith("constructed 2/2 components in 6.7 days round the clock (574,792 s)")
+    assert "makespan 6.7 days (574,791 s)" in first
