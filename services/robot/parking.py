@@ -126,7 +126,9 @@ class Parking:
         context, failures = self.context, self._park_failures
         x, y = context.navigator.pose_xy_yaw[:2]
         where = f"stays at ({x:.1f}, {y:.1f})"
-        self.cycle.activity = not_parked_activity((x, y), walled_in)  # why: its log
+        home_x, home_y, _ = context.home_xy_yaw
+        off_m = math.hypot(x - home_x, y - home_y)
+        self.cycle.activity = not_parked_activity((x, y), walled_in, off_m)  # why: its log
         if failures == 1:
             _log.warning(
                 "%s: cannot drive to the depot, %s, idle, and tries again every %.0f s: %s",
@@ -144,13 +146,14 @@ class Parking:
             )
 
 
-def not_parked_activity(xy: tuple[float, float], walled_in: bool) -> str:
+def not_parked_activity(xy: tuple[float, float], walled_in: bool, off_m: float) -> str:
     """What a robot whose parking drive failed says in its state (the run's progress line shows it, up to
     60 characters): where it waits and what that means for the build. Not walled in, nothing changes: it
-    waits there for its next task (``waits at (1.4, -6.3) for a task, short of its depot``: a new user
-    read "no way to its depot" in a run that built everything as an error); walled in, it takes no task
-    until it gets out, and the other robots take the work."""
+    waits there for its next task, ``off_m`` from its depot (``waits at (1.4, -6.3) for a task, 0.7 m
+    from its depot``: a new user read "no way to its depot" in a run that built everything as an error,
+    and a later one could not tell what "short of its depot" meant); walled in, it takes no task until it
+    gets out, and the other robots take the work."""
     where = f"({xy[0]:.1f}, {xy[1]:.1f})"
     if walled_in:
         return f"walled in at {where}: no task until it gets out"
-    return f"waits at {where} for a task, short of its depot"
+    return f"waits at {where} for a task, {off_m:.1f} m from its depot"

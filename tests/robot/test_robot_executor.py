@@ -285,9 +285,7 @@ def test_an_idle_robot_that_cannot_reach_its_depot_says_once_why_and_where_it_st
     assert len(failed) == 1, [r.getMessage() for r in failed]  # the navigator said the first failure only
     state = site.executor.state_message(0.0)
     assert state.state is RobotState.IDLE, state
-    assert state.activity.startswith("waits at (") and state.activity.endswith(
-        " for a task, short of its depot"
-    )
+    assert state.activity.startswith("waits at (") and state.activity.endswith(" m from its depot")
     assert len(state.activity) <= 60, "whole on the run's progress line (MAX_ACTIVITY_CHARS)"
     assert state.walled_in_since_s is None, "its wheels are stuck, but a way is free: it is not walled in"
 

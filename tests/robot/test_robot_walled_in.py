@@ -68,8 +68,9 @@ def test_a_robot_closed_in_by_walls_says_where_and_since_when_until_it_drives_ou
 def test_a_robot_that_cannot_park_says_what_it_means_for_the_build_in_a_progress_line(
     xy: tuple[float, float],
 ) -> None:
-    waits = not_parked_activity(xy, walled_in=False)
+    waits = not_parked_activity(xy, walled_in=False, off_m=123.44)
     assert waits.startswith("waits at (") and "for a task" in waits  # nothing changes: it takes tasks
-    walled = not_parked_activity(xy, walled_in=True)
+    assert waits.endswith("123.4 m from its depot")  # how near it came
+    walled = not_parked_activity(xy, walled_in=True, off_m=0.7)
     assert walled.startswith("walled in at (") and walled.endswith(": no task until it gets out")
     assert max(len(waits), len(walled)) <= 60  # whole on the run's progress line (MAX_ACTIVITY_CHARS)
