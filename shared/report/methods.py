@@ -211,10 +211,12 @@ LIFTING_SETS_IT = 0.25  # the robots that lift at work for less of the makespan 
 
 
 def set_by_line(report: Mapping[str, Any]) -> str | None:
-    """``what set the makespan: work in place … and waits …; the robots that lift were at work … of it``,
+    """``what set the makespan: work in place … and waits …; one robot that lifts or more was at work …``,
     when the work in place (forming, pouring, laying) and the waits with nothing at work (cures) took most of
     the makespan and the lifting little of it; else None. A new user saw husky, carrier and crane at 1 %
-    each on the Revit house, three carriers change its makespan by 0.1 %, and nothing said why."""
+    each on the Revit house, three carriers change its makespan by 0.1 %, and nothing said why. The
+    lifting time is the time at least one of them worked (their tasks' spans merged, not summed: a trial
+    user took "the robots were at work" for a sum)."""
     totals = report.get("totals") or {}
     makespan_s, first_s = totals.get("makespan_s"), totals.get("first_release_s")
     working_s = totals.get("working_s")
@@ -231,8 +233,8 @@ def set_by_line(report: Mapping[str, Any]) -> str | None:
     return (
         f"what set the makespan: work in place {duration_text(in_place_s)} (summed over its components, "
         f"which may overlap: {_phases(report)}) and "
-        f"waits with nothing at work (cures, holds) {duration_text(waiting_s)}; the robots that lift were at "
-        f"work {duration_text(lifting_s)} of it, so more of them would not make it much shorter"
+        f"waits with nothing at work (cures, holds) {duration_text(waiting_s)}; one robot that lifts or more "
+        f"was at work {duration_text(lifting_s)} of it, so more of them would not make it much shorter"
         f"{_in_place_lever(report, in_place)}"
     )
 

@@ -281,3 +281,7 @@ def test_the_summary_says_when_work_in_place_and_cures_set_the_makespan_not_the_
     idle_line = str(set_by_line(idle_pump))
     assert "was r1 (concrete_pump)'s, while r3 (line_pump) stood idle: it waits" in idle_line
     assert set_by_line(report(50_000.0)) is None  # the lifting took half of it: more robots may help
+    side_by_side = report(3_600.0)  # a second lifting robot at work in the same hour: still one hour
+    side_by_side["robots"]["r4"] = {"tasks": [{"guid": "beam", "start_s": 40_000.0, "end_s": 43_600.0}]}
+    said = str(set_by_line(side_by_side))
+    assert "; one robot that lifts or more was at work 60.0 min (3,600 s) of it" in said
