@@ -24,6 +24,7 @@ import logging
 import re
 import shutil
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -119,7 +120,9 @@ def _run_build(
             ServiceProcess(name, args, log_dir, launcher=launcher)
             for name, args in router_commands(endpoints, bus)
         ]
-        watch = f"bimbot watch --build {build} --connect {endpoint}"
+        # the venv's own command, as the recording line names its viewer: a trial user without the venv
+        # activated could not run a bare ``bimbot``
+        watch = f"{Path(sys.executable).with_name('bimbot')} watch --build {build} --connect {endpoint}"
         if bus is not None:
             watch += f" --mode client --bus-config {bus.monitor}"
         if len(endpoints) > 1:

@@ -48,11 +48,12 @@ def with_machines_for(options: RunOptions, manifest: Manifest) -> RunOptions:
 
 
 def fleet_words(options: RunOptions) -> str:
-    """The run's fleet in words, and the machines left off site: ``1 husky, 1 carrier, 1 tower_crane
-    (off site, no work in this build: concrete_pump, block_layer)``."""
+    """The run's fleet in words, and the machines left off site: ``1 husky, 1 carrier, 1 tower_crane;
+    off site, no work in this build: concrete_pump, block_layer`` (in brackets after the last machine, a
+    trial user read the tower crane as off site)."""
     words = run_fleet(options).summary()
     if options.off_site:
-        words += f" (off site, no work in this build: {', '.join(options.off_site)})"
+        words += f"; off site, no work in this build: {', '.join(options.off_site)}"
     return words
 
 

@@ -144,7 +144,8 @@ SERVICE_OPTIONS: tuple[ServiceOption, ...] = (
             type=Path,
             metavar="FLEET.toml",
             help="the robot types on site and how many of each (default: bimbot's mixed fleet: a Husky, a "
-            "heavy carrier, a tower crane, a concrete pump, a block-laying robot and a trailer line pump; "
+            "heavy carrier, a tower crane, a concrete pump, a block-laying robot, a trailer line pump "
+            "and a piling rig; "
             "see `bimbot fleet show`)",
         ),
         ("physics",),

@@ -18,8 +18,8 @@ from bimbot.shared.manifest import JointSource, Manifest, SkippedElement
 
 
 def elements_summary(manifest: Manifest) -> str:
-    """`` from 919 IFC element(s) (701 as one component each, 18 cut into 236 panels, 180 built with their
-    hosts)``: how the elements converted (the count the progress line gave) became the components to
+    """`` from 919 IFC element(s) (701 as one component each, 18 cut into 236 panels in all, 180 built with
+    their hosts)``: how the elements converted (the count the progress line gave) became the components to
     build, the parts that apply in that order (and those it read but could not convert); empty when each
     element is one component. Every skip is said after it, with its reason."""
     whole = sum(1 for c in manifest.components if c.parent_guid is None)
@@ -31,7 +31,7 @@ def elements_summary(manifest: Manifest) -> str:
     panels = sum(1 for c in parts if c.parent_guid in cut)
     words = [f"{whole:,} as one component each"]
     if cut:
-        words.append(f"{len(cut):,} cut into {panels:,} panels")
+        words.append(f"{len(cut):,} cut into {panels:,} panels in all")
     if len(split) > len(cut):
         words.append(f"{len(split) - len(cut):,} poured in {len(parts) - panels:,} bays")
     if guests:

@@ -41,7 +41,7 @@ def test_the_elements_converted_add_up_to_the_progress_lines_count(
     counted = [int(n) for n in re.findall(r"(\d+) (?:as one component each|cut into)", parts)]
     assert sum(counted) == elements  # each element said once: whole, or cut into panels
     panels = sum(1 for c in manifest.components if c.parent_guid is not None)
-    assert f"cut into {panels} panels" in parts and panels > 0
+    assert f"cut into {panels} panels in all" in parts and panels > 0
 
 
 def test_each_element_as_one_component_says_nothing_more(

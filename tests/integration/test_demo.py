@@ -73,7 +73,8 @@ def test_demo_writes_world_recording_and_report_and_says_how_to_open_it(
     # the default fleet's pumps and block layer have no work in a frame: they stay off site, and the run
     # says so; its tower crane comes (it may lift), sleeps while it has no task, and the others do not wait
     # for it (shared/step_gate.py)
-    off_site = "(off site, no work in this build: concrete_pump, block_layer, line_pump, piling_rig)"
+    off_site = "tower_crane; off site, no work in this build: concrete_pump, block_layer, line_pump, "
+    off_site += "piling_rig"
     assert off_site in result.stdout
     assert settings["off_site"] == ["concrete_pump", "block_layer", "line_pump", "piling_rig"]
     logs = sorted(log.stem for log in run.logs_dir.glob("robot-*.log"))

@@ -57,8 +57,9 @@ def test_a_run_of_the_all_lifted_frame_leaves_the_pumps_and_the_block_layer_off_
     options = with_machines_for(RunOptions(robots=3), manifest)
     assert options.off_site == WORK_MACHINES
     assert run_fleet(options).summary() == "3 carrier, 1 tower_crane"
-    assert fleet_words(options).endswith(
-        "(off site, no work in this build: concrete_pump, block_layer, line_pump, piling_rig)"
+    assert fleet_words(options) == (  # not in brackets after the crane: it read as off site
+        "3 carrier, 1 tower_crane; off site, no work in this build: concrete_pump, block_layer, line_pump, "
+        "piling_rig"
     )
     arguments = physics_arguments(bundled_build, options)
     assert arguments[arguments.index("--off-site") + 1] == ",".join(WORK_MACHINES)
