@@ -127,7 +127,7 @@ def speed_text(rtf: float | None) -> str:
     """``real time ×8.1``, ``×93``, ``×47,001`` (a plan run's clock jumps by events): sim seconds per
     wall second, as many digits as mean something."""
     if rtf is None:
-        return "real time ×–"
+        return "real time not yet measured"
     if rtf < 10.0:
         return f"real time ×{rtf:.1f}"
     return f"real time ×{rtf:,.0f}"

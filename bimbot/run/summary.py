@@ -76,8 +76,8 @@ def wall_line(outcome: RunOutcome) -> str:
     rest_s = max(0.0, outcome.wall_time_s - outcome.startup_wall_s - outcome.build_wall_s)
     return (
         f"{total}: {duration_text(outcome.startup_wall_s)} start-up, {duration_text(outcome.build_wall_s)} "
-        f"building (from the services' start: the planner's preparation, then the build; the wall time the "
-        f"progress and the run's ending count), {duration_text(rest_s)} "
+        f"building (the planner's preparation and the build, as the progress lines count it), "
+        f"{duration_text(rest_s)} "
         "closing (the as-built audit, the report, stopping the services)"
     )
 

@@ -57,9 +57,9 @@ def _lines(**extra: object) -> list[str]:
 def test_the_wall_time_is_split_into_start_up_and_the_building_the_runs_ending_counts() -> None:
     lines = _lines(wall_time_s=345.0, startup_wall_s=85.0, build_wall_s=251.0)
     assert "wall" not in lines[0]  # the one figure "345 s wall" beside an ENDED line's 251 s is gone
-    assert lines[1].startswith("wall time 345.0 s: 85.0 s start-up, 251.0 s building (from the services'")
+    assert lines[1].startswith("wall time 345.0 s: 85.0 s start-up, 251.0 s building (the planner's")
     # a new user saw the planner prepare for 37 s after "3.2 s start-up": the building says it has that
-    assert "the planner's preparation, then the build" in lines[1]
+    assert "the planner's preparation and the build" in lines[1]
     assert lines[1].endswith("9.0 s closing (the as-built audit, the report, stopping the services)")
     ended = watch_of(_Dead("planner", 0, []), [], _Monitor())._ended(251.0)
     assert ended is not None and "after 251 s wall of building" in ended.ending.message
