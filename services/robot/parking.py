@@ -23,6 +23,8 @@ from .task_cycle import TaskCycle
 
 _log = logging.getLogger(__name__)
 
+AT_DEPOT_M = 0.5  # a robot this near its start pose stands at its depot
+
 
 class Parking:
     """Where an idle robot goes: first out of the structure's footprint (at once), then after a while back
@@ -89,8 +91,7 @@ class Parking:
         ):
             return
         x, y, yaw = context.home_xy_yaw
-        pose = navigator.pose_xy_yaw
-        if math.hypot(pose[0] - x, pose[1] - y) <= 0.5:
+        if self._from_depot_m() <= AT_DEPOT_M:
             cycle.moved_out("it stands at its depot")
         else:
             retry = self._park_failures > 0  # a drive that failed alike: said by _say_cannot_park, not here
@@ -115,9 +116,13 @@ class Parking:
             return False
         if context.sim_s - self._idle_since_s < context.config.park_after_s:
             return False
-        x, y, _ = context.home_xy_yaw
-        pose = context.navigator.pose_xy_yaw
-        return math.hypot(pose[0] - x, pose[1] - y) <= 0.5
+        return self._from_depot_m() <= AT_DEPOT_M
+
+    def _from_depot_m(self) -> float:
+        """How far the robot stands from its depot (its start pose), in metres."""
+        x, y = self.context.navigator.pose_xy_yaw[:2]
+        home_x, home_y, _ = self.context.home_xy_yaw
+        return math.hypot(x - home_x, y - home_y)
 
     def _say_cannot_park(self, why: str, walled_in: bool) -> None:
         """The robot's state says where it stays and what that means (:func:`not_parked_activity`); the log
@@ -126,9 +131,7 @@ class Parking:
         context, failures = self.context, self._park_failures
         x, y = context.navigator.pose_xy_yaw[:2]
         where = f"stays at ({x:.1f}, {y:.1f})"
-        home_x, home_y, _ = context.home_xy_yaw
-        off_m = math.hypot(x - home_x, y - home_y)
-        self.cycle.activity = not_parked_activity((x, y), walled_in, off_m)  # why: its log
+        self.cycle.activity = not_parked_activity((x, y), walled_in, self._from_depot_m())  # why: its log
         if failures == 1:
             _log.warning(
                 "%s: cannot drive to the depot, %s, idle, and tries again every %.0f s: %s",
