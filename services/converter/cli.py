@@ -124,6 +124,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="joint rules (TOML): which overlaps the model draws are joints, by pair of classes and depth "
         "(default: bimbot's own, shared/joint_rules.toml, which says why each depth)",
     )
+    parser.add_argument(
+        "--build-context",
+        action="store_true",
+        help="build the context massing too: detached blocks of walls and slabs at least two storeys tall "
+        "with no door, window or stair, drawn round a project that has them (neighbouring buildings); "
+        "left out by default, each with its reason in manifest.json",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar even on a terminal")
 
 
@@ -179,6 +186,7 @@ def run(args: argparse.Namespace) -> int:
         joints=joints,
         methods=methods,
         fleet=fleet,
+        build_context=args.build_context,
     )
     stats = ConversionStats()
     with _ProgressBar(

@@ -52,6 +52,7 @@ from .built_in_boards import build_in_boards
 from .component_work import ShardContext
 from .component_writer import skipped_entry
 from .connection_kinds import decide_connections
+from .context_massing import without_context
 from .crane_reach import crane_lift_limits, tightened
 from .duplicates import drop_duplicates
 from .face_materials import style_materials
@@ -96,6 +97,7 @@ class ConvertOptions:
     decisions: Mapping[str, MethodDecision] = field(default_factory=dict)  # by GlobalId, over the file's
     limits: MethodLimits | None = None  # what a lift and a truck take (default: the fleet's, the file's)
     joints: JointSettings | None = None  # what an overlap must be to be a joint (None: the default rules)
+    build_context: bool = False  # build the context massing too (.context_massing), not leave it out
 
 
 @dataclass
@@ -203,6 +205,9 @@ def _convert(
     )
     results = run_shards(model, elements, context, workers=workers, progress=progress)
     stats.seconds_by_stage["shards_wall"] = time.perf_counter() - shards_started
+    if not options.build_context:
+        results, context_skipped = without_context(elements, results, out_dir)
+        skipped += context_skipped
     reach_started = time.perf_counter()
     results = _cut_within_crane_reach(
         model,

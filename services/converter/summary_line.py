@@ -26,14 +26,16 @@ def elements_summary(manifest: Manifest) -> str:
     parts = [c for c in manifest.components if c.parent_guid is not None]
     guests = sum(len(c.guests) for c in [*manifest.components, *manifest.in_place])
     in_place = len({c.parent_guid or c.guid for c in manifest.in_place})
-    split = {element.guid: element for element in manifest.panelised}
-    cut = {guid for guid, element in split.items() if element.method is ConstructionMethod.PANELISED}
-    panels = sum(1 for c in parts if c.parent_guid in cut)
     words = [f"{whole:,} as one component each"]
-    if cut:
-        words.append(f"{len(cut):,} cut into {panels:,} panels in all")
-    if len(split) > len(cut):
-        words.append(f"{len(split) - len(cut):,} poured in {len(parts) - panels:,} bays")
+    for method, said in (
+        (ConstructionMethod.PANELISED, "cut into {parts:,} panels in all"),
+        (ConstructionMethod.CAST_IN_PLACE, "poured in {parts:,} bays"),
+        (ConstructionMethod.LAID, "laid in {parts:,} stretches"),
+    ):
+        split = {element.guid for element in manifest.panelised if element.method is method}
+        if split:
+            count = sum(1 for c in parts if c.parent_guid in split)
+            words.append(f"{len(split):,} " + said.format(parts=count))
     if guests:
         words.append(f"{guests:,} built with their hosts")
     if in_place:
@@ -45,7 +47,7 @@ def elements_summary(manifest: Manifest) -> str:
         words.append(f"{not_converted:,} not converted (skipped, below)")
     if len(words) == 1:
         return ""
-    elements = whole + len(split) + guests + in_place + not_converted
+    elements = whole + len(manifest.panelised) + guests + in_place + not_converted
     return f" from {elements:,} IFC element(s) ({', '.join(words)})"
 
 
