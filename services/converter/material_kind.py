@@ -15,12 +15,20 @@ it (:data:`POURED_WORDS`).
 
 from __future__ import annotations
 
+import math
 import re
 
 import ifcopenshell
 import ifcopenshell.util.element
+import ifcopenshell.util.unit
 
 from bimbot.shared.methods_file import MaterialKind
+
+# A plaster coat is 10-25 mm, a gypsum block or a drywall partition drawn as one layer up to about 150 mm:
+# a "plaster" layer thicker than this says what the wall is finished with, not what it is made of (the
+# Revit office's "MockUp Exterior", 600 mm of "Plaster" and 30 mm of "Leather, weathered" over five
+# storeys). Such a layer is left out of the main material; with nothing else said, the kind is unknown.
+MAX_FINISH_LAYER_M = 0.25
 
 # (pattern on a material name or category, kind); the first match wins, so specific words come first
 KIND_PATTERNS: tuple[tuple[re.Pattern[str], MaterialKind], ...] = (
@@ -84,7 +92,7 @@ def material_texts(element: ifcopenshell.entity_instance) -> list[str]:
     if material is None:
         return []
     texts: list[str] = []
-    for item in main_materials(material):
+    for item in main_materials(material, too_thick_m=_too_thick_m(element)):
         texts += [str(text) for text in (item.Name, getattr(item, "Category", None)) if text]
     own = getattr(material, "LayerSetName", None) or (
         None if material.is_a("IfcMaterial") else getattr(material, "Name", None)
@@ -94,13 +102,21 @@ def material_texts(element: ifcopenshell.entity_instance) -> list[str]:
     return list(dict.fromkeys(texts))
 
 
-def main_materials(material: ifcopenshell.entity_instance) -> list[ifcopenshell.entity_instance]:
-    """The ``IfcMaterial``\\ s of a material or material set, the one that makes most of it first."""
+def main_materials(
+    material: ifcopenshell.entity_instance, *, too_thick_m: float = math.inf
+) -> list[ifcopenshell.entity_instance]:
+    """The ``IfcMaterial``\\ s of a material or material set, the one that makes most of it first; a layer
+    of a finish (plaster, gypsum) thicker than ``too_thick_m`` (in the model's length unit) left out."""
     if material.is_a("IfcMaterial"):
         return [material]
     if material.is_a("IfcMaterialLayerSet"):
         layers = sorted(material.MaterialLayers or (), key=lambda layer: -(layer.LayerThickness or 0.0))
-        return [layer.Material for layer in layers if layer.Material is not None]
+        return [
+            layer.Material
+            for layer in layers
+            if layer.Material is not None
+            and not ((layer.LayerThickness or 0.0) > too_thick_m and _is_finish(layer.Material))
+        ]
     if material.is_a("IfcMaterialConstituentSet"):
         parts = sorted(material.MaterialConstituents or (), key=lambda part: -(part.Fraction or 0.0))
         return [part.Material for part in parts if part.Material is not None]
@@ -109,6 +125,16 @@ def main_materials(material: ifcopenshell.entity_instance) -> list[ifcopenshell.
     if material.is_a("IfcMaterialList"):
         return [item for item in material.Materials or () if item is not None]
     return []
+
+
+def _too_thick_m(element: ifcopenshell.entity_instance) -> float:
+    """:data:`MAX_FINISH_LAYER_M` in the model's length unit."""
+    return MAX_FINISH_LAYER_M / ifcopenshell.util.unit.calculate_unit_scale(element.file)
+
+
+def _is_finish(material: ifcopenshell.entity_instance) -> bool:
+    texts = [str(text) for text in (material.Name, getattr(material, "Category", None)) if text]
+    return material_kind(texts) is MaterialKind.GYPSUM
 
 
 def is_poured(texts: list[str]) -> bool:
