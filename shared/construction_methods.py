@@ -99,8 +99,10 @@ class PanelJoint(BaseModel):
 
 
 class PanelisedElement(BaseModel):
-    """An element split into parts, each a component: precast panels (``panelised``), or bays poured one a
-    day (``cast_in_place``: a slab too large for one day's pour). The element is built when all are."""
+    """An element split into parts, each a component: precast panels (``panelised``), bays poured one a
+    day (``cast_in_place``: a slab too large for one day's pour), or stretches laid one from each set-up of
+    the block layer (``laid``: a wall longer than its boom covers from one). The element is built when all
+    are."""
 
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
@@ -109,9 +111,10 @@ class PanelisedElement(BaseModel):
     name: str | None = None
     mass_kg: float = Field(gt=0)
     method: ConstructionMethod = Field(
-        default=ConstructionMethod.PANELISED, description="its parts': panelised or cast_in_place (bays)"
+        default=ConstructionMethod.PANELISED,
+        description="its parts': panelised, cast_in_place (bays) or laid (stretches)",
     )
-    panel_guids: tuple[str, ...] = Field(min_length=1, description="its parts, panels or bays")
+    panel_guids: tuple[str, ...] = Field(min_length=1, description="its parts, panels, bays or stretches")
     joints: tuple[PanelJoint, ...] = ()
     why: str = Field(description="the sentence with the numbers: why it was split")
 
@@ -144,6 +147,11 @@ class MethodLimits(BaseModel):
     transport_length_m: float = Field(gt=0)
     transport_width_m: float = Field(gt=0)
     transport_height_m: float = Field(gt=0, description="of the load itself, above the trailer's deck")
+    lay_reach_m: float | None = Field(
+        default=None,
+        gt=0,
+        description="the longest boom of the types that lay: a longer wall is laid in stretches",
+    )
 
     @property
     def transport_size_m(self) -> tuple[float, float, float]:

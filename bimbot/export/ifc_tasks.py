@@ -182,8 +182,10 @@ def _element_task(
     task = written.element_tasks.get(work.parent_guid)
     if task is None:
         name = element_names.get(work.parent_guid, work.parent_guid)
-        bays = work.method is ConstructionMethod.CAST_IN_PLACE
-        title = f"Cast {name} (in bays)" if bays else f"Erect {name} (precast panels)"
+        title = {
+            ConstructionMethod.CAST_IN_PLACE: f"Cast {name} (in bays)",
+            ConstructionMethod.LAID: f"Lay {name} (in stretches)",
+        }.get(work.method, f"Erect {name} (precast panels)")
         task = _task(model, written, title, work.parent_guid, None)
         written.element_tasks[work.parent_guid] = task
         if work.parent_guid in products:

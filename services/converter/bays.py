@@ -9,6 +9,9 @@ and of the grids with that many, the one whose bays are the most nearly square. 
 does not reach is dropped; one it fills in separate pieces (a slab with a notch) gives a bay for each
 piece. The joints are the cuts between neighbouring bays, with their lengths in plan.
 
+A laid wall longer than a block layer lays from one set-up is cut the same way into stretches
+(:func:`split_into_stretches`): equal lengths along its plan's long side, each its whole thickness.
+
 Meshes are cut by manifold3d. Frames: input and output meshes are in the element's own frame, metres.
 """
 
@@ -37,6 +40,7 @@ TOUCH_M = 1e-4  # two bays whose boxes meet within this at a cut share a joint
 # practical; never make the long side more than 1-1/2 times as long as the short side", a contractor's
 # rule for a slab's joint layout after ACI: overlandconcrete.com, "Planning and preparation")
 MAX_ASPECT = 1.5
+PARTS = ("poured", "bays")  # how the notes name a pour's parts
 
 
 def split_into_bays(
@@ -59,10 +63,37 @@ def split_into_bays(
         bays = _bays(solid, low, high, nx, ny)
         largest_m3 = max(volume for _, _, volume in bays)
         if largest_m3 <= max_volume_m3 * (1.0 + 1e-6):
-            return _result(bays, nx=nx, ny=ny, size=size, mass_kg=mass_kg, total_m3=total_m3, frame=frame)
+            return _result(
+                bays, nx=nx, ny=ny, size=size, mass_kg=mass_kg, total_m3=total_m3, frame=frame, parts=PARTS
+            )
     raise PanelisationError(
         f"{total_m3:,.1f} m³: no grid of up to {MAX_BAYS} bays keeps each within {max_volume_m3:,.1f} m³ "
         f"(the largest of the last try: {largest_m3:,.1f} m³)"
+    )
+
+
+def split_into_stretches(
+    mesh: MeshLike, mass_kg: float, count: int, *, rotation: np.ndarray | None = None
+) -> Panelisation:
+    """Cut ``mesh`` (as :func:`split_into_bays`) into ``count`` stretches of equal length along the long side
+    of its plan, each its whole thickness and height: a laid wall, one stretch from each set-up of the block
+    layer (their volumes differ where its openings do)."""
+    rotation = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
+    local = as_trimesh_lite(mesh)
+    frame = cut_frame(local.vertices, rotation)
+    vertices = local.vertices @ frame.T
+    solid = closed_solid(vertices, local.faces, "stretches")
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    stretches = _bays(solid, low, high, count, 1)
+    return _result(
+        stretches,
+        nx=count,
+        ny=1,
+        size=high - low,
+        mass_kg=mass_kg,
+        total_m3=float(solid.volume()),
+        frame=frame,
+        parts=("laid", "stretches"),
     )
 
 
@@ -115,7 +146,9 @@ def _result(
     mass_kg: float,
     total_m3: float,
     frame: np.ndarray,
+    parts: tuple[str, str],
 ) -> Panelisation:
+    """``parts``: how the words name them (a pour's bays, a laid wall's stretches)."""
     """The bays back in the element frame, their masses by volume and the joints between neighbours."""
     meshes = []
     boxes = []
@@ -141,7 +174,8 @@ def _result(
                 joints.append(PanelJointSpec(i, j, round(float(length), 3), JOINT_KIND))
     largest = max(volumes)
     how = (
-        f"poured in {len(bays)} bays ({nx} × {ny} in plan, {size[0] / nx:.1f} × {size[1] / ny:.1f} m), "
+        f"{parts[0]} in {len(bays)} {parts[1]} ({nx} × {ny} in plan, "
+        f"{size[0] / nx:.1f} × {size[1] / ny:.1f} m), "
         f"{largest:,.1f} m³ at most, with {len(joints)} construction joints"
     )
     return Panelisation(

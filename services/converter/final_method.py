@@ -34,7 +34,7 @@ DEFAULT_DECISION = MethodDecision(
 
 def method_limits(fleet: Fleet, methods: MethodsFile) -> MethodLimits:
     """The largest payload of the robot types on site that lift (carry or hook a load and place it; all
-    types when none is on site) and the file's truck load."""
+    types when none is on site), the file's truck load and the longest boom of the types that lay."""
     types = list((fleet.on_site() or fleet.types).values())
     lifters = [
         description
@@ -43,12 +43,14 @@ def method_limits(fleet: Fleet, methods: MethodsFile) -> MethodLimits:
         and (description.can(Capability.CARRY) or description.can(Capability.HOOK_LIFT))
     ]
     strongest = max(lifters or types, key=lambda description: description.payload_kg)
+    layers = [description.reach_m for description in types if description.can(Capability.LAY)]
     return MethodLimits(
         lift_capacity_kg=strongest.payload_kg,
         lifted_by=strongest.name,
         transport_length_m=methods.transport.length_m,
         transport_width_m=methods.transport.width_m,
         transport_height_m=methods.transport.height_m,
+        lay_reach_m=max(layers, default=None),
     )
 
 

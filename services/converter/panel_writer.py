@@ -41,14 +41,14 @@ from bimbot.shared.manifest import Component
 from bimbot.shared.methods_file import MaterialKind, MethodsFile
 
 from . import mass as mass_chain
-from .bays import split_into_bays
+from .bays import split_into_bays, split_into_stretches
 from .cast_work import cast_work, rates_class
 from .collision import collision_from_mesh
 from .component_methods import element_limits, settled_method, target_in_ground
 from .component_work import GeometryWork, PlacedElement, ShardContext
 from .component_writer import EntryParts, element_mass, write_component, write_entry
 from .face_slope import face_slope_deg
-from .final_method import SPLIT_NOTE
+from .final_method import SPLIT_NOTE, default_limits
 from .mass_properties import mass_properties
 from .mesh import TriMesh
 from .mesh_files import write_geometry_files
@@ -91,6 +91,13 @@ def write_element(
             _log.info("%s %s not panelised: %s", element.is_a(), guid, error)
             decision = not_panelised(decision, str(error), context.methods, element)
             warnings = (f"not panelised: {error} → {decision.method.value.replace('_', ' ')}",)
+    stretch_m = laid_stretch_m(context)
+    if decision.method is ConstructionMethod.LAID and plan_length_m(item) > stretch_m:
+        try:
+            return write_stretches(item, work, context, mass, decision, stretch_m=stretch_m)
+        except PanelisationError as error:
+            _log.info("%s %s not laid in stretches: %s", element.is_a(), guid, error)
+            warnings = (*warnings, f"laid whole, not in stretches: {error}")
     day_m3 = day_pour_m3(item, context)
     if decision.method is ConstructionMethod.CAST_IN_PLACE and work.props.volume_m3 > day_m3:
         try:
@@ -215,6 +222,45 @@ def write_bays(
     )
 
 
+def laid_stretch_m(context: ShardContext) -> float:
+    """The longest stretch of wall a block layer lays from one set-up: half its boom's reach (from a set-up
+    a lane off the wall beside the stretch's middle, the boom covers both ends); unbounded without one."""
+    reach_m = (context.limits or default_limits()).lay_reach_m
+    return math.inf if reach_m is None else reach_m / 2.0
+
+
+def plan_length_m(item: PlacedElement) -> float:
+    """The diagonal of the element's plan box: the longest a stretch of it may run (a wall on the skew, or
+    with a return, runs as far as its box's diagonal)."""
+    low, high = item.bbox_ifc_world_m
+    return float(math.hypot(high[0] - low[0], high[1] - low[1]))
+
+
+def write_stretches(
+    item: PlacedElement,
+    work: GeometryWork,
+    context: ShardContext,
+    mass: mass_chain.MassResult,
+    decision: MethodDecision,
+    *,
+    stretch_m: float,
+) -> WrittenElement:
+    """Cut ``item``, laid, into stretches no longer than ``stretch_m`` along its length (vertical cuts, as
+    bays are cut: :func:`.bays.split_into_stretches`) and write each as a component; PanelisationError when
+    it cannot be cut so."""
+    count = math.ceil(plan_length_m(item) / stretch_m)
+    cut = split_into_stretches(work.mesh, mass.mass_kg, count, rotation=item.rotation)
+    why = (
+        f"{plan_length_m(item):,.1f} m long, more than a block layer lays from one set-up ({stretch_m:,.1f} "
+        f"m, half its boom's reach): {cut.why}"
+    )
+    cut = replace(cut, why=why)
+    note = f"{decision.note}; {why}" if decision.note else why
+    return _write_parts(
+        item, context, mass, cut, decision.model_copy(update={"note": note}), method=ConstructionMethod.LAID
+    )
+
+
 def _write_parts(
     item: PlacedElement,
     context: ShardContext,
@@ -232,7 +278,7 @@ def _write_parts(
     count = len(cut.panels)
     guids = [panel_guid(parent_guid, index) for index in range(count)]
     label = element.Name or element.is_a()
-    part = "bay" if method is ConstructionMethod.CAST_IN_PLACE else "panel"
+    part = {ConstructionMethod.CAST_IN_PLACE: "bay", ConstructionMethod.LAID: "stretch"}.get(method, "panel")
     written = WrittenElement()
     for index, (mesh, mass_kg) in enumerate(zip(cut.panels, cut.masses_kg, strict=True)):
         centre = mesh.bounds.mean(axis=0)
@@ -270,7 +316,7 @@ def _write_parts(
                 extra={
                     "method": method,
                     "method_source": decision.source,
-                    "method_note": decision.note if cast is not None else cut.why,
+                    "method_note": cut.why if method is ConstructionMethod.PANELISED else decision.note,
                     "parent_guid": parent_guid,
                     "cast": cast,
                 },
