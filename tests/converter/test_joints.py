@@ -378,6 +378,27 @@ def test_a_railing_drawn_into_its_stair_half_way_up_is_a_joint(tmp_path: Path) -
     assert joint.rule == "IfcRailing into IfcStair, up to 100 mm"
 
 
+def test_an_assembled_stairs_stringer_and_its_railing_are_fixed_to_the_flight_and_the_stringer(
+    tmp_path: Path,
+) -> None:
+    """Revit's assembled stairs (the Revit office's) draw each stringer 44-57 mm into the side of its run and
+    the railing's posts 86-89 mm into the stringer: as clashes, physics pushed the stringers off and 917
+    components over the stair were never built. The stringer is fixed along the flight, the flight first;
+    the railing along the stringer, the stringer first."""
+    small = new_model()
+    add_box(small, "IfcStairFlight", "Run", size_m=(3.0, 1.2, 0.3), corner_m=(0.0, 0.0, 1.5))
+    add_box(small, "IfcMember", "Stringer", size_m=(3.0, 0.1, 0.4), corner_m=(0.0, 1.15, 1.45))
+    add_box(small, "IfcRailing", "Railing", size_m=(3.0, 0.05, 1.1), corner_m=(0.0, 1.16, 1.8))
+    manifest = _convert(small, tmp_path)
+    guid = _guids(manifest)
+    assert manifest.clashes == []
+    joints = {joint.guids: joint for joint in manifest.joints}
+    assert joints[(guid["Run"], guid["Stringer"])].rule == "IfcMember into IfcStairFlight, up to 100 mm"
+    assert joints[(guid["Stringer"], guid["Railing"])].rule == "IfcRailing into IfcMember, up to 100 mm"
+    preds = support_predecessors(manifest.components, joints=manifest.joints)
+    assert guid["Run"] in preds[guid["Stringer"]] and guid["Stringer"] in preds[guid["Railing"]]
+
+
 @pytest.mark.parametrize(("post_top_m", "notched"), [(3.45, True), (2.72, False)])
 def test_a_roof_plank_drawn_through_a_post_that_rises_past_it_is_cut_round_it_and_the_post_comes_first(
     tmp_path: Path, post_top_m: float, notched: bool
