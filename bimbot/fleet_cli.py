@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 
 from bimbot.services.planner.capability import SiteRobot, robots_on_plan
 from bimbot.services.planner.feasibility import SEE_ITS_ROWS, Feasibility, advice_tally, feasibility_table
+from bimbot.shared.crane_count import crane_count_words, sized_cranes
 from bimbot.shared.crane_erection import erected_for, erection_words
 from bimbot.shared.fleet import DEFAULT_FLEET_FILE, Fleet, check_urdfs, load_fleet
 from bimbot.shared.idle_machines import idle_machine_types, without_types
@@ -140,8 +141,9 @@ def run(args: argparse.Namespace) -> int:
     # the machines bimbot run leaves off site stay off here too, so the robots' ids are the run's
     idle = idle_machine_types(fleet, (component.method for component in manifest.components))
     fleet = without_types(fleet, idle)
-    erected = erected_for(fleet, manifest.components)  # as physics erects the cranes for the building
-    raised, fleet = erection_words(fleet, erected), erected
+    sized = sized_cranes(fleet, manifest.components)  # as bimbot run sizes the cranes for the footprint
+    erected = erected_for(sized, manifest.components)  # as physics erects the cranes for the building
+    raised, fleet = [*crane_count_words(fleet, sized), *erection_words(sized, erected)], erected
     rows, robots, building = checked(manifest, fleet)
     code = 0 if all(row.reason is None for _, row in rows) else 1  # 1: some component has no route
     if args.json:

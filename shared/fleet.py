@@ -35,6 +35,19 @@ class FleetEntry(BaseModel):
 
     type: str = Field(min_length=1, max_length=64)
     count: int = Field(ge=0, le=MAX_ROBOTS)
+    up_to: int | None = Field(
+        default=None,
+        ge=1,
+        le=MAX_ROBOTS,
+        description="a crane type: the site erects more, up to this many, where its cranes set up so far "
+        "leave parts only a crane sets unhooked (bimbot.shared.crane_count)",
+    )
+
+    @model_validator(mode="after")
+    def _up_to_at_least_count(self) -> FleetEntry:
+        if self.up_to is not None and self.up_to < self.count:
+            raise ValueError(f"up_to ({self.up_to}) is less than count ({self.count}) for {self.type!r}")
+        return self
 
 
 class Fleet(BaseModel):
@@ -105,6 +118,17 @@ class Fleet(BaseModel):
             if entry.type != name and self.types[entry.type].can(Capability.STAND_FIXED)
         )
         return self.model_copy(update={"robots": (FleetEntry(type=name, count=count), *machines)})
+
+    def with_counts(self, counts: dict[str, int]) -> Fleet:
+        """This fleet with the robot count of each type named in ``counts`` replaced (a crane count the site
+        plan sized, :mod:`.crane_count`); the same fleet when nothing changes."""
+        if not counts:
+            return self
+        robots = tuple(
+            entry.model_copy(update={"count": counts[entry.type]}) if entry.type in counts else entry
+            for entry in self.robots
+        )
+        return self if robots == self.robots else self.model_copy(update={"robots": robots})
 
     def summary(self) -> str:
         """``1 husky, 1 carrier, 1 tower_crane, 1 concrete_pump, 1 block_layer``."""

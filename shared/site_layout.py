@@ -359,8 +359,7 @@ def _with_laydown(
         if not item.can(Capability.DRIVE)
     ]
     cranes = [Crane(item, pose) for item, pose in fixed if item.can(Capability.HOOK_LIFT)]
-    ground = [item for item in fleet if item.can(Capability.DRIVE)]
-    lane_m = max(LANE_M, aisle_width_m(max(ground, key=lambda item: item.radius_m, default=DEFAULT_ROBOT)))
+    lane_m = lane_for(fleet)
     blocked = [
         *keep_clear(site.building, site.yard, site.depot, lane_m),
         *(rect.grown(lane_m) for rect in (*site.machines, *site.staging)),
@@ -375,3 +374,10 @@ def _with_laydown(
         )
     missing = {component.guid for component in heavy if component.guid not in slots}
     return replace(site, slots={**site.slots, **slots}, fence=fence), missing
+
+
+def lane_for(fleet: Sequence[RobotDescription]) -> float:
+    """The site's driving lane for ``fleet`` (one description per robot): wide enough for its largest ground
+    robot's aisle, :data:`LANE_M` at least."""
+    ground = [item for item in fleet if item.can(Capability.DRIVE)]
+    return max(LANE_M, aisle_width_m(max(ground, key=lambda item: item.radius_m, default=DEFAULT_ROBOT)))

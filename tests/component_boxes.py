@@ -34,3 +34,13 @@ def box_component(
             "method": method,
         }
     )  # fmt: skip
+
+
+def upper_floor_beams(length_m: float) -> list[Component]:
+    """Beams 6 m up every 5 m along ``length_m`` in two rows 20 m apart, 600 kg each: only a crane sets
+    them (above the carriers' 3.5 m), and a beam's hook radius is its distance from the crane."""
+    return [
+        box_component(f"b{row}-{index}", (4.0, 0.3, 0.4), (index * 5.0, row * 20.0, 6.0), mass_kg=600.0)
+        for index in range(int(length_m // 5.0))
+        for row in (0, 1)
+    ]

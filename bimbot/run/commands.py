@@ -18,6 +18,7 @@ from bimbot.services.physics.profiles import PROFILES
 from bimbot.shared.bus import BusOptions
 from bimbot.shared.bus_access import robot_user
 from bimbot.shared.bus_credentials import BusFiles, write_bus_credentials
+from bimbot.shared.crane_count import crane_count_words, sized_cranes
 from bimbot.shared.errors import UserError
 from bimbot.shared.fleet import Fleet, load_fleet
 from bimbot.shared.idle_machines import idle_machine_types, without_types
@@ -36,22 +37,31 @@ def run_fleet(options: RunOptions) -> Fleet:
     types that stay off site (``options.off_site``)."""
     fleet = load_fleet(options.fleet)
     fleet = fleet.with_robots(options.robots) if options.robots is not None else fleet
-    return without_types(fleet, options.off_site)
+    return without_types(fleet, options.off_site).with_counts(dict(options.cranes))
 
 
 def with_machines_for(options: RunOptions, manifest: Manifest) -> RunOptions:
     """``options`` with ``off_site`` the machine types of the run's fleet that no component of
-    ``manifest`` gives work (:func:`bimbot.shared.idle_machines.idle_machine_types`)."""
-    fleet = run_fleet(replace(options, off_site=()))
+    ``manifest`` gives work (:func:`bimbot.shared.idle_machines.idle_machine_types`), and ``cranes`` the
+    crane counts the site erects for the building (:func:`bimbot.shared.crane_count.sized_cranes`)."""
+    fleet = run_fleet(replace(options, off_site=(), cranes=()))
     idle = idle_machine_types(fleet, (component.method for component in manifest.components))
-    return replace(options, off_site=idle)
+    on_site = without_types(fleet, idle)
+    sized = sized_cranes(on_site, manifest.components)
+    before = {entry.type: entry.count for entry in on_site.robots}
+    cranes = tuple((entry.type, entry.count) for entry in sized.robots if entry.count != before[entry.type])
+    return replace(options, off_site=idle, cranes=cranes)
 
 
 def fleet_words(options: RunOptions) -> str:
     """The run's fleet in words, and the machines left off site: ``1 husky, 1 carrier, 1 tower_crane;
     off site, no work in this build: concrete_pump, block_layer`` (in brackets after the last machine, a
-    trial user read the tower crane as off site)."""
+    trial user read the tower crane as off site); a crane count raised for the building's footprint is
+    said with the file's."""
     words = run_fleet(options).summary()
+    raised = crane_count_words(run_fleet(replace(options, cranes=())), run_fleet(options))
+    if raised:
+        words += f" ({'; '.join(raised)})"
     if options.off_site:
         words += f"; off site, no work in this build: {', '.join(options.off_site)}"
     return words
@@ -66,6 +76,8 @@ def physics_arguments(build: Path, options: RunOptions) -> list[str]:
         arguments += ["--wait-for-robots-s", f"{options.clock_stall_wall_s:g}"]
     if options.off_site:
         arguments += ["--off-site", ",".join(options.off_site)]
+    if options.cranes:
+        arguments += ["--cranes", ",".join(f"{name}={count}" for name, count in options.cranes)]
     if stepped(options):  # the planner and the agents answer each step too (reproducible runs)
         arguments += ["--step-with", ",".join(stepped_participants(options))]
         arguments += ["--lock-step-timeout-s", f"{HOLD_S:g}"]  # a loaded machine is not a hang

@@ -100,6 +100,9 @@ class RunOptions:
     # machine types that stay off site: ``bimbot run`` fills it with those the build gives no work
     # (bimbot.shared.idle_machines); physics gets it as --off-site
     off_site: tuple[str, ...] = ()
+    # crane types the site erects more of than the fleet file's count, for the building's footprint
+    # (bimbot.shared.crane_count: an entry's up_to); ``bimbot run`` fills it, physics gets it as --cranes
+    cranes: tuple[tuple[str, int], ...] = ()
 
 
 @dataclass(frozen=True)

@@ -34,6 +34,7 @@ def run_settings(options: RunOptions) -> dict[str, Any]:
         "robots": options.robots,  # null: the fleet's own robots
         "fleet": DEFAULT_FLEET if options.fleet is None else str(options.fleet),
         "off_site": list(options.off_site),  # the fleet's machines with no work in this build
+        "cranes": dict(options.cranes),  # crane counts raised for the building's footprint
         "physics_hz": float(chosen(options.physics_hz, profile.physics_hz)),
         "control_period_s": float(chosen(options.control_period_s, profile.control_period_s)),
         "laser_beams": int(chosen(options.laser_beams, profile.laser_beams)),

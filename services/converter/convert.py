@@ -37,6 +37,7 @@ import ifcopenshell.util.unit
 import numpy as np
 
 from bimbot.shared.construction_methods import MethodDecision, MethodLimits
+from bimbot.shared.crane_count import sized_cranes
 from bimbot.shared.crane_erection import erected_for
 from bimbot.shared.fleet import Fleet, default_fleet
 from bimbot.shared.identifiers import slugify
@@ -317,7 +318,10 @@ def _cut_within_crane_reach(
         to_build, _ = split_in_place(built, options.in_place_guids, foundations=options.foundations_in_place)
         # the site as the run plans it: without the machines it leaves off site for want of work
         # and its cranes erected as high as the building needs, as physics erects them
-        on_site = erected_for(site_fleet(fleet, (item.method for item in to_build)), to_build)
+        # and as many cranes as its footprint needs, as bimbot run sizes them
+        on_site = erected_for(
+            sized_cranes(site_fleet(fleet, (item.method for item in to_build)), to_build), to_build
+        )
         found = {
             guid: limit
             for guid, limit in crane_lift_limits(to_build, on_site.robot_types()).items()

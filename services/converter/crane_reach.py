@@ -27,12 +27,11 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from bimbot.shared.construction_methods import ConstructionMethod, MethodLimits
+from bimbot.shared.construction_methods import MethodLimits
+from bimbot.shared.crane_count import set_by_crane_only
 from bimbot.shared.manifest import Component
 from bimbot.shared.robot_description import Capability, RobotDescription
 from bimbot.shared.site_plan import Rect
-
-LIFTED_PARTS = frozenset({ConstructionMethod.LIFTED, ConstructionMethod.PANELISED})
 
 
 @dataclass(frozen=True)
@@ -56,7 +55,7 @@ def crane_lift_limits(
     only a crane can set and no crane lifts at its target (see the module docstring); ``fleet``: one
     description per robot, in robot id order (:meth:`bimbot.shared.fleet.Fleet.robot_types`). The site is
     planned only when some part needs a crane."""
-    needing = crane_only(components, fleet)
+    needing = set_by_crane_only(components, fleet)
     if not needing or not any(item.can(Capability.HOOK_LIFT) for item in fleet):
         return {}
     from bimbot.shared.site_layout import plan_site  # scipy: only for a conversion that needs the plan
@@ -93,22 +92,6 @@ def crane_lift_limits(
         if element not in limits or best.lift_kg < limits[element].lift_kg:
             limits[element] = best
     return limits
-
-
-def crane_only(components: Sequence[Component], fleet: Sequence[RobotDescription]) -> list[Component]:
-    """The lifted and panelised components no ground type on site can set (too heavy or too high for each
-    that carries and places)."""
-    ground = [
-        item
-        for item in fleet
-        if item.can(Capability.DRIVE) and item.can(Capability.CARRY) and item.can(Capability.PLACE)
-    ]
-    return [
-        component
-        for component in components
-        if component.method in LIFTED_PARTS
-        and all(item.refusal(component.mass_kg, component.bbox_world.max_m[2]) is not None for item in ground)
-    ]
 
 
 def element_boxes(components: Sequence[Component]) -> dict[str, tuple[float, float, float, float]]:

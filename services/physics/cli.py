@@ -81,6 +81,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="robot types of the fleet that stay off site (bimbot run: the machines with no work in the "
         "build, such as a concrete pump when nothing is cast)",
     )
+    parser.add_argument(
+        "--cranes",
+        default="",
+        metavar="TYPE=N[,TYPE=N]",
+        help="crane counts the site erects instead of the fleet file's (bimbot run: sized for the "
+        "building's footprint, up to an entry's up_to)",
+    )
     add_profile_arguments(parser, FINE.name)  # bimbot run uses the rehearsal profile
     add_tolerance_arguments(parser)
     parser.add_argument(
@@ -217,10 +224,21 @@ def fleet_of(args: argparse.Namespace) -> Fleet:
     unknown = sorted(set(off_site) - set(fleet.types))
     if unknown:
         raise UserError(f"physics: --off-site names no robot type of the fleet: {', '.join(unknown)}")
-    fleet = without_types(fleet, off_site)
+    fleet = without_types(fleet, off_site).with_counts(crane_counts(args.cranes, fleet))
     for description in fleet.on_site().values():
         fleet.resolve_urdf(description.urdf)
     return fleet
+
+
+def crane_counts(text: str, fleet: Fleet) -> dict[str, int]:
+    """``--cranes tower_crane=3`` as ``{"tower_crane": 3}``; a UserError names what is wrong."""
+    counts: dict[str, int] = {}
+    for item in (part.strip() for part in text.split(",") if part.strip()):
+        name, _, number = item.partition("=")
+        if name.strip() not in fleet.types or not number.strip().isdigit():
+            raise UserError(f"physics: --cranes wants TYPE=N with a robot type of the fleet, not {item!r}")
+        counts[name.strip()] = int(number)
+    return counts
 
 
 def sim_config(args: argparse.Namespace) -> SimConfig:
