@@ -16,34 +16,26 @@ Construction" like the office's), so the converter reads it from what the blocks
   and roofs, at least ``MIN_WALLS`` walls (an enclosure, not a garden wall), and stands at least
   ``MIN_HEIGHT_M`` tall (two storeys: a boundary or retaining wall is lower).
 
-Its elements are left out with a reason that says so, as entourage is (:func:`without_context`, once
-every element is converted: the rule needs their boxes); ``bimbot convert --build-context`` builds them as
-work. :func:`context_blocks` is pure.
+Its elements are left out with a reason that says so, as entourage is (:mod:`.left_out`, once every
+element is converted: the rule needs their boxes); ``bimbot convert --build-context`` builds them as work.
+Pure.
 """
 
 from __future__ import annotations
 
-import logging
-import shutil
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
-import ifcopenshell
 import numpy as np
 
-from bimbot.shared.manifest import Component, SkippedElement
-
-from .component_writer import skipped_entry
-from .shards import ShardResult, without_elements
+from bimbot.shared.manifest import Component
 
 DETACHED_GAP_M = 1.0  # plan boxes this far apart or more belong to different blocks
 MIN_HEIGHT_M = 7.0  # two storeys: lower detached walls are garden, boundary or retaining walls
 MIN_WALLS = 3  # an enclosure
 ENTERABLE = ("IfcDoor", "IfcWindow", "IfcStair", "IfcStairFlight", "IfcRamp", "IfcRampFlight")
 MASSING = ("IfcWall", "IfcWallStandardCase", "IfcWallElementedCase", "IfcSlab", "IfcRoof")
-_log = logging.getLogger(__name__)
 _CHUNK = 512  # rows of the pairwise box test at a time (memory: _CHUNK × elements booleans)
 
 
@@ -67,6 +59,11 @@ class ContextBlock:
             "stair: a neighbouring building or a massing study drawn round the project; "
             "bimbot convert --build-context builds it"
         )
+
+
+def context_reasons(components: Sequence[Component]) -> dict[str, str]:
+    """Element GlobalId → its skip reason, for each element of the context massing among ``components``."""
+    return {guid: block.reason() for block in context_blocks(components) for guid in block.guids}
 
 
 def context_blocks(components: Sequence[Component]) -> list[ContextBlock]:
@@ -147,23 +144,3 @@ def _plan_gap_m(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray, high_b
         0.0, np.maximum(low_a[:, None, :2] - high_b[None, :, :2], low_b[None, :, :2] - high_a[:, None, :2])
     )
     return float(np.hypot(gap[..., 0], gap[..., 1]).min())
-
-
-def without_context(
-    elements: list[ifcopenshell.entity_instance], results: list[ShardResult], out_dir: Path
-) -> tuple[list[ShardResult], list[SkippedElement]]:
-    """``results`` without the context massing (:mod:`.context_massing`), its model folders removed, and
-    a skipped entry for each of its elements."""
-    blocks = context_blocks([component for result in results for component in result.components])
-    if not blocks:
-        return results, []
-    reasons = {guid: block.reason() for block in blocks for guid in block.guids}
-    by_guid = {str(element.GlobalId): element for element in elements if str(element.GlobalId) in reasons}
-    step_ids = {element.id() for element in by_guid.values()}
-    for result in results:
-        for step_id, component in zip(result.step_ids, result.components, strict=True):
-            if step_id in step_ids:
-                shutil.rmtree(out_dir / component.files.model_dir, ignore_errors=True)
-    _log.info("%d element(s) in %d block(s) of context massing left out", len(by_guid), len(blocks))
-    skipped = [skipped_entry(element, reasons[guid]) for guid, element in by_guid.items()]
-    return [without_elements(result, step_ids, set(reasons)) for result in results], skipped

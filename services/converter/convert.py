@@ -53,7 +53,6 @@ from .built_in_boards import build_in_boards
 from .component_work import ShardContext
 from .component_writer import skipped_entry
 from .connection_kinds import decide_connections
-from .context_massing import without_context
 from .crane_reach import crane_lift_limits, tightened
 from .duplicates import drop_duplicates
 from .face_materials import style_materials
@@ -62,6 +61,7 @@ from .guest_hosts import find_hosts
 from .guest_merge import build_guests_into_hosts
 from .in_place import split_in_place
 from .joints import find_joints
+from .left_out import without_left_out
 from .mass import mass_unit_kg
 from .mesh_files import VISUAL_FORMATS
 from .method_decisions import decide_methods
@@ -206,9 +206,8 @@ def _convert(
     )
     results = run_shards(model, elements, context, workers=workers, progress=progress)
     stats.seconds_by_stage["shards_wall"] = time.perf_counter() - shards_started
-    if not options.build_context:
-        results, context_skipped = without_context(elements, results, out_dir)
-        skipped += context_skipped
+    results, left_out = without_left_out(elements, results, out_dir, build_context=options.build_context)
+    skipped += left_out
     reach_started = time.perf_counter()
     results = _cut_within_crane_reach(
         model,
