@@ -15,8 +15,10 @@ The rule, for each crane entry with ``up_to`` above its ``count``, in the file's
 * the site is planned once with the fleet as given (its yard, depot and lane, which the cranes do not
   move), then one crane more is set up at a time by the site plan's rule for a further crane (where it
   hooks the most parts no crane before it hooks: :func:`.site_machines.plan_machines`), while some part
-  that needs a crane is hooked by none and the new crane hooks at least one of them; never more than
-  ``up_to``.
+  that needs a crane lies beyond every crane's jib and the new crane's jib covers at least one of them;
+  never more than ``up_to``. A part within a jib but too heavy for the chart at its radius is no reason
+  for another crane: a precaster cuts it lighter for that radius (the converter's
+  :mod:`bimbot.services.converter.crane_reach`), as the Revit office's walls were for its one crane.
 
 Every service that resolves the fleet against the build sizes it the same way (``bimbot run`` passes the
 count to physics as ``--cranes``; the converter cuts panels for the cranes so sized; ``bimbot fleet
@@ -87,8 +89,8 @@ def set_by_crane_only(components: Sequence[Component], fleet: Sequence[RobotDesc
 def _unhooked(
     fleet: Fleet, components: Sequence[Component], needing: np.ndarray, layout: SiteLayout, lane_m: float
 ) -> int:
-    """How many parts that need a crane (and some crane type of ``fleet`` lifts) no crane of ``fleet``,
-    set up by the site plan's rule beside ``layout``'s yard and depot, hooks."""
+    """How many parts that need a crane (and some crane type of ``fleet`` lifts) lie beyond the jib of every
+    crane of ``fleet``, set up by the site plan's rule beside ``layout``'s yard and depot."""
     from .site_machines import HookReach, plan_machines
 
     machines = [item for item in fleet.robot_types() if not item.can(Capability.DRIVE)]
@@ -103,7 +105,8 @@ def _unhooked(
             continue
         reach = reaches.setdefault(machine.name, HookReach.of(machine, components))
         liftable |= reach.radius_m >= 0.0
-        hooked |= reach.hooked(setup.pose[:2])
+        distance_m = np.hypot(*(reach.centres_xy_m - np.asarray(setup.pose[:2], float)).T)
+        hooked |= (distance_m >= reach.min_radius_m - 1e-9) & (distance_m <= machine.reach_m + 1e-9)
     return int((needing & liftable & ~hooked).sum())
 
 

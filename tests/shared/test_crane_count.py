@@ -54,6 +54,16 @@ def test_a_building_one_jib_covers_keeps_one_crane_and_a_fleet_without_up_to_kee
     assert sized_cranes(fixed, upper_floor_beams(200.0)) is fixed
 
 
+def test_a_part_within_the_jib_too_heavy_at_its_radius_is_cut_lighter_not_given_another_crane() -> None:
+    """The Revit office's walls within one jib, cut for its lift where they go: sized by their masses
+    before the cut, the site had erected three cranes where one builds it, and moved the yard so that 32
+    parts were out of reach."""
+    heavy = [beam.model_copy(update={"mass_kg": 6000.0}) for beam in upper_floor_beams(40.0)]
+    fleet = default_fleet()
+    assert _unhooked(fleet, heavy) > 0, "the chart lifts 6 t only near the mast"
+    assert sized_cranes(fleet, heavy) is fleet
+
+
 def test_up_to_below_the_count_is_refused() -> None:
     with pytest.raises(ValueError, match="up_to"):
         FleetEntry(type="tower_crane", count=2, up_to=1)
