@@ -111,12 +111,12 @@ def _unhooked(
 
 
 def crane_count_words(before: Fleet, after: Fleet) -> list[str]:
-    """One phrase per crane type ``after`` erects more of: ``3 tower_crane for the building's footprint
-    (fleet file: 1, up to 4)``."""
+    """One phrase per crane type ``after`` erects more of: ``3 tower_crane for the building's footprint,
+    where the fleet file has 1 (up to 4)``."""
     counts = {entry.type: entry.count for entry in before.robots}
     return [
-        f"{entry.count} {entry.type} for the building's footprint (fleet file: {counts[entry.type]}, up to "
-        f"{entry.up_to})"
+        f"{entry.count} {entry.type} for the building's footprint, where the fleet file has "
+        f"{counts[entry.type]} (up to {entry.up_to})"
         for entry in after.robots
         if entry.type in counts and entry.count != counts[entry.type]
     ]

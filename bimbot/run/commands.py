@@ -61,7 +61,7 @@ def fleet_words(options: RunOptions) -> str:
     words = run_fleet(options).summary()
     raised = crane_count_words(run_fleet(replace(options, cranes=())), run_fleet(options))
     if raised:
-        words += f" ({'; '.join(raised)})"
+        words += f"; {'; '.join(raised)}"
     if options.off_site:
         words += f"; off site, no work in this build: {', '.join(options.off_site)}"
     return words

@@ -40,7 +40,9 @@ def test_the_run_physics_and_the_robots_agree_on_the_cranes_a_wide_building_gets
     assert name == "tower_crane" and 1 < count <= 4
     words = fleet_words(options)
     assert (
-        f"{count} tower_crane" in words and "for the building's footprint (fleet file: 1, up to 4)" in words
+        f"{count} tower_crane" in words
+        and f"; {count} tower_crane for the building's footprint, where the fleet file has 1 (up to 4)"
+        in words
     )
     arguments = physics_arguments(bundled_build, options)
     assert arguments[arguments.index("--cranes") + 1] == f"tower_crane={count}"

@@ -40,7 +40,7 @@ def test_a_building_one_jib_does_not_cover_gets_more_cranes_until_each_part_is_h
     assert _unhooked(sized, floor) == 0, "the cranes the site plan sets up hook every beam"
     assert _unhooked(fleet.with_counts({"tower_crane": count - 1}), floor) > 0, "no more cranes than needed"
     assert crane_count_words(fleet, sized) == [
-        f"{count} tower_crane for the building's footprint (fleet file: 1, up to 4)"
+        f"{count} tower_crane for the building's footprint, where the fleet file has 1 (up to 4)"
     ]
     assert list(sized.type_of().values()).count("tower_crane") == count
 
