@@ -325,7 +325,7 @@ FROM_INSIDE = "from inside the building, which bimbot does not"
 CRANE_INSIDE = "a tower crane inside the footprint, which bimbot's site plan does not do"
 MORE_CRANES = "a building this size takes more tower cranes"
 ADVICE: tuple[tuple[str, str], ...] = (
-    (MORE_CRANES, "more tower cranes round the building (a fleet file's tower_crane count)"),
+    (MORE_CRANES, "more tower cranes round the building (a fleet file's tower_crane up_to)"),
     (CRANE_INSIDE, "a tower crane inside the footprint (not simulated)"),
     (
         FROM_INSIDE,
@@ -339,9 +339,9 @@ SEE_ITS_ROWS = " (see its rows)"  # a tally's label for the reasons that advise 
 #: What a user can do about a target beyond the jib of every crane on site (a building wider than a jib
 #: covers: a site erects more cranes round it).
 BEYOND_THE_JIB_HINT = (
-    f"; it lies beyond the jib: {MORE_CRANES} (raise the tower_crane count "
-    "in a fleet file given with --fleet; each further crane is set up where it hooks what those before it "
-    "do not)"
+    f"; it lies beyond the jib: {MORE_CRANES} (the site erects them up to the tower_crane entry's up_to: "
+    "raise it in a fleet file given with --fleet; each further crane is set up where it hooks what those "
+    "before it do not)"
 )
 
 
