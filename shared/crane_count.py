@@ -56,6 +56,8 @@ def sized_cranes(fleet: Fleet, components: Sequence[Component]) -> Fleet:
     from .site_layout import lane_for, plan_site  # scipy: only for a fleet that may grow
 
     crane_set = {id(component) for component in set_by_crane_only(components, fleet.robot_types())}
+    if not crane_set:
+        return fleet  # the ground robots set everything: no site to plan
     needing = np.array([id(component) in crane_set for component in components], dtype=bool)
     layout = plan_site(components, fleet=fleet.robot_types())
     for entry in growing:
