@@ -7,7 +7,8 @@ within 4 mm, missed its 10 mm tolerance three times and failed the run. On a sit
 its cabinet by the joiner with a screwdriver, as the furniture that IFC classes as furnishing (left out
 already) is. The rule: a whole element of class ``IfcBuildingElementProxy`` that weighs under
 ``MAX_FITTING_KG`` and whose longest side is under ``MAX_FITTING_M`` is left out with a reason that says
-so. A trim board or a railing panel, however light, is longer and stays.
+so. A trim board or a railing panel, however light, is longer and stays. A model of nothing but such
+parts (IfcOpenShell's profile test pieces, 5 cm and 9 g) is converted as it is: it is no building's.
 """
 
 from __future__ import annotations
@@ -35,4 +36,6 @@ def small_fitting_reasons(components: Sequence[Component]) -> dict[str, str]:
                 "finishing trades fix by hand (a handle, a hook, a bracket), not a part a construction "
                 "robot sets"
             )
+    if len({component.parent_guid or component.guid for component in components}) == len(reasons):
+        return {}  # nothing but fittings: a model of parts (a profile's test piece), not a building's
     return reasons

@@ -24,6 +24,7 @@ def test_a_handle_is_a_small_fitting_and_a_trim_board_a_panel_or_a_wall_is_not()
     )
     wall = box_component("wall-handle", (0.15, 0.04, 0.05), (5.0, 0.0, 0.0), mass_kg=0.038)
     assert small_fitting_reasons([wall.model_copy(update={"ifc_class": "IfcWall"})]) == {}
+    assert small_fitting_reasons([handle]) == {}, "a model of nothing but small parts is converted as it is"
 
 
 def test_the_converter_leaves_a_handle_out_and_builds_the_cabinet_board_it_is_drawn_on(
